@@ -481,6 +481,8 @@ def imu(motion=None, *, rate=200.0, duration=10.0, seed=0,
     mag_noise = _finite(mag_noise, "mag_noise", 0.0)
     if acc_unit not in ("g", "m/s^2"):
         raise ValueError(f"acc_unit must be 'g' or 'm/s^2'; got {acc_unit!r}")
+    mag_dip = _finite(mag_dip, "mag_dip", -0.5 * math.pi, 0.5 * math.pi)
+    mag_field = _finite(mag_field, "mag_field", 0.0, lo_open=True)
     m_e = mag_earth(mag_dip, mag_field)
     rate = 1.0 / traj.dt
     params = {"seed": used_seed, "trajectory": traj.params, "gyr_bias": gyr_bias.tolist(),
