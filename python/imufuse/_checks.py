@@ -115,7 +115,7 @@ def run_inputs(kind, dtype, args):
     """Validate run() arguments for a filter kind; return contiguous arrays."""
     names = KINDS[kind]
     if len(args) != len(names):
-        raise ValueError(f"run(): expected {len(names)} arrays ({', '.join(names)}), got {len(args)}")
+        raise TypeError(f"run(): expected {len(names)} arrays ({', '.join(names)}), got {len(args)}")
     conv = as_1d if kind == "1d" else as_nx3
     return conv(dtype, **dict(zip(names, args)))
 
@@ -124,7 +124,7 @@ def update_inputs(kind, args):
     """Validate update() arguments for a filter kind; return a flat tuple of floats."""
     names = KINDS[kind]
     if len(args) != len(names):
-        raise ValueError(f"update(): expected {len(names)} arguments ({', '.join(names)}), got {len(args)}")
+        raise TypeError(f"update(): expected {len(names)} arguments ({', '.join(names)}), got {len(args)}")
     if kind == "1d":
         return tuple(check_scalar(n, a) for n, a in zip(names, args))
     return sum((as_vec3(n, a) for n, a in zip(names, args)), ())
