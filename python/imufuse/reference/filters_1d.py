@@ -27,6 +27,7 @@ class Complementary1D(ReferenceFilter):
     alpha = (T/dt) / (1 + T/dt). Example (seed 003): t = 10/11 at 60 Hz is
     Complementary1D(1/60, alpha=10/11), i.e. T = 10/60 s.
     """
+    c_name = "imf_complementary1d"
     state_names = ("theta",)
 
     @staticmethod
@@ -60,6 +61,7 @@ class Complementary1D(ReferenceFilter):
 
 class Kalman1D(ReferenceFilter):
     """Kalman filter with constant gain K0, Eq. 2.5 (same as Eq. 2.2 with alpha = 1 - K0)."""
+    c_name = "imf_kalman1d"
     state_names = ("theta",)
 
     @staticmethod
@@ -88,6 +90,7 @@ class Kalman1D(ReferenceFilter):
 
 class Mahony1D(ReferenceFilter):
     """Mahony&Madgwick filter with a P controller, Eq. 2.8 (alpha = 1 - Kp dt, Eq. 2.9)."""
+    c_name = "imf_mahony1d"
     state_names = ("theta",)
 
     @staticmethod
@@ -124,6 +127,7 @@ class Kalman1DBias(ReferenceFilter):
     bias; with bias_sign=+1 and k1 > 0, b converges to minus the bias.
     allow_unstable=True skips the stability check (to study Corollary #2).
     """
+    c_name = "imf_kalman1d_bias"
     state_names = ("theta", "b")
 
     @staticmethod
@@ -175,6 +179,7 @@ class Mahony1DBias(ReferenceFilter):
     transfer function of Mahony1DBias(dt, kp, ki). The integral I converges to
     minus the gyro bias.
     """
+    c_name = "imf_mahony1d_bias"
     state_names = ("theta", "i")
 
     @staticmethod
@@ -231,6 +236,7 @@ class Complementary1DBias(ReferenceFilter):
     two inputs; state: the last output theta and the two delay elements.
     See tuning() for Eq. 3.12 and the rule of thumb.
     """
+    c_name = "imf_complementary1d_bias"
     state_names = ("theta", "s1", "s2")
 
     @staticmethod
