@@ -75,7 +75,7 @@ WARN_FLAGS = ("-Wall", "-Wextra", "-pedantic", "-Wdouble-promotion", "-Werror")
 
 # Cycles the AVR Timer1 overflow interrupt adds to a count, per overflow (entry, push/pop,
 # 16-bit increment, reti); checked by tests/test_mcu_harness.py against _delay_loop_2.
-AVR_OVF_ISR_CYCLES = 41
+AVR_OVF_ISR_CYCLES = 40
 
 # qemu -icount shift used for instruction counts on ARM: one instruction takes 2**shift ns of
 # virtual time, so one instruction spans many SysTick ticks and rounding is exact.
