@@ -523,6 +523,8 @@ class Result:
     counts:  (N,) int64 per-step counts (cycles on avr, instructions on m4f/m0) with the
              measurement overhead removed; None unless run(count=True).
     raw_counts, overhead: the counter values as printed, and the empty-call calibration.
+    stack_bytes: deepest stack the step reached over all samples (stack painting), beyond an
+             empty call, including library calls (soft float, sqrtf); None on host.
     """
 
     target: str
@@ -535,6 +537,7 @@ class Result:
     elf: Path
     stdout: str
     seconds: float
+    stack_bytes: Optional[int] = None
 
     def values(self) -> List[np.ndarray]:
         """The state columns converted to their C types (needs a Driver with kinds)."""
@@ -557,8 +560,9 @@ class Result:
 _LINE = re.compile(r"^S((?: [0-9a-f]{8}(?:[0-9a-f]{8})?)*) c([0-9a-f]{8})$")
 
 
-def _parse(text: str, n_expected: int) -> Tuple[np.ndarray, np.ndarray, int]:
+def _parse(text: str, n_expected: int) -> Tuple[np.ndarray, np.ndarray, int, Optional[int], Optional[int]]:
     overhead = None
+    stack = window = None
     rows: List[List[int]] = []
     widths: set = set()
     counts: List[int] = []
@@ -567,6 +571,9 @@ def _parse(text: str, n_expected: int) -> Tuple[np.ndarray, np.ndarray, int]:
         line = line.strip()
         if line.startswith("K "):
             overhead = int(line[2:], 16)
+            continue
+        if line.startswith("M "):
+            stack, window = (int(t, 16) for t in line[2:].split())
             continue
         if line == "IMF_END":
             ended = True
@@ -586,7 +593,7 @@ def _parse(text: str, n_expected: int) -> Tuple[np.ndarray, np.ndarray, int]:
         raise HarnessError("samples differ in the number of state words")
     dtype = np.uint64 if 16 in widths else np.uint32
     state = np.array(rows, dtype=dtype).reshape(len(rows), -1 if rows[0] else 0)
-    return state, np.array(counts, dtype=np.int64), overhead
+    return state, np.array(counts, dtype=np.int64), overhead, stack, window
 
 
 def _emulator_cmd(tgt: Target, elf: Path, count: bool) -> List[str]:
@@ -659,11 +666,13 @@ def run_elf(
         text = _simavr_text(text)
     if proc.returncode != 0 or "IMF_FAULT" in text:
         raise HarnessError(f"{target}: exit status {proc.returncode}: {' '.join(cmd)}\n{text[-3000:]}")
-    state, raw, overhead = _parse(text, n)
+    state, raw, overhead, stack, window = _parse(text, n)
+    if stack is not None and stack >= window:
+        stack = None  # the step went past the painted band: no figure rather than a wrong one
     counts = _to_counts(tgt, raw, overhead) if count and tgt.count_unit else None
     names = driver.names if isinstance(driver, Driver) else None
     kinds = driver.kinds if isinstance(driver, Driver) else None
-    return Result(target, state, names, kinds, counts, raw, overhead, elf, text, seconds)
+    return Result(target, state, names, kinds, counts, raw, overhead, elf, text, seconds, stack)
 
 
 def run(

@@ -27,11 +27,11 @@ void imk_int_update(imk_int_t *const self, int16_t rate, int16_t angle)
 {
     int64_t p;
     /* predict: angle += rate * dt with dt = 1/512 in Q16 -> multiply by 128 */
-    p = (int64_t)self->angle + (int64_t)rate * 128 + (self->rate_i >> 6);
+    p = (int64_t)self->angle + (int64_t)rate * 128 + (self->rate_i >> 10);
     self->angle = imk_sat32(p);
     /* correct */
     self->err = (int32_t)angle * 65536 / 4 - self->angle / 4;
-    self->rate_i = imk_sat32((int64_t)self->rate_i + self->err / 37);
+    self->rate_i = imk_sat32((int64_t)self->rate_i + self->err / 3);
     p = (int64_t)self->err * 3277;
     self->angle = imk_sat32((int64_t)self->angle + p / 65536);
     /* running mean, Q8, truncating division */
