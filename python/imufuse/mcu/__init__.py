@@ -178,10 +178,7 @@ _SECTION_FLAGS = ("-ffunction-sections", "-fdata-sections")
 def missing_tools(target: str) -> List[str]:
     """Executables the target needs that are not on PATH."""
     tgt = _target(target)
-    out = [t for t in tgt.tools if shutil.which(t) is None]
-    if target == "host" and shutil.which("valgrind") is None:
-        pass  # valgrind is only needed by callgrind_instructions()
-    return out
+    return [t for t in tgt.tools if shutil.which(t) is None]
 
 
 def available(target: str) -> bool:
@@ -506,7 +503,15 @@ def build(
         )
         cmd += [f"-T{ld}"]
     cmd += [str(o) for o in objs] + ["-o", str(elf), "-lm"]
-    _run_cmd(cmd, cwd=wd)
+    try:
+        _run_cmd(cmd, cwd=wd)
+    except HarnessError as e:
+        if "overflowed" in str(e) or "will not fit" in str(e):
+            raise HarnessError(
+                f"{e}\n{target}: the program does not fit ({tgt.flash} bytes flash, {tgt.ram} bytes "
+                "RAM); inputs are stored in flash: pass fewer samples (or int16 inputs)"
+            ) from None
+        raise
     return elf
 
 
@@ -523,6 +528,7 @@ class Result:
     counts:  (N,) int64 per-step counts (cycles on avr, instructions on m4f/m0) with the
              measurement overhead removed; None unless run(count=True).
     raw_counts, overhead: the counter values as printed, and the empty-call calibration.
+    elf:     the program; it survives the call only when run() was given a workdir.
     stack_bytes: deepest stack the step reached over all samples (stack painting), beyond an
              empty call, including library calls (soft float, sqrtf); None on host.
     """
@@ -697,9 +703,7 @@ def run(
         if n is None and inputs:
             n = len(np.asarray(next(iter(inputs.values()))))
         elf = build(target, sources, include_dirs, defines, driver, inputs, n, wd)
-        res = run_elf(target, elf, n if n is not None else 0, count=count, timeout=timeout, driver=driver)
-        res.stdout = res.stdout if not own else res.stdout
-        return res
+        return run_elf(target, elf, n if n is not None else 0, count=count, timeout=timeout, driver=driver)
     finally:
         if own:
             shutil.rmtree(wd, ignore_errors=True)
