@@ -284,6 +284,8 @@ def test_bad_inputs_rejected():
         mcu.build("host", driver=drv, inputs={"x": np.zeros(3, np.float32), "y": np.zeros(4, np.float32)})
     with pytest.raises(ValueError, match="avr"):
         mcu.build("avr", driver=drv, inputs={"x": np.zeros(3)})
+    with pytest.raises(ValueError, match="flash"):
+        mcu.build("avr", driver=drv, inputs={"x": np.zeros((3000, 3), np.float32)})
     with pytest.raises(ValueError, match="kind"):
         mcu.Driver(step=";", state=[("x", "f16")])
 
