@@ -50,7 +50,8 @@ class Mahony2D(ReferenceFilter):
     Mahony2D(dt, kp, ki, error="approx"): error="approx" is Eq. 4.4 (E = a - d),
     error="exact" Eq. 4.3 (E = d x (a x d)). Per sample, per axis (Eq. 3.6):
     I_n = I_{n-1} + Ki dt E_n; d_n = d_{n-1} + (Kp E_n + I_n + d_{n-1} x w) dt.
-    d is the body up vector R^T e_z (level: (0, 0, 1)), never renormalised.
+    d is the body up vector R^T e_z (level: (0, 0, 1)), never renormalised: with
+    Eq. 4.3 |d| is not controlled and grows at the rate I.d/|d| (csrc/mahony2d.h).
     angles() gives (roll, pitch). At equilibrium I = -d x b for a gyro bias b:
     the bias seen is d x I (rad/s), its part perpendicular to gravity.
     """
