@@ -22,6 +22,7 @@ class DCM(ReferenceFilter):
     gyro bias. angles() gives (roll, pitch) in rad (ZYX).
     """
     kind = "imu"
+    c_name = "imf_dcm"
     state_names = _NAMES
 
     @staticmethod

@@ -22,6 +22,7 @@ class KK(ReferenceFilter):
     Eq. 4.2 (see csrc/kk.h). Valid within about +-30 deg of level.
     """
     kind = "imu"
+    c_name = "imf_kk"
     state_names = ("pitch", "roll")
 
     @staticmethod

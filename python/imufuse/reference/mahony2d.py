@@ -56,6 +56,7 @@ class Mahony2D(ReferenceFilter):
     the bias seen is d x I (rad/s), its part perpendicular to gravity.
     """
     kind = "imu"
+    c_name = "imf_mahony2d"
     state_names = ("dx", "dy", "dz", "ix", "iy", "iz")
 
     @staticmethod

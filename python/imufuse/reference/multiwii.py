@@ -65,6 +65,7 @@ class MultiWii(ReferenceFilter):
     angles() gives (roll, pitch) in rad (ZYX).
     """
     kind = "imu"
+    c_name = "imf_multiwii"
     state_names = ("dx", "dy", "dz", "ax", "ay", "az")
 
     @staticmethod
