@@ -1,0 +1,205 @@
+/*
+ * Single-axis filters of the article, chapters 2 and 3. See filters_1d.h.
+ * The pure-Python twin is python/imufuse/reference/filters_1d.py: the same
+ * lines in the same order.
+ */
+#include "filters_1d.h"
+#include "imf_math.h"
+
+/* ---- Eq. 2.2 ----------------------------------------------------------- */
+void imf_complementary1d_init(imf_complementary1d_t *const self, const imf_real dt,
+                              const imf_real alpha)
+{
+    self->dt = dt;
+    self->alpha = alpha;
+    self->one_minus_alpha = IMF_R(1.0) - alpha;
+    self->skipped = 0;
+    self->x.theta = IMF_R(0.0);
+}
+
+void imf_complementary1d_update(imf_complementary1d_t *const self, const imf_real rate,
+                                const imf_real angle)
+{
+    imf_real theta;
+    if (!imf_finite2(rate, angle)) {
+        self->skipped++;
+        return;
+    }
+    /* Eq. 2.2: theta_k = alpha (theta_{k-1} + w_k dt) + (1 - alpha) a_k */
+    theta = self->alpha * (self->x.theta + rate * self->dt) + self->one_minus_alpha * angle;
+    if (!isfinite(theta)) {
+        self->skipped++;
+        return;
+    }
+    self->x.theta = theta;
+}
+
+/* ---- Eq. 2.5 ----------------------------------------------------------- */
+void imf_kalman1d_init(imf_kalman1d_t *const self, const imf_real dt, const imf_real k0)
+{
+    self->dt = dt;
+    self->k0 = k0;
+    self->one_minus_k0 = IMF_R(1.0) - k0;
+    self->skipped = 0;
+    self->x.theta = IMF_R(0.0);
+}
+
+void imf_kalman1d_update(imf_kalman1d_t *const self, const imf_real rate, const imf_real angle)
+{
+    imf_real theta_pred, theta;
+    if (!imf_finite2(rate, angle)) {
+        self->skipped++;
+        return;
+    }
+    /* Eq. 2.5: predict with the gyro, then correct with the accelerometer */
+    theta_pred = self->x.theta + rate * self->dt;
+    theta = self->one_minus_k0 * theta_pred + self->k0 * angle;
+    if (!isfinite(theta)) {
+        self->skipped++;
+        return;
+    }
+    self->x.theta = theta;
+}
+
+/* ---- Eq. 2.8 ----------------------------------------------------------- */
+void imf_mahony1d_init(imf_mahony1d_t *const self, const imf_real dt, const imf_real kp)
+{
+    self->dt = dt;
+    self->kp = kp;
+    self->skipped = 0;
+    self->x.theta = IMF_R(0.0);
+}
+
+void imf_mahony1d_update(imf_mahony1d_t *const self, const imf_real rate, const imf_real angle)
+{
+    imf_real e, theta;
+    if (!imf_finite2(rate, angle)) {
+        self->skipped++;
+        return;
+    }
+    /* Eq. 2.8: the error uses the previous estimate theta_{k-1} (Eq. 2.12) */
+    e = angle - self->x.theta;
+    theta = self->x.theta + (self->kp * e + rate) * self->dt;
+    if (!isfinite(theta)) {
+        self->skipped++;
+        return;
+    }
+    self->x.theta = theta;
+}
+
+/* ---- Eq. 3.3 ----------------------------------------------------------- */
+void imf_kalman1d_bias_init(imf_kalman1d_bias_t *const self, const imf_real dt,
+                            const imf_real k0, const imf_real k1, const int bias_sign)
+{
+    self->dt = dt;
+    self->k0 = k0;
+    self->one_minus_k0 = IMF_R(1.0) - k0;
+    self->k1 = k1;
+    self->bias_sign = bias_sign < 0 ? IMF_R(-1.0) : IMF_R(1.0);
+    self->skipped = 0;
+    self->x.theta = IMF_R(0.0);
+    self->x.b = IMF_R(0.0);
+}
+
+void imf_kalman1d_bias_update(imf_kalman1d_bias_t *const self, const imf_real rate,
+                              const imf_real angle)
+{
+    imf_real theta_pred, theta, b;
+    if (!imf_finite2(rate, angle)) {
+        self->skipped++;
+        return;
+    }
+    /* Eq. 3.3: theta^-_k = theta_{k-1} + (w_k -+ b_{k-1}) dt; the sign only
+       enters here, the bias update law is the same for both (Corollary #2) */
+    theta_pred = self->x.theta + (rate + self->bias_sign * self->x.b) * self->dt;
+    theta = self->one_minus_k0 * theta_pred + self->k0 * angle;
+    b = self->x.b + self->k1 * (angle - theta_pred);
+    if (!imf_finite2(theta, b)) {
+        self->skipped++;
+        return;
+    }
+    self->x.theta = theta;
+    self->x.b = b;
+}
+
+/* ---- Eq. 3.6 / 3.9 ----------------------------------------------------- */
+void imf_mahony1d_bias_init(imf_mahony1d_bias_t *const self, const imf_real dt,
+                            const imf_real kp, const imf_real ki, const int integrate_first)
+{
+    self->dt = dt;
+    self->kp = kp;
+    self->ki_dt = ki * dt;
+    self->integrate_first = integrate_first != 0;
+    self->skipped = 0;
+    self->x.theta = IMF_R(0.0);
+    self->x.i = IMF_R(0.0);
+}
+
+void imf_mahony1d_bias_update(imf_mahony1d_bias_t *const self, const imf_real rate,
+                              const imf_real angle)
+{
+    imf_real e, i, theta;
+    if (!imf_finite2(rate, angle)) {
+        self->skipped++;
+        return;
+    }
+    e = angle - self->x.theta;
+    if (!self->integrate_first) {
+        /* Eq. 3.6: I_k = I_{k-1} + Ki dt e_k; theta_k = theta_{k-1} + (Kp e_k + I_k + w_k) dt */
+        i = self->x.i + self->ki_dt * e;
+        theta = self->x.theta + (self->kp * e + i + rate) * self->dt;
+    } else {
+        /* Eq. 3.9: theta_k = theta_{k-1} + (w_k + I_{k-1}) dt + Kp' dt e_k; then I_k */
+        theta = self->x.theta + (rate + self->x.i) * self->dt;
+        theta = theta + self->kp * self->dt * e;
+        i = self->x.i + self->ki_dt * e;
+    }
+    if (!imf_finite2(theta, i)) {
+        self->skipped++;
+        return;
+    }
+    self->x.theta = theta;
+    self->x.i = i;
+}
+
+/* ---- Eq. 3.10 ---------------------------------------------------------- */
+void imf_complementary1d_bias_init(imf_complementary1d_bias_t *const self, const imf_real dt,
+                                   const imf_real kp, const imf_real ki)
+{
+    /* (1 - z^-1)^2 + Kp dt (1 - z^-1) + Ki dt^2, normalised by its z^0 term a0 */
+    const imf_real kp_dt = kp * dt;
+    const imf_real ki_dt2 = ki * dt * dt;
+    const imf_real a0 = IMF_R(1.0) + kp_dt + ki_dt2;
+    self->dt = dt;
+    self->b0a = (kp_dt + ki_dt2) / a0;
+    self->b1a = -kp_dt / a0;
+    self->b0w = dt / a0;
+    self->b1w = -dt / a0;
+    self->a1 = -(IMF_R(2.0) + kp_dt) / a0;
+    self->a2 = IMF_R(1.0) / a0;
+    self->skipped = 0;
+    self->x.theta = IMF_R(0.0);
+    self->x.s1 = IMF_R(0.0);
+    self->x.s2 = IMF_R(0.0);
+}
+
+void imf_complementary1d_bias_update(imf_complementary1d_bias_t *const self, const imf_real rate,
+                                     const imf_real angle)
+{
+    imf_real theta, s1, s2;
+    if (!imf_finite2(rate, angle)) {
+        self->skipped++;
+        return;
+    }
+    /* direct form II transposed, two inputs, b2a = b2w = 0 */
+    theta = self->b0a * angle + self->b0w * rate + self->x.s1;
+    s1 = self->b1a * angle + self->b1w * rate - self->a1 * theta + self->x.s2;
+    s2 = -self->a2 * theta;
+    if (!imf_finite3(theta, s1, s2)) {
+        self->skipped++;
+        return;
+    }
+    self->x.theta = theta;
+    self->x.s1 = s1;
+    self->x.s2 = s2;
+}

@@ -1,0 +1,142 @@
+/*
+ * Single-axis filters of the article, chapters 2 and 3.
+ *
+ * Per sample each filter takes the gyro rate (rad/s) and the angle computed
+ * from the accelerometer (rad) and updates its angle estimate theta (rad).
+ * dt is the fixed sample period in seconds.
+ *
+ * Pattern shared by every imufuse filter:
+ *   imf_<filter>_t       settings (converted once by init) and the state x;
+ *                        all members private to the filter's functions.
+ *   imf_<filter>_init()  sets the settings and the initial state (all zero).
+ *   imf_<filter>_update() one fixed step. Non-finite inputs, or an update that
+ *                        would make the state non-finite, leave the state
+ *                        unchanged and increment `skipped` (imf_math.h).
+ * The state struct x holds only imf_real members: it is the `state` seen from
+ * Python, in declaration order.
+ */
+#ifndef IMF_FILTERS_1D_H
+#define IMF_FILTERS_1D_H
+
+#include <stdint.h>
+#include "imf_config.h"
+
+/* ---- Eq. 2.2: complementary filter, 1st order ------------------------- */
+typedef struct {
+    imf_real theta; /* angle estimate, rad */
+} imf_complementary1d_state_t;
+
+typedef struct {
+    imf_real dt;              /* sample period, s */
+    imf_real alpha;           /* weight of the gyro path, 0..1 */
+    imf_real one_minus_alpha; /* 1 - alpha, weight of the accelerometer */
+    uint32_t skipped;         /* samples rejected by the non-finite policy */
+    imf_complementary1d_state_t x;
+} imf_complementary1d_t;
+
+/* dt: s; alpha: dimensionless, alpha = (T/dt) / (1 + T/dt) for time constant T. */
+void imf_complementary1d_init(imf_complementary1d_t *self, imf_real dt, imf_real alpha);
+/* rate: rad/s; angle: rad */
+void imf_complementary1d_update(imf_complementary1d_t *self, imf_real rate, imf_real angle);
+
+/* ---- Eq. 2.5: Kalman filter with constant gain, 1st order -------------- */
+typedef struct {
+    imf_real theta; /* angle estimate, rad */
+} imf_kalman1d_state_t;
+
+typedef struct {
+    imf_real dt;            /* sample period, s */
+    imf_real k0;            /* Kalman gain K0, 0..1 */
+    imf_real one_minus_k0;  /* 1 - K0 */
+    uint32_t skipped;
+    imf_kalman1d_state_t x;
+} imf_kalman1d_t;
+
+void imf_kalman1d_init(imf_kalman1d_t *self, imf_real dt, imf_real k0);
+void imf_kalman1d_update(imf_kalman1d_t *self, imf_real rate, imf_real angle);
+
+/* ---- Eq. 2.8: Mahony&Madgwick filter (P controller), 1st order -------- */
+typedef struct {
+    imf_real theta; /* angle estimate, rad */
+} imf_mahony1d_state_t;
+
+typedef struct {
+    imf_real dt; /* sample period, s */
+    imf_real kp; /* proportional gain, 1/s */
+    uint32_t skipped;
+    imf_mahony1d_state_t x;
+} imf_mahony1d_t;
+
+void imf_mahony1d_init(imf_mahony1d_t *self, imf_real dt, imf_real kp);
+void imf_mahony1d_update(imf_mahony1d_t *self, imf_real rate, imf_real angle);
+
+/* ---- Eq. 3.3: Kalman filter with bias state, 2nd order ---------------- */
+typedef struct {
+    imf_real theta; /* angle estimate, rad */
+    imf_real b;     /* gyro bias estimate, rad/s */
+} imf_kalman1d_bias_state_t;
+
+typedef struct {
+    imf_real dt;           /* sample period, s */
+    imf_real k0;           /* gain K0 of the angle, 0..1 */
+    imf_real one_minus_k0; /* 1 - K0 */
+    imf_real k1;           /* gain K1 of the bias, 1/s */
+    imf_real bias_sign;    /* -1: rate - b (natural sign); +1: rate + b (Corollary #2) */
+    uint32_t skipped;
+    imf_kalman1d_bias_state_t x;
+} imf_kalman1d_bias_t;
+
+/* bias_sign: -1 or +1 */
+void imf_kalman1d_bias_init(imf_kalman1d_bias_t *self, imf_real dt, imf_real k0,
+                            imf_real k1, int bias_sign);
+void imf_kalman1d_bias_update(imf_kalman1d_bias_t *self, imf_real rate, imf_real angle);
+
+/* ---- Eq. 3.6 / 3.9: Mahony&Madgwick filter (PI controller) ------------ */
+typedef struct {
+    imf_real theta; /* angle estimate, rad */
+    imf_real i;     /* integral term I, rad/s (converges to minus the gyro bias) */
+} imf_mahony1d_bias_state_t;
+
+typedef struct {
+    imf_real dt;             /* sample period, s */
+    imf_real kp;             /* proportional gain, 1/s (K_p' of Eq. 3.9 if integrate_first) */
+    imf_real ki_dt;          /* Ki * dt, 1/s */
+    int integrate_first;     /* 0: Eq. 3.6; 1: reversed order, Eq. 3.9 */
+    uint32_t skipped;
+    imf_mahony1d_bias_state_t x;
+} imf_mahony1d_bias_t;
+
+/* kp: 1/s; ki: 1/s^2; integrate_first: 0 or 1 */
+void imf_mahony1d_bias_init(imf_mahony1d_bias_t *self, imf_real dt, imf_real kp,
+                            imf_real ki, int integrate_first);
+void imf_mahony1d_bias_update(imf_mahony1d_bias_t *self, imf_real rate, imf_real angle);
+
+/* ---- Eq. 3.10: complementary filter, 2nd order ------------------------ */
+/*
+ * theta = [(Ki + Kp s) a + s w] / (s^2 + Kp s + Ki)     (Eq. 3.10 times Ki)
+ * discretised by backward difference s = (1 - z^-1)/dt (Eq. 1.2) and run as
+ * one direct form II transposed section with two inputs (a and w) sharing
+ * the denominator. The b2 coefficients vanish for this discretisation.
+ */
+typedef struct {
+    imf_real theta; /* last output angle, rad */
+    imf_real s1;    /* DF-II-T delay element 1 */
+    imf_real s2;    /* DF-II-T delay element 2 */
+} imf_complementary1d_bias_state_t;
+
+typedef struct {
+    imf_real dt;           /* sample period, s */
+    imf_real b0a, b1a;     /* numerator acting on the accelerometer angle */
+    imf_real b0w, b1w;     /* numerator acting on the gyro rate */
+    imf_real a1, a2;       /* denominator (a0 normalised to 1) */
+    uint32_t skipped;
+    imf_complementary1d_bias_state_t x;
+} imf_complementary1d_bias_t;
+
+/* kp: 1/s; ki: 1/s^2 (omega0 = sqrt(ki), xi = kp / (2 sqrt(ki)), Eq. 3.11) */
+void imf_complementary1d_bias_init(imf_complementary1d_bias_t *self, imf_real dt,
+                                   imf_real kp, imf_real ki);
+void imf_complementary1d_bias_update(imf_complementary1d_bias_t *self, imf_real rate,
+                                     imf_real angle);
+
+#endif /* IMF_FILTERS_1D_H */

@@ -1,0 +1,43 @@
+"""imufuse_c: the compiled filters of csrc/, in float32 and float64.
+
+Each name is a class whose constructor takes the reference signature plus
+`dtype="float64" | "float32"` and returns an instance of the build of that
+precision (imufuse_c._f64 or imufuse_c._f32)."""
+import inspect
+
+from imufuse import _checks
+import imufuse.reference as _reference
+
+from . import _f32, _f64
+
+_BUILDS = {"float32": _f32, "float64": _f64}
+
+
+class _Dispatch(type):
+    def __call__(cls, *args, dtype="float64", **kwargs):
+        return cls._impl[_checks.check_dtype(dtype)](*args, **kwargs)
+
+    def __instancecheck__(cls, obj):
+        return isinstance(obj, tuple(cls._impl.values()))
+
+
+def _dispatch(name):
+    ref = getattr(_reference, name)
+    sig = inspect.signature(ref._params)
+    params = [*sig.parameters.values(),
+              inspect.Parameter("dtype", inspect.Parameter.KEYWORD_ONLY, default="float64")]
+    return _Dispatch(name, (), {
+        "_impl": {dt: getattr(mod, name) for dt, mod in _BUILDS.items()},
+        "__doc__": ref.__doc__,
+        "__signature__": sig.replace(parameters=sorted(params, key=lambda p: p.kind)),
+        "__module__": __name__,
+        "kind": ref.kind,
+        "state_names": ref.state_names,
+    })
+
+
+FILTERS = _reference.FILTERS
+for _name in FILTERS:
+    globals()[_name] = _dispatch(_name)
+
+__all__ = list(FILTERS)

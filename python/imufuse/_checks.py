@@ -1,0 +1,137 @@
+"""Validation shared by the compiled filters (imufuse_c) and the reference.
+
+One definition of every check, so both backends accept and reject exactly the
+same parameters and inputs, with the same messages.
+"""
+import math
+
+import numpy as np
+
+DTYPES = ("float32", "float64")
+
+
+def check_dtype(dtype):
+    """Return "float32" or "float64"; raise ValueError for anything else."""
+    try:
+        name = np.dtype(dtype).name
+    except TypeError:
+        name = None
+    if name not in DTYPES:
+        raise ValueError(f"dtype: must be 'float32' or 'float64', got {dtype!r}")
+    return name
+
+
+def check_real(name, value, lo=None, hi=None, lo_open=False, hi_open=False, why=""):
+    """Return value as a float, requiring it finite and within [lo, hi]
+    (open at an end when lo_open/hi_open)."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: must be a real number, got {value!r}") from None
+    ok = math.isfinite(v)
+    if ok and lo is not None:
+        ok = v > lo if lo_open else v >= lo
+    if ok and hi is not None:
+        ok = v < hi if hi_open else v <= hi
+    if not ok:
+        lo_s = "" if lo is None else f"{lo} {'<' if lo_open else '<='} "
+        hi_s = "" if hi is None else f" {'<' if hi_open else '<='} {hi}"
+        rng = f" and {lo_s}{name}{hi_s}" if (lo is not None or hi is not None) else ""
+        extra = f" ({why})" if why else ""
+        raise ValueError(f"{name}: must be finite{rng}{extra}, got {value!r}")
+    return v
+
+
+def check_dt(dt):
+    return check_real("dt", dt, lo=0.0, lo_open=True)
+
+
+def check_choice(name, value, choices):
+    if value not in choices:
+        raise ValueError(f"{name}: must be one of {', '.join(map(repr, choices))}, got {value!r}")
+    return value
+
+
+def check_stable2(names, tr, det, why):
+    """Jury test for a 2x2 update matrix with trace tr and determinant det:
+    stable when |det| < 1 and 1 + tr + det > 0; 1 - tr + det >= 0 admits the
+    marginal case of a frozen integrator (its gain zero)."""
+    if not (abs(det) < 1.0 and 1.0 - tr + det >= 0.0 and 1.0 + tr + det > 0.0):
+        raise ValueError(f"{names}: outside the stable range ({why})")
+
+
+def as_1d(dtype, **arrays):
+    """Convert equally long 1-D inputs to contiguous arrays of dtype."""
+    out = []
+    for name, a in arrays.items():
+        arr = np.ascontiguousarray(a, dtype=dtype)
+        out.append(arr)
+    shapes = {name: arr.shape for name, arr in zip(arrays, out)}
+    if any(arr.ndim != 1 for arr in out) or len({arr.shape for arr in out}) != 1:
+        seen = ", ".join(f"{k}{v}" for k, v in shapes.items())
+        raise ValueError(f"run(): expected 1-D arrays of equal length, got shapes {seen}")
+    return out
+
+
+def as_nx3(dtype, **arrays):
+    """Convert (N, 3) inputs with a common N to contiguous arrays of dtype."""
+    out = [np.ascontiguousarray(a, dtype=dtype) for a in arrays.values()]
+    shapes = {name: arr.shape for name, arr in zip(arrays, out)}
+    if any(arr.ndim != 2 or arr.shape[1] != 3 for arr in out) or len({arr.shape for arr in out}) != 1:
+        seen = ", ".join(f"{k}{v}" for k, v in shapes.items())
+        raise ValueError(f"run(): expected (N, 3) arrays with the same N, got shapes {seen}")
+    return out
+
+
+def as_vec3(name, v):
+    """One 3-vector for update(): any sequence or array of three numbers."""
+    try:
+        x, y, z = v
+        return float(x), float(y), float(z)
+    except (TypeError, ValueError):
+        shape = np.shape(v) if not isinstance(v, str) else "str"
+        raise ValueError(f"update(): {name} must be a 3-vector, got shape {shape}") from None
+
+
+def as_state(value, n, dtype, names):
+    arr = np.asarray(value, dtype=dtype)
+    if arr.shape != (n,):
+        raise ValueError(f"state: expected shape ({n},) for {names}, got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError("state: must be finite (the state never becomes non-finite)")
+    return np.ascontiguousarray(arr)
+
+
+# Per-sample inputs of each kind of filter: update() argument names, and
+# whether run() takes 1-D arrays or (N, 3) arrays.
+KINDS = {
+    "1d": ("rate", "angle"),
+    "imu": ("gyr", "acc"),
+    "ahrs": ("gyr", "acc", "mag"),
+}
+
+
+def run_inputs(kind, dtype, args):
+    """Validate run() arguments for a filter kind; return contiguous arrays."""
+    names = KINDS[kind]
+    if len(args) != len(names):
+        raise ValueError(f"run(): expected {len(names)} arrays ({', '.join(names)}), got {len(args)}")
+    conv = as_1d if kind == "1d" else as_nx3
+    return conv(dtype, **dict(zip(names, args)))
+
+
+def update_inputs(kind, args):
+    """Validate update() arguments for a filter kind; return a flat tuple of floats."""
+    names = KINDS[kind]
+    if len(args) != len(names):
+        raise ValueError(f"update(): expected {len(names)} arguments ({', '.join(names)}), got {len(args)}")
+    if kind == "1d":
+        return tuple(check_scalar(n, a) for n, a in zip(names, args))
+    return sum((as_vec3(n, a) for n, a in zip(names, args)), ())
+
+
+def check_scalar(name, v):
+    try:
+        return float(v)
+    except (TypeError, ValueError):
+        raise ValueError(f"update(): {name} must be a real number, got {v!r}") from None

@@ -1,0 +1,299 @@
+"""Single-axis filters of the article, chapters 2 and 3: pure-Python twins
+of csrc/filters_1d.c, line for line.
+
+Per sample: rate = gyro rate (rad/s), angle = accelerometer angle (rad).
+"""
+import math
+
+from .. import _checks
+from ._base import ReferenceFilter, isfinite
+
+
+def _stable_gain_dt(name, k, dt):
+    """P gain of Eq. 2.9: alpha = 1 - k dt must satisfy |alpha| < 1 (k = 0: pure gyro)."""
+    _checks.check_real(name, k, lo=0.0)
+    _checks.check_real(f"{name}*dt", k * dt, lo=0.0, hi=2.0, hi_open=True,
+                       why="alpha = 1 - kp dt of Eq. 2.9 must satisfy |alpha| < 1")
+    return float(k)
+
+
+class Complementary1D(ReferenceFilter):
+    """Complementary filter, Eq. 2.2: theta_k = alpha (theta_{k-1} + w_k dt) + (1 - alpha) a_k.
+
+    Complementary1D(dt, alpha) or Complementary1D(dt, T=time_constant), with
+    alpha = (T/dt) / (1 + T/dt). Example (seed 003): t = 10/11 at 60 Hz is
+    Complementary1D(1/60, alpha=10/11), i.e. T = 10/60 s.
+    """
+    state_names = ("theta",)
+
+    @staticmethod
+    def _params(dt, alpha=None, *, T=None):
+        dt = _checks.check_dt(dt)
+        if (alpha is None) == (T is None):
+            raise ValueError("alpha, T: give exactly one of alpha or the time constant T")
+        if T is not None:
+            T = _checks.check_real("T", T, lo=0.0)
+            alpha = (T / dt) / (1.0 + T / dt)
+        return (dt, _checks.check_real("alpha", alpha, lo=0.0, hi=1.0))
+
+    def _init(self, dt, alpha):
+        R = self._R
+        self.dt = R(dt)
+        self.alpha = R(alpha)
+        self.one_minus_alpha = R(1.0) - self.alpha
+        self.theta = R(0.0)
+
+    def _update(self, rate, angle):
+        if not isfinite(rate, angle):
+            self._skip()
+            return
+        # Eq. 2.2: theta_k = alpha (theta_{k-1} + w_k dt) + (1 - alpha) a_k
+        theta = self.alpha * (self.theta + rate * self.dt) + self.one_minus_alpha * angle
+        if not isfinite(theta):
+            self._skip()
+            return
+        self.theta = theta
+
+
+class Kalman1D(ReferenceFilter):
+    """Kalman filter with constant gain K0, Eq. 2.5 (same as Eq. 2.2 with alpha = 1 - K0)."""
+    state_names = ("theta",)
+
+    @staticmethod
+    def _params(dt, k0):
+        return (_checks.check_dt(dt), _checks.check_real("k0", k0, lo=0.0, hi=1.0))
+
+    def _init(self, dt, k0):
+        R = self._R
+        self.dt = R(dt)
+        self.k0 = R(k0)
+        self.one_minus_k0 = R(1.0) - self.k0
+        self.theta = R(0.0)
+
+    def _update(self, rate, angle):
+        if not isfinite(rate, angle):
+            self._skip()
+            return
+        # Eq. 2.5: predict with the gyro, then correct with the accelerometer
+        theta_pred = self.theta + rate * self.dt
+        theta = self.one_minus_k0 * theta_pred + self.k0 * angle
+        if not isfinite(theta):
+            self._skip()
+            return
+        self.theta = theta
+
+
+class Mahony1D(ReferenceFilter):
+    """Mahony&Madgwick filter with a P controller, Eq. 2.8 (alpha = 1 - Kp dt, Eq. 2.9)."""
+    state_names = ("theta",)
+
+    @staticmethod
+    def _params(dt, kp):
+        dt = _checks.check_dt(dt)
+        return (dt, _stable_gain_dt("kp", kp, dt))
+
+    def _init(self, dt, kp):
+        R = self._R
+        self.dt = R(dt)
+        self.kp = R(kp)
+        self.theta = R(0.0)
+
+    def _update(self, rate, angle):
+        if not isfinite(rate, angle):
+            self._skip()
+            return
+        # Eq. 2.8: the error uses the previous estimate theta_{k-1} (Eq. 2.12)
+        e = angle - self.theta
+        theta = self.theta + (self.kp * e + rate) * self.dt
+        if not isfinite(theta):
+            self._skip()
+            return
+        self.theta = theta
+
+
+class Kalman1DBias(ReferenceFilter):
+    """Kalman filter with a gyro-bias state, Eq. 3.3.
+
+    bias_sign=-1 corrects the rate as w - b (the natural sign); bias_sign=+1 as
+    w + b with the bias update law unchanged (Corollary #2). The filter is
+    stable for 0 < k0 < 2 and 0 <= bias_sign*k1*dt < 4 - 2 k0: with the
+    natural sign, k1 must be negative (or zero) and b converges to the gyro
+    bias; with bias_sign=+1 and k1 > 0, b converges to minus the bias.
+    allow_unstable=True skips the stability check (to study Corollary #2).
+    """
+    state_names = ("theta", "b")
+
+    @staticmethod
+    def _params(dt, k0, k1, bias_sign=-1, *, allow_unstable=False):
+        dt = _checks.check_dt(dt)
+        k0 = _checks.check_real("k0", k0, lo=0.0, hi=1.0, lo_open=True)
+        k1 = _checks.check_real("k1", k1)
+        if bias_sign not in (-1, 1) or isinstance(bias_sign, bool):
+            raise ValueError(f"bias_sign: must be -1 or +1, got {bias_sign!r}")
+        if not allow_unstable:
+            s = bias_sign * k1 * dt
+            if not (0.0 <= s < 4.0 - 2.0 * k0):
+                raise ValueError(
+                    f"k1: bias_sign*k1*dt = {s!r} is outside the stable range "
+                    f"[0, 4 - 2 k0) (Corollary #2: with bias_sign=-1, k1 must be <= 0)")
+        return (dt, k0, k1, int(bias_sign))
+
+    def _init(self, dt, k0, k1, bias_sign):
+        R = self._R
+        self.dt = R(dt)
+        self.k0 = R(k0)
+        self.one_minus_k0 = R(1.0) - self.k0
+        self.k1 = R(k1)
+        self.bias_sign = R(-1.0) if bias_sign < 0 else R(1.0)
+        self.theta = R(0.0)
+        self.b = R(0.0)
+
+    def _update(self, rate, angle):
+        if not isfinite(rate, angle):
+            self._skip()
+            return
+        # Eq. 3.3: theta^-_k = theta_{k-1} + (w_k -+ b_{k-1}) dt; the sign only
+        # enters here, the bias update law is the same for both (Corollary #2)
+        theta_pred = self.theta + (rate + self.bias_sign * self.b) * self.dt
+        theta = self.one_minus_k0 * theta_pred + self.k0 * angle
+        b = self.b + self.k1 * (angle - theta_pred)
+        if not isfinite(theta, b):
+            self._skip()
+            return
+        self.theta = theta
+        self.b = b
+
+
+class Mahony1DBias(ReferenceFilter):
+    """Mahony&Madgwick filter with a PI controller, Eq. 3.6.
+
+    integrate_first=True runs the reversed order of Eq. 3.9 (Corollary #1); kp
+    is then the K_p' of Eq. 3.9: Mahony1DBias(dt, kp + ki*dt, ki, True) has the
+    transfer function of Mahony1DBias(dt, kp, ki). The integral I converges to
+    minus the gyro bias.
+    """
+    state_names = ("theta", "i")
+
+    @staticmethod
+    def _params(dt, kp, ki, integrate_first=False):
+        dt = _checks.check_dt(dt)
+        kp = _checks.check_real("kp", kp, lo=0.0)
+        ki = _checks.check_real("ki", ki, lo=0.0)
+        if not isinstance(integrate_first, bool):
+            raise ValueError(f"integrate_first: must be True or False, got {integrate_first!r}")
+        kpdt, kidt2 = kp * dt, ki * dt * dt
+        if integrate_first:
+            tr, det = 2.0 - kpdt, 1.0 - kpdt + kidt2
+        else:
+            tr, det = 2.0 - kpdt - kidt2, 1.0 - kpdt
+        _checks.check_stable2("kp, ki", tr, det, f"kp*dt={kpdt!r}, ki*dt^2={kidt2!r}")
+        return (dt, kp, ki, int(integrate_first))
+
+    def _init(self, dt, kp, ki, integrate_first):
+        R = self._R
+        self.dt = R(dt)
+        self.kp = R(kp)
+        self.ki_dt = R(ki) * self.dt
+        self.integrate_first = integrate_first != 0
+        self.theta = R(0.0)
+        self.i = R(0.0)
+
+    def _update(self, rate, angle):
+        if not isfinite(rate, angle):
+            self._skip()
+            return
+        e = angle - self.theta
+        if not self.integrate_first:
+            # Eq. 3.6: I_k = I_{k-1} + Ki dt e_k; theta_k = theta_{k-1} + (Kp e_k + I_k + w_k) dt
+            i = self.i + self.ki_dt * e
+            theta = self.theta + (self.kp * e + i + rate) * self.dt
+        else:
+            # Eq. 3.9: theta_k = theta_{k-1} + (w_k + I_{k-1}) dt + Kp' dt e_k; then I_k
+            theta = self.theta + (rate + self.i) * self.dt
+            theta = theta + self.kp * self.dt * e
+            i = self.i + self.ki_dt * e
+        if not isfinite(theta, i):
+            self._skip()
+            return
+        self.theta = theta
+        self.i = i
+
+
+class Complementary1DBias(ReferenceFilter):
+    """Second-order complementary filter, Eq. 3.10.
+
+    Complementary1DBias(dt, kp, ki) or Complementary1DBias(dt, omega0=..., xi=...)
+    with Ki = omega0^2, Kp = 2 xi omega0 (Eq. 3.11). Discretised by backward
+    difference (Eq. 1.2) and run as a direct form II transposed section with
+    two inputs; state: the last output theta and the two delay elements.
+    See tuning() for Eq. 3.12 and the rule of thumb.
+    """
+    state_names = ("theta", "s1", "s2")
+
+    @staticmethod
+    def _params(dt, kp=None, ki=None, *, omega0=None, xi=None):
+        dt = _checks.check_dt(dt)
+        if omega0 is not None or xi is not None:
+            if kp is not None or ki is not None or omega0 is None or xi is None:
+                raise ValueError("kp, ki, omega0, xi: give either kp and ki, or omega0 and xi")
+            omega0 = _checks.check_real("omega0", omega0, lo=0.0, lo_open=True)
+            xi = _checks.check_real("xi", xi, lo=0.0, lo_open=True)
+            kp, ki = 2.0 * xi * omega0, omega0 * omega0
+        elif kp is None or ki is None:
+            raise ValueError("kp, ki: both are required (or omega0 and xi)")
+        # backward difference maps every stable continuous filter (kp > 0, ki >= 0)
+        # to a stable discrete one
+        return (dt, _checks.check_real("kp", kp, lo=0.0, lo_open=True),
+                _checks.check_real("ki", ki, lo=0.0))
+
+    def _init(self, dt, kp, ki):
+        R = self._R
+        dt = R(dt)
+        kp_dt = R(kp) * dt
+        ki_dt2 = R(ki) * dt * dt
+        a0 = R(1.0) + kp_dt + ki_dt2
+        self.dt = dt
+        self.b0a = (kp_dt + ki_dt2) / a0
+        self.b1a = -kp_dt / a0
+        self.b0w = dt / a0
+        self.b1w = -dt / a0
+        self.a1 = -(R(2.0) + kp_dt) / a0
+        self.a2 = R(1.0) / a0
+        self.theta = R(0.0)
+        self.s1 = R(0.0)
+        self.s2 = R(0.0)
+
+    def _update(self, rate, angle):
+        if not isfinite(rate, angle):
+            self._skip()
+            return
+        # direct form II transposed, two inputs, b2a = b2w = 0
+        theta = self.b0a * angle + self.b0w * rate + self.s1
+        s1 = self.b1a * angle + self.b1w * rate - self.a1 * theta + self.s2
+        s2 = -self.a2 * theta
+        if not isfinite(theta, s1, s2):
+            self._skip()
+            return
+        self.theta = theta
+        self.s1 = s1
+        self.s2 = s2
+
+
+def tuning(kp, ki):
+    """Eq. 3.11/3.12 for PI gains kp (1/s), ki (1/s^2): resonance omega0 (rad/s),
+    damping xi, whether Eq. 3.12 (Ki <= Kp^2/4, no overshoot in the gyro
+    channel) holds, and the rule-of-thumb range Ki = 0.05..0.1 Kp^2."""
+    kp = _checks.check_real("kp", kp, lo=0.0, lo_open=True)
+    ki = _checks.check_real("ki", ki, lo=0.0, lo_open=True)
+    omega0 = math.sqrt(ki)
+    return {
+        "omega0": omega0,
+        "xi": kp / (2.0 * omega0),
+        "eq_3_12": ki <= 0.25 * kp * kp,
+        "ki_rule_of_thumb": (0.05 * kp * kp, 0.1 * kp * kp),
+        "in_rule_of_thumb": 0.05 * kp * kp <= ki <= 0.1 * kp * kp,
+    }
+
+
+Complementary1DBias.tuning = staticmethod(tuning)
+Mahony1DBias.tuning = staticmethod(tuning)
