@@ -1,13 +1,20 @@
 """Pure-Python twins of the compiled filters in imufuse_c: same names, same
-signatures, same state, bit for bit the same results."""
+signatures, same state, bit for bit the same results.
+
+Each family module (one per csrc/<family>.c) lists its classes in FILTERS.
+"""
+from . import dcm, filters_1d, kk, madgwick, mahony, mahony2d, multiwii
 from ._base import ReferenceFilter
-from .filters_1d import (Complementary1D, Complementary1DBias, Kalman1D, Kalman1DBias,
-                         Mahony1D, Mahony1DBias, tuning)
+from .filters_1d import tuning
 
-FILTERS_1D = ("Complementary1D", "Kalman1D", "Mahony1D",
-              "Kalman1DBias", "Mahony1DBias", "Complementary1DBias")
+_FAMILIES = (filters_1d, mahony, madgwick, multiwii, kk, mahony2d, dcm)
 
-#: every float filter, by class name (the compiled package exports the same names)
-FILTERS = FILTERS_1D
+#: every float filter, by class name (imufuse_c exports the same names)
+FILTERS = tuple(name for fam in _FAMILIES for name in fam.FILTERS)
+FILTERS_1D = filters_1d.FILTERS
+
+for _fam in _FAMILIES:
+    for _name in _fam.FILTERS:
+        globals()[_name] = getattr(_fam, _name)
 
 __all__ = ["ReferenceFilter", "FILTERS", "tuning", *FILTERS]

@@ -1,0 +1,1 @@
+# Filter family dcm (csrc/dcm.h): not written yet.

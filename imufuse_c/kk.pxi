@@ -1,0 +1,1 @@
+# Filter family kk (csrc/kk.h): not written yet.

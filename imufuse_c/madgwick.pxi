@@ -1,0 +1,1 @@
+# Filter family madgwick (csrc/madgwick.h): not written yet.

@@ -1,0 +1,1 @@
+# Filter family mahony (csrc/mahony.h): not written yet.

@@ -1,0 +1,1 @@
+# Filter family mahony2d (csrc/mahony2d.h): not written yet.

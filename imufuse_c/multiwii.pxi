@@ -1,0 +1,1 @@
+# Filter family multiwii (csrc/multiwii.h): not written yet.

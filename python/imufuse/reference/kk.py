@@ -1,0 +1,3 @@
+"""Filter family kk: pure-Python twin of csrc/kk.c (not written yet)."""
+
+FILTERS = ()

@@ -1,0 +1,3 @@
+"""Filter family madgwick: pure-Python twin of csrc/madgwick.c (not written yet)."""
+
+FILTERS = ()

@@ -1,0 +1,3 @@
+"""Filter family mahony: pure-Python twin of csrc/mahony.c (not written yet)."""
+
+FILTERS = ()

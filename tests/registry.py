@@ -1,0 +1,74 @@
+"""The filter matrix: every filter configuration the suites run, in one place.
+
+A new filter joins the bit-exact harness, the bad-input tests and the
+benchmarks by one entry here (its class must exist under the same name in
+imufuse_c and imufuse.reference).
+"""
+from dataclasses import dataclass, field
+
+import numpy as np
+import pytest
+
+import imufuse.reference as reference
+
+DTYPES = ("float32", "float64")
+
+
+@dataclass(frozen=True)
+class Case:
+    name: str                       # class name in imufuse_c and imufuse.reference
+    params: dict = field(default_factory=dict)   # constructor keywords (dt included)
+    label: str = ""                 # distinguishes several configurations of one class
+
+    @property
+    def id(self):
+        return f"{self.name}-{self.label}" if self.label else self.name
+
+    @property
+    def kind(self):
+        return getattr(reference, self.name).kind
+
+    def make(self, backend, dtype):
+        import imufuse_c
+        mod = imufuse_c if backend == "c" else reference
+        return getattr(mod, self.name)(**self.params, dtype=dtype)
+
+
+CASES_1D = [
+    # chapter 2
+    Case("Complementary1D", dict(dt=0.01, alpha=0.98)),
+    Case("Complementary1D", dict(dt=1 / 60, T=10 / 60), "seed003"),
+    Case("Kalman1D", dict(dt=0.01, k0=0.02)),
+    Case("Mahony1D", dict(dt=0.01, kp=2.0)),
+    # chapter 3
+    Case("Kalman1DBias", dict(dt=0.01, k0=0.02, k1=-0.5)),
+    Case("Kalman1DBias", dict(dt=0.01, k0=0.02, k1=0.5, bias_sign=+1), "plus"),
+    Case("Mahony1DBias", dict(dt=0.01, kp=2.0, ki=0.3)),
+    Case("Mahony1DBias", dict(dt=0.01, kp=2.003, ki=0.3, integrate_first=True), "eq3_9"),
+    Case("Complementary1DBias", dict(dt=0.01, kp=2.0, ki=0.3)),
+    Case("Complementary1DBias", dict(dt=0.002, omega0=1.5, xi=2.0), "omega0_xi"),
+]
+
+# ---- quaternion filters: csrc/mahony.c, csrc/madgwick.c ---------------------
+CASES_QUATERNION = [
+]
+
+# ---- gravity-vector and DCM filters: csrc/multiwii.c, kk.c, mahony2d.c, dcm.c
+CASES_GRAVITY = [
+]
+
+FLOAT_CASES = [*CASES_1D, *CASES_QUATERNION, *CASES_GRAVITY]
+
+
+def float_cases(kind=None):
+    cases = [c for c in FLOAT_CASES if kind is None or c.kind == kind]
+    return [pytest.param(c, id=c.id) for c in cases]
+
+
+def float_matrix():
+    """(case, dtype) pairs for every float filter configuration."""
+    return [pytest.param(c, dt, id=f"{c.id}-{dt}") for c in FLOAT_CASES for dt in DTYPES]
+
+
+def as_dtype(arrays, dtype):
+    return tuple(np.asarray(a, dtype=dtype) for a in arrays)
