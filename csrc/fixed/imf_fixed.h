@@ -187,7 +187,7 @@ static inline int32_t imf_mul_q15_q30(const int16_t a, const int16_t b)
     return (int32_t)a * (int32_t)b;
 }
 
-/* (a * b) / 2^n for int32 a, int16 b, n in [0, 31], rounded to nearest,
+/* (a * b) / 2^n for int32 a, int16 b, n in [0, 47], rounded to nearest,
  * saturated to int32.  Exact to the 48-bit product without any 64-bit
  * type: a = ah*2^16 + al with al in [0, 2^16), so
  * a*b = (ah*b + asr(al*b, 16))*2^16 + (al*b mod 2^16) = m*2^16 + lol.
@@ -223,7 +223,7 @@ static inline int32_t imf_scale16(const int16_t x, const imf_qscale_t c, const i
 }
 
 /* int32 x (in qK) times a q-scale constant, result in qN, rounded,
- * saturated (x * c * 2^(N-K)).  Needs c.s - N + K in [0, 31]; callers
+ * saturated (x * c * 2^(N-K)).  Needs c.s - N + K in [0, 47]; callers
  * check this at init. */
 static inline int32_t imf_scale32(const int32_t x, const imf_qscale_t c, const int K, const int N)
 {
