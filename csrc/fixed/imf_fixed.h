@@ -74,6 +74,9 @@ static inline int32_t imf_rshr32(const int32_t x, const int n)
     if (n <= 0) {
         return x;
     }
+    if (n > 31) {
+        return 0; /* |x| / 2^n < 1/2 */
+    }
     return (x >> n) + ((x >> (n - 1)) & 1);
 }
 
@@ -215,8 +218,9 @@ static inline int32_t imf_mul_32x16(const int32_t a, const int16_t b, const int 
     return imf_add_sat32(imf_shl_sat32(m, 16 - n), (lol + ((int32_t)1 << n >> 1)) >> n);
 }
 
-/* int16 x times a q-scale constant, result in qN (x * c * 2^N), rounded,
- * saturated.  One 16x16->32 multiply and a shift. */
+/* int16 x (an integer count, or qK: then pass N - K) times a q-scale
+ * constant, result x * c * 2^N, rounded, saturated.  One 16x16->32 multiply
+ * and a shift by c.s - N, which must lie in [-31, 31]. */
 static inline int32_t imf_scale16(const int16_t x, const imf_qscale_t c, const int N)
 {
     return imf_rshift_sat32((int32_t)x * (int32_t)c.m, c.s - N);

@@ -15,7 +15,7 @@ int imf_madgwick_imu_q_init(imf_madgwick_imu_q_t *const self, const double dt, c
     self->x.q[1] = self->x.q[2] = self->x.q[3] = 0;
     if (!(dt > 0.0) || !(gyr_scale > 0.0) || !(beta >= 0.0)
         || self->kg.m == 0 || self->kg.s < 31 || self->kg.s > 61
-        || self->kb.s < 16 || self->kb.s > 61) {
+        || self->kb.s < 16 || self->kb.s > 46) {
         return -1;
     }
     return 0;
@@ -84,7 +84,7 @@ static void imf_madgwick_imu_q_correct(const imf_madgwick_imu_q_t *const self, c
         /* unit delta-s, q15; |s15| < 2^15, y < 2^16: product fits int32 */
         const int16_t u = imf_sat_q15s(imf_rshr32((int32_t)s15[i] * (int32_t)y, sh - 15));
         /* step 6: dq' = dq - beta dt * unit delta-s, q30 */
-        dq[i] = imf_sub_sat32(dq[i], imf_scale16(u, self->kb, 30));
+        dq[i] = imf_sub_sat32(dq[i], imf_scale16(u, self->kb, 30 - 15));
     }
 }
 

@@ -19,7 +19,7 @@ int imf_mahony_imu_q_init(imf_mahony_imu_q_t *const self, const double dt, const
      * kp, ki: shifts of imf_scale16/32 in range */
     if (!(dt > 0.0) || !(gyr_scale > 0.0) || !(kp >= 0.0) || !(ki >= 0.0)
         || self->kg.m == 0 || self->kg.s < 31 || self->kg.s > 61
-        || self->kp.s < 16 || self->kp.s > 47 || self->ki.s < 8 || self->ki.s > 55) {
+        || self->kp.s < 16 || self->kp.s > 47 || self->ki.s < 8 || self->ki.s > 54) {
         return -1;
     }
     return 0;
@@ -53,8 +53,8 @@ static void imf_mahony_imu_q_feedback(imf_mahony_imu_q_t *const self, const int1
         if (narrow) {
             /* 8-bit profile: e in q15, one 16x16 product per term */
             const int16_t e15 = imf_qn_to_q15s(e[i], 30);
-            ip = imf_scale16(e15, self->ki, 38);
-            pp = imf_scale16(e15, self->kp, 30);
+            ip = imf_scale16(e15, self->ki, 38 - 15);
+            pp = imf_scale16(e15, self->kp, 30 - 15);
         } else {
             ip = imf_scale32(e[i], self->ki, 30, 38);
             pp = imf_scale32(e[i], self->kp, 30, 30);

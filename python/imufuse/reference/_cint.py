@@ -74,6 +74,8 @@ def rshr32(x: int, n: int) -> int:
     """imf_rshr32: floor(x / 2^n + 1/2), n in [0, 31]."""
     if n <= 0:
         return x
+    if n > 31:
+        return 0
     return (x >> n) + ((x >> (n - 1)) & 1)
 
 

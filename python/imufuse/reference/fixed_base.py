@@ -52,10 +52,9 @@ def as_int16(name, a, ndim):
             raise ValueError(f"{name}: expected integer sensor counts, got dtype {arr.dtype}")
     if arr.size and (arr.min() < -32768 or arr.max() > 32767):
         raise ValueError(f"{name}: counts must be within int16 [-32768, 32767]")
-    arr = np.ascontiguousarray(arr, dtype=np.int16)
     if arr.ndim != ndim:
         raise ValueError(f"{name}: expected {ndim}-D counts, got shape {arr.shape}")
-    return arr
+    return np.ascontiguousarray(arr, dtype=np.int16) if ndim else np.asarray(arr, dtype=np.int16)
 
 
 def fixed_run_inputs(kind, args):

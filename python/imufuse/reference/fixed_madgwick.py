@@ -31,7 +31,7 @@ class MadgwickIMUQ(FixedFilter):
         beta = _checks.check_real("beta", beta, lo=0.0)
         gyr_scale = check_scale("gyr_scale", gyr_scale)
         qconst("gyr_scale*dt", 0.5 * gyr_scale * dt, 31, 61, nonzero=True)
-        qconst("beta*dt", beta * dt, 16, 61)
+        qconst("beta*dt", beta * dt, 16, 46)
         return (dt, beta, gyr_scale, check_profile(profile))
 
     def _init(self, dt, beta, gyr_scale, profile):
@@ -80,7 +80,7 @@ class MadgwickIMUQ(FixedFilter):
         for i in range(4):
             u = ci.sat_q15s(ci.rshr32(s15[i] * y, sh - 15))
             # step 6: dq' = dq - beta dt * unit delta-s
-            dq[i] = ci.sub_sat32(dq[i], ci.scale16(u, self.kb, 30))
+            dq[i] = ci.sub_sat32(dq[i], ci.scale16(u, self.kb, 30 - 15))
 
     def _update32(self, gyr, acc):
         qs = fq.snapshot(self.q)

@@ -26,7 +26,7 @@ class MahonyIMUQ(FixedFilter):
         gyr_scale = check_scale("gyr_scale", gyr_scale)
         qconst("gyr_scale*dt", 0.5 * gyr_scale * dt, 31, 61, nonzero=True)
         qconst("kp*dt", 0.5 * kp * dt, 16, 47)
-        qconst("ki*dt^2", 0.5 * ki * dt * dt, 8, 55)
+        qconst("ki*dt^2", 0.5 * ki * dt * dt, 8, 54)
         return (dt, kp, ki, gyr_scale, check_profile(profile))
 
     def _init(self, dt, kp, ki, gyr_scale, profile):
@@ -64,8 +64,8 @@ class MahonyIMUQ(FixedFilter):
         for i in range(3):
             if narrow:
                 e15 = ci.qn_to_q15s(e[i], 30)
-                ip = ci.scale16(e15, self.ki, 38)
-                pp = ci.scale16(e15, self.kp, 30)
+                ip = ci.scale16(e15, self.ki, 38 - 15)
+                pp = ci.scale16(e15, self.kp, 30 - 15)
             else:
                 ip = ci.scale32(e[i], self.ki, 30, 38)
                 pp = ci.scale32(e[i], self.kp, 30, 30)
