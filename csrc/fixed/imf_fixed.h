@@ -197,10 +197,12 @@ static inline int32_t imf_mul_q15_q30(const int16_t a, const int16_t b)
  * ah*b <= 2^30 and |al*b| < 2^31 fit int32 (two 16x16->32 multiplies). */
 static inline int32_t imf_mul_32x16(const int32_t a, const int16_t b, const int n)
 {
-    const int32_t ah = a >> 16;                      /* in [-2^15, 2^15) */
-    const int32_t al = (int32_t)((uint32_t)a & 0xFFFFu); /* in [0, 2^16) */
-    const int32_t lo = al * (int32_t)b;              /* |lo| < 2^31 */
-    const int32_t m = ah * (int32_t)b + (lo >> 16);  /* |m| <= 2^30 + 2^15 */
+    /* 16-bit operand types let 8-bit compilers use 16x16->32 multiplies
+     * (avr-gcc: __mulhisi3, __usmulhisi3) instead of 32x32 */
+    const int16_t ah = (int16_t)(a >> 16);                 /* in [-2^15, 2^15) */
+    const uint16_t al = (uint16_t)((uint32_t)a & 0xFFFFu); /* in [0, 2^16) */
+    const int32_t lo = (int32_t)al * (int32_t)b;           /* |lo| < 2^31 */
+    const int32_t m = (int32_t)ah * (int32_t)b + (lo >> 16); /* |m| <= 2^30 + 2^15 */
     const int32_t lol = (int32_t)((uint32_t)lo & 0xFFFFu);
     if (n > 16) {
         /* floor((m*2^16 + lol)/2^n + 1/2) = floor((m + 2^(n-17))/2^(n-16))
@@ -268,7 +270,8 @@ static inline uint16_t imf_isqrt_u32(uint32_t x)
 static inline uint16_t imf_invsqrt_u32(uint32_t x, int *const shift)
 {
     int e = 0;
-    uint32_t u, y, y2, t, w;
+    uint16_t u, y, y2, w; /* 16-bit operands: unsigned 16x16->32 products */
+    uint32_t t;
     int i;
     if (x == 0u) {
         *shift = 0;
@@ -278,24 +281,23 @@ static inline uint16_t imf_invsqrt_u32(uint32_t x, int *const shift)
         x <<= 2; /* unsigned: no UB */
         e += 2;
     }
-    u = x >> 16; /* q16 in [2^14, 2^16) */
+    u = (uint16_t)(x >> 16); /* q16 in [2^14, 2^16) */
     /* chords through (1/4, 2), (1/2, sqrt 2) and (1/2, sqrt 2), (1, 1), q15 */
     if (u < 32768u) {
-        y = 65535u - ((u - 16384u) * 38u >> 5); /* slope ~ -2*(2-sqrt2)*4 */
+        y = (uint16_t)(65535u - (((uint32_t)(u - 16384u) * 38u) >> 5)); /* slope ~ 2(2-sqrt2)4 */
     } else {
-        y = 46341u - ((u - 32768u) * 27u >> 6); /* slope ~ -(sqrt2-1)*2 */
+        y = (uint16_t)(46341u - (((uint32_t)(u - 32768u) * 27u) >> 6)); /* slope ~ (sqrt2-1)2 */
     }
     for (i = 0; i < 3; ++i) {
-        y2 = (y * y + 32768u) >> 16;  /* q14, y < 2^16 -> y2 <= 65534 */
-        t = u * y2;                   /* q30, < 2^32 */
+        /* q14: y < 2^16 -> y2 <= 65534 */
+        y2 = (uint16_t)(((uint32_t)y * y + 32768u) >> 16);
+        t = (uint32_t)u * y2;         /* q30, < 2^32 */
         if (t >= 3221225472u) {       /* 3 - u y^2 <= 0 cannot happen */
             t = 3221225471u;          /* from the chords; kept for safety */
         }
-        w = (3221225472u - t) >> 16;  /* q14, (3 - u y^2) */
-        y = (y * w + 16384u) >> 15;   /* q15: y w / 2 */
-        if (y > 65535u) {
-            y = 65535u;
-        }
+        w = (uint16_t)((3221225472u - t) >> 16); /* q14, (3 - u y^2) <= 49152 */
+        t = ((uint32_t)y * w + 16384u) >> 15;    /* q15: y w / 2 */
+        y = (uint16_t)(t > 65535u ? 65535u : t);
     }
     *shift = 31 - e / 2;
     return (uint16_t)y;

@@ -23,7 +23,7 @@ static inline imf_qscale_t imf_qscale_from_double(const double v)
     double f, m;
     c.m = 0;
     c.s = 16;
-    if (!(v > 0.0) || !(v <= 1.0e300)) {
+    if (!(v > 0.0) || !(v - v == 0.0)) { /* negative, zero, NaN or +inf */
         return c;
     }
     f = frexp(v, &e);
