@@ -50,15 +50,23 @@ SEQS = ("random", "full", "extreme", "sine")
 SEQS_KIND = {"1d": SEQS + ("zero",), "imu": SEQS + ("zero_acc",)}
 
 
-def c_driver_run(case, profile, arrays):
-    f = case.make_fixed("ref", profile)
+def c_driver_run(case, profile, arrays, state=None, params=None):
+    f = _make(case.name, params if params is not None else case.params, profile)
     args = f._args
-    head = f"{case.name} {args[-1]} " + " ".join(float(v).hex() for v in args[:-1]) + " ;\n"
+    st = " ".join(str(int(v)) for v in state) if state is not None else ""
+    head = (f"{case.name} {args[-1]} " + " ".join(float(v).hex() for v in args[:-1])
+            + f" ; {st} ;\n")
     cols = np.column_stack([a.reshape(len(a), -1) for a in arrays])
     body = "\n".join(" ".join(map(str, row)) for row in cols.tolist())
     out = cbuild.run("filter_driver", head + body + "\n")
     return np.array([[int(v) for v in line.split()] for line in out.strip().split("\n")],
                      dtype=np.int64).reshape(len(cols), -1)
+
+
+def _make(name, params, profile, backend="ref"):
+    import importlib
+    mod = reference if backend == "ref" else importlib.import_module("imufuse_c")
+    return getattr(mod, name)(**params, profile=profile)
 
 
 needs_gcc = pytest.mark.skipif(not cbuild.have_gcc(), reason="needs gcc")
@@ -167,3 +175,54 @@ def test_harness_sees_one_lsb():
     finally:
         fq.add_normalise = orig
     assert (bad != good).any()
+
+
+# ---- extreme parameters and arbitrary states: no UB, still bit-exact --------
+
+def _logu(lo, hi):
+    return st.floats(np.log(lo), np.log(hi)).map(np.exp)
+
+
+PARAM_SPACE = {
+    "Complementary1DQ": dict(dt=_logu(1e-5, 1.0), alpha=st.floats(0.0, 1.0),
+                             gyr_scale=_logu(1e-7, 1.0), angle_scale=_logu(1e-7, 1.0)),
+    "Mahony1DBiasQ": dict(dt=_logu(1e-5, 0.1), kp=_logu(1e-3, 100.0), ki=_logu(1e-4, 1e3),
+                          gyr_scale=_logu(1e-7, 1.0), angle_scale=_logu(1e-7, 1.0)),
+    "KKQ": dict(dt=_logu(1e-5, 0.1), kp=st.floats(0.0, 1.0), gyr_scale=_logu(1e-7, 1e-2),
+                acc_1g=st.floats(1.0, 32767.0)),
+    "MultiWiiQ": dict(dt=_logu(1e-5, 0.1), cmpf=_logu(1e-3, 1e6), gyr_scale=_logu(1e-7, 1e-2),
+                      acc_1g=st.floats(1.0, 32767.0)),
+    "MahonyIMUQ": dict(dt=_logu(1e-5, 0.1), kp=_logu(1e-4, 1e3), ki=_logu(1e-5, 1e3),
+                       gyr_scale=_logu(1e-7, 1e-2)),
+    "MadgwickIMUQ": dict(dt=_logu(1e-5, 0.1), beta=_logu(1e-4, 1e3), gyr_scale=_logu(1e-7, 1e-2)),
+}
+STATE_SIZE = {"Complementary1DQ": 1, "Mahony1DBiasQ": 2, "KKQ": 2, "MultiWiiQ": 3,
+              "MahonyIMUQ": 7, "MadgwickIMUQ": 4}
+I32 = st.one_of(st.integers(-2**31, 2**31 - 1), st.sampled_from([-2**31, -2**31 + 1, -1, 0, 1, 2**30, 2**31 - 1]))
+
+
+@needs_gcc
+@pytest.mark.parametrize("profile", PROFILES)
+@pytest.mark.parametrize("name", list(PARAM_SPACE))
+def test_hypothesis_extreme_params_and_states(name, profile):
+    """Parameters across their accepted range (rejected ones must raise
+    ValueError), any int32 initial state, any int16 inputs: the C driver
+    (UBSan: any report fails) equals the reference."""
+    from hypothesis import assume
+    kind = getattr(reference, name).kind
+
+    @settings(max_examples=40, deadline=None, suppress_health_check=list(HealthCheck),
+              derandomize=True)
+    @given(st.fixed_dictionaries(PARAM_SPACE[name]),
+           st.lists(I32, min_size=STATE_SIZE[name], max_size=STATE_SIZE[name]), _hyp(kind))
+    def check(params, state, arrays):
+        try:
+            r = _make(name, params, profile)
+        except ValueError:
+            assume(False)
+        r.state = np.array(state, dtype=np.int64)
+        want = r.run(*arrays)
+        case = type("C", (), {"name": name, "params": params})
+        got = c_driver_run(case, profile, arrays, state=state, params=params)
+        np.testing.assert_array_equal(got, want)
+    check()

@@ -139,3 +139,21 @@ def test_rounding_has_no_bias():
             err += ci.mul_q15(a, b) - a * b / 32768.0
             count += 1
     assert abs(err / count) < 0.01
+
+
+def test_ubsan_build_reports_undefined_behaviour(tmp_path):
+    """The sanitizer flags of the drivers do catch a signed overflow and a
+    left shift of a negative value (so a clean run means something)."""
+    import subprocess
+    if not cbuild.USE_UBSAN:
+        pytest.skip("IMF_FIXED_UBSAN=0")
+    for body in ("int32_t x = INT32_MAX; x += (int32_t)argc; return (int)(x & 1);",
+                 "int32_t x = -argc; return (int)(x << 3);"):
+        src = tmp_path / "ub.c"
+        src.write_text("#include <stdint.h>\nint main(int argc, char **argv)\n"
+                       "{ (void)argv; " + body + " }\n")
+        exe = tmp_path / "ub"
+        subprocess.run(["gcc", "-std=c99", "-O0", *cbuild.UBSAN, str(src), "-o", str(exe)],
+                       check=True)
+        p = subprocess.run([str(exe)], capture_output=True, text=True)
+        assert p.returncode != 0 and "runtime error" in p.stderr

@@ -1,5 +1,6 @@
 /* Test driver for the fixed-point filters of csrc/fixed: first line
- * "name profile p1 p2 ..." (parameters as C99 hex floats), then one sample
+ * "name profile p1 p2 ... ; s1 s2 ... ;" (parameters as C99 hex floats,
+ * then an optional initial state, possibly empty), then one sample
  * per line (rate angle, or gx gy gz ax ay az); prints the int32 state
  * after every sample.  Built by tests/fixed_c/cbuild.py, also with UBSan. */
 #include <stdio.h>
@@ -45,6 +46,21 @@ int main(void)
     if (rc != 0) {
         fprintf(stderr, "init failed for %s\n", name);
         return 3;
+    }
+    {
+        int32_t st[8];
+        int ns = 0;
+        while (ns < 8 && scanf("%63s", tok) == 1 && strcmp(tok, ";") != 0) {
+            st[ns++] = (int32_t)strtol(tok, NULL, 10);
+        }
+        if (ns > 0) {
+            if (!strcmp(name, "Complementary1DQ")) c1.x.theta = st[0];
+            else if (!strcmp(name, "Mahony1DBiasQ")) { m1.x.theta = st[0]; m1.x.j = st[1]; }
+            else if (!strcmp(name, "KKQ")) memcpy(kk.x.t, st, sizeof kk.x.t);
+            else if (!strcmp(name, "MultiWiiQ")) memcpy(mw.x.d, st, sizeof mw.x.d);
+            else if (!strcmp(name, "MahonyIMUQ")) { memcpy(mh.x.q, st, sizeof mh.x.q); memcpy(mh.x.i, st + 4, sizeof mh.x.i); }
+            else memcpy(mg.x.q, st, sizeof mg.x.q);
+        }
     }
     if (!strcmp(name, "Complementary1DQ") || !strcmp(name, "Mahony1DBiasQ")) {
         while (scanf("%ld %ld", &v[0], &v[1]) == 2) {
