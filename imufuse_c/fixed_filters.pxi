@@ -26,15 +26,15 @@ cdef extern from "gravity_q.h" nogil:
         pass
     ctypedef struct imf_kk_q_t:
         imf_kk_q_state_t x
-    int imf_kk_q_init(imf_kk_q_t *self, double dt, double kp, double gyr_scale, double acc_1g)
+    int imf_kk_q_init(imf_kk_q_t *self, double dt, double kp, double gyr_scale)
     void imf_kk_q_update(imf_kk_q_t *self, const int16_t *gyr, const int16_t *acc)
 
     ctypedef struct imf_multiwii_q_state_t:
         pass
     ctypedef struct imf_multiwii_q_t:
         imf_multiwii_q_state_t x
-    int imf_multiwii_q_init(imf_multiwii_q_t *self, double dt, double cmpf, double gyr_scale,
-                            double acc_1g)
+    int imf_multiwii_q_init(imf_multiwii_q_t *self, double dt, double cmpf, int acc_lpf_shift,
+                            double acc_1g, double window, double gyr_scale)
     void imf_multiwii_q_update(imf_multiwii_q_t *self, const int16_t *gyr, const int16_t *acc)
 
 cdef extern from "mahony_q.h" nogil:
@@ -89,7 +89,7 @@ cdef class KKQ(_FixedIMU):
 
     cdef int _init(self) except -1:
         a = self._args
-        rc = imf_kk_q_init(&self.s, a[0], a[1], a[2], a[3])
+        rc = imf_kk_q_init(&self.s, a[0], a[1], a[2])
         return self._bind(&self.s.x, sizeof(self.s.x), rc)
 
     cdef void _step(self, const int16_t *gyr, const int16_t *acc) noexcept nogil:
@@ -102,7 +102,7 @@ cdef class MultiWiiQ(_FixedIMU):
 
     cdef int _init(self) except -1:
         a = self._args
-        rc = imf_multiwii_q_init(&self.s, a[0], a[1], a[2], a[3])
+        rc = imf_multiwii_q_init(&self.s, a[0], a[1], a[2], a[3], a[4], a[5])
         return self._bind(&self.s.x, sizeof(self.s.x), rc)
 
     cdef void _step(self, const int16_t *gyr, const int16_t *acc) noexcept nogil:

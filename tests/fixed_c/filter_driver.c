@@ -39,8 +39,8 @@ int main(void)
     }
     if (!strcmp(name, "Complementary1DQ")) rc = imf_complementary1d_q_init(&c1, p[0], p[1], p[2], p[3]);
     else if (!strcmp(name, "Mahony1DBiasQ")) rc = imf_mahony1d_bias_q_init(&m1, p[0], p[1], p[2], (int)p[3], p[4], p[5]);
-    else if (!strcmp(name, "KKQ")) rc = imf_kk_q_init(&kk, p[0], p[1], p[2], p[3]);
-    else if (!strcmp(name, "MultiWiiQ")) rc = imf_multiwii_q_init(&mw, p[0], p[1], p[2], p[3]);
+    else if (!strcmp(name, "KKQ")) rc = imf_kk_q_init(&kk, p[0], p[1], p[2]);
+    else if (!strcmp(name, "MultiWiiQ")) rc = imf_multiwii_q_init(&mw, p[0], p[1], (int)p[2], p[3], p[4], p[5]);
     else if (!strcmp(name, "MahonyIMUQ")) rc = imf_mahony_imu_q_init(&mh, p[0], p[1], p[2], p[3], profile);
     else if (!strcmp(name, "MadgwickIMUQ")) rc = imf_madgwick_imu_q_init(&mg, p[0], p[1], p[2], profile);
     if (rc != 0) {
@@ -57,7 +57,7 @@ int main(void)
             if (!strcmp(name, "Complementary1DQ")) c1.x.theta = st[0];
             else if (!strcmp(name, "Mahony1DBiasQ")) { m1.x.theta = st[0]; m1.x.j = st[1]; }
             else if (!strcmp(name, "KKQ")) memcpy(kk.x.t, st, sizeof kk.x.t);
-            else if (!strcmp(name, "MultiWiiQ")) memcpy(mw.x.d, st, sizeof mw.x.d);
+            else if (!strcmp(name, "MultiWiiQ")) { memcpy(mw.x.d, st, sizeof mw.x.d); memcpy(mw.x.l, st + 3, sizeof mw.x.l); }
             else if (!strcmp(name, "MahonyIMUQ")) { memcpy(mh.x.q, st, sizeof mh.x.q); memcpy(mh.x.i, st + 4, sizeof mh.x.i); }
             else memcpy(mg.x.q, st, sizeof mg.x.q);
         }
@@ -73,7 +73,7 @@ int main(void)
         int i;
         for (i = 0; i < 3; ++i) { g[i] = (int16_t)v[i]; a[i] = (int16_t)v[3 + i]; }
         if (!strcmp(name, "KKQ")) { imf_kk_q_update(&kk, g, a); put(kk.x.t, 2); }
-        else if (!strcmp(name, "MultiWiiQ")) { imf_multiwii_q_update(&mw, g, a); put(mw.x.d, 3); }
+        else if (!strcmp(name, "MultiWiiQ")) { int32_t s6[6]; imf_multiwii_q_update(&mw, g, a); memcpy(s6, mw.x.d, sizeof mw.x.d); memcpy(s6 + 3, mw.x.l, sizeof mw.x.l); put(s6, 6); }
         else if (!strcmp(name, "MahonyIMUQ")) {
             int32_t s[7];
             imf_mahony_imu_q_update(&mh, g, a);
