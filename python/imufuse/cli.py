@@ -316,6 +316,7 @@ def _validate(args):
     from . import sim
     from .demo import inputs_for, reference_class, resolve_params
     from .firmware import Firmware, csrc_firmware, validate
+    from .io import LogError
     cls = reference_class(args.filter)
     overrides = _pairs(args.param)
     defines = {}
@@ -329,6 +330,9 @@ def _validate(args):
     else:
         if not args.sources:
             raise UsageError("validate: give the firmware's C sources (or --csrc DIR)")
+        for s in args.sources:
+            if not os.path.isfile(s):
+                raise LogError(f"{s}: no such file", "file")
         if not args.update:
             raise UsageError("validate: give --update (the update function's prototype or name)")
         state = _pairs(args.state, "--state") or None

@@ -88,8 +88,9 @@ class Log:
 def _missing(names, header):
     msgs = []
     for n in names:
-        close = difflib.get_close_matches(n, header, n=2, cutoff=0.6)
-        lower = [h for h in header if h.strip().lower() == n]
+        unknown = [h for h in header if h not in KNOWN]
+        close = difflib.get_close_matches(n, unknown, n=2, cutoff=0.6)
+        lower = [h for h in unknown if h.strip().lower() == n]
         close = lower or close
         msgs.append(f"{n}" + (f" (did you mean {' or '.join(repr(c) for c in close)}?)" if close else ""))
     return msgs
@@ -151,12 +152,12 @@ def read_log(path, gyr_unit="rad/s", acc_unit="g", rate=None):
         t = cols["time"]
         if not np.all(np.isfinite(t)):
             k = int(np.argmax(~np.isfinite(t)))
-            raise LogError(f"{path}:{body[k][0]}: time is not finite: {t[k]!r}")
+            raise LogError(f"{path}:{body[k][0]}: time is not finite: {float(t[k])!r}")
         d = np.diff(t)
         if np.any(d <= 0):
             k = int(np.argmax(d <= 0)) + 1
             raise LogError(f"{path}:{body[k][0]}: time does not increase "
-                           f"({t[k - 1]!r} then {t[k]!r}); times must increase strictly")
+                           f"({float(t[k - 1])!r} then {float(t[k])!r}); times must increase strictly")
     if rate is not None:
         log.dt = 1.0 / rate
     elif "time" in cols:
