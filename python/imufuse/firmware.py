@@ -418,6 +418,14 @@ def csrc_firmware(name, csrc_dir, dtype="float32", **kwargs):
     c = ref.c_name
     headers = [os.path.basename(h) for h in sorted(glob.glob(os.path.join(csrc_dir, "*.h")))]
     sources = sorted(glob.glob(os.path.join(csrc_dir, "*.c")))
+    # only the family that declares the filter (its header and source), when found
+    for h in headers:
+        stem = os.path.splitext(h)[0]
+        src = os.path.join(csrc_dir, stem + ".c")
+        if os.path.isfile(src) and re.search(r"\b" + c + r"_init\s*\(",
+                                             open(os.path.join(csrc_dir, h)).read()):
+            headers, sources = [h], [src]
+            break
     defines = {"IMF_DOUBLE": None} if dtype == "float64" else {}
     return Firmware(sources, headers=headers, include_dirs=[csrc_dir], defines=defines,
                     init=f"{c}_init", update=f"{c}_update", state_names=ref.state_names, **kwargs)
