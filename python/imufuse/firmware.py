@@ -209,14 +209,16 @@ def _is_self(p):
     return p.pointer and p.ctype.split()[-1] not in _FLOAT_TYPES
 
 
-def _state_expr(expr):
+def _state_expr(expr, has_self):
+    """A member path relative to the filter object (or, without one, a global
+    variable path), or '=C expression'."""
     expr = expr.strip()
     if expr.startswith("="):
         return expr[1:].strip()
     if not re.fullmatch(r"[A-Za-z_]\w*(\s*(\.\s*[A-Za-z_]\w*|\[\s*\d+\s*\]))*", expr):
         raise FirmwareError(f"state expression {expr!r}: give a member path (x.theta, q[0]) "
                             "or a C expression after '=' (=self->x.theta, =q0)")
-    return "self->" + expr
+    return "self->" + expr if has_self else expr
 
 
 # ---------------------------------------------------------------------------
@@ -257,8 +259,7 @@ class Firmware:
             if state_names is None:
                 raise FirmwareError("give state {name: expression} or state_names")
             state = {n: f"x.{n}" for n in state_names}
-        self.state = {n: _state_expr(e) if self.self_type or e.strip().startswith("=")
-                      else e.strip() for n, e in state.items()}
+        self.state = {n: _state_expr(e, bool(self.self_type)) for n, e in state.items()}
         self._lib = None
 
     # -- binding -----------------------------------------------------------

@@ -9,8 +9,9 @@ order, extra columns ignored:
   q_w q_x q_y q_z          optional reference orientation, body -> earth
   rate angle               optional single-axis inputs (rad/s, rad) for the 1D filters
 Values must be numbers; "nan" and "inf" are numbers (the filters skip such
-samples). Filters run at a fixed period: 1/rate when a rate is given, else the
-median interval of `time`, which must increase strictly.
+samples). Filters run at a fixed period: 1/rate when a rate is given, else
+1/(1/median interval of `time`, rounded to 9 significant digits); time must
+increase strictly.
 
 Single-axis filters read `rate` and `angle` when both are present; otherwise
 they are derived (axis "x": rate = gyr_x, angle = atan2(acc_y, acc_z), the
@@ -164,8 +165,11 @@ def read_log(path, gyr_unit="rad/s", acc_unit="g", rate=None):
         d = np.diff(cols["time"])
         if d.size == 0:
             raise LogError(f"{path}: one sample: cannot derive the rate from time; give --rate")
-        log.dt = float(np.median(d))
-        if np.max(np.abs(d - log.dt)) > 0.2 * log.dt:
+        med = float(np.median(d))
+        # decimal time stamps rarely difference to the exact period: the rate
+        # is 1/median rounded to 9 significant digits (100 Hz, not 99.99999999999991)
+        log.dt = 1.0 / float(f"{1.0 / med:.9g}")
+        if np.max(np.abs(d - med)) > 0.2 * med:
             log.warnings.append(f"sample intervals vary from {d.min():.6g} to {d.max():.6g} s; "
                                 f"the filters use the median {log.dt:.6g} s")
     else:
