@@ -8,7 +8,7 @@ trajectory into an angle (single-axis filters) or a quaternion (3D filters).
 Adapters, by state names (a filter joins by the names of its state):
   1d, state "theta"                 -> angle (rad)
   q0, q1, q2, q3 first              -> quaternion [w, x, y, z] body -> earth
-  9 names ending 11, 12, ..., 33    -> rotation matrix R (body -> earth, rows first)
+  9 names ending 11..33 or 00..22   -> rotation matrix R (body -> earth, row-major)
   3 names <p>x, <p>y, <p>z first    -> gravity direction in the body frame (what a
                                        level, resting accelerometer reads: +z);
                                        tilt only, no heading
@@ -38,6 +38,10 @@ DEFAULT_PARAMS = {
     "Kalman1DBias": dict(k0=0.01, k1=-0.02),
     "Mahony1DBias": dict(kp=2.0, ki=0.3),
     "Complementary1DBias": dict(kp=2.0, ki=0.3),
+    # 3D filters whose constructors have no defaults for their gains
+    "KK": dict(kp=0.01),
+    "Mahony2D": dict(kp=2.0, ki=0.5),
+    "DCM": dict(kp=2.0, ki=0.5),
 }
 
 #: Seconds at the start of a run left out of the error statistics (the
@@ -133,7 +137,8 @@ class Estimate:
     source: str = ""
 
 
-_MATRIX = ("11", "12", "13", "21", "22", "23", "31", "32", "33")
+_MATRIX = (("11", "12", "13", "21", "22", "23", "31", "32", "33"),
+           ("00", "01", "02", "10", "11", "12", "20", "21", "22"))
 
 
 def _up_to_quat(up):
@@ -158,11 +163,12 @@ def estimate(cls, states):
         with np.errstate(all="ignore"):
             q = q / np.linalg.norm(q, axis=1, keepdims=True)
         return Estimate(q=q, heading=cls.kind == "ahrs", source="q0..q3")
-    if len(names) >= 9 and all(n.endswith(s) and n[:-2] == names[0][:-2]
-                               for n, s in zip(names[:9], _MATRIX)):
-        R = S[:, :9].reshape(-1, 3, 3)
-        return Estimate(q=rotations.matrix_to_quat(R), heading=cls.kind == "ahrs",
-                        source=f"{names[0][:-2]}11..33 (rotation matrix)")
+    for idx in _MATRIX:
+        if len(names) >= 9 and all(n.endswith(s) and n[:-2] == names[0][:-2]
+                                   for n, s in zip(names[:9], idx)):
+            R = S[:, :9].reshape(-1, 3, 3)
+            return Estimate(q=rotations.matrix_to_quat(R), heading=cls.kind == "ahrs",
+                            source=f"{names[0]}..{names[8]} (rotation matrix)")
     if len(names) >= 3 and names[0][:-1] == names[1][:-1] == names[2][:-1] \
             and tuple(n[-1] for n in names[:3]) == ("x", "y", "z"):
         return Estimate(q=_up_to_quat(S[:, :3]), heading=False,
