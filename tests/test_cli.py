@@ -83,7 +83,7 @@ def _read(path_or_text):
 # demo
 
 def test_demo(tmp_path):
-    r = imf("demo", "--out", tmp_path / "out", "--duration", 8)
+    r = imf("demo", "--out", tmp_path / "out", "--duration", 5)
     assert r.returncode == 0, r.stdout + r.stderr
     for name in reference.FILTERS:
         line = next(ln for ln in r.stdout.splitlines() if ln.startswith(name + " "))
@@ -91,6 +91,8 @@ def test_demo(tmp_path):
     assert "0 of" in r.stdout
     if HAVE_MPL:
         assert (tmp_path / "out" / "demo_1d.png").stat().st_size > 10000
+        if demo.filter_names({"imu", "ahrs"}):
+            assert (tmp_path / "out" / "demo_3d.png").stat().st_size > 10000
 
 
 def test_demo_without_matplotlib(tmp_path):
@@ -212,7 +214,7 @@ def test_run_ahrs_without_mag(logs):
 
 def test_compare_with_reference(logs, tmp_path):
     png = tmp_path / "c.png"
-    r = imf("compare", logs["full"], "--plot", png, "-p", "Kalman1D.k0=0.05", "-p", "kp=3")
+    r = imf("compare", logs["full"], "--plot", png)
     assert r.returncode == 0, r.stderr
     assert "errors against the log's q_w..q_z" in r.stdout
     expected = demo.filter_names({"imu", "ahrs"}) or FILTERS_1D
@@ -226,8 +228,9 @@ def test_compare_with_reference(logs, tmp_path):
 
 def test_compare_errors_match_run(logs):
     """compare's error for a filter is run's error for it."""
-    c = imf("compare", logs["full"], "-f", "Mahony1D,Kalman1D")
-    r = imf("run", logs["full"], "-f", "Mahony1D", "-o", os.devnull)
+    c = imf("compare", logs["full"], "-f", "Mahony1D,Kalman1D", "-p", "Kalman1D.k0=0.05",
+            "-p", "kp=3")
+    r = imf("run", logs["full"], "-f", "Mahony1D", "-o", os.devnull, "-p", "kp=3")
     assert c.returncode == r.returncode == 0
     line = next(ln for ln in c.stdout.splitlines() if ln.startswith("Mahony1D "))
     rms, mx = line.split()[2:4]

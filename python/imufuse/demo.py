@@ -172,7 +172,7 @@ def estimate(cls, states):
     if len(names) >= 3 and names[0][:-1] == names[1][:-1] == names[2][:-1] \
             and tuple(n[-1] for n in names[:3]) == ("x", "y", "z"):
         return Estimate(q=_up_to_quat(S[:, :3]), heading=False,
-                        source=f"{names[0][:-1]}x..z (gravity vector)")
+                        source=f"{names[0]}..{names[2]} (gravity vector)")
     for r, p, y in (("roll", "pitch", "yaw"), ("phi", "theta", "psi")):
         if r in names and p in names:
             yaw = S[:, names.index(y)] if y in names else np.zeros(len(S))

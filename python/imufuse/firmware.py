@@ -416,7 +416,8 @@ def csrc_firmware(name, csrc_dir, dtype="float32", **kwargs):
     (e.g. a copy with changes): prototypes from the headers, state x.<name>."""
     from .demo import reference_class
     ref = reference_class(name)
-    c = ref.c_name
+    # the C prefix: c_name, or imf_<lowercase class name> for classes without one
+    c = getattr(ref, "c_name", "") or "imf_" + name.lower()
     headers = [os.path.basename(h) for h in sorted(glob.glob(os.path.join(csrc_dir, "*.h")))]
     sources = sorted(glob.glob(os.path.join(csrc_dir, "*.c")))
     # only the family that declares the filter (its header and source), when found
