@@ -271,3 +271,80 @@ def test_double_literal_is_harmless_in_float64(tmp_path):
     fw = csrc_firmware(m["name"], d, "float64")
     v = validate(fw, m["name"], m["params"], _inputs("1d"))
     assert v.bit_exact, v.text()
+
+
+# ---------------------------------------------------------------------------
+# a 3D filter: normalisation in a different order (in-place rows in DCM)
+
+def _dcm_in_place_mirror():
+    """Mirror of DCM with r_y' orthogonalised against the already-corrected
+    r_x' (the rows updated in place) instead of both from the old pair."""
+    import math
+    from imufuse.reference.dcm import DCM
+    from imufuse.reference.mahony2d import sqrt_r
+
+    class InPlace(DCM):
+        def _update(self, gx, gy, gz, ax, ay, az):
+            R = self._R
+            ex = ey = ez = R(0.0)
+            ix, iy, iz = self.ix, self.iy, self.iz
+            n2 = ax * ax + ay * ay + az * az
+            if n2 > R(0.0) and math.isfinite(n2):
+                norm = sqrt_r(R, n2)
+                nx, ny, nz = ax / norm, ay / norm, az / norm
+                ex = ny * self.r22 - nz * self.r21
+                ey = nz * self.r20 - nx * self.r22
+                ez = nx * self.r21 - ny * self.r20
+                ix = ix + self.ki_dt * ex
+                iy = iy + self.ki_dt * ey
+                iz = iz + self.ki_dt * ez
+            hx = (gx + (self.kp * ex + ix)) * self.dt
+            hy = (gy + (self.kp * ey + iy)) * self.dt
+            hz = (gz + (self.kp * ez + iz)) * self.dt
+            x0 = self.r00 + (self.r01 * hz - self.r02 * hy)
+            x1 = self.r01 + (self.r02 * hx - self.r00 * hz)
+            x2 = self.r02 + (self.r00 * hy - self.r01 * hx)
+            y0 = self.r10 + (self.r11 * hz - self.r12 * hy)
+            y1 = self.r11 + (self.r12 * hx - self.r10 * hz)
+            y2 = self.r12 + (self.r10 * hy - self.r11 * hx)
+            dr = R(0.5) * (x0 * y0 + x1 * y1 + x2 * y2)
+            r00, r01, r02 = x0 - dr * y0, x1 - dr * y1, x2 - dr * y2
+            r10, r11, r12 = y0 - dr * r00, y1 - dr * r01, y2 - dr * r02   # the mistake
+            sx = R(0.5) * (R(3.0) - (r00 * r00 + r01 * r01 + r02 * r02))
+            sy = R(0.5) * (R(3.0) - (r10 * r10 + r11 * r11 + r12 * r12))
+            r00, r01, r02 = sx * r00, sx * r01, sx * r02
+            r10, r11, r12 = sy * r10, sy * r11, sy * r12
+            r20 = r01 * r12 - r02 * r11
+            r21 = r02 * r10 - r00 * r12
+            r22 = r00 * r11 - r01 * r10
+            (self.r00, self.r01, self.r02, self.r10, self.r11, self.r12,
+             self.r20, self.r21, self.r22, self.ix, self.iy, self.iz) = \
+                (r00, r01, r02, r10, r11, r12, r20, r21, r22, ix, iy, iz)
+    return InPlace
+
+
+@pytest.mark.skipif("DCM" not in reference.FILTERS, reason="DCM not present")
+def test_planted_normalisation_order_in_dcm(tmp_path):
+    d = tmp_path / "csrc"
+    shutil.copytree(CSRC, d)
+    path = d / "dcm.c"
+    text = path.read_text()
+    old = ("    out.r10 = y0 - dr * x0;\n    out.r11 = y1 - dr * x1;\n"
+           "    out.r12 = y2 - dr * x2;\n")
+    assert text.count(old) == 1, "csrc/dcm.c changed"
+    path.write_text(text.replace(old, old.replace("* x", "* out.r0")))
+    gyr, acc = _inputs("imu")
+    gyr, acc = gyr.copy(), acc.copy()
+    gyr[:40], acc[:40] = 0.0, (0.0, 0.0, 1.0)          # level and still: no error can show
+    inputs = (gyr.astype(F32), acc.astype(F32))
+    params = dict(dt=0.005, kp=2.0, ki=0.5)
+    v = validate(csrc_firmware("DCM", str(d), "float32"), "DCM", params, inputs)
+
+    want = reference.DCM(**params, dtype="float32").run(*inputs)
+    mistaken = _dcm_in_place_mirror()(**params, dtype="float32").run(*inputs)
+    k = _first_diff(mistaken, want)
+    assert k is not None and k >= 40
+    assert _first_diff(v.got, mistaken) is None, "the mirror must be the compiled mistake"
+    assert not v.bit_exact and v.comparison.first_sample == k
+    j = int(np.flatnonzero(mistaken[k].view(np.uint32) != want[k].view(np.uint32))[0])
+    assert v.comparison.first_variable == reference.DCM.state_names[j]
