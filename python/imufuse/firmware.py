@@ -1,0 +1,476 @@
+"""Validate firmware filter code against imufuse, bit for bit.
+
+Compile your C sources with cffi, bind the filter through a short
+declaration, run it on the same inputs as an imufuse filter and compare every
+state variable after every sample.
+
+    from imufuse.firmware import Firmware, validate
+    fw = Firmware(sources=["fw/attitude.c"], include_dirs=["fw"], headers=["attitude.h"],
+                  init="void att_init(att_t *self, float dt, float k0)",
+                  update="void att_update(att_t *self, float rate, float angle)",
+                  state={"theta": "x.theta"})
+    report = validate(fw, "Kalman1D", dict(dt=0.005, k0=0.01), inputs)
+    print(report.text())
+
+The declaration:
+  init, update  C prototypes (or only the function names: the prototypes are
+                then looked up in `headers`). If the first parameter of init
+                (or, without init, of update) is a pointer to a non-float type,
+                it is the filter object: the harness allocates one (zeroed) and
+                passes its address. Without it, the filter lives in globals.
+  init's other parameters receive the imufuse filter's C init arguments
+                (imufuse.reference.X._params(...), the order of csrc's
+                <c_name>_init) when the counts match; otherwise they are matched
+                by name to the filter's parameters (dt included) or to
+                `init_args` {name: value}.
+  update's other parameters receive the inputs in the imufuse order: 1d: rate,
+                angle; imu: gyr x, y, z, acc x, y, z; ahrs: + mag x, y, z.
+                A scalar parameter takes one value, an array or pointer
+                parameter (`const float g[3]`, `float *g`) one 3-vector; a
+                scalar parameter named dt / deltat / delta_t gets the sample
+                period.
+  state         {imufuse state name: C expression}: a member path relative to
+                the filter object (`x.theta`, `q[0]`) or any C expression
+                using `self` or globals, marked by a leading `=`
+                (`=self->x.theta`, `=q0`). Default: `x.<name>` for every
+                state name (csrc's convention).
+  set_state     True: after init, write the imufuse filter's initial state into
+                the state expressions (they must then be lvalues); default:
+                only when there is no init function.
+The precision of the firmware is read from sizeof of the state expressions.
+
+Compilation: `cflags` default DEFAULT_CFLAGS (the numerical contract of
+DESIGN.md); give a list to replace them. `defines` {NAME: value or None}.
+Builds are cached under $IMUFUSE_CACHE or ~/.cache/imufuse/firmware, keyed by
+the generated source, the flags and the contents of the sources and headers.
+"""
+import glob
+import hashlib
+import importlib.util
+import json
+import os
+import re
+from dataclasses import dataclass, field
+
+import numpy as np
+
+DEFAULT_CFLAGS = ("-std=c99", "-O2", "-ffp-contract=off")
+_FLOAT_TYPES = {"float", "double", "imf_real", "real", "float32_t", "float64_t", "real_t"}
+_DT_NAMES = {"dt", "deltat", "delta_t"}
+_INPUTS = {"1d": ("rate", "angle"), "imu": ("gyr", "acc"), "ahrs": ("gyr", "acc", "mag")}
+
+
+class FirmwareError(ValueError):
+    """A declaration that cannot be bound, or sources that do not compile."""
+
+
+# ---------------------------------------------------------------------------
+# bit-pattern comparison
+
+_UINT = {np.dtype("float32"): np.uint32, np.dtype("float64"): np.uint64}
+
+
+def ulps(a, b):
+    """|a - b| in units in the last place (same-dtype float arrays); NaN
+    against a number counts as the largest distance."""
+    a = np.asarray(a)
+    b = np.asarray(b)
+    u = _UINT[a.dtype]
+    bits = a.dtype.itemsize * 8
+    sign = 1 << (bits - 1)
+
+    def ordered(x):
+        v = x.view(u).astype(object)
+        return np.where(v >= sign, sign - v, v)
+
+    d = np.abs(ordered(a) - ordered(b)).astype(float)
+    nan = np.isnan(a) != np.isnan(b)
+    d[nan] = float(2 ** bits)
+    return d
+
+
+@dataclass
+class Comparison:
+    """Result of comparing two state trajectories bit for bit."""
+    names: tuple
+    dtype: str
+    n_samples: int
+    bit_exact: bool
+    first_sample: int = None
+    first_variable: str = None
+    first_values: tuple = None             # (got, want) at the first difference
+    n_different: int = 0                   # samples with any difference
+    max_abs: dict = field(default_factory=dict)    # name -> max |got - want|
+    max_ulps: dict = field(default_factory=dict)   # name -> max ulps
+
+    def text(self, got_label="firmware", want_label="imufuse"):
+        if self.bit_exact:
+            return (f"bit-exact: {self.n_samples} samples x {len(self.names)} state variables "
+                    f"({self.dtype}) have equal bit patterns")
+        g, w = self.first_values
+        lines = [f"NOT bit-exact ({self.dtype}): first divergence at sample {self.first_sample}, "
+                 f"variable {self.first_variable}: {got_label} {g!r} vs {want_label} {w!r}",
+                 f"{self.n_different} of {self.n_samples} samples differ",
+                 f"{'variable':12s} {'max |diff|':>12s} {'max ulps':>12s}"]
+        for n in self.names:
+            lines.append(f"{n:12s} {self.max_abs[n]:12.4g} {self.max_ulps[n]:12.0f}")
+        return "\n".join(lines)
+
+
+def compare_states(got, want, names=None):
+    """Compare (N, n) trajectories of one float dtype by bit pattern."""
+    got = np.asarray(got)
+    want = np.asarray(want)
+    if got.ndim == 1:
+        got, want = got[:, None], want[:, None]
+    if got.shape != want.shape or got.dtype != want.dtype:
+        raise FirmwareError(f"cannot compare {got.dtype}{got.shape} with {want.dtype}{want.shape}")
+    names = tuple(names) if names else tuple(f"s{j}" for j in range(got.shape[1]))
+    u = _UINT[got.dtype]
+    diff = got.view(u) != want.view(u)
+    rep = Comparison(names, got.dtype.name, got.shape[0], not diff.any())
+    if rep.bit_exact:
+        rep.max_abs = {n: 0.0 for n in names}
+        rep.max_ulps = {n: 0.0 for n in names}
+        return rep
+    k, j = (int(i) for i in np.argwhere(diff)[0])
+    rep.first_sample, rep.first_variable = k, names[j]
+    rep.first_values = (got[k, j].item(), want[k, j].item())
+    rep.n_different = int(diff.any(axis=1).sum())
+    with np.errstate(all="ignore"):
+        ad = np.abs(got.astype(np.float64) - want.astype(np.float64))
+    ad[diff & np.isnan(ad)] = np.inf
+    ad[~diff] = 0.0
+    for jj, n in enumerate(names):
+        col = diff[:, jj]
+        rep.max_abs[n] = float(ad[:, jj].max())
+        rep.max_ulps[n] = float(ulps(got[col, jj], want[col, jj]).max()) if col.any() else 0.0
+    return rep
+
+
+# ---------------------------------------------------------------------------
+# declarations
+
+@dataclass
+class _Param:
+    name: str
+    ctype: str        # element type without const / * / []
+    vector: bool      # array or pointer
+    pointer: bool
+
+
+@dataclass
+class _Proto:
+    name: str
+    params: list
+
+
+_PROTO = re.compile(r"^\s*(?:[\w\s\*]*?)\b(\w+)\s*\((.*)\)\s*;?\s*$", re.S)
+
+
+def parse_prototype(text):
+    """'void f(T *self, float a, const float g[3])' -> _Proto."""
+    m = _PROTO.match(text.strip())
+    if not m:
+        raise FirmwareError(f"cannot read C prototype {text!r}")
+    params = []
+    body = m.group(2).strip()
+    if body and body != "void":
+        for i, p in enumerate(body.split(",")):
+            p = p.strip()
+            vector = "[" in p
+            p0 = re.sub(r"\[[^\]]*\]", "", p)
+            pointer = "*" in p0
+            words = re.findall(r"\w+", p0)
+            words = [w for w in words if w not in ("const", "volatile", "restrict", "struct")]
+            if len(words) < 2:
+                raise FirmwareError(f"parameter {i + 1} of {m.group(1)}: name it ({p!r})")
+            ctype = " ".join(words[:-1])
+            if "struct" in p0.split():
+                ctype = "struct " + ctype
+            params.append(_Param(words[-1], ctype, vector or pointer, pointer))
+    return _Proto(m.group(1), params)
+
+
+def _find_prototype(fname, headers, include_dirs):
+    for h in headers:
+        for d in ["", *include_dirs]:
+            path = os.path.join(d, h) if d else h
+            if os.path.isfile(path):
+                text = re.sub(r"/\*.*?\*/", " ", open(path).read(), flags=re.S)
+                m = re.search(r"[\w\s\*]*\b" + re.escape(fname) + r"\s*\([^)]*\)\s*;", text)
+                if m:
+                    return m.group(0)
+    raise FirmwareError(f"prototype of {fname} not found in headers {list(headers)} "
+                        f"(include dirs {list(include_dirs)}); give the full prototype")
+
+
+def _is_self(p):
+    return p.pointer and p.ctype.split()[-1] not in _FLOAT_TYPES
+
+
+def _state_expr(expr, has_self):
+    """A member path relative to the filter object (or, without one, a global
+    variable path), or '=C expression'."""
+    expr = expr.strip()
+    if expr.startswith("="):
+        return expr[1:].strip()
+    if not re.fullmatch(r"[A-Za-z_]\w*(\s*(\.\s*[A-Za-z_]\w*|\[\s*\d+\s*\]))*", expr):
+        raise FirmwareError(f"state expression {expr!r}: give a member path (x.theta, q[0]) "
+                            "or a C expression after '=' (=self->x.theta, =q0)")
+    return "self->" + expr if has_self else expr
+
+
+# ---------------------------------------------------------------------------
+# the firmware object
+
+class Firmware:
+    """User C sources plus a declaration; see the module doc."""
+
+    def __init__(self, sources, *, init=None, update, state=None, state_names=None,
+                 headers=(), include_dirs=(), defines=None, cflags=None, init_args=None,
+                 set_state=None, cache_dir=None):
+        self.sources = [os.path.abspath(s) for s in sources]
+        for s in self.sources:
+            if not os.path.isfile(s):
+                raise FirmwareError(f"source file not found: {s}")
+        self.include_dirs = [os.path.abspath(d) for d in include_dirs]
+        self.headers = list(headers)
+        self.defines = dict(defines or {})
+        self.cflags = list(DEFAULT_CFLAGS if cflags is None else cflags)
+        self.init_args = dict(init_args or {})
+        self.cache_dir = cache_dir or os.environ.get("IMUFUSE_CACHE") or os.path.join(
+            os.path.expanduser("~"), ".cache", "imufuse", "firmware")
+
+        def proto(x):
+            if x is None:
+                return None
+            if "(" not in x:
+                x = _find_prototype(x, self.headers, self.include_dirs)
+            return parse_prototype(x)
+        self.init = proto(init)
+        self.update = proto(update)
+        first = (self.init or self.update).params
+        self.self_type = first[0].ctype if first and _is_self(first[0]) else None
+        if self.init and self.self_type and not (self.init.params and _is_self(self.init.params[0])):
+            raise FirmwareError(f"{self.init.name}: expected the filter object as first parameter")
+        self.set_state = (self.init is None) if set_state is None else bool(set_state)
+        if state is None:
+            if state_names is None:
+                raise FirmwareError("give state {name: expression} or state_names")
+            state = {n: f"x.{n}" for n in state_names}
+        self.state = {n: _state_expr(e, bool(self.self_type)) for n, e in state.items()}
+        self._lib = None
+
+    # -- binding -----------------------------------------------------------
+    def _init_values(self, c_args, params):
+        """Values for init's parameters after the filter object."""
+        ps = self.init.params[1:] if self.self_type else self.init.params
+        if not self.init_args and c_args is not None and len(ps) == len(c_args):
+            return [float(v) for v in c_args]
+        out = []
+        for p in ps:
+            if p.name in self.init_args:
+                out.append(float(self.init_args[p.name]))
+            elif p.name in params and params[p.name] is not None:
+                out.append(float(params[p.name]))
+            else:
+                raise FirmwareError(
+                    f"{self.init.name}: no value for parameter {p.name!r} (the imufuse filter "
+                    f"has {len(c_args or ())} init arguments, this init {len(ps)}; map it with "
+                    f"init_args / --init-arg {p.name}=VALUE)")
+        return out
+
+    def _update_call(self, kind):
+        """C statements calling update from x (double inputs) and dt."""
+        names = _INPUTS[kind]
+        n_vec = 1 if kind == "1d" else 3
+        ps = self.update.params[1:] if self.self_type else self.update.params
+        pos, args, decls = 0, ["self"] if self.self_type else [], []
+        total = len(names) * n_vec
+        for p in ps:
+            if not p.vector and p.name in _DT_NAMES:
+                args.append("(dt)")
+            elif p.vector:
+                if kind == "1d" or pos % 3 or pos >= total:
+                    raise FirmwareError(f"{self.update.name}: array parameter {p.name!r} does not "
+                                        f"match the inputs ({', '.join(names)})")
+                decls.append(f"{p.ctype} v_{p.name}[3] = {{ ({p.ctype})x[{pos}], "
+                             f"({p.ctype})x[{pos + 1}], ({p.ctype})x[{pos + 2}] }};")
+                args.append(f"v_{p.name}")
+                pos += 3
+            else:
+                if pos >= total:
+                    raise FirmwareError(f"{self.update.name}: parameter {p.name!r} has no input "
+                                        f"(inputs: {', '.join(names)}{' x3' if n_vec == 3 else ''})")
+                args.append(f"x[{pos}]")
+                pos += 1
+        if pos != total:
+            raise FirmwareError(f"{self.update.name}: takes {pos} input values, a {kind} filter "
+                                f"gives {total} ({', '.join(names)})")
+        return decls, f"{self.update.name}({', '.join(args)});", total
+
+    def source(self, kind, n_init):
+        decls, call, n_in = self._update_call(kind)
+        heads = "".join(f'#include "{h}"\n' for h in self.headers)
+        st = list(self.state.values())
+        obj = ("    static " + self.self_type + " obj;\n"
+               f"    {self.self_type} *const self = &obj;\n"
+               "    memset(&obj, 0, sizeof obj);\n") if self.self_type else ""
+        if self.init:
+            iargs = (["self"] if self.self_type else []) + [f"p[{i}]" for i in range(n_init)]
+            init = f"    {self.init.name}({', '.join(iargs)});\n"
+        else:
+            init = ""
+        setst = "".join(f"    if (set_state) {e} = s0[{j}];\n" for j, e in enumerate(st)) \
+            if self.set_state else ""
+        store = "".join(f"        out[k * {len(st)} + {j}] = (double)({e});\n"
+                        for j, e in enumerate(st))
+        sizes = "".join(f"    sizes[{j}] = (int)sizeof({e});\n" for j, e in enumerate(st))
+        selfdecl = f"    {self.self_type} *self = 0;\n    (void)self;\n" if self.self_type else ""
+        return (
+            "#include <string.h>\n#include <stddef.h>\n" + heads +
+            "void imufuse_fw_run(const double *p, const double *s0, int set_state, size_t n,\n"
+            "                    const double *in, double dt, double *out)\n{\n"
+            "    size_t k;\n" + obj + init + setst +
+            "    (void)p; (void)s0; (void)set_state; (void)dt;\n"
+            "    for (k = 0; k < n; ++k) {\n"
+            f"        const double *x = in + k * {n_in};\n"
+            + "".join(f"        {d}\n" for d in decls) +
+            f"        {call}\n" + store + "    }\n}\n"
+            "void imufuse_fw_sizes(int *sizes)\n{\n" + selfdecl + sizes + "}\n")
+
+    def _build(self, kind, n_init):
+        src = self.source(kind, n_init)
+        h = hashlib.sha256()
+        h.update(src.encode())
+        h.update(json.dumps([self.cflags, sorted(self.defines.items()), self.include_dirs,
+                             self.sources]).encode())
+        files = list(self.sources)
+        for d in self.include_dirs + sorted({os.path.dirname(s) for s in self.sources}):
+            files += sorted(glob.glob(os.path.join(d, "*.h")))
+        for f in files:
+            h.update(f.encode())
+            h.update(open(f, "rb").read())
+        name = "_imufuse_fw_" + h.hexdigest()[:20]
+        outdir = os.path.join(self.cache_dir, name)
+        built = glob.glob(os.path.join(outdir, name + ".*so")) + \
+            glob.glob(os.path.join(outdir, name + ".*pyd"))
+        if not built:
+            from cffi import FFI
+            ffi = FFI()
+            ffi.cdef("void imufuse_fw_run(const double *p, const double *s0, int set_state, "
+                     "size_t n, const double *in, double dt, double *out);\n"
+                     "void imufuse_fw_sizes(int *sizes);")
+            defs = [(k, None if v is None else str(v)) for k, v in self.defines.items()]
+            ffi.set_source(name, src, sources=self.sources, include_dirs=self.include_dirs,
+                           define_macros=defs, extra_compile_args=self.cflags)
+            os.makedirs(outdir, exist_ok=True)
+            try:
+                path = ffi.compile(tmpdir=outdir, verbose=False)
+            except Exception as e:  # cffi.VerificationError, distutils CompileError
+                raise FirmwareError(f"compilation failed (compiler output above): {e}") from None
+        else:
+            path = built[0]
+        spec = importlib.util.spec_from_file_location(name, path)
+        mod = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(mod)
+        return mod
+
+    def run(self, kind, inputs, dt, c_args=(), params=None, state0=None):
+        """Run the firmware on inputs (the run() arrays of a `kind` filter);
+        return the (N, n_state) trajectory in the firmware's precision."""
+        n_init = len(self._init_values(c_args, params or {})) if self.init else 0
+        key = (kind, n_init)
+        if self._lib is None or self._lib[0] != key:
+            self._lib = (key, self._build(kind, n_init))
+        mod = self._lib[1]
+        ffi, lib = mod.ffi, mod.lib
+        ns = len(self.state)
+        sizes = ffi.new("int[]", max(ns, 1))
+        lib.imufuse_fw_sizes(sizes)
+        sz = set(sizes[j] for j in range(ns))
+        if sz - {4, 8} or len(sz) != 1:
+            raise FirmwareError(f"state expressions must all be float or all double; sizes {sorted(sz)}")
+        dtype = np.float32 if sz == {4} else np.float64
+        cols = [np.asarray(a, dtype=np.float64) for a in inputs]
+        x = np.ascontiguousarray(np.column_stack([c if c.ndim == 2 else c[:, None] for c in cols]))
+        n = x.shape[0]
+        out = np.empty((n, ns), dtype=np.float64)
+        p = np.ascontiguousarray(self._init_values(c_args, params or {}) if self.init else [0.0],
+                                 dtype=np.float64)
+        s0 = np.zeros(max(ns, 1)) if state0 is None else np.ascontiguousarray(state0, dtype=np.float64)
+        lib.imufuse_fw_run(ffi.cast("double *", p.ctypes.data), ffi.cast("double *", s0.ctypes.data),
+                           int(self.set_state), n, ffi.cast("double *", x.ctypes.data),
+                           float(dt), ffi.cast("double *", out.ctypes.data))
+        return out.astype(dtype)
+
+    def dtype(self, kind="1d", c_args=(), params=None):
+        S = self.run(kind, [np.zeros((0, 1 if kind == "1d" else 3))] * len(_INPUTS[kind]),
+                     1.0, c_args, params)
+        return S.dtype.name
+
+
+def csrc_firmware(name, csrc_dir, dtype="float32", **kwargs):
+    """A Firmware for imufuse's own filter `name` from a csrc directory
+    (e.g. a copy with changes): prototypes from the headers, state x.<name>."""
+    from .demo import reference_class
+    ref = reference_class(name)
+    # the C prefix: c_name, or imf_<lowercase class name> for classes without one
+    c = getattr(ref, "c_name", "") or "imf_" + name.lower()
+    headers = [os.path.basename(h) for h in sorted(glob.glob(os.path.join(csrc_dir, "*.h")))]
+    sources = sorted(glob.glob(os.path.join(csrc_dir, "*.c")))
+    # only the family that declares the filter (its header and source), when found
+    for h in headers:
+        stem = os.path.splitext(h)[0]
+        src = os.path.join(csrc_dir, stem + ".c")
+        if os.path.isfile(src) and re.search(r"\b" + c + r"_init\s*\(",
+                                             open(os.path.join(csrc_dir, h)).read()):
+            headers, sources = [h], [src]
+            break
+    defines = {"IMF_DOUBLE": None} if dtype == "float64" else {}
+    return Firmware(sources, headers=headers, include_dirs=[csrc_dir], defines=defines,
+                    init=f"{c}_init", update=f"{c}_update", state_names=ref.state_names, **kwargs)
+
+
+@dataclass
+class Validation:
+    filter: str
+    backend: str
+    comparison: Comparison
+    got: np.ndarray
+    want: np.ndarray
+
+    @property
+    def bit_exact(self):
+        return self.comparison.bit_exact
+
+    def text(self):
+        return (f"firmware vs imufuse {self.filter} ({self.backend}, {self.comparison.dtype}):\n"
+                + self.comparison.text())
+
+
+def validate(fw, name, params, inputs, backend="c", dtype=None):
+    """Run firmware `fw` and the imufuse filter `name` (constructor keywords
+    `params`, dt included) on the same inputs; return a Validation. dtype:
+    the imufuse precision; default the firmware's (from sizeof of its state);
+    the inputs are rounded to it first, as imufuse's run() does."""
+    from .demo import make_filter, reference_class
+    ref = reference_class(name)
+    c_args = ref._params(**params)
+    names = tuple(fw.state)
+    if set(names) != set(ref.state_names):
+        raise FirmwareError(f"state mapping names {list(names)}; {name} has state "
+                            f"{list(ref.state_names)}")
+    fw_dtype = fw.dtype(ref.kind, c_args, params)
+    dtype = dtype or fw_dtype
+    if dtype != fw_dtype:
+        raise FirmwareError(f"the firmware's state is {fw_dtype}, asked to compare with {dtype}")
+    inputs = [np.asarray(a, dtype=dtype) for a in inputs]
+    f = make_filter(name, backend, dtype, params)
+    state0 = f.state.astype(np.float64)
+    want = f.run(*inputs)
+    order = [ref.state_names.index(n) for n in names]
+    want = want[:, order]
+    got = fw.run(ref.kind, inputs, params["dt"], c_args, params, state0[order])
+    return Validation(name, backend, compare_states(got, want, names), got, want)
