@@ -33,6 +33,11 @@ class Case:
         mod = imufuse_c if backend == "c" else reference
         return getattr(mod, self.name)(**self.params, dtype=dtype)
 
+    def make_fixed(self, backend, profile):
+        import imufuse_c
+        mod = imufuse_c if backend == "c" else reference
+        return getattr(mod, self.name)(**self.params, profile=profile)
+
 
 CASES_1D = [
     # chapter 2
@@ -107,15 +112,6 @@ FIXED_CASES = [
     Case("MahonyIMUQ", dict(dt=1 / 512, kp=1.0, ki=0.05, gyr_scale=1.0642e-3)),
     Case("MadgwickIMUQ", dict(dt=1 / 512, beta=0.1, gyr_scale=1.0642e-3)),
 ]
-
-
-def _make_fixed(self, backend, profile):
-    import imufuse_c
-    mod = imufuse_c if backend == "c" else reference
-    return getattr(mod, self.name)(**self.params, profile=profile)
-
-
-Case.make_fixed = _make_fixed
 
 
 def fixed_matrix():
