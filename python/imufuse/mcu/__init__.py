@@ -421,10 +421,10 @@ def _inputs_header(inputs: Mapping[str, np.ndarray], target: str, n: Optional[in
         else:
             rd = f"IMF_RD16(&imf_in_{name}[i * {k}u + j])"
         if a.ndim == 1:
-            loads.append(f"    {{ const uint32_t j = 0u; {stype} b = {rd}; memcpy({dst}, &b, sizeof b); }}")
+            loads.append(f"    {{ const uint32_t j = 0u; {stype} imf_w_ = {rd}; memcpy({dst}, &imf_w_, sizeof imf_w_); }}")
         else:
             loads.append(
-                f"    for (j = 0u; j < {k}u; ++j) {{ {stype} b = {rd}; memcpy({dst}, &b, sizeof b); }}"
+                f"    for (j = 0u; j < {k}u; ++j) {{ {stype} imf_w_ = {rd}; memcpy({dst}, &imf_w_, sizeof imf_w_); }}"
             )
     out.append("static void imf_load_row(uint32_t i)\n{")
     out.append("    uint32_t j;")
