@@ -55,6 +55,22 @@ CASES_QUATERNION = [
 
 # ---- gravity-vector and DCM filters: csrc/multiwii.c, kk.c, mahony2d.c, dcm.c
 CASES_GRAVITY = [
+    # appendix: MultiWii 2.2 (firmware defaults) and variants of every option
+    Case("MultiWii", dict(dt=1 / 400)),
+    Case("MultiWii", dict(dt=0.005, cmpf=100.0, acc_lpf_shift=0, window=0.3), "nolpf"),
+    Case("MultiWii", dict(dt=0.0025, cmpf=600, acc_lpf_shift=3, acc_1g=512.0), "acc512"),
+    Case("MultiWii", dict(dt=0.01, cmpf=0.0, acc_lpf_shift=16, acc_1g=9.80665, window=1.0),
+         "wide"),
+    # appendix: KK, Eq. 4.5 with a P controller
+    Case("KK", dict(dt=0.005, kp=0.01)),
+    Case("KK", dict(dt=0.002, kp=1.0), "kp1"),
+    # 4.2: Eq. 4.4 and Eq. 4.3
+    Case("Mahony2D", dict(dt=0.005, kp=2.0, ki=0.5)),
+    Case("Mahony2D", dict(dt=0.005, kp=2.0, ki=0.5, error="exact"), "exact"),
+    Case("Mahony2D", dict(dt=0.01, kp=5.0, ki=0.0, error="exact"), "exact_p"),
+    # 4.1 / 4.3: DCM with P&B re-orthogonalisation
+    Case("DCM", dict(dt=0.005, kp=2.0, ki=0.5)),
+    Case("DCM", dict(dt=0.01, kp=0.5, ki=0.0), "p"),
 ]
 
 FLOAT_CASES = [*CASES_1D, *CASES_QUATERNION, *CASES_GRAVITY]

@@ -59,6 +59,7 @@ OUT_OF_RANGE = [
     ("Mahony1DBias", dict(dt=0.01, kp=2.0, ki=-0.1), "ki"),
     ("Mahony1DBias", dict(dt=0.01, kp=300.0, ki=0.1), "kp, ki"),
     ("Mahony1DBias", dict(dt=0.01, kp=2.0, ki=0.1, integrate_first=1), "integrate_first"),
+    ("Mahony1DBias", dict(dt=0.01, kp=0.0, ki=0.1), "kp, ki"),
     ("Complementary1DBias", dict(dt=0.01, kp=0.0, ki=0.1), "kp"),
     ("Complementary1DBias", dict(dt=0.01, kp=1.0), "kp, ki"),
     ("Complementary1DBias", dict(dt=0.01, omega0=1.0), "kp, ki, omega0, xi"),
@@ -134,6 +135,21 @@ def test_nonfinite_samples_are_skipped_and_counted(case, dtype, backend):
     all_bad = tuple(np.full_like(x, np.nan) for x in inputs)
     traj = f.run(*all_bad)
     assert f.skipped == 200 and (traj == init).all()
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+@pytest.mark.parametrize("name,params", [
+    ("Mahony1DBias", dict(dt=0.01, kp=0.5, ki=0.0)),          # frozen integrator
+    ("Mahony1DBias", dict(dt=0.01, kp=0.5, ki=0.0, integrate_first=True)),
+    ("Mahony1DBias", dict(dt=0.001, kp=1999.0, ki=0.0)),
+    ("Kalman1DBias", dict(dt=0.01, k0=0.02, k1=0.0)),
+    ("Complementary1DBias", dict(dt=0.01, kp=2.0, ki=0.0)),
+])
+def test_edge_of_range_accepted(name, params, backend):
+    import imufuse.reference as reference
+    import imufuse_c
+    f = getattr(imufuse_c if backend == "c" else reference, name)(**params)
+    assert np.isfinite(f.run(np.ones(100), np.ones(100))).all()
 
 
 @pytest.mark.parametrize("backend", BACKENDS)

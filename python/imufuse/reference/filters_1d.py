@@ -190,11 +190,12 @@ class Mahony1DBias(ReferenceFilter):
         if not isinstance(integrate_first, bool):
             raise ValueError(f"integrate_first: must be True or False, got {integrate_first!r}")
         kpdt, kidt2 = kp * dt, ki * dt * dt
+        # homogeneous update matrix: p(1) = Ki dt^2 for both orders
         if integrate_first:
-            tr, det = 2.0 - kpdt, 1.0 - kpdt + kidt2
+            det, p_plus = 1.0 - kpdt + kidt2, 4.0 - 2.0 * kpdt + kidt2
         else:
-            tr, det = 2.0 - kpdt - kidt2, 1.0 - kpdt
-        _checks.check_stable2("kp, ki", tr, det, f"kp*dt={kpdt!r}, ki*dt^2={kidt2!r}")
+            det, p_plus = 1.0 - kpdt, 4.0 - 2.0 * kpdt - kidt2
+        _checks.check_stable2("kp, ki", det, kidt2, p_plus, f"kp*dt={kpdt!r}, ki*dt^2={kidt2!r}")
         return (dt, kp, ki, int(integrate_first))
 
     def _init(self, dt, kp, ki, integrate_first):
