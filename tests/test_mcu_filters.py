@@ -164,7 +164,7 @@ def test_inputs_reach_the_corners():
             assert np.isnan(flat).any() and np.isinf(flat).any()
             rows3 = [v for v in ins.values() if np.ndim(v) == 2]
             for v in rows3:  # zero vectors: the normalisation guards
-                assert (np.abs(v).sum(axis=1) == 0).any()
+                assert (np.abs(np.asarray(v, float)).sum(axis=1) == 0).any()
         else:
             flat = np.concatenate([v.reshape(n, -1) for v in ins.values()], axis=1)
             assert flat.min() == -32768 and flat.max() == 32767
