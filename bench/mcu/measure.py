@@ -1,74 +1,334 @@
-"""Measure filters on the emulated MCUs: code size, stack, cycles/instructions per update.
+"""Measure every filter on the emulated MCUs: code size, RAM, stack, cycles/instructions per update.
 
-    python bench/mcu/measure.py                       # every case, every target
-    python bench/mcu/measure.py --cases example_quat_f32 --targets avr,m0 --json out.json
+    python bench/mcu/measure.py            # every filter x target; writes RESULTS.md, results.json
+    python bench/mcu/measure.py --filters Mahony1D-float32 --targets avr,m0 --no-write
+    python bench/mcu/measure.py --kernels  # the harness's own example kernels (registry.CASES)
 
-Per (case, target):
-  text/data/bss   bytes of the case's objects (arm-none-eabi-size / avr-size), library
-                  routines (soft float, sqrtf) not included
-  stack_static    -fstack-usage frame of the step function alone
-  stack_measured  deepest stack the step reached (stack painting), library calls included
-  per_update      avr: CPU cycles (Timer1); m4f/m0: instructions (qemu -icount);
-                  host: x86-64 instructions under callgrind; min/median/max over samples
-Every target also checks that its state bits equal the host build's.
+Per (filter configuration and precision, target), generically from tests/registry.py:
+  text            bytes of the filter's <c>_init + <c>_update (nm -S of its object, built with
+                  the contract's flags and -ffunction-sections); static helpers they call
+                  separately are in the object's other functions, not here
+  linked          bytes the filter adds to a linked program (-Wl,--gc-sections): its functions
+                  plus the library routines it pulls in (soft float, sqrtf, isfinite)
+  data, bss       bytes of the filter's object file (the library has no globals: 0)
+  ram             sizeof(<c>_t): RAM of one filter instance
+  stack_static    -fstack-usage frame of <c>_update alone (no callees)
+  stack_measured  deepest stack an update reached (stack painting), library calls included
+  per_update      avr: CPU cycles at 16 MHz (Timer1 at clk/1); m4f/m0: instructions (qemu
+                  -icount, SysTick); host: x86-64 instructions under callgrind.
+                  median and max over the samples (motion, then the corners)
+  bits            the target's state after every sample equals the host build's and the
+                  Python reference's, bit for bit (the measurement runs are checked too)
+Before measuring, the counters are validated on kernels of known cost (AVR: _delay_loop_2
+takes exactly 4k + 3 cycles; ARM: a subs/bne loop exactly 2k + 2 instructions).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import platform
+import re
+import shutil
+import subprocess
 import sys
+import tempfile
+import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
 import registry  # noqa: E402
 
 mcu = registry.mcu
+mf = registry.mf
+COMMAND = "python bench/mcu/measure.py"
+N_MOTION = 200
 
 
-def measure(name: str, case: "registry.Case", target: str, samples: int) -> dict:
+# --------------------------------------------------------------------------------------------
+# counters
+
+
+def validate_counters(targets) -> dict:
+    """The counters count exactly what they claim, on kernels of known cost."""
+    out = {}
+    if "avr" in targets:
+        k = np.array([1, 10, 1000, 16384, 40000, 65535], dtype=np.uint16)
+        drv = mcu.Driver(prelude="#include <util/delay_basic.h>", step="_delay_loop_2(k);", state=[])
+        res = mcu.run("avr", driver=drv, inputs={"k": k}, count=True)
+        want = (4 * k.astype(np.int64) + 3).tolist()
+        if res.counts.tolist() != want:
+            raise SystemExit(f"avr Timer1 counter invalid: {res.counts.tolist()} != {want}")
+        out["avr"] = "_delay_loop_2(k) counted as exactly 4k + 3 cycles"
+    for t in ("m4f", "m0"):
+        if t not in targets:
+            continue
+        k = np.array([1, 10, 1000, 65535], dtype=np.uint16)
+        drv = mcu.Driver(
+            step=('uint32_t c = k;\n__asm__ volatile(".syntax unified\\n1: subs %0, %0, #1\\n'
+                  '\\tbne 1b\\n.syntax divided" : "+l"(c) : : "cc");'),
+            state=[])
+        res = mcu.run(t, driver=drv, inputs={"k": k}, count=True)
+        want = (2 * k.astype(np.int64) + 2).tolist()
+        if res.counts.tolist() != want:
+            raise SystemExit(f"{t} instruction counter invalid: {res.counts.tolist()} != {want}")
+        out[t] = "subs/bne loop counted as exactly 2k + 2 instructions"
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# sizes
+
+
+def _tool(target, name):
+    return {"host": name, "m4f": f"arm-none-eabi-{name}", "m0": f"arm-none-eabi-{name}",
+            "avr": f"avr-{name}"}[target]
+
+
+def _compile(target, src, obj, spec, extra=()):
+    cmd = [mcu.TARGETS[target].cc, *mcu.cflags(target), "-ffunction-sections", "-fdata-sections",
+           *extra, *[f"-D{k}" if v is None else f"-D{k}={v}" for k, v in spec.defines.items()],
+           f"-I{spec.csrc}", f"-I{spec.csrc / 'fixed'}", "-c", str(src), "-o", str(obj)]
+    subprocess.run(cmd, check=True, capture_output=True, text=True)
+
+
+def _symbol_sizes(target, obj):
+    out = subprocess.run([_tool(target, "nm"), "-S", "--size-sort", str(obj)], check=True,
+                         capture_output=True, text=True).stdout
+    sizes = {}
+    for line in out.splitlines():
+        parts = line.split()
+        if len(parts) == 4:
+            sizes[parts[3]] = int(parts[1], 16)
+    return sizes
+
+
+def sizes(spec, target, wd: Path) -> dict:
+    c = spec.c
+    obj = wd / f"{c.source.stem}.o"
+    _compile(target, c.source, obj, spec)
+    sym = _symbol_sizes(target, obj)
+    text = sum(sym.get(f"{c.c_name}_{f}", 0) for f in ("init", "update"))
+    sz = subprocess.run([_tool(target, "size"), "-B", str(obj)], check=True, capture_output=True,
+                        text=True).stdout.splitlines()[1].split()
+    probe = wd / "ram_probe.c"
+    probe.write_text(f'#include "{c.header.name}"\nchar imf_ram_probe[sizeof({c.c_name}_t)] = {{1}};\n')
+    _compile(target, probe, wd / "ram_probe.o", spec)
+    ram = _symbol_sizes(target, wd / "ram_probe.o")["imf_ram_probe"]
+    su = mcu.stack_usage(target, [c.source], [spec.csrc, spec.csrc / "fixed"], spec.defines,
+                         workdir=wd / "su")
+    return {"text": text, "data": int(sz[1]), "bss": int(sz[2]), "ram": ram,
+            "stack_static": su.get(f"{c.c_name}_update", {}).get("bytes")}
+
+
+def _elf_text(target, elf):
+    out = subprocess.run([_tool(target, "size"), "-B", str(elf)], check=True, capture_output=True,
+                         text=True).stdout.splitlines()[1].split()
+    return int(out[0]) + int(out[1])
+
+
+_EMPTY = {}
+
+
+def _empty_driver(spec, drv):
+    """The same program without the filter: it reads every input and prints as many state
+    words of the same kinds (from volatile dummies), so only the filter's cost remains."""
+    ctype = {np.dtype(np.float32): "float", np.dtype(np.float64): "double",
+             np.dtype(np.int16): "int16_t"}[np.dtype(spec.input_dtype())]
+    names = mf.INPUT_NAMES[spec.kind]
+    reads = [f"imf_sink = {n};" if spec.kind == "1d" else f"imf_sink = {n}[{j}];"
+             for n in names for j in (range(1) if spec.kind == "1d" else range(3))]
+    kinds = sorted({k for _, k in drv.state})
+    ctypes = {"f32": "float", "f64": "double", "i32": "int32_t", "u32": "uint32_t", "i16": "int16_t"}
+    prelude = f"static volatile {ctype} imf_sink;\n" + "\n".join(
+        f"static volatile {ctypes[k]} imf_dummy_{k};" for k in kinds)
+    return mcu.Driver(prelude=prelude, step="\n".join(reads),
+                      state=[(f"imf_dummy_{k}", k) for _, k in drv.state])
+
+
+def linked_size(spec, target, inputs, elf, wd: Path) -> int:
+    """Bytes of flash the filter adds to a program: ELF(filter) - ELF(same driver, no filter)."""
+    drv, _ = mf._driver([spec])
+    key = (target, spec.precision, spec.kind, tuple(k for _, k in drv.state))
+    if key not in _EMPTY:
+        used = {n: inputs[n] for n in mf.INPUT_NAMES[spec.kind]}
+        e = mcu.build(target, driver=_empty_driver(spec, drv), inputs=used,
+                      workdir=wd / "empty")
+        _EMPTY[key] = _elf_text(target, e)
+    return _elf_text(target, elf) - _EMPTY[key]
+
+
+# --------------------------------------------------------------------------------------------
+# one filter on one target
+
+
+def measure_filter(name: str, target: str, host_cache: dict) -> dict:
+    spec = registry.FILTER_SPECS[name]
+    inputs = mf.inputs_for(spec.precision, spec.group[1], N_MOTION)
+    wd = Path(tempfile.mkdtemp(prefix=f"imf_measure_{target}_"))
+    try:
+        row = {"filter": name, "class": spec.ref_class.__name__, "precision": spec.precision,
+               "target": target, **sizes(spec, target, wd)}
+        want, _ = mf.reference_states(spec, inputs)
+        if target == "host":
+            drv, _ = mf._driver([spec])
+            cg = mcu.callgrind_instructions(sources=[spec.c.source],
+                                            include_dirs=[spec.csrc, spec.csrc / "fixed"],
+                                            defines=spec.defines, driver=drv, inputs=inputs,
+                                            workdir=wd / "cg")
+            exe = wd / "cg" / "imf_host.elf"
+            row["linked"] = linked_size(spec, target, inputs, exe, wd) if exe.exists() else None
+            res = mf.run_filters("host", [spec], inputs, workdir=wd / "run")
+            row.update(unit="x86-64 instructions", per_update_median=round(cg["per_update"], 1),
+                       per_update_max=None, stack_measured=None,
+                       bits=bool(np.array_equal(res.states[0], want)))
+            return row
+        res = mf.run_filters(target, [spec], inputs, count=True, workdir=wd / "run")
+        r = res.results[0]
+        host = host_cache.get(name)
+        if host is None:
+            host = mf.run_filters("host", [spec], inputs).states[0]
+            host_cache[name] = host
+        row["linked"] = linked_size(spec, target, inputs, r.elf, wd)
+        c = r.counts
+        row.update(unit=mcu.TARGETS[target].count_unit,
+                   per_update_median=float(np.median(c)), per_update_max=int(c.max()),
+                   stack_measured=r.stack_bytes,
+                   bits=bool(np.array_equal(res.states[0], want) and np.array_equal(res.states[0], host)))
+        return row
+    finally:
+        shutil.rmtree(wd, ignore_errors=True)
+
+
+# --------------------------------------------------------------------------------------------
+# the harness's example kernels (registry.CASES)
+
+
+def measure_case(name: str, case, target: str, samples: int) -> dict:
     inputs = case.make_inputs(samples)
     common = dict(sources=case.sources, include_dirs=case.include_dirs, defines=case.defines)
     size = mcu.code_size(target, **common)["total"]
     stack = mcu.stack_usage(target, **common).get(case.step_function, {})
-    row = {"case": name, "target": target, **size, "stack_static": stack.get("bytes")}
+    row = {"filter": name, "target": target, **size, "stack_static": stack.get("bytes")}
     host = mcu.run("host", driver=case.driver, inputs=inputs, **common)
     if target == "host":
         cg = mcu.callgrind_instructions(driver=case.driver, inputs=inputs, **common)
-        row.update(unit="x86-64 instructions", per_update_min=cg["per_update"],
-                   per_update_median=cg["per_update"], per_update_max=cg["per_update"],
-                   stack_measured=None, bits_equal_host=True)
+        row.update(unit="x86-64 instructions", per_update_median=cg["per_update"], bits=True)
         return row
     res = mcu.run(target, driver=case.driver, inputs=inputs, count=True, **common)
-    c = res.counts
-    row.update(
-        unit=mcu.TARGETS[target].count_unit,
-        per_update_min=int(c.min()),
-        per_update_median=float(np.median(c)),
-        per_update_max=int(c.max()),
-        stack_measured=res.stack_bytes,
-        bits_equal_host=bool(np.array_equal(res.state, host.state)),
-    )
+    row.update(unit=mcu.TARGETS[target].count_unit, per_update_median=float(np.median(res.counts)),
+               per_update_max=int(res.counts.max()), stack_measured=res.stack_bytes,
+               bits=bool(np.array_equal(res.state, host.state)))
     return row
 
 
-def table(rows: list) -> str:
-    cols = ["case", "target", "text", "data", "bss", "stack_static", "stack_measured",
-            "per_update_median", "per_update_max", "unit", "bits_equal_host"]
+# --------------------------------------------------------------------------------------------
+# output
+
+
+COLS = ["filter", "target", "text", "linked", "data", "bss", "ram", "stack_static",
+        "stack_measured", "per_update_median", "per_update_max", "unit", "bits"]
+
+
+def _fmt(v):
+    if v is None:
+        return "-"
+    if isinstance(v, bool):
+        return "yes" if v else "**NO**"
+    if isinstance(v, float):
+        return f"{v:.0f}" if v == int(v) else f"{v:.1f}"
+    return str(v)
+
+
+def table(rows, cols=COLS) -> str:
     out = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
     for r in rows:
-        out.append("| " + " | ".join(str(r.get(c, "")) for c in cols) + " |")
+        out.append("| " + " | ".join(_fmt(r.get(c)) for c in cols) + " |")
     return "\n".join(out)
+
+
+def summary(rows, targets) -> str:
+    """filter x target: per-update cost and linked flash, one line per filter."""
+    names = list(dict.fromkeys(r["filter"] for r in rows))
+    by = {(r["filter"], r["target"]): r for r in rows}
+    head = ["filter"]
+    for t in targets:
+        unit = {"avr": "cycles", "m4f": "instr.", "m0": "instr.", "host": "x86 instr."}[t]
+        head += [f"{t} {unit}", f"{t} flash"]
+    out = ["| " + " | ".join(head) + " | bits |", "|" + "---|" * (len(head) + 1)]
+    for n in names:
+        cells = [n]
+        ok = True
+        for t in targets:
+            r = by.get((n, t))
+            cells += [_fmt(r["per_update_median"]) if r else "n/a", _fmt(r.get("linked")) if r else "n/a"]
+            ok = ok and (r is None or r["bits"])
+        out.append("| " + " | ".join(cells) + f" | {'yes' if ok else '**NO**'} |")
+    return "\n".join(out)
+
+
+def _versions(targets):
+    v = {}
+    for t in targets:
+        cc = mcu.TARGETS[t].cc
+        try:
+            v[t] = subprocess.run([cc, "--version"], capture_output=True, text=True).stdout.splitlines()[0]
+        except (OSError, IndexError):
+            v[t] = "?"
+    for tool in ("qemu-system-arm", "simavr", "valgrind"):
+        try:
+            p = subprocess.run([tool, "--version"], capture_output=True, text=True)
+            v[tool] = (p.stdout or p.stderr).strip().splitlines()[0]
+        except (OSError, IndexError):
+            v[tool] = "?"
+    return v
+
+
+def write_results(rows, targets, checks, seconds, md: Path, js: Path) -> None:
+    versions = _versions(targets)
+    md.write_text("\n".join([
+        "# imufuse on microcontrollers: size, stack, cost per update",
+        "",
+        f"Generated by `{COMMAND}` (from the repository root; about {seconds:.0f} s). Do not edit:",
+        "rerun the command. Every filter configuration of `tests/registry.py`, each precision;",
+        "targets emulated: Cortex-M4F (qemu mps2-an386, hard float), Cortex-M0 (qemu microbit,",
+        "soft float), ATmega328P at 16 MHz (simavr; float32 and fixed point: its double is 32 bits),",
+        "and the host (x86-64, callgrind). Flags: `-std=c99 -O2 -ffp-contract=off` plus the",
+        "target's `-mcpu`/`-mmcu` (bench/mcu/measure.py docstring defines every column).",
+        "",
+        "Counters validated before measuring: " + "; ".join(f"{t}: {s}" for t, s in checks.items()) + ".",
+        f"Inputs: {N_MOTION} samples of simulated motion, then the corner cases (zero vectors,",
+        "NaN/Inf, overflow, subnormals) and more motion; per-update figures are medians over all samples.",
+        "",
+        "## Summary (median per update; flash = bytes the filter adds to a linked program)",
+        "",
+        summary(rows, targets),
+        "",
+        "## All figures",
+        "",
+        "text: the filter's init + update functions; linked: flash added to a program, library",
+        "routines included (soft float, sqrtf); ram: one filter instance; stacks in bytes.",
+        "",
+        table(rows),
+        "",
+        "Toolchains: " + "; ".join(f"{k}: {v}" for k, v in versions.items()),
+        "",
+    ]))
+    js.write_text(json.dumps({"command": COMMAND, "counter_checks": checks, "versions": versions,
+                              "samples_motion": N_MOTION, "rows": rows}, indent=1) + "\n")
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--cases", default=",".join(registry.names()))
+    ap.add_argument("--filters", default=",".join(registry.filter_names()))
     ap.add_argument("--targets", default="m4f,m0,avr,host")
-    ap.add_argument("--samples", type=int, default=200)
-    ap.add_argument("--json", type=Path, help="also write the rows as JSON here")
+    ap.add_argument("--kernels", action="store_true", help="measure the harness's example kernels instead")
+    ap.add_argument("--no-write", action="store_true", help="print only; do not write RESULTS.md/results.json")
+    ap.add_argument("--jobs", type=int, default=8)
     ap.add_argument("--no-install", action="store_true", help="do not run install-toolchains.sh")
     args = ap.parse_args(argv)
 
@@ -76,17 +336,29 @@ def main(argv=None) -> int:
     missing = mcu.ensure_toolchains(targets, install=not args.no_install)
     for t, why in missing.items():
         print(f"skipping {t}: {why}", file=sys.stderr)
-    rows = []
-    for name in [c for c in args.cases.split(",") if c]:
-        case = registry.CASES[name]
-        for t in targets:
-            if t in missing or (t != "host" and t not in case.targets):
-                continue
-            rows.append(measure(name, case, t, args.samples))
-    print(table(rows))
-    if args.json:
-        args.json.write_text(json.dumps(rows, indent=1))
-    return 0 if all(r["bits_equal_host"] for r in rows) else 1
+    targets = [t for t in targets if t not in missing]
+    t0 = time.perf_counter()
+    if args.kernels:
+        rows = [measure_case(n, registry.CASES[n], t, 200) for n in registry.names() for t in targets
+                if t == "host" or t in registry.CASES[n].targets]
+        print(table(rows))
+        return 0 if all(r["bits"] for r in rows) else 1
+
+    checks = validate_counters(targets)
+    jobs = [(n, t) for n in args.filters.split(",") if n for t in targets
+            if registry.FILTER_SPECS[n].precision in mf.TARGET_PRECISIONS[t]]
+    host_cache: dict = {}
+    with ThreadPoolExecutor(max_workers=args.jobs) as ex:
+        rows = list(ex.map(lambda j: measure_filter(j[0], j[1], host_cache), jobs))
+    seconds = time.perf_counter() - t0
+    print(summary(rows, targets))
+    if not args.no_write:
+        write_results(rows, targets, checks, seconds, HERE / "RESULTS.md", HERE / "results.json")
+        print(f"wrote {HERE / 'RESULTS.md'} and {HERE / 'results.json'} ({seconds:.0f} s)")
+    bad = [f"{r['filter']} on {r['target']}" for r in rows if not r["bits"]]
+    if bad:
+        print("bits differ: " + ", ".join(bad), file=sys.stderr)
+    return 0 if not bad else 1
 
 
 if __name__ == "__main__":

@@ -1,8 +1,8 @@
-"""What bench/mcu/measure.py measures: one Case per filter configuration.
+"""What bench/mcu/measure.py measures.
 
-A filter joins by adding one entry to CASES (or calling register()): its C sources, the
-harness Driver that steps it, and a function making inputs. The two entries here are the
-harness's own test kernels; they show the shape.
+FILTER_SPECS: every library filter configuration of tests/registry.py in each precision
+(float32, float64; fixed-point profiles), derived generically. CASES: hand-written Cases (C
+sources, a harness Driver, an input maker); the two entries are the harness's own test kernels.
 """
 
 from __future__ import annotations
@@ -90,20 +90,31 @@ CASES: Dict[str, Case] = {
     ),
 }
 
-# A library filter joins like this (once csrc/madgwick.c exists):
+
+# ---- every filter configuration of tests/registry.py, generically -------------------------
 #
-# CASES["MadgwickIMU_f32"] = Case(
-#     sources=[CSRC / "madgwick.c"],
-#     include_dirs=[CSRC],
-#     driver=mcu.Driver(
-#         prelude='#include "madgwick.h"\nstatic imf_madgwick_imu_t f;',
-#         init="imf_madgwick_imu_init(&f, 1.0f / 512.0f, 0.1f);",
-#         step="imf_madgwick_imu_update(&f, gyr, acc);",
-#         state=mcu.state_words("f.q", "f32", 4),
-#     ),
-#     make_inputs=_imu_inputs,
-#     step_function="imf_madgwick_imu_update",
-# )
+# Each (configuration, precision) becomes a FilterSpec (imufuse.mcu.filters): the driver, the
+# sources and the inputs come from the reference class (c_name, kind, state_names, _params) and
+# the C headers. A filter joins by appearing in tests/registry.py, nothing here.
+
+def _load_tests_registry():
+    # loaded under its own name: this module is "registry" too when measure.py runs
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("imf_tests_registry", ROOT / "tests" / "registry.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+_tests_registry = _load_tests_registry()
+from imufuse.mcu import filters as mf  # noqa: E402
+
+FILTER_SPECS: Dict[str, "mf.FilterSpec"] = {
+    s.label: s
+    for s in mf.specs_from_cases([*_tests_registry.FLOAT_CASES,
+                                  *getattr(_tests_registry, "FIXED_CASES", [])])
+}
 
 
 def register(name: str, case: Case) -> None:
@@ -113,4 +124,10 @@ def register(name: str, case: Case) -> None:
 
 
 def names() -> List[str]:
+    """The harness's own example kernels (CASES)."""
     return sorted(CASES)
+
+
+def filter_names() -> List[str]:
+    """Every library filter configuration and precision, in registry order."""
+    return list(FILTER_SPECS)

@@ -421,10 +421,10 @@ def _inputs_header(inputs: Mapping[str, np.ndarray], target: str, n: Optional[in
         else:
             rd = f"IMF_RD16(&imf_in_{name}[i * {k}u + j])"
         if a.ndim == 1:
-            loads.append(f"    {{ const uint32_t j = 0u; {stype} b = {rd}; memcpy({dst}, &b, sizeof b); }}")
+            loads.append(f"    {{ const uint32_t j = 0u; {stype} imf_w_ = {rd}; memcpy({dst}, &imf_w_, sizeof imf_w_); }}")
         else:
             loads.append(
-                f"    for (j = 0u; j < {k}u; ++j) {{ {stype} b = {rd}; memcpy({dst}, &b, sizeof b); }}"
+                f"    for (j = 0u; j < {k}u; ++j) {{ {stype} imf_w_ = {rd}; memcpy({dst}, &imf_w_, sizeof imf_w_); }}"
             )
     out.append("static void imf_load_row(uint32_t i)\n{")
     out.append("    uint32_t j;")
@@ -645,10 +645,22 @@ def _emulator_cmd(tgt: Target, elf: Path, count: bool) -> List[str]:
 
 
 def _simavr_text(out: str) -> str:
-    # simavr prints UART0 lines with ANSI colour codes; other lines are its own messages.
-    # A UART line ends in "." where the newline was.
-    out = re.sub(r"\x1b\[[0-9;]*m", "", out)
-    return "\n".join(ln[:-1] if ln.endswith(".") else ln for ln in out.splitlines())
+    # simavr prints UART0 output in chunks wrapped in ANSI colour codes, one chunk per line
+    # ending in "." where the newline was; a chunk without the "." is a piece of a longer line
+    # (simavr's buffer holds 256 characters) and continues in the next chunk. Text outside the
+    # colour codes is simavr's own messages, kept as separate lines.
+    parts = re.split(r"(\x1b\[32m.*?\n\x1b\[0m)", out, flags=re.S)
+    text: List[str] = []
+    for part in parts:
+        m = re.match(r"\x1b\[32m(.*?)\n\x1b\[0m$", part, flags=re.S)
+        if m:
+            chunk = m.group(1)
+            text.append(chunk[:-1] + "\n" if chunk.endswith(".") else chunk)
+        else:
+            plain = re.sub(r"\x1b\[[0-9;]*m", "", part)
+            if plain.strip():
+                text.append("\n" + plain.strip("\n") + "\n")
+    return "".join(text)
 
 
 def _to_counts(tgt: Target, raw: np.ndarray, overhead: int) -> np.ndarray:

@@ -1,0 +1,280 @@
+"""Every filter configuration of the registry on the emulated MCUs, bit for bit.
+
+For each (configuration, precision) of tests/registry.py and each target, the state after every
+sample on Cortex-M4F (qemu), Cortex-M0 (qemu, soft float) and ATmega328P (simavr; float32 and
+fixed point only: its double is 32 bits) has the same bit patterns as the host build of the same
+C and as the pure-Python reference; so do the `skipped` counters. Nothing here knows a filter by
+name: the C calls come from the reference class (c_name, kind, state_names, _params) and the
+headers (imufuse.mcu.filters).
+
+Inputs: a few hundred samples of simulated motion (imufuse.sim) and the corners (zero
+accelerometer and magnetometer, NaN/Inf, overflow, tiny and subnormal values; for fixed point
+full-scale counts). All filters of one precision and input set share one program per target.
+
+test_arithmetic checks the elementary operations (+ - * / sqrt) of each target's float
+implementation against correctly rounded results, so a filter mismatch can be traced to the
+operation that differs and by how many ulp.
+"""
+
+import sys
+import time
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import registry  # noqa: E402
+from bits import ulps  # noqa: E402
+
+try:
+    import imufuse.mcu as mcu
+    from imufuse.mcu import filters as mf
+except ImportError:  # a source tree whose imufuse is not installed (or installed elsewhere)
+    _SRC = Path(__file__).resolve().parents[1] / "python"
+    sys.path.insert(0, str(_SRC))
+    import imufuse
+
+    if str(_SRC / "imufuse") not in list(imufuse.__path__):
+        imufuse.__path__.append(str(_SRC / "imufuse"))
+    import imufuse.mcu as mcu
+    from imufuse.mcu import filters as mf
+
+import imufuse.reference as reference  # noqa: E402
+
+TARGETS = ["host", "m4f", "m0", "avr"]
+N_MOTION = 300
+
+SPECS = mf.specs_from_cases([*registry.FLOAT_CASES, *getattr(registry, "FIXED_CASES", [])], reference)
+GROUPS = mf.groups(SPECS)
+
+
+@pytest.fixture(scope="session")
+def toolchains():
+    """{target: reason} of targets that cannot run here, after trying to install."""
+    return mcu.ensure_toolchains(TARGETS)
+
+
+def need(toolchains, target):
+    if target in toolchains:
+        pytest.skip(f"toolchain for {target} unavailable: {toolchains[target]}")
+
+
+# --------------------------------------------------------------------------------------------
+# all programs, built and run once per session (in parallel: builds and emulators are processes)
+
+
+class _Runs:
+    def __init__(self, toolchains):
+        self.inputs = {}
+        self.out = {}
+        self.ref = {}
+        jobs = []
+        for (prec, grp), specs in GROUPS.items():
+            self.inputs[prec, grp] = mf.inputs_for(prec, grp, N_MOTION)
+            for t in TARGETS:
+                if t not in toolchains and prec in mf.TARGET_PRECISIONS[t]:
+                    jobs.append((t, prec, grp))
+        t0 = time.perf_counter()
+        with ThreadPoolExecutor(max_workers=8) as ex:
+            futs = {j: ex.submit(self._one, *j) for j in jobs}
+            for s in SPECS:
+                self.ref[s.label] = mf.reference_states(s, self.inputs[s.group])
+            for j, f in futs.items():
+                try:
+                    self.out[j] = f.result()
+                except Exception as e:  # reported by the tests that need it
+                    self.out[j] = e
+        self.seconds = time.perf_counter() - t0
+
+    def _one(self, target, prec, grp):
+        return mf.run_filters(target, GROUPS[prec, grp], self.inputs[prec, grp], timeout=600)
+
+    def get(self, target, spec):
+        r = self.out[(target, *spec.group)]
+        if isinstance(r, Exception):
+            raise r
+        i = r.specs.index(spec)
+        return r.states[i], r.skipped[i]
+
+
+@pytest.fixture(scope="session")
+def runs(toolchains):
+    return _Runs(toolchains)
+
+
+def _describe(got_bits, want_bits, spec, what):
+    """None if equal; else the first differing sample and variable, values and ulp."""
+    if got_bits.shape != want_bits.shape:
+        return f"{what}: shapes differ {got_bits.shape} vs {want_bits.shape}"
+    diff = got_bits != want_bits
+    if not diff.any():
+        return None
+    k, j = (int(v) for v in np.argwhere(diff)[0])
+    sdt = spec.state_dtype()
+    g = mf.bits_as_values(got_bits, sdt)
+    w = mf.bits_as_values(want_bits, sdt)
+    name = spec.ref_class.state_names[j]
+    msg = (f"{spec.label} {what}: first difference at sample {k}, {name}: {g[k, j]!r} vs "
+           f"{w[k, j]!r}; {int(diff.sum())} values in {int(diff.any(axis=1).sum())} samples differ")
+    if sdt.kind == "f":
+        msg += f", max {ulps(g[diff], w[diff]).max():.0f} ulp"
+    else:
+        msg += f", max {int(np.abs(g[diff].astype(np.int64) - w[diff].astype(np.int64)).max())} LSB"
+    return msg + " (see test_arithmetic for the elementary operations of the target)"
+
+
+def _spec_params():
+    out = []
+    for s in SPECS:
+        for t in TARGETS:
+            if s.precision in mf.TARGET_PRECISIONS[t]:
+                out.append(pytest.param(s, t, id=f"{s.label}-{t}"))
+    return out
+
+
+@pytest.mark.parametrize("spec, target", _spec_params())
+def test_state_bits(runs, toolchains, spec, target):
+    """The target's trajectory equals the host build's and the reference's, bit for bit."""
+    need(toolchains, target)
+    got, got_sk = runs.get(target, spec)
+    want, want_sk = runs.ref[spec.label]
+    problems = [_describe(got, want, spec, f"{target} vs Python reference")]
+    if target != "host" and "host" not in toolchains:
+        host, host_sk = runs.get("host", spec)
+        problems.append(_describe(got, host, spec, f"{target} vs host C"))
+        if got_sk is not None and not np.array_equal(got_sk, host_sk):
+            k = int(np.argmax(got_sk != host_sk))
+            problems.append(f"{target} skipped counter differs from host at sample {k}")
+    if got_sk is not None and want_sk >= 0 and int(got_sk[-1]) != want_sk:
+        problems.append(f"{target} skipped = {int(got_sk[-1])}, reference {want_sk}")
+    problems = [p for p in problems if p]
+    assert not problems, "\n".join(problems)
+
+
+def test_inputs_reach_the_corners():
+    """The input sets hold what the docstring promises (and fit AVR flash with the code)."""
+    for (prec, grp) in GROUPS:
+        ins = mf.inputs_for(prec, grp, N_MOTION)
+        n = len(next(iter(ins.values())))
+        assert N_MOTION < n < 400
+        if prec.startswith("float"):
+            flat = np.concatenate([np.asarray(v, float).reshape(n, -1) for v in ins.values()], axis=1)
+            assert np.isnan(flat).any() and np.isinf(flat).any()
+            rows3 = [v for v in ins.values() if np.ndim(v) == 2]
+            for v in rows3:  # zero vectors: the normalisation guards
+                assert (np.abs(np.asarray(v, float)).sum(axis=1) == 0).any()
+        else:
+            flat = np.concatenate([v.reshape(n, -1) for v in ins.values()], axis=1)
+            assert flat.min() == -32768 and flat.max() == 32767
+
+
+def test_every_registry_configuration_runs(runs, toolchains):
+    """No configuration of the registry is left out, and every program ran on every target."""
+    assert len(SPECS) >= 2 * len(registry.FLOAT_CASES)
+    for key, r in runs.out.items():
+        if isinstance(r, Exception):
+            raise AssertionError(f"{key}: {r}") from r
+    for t in TARGETS:
+        if t in toolchains:
+            continue
+        for s in SPECS:
+            if s.precision in mf.TARGET_PRECISIONS[t]:
+                assert (t, *s.group) in runs.out
+
+
+def test_a_difference_is_caught(toolchains):
+    """The comparison can fail: a filter built with one wrong constant differs from its
+    reference, and the message names sample, variable and ulp."""
+    need(toolchains, "m0")
+    s = next(s for s in SPECS if s.precision == "float32")
+    ins = mf.inputs_for("float32", s.group[1], 40)
+    good = mf.run_filters("m0", [s], ins)
+    bad_spec = mf.FilterSpec.make(s.ref_class, s.params, "float32", s.label)
+    bad_spec._init_args = lambda: [a + "*1.0000001f" if a.endswith("f") else a
+                                   for a in mf.FilterSpec._init_args(s)]
+    bad = mf.run_filters("m0", [bad_spec], ins)
+    want, _ = mf.reference_states(s, ins)
+    assert _describe(good.states[0], want, s, "m0") is None
+    msg = _describe(bad.states[0], want, s, "m0")
+    assert msg is not None and "first difference at sample" in msg and "ulp" in msg
+
+
+# --------------------------------------------------------------------------------------------
+# elementary operations
+
+
+OPS = ("add", "sub", "mul", "div", "sqrt")
+
+
+def _operands(dtype, n=400, seed=3):
+    """Pairs covering random bit patterns (subnormals included), close exponents (rounding
+    of sums), products and quotients near the overflow and underflow thresholds."""
+    rng = np.random.default_rng(seed)
+    u = np.uint32 if dtype == np.float32 else np.uint64
+    bits = 32 if dtype == np.float32 else 64
+    finfo = np.finfo(dtype)
+
+    def rand_bits(k):
+        v = rng.integers(0, 2 ** bits - 1, k, dtype=np.uint64, endpoint=True).astype(u).view(dtype)
+        v[~np.isfinite(v)] = dtype(1.5)
+        return v
+
+    q = n // 4
+    a = [rand_bits(q), rng.uniform(-4, 4, q).astype(dtype)]
+    b = [rand_bits(q), (rng.uniform(-4, 4, q) * np.exp2(rng.integers(-3, 4, q))).astype(dtype)]
+    # products/quotients near the subnormal range and near overflow
+    e = rng.integers(finfo.minexp - finfo.nmant, finfo.minexp + 4, q)
+    a.append((rng.uniform(1, 2, q) * np.exp2(e // 2)).astype(dtype))
+    b.append((rng.uniform(1, 2, q) * np.exp2(e - e // 2)).astype(dtype))
+    m = rng.integers(finfo.maxexp - 4, finfo.maxexp, n - 3 * q)
+    a.append((rng.uniform(1, 2, n - 3 * q) * np.exp2(m // 2)).astype(dtype))
+    b.append((rng.uniform(1, 2, n - 3 * q) * np.exp2(m - m // 2)).astype(dtype))
+    a, b = np.concatenate(a), np.concatenate(b)
+    b[b == 0] = dtype(1)
+    return a, b
+
+
+def _expected(a, b):
+    with np.errstate(all="ignore"):
+        return {"add": a + b, "sub": a - b, "mul": a * b, "div": a / b, "sqrt": np.sqrt(np.abs(a))}
+
+
+def _arith_params():
+    return [pytest.param(t, p, id=f"{t}-{p}") for t in TARGETS
+            for p in ("float32", "float64") if p in mf.TARGET_PRECISIONS[t]]
+
+
+@pytest.mark.parametrize("target, precision", _arith_params())
+def test_arithmetic(toolchains, target, precision):
+    """+ - * / sqrt on the target are correctly rounded (IEEE 754 round to nearest, even),
+    subnormals included: what the filters' bit-exactness rests on. A failure lists each
+    operation that differs, how often, by how many ulp, with an example."""
+    need(toolchains, target)
+    dtype = np.float32 if precision == "float32" else np.float64
+    t, sq, k = ("float", "sqrtf", "f32") if dtype == np.float32 else ("double", "sqrt", "f64")
+    a, b = _operands(dtype)
+    drv = mcu.Driver(
+        prelude=f"#include <math.h>\nstatic volatile {t} r[5];",
+        step=(f"r[0] = a + b; r[1] = a - b; r[2] = a * b; r[3] = a / b; "
+              f"r[4] = {sq}({'fabsf' if t == 'float' else 'fabs'}(a));"),
+        state=[(f"r[{i}]", k) for i in range(5)],
+    )
+    res = mcu.run(target, driver=drv, inputs={"a": a, "b": b}, timeout=300)
+    got = res.values()
+    want = _expected(a, b)
+    problems = []
+    for i, op in enumerate(OPS):
+        g, w = got[i], want[op]
+        nan = np.isnan(w)
+        # NaN payloads are not specified by IEEE 754; only a NaN-ness mismatch is an error
+        bad = np.where(nan, ~np.isnan(g), g.view(g.dtype.str.replace("f", "u")) != w.view(w.dtype.str.replace("f", "u")))
+        if bad.any():
+            j = int(np.argmax(bad))
+            d = ulps(g[bad & ~nan], w[bad & ~nan]) if (bad & ~nan).any() else np.array([np.inf])
+            problems.append(
+                f"{target} {precision} {op}: {int(bad.sum())} of {len(a)} differ, max {d.max():.0f} "
+                f"ulp; e.g. a={float(a[j]).hex()} b={float(b[j]).hex()}: got {float(g[j]).hex()}, "
+                f"correctly rounded {float(w[j]).hex()}")
+    assert not problems, "\n".join(problems)
