@@ -51,11 +51,11 @@ CASES_1D = [
 
 # ---- quaternion filters: csrc/mahony.c, csrc/madgwick.c ---------------------
 CASES_QUATERNION = [
-    # article 4.1 / appendix: Mahony in quaternion form (kp = twoKp/2, ki = twoKi/2)
-    Case("MahonyIMU", dict(dt=0.01)),
+    # article 4.1 / appendix: Mahony in quaternion form (kp = twoKp/2, ki = twoKi/2).
+    # Every option of every class, both precisions: invsqrt exact/fast, ki = 0 / > 0,
+    # delta_s full/simplified; "published" = the x-io defaults at 512 Hz.
     Case("MahonyIMU", dict(dt=0.005, kp=1.0, ki=0.3), "ki"),
     Case("MahonyIMU", dict(dt=1 / 512, kp=0.5, ki=0.0, invsqrt="fast"), "published"),
-    Case("MahonyIMU", dict(dt=1 / 512, kp=2.0, ki=0.5, invsqrt="fast"), "fast_ki"),
     Case("MahonyAHRS", dict(dt=0.005, kp=1.0, ki=0.3)),
     Case("MahonyAHRS", dict(dt=1 / 512, kp=0.5, ki=0.0, invsqrt="fast"), "published"),
     Case("MahonyAHRS", dict(dt=0.01, kp=2.0, ki=0.5, invsqrt="fast"), "fast_ki"),
