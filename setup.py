@@ -16,5 +16,6 @@ def build(name, macros):
                      extra_compile_args=CFLAGS)
 
 
-setup(ext_modules=cythonize([build("_f32", []), build("_f64", [("IMF_DOUBLE", None)])],
+setup(ext_modules=cythonize([build("_f32", []), build("_f64", [("IMF_DOUBLE", None)]),
+                             build("_fixed", [])],  # csrc/fixed: one build, both profiles
                             compiler_directives={"language_level": 3}))

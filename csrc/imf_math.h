@@ -119,4 +119,17 @@ static inline int imf_is_zero3(const imf_real x, const imf_real y, const imf_rea
     return x == IMF_R(0.0) && y == IMF_R(0.0) && z == IMF_R(0.0);
 }
 
+/* ---- gravity-vector filters (multiwii, kk, mahony2d, dcm) ---------------
+ * Outputs only, never part of a state update (DESIGN.md, contract 5): roll
+ * and pitch (rad, ZYX aerospace sequence as in imufuse.rotations) of the
+ * attitude whose body-frame "up" vector R^T e_z is (dx, dy, dz) (any length
+ * > 0). Evaluated in double with libm; Python's math.atan2/math.sqrt are the
+ * same functions, so both backends return the same bits. */
+static inline void imf_tilt_angles(const double dx, const double dy, const double dz,
+                                   double *const roll, double *const pitch)
+{
+    *roll = atan2(dy, dz);
+    *pitch = atan2(-dx, sqrt(dy * dy + dz * dz));
+}
+
 #endif /* IMF_MATH_H */

@@ -5,25 +5,34 @@
  */
 #include "madgwick.h"
 
+/* Settings and initial state shared by both filters. */
+static void madgwick_init(imf_madgwick_settings_t *const set, uint32_t *const skipped,
+                          imf_madgwick_state_t *const x, const imf_real dt, const imf_real beta,
+                          const int delta_s, const int invsqrt)
+{
+    set->dt = dt;
+    set->beta = beta;
+    set->delta_s = delta_s == IMF_MADGWICK_DS_SIMPLIFIED ? IMF_MADGWICK_DS_SIMPLIFIED
+                                                         : IMF_MADGWICK_DS_FULL;
+    set->invsqrt = invsqrt == IMF_INVSQRT_FAST ? IMF_INVSQRT_FAST : IMF_INVSQRT_EXACT;
+    *skipped = 0;
+    x->q0 = IMF_R(1.0);
+    x->q1 = IMF_R(0.0);
+    x->q2 = IMF_R(0.0);
+    x->q3 = IMF_R(0.0);
+}
+
 void imf_madgwick_imu_init(imf_madgwick_imu_t *const self, const imf_real dt,
                            const imf_real beta, const int delta_s, const int invsqrt)
 {
-    self->dt = dt;
-    self->beta = beta;
-    self->delta_s = delta_s == IMF_MADGWICK_DS_SIMPLIFIED ? IMF_MADGWICK_DS_SIMPLIFIED
-                                                          : IMF_MADGWICK_DS_FULL;
-    self->invsqrt = invsqrt == IMF_INVSQRT_FAST ? IMF_INVSQRT_FAST : IMF_INVSQRT_EXACT;
-    self->skipped = 0;
-    self->x.q0 = IMF_R(1.0);
-    self->x.q1 = IMF_R(0.0);
-    self->x.q2 = IMF_R(0.0);
-    self->x.q3 = IMF_R(0.0);
+    madgwick_init(&self->set, &self->skipped, &self->x, dt, beta, delta_s, invsqrt);
 }
 
 void imf_madgwick_ahrs_init(imf_madgwick_ahrs_t *const self, const imf_real dt,
                             const imf_real beta, const int invsqrt)
 {
-    imf_madgwick_imu_init(self, dt, beta, IMF_MADGWICK_DS_FULL, invsqrt);
+    madgwick_init(&self->set, &self->skipped, &self->x, dt, beta, IMF_MADGWICK_DS_FULL,
+                  invsqrt);
 }
 
 /* Step 3: dq = 1/2 q (x) omega */
@@ -137,28 +146,28 @@ static void madgwick_ds_ahrs(const imf_madgwick_state_t *const x, const imf_real
 }
 
 /* Steps 5 and 6: normalise ds, dq' = dq - beta ds */
-static void madgwick_feedback(const imf_madgwick_imu_t *const self, imf_real s[4],
+static void madgwick_feedback(const imf_madgwick_settings_t *const set, imf_real s[4],
                               imf_real dq[4])
 {
-    imf_normalise4(&s[0], &s[1], &s[2], &s[3], self->invsqrt);
-    dq[0] -= self->beta * s[0];
-    dq[1] -= self->beta * s[1];
-    dq[2] -= self->beta * s[2];
-    dq[3] -= self->beta * s[3];
+    imf_normalise4(&s[0], &s[1], &s[2], &s[3], set->invsqrt);
+    dq[0] -= set->beta * s[0];
+    dq[1] -= set->beta * s[1];
+    dq[2] -= set->beta * s[2];
+    dq[3] -= set->beta * s[3];
 }
 
 /* Steps 7 and 8: q_n = q_{n-1} + dq' dt, then normalise */
-static void madgwick_integrate(const imf_madgwick_imu_t *const self,
+static void madgwick_integrate(const imf_madgwick_settings_t *const set,
                                imf_madgwick_state_t *const x, const imf_real dq[4])
 {
-    x->q0 += dq[0] * self->dt;
-    x->q1 += dq[1] * self->dt;
-    x->q2 += dq[2] * self->dt;
-    x->q3 += dq[3] * self->dt;
-    imf_normalise4(&x->q0, &x->q1, &x->q2, &x->q3, self->invsqrt);
+    x->q0 += dq[0] * set->dt;
+    x->q1 += dq[1] * set->dt;
+    x->q2 += dq[2] * set->dt;
+    x->q3 += dq[3] * set->dt;
+    imf_normalise4(&x->q0, &x->q1, &x->q2, &x->q3, set->invsqrt);
 }
 
-static void madgwick_imu_step(const imf_madgwick_imu_t *const self,
+static void madgwick_imu_step(const imf_madgwick_settings_t *const set,
                               imf_madgwick_state_t *const x, const imf_real gx,
                               const imf_real gy, const imf_real gz, imf_real ax, imf_real ay,
                               imf_real az)
@@ -167,18 +176,18 @@ static void madgwick_imu_step(const imf_madgwick_imu_t *const self,
     madgwick_rate(x, gx, gy, gz, dq);
     if (!imf_is_zero3(ax, ay, az)) {
         /* Step 2: normalise a */
-        imf_normalise3(&ax, &ay, &az, self->invsqrt);
-        if (self->delta_s == IMF_MADGWICK_DS_SIMPLIFIED) {
+        imf_normalise3(&ax, &ay, &az, set->invsqrt);
+        if (set->delta_s == IMF_MADGWICK_DS_SIMPLIFIED) {
             madgwick_ds_simplified(x, ax, ay, az, s);
         } else {
             madgwick_ds_full(x, ax, ay, az, s);
         }
-        madgwick_feedback(self, s, dq);
+        madgwick_feedback(set, s, dq);
     }
-    madgwick_integrate(self, x, dq);
+    madgwick_integrate(set, x, dq);
 }
 
-static void madgwick_ahrs_step(const imf_madgwick_ahrs_t *const self,
+static void madgwick_ahrs_step(const imf_madgwick_settings_t *const set,
                                imf_madgwick_state_t *const x, const imf_real gx,
                                const imf_real gy, const imf_real gz, imf_real ax, imf_real ay,
                                imf_real az, imf_real mx, imf_real my, imf_real mz)
@@ -186,27 +195,28 @@ static void madgwick_ahrs_step(const imf_madgwick_ahrs_t *const self,
     imf_real dq[4], s[4];
     if (imf_is_zero3(mx, my, mz)) {
         /* no magnetometer reading: the IMU update */
-        madgwick_imu_step(self, x, gx, gy, gz, ax, ay, az);
+        madgwick_imu_step(set, x, gx, gy, gz, ax, ay, az);
         return;
     }
     madgwick_rate(x, gx, gy, gz, dq);
     if (!imf_is_zero3(ax, ay, az)) {
-        imf_normalise3(&ax, &ay, &az, self->invsqrt);
-        imf_normalise3(&mx, &my, &mz, self->invsqrt);
+        imf_normalise3(&ax, &ay, &az, set->invsqrt);
+        imf_normalise3(&mx, &my, &mz, set->invsqrt);
         madgwick_ds_ahrs(x, ax, ay, az, mx, my, mz, s);
-        madgwick_feedback(self, s, dq);
+        madgwick_feedback(set, s, dq);
     }
-    madgwick_integrate(self, x, dq);
+    madgwick_integrate(set, x, dq);
 }
 
 /* Keep the new state only if it is finite (non-finite policy, imf_math.h). */
-static void madgwick_commit(imf_madgwick_imu_t *const self, const imf_madgwick_state_t *const x)
+static void madgwick_commit(imf_madgwick_state_t *const dst, uint32_t *const skipped,
+                            const imf_madgwick_state_t *const x)
 {
     if (!imf_finite4(x->q0, x->q1, x->q2, x->q3)) {
-        self->skipped++;
+        (*skipped)++;
         return;
     }
-    self->x = *x;
+    *dst = *x;
 }
 
 void imf_madgwick_imu_update(imf_madgwick_imu_t *const self, const imf_real gx,
@@ -219,8 +229,8 @@ void imf_madgwick_imu_update(imf_madgwick_imu_t *const self, const imf_real gx,
         return;
     }
     x = self->x;
-    madgwick_imu_step(self, &x, gx, gy, gz, ax, ay, az);
-    madgwick_commit(self, &x);
+    madgwick_imu_step(&self->set, &x, gx, gy, gz, ax, ay, az);
+    madgwick_commit(&self->x, &self->skipped, &x);
 }
 
 void imf_madgwick_ahrs_update(imf_madgwick_ahrs_t *const self, const imf_real gx,
@@ -234,6 +244,6 @@ void imf_madgwick_ahrs_update(imf_madgwick_ahrs_t *const self, const imf_real gx
         return;
     }
     x = self->x;
-    madgwick_ahrs_step(self, &x, gx, gy, gz, ax, ay, az, mx, my, mz);
-    madgwick_commit(self, &x);
+    madgwick_ahrs_step(&self->set, &x, gx, gy, gz, ax, ay, az, mx, my, mz);
+    madgwick_commit(&self->x, &self->skipped, &x);
 }

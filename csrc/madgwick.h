@@ -35,19 +35,27 @@ typedef struct {
     imf_real q0, q1, q2, q3; /* attitude quaternion, sensor -> earth, w first */
 } imf_madgwick_state_t;
 
+/* Settings, converted once by init. */
 typedef struct {
-    imf_real dt;      /* sample period, s */
-    imf_real beta;    /* gradient step gain, rad/s */
-    int delta_s;      /* IMF_MADGWICK_DS_FULL or IMF_MADGWICK_DS_SIMPLIFIED */
-    int invsqrt;      /* IMF_INVSQRT_EXACT or IMF_INVSQRT_FAST */
+    imf_real dt;   /* sample period, s */
+    imf_real beta; /* gradient step gain, rad/s */
+    int delta_s;   /* IMF_MADGWICK_DS_FULL or IMF_MADGWICK_DS_SIMPLIFIED */
+    int invsqrt;   /* IMF_INVSQRT_EXACT or IMF_INVSQRT_FAST */
+} imf_madgwick_settings_t;
+
+typedef struct {
+    imf_madgwick_settings_t set;
     uint32_t skipped; /* samples rejected by the non-finite policy */
     imf_madgwick_state_t x;
 } imf_madgwick_imu_t;
 
-/* The AHRS filter has the same settings and state (delta_s is always full);
-   its update falls back to the IMU update when the magnetometer reads all
-   zero. */
-typedef imf_madgwick_imu_t imf_madgwick_ahrs_t;
+/* Same settings (delta_s always full) and state; the update falls back to
+   the IMU update when the magnetometer reads all zero. */
+typedef struct {
+    imf_madgwick_settings_t set;
+    uint32_t skipped; /* samples rejected by the non-finite policy */
+    imf_madgwick_state_t x;
+} imf_madgwick_ahrs_t;
 
 /* dt: s; beta: rad/s; delta_s: IMF_MADGWICK_DS_*; invsqrt: IMF_INVSQRT_*.
    q = (1, 0, 0, 0). */

@@ -39,19 +39,28 @@ typedef struct {
     imf_real ix, iy, iz;     /* integral term I of step 5, rad/s */
 } imf_mahony_state_t;
 
+/* Settings, converted once by init. */
 typedef struct {
     imf_real dt;      /* sample period, s */
     imf_real half_dt; /* dt / 2, the factor of dq = 1/2 q (x) omega' dt */
     imf_real two_kp;  /* 2 Kp, multiplies the half error vector, 1/s */
     imf_real two_ki;  /* 2 Ki, 1/s^2 */
     int invsqrt;      /* IMF_INVSQRT_EXACT or IMF_INVSQRT_FAST */
+} imf_mahony_settings_t;
+
+typedef struct {
+    imf_mahony_settings_t set;
     uint32_t skipped; /* samples rejected by the non-finite policy */
     imf_mahony_state_t x;
 } imf_mahony_imu_t;
 
-/* The AHRS filter has the same settings and state; its update falls back to
-   the IMU update when the magnetometer reads all zero. */
-typedef imf_mahony_imu_t imf_mahony_ahrs_t;
+/* Same settings and state; the update falls back to the IMU update when the
+   magnetometer reads all zero. */
+typedef struct {
+    imf_mahony_settings_t set;
+    uint32_t skipped; /* samples rejected by the non-finite policy */
+    imf_mahony_state_t x;
+} imf_mahony_ahrs_t;
 
 /* dt: s; kp: 1/s (published twoKp / 2); ki: 1/s^2 (published twoKi / 2);
    invsqrt: IMF_INVSQRT_EXACT or IMF_INVSQRT_FAST. q = (1, 0, 0, 0), I = 0. */

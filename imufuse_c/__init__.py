@@ -41,3 +41,11 @@ for _name in FILTERS:
     globals()[_name] = _dispatch(_name)
 
 __all__ = list(FILTERS)
+
+# ---- fixed point (csrc/fixed): profile="32" | "8" instead of dtype
+from . import _fixed  # noqa: E402
+
+FILTERS_FIXED = _reference.FILTERS_FIXED
+for _name in FILTERS_FIXED:
+    globals()[_name] = getattr(_fixed, _name)
+__all__ += [*FILTERS_FIXED, "FILTERS_FIXED"]

@@ -14,6 +14,14 @@ import numpy as np
 from imufuse import _checks
 
 
+cdef inline void _copy_state(imf_real *dst, const char *x, Py_ssize_t n) noexcept nogil:
+    # a short element loop: cheaper than a memcpy call for a few words per sample
+    cdef const imf_real *src = <const imf_real *>x
+    cdef Py_ssize_t j
+    for j in range(n):
+        dst[j] = src[j]
+
+
 cdef class _Filter:
     cdef char *_x
     cdef Py_ssize_t _n
@@ -97,7 +105,7 @@ cdef class _Filter1D(_Filter):
         with nogil:
             for k in range(n_samples):
                 self._step(w[k], a[k])
-                memcpy(&o[k, 0], self._x, n * sizeof(imf_real))
+                _copy_state(&o[k, 0], self._x, n)
         return out
 
 
@@ -133,7 +141,7 @@ cdef class _FilterIMU(_Filter):
         with nogil:
             for k in range(n_samples):
                 self._step(&g[k, 0], &a[k, 0])
-                memcpy(&o[k, 0], self._x, n * sizeof(imf_real))
+                _copy_state(&o[k, 0], self._x, n)
         return out
 
 
@@ -175,5 +183,5 @@ cdef class _FilterAHRS(_Filter):
         with nogil:
             for k in range(n_samples):
                 self._step(&g[k, 0], &a[k, 0], &m[k, 0])
-                memcpy(&o[k, 0], self._x, n * sizeof(imf_real))
+                _copy_state(&o[k, 0], self._x, n)
         return out

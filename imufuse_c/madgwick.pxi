@@ -5,7 +5,9 @@ cdef extern from "madgwick.h" nogil:
     ctypedef struct imf_madgwick_imu_t:
         uint32_t skipped
         imf_madgwick_state_t x
-    ctypedef imf_madgwick_imu_t imf_madgwick_ahrs_t
+    ctypedef struct imf_madgwick_ahrs_t:
+        uint32_t skipped
+        imf_madgwick_state_t x
     void imf_madgwick_imu_init(imf_madgwick_imu_t *self, imf_real dt, imf_real beta,
                                int delta_s, int invsqrt)
     void imf_madgwick_imu_update(imf_madgwick_imu_t *self, imf_real gx, imf_real gy,
@@ -35,9 +37,8 @@ cdef class MadgwickAHRS(_FilterAHRS):
     cdef imf_madgwick_ahrs_t s
 
     cdef int _init(self) except -1:
-        # reference arguments (dt, beta, delta_s = full, invsqrt)
         a = self._args
-        imf_madgwick_ahrs_init(&self.s, a[0], a[1], a[3])
+        imf_madgwick_ahrs_init(&self.s, a[0], a[1], a[2])
         return self._bind(&self.s.x, sizeof(self.s.x), &self.s.skipped)
 
     cdef void _step(self, const imf_real *gyr, const imf_real *acc,

@@ -5,7 +5,9 @@ cdef extern from "mahony.h" nogil:
     ctypedef struct imf_mahony_imu_t:
         uint32_t skipped
         imf_mahony_state_t x
-    ctypedef imf_mahony_imu_t imf_mahony_ahrs_t
+    ctypedef struct imf_mahony_ahrs_t:
+        uint32_t skipped
+        imf_mahony_state_t x
     void imf_mahony_imu_init(imf_mahony_imu_t *self, imf_real dt, imf_real kp, imf_real ki,
                              int invsqrt)
     void imf_mahony_imu_update(imf_mahony_imu_t *self, imf_real gx, imf_real gy, imf_real gz,

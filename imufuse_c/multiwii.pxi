@@ -1,1 +1,31 @@
-# Filter family multiwii (csrc/multiwii.h): not written yet.
+# MultiWii 2.2 attitude estimate (csrc/multiwii.h), article appendix.
+cdef extern from "multiwii.h" nogil:
+    ctypedef struct imf_multiwii_state_t:
+        pass
+    ctypedef struct imf_multiwii_t:
+        uint32_t skipped
+        imf_multiwii_state_t x
+    void imf_multiwii_init(imf_multiwii_t *self, imf_real dt, imf_real cmpf, int acc_lpf_shift,
+                           imf_real acc_1g, imf_real window)
+    void imf_multiwii_update(imf_multiwii_t *self, imf_real gx, imf_real gy, imf_real gz,
+                             imf_real ax, imf_real ay, imf_real az)
+    void imf_multiwii_angles(const imf_multiwii_t *self, double *roll, double *pitch)
+
+
+cdef class MultiWii(_FilterIMU):
+    _ref = _reference.MultiWii
+    cdef imf_multiwii_t s
+
+    cdef int _init(self) except -1:
+        a = self._args
+        imf_multiwii_init(&self.s, a[0], a[1], a[2], a[3], a[4])
+        return self._bind(&self.s.x, sizeof(self.s.x), &self.s.skipped)
+
+    cdef void _step(self, const imf_real *gyr, const imf_real *acc) noexcept nogil:
+        imf_multiwii_update(&self.s, gyr[0], gyr[1], gyr[2], acc[0], acc[1], acc[2])
+
+    def angles(self):
+        """(roll, pitch) in rad (ZYX) of d, in double: an output, not state."""
+        cdef double roll, pitch
+        imf_multiwii_angles(&self.s, &roll, &pitch)
+        return roll, pitch

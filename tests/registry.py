@@ -71,6 +71,22 @@ CASES_QUATERNION = [
 
 # ---- gravity-vector and DCM filters: csrc/multiwii.c, kk.c, mahony2d.c, dcm.c
 CASES_GRAVITY = [
+    # appendix: MultiWii 2.2 (firmware defaults) and variants of every option
+    Case("MultiWii", dict(dt=1 / 400)),
+    Case("MultiWii", dict(dt=0.005, cmpf=100.0, acc_lpf_shift=0, window=0.3), "nolpf"),
+    Case("MultiWii", dict(dt=0.0025, cmpf=600, acc_lpf_shift=3, acc_1g=512.0), "acc512"),
+    Case("MultiWii", dict(dt=0.01, cmpf=0.0, acc_lpf_shift=16, acc_1g=9.80665, window=1.0),
+         "wide"),
+    # appendix: KK, Eq. 4.5 with a P controller
+    Case("KK", dict(dt=0.005, kp=0.01)),
+    Case("KK", dict(dt=0.002, kp=1.0), "kp1"),
+    # 4.2: Eq. 4.4 and Eq. 4.3
+    Case("Mahony2D", dict(dt=0.005, kp=2.0, ki=0.5)),
+    Case("Mahony2D", dict(dt=0.005, kp=2.0, ki=0.5, error="exact"), "exact"),
+    Case("Mahony2D", dict(dt=0.01, kp=5.0, ki=0.0, error="exact"), "exact_p"),
+    # 4.1 / 4.3: DCM with P&B re-orthogonalisation
+    Case("DCM", dict(dt=0.005, kp=2.0, ki=0.5)),
+    Case("DCM", dict(dt=0.01, kp=0.5, ki=0.0), "p"),
 ]
 
 FLOAT_CASES = [*CASES_1D, *CASES_QUATERNION, *CASES_GRAVITY]
@@ -88,3 +104,36 @@ def float_matrix():
 
 def as_dtype(arrays, dtype):
     return tuple(np.asarray(a, dtype=dtype) for a in arrays)
+
+
+# ---- fixed point (csrc/fixed): run() takes int16 counts, state is int32 -------
+PROFILES = ("32", "8")
+FIXED_CASES = [
+    Case("Complementary1DQ", dict(dt=0.002, alpha=0.995, gyr_scale=1e-3, angle_scale=1e-4)),
+    Case("Mahony1DBiasQ", dict(dt=0.002, kp=2.0, ki=0.2, gyr_scale=1e-3, angle_scale=1e-4)),
+    Case("Mahony1DBiasQ", dict(dt=0.002, kp=2.0004, ki=0.2, integrate_first=True,
+                               gyr_scale=1e-3, angle_scale=1e-4), "eq3_9"),
+    Case("KKQ", dict(dt=0.002, kp=0.002, gyr_scale=1.0642e-3)),
+    Case("KKQ", dict(dt=0.005, kp=1.0, gyr_scale=1.0642e-3), "kp1"),
+    Case("MultiWiiQ", dict(dt=1 / 400, gyr_scale=1.0642e-3, acc_1g=4096)),
+    Case("MultiWiiQ", dict(dt=0.005, cmpf=100.0, acc_lpf_shift=0, window=0.3,
+                           gyr_scale=1.0642e-3, acc_1g=512), "nolpf"),
+    Case("MultiWiiQ", dict(dt=0.01, cmpf=0.0, acc_lpf_shift=15, window=1.0,
+                           gyr_scale=6.1e-5, acc_1g=16384), "extreme"),
+    Case("MahonyIMUQ", dict(dt=1 / 512, kp=1.0, ki=0.05, gyr_scale=1.0642e-3)),
+    Case("MadgwickIMUQ", dict(dt=1 / 512, beta=0.1, gyr_scale=1.0642e-3)),
+]
+
+
+def _make_fixed(self, backend, profile):
+    import imufuse_c
+    mod = imufuse_c if backend == "c" else reference
+    return getattr(mod, self.name)(**self.params, profile=profile)
+
+
+Case.make_fixed = _make_fixed
+
+
+def fixed_matrix():
+    """(case, profile) pairs for every fixed-point filter configuration."""
+    return [pytest.param(c, p, id=f"{c.id}-q{p}") for c in FIXED_CASES for p in PROFILES]

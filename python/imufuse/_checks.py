@@ -52,11 +52,13 @@ def check_choice(name, value, choices):
     return value
 
 
-def check_stable2(names, tr, det, why):
-    """Jury test for a 2x2 update matrix with trace tr and determinant det:
-    stable when |det| < 1 and 1 + tr + det > 0; 1 - tr + det >= 0 admits the
-    marginal case of a frozen integrator (its gain zero)."""
-    if not (abs(det) < 1.0 and 1.0 - tr + det >= 0.0 and 1.0 + tr + det > 0.0):
+def check_stable2(names, det, p_minus, p_plus, why):
+    """Jury test for a 2x2 update matrix with characteristic polynomial
+    p(z) = z^2 - tr z + det: stable when |det| < 1, p(1) = 1 - tr + det > 0 and
+    p(-1) = 1 + tr + det > 0. Callers pass p(1) and p(-1) in closed form (not
+    as differences of rounded numbers); p(1) = 0 is admitted: the marginal
+    case of a frozen integrator (its gain zero)."""
+    if not (abs(det) < 1.0 and p_minus >= 0.0 and p_plus > 0.0):
         raise ValueError(f"{names}: outside the stable range ({why})")
 
 
@@ -115,7 +117,7 @@ def run_inputs(kind, dtype, args):
     """Validate run() arguments for a filter kind; return contiguous arrays."""
     names = KINDS[kind]
     if len(args) != len(names):
-        raise ValueError(f"run(): expected {len(names)} arrays ({', '.join(names)}), got {len(args)}")
+        raise TypeError(f"run(): expected {len(names)} arrays ({', '.join(names)}), got {len(args)}")
     conv = as_1d if kind == "1d" else as_nx3
     return conv(dtype, **dict(zip(names, args)))
 
@@ -124,7 +126,7 @@ def update_inputs(kind, args):
     """Validate update() arguments for a filter kind; return a flat tuple of floats."""
     names = KINDS[kind]
     if len(args) != len(names):
-        raise ValueError(f"update(): expected {len(names)} arguments ({', '.join(names)}), got {len(args)}")
+        raise TypeError(f"update(): expected {len(names)} arguments ({', '.join(names)}), got {len(args)}")
     if kind == "1d":
         return tuple(check_scalar(n, a) for n, a in zip(names, args))
     return sum((as_vec3(n, a) for n, a in zip(names, args)), ())

@@ -18,3 +18,14 @@ for _fam in _FAMILIES:
         globals()[_name] = getattr(_fam, _name)
 
 __all__ = ["ReferenceFilter", "FILTERS", "tuning", *FILTERS]
+
+# ---- fixed point (csrc/fixed): int16 counts in, int32 state, profile "32" | "8"
+from .fixed_1d import Complementary1DQ, Mahony1DBiasQ  # noqa: E402
+from .fixed_gravity import KKQ, MultiWiiQ  # noqa: E402
+from .fixed_mahony import MahonyIMUQ  # noqa: E402
+from .fixed_madgwick import MadgwickIMUQ  # noqa: E402
+
+#: every fixed-point filter, by class name (imufuse_c exports the same names)
+FILTERS_FIXED = ("Complementary1DQ", "Mahony1DBiasQ", "KKQ", "MultiWiiQ",
+                 "MahonyIMUQ", "MadgwickIMUQ")
+__all__ += [*FILTERS_FIXED, "FILTERS_FIXED"]

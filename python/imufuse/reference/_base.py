@@ -8,6 +8,7 @@ mixed in, and the code wraps every constant in R() like C's IMF_R()).
 
 Subclasses define:
   kind         "1d", "imu" or "ahrs" (the update() signature, see _checks.KINDS)
+  c_name       prefix of the C twin: <c_name>_t, <c_name>_init, <c_name>_update
   state_names  the state variables, in the order of the C state struct; each
                is an attribute of the instance
   _params(...) staticmethod: validate constructor arguments, return the tuple
@@ -26,6 +27,7 @@ U32 = 0xFFFFFFFF
 
 class ReferenceFilter:
     kind = "1d"
+    c_name = ""
     state_names = ()
 
     def __init__(self, *args, dtype="float64", **kwargs):

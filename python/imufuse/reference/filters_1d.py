@@ -27,6 +27,7 @@ class Complementary1D(ReferenceFilter):
     alpha = (T/dt) / (1 + T/dt). Example (seed 003): t = 10/11 at 60 Hz is
     Complementary1D(1/60, alpha=10/11), i.e. T = 10/60 s.
     """
+    c_name = "imf_complementary1d"
     state_names = ("theta",)
 
     @staticmethod
@@ -60,6 +61,7 @@ class Complementary1D(ReferenceFilter):
 
 class Kalman1D(ReferenceFilter):
     """Kalman filter with constant gain K0, Eq. 2.5 (same as Eq. 2.2 with alpha = 1 - K0)."""
+    c_name = "imf_kalman1d"
     state_names = ("theta",)
 
     @staticmethod
@@ -88,6 +90,7 @@ class Kalman1D(ReferenceFilter):
 
 class Mahony1D(ReferenceFilter):
     """Mahony&Madgwick filter with a P controller, Eq. 2.8 (alpha = 1 - Kp dt, Eq. 2.9)."""
+    c_name = "imf_mahony1d"
     state_names = ("theta",)
 
     @staticmethod
@@ -124,6 +127,7 @@ class Kalman1DBias(ReferenceFilter):
     bias; with bias_sign=+1 and k1 > 0, b converges to minus the bias.
     allow_unstable=True skips the stability check (to study Corollary #2).
     """
+    c_name = "imf_kalman1d_bias"
     state_names = ("theta", "b")
 
     @staticmethod
@@ -175,6 +179,7 @@ class Mahony1DBias(ReferenceFilter):
     transfer function of Mahony1DBias(dt, kp, ki). The integral I converges to
     minus the gyro bias.
     """
+    c_name = "imf_mahony1d_bias"
     state_names = ("theta", "i")
 
     @staticmethod
@@ -185,11 +190,12 @@ class Mahony1DBias(ReferenceFilter):
         if not isinstance(integrate_first, bool):
             raise ValueError(f"integrate_first: must be True or False, got {integrate_first!r}")
         kpdt, kidt2 = kp * dt, ki * dt * dt
+        # homogeneous update matrix: p(1) = Ki dt^2 for both orders
         if integrate_first:
-            tr, det = 2.0 - kpdt, 1.0 - kpdt + kidt2
+            det, p_plus = 1.0 - kpdt + kidt2, 4.0 - 2.0 * kpdt + kidt2
         else:
-            tr, det = 2.0 - kpdt - kidt2, 1.0 - kpdt
-        _checks.check_stable2("kp, ki", tr, det, f"kp*dt={kpdt!r}, ki*dt^2={kidt2!r}")
+            det, p_plus = 1.0 - kpdt, 4.0 - 2.0 * kpdt - kidt2
+        _checks.check_stable2("kp, ki", det, kidt2, p_plus, f"kp*dt={kpdt!r}, ki*dt^2={kidt2!r}")
         return (dt, kp, ki, int(integrate_first))
 
     def _init(self, dt, kp, ki, integrate_first):
@@ -231,6 +237,7 @@ class Complementary1DBias(ReferenceFilter):
     two inputs; state: the last output theta and the two delay elements.
     See tuning() for Eq. 3.12 and the rule of thumb.
     """
+    c_name = "imf_complementary1d_bias"
     state_names = ("theta", "s1", "s2")
 
     @staticmethod

@@ -191,6 +191,7 @@ class MadgwickIMU(_Madgwick):
     quaternion q0..q3 (sensor -> earth).
     """
     kind = "imu"
+    c_name = "imf_madgwick_imu"
 
     @staticmethod
     def _params(dt, beta=0.1, delta_s="full", *, invsqrt="exact"):
@@ -215,13 +216,18 @@ class MadgwickAHRS(_Madgwick):
     magnetometer sample runs the IMU update.
     """
     kind = "ahrs"
+    c_name = "imf_madgwick_ahrs"
 
     @staticmethod
     def _params(dt, beta=0.1, *, invsqrt="exact"):
         dt = _checks.check_dt(dt)
         beta = _checks.check_real("beta", beta, lo=0.0)
         _checks.check_choice("invsqrt", invsqrt, tuple(_math.INVSQRT))
-        return (dt, beta, DS_FULL, _math.INVSQRT[invsqrt])
+        return (dt, beta, _math.INVSQRT[invsqrt])
+
+    def _init(self, dt, beta, invsqrt):
+        # imf_madgwick_ahrs_init: the IMU settings with the full ds
+        super()._init(dt, beta, DS_FULL, invsqrt)
 
     def _update(self, gx, gy, gz, ax, ay, az, mx, my, mz):
         if not isfinite(gx, gy, gz, ax, ay, az, mx, my, mz):

@@ -162,6 +162,7 @@ class MahonyIMU(_Mahony):
     (rad/s; it converges to minus the gyro bias).
     """
     kind = "imu"
+    c_name = "imf_mahony_imu"
 
     def _update(self, gx, gy, gz, ax, ay, az):
         if not isfinite(gx, gy, gz, ax, ay, az):
@@ -179,6 +180,7 @@ class MahonyAHRS(_Mahony):
     runs the IMU update.
     """
     kind = "ahrs"
+    c_name = "imf_mahony_ahrs"
 
     def _update(self, gx, gy, gz, ax, ay, az, mx, my, mz):
         if not isfinite(gx, gy, gz, ax, ay, az, mx, my, mz):

@@ -1,3 +1,133 @@
-"""Filter family mahony2d: pure-Python twin of csrc/mahony2d.c (not written yet)."""
+"""2D Mahony filter of the article's chapter 4.2 (Eq. 4.3 / 4.4): pure-Python
+twin of csrc/mahony2d.c, line for line.
 
-FILTERS = ()
+Also the output helpers shared by the gravity-vector family (multiwii, kk,
+dcm): tilt_angles() (csrc/imf_math.h imf_tilt_angles) and sqrt_r().
+"""
+import math
+
+import numpy as np
+
+from .. import _checks
+from ._base import ReferenceFilter, isfinite
+
+FILTERS = ("Mahony2D",)
+
+
+def sqrt_r(R, x):
+    """imf_sqrt on type R: sqrt (double) or sqrtf (float32; the double square
+    root rounded once to float32 is the correctly rounded float32 result)."""
+    if R is float:
+        return math.sqrt(x)
+    return np.float32(math.sqrt(float(x)))
+
+
+def tilt_angles(dx, dy, dz):
+    """(roll, pitch) in rad, ZYX (imufuse.rotations), of the attitude whose body
+    up vector R^T e_z is (dx, dy, dz); evaluated in double with libm, the twin
+    of imf_tilt_angles in csrc/imf_math.h. An output, never state."""
+    dx, dy, dz = float(dx), float(dy), float(dz)
+    return math.atan2(dy, dz), math.atan2(-dx, math.sqrt(dy * dy + dz * dz))
+
+
+def _check_gains(dt, kp, ki):
+    kp = _checks.check_real("kp", kp, lo=0.0)
+    ki = _checks.check_real("ki", ki, lo=0.0)
+    # per axis near convergence the loop is the single-axis filter of Eq. 3.6
+    # (Mahony1DBias), update matrix [[1 - kp dt - ki dt^2, dt], [-ki dt, 1]]:
+    # Jury test |det| < 1, 1 - tr + det = ki dt^2 >= 0, 1 + tr + det > 0,
+    # written out so that ki = 0 (1 - tr + det = 0 exactly) is not lost to rounding
+    kpdt, kidt2 = kp * dt, ki * dt * dt
+    if not (0.0 < kpdt < 2.0 and kidt2 < 4.0 - 2.0 * kpdt):
+        raise ValueError(f"kp, ki: outside the stable range (0 < kp*dt < 2 and "
+                         f"ki*dt^2 < 4 - 2 kp*dt needed; kp*dt={kpdt!r}, ki*dt^2={kidt2!r})")
+    return kp, ki
+
+
+class Mahony2D(ReferenceFilter):
+    """2D Mahony filter, article 4.2: only the gravity direction d is estimated.
+
+    Mahony2D(dt, kp, ki, error="approx"): error="approx" is Eq. 4.4 (E = a - d),
+    error="exact" Eq. 4.3 (E = d x (a x d)). Per sample, per axis (Eq. 3.6):
+    I_n = I_{n-1} + Ki dt E_n; d_n = d_{n-1} + (Kp E_n + I_n + d_{n-1} x w) dt.
+    d is the body up vector R^T e_z (level: (0, 0, 1)), never renormalised: with
+    Eq. 4.3 |d| is not controlled and grows at the rate I.d/|d| (csrc/mahony2d.h).
+    angles() gives (roll, pitch). At equilibrium I = -d x b for a gyro bias b:
+    the bias seen is d x I (rad/s), its part perpendicular to gravity.
+    """
+    kind = "imu"
+    c_name = "imf_mahony2d"
+    state_names = ("dx", "dy", "dz", "ix", "iy", "iz")
+
+    @staticmethod
+    def _params(dt, kp, ki, error="approx"):
+        dt = _checks.check_dt(dt)
+        kp, ki = _check_gains(dt, kp, ki)
+        error = _checks.check_choice("error", error, ("approx", "exact"))
+        return (dt, kp, ki, int(error == "exact"))
+
+    def _init(self, dt, kp, ki, exact):
+        R = self._R
+        self.dt = R(dt)
+        self.kp = R(kp)
+        self.ki_dt = R(ki) * self.dt
+        self.exact = exact != 0
+        self.dx = R(0.0)
+        self.dy = R(0.0)
+        self.dz = R(1.0)
+        self.ix = R(0.0)
+        self.iy = R(0.0)
+        self.iz = R(0.0)
+
+    def _update(self, gx, gy, gz, ax, ay, az):
+        R = self._R
+        dx, dy, dz = self.dx, self.dy, self.dz
+        ex = ey = ez = R(0.0)
+        ix, iy, iz = self.ix, self.iy, self.iz
+        if not isfinite(gx, gy, gz, ax, ay, az):
+            self._skip()
+            return
+        # Eq. 4.2: rate of change of d from the gyro, d x w
+        cx = dy * gz - dz * gy
+        cy = dz * gx - dx * gz
+        cz = dx * gy - dy * gx
+        n2 = ax * ax + ay * ay + az * az
+        if n2 > R(0.0) and math.isfinite(n2):
+            norm = sqrt_r(R, n2)
+            nx = ax / norm
+            ny = ay / norm
+            nz = az / norm
+            if self.exact:
+                # Eq. 4.3: E = d x (a x d)
+                wx = ny * dz - nz * dy
+                wy = nz * dx - nx * dz
+                wz = nx * dy - ny * dx
+                ex = dy * wz - dz * wy
+                ey = dz * wx - dx * wz
+                ez = dx * wy - dy * wx
+            else:
+                # Eq. 4.4: E = a - d
+                ex = nx - dx
+                ey = ny - dy
+                ez = nz - dz
+            # Eq. 3.6 per axis: I_n = I_{n-1} + Ki dt E_n
+            ix = ix + self.ki_dt * ex
+            iy = iy + self.ki_dt * ey
+            iz = iz + self.ki_dt * ez
+        # Eq. 3.6 per axis: d_n = d_{n-1} + (Kp E_n + I_n + d x w) dt
+        dxn = dx + (self.kp * ex + ix + cx) * self.dt
+        dyn = dy + (self.kp * ey + iy + cy) * self.dt
+        dzn = dz + (self.kp * ez + iz + cz) * self.dt
+        if not isfinite(dxn, dyn, dzn, ix, iy, iz):
+            self._skip()
+            return
+        self.dx = dxn
+        self.dy = dyn
+        self.dz = dzn
+        self.ix = ix
+        self.iy = iy
+        self.iz = iz
+
+    def angles(self):
+        """(roll, pitch) in rad (ZYX) of d, in double: an output, not state."""
+        return tilt_angles(self.dx, self.dy, self.dz)

@@ -1,0 +1,78 @@
+"""A plain C loop over a filter's update, compiled with cffi from csrc/:
+the baseline that imufuse_c's run() is measured against. Same flags as the
+extension (-std=c99 -O2 -ffp-contract=off); the loop stores the state after
+every sample, as run() does."""
+import glob
+import os
+import tempfile
+
+from cffi import FFI
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+CSRC = os.path.join(HERE, "..", "csrc")
+ARGS = {"1d": ("rate", "angle"), "imu": ("gyr", "acc"), "ahrs": ("gyr", "acc", "mag")}
+
+
+def _loop_source(ref_cls):
+    """C for plain_<c_name>(n, inputs..., out, params): init from params, then
+    update + memcpy of the state for every sample."""
+    c = ref_cls.c_name
+    ins = ARGS[ref_cls.kind]
+    n_params = len(ref_cls._params.__code__.co_varnames)    # upper bound; unused ones ignored
+    params = ", ".join(f"p[{i}]" for i in range(n_params))
+    decl = ", ".join(f"const imf_real *{x}" for x in ins)
+    if ref_cls.kind == "1d":
+        call = f"{c}_update(&s, rate[k], angle[k]);"
+    else:
+        call = f"{c}_update(&s, " + ", ".join(f"{x}[3 * k + {j}]" for x in ins for j in range(3)) + ");"
+    return (f"void plain_{c}(size_t n, {decl}, imf_real *out, const double *p, size_t np)\n"
+            "{\n"
+            f"    {c}_t s;\n"
+            "    size_t k;\n"
+            f"    {c}_init(&s, INIT_ARGS_{c});\n"
+            "    for (k = 0; k < n; ++k) {\n"
+            f"        {call}\n"
+            "        memcpy(out + k * (sizeof s.x / sizeof(imf_real)), &s.x, sizeof s.x);\n"
+            "    }\n"
+            "    (void)np;\n"
+            "}\n"), f"void plain_{c}(size_t n, {decl}, imf_real *out, const double *p, size_t np);", \
+        f"#define INIT_ARGS_{c} " + ", ".join(f"p[{i}]" for i in range(n_args(ref_cls)))
+
+
+def n_args(ref_cls, cache={}):
+    import inspect
+    if ref_cls not in cache:
+        # the number of C init arguments is the length of _params()'s result for
+        # any valid call; found from the registry default parameters
+        from registry import FLOAT_CASES
+        case = next(c for c in FLOAT_CASES if c.name == ref_cls.__name__)
+        cache[ref_cls] = len(ref_cls._params(**case.params))
+    return cache[ref_cls]
+
+
+def build(dtype, ref_classes):
+    """Compile plain loops for ref_classes in one precision; return (ffi, lib)."""
+    ffi = FFI()
+    real = "float" if dtype == "float32" else "double"
+    bodies, decls, macros = [], [], []
+    for r in ref_classes:
+        body, decl, macro = _loop_source(r)
+        bodies.append(body)
+        decls.append(decl)
+        macros.append(macro)
+    ffi.cdef(f"typedef {real} imf_real;\n" + "\n".join(decls))
+    headers = sorted(os.path.basename(h) for h in glob.glob(os.path.join(CSRC, "*.h")))
+    src = ("#include <string.h>\n" + "".join(f'#include "{h}"\n' for h in headers)
+           + "\n".join(macros) + "\n" + "\n".join(bodies))
+    sources = sorted(glob.glob(os.path.join(CSRC, "*.c")))
+    macros_def = [] if dtype == "float32" else [("IMF_DOUBLE", None)]
+    name = f"_imf_plain_{dtype}"
+    ffi.set_source(name, src, sources=sources, include_dirs=[CSRC], define_macros=macros_def,
+                   extra_compile_args=["-std=c99", "-O2", "-ffp-contract=off"])
+    tmp = tempfile.mkdtemp(prefix="imf_plain_")
+    lib_path = ffi.compile(tmpdir=tmp)
+    import importlib.util
+    spec = importlib.util.spec_from_file_location(name, lib_path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod.ffi, mod.lib

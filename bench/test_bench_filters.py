@@ -1,0 +1,100 @@
+"""Speed of every filter in the registry (pytest-benchmark; run with
+`pytest bench/`, kept out of the default test run).
+
+  run        imufuse_c run() on 10^6 samples            -> ns per sample
+  plain      a plain C loop over the same update (cffi)   -> run / plain ratio
+  update     imufuse_c update() per call from Python      -> ns per call
+  reference  the pure-Python reference, per sample
+
+run and plain are timed side by side, interleaved, in the same test (min of
+several repeats each), so their ratio is robust on a shared, noisy machine;
+it is stored in the benchmark's extra_info and printed by bench/report.py.
+"""
+import time
+
+import numpy as np
+import pytest
+
+import imufuse.reference as reference
+from registry import DTYPES, FLOAT_CASES
+from sequences import generate
+
+N_RUN = 10 ** 6
+N_REF = 2000
+
+_plain = {}
+
+
+def plain_lib(dtype):
+    if dtype not in _plain:
+        from plain_loop import build
+        classes = sorted({getattr(reference, c.name) for c in FLOAT_CASES}, key=lambda c: c.__name__)
+        _plain[dtype] = build(dtype, classes)
+    return _plain[dtype]
+
+
+def big_inputs(kind, dtype):
+    reps = N_RUN // 1000
+    return tuple(np.ascontiguousarray(np.concatenate([x] * reps), dtype=dtype)
+                 for x in generate(kind, "random"))
+
+
+def plain_runner(case, dtype, inputs):
+    ffi, lib = plain_lib(dtype)
+    ref = getattr(reference, case.name)
+    fn = getattr(lib, f"plain_{ref.c_name}")
+    p = np.array(ref._params(**{k: v for k, v in case.params.items()}), dtype=float)
+    out = np.empty((len(inputs[0]), len(ref.state_names)), dtype=dtype)
+    ctype = "float *" if dtype == "float32" else "double *"
+    args = [ffi.cast(ctype, ffi.from_buffer(x)) for x in inputs]
+    outp = ffi.cast(ctype, ffi.from_buffer(out))
+    pp = ffi.cast("double *", ffi.from_buffer(p))
+    return lambda: fn(len(inputs[0]), *args, outp, pp, len(p)), out
+
+
+def best_of(fn, repeats=5):
+    t = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        t.append(time.perf_counter() - t0)
+    return min(t)
+
+
+@pytest.mark.parametrize("dtype", DTYPES)
+@pytest.mark.parametrize("case", [pytest.param(c, id=c.id) for c in FLOAT_CASES])
+def test_run(benchmark, case, dtype):
+    inputs = big_inputs(case.kind, dtype)
+    f = case.make("c", dtype)
+    plain, plain_out = plain_runner(case, dtype, inputs)
+    # side by side: alternate run() and the plain loop, keep the best of each
+    t_run, t_plain = [], []
+    for _ in range(5):
+        f.reset()
+        t_run.append(best_of(lambda: f.run(*inputs), 1))
+        t_plain.append(best_of(plain, 1))
+    f.reset()
+    traj = f.run(*inputs)
+    assert (traj.view(np.uint8) == plain_out.view(np.uint8)).all()   # same work, same bits
+    benchmark.extra_info.update(
+        samples=N_RUN, ns_per_sample=min(t_run) / N_RUN * 1e9,
+        plain_ns_per_sample=min(t_plain) / N_RUN * 1e9, run_over_plain=min(t_run) / min(t_plain))
+    benchmark.pedantic(lambda: f.run(*inputs), setup=f.reset, rounds=3, iterations=1)
+
+
+@pytest.mark.parametrize("case", [pytest.param(c, id=c.id) for c in FLOAT_CASES])
+def test_update(benchmark, case):
+    f = case.make("c", "float64")
+    args = [x[0] for x in generate(case.kind, "random", n=1)]
+    if case.kind == "1d":
+        args = [float(a) for a in args]
+    benchmark(f.update, *args)
+
+
+@pytest.mark.parametrize("dtype", DTYPES)
+@pytest.mark.parametrize("case", [pytest.param(c, id=c.id) for c in FLOAT_CASES])
+def test_reference(benchmark, case, dtype):
+    inputs = generate(case.kind, "random", n=N_REF)
+    f = case.make("ref", dtype)
+    benchmark.extra_info.update(samples=N_REF)
+    benchmark.pedantic(lambda: f.run(*inputs), setup=f.reset, rounds=2, iterations=1)

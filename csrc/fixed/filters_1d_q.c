@@ -1,0 +1,73 @@
+/* Fixed-point single-axis filters; see filters_1d_q.h for the Q formats.
+ * Mirrored line for line by python/imufuse/reference/fixed_1d.py. */
+#include "filters_1d_q.h"
+#include "imf_fixed_init.h"
+
+/* Constant ranges: imf_scale16 shifts c.s - 15 and imf_scale32 shifts
+ * c.s + K - N must lie in [-31, 31] and [0, 47]. */
+static int imf_1d_q_kr_ok(const imf_qscale_t kr)
+{
+    return kr.m != 0 && kr.s >= -14 && kr.s <= 46;
+}
+
+int imf_complementary1d_q_init(imf_complementary1d_q_t *const self, const double dt,
+                               const double alpha, const double gyr_scale, const double angle_scale)
+{
+    self->kr = imf_qscale_from_double(gyr_scale * dt / angle_scale);
+    self->ka = imf_qscale_from_double(1.0 - alpha);
+    self->x.theta = 0;
+    if (!(dt > 0.0) || !imf_param_ok(alpha, 0.0, 1.0) || !(gyr_scale > 0.0) || !(angle_scale > 0.0)
+        || !imf_1d_q_kr_ok(self->kr) || self->ka.s < 14 || self->ka.s > 47) {
+        return -1;
+    }
+    return 0;
+}
+
+void imf_complementary1d_q_update(imf_complementary1d_q_t *const self, const int16_t rate,
+                                  const int16_t angle)
+{
+    /* Eq. 2.2 as Eq. 2.12: theta^- = theta + w dt; theta = theta^- + (1 - alpha)(a - theta^-) */
+    const int32_t tp = imf_add_sat32(self->x.theta, imf_scale16(rate, self->kr, 15));
+    const int32_t e = imf_sub_sat32(imf_q15_to_q30(angle), tp); /* a in q15 counts */
+    self->x.theta = imf_add_sat32(tp, imf_scale32(e, self->ka, 15, 15));
+}
+
+int imf_mahony1d_bias_q_init(imf_mahony1d_bias_q_t *const self, const double dt, const double kp,
+                             const double ki, const int integrate_first, const double gyr_scale,
+                             const double angle_scale)
+{
+    self->kr = imf_qscale_from_double(gyr_scale * dt / angle_scale);
+    self->kp = imf_qscale_from_double(kp * dt);
+    self->ki = imf_qscale_from_double(ki * dt * dt);
+    self->integrate_first = (int16_t)(integrate_first != 0);
+    self->x.theta = 0;
+    self->x.j = 0;
+    if (!(dt > 0.0) || !(kp >= 0.0) || !(ki >= 0.0) || !(gyr_scale > 0.0) || !(angle_scale > 0.0)
+        || !imf_1d_q_kr_ok(self->kr) || self->kp.s < 14 || self->kp.s > 47
+        || self->ki.s < 8 || self->ki.s > 55) {
+        return -1;
+    }
+    return 0;
+}
+
+void imf_mahony1d_bias_q_update(imf_mahony1d_bias_q_t *const self, const int16_t rate,
+                                const int16_t angle)
+{
+    imf_mahony1d_bias_q_state_t *const x = &self->x;
+    /* e_k = a_k - theta_{k-1} (q15 counts) */
+    const int32_t e = imf_sub_sat32(imf_q15_to_q30(angle), x->theta);
+    const int32_t w = imf_scale16(rate, self->kr, 15);  /* w dt, q15 counts */
+    const int32_t p = imf_scale32(e, self->kp, 15, 15); /* Kp dt e, q15 counts */
+    const int32_t di = imf_scale32(e, self->ki, 15, 23); /* Ki dt^2 e, q23 */
+    int32_t theta;
+    if (!self->integrate_first) {
+        /* Eq. 3.6: I_k = I_{k-1} + Ki dt e_k; theta_k = theta_{k-1} + (Kp e_k + I_k + w_k) dt */
+        x->j = imf_add_sat32(x->j, di);
+        theta = imf_add_sat32(imf_add_sat32(imf_add_sat32(x->theta, p), imf_rshr32(x->j, 8)), w);
+    } else {
+        /* Eq. 3.9: theta_k = theta_{k-1} + (w_k + I_{k-1}) dt + Kp' dt e_k; then I_k */
+        theta = imf_add_sat32(imf_add_sat32(imf_add_sat32(x->theta, p), imf_rshr32(x->j, 8)), w);
+        x->j = imf_add_sat32(x->j, di);
+    }
+    x->theta = theta;
+}

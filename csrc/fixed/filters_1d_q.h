@@ -1,0 +1,58 @@
+/*
+ * Fixed-point single-axis filters (article chapters 2 and 3) for MCUs
+ * without an FPU.  Inputs are raw int16 counts: rate in counts of
+ * gyr_scale rad/s, angle in counts of angle_scale rad.  The update uses
+ * only 16x16->32 multiplies (imf_mul_32x16 is two of them), shifts and
+ * saturating int32 adds, no int64 and no division, so one update serves
+ * both profiles ("32" and "8" give identical results).
+ *
+ * Formats:
+ *   theta   q15 angle counts (int32): theta [rad] = theta * 2^-15 * angle_scale
+ *   j       (Mahony1DBiasQ) the I term as an angle step per sample,
+ *           I dt, in q23 angle counts: I [rad/s] = j 2^-23 angle_scale / dt
+ * Constants (q-scale m 2^-s):
+ *   kr  = gyr_scale dt / angle_scale   rate counts -> angle counts per sample
+ *   ka  = 1 - alpha                    (Complementary1DQ)
+ *   kp  = Kp dt, ki = Ki dt^2          (Mahony1DBiasQ)
+ */
+#ifndef IMF_FILTERS_1D_Q_H
+#define IMF_FILTERS_1D_Q_H
+
+#include <stdint.h>
+#include "imf_fixed.h"
+
+/* ---- Eq. 2.2: complementary filter --------------------------------- */
+typedef struct {
+    int32_t theta; /* q15 angle counts */
+} imf_complementary1d_q_state_t;
+
+typedef struct {
+    imf_qscale_t kr, ka;
+    imf_complementary1d_q_state_t x;
+} imf_complementary1d_q_t;
+
+/* dt: s; alpha in [0, 1]; gyr_scale: rad/s per count; angle_scale: rad per
+ * count.  Returns 0, or -1 if a constant is out of the fixed-point range. */
+int imf_complementary1d_q_init(imf_complementary1d_q_t *self, double dt, double alpha,
+                               double gyr_scale, double angle_scale);
+/* rate, angle: counts */
+void imf_complementary1d_q_update(imf_complementary1d_q_t *self, int16_t rate, int16_t angle);
+
+/* ---- Eq. 3.6 (and Eq. 3.9): Mahony&Madgwick PI filter ---------------- */
+typedef struct {
+    int32_t theta; /* q15 angle counts */
+    int32_t j;     /* I dt, q23 angle counts per sample */
+} imf_mahony1d_bias_q_state_t;
+
+typedef struct {
+    imf_qscale_t kr, kp, ki;
+    int16_t integrate_first; /* 1: Eq. 3.9 order (Corollary #1) */
+    imf_mahony1d_bias_q_state_t x;
+} imf_mahony1d_bias_q_t;
+
+/* dt: s; kp: 1/s; ki: 1/s^2; scales as above. */
+int imf_mahony1d_bias_q_init(imf_mahony1d_bias_q_t *self, double dt, double kp, double ki,
+                             int integrate_first, double gyr_scale, double angle_scale);
+void imf_mahony1d_bias_q_update(imf_mahony1d_bias_q_t *self, int16_t rate, int16_t angle);
+
+#endif /* IMF_FILTERS_1D_Q_H */

@@ -1,0 +1,104 @@
+/* Fixed-point KK and MultiWii filters; see gravity_q.h for the Q formats.
+ * Mirrored line for line by python/imufuse/reference/fixed_gravity.py. */
+#include "gravity_q.h"
+#include "imf_fixed_init.h"
+#include "imf_fixed_quat.h"
+
+int imf_kk_q_init(imf_kk_q_t *const self, const double dt, const double kp, const double gyr_scale)
+{
+    self->kw = imf_qscale_from_double(gyr_scale * dt);
+    self->kp = imf_qscale_from_double(kp);
+    self->x.t[0] = self->x.t[1] = 0;
+    /* shifts: kw.s - 28 and kw.s + 15 - 28 in [0, 47]; kp.s in [14, 47] */
+    if (!(dt > 0.0) || !(kp >= 0.0) || !(kp < 2.0) || !(gyr_scale > 0.0)
+        || self->kw.m == 0 || self->kw.s < 28 || self->kw.s > 59
+        || self->kp.s < 14 || self->kp.s > 47) {
+        return -1;
+    }
+    return 0;
+}
+
+void imf_kk_q_update(imf_kk_q_t *const self, const int16_t gyr[3], const int16_t acc[3])
+{
+    int32_t *const t = self->x.t;
+    int16_t a[3];
+    /* the state as q15 rad, operand of the yaw cross terms */
+    const int16_t p15 = imf_qn_to_q15s(t[0], 28), r15 = imf_qn_to_q15s(t[1], 28);
+    /* roll w_z dt and pitch w_z dt: (q15 x counts) x kw -> q28 */
+    const int32_t cr = imf_scale32((int32_t)r15 * gyr[2], self->kw, 15, 28);
+    const int32_t cp = imf_scale32((int32_t)p15 * gyr[2], self->kw, 15, 28);
+    /* Eq. 4.5, gyro path: (w_y - roll w_z) dt, (w_x + pitch w_z) dt, q28 */
+    int32_t pitch = imf_sub_sat32(imf_add_sat32(t[0], imf_scale16(gyr[1], self->kw, 28)), cr);
+    int32_t roll = imf_add_sat32(imf_add_sat32(t[1], imf_scale16(gyr[0], self->kw, 28)), cp);
+    if (imf_q_normalise_acc(acc, a)) {
+        /* a_pitch = -a_x/|a|, a_roll = a_y/|a| (symmetric q15 -> q28 exactly);
+         * P controller Kp (a - theta_{n-1}) */
+        const int32_t ap = (int32_t)(-a[0]) * 8192, ar = (int32_t)a[1] * 8192;
+        pitch = imf_add_sat32(pitch, imf_scale32(imf_sub_sat32(ap, t[0]), self->kp, 28, 28));
+        roll = imf_add_sat32(roll, imf_scale32(imf_sub_sat32(ar, t[1]), self->kp, 28, 28));
+    }
+    t[0] = pitch;
+    t[1] = roll;
+}
+
+int imf_multiwii_q_init(imf_multiwii_q_t *const self, const double dt, const double cmpf,
+                        const int acc_lpf_shift, const double acc_1g, const double window,
+                        const double gyr_scale)
+{
+    const double lo = (1.0 - window) * acc_1g, hi = (1.0 + window) * acc_1g;
+    const int k = (acc_lpf_shift >= 0 && acc_lpf_shift <= 15) ? acc_lpf_shift : 0;
+    int i;
+    self->kw = imf_qscale_from_double(gyr_scale * dt);
+    self->kc = imf_qscale_from_double(cmpf >= 0.0 ? 1.0 / (cmpf + 1.0) : 0.0);
+    self->k = (int16_t)k;
+    self->lo2 = (lo > 0.0) ? (uint32_t)floor(lo * lo) : 0u;
+    self->hi2 = (hi * hi >= 4294967295.0) ? 4294967295u : (uint32_t)ceil(hi * hi);
+    for (i = 0; i < 3; ++i) {
+        self->x.d[i] = 0;
+        self->x.l[i] = 0;
+    }
+    if (!(dt > 0.0) || !(cmpf >= 0.0) || !(cmpf <= 1.0e9) || k != acc_lpf_shift
+        || !imf_param_ok(acc_1g, 0.0, 32767.0) || !(acc_1g > 0.0)
+        || !imf_param_ok(window, 0.0, 1.0) || !(gyr_scale > 0.0)
+        || self->kw.m == 0 || self->kw.s < 15 || self->kw.s > 62
+        || self->kc.s < 14 || self->kc.s > 47) {
+        return -1;
+    }
+    /* start level: d = accSmooth = (0, 0, acc_1g) */
+    self->x.d[2] = (int32_t)floor(acc_1g * 32768.0 + 0.5);
+    self->x.l[2] = (int32_t)floor(ldexp(acc_1g, k) + 0.5);
+    return 0;
+}
+
+void imf_multiwii_q_update(imf_multiwii_q_t *const self, const int16_t gyr[3], const int16_t acc[3])
+{
+    int32_t *const d = self->x.d;
+    int32_t *const l = self->x.l;
+    const int k = self->k;
+    int32_t c[3], s[3];
+    uint32_t n2 = 0u;
+    int i;
+    /* accelerometer LPF: accLPF32 -= accLPF32 >> k (rounded); += acc */
+    for (i = 0; i < 3; ++i) {
+        int16_t sc;
+        l[i] = imf_add_sat32(imf_sub_sat32(l[i], imf_rshr32(l[i], k)), acc[i]);
+        s[i] = imf_shl_sat32(l[i], 15 - k);      /* accSmooth, q15 counts (exact) */
+        sc = imf_sat_q15(imf_rshr32(l[i], k));   /* accSmooth, counts */
+        n2 += (uint32_t)((int32_t)sc * sc);      /* three squares <= 2^30: no wrap */
+    }
+    /* step 3: d_n = d_{n-1} + d_{n-1} x w dt; each product d_j w_k first in
+     * acc counts x gyro counts (d q15 x counts / 2^15), then x kw -> q15 */
+    c[0] = imf_sub_sat32(imf_mul_32x16(d[1], gyr[2], 15), imf_mul_32x16(d[2], gyr[1], 15));
+    c[1] = imf_sub_sat32(imf_mul_32x16(d[2], gyr[0], 15), imf_mul_32x16(d[0], gyr[2], 15));
+    c[2] = imf_sub_sat32(imf_mul_32x16(d[0], gyr[1], 15), imf_mul_32x16(d[1], gyr[0], 15));
+    for (i = 0; i < 3; ++i) {
+        d[i] = imf_add_sat32(d[i], imf_scale32(c[i], self->kw, 0, 15));
+    }
+    /* step 4: complementary weighting while |accSmooth| is within the window */
+    if (n2 > self->lo2 && n2 < self->hi2) {
+        for (i = 0; i < 3; ++i) {
+            /* (d F + s)/(F + 1) = d + (s - d)/(F + 1) */
+            d[i] = imf_add_sat32(d[i], imf_scale32(imf_sub_sat32(s[i], d[i]), self->kc, 15, 15));
+        }
+    }
+}

@@ -1,0 +1,64 @@
+/*
+ * Fixed-point gravity-vector filters of the appendix, in the integer
+ * arithmetic 8-bit flight-controller firmware runs: only 16x16->32
+ * multiplies (imf_mul_32x16 is two of them), shifts and saturating int32
+ * adds; no int64, no division.  One update serves both profiles.
+ *
+ * Inputs: gyr in counts of gyr_scale rad/s, acc in counts.
+ *
+ * KKQ (appendix "KK", Eq. 4.5 with a P controller; twin of KK, csrc/kk.h):
+ *   pitch_n = pitch + (w_y - roll w_z) dt + Kp (a_pitch - pitch)
+ *   roll_n  = roll  + (w_x + pitch w_z) dt + Kp (a_roll - roll)
+ *   a_pitch = -a_x/|a|, a_roll = a_y/|a| (small angles; |a| by the
+ *   division-free inverse square root; a zero vector skips the P term).
+ *   State: pitch, roll in q28 rad.  Constants: kw = gyr_scale dt, kp (per
+ *   sample, < 2).  The yaw cross terms multiply the state rounded to q15.
+ *
+ * MultiWiiQ (appendix "MultiWii 2.2"; twin of MultiWii, csrc/multiwii.h):
+ *   accelerometer LPF  L = L - L/2^k + a (accLPF32, rounded shift: no
+ *                      truncation bias), accSmooth = L / 2^k
+ *   rotation           d_n = d + d x w dt (d from before the step)
+ *   complementary      d = (d F + s) / (F + 1) = d + (s - d)/(F + 1) while
+ *                      (1 - window) acc_1g < |accSmooth| < (1 + window) acc_1g
+ *   State: d[3] in q15 acc counts, l[3] = L in q(k) acc counts (accSmooth
+ *   2^k, as MultiWii's accLPF32).  Constants: kw = gyr_scale dt,
+ *   kc = 1/(F+1), the window on |accSmooth|^2 in counts^2, k <= 15.
+ */
+#ifndef IMF_GRAVITY_Q_H
+#define IMF_GRAVITY_Q_H
+
+#include <stdint.h>
+#include "imf_fixed.h"
+
+typedef struct {
+    int32_t t[2]; /* pitch, roll: q28 rad */
+} imf_kk_q_state_t;
+
+typedef struct {
+    imf_qscale_t kw, kp;
+    imf_kk_q_state_t x;
+} imf_kk_q_t;
+
+/* dt: s; kp: per sample, [0, 2); gyr_scale: rad/s per count */
+int imf_kk_q_init(imf_kk_q_t *self, double dt, double kp, double gyr_scale);
+void imf_kk_q_update(imf_kk_q_t *self, const int16_t gyr[3], const int16_t acc[3]);
+
+typedef struct {
+    int32_t d[3]; /* q15 acc counts */
+    int32_t l[3]; /* accLPF32: q(k) acc counts */
+} imf_multiwii_q_state_t;
+
+typedef struct {
+    imf_qscale_t kw, kc;
+    uint32_t lo2, hi2; /* window on |accSmooth|^2, counts^2 */
+    int16_t k;         /* ACC_LPF_FACTOR, 0..15 */
+    imf_multiwii_q_state_t x;
+} imf_multiwii_q_t;
+
+/* dt: s; cmpf: F >= 0; acc_lpf_shift: 0..15; acc_1g: counts of 1 g in
+ * (0, 32767]; window: [0, 1]; gyr_scale: rad/s per count */
+int imf_multiwii_q_init(imf_multiwii_q_t *self, double dt, double cmpf, int acc_lpf_shift,
+                        double acc_1g, double window, double gyr_scale);
+void imf_multiwii_q_update(imf_multiwii_q_t *self, const int16_t gyr[3], const int16_t acc[3]);
+
+#endif /* IMF_GRAVITY_Q_H */

@@ -1,0 +1,327 @@
+/*
+ * imf_fixed.h -- Q-format core of imufuse's fixed-point filters.
+ *
+ * Plain C99, header-only static inline, no malloc, no globals, no I/O.
+ * Every function is mirrored operation for operation by
+ * python/imufuse/reference/_cint.py; tests/test_fixed_core.py compares
+ * the two over random and extreme inputs in a UBSan build.
+ *
+ * Formats (CMSIS style, the format is in the name):
+ *   q15   int16_t, value = x / 2^15, range [-1, 1 - 2^-15]
+ *   q30   int32_t, value = x / 2^30, range [-2, 2 - 2^-30]
+ *   qN    int32_t, value = x / 2^N (state variables name their N)
+ *   imf_qscale_t  a positive constant m * 2^-s with m in [2^14, 2^15)
+ *                 (or m = 0): a gain or a unit conversion with 15
+ *                 significant bits, whatever its magnitude.
+ *
+ * Rounding: every multiply that drops bits rounds to nearest, ties towards
+ * +infinity (floor(x / 2^n + 1/2)).  The error is within +-1/2 LSB and its
+ * mean is 2^-(n+1) LSB, so there is no accumulating truncation bias.
+ *
+ * Undefined behaviour and how it is avoided:
+ *   - signed overflow: products are formed in a type wide enough to hold
+ *     them exactly (16x16 in 32 bits; 32x16 as two 16x16 partial products);
+ *     sums that can leave the range saturate (imf_add_sat32 ...);
+ *   - left shift of a negative value: never done; multiplication by 2^k of
+ *     a signed value goes through the unsigned magnitude (imf_shl_sat32);
+ *   - right shift of a negative value: implementation-defined in C99; it is
+ *     used only after the compile-time checks below prove it arithmetic.
+ *   - conversion of an out-of-range value to a signed type: never done;
+ *     values are saturated first.
+ * No 64-bit integer is used anywhere in this header: the 8-bit profile
+ * (AVR) has no fast int64, and on Cortex-M0 a 64-bit product is a library
+ * call.  A 32x16 product with exact rounding costs two 16x16->32 multiplies.
+ */
+#ifndef IMF_FIXED_H
+#define IMF_FIXED_H
+
+#include <stdint.h>
+
+/* Right shift of a negative value must be arithmetic (sign-extending). */
+#if ((-1) >> 1) != -1
+#error "imf_fixed.h needs an arithmetic right shift of negative integers"
+#endif
+/* The preprocessor computes in intmax_t; check the run-time types too. */
+typedef char imf_fixed_asr32_is_arithmetic[(((int32_t)-1) >> 1) == -1 ? 1 : -1];
+typedef char imf_fixed_asr16_is_arithmetic[(((int16_t)-32768) >> 15) == -1 ? 1 : -1];
+
+#define IMF_Q15_MAX ((int16_t)32767)
+#define IMF_Q15_MIN ((int16_t)-32768)
+#define IMF_Q15_ONE ((int16_t)32767) /* 1.0 saturated to q15 */
+#define IMF_Q30_ONE ((int32_t)1073741824L)
+#define IMF_INT32_MAX ((int32_t)2147483647L)
+#define IMF_INT32_MIN ((int32_t)(-2147483647L - 1))
+
+/* A positive constant with 15 significant bits: value = m * 2^-s. */
+typedef struct {
+    int16_t m; /* mantissa, 0 or in [2^14, 2^15) */
+    int16_t s; /* binary exponent (shift), any value in [-16, 62] */
+} imf_qscale_t;
+
+/* ---- shifts -------------------------------------------------------- */
+
+/* Arithmetic shift right, n in [0, 31]: floor(x / 2^n) (checked above). */
+static inline int32_t imf_asr32(const int32_t x, const int n)
+{
+    return x >> n;
+}
+
+/* Rounding shift right, n in [0, 31]: floor(x / 2^n + 1/2).
+ * Written as floor(x/2^n) + (bit n-1 of x) so that it cannot overflow,
+ * even for x = INT32_MAX. */
+static inline int32_t imf_rshr32(const int32_t x, const int n)
+{
+    if (n <= 0) {
+        return x;
+    }
+    if (n > 31) {
+        return 0; /* |x| / 2^n < 1/2 */
+    }
+    return (x >> n) + ((x >> (n - 1)) & 1);
+}
+
+/* x * 2^k, k in [0, 31], saturated to int32.  Uses the unsigned magnitude:
+ * a left shift of a negative value is undefined in C99. */
+static inline int32_t imf_shl_sat32(const int32_t x, const int k)
+{
+    uint32_t mag;
+    if (k <= 0) {
+        return x;
+    }
+    if (x >= 0) {
+        mag = (uint32_t)x;
+        if (mag > ((uint32_t)IMF_INT32_MAX >> k)) {
+            return IMF_INT32_MAX;
+        }
+        return (int32_t)(mag << k);
+    }
+    mag = 0u - (uint32_t)x; /* |x|, 2^31 for INT32_MIN */
+    if (mag > (((uint32_t)1 << 31) >> k)) {
+        return IMF_INT32_MIN;
+    }
+    mag <<= k; /* <= 2^31 */
+    if (mag == ((uint32_t)1 << 31)) {
+        return IMF_INT32_MIN;
+    }
+    return -(int32_t)mag;
+}
+
+/* Rounding shift by n (right if n > 0, saturating left if n < 0). */
+static inline int32_t imf_rshift_sat32(const int32_t x, const int n)
+{
+    return (n >= 0) ? imf_rshr32(x, n) : imf_shl_sat32(x, -n);
+}
+
+/* ---- saturation, saturating add/sub ---------------------------------- */
+
+/* int32 -> q15, results are saturated to [-32768, 32767]. */
+static inline int16_t imf_sat_q15(const int32_t x)
+{
+    if (x > 32767) {
+        return IMF_Q15_MAX;
+    }
+    if (x < -32768) {
+        return IMF_Q15_MIN;
+    }
+    return (int16_t)x;
+}
+
+/* int32 -> symmetric q15 [-32767, 32767]: squares of it sum without
+ * wrapping (4 * 32767^2 < 2^32). */
+static inline int16_t imf_sat_q15s(const int32_t x)
+{
+    if (x > 32767) {
+        return IMF_Q15_MAX;
+    }
+    if (x < -32767) {
+        return (int16_t)-32767;
+    }
+    return (int16_t)x;
+}
+
+/* a + b, results are saturated to [INT32_MIN, INT32_MAX]. */
+static inline int32_t imf_add_sat32(const int32_t a, const int32_t b)
+{
+    if (b > 0 && a > IMF_INT32_MAX - b) {
+        return IMF_INT32_MAX;
+    }
+    if (b < 0 && a < IMF_INT32_MIN - b) {
+        return IMF_INT32_MIN;
+    }
+    return a + b;
+}
+
+/* a - b, results are saturated to [INT32_MIN, INT32_MAX]. */
+static inline int32_t imf_sub_sat32(const int32_t a, const int32_t b)
+{
+    if (b < 0 && a > IMF_INT32_MAX + b) {
+        return IMF_INT32_MAX;
+    }
+    if (b > 0 && a < IMF_INT32_MIN + b) {
+        return IMF_INT32_MIN;
+    }
+    return a - b;
+}
+
+/* q15 + q15, saturated to q15 (the int32 sum is exact). */
+static inline int16_t imf_add_sat_q15(const int16_t a, const int16_t b)
+{
+    return imf_sat_q15((int32_t)a + (int32_t)b);
+}
+
+/* q15 - q15, saturated to q15. */
+static inline int16_t imf_sub_sat_q15(const int16_t a, const int16_t b)
+{
+    return imf_sat_q15((int32_t)a - (int32_t)b);
+}
+
+/* ---- multiplies ---------------------------------------------------- */
+
+/* q15 * q15 -> q15, rounded to nearest; the only overflow,
+ * (-1) * (-1), saturates to 32767. One 16x16->32 multiply. */
+static inline int16_t imf_mul_q15(const int16_t a, const int16_t b)
+{
+    return imf_sat_q15(imf_rshr32((int32_t)a * (int32_t)b, 15));
+}
+
+/* q15 * q15 -> q30, exact (|a*b| <= 2^30 cannot overflow). */
+static inline int32_t imf_mul_q15_q30(const int16_t a, const int16_t b)
+{
+    return (int32_t)a * (int32_t)b;
+}
+
+/* (a * b) / 2^n for int32 a, int16 b, n in [0, 47], rounded to nearest,
+ * saturated to int32.  Exact to the 48-bit product without any 64-bit
+ * type: a = ah*2^16 + al with al in [0, 2^16), so
+ * a*b = (ah*b + asr(al*b, 16))*2^16 + (al*b mod 2^16) = m*2^16 + lol.
+ * ah*b <= 2^30 and |al*b| < 2^31 fit int32 (two 16x16->32 multiplies). */
+static inline int32_t imf_mul_32x16(const int32_t a, const int16_t b, const int n)
+{
+    /* 16-bit operand types let 8-bit compilers use 16x16->32 multiplies
+     * (avr-gcc: __mulhisi3, __usmulhisi3) instead of 32x32 */
+    const int16_t ah = (int16_t)(a >> 16);                 /* in [-2^15, 2^15) */
+    const uint16_t al = (uint16_t)((uint32_t)a & 0xFFFFu); /* in [0, 2^16) */
+    const int32_t lo = (int32_t)al * (int32_t)b;           /* |lo| < 2^31 */
+    const int32_t m = (int32_t)ah * (int32_t)b + (lo >> 16); /* |m| <= 2^30 + 2^15 */
+    const int32_t lol = (int32_t)((uint32_t)lo & 0xFFFFu);
+    if (n > 16) {
+        /* floor((m*2^16 + lol)/2^n + 1/2) = floor((m + 2^(n-17))/2^(n-16))
+         * because lol/2^16 < 1 cannot carry past a multiple of 2^(n-16). */
+        return imf_rshr32(m, n - 16);
+    }
+    if (n == 16) {
+        return m + (lol >> 15); /* |m| + 1 < 2^31 */
+    }
+    /* n < 16: m*2^(16-n) may leave int32: saturate.  Below -2^(15+n) the
+     * sum is below INT32_MIN whatever the (non-negative) low part adds. */
+    if (m < -((int32_t)1 << (15 + n))) {
+        return IMF_INT32_MIN;
+    }
+    return imf_add_sat32(imf_shl_sat32(m, 16 - n), (lol + ((int32_t)1 << n >> 1)) >> n);
+}
+
+/* int16 x (an integer count, or qK: then pass N - K) times a q-scale
+ * constant, result x * c * 2^N, rounded, saturated.  One 16x16->32 multiply
+ * and a shift by c.s - N, which must lie in [-31, 31]. */
+static inline int32_t imf_scale16(const int16_t x, const imf_qscale_t c, const int N)
+{
+    return imf_rshift_sat32((int32_t)x * (int32_t)c.m, c.s - N);
+}
+
+/* int32 x (in qK) times a q-scale constant, result in qN, rounded,
+ * saturated (x * c * 2^(N-K)).  Needs c.s - N + K in [0, 47]; callers
+ * check this at init. */
+static inline int32_t imf_scale32(const int32_t x, const imf_qscale_t c, const int K, const int N)
+{
+    return imf_mul_32x16(x, c.m, c.s + K - N);
+}
+
+/* ---- square roots -------------------------------------------------- */
+
+/* Integer square root: floor(sqrt(x)) for any uint32 x.  Bit by bit,
+ * shifts and subtractions only (no multiply, no division). */
+static inline uint16_t imf_isqrt_u32(uint32_t x)
+{
+    uint32_t res = 0u;
+    uint32_t bit = (uint32_t)1 << 30;
+    while (bit > x) {
+        bit >>= 2;
+    }
+    while (bit != 0u) {
+        if (x >= res + bit) {
+            x -= res + bit;
+            res = (res >> 1) + bit;
+        } else {
+            res >>= 1;
+        }
+        bit >>= 2;
+    }
+    return (uint16_t)res;
+}
+
+/* Inverse square root without division: for x > 0 returns y (unsigned
+ * q15, in [2^15, 2^16)) and *shift so that
+ *     1/sqrt(x) ~= y * 2^-(*shift),  *shift in [16, 31].
+ * Relative error below 1e-4 (tested exhaustively over the mantissa).
+ * x = 0 returns 0 with *shift = 0 (callers test for it).
+ * Method: x' = x * 4^k in [2^30, 2^32), u = x'/2^32 in [1/4, 1),
+ * a chord on [1/4,1/2) or [1/2,1) as first guess, then three Newton
+ * steps y <- y (3 - u y^2) / 2 in unsigned 16x16->32 products. */
+static inline uint16_t imf_invsqrt_u32(uint32_t x, int *const shift)
+{
+    int e = 0;
+    uint16_t u, y, y2, w; /* 16-bit operands: unsigned 16x16->32 products */
+    uint32_t t;
+    int i;
+    if (x == 0u) {
+        *shift = 0;
+        return 0u;
+    }
+    while (x < ((uint32_t)1 << 30)) {
+        x <<= 2; /* unsigned: no UB */
+        e += 2;
+    }
+    u = (uint16_t)(x >> 16); /* q16 in [2^14, 2^16) */
+    /* chords through (1/4, 2), (1/2, sqrt 2) and (1/2, sqrt 2), (1, 1), q15 */
+    if (u < 32768u) {
+        y = (uint16_t)(65535u - (((uint32_t)(u - 16384u) * 38u) >> 5)); /* slope ~ 2(2-sqrt2)4 */
+    } else {
+        y = (uint16_t)(46341u - (((uint32_t)(u - 32768u) * 27u) >> 6)); /* slope ~ (sqrt2-1)2 */
+    }
+    for (i = 0; i < 3; ++i) {
+        /* q14: y < 2^16 -> y2 <= 65534 */
+        y2 = (uint16_t)(((uint32_t)y * y + 32768u) >> 16);
+        t = (uint32_t)u * y2;         /* q30, < 2^32 */
+        if (t >= 3221225472u) {       /* 3 - u y^2 <= 0 cannot happen */
+            t = 3221225471u;          /* from the chords; kept for safety */
+        }
+        w = (uint16_t)((3221225472u - t) >> 16); /* q14, (3 - u y^2) <= 49152 */
+        t = ((uint32_t)y * w + 16384u) >> 15;    /* q15: y w / 2 */
+        y = (uint16_t)(t > 65535u ? 65535u : t);
+    }
+    *shift = 31 - e / 2;
+    return (uint16_t)y;
+}
+
+/* ---- conversions --------------------------------------------------- */
+
+/* q15 -> q30 exactly (multiply by 2^15; for negative values through the
+ * product, not a left shift). */
+static inline int32_t imf_q15_to_q30(const int16_t x)
+{
+    return (int32_t)x * 32768;
+}
+
+/* q30 -> q15, rounded to nearest, saturated to q15. */
+static inline int16_t imf_q30_to_q15(const int32_t x)
+{
+    return imf_sat_q15(imf_rshr32(x, 15));
+}
+
+/* qN -> q15 (N in [15, 46]), rounded, saturated symmetric to +-32767. */
+static inline int16_t imf_qn_to_q15s(const int32_t x, const int N)
+{
+    return imf_sat_q15s(imf_rshr32(x, N - 15));
+}
+
+#endif /* IMF_FIXED_H */

@@ -1,0 +1,130 @@
+/*
+ * imf_fixed_quat.h -- steps shared by the fixed-point quaternion filters
+ * (mahony_q.c, madgwick_q.c).  Mirrored by python/imufuse/reference/fixed_quat.py.
+ *
+ * Formats:
+ *   q[4]   quaternion, q30 (int32; 1.0 = 2^30, headroom to +-2)
+ *   qs[4]  snapshot of q in symmetric q15 (int16, +-32767), the multiplier
+ *          operand of every product with q
+ *   a[3]   normalised accelerometer, symmetric q15
+ *   h[3]   half rotation angle per sample, 0.5 * w * dt, q30 (int32) in the
+ *          32-bit profile; in the 8-bit profile it is narrowed to int16 in
+ *          q(15+hs), hs chosen at init from the gyro range
+ */
+#ifndef IMF_FIXED_QUAT_H
+#define IMF_FIXED_QUAT_H
+
+#include "imf_fixed.h"
+
+/* q30 quaternion -> symmetric q15 snapshot. */
+static inline void imf_q_snapshot(const int32_t q[4], int16_t qs[4])
+{
+    int i;
+    for (i = 0; i < 4; ++i) {
+        qs[i] = imf_qn_to_q15s(q[i], 30);
+    }
+}
+
+/* Normalise raw accelerometer counts to symmetric q15.  Returns 0 for the
+ * zero vector (no direction: the caller skips the correction). */
+static inline int imf_q_normalise_acc(const int16_t acc[3], int16_t a[3])
+{
+    /* each square <= 2^30, three of them < 2^32: no uint32 wrap */
+    const uint32_t n2 = (uint32_t)((int32_t)acc[0] * acc[0]) + (uint32_t)((int32_t)acc[1] * acc[1])
+                      + (uint32_t)((int32_t)acc[2] * acc[2]);
+    int sh, i;
+    uint16_t y;
+    if (n2 == 0u) {
+        return 0;
+    }
+    y = imf_invsqrt_u32(n2, &sh); /* 1/|acc| = y 2^-sh, sh >= 16 */
+    for (i = 0; i < 3; ++i) {
+        /* |acc| <= 2^15, y < 2^16: the product fits int32 (> -2^31) */
+        a[i] = imf_sat_q15s(imf_rshr32((int32_t)acc[i] * (int32_t)y, sh - 15));
+    }
+    return 1;
+}
+
+/* 32-bit profile, appendix step 7 (Mahony) / 3 (Madgwick):
+ * dq = q (x) (0, h), h = 0.5 w dt in q30; products q15 x q30 -> q30 by
+ * imf_mul_32x16 (rounded), sums saturate. */
+static inline void imf_q_rate32(const int16_t qs[4], const int32_t h[3], int32_t dq[4])
+{
+    const int32_t x0 = imf_mul_32x16(h[0], qs[0], 15), x1 = imf_mul_32x16(h[0], qs[1], 15);
+    const int32_t x2 = imf_mul_32x16(h[0], qs[2], 15), x3 = imf_mul_32x16(h[0], qs[3], 15);
+    const int32_t y0 = imf_mul_32x16(h[1], qs[0], 15), y1 = imf_mul_32x16(h[1], qs[1], 15);
+    const int32_t y2 = imf_mul_32x16(h[1], qs[2], 15), y3 = imf_mul_32x16(h[1], qs[3], 15);
+    const int32_t z0 = imf_mul_32x16(h[2], qs[0], 15), z1 = imf_mul_32x16(h[2], qs[1], 15);
+    const int32_t z2 = imf_mul_32x16(h[2], qs[2], 15), z3 = imf_mul_32x16(h[2], qs[3], 15);
+    /* |each product| <= |h| < 2^30 for |h| < 1: the sums of three stay in int32
+     * only while |h| < 2/3; saturate anyway */
+    dq[0] = imf_sub_sat32(imf_sub_sat32(imf_sub_sat32(0, x1), y2), z3);
+    dq[1] = imf_sub_sat32(imf_add_sat32(x0, z2), y3);
+    dq[2] = imf_add_sat32(imf_sub_sat32(y0, z1), x3);
+    dq[3] = imf_sub_sat32(imf_add_sat32(z0, y1), x2);
+}
+
+/* 8-bit profile: the same with h narrowed to int16 in q(15+hs) and one
+ * 16x16->32 multiply per product, each rounded back to q30. */
+static inline void imf_q_rate8(const int16_t qs[4], const int32_t h[3], const int hs, int32_t dq[4])
+{
+    int16_t hx, hy, hz;
+    hx = imf_sat_q15(imf_rshr32(h[0], 15 - hs));
+    hy = imf_sat_q15(imf_rshr32(h[1], 15 - hs));
+    hz = imf_sat_q15(imf_rshr32(h[2], 15 - hs));
+#define IMF_P(a, b) imf_rshr32((int32_t)(a) * (int32_t)(b), hs)
+    dq[0] = imf_sub_sat32(imf_sub_sat32(-IMF_P(qs[1], hx), IMF_P(qs[2], hy)), IMF_P(qs[3], hz));
+    dq[1] = imf_sub_sat32(imf_add_sat32(IMF_P(qs[0], hx), IMF_P(qs[2], hz)), IMF_P(qs[3], hy));
+    dq[2] = imf_add_sat32(imf_sub_sat32(IMF_P(qs[0], hy), IMF_P(qs[1], hz)), IMF_P(qs[3], hx));
+    dq[3] = imf_sub_sat32(imf_add_sat32(IMF_P(qs[0], hz), IMF_P(qs[1], hy)), IMF_P(qs[2], hx));
+#undef IMF_P
+}
+
+/* q += dq (saturating), then q /= |q| (appendix step 8).  The norm comes
+ * from the q15 snapshot (4 * 32767^2 < 2^32, no wrap) and the division-free
+ * inverse square root; the scale factor is applied to the full q30 values.
+ * A zero quaternion (possible only from a state set by hand) resets to
+ * the identity. */
+static inline void imf_q_add_normalise(int32_t q[4], const int32_t dq[4])
+{
+    int16_t qs[4];
+    uint32_t n2 = 0u;
+    uint16_t y;
+    int16_t y14;
+    int sh, i;
+    for (i = 0; i < 4; ++i) {
+        q[i] = imf_add_sat32(q[i], dq[i]);
+    }
+    imf_q_snapshot(q, qs);
+    for (i = 0; i < 4; ++i) {
+        n2 += (uint32_t)((int32_t)qs[i] * qs[i]);
+    }
+    if (n2 == 0u) {
+        q[0] = IMF_Q30_ONE;
+        q[1] = q[2] = q[3] = 0;
+        return;
+    }
+    y = imf_invsqrt_u32(n2, &sh);        /* 1/sqrt(n2) = y 2^-sh, n2 in q30 */
+    y14 = (int16_t)((y >= 65535u) ? 32767 : (y + 1u) >> 1); /* y/2, q14 -> int16 */
+    for (i = 0; i < 4; ++i) {
+        /* q / sqrt(n2 / 2^30) = q * y14 * 2^(16 - sh) */
+        q[i] = imf_mul_32x16(q[i], y14, sh - 16);
+    }
+}
+
+/* Exponent hs of the 8-bit profile's narrowed rate: the gyro full scale
+ * times 2 (room for the feedback) fits int16 in q(15+hs).  kg = 0.5 gyr_scale
+ * dt = m 2^-s, 32768 kg < 2^(30-s), so hs = s - 31 clamped to [0, 15]. */
+static inline int16_t imf_q_rate_exponent(const imf_qscale_t kg)
+{
+    int hs = kg.s - 31;
+    if (hs < 0) {
+        hs = 0;
+    }
+    if (hs > 15) {
+        hs = 15;
+    }
+    return (int16_t)hs;
+}
+
+#endif /* IMF_FIXED_QUAT_H */

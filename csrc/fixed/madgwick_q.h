@@ -1,0 +1,47 @@
+/*
+ * Fixed-point Madgwick IMU filter (appendix: "Madgwick's 6DOF IMU filter",
+ * simplified corrective step delta-s), for MCUs without an FPU.
+ *
+ * Inputs are raw int16 counts: gyr in counts of gyr_scale rad/s, acc in
+ * any unit (it is normalised).  Profiles as in mahony_q.h:
+ *   imf_madgwick_imu_q32_update  rates in q30, 32x16 products, no int64
+ *   imf_madgwick_imu_q8_update   rates narrowed to int16, 16x16->32 only
+ * Both are division-free.
+ *
+ * State x (int32): q[4] = q0..q3 [w x y z], q30, sensor -> earth.
+ * Settings (q-scale constants):
+ *   kg = 0.5 gyr_scale dt   gyro counts -> half angle per sample
+ *   kb = beta dt            normalised delta-s (q15) -> quaternion step (q30)
+ *   hs                      exponent of the 8-bit profile's int16 rates
+ * Intermediates: s = delta-s / 2 in q28 (|s| < 8 for unit q and a), scaled
+ * by a power of two into q15 before it is normalised.
+ */
+#ifndef IMF_MADGWICK_Q_H
+#define IMF_MADGWICK_Q_H
+
+#include <stdint.h>
+#include "imf_fixed.h"
+
+typedef struct {
+    int32_t q[4]; /* q0..q3, q30 */
+} imf_madgwick_imu_q_state_t;
+
+typedef struct {
+    imf_qscale_t kg, kb;
+    int16_t hs;
+    int16_t profile;
+    imf_madgwick_imu_q_state_t x;
+} imf_madgwick_imu_q_t;
+
+/* dt: s (> 0); beta: rad/s (>= 0); gyr_scale: rad/s per count (> 0);
+ * profile: 32 or 8.  Returns 0, or -1 if a constant is out of range. */
+int imf_madgwick_imu_q_init(imf_madgwick_imu_q_t *self, double dt, double beta,
+                            double gyr_scale, int profile);
+void imf_madgwick_imu_q32_update(imf_madgwick_imu_q_t *self, const int16_t gyr[3],
+                                 const int16_t acc[3]);
+void imf_madgwick_imu_q8_update(imf_madgwick_imu_q_t *self, const int16_t gyr[3],
+                                const int16_t acc[3]);
+void imf_madgwick_imu_q_update(imf_madgwick_imu_q_t *self, const int16_t gyr[3],
+                               const int16_t acc[3]);
+
+#endif /* IMF_MADGWICK_Q_H */

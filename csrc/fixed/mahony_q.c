@@ -1,0 +1,112 @@
+/* Fixed-point Mahony IMU filter; see mahony_q.h for the Q formats.
+ * Mirrored line for line by python/imufuse/reference/fixed_mahony.py. */
+#include "mahony_q.h"
+#include "imf_fixed_init.h"
+#include "imf_fixed_quat.h"
+
+int imf_mahony_imu_q_init(imf_mahony_imu_q_t *const self, const double dt, const double kp,
+                          const double ki, const double gyr_scale, const int profile)
+{
+    self->kg = imf_qscale_from_double(0.5 * gyr_scale * dt);
+    self->kp = imf_qscale_from_double(0.5 * kp * dt);
+    self->ki = imf_qscale_from_double(0.5 * ki * dt * dt);
+    self->hs = imf_q_rate_exponent(self->kg);
+    self->profile = (int16_t)(profile == 8 ? 8 : 32);
+    self->x.q[0] = IMF_Q30_ONE;
+    self->x.q[1] = self->x.q[2] = self->x.q[3] = 0;
+    self->x.i[0] = self->x.i[1] = self->x.i[2] = 0;
+    /* kg: gyro full scale below 0.25 rad half angle per sample (s >= 31);
+     * kp, ki: shifts of imf_scale16/32 in range */
+    if (!(dt > 0.0) || !(gyr_scale > 0.0) || !(kp >= 0.0) || !(ki >= 0.0)
+        || self->kg.m == 0 || self->kg.s < 31 || self->kg.s > 61
+        || self->kp.s < 16 || self->kp.s > 47 || self->ki.s < 8 || self->ki.s > 54) {
+        return -1;
+    }
+    return 0;
+}
+
+/* Appendix steps 2-6 for one profile: h = 0.5 w' dt (q30).  Returns with
+ * h holding the gyro term only when acc is the zero vector. */
+static void imf_mahony_imu_q_feedback(imf_mahony_imu_q_t *const self, const int16_t qs[4],
+                                      const int16_t acc[3], int32_t h[3], const int narrow)
+{
+    imf_mahony_imu_q_state_t *const x = &self->x;
+    int16_t a[3], d[3];
+    int32_t e[3];
+    int i;
+    /* step 2: normalise a */
+    if (!imf_q_normalise_acc(acc, a)) {
+        return;
+    }
+    /* step 3: d = 2 (q1 q3 - q0 q2, q0 q1 + q2 q3, q0^2 + q3^2 - 1/2), q15;
+     * symmetric q15 products < 2^30, so the q30 sums cannot overflow */
+    d[0] = imf_sat_q15s(imf_rshr32(imf_mul_q15_q30(qs[1], qs[3]) - imf_mul_q15_q30(qs[0], qs[2]), 14));
+    d[1] = imf_sat_q15s(imf_rshr32(imf_mul_q15_q30(qs[0], qs[1]) + imf_mul_q15_q30(qs[2], qs[3]), 14));
+    d[2] = imf_sat_q15s(imf_rshr32(imf_mul_q15_q30(qs[0], qs[0]) + imf_mul_q15_q30(qs[3], qs[3])
+                                   - 536870912L, 14));
+    /* step 4: e = a x d, q30 */
+    e[0] = imf_mul_q15_q30(a[1], d[2]) - imf_mul_q15_q30(a[2], d[1]);
+    e[1] = imf_mul_q15_q30(a[2], d[0]) - imf_mul_q15_q30(a[0], d[2]);
+    e[2] = imf_mul_q15_q30(a[0], d[1]) - imf_mul_q15_q30(a[1], d[0]);
+    for (i = 0; i < 3; ++i) {
+        int32_t ip, pp;
+        if (narrow) {
+            /* 8-bit profile: e in q15, one 16x16 product per term */
+            const int16_t e15 = imf_qn_to_q15s(e[i], 30);
+            ip = imf_scale16(e15, self->ki, 38 - 15);
+            pp = imf_scale16(e15, self->kp, 30 - 15);
+        } else {
+            ip = imf_scale32(e[i], self->ki, 30, 38);
+            pp = imf_scale32(e[i], self->kp, 30, 30);
+        }
+        /* step 5: I_n = I_{n-1} + Ki dt e (as 0.5 I dt, q38) */
+        x->i[i] = imf_add_sat32(x->i[i], ip);
+        /* step 6: w' = w + Kp e + I_n (as 0.5 w' dt, q30) */
+        h[i] = imf_add_sat32(imf_add_sat32(h[i], pp), imf_rshr32(x->i[i], 8));
+    }
+}
+
+void imf_mahony_imu_q32_update(imf_mahony_imu_q_t *const self, const int16_t gyr[3],
+                               const int16_t acc[3])
+{
+    int32_t *const q = self->x.q;
+    int32_t h[3], dq[4];
+    int16_t qs[4];
+    int i;
+    imf_q_snapshot(q, qs);
+    /* step 1: gyro counts -> half angle per sample, q30 */
+    for (i = 0; i < 3; ++i) {
+        h[i] = imf_scale16(gyr[i], self->kg, 30);
+    }
+    imf_mahony_imu_q_feedback(self, qs, acc, h, 0);
+    /* step 7: q += 0.5 q (x) w' dt */
+    imf_q_rate32(qs, h, dq);
+    /* step 8 */
+    imf_q_add_normalise(q, dq);
+}
+
+void imf_mahony_imu_q8_update(imf_mahony_imu_q_t *const self, const int16_t gyr[3],
+                              const int16_t acc[3])
+{
+    int32_t *const q = self->x.q;
+    int32_t h[3], dq[4];
+    int16_t qs[4];
+    int i;
+    imf_q_snapshot(q, qs);
+    for (i = 0; i < 3; ++i) {
+        h[i] = imf_scale16(gyr[i], self->kg, 30);
+    }
+    imf_mahony_imu_q_feedback(self, qs, acc, h, 1);
+    imf_q_rate8(qs, h, self->hs, dq);
+    imf_q_add_normalise(q, dq);
+}
+
+void imf_mahony_imu_q_update(imf_mahony_imu_q_t *const self, const int16_t gyr[3],
+                             const int16_t acc[3])
+{
+    if (self->profile == 8) {
+        imf_mahony_imu_q8_update(self, gyr, acc);
+    } else {
+        imf_mahony_imu_q32_update(self, gyr, acc);
+    }
+}

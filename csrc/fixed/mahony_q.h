@@ -1,0 +1,53 @@
+/*
+ * Fixed-point Mahony filter in quaternion form (appendix: "Mahony's filter
+ * in quaternion form as implemented by Madgwick"), for MCUs without an FPU.
+ *
+ * Inputs are raw int16 sensor counts: gyr in counts of gyr_scale rad/s,
+ * acc in any unit (it is normalised).  Two profiles:
+ *   imf_mahony_imu_q32_update  int32 state and vectors, 32x16 products
+ *                              (two 16x16->32 multiplies), no int64
+ *                              (Cortex-M0/M3)
+ *   imf_mahony_imu_q8_update   error vector and rates narrowed to int16,
+ *                              one 16x16->32 multiply per product, no int64,
+ *                              no division (AVR)
+ *
+ * State x (int32, in this order):
+ *   q0..q3   attitude quaternion [w x y z], q30 (1.0 = 2^30), sensor -> earth
+ *   ix..iz   integral term I of step 5 as a half angle per sample,
+ *            0.5 * I * dt in q38 (I [rad/s] = i * 2^-38 * 2 / dt)
+ * Settings (q-scale constants m 2^-s, imf_fixed.h):
+ *   kg = 0.5 gyr_scale dt   gyro counts -> half angle per sample
+ *   kp = 0.5 Kp dt          error (q30) -> half angle per sample (q30)
+ *   ki = 0.5 Ki dt^2        error (q30) -> increment of i (q38)
+ *   hs                      exponent of the 8-bit profile's int16 rates
+ */
+#ifndef IMF_MAHONY_Q_H
+#define IMF_MAHONY_Q_H
+
+#include <stdint.h>
+#include "imf_fixed.h"
+
+typedef struct {
+    int32_t q[4]; /* q0..q3, q30 */
+    int32_t i[3]; /* ix, iy, iz: q38, half angle per sample */
+} imf_mahony_imu_q_state_t;
+
+typedef struct {
+    imf_qscale_t kg, kp, ki;
+    int16_t hs;      /* 8-bit profile: rates in q(15+hs) */
+    int16_t profile; /* 32 or 8 */
+    imf_mahony_imu_q_state_t x;
+} imf_mahony_imu_q_t;
+
+/* dt: s (> 0); kp: 1/s; ki: 1/s^2; gyr_scale: rad/s per count (> 0);
+ * profile: 32 or 8.  Returns 0, or -1 if a constant is outside the
+ * fixed-point range (then the filter is not usable). */
+int imf_mahony_imu_q_init(imf_mahony_imu_q_t *self, double dt, double kp, double ki,
+                          double gyr_scale, int profile);
+/* gyr: counts; acc: counts (any scale, zero vector = no correction) */
+void imf_mahony_imu_q32_update(imf_mahony_imu_q_t *self, const int16_t gyr[3], const int16_t acc[3]);
+void imf_mahony_imu_q8_update(imf_mahony_imu_q_t *self, const int16_t gyr[3], const int16_t acc[3]);
+/* calls the update of the profile given to init */
+void imf_mahony_imu_q_update(imf_mahony_imu_q_t *self, const int16_t gyr[3], const int16_t acc[3]);
+
+#endif /* IMF_MAHONY_Q_H */

@@ -1,0 +1,42 @@
+/*
+ * "KK" linear small-angle filter, appendix / Eq. 4.5. See kk.h. The
+ * pure-Python twin is python/imufuse/reference/kk.py.
+ */
+#include "kk.h"
+#include "imf_math.h"
+
+void imf_kk_init(imf_kk_t *const self, const imf_real dt, const imf_real kp)
+{
+    self->dt = dt;
+    self->kp = kp;
+    self->skipped = 0;
+    self->x.pitch = IMF_R(0.0);
+    self->x.roll = IMF_R(0.0);
+}
+
+void imf_kk_update(imf_kk_t *const self, const imf_real gx, const imf_real gy,
+                   const imf_real gz, const imf_real ax, const imf_real ay, const imf_real az)
+{
+    imf_real n2, norm, pitch, roll;
+    if (!(imf_finite3(gx, gy, gz) && imf_finite3(ax, ay, az))) {
+        self->skipped++;
+        return;
+    }
+    /* Eq. 4.5, gyro path: (w_pitch + theta_roll w_yaw) dt with w_yaw = -w_z */
+    pitch = self->x.pitch + (gy - self->x.roll * gz) * self->dt;
+    roll = self->x.roll + (gx + self->x.pitch * gz) * self->dt;
+    n2 = ax * ax + ay * ay + az * az;
+    if (n2 > IMF_R(0.0) && isfinite(n2)) {
+        /* small-angle accelerometer angles, a_pitch = -a_x/|a|, a_roll = a_y/|a|;
+           P controller Kp (a - theta_{n-1}) */
+        norm = imf_sqrt(n2);
+        pitch = pitch + self->kp * (-ax / norm - self->x.pitch);
+        roll = roll + self->kp * (ay / norm - self->x.roll);
+    }
+    if (!imf_finite2(pitch, roll)) {
+        self->skipped++;
+        return;
+    }
+    self->x.pitch = pitch;
+    self->x.roll = roll;
+}

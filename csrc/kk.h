@@ -1,0 +1,45 @@
+/*
+ * "KK": the linear small-angle filter of the article's appendix, Eq. 4.5 with
+ * a P controller acting per sample (Kp dimensionless):
+ *
+ *   theta_pitch,n = theta_pitch + (w_pitch + theta_roll w_yaw) dt + Kp (a_pitch - theta_pitch)
+ *   theta_roll,n  = theta_roll  + (w_roll - theta_pitch w_yaw) dt + Kp (a_roll - theta_roll)
+ *
+ * valid within about +-30 deg of level. Angles are the ZYX roll and pitch of
+ * imufuse.rotations in a right-handed body frame; to first order the body up
+ * vector R^T e_z is (-pitch, roll, 1), so the accelerometer angles are
+ * a_pitch = -a_x / |a|, a_roll = a_y / |a| (sin of the angle = the angle to
+ * first order), and w_pitch = w_y, w_roll = w_x.
+ *
+ * The yaw coupling follows the kinematics, d' = d x w of Eq. 4.2:
+ * pitch' = w_y - roll w_z, roll' = w_x + pitch w_z. That is the appendix's
+ * formula with w_yaw = -w_z; read with w_yaw = +w_z it would contradict Eq.
+ * 4.2 under the article's own mapping theta_x = d_x, theta_y = -d_y (a sign
+ * slip in Eq. 4.5; tests/test_gravity.py shows the literal sign is worse).
+ */
+#ifndef IMF_KK_H
+#define IMF_KK_H
+
+#include <stdint.h>
+#include "imf_config.h"
+
+typedef struct {
+    imf_real pitch; /* theta_pitch, rad (ZYX pitch, small-angle) */
+    imf_real roll;  /* theta_roll, rad (ZYX roll, small-angle) */
+} imf_kk_state_t;
+
+typedef struct {
+    imf_real dt;      /* sample period, s */
+    imf_real kp;      /* P gain per sample, dimensionless, 0 <= kp < 2 */
+    uint32_t skipped; /* samples rejected by the non-finite policy */
+    imf_kk_state_t x;
+} imf_kk_t;
+
+/* dt: s; kp: dimensionless gain per sample. State starts level (0, 0). */
+void imf_kk_init(imf_kk_t *self, imf_real dt, imf_real kp);
+/* gx, gy, gz: rad/s; ax, ay, az: any unit (normalised). A zero (or
+   overflowing) acceleration skips the P correction: gyro only. */
+void imf_kk_update(imf_kk_t *self, imf_real gx, imf_real gy, imf_real gz, imf_real ax,
+                   imf_real ay, imf_real az);
+
+#endif /* IMF_KK_H */

@@ -1,0 +1,54 @@
+/*
+ * 2D Mahony filter (article 4.2): only the gravity direction d is estimated.
+ *
+ *   d' = d x w + (Kp + Ki/s) E                                   Eq. 4.3
+ *   E = d x (a x d)   (error="exact", Eq. 4.3)
+ *   E = a - d         (error="approx", Eq. 4.4: a.d ~ 1, |d| ~ 1)
+ *
+ * discretised like the single-axis filter of Eq. 3.6, per axis:
+ *   I_n = I_{n-1} + Ki dt E_n;   d_n = d_{n-1} + (Kp E_n + I_n + d_{n-1} x w_n) dt
+ * with E_n from d_{n-1} and the normalised accelerometer. d is never
+ * renormalised (the article: "the MultiWii approach suggests itself"); with
+ * E = a - d the controller itself pulls |d| to 1. With the exact E (always
+ * perpendicular to d) |d| is not controlled: d.d' = d.I, and the integral,
+ * applied outside the cross product, keeps any component along d that it
+ * gathered while d moved, so |d| grows without bound at the rate I.d/|d|
+ * (tests/test_gravity.py: 1 -> 2.33 in 60 s after a 25 deg initial error).
+ * The direction of d, and so the tilt, is unaffected.
+ *
+ * Sign: d is the body-frame up vector R^T e_z (a level sensor at rest reads
+ * acc = (0, 0, +1) = d), minus the article's d = -R^T e_z; E and d flip
+ * together, so Eq. 4.3/4.4 hold unchanged. At equilibrium with a constant
+ * gyro bias b, I = -d x b: the bias seen by the filter is b_perp = d x I
+ * (its component along gravity is unobservable).
+ */
+#ifndef IMF_MAHONY2D_H
+#define IMF_MAHONY2D_H
+
+#include <stdint.h>
+#include "imf_config.h"
+
+typedef struct {
+    imf_real dx, dy, dz; /* gravity direction estimate (body up), unit-less */
+    imf_real ix, iy, iz; /* integral term I, 1/s (I = -d x b at equilibrium) */
+} imf_mahony2d_state_t;
+
+typedef struct {
+    imf_real dt;      /* sample period, s */
+    imf_real kp;      /* proportional gain, 1/s */
+    imf_real ki_dt;   /* Ki dt, 1/s */
+    int exact;        /* 0: E = a - d (Eq. 4.4); 1: E = d x (a x d) (Eq. 4.3) */
+    uint32_t skipped; /* samples rejected by the non-finite policy */
+    imf_mahony2d_state_t x;
+} imf_mahony2d_t;
+
+/* dt: s; kp: 1/s; ki: 1/s^2; exact: 0 or 1. State starts level, I = 0. */
+void imf_mahony2d_init(imf_mahony2d_t *self, imf_real dt, imf_real kp, imf_real ki, int exact);
+/* gx, gy, gz: rad/s; ax, ay, az: any unit (normalised). A zero (or
+   overflowing) acceleration means E = 0: the gyro path and I only. */
+void imf_mahony2d_update(imf_mahony2d_t *self, imf_real gx, imf_real gy, imf_real gz,
+                         imf_real ax, imf_real ay, imf_real az);
+/* Output, not state: roll and pitch (rad, ZYX) of d, in double via libm. */
+void imf_mahony2d_angles(const imf_mahony2d_t *self, double *roll, double *pitch);
+
+#endif /* IMF_MAHONY2D_H */

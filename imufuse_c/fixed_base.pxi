@@ -1,0 +1,133 @@
+# Base classes of the compiled fixed-point filters (csrc/fixed), included by
+# _fixed.pyx.  Like _base.pxi for the float filters, with integer data:
+# update()/run() take int16 counts (validated by the reference's helpers, so
+# both backends accept and reject the same inputs), the state is the C
+# struct's int32 member x, and state_float converts it with the reference's
+# formula.
+from libc.string cimport memcpy
+from libc.stdint cimport int16_t, int32_t
+
+import numpy as np
+
+from imufuse.reference import fixed_base as _fb
+
+
+cdef class _FixedFilter:
+    cdef int32_t *_x
+    cdef Py_ssize_t _n
+    cdef tuple _args
+    cdef object _conv
+    _ref = None
+    dtype = "int32"
+
+    def __init__(self, *args, profile="32", **kwargs):
+        # the reference instance validates the arguments and converts states
+        self._conv = self._ref(*args, profile=profile, **kwargs)
+        self._args = self._conv._args
+        self._n = len(self._ref.state_names)
+        self._init()
+
+    cdef int _init(self) except -1:
+        raise NotImplementedError
+
+    cdef int _bind(self, void *x, size_t size, int rc) except -1:
+        if rc != 0:
+            raise AssertionError("C init rejected parameters the reference accepted")
+        if size != <size_t>self._n * sizeof(int32_t):
+            raise AssertionError("state struct does not match state_names")
+        self._x = <int32_t *>x
+        return 0
+
+    @property
+    def kind(self):
+        return self._ref.kind
+
+    @property
+    def state_names(self):
+        return self._ref.state_names
+
+    @property
+    def profile(self):
+        return self._conv.profile
+
+    @property
+    def state(self):
+        out = np.empty(self._n, dtype=np.int32)
+        cdef int32_t[::1] o = out
+        memcpy(&o[0], self._x, self._n * sizeof(int32_t))
+        return out
+
+    @state.setter
+    def state(self, value):
+        self._conv.state = value          # same validation as the reference
+        arr = np.ascontiguousarray(self._conv.state, dtype=np.int32)
+        cdef const int32_t[::1] v = arr
+        memcpy(self._x, &v[0], self._n * sizeof(int32_t))
+
+    @property
+    def state_float(self):
+        """The state in the float twin's units (float64)."""
+        return np.asarray(self._conv._state_float([int(v) for v in self.state]), dtype=float)
+
+    def state_to_float(self, states):
+        return self._conv.state_to_float(states)
+
+    def reset(self):
+        """Back to the state after construction (init runs again)."""
+        self._init()
+
+    def __repr__(self):
+        return f"<imufuse_c {type(self).__name__} profile={self.profile}>"
+
+
+cdef class _Fixed1D(_FixedFilter):
+    cdef void _step(self, int16_t rate, int16_t angle) noexcept nogil:
+        pass
+
+    def update(self, rate, angle):
+        """One sample: rate, angle in counts (int16)."""
+        w, a = _fb.fixed_update_inputs("1d", (rate, angle))
+        self._step(<int16_t>w, <int16_t>a)
+
+    def run(self, rate, angle):
+        """All samples: rate, angle 1-D int16 counts; returns the (N, len(state)) int32 trajectory."""
+        rate_a, angle_a = _fb.fixed_run_inputs("1d", (rate, angle))
+        cdef Py_ssize_t n_samples = rate_a.shape[0], n = self._n, k
+        out = np.empty((n_samples, n), dtype=np.int32)
+        cdef const int16_t[::1] w = rate_a
+        cdef const int16_t[::1] a = angle_a
+        cdef int32_t[:, ::1] o = out
+        with nogil:
+            for k in range(n_samples):
+                self._step(w[k], a[k])
+                memcpy(&o[k, 0], self._x, n * sizeof(int32_t))
+        return out
+
+
+cdef class _FixedIMU(_FixedFilter):
+    cdef void _step(self, const int16_t *gyr, const int16_t *acc) noexcept nogil:
+        pass
+
+    def update(self, gyr, acc):
+        """One sample: gyr (3,), acc (3,) in counts (int16)."""
+        cdef int16_t g[3]
+        cdef int16_t a[3]
+        gl, al = _fb.fixed_update_inputs("imu", (gyr, acc))
+        for i in range(3):
+            g[i] = <int16_t>gl[i]
+            a[i] = <int16_t>al[i]
+        self._step(g, a)
+
+    def run(self, gyr, acc):
+        """All samples: gyr, acc (N, 3) int16 counts; returns the (N, len(state)) int32 trajectory."""
+        gyr_a, acc_a = _fb.fixed_run_inputs("imu", (gyr, acc))
+        cdef Py_ssize_t n_samples = gyr_a.shape[0], n = self._n, k
+        out = np.empty((n_samples, n), dtype=np.int32)
+        cdef const int16_t[:, ::1] g = gyr_a
+        cdef const int16_t[:, ::1] a = acc_a
+        cdef int32_t[:, ::1] o = out
+        with nogil:
+            for k in range(n_samples):
+                self._step(&g[k, 0], &a[k, 0])
+                memcpy(&o[k, 0], self._x, n * sizeof(int32_t))
+        return out

@@ -1,0 +1,103 @@
+"""Fixed-point single-axis filters: pure-Python twins of
+csrc/fixed/filters_1d_q.c, line for line (Q formats in filters_1d_q.h)."""
+from __future__ import annotations
+
+from .. import _checks
+from . import _cint as ci
+from .filters_1d import Complementary1D, Mahony1DBias
+from .fixed_base import FixedFilter, check_profile, check_scale, qconst
+
+
+def _kr(dt, gyr_scale, angle_scale):
+    # imf_1d_q_kr_ok: kr != 0, s in [-14, 46]
+    return qconst("gyr_scale*dt/angle_scale", gyr_scale * dt / angle_scale, -14, 46, nonzero=True)
+
+
+class Complementary1DQ(FixedFilter):
+    """Complementary filter, Eq. 2.2, in fixed point.
+
+    Complementary1DQ(dt, alpha | T=..., gyr_scale=rad/s per count,
+    angle_scale=rad per count, profile="32" | "8"). theta is q15 angle counts.
+    Both profiles run the same 16x16->32 update.
+    """
+    state_names = ("theta",)
+
+    @staticmethod
+    def _params(dt, alpha=None, *, T=None, gyr_scale, angle_scale, profile="32"):
+        dt, alpha = Complementary1D._params(dt, alpha, T=T)
+        gyr_scale = check_scale("gyr_scale", gyr_scale)
+        angle_scale = check_scale("angle_scale", angle_scale)
+        _kr(dt, gyr_scale, angle_scale)
+        qconst("1-alpha", 1.0 - alpha, 14, 47)
+        return (dt, alpha, gyr_scale, angle_scale, check_profile(profile))
+
+    def _init(self, dt, alpha, gyr_scale, angle_scale, profile):
+        self.angle_scale = angle_scale
+        self.kr = ci.qscale(gyr_scale * dt / angle_scale)
+        self.ka = ci.qscale(1.0 - alpha)
+        self.theta = 0
+
+    def _get_state(self):
+        return [self.theta]
+
+    def _set_state(self, v):
+        (self.theta,) = v
+
+    def _state_float(self, s):
+        return [s[0] * 2.0 ** -15 * self.angle_scale]
+
+    def _update(self, rate, angle):
+        # Eq. 2.2 as Eq. 2.12: theta^- = theta + w dt; theta = theta^- + (1 - alpha)(a - theta^-)
+        tp = ci.add_sat32(self.theta, ci.scale16(rate, self.kr, 15))
+        e = ci.sub_sat32(ci.q15_to_q30(angle), tp)
+        self.theta = ci.add_sat32(tp, ci.scale32(e, self.ka, 15, 15))
+
+
+class Mahony1DBiasQ(FixedFilter):
+    """Mahony&Madgwick PI filter, Eq. 3.6 (Eq. 3.9 with integrate_first), in
+    fixed point. theta: q15 angle counts; j = I dt in q23 angle counts."""
+    state_names = ("theta", "j")
+
+    @staticmethod
+    def _params(dt, kp, ki, integrate_first=False, *, gyr_scale, angle_scale, profile="32"):
+        dt, kp, ki, integrate_first = Mahony1DBias._params(dt, kp, ki, integrate_first)
+        gyr_scale = check_scale("gyr_scale", gyr_scale)
+        angle_scale = check_scale("angle_scale", angle_scale)
+        _kr(dt, gyr_scale, angle_scale)
+        qconst("kp*dt", kp * dt, 14, 47)
+        qconst("ki*dt^2", ki * dt * dt, 8, 55)
+        return (dt, kp, ki, integrate_first, gyr_scale, angle_scale, check_profile(profile))
+
+    def _init(self, dt, kp, ki, integrate_first, gyr_scale, angle_scale, profile):
+        self.dt, self.angle_scale = dt, angle_scale
+        self.kr = ci.qscale(gyr_scale * dt / angle_scale)
+        self.kp = ci.qscale(kp * dt)
+        self.ki = ci.qscale(ki * dt * dt)
+        self.integrate_first = integrate_first != 0
+        self.theta = 0
+        self.j = 0
+
+    def _get_state(self):
+        return [self.theta, self.j]
+
+    def _set_state(self, v):
+        self.theta, self.j = v
+
+    def _state_float(self, s):
+        return [s[0] * 2.0 ** -15 * self.angle_scale, s[1] * 2.0 ** -23 * self.angle_scale / self.dt]
+
+    def _update(self, rate, angle):
+        # e_k = a_k - theta_{k-1} (q15 counts)
+        e = ci.sub_sat32(ci.q15_to_q30(angle), self.theta)
+        w = ci.scale16(rate, self.kr, 15)
+        p = ci.scale32(e, self.kp, 15, 15)
+        di = ci.scale32(e, self.ki, 15, 23)
+        if not self.integrate_first:
+            # Eq. 3.6: I_k = I_{k-1} + Ki dt e_k; theta_k = theta_{k-1} + (Kp e_k + I_k + w_k) dt
+            self.j = ci.add_sat32(self.j, di)
+            theta = ci.add_sat32(ci.add_sat32(ci.add_sat32(self.theta, p), ci.rshr32(self.j, 8)), w)
+        else:
+            # Eq. 3.9: theta_k = theta_{k-1} + (w_k + I_{k-1}) dt + Kp' dt e_k; then I_k
+            theta = ci.add_sat32(ci.add_sat32(ci.add_sat32(self.theta, p), ci.rshr32(self.j, 8)), w)
+            self.j = ci.add_sat32(self.j, di)
+        self.theta = theta

@@ -1,0 +1,143 @@
+"""Base class of the pure-Python fixed-point references (classes ending in Q).
+
+A fixed-point reference mirrors its C twin in csrc/fixed/ operation for
+operation on Python ints, through the C-semantics helpers of _cint.py.  The
+API is that of the float filters (DESIGN.md, API contract) with these
+differences: `profile="32" | "8"` replaces dtype; update() and run() take raw
+int16 sensor counts; `state` is an int32 array; `state_float` gives the state
+in the float twin's units.
+
+Subclasses define kind, state_names, _params(...) (validation; returns the C
+init arguments, the profile last as the int 32 or 8), _init(*args) (mirror
+of imf_<filter>_init), _update(*ints) (mirror of imf_<filter>_update) and
+_state_float(state).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .. import _checks
+from . import _cint as ci
+
+PROFILES = ("32", "8")
+
+
+def check_profile(profile):
+    p = str(profile)
+    if p not in PROFILES:
+        raise ValueError(f"profile: must be '32' or '8', got {profile!r}")
+    return int(p)
+
+
+def check_scale(name, value):
+    return _checks.check_real(name, value, lo=0.0, lo_open=True)
+
+
+def qconst(name, value, smin, smax, nonzero=False):
+    """The q-scale constant C init computes from a double, with C's range
+    check turned into a ValueError naming the parameter."""
+    c = ci.qscale(value, name, smin=-64, smax=200) if value > 0 else ci.QScale(0, 16)
+    if (nonzero and c.m == 0) or not smin <= c.s <= smax:
+        raise ValueError(f"{name}={value!r} is outside the fixed-point range "
+                         f"(2^-{smax} .. 2^{-smin} as a scale)")
+    return c
+
+
+def as_int16(name, a, ndim):
+    arr = np.asarray(a)
+    if arr.dtype.kind not in "iub":
+        if arr.dtype.kind == "f" and np.all(np.isfinite(arr)) and np.all(arr == np.round(arr)):
+            pass
+        else:
+            raise ValueError(f"{name}: expected integer sensor counts, got dtype {arr.dtype}")
+    if arr.size and (arr.min() < -32768 or arr.max() > 32767):
+        raise ValueError(f"{name}: counts must be within int16 [-32768, 32767]")
+    if arr.ndim != ndim:
+        raise ValueError(f"{name}: expected {ndim}-D counts, got shape {arr.shape}")
+    return np.ascontiguousarray(arr, dtype=np.int16) if ndim else np.asarray(arr, dtype=np.int16)
+
+
+def fixed_run_inputs(kind, args):
+    names = _checks.KINDS[kind]
+    if len(args) != len(names):
+        raise ValueError(f"run(): expected {len(names)} arrays ({', '.join(names)}), got {len(args)}")
+    ndim = 1 if kind == "1d" else 2
+    arrs = [as_int16(n, a, ndim) for n, a in zip(names, args)]
+    shapes = {arr.shape for arr in arrs}
+    if len(shapes) != 1 or (ndim == 2 and arrs[0].shape[1] != 3):
+        seen = ", ".join(f"{n}{a.shape}" for n, a in zip(names, arrs))
+        raise ValueError(f"run(): expected {'1-D arrays of equal length' if ndim == 1 else '(N, 3) arrays with the same N'}, got shapes {seen}")
+    return arrs
+
+
+def fixed_update_inputs(kind, args):
+    names = _checks.KINDS[kind]
+    if len(args) != len(names):
+        raise ValueError(f"update(): expected {len(names)} arguments ({', '.join(names)}), got {len(args)}")
+    ndim = 0 if kind == "1d" else 1
+    out = []
+    for n, a in zip(names, args):
+        arr = as_int16(n, a, ndim)
+        if ndim == 1 and arr.shape != (3,):
+            raise ValueError(f"update(): {n} must be a 3-vector, got shape {arr.shape}")
+        out.append(int(arr) if ndim == 0 else [int(v) for v in arr])
+    return out
+
+
+class FixedFilter:
+    kind = "1d"
+    state_names = ()
+    dtype = "int32"
+
+    def __init__(self, *args, profile="32", **kwargs):
+        self._args = self._params(*args, profile=profile, **kwargs)
+        self.profile = str(self._args[-1])
+        self.reset()
+
+    def reset(self):
+        """Back to the state after construction (init runs again)."""
+        self._init(*self._args)
+
+    # state: the C state struct's int32 members, in declaration order
+    def _get_state(self):
+        raise NotImplementedError
+
+    def _set_state(self, values):
+        raise NotImplementedError
+
+    @property
+    def state(self):
+        return np.array(self._get_state(), dtype=np.int32)
+
+    @state.setter
+    def state(self, value):
+        arr = np.asarray(value)
+        n = len(self.state_names)
+        if arr.shape != (n,):
+            raise ValueError(f"state: expected shape ({n},) for {self.state_names}, got {arr.shape}")
+        if arr.dtype.kind not in "iu" or arr.min() < ci.INT32_MIN or arr.max() > ci.INT32_MAX:
+            raise ValueError("state: expected int32 values")
+        self._set_state([int(v) for v in arr])
+
+    @property
+    def state_float(self):
+        """The state in the float twin's units (float64)."""
+        return np.asarray(self._state_float([int(v) for v in self._get_state()]), dtype=float)
+
+    def state_to_float(self, states):
+        """state_float for a (N, len(state)) trajectory as returned by run()."""
+        return np.array([self._state_float([int(v) for v in row]) for row in np.asarray(states)],
+                        dtype=float).reshape(len(states), -1)
+
+    def update(self, *args):
+        self._update(*fixed_update_inputs(self.kind, args))
+
+    def run(self, *args):
+        arrays = fixed_run_inputs(self.kind, args)
+        n = len(self.state_names)
+        rows = [a.tolist() for a in arrays]
+        out = np.empty((len(rows[0]), n), dtype=np.int32)
+        for k, sample in enumerate(zip(*rows)):
+            self._update(*sample)
+            out[k] = self._get_state()
+        return out

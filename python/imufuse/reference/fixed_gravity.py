@@ -1,0 +1,124 @@
+"""Fixed-point KK and MultiWii filters: pure-Python twins of
+csrc/fixed/gravity_q.c, line for line (Q formats in gravity_q.h)."""
+from __future__ import annotations
+
+import math
+
+from .. import _checks
+from . import _cint as ci
+from . import fixed_quat as fq
+from .fixed_base import FixedFilter, check_profile, check_scale, qconst
+from .kk import KK
+from .multiwii import MultiWii
+
+
+class KKQ(FixedFilter):
+    """KK filter of the appendix (Eq. 4.5 with a P controller), fixed point;
+    twin of KK (same equations): pitch, roll in q28 rad, a_pitch = -a_x/|a|,
+    a_roll = a_y/|a|; kp per sample. KKQ(dt, kp, gyr_scale=rad/s per count)."""
+    kind = "imu"
+    state_names = ("pitch", "roll")
+
+    @staticmethod
+    def _params(dt, kp, *, gyr_scale, profile="32"):
+        dt, kp = KK._params(dt, kp)
+        gyr_scale = check_scale("gyr_scale", gyr_scale)
+        qconst("gyr_scale*dt", gyr_scale * dt, 28, 59, nonzero=True)
+        qconst("kp", kp, 14, 47)
+        return (dt, kp, gyr_scale, check_profile(profile))
+
+    def _init(self, dt, kp, gyr_scale, profile):
+        self.kw = ci.qscale(gyr_scale * dt)
+        self.kp = ci.qscale(kp)
+        self.t = [0, 0]
+
+    def _get_state(self):
+        return list(self.t)
+
+    def _set_state(self, v):
+        self.t = list(v)
+
+    def _state_float(self, s):
+        return [s[0] * 2.0 ** -28, s[1] * 2.0 ** -28]
+
+    def _update(self, gyr, acc):
+        t = self.t
+        p15, r15 = ci.qn_to_q15s(t[0], 28), ci.qn_to_q15s(t[1], 28)
+        # roll w_z dt and pitch w_z dt
+        cr = ci.scale32(r15 * gyr[2], self.kw, 15, 28)
+        cp = ci.scale32(p15 * gyr[2], self.kw, 15, 28)
+        # Eq. 4.5, gyro path: (w_y - roll w_z) dt, (w_x + pitch w_z) dt
+        pitch = ci.sub_sat32(ci.add_sat32(t[0], ci.scale16(gyr[1], self.kw, 28)), cr)
+        roll = ci.add_sat32(ci.add_sat32(t[1], ci.scale16(gyr[0], self.kw, 28)), cp)
+        a = fq.normalise_acc(acc)
+        if a is not None:
+            # a_pitch = -a_x/|a|, a_roll = a_y/|a|; P controller Kp (a - theta_{n-1})
+            ap, ar = -a[0] * 8192, a[1] * 8192
+            pitch = ci.add_sat32(pitch, ci.scale32(ci.sub_sat32(ap, t[0]), self.kp, 28, 28))
+            roll = ci.add_sat32(roll, ci.scale32(ci.sub_sat32(ar, t[1]), self.kp, 28, 28))
+        self.t = [pitch, roll]
+
+
+class MultiWiiQ(FixedFilter):
+    """MultiWii 2.2 gravity-vector filter (appendix) in integer arithmetic;
+    twin of MultiWii (same keywords; acc_1g in counts, required). State d
+    (q15 acc counts) and the accelerometer LPF accumulator l (accLPF32, q(k)
+    counts); state_float gives both in acc counts, like the float twin fed
+    with counts."""
+    kind = "imu"
+    state_names = ("dx", "dy", "dz", "ax", "ay", "az")
+
+    @staticmethod
+    def _params(dt, cmpf=600.0, acc_lpf_shift=4, *, acc_1g, window=0.15, gyr_scale, profile="32"):
+        dt, cmpf, acc_lpf_shift, acc_1g, window = MultiWii._params(dt, cmpf, acc_lpf_shift,
+                                                                   acc_1g, window)
+        if acc_lpf_shift > 15:
+            raise ValueError(f"acc_lpf_shift: must be <= 15 in fixed point, got {acc_lpf_shift!r}")
+        acc_1g = _checks.check_real("acc_1g", acc_1g, lo=0.0, lo_open=True, hi=32767.0)
+        cmpf = _checks.check_real("cmpf", cmpf, lo=0.0, hi=1e9)
+        _checks.check_real("window", window, lo=0.0, hi=1.0)
+        gyr_scale = check_scale("gyr_scale", gyr_scale)
+        qconst("gyr_scale*dt", gyr_scale * dt, 15, 62, nonzero=True)
+        qconst("1/(cmpf+1)", 1.0 / (cmpf + 1.0), 14, 47)
+        return (dt, cmpf, acc_lpf_shift, acc_1g, window, gyr_scale, check_profile(profile))
+
+    def _init(self, dt, cmpf, acc_lpf_shift, acc_1g, window, gyr_scale, profile):
+        lo, hi = (1.0 - window) * acc_1g, (1.0 + window) * acc_1g
+        self.k = acc_lpf_shift
+        self.kw = ci.qscale(gyr_scale * dt)
+        self.kc = ci.qscale(1.0 / (cmpf + 1.0) if cmpf >= 0.0 else 0.0)
+        self.lo2 = int(math.floor(lo * lo)) if lo > 0.0 else 0
+        self.hi2 = 0xFFFFFFFF if hi * hi >= 4294967295.0 else int(math.ceil(hi * hi))
+        self.d = [0, 0, int(math.floor(acc_1g * 32768.0 + 0.5))]
+        self.l = [0, 0, int(math.floor(math.ldexp(acc_1g, self.k) + 0.5))]
+
+    def _get_state(self):
+        return self.d + self.l
+
+    def _set_state(self, v):
+        self.d, self.l = list(v[:3]), list(v[3:])
+
+    def _state_float(self, s):
+        return [v * 2.0 ** -15 for v in s[:3]] + [v * 2.0 ** -self.k for v in s[3:]]
+
+    def _update(self, gyr, acc):
+        d, l, k = self.d, self.l, self.k
+        m = ci.mul_32x16
+        s = [0, 0, 0]
+        n2 = 0
+        # accelerometer LPF: accLPF32 -= accLPF32 >> k (rounded); += acc
+        for i in range(3):
+            l[i] = ci.add_sat32(ci.sub_sat32(l[i], ci.rshr32(l[i], k)), acc[i])
+            s[i] = ci.shl_sat32(l[i], 15 - k)
+            sc = ci.sat_q15(ci.rshr32(l[i], k))
+            n2 += sc * sc
+        # step 3: d_n = d_{n-1} + d_{n-1} x w dt
+        c = [ci.sub_sat32(m(d[1], gyr[2], 15), m(d[2], gyr[1], 15)),
+             ci.sub_sat32(m(d[2], gyr[0], 15), m(d[0], gyr[2], 15)),
+             ci.sub_sat32(m(d[0], gyr[1], 15), m(d[1], gyr[0], 15))]
+        for i in range(3):
+            d[i] = ci.add_sat32(d[i], ci.scale32(c[i], self.kw, 0, 15))
+        # step 4: complementary weighting while |accSmooth| is within the window
+        if self.lo2 < n2 < self.hi2:
+            for i in range(3):
+                d[i] = ci.add_sat32(d[i], ci.scale32(ci.sub_sat32(s[i], d[i]), self.kc, 15, 15))

@@ -1,0 +1,99 @@
+"""Fixed-point Madgwick IMU filter: pure-Python twin of
+csrc/fixed/madgwick_q.c, line for line (Q formats in madgwick_q.h)."""
+from __future__ import annotations
+
+from .. import _checks
+from . import _cint as ci
+from . import fixed_quat as fq
+from .fixed_base import FixedFilter, check_profile, check_scale, qconst
+
+
+def _bitlen32(v):
+    n = 0
+    while v:
+        v >>= 1
+        n += 1
+    return n
+
+
+class MadgwickIMUQ(FixedFilter):
+    """Madgwick's 6DOF IMU filter (appendix, simplified delta-s), fixed point.
+
+    MadgwickIMUQ(dt, beta, gyr_scale=rad/s per count, profile="32" | "8").
+    State q0..q3 in q30; state_float is the unit quaternion.
+    """
+    kind = "imu"
+    state_names = ("q0", "q1", "q2", "q3")
+
+    @staticmethod
+    def _params(dt, beta=0.1, *, gyr_scale, profile="32"):
+        dt = _checks.check_dt(dt)
+        beta = _checks.check_real("beta", beta, lo=0.0)
+        gyr_scale = check_scale("gyr_scale", gyr_scale)
+        qconst("gyr_scale*dt", 0.5 * gyr_scale * dt, 31, 61, nonzero=True)
+        qconst("beta*dt", beta * dt, 16, 46)
+        return (dt, beta, gyr_scale, check_profile(profile))
+
+    def _init(self, dt, beta, gyr_scale, profile):
+        self.kg = ci.qscale(0.5 * gyr_scale * dt)
+        self.kb = ci.qscale(beta * dt)
+        self.hs = fq.rate_exponent(self.kg)
+        self.q = [fq.Q30_ONE, 0, 0, 0]
+        self._update = self._update8 if profile == 8 else self._update32
+
+    def _get_state(self):
+        return list(self.q)
+
+    def _set_state(self, v):
+        self.q = list(v)
+
+    def _state_float(self, s):
+        return [v * 2.0 ** -30 for v in s]
+
+    def _correct(self, qs, acc, dq):
+        # step 2: normalise a
+        a = fq.normalise_acc(acc)
+        if a is None:
+            return
+        # step 4 (simplified): s = delta-s / 2, q28
+        w = qs[1] * qs[1] + qs[2] * qs[2]
+        w15 = ci.sat_q15s(ci.rshr32(w, 15))
+
+        def P2(x, y):
+            return ci.rshr32(x * y, 2)
+
+        def P1(x, y):
+            return ci.rshr32(x * y, 1)
+        add = ci.add_sat32
+        s = [add(P1(w15, qs[0]), P2(qs[2], a[0]) - P2(qs[1], a[1])),
+             add(P1(w15, qs[1]), -P2(qs[3], a[0]) - P2(qs[0], a[1]) + P1(qs[1], a[2])),
+             add(P1(w15, qs[2]), P2(qs[0], a[0]) - P2(qs[3], a[1]) + P1(qs[2], a[2])),
+             add(P1(w15, qs[3]), -P2(qs[1], a[0]) - P2(qs[2], a[1]))]
+        # step 5: normalise s (power-of-two prescale, then inverse sqrt)
+        m = max(abs(v) for v in s)
+        if m == 0:
+            return
+        k = _bitlen32(m) - 15
+        s15 = [ci.sat_q15s(ci.rshift_sat32(v, k)) for v in s]
+        n2 = sum(v * v for v in s15)
+        y, sh = ci.invsqrt_u32(n2)
+        for i in range(4):
+            u = ci.sat_q15s(ci.rshr32(s15[i] * y, sh - 15))
+            # step 6: dq' = dq - beta dt * unit delta-s
+            dq[i] = ci.sub_sat32(dq[i], ci.scale16(u, self.kb, 30 - 15))
+
+    def _update32(self, gyr, acc):
+        qs = fq.snapshot(self.q)
+        # step 3: dq = 0.5 q (x) w dt
+        h = [ci.scale16(g, self.kg, 30) for g in gyr]
+        dq = fq.rate32(qs, h)
+        self._correct(qs, acc, dq)
+        # steps 7, 8
+        self.q = fq.add_normalise(self.q, dq)
+
+    def _update8(self, gyr, acc):
+        qs = fq.snapshot(self.q)
+        h = [ci.scale16(g, self.kg, 30) for g in gyr]
+        dq = fq.rate8(qs, h, self.hs)
+        self._correct(qs, acc, dq)
+        self.q = fq.add_normalise(self.q, dq)

@@ -1,0 +1,92 @@
+"""Fixed-point Mahony IMU filter: pure-Python twin of csrc/fixed/mahony_q.c,
+line for line (Q formats in mahony_q.h)."""
+from __future__ import annotations
+
+from .. import _checks
+from . import _cint as ci
+from . import fixed_quat as fq
+from .fixed_base import FixedFilter, check_profile, check_scale, qconst
+
+
+class MahonyIMUQ(FixedFilter):
+    """Mahony's filter in quaternion form (appendix), fixed point.
+
+    MahonyIMUQ(dt, kp, ki, gyr_scale=rad/s per count, profile="32" | "8").
+    State q0..q3 (q30) and ix, iy, iz (0.5 I dt in q38); state_float gives
+    the unit quaternion and I in rad/s.
+    """
+    kind = "imu"
+    state_names = ("q0", "q1", "q2", "q3", "ix", "iy", "iz")
+
+    @staticmethod
+    def _params(dt, kp=1.0, ki=0.0, *, gyr_scale, profile="32"):
+        dt = _checks.check_dt(dt)
+        kp = _checks.check_real("kp", kp, lo=0.0)
+        ki = _checks.check_real("ki", ki, lo=0.0)
+        gyr_scale = check_scale("gyr_scale", gyr_scale)
+        qconst("gyr_scale*dt", 0.5 * gyr_scale * dt, 31, 61, nonzero=True)
+        qconst("kp*dt", 0.5 * kp * dt, 16, 47)
+        qconst("ki*dt^2", 0.5 * ki * dt * dt, 8, 54)
+        return (dt, kp, ki, gyr_scale, check_profile(profile))
+
+    def _init(self, dt, kp, ki, gyr_scale, profile):
+        self.dt = dt
+        self.kg = ci.qscale(0.5 * gyr_scale * dt)
+        self.kp = ci.qscale(0.5 * kp * dt)
+        self.ki = ci.qscale(0.5 * ki * dt * dt)
+        self.hs = fq.rate_exponent(self.kg)
+        self.q = [fq.Q30_ONE, 0, 0, 0]
+        self.i = [0, 0, 0]
+        self._update = self._update8 if profile == 8 else self._update32
+
+    def _get_state(self):
+        return self.q + self.i
+
+    def _set_state(self, v):
+        self.q, self.i = list(v[:4]), list(v[4:])
+
+    def _state_float(self, s):
+        return [v * 2.0 ** -30 for v in s[:4]] + [v * 2.0 ** -38 * 2.0 / self.dt for v in s[4:]]
+
+    def _feedback(self, qs, acc, h, narrow):
+        # step 2: normalise a
+        a = fq.normalise_acc(acc)
+        if a is None:
+            return
+        # step 3: d = 2 (q1 q3 - q0 q2, q0 q1 + q2 q3, q0^2 + q3^2 - 1/2), q15
+        d = [ci.sat_q15s(ci.rshr32(qs[1] * qs[3] - qs[0] * qs[2], 14)),
+             ci.sat_q15s(ci.rshr32(qs[0] * qs[1] + qs[2] * qs[3], 14)),
+             ci.sat_q15s(ci.rshr32(qs[0] * qs[0] + qs[3] * qs[3] - 536870912, 14))]
+        # step 4: e = a x d, q30
+        e = [a[1] * d[2] - a[2] * d[1],
+             a[2] * d[0] - a[0] * d[2],
+             a[0] * d[1] - a[1] * d[0]]
+        for i in range(3):
+            if narrow:
+                e15 = ci.qn_to_q15s(e[i], 30)
+                ip = ci.scale16(e15, self.ki, 38 - 15)
+                pp = ci.scale16(e15, self.kp, 30 - 15)
+            else:
+                ip = ci.scale32(e[i], self.ki, 30, 38)
+                pp = ci.scale32(e[i], self.kp, 30, 30)
+            # step 5: I_n = I_{n-1} + Ki dt e
+            self.i[i] = ci.add_sat32(self.i[i], ip)
+            # step 6: w' = w + Kp e + I_n
+            h[i] = ci.add_sat32(ci.add_sat32(h[i], pp), ci.rshr32(self.i[i], 8))
+
+    def _update32(self, gyr, acc):
+        qs = fq.snapshot(self.q)
+        # step 1: gyro counts -> half angle per sample, q30
+        h = [ci.scale16(g, self.kg, 30) for g in gyr]
+        self._feedback(qs, acc, h, False)
+        # step 7: q += 0.5 q (x) w' dt
+        dq = fq.rate32(qs, h)
+        # step 8
+        self.q = fq.add_normalise(self.q, dq)
+
+    def _update8(self, gyr, acc):
+        qs = fq.snapshot(self.q)
+        h = [ci.scale16(g, self.kg, 30) for g in gyr]
+        self._feedback(qs, acc, h, True)
+        dq = fq.rate8(qs, h, self.hs)
+        self.q = fq.add_normalise(self.q, dq)

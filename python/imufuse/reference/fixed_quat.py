@@ -1,0 +1,62 @@
+"""Steps shared by the fixed-point quaternion filters: twin of
+csrc/fixed/imf_fixed_quat.h, function for function."""
+from __future__ import annotations
+
+from . import _cint as ci
+
+Q30_ONE = 1 << 30
+
+
+def snapshot(q):
+    return [ci.qn_to_q15s(v, 30) for v in q]
+
+
+def normalise_acc(acc):
+    """Returns the symmetric q15 unit vector, or None for the zero vector."""
+    n2 = acc[0] * acc[0] + acc[1] * acc[1] + acc[2] * acc[2]
+    if n2 == 0:
+        return None
+    y, sh = ci.invsqrt_u32(n2)
+    return [ci.sat_q15s(ci.rshr32(ci.check32(a * y), sh - 15)) for a in acc]
+
+
+def rate32(qs, h):
+    m = ci.mul_32x16
+    x0, x1, x2, x3 = (m(h[0], v, 15) for v in qs)
+    y0, y1, y2, y3 = (m(h[1], v, 15) for v in qs)
+    z0, z1, z2, z3 = (m(h[2], v, 15) for v in qs)
+    sub, add = ci.sub_sat32, ci.add_sat32
+    return [sub(sub(sub(0, x1), y2), z3),
+            sub(add(x0, z2), y3),
+            add(sub(y0, z1), x3),
+            sub(add(z0, y1), x2)]
+
+
+def rate8(qs, h, hs):
+    hx = ci.sat_q15(ci.rshr32(h[0], 15 - hs))
+    hy = ci.sat_q15(ci.rshr32(h[1], 15 - hs))
+    hz = ci.sat_q15(ci.rshr32(h[2], 15 - hs))
+
+    def P(a, b):
+        return ci.rshr32(a * b, hs)
+    sub, add = ci.sub_sat32, ci.add_sat32
+    return [sub(sub(-P(qs[1], hx), P(qs[2], hy)), P(qs[3], hz)),
+            sub(add(P(qs[0], hx), P(qs[2], hz)), P(qs[3], hy)),
+            add(sub(P(qs[0], hy), P(qs[1], hz)), P(qs[3], hx)),
+            sub(add(P(qs[0], hz), P(qs[1], hy)), P(qs[2], hx))]
+
+
+def add_normalise(q, dq):
+    """q += dq (saturating), then q /= |q|; returns the new q."""
+    q = [ci.add_sat32(a, b) for a, b in zip(q, dq)]
+    qs = snapshot(q)
+    n2 = sum(v * v for v in qs)
+    if n2 == 0:
+        return [Q30_ONE, 0, 0, 0]
+    y, sh = ci.invsqrt_u32(n2)
+    y14 = 32767 if y >= 65535 else (y + 1) >> 1
+    return [ci.mul_32x16(v, y14, sh - 16) for v in q]
+
+
+def rate_exponent(kg):
+    return min(max(kg.s - 31, 0), 15)

@@ -1,0 +1,102 @@
+"""API of the fixed-point classes on both backends: constructor validation
+(ValueError naming the parameter), int16 count inputs, int32 state,
+state_float, profiles."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import imufuse.reference as reference
+from registry import FIXED_CASES, PROFILES
+
+
+def _backends():
+    out = [reference]
+    try:
+        import imufuse_c
+        if hasattr(imufuse_c, "FILTERS_FIXED"):
+            out.append(imufuse_c)
+    except ImportError:
+        pass
+    return out
+
+
+BACKENDS = [pytest.param(m, id=m.__name__) for m in _backends()]
+
+
+@pytest.mark.parametrize("mod", BACKENDS)
+def test_all_fixed_classes_exported(mod):
+    for name in reference.FILTERS_FIXED:
+        assert hasattr(mod, name)
+
+
+@pytest.mark.parametrize("mod", BACKENDS)
+@pytest.mark.parametrize("case", [pytest.param(c, id=c.id) for c in FIXED_CASES])
+def test_state_types_and_float(mod, case):
+    f = getattr(mod, case.name)(**case.params, profile="32")
+    assert f.state.dtype == np.int32 and f.state.shape == (len(f.state_names),)
+    sf = f.state_float
+    assert sf.dtype == np.float64 and sf.shape == f.state.shape
+    if case.name in ("MahonyIMUQ", "MadgwickIMUQ"):
+        assert sf[0] == 1.0 and not sf[1:4].any()
+
+
+BAD = [
+    ("MahonyIMUQ", dict(dt=0.01, kp=1.0, gyr_scale=1e-3, profile="16"), "profile"),
+    ("MahonyIMUQ", dict(dt=-0.01, kp=1.0, gyr_scale=1e-3), "dt"),
+    ("MahonyIMUQ", dict(dt=0.01, kp=-1.0, gyr_scale=1e-3), "kp"),
+    ("MahonyIMUQ", dict(dt=0.01, kp=1.0, gyr_scale=0.0), "gyr_scale"),
+    ("MahonyIMUQ", dict(dt=0.01, kp=1.0, gyr_scale=1.0), "gyr_scale"),   # > 0.25 rad/sample
+    ("MahonyIMUQ", dict(dt=0.01, kp=float("nan"), gyr_scale=1e-3), "kp"),
+    ("MadgwickIMUQ", dict(dt=0.01, beta=1e3, gyr_scale=1e-3), "beta"),
+    ("Complementary1DQ", dict(dt=0.01, alpha=1.5, gyr_scale=1e-3, angle_scale=1e-4), "alpha"),
+    ("Complementary1DQ", dict(dt=0.01, alpha=0.9, gyr_scale=1e-3), "angle_scale"),
+    ("Mahony1DBiasQ", dict(dt=0.01, kp=2.0, ki=0.3, gyr_scale=1e-3, angle_scale=-1.0), "angle_scale"),
+    ("KKQ", dict(dt=0.01, kp=2.0, gyr_scale=1e-3), "kp"),
+    ("MultiWiiQ", dict(dt=0.01, cmpf=600, gyr_scale=1e-3, acc_1g=-1.0), "acc_1g"),
+    ("MultiWiiQ", dict(dt=0.01, cmpf=600, gyr_scale=1e-3, acc_1g=4096, acc_lpf_shift=16),
+     "acc_lpf_shift"),
+]
+
+
+@pytest.mark.parametrize("mod", BACKENDS)
+@pytest.mark.parametrize("name,kw,word", BAD)
+def test_bad_parameters_raise(mod, name, kw, word):
+    with pytest.raises((ValueError, TypeError), match=word):
+        getattr(mod, name)(**kw)
+
+
+@pytest.mark.parametrize("mod", BACKENDS)
+@pytest.mark.parametrize("profile", PROFILES)
+def test_inputs_must_be_int16_counts(mod, profile):
+    f = mod.MahonyIMUQ(0.01, 1.0, gyr_scale=1e-3, profile=profile)
+    with pytest.raises(ValueError, match="int16"):
+        f.update([40000, 0, 0], [0, 0, 4096])
+    with pytest.raises(ValueError, match="integer"):
+        f.run(np.full((3, 3), 0.5), np.zeros((3, 3), np.int16))
+    with pytest.raises(ValueError, match="shapes"):
+        f.run(np.zeros((3, 3), np.int16), np.zeros((4, 3), np.int16))
+    with pytest.raises(ValueError, match="3-vector|shape"):
+        f.update([1, 2], [0, 0, 1])
+    g = mod.Complementary1DQ(0.01, 0.9, gyr_scale=1e-3, angle_scale=1e-4, profile=profile)
+    with pytest.raises(ValueError):
+        g.update(1.5, 0)
+    with pytest.raises(ValueError, match="state"):
+        g.state = [1, 2]
+
+
+@pytest.mark.parametrize("mod", BACKENDS)
+def test_profiles_differ_only_where_designed(mod):
+    """MahonyIMUQ/MadgwickIMUQ have distinct 8-bit updates; the others share one."""
+    rng = np.random.default_rng(0)
+    g = rng.integers(-3000, 3000, (300, 3)).astype(np.int16)
+    a = (rng.integers(-500, 500, (300, 3)) + [0, 0, 4096]).astype(np.int16)
+    for case in FIXED_CASES:
+        if getattr(reference, case.name).kind != "imu":
+            continue
+        s32 = getattr(mod, case.name)(**case.params, profile="32").run(g, a)
+        s8 = getattr(mod, case.name)(**case.params, profile="8").run(g, a)
+        if case.name in ("MahonyIMUQ", "MadgwickIMUQ"):
+            assert (s32 != s8).any()
+        else:
+            np.testing.assert_array_equal(s32, s8)

@@ -1,0 +1,24 @@
+"""Every filter is in the matrix: no class escapes the bit-exact harness, and
+each names its C twin."""
+import glob
+import os
+
+import pytest
+
+import imufuse.reference as reference
+import imufuse_c
+from registry import FLOAT_CASES
+
+HEADERS = "\n".join(open(h).read() for h in glob.glob(
+    os.path.join(os.path.dirname(__file__), "..", "csrc", "*.h")))
+
+
+@pytest.mark.parametrize("name", reference.FILTERS)
+def test_filter_is_registered_and_named(name):
+    assert any(c.name == name for c in FLOAT_CASES), f"{name} has no entry in tests/registry.py"
+    ref = getattr(reference, name)
+    assert ref.c_name, f"{name}.c_name is empty"
+    for fn in ("init", "update"):
+        assert f"void {ref.c_name}_{fn}(" in HEADERS, f"{ref.c_name}_{fn} not declared in csrc/"
+    assert f"}} {ref.c_name}_t;" in HEADERS
+    assert getattr(imufuse_c, name).state_names == ref.state_names
