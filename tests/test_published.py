@@ -15,7 +15,9 @@ tracking toolbox) ships the x-io files turned into C++ classes
 found in madgwick_algorithm_c.zip ... transformed into a class ... the fast
 inverse square-root implementation was disabled"): the arithmetic lines are
 the published ones, the globals became members and sampleFreq a member
-(1.0f / sampleFreq is 2^-9 either way at 512 Hz). The sdist is pinned by
+(1.0f / sampleFreq is 2^-9 either way at 512 Hz); when this test was written
+every arithmetic statement was checked against other public copies of the
+x-io files. The sdist is pinned by
 SHA-256, cached (IMUFUSE_ORACLE_CACHE, default ~/.cache/imufuse/oracle) and
 patched in the cache, never in the repository:
   1. the published fast inverse square root, left there commented out, is
@@ -129,14 +131,20 @@ def _fetch_sdist():
         return sdist
     CACHE.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory() as tmp:
-        cmd = [sys.executable, "-m", "pip", "download", "--no-deps", "--no-binary", ":all:",
-               "--no-build-isolation", "--disable-pip-version-check", "-q",
-               f"qmt=={QMT_VERSION}", "-d", tmp]
-        try:
-            r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
-        except (OSError, subprocess.TimeoutExpired) as exc:
-            _unavailable(f"cannot fetch the published code (qmt {QMT_VERSION} sdist): {exc}")
         got = Path(tmp) / sdist.name
+        # pip prepares the sdist's metadata after downloading it: without build
+        # isolation that takes seconds (setuptools, Cython and numpy are here
+        # already); with isolation as a fallback, minutes
+        for isolation in (["--no-build-isolation"], []):
+            cmd = [sys.executable, "-m", "pip", "download", "--no-deps", "--no-binary", ":all:",
+                   *isolation, "--disable-pip-version-check", "-q",
+                   f"qmt=={QMT_VERSION}", "-d", tmp]
+            try:
+                r = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+            except (OSError, subprocess.TimeoutExpired) as exc:
+                _unavailable(f"cannot fetch the published code (qmt {QMT_VERSION} sdist): {exc}")
+            if r.returncode == 0 and got.exists():
+                break
         if r.returncode != 0 or not got.exists():
             _unavailable(f"cannot fetch the published code (qmt {QMT_VERSION} sdist from PyPI): "
                          f"{r.stderr.strip()[-500:]}")
