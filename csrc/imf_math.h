@@ -4,6 +4,9 @@
 #ifndef IMF_MATH_H
 #define IMF_MATH_H
 
+#include <stdint.h>
+#include <string.h>
+
 #include "imf_config.h"
 
 /*
@@ -26,6 +29,94 @@ static inline int imf_finite4(const imf_real a, const imf_real b, const imf_real
                               const imf_real d)
 {
     return imf_finite2(a, b) && imf_finite2(c, d);
+}
+
+/* ---- inverse square root and normalisation ------------------------------
+ *
+ * Filters that normalise vectors take an `invsqrt` option:
+ *   IMF_INVSQRT_EXACT  1/sqrt(x): two correctly rounded operations. A vector
+ *                      whose squared norm is zero (zero, or so small that
+ *                      its square underflows) is left unchanged, since it
+ *                      has no direction to keep.
+ *   IMF_INVSQRT_FAST   the 0x5f3759df estimate refined by one Newton step,
+ *                      as in Madgwick's published C (x-io, 2010-2012): no
+ *                      zero check, relative error up to about 1.8e-3.
+ */
+enum { IMF_INVSQRT_EXACT = 0, IMF_INVSQRT_FAST = 1 };
+
+static inline imf_real imf_invsqrt_exact(const imf_real x)
+{
+    return IMF_R(1.0) / imf_sqrt(x);
+}
+
+/*
+ * Fast inverse square root. The float is reinterpreted as an unsigned
+ * integer through memcpy (no pointer cast: no strict-aliasing violation, and
+ * the width is exact, unlike `long`, which is 64-bit on LP64 hosts and would
+ * read four bytes beyond the float). Unsigned arithmetic cannot overflow;
+ * for x >= 0 (every caller passes a sum of squares) it equals the classic
+ * 32-bit signed version bit for bit.
+ * float32: 0x5f3759df; float64: the 64-bit constant 0x5fe6eb50c7b537a9
+ * (Lomont), followed by the same Newton step y (1.5 - (x/2) y y).
+ */
+static inline imf_real imf_invsqrt_fast(const imf_real x)
+{
+    const imf_real halfx = IMF_R(0.5) * x;
+    imf_real y;
+#ifdef IMF_DOUBLE
+    uint64_t i;
+    memcpy(&i, &x, sizeof i);
+    i = UINT64_C(0x5fe6eb50c7b537a9) - (i >> 1);
+#else
+    uint32_t i;
+    memcpy(&i, &x, sizeof i);
+    i = UINT32_C(0x5f3759df) - (i >> 1);
+#endif
+    memcpy(&y, &i, sizeof y);
+    return y * (IMF_R(1.5) - halfx * y * y);
+}
+
+static inline imf_real imf_invsqrt(const imf_real x, const int mode)
+{
+    return mode == IMF_INVSQRT_FAST ? imf_invsqrt_fast(x) : imf_invsqrt_exact(x);
+}
+
+/* Scale (x, y, z) to unit length; squared norm summed left to right. */
+static inline void imf_normalise3(imf_real *const x, imf_real *const y, imf_real *const z,
+                                  const int mode)
+{
+    const imf_real n2 = *x * *x + *y * *y + *z * *z;
+    imf_real r;
+    if (mode != IMF_INVSQRT_FAST && n2 == IMF_R(0.0)) {
+        return;
+    }
+    r = imf_invsqrt(n2, mode);
+    *x *= r;
+    *y *= r;
+    *z *= r;
+}
+
+/* Scale the quaternion (or any 4-vector) (w, x, y, z) to unit length. */
+static inline void imf_normalise4(imf_real *const w, imf_real *const x, imf_real *const y,
+                                  imf_real *const z, const int mode)
+{
+    const imf_real n2 = *w * *w + *x * *x + *y * *y + *z * *z;
+    imf_real r;
+    if (mode != IMF_INVSQRT_FAST && n2 == IMF_R(0.0)) {
+        return;
+    }
+    r = imf_invsqrt(n2, mode);
+    *w *= r;
+    *x *= r;
+    *y *= r;
+    *z *= r;
+}
+
+/* All three components exactly zero (+0 or -0): a sensor that reports no
+   measurement. Madgwick's published code skips the correction then. */
+static inline int imf_is_zero3(const imf_real x, const imf_real y, const imf_real z)
+{
+    return x == IMF_R(0.0) && y == IMF_R(0.0) && z == IMF_R(0.0);
 }
 
 /* ---- gravity-vector filters (multiwii, kk, mahony2d, dcm) ---------------

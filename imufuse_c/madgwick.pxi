@@ -1,1 +1,47 @@
-# Filter family madgwick (csrc/madgwick.h): not written yet.
+# Filter family madgwick (csrc/madgwick.h): article chapter 5 and appendix.
+cdef extern from "madgwick.h" nogil:
+    ctypedef struct imf_madgwick_state_t:
+        pass
+    ctypedef struct imf_madgwick_imu_t:
+        uint32_t skipped
+        imf_madgwick_state_t x
+    ctypedef struct imf_madgwick_ahrs_t:
+        uint32_t skipped
+        imf_madgwick_state_t x
+    void imf_madgwick_imu_init(imf_madgwick_imu_t *self, imf_real dt, imf_real beta,
+                               int delta_s, int invsqrt)
+    void imf_madgwick_imu_update(imf_madgwick_imu_t *self, imf_real gx, imf_real gy,
+                                 imf_real gz, imf_real ax, imf_real ay, imf_real az)
+    void imf_madgwick_ahrs_init(imf_madgwick_ahrs_t *self, imf_real dt, imf_real beta,
+                                int invsqrt)
+    void imf_madgwick_ahrs_update(imf_madgwick_ahrs_t *self, imf_real gx, imf_real gy,
+                                  imf_real gz, imf_real ax, imf_real ay, imf_real az,
+                                  imf_real mx, imf_real my, imf_real mz)
+
+
+cdef class MadgwickIMU(_FilterIMU):
+    _ref = _reference.MadgwickIMU
+    cdef imf_madgwick_imu_t s
+
+    cdef int _init(self) except -1:
+        a = self._args
+        imf_madgwick_imu_init(&self.s, a[0], a[1], a[2], a[3])
+        return self._bind(&self.s.x, sizeof(self.s.x), &self.s.skipped)
+
+    cdef void _step(self, const imf_real *gyr, const imf_real *acc) noexcept nogil:
+        imf_madgwick_imu_update(&self.s, gyr[0], gyr[1], gyr[2], acc[0], acc[1], acc[2])
+
+
+cdef class MadgwickAHRS(_FilterAHRS):
+    _ref = _reference.MadgwickAHRS
+    cdef imf_madgwick_ahrs_t s
+
+    cdef int _init(self) except -1:
+        a = self._args
+        imf_madgwick_ahrs_init(&self.s, a[0], a[1], a[2])
+        return self._bind(&self.s.x, sizeof(self.s.x), &self.s.skipped)
+
+    cdef void _step(self, const imf_real *gyr, const imf_real *acc,
+                    const imf_real *mag) noexcept nogil:
+        imf_madgwick_ahrs_update(&self.s, gyr[0], gyr[1], gyr[2], acc[0], acc[1], acc[2],
+                                 mag[0], mag[1], mag[2])

@@ -56,6 +56,22 @@ CASES_1D = [
 
 # ---- quaternion filters: csrc/mahony.c, csrc/madgwick.c ---------------------
 CASES_QUATERNION = [
+    # article 4.1 / appendix: Mahony in quaternion form (kp = twoKp/2, ki = twoKi/2).
+    # Every option of every class, both precisions: invsqrt exact/fast, ki = 0 / > 0,
+    # delta_s full/simplified; "published" = the x-io defaults at 512 Hz.
+    Case("MahonyIMU", dict(dt=0.005, kp=1.0, ki=0.3), "ki"),
+    Case("MahonyIMU", dict(dt=1 / 512, kp=0.5, ki=0.0, invsqrt="fast"), "published"),
+    Case("MahonyAHRS", dict(dt=0.005, kp=1.0, ki=0.3)),
+    Case("MahonyAHRS", dict(dt=1 / 512, kp=0.5, ki=0.0, invsqrt="fast"), "published"),
+    Case("MahonyAHRS", dict(dt=0.01, kp=2.0, ki=0.5, invsqrt="fast"), "fast_ki"),
+    # chapter 5 / appendix: Madgwick's gradient descent
+    Case("MadgwickIMU", dict(dt=0.01, beta=0.1)),
+    Case("MadgwickIMU", dict(dt=0.01, beta=0.1, delta_s="simplified"), "simplified"),
+    Case("MadgwickIMU", dict(dt=1 / 512, beta=0.1, invsqrt="fast"), "published"),
+    Case("MadgwickIMU", dict(dt=0.005, beta=0.3, delta_s="simplified", invsqrt="fast"),
+         "simplified_fast"),
+    Case("MadgwickAHRS", dict(dt=0.01, beta=0.1)),
+    Case("MadgwickAHRS", dict(dt=1 / 512, beta=0.1, invsqrt="fast"), "published"),
 ]
 
 # ---- gravity-vector and DCM filters: csrc/multiwii.c, kk.c, mahony2d.c, dcm.c

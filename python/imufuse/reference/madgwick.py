@@ -1,3 +1,237 @@
-"""Filter family madgwick: pure-Python twin of csrc/madgwick.c (not written yet)."""
+"""Madgwick's gradient-descent filter (article chapter 5, Appendix "IMU
+Implementations"): pure-Python twin of csrc/madgwick.c, line for line.
 
-FILTERS = ()
+beta (rad/s) is the published beta (default 0.1). delta_s="full" is the
+appendix step 4 with the published intermediates and order; "simplified" is
+the article's simplified corrective step for a unit quaternion.
+"""
+from .. import _checks
+from . import _math
+from ._base import ReferenceFilter, isfinite
+
+FILTERS = ("MadgwickIMU", "MadgwickAHRS")
+
+DELTA_S = {"full": 0, "simplified": 1}
+DS_FULL, DS_SIMPLIFIED = 0, 1
+
+
+# Step 3: dq = 1/2 q (x) omega
+def rate(R, q, gx, gy, gz):
+    q0, q1, q2, q3 = q
+    return [R(0.5) * (-q1 * gx - q2 * gy - q3 * gz),
+            R(0.5) * (q0 * gx + q2 * gz - q3 * gy),
+            R(0.5) * (q0 * gy - q1 * gz + q3 * gx),
+            R(0.5) * (q0 * gz + q1 * gy - q2 * gx)]
+
+
+def ds_full(R, q, ax, ay, az):
+    """Step 4, full form: ds = J^T f for the gravity objective, valid for any q,
+    term by term as in the article's appendix and the published code."""
+    q0, q1, q2, q3 = q
+    two_q0 = R(2.0) * q0
+    two_q1 = R(2.0) * q1
+    two_q2 = R(2.0) * q2
+    two_q3 = R(2.0) * q3
+    four_q0 = R(4.0) * q0
+    four_q1 = R(4.0) * q1
+    four_q2 = R(4.0) * q2
+    eight_q1 = R(8.0) * q1
+    eight_q2 = R(8.0) * q2
+    q0q0 = q0 * q0
+    q1q1 = q1 * q1
+    q2q2 = q2 * q2
+    q3q3 = q3 * q3
+    s0 = four_q0 * q2q2 + two_q2 * ax + four_q0 * q1q1 - two_q1 * ay
+    s1 = (four_q1 * q3q3 - two_q3 * ax + R(4.0) * q0q0 * q1 - two_q0 * ay - four_q1
+          + eight_q1 * q1q1 + eight_q1 * q2q2 + four_q1 * az)
+    s2 = (R(4.0) * q0q0 * q2 + two_q0 * ax + four_q2 * q3q3 - two_q3 * ay - four_q2
+          + eight_q2 * q1q1 + eight_q2 * q2q2 + four_q2 * az)
+    s3 = R(4.0) * q1q1 * q3 - two_q1 * ax + R(4.0) * q2q2 * q3 - two_q2 * ay
+    return [s0, s1, s2, s3]
+
+
+def ds_simplified(R, q, ax, ay, az):
+    """Step 4, simplified form (article, note below the appendix): for a unit q
+    ds = 4 (q1^2 + q2^2) q + 2 (q2 ax - q1 ay, -q3 ax - q0 ay + 2 q1 az,
+                                q0 ax - q3 ay + 2 q2 az, -q1 ax - q2 ay)."""
+    q0, q1, q2, q3 = q
+    c = R(4.0) * (q1 * q1 + q2 * q2)
+    s0 = c * q0 + R(2.0) * (q2 * ax - q1 * ay)
+    s1 = c * q1 + R(2.0) * (-q3 * ax - q0 * ay + R(2.0) * q1 * az)
+    s2 = c * q2 + R(2.0) * (q0 * ax - q3 * ay + R(2.0) * q2 * az)
+    s3 = c * q3 + R(2.0) * (-q1 * ax - q2 * ay)
+    return [s0, s1, s2, s3]
+
+
+def ds_ahrs(R, q, ax, ay, az, mx, my, mz):
+    """ds = J^T f for the gravity and the magnetic objective (AHRS), with the
+    published intermediates and order. f1..f3: predicted minus measured
+    gravity direction; f4..f6: the same for the field, the reference field
+    being (bx, 0, bz) in the earth frame (two_bx = 2 bx, two_bz = 2 bz)."""
+    q0, q1, q2, q3 = q
+    two_q0 = R(2.0) * q0
+    two_q1 = R(2.0) * q1
+    two_q2 = R(2.0) * q2
+    two_q3 = R(2.0) * q3
+    two_q0mx = two_q0 * mx
+    two_q0my = two_q0 * my
+    two_q0mz = two_q0 * mz
+    two_q1mx = two_q1 * mx
+    two_q0q2 = two_q0 * q2
+    two_q2q3 = two_q2 * q3
+    q0q0 = q0 * q0
+    q0q1 = q0 * q1
+    q0q2 = q0 * q2
+    q0q3 = q0 * q3
+    q1q1 = q1 * q1
+    q1q2 = q1 * q2
+    q1q3 = q1 * q3
+    q2q2 = q2 * q2
+    q2q3 = q2 * q3
+    q3q3 = q3 * q3
+    # the field in the earth frame, h = R m (expanded)
+    hx = (mx * q0q0 - two_q0my * q3 + two_q0mz * q2 + mx * q1q1 + two_q1 * my * q2
+          + two_q1 * mz * q3 - mx * q2q2 - mx * q3q3)
+    hy = (two_q0mx * q3 + my * q0q0 - two_q0mz * q1 + two_q1mx * q2 - my * q1q1 + my * q2q2
+          + two_q2 * mz * q3 - my * q3q3)
+    two_bx = _math.sqrt(R, hx * hx + hy * hy)
+    two_bz = (-two_q0mx * q2 + two_q0my * q1 + mz * q0q0 + two_q1mx * q3 - mz * q1q1
+              + two_q2 * my * q3 - mz * q2q2 + mz * q3q3)
+    four_bx = R(2.0) * two_bx
+    four_bz = R(2.0) * two_bz
+    # objective function f
+    f1 = R(2.0) * q1q3 - two_q0q2 - ax
+    f2 = R(2.0) * q0q1 + two_q2q3 - ay
+    f3 = R(1.0) - R(2.0) * q1q1 - R(2.0) * q2q2 - az
+    f4 = two_bx * (R(0.5) - q2q2 - q3q3) + two_bz * (q1q3 - q0q2) - mx
+    f5 = two_bx * (q1q2 - q0q3) + two_bz * (q0q1 + q2q3) - my
+    f6 = two_bx * (q0q2 + q1q3) + two_bz * (R(0.5) - q1q1 - q2q2) - mz
+    # gradient J^T f
+    s0 = (-two_q2 * f1 + two_q1 * f2 - two_bz * q2 * f4 + (-two_bx * q3 + two_bz * q1) * f5
+          + two_bx * q2 * f6)
+    s1 = (two_q3 * f1 + two_q0 * f2 - R(4.0) * q1 * f3 + two_bz * q3 * f4
+          + (two_bx * q2 + two_bz * q0) * f5 + (two_bx * q3 - four_bz * q1) * f6)
+    s2 = (-two_q0 * f1 + two_q3 * f2 - R(4.0) * q2 * f3
+          + (-four_bx * q2 - two_bz * q0) * f4 + (two_bx * q1 + two_bz * q3) * f5
+          + (two_bx * q0 - four_bz * q2) * f6)
+    s3 = (two_q1 * f1 + two_q2 * f2 + (-four_bx * q3 + two_bz * q1) * f4
+          + (-two_bx * q0 + two_bz * q2) * f5 + two_bx * q1 * f6)
+    return [s0, s1, s2, s3]
+
+
+class _Madgwick(ReferenceFilter):
+    state_names = ("q0", "q1", "q2", "q3")
+
+    def _init(self, dt, beta, delta_s, invsqrt):
+        R = self._R
+        self.dt = R(dt)
+        self.beta = R(beta)
+        self.delta_s = DS_SIMPLIFIED if delta_s == DS_SIMPLIFIED else DS_FULL
+        self.invsqrt = invsqrt
+        self.q0 = R(1.0)
+        self.q1 = R(0.0)
+        self.q2 = R(0.0)
+        self.q3 = R(0.0)
+
+    # Steps 5 and 6: normalise ds, dq' = dq - beta ds
+    def _feedback(self, s, dq):
+        s = _math.normalise4(self._R, *s, self.invsqrt)
+        return [dq[0] - self.beta * s[0],
+                dq[1] - self.beta * s[1],
+                dq[2] - self.beta * s[2],
+                dq[3] - self.beta * s[3]]
+
+    # Steps 7 and 8: q_n = q_{n-1} + dq' dt, then normalise
+    def _integrate(self, q, dq):
+        return _math.normalise4(self._R, q[0] + dq[0] * self.dt, q[1] + dq[1] * self.dt,
+                                q[2] + dq[2] * self.dt, q[3] + dq[3] * self.dt, self.invsqrt)
+
+    def _imu_step(self, q, gx, gy, gz, ax, ay, az):
+        R = self._R
+        dq = rate(R, q, gx, gy, gz)
+        if not _math.is_zero3(R, ax, ay, az):
+            # Step 2: normalise a
+            ax, ay, az = _math.normalise3(R, ax, ay, az, self.invsqrt)
+            if self.delta_s == DS_SIMPLIFIED:
+                s = ds_simplified(R, q, ax, ay, az)
+            else:
+                s = ds_full(R, q, ax, ay, az)
+            dq = self._feedback(s, dq)
+        return self._integrate(q, dq)
+
+    def _ahrs_step(self, q, gx, gy, gz, ax, ay, az, mx, my, mz):
+        R = self._R
+        if _math.is_zero3(R, mx, my, mz):
+            # no magnetometer reading: the IMU update
+            return self._imu_step(q, gx, gy, gz, ax, ay, az)
+        dq = rate(R, q, gx, gy, gz)
+        if not _math.is_zero3(R, ax, ay, az):
+            ax, ay, az = _math.normalise3(R, ax, ay, az, self.invsqrt)
+            mx, my, mz = _math.normalise3(R, mx, my, mz, self.invsqrt)
+            s = ds_ahrs(R, q, ax, ay, az, mx, my, mz)
+            dq = self._feedback(s, dq)
+        return self._integrate(q, dq)
+
+    # Keep the new state only if it is finite (non-finite policy, imf_math.h).
+    def _commit(self, q):
+        if not isfinite(*q):
+            self._skip()
+            return
+        self.q0, self.q1, self.q2, self.q3 = q
+
+
+class MadgwickIMU(_Madgwick):
+    """Madgwick's gradient-descent filter with gyro and accelerometer (article
+    chapter 5, appendix steps 1-9).
+
+    MadgwickIMU(dt, beta=0.1, delta_s="full", invsqrt="exact"): dt in s, beta
+    in rad/s (the published beta); delta_s "full" (appendix step 4, published
+    order) or "simplified" (the article's form for a unit quaternion);
+    invsqrt="fast" uses the published fast inverse square root. State: the
+    quaternion q0..q3 (sensor -> earth).
+    """
+    kind = "imu"
+    c_name = "imf_madgwick_imu"
+
+    @staticmethod
+    def _params(dt, beta=0.1, delta_s="full", *, invsqrt="exact"):
+        dt = _checks.check_dt(dt)
+        beta = _checks.check_real("beta", beta, lo=0.0)
+        _checks.check_choice("delta_s", delta_s, tuple(DELTA_S))
+        _checks.check_choice("invsqrt", invsqrt, tuple(_math.INVSQRT))
+        return (dt, beta, DELTA_S[delta_s], _math.INVSQRT[invsqrt])
+
+    def _update(self, gx, gy, gz, ax, ay, az):
+        if not isfinite(gx, gy, gz, ax, ay, az):
+            self._skip()
+            return
+        q = (self.q0, self.q1, self.q2, self.q3)
+        self._commit(self._imu_step(q, gx, gy, gz, ax, ay, az))
+
+
+class MadgwickAHRS(_Madgwick):
+    """Madgwick's gradient-descent filter with gyro, accelerometer and
+    magnetometer (published AHRS form; the corrective step is always the full
+    form). MadgwickAHRS(dt, beta=0.1, invsqrt="exact"); an all-zero
+    magnetometer sample runs the IMU update.
+    """
+    kind = "ahrs"
+    c_name = "imf_madgwick_ahrs"
+
+    @staticmethod
+    def _params(dt, beta=0.1, *, invsqrt="exact"):
+        dt = _checks.check_dt(dt)
+        beta = _checks.check_real("beta", beta, lo=0.0)
+        _checks.check_choice("invsqrt", invsqrt, tuple(_math.INVSQRT))
+        return (dt, beta, _math.INVSQRT[invsqrt])
+
+    def _init(self, dt, beta, invsqrt):
+        # imf_madgwick_ahrs_init: the IMU settings with the full ds
+        super()._init(dt, beta, DS_FULL, invsqrt)
+
+    def _update(self, gx, gy, gz, ax, ay, az, mx, my, mz):
+        if not isfinite(gx, gy, gz, ax, ay, az, mx, my, mz):
+            self._skip()
+            return
+        q = (self.q0, self.q1, self.q2, self.q3)
+        self._commit(self._ahrs_step(q, gx, gy, gz, ax, ay, az, mx, my, mz))

@@ -1,3 +1,191 @@
-"""Filter family mahony: pure-Python twin of csrc/mahony.c (not written yet)."""
+"""Mahony's filter in quaternion form as implemented by Madgwick (article 4.1,
+Eq. 4.1, Appendix "IMU Implementations" steps 1-9): pure-Python twin of
+csrc/mahony.c, line for line.
 
-FILTERS = ()
+Gains: kp (1/s) and ki (1/s^2) are Kp and Ki of Eq. 4.1 with e = a x d. The
+published C (x-io MahonyAHRS.c) stores twoKp = 2 Kp and twoKi = 2 Ki and
+multiplies them with half the error vector: kp = twoKp / 2, ki = twoKi / 2.
+Its defaults twoKp = 2 * 0.5, twoKi = 2 * 0 are kp = 0.5, ki = 0 (our
+defaults).
+"""
+from .. import _checks
+from . import _math
+from ._base import ReferenceFilter, isfinite
+
+FILTERS = ("MahonyIMU", "MahonyAHRS")
+
+
+class _Mahony(ReferenceFilter):
+    state_names = ("q0", "q1", "q2", "q3", "ix", "iy", "iz")
+
+    @staticmethod
+    def _params(dt, kp=0.5, ki=0.0, *, invsqrt="exact"):
+        dt = _checks.check_dt(dt)
+        kp = _checks.check_real("kp", kp, lo=0.0)
+        ki = _checks.check_real("ki", ki, lo=0.0)
+        _checks.check_choice("invsqrt", invsqrt, tuple(_math.INVSQRT))
+        return (dt, kp, ki, _math.INVSQRT[invsqrt])
+
+    def _init(self, dt, kp, ki, invsqrt):
+        R = self._R
+        self.dt = R(dt)
+        self.half_dt = R(0.5) * self.dt
+        self.two_kp = R(2.0) * R(kp)
+        self.two_ki = R(2.0) * R(ki)
+        self.invsqrt = invsqrt
+        self.q0 = R(1.0)
+        self.q1 = R(0.0)
+        self.q2 = R(0.0)
+        self.q3 = R(0.0)
+        self.ix = R(0.0)
+        self.iy = R(0.0)
+        self.iz = R(0.0)
+
+    # Steps 5 and 6: the PI controller on the half error (ex, ey, ez) = e/2,
+    # added to the rate in the published order w + I + Kp e.
+    def _feedback(self, i, g, ex, ey, ez):
+        R = self._R
+        ix, iy, iz = i
+        gx, gy, gz = g
+        if self.two_ki > R(0.0):
+            # Step 5: I_n = I_{n-1} + Ki dt e = I_{n-1} + (2 Ki)(e/2) dt
+            ix = ix + self.two_ki * ex * self.dt
+            iy = iy + self.two_ki * ey * self.dt
+            iz = iz + self.two_ki * ez * self.dt
+            gx = gx + ix
+            gy = gy + iy
+            gz = gz + iz
+        else:
+            # Ki = 0: no integral action, and none wound up for later
+            ix = R(0.0)
+            iy = R(0.0)
+            iz = R(0.0)
+        # Step 6: omega' = omega + I_n + Kp e
+        gx = gx + self.two_kp * ex
+        gy = gy + self.two_kp * ey
+        gz = gz + self.two_kp * ez
+        return (ix, iy, iz), (gx, gy, gz)
+
+    # Steps 7 and 8: q_n = q_{n-1} + 1/2 q_{n-1} (x) omega' dt, then normalise.
+    def _integrate(self, q, g):
+        q0, q1, q2, q3 = q
+        gx, gy, gz = g
+        gx = gx * self.half_dt
+        gy = gy * self.half_dt
+        gz = gz * self.half_dt
+        n0 = q0 + (-q1 * gx - q2 * gy - q3 * gz)
+        n1 = q1 + (q0 * gx + q2 * gz - q3 * gy)
+        n2 = q2 + (q0 * gy - q1 * gz + q3 * gx)
+        n3 = q3 + (q0 * gz + q1 * gy - q2 * gx)
+        return _math.normalise4(self._R, n0, n1, n2, n3, self.invsqrt)
+
+    def _imu_step(self, q, i, gx, gy, gz, ax, ay, az):
+        R = self._R
+        if not _math.is_zero3(R, ax, ay, az):
+            q0, q1, q2, q3 = q
+            # Step 2: normalise a
+            ax, ay, az = _math.normalise3(R, ax, ay, az, self.invsqrt)
+            # Step 3: d/2, half the earth's up axis seen in the sensor frame
+            vx = q1 * q3 - q0 * q2
+            vy = q0 * q1 + q2 * q3
+            vz = q0 * q0 - R(0.5) + q3 * q3
+            # Step 4: e/2 = a x (d/2)
+            ex = ay * vz - az * vy
+            ey = az * vx - ax * vz
+            ez = ax * vy - ay * vx
+            i, (gx, gy, gz) = self._feedback(i, (gx, gy, gz), ex, ey, ez)
+        return self._integrate(q, (gx, gy, gz)), i
+
+    def _ahrs_step(self, q, i, gx, gy, gz, ax, ay, az, mx, my, mz):
+        R = self._R
+        if _math.is_zero3(R, mx, my, mz):
+            # no magnetometer reading: the IMU update
+            return self._imu_step(q, i, gx, gy, gz, ax, ay, az)
+        if not _math.is_zero3(R, ax, ay, az):
+            q0, q1, q2, q3 = q
+            # Step 2: normalise a and m
+            ax, ay, az = _math.normalise3(R, ax, ay, az, self.invsqrt)
+            mx, my, mz = _math.normalise3(R, mx, my, mz, self.invsqrt)
+            q0q0 = q0 * q0
+            q0q1 = q0 * q1
+            q0q2 = q0 * q2
+            q0q3 = q0 * q3
+            q1q1 = q1 * q1
+            q1q2 = q1 * q2
+            q1q3 = q1 * q3
+            q2q2 = q2 * q2
+            q2q3 = q2 * q3
+            q3q3 = q3 * q3
+            # the field in the earth frame, h = R m; the reference field keeps its
+            # vertical part bz and puts the horizontal part bx along earth x
+            hx = R(2.0) * (mx * (R(0.5) - q2q2 - q3q3) + my * (q1q2 - q0q3)
+                           + mz * (q1q3 + q0q2))
+            hy = R(2.0) * (mx * (q1q2 + q0q3) + my * (R(0.5) - q1q1 - q3q3)
+                           + mz * (q2q3 - q0q1))
+            bx = _math.sqrt(R, hx * hx + hy * hy)
+            bz = R(2.0) * (mx * (q1q3 - q0q2) + my * (q2q3 + q0q1)
+                           + mz * (R(0.5) - q1q1 - q2q2))
+            # Step 3: d/2 and w/2, the estimated up axis and field direction seen
+            # in the sensor frame (halved)
+            vx = q1q3 - q0q2
+            vy = q0q1 + q2q3
+            vz = q0q0 - R(0.5) + q3q3
+            wx = bx * (R(0.5) - q2q2 - q3q3) + bz * (q1q3 - q0q2)
+            wy = bx * (q1q2 - q0q3) + bz * (q0q1 + q2q3)
+            wz = bx * (q0q2 + q1q3) + bz * (R(0.5) - q1q1 - q2q2)
+            # Step 4: e/2 = a x (d/2) + m x (w/2)
+            ex = (ay * vz - az * vy) + (my * wz - mz * wy)
+            ey = (az * vx - ax * vz) + (mz * wx - mx * wz)
+            ez = (ax * vy - ay * vx) + (mx * wy - my * wx)
+            i, (gx, gy, gz) = self._feedback(i, (gx, gy, gz), ex, ey, ez)
+        return self._integrate(q, (gx, gy, gz)), i
+
+    # Keep the new state only if it is finite (non-finite policy, imf_math.h).
+    def _commit(self, q, i):
+        if not isfinite(*q, *i):
+            self._skip()
+            return
+        self.q0, self.q1, self.q2, self.q3 = q
+        self.ix, self.iy, self.iz = i
+
+    def _state(self):
+        return (self.q0, self.q1, self.q2, self.q3), (self.ix, self.iy, self.iz)
+
+
+class MahonyIMU(_Mahony):
+    """Mahony's filter with gyro and accelerometer (article 4.1, appendix).
+
+    MahonyIMU(dt, kp=0.5, ki=0.0, invsqrt="exact"): dt in s; kp in 1/s and ki
+    in 1/s^2 are Kp, Ki of Eq. 4.1 (published twoKp = 2 kp, twoKi = 2 ki);
+    invsqrt="fast" uses the published fast inverse square root. State: the
+    quaternion q0..q3 (sensor -> earth) and the integral term ix, iy, iz
+    (rad/s; it converges to minus the gyro bias).
+    """
+    kind = "imu"
+    c_name = "imf_mahony_imu"
+
+    def _update(self, gx, gy, gz, ax, ay, az):
+        if not isfinite(gx, gy, gz, ax, ay, az):
+            self._skip()
+            return
+        q, i = self._state()
+        q, i = self._imu_step(q, i, gx, gy, gz, ax, ay, az)
+        self._commit(q, i)
+
+
+class MahonyAHRS(_Mahony):
+    """Mahony's filter with gyro, accelerometer and magnetometer.
+
+    Same parameters and state as MahonyIMU; an all-zero magnetometer sample
+    runs the IMU update.
+    """
+    kind = "ahrs"
+    c_name = "imf_mahony_ahrs"
+
+    def _update(self, gx, gy, gz, ax, ay, az, mx, my, mz):
+        if not isfinite(gx, gy, gz, ax, ay, az, mx, my, mz):
+            self._skip()
+            return
+        q, i = self._state()
+        q, i = self._ahrs_step(q, i, gx, gy, gz, ax, ay, az, mx, my, mz)
+        self._commit(q, i)

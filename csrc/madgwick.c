@@ -1,0 +1,249 @@
+/*
+ * Madgwick's gradient-descent filter. See madgwick.h. The pure-Python twin
+ * is python/imufuse/reference/madgwick.py: the same lines in the same order.
+ * Step numbers are those of the article's Appendix "IMU Implementations".
+ */
+#include "madgwick.h"
+
+/* Settings and initial state shared by both filters. */
+static void madgwick_init(imf_madgwick_settings_t *const set, uint32_t *const skipped,
+                          imf_madgwick_state_t *const x, const imf_real dt, const imf_real beta,
+                          const int delta_s, const int invsqrt)
+{
+    set->dt = dt;
+    set->beta = beta;
+    set->delta_s = delta_s == IMF_MADGWICK_DS_SIMPLIFIED ? IMF_MADGWICK_DS_SIMPLIFIED
+                                                         : IMF_MADGWICK_DS_FULL;
+    set->invsqrt = invsqrt == IMF_INVSQRT_FAST ? IMF_INVSQRT_FAST : IMF_INVSQRT_EXACT;
+    *skipped = 0;
+    x->q0 = IMF_R(1.0);
+    x->q1 = IMF_R(0.0);
+    x->q2 = IMF_R(0.0);
+    x->q3 = IMF_R(0.0);
+}
+
+void imf_madgwick_imu_init(imf_madgwick_imu_t *const self, const imf_real dt,
+                           const imf_real beta, const int delta_s, const int invsqrt)
+{
+    madgwick_init(&self->set, &self->skipped, &self->x, dt, beta, delta_s, invsqrt);
+}
+
+void imf_madgwick_ahrs_init(imf_madgwick_ahrs_t *const self, const imf_real dt,
+                            const imf_real beta, const int invsqrt)
+{
+    madgwick_init(&self->set, &self->skipped, &self->x, dt, beta, IMF_MADGWICK_DS_FULL,
+                  invsqrt);
+}
+
+/* Step 3: dq = 1/2 q (x) omega */
+static void madgwick_rate(const imf_madgwick_state_t *const x, const imf_real gx,
+                          const imf_real gy, const imf_real gz, imf_real dq[4])
+{
+    dq[0] = IMF_R(0.5) * (-x->q1 * gx - x->q2 * gy - x->q3 * gz);
+    dq[1] = IMF_R(0.5) * (x->q0 * gx + x->q2 * gz - x->q3 * gy);
+    dq[2] = IMF_R(0.5) * (x->q0 * gy - x->q1 * gz + x->q3 * gx);
+    dq[3] = IMF_R(0.5) * (x->q0 * gz + x->q1 * gy - x->q2 * gx);
+}
+
+/* Step 4, full form: ds = J^T f for the gravity objective, valid for any q,
+   term by term as in the article's appendix and the published code. */
+static void madgwick_ds_full(const imf_madgwick_state_t *const x, const imf_real ax,
+                             const imf_real ay, const imf_real az, imf_real s[4])
+{
+    const imf_real q0 = x->q0, q1 = x->q1, q2 = x->q2, q3 = x->q3;
+    const imf_real two_q0 = IMF_R(2.0) * q0;
+    const imf_real two_q1 = IMF_R(2.0) * q1;
+    const imf_real two_q2 = IMF_R(2.0) * q2;
+    const imf_real two_q3 = IMF_R(2.0) * q3;
+    const imf_real four_q0 = IMF_R(4.0) * q0;
+    const imf_real four_q1 = IMF_R(4.0) * q1;
+    const imf_real four_q2 = IMF_R(4.0) * q2;
+    const imf_real eight_q1 = IMF_R(8.0) * q1;
+    const imf_real eight_q2 = IMF_R(8.0) * q2;
+    const imf_real q0q0 = q0 * q0;
+    const imf_real q1q1 = q1 * q1;
+    const imf_real q2q2 = q2 * q2;
+    const imf_real q3q3 = q3 * q3;
+    s[0] = four_q0 * q2q2 + two_q2 * ax + four_q0 * q1q1 - two_q1 * ay;
+    s[1] = four_q1 * q3q3 - two_q3 * ax + IMF_R(4.0) * q0q0 * q1 - two_q0 * ay - four_q1
+           + eight_q1 * q1q1 + eight_q1 * q2q2 + four_q1 * az;
+    s[2] = IMF_R(4.0) * q0q0 * q2 + two_q0 * ax + four_q2 * q3q3 - two_q3 * ay - four_q2
+           + eight_q2 * q1q1 + eight_q2 * q2q2 + four_q2 * az;
+    s[3] = IMF_R(4.0) * q1q1 * q3 - two_q1 * ax + IMF_R(4.0) * q2q2 * q3 - two_q2 * ay;
+}
+
+/* Step 4, simplified form (article, note below the appendix): for a unit q
+   ds = 4 (q1^2 + q2^2) q + 2 (q2 ax - q1 ay, -q3 ax - q0 ay + 2 q1 az,
+                               q0 ax - q3 ay + 2 q2 az, -q1 ax - q2 ay). */
+static void madgwick_ds_simplified(const imf_madgwick_state_t *const x, const imf_real ax,
+                                   const imf_real ay, const imf_real az, imf_real s[4])
+{
+    const imf_real q0 = x->q0, q1 = x->q1, q2 = x->q2, q3 = x->q3;
+    const imf_real c = IMF_R(4.0) * (q1 * q1 + q2 * q2);
+    s[0] = c * q0 + IMF_R(2.0) * (q2 * ax - q1 * ay);
+    s[1] = c * q1 + IMF_R(2.0) * (-q3 * ax - q0 * ay + IMF_R(2.0) * q1 * az);
+    s[2] = c * q2 + IMF_R(2.0) * (q0 * ax - q3 * ay + IMF_R(2.0) * q2 * az);
+    s[3] = c * q3 + IMF_R(2.0) * (-q1 * ax - q2 * ay);
+}
+
+/* ds = J^T f for the gravity and the magnetic objective (AHRS), with the
+   published intermediates and order. f1..f3: predicted minus measured
+   gravity direction; f4..f6: the same for the field, the reference field
+   being (bx, 0, bz) in the earth frame (two_bx = 2 bx, two_bz = 2 bz). */
+static void madgwick_ds_ahrs(const imf_madgwick_state_t *const x, const imf_real ax,
+                             const imf_real ay, const imf_real az, const imf_real mx,
+                             const imf_real my, const imf_real mz, imf_real s[4])
+{
+    const imf_real q0 = x->q0, q1 = x->q1, q2 = x->q2, q3 = x->q3;
+    const imf_real two_q0 = IMF_R(2.0) * q0;
+    const imf_real two_q1 = IMF_R(2.0) * q1;
+    const imf_real two_q2 = IMF_R(2.0) * q2;
+    const imf_real two_q3 = IMF_R(2.0) * q3;
+    const imf_real two_q0mx = two_q0 * mx;
+    const imf_real two_q0my = two_q0 * my;
+    const imf_real two_q0mz = two_q0 * mz;
+    const imf_real two_q1mx = two_q1 * mx;
+    const imf_real two_q0q2 = two_q0 * q2;
+    const imf_real two_q2q3 = two_q2 * q3;
+    const imf_real q0q0 = q0 * q0;
+    const imf_real q0q1 = q0 * q1;
+    const imf_real q0q2 = q0 * q2;
+    const imf_real q0q3 = q0 * q3;
+    const imf_real q1q1 = q1 * q1;
+    const imf_real q1q2 = q1 * q2;
+    const imf_real q1q3 = q1 * q3;
+    const imf_real q2q2 = q2 * q2;
+    const imf_real q2q3 = q2 * q3;
+    const imf_real q3q3 = q3 * q3;
+    imf_real hx, hy, two_bx, two_bz, four_bx, four_bz, f1, f2, f3, f4, f5, f6;
+    /* the field in the earth frame, h = R m (expanded) */
+    hx = mx * q0q0 - two_q0my * q3 + two_q0mz * q2 + mx * q1q1 + two_q1 * my * q2
+         + two_q1 * mz * q3 - mx * q2q2 - mx * q3q3;
+    hy = two_q0mx * q3 + my * q0q0 - two_q0mz * q1 + two_q1mx * q2 - my * q1q1 + my * q2q2
+         + two_q2 * mz * q3 - my * q3q3;
+    two_bx = imf_sqrt(hx * hx + hy * hy);
+    two_bz = -two_q0mx * q2 + two_q0my * q1 + mz * q0q0 + two_q1mx * q3 - mz * q1q1
+             + two_q2 * my * q3 - mz * q2q2 + mz * q3q3;
+    four_bx = IMF_R(2.0) * two_bx;
+    four_bz = IMF_R(2.0) * two_bz;
+    /* objective function f */
+    f1 = IMF_R(2.0) * q1q3 - two_q0q2 - ax;
+    f2 = IMF_R(2.0) * q0q1 + two_q2q3 - ay;
+    f3 = IMF_R(1.0) - IMF_R(2.0) * q1q1 - IMF_R(2.0) * q2q2 - az;
+    f4 = two_bx * (IMF_R(0.5) - q2q2 - q3q3) + two_bz * (q1q3 - q0q2) - mx;
+    f5 = two_bx * (q1q2 - q0q3) + two_bz * (q0q1 + q2q3) - my;
+    f6 = two_bx * (q0q2 + q1q3) + two_bz * (IMF_R(0.5) - q1q1 - q2q2) - mz;
+    /* gradient J^T f */
+    s[0] = -two_q2 * f1 + two_q1 * f2 - two_bz * q2 * f4 + (-two_bx * q3 + two_bz * q1) * f5
+           + two_bx * q2 * f6;
+    s[1] = two_q3 * f1 + two_q0 * f2 - IMF_R(4.0) * q1 * f3 + two_bz * q3 * f4
+           + (two_bx * q2 + two_bz * q0) * f5 + (two_bx * q3 - four_bz * q1) * f6;
+    s[2] = -two_q0 * f1 + two_q3 * f2 - IMF_R(4.0) * q2 * f3
+           + (-four_bx * q2 - two_bz * q0) * f4 + (two_bx * q1 + two_bz * q3) * f5
+           + (two_bx * q0 - four_bz * q2) * f6;
+    s[3] = two_q1 * f1 + two_q2 * f2 + (-four_bx * q3 + two_bz * q1) * f4
+           + (-two_bx * q0 + two_bz * q2) * f5 + two_bx * q1 * f6;
+}
+
+/* Steps 5 and 6: normalise ds, dq' = dq - beta ds */
+static void madgwick_feedback(const imf_madgwick_settings_t *const set, imf_real s[4],
+                              imf_real dq[4])
+{
+    imf_normalise4(&s[0], &s[1], &s[2], &s[3], set->invsqrt);
+    dq[0] -= set->beta * s[0];
+    dq[1] -= set->beta * s[1];
+    dq[2] -= set->beta * s[2];
+    dq[3] -= set->beta * s[3];
+}
+
+/* Steps 7 and 8: q_n = q_{n-1} + dq' dt, then normalise */
+static void madgwick_integrate(const imf_madgwick_settings_t *const set,
+                               imf_madgwick_state_t *const x, const imf_real dq[4])
+{
+    x->q0 += dq[0] * set->dt;
+    x->q1 += dq[1] * set->dt;
+    x->q2 += dq[2] * set->dt;
+    x->q3 += dq[3] * set->dt;
+    imf_normalise4(&x->q0, &x->q1, &x->q2, &x->q3, set->invsqrt);
+}
+
+static void madgwick_imu_step(const imf_madgwick_settings_t *const set,
+                              imf_madgwick_state_t *const x, const imf_real gx,
+                              const imf_real gy, const imf_real gz, imf_real ax, imf_real ay,
+                              imf_real az)
+{
+    imf_real dq[4], s[4];
+    madgwick_rate(x, gx, gy, gz, dq);
+    if (!imf_is_zero3(ax, ay, az)) {
+        /* Step 2: normalise a */
+        imf_normalise3(&ax, &ay, &az, set->invsqrt);
+        if (set->delta_s == IMF_MADGWICK_DS_SIMPLIFIED) {
+            madgwick_ds_simplified(x, ax, ay, az, s);
+        } else {
+            madgwick_ds_full(x, ax, ay, az, s);
+        }
+        madgwick_feedback(set, s, dq);
+    }
+    madgwick_integrate(set, x, dq);
+}
+
+static void madgwick_ahrs_step(const imf_madgwick_settings_t *const set,
+                               imf_madgwick_state_t *const x, const imf_real gx,
+                               const imf_real gy, const imf_real gz, imf_real ax, imf_real ay,
+                               imf_real az, imf_real mx, imf_real my, imf_real mz)
+{
+    imf_real dq[4], s[4];
+    if (imf_is_zero3(mx, my, mz)) {
+        /* no magnetometer reading: the IMU update */
+        madgwick_imu_step(set, x, gx, gy, gz, ax, ay, az);
+        return;
+    }
+    madgwick_rate(x, gx, gy, gz, dq);
+    if (!imf_is_zero3(ax, ay, az)) {
+        imf_normalise3(&ax, &ay, &az, set->invsqrt);
+        imf_normalise3(&mx, &my, &mz, set->invsqrt);
+        madgwick_ds_ahrs(x, ax, ay, az, mx, my, mz, s);
+        madgwick_feedback(set, s, dq);
+    }
+    madgwick_integrate(set, x, dq);
+}
+
+/* Keep the new state only if it is finite (non-finite policy, imf_math.h). */
+static void madgwick_commit(imf_madgwick_state_t *const dst, uint32_t *const skipped,
+                            const imf_madgwick_state_t *const x)
+{
+    if (!imf_finite4(x->q0, x->q1, x->q2, x->q3)) {
+        (*skipped)++;
+        return;
+    }
+    *dst = *x;
+}
+
+void imf_madgwick_imu_update(imf_madgwick_imu_t *const self, const imf_real gx,
+                             const imf_real gy, const imf_real gz, const imf_real ax,
+                             const imf_real ay, const imf_real az)
+{
+    imf_madgwick_state_t x;
+    if (!(imf_finite3(gx, gy, gz) && imf_finite3(ax, ay, az))) {
+        self->skipped++;
+        return;
+    }
+    x = self->x;
+    madgwick_imu_step(&self->set, &x, gx, gy, gz, ax, ay, az);
+    madgwick_commit(&self->x, &self->skipped, &x);
+}
+
+void imf_madgwick_ahrs_update(imf_madgwick_ahrs_t *const self, const imf_real gx,
+                              const imf_real gy, const imf_real gz, const imf_real ax,
+                              const imf_real ay, const imf_real az, const imf_real mx,
+                              const imf_real my, const imf_real mz)
+{
+    imf_madgwick_state_t x;
+    if (!(imf_finite3(gx, gy, gz) && imf_finite3(ax, ay, az) && imf_finite3(mx, my, mz))) {
+        self->skipped++;
+        return;
+    }
+    x = self->x;
+    madgwick_ahrs_step(&self->set, &x, gx, gy, gz, ax, ay, az, mx, my, mz);
+    madgwick_commit(&self->x, &self->skipped, &x);
+}

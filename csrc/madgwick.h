@@ -1,0 +1,74 @@
+/*
+ * Madgwick's gradient-descent filter: article chapter 5 and the Appendix
+ * "IMU Implementations" (Madgwick's 6DOF IMU filter, steps 1-9), and its
+ * AHRS form with a magnetometer.
+ *
+ *   dq = 1/2 q (x) omega - beta ds / |ds|,   q_n = q_{n-1} + dq dt
+ *
+ * ds = J^T f is the gradient of the objective function f, the mismatch
+ * between the measured directions (a, and m for AHRS) and those predicted
+ * from q. q = (q0, q1, q2, q3) rotates sensor to earth frame (earth z up).
+ * beta (rad/s) is the published "beta" (default 0.1).
+ *
+ * delta_s (IMU only):
+ *   IMF_MADGWICK_DS_FULL        appendix step 4 as published, valid for any q,
+ *                               with the published intermediates 2q, 4q, 8q,
+ *                               q0q0, ... in the published order;
+ *   IMF_MADGWICK_DS_SIMPLIFIED  the article's simplified form for a unit q,
+ *                               ds = 4 (q1^2 + q2^2) q + 2 (...).
+ * The AHRS update always uses the full (published) form.
+ *
+ * Guards (published behaviour): an all-zero accelerometer skips the
+ * correction (gyro integration only); an all-zero magnetometer makes the
+ * AHRS update the IMU update. Non-finite policy: see imf_math.h.
+ */
+#ifndef IMF_MADGWICK_H
+#define IMF_MADGWICK_H
+
+#include <stdint.h>
+#include "imf_config.h"
+#include "imf_math.h"
+
+enum { IMF_MADGWICK_DS_FULL = 0, IMF_MADGWICK_DS_SIMPLIFIED = 1 };
+
+typedef struct {
+    imf_real q0, q1, q2, q3; /* attitude quaternion, sensor -> earth, w first */
+} imf_madgwick_state_t;
+
+/* Settings, converted once by init. */
+typedef struct {
+    imf_real dt;   /* sample period, s */
+    imf_real beta; /* gradient step gain, rad/s */
+    int delta_s;   /* IMF_MADGWICK_DS_FULL or IMF_MADGWICK_DS_SIMPLIFIED */
+    int invsqrt;   /* IMF_INVSQRT_EXACT or IMF_INVSQRT_FAST */
+} imf_madgwick_settings_t;
+
+typedef struct {
+    imf_madgwick_settings_t set;
+    uint32_t skipped; /* samples rejected by the non-finite policy */
+    imf_madgwick_state_t x;
+} imf_madgwick_imu_t;
+
+/* Same settings (delta_s always full) and state; the update falls back to
+   the IMU update when the magnetometer reads all zero. */
+typedef struct {
+    imf_madgwick_settings_t set;
+    uint32_t skipped; /* samples rejected by the non-finite policy */
+    imf_madgwick_state_t x;
+} imf_madgwick_ahrs_t;
+
+/* dt: s; beta: rad/s; delta_s: IMF_MADGWICK_DS_*; invsqrt: IMF_INVSQRT_*.
+   q = (1, 0, 0, 0). */
+void imf_madgwick_imu_init(imf_madgwick_imu_t *self, imf_real dt, imf_real beta, int delta_s,
+                           int invsqrt);
+/* gx, gy, gz: rad/s; ax, ay, az: any unit (normalised) */
+void imf_madgwick_imu_update(imf_madgwick_imu_t *self, imf_real gx, imf_real gy, imf_real gz,
+                             imf_real ax, imf_real ay, imf_real az);
+
+void imf_madgwick_ahrs_init(imf_madgwick_ahrs_t *self, imf_real dt, imf_real beta, int invsqrt);
+/* gx, gy, gz: rad/s; ax, ay, az and mx, my, mz: any unit (normalised) */
+void imf_madgwick_ahrs_update(imf_madgwick_ahrs_t *self, imf_real gx, imf_real gy, imf_real gz,
+                              imf_real ax, imf_real ay, imf_real az,
+                              imf_real mx, imf_real my, imf_real mz);
+
+#endif /* IMF_MADGWICK_H */

@@ -1,0 +1,197 @@
+/*
+ * Mahony's filter in quaternion form as implemented by Madgwick. See
+ * mahony.h. The pure-Python twin is python/imufuse/reference/mahony.py: the
+ * same lines in the same order. Step numbers are those of the article's
+ * Appendix "IMU Implementations".
+ *
+ * Half vectors: d/2 and e/2 are computed instead of d and e (one multiply
+ * less per component); 2 Kp (e/2) = Kp e exactly, since scaling by 2 is
+ * exact. The order of every operation is the published one.
+ */
+#include "mahony.h"
+
+/* Settings and initial state shared by both filters. */
+static void mahony_init(imf_mahony_settings_t *const set, uint32_t *const skipped,
+                        imf_mahony_state_t *const x, const imf_real dt, const imf_real kp,
+                        const imf_real ki, const int invsqrt)
+{
+    set->dt = dt;
+    set->half_dt = IMF_R(0.5) * dt;
+    set->two_kp = IMF_R(2.0) * kp;
+    set->two_ki = IMF_R(2.0) * ki;
+    set->invsqrt = invsqrt == IMF_INVSQRT_FAST ? IMF_INVSQRT_FAST : IMF_INVSQRT_EXACT;
+    *skipped = 0;
+    x->q0 = IMF_R(1.0);
+    x->q1 = IMF_R(0.0);
+    x->q2 = IMF_R(0.0);
+    x->q3 = IMF_R(0.0);
+    x->ix = IMF_R(0.0);
+    x->iy = IMF_R(0.0);
+    x->iz = IMF_R(0.0);
+}
+
+void imf_mahony_imu_init(imf_mahony_imu_t *const self, const imf_real dt, const imf_real kp,
+                         const imf_real ki, const int invsqrt)
+{
+    mahony_init(&self->set, &self->skipped, &self->x, dt, kp, ki, invsqrt);
+}
+
+void imf_mahony_ahrs_init(imf_mahony_ahrs_t *const self, const imf_real dt, const imf_real kp,
+                          const imf_real ki, const int invsqrt)
+{
+    mahony_init(&self->set, &self->skipped, &self->x, dt, kp, ki, invsqrt);
+}
+
+/* Steps 5 and 6: the PI controller on the half error (ex, ey, ez) = e/2,
+   added to the rate (*gx, *gy, *gz) in the published order w + I + Kp e. */
+static void mahony_feedback(const imf_mahony_settings_t *const set, imf_mahony_state_t *const x,
+                            imf_real *const gx, imf_real *const gy, imf_real *const gz,
+                            const imf_real ex, const imf_real ey, const imf_real ez)
+{
+    if (set->two_ki > IMF_R(0.0)) {
+        /* Step 5: I_n = I_{n-1} + Ki dt e = I_{n-1} + (2 Ki)(e/2) dt */
+        x->ix += set->two_ki * ex * set->dt;
+        x->iy += set->two_ki * ey * set->dt;
+        x->iz += set->two_ki * ez * set->dt;
+        *gx += x->ix;
+        *gy += x->iy;
+        *gz += x->iz;
+    } else {
+        /* Ki = 0: no integral action, and none wound up for later */
+        x->ix = IMF_R(0.0);
+        x->iy = IMF_R(0.0);
+        x->iz = IMF_R(0.0);
+    }
+    /* Step 6: omega' = omega + I_n + Kp e */
+    *gx += set->two_kp * ex;
+    *gy += set->two_kp * ey;
+    *gz += set->two_kp * ez;
+}
+
+/* Steps 7 and 8: q_n = q_{n-1} + 1/2 q_{n-1} (x) omega' dt, then normalise. */
+static void mahony_integrate(const imf_mahony_settings_t *const set, imf_mahony_state_t *const x,
+                             imf_real gx, imf_real gy, imf_real gz)
+{
+    const imf_real q0 = x->q0, q1 = x->q1, q2 = x->q2, q3 = x->q3;
+    gx *= set->half_dt;
+    gy *= set->half_dt;
+    gz *= set->half_dt;
+    x->q0 = q0 + (-q1 * gx - q2 * gy - q3 * gz);
+    x->q1 = q1 + (q0 * gx + q2 * gz - q3 * gy);
+    x->q2 = q2 + (q0 * gy - q1 * gz + q3 * gx);
+    x->q3 = q3 + (q0 * gz + q1 * gy - q2 * gx);
+    imf_normalise4(&x->q0, &x->q1, &x->q2, &x->q3, set->invsqrt);
+}
+
+static void mahony_imu_step(const imf_mahony_settings_t *const set, imf_mahony_state_t *const x,
+                            imf_real gx, imf_real gy, imf_real gz,
+                            imf_real ax, imf_real ay, imf_real az)
+{
+    if (!imf_is_zero3(ax, ay, az)) {
+        imf_real vx, vy, vz, ex, ey, ez;
+        /* Step 2: normalise a */
+        imf_normalise3(&ax, &ay, &az, set->invsqrt);
+        /* Step 3: d/2, half the earth's up axis seen in the sensor frame */
+        vx = x->q1 * x->q3 - x->q0 * x->q2;
+        vy = x->q0 * x->q1 + x->q2 * x->q3;
+        vz = x->q0 * x->q0 - IMF_R(0.5) + x->q3 * x->q3;
+        /* Step 4: e/2 = a x (d/2) */
+        ex = ay * vz - az * vy;
+        ey = az * vx - ax * vz;
+        ez = ax * vy - ay * vx;
+        mahony_feedback(set, x, &gx, &gy, &gz, ex, ey, ez);
+    }
+    mahony_integrate(set, x, gx, gy, gz);
+}
+
+static void mahony_ahrs_step(const imf_mahony_settings_t *const set, imf_mahony_state_t *const x,
+                             imf_real gx, imf_real gy, imf_real gz,
+                             imf_real ax, imf_real ay, imf_real az,
+                             imf_real mx, imf_real my, imf_real mz)
+{
+    if (imf_is_zero3(mx, my, mz)) {
+        /* no magnetometer reading: the IMU update */
+        mahony_imu_step(set, x, gx, gy, gz, ax, ay, az);
+        return;
+    }
+    if (!imf_is_zero3(ax, ay, az)) {
+        imf_real q0q0, q0q1, q0q2, q0q3, q1q1, q1q2, q1q3, q2q2, q2q3, q3q3;
+        imf_real hx, hy, bx, bz, vx, vy, vz, wx, wy, wz, ex, ey, ez;
+        /* Step 2: normalise a and m */
+        imf_normalise3(&ax, &ay, &az, set->invsqrt);
+        imf_normalise3(&mx, &my, &mz, set->invsqrt);
+        q0q0 = x->q0 * x->q0;
+        q0q1 = x->q0 * x->q1;
+        q0q2 = x->q0 * x->q2;
+        q0q3 = x->q0 * x->q3;
+        q1q1 = x->q1 * x->q1;
+        q1q2 = x->q1 * x->q2;
+        q1q3 = x->q1 * x->q3;
+        q2q2 = x->q2 * x->q2;
+        q2q3 = x->q2 * x->q3;
+        q3q3 = x->q3 * x->q3;
+        /* the field in the earth frame, h = R m; the reference field keeps its
+           vertical part bz and puts the horizontal part bx along earth x */
+        hx = IMF_R(2.0) * (mx * (IMF_R(0.5) - q2q2 - q3q3) + my * (q1q2 - q0q3)
+                           + mz * (q1q3 + q0q2));
+        hy = IMF_R(2.0) * (mx * (q1q2 + q0q3) + my * (IMF_R(0.5) - q1q1 - q3q3)
+                           + mz * (q2q3 - q0q1));
+        bx = imf_sqrt(hx * hx + hy * hy);
+        bz = IMF_R(2.0) * (mx * (q1q3 - q0q2) + my * (q2q3 + q0q1)
+                           + mz * (IMF_R(0.5) - q1q1 - q2q2));
+        /* Step 3: d/2 and w/2, the estimated up axis and field direction seen
+           in the sensor frame (halved) */
+        vx = q1q3 - q0q2;
+        vy = q0q1 + q2q3;
+        vz = q0q0 - IMF_R(0.5) + q3q3;
+        wx = bx * (IMF_R(0.5) - q2q2 - q3q3) + bz * (q1q3 - q0q2);
+        wy = bx * (q1q2 - q0q3) + bz * (q0q1 + q2q3);
+        wz = bx * (q0q2 + q1q3) + bz * (IMF_R(0.5) - q1q1 - q2q2);
+        /* Step 4: e/2 = a x (d/2) + m x (w/2) */
+        ex = (ay * vz - az * vy) + (my * wz - mz * wy);
+        ey = (az * vx - ax * vz) + (mz * wx - mx * wz);
+        ez = (ax * vy - ay * vx) + (mx * wy - my * wx);
+        mahony_feedback(set, x, &gx, &gy, &gz, ex, ey, ez);
+    }
+    mahony_integrate(set, x, gx, gy, gz);
+}
+
+/* Keep the new state only if it is finite (non-finite policy, imf_math.h). */
+static void mahony_commit(imf_mahony_state_t *const dst, uint32_t *const skipped,
+                          const imf_mahony_state_t *const x)
+{
+    if (!(imf_finite4(x->q0, x->q1, x->q2, x->q3) && imf_finite3(x->ix, x->iy, x->iz))) {
+        (*skipped)++;
+        return;
+    }
+    *dst = *x;
+}
+
+void imf_mahony_imu_update(imf_mahony_imu_t *const self, const imf_real gx, const imf_real gy,
+                           const imf_real gz, const imf_real ax, const imf_real ay,
+                           const imf_real az)
+{
+    imf_mahony_state_t x;
+    if (!(imf_finite3(gx, gy, gz) && imf_finite3(ax, ay, az))) {
+        self->skipped++;
+        return;
+    }
+    x = self->x;
+    mahony_imu_step(&self->set, &x, gx, gy, gz, ax, ay, az);
+    mahony_commit(&self->x, &self->skipped, &x);
+}
+
+void imf_mahony_ahrs_update(imf_mahony_ahrs_t *const self, const imf_real gx, const imf_real gy,
+                            const imf_real gz, const imf_real ax, const imf_real ay,
+                            const imf_real az, const imf_real mx, const imf_real my,
+                            const imf_real mz)
+{
+    imf_mahony_state_t x;
+    if (!(imf_finite3(gx, gy, gz) && imf_finite3(ax, ay, az) && imf_finite3(mx, my, mz))) {
+        self->skipped++;
+        return;
+    }
+    x = self->x;
+    mahony_ahrs_step(&self->set, &x, gx, gy, gz, ax, ay, az, mx, my, mz);
+    mahony_commit(&self->x, &self->skipped, &x);
+}

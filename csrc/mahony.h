@@ -1,0 +1,80 @@
+/*
+ * Mahony's filter in quaternion form as implemented by Madgwick: article
+ * chapter 4.1, Eq. 4.1, and the Appendix "IMU Implementations" steps 1-9.
+ *
+ *   omega' = omega + (Kp + Ki/s) e,   e = a x d,   dq/dt = 1/2 q (x) omega'
+ *
+ * q = (q0, q1, q2, q3) rotates sensor to earth frame (earth z up); d is the
+ * earth's up axis seen in the sensor frame, i.e. what a level accelerometer
+ * at rest reads. With a magnetometer (AHRS) the error gains m x w, where w is
+ * the earth field direction, reduced to its horizontal and vertical parts
+ * (bx, 0, bz) in the earth frame, seen in the sensor frame.
+ *
+ * Gains. kp (1/s) and ki (1/s^2) are the Kp and Ki of Eq. 4.1 with e = a x d
+ * for unit a and unit d. The published code stores twoKp = 2 Kp and
+ * twoKi = 2 Ki and multiplies them with half the error vector, so
+ *     kp = twoKp / 2,   ki = twoKi / 2;
+ * its defaults twoKp = 2 * 0.5 and twoKi = 2 * 0 are kp = 0.5, ki = 0. The
+ * code here keeps the same factorisation (2 Kp times e/2) so that, with
+ * invsqrt = IMF_INVSQRT_FAST in float32, it reproduces the published code
+ * bit for bit.
+ *
+ * Integral term. I accumulates Ki dt e (step 5) and is state. As in the
+ * published code it is only updated and applied while the accelerometer
+ * reads something (not all zero), and it is held at zero while Ki = 0.
+ *
+ * Guards (published behaviour): an all-zero accelerometer skips the
+ * correction (gyro integration only); an all-zero magnetometer makes the
+ * AHRS update the IMU update. Non-finite policy: see imf_math.h.
+ */
+#ifndef IMF_MAHONY_H
+#define IMF_MAHONY_H
+
+#include <stdint.h>
+#include "imf_config.h"
+#include "imf_math.h"
+
+typedef struct {
+    imf_real q0, q1, q2, q3; /* attitude quaternion, sensor -> earth, w first */
+    imf_real ix, iy, iz;     /* integral term I of step 5, rad/s */
+} imf_mahony_state_t;
+
+/* Settings, converted once by init. */
+typedef struct {
+    imf_real dt;      /* sample period, s */
+    imf_real half_dt; /* dt / 2, the factor of dq = 1/2 q (x) omega' dt */
+    imf_real two_kp;  /* 2 Kp, multiplies the half error vector, 1/s */
+    imf_real two_ki;  /* 2 Ki, 1/s^2 */
+    int invsqrt;      /* IMF_INVSQRT_EXACT or IMF_INVSQRT_FAST */
+} imf_mahony_settings_t;
+
+typedef struct {
+    imf_mahony_settings_t set;
+    uint32_t skipped; /* samples rejected by the non-finite policy */
+    imf_mahony_state_t x;
+} imf_mahony_imu_t;
+
+/* Same settings and state; the update falls back to the IMU update when the
+   magnetometer reads all zero. */
+typedef struct {
+    imf_mahony_settings_t set;
+    uint32_t skipped; /* samples rejected by the non-finite policy */
+    imf_mahony_state_t x;
+} imf_mahony_ahrs_t;
+
+/* dt: s; kp: 1/s (published twoKp / 2); ki: 1/s^2 (published twoKi / 2);
+   invsqrt: IMF_INVSQRT_EXACT or IMF_INVSQRT_FAST. q = (1, 0, 0, 0), I = 0. */
+void imf_mahony_imu_init(imf_mahony_imu_t *self, imf_real dt, imf_real kp, imf_real ki,
+                         int invsqrt);
+/* gx, gy, gz: rad/s; ax, ay, az: any unit (normalised) */
+void imf_mahony_imu_update(imf_mahony_imu_t *self, imf_real gx, imf_real gy, imf_real gz,
+                           imf_real ax, imf_real ay, imf_real az);
+
+void imf_mahony_ahrs_init(imf_mahony_ahrs_t *self, imf_real dt, imf_real kp, imf_real ki,
+                          int invsqrt);
+/* gx, gy, gz: rad/s; ax, ay, az and mx, my, mz: any unit (normalised) */
+void imf_mahony_ahrs_update(imf_mahony_ahrs_t *self, imf_real gx, imf_real gy, imf_real gz,
+                            imf_real ax, imf_real ay, imf_real az,
+                            imf_real mx, imf_real my, imf_real mz);
+
+#endif /* IMF_MAHONY_H */
