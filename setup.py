@@ -1,6 +1,7 @@
 """Build imufuse_c from csrc/ + imufuse_c/*.pyx, once per precision."""
 import glob
 
+import numpy
 from Cython.Build import cythonize
 from setuptools import Extension, setup
 
@@ -12,7 +13,8 @@ CSRC = sorted(glob.glob("csrc/*.c") + glob.glob("csrc/fixed/*.c"))
 
 def build(name, macros):
     return Extension(f"imufuse_c.{name}", [f"imufuse_c/{name}.pyx", *CSRC],
-                     include_dirs=["csrc", "csrc/fixed"], define_macros=macros,
+                     include_dirs=["csrc", "csrc/fixed", numpy.get_include()],
+                     define_macros=[*macros, ("NPY_NO_DEPRECATED_API", "NPY_1_7_API_VERSION")],
                      extra_compile_args=CFLAGS)
 
 

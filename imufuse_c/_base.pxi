@@ -6,10 +6,14 @@
 # class, so both backends accept the same arguments), the state view (a
 # memcpy of the struct's state member x), reset, and the run() loop, which
 # runs without the GIL and calls the filter's _step for every sample.
+from cpython.float cimport PyFloat_AsDouble
 from libc.string cimport memcpy
 from libc.stdint cimport uint32_t
+cimport numpy as cnp
 
 import numpy as np
+
+cnp.import_array()
 
 from imufuse import _checks
 
@@ -20,6 +24,36 @@ cdef inline void _copy_state(imf_real *dst, const char *x, Py_ssize_t n) noexcep
     cdef Py_ssize_t j
     for j in range(n):
         dst[j] = src[j]
+
+
+cdef int _vec3(object v, imf_real *out) except -1:
+    """One 3-vector of update(): fast paths for tuples, lists and contiguous
+    float64/float32 arrays; anything else through the sequence protocol. A
+    conversion error raises TypeError/ValueError (update() reports it)."""
+    cdef const double *d
+    cdef const float *f
+    cdef int i
+    if (type(v) is tuple or type(v) is list) and len(v) == 3:
+        for i in range(3):
+            out[i] = <imf_real>PyFloat_AsDouble(v[i])
+        return 0
+    if cnp.PyArray_Check(v) and cnp.PyArray_NDIM(v) == 1 and cnp.PyArray_DIM(v, 0) == 3 \
+            and cnp.PyArray_ISCARRAY_RO(v) and cnp.PyArray_ISNOTSWAPPED(v):
+        if cnp.PyArray_TYPE(v) == cnp.NPY_DOUBLE:
+            d = <const double *>cnp.PyArray_DATA(v)
+            for i in range(3):
+                out[i] = <imf_real>d[i]
+            return 0
+        if cnp.PyArray_TYPE(v) == cnp.NPY_FLOAT:
+            f = <const float *>cnp.PyArray_DATA(v)
+            for i in range(3):
+                out[i] = <imf_real>f[i]
+            return 0
+    x, y, z = v
+    out[0] = <imf_real><double>x
+    out[1] = <imf_real><double>y
+    out[2] = <imf_real><double>z
+    return 0
 
 
 cdef class _Filter:
@@ -115,20 +149,15 @@ cdef class _FilterIMU(_Filter):
 
     def update(self, gyr, acc):
         """One sample: gyr (3,) rad/s, acc (3,) any unit."""
-        cdef double g[3]
-        cdef double a[3]
-        cdef imf_real gr[3]
-        cdef imf_real ar[3]
+        cdef imf_real g[3]
+        cdef imf_real a[3]
         try:
-            g[0], g[1], g[2] = gyr
-            a[0], a[1], a[2] = acc
+            _vec3(gyr, g)
+            _vec3(acc, a)
         except (TypeError, ValueError):
             _checks.update_inputs("imu", (gyr, acc))
             raise
-        for i in range(3):
-            gr[i] = <imf_real>g[i]
-            ar[i] = <imf_real>a[i]
-        self._step(gr, ar)
+        self._step(g, a)
 
     def run(self, gyr, acc):
         """All samples: gyr, acc (N, 3) arrays; returns the (N, len(state)) trajectory."""
@@ -152,24 +181,17 @@ cdef class _FilterAHRS(_Filter):
 
     def update(self, gyr, acc, mag):
         """One sample: gyr (3,) rad/s, acc (3,) and mag (3,) any unit."""
-        cdef double g[3]
-        cdef double a[3]
-        cdef double m[3]
-        cdef imf_real gr[3]
-        cdef imf_real ar[3]
-        cdef imf_real mr[3]
+        cdef imf_real g[3]
+        cdef imf_real a[3]
+        cdef imf_real m[3]
         try:
-            g[0], g[1], g[2] = gyr
-            a[0], a[1], a[2] = acc
-            m[0], m[1], m[2] = mag
+            _vec3(gyr, g)
+            _vec3(acc, a)
+            _vec3(mag, m)
         except (TypeError, ValueError):
             _checks.update_inputs("ahrs", (gyr, acc, mag))
             raise
-        for i in range(3):
-            gr[i] = <imf_real>g[i]
-            ar[i] = <imf_real>a[i]
-            mr[i] = <imf_real>m[i]
-        self._step(gr, ar, mr)
+        self._step(g, a, m)
 
     def run(self, gyr, acc, mag):
         """All samples: gyr, acc, mag (N, 3) arrays; returns the (N, len(state)) trajectory."""
