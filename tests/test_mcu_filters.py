@@ -201,6 +201,53 @@ def test_a_difference_is_caught(toolchains):
     assert msg is not None and "first difference at sample" in msg and "ulp" in msg
 
 
+def test_a_fixed_point_difference_is_caught(toolchains):
+    """The integer comparison can fail too: one constant off by one LSB of its mantissa makes
+    the trajectory differ, and the message names sample, variable and LSB."""
+    need(toolchains, "avr")
+    s = next(s for s in SPECS if s.fixed and s.ref_class.__name__ == "MahonyIMUQ")
+    ins = mf.inputs_for(s.precision, s.group[1], 40)
+    bad_spec = mf.FilterSpec.make(s.ref_class, s.params, s.precision, s.label)
+    args = mf.FilterSpec._init_args(s)
+    bad_spec._init_args = lambda: [args[0].replace("(int16_t)", "(int16_t)1+", 1), *args[1:]]
+    bad = mf.run_filters("avr", [bad_spec], ins)
+    want, _ = mf.reference_states(s, ins)
+    msg = _describe(bad.states[0], want, s, "avr")
+    assert msg is not None and "first difference at sample" in msg and "LSB" in msg
+
+
+@pytest.mark.parametrize("target", ["host", "avr"])
+def test_fixed_init_from_double_and_from_constants(toolchains, target):
+    """imf_<f>_init (double parameters) and imf_<f>_init_consts (the reference's integer
+    constants) build the same struct, byte for byte, on the host; on AVR, whose double is 32
+    bits, the double init may differ (that is why the MCU runs use _init_consts), and the
+    constants path matches the host there by construction (test_state_bits)."""
+    need(toolchains, target)
+    specs = [s for s in SPECS if s.fixed]
+    pre, body, state = ["#include <string.h>"], [], []
+    for i, s in enumerate(specs):
+        c = s.c
+        v = f"imf_a{i}"
+        p = s.ref_class._params(**s.params, profile=s.precision[1:])
+        dbl = [mf._literal(cp, a, "double") for cp, a in zip(c.init, p)]
+        pre.append(f'#include "{c.header.name}"\nstatic {c.c_name}_t {v}, {v}b;\n'
+                   f"static int32_t imf_r{i};")
+        body.append(f"memset(&{v}, 0, sizeof {v}); memset(&{v}b, 0, sizeof {v}b);\n"
+                    f"imf_r{i} = {c.c_name}_init(&{v}{''.join(', ' + a for a in dbl)}) * 4\n"
+                    f"    + {s.init_function}(&{v}b{''.join(', ' + a for a in s._init_args())}) * 2\n"
+                    f"    + (memcmp(&{v}, &{v}b, sizeof {v}) != 0);")
+        state.append((f"imf_r{i}", "i32"))
+    drv = mcu.Driver(prelude="\n".join(pre), step="\n".join(body), state=state)
+    res = mcu.run(target, sources=sorted({str(s.c.source) for s in specs}),
+                  include_dirs=[mf.CSRC, mf.CSRC / "fixed"], driver=drv,
+                  inputs={"k": np.zeros(1, np.int16)})
+    codes = {s.label: int(col[0]) for s, col in zip(specs, res.values())}
+    # bit 2: double init failed, bit 1: constants init failed, bit 0: structs differ
+    assert all(c & 6 == 0 for c in codes.values()), codes
+    if target == "host":
+        assert all(c == 0 for c in codes.values()), codes
+
+
 # --------------------------------------------------------------------------------------------
 # elementary operations
 

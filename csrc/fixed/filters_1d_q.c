@@ -7,20 +7,30 @@
  * c.s + K - N must lie in [-31, 31] and [0, 47]. */
 static int imf_1d_q_kr_ok(const imf_qscale_t kr)
 {
-    return kr.m != 0 && kr.s >= -14 && kr.s <= 46;
+    return kr.m != 0 && imf_qscale_ok(kr, -14, 46);
+}
+
+int imf_complementary1d_q_init_consts(imf_complementary1d_q_t *const self, const imf_qscale_t kr,
+                                      const imf_qscale_t ka)
+{
+    self->kr = kr;
+    self->ka = ka;
+    self->x.theta = 0;
+    if (!imf_1d_q_kr_ok(kr) || !imf_qscale_ok(ka, 14, 47)) {
+        return -1;
+    }
+    return 0;
 }
 
 int imf_complementary1d_q_init(imf_complementary1d_q_t *const self, const double dt,
                                const double alpha, const double gyr_scale, const double angle_scale)
 {
-    self->kr = imf_qscale_from_double(gyr_scale * dt / angle_scale);
-    self->ka = imf_qscale_from_double(1.0 - alpha);
-    self->x.theta = 0;
-    if (!(dt > 0.0) || !imf_param_ok(alpha, 0.0, 1.0) || !(gyr_scale > 0.0) || !(angle_scale > 0.0)
-        || !imf_1d_q_kr_ok(self->kr) || self->ka.s < 14 || self->ka.s > 47) {
+    const int r = imf_complementary1d_q_init_consts(
+        self, imf_qscale_from_double(gyr_scale * dt / angle_scale), imf_qscale_from_double(1.0 - alpha));
+    if (!(dt > 0.0) || !imf_param_ok(alpha, 0.0, 1.0) || !(gyr_scale > 0.0) || !(angle_scale > 0.0)) {
         return -1;
     }
-    return 0;
+    return r;
 }
 
 void imf_complementary1d_q_update(imf_complementary1d_q_t *const self, const int16_t rate,
@@ -32,22 +42,33 @@ void imf_complementary1d_q_update(imf_complementary1d_q_t *const self, const int
     self->x.theta = imf_add_sat32(tp, imf_scale32(e, self->ka, 15, 15));
 }
 
+int imf_mahony1d_bias_q_init_consts(imf_mahony1d_bias_q_t *const self, const imf_qscale_t kr,
+                                    const imf_qscale_t kp, const imf_qscale_t ki,
+                                    const int integrate_first)
+{
+    self->kr = kr;
+    self->kp = kp;
+    self->ki = ki;
+    self->integrate_first = (int16_t)(integrate_first != 0);
+    self->x.theta = 0;
+    self->x.j = 0;
+    if (!imf_1d_q_kr_ok(kr) || !imf_qscale_ok(kp, 14, 47) || !imf_qscale_ok(ki, 8, 55)) {
+        return -1;
+    }
+    return 0;
+}
+
 int imf_mahony1d_bias_q_init(imf_mahony1d_bias_q_t *const self, const double dt, const double kp,
                              const double ki, const int integrate_first, const double gyr_scale,
                              const double angle_scale)
 {
-    self->kr = imf_qscale_from_double(gyr_scale * dt / angle_scale);
-    self->kp = imf_qscale_from_double(kp * dt);
-    self->ki = imf_qscale_from_double(ki * dt * dt);
-    self->integrate_first = (int16_t)(integrate_first != 0);
-    self->x.theta = 0;
-    self->x.j = 0;
-    if (!(dt > 0.0) || !(kp >= 0.0) || !(ki >= 0.0) || !(gyr_scale > 0.0) || !(angle_scale > 0.0)
-        || !imf_1d_q_kr_ok(self->kr) || self->kp.s < 14 || self->kp.s > 47
-        || self->ki.s < 8 || self->ki.s > 55) {
+    const int r = imf_mahony1d_bias_q_init_consts(
+        self, imf_qscale_from_double(gyr_scale * dt / angle_scale), imf_qscale_from_double(kp * dt),
+        imf_qscale_from_double(ki * dt * dt), integrate_first);
+    if (!(dt > 0.0) || !(kp >= 0.0) || !(ki >= 0.0) || !(gyr_scale > 0.0) || !(angle_scale > 0.0)) {
         return -1;
     }
-    return 0;
+    return r;
 }
 
 void imf_mahony1d_bias_q_update(imf_mahony1d_bias_q_t *const self, const int16_t rate,

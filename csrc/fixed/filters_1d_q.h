@@ -32,9 +32,17 @@ typedef struct {
 } imf_complementary1d_q_t;
 
 /* dt: s; alpha in [0, 1]; gyr_scale: rad/s per count; angle_scale: rad per
- * count.  Returns 0, or -1 if a constant is out of the fixed-point range. */
+ * count.  Returns 0, or -1 if a constant is out of the fixed-point range.
+ * Computes the constants in double: on a target whose double is 32 bits
+ * (avr-gcc) they can differ from a host's; use _init_consts there. */
 int imf_complementary1d_q_init(imf_complementary1d_q_t *self, double dt, double alpha,
                                double gyr_scale, double angle_scale);
+/* The same from the precomputed constants kr, ka (q-scales as above; computed
+ * once on a host: imufuse.reference.Complementary1DQ(...).c_init_args()).
+ * Integer only, identical on every target.  Returns 0, or -1 if a constant
+ * is out of range. */
+int imf_complementary1d_q_init_consts(imf_complementary1d_q_t *self, imf_qscale_t kr,
+                                      imf_qscale_t ka);
 /* rate, angle: counts */
 void imf_complementary1d_q_update(imf_complementary1d_q_t *self, int16_t rate, int16_t angle);
 
@@ -50,9 +58,12 @@ typedef struct {
     imf_mahony1d_bias_q_state_t x;
 } imf_mahony1d_bias_q_t;
 
-/* dt: s; kp: 1/s; ki: 1/s^2; scales as above. */
+/* dt: s; kp: 1/s; ki: 1/s^2; scales as above (double: see above). */
 int imf_mahony1d_bias_q_init(imf_mahony1d_bias_q_t *self, double dt, double kp, double ki,
                              int integrate_first, double gyr_scale, double angle_scale);
+/* From the precomputed constants kr, kp = Kp dt, ki = Ki dt^2 (integer only). */
+int imf_mahony1d_bias_q_init_consts(imf_mahony1d_bias_q_t *self, imf_qscale_t kr, imf_qscale_t kp,
+                                    imf_qscale_t ki, int integrate_first);
 void imf_mahony1d_bias_q_update(imf_mahony1d_bias_q_t *self, int16_t rate, int16_t angle);
 
 #endif /* IMF_FILTERS_1D_Q_H */

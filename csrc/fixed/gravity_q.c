@@ -4,18 +4,26 @@
 #include "imf_fixed_init.h"
 #include "imf_fixed_quat.h"
 
-int imf_kk_q_init(imf_kk_q_t *const self, const double dt, const double kp, const double gyr_scale)
+int imf_kk_q_init_consts(imf_kk_q_t *const self, const imf_qscale_t kw, const imf_qscale_t kp)
 {
-    self->kw = imf_qscale_from_double(gyr_scale * dt);
-    self->kp = imf_qscale_from_double(kp);
+    self->kw = kw;
+    self->kp = kp;
     self->x.t[0] = self->x.t[1] = 0;
     /* shifts: kw.s - 28 and kw.s + 15 - 28 in [0, 47]; kp.s in [14, 47] */
-    if (!(dt > 0.0) || !(kp >= 0.0) || !(kp < 2.0) || !(gyr_scale > 0.0)
-        || self->kw.m == 0 || self->kw.s < 28 || self->kw.s > 59
-        || self->kp.s < 14 || self->kp.s > 47) {
+    if (kw.m == 0 || !imf_qscale_ok(kw, 28, 59) || !imf_qscale_ok(kp, 14, 47)) {
         return -1;
     }
     return 0;
+}
+
+int imf_kk_q_init(imf_kk_q_t *const self, const double dt, const double kp, const double gyr_scale)
+{
+    const int r = imf_kk_q_init_consts(self, imf_qscale_from_double(gyr_scale * dt),
+                                       imf_qscale_from_double(kp));
+    if (!(dt > 0.0) || !(kp >= 0.0) || !(kp < 2.0) || !(gyr_scale > 0.0)) {
+        return -1;
+    }
+    return r;
 }
 
 void imf_kk_q_update(imf_kk_q_t *const self, const int16_t gyr[3], const int16_t acc[3])
@@ -41,33 +49,48 @@ void imf_kk_q_update(imf_kk_q_t *const self, const int16_t gyr[3], const int16_t
     t[1] = roll;
 }
 
+int imf_multiwii_q_init_consts(imf_multiwii_q_t *const self, const imf_qscale_t kw,
+                               const imf_qscale_t kc, const int acc_lpf_shift, const uint32_t lo2,
+                               const uint32_t hi2, const int32_t acc_1g_q15)
+{
+    const int k = (acc_lpf_shift >= 0 && acc_lpf_shift <= 15) ? acc_lpf_shift : 0;
+    int i;
+    self->kw = kw;
+    self->kc = kc;
+    self->k = (int16_t)k;
+    self->lo2 = lo2;
+    self->hi2 = hi2;
+    for (i = 0; i < 3; ++i) {
+        self->x.d[i] = 0;
+        self->x.l[i] = 0;
+    }
+    if (k != acc_lpf_shift || !(acc_1g_q15 > 0) || acc_1g_q15 > (int32_t)32767 * 32768
+        || kw.m == 0 || !imf_qscale_ok(kw, 15, 62) || !imf_qscale_ok(kc, 14, 47)) {
+        return -1;
+    }
+    /* start level: d = accSmooth = (0, 0, acc_1g); accLPF32 = acc_1g 2^k, rounded */
+    self->x.d[2] = acc_1g_q15;
+    self->x.l[2] = imf_rshr32(acc_1g_q15, 15 - k);
+    return 0;
+}
+
 int imf_multiwii_q_init(imf_multiwii_q_t *const self, const double dt, const double cmpf,
                         const int acc_lpf_shift, const double acc_1g, const double window,
                         const double gyr_scale)
 {
     const double lo = (1.0 - window) * acc_1g, hi = (1.0 + window) * acc_1g;
-    const int k = (acc_lpf_shift >= 0 && acc_lpf_shift <= 15) ? acc_lpf_shift : 0;
-    int i;
-    self->kw = imf_qscale_from_double(gyr_scale * dt);
-    self->kc = imf_qscale_from_double(cmpf >= 0.0 ? 1.0 / (cmpf + 1.0) : 0.0);
-    self->k = (int16_t)k;
-    self->lo2 = (lo > 0.0) ? (uint32_t)floor(lo * lo) : 0u;
-    self->hi2 = (hi * hi >= 4294967295.0) ? 4294967295u : (uint32_t)ceil(hi * hi);
-    for (i = 0; i < 3; ++i) {
-        self->x.d[i] = 0;
-        self->x.l[i] = 0;
-    }
-    if (!(dt > 0.0) || !(cmpf >= 0.0) || !(cmpf <= 1.0e9) || k != acc_lpf_shift
-        || !imf_param_ok(acc_1g, 0.0, 32767.0) || !(acc_1g > 0.0)
-        || !imf_param_ok(window, 0.0, 1.0) || !(gyr_scale > 0.0)
-        || self->kw.m == 0 || self->kw.s < 15 || self->kw.s > 62
-        || self->kc.s < 14 || self->kc.s > 47) {
+    const int ok_1g = imf_param_ok(acc_1g, 0.0, 32767.0) && acc_1g > 0.0;
+    const int ok_w = ok_1g && imf_param_ok(window, 0.0, 1.0); /* lo, hi finite */
+    const int r = imf_multiwii_q_init_consts(
+        self, imf_qscale_from_double(gyr_scale * dt),
+        imf_qscale_from_double(cmpf >= 0.0 ? 1.0 / (cmpf + 1.0) : 0.0), acc_lpf_shift,
+        (ok_w && lo > 0.0) ? (uint32_t)floor(lo * lo) : 0u,
+        (!ok_w || hi * hi >= 4294967295.0) ? 4294967295u : (uint32_t)ceil(hi * hi),
+        ok_1g ? (int32_t)floor(acc_1g * 32768.0 + 0.5) : 0);
+    if (!(dt > 0.0) || !(cmpf >= 0.0) || !(cmpf <= 1.0e9) || !ok_w || !(gyr_scale > 0.0)) {
         return -1;
     }
-    /* start level: d = accSmooth = (0, 0, acc_1g) */
-    self->x.d[2] = (int32_t)floor(acc_1g * 32768.0 + 0.5);
-    self->x.l[2] = (int32_t)floor(ldexp(acc_1g, k) + 0.5);
-    return 0;
+    return r;
 }
 
 void imf_multiwii_q_update(imf_multiwii_q_t *const self, const int16_t gyr[3], const int16_t acc[3])

@@ -39,8 +39,13 @@ typedef struct {
     imf_kk_q_state_t x;
 } imf_kk_q_t;
 
-/* dt: s; kp: per sample, [0, 2); gyr_scale: rad/s per count */
+/* dt: s; kp: per sample, [0, 2); gyr_scale: rad/s per count.  Constants
+ * computed in double: on a target whose double is 32 bits (avr-gcc) they
+ * can differ from a host's; use _init_consts there. */
 int imf_kk_q_init(imf_kk_q_t *self, double dt, double kp, double gyr_scale);
+/* From the precomputed constants kw = gyr_scale dt, kp (integer only,
+ * identical on every target; imufuse.reference.KKQ(...).c_init_args()). */
+int imf_kk_q_init_consts(imf_kk_q_t *self, imf_qscale_t kw, imf_qscale_t kp);
 void imf_kk_q_update(imf_kk_q_t *self, const int16_t gyr[3], const int16_t acc[3]);
 
 typedef struct {
@@ -59,6 +64,12 @@ typedef struct {
  * (0, 32767]; window: [0, 1]; gyr_scale: rad/s per count */
 int imf_multiwii_q_init(imf_multiwii_q_t *self, double dt, double cmpf, int acc_lpf_shift,
                         double acc_1g, double window, double gyr_scale);
+/* From the precomputed constants (integer only, identical on every target;
+ * imufuse.reference.MultiWiiQ(...).c_init_args()): kw = gyr_scale dt,
+ * kc = 1/(F+1), the window lo2 < |accSmooth|^2 < hi2 in counts^2 and
+ * acc_1g_q15 = acc_1g in q15 counts, in (0, 32767 * 2^15]. */
+int imf_multiwii_q_init_consts(imf_multiwii_q_t *self, imf_qscale_t kw, imf_qscale_t kc,
+                               int acc_lpf_shift, uint32_t lo2, uint32_t hi2, int32_t acc_1g_q15);
 void imf_multiwii_q_update(imf_multiwii_q_t *self, const int16_t gyr[3], const int16_t acc[3]);
 
 #endif /* IMF_GRAVITY_Q_H */

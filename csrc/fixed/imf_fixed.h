@@ -58,6 +58,14 @@ typedef struct {
     int16_t s; /* binary exponent (shift), any value in [-16, 62] */
 } imf_qscale_t;
 
+/* 1 if c is a well-formed q-scale (m = 0 or m in [2^14, 2^15)) with its
+ * shift s in [smin, smax]: the check every _init_consts makes of the
+ * constants it is given. */
+static inline int imf_qscale_ok(const imf_qscale_t c, const int smin, const int smax)
+{
+    return (c.m == 0 || c.m >= 16384) && c.s >= smin && c.s <= smax;
+}
+
 /* ---- shifts -------------------------------------------------------- */
 
 /* Arithmetic shift right, n in [0, 31]: floor(x / 2^n) (checked above). */

@@ -4,21 +4,30 @@
 #include "imf_fixed_init.h"
 #include "imf_fixed_quat.h"
 
-int imf_madgwick_imu_q_init(imf_madgwick_imu_q_t *const self, const double dt, const double beta,
-                            const double gyr_scale, const int profile)
+int imf_madgwick_imu_q_init_consts(imf_madgwick_imu_q_t *const self, const imf_qscale_t kg,
+                                   const imf_qscale_t kb, const int profile)
 {
-    self->kg = imf_qscale_from_double(0.5 * gyr_scale * dt);
-    self->kb = imf_qscale_from_double(beta * dt);
-    self->hs = imf_q_rate_exponent(self->kg);
+    self->kg = kg;
+    self->kb = kb;
+    self->hs = imf_q_rate_exponent(kg);
     self->profile = (int16_t)(profile == 8 ? 8 : 32);
     self->x.q[0] = IMF_Q30_ONE;
     self->x.q[1] = self->x.q[2] = self->x.q[3] = 0;
-    if (!(dt > 0.0) || !(gyr_scale > 0.0) || !(beta >= 0.0)
-        || self->kg.m == 0 || self->kg.s < 31 || self->kg.s > 61
-        || self->kb.s < 16 || self->kb.s > 46) {
+    if (kg.m == 0 || !imf_qscale_ok(kg, 31, 61) || !imf_qscale_ok(kb, 16, 46)) {
         return -1;
     }
     return 0;
+}
+
+int imf_madgwick_imu_q_init(imf_madgwick_imu_q_t *const self, const double dt, const double beta,
+                            const double gyr_scale, const int profile)
+{
+    const int r = imf_madgwick_imu_q_init_consts(self, imf_qscale_from_double(0.5 * gyr_scale * dt),
+                                                 imf_qscale_from_double(beta * dt), profile);
+    if (!(dt > 0.0) || !(gyr_scale > 0.0) || !(beta >= 0.0)) {
+        return -1;
+    }
+    return r;
 }
 
 /* Number of bits of a non-negative int32 (0 for 0); shifts only. */

@@ -37,6 +37,11 @@ typedef struct {
  * profile: 32 or 8.  Returns 0, or -1 if a constant is out of range. */
 int imf_madgwick_imu_q_init(imf_madgwick_imu_q_t *self, double dt, double beta,
                             double gyr_scale, int profile);
+/* The same from the precomputed constants kg, kb (integer only, identical on
+ * every target; imufuse.reference.MadgwickIMUQ(...).c_init_args()); see
+ * imf_mahony_imu_q_init_consts for why firmware uses it. */
+int imf_madgwick_imu_q_init_consts(imf_madgwick_imu_q_t *self, imf_qscale_t kg, imf_qscale_t kb,
+                                   int profile);
 void imf_madgwick_imu_q32_update(imf_madgwick_imu_q_t *self, const int16_t gyr[3],
                                  const int16_t acc[3]);
 void imf_madgwick_imu_q8_update(imf_madgwick_imu_q_t *self, const int16_t gyr[3],

@@ -4,25 +4,36 @@
 #include "imf_fixed_init.h"
 #include "imf_fixed_quat.h"
 
-int imf_mahony_imu_q_init(imf_mahony_imu_q_t *const self, const double dt, const double kp,
-                          const double ki, const double gyr_scale, const int profile)
+int imf_mahony_imu_q_init_consts(imf_mahony_imu_q_t *const self, const imf_qscale_t kg,
+                                 const imf_qscale_t kp, const imf_qscale_t ki, const int profile)
 {
-    self->kg = imf_qscale_from_double(0.5 * gyr_scale * dt);
-    self->kp = imf_qscale_from_double(0.5 * kp * dt);
-    self->ki = imf_qscale_from_double(0.5 * ki * dt * dt);
-    self->hs = imf_q_rate_exponent(self->kg);
+    self->kg = kg;
+    self->kp = kp;
+    self->ki = ki;
+    self->hs = imf_q_rate_exponent(kg);
     self->profile = (int16_t)(profile == 8 ? 8 : 32);
     self->x.q[0] = IMF_Q30_ONE;
     self->x.q[1] = self->x.q[2] = self->x.q[3] = 0;
     self->x.i[0] = self->x.i[1] = self->x.i[2] = 0;
     /* kg: gyro full scale below 0.25 rad half angle per sample (s >= 31);
      * kp, ki: shifts of imf_scale16/32 in range */
-    if (!(dt > 0.0) || !(gyr_scale > 0.0) || !(kp >= 0.0) || !(ki >= 0.0)
-        || self->kg.m == 0 || self->kg.s < 31 || self->kg.s > 61
-        || self->kp.s < 16 || self->kp.s > 47 || self->ki.s < 8 || self->ki.s > 54) {
+    if (kg.m == 0 || !imf_qscale_ok(kg, 31, 61) || !imf_qscale_ok(kp, 16, 47)
+        || !imf_qscale_ok(ki, 8, 54)) {
         return -1;
     }
     return 0;
+}
+
+int imf_mahony_imu_q_init(imf_mahony_imu_q_t *const self, const double dt, const double kp,
+                          const double ki, const double gyr_scale, const int profile)
+{
+    const int r = imf_mahony_imu_q_init_consts(self, imf_qscale_from_double(0.5 * gyr_scale * dt),
+                                               imf_qscale_from_double(0.5 * kp * dt),
+                                               imf_qscale_from_double(0.5 * ki * dt * dt), profile);
+    if (!(dt > 0.0) || !(gyr_scale > 0.0) || !(kp >= 0.0) || !(ki >= 0.0)) {
+        return -1;
+    }
+    return r;
 }
 
 /* Appendix steps 2-6 for one profile: h = 0.5 w' dt (q30).  Returns with

@@ -44,6 +44,13 @@ typedef struct {
  * fixed-point range (then the filter is not usable). */
 int imf_mahony_imu_q_init(imf_mahony_imu_q_t *self, double dt, double kp, double ki,
                           double gyr_scale, int profile);
+/* The same from the precomputed constants kg, kp, ki above (integer only,
+ * identical on every target; computed once on a host by
+ * imufuse.reference.MahonyIMUQ(...).c_init_args()).  init computes them in
+ * double, which is 32 bits wide on avr-gcc: there the constants can differ
+ * from a host's, so firmware that must match a host bit for bit uses this. */
+int imf_mahony_imu_q_init_consts(imf_mahony_imu_q_t *self, imf_qscale_t kg, imf_qscale_t kp,
+                                 imf_qscale_t ki, int profile);
 /* gyr: counts; acc: counts (any scale, zero vector = no correction) */
 void imf_mahony_imu_q32_update(imf_mahony_imu_q_t *self, const int16_t gyr[3], const int16_t acc[3]);
 void imf_mahony_imu_q8_update(imf_mahony_imu_q_t *self, const int16_t gyr[3], const int16_t acc[3]);

@@ -7,6 +7,9 @@ member ``x``, in order) and ``_params(**kw)`` (the C init arguments). The C prot
 from the headers under ``csrc/`` (and ``csrc/fixed/``): the init arguments are matched to the
 reference ``_init`` by parameter name, written as exact literals of the C parameter type, and
 the update receives the current sample as arrays or as scalars, whatever the prototype asks.
+Fixed-point filters are initialised with ``<c_name>_init_consts`` and the integer constants of
+the reference's ``c_init_args()`` (computed once in IEEE double, as a host's ``<c_name>_init``
+does): avr-gcc's double is 32 bits, so constants computed on the target could differ.
 
     spec = FilterSpec.make(reference.MadgwickIMU, dict(dt=1/512, beta=0.1), "float32")
     out = run_filters("m0", [spec], inputs_for([spec], n=300))
@@ -74,6 +77,7 @@ class CFilter:
     init_returns: str            # "void" or an integer type (fixed point: 0 = ok)
     update: Tuple[CParam, ...]   # without self
     has_skipped: bool
+    init_consts: Optional[Tuple[CParam, ...]] = None  # fixed point: <c_name>_init_consts
 
 
 def _strip_comments(text: str) -> str:
@@ -124,6 +128,9 @@ def c_library(c_name: str, csrc: Path = CSRC) -> CFilter:
             continue
         ret, init = _prototype(text, c_name + "_init")
         _, update = _prototype(text, c_name + "_update")
+        init_consts = None
+        if re.search(r"\b" + re.escape(c_name) + r"_init_consts\s*\(", text):
+            _, init_consts = _prototype(text, c_name + "_init_consts")
         m = re.search(r"typedef\s+struct\s*\{((?:(?!typedef).)*?)\}\s*" + re.escape(c_name) + r"_t\s*;",
                       text, flags=re.S)
         has_skipped = bool(m and re.search(r"\bskipped\b", m.group(1)))
@@ -131,7 +138,7 @@ def c_library(c_name: str, csrc: Path = CSRC) -> CFilter:
         if not src.is_file():
             raise HarnessError(f"{c_name}: {h} has no {src.name} next to it")
         cf = CFilter(c_name, h, src, init, ret.replace("static", "").replace("inline", "").strip(),
-                     update, has_skipped)
+                     update, has_skipped, init_consts)
         _HEADER_CACHE[key] = cf
         return cf
     raise HarnessError(f"no header under {csrc} declares {c_name}_init()")
@@ -156,6 +163,9 @@ def _hex_f64(v: float) -> str:
 
 def _literal(param: CParam, value, real: str) -> str:
     t = param.ctype.replace("const", "").strip()
+    if t == "imf_qscale_t":
+        m, s = (int(v) for v in (value.m, value.s))
+        return f"(imf_qscale_t){{(int16_t){m}, (int16_t)({s})}}"
     if t == "imf_real":
         t = real
     if t == "float":
@@ -226,8 +236,28 @@ class FilterSpec:
         return np.asarray(self.reference().state).dtype
 
     # -- C text
+    @property
+    def init_function(self) -> str:
+        """Fixed point: <c_name>_init_consts with the integer constants the reference computes
+        (a target's own double may be 32 bits: constants computed there could differ from the
+        host's); float: <c_name>_init."""
+        if self.fixed:
+            if self.c.init_consts is None:
+                raise HarnessError(f"{self.label}: {self.c.header.name} declares no "
+                                   f"{self.c.c_name}_init_consts()")
+            return self.c.c_name + "_init_consts"
+        return self.c.c_name + "_init"
+
     def _init_args(self) -> List[str]:
         ref = self.ref_class
+        if self.fixed:
+            consts = self.reference().c_init_args()
+            cparams = self.c.init_consts
+            if [p.name for p in cparams] != list(consts):
+                raise HarnessError(
+                    f"{self.label}: C {self.init_function}({', '.join(p.name for p in cparams)}) "
+                    f"does not match the reference c_init_args() ({', '.join(consts)})")
+            return [_literal(p, consts[p.name], "") for p in cparams]
         args = ref._params(**self.params, **({"profile": self.precision[1:]} if self.fixed else {}))
         names = list(inspect.signature(ref._init).parameters)[1:]  # drop self
         cparams = self.c.init
@@ -270,7 +300,7 @@ class FilterSpec:
             f"static {c.c_name}_t {var};\n"
             f"typedef char {var}_state_is_{n}_words[sizeof({var}.x) == {n}u * sizeof({ctype}) ? 1 : -1];"
         )
-        call = f"{c.c_name}_init(&{var}{''.join(', ' + a for a in self._init_args())})"
+        call = f"{self.init_function}(&{var}{''.join(', ' + a for a in self._init_args())})"
         if c.init_returns != "void":
             init = f'if ({call} != 0) {{ imf_port_write("IMF_FAULT {self.label} init\\n"); }}'
         else:

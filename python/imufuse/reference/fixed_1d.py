@@ -20,6 +20,7 @@ class Complementary1DQ(FixedFilter):
     angle_scale=rad per count, profile="32" | "8"). theta is q15 angle counts.
     Both profiles run the same 16x16->32 update.
     """
+    c_name = "imf_complementary1d_q"
     state_names = ("theta",)
 
     @staticmethod
@@ -31,10 +32,18 @@ class Complementary1DQ(FixedFilter):
         qconst("1-alpha", 1.0 - alpha, 14, 47)
         return (dt, alpha, gyr_scale, angle_scale, check_profile(profile))
 
+    @staticmethod
+    def _consts(dt, alpha, gyr_scale, angle_scale, profile):
+        # imf_complementary1d_q_init: the constants from the double parameters
+        return dict(kr=ci.qscale(gyr_scale * dt / angle_scale), ka=ci.qscale(1.0 - alpha))
+
     def _init(self, dt, alpha, gyr_scale, angle_scale, profile):
         self.angle_scale = angle_scale
-        self.kr = ci.qscale(gyr_scale * dt / angle_scale)
-        self.ka = ci.qscale(1.0 - alpha)
+        self._init_consts(**self._consts(dt, alpha, gyr_scale, angle_scale, profile))
+
+    def _init_consts(self, kr, ka):
+        self.kr = kr
+        self.ka = ka
         self.theta = 0
 
     def _get_state(self):
@@ -56,6 +65,7 @@ class Complementary1DQ(FixedFilter):
 class Mahony1DBiasQ(FixedFilter):
     """Mahony&Madgwick PI filter, Eq. 3.6 (Eq. 3.9 with integrate_first), in
     fixed point. theta: q15 angle counts; j = I dt in q23 angle counts."""
+    c_name = "imf_mahony1d_bias_q"
     state_names = ("theta", "j")
 
     @staticmethod
@@ -68,11 +78,21 @@ class Mahony1DBiasQ(FixedFilter):
         qconst("ki*dt^2", ki * dt * dt, 8, 55)
         return (dt, kp, ki, integrate_first, gyr_scale, angle_scale, check_profile(profile))
 
+    @staticmethod
+    def _consts(dt, kp, ki, integrate_first, gyr_scale, angle_scale, profile):
+        # imf_mahony1d_bias_q_init: the constants from the double parameters
+        return dict(kr=ci.qscale(gyr_scale * dt / angle_scale), kp=ci.qscale(kp * dt),
+                    ki=ci.qscale(ki * dt * dt), integrate_first=int(integrate_first != 0))
+
     def _init(self, dt, kp, ki, integrate_first, gyr_scale, angle_scale, profile):
         self.dt, self.angle_scale = dt, angle_scale
-        self.kr = ci.qscale(gyr_scale * dt / angle_scale)
-        self.kp = ci.qscale(kp * dt)
-        self.ki = ci.qscale(ki * dt * dt)
+        self._init_consts(**self._consts(dt, kp, ki, integrate_first, gyr_scale, angle_scale,
+                                         profile))
+
+    def _init_consts(self, kr, kp, ki, integrate_first):
+        self.kr = kr
+        self.kp = kp
+        self.ki = ki
         self.integrate_first = integrate_first != 0
         self.theta = 0
         self.j = 0

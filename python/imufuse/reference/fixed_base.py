@@ -7,10 +7,20 @@ differences: `profile="32" | "8"` replaces dtype; update() and run() take raw
 int16 sensor counts; `state` is an int32 array; `state_float` gives the state
 in the float twin's units.
 
-Subclasses define kind, state_names, _params(...) (validation; returns the C
-init arguments, the profile last as the int 32 or 8), _init(*args) (mirror
-of imf_<filter>_init), _update(*ints) (mirror of imf_<filter>_update) and
+Subclasses define kind, c_name (prefix of the C twin: <c_name>_t,
+<c_name>_init, <c_name>_init_consts, <c_name>_update), state_names,
+_params(...) (validation; returns the C init arguments, the profile last as
+the int 32 or 8), _consts(*args) (the integer constants imf_<filter>_init
+computes from its double arguments, as a dict in the order and with the
+names of the parameters of imf_<filter>_init_consts), _init(*args) (mirror of
+imf_<filter>_init), _init_consts(**consts) (mirror of
+imf_<filter>_init_consts), _update(*ints) (mirror of imf_<filter>_update) and
 _state_float(state).
+
+Firmware whose double is 32 bits wide (avr-gcc) must not compute the
+constants itself: c_init_args() / c_init_call() give them, computed here in
+IEEE double exactly as a host's imf_<filter>_init does, for
+imf_<filter>_init_consts (integer only, identical on every target).
 """
 from __future__ import annotations
 
@@ -41,6 +51,17 @@ def qconst(name, value, smin, smax, nonzero=False):
         raise ValueError(f"{name}={value!r} is outside the fixed-point range "
                          f"(2^-{smax} .. 2^{-smin} as a scale)")
     return c
+
+
+def c_literal(value) -> str:
+    """A C99 literal of an init_consts argument: a compound literal for a q-scale, a decimal
+    integer (with a type that holds it on 16-bit-int targets) otherwise."""
+    if isinstance(value, ci.QScale):
+        return f"(imf_qscale_t){{{value.m}, {value.s}}}"
+    v = int(value)
+    if not -32768 <= v <= 32767:
+        return f"{v}L" if -(1 << 31) <= v < (1 << 31) else f"{v}UL"
+    return str(v)
 
 
 def as_int16(name, a, ndim):
@@ -86,8 +107,22 @@ def fixed_update_inputs(kind, args):
 
 class FixedFilter:
     kind = "1d"
+    c_name = ""
     state_names = ()
     dtype = "int32"
+
+    def c_init_args(self) -> dict:
+        """The arguments of <c_name>_init_consts after the filter pointer, by C parameter
+        name: ints, and ci.QScale for imf_qscale_t.  The same constants the host's
+        <c_name>_init computes from this filter's parameters."""
+        return self._consts(*self._args)
+
+    def c_init_call(self, var: str) -> str:
+        """C statement initialising the filter variable ``var`` (an ``<c_name>_t``) from the
+        constants, e.g. for firmware: ``imf_mahony_imu_q_init_consts(&f, (imf_qscale_t){...},
+        ...);`` (integer only; returns 0 in C)."""
+        args = "".join(", " + c_literal(v) for v in self.c_init_args().values())
+        return f"{self.c_name}_init_consts(&{var}{args});"
 
     def __init__(self, *args, profile="32", **kwargs):
         self._args = self._params(*args, profile=profile, **kwargs)

@@ -17,6 +17,7 @@ class KKQ(FixedFilter):
     twin of KK (same equations): pitch, roll in q28 rad, a_pitch = -a_x/|a|,
     a_roll = a_y/|a|; kp per sample. KKQ(dt, kp, gyr_scale=rad/s per count)."""
     kind = "imu"
+    c_name = "imf_kk_q"
     state_names = ("pitch", "roll")
 
     @staticmethod
@@ -27,9 +28,17 @@ class KKQ(FixedFilter):
         qconst("kp", kp, 14, 47)
         return (dt, kp, gyr_scale, check_profile(profile))
 
+    @staticmethod
+    def _consts(dt, kp, gyr_scale, profile):
+        # imf_kk_q_init: the constants from the double parameters
+        return dict(kw=ci.qscale(gyr_scale * dt), kp=ci.qscale(kp))
+
     def _init(self, dt, kp, gyr_scale, profile):
-        self.kw = ci.qscale(gyr_scale * dt)
-        self.kp = ci.qscale(kp)
+        self._init_consts(**self._consts(dt, kp, gyr_scale, profile))
+
+    def _init_consts(self, kw, kp):
+        self.kw = kw
+        self.kp = kp
         self.t = [0, 0]
 
     def _get_state(self):
@@ -66,6 +75,7 @@ class MultiWiiQ(FixedFilter):
     counts); state_float gives both in acc counts, like the float twin fed
     with counts."""
     kind = "imu"
+    c_name = "imf_multiwii_q"
     state_names = ("dx", "dy", "dz", "ax", "ay", "az")
 
     @staticmethod
@@ -82,15 +92,30 @@ class MultiWiiQ(FixedFilter):
         qconst("1/(cmpf+1)", 1.0 / (cmpf + 1.0), 14, 47)
         return (dt, cmpf, acc_lpf_shift, acc_1g, window, gyr_scale, check_profile(profile))
 
-    def _init(self, dt, cmpf, acc_lpf_shift, acc_1g, window, gyr_scale, profile):
+    @staticmethod
+    def _consts(dt, cmpf, acc_lpf_shift, acc_1g, window, gyr_scale, profile):
+        # imf_multiwii_q_init: the constants from the double parameters
         lo, hi = (1.0 - window) * acc_1g, (1.0 + window) * acc_1g
+        return dict(kw=ci.qscale(gyr_scale * dt),
+                    kc=ci.qscale(1.0 / (cmpf + 1.0) if cmpf >= 0.0 else 0.0),
+                    acc_lpf_shift=acc_lpf_shift,
+                    lo2=int(math.floor(lo * lo)) if lo > 0.0 else 0,
+                    hi2=0xFFFFFFFF if hi * hi >= 4294967295.0 else int(math.ceil(hi * hi)),
+                    acc_1g_q15=int(math.floor(acc_1g * 32768.0 + 0.5)))
+
+    def _init(self, dt, cmpf, acc_lpf_shift, acc_1g, window, gyr_scale, profile):
+        self._init_consts(**self._consts(dt, cmpf, acc_lpf_shift, acc_1g, window, gyr_scale,
+                                         profile))
+
+    def _init_consts(self, kw, kc, acc_lpf_shift, lo2, hi2, acc_1g_q15):
+        self.kw = kw
+        self.kc = kc
         self.k = acc_lpf_shift
-        self.kw = ci.qscale(gyr_scale * dt)
-        self.kc = ci.qscale(1.0 / (cmpf + 1.0) if cmpf >= 0.0 else 0.0)
-        self.lo2 = int(math.floor(lo * lo)) if lo > 0.0 else 0
-        self.hi2 = 0xFFFFFFFF if hi * hi >= 4294967295.0 else int(math.ceil(hi * hi))
-        self.d = [0, 0, int(math.floor(acc_1g * 32768.0 + 0.5))]
-        self.l = [0, 0, int(math.floor(math.ldexp(acc_1g, self.k) + 0.5))]
+        self.lo2 = lo2
+        self.hi2 = hi2
+        # start level: d = accSmooth = (0, 0, acc_1g); accLPF32 = acc_1g 2^k, rounded
+        self.d = [0, 0, acc_1g_q15]
+        self.l = [0, 0, ci.rshr32(acc_1g_q15, 15 - self.k)]
 
     def _get_state(self):
         return self.d + self.l

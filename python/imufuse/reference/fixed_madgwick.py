@@ -23,6 +23,7 @@ class MadgwickIMUQ(FixedFilter):
     State q0..q3 in q30; state_float is the unit quaternion.
     """
     kind = "imu"
+    c_name = "imf_madgwick_imu_q"
     state_names = ("q0", "q1", "q2", "q3")
 
     @staticmethod
@@ -34,9 +35,17 @@ class MadgwickIMUQ(FixedFilter):
         qconst("beta*dt", beta * dt, 16, 46)
         return (dt, beta, gyr_scale, check_profile(profile))
 
+    @staticmethod
+    def _consts(dt, beta, gyr_scale, profile):
+        # imf_madgwick_imu_q_init: the constants from the double parameters
+        return dict(kg=ci.qscale(0.5 * gyr_scale * dt), kb=ci.qscale(beta * dt), profile=profile)
+
     def _init(self, dt, beta, gyr_scale, profile):
-        self.kg = ci.qscale(0.5 * gyr_scale * dt)
-        self.kb = ci.qscale(beta * dt)
+        self._init_consts(**self._consts(dt, beta, gyr_scale, profile))
+
+    def _init_consts(self, kg, kb, profile):
+        self.kg = kg
+        self.kb = kb
         self.hs = fq.rate_exponent(self.kg)
         self.q = [fq.Q30_ONE, 0, 0, 0]
         self._update = self._update8 if profile == 8 else self._update32

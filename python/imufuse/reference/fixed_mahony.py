@@ -16,6 +16,7 @@ class MahonyIMUQ(FixedFilter):
     the unit quaternion and I in rad/s.
     """
     kind = "imu"
+    c_name = "imf_mahony_imu_q"
     state_names = ("q0", "q1", "q2", "q3", "ix", "iy", "iz")
 
     @staticmethod
@@ -29,11 +30,20 @@ class MahonyIMUQ(FixedFilter):
         qconst("ki*dt^2", 0.5 * ki * dt * dt, 8, 54)
         return (dt, kp, ki, gyr_scale, check_profile(profile))
 
+    @staticmethod
+    def _consts(dt, kp, ki, gyr_scale, profile):
+        # imf_mahony_imu_q_init: the constants from the double parameters
+        return dict(kg=ci.qscale(0.5 * gyr_scale * dt), kp=ci.qscale(0.5 * kp * dt),
+                    ki=ci.qscale(0.5 * ki * dt * dt), profile=profile)
+
     def _init(self, dt, kp, ki, gyr_scale, profile):
         self.dt = dt
-        self.kg = ci.qscale(0.5 * gyr_scale * dt)
-        self.kp = ci.qscale(0.5 * kp * dt)
-        self.ki = ci.qscale(0.5 * ki * dt * dt)
+        self._init_consts(**self._consts(dt, kp, ki, gyr_scale, profile))
+
+    def _init_consts(self, kg, kp, ki, profile):
+        self.kg = kg
+        self.kp = kp
+        self.ki = ki
         self.hs = fq.rate_exponent(self.kg)
         self.q = [fq.Q30_ONE, 0, 0, 0]
         self.i = [0, 0, 0]
