@@ -18,17 +18,12 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 def load_mcu():
-    """imufuse.mcu from the installed package, else from this source tree."""
-    try:
-        import imufuse.mcu as mcu
-    except ImportError:
-        src = ROOT / "python"
+    """imufuse.mcu of this source tree (it measures the csrc/ next to it), whatever imufuse
+    is installed; the installed package only if this tree has no python/imufuse."""
+    src = ROOT / "python"
+    if (src / "imufuse" / "mcu").is_dir() and "imufuse" not in sys.modules:
         sys.path.insert(0, str(src))
-        import imufuse
-
-        if str(src / "imufuse") not in list(imufuse.__path__):
-            imufuse.__path__.append(str(src / "imufuse"))
-        import imufuse.mcu as mcu
+    import imufuse.mcu as mcu
     return mcu
 
 

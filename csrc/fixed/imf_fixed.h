@@ -68,15 +68,52 @@ static inline int imf_qscale_ok(const imf_qscale_t c, const int smin, const int 
 
 /* ---- shifts -------------------------------------------------------- */
 
+/* 32-bit shifts by n in [0, 31].  The 8-bit target has no barrel shifter:
+ * avr-gcc shifts by 8, 16 and 24 with byte moves but by any other count,
+ * constant or not, with a loop of single-bit steps over four bytes.  On AVR
+ * the shift is therefore split into byte moves and at most 7 bit steps
+ * (the same value: shifts compose); elsewhere it is one shift. */
+#if defined(__AVR__)
+#define IMF_SPLIT_SHIFT(x, n, op) \
+    do { \
+        if ((n) >= 16) { (x) op 16; (n) -= 16; } \
+        if ((n) >= 8) { (x) op 8; (n) -= 8; } \
+    } while (0)
+#else
+#define IMF_SPLIT_SHIFT(x, n, op) do { } while (0)
+#endif
+
 /* Arithmetic shift right, n in [0, 31]: floor(x / 2^n) (checked above). */
 static inline int32_t imf_asr32(const int32_t x, const int n)
 {
-    return x >> n;
+    int32_t y = x;
+    int k = n;
+    IMF_SPLIT_SHIFT(y, k, >>=);
+    return y >> k;
 }
 
-/* Rounding shift right, n in [0, 31]: floor(x / 2^n + 1/2).
- * Written as floor(x/2^n) + (bit n-1 of x) so that it cannot overflow,
- * even for x = INT32_MAX. */
+/* Logical shift right of a uint32, n in [0, 31]. */
+static inline uint32_t imf_lsr32(const uint32_t x, const int n)
+{
+    uint32_t y = x;
+    int k = n;
+    IMF_SPLIT_SHIFT(y, k, >>=);
+    return y >> k;
+}
+
+/* Shift left of a uint32 (modulo 2^32, defined), n in [0, 31]. */
+static inline uint32_t imf_lsl32(const uint32_t x, const int n)
+{
+    uint32_t y = x;
+    int k = n;
+    IMF_SPLIT_SHIFT(y, k, <<=);
+    return y << k;
+}
+
+/* Rounding shift right, n in [0, 31]: floor(x / 2^n + 1/2)
+ * = floor((floor(x / 2^(n-1)) + 1) / 2): one shift by n - 1, then one by 1;
+ * floor(x / 2^(n-1)) + 1 <= 2^30 + 1 for n >= 2 cannot overflow, and
+ * n = 1 adds the low bit instead (x = INT32_MAX). */
 static inline int32_t imf_rshr32(const int32_t x, const int n)
 {
     if (n <= 0) {
@@ -85,7 +122,10 @@ static inline int32_t imf_rshr32(const int32_t x, const int n)
     if (n > 31) {
         return 0; /* |x| / 2^n < 1/2 */
     }
-    return (x >> n) + ((x >> (n - 1)) & 1);
+    if (n == 1) {
+        return (x >> 1) + (x & 1);
+    }
+    return (imf_asr32(x, n - 1) + 1) >> 1;
 }
 
 /* x * 2^k, k in [0, 31], saturated to int32.  Uses the unsigned magnitude:
@@ -98,16 +138,16 @@ static inline int32_t imf_shl_sat32(const int32_t x, const int k)
     }
     if (x >= 0) {
         mag = (uint32_t)x;
-        if (mag > ((uint32_t)IMF_INT32_MAX >> k)) {
+        if (mag > imf_lsr32((uint32_t)IMF_INT32_MAX, k)) {
             return IMF_INT32_MAX;
         }
-        return (int32_t)(mag << k);
+        return (int32_t)imf_lsl32(mag, k);
     }
     mag = 0u - (uint32_t)x; /* |x|, 2^31 for INT32_MIN */
-    if (mag > (((uint32_t)1 << 31) >> k)) {
+    if (mag > imf_lsr32((uint32_t)1 << 31, k)) {
         return IMF_INT32_MIN;
     }
-    mag <<= k; /* <= 2^31 */
+    mag = imf_lsl32(mag, k); /* <= 2^31 */
     if (mag == ((uint32_t)1 << 31)) {
         return IMF_INT32_MIN;
     }
@@ -222,10 +262,11 @@ static inline int32_t imf_mul_32x16(const int32_t a, const int16_t b, const int 
     }
     /* n < 16: m*2^(16-n) may leave int32: saturate.  Below -2^(15+n) the
      * sum is below INT32_MIN whatever the (non-negative) low part adds. */
-    if (m < -((int32_t)1 << (15 + n))) {
+    if (m < -(int32_t)imf_lsl32(1u, 15 + n)) {
         return IMF_INT32_MIN;
     }
-    return imf_add_sat32(imf_shl_sat32(m, 16 - n), (lol + ((int32_t)1 << n >> 1)) >> n);
+    return imf_add_sat32(imf_shl_sat32(m, 16 - n),
+                         imf_asr32(lol + (int32_t)(imf_lsl32(1u, n) >> 1), n));
 }
 
 /* int16 x (an integer count, or qK: then pass N - K) times a q-scale
@@ -285,8 +326,12 @@ static inline uint16_t imf_invsqrt_u32(uint32_t x, int *const shift)
         *shift = 0;
         return 0u;
     }
+    while (x < ((uint32_t)1 << 22)) {
+        x <<= 8; /* unsigned: no UB; byte moves on 8-bit targets */
+        e += 8;
+    }
     while (x < ((uint32_t)1 << 30)) {
-        x <<= 2; /* unsigned: no UB */
+        x <<= 2;
         e += 2;
     }
     u = (uint16_t)(x >> 16); /* q16 in [2^14, 2^16) */
