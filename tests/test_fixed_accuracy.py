@@ -37,11 +37,19 @@ def _data(motion, duration, seed=1, **kw):
     return imu, g, a
 
 
+def _float_twin(name, **kw):
+    """The float64 filter the fixed-point one ports, fed the same counts in
+    physical units."""
+    import imufuse_c
+
+    def run(g, a, dt):
+        return getattr(imufuse_c, name)(dt, **kw).run(g * GYR_SCALE, a.astype(float))[:, :4]
+    return run
+
+
 QUAT = {
-    "MahonyIMUQ": (dict(kp=1.0, ki=0.05),
-                   lambda g, a, dt: twins.mahony_imu(g * GYR_SCALE, a.astype(float), dt, 1.0, 0.05)),
-    "MadgwickIMUQ": (dict(beta=0.1),
-                     lambda g, a, dt: twins.madgwick_imu(g * GYR_SCALE, a.astype(float), dt, 0.1)),
+    "MahonyIMUQ": (dict(kp=1.0, ki=0.05), _float_twin("MahonyIMU", kp=1.0, ki=0.05)),
+    "MadgwickIMUQ": (dict(beta=0.1), _float_twin("MadgwickIMU", beta=0.1, delta_s="simplified")),
 }
 
 
