@@ -2,7 +2,6 @@
 int16 counts and comparing attitudes by tilt."""
 from __future__ import annotations
 
-
 import numpy as np
 
 
