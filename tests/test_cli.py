@@ -161,6 +161,23 @@ def test_run_ref_backend_stdout_and_units(logs):
     assert np.allclose(C[:, 0], np.arange(len(C)) / 200.0)
 
 
+def test_run_long_log_reports_progress(tmp_path):
+    """A long run reports progress on stderr; the chunked run is the same
+    trajectory as one run(), bit for bit (the C backend does it in one go)."""
+    from imufuse import cli
+    n = cli.PROGRESS_MIN["ref"] + 5000
+    d = sim.imu("static", rate=200.0, duration=n / 200.0, seed=5)
+    log = tmp_path / "long.csv"
+    io.write_log(log, d.t, d.gyr, d.acc)
+    a = imf("run", log, "-f", "Kalman1D", "-p", "k0=0.02", "--backend", "ref", timeout=300)
+    b = imf("run", log, "-f", "Kalman1D", "-p", "k0=0.02", "--backend", "c")
+    assert a.returncode == b.returncode == 0, a.stderr
+    assert f"Kalman1D: 100% ({n}/{n} samples)" in a.stderr
+    assert a.stderr.count("% (") >= 10
+    assert "% (" not in b.stderr
+    assert a.stdout == b.stdout
+
+
 def test_run_rate_and_angle_columns_and_axis(logs):
     r = imf("run", logs["axis"], "-f", "Complementary1D", "-p", "alpha=0.95")
     assert r.returncode == 0, r.stderr

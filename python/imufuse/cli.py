@@ -67,6 +67,27 @@ def _scoped_params(items, names):
     return out
 
 
+#: Runs at least this long (samples) report progress on stderr: the pure-Python
+#: reference runs ~10^5 samples/s, the compiled filters ~10^7.
+PROGRESS_MIN = {"ref": 20_000, "c": 2_000_000}
+
+
+def run_with_progress(f, inputs, label, backend):
+    """f.run(*inputs), in about 20 chunks with a progress line on stderr when
+    the run is long. The state carries over between run() calls, so the
+    result is the same trajectory, bit for bit."""
+    n = len(inputs[0])
+    if n < PROGRESS_MIN[backend]:
+        return f.run(*inputs)
+    step = -(-n // 20)
+    parts = []
+    for k in range(0, n, step):
+        parts.append(f.run(*[x[k:k + step] for x in inputs]))
+        done = min(k + step, n)
+        _err(f"{label}: {100 * done // n}% ({done}/{n} samples)")
+    return np.concatenate(parts)
+
+
 def _load(args):
     from .io import read_log
     log = read_log(args.log, gyr_unit=args.gyr_unit, acc_unit=args.acc_unit, rate=args.rate)
@@ -133,7 +154,7 @@ def _run(args):
     params = resolve_params(args.filter, log.dt, overrides)
     f = make_filter(args.filter, args.backend, args.dtype, params)
     inputs, src = _inputs(cls, log, args.axis)
-    S = f.run(*inputs)
+    S = run_with_progress(f, inputs, args.filter, args.backend)
     cols = {"time": log.t}
     for j, n in enumerate(cls.state_names):
         cols[n] = S[:, j]
@@ -209,7 +230,7 @@ def _compare(args):
         params = resolve_params(n, log.dt, scoped[n])
         f = make_filter(n, args.backend, args.dtype, params)
         t0 = time.perf_counter()
-        S = f.run(*inputs)
+        S = run_with_progress(f, inputs, n, args.backend)
         sps = len(log) / max(time.perf_counter() - t0, 1e-9)
         est = estimate(cls, S)
         note = why_no_estimate(cls) if est is None else est.source
