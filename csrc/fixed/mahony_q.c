@@ -45,8 +45,8 @@ static void imf_mahony_imu_q_feedback(imf_mahony_imu_q_t *const self, const int1
     int16_t a[3], d[3];
     int32_t e[3];
     int i;
-    /* step 2: normalise a */
-    if (!imf_q_normalise_acc(acc, a)) {
+    /* step 2: normalise a (8-bit profile: block-scaled, short inverse sqrt) */
+    if (!(narrow ? imf_q8_unit3(acc, a) : imf_q_normalise_acc(acc, a))) {
         return;
     }
     /* step 3: d = 2 (q1 q3 - q0 q2, q0 q1 + q2 q3, q0^2 + q3^2 - 1/2), q15;
@@ -108,8 +108,8 @@ void imf_mahony_imu_q8_update(imf_mahony_imu_q_t *const self, const int16_t gyr[
         h[i] = imf_scale16(gyr[i], self->kg, 30);
     }
     imf_mahony_imu_q_feedback(self, qs, acc, h, 1);
-    imf_q_rate8(qs, h, self->hs, dq);
-    imf_q_add_normalise(q, dq);
+    imf_q8_rate(qs, h, self->hs, dq);
+    imf_q8_add_normalise(q, dq);
 }
 
 void imf_mahony_imu_q_update(imf_mahony_imu_q_t *const self, const int16_t gyr[3],

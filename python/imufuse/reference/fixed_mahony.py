@@ -60,7 +60,7 @@ class MahonyIMUQ(FixedFilter):
 
     def _feedback(self, qs, acc, h, narrow):
         # step 2: normalise a
-        a = fq.normalise_acc(acc)
+        a = fq.unit3_8(acc) if narrow else fq.normalise_acc(acc)
         if a is None:
             return
         # step 3: d = 2 (q1 q3 - q0 q2, q0 q1 + q2 q3, q0^2 + q3^2 - 1/2), q15
@@ -98,5 +98,5 @@ class MahonyIMUQ(FixedFilter):
         qs = fq.snapshot(self.q)
         h = [ci.scale16(g, self.kg, 30) for g in gyr]
         self._feedback(qs, acc, h, True)
-        dq = fq.rate8(qs, h, self.hs)
-        self.q = fq.add_normalise(self.q, dq)
+        dq = fq.rate_q8(qs, h, self.hs)
+        self.q = fq.add_normalise8(self.q, dq)
