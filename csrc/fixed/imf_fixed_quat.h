@@ -116,15 +116,15 @@ static inline int imf_q8_unit3(const int16_t v[3], int16_t a[3])
     return 1;
 }
 
-/* 8-bit profile, appendix step 7 / 3: dq = q (x) (0, h), h narrowed to int16
- * in q(15+hs); each component's three q15 x q(15+hs) products are summed
- * (saturating) and rounded to q30 once. */
+/* 8-bit profile, appendix step 7 / 3: dq = q (x) (0, h), h in q(15+hs)
+ * saturated to int16; each component's three q15 x q(15+hs) products are
+ * summed (saturating) and rounded to q30 once. */
 static inline void imf_q8_rate(const int16_t qs[4], const int32_t h[3], const int hs,
                                int32_t dq[4])
 {
-    const int16_t hx = imf_sat_q15(imf_rshr32(h[0], 15 - hs));
-    const int16_t hy = imf_sat_q15(imf_rshr32(h[1], 15 - hs));
-    const int16_t hz = imf_sat_q15(imf_rshr32(h[2], 15 - hs));
+    const int16_t hx = imf_sat_q15(h[0]);
+    const int16_t hy = imf_sat_q15(h[1]);
+    const int16_t hz = imf_sat_q15(h[2]);
 #define IMF_P(a, b) imf_mul16((a), (b)) /* |.| <= 2^30 */
     dq[0] = imf_rshr32(imf_sub_sat32(-IMF_P(qs[1], hx) - IMF_P(qs[2], hy), IMF_P(qs[3], hz)), hs);
     dq[1] = imf_rshr32(imf_sub_sat32(IMF_P(qs[0], hx) + IMF_P(qs[2], hz), IMF_P(qs[3], hy)), hs);

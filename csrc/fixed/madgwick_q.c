@@ -140,7 +140,7 @@ void imf_madgwick_imu_q8_update(imf_madgwick_imu_q_t *const self, const int16_t 
     int i;
     imf_q_snapshot(q, qs);
     for (i = 0; i < 3; ++i) {
-        h[i] = imf_scale16(gyr[i], self->kg, 30);
+        h[i] = imf_scale16(gyr[i], self->kg, 15 + self->hs); /* q(15+hs) */
     }
     imf_q8_rate(qs, h, self->hs, dq);
     imf_madgwick_imu_q_correct(self, qs, acc, dq, 1);

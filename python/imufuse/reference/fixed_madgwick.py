@@ -106,7 +106,7 @@ class MadgwickIMUQ(FixedFilter):
 
     def _update8(self, gyr, acc):
         qs = fq.snapshot(self.q)
-        h = [ci.scale16(g, self.kg, 30) for g in gyr]
+        h = [ci.scale16(g, self.kg, 15 + self.hs) for g in gyr]
         dq = fq.rate_q8(qs, h, self.hs)
         self._correct(qs, acc, dq, True)
         self.q = fq.add_normalise8(self.q, dq)

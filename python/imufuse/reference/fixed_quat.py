@@ -68,7 +68,7 @@ def check(x):
 
 def rate_q8(qs, h, hs):
     """imf_q8_rate"""
-    hx, hy, hz = (ci.sat_q15(ci.rshr32(v, 15 - hs)) for v in h)
+    hx, hy, hz = (ci.sat_q15(v) for v in h)
     sub, add, r = ci.sub_sat32, ci.add_sat32, ci.rshr32
     return [r(sub(-qs[1] * hx - qs[2] * hy, qs[3] * hz), hs),
             r(sub(qs[0] * hx + qs[2] * hz, qs[3] * hy), hs),
