@@ -16,6 +16,14 @@
 
 #include "imf_fixed.h"
 
+/* On AVR, keep the rarely taken or self-contained steps out of line: the
+ * inlined copies cost more in register spills than the call. */
+#if defined(__AVR__)
+#define IMF_Q_OUTLINE static __attribute__((noinline, unused))
+#else
+#define IMF_Q_OUTLINE static inline
+#endif
+
 /* q30 quaternion -> symmetric q15 snapshot. */
 static inline void imf_q_snapshot(const int32_t q[4], int16_t qs[4])
 {
@@ -134,7 +142,7 @@ static inline void imf_q8_rate(const int16_t qs[4], const int32_t h[3], const in
 }
 
 /* q /= |q| with the division-free inverse square root (after q += dq). */
-static inline void imf_q_normalise(int32_t q[4])
+IMF_Q_OUTLINE void imf_q_normalise(int32_t q[4])
 {
     int16_t qs[4];
     uint32_t n2 = 0u;
@@ -162,7 +170,7 @@ static inline void imf_q_normalise(int32_t q[4])
  * q -= q (|q|^2 - 1) / 2 while |q|^2 - 1 = d is within +-2^-8 (every
  * ordinary update: the step leaves |q|^2 - 1 = -3 d^2 / 4, so the norm
  * converges quadratically); otherwise (a state set by hand, a rotation
- * above 0.09 rad per sample) the full normalisation above.  |q|^2 from the
+ * above 0.125 rad per sample) the full normalisation above.  |q|^2 from the
  * q15 snapshot, d in q22 (int16), the correction a q15 x q22 product. */
 static inline void imf_q8_add_normalise(int32_t q[4], const int32_t dq[4])
 {
