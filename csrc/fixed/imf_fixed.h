@@ -125,6 +125,25 @@ static inline int32_t imf_rshr32(const int32_t x, const int n)
     if (n == 1) {
         return (x >> 1) + (x & 1);
     }
+#if defined(__AVR__)
+    /* The same value from the high word (byte moves) and 16-bit shifts:
+     * floor(x / 2^(n-1)) = floor(floor(x / 2^16) / 2^(n-17)) for n >= 17;
+     * for n = 16, 15 the dropped bits 15 (and 14) round. */
+    if (n == 8 && x <= IMF_INT32_MAX - 128) {
+        return (x + 128) >> 8; /* byte moves */
+    }
+    if (n >= 15) {
+        const int16_t t = (int16_t)(x >> 16);
+        const uint16_t lo = (uint16_t)((uint32_t)x & 0xFFFFu);
+        if (n == 15) {
+            return (int32_t)t * 2 + (int32_t)(lo >> 15) + (int32_t)((lo >> 14) & 1u);
+        }
+        if (n == 16) {
+            return (int32_t)t + (int32_t)(lo >> 15);
+        }
+        return ((int32_t)(int16_t)(t >> (n - 17)) + 1) >> 1;
+    }
+#endif
     return (imf_asr32(x, n - 1) + 1) >> 1;
 }
 
@@ -225,6 +244,39 @@ static inline int16_t imf_sub_sat_q15(const int16_t a, const int16_t b)
 
 /* ---- multiplies ---------------------------------------------------- */
 
+/* int16 x int16 -> int32, exact.  avr-gcc often keeps sign-extended 16-bit
+ * operands in 32-bit registers and then calls the 32x32 __mulsi3; on AVR
+ * this is the inline MULS/MULSU/MUL sequence of Atmel's AVR201 (four 8x8
+ * multiplies), elsewhere the plain C product. */
+static inline int32_t imf_mul16(const int16_t a, const int16_t b)
+{
+#if defined(__AVR__) && defined(__AVR_HAVE_MUL__)
+    int32_t r;
+    uint8_t z;
+    __asm__("clr %[z]\n\t"
+            "muls %B[a], %B[b]\n\t"
+            "movw %C[r], r0\n\t"
+            "mul %A[a], %A[b]\n\t"
+            "movw %A[r], r0\n\t"
+            "mulsu %B[a], %A[b]\n\t"
+            "sbc %D[r], %[z]\n\t"
+            "add %B[r], r0\n\t"
+            "adc %C[r], r1\n\t"
+            "adc %D[r], %[z]\n\t"
+            "mulsu %B[b], %A[a]\n\t"
+            "sbc %D[r], %[z]\n\t"
+            "add %B[r], r0\n\t"
+            "adc %C[r], r1\n\t"
+            "adc %D[r], %[z]\n\t"
+            "clr __zero_reg__"
+            : [r] "=&r"(r), [z] "=&r"(z)
+            : [a] "a"(a), [b] "a"(b));
+    return r;
+#else
+    return (int32_t)a * (int32_t)b;
+#endif
+}
+
 /* q15 * q15 -> q15, rounded to nearest; the only overflow,
  * (-1) * (-1), saturates to 32767. One 16x16->32 multiply. */
 static inline int16_t imf_mul_q15(const int16_t a, const int16_t b)
@@ -235,7 +287,7 @@ static inline int16_t imf_mul_q15(const int16_t a, const int16_t b)
 /* q15 * q15 -> q30, exact (|a*b| <= 2^30 cannot overflow). */
 static inline int32_t imf_mul_q15_q30(const int16_t a, const int16_t b)
 {
-    return (int32_t)a * (int32_t)b;
+    return imf_mul16(a, b);
 }
 
 /* (a * b) / 2^n for int32 a, int16 b, n in [0, 47], rounded to nearest,
@@ -274,7 +326,7 @@ static inline int32_t imf_mul_32x16(const int32_t a, const int16_t b, const int 
  * and a shift by c.s - N, which must lie in [-31, 31]. */
 static inline int32_t imf_scale16(const int16_t x, const imf_qscale_t c, const int N)
 {
-    return imf_rshift_sat32((int32_t)x * (int32_t)c.m, c.s - N);
+    return imf_rshift_sat32(imf_mul16(x, c.m), c.s - N);
 }
 
 /* int32 x (in qK) times a q-scale constant, result in qN, rounded,
@@ -354,6 +406,38 @@ static inline uint16_t imf_invsqrt_u32(uint32_t x, int *const shift)
     }
     *shift = 31 - e / 2;
     return (uint16_t)y;
+}
+
+/* Short inverse square root of the 8-bit profile, for x in [2^28, 2^32)
+ * (callers block-scale their vector first): returns y (unsigned q15) and
+ * *e in {0, 1} so that 1/sqrt(x) ~= y * 2^(*e - 31).  Relative error below
+ * 1.2e-3 (tested exhaustively over the mantissa): one chord (lowered to
+ * balance the error) and one Newton step, three unsigned 16x16->32
+ * products, no loop.  Used where only a direction matters (accelerometer,
+ * Madgwick's delta-s), so the error scales a gain by at most 0.12 %. */
+static inline uint16_t imf_invsqrt8_u32(uint32_t x, int *const e)
+{
+    uint16_t u, y, y2, w;
+    uint32_t t;
+    *e = 0;
+    if (x < ((uint32_t)1 << 30)) {
+        x <<= 2;
+        *e = 1;
+    }
+    u = (uint16_t)(x >> 16); /* q16 in [2^14, 2^16) */
+    if (u < 32768u) {
+        y = (uint16_t)(64635u - (((uint32_t)(u - 16384u) * 38u) >> 5));
+    } else {
+        y = (uint16_t)(45691u - (((uint32_t)(u - 32768u) * 27u) >> 6));
+    }
+    y2 = (uint16_t)(((uint32_t)y * y + 32768u) >> 16); /* q14, y < 2^16 */
+    t = (uint32_t)u * y2;                              /* q30, < 3 2^30 here */
+    if (t >= 3221225472u) {
+        t = 3221225471u; /* cannot happen from the chords; kept for safety */
+    }
+    w = (uint16_t)((3221225472u - t) >> 16);
+    t = ((uint32_t)y * w + 16384u) >> 15;
+    return (uint16_t)(t > 65535u ? 65535u : t);
 }
 
 /* ---- conversions --------------------------------------------------- */

@@ -16,6 +16,14 @@
 
 #include "imf_fixed.h"
 
+/* On AVR, keep the rarely taken or self-contained steps out of line: the
+ * inlined copies cost more in register spills than the call. */
+#if defined(__AVR__)
+#define IMF_Q_OUTLINE static __attribute__((noinline, unused))
+#else
+#define IMF_Q_OUTLINE static inline
+#endif
+
 /* q30 quaternion -> symmetric q15 snapshot. */
 static inline void imf_q_snapshot(const int32_t q[4], int16_t qs[4])
 {
@@ -80,21 +88,67 @@ static inline void imf_q_rate8(const int16_t qs[4], const int32_t h[3], const in
 #undef IMF_P
 }
 
-/* q += dq (saturating), then q /= |q| (appendix step 8).  The norm comes
- * from the q15 snapshot (4 * 32767^2 < 2^32, no wrap) and the division-free
- * inverse square root; the scale factor is applied to the full q30 values.
- * A zero quaternion (possible only from a state set by hand) resets to
- * the identity. */
-static inline void imf_q_add_normalise(int32_t q[4], const int32_t dq[4])
+/* 8-bit profile: unit vector of an int16 3-vector in symmetric q15, or 0
+ * for the zero vector.  The vector is first block-scaled by 2^k (k >= 0,
+ * -32768 clamped to -32767) until its largest component is in [2^14, 2^15),
+ * so its squared norm is in [2^28, 2^32) for imf_invsqrt8_u32 and the
+ * final product needs a constant shift only. */
+static inline int imf_q8_unit3(const int16_t v[3], int16_t a[3])
+{
+    int16_t b[3];
+    uint16_t m = 0u;
+    uint32_t n2;
+    int i, e;
+    uint16_t y;
+    for (i = 0; i < 3; ++i) {
+        b[i] = (v[i] < -32767) ? (int16_t)-32767 : v[i];
+        m |= (uint16_t)(b[i] < 0 ? -b[i] : b[i]); /* same top bit as the max */
+    }
+    if (m == 0u) {
+        return 0;
+    }
+    while (m < 16384u) {
+        m = (uint16_t)(m << 1);
+        for (i = 0; i < 3; ++i) {
+            b[i] = (int16_t)(b[i] + b[i]); /* |b| < 2^14: no overflow */
+        }
+    }
+    n2 = (uint32_t)imf_mul16(b[0], b[0]) + (uint32_t)imf_mul16(b[1], b[1])
+       + (uint32_t)imf_mul16(b[2], b[2]); /* [2^28, 3 2^30] */
+    y = imf_invsqrt8_u32(n2, &e);          /* 1/|b| ~= y 2^(e-31) */
+    for (i = 0; i < 3; ++i) {
+        /* |b| < 2^15, y < 2^16: the product fits int32 */
+        const int32_t p = (int32_t)b[i] * (int32_t)y;
+        a[i] = imf_sat_q15s(e ? imf_rshr32(p, 15) : imf_rshr32(p, 16));
+    }
+    return 1;
+}
+
+/* 8-bit profile, appendix step 7 / 3: dq = q (x) (0, h), h in q(15+hs)
+ * saturated to int16; each component's three q15 x q(15+hs) products are
+ * summed (saturating) and rounded to q30 once. */
+static inline void imf_q8_rate(const int16_t qs[4], const int32_t h[3], const int hs,
+                               int32_t dq[4])
+{
+    const int16_t hx = imf_sat_q15(h[0]);
+    const int16_t hy = imf_sat_q15(h[1]);
+    const int16_t hz = imf_sat_q15(h[2]);
+#define IMF_P(a, b) imf_mul16((a), (b)) /* |.| <= 2^30 */
+    dq[0] = imf_rshr32(imf_sub_sat32(-IMF_P(qs[1], hx) - IMF_P(qs[2], hy), IMF_P(qs[3], hz)), hs);
+    dq[1] = imf_rshr32(imf_sub_sat32(IMF_P(qs[0], hx) + IMF_P(qs[2], hz), IMF_P(qs[3], hy)), hs);
+    dq[2] = imf_rshr32(imf_add_sat32(IMF_P(qs[0], hy) - IMF_P(qs[1], hz), IMF_P(qs[3], hx)), hs);
+    dq[3] = imf_rshr32(imf_sub_sat32(IMF_P(qs[0], hz) + IMF_P(qs[1], hy), IMF_P(qs[2], hx)), hs);
+#undef IMF_P
+}
+
+/* q /= |q| with the division-free inverse square root (after q += dq). */
+IMF_Q_OUTLINE void imf_q_normalise(int32_t q[4])
 {
     int16_t qs[4];
     uint32_t n2 = 0u;
     uint16_t y;
     int16_t y14;
     int sh, i;
-    for (i = 0; i < 4; ++i) {
-        q[i] = imf_add_sat32(q[i], dq[i]);
-    }
     imf_q_snapshot(q, qs);
     for (i = 0; i < 4; ++i) {
         n2 += (uint32_t)((int32_t)qs[i] * qs[i]);
@@ -110,6 +164,49 @@ static inline void imf_q_add_normalise(int32_t q[4], const int32_t dq[4])
         /* q / sqrt(n2 / 2^30) = q * y14 * 2^(16 - sh) */
         q[i] = imf_mul_32x16(q[i], y14, sh - 16);
     }
+}
+
+/* 8-bit profile, step 8: q += dq, then q /= |q| by one first-order step
+ * q -= q (|q|^2 - 1) / 2 while |q|^2 - 1 = d is within +-2^-8 (every
+ * ordinary update: the step leaves |q|^2 - 1 = -3 d^2 / 4, so the norm
+ * converges quadratically); otherwise (a state set by hand, a rotation
+ * above 0.125 rad per sample) the full normalisation above.  |q|^2 from the
+ * q15 snapshot, d in q22 (int16), the correction a q15 x q22 product. */
+static inline void imf_q8_add_normalise(int32_t q[4], const int32_t dq[4])
+{
+    int16_t qs[4], d16;
+    uint32_t n2 = 0u;
+    int i;
+    for (i = 0; i < 4; ++i) {
+        q[i] = imf_add_sat32(q[i], dq[i]);
+    }
+    imf_q_snapshot(q, qs);
+    for (i = 0; i < 4; ++i) {
+        n2 += (uint32_t)imf_mul16(qs[i], qs[i]);
+    }
+    if (n2 <= 1069547520u || n2 >= 1077936128u) { /* 2^30 -+ 2^22 */
+        imf_q_normalise(q);
+        return;
+    }
+    d16 = (int16_t)imf_rshr32((int32_t)n2 - IMF_Q30_ONE, 8); /* q22, |d16| <= 2^14 */
+    for (i = 0; i < 4; ++i) {
+        /* q d / 2 in q30 = qs (q15) d16 (q22) / 2^8; |product| < 2^29 */
+        q[i] = imf_sub_sat32(q[i], imf_rshr32(imf_mul16(qs[i], d16), 8));
+    }
+}
+
+/* q += dq (saturating), then q /= |q| (appendix step 8).  The norm comes
+ * from the q15 snapshot (4 * 32767^2 < 2^32, no wrap) and the division-free
+ * inverse square root; the scale factor is applied to the full q30 values.
+ * A zero quaternion (possible only from a state set by hand) resets to
+ * the identity. */
+static inline void imf_q_add_normalise(int32_t q[4], const int32_t dq[4])
+{
+    int i;
+    for (i = 0; i < 4; ++i) {
+        q[i] = imf_add_sat32(q[i], dq[i]);
+    }
+    imf_q_normalise(q);
 }
 
 /* Exponent hs of the 8-bit profile's narrowed rate: the gyro full scale

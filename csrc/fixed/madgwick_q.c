@@ -34,6 +34,14 @@ int imf_madgwick_imu_q_init(imf_madgwick_imu_q_t *const self, const double dt, c
 static int imf_bitlen32(uint32_t v)
 {
     int n = 0;
+    if (v >= 65536u) { /* byte steps first (8-bit targets shift bytes cheaply) */
+        v >>= 16;
+        n = 16;
+    }
+    if (v >= 256u) {
+        v >>= 8;
+        n += 8;
+    }
     while (v != 0u) {
         v >>= 1;
         ++n;
@@ -44,7 +52,7 @@ static int imf_bitlen32(uint32_t v)
 /* Appendix steps 2, 4, 5, 6: dq -= beta dt * normalised delta-s.
  * Nothing happens for a zero accelerometer vector or a zero delta-s. */
 static void imf_madgwick_imu_q_correct(const imf_madgwick_imu_q_t *const self, const int16_t qs[4],
-                                       const int16_t acc[3], int32_t dq[4])
+                                       const int16_t acc[3], int32_t dq[4], const int narrow)
 {
     int16_t a[3], s15[4];
     int32_t s[4], w;
@@ -52,8 +60,8 @@ static void imf_madgwick_imu_q_correct(const imf_madgwick_imu_q_t *const self, c
     uint32_t m = 0u, n2 = 0u, mag;
     uint16_t y;
     int sh, k, i;
-    /* step 2: normalise a */
-    if (!imf_q_normalise_acc(acc, a)) {
+    /* step 2: normalise a (8-bit profile: block-scaled, short inverse sqrt) */
+    if (!(narrow ? imf_q8_unit3(acc, a) : imf_q_normalise_acc(acc, a))) {
         return;
     }
     /* step 4 (simplified): s = delta-s/2 = 2 (q1^2 + q2^2) q
@@ -88,10 +96,18 @@ static void imf_madgwick_imu_q_correct(const imf_madgwick_imu_q_t *const self, c
         s15[i] = imf_sat_q15s(imf_rshift_sat32(s[i], k));
         n2 += (uint32_t)((int32_t)s15[i] * s15[i]); /* 4 * 32767^2 < 2^32 */
     }
-    y = imf_invsqrt_u32(n2, &sh); /* n2 >= 2^28 -> sh >= 30 */
+    if (narrow) {
+        /* n2 in [2^28, 2^32): 1/sqrt(n2) ~= y 2^(e - 31), e in {0, 1} */
+        y = imf_invsqrt8_u32(n2, &sh);
+        sh = 31 - sh;
+    } else {
+        y = imf_invsqrt_u32(n2, &sh); /* n2 >= 2^28 -> sh >= 30 */
+    }
     for (i = 0; i < 4; ++i) {
         /* unit delta-s, q15; |s15| < 2^15, y < 2^16: product fits int32 */
-        const int16_t u = imf_sat_q15s(imf_rshr32((int32_t)s15[i] * (int32_t)y, sh - 15));
+        const int32_t p = (int32_t)s15[i] * (int32_t)y;
+        const int16_t u = imf_sat_q15s(!narrow ? imf_rshr32(p, sh - 15)
+                                                : (sh == 30 ? imf_rshr32(p, 15) : imf_rshr32(p, 16)));
         /* step 6: dq' = dq - beta dt * unit delta-s, q30 */
         dq[i] = imf_sub_sat32(dq[i], imf_scale16(u, self->kb, 30 - 15));
     }
@@ -110,7 +126,7 @@ void imf_madgwick_imu_q32_update(imf_madgwick_imu_q_t *const self, const int16_t
         h[i] = imf_scale16(gyr[i], self->kg, 30);
     }
     imf_q_rate32(qs, h, dq);
-    imf_madgwick_imu_q_correct(self, qs, acc, dq);
+    imf_madgwick_imu_q_correct(self, qs, acc, dq, 0);
     /* steps 7, 8: q += dq'; normalise */
     imf_q_add_normalise(q, dq);
 }
@@ -124,11 +140,11 @@ void imf_madgwick_imu_q8_update(imf_madgwick_imu_q_t *const self, const int16_t 
     int i;
     imf_q_snapshot(q, qs);
     for (i = 0; i < 3; ++i) {
-        h[i] = imf_scale16(gyr[i], self->kg, 30);
+        h[i] = imf_scale16(gyr[i], self->kg, 15 + self->hs); /* q(15+hs) */
     }
-    imf_q_rate8(qs, h, self->hs, dq);
-    imf_madgwick_imu_q_correct(self, qs, acc, dq);
-    imf_q_add_normalise(q, dq);
+    imf_q8_rate(qs, h, self->hs, dq);
+    imf_madgwick_imu_q_correct(self, qs, acc, dq, 1);
+    imf_q8_add_normalise(q, dq);
 }
 
 void imf_madgwick_imu_q_update(imf_madgwick_imu_q_t *const self, const int16_t gyr[3],

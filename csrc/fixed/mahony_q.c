@@ -45,8 +45,8 @@ static void imf_mahony_imu_q_feedback(imf_mahony_imu_q_t *const self, const int1
     int16_t a[3], d[3];
     int32_t e[3];
     int i;
-    /* step 2: normalise a */
-    if (!imf_q_normalise_acc(acc, a)) {
+    /* step 2: normalise a (8-bit profile: block-scaled, short inverse sqrt) */
+    if (!(narrow ? imf_q8_unit3(acc, a) : imf_q_normalise_acc(acc, a))) {
         return;
     }
     /* step 3: d = 2 (q1 q3 - q0 q2, q0 q1 + q2 q3, q0^2 + q3^2 - 1/2), q15;
@@ -62,14 +62,17 @@ static void imf_mahony_imu_q_feedback(imf_mahony_imu_q_t *const self, const int1
     for (i = 0; i < 3; ++i) {
         int32_t ip, pp;
         if (narrow) {
-            /* 8-bit profile: e in q15, one 16x16 product per term */
+            /* 8-bit profile: e in q15, one 16x16 product per term; h and
+             * pp in q(15+hs) */
             const int16_t e15 = imf_qn_to_q15s(e[i], 30);
             ip = imf_scale16(e15, self->ki, 38 - 15);
-            pp = imf_scale16(e15, self->kp, 30 - 15);
-        } else {
-            ip = imf_scale32(e[i], self->ki, 30, 38);
-            pp = imf_scale32(e[i], self->kp, 30, 30);
+            pp = imf_scale16(e15, self->kp, self->hs);
+            x->i[i] = imf_add_sat32(x->i[i], ip);
+            h[i] = imf_add_sat32(imf_add_sat32(h[i], pp), imf_rshr32(x->i[i], 23 - self->hs));
+            continue;
         }
+        ip = imf_scale32(e[i], self->ki, 30, 38);
+        pp = imf_scale32(e[i], self->kp, 30, 30);
         /* step 5: I_n = I_{n-1} + Ki dt e (as 0.5 I dt, q38) */
         x->i[i] = imf_add_sat32(x->i[i], ip);
         /* step 6: w' = w + Kp e + I_n (as 0.5 w' dt, q30) */
@@ -104,12 +107,13 @@ void imf_mahony_imu_q8_update(imf_mahony_imu_q_t *const self, const int16_t gyr[
     int16_t qs[4];
     int i;
     imf_q_snapshot(q, qs);
+    /* step 1 in q(15+hs): the shift kg.s - 15 - hs is 16 unless hs is clamped */
     for (i = 0; i < 3; ++i) {
-        h[i] = imf_scale16(gyr[i], self->kg, 30);
+        h[i] = imf_scale16(gyr[i], self->kg, 15 + self->hs);
     }
     imf_mahony_imu_q_feedback(self, qs, acc, h, 1);
-    imf_q_rate8(qs, h, self->hs, dq);
-    imf_q_add_normalise(q, dq);
+    imf_q8_rate(qs, h, self->hs, dq);
+    imf_q8_add_normalise(q, dq);
 }
 
 void imf_mahony_imu_q_update(imf_mahony_imu_q_t *const self, const int16_t gyr[3],

@@ -233,6 +233,26 @@ def invsqrt_u32(x: int) -> tuple[int, int]:
     return y, 31 - e // 2
 
 
+def invsqrt8_u32(x: int) -> tuple[int, int]:
+    """imf_invsqrt8_u32, x in [2^28, 2^32): (y, e), 1/sqrt(x) ~= y * 2^(e - 31)."""
+    e = 0
+    if x < (1 << 30):
+        x <<= 2
+        e = 1
+    u = x >> 16
+    if u < 32768:
+        y = 64635 - (((u - 16384) * 38) >> 5)
+    else:
+        y = 45691 - (((u - 32768) * 27) >> 6)
+    y2 = (y * y + 32768) >> 16
+    t = checku32(u * y2)
+    if t >= 3221225472:
+        t = 3221225471
+    w = (3221225472 - t) >> 16
+    y = (y * w + 16384) >> 15
+    return min(y, 65535), e
+
+
 def q15_to_q30(x: int) -> int:
     return x * 32768
 

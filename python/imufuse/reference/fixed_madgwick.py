@@ -59,9 +59,9 @@ class MadgwickIMUQ(FixedFilter):
     def _state_float(self, s):
         return [v * 2.0 ** -30 for v in s]
 
-    def _correct(self, qs, acc, dq):
+    def _correct(self, qs, acc, dq, narrow):
         # step 2: normalise a
-        a = fq.normalise_acc(acc)
+        a = fq.unit3_8(acc) if narrow else fq.normalise_acc(acc)
         if a is None:
             return
         # step 4 (simplified): s = delta-s / 2, q28
@@ -85,7 +85,11 @@ class MadgwickIMUQ(FixedFilter):
         k = _bitlen32(m) - 15
         s15 = [ci.sat_q15s(ci.rshift_sat32(v, k)) for v in s]
         n2 = sum(v * v for v in s15)
-        y, sh = ci.invsqrt_u32(n2)
+        if narrow:
+            y, e = ci.invsqrt8_u32(n2)
+            sh = 31 - e
+        else:
+            y, sh = ci.invsqrt_u32(n2)
         for i in range(4):
             u = ci.sat_q15s(ci.rshr32(s15[i] * y, sh - 15))
             # step 6: dq' = dq - beta dt * unit delta-s
@@ -96,13 +100,13 @@ class MadgwickIMUQ(FixedFilter):
         # step 3: dq = 0.5 q (x) w dt
         h = [ci.scale16(g, self.kg, 30) for g in gyr]
         dq = fq.rate32(qs, h)
-        self._correct(qs, acc, dq)
+        self._correct(qs, acc, dq, False)
         # steps 7, 8
         self.q = fq.add_normalise(self.q, dq)
 
     def _update8(self, gyr, acc):
         qs = fq.snapshot(self.q)
-        h = [ci.scale16(g, self.kg, 30) for g in gyr]
-        dq = fq.rate8(qs, h, self.hs)
-        self._correct(qs, acc, dq)
-        self.q = fq.add_normalise(self.q, dq)
+        h = [ci.scale16(g, self.kg, 15 + self.hs) for g in gyr]
+        dq = fq.rate_q8(qs, h, self.hs)
+        self._correct(qs, acc, dq, True)
+        self.q = fq.add_normalise8(self.q, dq)

@@ -60,7 +60,7 @@ class MahonyIMUQ(FixedFilter):
 
     def _feedback(self, qs, acc, h, narrow):
         # step 2: normalise a
-        a = fq.normalise_acc(acc)
+        a = fq.unit3_8(acc) if narrow else fq.normalise_acc(acc)
         if a is None:
             return
         # step 3: d = 2 (q1 q3 - q0 q2, q0 q1 + q2 q3, q0^2 + q3^2 - 1/2), q15
@@ -75,7 +75,10 @@ class MahonyIMUQ(FixedFilter):
             if narrow:
                 e15 = ci.qn_to_q15s(e[i], 30)
                 ip = ci.scale16(e15, self.ki, 38 - 15)
-                pp = ci.scale16(e15, self.kp, 30 - 15)
+                pp = ci.scale16(e15, self.kp, self.hs)
+                self.i[i] = ci.add_sat32(self.i[i], ip)
+                h[i] = ci.add_sat32(ci.add_sat32(h[i], pp), ci.rshr32(self.i[i], 23 - self.hs))
+                continue
             else:
                 ip = ci.scale32(e[i], self.ki, 30, 38)
                 pp = ci.scale32(e[i], self.kp, 30, 30)
@@ -96,7 +99,7 @@ class MahonyIMUQ(FixedFilter):
 
     def _update8(self, gyr, acc):
         qs = fq.snapshot(self.q)
-        h = [ci.scale16(g, self.kg, 30) for g in gyr]
+        h = [ci.scale16(g, self.kg, 15 + self.hs) for g in gyr]
         self._feedback(qs, acc, h, True)
-        dq = fq.rate8(qs, h, self.hs)
-        self.q = fq.add_normalise(self.q, dq)
+        dq = fq.rate_q8(qs, h, self.hs)
+        self.q = fq.add_normalise8(self.q, dq)

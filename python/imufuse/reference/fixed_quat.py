@@ -46,9 +46,54 @@ def rate8(qs, h, hs):
             sub(add(P(qs[0], hz), P(qs[1], hy)), P(qs[2], hx))]
 
 
+def unit3_8(v):
+    """imf_q8_unit3: symmetric q15 unit vector of an int16 3-vector, or None."""
+    b = [max(x, -32767) for x in v]
+    m = 0
+    for x in b:
+        m |= abs(x)
+    if m == 0:
+        return None
+    while m < 16384:
+        m <<= 1
+        b = [x + x for x in b]
+    n2 = sum(x * x for x in b)
+    y, e = ci.invsqrt8_u32(n2)
+    return [ci.sat_q15s(ci.rshr32(check(x * y), 15 if e else 16)) for x in b]
+
+
+def check(x):
+    return ci.check32(x)
+
+
+def rate_q8(qs, h, hs):
+    """imf_q8_rate"""
+    hx, hy, hz = (ci.sat_q15(v) for v in h)
+    sub, add, r = ci.sub_sat32, ci.add_sat32, ci.rshr32
+    return [r(sub(-qs[1] * hx - qs[2] * hy, qs[3] * hz), hs),
+            r(sub(qs[0] * hx + qs[2] * hz, qs[3] * hy), hs),
+            r(add(qs[0] * hy - qs[1] * hz, qs[3] * hx), hs),
+            r(sub(qs[0] * hz + qs[1] * hy, qs[2] * hx), hs)]
+
+
+def add_normalise8(q, dq):
+    """imf_q8_add_normalise: first-order normalisation near |q| = 1."""
+    q = [ci.add_sat32(a, b) for a, b in zip(q, dq)]
+    qs = snapshot(q)
+    n2 = sum(v * v for v in qs)
+    if n2 <= 1069547520 or n2 >= 1077936128:
+        return normalise(q)
+    d16 = ci.rshr32(n2 - Q30_ONE, 8)
+    return [ci.sub_sat32(a, ci.rshr32(s * d16, 8)) for a, s in zip(q, qs)]
+
+
 def add_normalise(q, dq):
     """q += dq (saturating), then q /= |q|; returns the new q."""
-    q = [ci.add_sat32(a, b) for a, b in zip(q, dq)]
+    return normalise([ci.add_sat32(a, b) for a, b in zip(q, dq)])
+
+
+def normalise(q):
+    """imf_q_normalise: q /= |q| (full inverse square root)."""
     qs = snapshot(q)
     n2 = sum(v * v for v in qs)
     if n2 == 0:
