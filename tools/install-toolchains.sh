@@ -8,7 +8,7 @@
 # Must run as root (or with sudo available) to install.
 set -eu
 
-PACKAGES="make gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm gcc-avr avr-libc binutils-avr simavr valgrind"
+PACKAGES="make g++ gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm gcc-avr avr-libc binutils-avr simavr valgrind"
 
 missing=""
 for p in $PACKAGES; do
