@@ -1,6 +1,7 @@
 #!/bin/sh
-# Install the cross toolchains and emulators used by the imufuse MCU harness
-# (python/imufuse/mcu) on Debian 12. Idempotent: packages already present are
+# Install the Debian packages the test suite needs beyond Python: the cross
+# toolchains and emulators of the MCU harness (python/imufuse/mcu), valgrind,
+# make (library builds) and g++ (the published-code oracle), on Debian 12. Idempotent: packages already present are
 # left alone, and apt is only touched when something is missing.
 #
 # Usage: tools/install-toolchains.sh [--check]
