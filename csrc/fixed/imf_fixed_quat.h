@@ -56,7 +56,7 @@ static inline int imf_q_normalise_acc(const int16_t acc[3], int16_t a[3])
 /* 32-bit profile, appendix step 7 (Mahony) / 3 (Madgwick):
  * dq = q (x) (0, h), h = 0.5 w dt in q30; products q15 x q30 -> q30 by
  * imf_mul_32x16 (rounded), sums saturate. */
-static inline void imf_q_rate32(const int16_t qs[4], const int32_t h[3], int32_t dq[4])
+IMF_Q_OUTLINE void imf_q_rate32(const int16_t qs[4], const int32_t h[3], int32_t dq[4])
 {
     const int32_t x0 = imf_mul_32x16(h[0], qs[0], 15), x1 = imf_mul_32x16(h[0], qs[1], 15);
     const int32_t x2 = imf_mul_32x16(h[0], qs[2], 15), x3 = imf_mul_32x16(h[0], qs[3], 15);
@@ -118,7 +118,7 @@ static inline int imf_q8_unit3(const int16_t v[3], int16_t a[3])
     y = imf_invsqrt8_u32(n2, &e);          /* 1/|b| ~= y 2^(e-31) */
     for (i = 0; i < 3; ++i) {
         /* |b| < 2^15, y < 2^16: the product fits int32 */
-        const int32_t p = (int32_t)b[i] * (int32_t)y;
+        const int32_t p = imf_mul16su(b[i], y);
         a[i] = imf_sat_q15s(e ? imf_rshr32(p, 15) : imf_rshr32(p, 16));
     }
     return 1;

@@ -20,6 +20,8 @@
  *   kp = 0.5 Kp dt          error (q30) -> half angle per sample (q30)
  *   ki = 0.5 Ki dt^2        error (q30) -> increment of i (q38)
  *   hs                      exponent of the 8-bit profile's int16 rates
+ *   kg8, kp8, ki8           kg, kp, ki prepared at init for the 8-bit
+ *                           profile's products (imf_gain8, imf_fixed.h)
  */
 #ifndef IMF_MAHONY_Q_H
 #define IMF_MAHONY_Q_H
@@ -35,6 +37,7 @@ typedef struct {
 typedef struct {
     imf_qscale_t kg, kp, ki;
     int16_t hs;      /* 8-bit profile: rates in q(15+hs) */
+    imf_gain8_t kg8, kp8, ki8; /* 8-bit profile: kg, kp, ki for int16 products */
     int16_t profile; /* 32 or 8 */
     imf_mahony_imu_q_state_t x;
 } imf_mahony_imu_q_t;

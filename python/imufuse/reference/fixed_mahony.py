@@ -45,6 +45,9 @@ class MahonyIMUQ(FixedFilter):
         self.kp = kp
         self.ki = ki
         self.hs = fq.rate_exponent(self.kg)
+        self.kg8 = ci.gain8(kg, 15 + self.hs)
+        self.kp8 = ci.gain8(kp, self.hs)
+        self.ki8 = ci.gain8(ki, 38 - 15)
         self.q = [fq.Q30_ONE, 0, 0, 0]
         self.i = [0, 0, 0]
         self._update = self._update8 if profile == 8 else self._update32
@@ -74,10 +77,13 @@ class MahonyIMUQ(FixedFilter):
         for i in range(3):
             if narrow:
                 e15 = ci.qn_to_q15s(e[i], 30)
-                ip = ci.scale16(e15, self.ki, 38 - 15)
-                pp = ci.scale16(e15, self.kp, self.hs)
-                self.i[i] = ci.add_sat32(self.i[i], ip)
-                h[i] = ci.add_sat32(ci.add_sat32(h[i], pp), ci.rshr32(self.i[i], 23 - self.hs))
+                self.i[i] = ci.add_sat32(self.i[i], ci.gain8_mul(e15, self.ki8))
+                if self.kp8[1] == 16 and self.hs <= 7:
+                    v = ci.add_sat32(e15 * self.kp8[0], self.i[i] >> (7 - self.hs))
+                    h[i] = ci.add_sat32(h[i], ci.rshr32(v, 16))
+                else:
+                    h[i] = ci.add_sat32(ci.add_sat32(h[i], ci.gain8_mul(e15, self.kp8)),
+                                        ci.rshr32(self.i[i], 23 - self.hs))
                 continue
             else:
                 ip = ci.scale32(e[i], self.ki, 30, 38)
@@ -99,7 +105,7 @@ class MahonyIMUQ(FixedFilter):
 
     def _update8(self, gyr, acc):
         qs = fq.snapshot(self.q)
-        h = [ci.scale16(g, self.kg, 15 + self.hs) for g in gyr]
+        h = [ci.gain8_mul(g, self.kg8) for g in gyr]
         self._feedback(qs, acc, h, True)
         dq = fq.rate_q8(qs, h, self.hs)
         self.q = fq.add_normalise8(self.q, dq)
