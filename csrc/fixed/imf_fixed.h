@@ -577,7 +577,8 @@ static inline int16_t imf_q30_to_q15(const int32_t x)
     return imf_sat_q15(imf_rshr32(x, 15));
 }
 
-/* qN -> q15 (N in [15, 46]), rounded, saturated symmetric to +-32767. */
+/* qN -> q15 (N in [15, 46]), rounded, saturated symmetric to +-32767.
+ * On AVR, N = 29, 30, 31 take the high word and 16-bit operations. */
 static inline int16_t imf_qn_to_q15s(const int32_t x, const int N)
 {
 #if defined(__AVR__)
@@ -602,6 +603,15 @@ static inline int16_t imf_qn_to_q15s(const int32_t x, const int N)
         }
         v = (int16_t)(v + r);
         return (v < -32767) ? (int16_t)-32767 : v;
+    }
+    if (N == 31) {
+        /* floor(x / 2^16 + 1/2) = t + bit 15 */
+        const int16_t t = (int16_t)(x >> 16);
+        const int16_t r = (int16_t)(((uint16_t)((uint32_t)x & 0xFFFFu)) >> 15);
+        if (t > IMF_Q15_MAX - r) {
+            return IMF_Q15_MAX;
+        }
+        return (t < -32767) ? (int16_t)-32767 : (int16_t)(t + r);
     }
 #endif
     return imf_sat_q15s(imf_rshr32(x, N - 15));

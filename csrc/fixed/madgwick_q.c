@@ -158,7 +158,7 @@ static void imf_madgwick_imu_q8_correct(const imf_madgwick_imu_q_t *const self,
             }
         }
         for (i = 0; i < 4; ++i) {
-            s15[i] = imf_sat_q15s(imf_rshr32(s[i], 16));
+            s15[i] = imf_qn_to_q15s(s[i], 31);
         }
     }
     for (i = 0; i < 4; ++i) {
@@ -208,15 +208,15 @@ void imf_madgwick_imu_q8_update(imf_madgwick_imu_q_t *const self, const int16_t 
 {
     int32_t *const q = self->x.q;
     int32_t h[3], dq[4];
-    int16_t qs[4];
+    int16_t qs[4], d16;
     int i;
-    imf_q_snapshot(q, qs);
+    d16 = imf_q8_snapshot_norm(q, qs);
     for (i = 0; i < 3; ++i) {
         h[i] = imf_gain8_mul(gyr[i], self->kg8); /* q(15+hs) */
     }
     imf_q8_rate(qs, h, self->hs, dq);
     imf_madgwick_imu_q8_correct(self, qs, acc, dq);
-    imf_q8_add_normalise(q, dq);
+    imf_q8_add_step(q, dq, qs, d16);
 }
 
 void imf_madgwick_imu_q_update(imf_madgwick_imu_q_t *const self, const int16_t gyr[3],

@@ -80,6 +80,8 @@ static void imf_mahony_imu_q8_feedback(imf_mahony_imu_q_t *const self, const int
                                        const int16_t acc[3], int32_t h[3])
 {
     imf_mahony_imu_q_state_t *const x = &self->x;
+    const imf_gain8_t ki8 = self->ki8, kp8 = self->kp8;
+    const int hs = self->hs;
     int16_t a[3], d[3], e15[3];
     int i;
     if (!imf_q8_unit3(acc, a)) {
@@ -91,17 +93,20 @@ static void imf_mahony_imu_q8_feedback(imf_mahony_imu_q_t *const self, const int
     e15[0] = imf_qn_to_q15s(imf_mul16(a[1], d[2]) - imf_mul16(a[2], d[1]), 30);
     e15[1] = imf_qn_to_q15s(imf_mul16(a[2], d[0]) - imf_mul16(a[0], d[2]), 30);
     e15[2] = imf_qn_to_q15s(imf_mul16(a[0], d[1]) - imf_mul16(a[1], d[0]), 30);
-    for (i = 0; i < 3; ++i) {
-        x->i[i] = imf_add_sat32(x->i[i], imf_gain8_mul(e15[i], self->ki8));
-        if (self->kp8.n == 16 && self->hs <= 7) {
-            /* Kp e + I summed in q(31+hs) (I floored from q38), one rounding
-             * to q(15+hs) */
-            const int32_t v = imf_add_sat32(imf_mul16su(e15[i], self->kp8.m),
-                                            imf_asr32(x->i[i], 7 - self->hs));
+    if (kp8.n == 16 && ki8.n == 16 && hs <= 7) {
+        /* Kp e + I summed in q(31+hs) (I floored from q38), one rounding
+         * to q(15+hs) */
+        for (i = 0; i < 3; ++i) {
+            const int32_t ii = imf_add_sat32(x->i[i], imf_rshr32(imf_mul16su(e15[i], ki8.m), 16));
+            const int32_t v = imf_add_sat32(imf_mul16su(e15[i], kp8.m), imf_asr32(ii, 7 - hs));
+            x->i[i] = ii;
             h[i] = imf_add_sat32(h[i], imf_rshr32(v, 16));
-        } else {
-            h[i] = imf_add_sat32(imf_add_sat32(h[i], imf_gain8_mul(e15[i], self->kp8)),
-                                 imf_rshr32(x->i[i], 23 - self->hs));
+        }
+    } else {
+        for (i = 0; i < 3; ++i) {
+            x->i[i] = imf_add_sat32(x->i[i], imf_gain8_mul(e15[i], ki8));
+            h[i] = imf_add_sat32(imf_add_sat32(h[i], imf_gain8_mul(e15[i], kp8)),
+                                 imf_rshr32(x->i[i], 23 - hs));
         }
     }
 }
@@ -130,16 +135,16 @@ void imf_mahony_imu_q8_update(imf_mahony_imu_q_t *const self, const int16_t gyr[
 {
     int32_t *const q = self->x.q;
     int32_t h[3], dq[4];
-    int16_t qs[4];
+    int16_t qs[4], d16;
     int i;
-    imf_q_snapshot(q, qs);
+    d16 = imf_q8_snapshot_norm(q, qs);
     /* step 1 in q(15+hs): the shift kg.s - 15 - hs is 16 unless hs is clamped */
     for (i = 0; i < 3; ++i) {
         h[i] = imf_gain8_mul(gyr[i], self->kg8);
     }
     imf_mahony_imu_q8_feedback(self, qs, acc, h);
     imf_q8_rate(qs, h, self->hs, dq);
-    imf_q8_add_normalise(q, dq);
+    imf_q8_add_step(q, dq, qs, d16);
 }
 
 void imf_mahony_imu_q_update(imf_mahony_imu_q_t *const self, const int16_t gyr[3],

@@ -140,8 +140,8 @@ class MadgwickIMUQ(FixedFilter):
         self.q = fq.add_normalise(self.q, dq)
 
     def _update8(self, gyr, acc):
-        qs = fq.snapshot(self.q)
+        self.q, qs, d16 = fq.snapshot_norm8(self.q)
         h = [ci.gain8_mul(g, self.kg8) for g in gyr]
         dq = fq.rate_q8(qs, h, self.hs)
         self._correct8(qs, acc, dq)
-        self.q = fq.add_normalise8(self.q, dq)
+        self.q = fq.add_step8(self.q, dq, qs, d16)

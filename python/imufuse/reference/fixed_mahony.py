@@ -78,7 +78,7 @@ class MahonyIMUQ(FixedFilter):
             if narrow:
                 e15 = ci.qn_to_q15s(e[i], 30)
                 self.i[i] = ci.add_sat32(self.i[i], ci.gain8_mul(e15, self.ki8))
-                if self.kp8[1] == 16 and self.hs <= 7:
+                if self.kp8[1] == 16 and self.ki8[1] == 16 and self.hs <= 7:
                     v = ci.add_sat32(e15 * self.kp8[0], self.i[i] >> (7 - self.hs))
                     h[i] = ci.add_sat32(h[i], ci.rshr32(v, 16))
                 else:
@@ -104,8 +104,8 @@ class MahonyIMUQ(FixedFilter):
         self.q = fq.add_normalise(self.q, dq)
 
     def _update8(self, gyr, acc):
-        qs = fq.snapshot(self.q)
+        self.q, qs, d16 = fq.snapshot_norm8(self.q)
         h = [ci.gain8_mul(g, self.kg8) for g in gyr]
         self._feedback(qs, acc, h, True)
         dq = fq.rate_q8(qs, h, self.hs)
-        self.q = fq.add_normalise8(self.q, dq)
+        self.q = fq.add_step8(self.q, dq, qs, d16)
