@@ -124,6 +124,19 @@ static inline int imf_q8_unit3(const int16_t v[3], int16_t a[3])
     return 1;
 }
 
+/* imf_rshr32 for n in [0, 15] (the 8-bit profile's hs): the same value
+ * with fewer range checks, bit steps for n < 8 (AVR). */
+static inline int32_t imf_q8_rshr_hs(const int32_t x, const int n)
+{
+    if (n >= 2) {
+        return (imf_asr32(x, n - 1) + 1) >> 1; /* <= 2^30 + 1: no overflow */
+    }
+    if (n == 1) {
+        return (x >> 1) + (x & 1);
+    }
+    return x;
+}
+
 /* 8-bit profile, appendix step 7 / 3: dq = q (x) (0, h), h in q(15+hs)
  * saturated to int16; each component's three q15 x q(15+hs) products are
  * summed (saturating) and rounded to q30 once. */
@@ -134,10 +147,10 @@ static inline void imf_q8_rate(const int16_t qs[4], const int32_t h[3], const in
     const int16_t hy = imf_sat_q15(h[1]);
     const int16_t hz = imf_sat_q15(h[2]);
 #define IMF_P(a, b) imf_mul16((a), (b)) /* |.| <= 2^30 */
-    dq[0] = imf_rshr32(imf_sub_sat32(-IMF_P(qs[1], hx) - IMF_P(qs[2], hy), IMF_P(qs[3], hz)), hs);
-    dq[1] = imf_rshr32(imf_sub_sat32(IMF_P(qs[0], hx) + IMF_P(qs[2], hz), IMF_P(qs[3], hy)), hs);
-    dq[2] = imf_rshr32(imf_add_sat32(IMF_P(qs[0], hy) - IMF_P(qs[1], hz), IMF_P(qs[3], hx)), hs);
-    dq[3] = imf_rshr32(imf_sub_sat32(IMF_P(qs[0], hz) + IMF_P(qs[1], hy), IMF_P(qs[2], hx)), hs);
+    dq[0] = imf_q8_rshr_hs(imf_sub_sat32(-IMF_P(qs[1], hx) - IMF_P(qs[2], hy), IMF_P(qs[3], hz)), hs);
+    dq[1] = imf_q8_rshr_hs(imf_sub_sat32(IMF_P(qs[0], hx) + IMF_P(qs[2], hz), IMF_P(qs[3], hy)), hs);
+    dq[2] = imf_q8_rshr_hs(imf_add_sat32(IMF_P(qs[0], hy) - IMF_P(qs[1], hz), IMF_P(qs[3], hx)), hs);
+    dq[3] = imf_q8_rshr_hs(imf_sub_sat32(IMF_P(qs[0], hz) + IMF_P(qs[1], hy), IMF_P(qs[2], hx)), hs);
 #undef IMF_P
 }
 

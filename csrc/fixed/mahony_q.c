@@ -14,6 +14,8 @@ int imf_mahony_imu_q_init_consts(imf_mahony_imu_q_t *const self, const imf_qscal
     self->kg8 = imf_gain8(kg, 15 + self->hs);
     self->kp8 = imf_gain8(kp, self->hs);
     self->ki8 = imf_gain8(ki, 38 - 15);
+    self->kpi = (uint16_t)(kp.s >= 23 ? imf_rshr32(kp.m, kp.s - 23) : (kp.s == 22 ? kp.m * 2 : 0));
+    self->fast8 = (int16_t)(kp.s >= 22 && self->ki8.n == 16 && self->hs <= 6);
     self->profile = (int16_t)(profile == 8 ? 8 : 32);
     self->x.q[0] = IMF_Q30_ONE;
     self->x.q[1] = self->x.q[2] = self->x.q[3] = 0;
@@ -93,14 +95,17 @@ static void imf_mahony_imu_q8_feedback(imf_mahony_imu_q_t *const self, const int
     e15[0] = imf_qn_to_q15s(imf_mul16(a[1], d[2]) - imf_mul16(a[2], d[1]), 30);
     e15[1] = imf_qn_to_q15s(imf_mul16(a[2], d[0]) - imf_mul16(a[0], d[2]), 30);
     e15[2] = imf_qn_to_q15s(imf_mul16(a[0], d[1]) - imf_mul16(a[1], d[0]), 30);
-    if (kp8.n == 16 && ki8.n == 16 && hs <= 7) {
-        /* Kp e + I summed in q(31+hs) (I floored from q38), one rounding
-         * to q(15+hs) */
+    if (self->fast8) {
+        /* Kp e + I summed in q38, one rounding to q(15+hs) */
+        const uint16_t kpi = self->kpi;
+        const int k = 6 - hs; /* the rounding shift 23 - hs = 17 + k, k in [0, 6] */
         for (i = 0; i < 3; ++i) {
             const int32_t ii = imf_add_sat32(x->i[i], imf_rshr32(imf_mul16su(e15[i], ki8.m), 16));
-            const int32_t v = imf_add_sat32(imf_mul16su(e15[i], kp8.m), imf_asr32(ii, 7 - hs));
+            const int32_t v = imf_add_sat32(ii, imf_mul16su(e15[i], kpi));
             x->i[i] = ii;
-            h[i] = imf_add_sat32(h[i], imf_rshr32(v, 16));
+            /* floor(v / 2^(17+k) + 1/2) = (floor(v / 2^(16+k)) + 1) >> 1,
+             * the inner shift from the high word in 16 bits */
+            h[i] = imf_add_sat32(h[i], ((int32_t)(int16_t)((int16_t)(v >> 16) >> k) + 1) >> 1);
         }
     } else {
         for (i = 0; i < 3; ++i) {

@@ -48,6 +48,8 @@ class MahonyIMUQ(FixedFilter):
         self.kg8 = ci.gain8(kg, 15 + self.hs)
         self.kp8 = ci.gain8(kp, self.hs)
         self.ki8 = ci.gain8(ki, 38 - 15)
+        self.kpi = (ci.rshr32(kp.m, kp.s - 23) if kp.s >= 23 else kp.m * 2 if kp.s == 22 else 0)
+        self.fast8 = kp.s >= 22 and self.ki8[1] == 16 and self.hs <= 6
         self.q = [fq.Q30_ONE, 0, 0, 0]
         self.i = [0, 0, 0]
         self._update = self._update8 if profile == 8 else self._update32
@@ -78,9 +80,9 @@ class MahonyIMUQ(FixedFilter):
             if narrow:
                 e15 = ci.qn_to_q15s(e[i], 30)
                 self.i[i] = ci.add_sat32(self.i[i], ci.gain8_mul(e15, self.ki8))
-                if self.kp8[1] == 16 and self.ki8[1] == 16 and self.hs <= 7:
-                    v = ci.add_sat32(e15 * self.kp8[0], self.i[i] >> (7 - self.hs))
-                    h[i] = ci.add_sat32(h[i], ci.rshr32(v, 16))
+                if self.fast8:
+                    v = ci.add_sat32(self.i[i], e15 * self.kpi)
+                    h[i] = ci.add_sat32(h[i], ci.rshr32(v, 23 - self.hs))
                 else:
                     h[i] = ci.add_sat32(ci.add_sat32(h[i], ci.gain8_mul(e15, self.kp8)),
                                         ci.rshr32(self.i[i], 23 - self.hs))
