@@ -449,6 +449,22 @@ static inline int32_t imf_gain8_mul(const int16_t x, const imf_gain8_t g)
     return imf_rshift_sat32_ool(p, g.n);
 }
 
+/* y[i] = x[i] * g for three int16 values (the 8-bit profile's gyro
+ * conversion): the shift test once for the vector. */
+static inline void imf_gain8_mul3(const int16_t x[3], const imf_gain8_t g, int32_t y[3])
+{
+    int i;
+    if (g.n == 16) {
+        for (i = 0; i < 3; ++i) {
+            y[i] = imf_rshr32(imf_mul16su(x[i], g.m), 16);
+        }
+    } else {
+        for (i = 0; i < 3; ++i) {
+            y[i] = imf_rshift_sat32_ool(imf_mul16su(x[i], g.m), g.n);
+        }
+    }
+}
+
 /* ---- square roots -------------------------------------------------- */
 
 /* Integer square root: floor(sqrt(x)) for any uint32 x.  Bit by bit,

@@ -209,11 +209,8 @@ void imf_madgwick_imu_q8_update(imf_madgwick_imu_q_t *const self, const int16_t 
     int32_t *const q = self->x.q;
     int32_t h[3], dq[4];
     int16_t qs[4], d16;
-    int i;
     d16 = imf_q8_snapshot_norm(q, qs);
-    for (i = 0; i < 3; ++i) {
-        h[i] = imf_gain8_mul(gyr[i], self->kg8); /* q(15+hs) */
-    }
+    imf_gain8_mul3(gyr, self->kg8, h); /* q(15+hs) */
     imf_q8_rate(qs, h, self->hs, dq);
     imf_madgwick_imu_q8_correct(self, qs, acc, dq);
     imf_q8_add_step(q, dq, qs, d16);

@@ -141,12 +141,9 @@ void imf_mahony_imu_q8_update(imf_mahony_imu_q_t *const self, const int16_t gyr[
     int32_t *const q = self->x.q;
     int32_t h[3], dq[4];
     int16_t qs[4], d16;
-    int i;
     d16 = imf_q8_snapshot_norm(q, qs);
     /* step 1 in q(15+hs): the shift kg.s - 15 - hs is 16 unless hs is clamped */
-    for (i = 0; i < 3; ++i) {
-        h[i] = imf_gain8_mul(gyr[i], self->kg8);
-    }
+    imf_gain8_mul3(gyr, self->kg8, h); /* q(15+hs) */
     imf_mahony_imu_q8_feedback(self, qs, acc, h);
     imf_q8_rate(qs, h, self->hs, dq);
     imf_q8_add_step(q, dq, qs, d16);
