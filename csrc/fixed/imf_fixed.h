@@ -66,6 +66,16 @@ static inline int imf_qscale_ok(const imf_qscale_t c, const int smin, const int 
     return (c.m == 0 || c.m >= 16384) && c.s >= smin && c.s <= smax;
 }
 
+/* On AVR, helpers marked IMF_AVR_NOINLINE stay out of line: their inlined
+ * copies cost more in code size and register spills than the call. */
+#if defined(__AVR__)
+#define IMF_AVR_NOINLINE __attribute__((noinline, unused))
+#define IMF_AVR_OUTLINE static __attribute__((noinline, unused))
+#else
+#define IMF_AVR_NOINLINE
+#define IMF_AVR_OUTLINE static inline
+#endif
+
 /* ---- shifts -------------------------------------------------------- */
 
 /* 32-bit shifts by n in [0, 31].  The 8-bit target has no barrel shifter:
@@ -277,6 +287,35 @@ static inline int32_t imf_mul16(const int16_t a, const int16_t b)
 #endif
 }
 
+/* uint16 x uint16 -> uint32, exact (AVR: four inline MULs, no library
+ * call; elsewhere the plain C product). */
+static inline uint32_t imf_mulu16(const uint16_t a, const uint16_t b)
+{
+#if defined(__AVR__) && defined(__AVR_HAVE_MUL__)
+    uint32_t r;
+    uint8_t z;
+    __asm__("clr %[z]\n\t"
+            "mul %B[a], %B[b]\n\t"
+            "movw %C[r], r0\n\t"
+            "mul %A[a], %A[b]\n\t"
+            "movw %A[r], r0\n\t"
+            "mul %B[a], %A[b]\n\t"
+            "add %B[r], r0\n\t"
+            "adc %C[r], r1\n\t"
+            "adc %D[r], %[z]\n\t"
+            "mul %B[b], %A[a]\n\t"
+            "add %B[r], r0\n\t"
+            "adc %C[r], r1\n\t"
+            "adc %D[r], %[z]\n\t"
+            "clr __zero_reg__"
+            : [r] "=&r"(r), [z] "=&r"(z)
+            : [a] "r"(a), [b] "r"(b));
+    return r;
+#else
+    return (uint32_t)a * (uint32_t)b;
+#endif
+}
+
 /* q15 * q15 -> q15, rounded to nearest; the only overflow,
  * (-1) * (-1), saturates to 32767. One 16x16->32 multiply. */
 static inline int16_t imf_mul_q15(const int16_t a, const int16_t b)
@@ -335,6 +374,95 @@ static inline int32_t imf_scale16(const int16_t x, const imf_qscale_t c, const i
 static inline int32_t imf_scale32(const int32_t x, const imf_qscale_t c, const int K, const int N)
 {
     return imf_mul_32x16(x, c.m, c.s + K - N);
+}
+
+/* 8-bit profile: a q-scale constant prepared at init for the products
+ * x * c * 2^N (x int16) of one update, so that the update has no run-time
+ * shift count: n = c.s - N; for n >= 15 the mantissa is rounded to a shift
+ * of exactly 16 (high word, byte moves): m = c.m 2^(16 - n) in [0, 2^16)
+ * (unsigned; exact for n = 15, 16; the product's extra error is <= 1/4
+ * LSB); other n keep c.m with its shift (general path, out of line). */
+typedef struct {
+    uint16_t m; /* mantissa */
+    int16_t n;  /* 16, or the general shift c.s - N */
+} imf_gain8_t;
+
+IMF_AVR_OUTLINE int32_t imf_rshift_sat32_ool(const int32_t x, const int n)
+{
+    return imf_rshift_sat32(x, n);
+}
+
+static inline imf_gain8_t imf_gain8(const imf_qscale_t c, const int N)
+{
+    imf_gain8_t g;
+    const int n = c.s - N;
+    if (n == 15) {
+        g.m = (uint16_t)((uint16_t)c.m * 2u);
+        g.n = 16;
+    } else if (n >= 16) {
+        g.m = (uint16_t)imf_rshr32(c.m, n - 16);
+        g.n = 16;
+    } else {
+        g.m = (uint16_t)c.m;
+        g.n = (int16_t)n;
+    }
+    return g;
+}
+
+/* int16 x uint16 -> int32, exact (|x m| < 2^31).  AVR: inline MULSU/MUL. */
+static inline int32_t imf_mul16su(const int16_t a, const uint16_t b)
+{
+#if defined(__AVR__) && defined(__AVR_HAVE_MUL__)
+    int32_t r;
+    uint8_t z;
+    __asm__("clr %[z]\n\t"
+            "mulsu %B[a], %B[b]\n\t"
+            "movw %C[r], r0\n\t"
+            "mul %A[a], %A[b]\n\t"
+            "movw %A[r], r0\n\t"
+            "mulsu %B[a], %A[b]\n\t"
+            "sbc %D[r], %[z]\n\t"
+            "add %B[r], r0\n\t"
+            "adc %C[r], r1\n\t"
+            "adc %D[r], %[z]\n\t"
+            "mul %A[a], %B[b]\n\t"
+            "add %B[r], r0\n\t"
+            "adc %C[r], r1\n\t"
+            "adc %D[r], %[z]\n\t"
+            "clr __zero_reg__"
+            : [r] "=&r"(r), [z] "=&r"(z)
+            : [a] "a"(a), [b] "a"(b));
+    return r;
+#else
+    return (int32_t)a * (int32_t)b;
+#endif
+}
+
+/* x * g, rounded to nearest, saturated: one 16x16->32 multiply and (on the
+ * fast path) a shift by 16 taken from the high word. */
+static inline int32_t imf_gain8_mul(const int16_t x, const imf_gain8_t g)
+{
+    const int32_t p = imf_mul16su(x, g.m);
+    if (g.n == 16) {
+        return imf_rshr32(p, 16);
+    }
+    return imf_rshift_sat32_ool(p, g.n);
+}
+
+/* y[i] = x[i] * g for three int16 values (the 8-bit profile's gyro
+ * conversion): the shift test once for the vector. */
+static inline void imf_gain8_mul3(const int16_t x[3], const imf_gain8_t g, int32_t y[3])
+{
+    int i;
+    if (g.n == 16) {
+        for (i = 0; i < 3; ++i) {
+            y[i] = imf_rshr32(imf_mul16su(x[i], g.m), 16);
+        }
+    } else {
+        for (i = 0; i < 3; ++i) {
+            y[i] = imf_rshift_sat32_ool(imf_mul16su(x[i], g.m), g.n);
+        }
+    }
 }
 
 /* ---- square roots -------------------------------------------------- */
@@ -417,7 +545,7 @@ static inline uint16_t imf_invsqrt_u32(uint32_t x, int *const shift)
  * Madgwick's delta-s), so the error scales a gain by at most 0.12 %. */
 static inline uint16_t imf_invsqrt8_u32(uint32_t x, int *const e)
 {
-    uint16_t u, y, y2, w;
+    uint16_t u, y, y2, w, d;
     uint32_t t;
     *e = 0;
     if (x < ((uint32_t)1 << 30)) {
@@ -425,19 +553,29 @@ static inline uint16_t imf_invsqrt8_u32(uint32_t x, int *const e)
         *e = 1;
     }
     u = (uint16_t)(x >> 16); /* q16 in [2^14, 2^16) */
+    /* the chords in 16-bit operations (the same values):
+     * floor(38 d / 32) = d + floor(3 d / 16) for d < 2^14, and
+     * floor(27 d / 64) = 27 floor(d / 64) + floor(27 (d mod 64) / 64) */
     if (u < 32768u) {
-        y = (uint16_t)(64635u - (((uint32_t)(u - 16384u) * 38u) >> 5));
+        d = (uint16_t)(u - 16384u);
+        y = (uint16_t)(64635u - (uint16_t)(d + (uint16_t)((uint16_t)(d * 3u) >> 4)));
     } else {
-        y = (uint16_t)(45691u - (((uint32_t)(u - 32768u) * 27u) >> 6));
+        d = (uint16_t)(u - 32768u);
+        y = (uint16_t)(45691u - (uint16_t)((uint16_t)((d >> 6) * 27u)
+                                           + (uint16_t)((uint16_t)((d & 63u) * 27u) >> 6)));
     }
-    y2 = (uint16_t)(((uint32_t)y * y + 32768u) >> 16); /* q14, y < 2^16 */
-    t = (uint32_t)u * y2;                              /* q30, < 3 2^30 here */
+    y2 = (uint16_t)((imf_mulu16(y, y) + 32768u) >> 16); /* q14, y < 2^16 */
+    t = imf_mulu16(u, y2);                             /* q30, < 3 2^30 here */
     if (t >= 3221225472u) {
         t = 3221225471u; /* cannot happen from the chords; kept for safety */
     }
     w = (uint16_t)((3221225472u - t) >> 16);
-    t = ((uint32_t)y * w + 16384u) >> 15;
-    return (uint16_t)(t > 65535u ? 65535u : t);
+    /* (y w + 2^14) / 2^15 from the high word: y w + 2^14 < 2^32 */
+    t = imf_mulu16(y, w) + 16384u;
+    if ((t >> 16) >= 32768u) {
+        return 65535u;
+    }
+    return (uint16_t)((uint16_t)((uint16_t)(t >> 16) << 1) | (uint16_t)(((uint16_t)t) >> 15));
 }
 
 /* ---- conversions --------------------------------------------------- */
@@ -455,9 +593,43 @@ static inline int16_t imf_q30_to_q15(const int32_t x)
     return imf_sat_q15(imf_rshr32(x, 15));
 }
 
-/* qN -> q15 (N in [15, 46]), rounded, saturated symmetric to +-32767. */
+/* qN -> q15 (N in [15, 46]), rounded, saturated symmetric to +-32767.
+ * On AVR, N = 29, 30, 31 take the high word and 16-bit operations. */
 static inline int16_t imf_qn_to_q15s(const int32_t x, const int N)
 {
+#if defined(__AVR__)
+    if (N == 30 || N == 29) {
+        /* the same value in 16-bit operations: with m = 31 - N (1 or 2),
+         * t = floor(x / 2^16) and the low word lo,
+         * floor(x / 2^(N-15) + 1/2) = t 2^m + floor(lo / 2^(N-15) + 1/2) */
+        const int m = 31 - N;
+        const int16_t t = (int16_t)(x >> 16);
+        const uint16_t lo = (uint16_t)((uint32_t)x & 0xFFFFu);
+        const int16_t r = (int16_t)(((uint16_t)(lo >> (N - 16)) + 1u) >> 1); /* [0, 2^m] */
+        int16_t v;
+        if (t >= (int16_t)(16384 >> (m - 1))) {
+            return IMF_Q15_MAX;
+        }
+        if (t < (int16_t)-(16384 >> (m - 1))) {
+            return (int16_t)-32767;
+        }
+        v = (int16_t)(t * (1 << m)); /* [-32768, 32768 - 2^m] */
+        if (v > IMF_Q15_MAX - r) {
+            return IMF_Q15_MAX;
+        }
+        v = (int16_t)(v + r);
+        return (v < -32767) ? (int16_t)-32767 : v;
+    }
+    if (N == 31) {
+        /* floor(x / 2^16 + 1/2) = t + bit 15 */
+        const int16_t t = (int16_t)(x >> 16);
+        const int16_t r = (int16_t)(((uint16_t)((uint32_t)x & 0xFFFFu)) >> 15);
+        if (t > IMF_Q15_MAX - r) {
+            return IMF_Q15_MAX;
+        }
+        return (t < -32767) ? (int16_t)-32767 : (int16_t)(t + r);
+    }
+#endif
     return imf_sat_q15s(imf_rshr32(x, N - 15));
 }
 

@@ -56,7 +56,7 @@ static inline int imf_q_normalise_acc(const int16_t acc[3], int16_t a[3])
 /* 32-bit profile, appendix step 7 (Mahony) / 3 (Madgwick):
  * dq = q (x) (0, h), h = 0.5 w dt in q30; products q15 x q30 -> q30 by
  * imf_mul_32x16 (rounded), sums saturate. */
-static inline void imf_q_rate32(const int16_t qs[4], const int32_t h[3], int32_t dq[4])
+IMF_Q_OUTLINE void imf_q_rate32(const int16_t qs[4], const int32_t h[3], int32_t dq[4])
 {
     const int32_t x0 = imf_mul_32x16(h[0], qs[0], 15), x1 = imf_mul_32x16(h[0], qs[1], 15);
     const int32_t x2 = imf_mul_32x16(h[0], qs[2], 15), x3 = imf_mul_32x16(h[0], qs[3], 15);
@@ -118,10 +118,23 @@ static inline int imf_q8_unit3(const int16_t v[3], int16_t a[3])
     y = imf_invsqrt8_u32(n2, &e);          /* 1/|b| ~= y 2^(e-31) */
     for (i = 0; i < 3; ++i) {
         /* |b| < 2^15, y < 2^16: the product fits int32 */
-        const int32_t p = (int32_t)b[i] * (int32_t)y;
-        a[i] = imf_sat_q15s(e ? imf_rshr32(p, 15) : imf_rshr32(p, 16));
+        const int32_t p = imf_mul16su(b[i], y);
+        a[i] = e ? imf_qn_to_q15s(p, 30) : imf_qn_to_q15s(p, 31);
     }
     return 1;
+}
+
+/* imf_rshr32 for n in [0, 15] (the 8-bit profile's hs): the same value
+ * with fewer range checks, bit steps for n < 8 (AVR). */
+static inline int32_t imf_q8_rshr_hs(const int32_t x, const int n)
+{
+    if (n >= 2) {
+        return (imf_asr32(x, n - 1) + 1) >> 1; /* <= 2^30 + 1: no overflow */
+    }
+    if (n == 1) {
+        return (x >> 1) + (x & 1);
+    }
+    return x;
 }
 
 /* 8-bit profile, appendix step 7 / 3: dq = q (x) (0, h), h in q(15+hs)
@@ -134,10 +147,10 @@ static inline void imf_q8_rate(const int16_t qs[4], const int32_t h[3], const in
     const int16_t hy = imf_sat_q15(h[1]);
     const int16_t hz = imf_sat_q15(h[2]);
 #define IMF_P(a, b) imf_mul16((a), (b)) /* |.| <= 2^30 */
-    dq[0] = imf_rshr32(imf_sub_sat32(-IMF_P(qs[1], hx) - IMF_P(qs[2], hy), IMF_P(qs[3], hz)), hs);
-    dq[1] = imf_rshr32(imf_sub_sat32(IMF_P(qs[0], hx) + IMF_P(qs[2], hz), IMF_P(qs[3], hy)), hs);
-    dq[2] = imf_rshr32(imf_add_sat32(IMF_P(qs[0], hy) - IMF_P(qs[1], hz), IMF_P(qs[3], hx)), hs);
-    dq[3] = imf_rshr32(imf_sub_sat32(IMF_P(qs[0], hz) + IMF_P(qs[1], hy), IMF_P(qs[2], hx)), hs);
+    dq[0] = imf_q8_rshr_hs(imf_sub_sat32(-IMF_P(qs[1], hx) - IMF_P(qs[2], hy), IMF_P(qs[3], hz)), hs);
+    dq[1] = imf_q8_rshr_hs(imf_sub_sat32(IMF_P(qs[0], hx) + IMF_P(qs[2], hz), IMF_P(qs[3], hy)), hs);
+    dq[2] = imf_q8_rshr_hs(imf_add_sat32(IMF_P(qs[0], hy) - IMF_P(qs[1], hz), IMF_P(qs[3], hx)), hs);
+    dq[3] = imf_q8_rshr_hs(imf_sub_sat32(IMF_P(qs[0], hz) + IMF_P(qs[1], hy), IMF_P(qs[2], hx)), hs);
 #undef IMF_P
 }
 
@@ -166,32 +179,37 @@ IMF_Q_OUTLINE void imf_q_normalise(int32_t q[4])
     }
 }
 
-/* 8-bit profile, step 8: q += dq, then q /= |q| by one first-order step
- * q -= q (|q|^2 - 1) / 2 while |q|^2 - 1 = d is within +-2^-8 (every
- * ordinary update: the step leaves |q|^2 - 1 = -3 d^2 / 4, so the norm
- * converges quadratically); otherwise (a state set by hand, a rotation
- * above 0.125 rad per sample) the full normalisation above.  |q|^2 from the
- * q15 snapshot, d in q22 (int16), the correction a q15 x q22 product. */
-static inline void imf_q8_add_normalise(int32_t q[4], const int32_t dq[4])
+/* 8-bit profile, step 8 folded into the next update (no second snapshot):
+ * at the start of an update, q15 snapshot qs of q and d = |qs|^2 - 1 in q22
+ * (int16); while |d| < 2^-8 (every ordinary update: a step leaves
+ * |q|^2 - 1 ~ |h|^2) the update's own step is q += dq - q d / 2
+ * (imf_q8_add_step), a first-order normalisation one sample late (|q|^2 - 1
+ * stays of the order of |h|^2 + rounding).  Otherwise (a state set by hand,
+ * a rotation above 0.06 rad per sample) q is first fully normalised (as in
+ * the 32-bit profile) and d = 0. */
+static inline int16_t imf_q8_snapshot_norm(int32_t q[4], int16_t qs[4])
 {
-    int16_t qs[4], d16;
     uint32_t n2 = 0u;
     int i;
-    for (i = 0; i < 4; ++i) {
-        q[i] = imf_add_sat32(q[i], dq[i]);
-    }
     imf_q_snapshot(q, qs);
     for (i = 0; i < 4; ++i) {
         n2 += (uint32_t)imf_mul16(qs[i], qs[i]);
     }
     if (n2 <= 1069547520u || n2 >= 1077936128u) { /* 2^30 -+ 2^22 */
         imf_q_normalise(q);
-        return;
+        imf_q_snapshot(q, qs);
+        return 0;
     }
-    d16 = (int16_t)imf_rshr32((int32_t)n2 - IMF_Q30_ONE, 8); /* q22, |d16| <= 2^14 */
+    return (int16_t)imf_rshr32((int32_t)n2 - IMF_Q30_ONE, 8); /* q22, |d| <= 2^14 */
+}
+
+/* q += dq - q d / 2: q d / 2 in q30 = qs (q15) d16 (q22) / 2^8, |.| < 2^29. */
+static inline void imf_q8_add_step(int32_t q[4], const int32_t dq[4], const int16_t qs[4],
+                                   const int16_t d16)
+{
+    int i;
     for (i = 0; i < 4; ++i) {
-        /* q d / 2 in q30 = qs (q15) d16 (q22) / 2^8; |product| < 2^29 */
-        q[i] = imf_sub_sat32(q[i], imf_rshr32(imf_mul16(qs[i], d16), 8));
+        q[i] = imf_add_sat32(q[i], imf_sub_sat32(dq[i], imf_rshr32(imf_mul16(qs[i], d16), 8)));
     }
 }
 

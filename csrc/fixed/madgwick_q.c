@@ -10,6 +10,9 @@ int imf_madgwick_imu_q_init_consts(imf_madgwick_imu_q_t *const self, const imf_q
     self->kg = kg;
     self->kb = kb;
     self->hs = imf_q_rate_exponent(kg);
+    self->kg8 = imf_gain8(kg, 15 + self->hs);
+    /* largest multiple of 8 with kb.s - kbf >= 16 (kb.s in [16, 46]) */
+    self->kbf = (int16_t)(kb.s < 16 ? 0 : ((kb.s - 16) / 8) * 8);
     self->profile = (int16_t)(profile == 8 ? 8 : 32);
     self->x.q[0] = IMF_Q30_ONE;
     self->x.q[1] = self->x.q[2] = self->x.q[3] = 0;
@@ -52,7 +55,7 @@ static int imf_bitlen32(uint32_t v)
 /* Appendix steps 2, 4, 5, 6: dq -= beta dt * normalised delta-s.
  * Nothing happens for a zero accelerometer vector or a zero delta-s. */
 static void imf_madgwick_imu_q_correct(const imf_madgwick_imu_q_t *const self, const int16_t qs[4],
-                                       const int16_t acc[3], int32_t dq[4], const int narrow)
+                                       const int16_t acc[3], int32_t dq[4])
 {
     int16_t a[3], s15[4];
     int32_t s[4], w;
@@ -60,8 +63,8 @@ static void imf_madgwick_imu_q_correct(const imf_madgwick_imu_q_t *const self, c
     uint32_t m = 0u, n2 = 0u, mag;
     uint16_t y;
     int sh, k, i;
-    /* step 2: normalise a (8-bit profile: block-scaled, short inverse sqrt) */
-    if (!(narrow ? imf_q8_unit3(acc, a) : imf_q_normalise_acc(acc, a))) {
+    /* step 2: normalise a */
+    if (!imf_q_normalise_acc(acc, a)) {
         return;
     }
     /* step 4 (simplified): s = delta-s/2 = 2 (q1^2 + q2^2) q
@@ -96,20 +99,89 @@ static void imf_madgwick_imu_q_correct(const imf_madgwick_imu_q_t *const self, c
         s15[i] = imf_sat_q15s(imf_rshift_sat32(s[i], k));
         n2 += (uint32_t)((int32_t)s15[i] * s15[i]); /* 4 * 32767^2 < 2^32 */
     }
-    if (narrow) {
-        /* n2 in [2^28, 2^32): 1/sqrt(n2) ~= y 2^(e - 31), e in {0, 1} */
-        y = imf_invsqrt8_u32(n2, &sh);
-        sh = 31 - sh;
-    } else {
-        y = imf_invsqrt_u32(n2, &sh); /* n2 >= 2^28 -> sh >= 30 */
-    }
+    y = imf_invsqrt_u32(n2, &sh); /* n2 >= 2^28 -> sh >= 30 */
     for (i = 0; i < 4; ++i) {
         /* unit delta-s, q15; |s15| < 2^15, y < 2^16: product fits int32 */
         const int32_t p = (int32_t)s15[i] * (int32_t)y;
-        const int16_t u = imf_sat_q15s(!narrow ? imf_rshr32(p, sh - 15)
-                                                : (sh == 30 ? imf_rshr32(p, 15) : imf_rshr32(p, 16)));
+        const int16_t u = imf_sat_q15s(imf_rshr32(p, sh - 15));
         /* step 6: dq' = dq - beta dt * unit delta-s, q30 */
         dq[i] = imf_sub_sat32(dq[i], imf_scale16(u, self->kb, 30 - 15));
+    }
+}
+
+/* The same, 8-bit profile: s = delta-s/2 in q29 (the products of two
+ * terms rounded once), block-scaled in byte and bit steps (left shifts
+ * only) to q15 with a constant rounding shift, and the step kb * s / |s|
+ * as s15 * yk / 2^kbf with yk = y kb.m rounded to int16 once per update. */
+static void imf_madgwick_imu_q8_correct(const imf_madgwick_imu_q_t *const self,
+                                        const int16_t qs[4], const int16_t acc[3], int32_t dq[4])
+{
+    int16_t a[3], s15[4], w15;
+    int32_t s[4];
+    uint32_t m = 0u, n2 = 0u;
+    uint16_t y, yk;
+    int e, i;
+    if (!imf_q8_unit3(acc, a)) {
+        return;
+    }
+    /* |q1^2 + q2^2| < 2^31; each pair of products below < 2^31 */
+    w15 = imf_qn_to_q15s(imf_mul16(qs[1], qs[1]) + imf_mul16(qs[2], qs[2]), 30);
+    s[0] = imf_add_sat32(imf_mul16(w15, qs[0]),
+                         imf_rshr32(imf_mul16(qs[2], a[0]) - imf_mul16(qs[1], a[1]), 1));
+    s[1] = imf_add_sat32(imf_mul16(w15, qs[1]) + imf_mul16(qs[1], a[2]),
+                         imf_rshr32(-imf_mul16(qs[3], a[0]) - imf_mul16(qs[0], a[1]), 1));
+    s[2] = imf_add_sat32(imf_mul16(w15, qs[2]) + imf_mul16(qs[2], a[2]),
+                         imf_rshr32(imf_mul16(qs[0], a[0]) - imf_mul16(qs[3], a[1]), 1));
+    s[3] = imf_add_sat32(imf_mul16(w15, qs[3]),
+                         imf_rshr32(-imf_mul16(qs[1], a[0]) - imf_mul16(qs[2], a[1]), 1));
+    for (i = 0; i < 4; ++i) {
+        m |= (s[i] < 0) ? 0u - (uint32_t)s[i] : (uint32_t)s[i]; /* top bit of the max */
+    }
+    if (m == 0u) {
+        return;
+    }
+    if (m >= 2147483648u) {
+        for (i = 0; i < 4; ++i) {
+            s15[i] = imf_sat_q15s(imf_rshr32(s[i], 17));
+        }
+    } else {
+        while (m < 4194304u) { /* 2^22: byte steps, |s| < 2^22 */
+            m <<= 8;
+            for (i = 0; i < 4; ++i) {
+                s[i] *= 256;
+            }
+        }
+        while (m < 1073741824u) { /* 2^30 */
+            m <<= 1;
+            for (i = 0; i < 4; ++i) {
+                s[i] += s[i];
+            }
+        }
+        for (i = 0; i < 4; ++i) {
+            s15[i] = imf_qn_to_q15s(s[i], 31);
+        }
+    }
+    for (i = 0; i < 4; ++i) {
+        n2 += (uint32_t)imf_mul16(s15[i], s15[i]); /* [2^28, 4 2^30) */
+    }
+    y = imf_invsqrt8_u32(n2, &e); /* 1/|s15| ~= y 2^(e - 31) */
+    /* step: s15 y kb.m 2^(e - 1 - kb.s) (q30) = s15 yk 2^-kbf with
+     * yk = y kb.m 2^-(kb.s + 1 - e - kbf), a shift in [16, 24]: yk < 2^15 */
+    yk = (uint16_t)imf_rshr32((int32_t)imf_mulu16(y, (uint16_t)self->kb.m),
+                              self->kb.s + 1 - e - self->kbf);
+    for (i = 0; i < 4; ++i) {
+        const int32_t p = imf_mul16su(s15[i], yk); /* |p| < 2^30 */
+        int32_t c;
+        if (self->kbf == 0) {
+            c = p;
+        } else if (self->kbf == 8) {
+            c = imf_rshr32(p, 8);
+        } else if (self->kbf == 16) {
+            c = imf_rshr32(p, 16);
+        } else {
+            c = imf_rshr32(p, 24);
+        }
+        dq[i] = imf_sub_sat32(dq[i], c);
     }
 }
 
@@ -126,7 +198,7 @@ void imf_madgwick_imu_q32_update(imf_madgwick_imu_q_t *const self, const int16_t
         h[i] = imf_scale16(gyr[i], self->kg, 30);
     }
     imf_q_rate32(qs, h, dq);
-    imf_madgwick_imu_q_correct(self, qs, acc, dq, 0);
+    imf_madgwick_imu_q_correct(self, qs, acc, dq);
     /* steps 7, 8: q += dq'; normalise */
     imf_q_add_normalise(q, dq);
 }
@@ -136,15 +208,12 @@ void imf_madgwick_imu_q8_update(imf_madgwick_imu_q_t *const self, const int16_t 
 {
     int32_t *const q = self->x.q;
     int32_t h[3], dq[4];
-    int16_t qs[4];
-    int i;
-    imf_q_snapshot(q, qs);
-    for (i = 0; i < 3; ++i) {
-        h[i] = imf_scale16(gyr[i], self->kg, 15 + self->hs); /* q(15+hs) */
-    }
+    int16_t qs[4], d16;
+    d16 = imf_q8_snapshot_norm(q, qs);
+    imf_gain8_mul3(gyr, self->kg8, h); /* q(15+hs) */
     imf_q8_rate(qs, h, self->hs, dq);
-    imf_madgwick_imu_q_correct(self, qs, acc, dq, 1);
-    imf_q8_add_normalise(q, dq);
+    imf_madgwick_imu_q8_correct(self, qs, acc, dq);
+    imf_q8_add_step(q, dq, qs, d16);
 }
 
 void imf_madgwick_imu_q_update(imf_madgwick_imu_q_t *const self, const int16_t gyr[3],

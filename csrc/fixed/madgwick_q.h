@@ -13,8 +13,11 @@
  *   kg = 0.5 gyr_scale dt   gyro counts -> half angle per sample
  *   kb = beta dt            normalised delta-s (q15) -> quaternion step (q30)
  *   hs                      exponent of the 8-bit profile's int16 rates
- * Intermediates: s = delta-s / 2 in q28 (|s| < 8 for unit q and a), scaled
- * by a power of two into q15 before it is normalised.
+ *   kg8, kbf                8-bit profile: kg prepared for shift 16
+ *                           (imf_gain8); the final shift (0, 8, 16, 24) of
+ *                           the step kb * unit delta-s
+ * Intermediates: s = delta-s / 2 in q28 (8-bit profile: q29), |s| < 4 for
+ * unit q and a, scaled by a power of two into q15 before it is normalised.
  */
 #ifndef IMF_MADGWICK_Q_H
 #define IMF_MADGWICK_Q_H
@@ -29,6 +32,8 @@ typedef struct {
 typedef struct {
     imf_qscale_t kg, kb;
     int16_t hs;
+    imf_gain8_t kg8;
+    int16_t kbf;
     int16_t profile;
     imf_madgwick_imu_q_state_t x;
 } imf_madgwick_imu_q_t;

@@ -11,6 +11,11 @@ int imf_mahony_imu_q_init_consts(imf_mahony_imu_q_t *const self, const imf_qscal
     self->kp = kp;
     self->ki = ki;
     self->hs = imf_q_rate_exponent(kg);
+    self->kg8 = imf_gain8(kg, 15 + self->hs);
+    self->kp8 = imf_gain8(kp, self->hs);
+    self->ki8 = imf_gain8(ki, 38 - 15);
+    self->kpi = (uint16_t)(kp.s >= 23 ? imf_rshr32(kp.m, kp.s - 23) : (kp.s == 22 ? kp.m * 2 : 0));
+    self->fast8 = (int16_t)(kp.s >= 22 && self->ki8.n == 16 && self->hs <= 6);
     self->profile = (int16_t)(profile == 8 ? 8 : 32);
     self->x.q[0] = IMF_Q30_ONE;
     self->x.q[1] = self->x.q[2] = self->x.q[3] = 0;
@@ -36,17 +41,17 @@ int imf_mahony_imu_q_init(imf_mahony_imu_q_t *const self, const double dt, const
     return r;
 }
 
-/* Appendix steps 2-6 for one profile: h = 0.5 w' dt (q30).  Returns with
+/* Appendix steps 2-6, 32-bit profile: h = 0.5 w' dt (q30).  Returns with
  * h holding the gyro term only when acc is the zero vector. */
-static void imf_mahony_imu_q_feedback(imf_mahony_imu_q_t *const self, const int16_t qs[4],
-                                      const int16_t acc[3], int32_t h[3], const int narrow)
+static IMF_AVR_NOINLINE void imf_mahony_imu_q_feedback(imf_mahony_imu_q_t *const self, const int16_t qs[4],
+                                      const int16_t acc[3], int32_t h[3])
 {
     imf_mahony_imu_q_state_t *const x = &self->x;
     int16_t a[3], d[3];
     int32_t e[3];
     int i;
-    /* step 2: normalise a (8-bit profile: block-scaled, short inverse sqrt) */
-    if (!(narrow ? imf_q8_unit3(acc, a) : imf_q_normalise_acc(acc, a))) {
+    /* step 2: normalise a */
+    if (!imf_q_normalise_acc(acc, a)) {
         return;
     }
     /* step 3: d = 2 (q1 q3 - q0 q2, q0 q1 + q2 q3, q0^2 + q3^2 - 1/2), q15;
@@ -61,22 +66,53 @@ static void imf_mahony_imu_q_feedback(imf_mahony_imu_q_t *const self, const int1
     e[2] = imf_mul_q15_q30(a[0], d[1]) - imf_mul_q15_q30(a[1], d[0]);
     for (i = 0; i < 3; ++i) {
         int32_t ip, pp;
-        if (narrow) {
-            /* 8-bit profile: e in q15, one 16x16 product per term; h and
-             * pp in q(15+hs) */
-            const int16_t e15 = imf_qn_to_q15s(e[i], 30);
-            ip = imf_scale16(e15, self->ki, 38 - 15);
-            pp = imf_scale16(e15, self->kp, self->hs);
-            x->i[i] = imf_add_sat32(x->i[i], ip);
-            h[i] = imf_add_sat32(imf_add_sat32(h[i], pp), imf_rshr32(x->i[i], 23 - self->hs));
-            continue;
-        }
         ip = imf_scale32(e[i], self->ki, 30, 38);
         pp = imf_scale32(e[i], self->kp, 30, 30);
         /* step 5: I_n = I_{n-1} + Ki dt e (as 0.5 I dt, q38) */
         x->i[i] = imf_add_sat32(x->i[i], ip);
         /* step 6: w' = w + Kp e + I_n (as 0.5 w' dt, q30) */
         h[i] = imf_add_sat32(imf_add_sat32(h[i], pp), imf_rshr32(x->i[i], 8));
+    }
+}
+
+/* The same, 8-bit profile: a block-scaled with the short inverse sqrt; e
+ * in q15, one 16x16 product per term with the gains prepared at init; h
+ * and Kp e in q(15+hs). */
+static void imf_mahony_imu_q8_feedback(imf_mahony_imu_q_t *const self, const int16_t qs[4],
+                                       const int16_t acc[3], int32_t h[3])
+{
+    imf_mahony_imu_q_state_t *const x = &self->x;
+    const imf_gain8_t ki8 = self->ki8, kp8 = self->kp8;
+    const int hs = self->hs;
+    int16_t a[3], d[3], e15[3];
+    int i;
+    if (!imf_q8_unit3(acc, a)) {
+        return;
+    }
+    d[0] = imf_qn_to_q15s(imf_mul16(qs[1], qs[3]) - imf_mul16(qs[0], qs[2]), 29);
+    d[1] = imf_qn_to_q15s(imf_mul16(qs[0], qs[1]) + imf_mul16(qs[2], qs[3]), 29);
+    d[2] = imf_qn_to_q15s(imf_mul16(qs[0], qs[0]) + imf_mul16(qs[3], qs[3]) - 536870912L, 29);
+    e15[0] = imf_qn_to_q15s(imf_mul16(a[1], d[2]) - imf_mul16(a[2], d[1]), 30);
+    e15[1] = imf_qn_to_q15s(imf_mul16(a[2], d[0]) - imf_mul16(a[0], d[2]), 30);
+    e15[2] = imf_qn_to_q15s(imf_mul16(a[0], d[1]) - imf_mul16(a[1], d[0]), 30);
+    if (self->fast8) {
+        /* Kp e + I summed in q38, one rounding to q(15+hs) */
+        const uint16_t kpi = self->kpi;
+        const int k = 6 - hs; /* the rounding shift 23 - hs = 17 + k, k in [0, 6] */
+        for (i = 0; i < 3; ++i) {
+            const int32_t ii = imf_add_sat32(x->i[i], imf_rshr32(imf_mul16su(e15[i], ki8.m), 16));
+            const int32_t v = imf_add_sat32(ii, imf_mul16su(e15[i], kpi));
+            x->i[i] = ii;
+            /* floor(v / 2^(17+k) + 1/2) = (floor(v / 2^(16+k)) + 1) >> 1,
+             * the inner shift from the high word in 16 bits */
+            h[i] = imf_add_sat32(h[i], ((int32_t)(int16_t)((int16_t)(v >> 16) >> k) + 1) >> 1);
+        }
+    } else {
+        for (i = 0; i < 3; ++i) {
+            x->i[i] = imf_add_sat32(x->i[i], imf_gain8_mul(e15[i], ki8));
+            h[i] = imf_add_sat32(imf_add_sat32(h[i], imf_gain8_mul(e15[i], kp8)),
+                                 imf_rshr32(x->i[i], 23 - hs));
+        }
     }
 }
 
@@ -92,7 +128,7 @@ void imf_mahony_imu_q32_update(imf_mahony_imu_q_t *const self, const int16_t gyr
     for (i = 0; i < 3; ++i) {
         h[i] = imf_scale16(gyr[i], self->kg, 30);
     }
-    imf_mahony_imu_q_feedback(self, qs, acc, h, 0);
+    imf_mahony_imu_q_feedback(self, qs, acc, h);
     /* step 7: q += 0.5 q (x) w' dt */
     imf_q_rate32(qs, h, dq);
     /* step 8 */
@@ -104,16 +140,13 @@ void imf_mahony_imu_q8_update(imf_mahony_imu_q_t *const self, const int16_t gyr[
 {
     int32_t *const q = self->x.q;
     int32_t h[3], dq[4];
-    int16_t qs[4];
-    int i;
-    imf_q_snapshot(q, qs);
+    int16_t qs[4], d16;
+    d16 = imf_q8_snapshot_norm(q, qs);
     /* step 1 in q(15+hs): the shift kg.s - 15 - hs is 16 unless hs is clamped */
-    for (i = 0; i < 3; ++i) {
-        h[i] = imf_scale16(gyr[i], self->kg, 15 + self->hs);
-    }
-    imf_mahony_imu_q_feedback(self, qs, acc, h, 1);
+    imf_gain8_mul3(gyr, self->kg8, h); /* q(15+hs) */
+    imf_mahony_imu_q8_feedback(self, qs, acc, h);
     imf_q8_rate(qs, h, self->hs, dq);
-    imf_q8_add_normalise(q, dq);
+    imf_q8_add_step(q, dq, qs, d16);
 }
 
 void imf_mahony_imu_q_update(imf_mahony_imu_q_t *const self, const int16_t gyr[3],

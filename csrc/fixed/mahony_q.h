@@ -20,6 +20,11 @@
  *   kp = 0.5 Kp dt          error (q30) -> half angle per sample (q30)
  *   ki = 0.5 Ki dt^2        error (q30) -> increment of i (q38)
  *   hs                      exponent of the 8-bit profile's int16 rates
+ *   kg8, kp8, ki8           kg, kp, ki prepared at init for the 8-bit
+ *                           profile's products (imf_gain8, imf_fixed.h)
+ *   kpi, fast8              kp rounded to the integral's format q38 (for
+ *                           kp.s >= 22) and whether the 8-bit profile's
+ *                           short path (kpi, ki8 with shift 16) applies
  */
 #ifndef IMF_MAHONY_Q_H
 #define IMF_MAHONY_Q_H
@@ -35,6 +40,9 @@ typedef struct {
 typedef struct {
     imf_qscale_t kg, kp, ki;
     int16_t hs;      /* 8-bit profile: rates in q(15+hs) */
+    imf_gain8_t kg8, kp8, ki8; /* 8-bit profile: kg, kp, ki for int16 products */
+    uint16_t kpi;    /* 8-bit profile: kp for e (q15) -> q38, when fast8 */
+    int16_t fast8;   /* 8-bit profile: kpi and ki8 (shift 16) usable */
     int16_t profile; /* 32 or 8 */
     imf_mahony_imu_q_state_t x;
 } imf_mahony_imu_q_t;

@@ -193,6 +193,20 @@ def scale32(x: int, c: QScale, K: int, N: int) -> int:
     return mul_32x16(x, c.m, c.s + K - N)
 
 
+def gain8(c: QScale, N: int) -> tuple[int, int]:
+    """imf_gain8: (m, n) with the product x * c * 2^N = rshift(x * m, n)."""
+    n = c.s - N
+    if n == 15:
+        return c.m * 2, 16
+    if n >= 16:
+        return rshr32(c.m, n - 16), 16
+    return c.m, n
+
+
+def gain8_mul(x: int, g: tuple[int, int]) -> int:
+    return rshift_sat32(x * g[0], g[1])
+
+
 def isqrt_u32(x: int) -> int:
     res = 0
     bit = 1 << 30

@@ -47,6 +47,8 @@ class MadgwickIMUQ(FixedFilter):
         self.kg = kg
         self.kb = kb
         self.hs = fq.rate_exponent(self.kg)
+        self.kg8 = ci.gain8(kg, 15 + self.hs)
+        self.kbf = 0 if kb.s < 16 else ((kb.s - 16) // 8) * 8
         self.q = [fq.Q30_ONE, 0, 0, 0]
         self._update = self._update8 if profile == 8 else self._update32
 
@@ -95,6 +97,39 @@ class MadgwickIMUQ(FixedFilter):
             # step 6: dq' = dq - beta dt * unit delta-s
             dq[i] = ci.sub_sat32(dq[i], ci.scale16(u, self.kb, 30 - 15))
 
+    def _correct8(self, qs, acc, dq):
+        # imf_madgwick_imu_q8_correct: s in q29, block scaling by left
+        # shifts, step s15 * yk / 2^kbf
+        a = fq.unit3_8(acc)
+        if a is None:
+            return
+        r, add = ci.rshr32, ci.add_sat32
+        w15 = ci.qn_to_q15s(qs[1] * qs[1] + qs[2] * qs[2], 30)
+        s = [add(w15 * qs[0], r(qs[2] * a[0] - qs[1] * a[1], 1)),
+             add(w15 * qs[1] + qs[1] * a[2], r(-qs[3] * a[0] - qs[0] * a[1], 1)),
+             add(w15 * qs[2] + qs[2] * a[2], r(qs[0] * a[0] - qs[3] * a[1], 1)),
+             add(w15 * qs[3], r(-qs[1] * a[0] - qs[2] * a[1], 1))]
+        m = 0
+        for v in s:
+            m |= abs(v)
+        if m == 0:
+            return
+        if m >= 1 << 31:
+            s15 = [ci.sat_q15s(r(v, 17)) for v in s]
+        else:
+            while m < 1 << 22:
+                m <<= 8
+                s = [v * 256 for v in s]
+            while m < 1 << 30:
+                m <<= 1
+                s = [v + v for v in s]
+            s15 = [ci.sat_q15s(r(v, 16)) for v in s]
+        n2 = sum(v * v for v in s15)
+        y, e = ci.invsqrt8_u32(n2)
+        yk = r(y * self.kb.m, self.kb.s + 1 - e - self.kbf)
+        for i in range(4):
+            dq[i] = ci.sub_sat32(dq[i], r(s15[i] * yk, self.kbf))
+
     def _update32(self, gyr, acc):
         qs = fq.snapshot(self.q)
         # step 3: dq = 0.5 q (x) w dt
@@ -105,8 +140,8 @@ class MadgwickIMUQ(FixedFilter):
         self.q = fq.add_normalise(self.q, dq)
 
     def _update8(self, gyr, acc):
-        qs = fq.snapshot(self.q)
-        h = [ci.scale16(g, self.kg, 15 + self.hs) for g in gyr]
+        self.q, qs, d16 = fq.snapshot_norm8(self.q)
+        h = [ci.gain8_mul(g, self.kg8) for g in gyr]
         dq = fq.rate_q8(qs, h, self.hs)
-        self._correct(qs, acc, dq, True)
-        self.q = fq.add_normalise8(self.q, dq)
+        self._correct8(qs, acc, dq)
+        self.q = fq.add_step8(self.q, dq, qs, d16)

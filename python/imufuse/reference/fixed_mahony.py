@@ -45,6 +45,11 @@ class MahonyIMUQ(FixedFilter):
         self.kp = kp
         self.ki = ki
         self.hs = fq.rate_exponent(self.kg)
+        self.kg8 = ci.gain8(kg, 15 + self.hs)
+        self.kp8 = ci.gain8(kp, self.hs)
+        self.ki8 = ci.gain8(ki, 38 - 15)
+        self.kpi = (ci.rshr32(kp.m, kp.s - 23) if kp.s >= 23 else kp.m * 2 if kp.s == 22 else 0)
+        self.fast8 = kp.s >= 22 and self.ki8[1] == 16 and self.hs <= 6
         self.q = [fq.Q30_ONE, 0, 0, 0]
         self.i = [0, 0, 0]
         self._update = self._update8 if profile == 8 else self._update32
@@ -74,10 +79,13 @@ class MahonyIMUQ(FixedFilter):
         for i in range(3):
             if narrow:
                 e15 = ci.qn_to_q15s(e[i], 30)
-                ip = ci.scale16(e15, self.ki, 38 - 15)
-                pp = ci.scale16(e15, self.kp, self.hs)
-                self.i[i] = ci.add_sat32(self.i[i], ip)
-                h[i] = ci.add_sat32(ci.add_sat32(h[i], pp), ci.rshr32(self.i[i], 23 - self.hs))
+                self.i[i] = ci.add_sat32(self.i[i], ci.gain8_mul(e15, self.ki8))
+                if self.fast8:
+                    v = ci.add_sat32(self.i[i], e15 * self.kpi)
+                    h[i] = ci.add_sat32(h[i], ci.rshr32(v, 23 - self.hs))
+                else:
+                    h[i] = ci.add_sat32(ci.add_sat32(h[i], ci.gain8_mul(e15, self.kp8)),
+                                        ci.rshr32(self.i[i], 23 - self.hs))
                 continue
             else:
                 ip = ci.scale32(e[i], self.ki, 30, 38)
@@ -98,8 +106,8 @@ class MahonyIMUQ(FixedFilter):
         self.q = fq.add_normalise(self.q, dq)
 
     def _update8(self, gyr, acc):
-        qs = fq.snapshot(self.q)
-        h = [ci.scale16(g, self.kg, 15 + self.hs) for g in gyr]
+        self.q, qs, d16 = fq.snapshot_norm8(self.q)
+        h = [ci.gain8_mul(g, self.kg8) for g in gyr]
         self._feedback(qs, acc, h, True)
         dq = fq.rate_q8(qs, h, self.hs)
-        self.q = fq.add_normalise8(self.q, dq)
+        self.q = fq.add_step8(self.q, dq, qs, d16)

@@ -76,15 +76,20 @@ def rate_q8(qs, h, hs):
             r(sub(qs[0] * hz + qs[1] * hy, qs[2] * hx), hs)]
 
 
-def add_normalise8(q, dq):
-    """imf_q8_add_normalise: first-order normalisation near |q| = 1."""
-    q = [ci.add_sat32(a, b) for a, b in zip(q, dq)]
+def snapshot_norm8(q):
+    """imf_q8_snapshot_norm: (q, qs, d16); q fully normalised when far from 1."""
     qs = snapshot(q)
     n2 = sum(v * v for v in qs)
     if n2 <= 1069547520 or n2 >= 1077936128:
-        return normalise(q)
-    d16 = ci.rshr32(n2 - Q30_ONE, 8)
-    return [ci.sub_sat32(a, ci.rshr32(s * d16, 8)) for a, s in zip(q, qs)]
+        q = normalise(q)
+        return q, snapshot(q), 0
+    return q, qs, ci.rshr32(n2 - Q30_ONE, 8)
+
+
+def add_step8(q, dq, qs, d16):
+    """imf_q8_add_step: q += dq - q d / 2."""
+    return [ci.add_sat32(a, ci.sub_sat32(b, ci.rshr32(s * d16, 8)))
+            for a, b, s in zip(q, dq, qs)]
 
 
 def add_normalise(q, dq):
