@@ -1,10 +1,10 @@
-"""The MCU tables the README quotes, from what `python bench/mcu/measure.py`
-wrote: the compact per-filter table (bench/mcu/results.json; one row per
-filter class and precision, its first registry configuration, float32 and
-fixed point) and the fixed-vs-float table (docs/fixed.md).
+"""The compact per-filter MCU table the README quotes, from
+bench/mcu/results.json: one row per filter class and precision (its first
+registry configuration), float32 and fixed point. `python bench/mcu/measure.py`
+refreshes it in README.md (with the fixed-vs-float table) after a measurement.
 
     python bench/mcu/readme_table.py            # print the compact table
-    python bench/mcu/readme_table.py --write    # refresh both blocks in README.md
+    python bench/mcu/readme_table.py --write    # refresh its block in README.md
 """
 import json
 import os
@@ -58,12 +58,8 @@ def main(argv):
     if "--write" not in argv:
         print(table())
         return
-    fixed = open(os.path.join(HERE, "..", "..", "docs", "fixed.md")).read()
-    m = re.search(r"<!-- fixed-vs-float[^>]*-->\n(.*?)<!-- end fixed-vs-float -->", fixed, re.S)
     readme_path = os.path.join(HERE, "..", "..", "README.md")
-    text = open(readme_path).read()
-    text = replace_block(text, "mcu-table", table())
-    text = replace_block(text, "fixed-vs-float", m.group(1))
+    text = replace_block(open(readme_path).read(), "mcu-table", table())
     open(readme_path, "w").write(text)
 
 
