@@ -74,41 +74,40 @@ SHIM = r"""
 #include "MadgwickAHRS.hpp"
 #include "MahonyAHRS.hpp"
 float invSqrt(float x);
+/* one sample loop for both classes: update (or updateIMU without a magnetometer), then
+   the state through `dump` */
+template <class F, class Dump>
+static void run_loop(F *f, long n, const float *g, const float *a, const float *m, float *out,
+                     int width, Dump dump)
+{
+    for (long k = 0; k < n; k++) {
+        const float *gk = g + 3 * k, *ak = a + 3 * k;
+        if (m) {
+            const float *mk = m + 3 * k;
+            f->update(gk[0], gk[1], gk[2], ak[0], ak[1], ak[2], mk[0], mk[1], mk[2]);
+        } else {
+            f->updateIMU(gk[0], gk[1], gk[2], ak[0], ak[1], ak[2]);
+        }
+        dump(f, out + width * k);
+    }
+}
 extern "C" {
 void *madgwick_new(float beta, float fs) { return new MadgwickAHRS(beta, fs); }
 void madgwick_free(void *p) { delete static_cast<MadgwickAHRS *>(p); }
 void madgwick_run(void *p, long n, const float *g, const float *a, const float *m, float *out)
 {
-    MadgwickAHRS *f = static_cast<MadgwickAHRS *>(p);
-    for (long k = 0; k < n; k++) {
-        const float *gk = g + 3 * k, *ak = a + 3 * k;
-        if (m) {
-            const float *mk = m + 3 * k;
-            f->update(gk[0], gk[1], gk[2], ak[0], ak[1], ak[2], mk[0], mk[1], mk[2]);
-        } else {
-            f->updateIMU(gk[0], gk[1], gk[2], ak[0], ak[1], ak[2]);
-        }
-        float *o = out + 4 * k;
+    run_loop(static_cast<MadgwickAHRS *>(p), n, g, a, m, out, 4, [](MadgwickAHRS *f, float *o) {
         o[0] = f->q0; o[1] = f->q1; o[2] = f->q2; o[3] = f->q3;
-    }
+    });
 }
 void *mahony_new(float kp, float ki, float fs) { return new MahonyAHRS(kp, ki, fs); }
 void mahony_free(void *p) { delete static_cast<MahonyAHRS *>(p); }
 void mahony_run(void *p, long n, const float *g, const float *a, const float *m, float *out)
 {
-    MahonyAHRS *f = static_cast<MahonyAHRS *>(p);
-    for (long k = 0; k < n; k++) {
-        const float *gk = g + 3 * k, *ak = a + 3 * k;
-        if (m) {
-            const float *mk = m + 3 * k;
-            f->update(gk[0], gk[1], gk[2], ak[0], ak[1], ak[2], mk[0], mk[1], mk[2]);
-        } else {
-            f->updateIMU(gk[0], gk[1], gk[2], ak[0], ak[1], ak[2]);
-        }
-        float *o = out + 7 * k;
+    run_loop(static_cast<MahonyAHRS *>(p), n, g, a, m, out, 7, [](MahonyAHRS *f, float *o) {
         o[0] = f->q0; o[1] = f->q1; o[2] = f->q2; o[3] = f->q3;
         o[4] = f->integralFBx; o[5] = f->integralFBy; o[6] = f->integralFBz;
-    }
+    });
 }
 float oracle_invsqrt(float x) { return invSqrt(x); }
 }
