@@ -10,7 +10,11 @@ from scipy.spatial.transform import Rotation as R
 
 from imufuse import evaluation as ev
 
-BROAD = os.path.join(os.path.dirname(__file__), "..", "..", "..", "shared", "data", "broad")
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+# ../shared beside the checkout (main and CI), or two levels up (a worktree)
+BROAD = next((d for d in (os.path.join(ROOT, "..", "shared", "data", "broad"),
+                          os.path.join(ROOT, "..", "..", "shared", "data", "broad"))
+              if os.path.isdir(d)), os.path.join(ROOT, "..", "shared", "data", "broad"))
 
 
 def _rot(q_wxyz):
