@@ -909,7 +909,7 @@ def _parser_validate(sub):
     v.add_argument("--gyr-unit", choices=("rad/s", "deg/s"))
     v.add_argument("--acc-unit", choices=("g", "m/s2", "m/s^2"))
     v.add_argument("--axis", choices=("x", "y"), default="x")
-    v.add_argument("--rate", type=_positive(float, 1e9), metavar="HZ")
+    v.add_argument("--rate", type=_positive(float, 1e9, 1e-3), metavar="HZ")
     v.add_argument("--duration", type=_positive(float, 1e5), default=10.0)
     v.add_argument("--seed", type=int, default=1)
     v.add_argument("--plot", metavar="PNG", help="divergence plot")
@@ -919,14 +919,14 @@ def _parser_validate(sub):
 # ---------------------------------------------------------------------------
 # options shared by several subcommands
 
-def _positive(typ, hi):
+def _positive(typ, hi, lo=0):
     def conv(text):
         try:
             v = typ(text)
         except (ValueError, OverflowError):
             raise argparse.ArgumentTypeError(f"expected a {typ.__name__}, got {text!r}") from None
-        if not (v > 0 and v <= hi) or (typ is float and not math.isfinite(v)):
-            raise argparse.ArgumentTypeError(f"must be > 0 and <= {hi:g}, got {text}")
+        if not (v > 0 and lo <= v <= hi) or (typ is float and not math.isfinite(v)):
+            raise argparse.ArgumentTypeError(f"must be in [{lo:g}, {hi:g}] and > 0, got {text}")
         return v
     conv.__name__ = typ.__name__
     return conv
@@ -954,7 +954,7 @@ def _log_options(p):
                    help='name the log\'s columns, e.g. gyr_x="Gyro X",acc_x="Acc X" (repeatable)')
     g.add_argument("--column-map", metavar="FILE",
                    help="a file of NAME = HEADER lines (or a JSON object) naming the columns")
-    g.add_argument("--rate", type=_positive(float, 1e9), metavar="HZ",
+    g.add_argument("--rate", type=_positive(float, 1e9, 1e-3), metavar="HZ",
                    help="fixed sample rate, Hz (default: the time column's intervals)")
     g.add_argument("--fixed-rate", action="store_true",
                    help="run at the median interval of the time column instead of each "
@@ -1024,7 +1024,7 @@ def main(argv=None):
         return args.func(args)
     except LogError as e:
         _err(f"error: {e}")
-        return EXIT_FILE if e.kind == "file" else EXIT_DATA
+        return {"file": EXIT_FILE, "usage": EXIT_USAGE}.get(e.kind, EXIT_DATA)
     except NothingComputed as e:
         _err(f"error: {e}")
         return EXIT_DATA

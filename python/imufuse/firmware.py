@@ -378,8 +378,8 @@ class Firmware:
         else:
             path = built[0]
         spec = importlib.util.spec_from_file_location(name, path)
-        mod = importlib.util.module_from_spec(spec)
         try:
+            mod = importlib.util.module_from_spec(spec)
             spec.loader.exec_module(mod)
         except (ImportError, OSError) as e:
             m = re.search(r"undefined symbol: (\S+)", str(e))

@@ -100,8 +100,8 @@ _RECOGNISE = {a: canon for canon, names in _ALIASES.items() for a in names}
 
 
 class LogError(ValueError):
-    """A log that cannot be used; `kind` is "file" (missing, unreadable) or
-    "data" (columns, values, time)."""
+    """A log that cannot be used; `kind` is "file" (missing, unreadable),
+    "data" (columns, values, time) or "usage" (a bad column map)."""
 
     def __init__(self, message, kind="data"):
         super().__init__(message)
@@ -207,7 +207,7 @@ def parse_column_map(text):
             continue
         if "=" not in item:
             raise LogError(f"column map {item!r}: expected NAME=HEADER (e.g. "
-                           'gyr_x="Gyroscope X (deg/s)")')
+                           'gyr_x="Gyroscope X (deg/s)")', "usage")
         k, v = item.split("=", 1)
         out[k.strip()] = v.strip().strip('"').strip("'")
     return out
@@ -251,7 +251,7 @@ def _apply_map(path, header, found, column_map):
             c = _close(k, KNOWN)
             raise LogError(f"column map: {k!r} is not a log column"
                            + (f" (did you mean {' or '.join(map(repr, c))}?)" if c else "")
-                           + f"; expected one of {', '.join(KNOWN)}")
+                           + f"; expected one of {', '.join(KNOWN)}", "usage")
         if h not in header:
             stripped = [x for x in header if x.strip().lower() == h.strip().lower()]
             if len(stripped) == 1:
