@@ -29,3 +29,10 @@ from .fixed_madgwick import MadgwickIMUQ  # noqa: E402
 FILTERS_FIXED = ("Complementary1DQ", "Mahony1DBiasQ", "KKQ", "MultiWiiQ",
                  "MahonyIMUQ", "MadgwickIMUQ")
 __all__ += [*FILTERS_FIXED, "FILTERS_FIXED"]
+
+# ---- the Fusion suite (seed 004; Fusion's units: deg/s, g, dt per update)
+from .fusion import FusionAHRS, FusionOffset  # noqa: E402
+
+#: the Fusion suite's classes (own API: dt per update, deg/s; not in FILTERS)
+FILTERS_FUSION = ("FusionAHRS", "FusionOffset")
+__all__ += [*FILTERS_FUSION, "FILTERS_FUSION"]
