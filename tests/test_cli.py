@@ -13,7 +13,6 @@ import imufuse
 import imufuse_c
 import imufuse.reference as reference
 from imufuse import cli, demo, io, sim
-from imufuse.rotations import quat_to_euler
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PATHS = [os.path.dirname(os.path.dirname(imufuse.__file__)),
@@ -141,10 +140,22 @@ def test_run_matches_the_library_bit_for_bit(logs, tmp_path):
     head, M = _read(out)
     assert head == ["time", "theta", "b", "angle_deg"]
     log = io.read_log(str(logs["full"]))
+    # by default each sample runs with its own interval (the first with the median)
+    t = log.columns["time"]
+    dts = np.concatenate([[log.dt], np.diff(t)])
+    inputs = (log.columns["gyr_x"], np.arctan2(log.columns["acc_y"], log.columns["acc_z"]))
     f = imufuse_c.Kalman1DBias(dt=log.dt, k0=0.02, k1=-0.05, dtype="float32")
-    want = f.run(log.columns["gyr_x"], np.arctan2(log.columns["acc_y"], log.columns["acc_z"]))
+    want = f.run(*inputs, dt=dts)
     assert np.array_equal(M[:, 1:3].astype(np.float32).view(np.uint32), want.view(np.uint32))
     assert "against the log's reference q" in r.stderr
+    # --fixed-rate: the median period for every sample
+    r = imf("run", logs["full"], "--filter", "Kalman1DBias", "-o", out, "--dtype", "float32",
+            "--param", "k0=0.02", "-p", "k1=-0.05", "--fixed-rate")
+    assert r.returncode == 0, r.stderr
+    _, M = _read(out)
+    f = imufuse_c.Kalman1DBias(dt=log.dt, k0=0.02, k1=-0.05, dtype="float32")
+    want = f.run(*inputs)
+    assert np.array_equal(M[:, 1:3].astype(np.float32).view(np.uint32), want.view(np.uint32))
 
 
 def test_run_ref_backend_stdout_and_units(logs):
@@ -180,7 +191,7 @@ def test_run_long_log_reports_progress(tmp_path):
 
 
 def test_run_rate_and_angle_columns_and_axis(logs):
-    r = imf("run", logs["axis"], "-f", "Complementary1D", "-p", "alpha=0.95")
+    r = imf("run", logs["axis"], "-f", "Complementary1D", "-p", "alpha=0.95", "--fixed-rate")
     assert r.returncode == 0, r.stderr
     _, M = _read(r.stdout)
     a1 = sim.axis1d("slow", rate=100.0, duration=5.0, seed=2)

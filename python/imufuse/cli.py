@@ -75,7 +75,7 @@ def _names(items):
 
 def _scoped_params(items, names):
     """--param NAME=V (every filter that has NAME) or FILTER.NAME=V -> {filter: {name: v}}."""
-    from .demo import param_names
+    from .catalogue import param_names
     out = {n: {} for n in names}
     for k, v in _pairs(items).items():
         if "." in k:
@@ -97,7 +97,7 @@ def _scoped_params(items, names):
 def effective_params(name, params):
     """The constructor's keyword defaults updated by `params` (what the filter
     really runs with), dt included."""
-    from .demo import reference_class
+    from .catalogue import reference_class
     sig = inspect.signature(reference_class(name)._params)
     out = {p.name: p.default for p in sig.parameters.values()
            if p.default is not inspect.Parameter.empty}
@@ -117,7 +117,7 @@ def _fmt_params(name, params):
 
 def supports_dt_array(name):
     """True when the filter's run() takes dt=array (per-sample periods)."""
-    from .demo import reference_class
+    from .catalogue import reference_class
     try:
         return "dt" in inspect.signature(reference_class(name).run).parameters
     except (TypeError, ValueError):
@@ -126,7 +126,7 @@ def supports_dt_array(name):
 
 def supports_init(name):
     """True when the filter's constructor takes init= ("first" or a quaternion)."""
-    from .demo import reference_class
+    from .catalogue import reference_class
     cls = reference_class(name)
     for fn in (cls.__init__, cls._params):
         try:
@@ -175,7 +175,7 @@ class Runner:
     """One filter, configured from the command line, run over a log."""
 
     def __init__(self, name, log, args, overrides):
-        from .demo import make_filter, reference_class, resolve_params
+        from .catalogue import make_filter, reference_class, resolve_params
         self.name, self.cls, self.log = name, reference_class(name), log
         self.params = resolve_params(name, log.dt, overrides)
         self.backend, self.dtype = args.backend, args.dtype
@@ -191,13 +191,17 @@ class Runner:
         if self.cls.kind != "1d":
             if init is None:
                 init = "first"          # the default for logs
-            if init != "identity" and supports_init(name):
-                kw["init"] = init
-            elif init not in ("identity", "first") or getattr(args, "init", None):
+            if not supports_init(name):
                 if init != "identity":
-                    self.notes.append(f"init={getattr(args, 'init', None) or 'first'} unsupported "
-                                      "by this build: started from identity")
-        self.init = kw.get("init", "identity" if self.cls.kind != "1d" else None)
+                    self.notes.append(f"init={init} unsupported by this build: started from "
+                                      "identity")
+                init = "identity"
+            elif isinstance(init, list):
+                kw["q0"] = init
+            elif init == "first":
+                kw["init"] = "first"
+        self.init = (None if self.cls.kind == "1d" else
+                     "q0=" + ",".join(f"{v:g}" for v in init) if isinstance(init, list) else init)
         self.filter = make_filter(name, self.backend, self.dtype, {**self.params, **kw})
 
     def run(self, inputs, label=None):
@@ -319,7 +323,7 @@ def _demo(args):
     from .demo import run_demo
     names = None
     if args.filters:
-        from .demo import reference_class
+        from .catalogue import reference_class
         names = _names(args.filters)
         for n in names:
             reference_class(n)
@@ -350,7 +354,7 @@ def _parser_demo(sub):
 
 def _run(args):
     from . import io
-    from .demo import estimate, reference_class, why_no_estimate
+    from .catalogue import estimate, reference_class, why_no_estimate
     from .rotations import quat_to_euler
     cls = reference_class(args.filter)
     check_outputs([args.log], [("-o", args.output), ("--plot", args.plot)])
@@ -432,7 +436,7 @@ def _parser_run(sub):
 
 def _default_filters(log):
     """3D filters the log can feed (AHRS ones only with a magnetometer), else the 1D ones."""
-    from .demo import filter_names
+    from .catalogue import filter_names
     from .io import ACC, GYR, MAG
     if log.has(*GYR, *ACC):
         return filter_names({"imu", "ahrs"} if log.has(*MAG) else {"imu"}) or filter_names({"1d"})
@@ -440,7 +444,7 @@ def _default_filters(log):
 
 
 def _compare(args):
-    from .demo import FilterError, estimate, reference_class, why_no_estimate
+    from .catalogue import FilterError, estimate, reference_class, why_no_estimate
     from .io import LogError
     from .rotations import quat_to_euler
     names = _names(args.filters)
@@ -572,7 +576,7 @@ def _plots(path, log, ests, args, what):
 
 
 def _euler_nwu(est):
-    from .demo import euler_of
+    from .estimate import euler_of
     return euler_of(est)
 
 
@@ -623,7 +627,7 @@ def _grid_spec(text, default):
 def _tune(args):
     import concurrent.futures as cf
     import itertools
-    from .demo import FilterError, estimate, reference_class, resolve_params
+    from .catalogue import FilterError, estimate, reference_class, resolve_params
     from .evaluation import METRICS, mean_over_trials
     name = args.filter
     cls = reference_class(name)
@@ -754,7 +758,7 @@ def _parser_tune(sub):
 
 def _bench(args):
     from . import sim
-    from .demo import FilterError, filter_names, inputs_for, make_filter, reference_class, resolve_params
+    from .catalogue import FilterError, filter_names, inputs_for, make_filter, reference_class, resolve_params
     names = _names(args.filters) or filter_names()
     for n in names:
         reference_class(n)
@@ -812,7 +816,7 @@ def _parser_bench(sub):
 
 def _validate(args):
     from . import sim
-    from .demo import inputs_for, reference_class, resolve_params
+    from .catalogue import inputs_for, reference_class, resolve_params
     from .firmware import Firmware, csrc_firmware, validate_isolated
     from .io import LogError
     cls = reference_class(args.filter)
@@ -884,10 +888,13 @@ def _parser_validate(sub):
                        "--header att.h --filter Kalman1D \\\n     --init 'void att_init(att_t *s, "
                        "float dt, float k0)' \\\n     --update 'void att_update(att_t *s, float rate, "
                        "float angle)' \\\n     --state theta=x.theta --param k0=0.01\n"
-                       "  imufuse validate --csrc csrc --filter Kalman1D --dtype float32")
+                       "  imufuse validate --csrc --filter Kalman1D --dtype float32")
     v.add_argument("sources", nargs="*", metavar="SOURCE.c")
     v.add_argument("--filter", "-f", required=True, help="the imufuse filter to compare with")
-    v.add_argument("--csrc", metavar="DIR", help="validate imufuse's own sources in DIR")
+    from ._resources import csrc_dir
+    v.add_argument("--csrc", metavar="DIR", nargs="?", const=str(csrc_dir()),
+                   help="validate imufuse's own sources in DIR (default: the C library "
+                        "installed with imufuse)")
     v.add_argument("-I", "--include", action="append", metavar="DIR")
     v.add_argument("-D", "--define", action="append", metavar="NAME[=VALUE]")
     v.add_argument("--header", action="append", metavar="FILE.h", help="header(s) to include")
@@ -1009,7 +1016,7 @@ def build_parser():
 
 
 def main(argv=None):
-    from .demo import FilterError
+    from .catalogue import FilterError
     from .firmware import FirmwareError
     from .io import LogError
     p = build_parser()

@@ -10,6 +10,8 @@ saved and closed: its artists can still be inspected).
 """
 import numpy as np
 
+from .rotations import heading_error, tilt_error
+
 #: the reference line (drawn on top of the filters)
 REF_STYLE = dict(color="black", lw=1.1, ls="--", zorder=10)
 
@@ -107,7 +109,6 @@ def plot_1d(path, t, truth, estimates, measured=None, title="single-axis filters
 
 def plot_3d_errors(path, t, q_true, estimates, title="3D filters against ground truth"):
     """Tilt and heading errors (deg) of quaternion estimates (dict name -> Estimate)."""
-    from .rotations import heading_error, tilt_error
     plt = _plt()
     col = colours(list(estimates))
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(10, 7), sharex=True)
