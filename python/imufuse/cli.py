@@ -321,16 +321,30 @@ def _frame_q(q, frame):
 
 def _demo(args):
     from .demo import run_demo
+    from .catalogue import reference_class
+    from .io import EXAMPLE_ATTRIBUTION, example_log
     names = None
     if args.filters:
-        from .catalogue import reference_class
         names = _names(args.filters)
         for n in names:
             reference_class(n)
     if args.out and os.path.exists(args.out) and not os.path.isdir(args.out):
         raise OutputError(f"--out {args.out}: exists and is not a directory")
-    return run_demo(out_dir=args.out, rate=args.rate, duration=args.duration, seed=args.seed,
-                    plot=not args.no_plot, names=names)
+    rc = run_demo(out_dir=args.out, rate=args.rate, duration=args.duration, seed=args.seed,
+                  plot=not args.no_plot, names=names)
+    if args.no_real:
+        return rc
+    three = [n for n in (names or []) if reference_class(n).kind != "1d"]
+    if names and not three:
+        return rc
+    print(f"\nreal data: every 3D filter against optical truth ({EXAMPLE_ATTRIBUTION})")
+    argv = ["compare", example_log()] + [a for n in three for a in ("-f", n)]
+    if not args.no_plot:
+        os.makedirs(args.out, exist_ok=True)
+        argv += ["--plot", os.path.join(args.out, "demo_real.png")]
+    sys.stdout.flush()
+    rc_real = _compare(build_parser().parse_args(argv))
+    return rc or rc_real
 
 
 def _parser_demo(sub):
@@ -346,6 +360,8 @@ def _parser_demo(sub):
     d.add_argument("--filter", dest="filters", action="append", metavar="NAME[,NAME]",
                    help="only these filters")
     d.add_argument("--no-plot", action="store_true")
+    d.add_argument("--no-real", action="store_true",
+                   help="skip the real recording (45 s of BROAD with optical truth)")
     d.set_defaults(func=_demo)
 
 
@@ -563,13 +579,18 @@ def _plots(path, log, ests, args, what):
                           axis_inputs(log, args.axis)[1], title=title)
             _err(f"plot: {p1}")
         if three:
-            ref = None
+            ref, errors = None, None
             if log.q_ref is not None:
                 from .evaluation import from_enu, to_enu
                 ref = quat_to_euler(from_enu(to_enu(log.q_ref, _ref_frame(args, log),
                                                     args.ref_direction), "NWU"))
+                errors = {}
+                for n, e in three.items():
+                    ev = _evaluate(ests[n][0], e, log, args)
+                    errors[n] = ev.per_sample["total" if e.heading else "inclination"]
             plots.plot_euler(p3, log.t, {n: _euler_nwu(e) for n, e in three.items()}, ref,
-                             title=title)
+                             title=title, errors=errors,
+                             error_label="error (deg): total (AHRS), inclination (IMU)")
             _err(f"plot: {p3}")
     except OSError as e:
         raise OutputError(f"--plot {path}: cannot write: {e.strerror or e}") from None

@@ -669,6 +669,42 @@ def axis_inputs(log, axis="x"):
 
 
 # ---------------------------------------------------------------------------
+# the shipped real recording
+
+EXAMPLE = "broad_03_slow_rotation_45s.npz"
+EXAMPLE_ATTRIBUTION = ("BROAD trial 03_undisturbed_slow_rotation_C, 45 s excerpt; D. Laidig, "
+                       "M. Caruso, A. Cereatti, T. Seel, Data 6(7), 2021, "
+                       "doi:10.3390/data6070072; CC BY 4.0")
+
+
+def example_log():
+    """Path of the real recording shipped with imufuse: 45 s of a BROAD trial
+    (gyr, acc, mag, optical reference quat_ref in ENU, movement mask, rate;
+    CC BY 4.0, see data/BROAD-EXCERPT.md beside it)."""
+    from ._resources import _path
+    return str(_path("imufuse", "data", EXAMPLE))
+
+
+def npz_to_csv(src, dst):
+    """Write an NPZ/HDF5 log (BROAD layout) as an imufuse CSV log with headers
+    that carry the units: time (s), gyr_* (rad/s), acc_* (g: the values imufuse
+    reads from the NPZ, so both files run the filters identically), mag_* (uT),
+    q_w..q_z (the file's reference, unchanged: ENU for BROAD), movement."""
+    log = read_log(src)
+    cols = {"time (s)": log.t}
+    for names, unit in ((GYR, "rad/s"), (ACC, "g"), (MAG, log.units["mag"][0])):
+        if log.has(*names):
+            for n in names:
+                cols[f"{n} ({unit})"] = log.columns[n]
+    if log.has(*QUAT):
+        for n in QUAT:
+            cols[n] = log.columns[n]
+    if "movement" in log.columns:
+        cols["movement"] = log.columns["movement"]
+    write_csv(dst, cols)
+
+
+# ---------------------------------------------------------------------------
 # writing
 
 _CHUNK = 20000

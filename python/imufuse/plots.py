@@ -32,17 +32,27 @@ def _plt():
 
 
 def colours(names):
-    """{filter name: colour}: one fixed colour per filter, from its place in
-    imufuse's filter list (so a filter has the same colour in every plot)."""
-    from . import reference
+    """{filter name: colour}: one fixed colour per filter, from its place among
+    imufuse's filters of its kind (single-axis or 3D), so a filter has the same
+    colour in every panel of every plot; strong colours first (tab10)."""
     import matplotlib
-    cmap = matplotlib.colormaps["tab20"]
-    order = list(reference.FILTERS)
+    from .catalogue import FILTERS, reference_class
+    strong = matplotlib.colormaps["tab10"]
+    light = matplotlib.colormaps["tab20"]
+
+    def group(n):
+        try:
+            return "1d" if reference_class(n).kind == "1d" else "3d"
+        except ValueError:
+            return "other"
+    order = {}
+    for n in list(FILTERS) + [n for n in names if n not in FILTERS]:
+        order.setdefault(group(n), []).append(n)
     out = {}
     for n in names:
-        i = order.index(n) if n in order else len(order) + list(names).index(n)
-        # tab20: even indices are the strong colours; the light ones come second
-        out[n] = matplotlib.colors.to_hex(cmap((2 * i) % 20 + (i // 10) % 2))
+        i = order[group(n)].index(n)
+        c = strong(i % 10) if i < 10 else light((2 * (i - 10) + 1) % 20)
+        out[n] = matplotlib.colors.to_hex(c)
     return out
 
 
@@ -134,21 +144,31 @@ def plot_3d_errors(path, t, q_true, estimates, title="3D filters against ground 
     return _save(fig, path, title)
 
 
-def plot_euler(path, t, series, ref=None, title=""):
+def plot_euler(path, t, series, ref=None, title="", errors=None, error_label="error (deg)"):
     """Roll, pitch, yaw (rad, dict name -> (N, 3), NaN where unknown) and an
-    optional reference (N, 3); yaw unwrapped."""
+    optional reference (N, 3); roll and yaw unwrapped. errors: optional dict
+    name -> (N,) degrees, drawn in a fourth panel scaled to the steady state."""
     plt = _plt()
     col = colours(list(series))
-    fig, axes = plt.subplots(3, 1, figsize=(10, 8), sharex=True)
+    n = 4 if errors else 3
+    fig, axes = plt.subplots(n, 1, figsize=(10, 2.6 * n + 0.5), sharex=True)
     for i, (ax, lab) in enumerate(zip(axes, ("roll", "pitch", "yaw"))):
-        conv = unwrap_deg if i == 2 else np.degrees
+        conv = np.degrees if i == 1 else unwrap_deg
         for name, e in series.items():
             if not np.all(np.isnan(e[:, i])):
                 ax.plot(t, conv(e[:, i]), lw=0.9, color=col[name], label=name)
         if ref is not None:
             ax.plot(t, conv(ref[:, i]), label="reference", **REF_STYLE)
-        ax.set_ylabel(f"{lab} (deg)" + (" unwrapped" if i == 2 else ""))
-    axes[0].legend(fontsize=7, ncol=2)
+        ax.set_ylabel(f"{lab} (deg)" + ("" if i == 1 else ", unwrapped"))
+    if errors:
+        ax = axes[3]
+        for name, e in errors.items():
+            ax.plot(t, e, lw=0.9, color=col.get(name), label=name)
+        lim = steady_limits(t, list(errors.values()))
+        if lim:
+            ax.set_ylim(*lim)
+        ax.set_ylabel(error_label)
+    axes[0].legend(fontsize=7, ncol=3)
     axes[-1].set_xlabel("time (s)")
     return _save(fig, path, title)
 
