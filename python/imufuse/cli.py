@@ -311,6 +311,15 @@ def _evaluate(cls, est, log, args):
                     remove_heading_offset=args.heading_offset)
 
 
+def _euler_deg(q, chunk=65536):
+    """(N, 3) roll, pitch, yaw in degrees, computed in chunks (bounded memory)."""
+    from .rotations import quat_to_euler
+    out = np.empty((len(q), 3))
+    for k in range(0, len(q), chunk):
+        out[k:k + chunk] = np.degrees(quat_to_euler(q[k:k + chunk]))
+    return out
+
+
 def _frame_q(q, frame):
     from .evaluation import from_enu, to_enu
     return q if frame == "NWU" else from_enu(to_enu(q, "NWU"), frame)
@@ -391,7 +400,7 @@ def _run(args):
         if est.source != "q0..q3" or args.frame != "NWU":
             for j, n in enumerate(io.QUAT):
                 cols[n] = q[:, j]
-        e = np.degrees(quat_to_euler(q))
+        e = _euler_deg(q)
         cols["roll_deg"], cols["pitch_deg"] = e[:, 0], e[:, 1]
         if est.heading:
             cols["yaw_deg"] = e[:, 2]

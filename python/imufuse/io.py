@@ -434,8 +434,9 @@ def _read_csv(path, column_map, time_unit):
         raise LogError(f"{path}: cannot read: {e}", "file") from None
     if M.shape[0] == 0:
         raise LogError(f"{path}: no data rows after the header")
-    cols = {k: np.ascontiguousarray(M[:, usecols.index(i)]) for k, i in found.items()}
-    del M
+    # columns are views of the one array the reader made (no copies: long logs
+    # stay small in memory); run() inputs are stacked from them as needed
+    cols = {k: M[:, usecols.index(i)] for k, i in found.items()}
     sources = {k: header[i] for k, i in found.items()}
 
     def where(k):
