@@ -319,3 +319,23 @@ def test_unwrap_and_steady_limits():
     e = np.where(t < 0.5, -5.0, 0.4 * np.sin(t))      # a start-up transient, then 0.4 deg
     lo, hi = plots.steady_limits(t, [e])
     assert -1 < lo <= -0.39 and 0.39 <= hi < 1
+
+
+def test_hdf5_in_the_broad_layout(tmp_path):
+    """BROAD's HDF5 names (imu_gyr, opt_quat, sampling_rate, ...) read like the NPZ."""
+    h5py = pytest.importorskip("h5py", reason="h5py (test extra) not installed")
+    z = np.load(io.example_log())
+    p = tmp_path / "trial.hdf5"
+    with h5py.File(p, "w") as f:
+        for k, v in (("imu_gyr", z["gyr"]), ("imu_acc", z["acc"]), ("imu_mag", z["mag"]),
+                     ("opt_quat", z["quat_ref"]), ("movement", z["movement"]),
+                     ("sampling_rate", z["rate"])):
+            f[k] = v
+    a, b = read_log(p), read_log(io.example_log())
+    for n in ("gyr", "acc", "mag", "q_ref", "movement"):
+        assert np.array_equal(getattr(a, n), getattr(b, n), equal_nan=True)
+    assert a.dt == b.dt and a.ref_frame == "ENU"
+    p2 = tmp_path / "bad.h5"
+    p2.write_bytes(b"not hdf5")
+    with pytest.raises(LogError, match="not a readable HDF5"):
+        read_log(p2)
