@@ -274,3 +274,18 @@ def test_integer_trajectories_compare_as_integers():
     b[2, 0] = 4
     rep = compare_states(a, b)
     assert not rep.bit_exact and rep.first_sample == 2 and rep.max_abs["s0"] == 1
+
+
+def test_a_closed_pipe_is_not_an_error(tmp_path):
+    """`imufuse run log.csv | head -1`: exit 0, nothing on stderr about the pipe."""
+    d = sim.imu("slow", rate=200.0, duration=60.0, seed=2)
+    log = tmp_path / "long.csv"
+    io.write_log(log, d.t, d.gyr, d.acc)
+    e = dict(os.environ, PYTHONPATH=os.pathsep.join(PATHS))
+    p = subprocess.Popen([sys.executable, "-m", "imufuse", "run", str(log), "-f", "MadgwickIMU"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=e, text=True)
+    assert p.stdout.readline().startswith("time,")
+    p.stdout.close()
+    err = p.stderr.read()
+    assert p.wait(timeout=120) == 0, err
+    assert "Traceback" not in err and "Exception ignored" not in err and "Broken" not in err

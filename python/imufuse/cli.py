@@ -1074,8 +1074,9 @@ def main(argv=None):
     except BrokenPipeError:
         # the reader went away (| head): not an error; silence the final flush
         try:
-            sys.stdout = open(os.devnull, "w")
-        except OSError:
+            fd = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(fd, sys.stdout.fileno())
+        except (OSError, ValueError):
             pass
         return EXIT_OK
     except OutputError as e:
