@@ -320,6 +320,25 @@ def _euler_deg(q, chunk=65536):
     return out
 
 
+def _frame_hint(cls, est, log, args, ev):
+    """A hint when the reference frame was not said and another frame fits far
+    better (an ENU reference read as NWU gives ~90 deg heading errors)."""
+    from .evaluation import evaluate
+    if (getattr(args, "ref_frame", None) or log.ref_frame or cls.kind != "ahrs" or ev is None
+            or isinstance(ev, dict) or not ev.n or not ev.heading > 20):
+        return None
+    alt = {}
+    for fr in ("ENU", "NED"):
+        e = evaluate(est.q, log.q_ref, est_frame="NWU", ref_frame=fr,
+                     ref_direction=args.ref_direction, movement=log.movement)
+        alt[fr] = e.heading
+    fr = min(alt, key=alt.get)
+    if alt[fr] < 0.5 * ev.heading:
+        return (f"hint: the reference was taken as NWU (heading error {ev.heading:.1f} deg); "
+                f"with --ref-frame {fr} it would be {alt[fr]:.1f} deg: is the reference in {fr}?")
+    return None
+
+
 def _frame_q(q, frame):
     from .evaluation import from_enu, to_enu
     return q if frame == "NWU" else from_enu(to_enu(q, "NWU"), frame)
@@ -433,6 +452,9 @@ def _run(args):
                  f"{ev['angle'][1]:.3f} deg over {ev['n']} samples")
         else:
             _err(f"against the log's reference q ({_ref_frame(args, log)}): {ev.summary()}")
+            hint = _frame_hint(cls, est, log, args, ev)
+            if hint:
+                _err(hint)
     if args.plot:
         _plots(args.plot, log, {args.filter: (cls, est)}, args,
                f"{args.filter} ({_fmt_params(args.filter, r.params)})")
@@ -480,7 +502,7 @@ def _compare(args):
     if not names:
         names = _default_filters(log)
     per = _scoped_params(args.param, names)
-    rows, ests, timing = [], {}, None
+    rows, ests, timing, hint = [], {}, None, None
     for n in names:
         cls = reference_class(n)
         try:
@@ -511,7 +533,9 @@ def _compare(args):
                 final = np.degrees(quat_to_euler(_frame_q(est.q[-1:], args.frame))[0])
                 if not est.heading:
                     final[2] = np.nan
-        rows.append((n, cls.kind, _evaluate(cls, est, log, args), final, sps, note))
+        ev = _evaluate(cls, est, log, args)
+        hint = hint or _frame_hint(cls, est, log, args, ev)
+        rows.append((n, cls.kind, ev, final, sps, note))
     if not ests:
         for n, kind, _, _, _, note in rows:
             _err(f"{n}: {note}")
@@ -562,6 +586,8 @@ def _compare(args):
     if excluded is not None and (excluded.n_ref_nan or excluded.n_outside_mask):
         print(f"excluded: {excluded.n_outside_mask} samples outside the movement mask, "
               f"{excluded.n_ref_nan} with a NaN reference")
+    if hint:
+        _err(hint)
     if args.plot:
         _plots(args.plot, log, ests, args, f"{len(ests)} filters")
     if has_ref and not evaluated:
