@@ -101,7 +101,7 @@ def test_run_xio_log_needs_no_renaming_and_honours_timestamps(tmp_path, data):
 def test_init_first_starts_at_the_right_heading(tmp_path):
     """At rest, turned 120 deg in heading: started from the first sample the
     AHRS filter is right at once; from identity it is still far off."""
-    from imufuse.rotations import quat_from_axis_angle, quat_rotate_inv, quat_to_euler
+    from imufuse.rotations import quat_from_axis_angle, quat_rotate_inv
     n, rate = 500, 100.0
     q = quat_from_axis_angle([0, 0, 1], math.radians(120))
     acc = np.tile(quat_rotate_inv(q, [0, 0, 1.0]), (n, 1))

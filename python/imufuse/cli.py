@@ -399,7 +399,6 @@ def _parser_demo(sub):
 def _run(args):
     from . import io
     from .catalogue import estimate, reference_class, why_no_estimate
-    from .rotations import quat_to_euler
     cls = reference_class(args.filter)
     check_outputs([args.log], [("-o", args.output), ("--plot", args.plot)])
     log = _load(args)
