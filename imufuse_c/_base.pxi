@@ -17,6 +17,8 @@ cnp.import_array()
 
 from imufuse import _checks
 
+_R = np.float32 if DTYPE == "float32" else float
+
 
 cdef inline void _copy_state(imf_real *dst, const char *x, Py_ssize_t n) noexcept nogil:
     # a short element loop: cheaper than a memcpy call for a few words per sample
@@ -56,6 +58,12 @@ cdef int _vec3(object v, imf_real *out) except -1:
     return 0
 
 
+cdef int _unbound(object f) except -1:
+    """An instance whose __init__ never ran (type(f).__new__(type(f))): its C
+    struct was never initialised; raise instead of touching it."""
+    raise TypeError(f"{type(f).__name__}: object not initialised (__init__ was not called)")
+
+
 cdef class _Filter:
     cdef char *_x
     cdef Py_ssize_t _n
@@ -90,10 +98,14 @@ cdef class _Filter:
     @property
     def skipped(self):
         """Samples rejected by the non-finite policy since construction or reset."""
+        if self._skipped == NULL:
+            _unbound(self)
         return self._skipped[0]
 
     @property
     def state(self):
+        if self._x == NULL:
+            _unbound(self)
         out = np.empty(self._n, dtype=DTYPE)
         cdef imf_real[::1] o = out
         memcpy(&o[0], self._x, self._n * sizeof(imf_real))
@@ -101,12 +113,17 @@ cdef class _Filter:
 
     @state.setter
     def state(self, value):
+        if self._x == NULL:
+            _unbound(self)
         arr = _checks.as_state(value, self._n, DTYPE, self._ref.state_names)
+        _checks.check_valid_state(self._ref._valid_state(self._args, _R, arr))
         cdef const imf_real[::1] v = arr
         memcpy(self._x, &v[0], self._n * sizeof(imf_real))
 
     def reset(self):
         """Back to the state after construction (init runs again)."""
+        if self._x == NULL:
+            _unbound(self)
         self._init()
 
     def __repr__(self):
@@ -119,6 +136,8 @@ cdef class _Filter1D(_Filter):
 
     def update(self, rate, angle):
         """One sample: rate (rad/s), angle (rad)."""
+        if self._x == NULL:
+            _unbound(self)
         cdef double w, a
         try:
             w = rate
@@ -130,6 +149,8 @@ cdef class _Filter1D(_Filter):
 
     def run(self, rate, angle):
         """All samples: rate, angle 1-D arrays; returns the (N, len(state)) trajectory."""
+        if self._x == NULL:
+            _unbound(self)
         rate_a, angle_a = _checks.run_inputs("1d", DTYPE, (rate, angle))
         cdef Py_ssize_t n_samples = rate_a.shape[0], n = self._n, k
         out = np.empty((n_samples, n), dtype=DTYPE)
@@ -149,6 +170,8 @@ cdef class _FilterIMU(_Filter):
 
     def update(self, gyr, acc):
         """One sample: gyr (3,) rad/s, acc (3,) any unit."""
+        if self._x == NULL:
+            _unbound(self)
         cdef imf_real g[3]
         cdef imf_real a[3]
         try:
@@ -161,6 +184,8 @@ cdef class _FilterIMU(_Filter):
 
     def run(self, gyr, acc):
         """All samples: gyr, acc (N, 3) arrays; returns the (N, len(state)) trajectory."""
+        if self._x == NULL:
+            _unbound(self)
         gyr_a, acc_a = _checks.run_inputs("imu", DTYPE, (gyr, acc))
         cdef Py_ssize_t n_samples = gyr_a.shape[0], n = self._n, k
         out = np.empty((n_samples, n), dtype=DTYPE)
@@ -181,6 +206,8 @@ cdef class _FilterAHRS(_Filter):
 
     def update(self, gyr, acc, mag):
         """One sample: gyr (3,) rad/s, acc (3,) and mag (3,) any unit."""
+        if self._x == NULL:
+            _unbound(self)
         cdef imf_real g[3]
         cdef imf_real a[3]
         cdef imf_real m[3]
@@ -195,6 +222,8 @@ cdef class _FilterAHRS(_Filter):
 
     def run(self, gyr, acc, mag):
         """All samples: gyr, acc, mag (N, 3) arrays; returns the (N, len(state)) trajectory."""
+        if self._x == NULL:
+            _unbound(self)
         gyr_a, acc_a, mag_a = _checks.run_inputs("ahrs", DTYPE, (gyr, acc, mag))
         cdef Py_ssize_t n_samples = gyr_a.shape[0], n = self._n, k
         out = np.empty((n_samples, n), dtype=DTYPE)
