@@ -99,7 +99,7 @@ cdef class _Filter:
     dtype = DTYPE
 
     def __init__(self, *args, init="identity", init_window=1, q0=None, state=None, **kwargs):
-        self._args = self._ref._params(*args, **kwargs)
+        self._args = self._ref._checked_params(DTYPE, *args, **kwargs)
         self._n = len(self._ref.state_names)
         self._start = _checks.check_start(self._ref.kind, self._ref.state_names, DTYPE, init,
                                           init_window, q0, state)

@@ -119,6 +119,23 @@ def ds_ahrs(R, q, ax, ay, az, mx, my, mz):
     return [s0, s1, s2, s3]
 
 
+#: largest beta*dt (docs/robustness.md)
+BETA_DT_MAX = 0.1
+
+
+def check_beta(dt, beta):
+    """Stable range (docs/robustness.md). The corrective step moves q by
+    beta dt along the unit gradient whatever the error (steps 5-7): it is not
+    proportional, so near the optimum q settles into a limit cycle of up to
+    2 beta dt rad around it (the step overshoots by up to its own length; one
+    quaternion unit is two radians of attitude). beta dt <= 0.1 keeps that
+    below 0.2 rad (11.5 deg) and the first-order step small; beyond it the
+    estimate can be as far off as the step (beta = 150 at 100 Hz: 180 deg)."""
+    if not beta * dt <= BETA_DT_MAX:
+        raise ValueError(f"beta: outside the stable range (beta*dt <= {BETA_DT_MAX} needed; "
+                         f"beta*dt={beta * dt!r})")
+
+
 class _Madgwick(ReferenceFilter):
     state_names = ("q0", "q1", "q2", "q3")
 
@@ -230,6 +247,7 @@ class MadgwickIMU(_Madgwick):
     def _params(dt, beta=0.1, delta_s="full", *, invsqrt="exact"):
         dt = _checks.check_dt(dt)
         beta = _checks.check_real("beta", beta, lo=0.0)
+        check_beta(dt, beta)
         _checks.check_choice("delta_s", delta_s, tuple(DELTA_S))
         _checks.check_choice("invsqrt", invsqrt, tuple(_math.INVSQRT))
         return (dt, beta, DELTA_S[delta_s], _math.INVSQRT[invsqrt])
@@ -255,6 +273,7 @@ class MadgwickAHRS(_Madgwick):
     def _params(dt, beta=0.1, *, invsqrt="exact"):
         dt = _checks.check_dt(dt)
         beta = _checks.check_real("beta", beta, lo=0.0)
+        check_beta(dt, beta)
         _checks.check_choice("invsqrt", invsqrt, tuple(_math.INVSQRT))
         return (dt, beta, _math.INVSQRT[invsqrt])
 

@@ -15,6 +15,23 @@ from ._base import QUAT_NORM2_TOL, ReferenceFilter, isfinite
 FILTERS = ("MahonyIMU", "MahonyAHRS")
 
 
+def check_mahony_gains(dt, kp, ki):
+    """Stable range (docs/robustness.md). Near the attitude the accelerometer
+    (and magnetometer) give, the error is e = a x d = sin(theta) ~ theta per
+    axis and the update (steps 5-8) is the single-axis loop of Eq. 3.6:
+    I_n = I + Ki dt e, theta_n = theta - (Kp e + I_n) dt, update matrix
+    [[1 - kp dt - ki dt^2, -dt], [ki dt, 1]] (Mahony1DBias). Jury test:
+    0 < kp dt < 2 and ki dt^2 < 4 - 2 kp dt. kp = ki = 0 (gyro integration
+    only) is admitted."""
+    if kp == 0.0 and ki == 0.0:
+        return
+    kpdt, kidt2 = kp * dt, ki * dt * dt
+    if not (0.0 < kpdt < 2.0 and kidt2 < 4.0 - 2.0 * kpdt):
+        raise ValueError(f"kp, ki: outside the stable range (0 < kp*dt < 2 and "
+                         f"ki*dt^2 < 4 - 2 kp*dt needed, or kp = ki = 0; "
+                         f"kp*dt={kpdt!r}, ki*dt^2={kidt2!r})")
+
+
 class _Mahony(ReferenceFilter):
     state_names = ("q0", "q1", "q2", "q3", "ix", "iy", "iz")
 
@@ -30,6 +47,7 @@ class _Mahony(ReferenceFilter):
         dt = _checks.check_dt(dt)
         kp = _checks.check_real("kp", kp, lo=0.0)
         ki = _checks.check_real("ki", ki, lo=0.0)
+        check_mahony_gains(dt, kp, ki)
         _checks.check_choice("invsqrt", invsqrt, tuple(_math.INVSQRT))
         return (dt, kp, ki, _math.INVSQRT[invsqrt])
 
