@@ -39,6 +39,8 @@ cdef extern from "imf_attitude.h" nogil:
 
 from imufuse import _checks
 
+_R = np.float32 if DTYPE == "float32" else float
+
 
 cdef inline void _copy_state(imf_real *dst, const char *x, Py_ssize_t n) noexcept nogil:
     # a short element loop: cheaper than a memcpy call for a few words per sample
@@ -76,6 +78,12 @@ cdef int _vec3(object v, imf_real *out) except -1:
     out[1] = <imf_real><double>y
     out[2] = <imf_real><double>z
     return 0
+
+
+cdef int _unbound(object f) except -1:
+    """An instance whose __init__ never ran (type(f).__new__(type(f))): its C
+    struct was never initialised; raise instead of touching it."""
+    raise TypeError(f"{type(f).__name__}: object not initialised (__init__ was not called)")
 
 
 cdef class _Filter:
@@ -159,10 +167,14 @@ cdef class _Filter:
     @property
     def skipped(self):
         """Samples rejected by the non-finite policy since construction or reset."""
+        if self._skipped == NULL:
+            _unbound(self)
         return self._skipped[0]
 
     @property
     def state(self):
+        if self._x == NULL:
+            _unbound(self)
         out = np.empty(self._n, dtype=DTYPE)
         cdef imf_real[::1] o = out
         memcpy(&o[0], self._x, self._n * sizeof(imf_real))
@@ -170,13 +182,18 @@ cdef class _Filter:
 
     @state.setter
     def state(self, value):
+        if self._x == NULL:
+            _unbound(self)
         arr = _checks.as_state(value, self._n, DTYPE, self._ref.state_names)
+        _checks.check_valid_state(self._ref._valid_state(self._args, _R, arr))
         cdef const imf_real[::1] v = arr
         memcpy(self._x, &v[0], self._n * sizeof(imf_real))
         self._pending = 0   # a state set by hand ends a pending init="first"
 
     def reset(self):
         """Back to the state after construction (init runs again)."""
+        if self._x == NULL:
+            _unbound(self)
         self._init()
         self._apply_start()
 
@@ -190,6 +207,8 @@ cdef class _Filter1D(_Filter):
 
     def update(self, rate, angle, dt=None):
         """One sample: rate (rad/s), angle (rad); dt (s): this sample's period."""
+        if self._x == NULL:
+            _unbound(self)
         cdef double w, a
         try:
             w = rate
@@ -224,6 +243,8 @@ cdef class _Filter1D(_Filter):
     def run(self, rate, angle, dt=None):
         """All samples: rate, angle 1-D arrays, dt (optional) the (N,) sample
         periods; returns the (N, len(state)) trajectory."""
+        if self._x == NULL:
+            _unbound(self)
         if dt is not None:
             return self._run_dt(rate, angle, dt)
         rate_a, angle_a = _checks.run_inputs("1d", DTYPE, (rate, angle))
@@ -245,6 +266,8 @@ cdef class _FilterIMU(_Filter):
 
     def update(self, gyr, acc, dt=None):
         """One sample: gyr (3,) rad/s, acc (3,) any unit; dt (s): this sample's period."""
+        if self._x == NULL:
+            _unbound(self)
         cdef imf_real g[3]
         cdef imf_real a[3]
         try:
@@ -311,6 +334,8 @@ cdef class _FilterIMU(_Filter):
     def run(self, gyr, acc, dt=None):
         """All samples: gyr, acc (N, 3) arrays, dt (optional) the (N,) sample
         periods; returns the (N, len(state)) trajectory."""
+        if self._x == NULL:
+            _unbound(self)
         if dt is not None or self._pending:
             return self._run_general(gyr, acc, dt)
         gyr_a, acc_a = _checks.run_inputs("imu", DTYPE, (gyr, acc))
@@ -334,6 +359,8 @@ cdef class _FilterAHRS(_Filter):
     def update(self, gyr, acc, mag, dt=None):
         """One sample: gyr (3,) rad/s, acc (3,) and mag (3,) any unit; dt (s): this
         sample's period."""
+        if self._x == NULL:
+            _unbound(self)
         cdef imf_real g[3]
         cdef imf_real a[3]
         cdef imf_real m[3]
@@ -396,6 +423,8 @@ cdef class _FilterAHRS(_Filter):
     def run(self, gyr, acc, mag, dt=None):
         """All samples: gyr, acc, mag (N, 3) arrays, dt (optional) the (N,) sample
         periods; returns the (N, len(state)) trajectory."""
+        if self._x == NULL:
+            _unbound(self)
         if dt is not None or self._pending:
             return self._run_general(gyr, acc, mag, dt)
         gyr_a, acc_a, mag_a = _checks.run_inputs("ahrs", DTYPE, (gyr, acc, mag))

@@ -104,6 +104,12 @@ def as_state(value, n, dtype, names):
     return np.ascontiguousarray(arr)
 
 
+def check_valid_state(problem):
+    """Raise the ValueError of a state write that is not a valid attitude."""
+    if problem is not None:
+        raise ValueError(f"state: not a valid attitude ({problem})")
+
+
 # Per-sample inputs of each kind of filter: update() argument names, and
 # whether run() takes 1-D arrays or (N, 3) arrays.
 KINDS = {

@@ -32,6 +32,10 @@ from . import attitude as _attitude
 
 U32 = 0xFFFFFFFF
 
+#: state writes of the quaternion filters: |q|^2 within 1 +- this (the filter
+#: itself keeps |q| within 1 +- 2e-3 even with the fast inverse square root)
+QUAT_NORM2_TOL = 0.01
+
 
 class ReferenceFilter:
     kind = "1d"
@@ -97,9 +101,17 @@ class ReferenceFilter:
     def state(self, value):
         arr = _checks.as_state(value, len(self.state_names), self.dtype, self.state_names)
         R = self._R
+        _checks.check_valid_state(self._valid_state(self._args, R, arr))
         for n, v in zip(self.state_names, arr):
             setattr(self, n, R(v))
         self._pending = None   # a state set by hand ends a pending init="first"
+
+    @classmethod
+    def _valid_state(cls, args, R, state):
+        """Valid-attitude policy for state writes: None if `state` (finite,
+        dtype R) is a valid state for a filter built with C init arguments
+        `args`, else what is wrong. Shared with imufuse_c."""
+        return None
 
     def update(self, *args, dt=None):
         vals = _checks.update_inputs(self.kind, args)
