@@ -24,8 +24,15 @@ class _Dispatch(type):
 def _dispatch(name):
     ref = getattr(_reference, name)
     sig = inspect.signature(ref._params)
-    params = [*sig.parameters.values(),
-              inspect.Parameter("dtype", inspect.Parameter.KEYWORD_ONLY, default="float64")]
+    kw = inspect.Parameter.KEYWORD_ONLY
+    # how the filter starts (_checks.check_start): state= for every filter,
+    # init=, init_window= and q0= for the 3-D filters
+    start = [inspect.Parameter("state", kw, default=None)]
+    if ref.kind != "1d":
+        start = [inspect.Parameter("init", kw, default="identity"),
+                 inspect.Parameter("init_window", kw, default=1),
+                 inspect.Parameter("q0", kw, default=None), *start]
+    params = [*sig.parameters.values(), inspect.Parameter("dtype", kw, default="float64"), *start]
     return _Dispatch(name, (), {
         "_impl": {dt: getattr(mod, name) for dt, mod in _BUILDS.items()},
         "__doc__": ref.__doc__,
