@@ -14,7 +14,6 @@ The gyroscope is processed in deg/s (Fusion's unit) and handed back in rad/s.
 """
 import numpy as np
 
-FUSION_FILTERS = ("FusionAHRS",)
 
 
 def add_arguments(parser):
@@ -93,7 +92,9 @@ def _backend(backend):
 
 
 def is_fusion(name):
-    return name in FUSION_FILTERS
+    """FusionAHRS: run by run_fusion (FusionOffset is the --offset option)."""
+    from .catalogue import FILTERS_FUSION
+    return name in FILTERS_FUSION and name != "FusionOffset"
 
 
 def run_fusion(args, log, params):
