@@ -236,6 +236,9 @@ def _load(args, path=None):
                    time_unit=getattr(args, "time_unit", None))
     for w in log.warnings:
         _err(f"note: {w}")
+    from .preprocess import apply
+    for note in apply(log, args, getattr(args, "backend", "c")):  # --calibration, --align, --offset
+        _err(f"note: {note}")
     return log
 
 
@@ -399,8 +402,14 @@ def _parser_demo(sub):
 def _run(args):
     from . import io
     from .catalogue import estimate, reference_class, why_no_estimate
-    cls = reference_class(args.filter)
+    from . import preprocess
     check_outputs([args.log], [("-o", args.output), ("--plot", args.plot)])
+    if preprocess.is_fusion(args.filter):  # Fusion's units and dt per sample
+        cols, msg, f32 = preprocess.run_fusion(args, _load(args), _pairs(args.param))
+        _write_output(args.output, cols, f32)
+        _err(msg)
+        return EXIT_OK
+    cls = reference_class(args.filter)
     log = _load(args)
     r = Runner(args.filter, log, args, _pairs(args.param))
     inputs, src = _inputs(cls, log, args.axis)
@@ -425,17 +434,7 @@ def _run(args):
         else:
             _err(f"note: no heading from {cls.__name__} ({est.source}): yaw omitted")
     f32 = set(cls.state_names) if args.dtype == "float32" else set()
-    try:
-        if args.output == "-":
-            io.write_csv(sys.stdout, cols, float32=f32)
-        elif args.output.lower().endswith(".npz"):
-            io.write_npz(args.output, cols)
-        else:
-            io.write_csv(args.output, cols, float32=f32)
-    except OSError as e:
-        if isinstance(e, BrokenPipeError):
-            raise
-        raise OutputError(f"-o {args.output}: cannot write: {e.strerror or e}") from None
+    _write_output(args.output, cols, f32)
     init = f", init={r.init}" if r.init else ""
     msg = (f"{cls.__name__} ({args.backend}, {args.dtype}, {r.describe_time()}{init}; "
            f"{_fmt_params(args.filter, r.params)}): {len(log)} samples from {src}")
@@ -460,6 +459,22 @@ def _run(args):
     return EXIT_OK
 
 
+def _write_output(path, cols, f32=()):
+    """CSV to stdout ("-") or a file, or NPZ for OUT.npz; OutputError when it cannot be written."""
+    from . import io
+    try:
+        if path == "-":
+            io.write_csv(sys.stdout, cols, float32=f32)
+        elif path.lower().endswith(".npz"):
+            io.write_npz(path, cols)
+        else:
+            io.write_csv(path, cols, float32=f32)
+    except OSError as e:
+        if isinstance(e, BrokenPipeError):
+            raise
+        raise OutputError(f"-o {path}: cannot write: {e.strerror or e}") from None
+
+
 def _parser_run(sub):
     r = sub.add_parser("run", help="one filter over a log -> CSV of states, quaternion, Euler "
                        "angles", formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -474,6 +489,8 @@ def _parser_run(sub):
     _log_options(r)
     _filter_options(r)
     _eval_options(r)
+    from .preprocess import add_arguments as _preprocess_options
+    _preprocess_options(r)
     r.set_defaults(func=_run)
 
 
@@ -646,6 +663,8 @@ def _parser_compare(sub):
     _log_options(c)
     _filter_options(c)
     _eval_options(c)
+    from .preprocess import add_arguments as _preprocess_options
+    _preprocess_options(c)
     c.set_defaults(func=_compare)
 
 
