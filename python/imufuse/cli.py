@@ -605,7 +605,9 @@ def _compare(args):
     if hint:
         _err(hint)
     if args.plot:
-        _plots(args.plot, log, ests, args, f"{len(ests)} filters")
+        given = ", ".join(args.param) if args.param else "default gains"
+        _plots(args.plot, log, ests, args, f"{', '.join(ests)} ({given}; {timing}, init "
+                                           f"{getattr(args, 'init', None) or 'first'})")
     if has_ref and not evaluated:
         raise NothingComputed(f"{log.path}: nothing could be evaluated: no sample has a finite "
                               "reference inside the movement mask")
