@@ -343,3 +343,20 @@ def test_hdf5_in_the_broad_layout(tmp_path):
     p2.write_bytes(b"not hdf5")
     with pytest.raises(LogError, match="not a readable HDF5"):
         read_log(p2)
+
+
+def test_init_window_through_the_cli(tmp_path):
+    """--init first --init-window N is the library's init="first", init_window=N."""
+    from imufuse.catalogue import resolve_params
+    out = tmp_path / "o.csv"
+    r = imf("run", io.example_log(), "-f", "MahonyAHRS", "--init-window", 50, "-o", out)
+    assert r.returncode == 0 and "mean of 50 samples" in r.stderr, r.stderr
+    log = read_log(io.example_log())
+    want = imufuse_c.MahonyAHRS(**resolve_params("MahonyAHRS", log.dt), init="first",
+                                init_window=50).run(log.gyr, log.acc, log.mag)
+    M = np.genfromtxt(out, delimiter=",", names=True)
+    got = np.column_stack([M[c] for c in ("q0", "q1", "q2", "q3")])
+    assert np.array_equal(got, want[:, :4])
+    one = imufuse_c.MahonyAHRS(**resolve_params("MahonyAHRS", log.dt), init="first").run(
+        log.gyr, log.acc, log.mag)
+    assert not np.array_equal(one[:, :4], want[:, :4])      # the window matters

@@ -200,6 +200,10 @@ class Runner:
                 kw["q0"] = init
             elif init == "first":
                 kw["init"] = "first"
+                w = getattr(args, "init_window", None)
+                if w and w > 1:
+                    kw["init_window"] = w
+                    init = f"first (mean of {w} samples)"
         self.init = (None if self.cls.kind == "1d" else
                      "q0=" + ",".join(f"{v:g}" for v in init) if isinstance(init, list) else init)
         self.filter = make_filter(name, self.backend, self.dtype, {**self.params, **kw})
@@ -1054,6 +1058,8 @@ def _filter_options(p):
     g.add_argument("--init", metavar="first|identity|W,X,Y,Z",
                    help="initial orientation of 3D filters (default first: from the first "
                         "accelerometer [and magnetometer] sample)")
+    g.add_argument("--init-window", type=_positive(int, 10**6), metavar="N",
+                   help="with --init first: average the first N samples (default 1)")
     g.add_argument("--dtype", choices=("float32", "float64"), default="float64")
     g.add_argument("--backend", choices=("c", "ref"), default="c",
                    help="c: imufuse_c (compiled); ref: imufuse.reference (pure Python)")
