@@ -298,13 +298,24 @@ def _ref_angle(log, axis, args):
     return quat_to_euler(q)[:, 0 if axis == "x" else 1]
 
 
+def _mask(log, args):
+    """The samples that count for errors: the movement column and --skip."""
+    mask = log.movement
+    skip = getattr(args, "skip", None)
+    if skip:
+        t = log.t
+        late = t >= t[0] + skip
+        mask = late if mask is None else (mask & late)
+    return mask
+
+
 def _evaluate(cls, est, log, args):
     """Evaluation (3D) or {'angle': (rms, max), 'n': n} (1D) against the log's
     reference, or None without a reference or estimate."""
     from .evaluation import evaluate
     if est is None or log.q_ref is None:
         return None
-    mask = log.movement
+    mask = _mask(log, args)
     if cls.kind == "1d":
         ref = _ref_angle(log, args.axis, args)
         use = np.isfinite(ref) & (mask if mask is not None else True)
@@ -337,7 +348,7 @@ def _frame_hint(cls, est, log, args, ev):
     alt = {}
     for fr in ("ENU", "NED"):
         e = evaluate(est.q, log.q_ref, est_frame="NWU", ref_frame=fr,
-                     ref_direction=args.ref_direction, movement=log.movement)
+                     ref_direction=args.ref_direction, movement=_mask(log, args))
         alt[fr] = e.heading
     fr = min(alt, key=alt.get)
     if alt[fr] < 0.5 * ev.heading:
@@ -1071,6 +1082,9 @@ def _eval_options(p):
                    help="earth frame of the log's q_w..q_z (default: NWU; ENU for BROAD files)")
     g.add_argument("--ref-direction", choices=("sensor-to-earth", "earth-to-sensor"),
                    default="sensor-to-earth", help="what the reference quaternion rotates")
+    g.add_argument("--skip", type=_positive(float, 1e9), metavar="S",
+                   help="leave the first S seconds out of the errors (the start-up), on top of "
+                        "a movement column")
     g.add_argument("--heading-offset", action="store_true",
                    help="remove the mean heading offset between the reference and the filter "
                         "before the heading and total errors")
