@@ -1089,7 +1089,9 @@ def _eval_options(p):
                    help="remove the mean heading offset between the reference and the filter "
                         "before the heading and total errors")
     g.add_argument("--frame", choices=("NWU", "ENU", "NED"), default="NWU",
-                   help="earth frame of the output quaternion and Euler angles (default NWU)")
+                   help="earth frame of the output quaternion and Euler angles (default NWU); "
+                        "the sensor axes stay as logged (a z-up sensor in NED reads roll 180 "
+                        "deg when level: align the axes first with --align)")
 
 
 SUBCOMMANDS = [_parser_demo, _parser_run, _parser_compare, _parser_tune, _parser_bench,
