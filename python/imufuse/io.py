@@ -189,13 +189,22 @@ def _norm(name):
 
 
 def recognise(header):
-    """{known name: header index} for the headers imufuse recognises."""
-    out = {}
+    """{known name: header index} for the headers imufuse recognises. When
+    several headers could be one column, the closer spelling wins (`time`
+    before `t`); a header whose unit belongs to another quantity ("T (degC)")
+    is not taken for time."""
+    best = {}
     for i, h in enumerate(header):
-        canon = _RECOGNISE.get(_norm(split_unit(h)[0]))
-        if canon is not None and canon not in out:
-            out[canon] = i
-    return out
+        name, unit = split_unit(h)
+        canon = _RECOGNISE.get(_norm(name))
+        if canon is None:
+            continue
+        if canon == "time" and unit is not None and unit not in TIME_UNITS:
+            continue
+        rank = _ALIASES[canon].index(_norm(name))
+        if canon not in best or rank < best[canon][0]:
+            best[canon] = (rank, i)
+    return {k: i for k, (r, i) in best.items()}
 
 
 def parse_column_map(text):
