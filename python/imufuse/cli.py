@@ -746,6 +746,7 @@ def _tune(args):
         if not grids:
             raise UsageError(f"tune: {name} has no positive float parameter to tune; give --grid")
     names = [k for k, _ in grids]
+    resolve_params(name, logs[0].dt, {**fixed, **{k: v[0] for k, v in grids}})  # names exist
     inputs = [_inputs(cls, lg, "x")[0] for lg in logs]
 
     def score(values):
@@ -796,7 +797,9 @@ def _tune(args):
         res.update(search([p for p in new if p not in res]))
     good = sorted((p for p in res if math.isfinite(res[p][0])), key=lambda p: res[p][0])
     if not good:
-        raise NothingComputed(f"tune: no parameter set could be evaluated ({len(res)} tried)")
+        why = next((v[1] for v in res.values() if isinstance(v[1], str)), "")
+        raise NothingComputed(f"tune: no parameter set could be evaluated ({len(res)} tried)"
+                              + (f"; e.g. {why}" if why else ""))
     print(f"{name} on {len(logs)} log{'s' if len(logs) > 1 else ''}: mean over logs of the "
           f"{metric} RMS (deg); {len(res)} parameter sets")
     head = "  ".join(f"{k:>10s}" for k in names) + f"  {metric:>11s}" + "".join(
