@@ -309,7 +309,7 @@ def _mask(log, args):
     return mask
 
 
-def _evaluate(cls, est, log, args):
+def _evaluate(cls, est, log, args, per_sample=False):
     """Evaluation (3D) or {'angle': (rms, max), 'n': n} (1D) against the log's
     reference, or None without a reference or estimate."""
     from .evaluation import evaluate
@@ -326,7 +326,7 @@ def _evaluate(cls, est, log, args):
                 "n_ref_nan": int(np.count_nonzero(~np.isfinite(ref)))}
     return evaluate(est.q, log.q_ref, est_frame="NWU", ref_frame=_ref_frame(args, log),
                     ref_direction=args.ref_direction, movement=mask,
-                    remove_heading_offset=args.heading_offset)
+                    remove_heading_offset=args.heading_offset, per_sample=per_sample)
 
 
 def _euler_deg(q, chunk=65536):
@@ -348,7 +348,8 @@ def _frame_hint(cls, est, log, args, ev):
     alt = {}
     for fr in ("ENU", "NED"):
         e = evaluate(est.q, log.q_ref, est_frame="NWU", ref_frame=fr,
-                     ref_direction=args.ref_direction, movement=_mask(log, args))
+                     ref_direction=args.ref_direction, movement=_mask(log, args),
+                     per_sample=False)
         alt[fr] = e.heading
     fr = min(alt, key=alt.get)
     if alt[fr] < 0.5 * ev.heading:
@@ -533,7 +534,7 @@ def _compare(args):
     if not names:
         names = _default_filters(log)
     per = _scoped_params(args.param, names)
-    rows, ests, timing, hint = [], {}, None, None
+    rows, ests, timing, hint, computed = [], {}, None, None, 0
     for n in names:
         cls = reference_class(n)
         try:
@@ -555,7 +556,9 @@ def _compare(args):
         if r.notes:
             note += "; " + "; ".join(r.notes)
         if est is not None:
-            ests[n] = (cls, est)
+            computed += 1
+            if args.plot:               # kept for the plot only: long logs stay small
+                ests[n] = (cls, est)
         final = None
         if est is not None:
             if est.angle is not None:
@@ -567,7 +570,7 @@ def _compare(args):
         ev = _evaluate(cls, est, log, args)
         hint = hint or _frame_hint(cls, est, log, args, ev)
         rows.append((n, cls.kind, ev, final, sps, note))
-    if not ests:
+    if not computed:
         for n, kind, _, _, _, note in rows:
             _err(f"{n}: {note}")
         raise NothingComputed(f"{log.path}: no filter could run on this log ({len(log)} samples; "
@@ -654,7 +657,7 @@ def _plots(path, log, ests, args, what):
                                                     args.ref_direction), "NWU"))
                 errors = {}
                 for n, e in three.items():
-                    ev = _evaluate(ests[n][0], e, log, args)
+                    ev = _evaluate(ests[n][0], e, log, args, per_sample=True)
                     errors[n] = ev.per_sample["total" if e.heading else "inclination"]
             plots.plot_euler(p3, log.t, {n: _euler_nwu(e) for n, e in three.items()}, ref,
                              title=title, errors=errors,

@@ -391,6 +391,32 @@ def _numbers_slow(path, enc, delim, header_line, idx, decimal_comma, loader_erro
     raise LogError(f"{path}: cannot read the values: {loader_error}")
 
 
+_BLOCK = 100_000
+
+
+def _loadtxt_blocks(fh, delim, usecols, rows_hint):
+    """numpy.loadtxt block by block into one array sized from the file
+    (numpy's reader grows its own buffer: read at once, a long log would
+    need about twice its size in memory)."""
+    import warnings
+    out, n = None, 0
+    while True:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)      # "input contained no data" at EOF
+            a = np.loadtxt(fh, delimiter=delim, usecols=usecols, ndmin=2, dtype=np.float64,
+                           quotechar='"', comments="#", max_rows=_BLOCK)
+        if out is None:
+            out = np.empty((max(rows_hint, len(a), 1), len(usecols)))
+        if n + len(a) > len(out):
+            grown = np.empty((max(2 * len(out), n + len(a)), len(usecols)))
+            grown[:n] = out[:n]
+            out = grown
+        out[n:n + len(a)] = a
+        n += len(a)
+        if len(a) < _BLOCK:
+            return out[:n]
+
+
 def _read_csv(path, column_map, time_unit):
     enc, lines = _open_text(path)
     if not lines or not any(ln.strip() for ln in lines):
@@ -431,9 +457,14 @@ def _read_csv(path, column_map, time_unit):
         with open(path, encoding=enc, newline="") as fh:
             for _ in range(header_line):
                 fh.readline()
-            src = (ln.replace(",", ".") for ln in fh) if decimal_comma else fh
-            M = np.loadtxt(src, delimiter=delim, usecols=usecols, ndmin=2, dtype=np.float64,
-                           quotechar='"', comments="#")
+            if decimal_comma:
+                M = np.loadtxt((ln.replace(",", ".") for ln in fh), delimiter=delim,
+                               usecols=usecols, ndmin=2, dtype=np.float64, quotechar='"',
+                               comments="#")
+            else:
+                width = len(data[0]) + 1 if data else 64     # bytes per row, first row
+                rows = int(os.path.getsize(path) / max(width, 8) * 1.05)
+                M = _loadtxt_blocks(fh, delim, usecols, rows)
     except (ValueError, IndexError) as e:
         _numbers_slow(path, enc, delim, header_line, found, decimal_comma, e)
     except MemoryError:
