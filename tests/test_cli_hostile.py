@@ -321,3 +321,19 @@ def test_hostile_compare_tune_validate(files, tmp_path, cmd, name, extra, code):
     log = files.get(name, tmp_path / name)
     args = [cmd] + ([log] if cmd != "validate" else ["--log", log]) + extra
     one_line_error(imf(*args), code)
+
+
+def test_block_estimates_equal_whole_ones():
+    """The command line derives estimates block by block (long logs stay small
+    in memory): the same values as one catalogue.estimate call, every filter."""
+    from imufuse import cli
+    from imufuse.catalogue import estimate, filter_names, reference_class, resolve_params
+    d = sim.imu("slow", rate=200.0, duration=30.0, seed=3)
+    for n in filter_names():
+        cls = reference_class(n)
+        ins = {"1d": (d.gyr[:, 0], np.arctan2(d.acc[:, 1], d.acc[:, 2])),
+               "imu": (d.gyr, d.acc), "ahrs": (d.gyr, d.acc, d.mag)}[cls.kind]
+        S = getattr(imufuse_c, n)(**resolve_params(n, d.dt)).run(*ins)
+        a, b = estimate(cls, S), cli._estimate(cls, S, chunk=997)
+        x, y = (a.angle, b.angle) if a.angle is not None else (a.q, b.q)
+        assert np.array_equal(x, y), n

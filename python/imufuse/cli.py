@@ -329,6 +329,23 @@ def _evaluate(cls, est, log, args, per_sample=False):
                     remove_heading_offset=args.heading_offset, per_sample=per_sample)
 
 
+def _estimate(cls, S, chunk=1 << 16):
+    """catalogue.estimate(cls, S), block by block (the adapters' temporaries
+    stay small for long logs); the same values."""
+    from .catalogue import estimate
+    if len(S) <= chunk:
+        return estimate(cls, S)
+    parts = [estimate(cls, S[k:k + chunk]) for k in range(0, len(S), chunk)]
+    if parts[0] is None:
+        return None
+    e = parts[0]
+    if e.angle is not None:
+        e.angle = np.concatenate([p.angle for p in parts])
+    else:
+        e.q = np.concatenate([p.q for p in parts])
+    return e
+
+
 def _euler_deg(q, chunk=65536):
     """(N, 3) roll, pitch, yaw in degrees, computed in chunks (bounded memory)."""
     from .rotations import quat_to_euler
@@ -417,7 +434,7 @@ def _parser_demo(sub):
 
 def _run(args):
     from . import io
-    from .catalogue import estimate, reference_class, why_no_estimate
+    from .catalogue import reference_class, why_no_estimate
     from . import preprocess
     check_outputs([args.log], [("-o", args.output), ("--plot", args.plot)])
     if preprocess.is_fusion(args.filter):  # Fusion's units and dt per sample
@@ -433,7 +450,7 @@ def _run(args):
     cols = {"time": log.t}
     for j, n in enumerate(cls.state_names):
         cols[n] = S[:, j]
-    est = estimate(cls, S)
+    est = _estimate(cls, S)
     if est is None:
         _err(f"note: {why_no_estimate(cls)}; writing the state only")
     elif est.angle is not None:
@@ -523,7 +540,7 @@ def _default_filters(log):
 
 
 def _compare(args):
-    from .catalogue import FilterError, estimate, reference_class, why_no_estimate
+    from .catalogue import FilterError, reference_class, why_no_estimate
     from .io import LogError
     from .rotations import quat_to_euler
     names = _names(args.filters)
@@ -551,7 +568,8 @@ def _compare(args):
         t0 = time.perf_counter()
         S = r.run(inputs)
         sps = len(log) / max(time.perf_counter() - t0, 1e-9)
-        est = estimate(cls, S)
+        est = _estimate(cls, S)
+        del S
         note = why_no_estimate(cls) if est is None else est.source
         if r.notes:
             note += "; " + "; ".join(r.notes)
@@ -721,7 +739,7 @@ def _grid_spec(text, default):
 def _tune(args):
     import concurrent.futures as cf
     import itertools
-    from .catalogue import FilterError, estimate, reference_class, resolve_params
+    from .catalogue import FilterError, reference_class, resolve_params
     from .evaluation import METRICS, mean_over_trials
     name = args.filter
     cls = reference_class(name)
@@ -758,7 +776,7 @@ def _tune(args):
         for lg, inp in zip(logs, inputs):
             r = Runner(name, lg, args, over)
             S = r.filter.run(*inp, **({} if r.dts is None else {"dt": r.dts}))
-            evs.append(_evaluate(cls, estimate(cls, S), lg, args))
+            evs.append(_evaluate(cls, _estimate(cls, S), lg, args))
         return mean_over_trials(evs)[metric], evs
 
     def search(points):
