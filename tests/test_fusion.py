@@ -253,3 +253,35 @@ def test_seed002_mapping_is_a_reflection():
     for bad in ("+X+X+Z", "XYZ", "+X+Y+W", 5):
         with pytest.raises(ValueError, match="alignment"):
             imufuse_c.axes_apply([[1.0, 2.0, 3.0]], bad)
+
+
+@pytest.mark.parametrize("target", ["m4f", "m0", "avr"])
+def test_fusion_ahrs_on_mcu(target):
+    """FusionAHRS (float32) built for the MCU and run in its emulator gives the
+    twin's state after every sample, bit for bit (the driver is bench/mcu's
+    fusion_ahrs_f32 case, whose cycles are in docs/fusion.md)."""
+    import importlib.util
+    import sys
+    from pathlib import Path
+    import imufuse.mcu as mcu
+    root = Path(__file__).resolve().parents[1]
+    missing = mcu.ensure_toolchains([target])
+    if target in missing:
+        pytest.skip(f"toolchain for {target} unavailable: {missing[target]}")
+    spec = importlib.util.spec_from_file_location("imf_bench_mcu_registry",
+                                                  root / "bench" / "mcu" / "registry.py")
+    reg = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = reg          # its dataclasses look their module up
+    spec.loader.exec_module(reg)
+    case = reg.CASES["fusion_ahrs_f32"]
+    inputs = case.make_inputs(300)
+    res = mcu.run(target, sources=case.sources, include_dirs=case.include_dirs,
+                  driver=case.driver, inputs=inputs)
+    f = ref.FusionAHRS(gain=0.5, gyroscope_range=2000.0, acceleration_rejection=10.0,
+                       magnetic_rejection=10.0, recovery_trigger_period=500, dtype="float32")
+    want = f.run(inputs["gyr"], inputs["acc"], inputs["mag"], dt=np.float32(0.01))
+    vals = res.values()
+    got = np.column_stack([np.asarray(v, dtype=np.float64) for v in vals[:22]])
+    np.testing.assert_array_equal(got[:, 14:], want[:, 14:].astype(np.float64))
+    assert_same_bits(np.column_stack(vals[:14]).astype(np.float32), want[:, :14], None)
+    assert int(vals[22][-1]) == 0
