@@ -68,6 +68,17 @@ cdef extern from "fusion_calibration.h" nogil:
                                      imf_real *out, size_t n, int invsqrt)
 
 
+cdef inline double _dt_value(object dt) except? -1.0:
+    """dt of one update: a float >= 0 (or non-finite: the C's non-finite policy)
+    without a Python call; anything else through _fusion.check_dt_value."""
+    cdef double d
+    if type(dt) is float:
+        d = dt
+        if not d < 0.0:
+            return d
+    return _fusion.check_dt_value(dt)
+
+
 cdef int _settings_from(tuple a, imf_fusion_ahrs_settings_t *st) except -1:
     st.convention = a[0]
     st.gain = <imf_real>a[1]
@@ -131,7 +142,7 @@ cdef class FusionAHRS:
             for name, v in (("gyr", gyr), ("acc", acc), ("mag", mag)):
                 _checks.as_vec3(name, v)
             raise
-        cdef imf_real d = <imf_real>_fusion.check_dt_value(dt)
+        cdef imf_real d = <imf_real>_dt_value(dt)
         imf_fusion_ahrs_update(&self.s, g[0], g[1], g[2], a[0], a[1], a[2], m[0], m[1], m[2], d)
 
     def update_no_magnetometer(self, gyr, acc, dt):
@@ -145,7 +156,7 @@ cdef class FusionAHRS:
             for name, v in (("gyr", gyr), ("acc", acc)):
                 _checks.as_vec3(name, v)
             raise
-        cdef imf_real d = <imf_real>_fusion.check_dt_value(dt)
+        cdef imf_real d = <imf_real>_dt_value(dt)
         imf_fusion_ahrs_update_no_magnetometer(&self.s, g[0], g[1], g[2], a[0], a[1], a[2], d)
 
     def update_external_heading(self, gyr, acc, heading, dt):
@@ -160,7 +171,7 @@ cdef class FusionAHRS:
                 _checks.as_vec3(name, v)
             raise
         cdef imf_real h = <imf_real>_fusion.check_scalar("heading", heading)
-        cdef imf_real d = <imf_real>_fusion.check_dt_value(dt)
+        cdef imf_real d = <imf_real>_dt_value(dt)
         imf_fusion_ahrs_update_external_heading(&self.s, g[0], g[1], g[2], a[0], a[1], a[2], h, d)
 
     def set_heading(self, heading):
