@@ -285,3 +285,34 @@ def test_fusion_ahrs_on_mcu(target):
     np.testing.assert_array_equal(got[:, 14:], want[:, 14:].astype(np.float64))
     assert_same_bits(np.column_stack(vals[:14]).astype(np.float32), want[:, :14], None)
     assert int(vals[22][-1]) == 0
+
+
+@pytest.mark.parametrize("dtype", DTYPES)
+def test_set_settings_mid_run(dtype):
+    """FusionAhrsSetSettings at any time: both backends alike; after the ramp
+    the gain jumps to the new one, the timeouts to the new period."""
+    log = simulated_log(seed=19, n=900)
+    res = []
+    for mod in (imufuse_c, ref):
+        f = mod.FusionAHRS(**CONFIGS["short"], dtype=dtype)
+        a = f.run(log.gyr[:500], log.acc[:500], log.mag[:500], dt=log.dt[:500])
+        f.set_settings(gain=2.0, recovery_trigger_period=40, convention="NED")
+        st = f.state
+        assert st[7] == 2.0 and st[18] == 40 and st[21] == 40
+        b = f.run(log.gyr[500:], log.acc[500:], log.mag[500:], dt=log.dt[500:])
+        res.append(np.concatenate([a, b]))
+        with pytest.raises(ValueError, match="gain"):
+            f.set_settings(gain=-1.0)
+    assert_same_bits(res[0], res[1], _fusion.AHRS_STATE_NAMES)
+
+
+@pytest.mark.parametrize("convention,up", [("NWU", 1.0), ("ENU", 1.0), ("NED", -1.0)])
+def test_gravity_output_at_rest(convention, up):
+    """gravity is what the accelerometer reads at rest, per convention."""
+    acc = np.tile([0.0, 0.0, up], (2000, 1))
+    f = imufuse_c.FusionAHRS(convention=convention)
+    s = f.run(np.zeros((2000, 3)), acc, dt=0.01)
+    out = f.outputs_batch(s[-1:])
+    np.testing.assert_allclose(out["gravity"][0], [0.0, 0.0, up], atol=1e-9)
+    np.testing.assert_allclose(out["linear_acceleration"][0], 0.0, atol=1e-9)
+    np.testing.assert_allclose(out["earth_acceleration"][0], 0.0, atol=1e-9)

@@ -25,7 +25,8 @@ FILTERS_FUSION = ("FusionAHRS", "FusionOffset")
 NWU, ENU, NED = 0, 1, 2
 INVSQRT_EXACT, INVSQRT_FAST = 0, 1
 
-_libm = ctypes.CDLL(ctypes.util.find_library("m"))
+# the C library math functions (None: those already linked into the interpreter)
+_libm = ctypes.CDLL(ctypes.util.find_library("m") or None)
 for _name, _nargs in (("sinf", 1), ("cosf", 1), ("atan2f", 2), ("asinf", 1)):
     _fn = getattr(_libm, _name)
     _fn.restype = ctypes.c_float
