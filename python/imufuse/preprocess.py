@@ -139,4 +139,13 @@ def run_fusion(args, log, params):
                f"{len(log)} samples from {src}, gyroscope in deg/s, dt per sample")
     if f.skipped:
         summary += f"; {f.skipped} samples skipped (non-finite)"
+    if log.q_ref is not None and params.get("convention", "NWU").upper() == "NWU":
+        # the log's reference is imufuse's NWU body -> earth quaternion, as FusionAHRS's
+        from .demo import errors_3d
+        from .estimate import Estimate
+        q = np.asarray(S[:, :4], dtype=np.float64)
+        est = Estimate(q=q, heading=log.has(*io.MAG), source="q0..q3")
+        errs = errors_3d(est, log.q_ref, np.ones(len(log), dtype=bool))
+        summary += "; against the log's reference q: " + ", ".join(
+            f"{k} RMS {v[0]:.3f} max {v[1]:.3f} deg" for k, v in errs.items())
     return cols, summary, set(f.state_names) if args.dtype == "float32" else set()
