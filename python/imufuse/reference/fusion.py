@@ -57,7 +57,8 @@ class _Ops:
             self.real_max = F64_MAX
         self.R = R
         self.pi = R(math.pi)
-        self.fabs = abs
+        # imf_fusion_fabs: x < 0 ? -x : x (used in threshold comparisons only)
+        self.fabs = lambda x: -x if x < R(0.0) else x
 
 
 # ---- fusion_math.h ------------------------------------------------------------
@@ -191,11 +192,12 @@ INITIALISATION_PERIOD = 3.0
 
 
 class FusionAHRS:
-    """x-io Fusion's AHRS (seed 004, imufusion 1.2.3), bit-exact with it in float32.
+    """x-io Fusion's AHRS in FUSION'S UNITS: gyroscope deg/s (not rad/s), accelerometer g, dt per update.
 
-    UNITS ARE FUSION'S, not imufuse's: gyroscope in degrees per second,
-    accelerometer in g, magnetometer in any unit, dt in seconds given with
-    every update, angles (rejection thresholds, heading, Euler) in degrees.
+    Seed 004 / imufusion 1.2.3, bit-exact with it in float32. Units in full:
+    gyroscope in degrees per second, accelerometer in g, magnetometer in any
+    unit, dt in seconds given with every update, angles (rejection thresholds,
+    heading, Euler) in degrees.
 
     Settings (Fusion's defaults): convention "NWU" | "ENU" | "NED" ("NWU"),
     gain (0.5), gyroscope_range in deg/s (0: no overrange detection),
@@ -677,10 +679,10 @@ class FusionAHRS:
 # ---- fusion_offset.c ----------------------------------------------------------
 
 class FusionOffset:
-    """x-io Fusion's gyroscope offset estimator (seed 004, imufusion 1.2.3).
+    """x-io Fusion's gyroscope offset estimator in FUSION'S UNITS: gyroscope deg/s, sample_rate Hz.
 
-    UNITS ARE FUSION'S: gyroscope in degrees per second; sample_rate in Hz
-    (one update per sample). After 5 s with every corrected axis within
+    Seed 004 / imufusion 1.2.3, bit-exact with it in float32; one update per
+    sample. After 5 s with every corrected axis within
     3 deg/s the offset follows the gyroscope through a 0.02 Hz low-pass.
     update(gyr) returns the corrected gyroscope; run(gyr) returns
     (corrected (N, 3), state (N, 4)).
@@ -720,7 +722,8 @@ class FusionOffset:
             self.skipped = (self.skipped + 1) & 0xFFFFFFFF
             return out
         # moving: start the rest timer again
-        if fabs(wx) > 3.0 or fabs(wy) > 3.0 or fabs(wz) > 3.0:
+        threshold = self._o.R(3.0)
+        if fabs(wx) > threshold or fabs(wy) > threshold or fabs(wz) > threshold:
             self.timer = 0
             return out
         # at rest, but not yet for the timeout
