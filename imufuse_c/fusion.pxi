@@ -329,9 +329,9 @@ cdef class FusionOffset:
 def fusion_calibrate_inertial(x, M, s, b):
     arr = np.ascontiguousarray(np.atleast_2d(np.asarray(x, dtype=DTYPE)))
     (arr,) = _checks.as_nx3(DTYPE, x=arr)
-    mm = np.ascontiguousarray(np.asarray(M, dtype=DTYPE).reshape(9))
-    ss = np.ascontiguousarray(np.asarray(s, dtype=DTYPE).reshape(3))
-    bb = np.ascontiguousarray(np.asarray(b, dtype=DTYPE).reshape(3))
+    mm = _fusion.model_param("M", M, (3, 3), DTYPE)
+    ss = _fusion.model_param("s", s, (3,), DTYPE)
+    bb = _fusion.model_param("b", b, (3,), DTYPE)
     out = np.empty_like(arr)
     cdef const imf_real[:, ::1] i = arr
     cdef imf_real[:, ::1] o = out
@@ -347,8 +347,8 @@ def fusion_calibrate_inertial(x, M, s, b):
 
 def fusion_calibrate_magnetic(x, S, h):
     (arr,) = _checks.as_nx3(DTYPE, x=np.atleast_2d(x))
-    mm = np.ascontiguousarray(np.asarray(S, dtype=DTYPE).reshape(9))
-    hh = np.ascontiguousarray(np.asarray(h, dtype=DTYPE).reshape(3))
+    mm = _fusion.model_param("S", S, (3, 3), DTYPE)
+    hh = _fusion.model_param("h", h, (3,), DTYPE)
     out = np.empty_like(arr)
     cdef const imf_real[:, ::1] i = arr
     cdef imf_real[:, ::1] o = out

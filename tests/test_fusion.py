@@ -138,6 +138,13 @@ def test_bad_inputs(backend):
         f.run(g, g, g, dt=0.01, heading=np.zeros(5))
     with pytest.raises(ValueError, match="sample_rate"):
         backend.FusionOffset(0)
+    bad = np.zeros((2, 22))
+    bad[:, 0] = 1.0
+    bad[1, 17] = 1e20
+    with pytest.raises(ValueError, match="integral"):
+        f.outputs_batch(bad)
+    with pytest.raises(ValueError, match="states"):
+        f.outputs_batch(bad[:, :5])
 
 
 @pytest.mark.parametrize("dtype", DTYPES)
@@ -316,3 +323,16 @@ def test_gravity_output_at_rest(convention, up):
     np.testing.assert_allclose(out["gravity"][0], [0.0, 0.0, up], atol=1e-9)
     np.testing.assert_allclose(out["linear_acceleration"][0], 0.0, atol=1e-9)
     np.testing.assert_allclose(out["earth_acceleration"][0], 0.0, atol=1e-9)
+
+
+@pytest.mark.parametrize("mod", [imufuse_c, ref.fusion])
+def test_model_parameter_errors(mod):
+    x = np.zeros((4, 3))
+    with pytest.raises(ValueError, match=r"M: expected shape \(3, 3\)"):
+        mod.calibrate_inertial(x, np.eye(2), [1, 1, 1], [0, 0, 0])
+    with pytest.raises(ValueError, match="s: must be finite"):
+        mod.calibrate_inertial(x, np.eye(3), [1, np.nan, 1], [0, 0, 0])
+    with pytest.raises(ValueError, match=r"h: expected shape \(3,\)"):
+        mod.calibrate_magnetic(x, np.eye(3), [0, 0])
+    with pytest.raises(ValueError, match="shapes"):
+        mod.calibrate_magnetic(np.zeros((4, 2)), np.eye(3), [0, 0, 0])

@@ -781,9 +781,9 @@ def _rows(dtype, name, x):
 def calibrate_inertial(x, M, s, b, dtype="float64"):
     """i_c = M ((i_u - b) .* s) for each row of x (N, 3)."""
     R = _Ops(dtype).R
-    m = [R(v) for v in np.asarray(M, dtype=dtype).reshape(9)]
-    sens = tuple(R(v) for v in np.asarray(s, dtype=dtype).reshape(3))
-    off = tuple(R(v) for v in np.asarray(b, dtype=dtype).reshape(3))
+    m = [R(v) for v in _fusion.model_param("M", M, (3, 3), dtype)]
+    sens = tuple(R(v) for v in _fusion.model_param("s", s, (3,), dtype))
+    off = tuple(R(v) for v in _fusion.model_param("b", b, (3,), dtype))
     arr = _rows(dtype, "x", x)
     out = np.empty_like(arr)
     rows = arr.tolist() if dtype == "float64" else [tuple(r) for r in arr]
@@ -796,8 +796,8 @@ def calibrate_inertial(x, M, s, b, dtype="float64"):
 def calibrate_magnetic(x, S, h, dtype="float64"):
     """m_c = S (m_u - h) for each row of x (N, 3)."""
     R = _Ops(dtype).R
-    m = [R(v) for v in np.asarray(S, dtype=dtype).reshape(9)]
-    hard = tuple(R(v) for v in np.asarray(h, dtype=dtype).reshape(3))
+    m = [R(v) for v in _fusion.model_param("S", S, (3, 3), dtype)]
+    hard = tuple(R(v) for v in _fusion.model_param("h", h, (3,), dtype))
     arr = _rows(dtype, "x", x)
     out = np.empty_like(arr)
     rows = arr.tolist() if dtype == "float64" else [tuple(r) for r in arr]
