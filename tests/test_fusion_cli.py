@@ -137,3 +137,12 @@ def test_run_fusion_reports_errors_against_reference(tmp_path, capsys):
     assert m, err
     # gain 0.5 leaves the simulated 0.7 deg/s gyroscope bias partly in the tilt
     assert float(m.group(1)) < 3.0 and float(m.group(3)) < 3.0
+
+
+
+def test_fusion_names_in_other_commands(log_path, tmp_path, capsys):
+    assert cli.main(["compare", str(log_path), "--filter", "FusionAHRS"]) == 2
+    assert "imufuse run LOG --filter FusionAHRS" in capsys.readouterr().err
+    assert cli.main(["run", str(log_path), "--filter", "FusionOffset",
+                     "-o", str(tmp_path / "x.csv")]) == 2
+    assert "--offset" in capsys.readouterr().err

@@ -149,3 +149,13 @@ def run_fusion(args, log, params):
         summary += "; against the log's reference q: " + ", ".join(
             f"{k} RMS {v[0]:.3f} max {v[1]:.3f} deg" for k, v in errs.items())
     return cols, summary, set(f.state_names) if args.dtype == "float32" else set()
+
+
+def fusion_hint(name, command):
+    """A usage message for a Fusion-suite name a command cannot take, else None."""
+    if name == "FusionOffset":
+        return "FusionOffset is the --offset option (in front of any filter), not a filter"
+    if name == "FusionAHRS" and command != "run":
+        return (f"FusionAHRS is not available in `imufuse {command}` (Fusion's units and dt "
+                "per sample); use `imufuse run LOG --filter FusionAHRS`")
+    return None
