@@ -28,7 +28,7 @@ typedef double imf_real;
 typedef float imf_real;
 #define IMF_R(x) (x##f)
 #define imf_sqrt(x) sqrtf(x)
-#define imf_fabs(x) fabsf(x)
+#define imf_fabs(x) ((float)fabsf(x)) /* avr-libc: fabsf is fabs, double is 32 bits */
 #define IMF_REAL_MIN FLT_MIN
 #define IMF_REAL_MAX FLT_MAX
 #endif
