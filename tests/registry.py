@@ -133,3 +133,19 @@ FIXED_CASES = [
 def fixed_matrix():
     """(case, profile) pairs for every fixed-point filter configuration."""
     return [pytest.param(c, p, id=f"{c.id}-q{p}") for c in FIXED_CASES for p in PROFILES]
+
+
+# ---- seed 002's variometer (csrc/vario.c): update(accel, baro_alt, dt) ------
+# Its own input kind ("vario"), so it has its own matrix (tests/test_vario.py).
+CASES_VARIO = [
+    Case("VarioKF", {}, "seed_defaults"),
+    Case("VarioKF", dict(predict="model"), "model"),
+    Case("VarioKF", dict(var_z=150.0, var_acc=5000.0, var_bias=0.01, p0=(10.0, 100.0, 1e3),
+                         z0=12345.0, v0=20.0, b0=-3.0, predict="model"), "tuned"),
+    Case("VarioKF", dict(var_z=1.0, var_acc=0.0, var_bias=0.0, p0=(0.0, 0.0, 0.0)), "zero_noise"),
+]
+
+
+def vario_matrix():
+    """(case, dtype) pairs for every variometer configuration."""
+    return [pytest.param(c, dt, id=f"{c.id}-{dt}") for c in CASES_VARIO for dt in DTYPES]

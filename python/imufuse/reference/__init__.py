@@ -19,6 +19,14 @@ for _fam in _FAMILIES:
 
 __all__ = ["ReferenceFilter", "FILTERS", "tuning", *FILTERS]
 
+# ---- seed 002's variometer (csrc/vario.c): update(accel, baro_alt, dt)
+from . import vario  # noqa: E402
+from .vario import VarioKF, vertical_accel  # noqa: E402
+
+#: filters of their own input kind, outside the IMU/1-D matrix
+FILTERS_VARIO = vario.FILTERS
+__all__ += [*FILTERS_VARIO, "FILTERS_VARIO", "vertical_accel"]
+
 # ---- fixed point (csrc/fixed): int16 counts in, int32 state, profile "32" | "8"
 from .fixed_1d import Complementary1DQ, Mahony1DBiasQ  # noqa: E402
 from .fixed_gravity import KKQ, MultiWiiQ  # noqa: E402
