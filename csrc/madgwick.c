@@ -15,6 +15,8 @@ static void madgwick_init(imf_madgwick_settings_t *const set, uint32_t *const sk
     set->delta_s = delta_s == IMF_MADGWICK_DS_SIMPLIFIED ? IMF_MADGWICK_DS_SIMPLIFIED
                                                          : IMF_MADGWICK_DS_FULL;
     set->invsqrt = invsqrt == IMF_INVSQRT_FAST ? IMF_INVSQRT_FAST : IMF_INVSQRT_EXACT;
+    imf_acc_gate_set(&set->acc_gate, &set->acc_lo2, &set->acc_hi2, IMF_R(-1.0), IMF_R(0.0),
+                     IMF_R(0.0));
     *skipped = 0;
     x->q0 = IMF_R(1.0);
     x->q1 = IMF_R(0.0);
@@ -33,6 +35,20 @@ void imf_madgwick_ahrs_init(imf_madgwick_ahrs_t *const self, const imf_real dt,
 {
     madgwick_init(&self->set, &self->skipped, &self->x, dt, beta, IMF_MADGWICK_DS_FULL,
                   invsqrt);
+}
+
+void imf_madgwick_imu_set_acc_gate(imf_madgwick_imu_t *const self, const imf_real lo,
+                                   const imf_real hi, const imf_real one_g)
+{
+    imf_acc_gate_set(&self->set.acc_gate, &self->set.acc_lo2, &self->set.acc_hi2, lo, hi,
+                     one_g);
+}
+
+void imf_madgwick_ahrs_set_acc_gate(imf_madgwick_ahrs_t *const self, const imf_real lo,
+                                    const imf_real hi, const imf_real one_g)
+{
+    imf_acc_gate_set(&self->set.acc_gate, &self->set.acc_lo2, &self->set.acc_hi2, lo, hi,
+                     one_g);
 }
 
 /* Step 3: dq = 1/2 q (x) omega */
@@ -174,7 +190,8 @@ static void madgwick_imu_step(const imf_madgwick_settings_t *const set,
 {
     imf_real dq[4], s[4];
     madgwick_rate(x, gx, gy, gz, dq);
-    if (!imf_is_zero3(ax, ay, az)) {
+    if (!imf_is_zero3(ax, ay, az)
+        && imf_acc_gate_pass(set->acc_gate, set->acc_lo2, set->acc_hi2, ax, ay, az)) {
         /* Step 2: normalise a */
         imf_normalise3(&ax, &ay, &az, set->invsqrt);
         if (set->delta_s == IMF_MADGWICK_DS_SIMPLIFIED) {
@@ -199,7 +216,8 @@ static void madgwick_ahrs_step(const imf_madgwick_settings_t *const set,
         return;
     }
     madgwick_rate(x, gx, gy, gz, dq);
-    if (!imf_is_zero3(ax, ay, az)) {
+    if (!imf_is_zero3(ax, ay, az)
+        && imf_acc_gate_pass(set->acc_gate, set->acc_lo2, set->acc_hi2, ax, ay, az)) {
         imf_normalise3(&ax, &ay, &az, set->invsqrt);
         imf_normalise3(&mx, &my, &mz, set->invsqrt);
         madgwick_ds_ahrs(x, ax, ay, az, mx, my, mz, s);

@@ -18,6 +18,11 @@
  *                               ds = 4 (q1^2 + q2^2) q + 2 (...).
  * The AHRS update always uses the full (published) form.
  *
+ * Accelerometer gate (seed 002, off after init): with
+ * imf_madgwick_*_set_acc_gate the correction runs only while the squared
+ * accelerometer magnitude is within [(lo 1g)^2, (hi 1g)^2]; outside, the
+ * update integrates the gyro only.
+ *
  * Guards (published behaviour): an all-zero accelerometer skips the
  * correction (gyro integration only); an all-zero magnetometer makes the
  * AHRS update the IMU update. Non-finite policy: see imf_math.h.
@@ -28,6 +33,7 @@
 #include <stdint.h>
 #include "imf_config.h"
 #include "imf_math.h"
+#include "imf_gate.h"
 
 enum { IMF_MADGWICK_DS_FULL = 0, IMF_MADGWICK_DS_SIMPLIFIED = 1 };
 
@@ -41,6 +47,8 @@ typedef struct {
     imf_real beta; /* gradient step gain, rad/s */
     int delta_s;   /* IMF_MADGWICK_DS_FULL or IMF_MADGWICK_DS_SIMPLIFIED */
     int invsqrt;   /* IMF_INVSQRT_EXACT or IMF_INVSQRT_FAST */
+    int acc_gate;  /* nonzero: correct only when acc_lo2 <= |a|^2 <= acc_hi2 */
+    imf_real acc_lo2, acc_hi2; /* squared gate bounds, accelerometer unit^2 */
 } imf_madgwick_settings_t;
 
 typedef struct {
@@ -66,6 +74,13 @@ void imf_madgwick_imu_update(imf_madgwick_imu_t *self, imf_real gx, imf_real gy,
                              imf_real ax, imf_real ay, imf_real az);
 
 void imf_madgwick_ahrs_init(imf_madgwick_ahrs_t *self, imf_real dt, imf_real beta, int invsqrt);
+/* Accelerometer gate (seed 002: lo 0.6, hi 1.4): lo, hi in units of 1 g,
+   one_g: 1 g in the accelerometer's unit. */
+void imf_madgwick_imu_set_acc_gate(imf_madgwick_imu_t *self, imf_real lo, imf_real hi,
+                                   imf_real one_g);
+void imf_madgwick_ahrs_set_acc_gate(imf_madgwick_ahrs_t *self, imf_real lo, imf_real hi,
+                                    imf_real one_g);
+
 /* gx, gy, gz: rad/s; ax, ay, az and mx, my, mz: any unit (normalised) */
 void imf_madgwick_ahrs_update(imf_madgwick_ahrs_t *self, imf_real gx, imf_real gy, imf_real gz,
                               imf_real ax, imf_real ay, imf_real az,

@@ -20,6 +20,8 @@ static void mahony_init(imf_mahony_settings_t *const set, uint32_t *const skippe
     set->two_kp = IMF_R(2.0) * kp;
     set->two_ki = IMF_R(2.0) * ki;
     set->invsqrt = invsqrt == IMF_INVSQRT_FAST ? IMF_INVSQRT_FAST : IMF_INVSQRT_EXACT;
+    imf_acc_gate_set(&set->acc_gate, &set->acc_lo2, &set->acc_hi2, IMF_R(-1.0), IMF_R(0.0),
+                     IMF_R(0.0));
     *skipped = 0;
     x->q0 = IMF_R(1.0);
     x->q1 = IMF_R(0.0);
@@ -40,6 +42,20 @@ void imf_mahony_ahrs_init(imf_mahony_ahrs_t *const self, const imf_real dt, cons
                           const imf_real ki, const int invsqrt)
 {
     mahony_init(&self->set, &self->skipped, &self->x, dt, kp, ki, invsqrt);
+}
+
+void imf_mahony_imu_set_acc_gate(imf_mahony_imu_t *const self, const imf_real lo,
+                                 const imf_real hi, const imf_real one_g)
+{
+    imf_acc_gate_set(&self->set.acc_gate, &self->set.acc_lo2, &self->set.acc_hi2, lo, hi,
+                     one_g);
+}
+
+void imf_mahony_ahrs_set_acc_gate(imf_mahony_ahrs_t *const self, const imf_real lo,
+                                  const imf_real hi, const imf_real one_g)
+{
+    imf_acc_gate_set(&self->set.acc_gate, &self->set.acc_lo2, &self->set.acc_hi2, lo, hi,
+                     one_g);
 }
 
 /* Steps 5 and 6: the PI controller on the half error (ex, ey, ez) = e/2,
@@ -87,7 +103,8 @@ static void mahony_imu_step(const imf_mahony_settings_t *const set, imf_mahony_s
                             imf_real gx, imf_real gy, imf_real gz,
                             imf_real ax, imf_real ay, imf_real az)
 {
-    if (!imf_is_zero3(ax, ay, az)) {
+    if (!imf_is_zero3(ax, ay, az)
+        && imf_acc_gate_pass(set->acc_gate, set->acc_lo2, set->acc_hi2, ax, ay, az)) {
         imf_real vx, vy, vz, ex, ey, ez;
         /* Step 2: normalise a */
         imf_normalise3(&ax, &ay, &az, set->invsqrt);
@@ -114,7 +131,8 @@ static void mahony_ahrs_step(const imf_mahony_settings_t *const set, imf_mahony_
         mahony_imu_step(set, x, gx, gy, gz, ax, ay, az);
         return;
     }
-    if (!imf_is_zero3(ax, ay, az)) {
+    if (!imf_is_zero3(ax, ay, az)
+        && imf_acc_gate_pass(set->acc_gate, set->acc_lo2, set->acc_hi2, ax, ay, az)) {
         imf_real q0q0, q0q1, q0q2, q0q3, q1q1, q1q2, q1q3, q2q2, q2q3, q3q3;
         imf_real hx, hy, bx, bz, vx, vy, vz, wx, wy, wz, ex, ey, ez;
         /* Step 2: normalise a and m */

@@ -33,6 +33,7 @@
 #include <stdint.h>
 #include "imf_config.h"
 #include "imf_math.h"
+#include "imf_gate.h"
 
 typedef struct {
     imf_real q0, q1, q2, q3; /* attitude quaternion, sensor -> earth, w first */
@@ -46,6 +47,8 @@ typedef struct {
     imf_real two_kp;  /* 2 Kp, multiplies the half error vector, 1/s */
     imf_real two_ki;  /* 2 Ki, 1/s^2 */
     int invsqrt;      /* IMF_INVSQRT_EXACT or IMF_INVSQRT_FAST */
+    int acc_gate;     /* nonzero: correct only when acc_lo2 <= |a|^2 <= acc_hi2 */
+    imf_real acc_lo2, acc_hi2; /* squared gate bounds, accelerometer unit^2 */
 } imf_mahony_settings_t;
 
 typedef struct {
@@ -73,6 +76,14 @@ void imf_mahony_imu_update(imf_mahony_imu_t *self, imf_real gx, imf_real gy, imf
 void imf_mahony_ahrs_init(imf_mahony_ahrs_t *self, imf_real dt, imf_real kp, imf_real ki,
                           int invsqrt);
 /* gx, gy, gz: rad/s; ax, ay, az and mx, my, mz: any unit (normalised) */
+/* Accelerometer gate (seed 002: lo 0.6, hi 1.4), off after init: lo, hi in
+   units of 1 g, one_g: 1 g in the accelerometer's unit. Outside the gate the
+   update integrates the gyro only (no proportional or integral feedback). */
+void imf_mahony_imu_set_acc_gate(imf_mahony_imu_t *self, imf_real lo, imf_real hi,
+                                 imf_real one_g);
+void imf_mahony_ahrs_set_acc_gate(imf_mahony_ahrs_t *self, imf_real lo, imf_real hi,
+                                  imf_real one_g);
+
 void imf_mahony_ahrs_update(imf_mahony_ahrs_t *self, imf_real gx, imf_real gy, imf_real gz,
                             imf_real ax, imf_real ay, imf_real az,
                             imf_real mx, imf_real my, imf_real mz);

@@ -14,6 +14,10 @@ cdef extern from "madgwick.h" nogil:
                                  imf_real gz, imf_real ax, imf_real ay, imf_real az)
     void imf_madgwick_ahrs_init(imf_madgwick_ahrs_t *self, imf_real dt, imf_real beta,
                                 int invsqrt)
+    void imf_madgwick_imu_set_acc_gate(imf_madgwick_imu_t *self, imf_real lo, imf_real hi,
+                                       imf_real one_g)
+    void imf_madgwick_ahrs_set_acc_gate(imf_madgwick_ahrs_t *self, imf_real lo, imf_real hi,
+                                        imf_real one_g)
     void imf_madgwick_ahrs_update(imf_madgwick_ahrs_t *self, imf_real gx, imf_real gy,
                                   imf_real gz, imf_real ax, imf_real ay, imf_real az,
                                   imf_real mx, imf_real my, imf_real mz)
@@ -26,6 +30,8 @@ cdef class MadgwickIMU(_FilterIMU):
     cdef int _init(self) except -1:
         a = self._args
         imf_madgwick_imu_init(&self.s, a[0], a[1], a[2], a[3])
+        if a[4] >= 0.0:  # seed 002's accelerometer gate
+            imf_madgwick_imu_set_acc_gate(&self.s, a[4], a[5], a[6])
         return self._bind(&self.s.x, sizeof(self.s.x), &self.s.skipped)
 
     cdef void _step(self, const imf_real *gyr, const imf_real *acc) noexcept nogil:
@@ -39,6 +45,8 @@ cdef class MadgwickAHRS(_FilterAHRS):
     cdef int _init(self) except -1:
         a = self._args
         imf_madgwick_ahrs_init(&self.s, a[0], a[1], a[2])
+        if a[3] >= 0.0:  # seed 002's accelerometer gate
+            imf_madgwick_ahrs_set_acc_gate(&self.s, a[3], a[4], a[5])
         return self._bind(&self.s.x, sizeof(self.s.x), &self.s.skipped)
 
     cdef void _step(self, const imf_real *gyr, const imf_real *acc,

@@ -72,6 +72,15 @@ CASES_QUATERNION = [
          "simplified_fast"),
     Case("MadgwickAHRS", dict(dt=0.01, beta=0.1)),
     Case("MadgwickAHRS", dict(dt=1 / 512, beta=0.1, invsqrt="fast"), "published"),
+    # seed 002: the accelerometer-magnitude gate (gyro only outside lo..hi g)
+    Case("MahonyIMU", dict(dt=0.005, kp=1.0, ki=0.3, acc_gate=(0.6, 1.4)), "gate"),
+    Case("MahonyAHRS", dict(dt=0.005, kp=1.0, ki=0.3, acc_gate=(0.9, 1.1), acc_1g=9.81,
+                            invsqrt="fast"), "gate_ms2"),
+    Case("MadgwickIMU", dict(dt=0.005, beta=0.1, acc_gate=(0.6, 1.4)), "gate"),
+    Case("MadgwickIMU", dict(dt=0.005, beta=0.1, delta_s="simplified", acc_gate=(0.0, 1.05)),
+         "gate_simplified"),
+    Case("MadgwickAHRS", dict(dt=0.005, beta=0.1, acc_gate=(0.6, 1.4), invsqrt="fast"),
+         "gate"),
 ]
 
 # ---- gravity-vector and DCM filters: csrc/multiwii.c, kk.c, mahony2d.c, dcm.c

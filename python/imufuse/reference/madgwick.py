@@ -6,7 +6,7 @@ appendix step 4 with the published intermediates and order; "simplified" is
 the article's simplified corrective step for a unit quaternion.
 """
 from .. import _checks
-from . import _math
+from . import _gate, _math
 from ._base import ReferenceFilter, isfinite
 
 FILTERS = ("MadgwickIMU", "MadgwickAHRS")
@@ -122,8 +122,12 @@ def ds_ahrs(R, q, ax, ay, az, mx, my, mz):
 class _Madgwick(ReferenceFilter):
     state_names = ("q0", "q1", "q2", "q3")
 
-    def _init(self, dt, beta, delta_s, invsqrt):
+    def _init(self, dt, beta, delta_s, invsqrt, gate_lo=-1.0, gate_hi=0.0, one_g=0.0):
         R = self._R
+        # init leaves the gate off; imf_madgwick_*_set_acc_gate turns it on
+        self.acc_gate = _gate.set(R, *_gate.OFF)
+        if gate_lo >= 0.0:
+            self.acc_gate = _gate.set(R, gate_lo, gate_hi, one_g)
         self.dt = R(dt)
         self.beta = R(beta)
         self.delta_s = DS_SIMPLIFIED if delta_s == DS_SIMPLIFIED else DS_FULL
@@ -149,7 +153,7 @@ class _Madgwick(ReferenceFilter):
     def _imu_step(self, q, gx, gy, gz, ax, ay, az):
         R = self._R
         dq = rate(R, q, gx, gy, gz)
-        if not _math.is_zero3(R, ax, ay, az):
+        if not _math.is_zero3(R, ax, ay, az) and _gate.passes(R, self.acc_gate, ax, ay, az):
             # Step 2: normalise a
             ax, ay, az = _math.normalise3(R, ax, ay, az, self.invsqrt)
             if self.delta_s == DS_SIMPLIFIED:
@@ -165,7 +169,7 @@ class _Madgwick(ReferenceFilter):
             # no magnetometer reading: the IMU update
             return self._imu_step(q, gx, gy, gz, ax, ay, az)
         dq = rate(R, q, gx, gy, gz)
-        if not _math.is_zero3(R, ax, ay, az):
+        if not _math.is_zero3(R, ax, ay, az) and _gate.passes(R, self.acc_gate, ax, ay, az):
             ax, ay, az = _math.normalise3(R, ax, ay, az, self.invsqrt)
             mx, my, mz = _math.normalise3(R, mx, my, mz, self.invsqrt)
             s = ds_ahrs(R, q, ax, ay, az, mx, my, mz)
@@ -194,12 +198,13 @@ class MadgwickIMU(_Madgwick):
     c_name = "imf_madgwick_imu"
 
     @staticmethod
-    def _params(dt, beta=0.1, delta_s="full", *, invsqrt="exact"):
+    def _params(dt, beta=0.1, delta_s="full", *, invsqrt="exact", acc_gate=None, acc_1g=1.0):
         dt = _checks.check_dt(dt)
         beta = _checks.check_real("beta", beta, lo=0.0)
         _checks.check_choice("delta_s", delta_s, tuple(DELTA_S))
         _checks.check_choice("invsqrt", invsqrt, tuple(_math.INVSQRT))
-        return (dt, beta, DELTA_S[delta_s], _math.INVSQRT[invsqrt])
+        return (dt, beta, DELTA_S[delta_s], _math.INVSQRT[invsqrt],
+                *_gate.check(acc_gate, acc_1g))
 
     def _update(self, gx, gy, gz, ax, ay, az):
         if not isfinite(gx, gy, gz, ax, ay, az):
@@ -219,15 +224,15 @@ class MadgwickAHRS(_Madgwick):
     c_name = "imf_madgwick_ahrs"
 
     @staticmethod
-    def _params(dt, beta=0.1, *, invsqrt="exact"):
+    def _params(dt, beta=0.1, *, invsqrt="exact", acc_gate=None, acc_1g=1.0):
         dt = _checks.check_dt(dt)
         beta = _checks.check_real("beta", beta, lo=0.0)
         _checks.check_choice("invsqrt", invsqrt, tuple(_math.INVSQRT))
-        return (dt, beta, _math.INVSQRT[invsqrt])
+        return (dt, beta, _math.INVSQRT[invsqrt], *_gate.check(acc_gate, acc_1g))
 
-    def _init(self, dt, beta, invsqrt):
+    def _init(self, dt, beta, invsqrt, *gate):
         # imf_madgwick_ahrs_init: the IMU settings with the full ds
-        super()._init(dt, beta, DS_FULL, invsqrt)
+        super()._init(dt, beta, DS_FULL, invsqrt, *gate)
 
     def _update(self, gx, gy, gz, ax, ay, az, mx, my, mz):
         if not isfinite(gx, gy, gz, ax, ay, az, mx, my, mz):

@@ -9,7 +9,7 @@ Its defaults twoKp = 2 * 0.5, twoKi = 2 * 0 are kp = 0.5, ki = 0 (our
 defaults).
 """
 from .. import _checks
-from . import _math
+from . import _gate, _math
 from ._base import ReferenceFilter, isfinite
 
 FILTERS = ("MahonyIMU", "MahonyAHRS")
@@ -19,15 +19,19 @@ class _Mahony(ReferenceFilter):
     state_names = ("q0", "q1", "q2", "q3", "ix", "iy", "iz")
 
     @staticmethod
-    def _params(dt, kp=0.5, ki=0.0, *, invsqrt="exact"):
+    def _params(dt, kp=0.5, ki=0.0, *, invsqrt="exact", acc_gate=None, acc_1g=1.0):
         dt = _checks.check_dt(dt)
         kp = _checks.check_real("kp", kp, lo=0.0)
         ki = _checks.check_real("ki", ki, lo=0.0)
         _checks.check_choice("invsqrt", invsqrt, tuple(_math.INVSQRT))
-        return (dt, kp, ki, _math.INVSQRT[invsqrt])
+        return (dt, kp, ki, _math.INVSQRT[invsqrt], *_gate.check(acc_gate, acc_1g))
 
-    def _init(self, dt, kp, ki, invsqrt):
+    def _init(self, dt, kp, ki, invsqrt, gate_lo=-1.0, gate_hi=0.0, one_g=0.0):
         R = self._R
+        # init leaves the gate off; imf_mahony_*_set_acc_gate turns it on
+        self.acc_gate = _gate.set(R, *_gate.OFF)
+        if gate_lo >= 0.0:
+            self.acc_gate = _gate.set(R, gate_lo, gate_hi, one_g)
         self.dt = R(dt)
         self.half_dt = R(0.5) * self.dt
         self.two_kp = R(2.0) * R(kp)
@@ -81,7 +85,7 @@ class _Mahony(ReferenceFilter):
 
     def _imu_step(self, q, i, gx, gy, gz, ax, ay, az):
         R = self._R
-        if not _math.is_zero3(R, ax, ay, az):
+        if not _math.is_zero3(R, ax, ay, az) and _gate.passes(R, self.acc_gate, ax, ay, az):
             q0, q1, q2, q3 = q
             # Step 2: normalise a
             ax, ay, az = _math.normalise3(R, ax, ay, az, self.invsqrt)
@@ -101,7 +105,7 @@ class _Mahony(ReferenceFilter):
         if _math.is_zero3(R, mx, my, mz):
             # no magnetometer reading: the IMU update
             return self._imu_step(q, i, gx, gy, gz, ax, ay, az)
-        if not _math.is_zero3(R, ax, ay, az):
+        if not _math.is_zero3(R, ax, ay, az) and _gate.passes(R, self.acc_gate, ax, ay, az):
             q0, q1, q2, q3 = q
             # Step 2: normalise a and m
             ax, ay, az = _math.normalise3(R, ax, ay, az, self.invsqrt)
