@@ -5,18 +5,25 @@
  */
 #include "madgwick.h"
 
+/* The settings that depend on the sample period dt (s). */
+static void madgwick_set_dt(imf_madgwick_settings_t *const set, const imf_real dt)
+{
+    set->dt = dt;
+}
+
 /* Settings and initial state shared by both filters. */
 static void madgwick_init(imf_madgwick_settings_t *const set, uint32_t *const skipped,
                           imf_madgwick_state_t *const x, const imf_real dt, const imf_real beta,
-                          const int delta_s, const int invsqrt)
+                          const int delta_s, const int invsqrt, const imf_real acc_gate_lo,
+                          const imf_real acc_gate_hi, const imf_real acc_1g)
 {
-    set->dt = dt;
+    madgwick_set_dt(set, dt);
+    imf_acc_gate_set(&set->acc_gate, &set->acc_lo2, &set->acc_hi2, acc_gate_lo, acc_gate_hi,
+                     acc_1g);
     set->beta = beta;
     set->delta_s = delta_s == IMF_MADGWICK_DS_SIMPLIFIED ? IMF_MADGWICK_DS_SIMPLIFIED
                                                          : IMF_MADGWICK_DS_FULL;
     set->invsqrt = invsqrt == IMF_INVSQRT_FAST ? IMF_INVSQRT_FAST : IMF_INVSQRT_EXACT;
-    imf_acc_gate_set(&set->acc_gate, &set->acc_lo2, &set->acc_hi2, IMF_R(-1.0), IMF_R(0.0),
-                     IMF_R(0.0));
     *skipped = 0;
     x->q0 = IMF_R(1.0);
     x->q1 = IMF_R(0.0);
@@ -25,30 +32,66 @@ static void madgwick_init(imf_madgwick_settings_t *const set, uint32_t *const sk
 }
 
 void imf_madgwick_imu_init(imf_madgwick_imu_t *const self, const imf_real dt,
-                           const imf_real beta, const int delta_s, const int invsqrt)
+                           const imf_real beta, const int delta_s, const int invsqrt,
+                           const imf_real acc_gate_lo, const imf_real acc_gate_hi,
+                           const imf_real acc_1g)
 {
-    madgwick_init(&self->set, &self->skipped, &self->x, dt, beta, delta_s, invsqrt);
+    madgwick_init(&self->set, &self->skipped, &self->x, dt, beta, delta_s, invsqrt,
+                  acc_gate_lo, acc_gate_hi, acc_1g);
 }
 
 void imf_madgwick_ahrs_init(imf_madgwick_ahrs_t *const self, const imf_real dt,
-                            const imf_real beta, const int invsqrt)
+                            const imf_real beta, const int invsqrt, const imf_real acc_gate_lo,
+                            const imf_real acc_gate_hi, const imf_real acc_1g)
 {
     madgwick_init(&self->set, &self->skipped, &self->x, dt, beta, IMF_MADGWICK_DS_FULL,
-                  invsqrt);
+                  invsqrt, acc_gate_lo, acc_gate_hi, acc_1g);
 }
 
-void imf_madgwick_imu_set_acc_gate(imf_madgwick_imu_t *const self, const imf_real lo,
-                                   const imf_real hi, const imf_real one_g)
+void imf_madgwick_imu_set_acc_gate(imf_madgwick_imu_t *const self, const imf_real acc_gate_lo,
+                                   const imf_real acc_gate_hi, const imf_real acc_1g)
 {
-    imf_acc_gate_set(&self->set.acc_gate, &self->set.acc_lo2, &self->set.acc_hi2, lo, hi,
-                     one_g);
+    imf_acc_gate_set(&self->set.acc_gate, &self->set.acc_lo2, &self->set.acc_hi2, acc_gate_lo,
+                     acc_gate_hi, acc_1g);
 }
 
-void imf_madgwick_ahrs_set_acc_gate(imf_madgwick_ahrs_t *const self, const imf_real lo,
-                                    const imf_real hi, const imf_real one_g)
+void imf_madgwick_ahrs_set_acc_gate(imf_madgwick_ahrs_t *const self,
+                                    const imf_real acc_gate_lo, const imf_real acc_gate_hi,
+                                    const imf_real acc_1g)
 {
-    imf_acc_gate_set(&self->set.acc_gate, &self->set.acc_lo2, &self->set.acc_hi2, lo, hi,
-                     one_g);
+    imf_acc_gate_set(&self->set.acc_gate, &self->set.acc_lo2, &self->set.acc_hi2, acc_gate_lo,
+                     acc_gate_hi, acc_1g);
+}
+
+void imf_madgwick_imu_set_dt(imf_madgwick_imu_t *const self, const imf_real dt)
+{
+    madgwick_set_dt(&self->set, dt);
+}
+
+void imf_madgwick_ahrs_set_dt(imf_madgwick_ahrs_t *const self, const imf_real dt)
+{
+    madgwick_set_dt(&self->set, dt);
+}
+
+static void madgwick_set_attitude(imf_madgwick_state_t *const x,
+                                  const imf_attitude_t *const att)
+{
+    x->q0 = att->q[0];
+    x->q1 = att->q[1];
+    x->q2 = att->q[2];
+    x->q3 = att->q[3];
+}
+
+void imf_madgwick_imu_set_attitude(imf_madgwick_imu_t *const self,
+                                   const imf_attitude_t *const att)
+{
+    madgwick_set_attitude(&self->x, att);
+}
+
+void imf_madgwick_ahrs_set_attitude(imf_madgwick_ahrs_t *const self,
+                                    const imf_attitude_t *const att)
+{
+    madgwick_set_attitude(&self->x, att);
 }
 
 /* Step 3: dq = 1/2 q (x) omega */

@@ -10,18 +10,25 @@
  */
 #include "mahony.h"
 
-/* Settings and initial state shared by both filters. */
-static void mahony_init(imf_mahony_settings_t *const set, uint32_t *const skipped,
-                        imf_mahony_state_t *const x, const imf_real dt, const imf_real kp,
-                        const imf_real ki, const int invsqrt)
+/* The settings that depend on the sample period dt (s). */
+static void mahony_set_dt(imf_mahony_settings_t *const set, const imf_real dt)
 {
     set->dt = dt;
     set->half_dt = IMF_R(0.5) * dt;
+}
+
+/* Settings and initial state shared by both filters. */
+static void mahony_init(imf_mahony_settings_t *const set, uint32_t *const skipped,
+                        imf_mahony_state_t *const x, const imf_real dt, const imf_real kp,
+                        const imf_real ki, const int invsqrt, const imf_real acc_gate_lo,
+                        const imf_real acc_gate_hi, const imf_real acc_1g)
+{
+    mahony_set_dt(set, dt);
+    imf_acc_gate_set(&set->acc_gate, &set->acc_lo2, &set->acc_hi2, acc_gate_lo, acc_gate_hi,
+                     acc_1g);
     set->two_kp = IMF_R(2.0) * kp;
     set->two_ki = IMF_R(2.0) * ki;
     set->invsqrt = invsqrt == IMF_INVSQRT_FAST ? IMF_INVSQRT_FAST : IMF_INVSQRT_EXACT;
-    imf_acc_gate_set(&set->acc_gate, &set->acc_lo2, &set->acc_hi2, IMF_R(-1.0), IMF_R(0.0),
-                     IMF_R(0.0));
     *skipped = 0;
     x->q0 = IMF_R(1.0);
     x->q1 = IMF_R(0.0);
@@ -33,29 +40,61 @@ static void mahony_init(imf_mahony_settings_t *const set, uint32_t *const skippe
 }
 
 void imf_mahony_imu_init(imf_mahony_imu_t *const self, const imf_real dt, const imf_real kp,
-                         const imf_real ki, const int invsqrt)
+                         const imf_real ki, const int invsqrt, const imf_real acc_gate_lo,
+                         const imf_real acc_gate_hi, const imf_real acc_1g)
 {
-    mahony_init(&self->set, &self->skipped, &self->x, dt, kp, ki, invsqrt);
+    mahony_init(&self->set, &self->skipped, &self->x, dt, kp, ki, invsqrt, acc_gate_lo,
+                acc_gate_hi, acc_1g);
 }
 
 void imf_mahony_ahrs_init(imf_mahony_ahrs_t *const self, const imf_real dt, const imf_real kp,
-                          const imf_real ki, const int invsqrt)
+                          const imf_real ki, const int invsqrt, const imf_real acc_gate_lo,
+                          const imf_real acc_gate_hi, const imf_real acc_1g)
 {
-    mahony_init(&self->set, &self->skipped, &self->x, dt, kp, ki, invsqrt);
+    mahony_init(&self->set, &self->skipped, &self->x, dt, kp, ki, invsqrt, acc_gate_lo,
+                acc_gate_hi, acc_1g);
 }
 
-void imf_mahony_imu_set_acc_gate(imf_mahony_imu_t *const self, const imf_real lo,
-                                 const imf_real hi, const imf_real one_g)
+void imf_mahony_imu_set_acc_gate(imf_mahony_imu_t *const self, const imf_real acc_gate_lo,
+                                 const imf_real acc_gate_hi, const imf_real acc_1g)
 {
-    imf_acc_gate_set(&self->set.acc_gate, &self->set.acc_lo2, &self->set.acc_hi2, lo, hi,
-                     one_g);
+    imf_acc_gate_set(&self->set.acc_gate, &self->set.acc_lo2, &self->set.acc_hi2, acc_gate_lo,
+                     acc_gate_hi, acc_1g);
 }
 
-void imf_mahony_ahrs_set_acc_gate(imf_mahony_ahrs_t *const self, const imf_real lo,
-                                  const imf_real hi, const imf_real one_g)
+void imf_mahony_ahrs_set_acc_gate(imf_mahony_ahrs_t *const self, const imf_real acc_gate_lo,
+                                  const imf_real acc_gate_hi, const imf_real acc_1g)
 {
-    imf_acc_gate_set(&self->set.acc_gate, &self->set.acc_lo2, &self->set.acc_hi2, lo, hi,
-                     one_g);
+    imf_acc_gate_set(&self->set.acc_gate, &self->set.acc_lo2, &self->set.acc_hi2, acc_gate_lo,
+                     acc_gate_hi, acc_1g);
+}
+
+void imf_mahony_imu_set_dt(imf_mahony_imu_t *const self, const imf_real dt)
+{
+    mahony_set_dt(&self->set, dt);
+}
+
+void imf_mahony_ahrs_set_dt(imf_mahony_ahrs_t *const self, const imf_real dt)
+{
+    mahony_set_dt(&self->set, dt);
+}
+
+static void mahony_set_attitude(imf_mahony_state_t *const x, const imf_attitude_t *const att)
+{
+    x->q0 = att->q[0];
+    x->q1 = att->q[1];
+    x->q2 = att->q[2];
+    x->q3 = att->q[3];
+}
+
+void imf_mahony_imu_set_attitude(imf_mahony_imu_t *const self, const imf_attitude_t *const att)
+{
+    mahony_set_attitude(&self->x, att);
+}
+
+void imf_mahony_ahrs_set_attitude(imf_mahony_ahrs_t *const self, const imf_attitude_t *const att)
+{
+    mahony_set_attitude(&self->x, att);
 }
 
 /* Steps 5 and 6: the PI controller on the half error (ex, ey, ez) = e/2,

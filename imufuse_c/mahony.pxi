@@ -9,18 +9,20 @@ cdef extern from "mahony.h" nogil:
         uint32_t skipped
         imf_mahony_state_t x
     void imf_mahony_imu_init(imf_mahony_imu_t *self, imf_real dt, imf_real kp, imf_real ki,
-                             int invsqrt)
+                             int invsqrt, imf_real acc_gate_lo, imf_real acc_gate_hi,
+                             imf_real acc_1g)
     void imf_mahony_imu_update(imf_mahony_imu_t *self, imf_real gx, imf_real gy, imf_real gz,
                                imf_real ax, imf_real ay, imf_real az)
+    void imf_mahony_imu_set_dt(imf_mahony_imu_t *self, imf_real dt)
+    void imf_mahony_imu_set_attitude(imf_mahony_imu_t *self, const imf_attitude_t *att)
     void imf_mahony_ahrs_init(imf_mahony_ahrs_t *self, imf_real dt, imf_real kp, imf_real ki,
-                              int invsqrt)
-    void imf_mahony_imu_set_acc_gate(imf_mahony_imu_t *self, imf_real lo, imf_real hi,
-                                     imf_real one_g)
-    void imf_mahony_ahrs_set_acc_gate(imf_mahony_ahrs_t *self, imf_real lo, imf_real hi,
-                                      imf_real one_g)
+                              int invsqrt, imf_real acc_gate_lo, imf_real acc_gate_hi,
+                              imf_real acc_1g)
     void imf_mahony_ahrs_update(imf_mahony_ahrs_t *self, imf_real gx, imf_real gy, imf_real gz,
                                 imf_real ax, imf_real ay, imf_real az,
                                 imf_real mx, imf_real my, imf_real mz)
+    void imf_mahony_ahrs_set_dt(imf_mahony_ahrs_t *self, imf_real dt)
+    void imf_mahony_ahrs_set_attitude(imf_mahony_ahrs_t *self, const imf_attitude_t *att)
 
 
 cdef class MahonyIMU(_FilterIMU):
@@ -29,13 +31,17 @@ cdef class MahonyIMU(_FilterIMU):
 
     cdef int _init(self) except -1:
         a = self._args
-        imf_mahony_imu_init(&self.s, a[0], a[1], a[2], a[3])
-        if a[4] >= 0.0:  # seed 002's accelerometer gate
-            imf_mahony_imu_set_acc_gate(&self.s, a[4], a[5], a[6])
+        imf_mahony_imu_init(&self.s, a[0], a[1], a[2], a[3], a[4], a[5], a[6])
         return self._bind(&self.s.x, sizeof(self.s.x), &self.s.skipped)
 
     cdef void _step(self, const imf_real *gyr, const imf_real *acc) noexcept nogil:
         imf_mahony_imu_update(&self.s, gyr[0], gyr[1], gyr[2], acc[0], acc[1], acc[2])
+
+    cdef void _set_dt(self, imf_real dt) noexcept nogil:
+        imf_mahony_imu_set_dt(&self.s, dt)
+
+    cdef void _set_attitude(self, const imf_attitude_t *att) noexcept nogil:
+        imf_mahony_imu_set_attitude(&self.s, att)
 
 
 cdef class MahonyAHRS(_FilterAHRS):
@@ -44,12 +50,16 @@ cdef class MahonyAHRS(_FilterAHRS):
 
     cdef int _init(self) except -1:
         a = self._args
-        imf_mahony_ahrs_init(&self.s, a[0], a[1], a[2], a[3])
-        if a[4] >= 0.0:  # seed 002's accelerometer gate
-            imf_mahony_ahrs_set_acc_gate(&self.s, a[4], a[5], a[6])
+        imf_mahony_ahrs_init(&self.s, a[0], a[1], a[2], a[3], a[4], a[5], a[6])
         return self._bind(&self.s.x, sizeof(self.s.x), &self.s.skipped)
 
     cdef void _step(self, const imf_real *gyr, const imf_real *acc,
                     const imf_real *mag) noexcept nogil:
         imf_mahony_ahrs_update(&self.s, gyr[0], gyr[1], gyr[2], acc[0], acc[1], acc[2],
                                mag[0], mag[1], mag[2])
+
+    cdef void _set_dt(self, imf_real dt) noexcept nogil:
+        imf_mahony_ahrs_set_dt(&self.s, dt)
+
+    cdef void _set_attitude(self, const imf_attitude_t *att) noexcept nogil:
+        imf_mahony_ahrs_set_attitude(&self.s, att)

@@ -1,20 +1,18 @@
 """Twin of csrc/imf_gate.h: the accelerometer-magnitude gate of seed 002.
 
 Shared by the Madgwick and Mahony references: check() validates the
-acc_gate/acc_1g keywords (one definition for both backends), set() and
-passes() mirror imf_acc_gate_set and imf_acc_gate_pass.
+acc_gate/acc_1g keywords (one definition for both backends) and gives the C
+init arguments; set() and passes() mirror imf_acc_gate_set and
+imf_acc_gate_pass.
 """
 from .. import _checks
 
-#: C init arguments of "gate off" (lo < 0)
-OFF = (-1.0, 0.0, 0.0)
-
-
 def check(acc_gate, acc_1g):
-    """(lo, hi, one_g) for the C setter; OFF when acc_gate is None."""
+    """C init arguments (acc_gate_lo, acc_gate_hi, acc_1g); acc_gate_lo = -1
+    (off) when acc_gate is None."""
     one_g = _checks.check_real("acc_1g", acc_1g, lo=0.0, lo_open=True)
     if acc_gate is None:
-        return OFF
+        return (-1.0, 0.0, one_g)
     try:
         lo, hi = acc_gate
     except (TypeError, ValueError):

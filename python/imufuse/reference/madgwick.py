@@ -122,13 +122,10 @@ def ds_ahrs(R, q, ax, ay, az, mx, my, mz):
 class _Madgwick(ReferenceFilter):
     state_names = ("q0", "q1", "q2", "q3")
 
-    def _init(self, dt, beta, delta_s, invsqrt, gate_lo=-1.0, gate_hi=0.0, one_g=0.0):
+    def _init(self, dt, beta, delta_s, invsqrt, acc_gate_lo, acc_gate_hi, acc_1g):
         R = self._R
-        # init leaves the gate off; imf_madgwick_*_set_acc_gate turns it on
-        self.acc_gate = _gate.set(R, *_gate.OFF)
-        if gate_lo >= 0.0:
-            self.acc_gate = _gate.set(R, gate_lo, gate_hi, one_g)
-        self.dt = R(dt)
+        self._set_acc_gate(acc_gate_lo, acc_gate_hi, acc_1g)
+        self._set_dt(R(dt))
         self.beta = R(beta)
         self.delta_s = DS_SIMPLIFIED if delta_s == DS_SIMPLIFIED else DS_FULL
         self.invsqrt = invsqrt
@@ -136,6 +133,18 @@ class _Madgwick(ReferenceFilter):
         self.q1 = R(0.0)
         self.q2 = R(0.0)
         self.q3 = R(0.0)
+
+    # madgwick_set_dt: the settings that depend on the sample period dt (s)
+    def _set_dt(self, dt):
+        self.dt = dt
+
+    # imf_madgwick_*_set_acc_gate: seed 002's accelerometer gate (imf_gate.h)
+    def _set_acc_gate(self, acc_gate_lo, acc_gate_hi, acc_1g):
+        self.acc_gate = _gate.set(self._R, acc_gate_lo, acc_gate_hi, acc_1g)
+
+    # madgwick_set_attitude: q = att.q (imf_attitude.h)
+    def _set_attitude(self, att):
+        self.q0, self.q1, self.q2, self.q3 = att.q
 
     # Steps 5 and 6: normalise ds, dq' = dq - beta ds
     def _feedback(self, s, dq):
@@ -230,9 +239,9 @@ class MadgwickAHRS(_Madgwick):
         _checks.check_choice("invsqrt", invsqrt, tuple(_math.INVSQRT))
         return (dt, beta, _math.INVSQRT[invsqrt], *_gate.check(acc_gate, acc_1g))
 
-    def _init(self, dt, beta, invsqrt, *gate):
+    def _init(self, dt, beta, invsqrt, acc_gate_lo, acc_gate_hi, acc_1g):
         # imf_madgwick_ahrs_init: the IMU settings with the full ds
-        super()._init(dt, beta, DS_FULL, invsqrt, *gate)
+        super()._init(dt, beta, DS_FULL, invsqrt, acc_gate_lo, acc_gate_hi, acc_1g)
 
     def _update(self, gx, gy, gz, ax, ay, az, mx, my, mz):
         if not isfinite(gx, gy, gz, ax, ay, az, mx, my, mz):

@@ -26,14 +26,10 @@ class _Mahony(ReferenceFilter):
         _checks.check_choice("invsqrt", invsqrt, tuple(_math.INVSQRT))
         return (dt, kp, ki, _math.INVSQRT[invsqrt], *_gate.check(acc_gate, acc_1g))
 
-    def _init(self, dt, kp, ki, invsqrt, gate_lo=-1.0, gate_hi=0.0, one_g=0.0):
+    def _init(self, dt, kp, ki, invsqrt, acc_gate_lo, acc_gate_hi, acc_1g):
         R = self._R
-        # init leaves the gate off; imf_mahony_*_set_acc_gate turns it on
-        self.acc_gate = _gate.set(R, *_gate.OFF)
-        if gate_lo >= 0.0:
-            self.acc_gate = _gate.set(R, gate_lo, gate_hi, one_g)
-        self.dt = R(dt)
-        self.half_dt = R(0.5) * self.dt
+        self._set_acc_gate(acc_gate_lo, acc_gate_hi, acc_1g)
+        self._set_dt(R(dt))
         self.two_kp = R(2.0) * R(kp)
         self.two_ki = R(2.0) * R(ki)
         self.invsqrt = invsqrt
@@ -44,6 +40,19 @@ class _Mahony(ReferenceFilter):
         self.ix = R(0.0)
         self.iy = R(0.0)
         self.iz = R(0.0)
+
+    # mahony_set_dt: the settings that depend on the sample period dt (s)
+    def _set_dt(self, dt):
+        self.dt = dt
+        self.half_dt = self._R(0.5) * dt
+
+    # mahony_set_attitude: q = att.q (imf_attitude.h); I is kept
+    def _set_attitude(self, att):
+        self.q0, self.q1, self.q2, self.q3 = att.q
+
+    # imf_mahony_*_set_acc_gate: seed 002's accelerometer gate (imf_gate.h)
+    def _set_acc_gate(self, acc_gate_lo, acc_gate_hi, acc_1g):
+        self.acc_gate = _gate.set(self._R, acc_gate_lo, acc_gate_hi, acc_1g)
 
     # Steps 5 and 6: the PI controller on the half error (ex, ey, ez) = e/2,
     # added to the rate in the published order w + I + Kp e.
