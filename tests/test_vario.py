@@ -236,3 +236,24 @@ def test_bad_inputs(mod):
     with pytest.raises(ValueError, match="shapes"):
         mod.vertical_accel(np.zeros((2, 4)), np.zeros((3, 3)))
 
+
+
+# ---- any floats at all ------------------------------------------------------------------
+
+@pytest.mark.parametrize("case,dtype", vario_matrix())
+def test_hypothesis_sequences(case, dtype):
+    from hypothesis import HealthCheck, given, settings, strategies as st
+    width = 32 if dtype == "float32" else 64
+    x = st.floats(width=width, allow_nan=True, allow_infinity=True)
+    rows = st.lists(st.tuples(x, x, x), min_size=1, max_size=60)
+
+    @settings(max_examples=40, deadline=None, suppress_health_check=list(HealthCheck),
+              derandomize=True)
+    @given(rows)
+    def check(r):
+        a, z, d = (np.array(c, dtype=float) for c in zip(*r))
+        c, ref = case.make("c", dtype), case.make("ref", dtype)
+        assert_same_bits(c.run(a, z, d), ref.run(a, z, d), c.state_names)
+        assert c.skipped == ref.skipped
+
+    check()
