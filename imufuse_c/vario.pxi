@@ -21,6 +21,10 @@ cdef class VarioKF(_Filter):
     _ref = _reference.VarioKF
     cdef imf_vario_t s
 
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        _vario_ref.check_precision(self._args, DTYPE)
+
     cdef int _init(self) except -1:
         a = self._args
         imf_vario_init(&self.s, a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8], a[9],
