@@ -22,6 +22,7 @@ cdef class VarioKF(_Filter):
     cdef imf_vario_t s
 
     def __init__(self, *args, **kwargs):
+        _vario_ref.check_start(kwargs)
         super().__init__(*args, **kwargs)
         _vario_ref.check_precision(self._args, DTYPE)
 

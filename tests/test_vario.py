@@ -232,6 +232,17 @@ def test_parameters_representable_in_float32(mod):
 
 
 @pytest.mark.parametrize("mod", [imufuse_c, reference], ids=["c", "ref"])
+def test_start(mod):
+    with pytest.raises(ValueError, match="^init: VarioKF has no attitude"):
+        mod.VarioKF(init="first")
+    with pytest.raises(ValueError, match="^q0"):
+        mod.VarioKF(q0=(1, 0, 0, 0))
+    s = np.arange(1.0, 10.0)
+    f = mod.VarioKF(state=s)
+    np.testing.assert_array_equal(f.state, s)
+
+
+@pytest.mark.parametrize("mod", [imufuse_c, reference], ids=["c", "ref"])
 def test_bad_inputs(mod):
     f = mod.VarioKF()
     with pytest.raises(ValueError, match="shapes"):

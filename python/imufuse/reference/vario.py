@@ -57,6 +57,15 @@ def check_precision(args, dtype):
         raise ValueError(f"var_z: {args[0]!r} rounds to 0 in {dtype}; it must stay > 0")
 
 
+def check_start(kwargs):
+    """VarioKF starts from z0 (or the first barometer sample) or state=; the
+    attitude starts of the 3-D filters do not apply."""
+    given = [k for k in ("init", "init_window", "q0") if k in kwargs]
+    if given:
+        raise ValueError(f"{', '.join(given)}: VarioKF has no attitude; it starts from z0 "
+                         f"(None: the first barometer altitude) or state=")
+
+
 def update_inputs(accel, baro_alt, dt):
     return tuple(_checks.check_scalar(n, v) for n, v in
                  (("accel", accel), ("baro_alt", baro_alt), ("dt", dt)))
@@ -76,13 +85,17 @@ class VarioKF(ReferenceFilter):
 
     update(accel, baro_alt, dt): accel the net vertical acceleration (up
     positive, cm/s^2), baro_alt (cm), dt (s) since the previous sample.
-    run(accel, baro_alt, dt): 1-D arrays, dt a scalar or an array.
+    run(accel, baro_alt, dt): 1-D arrays, dt a scalar or an array. A sample
+    with a non-finite input or a dt that is not > 0 is skipped (`skipped`).
+    Setting `state` (or state=) keeps the start rule: with z0=None the first
+    accepted sample still sets z; give z0 to continue from a set state.
     """
     kind = "vario"
     c_name = "imf_vario"
     state_names = ("z", "v", "b", "pzz", "pzv", "pzb", "pvv", "pvb", "pbb")
 
     def __init__(self, *args, dtype="float64", **kwargs):
+        check_start(kwargs)
         super().__init__(*args, dtype=dtype, **kwargs)
         check_precision(self._args, self.dtype)
 
