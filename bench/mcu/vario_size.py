@@ -4,9 +4,8 @@
 
 Bytes of each function (nm -S of vario.o built with the contract's flags and
 -ffunction-sections; soft-float routines are not counted) and the RAM of one
-imf_vario_t. VarioKF has its own input kind (accel, baro_alt, dt), which the
-generic MCU runner of bench/mcu/measure.py does not drive yet, so cycles per
-update are not measured here.
+imf_vario_t. Cycles per update and linked flash come from bench/mcu/measure.py
+(the registry's VarioKF cases are among its filters).
 """
 import shutil
 import subprocess
