@@ -24,7 +24,6 @@ cdef class VarioKF(_Filter):
     def __init__(self, *args, **kwargs):
         _vario_ref.check_start(kwargs)
         super().__init__(*args, **kwargs)
-        _vario_ref.check_precision(self._args, DTYPE)
 
     cdef int _init(self) except -1:
         a = self._args
