@@ -164,8 +164,9 @@ static int valid(const int which, const any_filter_t *const f, const imf_real *c
         const imf_real *r = x;
         const imf_real nx = sq3(r), ny = sq3(r + 3), nz = sq3(r + 6);
         const imf_real xy = r[0] * r[3] + r[1] * r[4] + r[2] * r[5];
-        return imf_fabs(nx - IMF_R(1.0)) <= t && imf_fabs(ny - IMF_R(1.0)) <= t
-               && imf_fabs(nz - IMF_R(1.0)) <= t && imf_fabs(xy) <= t;
+        return nx - IMF_R(1.0) <= t && IMF_R(1.0) - nx <= t && ny - IMF_R(1.0) <= t
+               && IMF_R(1.0) - ny <= t && nz - IMF_R(1.0) <= t && IMF_R(1.0) - nz <= t
+               && xy <= t && -xy <= t;
     }
     return 1;
 }
