@@ -200,8 +200,6 @@ PARAM_SPACE = {
                        gyr_scale=_logu(1e-7, 1e-2)),
     "MadgwickIMUQ": dict(dt=_logu(1e-5, 0.1), beta=_logu(1e-4, 1e3), gyr_scale=_logu(1e-7, 1e-2)),
 }
-STATE_SIZE = {"Complementary1DQ": 1, "Mahony1DBiasQ": 2, "KKQ": 2, "MultiWiiQ": 6,
-              "MahonyIMUQ": 7, "MadgwickIMUQ": 4}
 I32 = st.one_of(st.integers(-2**31, 2**31 - 1), st.sampled_from([-2**31, -2**31 + 1, -1, 0, 1, 2**30, 2**31 - 1]))
 
 
@@ -218,7 +216,8 @@ def test_hypothesis_extreme_params_and_states(name, profile):
     @settings(max_examples=40, deadline=None, suppress_health_check=list(HealthCheck),
               derandomize=True)
     @given(st.fixed_dictionaries(PARAM_SPACE[name]),
-           st.lists(I32, min_size=STATE_SIZE[name], max_size=STATE_SIZE[name]), _hyp(kind))
+           st.lists(I32, min_size=len(getattr(reference, name).state_names),
+                    max_size=len(getattr(reference, name).state_names)), _hyp(kind))
     def check(params, state, arrays):
         try:
             r = _make(name, params, profile)

@@ -137,6 +137,21 @@ static inline int32_t imf_q8_rshr_hs(const int32_t x, const int n)
     return x;
 }
 
+/* 8-bit profile, step 1 with the remainder carried: for a rate t in
+ * q(31+hs), returns h = floor((t + c) / 2^16) in q(15+hs) and keeps
+ * c = (t + c) mod 2^16 for the next sample.  The sum of the h applied so far
+ * is then the exact sum of the t to within one LSB of q(15+hs), however long
+ * a rate is held: rounding each sample on its own leaves up to half an LSB
+ * per sample (0.002 rad/s for a +-2000 deg/s gyro at 512 Hz), which the
+ * accelerometer corrects in tilt but which accumulates in the unobserved
+ * yaw. */
+static inline int32_t imf_q8_carry(const int32_t t, int32_t *const c)
+{
+    const int32_t u = imf_add_sat32(t, *c);
+    *c = (int32_t)((uint32_t)u & 0xFFFFu);
+    return imf_asr32(u, 16); /* byte moves on AVR */
+}
+
 /* 8-bit profile, appendix step 7 / 3: dq = q (x) (0, h), h in q(15+hs)
  * saturated to int16; each component's three q15 x q(15+hs) products are
  * summed (saturating) and rounded to q30 once. */

@@ -48,9 +48,9 @@ int main(void)
         return 3;
     }
     {
-        int32_t st[8];
+        int32_t st[16];
         int ns = 0;
-        while (ns < 8 && scanf("%63s", tok) == 1 && strcmp(tok, ";") != 0) {
+        while (ns < 16 && scanf("%63s", tok) == 1 && strcmp(tok, ";") != 0) {
             st[ns++] = (int32_t)strtol(tok, NULL, 10);
         }
         if (ns > 0) {
@@ -58,8 +58,8 @@ int main(void)
             else if (!strcmp(name, "Mahony1DBiasQ")) { m1.x.theta = st[0]; m1.x.j = st[1]; }
             else if (!strcmp(name, "KKQ")) memcpy(kk.x.t, st, sizeof kk.x.t);
             else if (!strcmp(name, "MultiWiiQ")) { memcpy(mw.x.d, st, sizeof mw.x.d); memcpy(mw.x.l, st + 3, sizeof mw.x.l); }
-            else if (!strcmp(name, "MahonyIMUQ")) { memcpy(mh.x.q, st, sizeof mh.x.q); memcpy(mh.x.i, st + 4, sizeof mh.x.i); }
-            else memcpy(mg.x.q, st, sizeof mg.x.q);
+            else if (!strcmp(name, "MahonyIMUQ")) memcpy(&mh.x, st, sizeof mh.x); /* q, i, c */
+            else memcpy(&mg.x, st, sizeof mg.x);                                  /* q, c */
         }
     }
     if (!strcmp(name, "Complementary1DQ") || !strcmp(name, "Mahony1DBiasQ")) {
@@ -75,13 +75,12 @@ int main(void)
         if (!strcmp(name, "KKQ")) { imf_kk_q_update(&kk, g, a); put(kk.x.t, 2); }
         else if (!strcmp(name, "MultiWiiQ")) { int32_t s6[6]; imf_multiwii_q_update(&mw, g, a); memcpy(s6, mw.x.d, sizeof mw.x.d); memcpy(s6 + 3, mw.x.l, sizeof mw.x.l); put(s6, 6); }
         else if (!strcmp(name, "MahonyIMUQ")) {
-            int32_t s[7];
+            int32_t s[10];
             imf_mahony_imu_q_update(&mh, g, a);
-            memcpy(s, mh.x.q, sizeof mh.x.q);
-            memcpy(s + 4, mh.x.i, sizeof mh.x.i);
-            put(s, 7);
+            memcpy(s, &mh.x, sizeof s); /* q, i, c: ten int32, no padding */
+            put(s, 10);
         }
-        else { imf_madgwick_imu_q_update(&mg, g, a); put(mg.x.q, 4); }
+        else { int32_t s[7]; imf_madgwick_imu_q_update(&mg, g, a); memcpy(s, &mg.x, sizeof s); put(s, 7); }
     }
     return 0;
 }

@@ -66,6 +66,13 @@ def check(x):
     return ci.check32(x)
 
 
+def carry8(t, c, i):
+    """imf_q8_carry: h = floor((t + c[i]) / 2^16), c[i] = the remainder."""
+    u = ci.add_sat32(t, c[i])
+    c[i] = u & 0xFFFF
+    return u >> 16
+
+
 def rate_q8(qs, h, hs):
     """imf_q8_rate"""
     hx, hy, hz = (ci.sat_q15(v) for v in h)
