@@ -6,12 +6,26 @@
 #include "dcm.h"
 #include "imf_math.h"
 
+/* R orthonormal within IMF_DCM_ORTHO_TOL (and therefore finite). */
+static int dcm_orthonormal(const imf_dcm_state_t *const r)
+{
+    const imf_real nx = r->r00 * r->r00 + r->r01 * r->r01 + r->r02 * r->r02;
+    const imf_real ny = r->r10 * r->r10 + r->r11 * r->r11 + r->r12 * r->r12;
+    const imf_real nz = r->r20 * r->r20 + r->r21 * r->r21 + r->r22 * r->r22;
+    const imf_real xy = r->r00 * r->r10 + r->r01 * r->r11 + r->r02 * r->r12;
+    const imf_real xz = r->r00 * r->r20 + r->r01 * r->r21 + r->r02 * r->r22;
+    const imf_real yz = r->r10 * r->r20 + r->r11 * r->r21 + r->r12 * r->r22;
+    return imf_fabs(nx - IMF_R(1.0)) <= IMF_DCM_ORTHO_TOL && imf_fabs(ny - IMF_R(1.0)) <= IMF_DCM_ORTHO_TOL
+           && imf_fabs(nz - IMF_R(1.0)) <= IMF_DCM_ORTHO_TOL && imf_fabs(xy) <= IMF_DCM_ORTHO_TOL
+           && imf_fabs(xz) <= IMF_DCM_ORTHO_TOL && imf_fabs(yz) <= IMF_DCM_ORTHO_TOL;
+}
+
 void imf_dcm_init(imf_dcm_t *const self, const imf_real dt, const imf_real kp,
                   const imf_real ki)
 {
-    self->dt = dt;
     self->kp = kp;
-    self->ki_dt = ki * dt;
+    self->ki = ki;
+    imf_dcm_set_dt(self, dt);
     self->skipped = 0;
     self->x.r00 = IMF_R(1.0);
     self->x.r01 = IMF_R(0.0);
@@ -25,6 +39,25 @@ void imf_dcm_init(imf_dcm_t *const self, const imf_real dt, const imf_real kp,
     self->x.ix = IMF_R(0.0);
     self->x.iy = IMF_R(0.0);
     self->x.iz = IMF_R(0.0);
+}
+
+void imf_dcm_set_dt(imf_dcm_t *const self, const imf_real dt)
+{
+    self->dt = dt;
+    self->ki_dt = self->ki * dt;
+}
+
+void imf_dcm_set_attitude(imf_dcm_t *const self, const imf_attitude_t *const att)
+{
+    self->x.r00 = att->r[0];
+    self->x.r01 = att->r[1];
+    self->x.r02 = att->r[2];
+    self->x.r10 = att->r[3];
+    self->x.r11 = att->r[4];
+    self->x.r12 = att->r[5];
+    self->x.r20 = att->r[6];
+    self->x.r21 = att->r[7];
+    self->x.r22 = att->r[8];
 }
 
 void imf_dcm_update(imf_dcm_t *const self, const imf_real gx, const imf_real gy,
@@ -97,8 +130,8 @@ void imf_dcm_update(imf_dcm_t *const self, const imf_real gx, const imf_real gy,
     out.ix = ix;
     out.iy = iy;
     out.iz = iz;
-    if (!(imf_finite3(out.r00, out.r01, out.r02) && imf_finite3(out.r10, out.r11, out.r12) &&
-          imf_finite3(out.r20, out.r21, out.r22) && imf_finite3(ix, iy, iz))) {
+    /* valid-attitude policy (imf_math.h): R stays orthonormal, I finite */
+    if (!(dcm_orthonormal(&out) && imf_finite3(ix, iy, iz))) {
         self->skipped++;
         return;
     }

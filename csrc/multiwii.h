@@ -22,6 +22,7 @@
 
 #include <stdint.h>
 #include "imf_config.h"
+#include "imf_attitude.h"
 
 typedef struct {
     imf_real dx, dy, dz; /* EstG: estimated gravity vector (body up), acc units */
@@ -36,6 +37,7 @@ typedef struct {
     imf_real lpf_inv;   /* 2^-ACC_LPF_FACTOR */
     imf_real mag2_lo;   /* ((1 - window) acc_1g)^2: window on |a|^2 */
     imf_real mag2_hi;   /* ((1 + window) acc_1g)^2 */
+    imf_real d2_max;    /* (4 acc_1g)^2: longest valid d (imf_gravity_ok), squared */
     imf_real acc_1g;    /* accelerometer reading of 1 g */
     uint32_t skipped;   /* samples rejected by the non-finite policy */
     imf_multiwii_state_t x;
@@ -49,6 +51,12 @@ void imf_multiwii_init(imf_multiwii_t *self, imf_real dt, imf_real cmpf, int acc
 /* gx, gy, gz: rad/s; ax, ay, az: accelerometer units (acc_1g per g) */
 void imf_multiwii_update(imf_multiwii_t *self, imf_real gx, imf_real gy, imf_real gz,
                          imf_real ax, imf_real ay, imf_real az);
+/* A new sample period dt (s), set as init sets it (init calls it); cmpf and
+   the LPF stay per sample, as in the firmware. */
+void imf_multiwii_set_dt(imf_multiwii_t *self, imf_real dt);
+/* Start from a given attitude (imf_attitude.h): d and the smoothed
+   accelerometer both acc_1g times the up vector att->r[6..8]. */
+void imf_multiwii_set_attitude(imf_multiwii_t *self, const imf_attitude_t *att);
 /* Output, not state: roll and pitch (rad, ZYX) of d, in double via libm. */
 void imf_multiwii_angles(const imf_multiwii_t *self, double *roll, double *pitch);
 

@@ -1,15 +1,16 @@
-"""The filter matrix: every filter configuration the suites run, in one place.
+"""The filter matrix: every filter configuration the suites run.
 
-A new filter joins the bit-exact harness, the bad-input tests and the
-benchmarks by one entry here (its class must exist under the same name in
-imufuse_c and imufuse.reference).
+Every filter of imufuse.catalogue is in it: a filter without an extra case
+below runs with its catalogue defaults (dt = 0.01, or 0.002 for fixed point).
+The lists here hold only the extra configurations worth testing (every option
+of every class, published defaults, edge gains).
 """
 from dataclasses import dataclass, field
 
 import numpy as np
 import pytest
 
-import imufuse.reference as reference
+from imufuse import catalogue
 
 DTYPES = ("float32", "float64")
 
@@ -26,17 +27,13 @@ class Case:
 
     @property
     def kind(self):
-        return getattr(reference, self.name).kind
+        return catalogue.entry(self.name).kind
 
     def make(self, backend, dtype):
-        import imufuse_c
-        mod = imufuse_c if backend == "c" else reference
-        return getattr(mod, self.name)(**self.params, dtype=dtype)
+        return catalogue.entry(self.name).make(backend, **self.params, dtype=dtype)
 
     def make_fixed(self, backend, profile):
-        import imufuse_c
-        mod = imufuse_c if backend == "c" else reference
-        return getattr(mod, self.name)(**self.params, profile=profile)
+        return catalogue.entry(self.name).make(backend, **self.params, profile=profile)
 
 
 CASES_1D = [
@@ -94,7 +91,17 @@ CASES_GRAVITY = [
     Case("DCM", dict(dt=0.01, kp=0.5, ki=0.0), "p"),
 ]
 
-FLOAT_CASES = [*CASES_1D, *CASES_QUATERNION, *CASES_GRAVITY]
+EXTRA_FLOAT_CASES = [*CASES_1D, *CASES_QUATERNION, *CASES_GRAVITY]
+
+
+def _with_defaults(extra, entries, dt):
+    """The extra cases plus one default case for every entry without one."""
+    have = {c.name for c in extra}
+    return [*extra, *(Case(e.name, dict(dt=dt, **e.defaults), "defaults")
+                      for e in entries if e.name not in have)]
+
+
+FLOAT_CASES = _with_defaults(EXTRA_FLOAT_CASES, catalogue.FLOAT, 0.01)
 
 
 def float_cases(kind=None):
@@ -113,7 +120,7 @@ def as_dtype(arrays, dtype):
 
 # ---- fixed point (csrc/fixed): run() takes int16 counts, state is int32 -------
 PROFILES = ("32", "8")
-FIXED_CASES = [
+EXTRA_FIXED_CASES = [
     Case("Complementary1DQ", dict(dt=0.002, alpha=0.995, gyr_scale=1e-3, angle_scale=1e-4)),
     Case("Mahony1DBiasQ", dict(dt=0.002, kp=2.0, ki=0.2, gyr_scale=1e-3, angle_scale=1e-4)),
     Case("Mahony1DBiasQ", dict(dt=0.002, kp=2.0004, ki=0.2, integrate_first=True,
@@ -130,6 +137,28 @@ FIXED_CASES = [
 ]
 
 
+FIXED_CASES = _with_defaults(EXTRA_FIXED_CASES, catalogue.FIXED, 0.002)
+
+
 def fixed_matrix():
     """(case, profile) pairs for every fixed-point filter configuration."""
     return [pytest.param(c, p, id=f"{c.id}-q{p}") for c in FIXED_CASES for p in PROFILES]
+
+
+# ---- the Fusion suite (seed 004): csrc/fusion_ahrs.c, fusion_offset.c ------------
+# Not in FLOAT_CASES, on purpose: the generic harnesses construct a filter with
+# dt at init and call update(gyr, acc[, mag]) in rad/s. FusionAHRS is imufusion's
+# API: Fusion's units (deg/s, g), dt given with every update, three update forms;
+# FusionOffset returns the corrected gyroscope. tests/test_fusion.py runs the same
+# checks on them (C vs twin bit for bit in both precisions, update vs run, bad
+# input, the non-finite policy, a long run at rest) and tests/test_fusion_oracle.py
+# compares them with imufusion 1.2.3.
+FUSION_CASES = [
+    Case("FusionAHRS", dict(gain=1.0, gyroscope_range=500.0, acceleration_rejection=5.0,
+                            magnetic_rejection=20.0, recovery_trigger_period=100), "short"),
+    Case("FusionAHRS", dict(), "defaults"),
+    Case("FusionAHRS", dict(gain=0.5, gyroscope_range=2000.0, acceleration_rejection=10.0,
+                            magnetic_rejection=10.0, recovery_trigger_period=50, invsqrt="fast"),
+         "fast"),
+    Case("FusionOffset", dict(sample_rate=100)),
+]

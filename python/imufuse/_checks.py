@@ -10,8 +10,25 @@ import numpy as np
 DTYPES = ("float32", "float64")
 
 
+def real_number(value):
+    """float(value) for a real number (Python or NumPy int/float/bool, or
+    anything with __float__ that is not complex or text); None otherwise.
+    Strings are not numbers here (both backends reject "0.5"), complex values
+    are rejected instead of losing their imaginary part, and an int too large
+    for a double is rejected instead of raising OverflowError."""
+    if isinstance(value, (str, bytes, bytearray, complex, np.complexfloating)):
+        return None
+    try:
+        return float(value)
+    except (TypeError, ValueError, OverflowError):
+        return None
+
+
 def check_dtype(dtype):
-    """Return "float32" or "float64"; raise ValueError for anything else."""
+    """Return "float32" or "float64"; raise ValueError for anything else
+    (None included: it is not a default here)."""
+    if dtype is None:
+        raise ValueError("dtype: must be 'float32' or 'float64', got None")
     try:
         name = np.dtype(dtype).name
     except TypeError:
@@ -24,10 +41,9 @@ def check_dtype(dtype):
 def check_real(name, value, lo=None, hi=None, lo_open=False, hi_open=False, why=""):
     """Return value as a float, requiring it finite and within [lo, hi]
     (open at an end when lo_open/hi_open)."""
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: must be a real number, got {value!r}") from None
+    v = real_number(value)
+    if v is None:
+        raise ValueError(f"{name}: must be a real number, got {value!r}")
     ok = math.isfinite(v)
     if ok and lo is not None:
         ok = v > lo if lo_open else v >= lo
@@ -62,12 +78,20 @@ def check_stable2(names, det, p_minus, p_plus, why):
         raise ValueError(f"{names}: outside the stable range ({why})")
 
 
+def _as_real_array(name, a, dtype):
+    """A contiguous array of dtype from real numbers only (no strings, no
+    complex values, no sets or dicts), else ValueError naming the input."""
+    if isinstance(a, (str, bytes, set, frozenset, dict)):
+        raise ValueError(f"run(): {name} must be an array of real numbers, got {type(a).__name__}")
+    arr = np.asarray(a)
+    if arr.dtype.kind not in "biuf":
+        raise ValueError(f"run(): {name} must be an array of real numbers, got dtype {arr.dtype}")
+    return np.ascontiguousarray(arr, dtype=dtype)
+
+
 def as_1d(dtype, **arrays):
     """Convert equally long 1-D inputs to contiguous arrays of dtype."""
-    out = []
-    for name, a in arrays.items():
-        arr = np.ascontiguousarray(a, dtype=dtype)
-        out.append(arr)
+    out = [_as_real_array(name, a, dtype) for name, a in arrays.items()]
     shapes = {name: arr.shape for name, arr in zip(arrays, out)}
     if any(arr.ndim != 1 for arr in out) or len({arr.shape for arr in out}) != 1:
         seen = ", ".join(f"{k}{v}" for k, v in shapes.items())
@@ -77,7 +101,7 @@ def as_1d(dtype, **arrays):
 
 def as_nx3(dtype, **arrays):
     """Convert (N, 3) inputs with a common N to contiguous arrays of dtype."""
-    out = [np.ascontiguousarray(a, dtype=dtype) for a in arrays.values()]
+    out = [_as_real_array(name, a, dtype) for name, a in arrays.items()]
     shapes = {name: arr.shape for name, arr in zip(arrays, out)}
     if any(arr.ndim != 2 or arr.shape[1] != 3 for arr in out) or len({arr.shape for arr in out}) != 1:
         seen = ", ".join(f"{k}{v}" for k, v in shapes.items())
@@ -88,11 +112,16 @@ def as_nx3(dtype, **arrays):
 def as_vec3(name, v):
     """One 3-vector for update(): any sequence or array of three numbers."""
     try:
+        if isinstance(v, (str, bytes, set, frozenset, dict)):
+            raise TypeError
         x, y, z = v
-        return float(x), float(y), float(z)
+        out = real_number(x), real_number(y), real_number(z)
     except (TypeError, ValueError):
         shape = np.shape(v) if not isinstance(v, str) else "str"
         raise ValueError(f"update(): {name} must be a 3-vector, got shape {shape}") from None
+    if None in out:
+        raise ValueError(f"update(): {name} must hold three real numbers, got {v!r}")
+    return out
 
 
 def as_state(value, n, dtype, names):
@@ -102,6 +131,12 @@ def as_state(value, n, dtype, names):
     if not np.all(np.isfinite(arr)):
         raise ValueError("state: must be finite (the state never becomes non-finite)")
     return np.ascontiguousarray(arr)
+
+
+def check_valid_state(problem):
+    """Raise the ValueError of a state write that is not a valid attitude."""
+    if problem is not None:
+        raise ValueError(f"state: not a valid attitude ({problem})")
 
 
 # Per-sample inputs of each kind of filter: update() argument names, and
@@ -133,7 +168,92 @@ def update_inputs(kind, args):
 
 
 def check_scalar(name, v):
+    x = real_number(v)
+    if x is None:
+        raise ValueError(f"update(): {name} must be a real number, got {v!r}")
+    return x
+
+
+# ---- time: per-sample dt (run(..., dt=array), update(..., dt=value)) ----------
+
+def _dt_problem(v, conv, dtype):
+    if not math.isfinite(v):
+        return "not finite"
+    if not v > 0.0:
+        return "not > 0"
+    return f"not representable in {dtype} (it rounds to {float(conv)!r})"
+
+
+def dt_value(dt, dtype):
+    """One sample period (s) for update(..., dt=...): finite, > 0 and still
+    finite and > 0 once rounded to the filter's precision."""
     try:
-        return float(v)
+        v = float(dt)
     except (TypeError, ValueError):
-        raise ValueError(f"update(): {name} must be a real number, got {v!r}") from None
+        raise ValueError(f"dt: must be a real number (s), got {dt!r}") from None
+    with np.errstate(over="ignore", under="ignore"):
+        conv = np.dtype(dtype).type(v)
+    if not (math.isfinite(v) and v > 0.0 and np.isfinite(conv) and conv > 0):
+        raise ValueError(f"dt: must be finite and > 0 s, representable in {dtype}; "
+                         f"{v!r} is {_dt_problem(v, conv, dtype)}")
+    return v
+
+
+def dt_array(dt, n, dtype):
+    """Per-sample periods for run(..., dt=...): shape (n,), every value finite,
+    > 0 and representable in dtype. Returns a contiguous array of dtype."""
+    try:
+        arr = np.asarray(dt, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"dt: must be an array of {n} sample periods (s), got {type(dt).__name__}") from None
+    if arr.shape != (n,):
+        raise ValueError(f"dt: expected shape ({n},), one period per sample, got {arr.shape}")
+    with np.errstate(over="ignore", under="ignore", invalid="ignore"):
+        conv = arr.astype(dtype)
+        bad = ~(np.isfinite(arr) & (arr > 0.0) & np.isfinite(conv) & (conv > 0))
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise ValueError(f"dt: sample {k} is {float(arr[k])!r}, {_dt_problem(float(arr[k]), conv[k], dtype)}; "
+                         f"every dt must be finite and > 0 s, representable in {dtype}")
+    return np.ascontiguousarray(conv)
+
+
+# ---- initial orientation (init="identity" | "first", q0=, state=) --------------
+
+INITS = ("identity", "first")
+
+
+def check_start(kind, names, dtype, init="identity", init_window=1, q0=None, state=None):
+    """How a filter starts: ("identity",), ("first", window), ("q", (w, x, y, z))
+    or ("state", array). init, init_window and q0 are for 3-D filters; state
+    (the full state vector) for every filter. At most one of init="first",
+    q0 and state."""
+    if kind == "1d" and (init != "identity" or init_window != 1 or q0 is not None):
+        raise ValueError("init, init_window, q0: only 3-D filters have an initial orientation "
+                         "(single-axis filters take state=)")
+    check_choice("init", init, INITS)
+    given = [n for n, v in (("init='first'", init == "first"), ("q0", q0 is not None),
+                            ("state", state is not None)) if v]
+    if len(given) > 1:
+        raise ValueError(f"{', '.join(given)}: give at most one way to start")
+    if isinstance(init_window, bool) or not isinstance(init_window, (int, np.integer)) \
+            or not 1 <= init_window <= 0xFFFFFFFF:
+        raise ValueError(f"init_window: must be an integer >= 1 (samples averaged), got {init_window!r}")
+    if init_window != 1 and init != "first":
+        raise ValueError("init_window: only with init='first'")
+    if init == "first":
+        return ("first", int(init_window))
+    if q0 is not None:
+        try:
+            q = np.asarray(q0, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(f"q0: must be a quaternion (w, x, y, z), got {q0!r}") from None
+        with np.errstate(over="ignore"):
+            qr = q.astype(dtype)
+        if q.shape != (4,) or not np.all(np.isfinite(qr)) or not np.any(qr != 0):
+            raise ValueError(f"q0: must be a finite, non-zero quaternion (w, x, y, z) "
+                             f"in {dtype}, got {q0!r}")
+        return ("q", tuple(float(v) for v in q))
+    if state is not None:
+        return ("state", as_state(state, len(names), dtype, names))
+    return ("identity",)
