@@ -216,7 +216,8 @@ void imf_madgwick_imu_q8_update(imf_madgwick_imu_q_t *const self, const int16_t 
      * has the shift 16 (the product is then in q(31+hs)) */
     if (self->kg8.n == 16) {
         for (i = 0; i < 3; ++i) {
-            h[i] = imf_q8_carry(imf_mul16su(gyr[i], self->kg8.m), &self->x.c[i]);
+            h[i] = imf_q8_carry_out(imf_q8_carry_in(imf_mul16su(gyr[i], self->kg8.m),
+                                                    self->x.c[i]), &self->x.c[i]);
         }
     } else {
         imf_gain8_mul3(gyr, self->kg8, h);

@@ -163,14 +163,14 @@ void imf_mahony_imu_q8_update(imf_mahony_imu_q_t *const self, const int16_t gyr[
     int i;
     d16 = imf_q8_snapshot_norm(q, qs);
     if (self->fast8) {
-        /* step 1 in q(31+hs) (kg8 has the shift 16), steps 2-6, then h to
-         * q(15+hs) with the remainder carried */
+        /* step 1 in q(31+hs) (kg8 has the shift 16) plus the carried
+         * remainder, steps 2-6, then h to q(15+hs), the remainder kept */
         for (i = 0; i < 3; ++i) {
-            h[i] = imf_mul16su(gyr[i], self->kg8.m);
+            h[i] = imf_q8_carry_in(imf_mul16su(gyr[i], self->kg8.m), self->x.c[i]);
         }
         imf_mahony_imu_q8_feedback(self, qs, acc, h);
         for (i = 0; i < 3; ++i) {
-            h[i] = imf_q8_carry(h[i], &self->x.c[i]);
+            h[i] = imf_q8_carry_out(h[i], &self->x.c[i]);
         }
     } else {
         /* step 1 in q(15+hs), rounded; steps 2-6 add Kp e and I rounded */
