@@ -12,7 +12,8 @@
 # constructor's dt afterwards; the fixed-step paths are untouched. Start (3-D
 # filters): init="first" feeds the first samples to the shared attitude window
 # (csrc/imf_attitude.h) and _set_attitude; q0= and state= are set at reset.
-from cpython.float cimport PyFloat_AsDouble
+from cpython.float cimport PyFloat_AsDouble, PyFloat_Check
+from cpython.long cimport PyLong_CheckExact
 from libc.string cimport memcpy
 from libc.stdint cimport uint32_t
 cimport numpy as cnp
@@ -50,6 +51,12 @@ cdef inline void _copy_state(imf_real *dst, const char *x, Py_ssize_t n) noexcep
         dst[j] = src[j]
 
 
+cdef inline bint _plain(object x):
+    # a Python float (or subclass: numpy.float64) or a Python int that fits a
+    # double: converted directly; anything else goes through imufuse._checks
+    return PyFloat_Check(x) or (PyLong_CheckExact(x) and -2**1000 < x < 2**1000)
+
+
 cdef int _vec3(object v, imf_real *out) except -1:
     """One 3-vector of update(): fast paths for tuples, lists and contiguous
     float64/float32 arrays; anything else through the sequence protocol. A
@@ -57,7 +64,8 @@ cdef int _vec3(object v, imf_real *out) except -1:
     cdef const double *d
     cdef const float *f
     cdef int i
-    if (type(v) is tuple or type(v) is list) and len(v) == 3:
+    if (type(v) is tuple or type(v) is list) and len(v) == 3 and _plain(v[0]) \
+            and _plain(v[1]) and _plain(v[2]):
         for i in range(3):
             out[i] = <imf_real>PyFloat_AsDouble(v[i])
         return 0
@@ -73,7 +81,8 @@ cdef int _vec3(object v, imf_real *out) except -1:
             for i in range(3):
                 out[i] = <imf_real>f[i]
             return 0
-    x, y, z = v
+    # the shared validation: real numbers only (no strings, complex, sets, dicts)
+    x, y, z = _checks.as_vec3("vector", v)
     out[0] = <imf_real><double>x
     out[1] = <imf_real><double>y
     out[2] = <imf_real><double>z
@@ -99,7 +108,7 @@ cdef class _Filter:
     dtype = DTYPE
 
     def __init__(self, *args, init="identity", init_window=1, q0=None, state=None, **kwargs):
-        self._args = self._ref._params(*args, **kwargs)
+        self._args = self._ref._checked_params(DTYPE, *args, **kwargs)
         self._n = len(self._ref.state_names)
         self._start = _checks.check_start(self._ref.kind, self._ref.state_names, DTYPE, init,
                                           init_window, q0, state)
@@ -210,12 +219,11 @@ cdef class _Filter1D(_Filter):
         if self._x == NULL:
             _unbound(self)
         cdef double w, a
-        try:
+        if _plain(rate) and _plain(angle):
             w = rate
             a = angle
-        except TypeError:
-            _checks.update_inputs("1d", (rate, angle))
-            raise
+        else:
+            w, a = _checks.update_inputs("1d", (rate, angle))
         if dt is None:
             self._step(<imf_real>w, <imf_real>a)
         else:

@@ -98,9 +98,12 @@ def run_with_progress(f, inputs, label, backend):
 
 
 def _load(args):
+    from .preprocess import apply
     log = read_log(args.log, gyr_unit=args.gyr_unit, acc_unit=args.acc_unit, rate=args.rate)
     for w in log.warnings:
         _err(f"warning: {w}")
+    for note in apply(log, args, getattr(args, "backend", "c")):  # --calibration, --align, --offset
+        _err(f"note: {note}")
     return log
 
 
@@ -149,6 +152,12 @@ def _demo(args):
 
 
 def _run(args):
+    from . import preprocess
+    if preprocess.is_fusion(args.filter):  # Fusion's units and dt per sample
+        cols, msg, f32 = preprocess.run_fusion(args, _load(args), _pairs(args.param))
+        io.write_csv(sys.stdout if args.output == "-" else args.output, cols, float32=f32)
+        _err(msg)
+        return EXIT_OK
     cls = reference_class(args.filter)
     overrides = _pairs(args.param)
     log = _load(args)
@@ -425,6 +434,8 @@ def build_parser():
     r.add_argument("--plot", metavar="PNG")
     _log_options(r)
     _filter_options(r)
+    from .preprocess import add_arguments as _preprocess_options
+    _preprocess_options(r)
     r.set_defaults(func=_run)
 
     c = sub.add_parser("compare", help="several filters on one log: table (errors when the log "
@@ -436,6 +447,7 @@ def build_parser():
     c.add_argument("--plot", metavar="PNG")
     _log_options(c)
     _filter_options(c)
+    _preprocess_options(c)
     c.set_defaults(func=_compare)
 
     b = sub.add_parser("bench", help="speed table: C run() vs reference, samples per second")
@@ -482,6 +494,9 @@ def build_parser():
     v.add_argument("--seed", type=int, default=1)
     v.add_argument("--plot", metavar="PNG", help="divergence plot")
     v.set_defaults(func=_validate)
+
+    from .cli_vario import add_parsers  # seed 002: vario, calibrate
+    add_parsers(sub)
     return p
 
 
