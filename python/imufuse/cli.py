@@ -436,6 +436,7 @@ def _run(args):
     from . import io
     from .catalogue import reference_class, why_no_estimate
     from . import preprocess
+    _fusion_hint(args.filter, "run")
     check_outputs([args.log], [("-o", args.output), ("--plot", args.plot)])
     if preprocess.is_fusion(args.filter):  # Fusion's units and dt per sample
         cols, msg, f32 = preprocess.run_fusion(args, _load(args), _pairs(args.param))
@@ -539,12 +540,20 @@ def _default_filters(log):
     return filter_names({"1d"})
 
 
+def _fusion_hint(name, command):
+    from .preprocess import fusion_hint
+    hint = fusion_hint(name, command)
+    if hint:
+        raise UsageError(hint)
+
+
 def _compare(args):
     from .catalogue import FilterError, reference_class, why_no_estimate
     from .io import LogError
     from .rotations import quat_to_euler
     names = _names(args.filters)
     for n in names:
+        _fusion_hint(n, "compare")
         reference_class(n)
     check_outputs([args.log], [("--plot", args.plot)])
     log = _load(args)
@@ -1134,6 +1143,8 @@ def build_parser():
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     for add in SUBCOMMANDS:
         add(sub)
+    from .cli_vario import add_parsers  # seed 002: vario, calibrate
+    add_parsers(sub)
     return p
 
 
