@@ -108,7 +108,8 @@ from imufuse.mcu import filters as mf  # noqa: E402
 FILTER_SPECS: Dict[str, "mf.FilterSpec"] = {
     s.label: s
     for s in mf.specs_from_cases([*_tests_registry.FLOAT_CASES,
-                                  *getattr(_tests_registry, "FIXED_CASES", [])])
+                                  *getattr(_tests_registry, "FIXED_CASES", []),
+                                  *getattr(_tests_registry, "CASES_VARIO", [])[:2]])
 }
 
 

@@ -494,6 +494,9 @@ def build_parser():
     v.add_argument("--seed", type=int, default=1)
     v.add_argument("--plot", metavar="PNG", help="divergence plot")
     v.set_defaults(func=_validate)
+
+    from .cli_vario import add_parsers  # seed 002: vario, calibrate
+    add_parsers(sub)
     return p
 
 
