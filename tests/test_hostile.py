@@ -363,3 +363,36 @@ def test_edge_of_stable_range_converges(dtype, name, params, tol_deg):
     errs = [_error(case, S[k:k + 1]) for k in range(len(S) - 200, len(S))]
     assert max(errs) <= math.radians(tol_deg), math.degrees(max(errs))
     assert f.skipped == 0
+
+
+# ---- fixed point (profiles 32 and 8): extreme counts, API-level agreement ------------
+
+@pytest.mark.parametrize("profile", PROFILES)
+@pytest.mark.parametrize("case", [pytest.param(c, id=c.id) for c in FIXED_CASES])
+def test_fixed_extreme_counts_bit_exact(case, profile):
+    """Full-scale int16 counts (-32768, 32767), alternating extremes and long
+    constant stretches: C equals the reference bit for bit."""
+    c, r = case.make_fixed("c", profile), case.make_fixed("ref", profile)
+    g = np.random.default_rng(3)
+    ext = np.array([-32768, -32767, -1, 0, 1, 32767], dtype=np.int16)
+    n = 240
+    cols = 2 if c.kind == "1d" else 6
+    x = ext[g.integers(0, len(ext), size=(n, cols))]
+    x[60:120] = 32767                                     # constant full scale
+    x[120:180] = np.where(np.arange(60)[:, None] % 2 == 0, -32768, 32767)  # alternating
+    args = (x[:, 0], x[:, 1]) if c.kind == "1d" else (x[:, :3].copy(), x[:, 3:].copy())
+    assert_same_bits(c.run(*args), r.run(*args))
+
+
+@pytest.mark.parametrize("profile", PROFILES)
+@pytest.mark.parametrize("case", [pytest.param(c, id=c.id) for c in FIXED_CASES])
+def test_fixed_update_inputs_agree(case, profile):
+    for bad in (40000, -40000, 1.5, "1", math.nan, None, 10 ** 400, 1 + 1j, {1, 2, 3}):
+        fs = [case.make_fixed(b, profile) for b in ("c", "ref")]
+        if fs[0].kind == "1d":
+            args = (bad, 0)
+        else:
+            args = ([bad, 0, 0], [0, 0, 4096])
+        out = [_outcome(lambda f=f: f.update(*args)) for f in fs]
+        assert out[0] == out[1], (bad, out)
+        assert fs[0].state.tolist() == fs[1].state.tolist()
