@@ -396,3 +396,19 @@ def test_fixed_update_inputs_agree(case, profile):
         out = [_outcome(lambda f=f: f.update(*args)) for f in fs]
         assert out[0] == out[1], (bad, out)
         assert fs[0].state.tolist() == fs[1].state.tolist()
+
+
+@pytest.mark.parametrize("backend", ("c", "ref"))
+@pytest.mark.parametrize("name,params", [("MahonyIMU", dict(dt=0.005, kp=1.0, ki=0.3)),
+                                         ("DCM", dict(dt=0.005, kp=2.0, ki=0.5))])
+def test_state_write_of_a_runaway_integral_term(backend, name, params):
+    """I = 1e30 rad/s cannot be unwound (ki dt per sample) and makes every
+    float32 sample overflow: refused; |I| dt = 1 rad is the limit."""
+    f = getattr(imufuse_c if backend == "c" else reference, name)(**params, dtype="float32")
+    s = f.state.copy()
+    k = list(f.state_names).index("iy")
+    s[k] = 1e30
+    with pytest.raises(ValueError, match=r"^state: not a valid attitude \(iy = "):
+        f.state = s
+    s[k] = 0.99 / params["dt"]
+    f.state = s

@@ -165,6 +165,18 @@ class ReferenceFilter:
         return out
 
 
+def integral_problem(names, state, dt):
+    """State writes of Mahony's integral term I (rad/s; ix, iy, iz): the
+    correction it applies per sample, |I_k| dt, must stay within 1 rad, or the
+    first-order step would be meaningless and the filter could not unwind it
+    (it changes by at most ki dt per sample)."""
+    for n in ("ix", "iy", "iz"):
+        v = float(state[list(names).index(n)])
+        if not abs(v) * dt <= 1.0:
+            return f"{n} = {v!r}: the integral term must satisfy |{n}| dt <= 1 rad"
+    return None
+
+
 def _bare(cls, dtype):
     obj = cls.__new__(cls)
     obj.dtype = dtype
