@@ -153,6 +153,7 @@ def _demo(args):
 
 def _run(args):
     from . import preprocess
+    _fusion_hint(args.filter, "run")
     if preprocess.is_fusion(args.filter):  # Fusion's units and dt per sample
         cols, msg, f32 = preprocess.run_fusion(args, _load(args), _pairs(args.param))
         io.write_csv(sys.stdout if args.output == "-" else args.output, cols, float32=f32)
@@ -212,11 +213,19 @@ def _plot_run(path, cls, log, S, est, inputs, axis):
     _err(f"plot: {path}")
 
 
+def _fusion_hint(name, command):
+    from .preprocess import fusion_hint
+    hint = fusion_hint(name, command)
+    if hint:
+        raise UsageError(hint)
+
+
 def _compare(args):
     log = _load(args)
     if args.filters:
         names = [n for f in args.filters for n in f.split(",") if n]
         for n in names:
+            _fusion_hint(n, "compare")
             reference_class(n)
     else:
         kinds = {"imu", "ahrs"} if log.mag is not None else {"imu"}
