@@ -1,5 +1,2 @@
-import os
-import sys
-
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests"))
-sys.path.insert(0, os.path.dirname(__file__))
+"""Shared pytest configuration (the test helpers are on sys.path through
+pyproject.toml: [tool.pytest.ini_options] pythonpath)."""

@@ -3,23 +3,24 @@ the baseline that imufuse_c's run() is measured against. Same flags as the
 extension (-std=c99 -O2 -ffp-contract=off); the loop stores the state after
 every sample, as run() does."""
 import glob
+import importlib.util
 import os
 import tempfile
 
 from cffi import FFI
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-CSRC = os.path.join(HERE, "..", "csrc")
-ARGS = {"1d": ("rate", "angle"), "imu": ("gyr", "acc"), "ahrs": ("gyr", "acc", "mag")}
+from imufuse import catalogue
+from imufuse._checks import KINDS
+from imufuse._resources import csrc_dir
+
+CSRC = str(csrc_dir())
 
 
 def _loop_source(ref_cls):
     """C for plain_<c_name>(n, inputs..., out, params): init from params, then
     update + memcpy of the state for every sample."""
     c = ref_cls.c_name
-    ins = ARGS[ref_cls.kind]
-    n_params = len(ref_cls._params.__code__.co_varnames)    # upper bound; unused ones ignored
-    params = ", ".join(f"p[{i}]" for i in range(n_params))
+    ins = KINDS[ref_cls.kind]
     decl = ", ".join(f"const imf_real *{x}" for x in ins)
     if ref_cls.kind == "1d":
         call = f"{c}_update(&s, rate[k], angle[k]);"
@@ -39,15 +40,9 @@ def _loop_source(ref_cls):
         f"#define INIT_ARGS_{c} " + ", ".join(f"p[{i}]" for i in range(n_args(ref_cls)))
 
 
-def n_args(ref_cls, cache={}):
-    import inspect
-    if ref_cls not in cache:
-        # the number of C init arguments is the length of _params()'s result for
-        # any valid call; found from the registry default parameters
-        from registry import FLOAT_CASES
-        case = next(c for c in FLOAT_CASES if c.name == ref_cls.__name__)
-        cache[ref_cls] = len(ref_cls._params(**case.params))
-    return cache[ref_cls]
+def n_args(ref_cls):
+    """The number of C init arguments (the catalogue's init_args)."""
+    return len(catalogue.entry(ref_cls.__name__).init_args)
 
 
 def build(dtype, ref_classes):
@@ -71,7 +66,6 @@ def build(dtype, ref_classes):
                    extra_compile_args=["-std=c99", "-O2", "-ffp-contract=off"])
     tmp = tempfile.mkdtemp(prefix="imf_plain_")
     lib_path = ffi.compile(tmpdir=tmp)
-    import importlib.util
     spec = importlib.util.spec_from_file_location(name, lib_path)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)

@@ -1,4 +1,2 @@
-import os
-import sys
-
-sys.path.insert(0, os.path.dirname(__file__))
+"""Shared pytest configuration (the test helpers are on sys.path through
+pyproject.toml: [tool.pytest.ini_options] pythonpath)."""

@@ -1,15 +1,16 @@
-"""The filter matrix: every filter configuration the suites run, in one place.
+"""The filter matrix: every filter configuration the suites run.
 
-A new filter joins the bit-exact harness, the bad-input tests and the
-benchmarks by one entry here (its class must exist under the same name in
-imufuse_c and imufuse.reference).
+Every filter of imufuse.catalogue is in it: a filter without an extra case
+below runs with its catalogue defaults (dt = 0.01, or 0.002 for fixed point).
+The lists here hold only the extra configurations worth testing (every option
+of every class, published defaults, edge gains).
 """
 from dataclasses import dataclass, field
 
 import numpy as np
 import pytest
 
-import imufuse.reference as reference
+from imufuse import catalogue
 
 DTYPES = ("float32", "float64")
 
@@ -26,17 +27,13 @@ class Case:
 
     @property
     def kind(self):
-        return getattr(reference, self.name).kind
+        return catalogue.entry(self.name).kind
 
     def make(self, backend, dtype):
-        import imufuse_c
-        mod = imufuse_c if backend == "c" else reference
-        return getattr(mod, self.name)(**self.params, dtype=dtype)
+        return catalogue.entry(self.name).make(backend, **self.params, dtype=dtype)
 
     def make_fixed(self, backend, profile):
-        import imufuse_c
-        mod = imufuse_c if backend == "c" else reference
-        return getattr(mod, self.name)(**self.params, profile=profile)
+        return catalogue.entry(self.name).make(backend, **self.params, profile=profile)
 
 
 CASES_1D = [
@@ -94,7 +91,17 @@ CASES_GRAVITY = [
     Case("DCM", dict(dt=0.01, kp=0.5, ki=0.0), "p"),
 ]
 
-FLOAT_CASES = [*CASES_1D, *CASES_QUATERNION, *CASES_GRAVITY]
+EXTRA_FLOAT_CASES = [*CASES_1D, *CASES_QUATERNION, *CASES_GRAVITY]
+
+
+def _with_defaults(extra, entries, dt):
+    """The extra cases plus one default case for every entry without one."""
+    have = {c.name for c in extra}
+    return [*extra, *(Case(e.name, dict(dt=dt, **e.defaults), "defaults")
+                      for e in entries if e.name not in have)]
+
+
+FLOAT_CASES = _with_defaults(EXTRA_FLOAT_CASES, catalogue.FLOAT, 0.01)
 
 
 def float_cases(kind=None):
@@ -113,7 +120,7 @@ def as_dtype(arrays, dtype):
 
 # ---- fixed point (csrc/fixed): run() takes int16 counts, state is int32 -------
 PROFILES = ("32", "8")
-FIXED_CASES = [
+EXTRA_FIXED_CASES = [
     Case("Complementary1DQ", dict(dt=0.002, alpha=0.995, gyr_scale=1e-3, angle_scale=1e-4)),
     Case("Mahony1DBiasQ", dict(dt=0.002, kp=2.0, ki=0.2, gyr_scale=1e-3, angle_scale=1e-4)),
     Case("Mahony1DBiasQ", dict(dt=0.002, kp=2.0004, ki=0.2, integrate_first=True,
@@ -128,6 +135,9 @@ FIXED_CASES = [
     Case("MahonyIMUQ", dict(dt=1 / 512, kp=1.0, ki=0.05, gyr_scale=1.0642e-3)),
     Case("MadgwickIMUQ", dict(dt=1 / 512, beta=0.1, gyr_scale=1.0642e-3)),
 ]
+
+
+FIXED_CASES = _with_defaults(EXTRA_FIXED_CASES, catalogue.FIXED, 0.002)
 
 
 def fixed_matrix():

@@ -13,7 +13,6 @@ import imufuse
 import imufuse_c
 import imufuse.reference as reference
 from imufuse import cli, demo, io, sim
-from imufuse.rotations import quat_to_euler
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PATHS = [os.path.dirname(os.path.dirname(imufuse.__file__)),

@@ -11,7 +11,6 @@ filter state after every recorded sample, is the same on the host and on the ATm
 import re
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -21,16 +20,7 @@ ROOT = Path(__file__).resolve().parents[1]
 CSRC = ROOT / "csrc"
 EXAMPLE = ROOT / "examples" / "firmware"
 
-try:
-    import imufuse.mcu as mcu
-except ImportError:  # a source tree whose imufuse is not installed (or installed elsewhere)
-    _SRC = ROOT / "python"
-    sys.path.insert(0, str(_SRC))
-    import imufuse
-
-    if str(_SRC / "imufuse") not in list(imufuse.__path__):
-        imufuse.__path__.append(str(_SRC / "imufuse"))
-    import imufuse.mcu as mcu
+import imufuse.mcu as mcu
 
 import imufuse.reference as reference  # noqa: E402
 

@@ -3,13 +3,10 @@
 budget of each profile, and no drift over 10^6 samples."""
 from __future__ import annotations
 
-import pathlib
-import sys
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent / "fixed_c"))
 import twins  # noqa: E402
 
 import imufuse.reference as reference  # noqa: E402

@@ -3,17 +3,15 @@ compiled imufuse_c classes) equals the pure-Python reference integer for
 integer, every state variable after every sample, both profiles."""
 from __future__ import annotations
 
-import pathlib
-import sys
 
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent / "fixed_c"))
 import cbuild  # noqa: E402
 
 import imufuse.reference as reference  # noqa: E402
+from imufuse import catalogue  # noqa: E402
 from registry import FIXED_CASES, PROFILES, fixed_matrix  # noqa: E402
 
 N = 600
@@ -196,8 +194,15 @@ PARAM_SPACE = {
                        gyr_scale=_logu(1e-7, 1e-2)),
     "MadgwickIMUQ": dict(dt=_logu(1e-5, 0.1), beta=_logu(1e-4, 1e3), gyr_scale=_logu(1e-7, 1e-2)),
 }
-STATE_SIZE = {"Complementary1DQ": 1, "Mahony1DBiasQ": 2, "KKQ": 2, "MultiWiiQ": 6,
-              "MahonyIMUQ": 7, "MadgwickIMUQ": 4}
+STATE_SIZE = {e.name: len(e.state_names) for e in catalogue.FIXED}
+
+
+def test_param_space_covers_the_catalogue():
+    """Every fixed filter has a parameter space for the hypothesis test, over
+    parameters its constructor takes."""
+    assert sorted(PARAM_SPACE) == sorted(catalogue.FILTERS_FIXED)
+    for e in catalogue.FIXED:
+        assert set(PARAM_SPACE[e.name]) <= set(e.params) - {"profile"}, e.name
 I32 = st.one_of(st.integers(-2**31, 2**31 - 1), st.sampled_from([-2**31, -2**31 + 1, -1, 0, 1, 2**30, 2**31 - 1]))
 
 

@@ -4,13 +4,10 @@ from __future__ import annotations
 
 import math
 import struct
-import sys
-import pathlib
 
 import pytest
 from hypothesis import given, settings, strategies as st, HealthCheck
 
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent / "fixed_c"))
 import cbuild  # noqa: E402
 
 from imufuse.reference import _cint as ci  # noqa: E402

@@ -16,30 +16,17 @@ implementation against correctly rounded results, so a filter mismatch can be tr
 operation that differs and by how many ulp.
 """
 
-import sys
 import time
 from concurrent.futures import ThreadPoolExecutor
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import registry  # noqa: E402
-from bits import ulps  # noqa: E402
+import registry
+from bits import ulps
 
-try:
-    import imufuse.mcu as mcu
-    from imufuse.mcu import filters as mf
-except ImportError:  # a source tree whose imufuse is not installed (or installed elsewhere)
-    _SRC = Path(__file__).resolve().parents[1] / "python"
-    sys.path.insert(0, str(_SRC))
-    import imufuse
-
-    if str(_SRC / "imufuse") not in list(imufuse.__path__):
-        imufuse.__path__.append(str(_SRC / "imufuse"))
-    import imufuse.mcu as mcu
-    from imufuse.mcu import filters as mf
+import imufuse.mcu as mcu
+from imufuse.mcu import filters as mf
 
 import imufuse.reference as reference  # noqa: E402
 

@@ -6,22 +6,12 @@ Missing toolchains are installed with tools/install-toolchains.sh; the tests ski
 reason, only when that is impossible.
 """
 
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-try:
-    import imufuse.mcu as mcu
-except ImportError:  # a source tree whose imufuse is not installed (or installed elsewhere)
-    _SRC = Path(__file__).resolve().parents[1] / "python"
-    sys.path.insert(0, str(_SRC))
-    import imufuse
-
-    if str(_SRC / "imufuse") not in list(imufuse.__path__):
-        imufuse.__path__.append(str(_SRC / "imufuse"))
-    import imufuse.mcu as mcu
+import imufuse.mcu as mcu
 
 EX = Path(mcu.__file__).resolve().parent / "examples"
 MCU_TARGETS = ["m4f", "m0", "avr"]

@@ -1,13 +1,36 @@
 #!/usr/bin/env bash
-# The whole imufuse test suite, on a fresh clone: installs what it needs
-# (the Debian cross toolchains and emulators for the MCU tests, the package
-# with its test extras), then runs pytest. Extra arguments go to pytest.
+# The whole imufuse test suite, as a user gets the package: installs the
+# Debian cross toolchains and emulators (MCU tests), builds the sdist, installs
+# it (not editable) with its test extras into a fresh virtual environment and
+# runs pytest there against the installed package, never the checkout.
+# Extra arguments go to pytest.
+#
+#   PYTHON   the interpreter to build the venv from (default python3)
+#   VENV     where to create it (default build/test-venv, recreated every run)
 set -euo pipefail
 cd "$(dirname "$0")/.."
+ROOT=$PWD
 PY=${PYTHON:-python3}
+VENV=${VENV:-$ROOT/build/test-venv}
 tools/install-toolchains.sh
-"$PY" -m pip install -q --disable-pip-version-check -e ".[test]"
+
+rm -rf "$VENV" "$ROOT/build/sdist"
+"$PY" -m venv --system-site-packages "$VENV"
+VPY="$VENV/bin/python"
+PIP=("$VPY" -m pip install -q --disable-pip-version-check)
+# the build requirements of pyproject.toml, so that the sdist and the wheel
+# build without isolation (one download, reused by both steps)
+"${PIP[@]}" "setuptools>=64" "Cython>=3" "numpy>=2" build
+"$VPY" -m build --sdist --no-isolation --outdir "$ROOT/build/sdist" . >/dev/null
+SDIST=$(ls "$ROOT"/build/sdist/imufuse-*.tar.gz)
+"${PIP[@]}" --no-build-isolation "imufuse[test] @ file://$SDIST"
+
 # the published-code oracle comes from PyPI, which the install above needs anyway:
 # an unreachable oracle is a failure here, not a skip
 export IMUFUSE_REQUIRE_ORACLE=1
-exec "$PY" -m pytest "$@"
+# tests/test_packaging.py checks that imufuse and imufuse_c come from the venv
+export IMUFUSE_TEST_INSTALLED="$VENV"
+# keep the checkout's directory off sys.path (Python >= 3.11): its imufuse_c/
+# must not shadow the installed package
+export PYTHONSAFEPATH=1
+exec "$VPY" -m pytest "$@"

@@ -13,6 +13,16 @@ import time
 
 import numpy as np
 
+from . import io, plots, sim
+from ._resources import csrc_dir
+from .catalogue import (FilterError, estimate, filter_names, inputs_for, make_filter,
+                        param_names, reference_class, resolve_params, why_no_estimate)
+from .demo import errors_1d, errors_3d, run_demo
+from .estimate import euler_of
+from .firmware import Firmware, FirmwareError, csrc_firmware, validate
+from .io import ACC, GYR, MAG, LogError, axis_inputs, read_log, require
+from .rotations import quat_to_euler
+
 EXIT_OK, EXIT_FAIL, EXIT_USAGE, EXIT_FILE, EXIT_DATA, EXIT_FIRMWARE = 0, 1, 2, 3, 4, 5
 
 
@@ -48,7 +58,6 @@ def _pairs(items, what="--param"):
 
 def _scoped_params(items, names):
     """--param NAME=V (every filter that has NAME) or FILTER.NAME=V -> {filter: {name: v}}."""
-    from .demo import param_names
     out = {n: {} for n in names}
     for k, v in _pairs(items).items():
         if "." in k:
@@ -89,7 +98,6 @@ def run_with_progress(f, inputs, label, backend):
 
 
 def _load(args):
-    from .io import read_log
     log = read_log(args.log, gyr_unit=args.gyr_unit, acc_unit=args.acc_unit, rate=args.rate)
     for w in log.warnings:
         _err(f"warning: {w}")
@@ -98,7 +106,6 @@ def _load(args):
 
 def _inputs(cls, log, axis):
     """run() arguments of a filter from a log, and a description."""
-    from .io import ACC, GYR, MAG, axis_inputs, require
     if cls.kind == "1d":
         rate, angle, src = axis_inputs(log, axis)
         return (rate, angle), src
@@ -111,7 +118,6 @@ def _inputs(cls, log, axis):
 
 
 def _ref_angle(log, axis):
-    from .rotations import quat_to_euler
     q = log.q_ref
     if q is None:
         return None
@@ -119,7 +125,6 @@ def _ref_angle(log, axis):
 
 
 def _errors(cls, est, log, axis):
-    from .demo import errors_1d, errors_3d
     if est is None or log.q_ref is None:
         return None
     mask = np.ones(len(log), dtype=bool)
@@ -134,10 +139,8 @@ def _fmt_errors(e):
 
 # ---------------------------------------------------------------------------
 def _demo(args):
-    from .demo import run_demo
     names = None
     if args.filters:
-        from .demo import reference_class
         names = [n for f in args.filters for n in f.split(",") if n]
         for n in names:
             reference_class(n)
@@ -146,8 +149,6 @@ def _demo(args):
 
 
 def _run(args):
-    from . import io
-    from .demo import estimate, euler_of, make_filter, reference_class, resolve_params, why_no_estimate
     cls = reference_class(args.filter)
     overrides = _pairs(args.param)
     log = _load(args)
@@ -189,7 +190,6 @@ def _run(args):
 
 
 def _plot_run(path, cls, log, S, est, inputs, axis):
-    from . import plots
     if not plots.available():
         _err("plots unavailable: matplotlib is not installed (pip install 'imufuse[plot]')")
         return
@@ -198,16 +198,12 @@ def _plot_run(path, cls, log, S, est, inputs, axis):
     elif est.angle is not None:
         plots.plot_1d(path, log.t, _ref_angle(log, axis), {cls.__name__: est.angle}, inputs[1])
     else:
-        from .demo import euler_of
-        from .rotations import quat_to_euler
         ref = quat_to_euler(log.q_ref) if log.q_ref is not None else None
         plots.plot_euler(path, log.t, {cls.__name__: euler_of(est)}, ref)
     _err(f"plot: {path}")
 
 
 def _compare(args):
-    from .demo import (estimate, euler_of, filter_names, make_filter, reference_class,
-                       resolve_params, why_no_estimate)
     log = _load(args)
     if args.filters:
         names = [n for f in args.filters for n in f.split(",") if n]
@@ -266,7 +262,6 @@ def _compare(args):
                 f"{'-':>7s}" if np.isnan(v) else f"{v:7.2f}" for v in final)
             print(f"{n:22s} {kind:4s} {fs:>31s} {sp}  {note}")
     if args.plot:
-        from . import plots
         if not plots.available():
             _err("plots unavailable: matplotlib is not installed (pip install 'imufuse[plot]')")
         else:
@@ -282,15 +277,12 @@ def _compare(args):
                               _inputs(reference_class(next(iter(one))), log, args.axis)[0][1])
                 _err(f"plot: {p1}")
             if three:
-                from .rotations import quat_to_euler
                 plots.plot_euler(p3, log.t, three, quat_to_euler(log.q_ref) if has_ref else None)
                 _err(f"plot: {p3}")
     return EXIT_OK
 
 
 def _bench(args):
-    from . import sim
-    from .demo import filter_names, inputs_for, make_filter, reference_class, resolve_params, FilterError
     names = ([n for f in args.filters for n in f.split(",") if n] if args.filters
              else filter_names())
     for n in names:
@@ -334,10 +326,6 @@ def _bench(args):
 
 
 def _validate(args):
-    from . import sim
-    from .demo import inputs_for, reference_class, resolve_params
-    from .firmware import Firmware, csrc_firmware, validate
-    from .io import LogError
     cls = reference_class(args.filter)
     overrides = _pairs(args.param)
     defines = {}
@@ -379,7 +367,6 @@ def _validate(args):
           f"{', '.join(f'{k}={val}' for k, val in params.items())}")
     print(v.text())
     if args.plot:
-        from . import plots
         if not plots.available():
             _err("plots unavailable: matplotlib is not installed (pip install 'imufuse[plot]')")
         else:
@@ -465,10 +452,12 @@ def build_parser():
                        "--filter Kalman1D \\\n     --init 'void att_init(att_t *s, float dt, float k0)' "
                        "\\\n     --update 'void att_update(att_t *s, float rate, float angle)' \\\n"
                        "     --state theta=x.theta --param k0=0.01\n"
-                       "  imufuse validate --csrc csrc --filter Kalman1D --dtype float32")
+                       "  imufuse validate --csrc --filter Kalman1D --dtype float32")
     v.add_argument("sources", nargs="*", metavar="SOURCE.c")
     v.add_argument("--filter", "-f", required=True, help="the imufuse filter to compare with")
-    v.add_argument("--csrc", metavar="DIR", help="validate imufuse's own sources in DIR")
+    v.add_argument("--csrc", metavar="DIR", nargs="?", const=str(csrc_dir()),
+                   help="validate imufuse's own sources in DIR (default: the C library "
+                        "installed with imufuse)")
     v.add_argument("-I", "--include", action="append", metavar="DIR")
     v.add_argument("-D", "--define", action="append", metavar="NAME[=VALUE]")
     v.add_argument("--header", action="append", metavar="FILE.h", help="header(s) to include")
@@ -497,9 +486,6 @@ def build_parser():
 
 
 def main(argv=None):
-    from .demo import FilterError
-    from .firmware import FirmwareError
-    from .io import LogError
     p = build_parser()
     args = p.parse_args(argv)
     if not getattr(args, "func", None):

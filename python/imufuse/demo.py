@@ -1,202 +1,28 @@
 """`imufuse demo`: every filter on simulated data, C against reference bit for
 bit, errors against ground truth, plots.
 
-Also the filter catalogue shared by the command line: default parameters,
-construction on either backend, and the adapters that turn a filter's state
-trajectory into an angle (single-axis filters) or a quaternion (3D filters).
-
-Adapters, by state names (a filter joins by the names of its state):
-  1d, state "theta"                 -> angle (rad)
-  q0, q1, q2, q3 first              -> quaternion [w, x, y, z] body -> earth
-  9 names ending 11..33 or 00..22   -> rotation matrix R (body -> earth, row-major)
-  3 names <p>x, <p>y, <p>z first    -> gravity direction in the body frame (what a
-                                       level, resting accelerometer reads: +z);
-                                       tilt only, no heading
-  roll, pitch [, yaw] or phi, theta [, psi] -> ZYX Euler angles (rad); tilt only
-                                       without yaw
-Anything else: no estimate (the filter still runs and is checked bit for bit).
+The filters, their default parameters and their state -> estimate adapters
+come from imufuse.catalogue.
 """
-import inspect
 import math
 import os
-import re
 import sys
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import rotations, sim
-from . import reference as _reference
+from . import plots, rotations, sim
+from .bits import compare_states
+from .catalogue import (FilterError, estimate, filter_names, inputs_for, make_filter,
+                        reference_class, resolve_params, why_no_estimate)
+from .estimate import Estimate
 
-#: Parameters the demo and the command line use when the user gives none
-#: (dt always comes from the sample rate). Tuned for 100-500 Hz MEMS data.
-DEFAULT_PARAMS = {
-    "Complementary1D": dict(T=0.5),
-    "Kalman1D": dict(k0=0.01),
-    "Mahony1D": dict(kp=2.0),
-    "Kalman1DBias": dict(k0=0.01, k1=-0.02),
-    "Mahony1DBias": dict(kp=2.0, ki=0.3),
-    "Complementary1DBias": dict(kp=2.0, ki=0.3),
-    # 3D filters whose constructors have no defaults for their gains
-    "KK": dict(kp=0.01),
-    "Mahony2D": dict(kp=2.0, ki=0.5),
-    "DCM": dict(kp=2.0, ki=0.5),
-    # the published Mahony defaults (kp 0.5, ki 0) leave a gyro bias uncorrected;
-    # the demo and the command line use the gains of the other PI filters
-    "MahonyIMU": dict(kp=2.0, ki=0.5),
-    "MahonyAHRS": dict(kp=2.0, ki=0.5),
-}
+__all__ = ["run_demo", "errors_1d", "errors_3d", "SETTLE"]
 
 #: Seconds at the start of a run left out of the error statistics (the
 #: filters start from zero / the identity and need time to converge).
 SETTLE = 5.0
-
-
-class FilterError(ValueError):
-    """Unknown filter or parameter, or parameters the filter rejects."""
-
-
-# ---------------------------------------------------------------------------
-# catalogue
-
-def filter_names(kinds=None):
-    """Names of the float filters (imufuse.reference.FILTERS), optionally of some kinds."""
-    return [n for n in _reference.FILTERS
-            if kinds is None or getattr(_reference, n).kind in kinds]
-
-
-def reference_class(name):
-    if name not in _reference.FILTERS:
-        import difflib
-        close = difflib.get_close_matches(name, _reference.FILTERS, n=3, cutoff=0.5)
-        hint = f" (did you mean {', '.join(close)}?)" if close else ""
-        raise FilterError(f"unknown filter {name!r}{hint}; valid filters: "
-                          f"{', '.join(_reference.FILTERS)}")
-    return getattr(_reference, name)
-
-
-def param_names(name):
-    """Keyword parameters of a filter's constructor, dt included."""
-    sig = inspect.signature(reference_class(name)._params)
-    return [p.name for p in sig.parameters.values()
-            if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)]
-
-
-def resolve_params(name, dt, overrides=None):
-    """dt plus DEFAULT_PARAMS[name] updated by overrides; checks the names."""
-    valid = param_names(name)
-    overrides = dict(overrides or {})
-    for k in overrides:
-        if k == "dt":
-            raise FilterError("dt: set by the sample rate (--rate or the log's time column)")
-        if k not in valid:
-            raise FilterError(f"{name}: unknown parameter {k!r}; valid parameters: "
-                              f"{', '.join(v for v in valid if v != 'dt')}")
-    params = dict(DEFAULT_PARAMS.get(name, {}))
-    # a user's alternative parametrisation replaces the default one
-    # (Complementary1D alpha vs T, Complementary1DBias kp/ki vs omega0/xi)
-    alternatives = [{"alpha", "T"}, {"kp", "omega0"}, {"ki", "xi"}, {"kp", "xi"}, {"ki", "omega0"}]
-    for k in overrides:
-        for alt in alternatives:
-            if k in alt:
-                for other in alt - {k}:
-                    params.pop(other, None)
-    params.update(overrides)
-    return {"dt": dt, **params}
-
-
-def make_filter(name, backend, dtype, params):
-    """A filter instance: backend "c" (imufuse_c) or "ref" (imufuse.reference)."""
-    reference_class(name)
-    if backend == "c":
-        import imufuse_c
-        cls = getattr(imufuse_c, name)
-    elif backend == "ref":
-        cls = getattr(_reference, name)
-    else:
-        raise FilterError(f"backend: must be 'c' or 'ref', got {backend!r}")
-    try:
-        return cls(**params, dtype=dtype)
-    except TypeError as e:
-        raise FilterError(f"{name}: {e}; valid parameters: "
-                          f"{', '.join(v for v in param_names(name) if v != 'dt')}") from None
-    except ValueError as e:
-        raise FilterError(f"{name}: {e}") from None
-
-
-# ---------------------------------------------------------------------------
-# state -> estimate adapters
-
-@dataclass
-class Estimate:
-    """What a state trajectory says about the orientation.
-
-    angle: (N,) rad for single-axis filters; q: (N, 4) body -> earth for 3D
-    filters; heading: whether q's yaw means anything (AHRS with a full
-    attitude); source: how it was derived."""
-    angle: np.ndarray = None
-    q: np.ndarray = None
-    heading: bool = False
-    source: str = ""
-
-
-_MATRIX = (("11", "12", "13", "21", "22", "23", "31", "32", "33"),
-           ("00", "01", "02", "10", "11", "12", "20", "21", "22"))
-
-
-def _up_to_quat(up):
-    """Tilt-only quaternion (yaw 0) whose body-frame earth-up is `up`:
-    R^T e_z = (-sin p, sin r cos p, cos r cos p) for ZYX."""
-    roll = np.arctan2(up[:, 1], up[:, 2])
-    pitch = np.arctan2(-up[:, 0], np.hypot(up[:, 1], up[:, 2]))
-    return rotations.euler_to_quat(np.stack([roll, pitch, np.zeros_like(roll)], axis=-1))
-
-
-def estimate(cls, states):
-    """Estimate from the (N, len(state)) trajectory of a filter class (either
-    backend), or None with the reason in `why_no_estimate(cls)`."""
-    names = tuple(cls.state_names)
-    S = np.asarray(states, dtype=np.float64)
-    if cls.kind == "1d":
-        if "theta" in names:
-            return Estimate(angle=S[:, names.index("theta")], source="theta")
-        return None
-    if names[:4] == ("q0", "q1", "q2", "q3"):
-        q = S[:, :4]
-        with np.errstate(all="ignore"):
-            q = q / np.linalg.norm(q, axis=1, keepdims=True)
-        return Estimate(q=q, heading=cls.kind == "ahrs", source="q0..q3")
-    for idx in _MATRIX:
-        if len(names) >= 9 and all(n.endswith(s) and n[:-2] == names[0][:-2]
-                                   for n, s in zip(names[:9], idx)):
-            R = S[:, :9].reshape(-1, 3, 3)
-            return Estimate(q=rotations.matrix_to_quat(R), heading=cls.kind == "ahrs",
-                            source=f"{names[0]}..{names[8]} (rotation matrix)")
-    if len(names) >= 3 and names[0][:-1] == names[1][:-1] == names[2][:-1] \
-            and tuple(n[-1] for n in names[:3]) == ("x", "y", "z"):
-        return Estimate(q=_up_to_quat(S[:, :3]), heading=False,
-                        source=f"{names[0]}..{names[2]} (gravity vector)")
-    for r, p, y in (("roll", "pitch", "yaw"), ("phi", "theta", "psi")):
-        if r in names and p in names:
-            yaw = S[:, names.index(y)] if y in names else np.zeros(len(S))
-            e = np.stack([S[:, names.index(r)], S[:, names.index(p)], yaw], axis=-1)
-            return Estimate(q=rotations.euler_to_quat(e), heading=y in names and cls.kind == "ahrs",
-                            source=f"{r}, {p}" + (f", {y}" if y in names else "") + " (Euler)")
-    return None
-
-
-def why_no_estimate(cls):
-    return (f"no orientation estimate derivable from state {', '.join(cls.state_names)} "
-            "(see imufuse.demo adapters)")
-
-
-def euler_of(est):
-    """(N, 3) roll, pitch, yaw in rad of a quaternion estimate (yaw NaN without heading)."""
-    e = rotations.quat_to_euler(est.q)
-    if not est.heading:
-        e[:, 2] = np.nan
-    return e
 
 
 # ---------------------------------------------------------------------------
@@ -223,25 +49,13 @@ def errors_3d(est, q_true, mask):
 
 
 # ---------------------------------------------------------------------------
-# bit patterns
+# the demo
 
 def first_difference(got, want, names):
     """None when got and want have the same bit patterns everywhere; else
     (sample, variable name)."""
-    from .firmware import compare_states
     rep = compare_states(got, want, names)
     return None if rep.bit_exact else (rep.first_sample, rep.first_variable)
-
-
-# ---------------------------------------------------------------------------
-# the demo
-
-def inputs_for(kind, data):
-    if kind == "1d":
-        return (data.gyr, data.acc_angle)
-    if kind == "imu":
-        return (data.gyr, data.acc)
-    return (data.gyr, data.acc, data.mag)
 
 
 @dataclass
@@ -332,7 +146,6 @@ def run_demo(out_dir="imufuse-demo", rate=200.0, duration=20.0, seed=1, plot=Tru
            f"{_fmt_err(r.errors.get('heading')):>17s}  {r.note}")
     pr("")
     if plot:
-        from . import plots
         if not plots.available():
             pr("plots unavailable: matplotlib is not installed (pip install 'imufuse[plot]')")
         else:

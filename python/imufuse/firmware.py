@@ -50,14 +50,21 @@ import importlib.util
 import json
 import os
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
+
+from . import cproto
+from ._checks import KINDS
+from .bits import Comparison, compare_states, ulps
+from .catalogue import make_filter, reference_class
+
+__all__ = ["Firmware", "FirmwareError", "Validation", "validate", "csrc_firmware",
+           "parse_prototype", "Comparison", "compare_states", "ulps", "DEFAULT_CFLAGS"]
 
 DEFAULT_CFLAGS = ("-std=c99", "-O2", "-ffp-contract=off")
 _FLOAT_TYPES = {"float", "double", "imf_real", "real", "float32_t", "float64_t", "real_t"}
 _DT_NAMES = {"dt", "deltat", "delta_t"}
-_INPUTS = {"1d": ("rate", "angle"), "imu": ("gyr", "acc"), "ahrs": ("gyr", "acc", "mag")}
 
 
 class FirmwareError(ValueError):
@@ -65,131 +72,14 @@ class FirmwareError(ValueError):
 
 
 # ---------------------------------------------------------------------------
-# bit-pattern comparison
-
-_UINT = {np.dtype("float32"): np.uint32, np.dtype("float64"): np.uint64}
-
-
-def ulps(a, b):
-    """|a - b| in units in the last place (same-dtype float arrays); NaN
-    against a number counts as the largest distance."""
-    a = np.asarray(a)
-    b = np.asarray(b)
-    u = _UINT[a.dtype]
-    bits = a.dtype.itemsize * 8
-    sign = 1 << (bits - 1)
-
-    def ordered(x):
-        v = x.view(u).astype(object)
-        return np.where(v >= sign, sign - v, v)
-
-    d = np.abs(ordered(a) - ordered(b)).astype(float)
-    nan = np.isnan(a) != np.isnan(b)
-    d[nan] = float(2 ** bits)
-    return d
-
-
-@dataclass
-class Comparison:
-    """Result of comparing two state trajectories bit for bit."""
-    names: tuple
-    dtype: str
-    n_samples: int
-    bit_exact: bool
-    first_sample: int = None
-    first_variable: str = None
-    first_values: tuple = None             # (got, want) at the first difference
-    n_different: int = 0                   # samples with any difference
-    max_abs: dict = field(default_factory=dict)    # name -> max |got - want|
-    max_ulps: dict = field(default_factory=dict)   # name -> max ulps
-
-    def text(self, got_label="firmware", want_label="imufuse"):
-        if self.bit_exact:
-            return (f"bit-exact: {self.n_samples} samples x {len(self.names)} state variables "
-                    f"({self.dtype}) have equal bit patterns")
-        g, w = self.first_values
-        lines = [f"NOT bit-exact ({self.dtype}): first divergence at sample {self.first_sample}, "
-                 f"variable {self.first_variable}: {got_label} {g!r} vs {want_label} {w!r}",
-                 f"{self.n_different} of {self.n_samples} samples differ",
-                 f"{'variable':12s} {'max |diff|':>12s} {'max ulps':>12s}"]
-        for n in self.names:
-            lines.append(f"{n:12s} {self.max_abs[n]:12.4g} {self.max_ulps[n]:12.0f}")
-        return "\n".join(lines)
-
-
-def compare_states(got, want, names=None):
-    """Compare (N, n) trajectories of one float dtype by bit pattern."""
-    got = np.asarray(got)
-    want = np.asarray(want)
-    if got.ndim == 1:
-        got, want = got[:, None], want[:, None]
-    if got.shape != want.shape or got.dtype != want.dtype:
-        raise FirmwareError(f"cannot compare {got.dtype}{got.shape} with {want.dtype}{want.shape}")
-    names = tuple(names) if names else tuple(f"s{j}" for j in range(got.shape[1]))
-    u = _UINT[got.dtype]
-    diff = got.view(u) != want.view(u)
-    rep = Comparison(names, got.dtype.name, got.shape[0], not diff.any())
-    if rep.bit_exact:
-        rep.max_abs = {n: 0.0 for n in names}
-        rep.max_ulps = {n: 0.0 for n in names}
-        return rep
-    k, j = (int(i) for i in np.argwhere(diff)[0])
-    rep.first_sample, rep.first_variable = k, names[j]
-    rep.first_values = (got[k, j].item(), want[k, j].item())
-    rep.n_different = int(diff.any(axis=1).sum())
-    with np.errstate(all="ignore"):
-        ad = np.abs(got.astype(np.float64) - want.astype(np.float64))
-    ad[diff & np.isnan(ad)] = np.inf
-    ad[~diff] = 0.0
-    for jj, n in enumerate(names):
-        col = diff[:, jj]
-        rep.max_abs[n] = float(ad[:, jj].max())
-        rep.max_ulps[n] = float(ulps(got[col, jj], want[col, jj]).max()) if col.any() else 0.0
-    return rep
-
-
-# ---------------------------------------------------------------------------
 # declarations
 
-@dataclass
-class _Param:
-    name: str
-    ctype: str        # element type without const / * / []
-    vector: bool      # array or pointer
-    pointer: bool
-
-
-@dataclass
-class _Proto:
-    name: str
-    params: list
-
-
-_PROTO = re.compile(r"^\s*(?:[\w\s\*]*?)\b(\w+)\s*\((.*)\)\s*;?\s*$", re.S)
-
-
 def parse_prototype(text):
-    """'void f(T *self, float a, const float g[3])' -> _Proto."""
-    m = _PROTO.match(text.strip())
-    if not m:
-        raise FirmwareError(f"cannot read C prototype {text!r}")
-    params = []
-    body = m.group(2).strip()
-    if body and body != "void":
-        for i, p in enumerate(body.split(",")):
-            p = p.strip()
-            vector = "[" in p
-            p0 = re.sub(r"\[[^\]]*\]", "", p)
-            pointer = "*" in p0
-            words = re.findall(r"\w+", p0)
-            words = [w for w in words if w not in ("const", "volatile", "restrict", "struct")]
-            if len(words) < 2:
-                raise FirmwareError(f"parameter {i + 1} of {m.group(1)}: name it ({p!r})")
-            ctype = " ".join(words[:-1])
-            if "struct" in p0.split():
-                ctype = "struct " + ctype
-            params.append(_Param(words[-1], ctype, vector or pointer, pointer))
-    return _Proto(m.group(1), params)
+    """'void f(T *self, float a, const float g[3])' -> cproto.Prototype."""
+    try:
+        return cproto.parse_prototype(text)
+    except cproto.PrototypeError as e:
+        raise FirmwareError(str(e)) from None
 
 
 def _find_prototype(fname, headers, include_dirs):
@@ -197,10 +87,10 @@ def _find_prototype(fname, headers, include_dirs):
         for d in ["", *include_dirs]:
             path = os.path.join(d, h) if d else h
             if os.path.isfile(path):
-                text = re.sub(r"/\*.*?\*/", " ", open(path).read(), flags=re.S)
-                m = re.search(r"[\w\s\*]*\b" + re.escape(fname) + r"\s*\([^)]*\)\s*;", text)
-                if m:
-                    return m.group(0)
+                with open(path) as fh:
+                    proto = cproto.find_prototype(fh.read(), fname)
+                if proto:
+                    return proto
     raise FirmwareError(f"prototype of {fname} not found in headers {list(headers)} "
                         f"(include dirs {list(include_dirs)}); give the full prototype")
 
@@ -246,7 +136,7 @@ class Firmware:
             if x is None:
                 return None
             if "(" not in x:
-                x = _find_prototype(x, self.headers, self.include_dirs)
+                return _find_prototype(x, self.headers, self.include_dirs)
             return parse_prototype(x)
         self.init = proto(init)
         self.update = proto(update)
@@ -283,7 +173,7 @@ class Firmware:
 
     def _update_call(self, kind):
         """C statements calling update from x (double inputs) and dt."""
-        names = _INPUTS[kind]
+        names = KINDS[kind]
         n_vec = 1 if kind == "1d" else 3
         ps = self.update.params[1:] if self.self_type else self.update.params
         pos, args, decls = 0, ["self"] if self.self_type else [], []
@@ -406,7 +296,7 @@ class Firmware:
         return out.astype(dtype)
 
     def dtype(self, kind="1d", c_args=(), params=None):
-        S = self.run(kind, [np.zeros((0, 1 if kind == "1d" else 3))] * len(_INPUTS[kind]),
+        S = self.run(kind, [np.zeros((0, 1 if kind == "1d" else 3))] * len(KINDS[kind]),
                      1.0, c_args, params)
         return S.dtype.name
 
@@ -414,10 +304,8 @@ class Firmware:
 def csrc_firmware(name, csrc_dir, dtype="float32", **kwargs):
     """A Firmware for imufuse's own filter `name` from a csrc directory
     (e.g. a copy with changes): prototypes from the headers, state x.<name>."""
-    from .demo import reference_class
     ref = reference_class(name)
-    # the C prefix: c_name, or imf_<lowercase class name> for classes without one
-    c = getattr(ref, "c_name", "") or "imf_" + name.lower()
+    c = ref.c_name
     headers = [os.path.basename(h) for h in sorted(glob.glob(os.path.join(csrc_dir, "*.h")))]
     sources = sorted(glob.glob(os.path.join(csrc_dir, "*.c")))
     # only the family that declares the filter (its header and source), when found
@@ -455,7 +343,6 @@ def validate(fw, name, params, inputs, backend="c", dtype=None):
     `params`, dt included) on the same inputs; return a Validation. dtype:
     the imufuse precision; default the firmware's (from sizeof of its state);
     the inputs are rounded to it first, as imufuse's run() does."""
-    from .demo import make_filter, reference_class
     ref = reference_class(name)
     c_args = ref._params(**params)
     names = tuple(fw.state)

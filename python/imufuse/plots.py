@@ -3,6 +3,8 @@
 matplotlib is optional (the `plot` extra): check `available()` first."""
 import numpy as np
 
+from .rotations import heading_error, tilt_error
+
 
 def available():
     try:
@@ -47,7 +49,7 @@ def plot_1d(path, t, truth, estimates, measured=None):
 
 def plot_3d_errors(path, t, q_true, estimates):
     """Tilt and heading errors (deg) of quaternion estimates (dict name -> Estimate)."""
-    from .rotations import heading_error, tilt_error
+
     plt = _plt()
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(10, 7), sharex=True)
     for name, est in estimates.items():

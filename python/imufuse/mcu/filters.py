@@ -33,7 +33,13 @@ from typing import Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-from . import Driver, HarnessError, Result, build, run_elf
+from .._checks import KINDS
+from .._resources import csrc_dir
+from ..cproto import CParam, PrototypeError, find_prototype, strip_comments
+from .driver import Driver
+from .emulators import Result, run_elf
+from .programs import build
+from .toolchains import HarnessError
 
 __all__ = [
     "CSRC",
@@ -44,11 +50,11 @@ __all__ = [
     "INPUT_NAMES",
 ]
 
-#: csrc/ of the source tree this package sits in (python/imufuse/mcu -> repository root)
-CSRC = Path(__file__).resolve().parents[3] / "csrc"
+#: csrc/ as shipped in the package (imufuse/csrc)
+CSRC = csrc_dir()
 
-#: the update inputs of each kind, in order (the same as imufuse._checks.KINDS)
-INPUT_NAMES = {"1d": ("rate", "angle"), "imu": ("gyr", "acc"), "ahrs": ("gyr", "acc", "mag")}
+#: the update inputs of each kind, in order
+INPUT_NAMES = KINDS
 
 _STATE_KIND = {np.dtype(np.float32): "f32", np.dtype(np.float64): "f64", np.dtype(np.int32): "i32",
                np.dtype(np.int16): "i16", np.dtype(np.uint32): "u32"}
@@ -56,14 +62,6 @@ _STATE_KIND = {np.dtype(np.float32): "f32", np.dtype(np.float64): "f64", np.dtyp
 
 # --------------------------------------------------------------------------------------------
 # C headers
-
-
-@dataclasses.dataclass(frozen=True)
-class CParam:
-    ctype: str       # e.g. "imf_real", "int", "double", "const imf_real *"
-    name: str
-    pointer: bool
-    length: Optional[int] = None  # declared array length (imf_real gyr[3])
 
 
 @dataclasses.dataclass(frozen=True)
@@ -80,34 +78,16 @@ class CFilter:
     init_consts: Optional[Tuple[CParam, ...]] = None  # fixed point: <c_name>_init_consts
 
 
-def _strip_comments(text: str) -> str:
-    text = re.sub(r"/\*.*?\*/", " ", text, flags=re.S)
-    return re.sub(r"//[^\n]*", " ", text)
-
-
-def _parse_params(text: str) -> Tuple[CParam, ...]:
-    out = []
-    for raw in text.split(","):
-        p = " ".join(raw.split())
-        if not p or p == "void":
-            continue
-        m = re.match(r"^(.*?)([A-Za-z_][A-Za-z0-9_]*)\s*(\[\s*(\d*)\s*\])?$", p)
-        if not m:
-            raise HarnessError(f"cannot parse C parameter {p!r}")
-        ctype, name, arr, alen = m.group(1).strip(), m.group(2), m.group(3), m.group(4)
-        pointer = "*" in ctype or arr is not None
-        out.append(CParam(ctype, name, pointer, int(alen) if alen else None))
-    return tuple(out)
-
-
 def _prototype(text: str, func: str) -> Tuple[str, Tuple[CParam, ...]]:
-    m = re.search(r"([A-Za-z_][A-Za-z0-9_ \t\*]*?)\b" + re.escape(func) + r"\s*\(([^)]*)\)\s*;", text)
-    if not m:
+    try:
+        p = find_prototype(text, func)
+    except PrototypeError as e:
+        raise HarnessError(str(e)) from None
+    if p is None:
         raise HarnessError(f"no prototype of {func}()")
-    params = _parse_params(m.group(2))
-    if not params or not params[0].pointer:
+    if not p.params or not p.params[0].pointer:
         raise HarnessError(f"{func}(): the first parameter must be the filter pointer")
-    return " ".join(m.group(1).split()), params[1:]
+    return p.returns, p.params[1:]
 
 
 def _headers(csrc: Path) -> List[Path]:
@@ -123,7 +103,7 @@ def c_library(c_name: str, csrc: Path = CSRC) -> CFilter:
     if key in _HEADER_CACHE:
         return _HEADER_CACHE[key]
     for h in _headers(Path(csrc)):
-        text = _strip_comments(h.read_text())
+        text = strip_comments(h.read_text())
         if not re.search(r"\b" + re.escape(c_name) + r"_init\s*\(", text):
             continue
         ret, init = _prototype(text, c_name + "_init")
@@ -280,12 +260,12 @@ class FilterSpec:
         if len(cparams) == len(names):
             out = []
             for p, n in zip(cparams, names):
-                if p.pointer != (width[n] == 3):
+                if p.vector != (width[n] == 3):
                     raise HarnessError(f"{self.label}: update parameter {p.name} does not take {n}")
                 out.append(n)
             return out
         scalars = [f"{n}[{j}]" if width[n] == 3 else n for n in names for j in range(width[n])]
-        if len(cparams) == len(scalars) and not any(p.pointer for p in cparams):
+        if len(cparams) == len(scalars) and not any(p.vector for p in cparams):
             return scalars
         raise HarnessError(f"{self.label}: update takes {len(cparams)} arguments; inputs are {names}")
 

@@ -1,31 +1,36 @@
 """Pure-Python twins of the compiled filters in imufuse_c: same names, same
 signatures, same state, bit for bit the same results.
 
-Each family module (one per csrc/<family>.c) lists its classes in FILTERS.
+Every public module of this package (one per csrc/<family>.c, fixed_<family>
+per csrc/fixed/<family>_q.c) lists its float classes in FILTERS and its
+fixed-point classes in FILTERS_FIXED; they are collected here, so a new family
+module needs no edit of this file. imufuse.catalogue describes each filter.
 """
-from . import dcm, filters_1d, kk, madgwick, mahony, mahony2d, multiwii
+import importlib
+import pkgutil
+
 from ._base import ReferenceFilter
 from .filters_1d import tuning
 
-_FAMILIES = (filters_1d, mahony, madgwick, multiwii, kk, mahony2d, dcm)
+FILTERS: tuple = ()          # every float filter, by class name (imufuse_c exports the same)
+FILTERS_FIXED: tuple = ()    # every fixed-point filter (int16 counts in, integer state)
+FILTERS_FUSION: tuple = ()   # the Fusion suite: Fusion's units (deg/s, g), dt per update
 
-#: every float filter, by class name (imufuse_c exports the same names)
-FILTERS = tuple(name for fam in _FAMILIES for name in fam.FILTERS)
-FILTERS_1D = filters_1d.FILTERS
+for _info in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
+    if _info.name.startswith("_"):
+        continue
+    _mod = importlib.import_module(f"{__name__}.{_info.name}")
+    for _name in getattr(_mod, "FILTERS", ()):
+        globals()[_name] = getattr(_mod, _name)
+        FILTERS += (_name,)
+    for _name in getattr(_mod, "FILTERS_FIXED", ()):
+        globals()[_name] = getattr(_mod, _name)
+        FILTERS_FIXED += (_name,)
+    for _name in getattr(_mod, "FILTERS_FUSION", ()):
+        globals()[_name] = getattr(_mod, _name)
+        FILTERS_FUSION += (_name,)
 
-for _fam in _FAMILIES:
-    for _name in _fam.FILTERS:
-        globals()[_name] = getattr(_fam, _name)
+FILTERS_1D = tuple(n for n in FILTERS if globals()[n].kind == "1d")
 
-__all__ = ["ReferenceFilter", "FILTERS", "tuning", *FILTERS]
-
-# ---- fixed point (csrc/fixed): int16 counts in, int32 state, profile "32" | "8"
-from .fixed_1d import Complementary1DQ, Mahony1DBiasQ  # noqa: E402
-from .fixed_gravity import KKQ, MultiWiiQ  # noqa: E402
-from .fixed_mahony import MahonyIMUQ  # noqa: E402
-from .fixed_madgwick import MadgwickIMUQ  # noqa: E402
-
-#: every fixed-point filter, by class name (imufuse_c exports the same names)
-FILTERS_FIXED = ("Complementary1DQ", "Mahony1DBiasQ", "KKQ", "MultiWiiQ",
-                 "MahonyIMUQ", "MadgwickIMUQ")
-__all__ += [*FILTERS_FIXED, "FILTERS_FIXED"]
+__all__ = ["ReferenceFilter", "FILTERS", "FILTERS_FIXED", "FILTERS_FUSION", "FILTERS_1D",
+           "tuning", *FILTERS, *FILTERS_FIXED, *FILTERS_FUSION]

@@ -2,7 +2,6 @@
 csrc/fixed/filters_1d_q.c, line for line (Q formats in filters_1d_q.h)."""
 from __future__ import annotations
 
-from .. import _checks
 from . import _cint as ci
 from .filters_1d import Complementary1D, Mahony1DBias
 from .fixed_base import FixedFilter, check_profile, check_scale, qconst
@@ -12,6 +11,8 @@ def _kr(dt, gyr_scale, angle_scale):
     # imf_1d_q_kr_ok: kr != 0, s in [-14, 46]
     return qconst("gyr_scale*dt/angle_scale", gyr_scale * dt / angle_scale, -14, 46, nonzero=True)
 
+
+FILTERS_FIXED = ('Complementary1DQ', 'Mahony1DBiasQ')
 
 class Complementary1DQ(FixedFilter):
     """Complementary filter, Eq. 2.2, in fixed point.

@@ -12,6 +12,8 @@ from .kk import KK
 from .multiwii import MultiWii
 
 
+FILTERS_FIXED = ('KKQ', 'MultiWiiQ')
+
 class KKQ(FixedFilter):
     """KK filter of the appendix (Eq. 4.5 with a P controller), fixed point;
     twin of KK (same equations): pitch, roll in q28 rad, a_pitch = -a_x/|a|,

@@ -16,6 +16,8 @@ def _bitlen32(v):
     return n
 
 
+FILTERS_FIXED = ('MadgwickIMUQ',)
+
 class MadgwickIMUQ(FixedFilter):
     """Madgwick's 6DOF IMU filter (appendix, simplified delta-s), fixed point.
 

@@ -8,6 +8,8 @@ from . import fixed_quat as fq
 from .fixed_base import FixedFilter, check_profile, check_scale, qconst
 
 
+FILTERS_FIXED = ('MahonyIMUQ',)
+
 class MahonyIMUQ(FixedFilter):
     """Mahony's filter in quaternion form (appendix), fixed point.
 

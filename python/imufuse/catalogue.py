@@ -1,0 +1,249 @@
+"""The filter catalogue: the one place where each filter declares what the
+rest of imufuse needs, and where every harness looks it up.
+
+An entry names a class that exists, with the same name and signature, in
+imufuse_c (compiled) and imufuse.reference (pure Python). From the reference
+class come, without being written twice:
+
+  kind         "1d" | "imu" | "ahrs": the update()/run() inputs (_checks.KINDS)
+  c_name       the C prefix: <c_name>_t, <c_name>_init(), <c_name>_update()
+  state_names  the state variables, in the order of the C state struct
+  params       the constructor's keywords and their defaults (_params signature)
+  init_args    the C init arguments after `self`, by name (the _init signature)
+
+The entry itself adds what only a user of the filter needs:
+
+  defaults      gains for the demo, the command line, the firmware and MCU
+                harnesses and the benchmarks when the user gives none (dt always
+                comes from the data); required for every parameter without a
+                constructor default
+  alternatives  groups of parameters that are alternative parametrisations of
+                the same thing (Complementary1D: alpha or T): a user's choice of
+                one drops the defaults of the others
+  estimate      how the state trajectory becomes an orientation estimate (see
+                imufuse.estimate.ADAPTERS), or None
+
+A new float filter is its C pair, its reference module, its Cython binding and
+one Entry in FLOAT below (docs/adding-a-filter.md); tests/test_catalogue.py
+fails until every harness finds it.
+"""
+from __future__ import annotations
+
+import difflib
+import inspect
+from dataclasses import dataclass, field
+from typing import Any, Dict, FrozenSet, List, Mapping, Optional, Sequence, Tuple
+
+import imufuse_c as compiled
+
+from . import reference
+from ._checks import KINDS, check_dtype
+from .estimate import ADAPTERS, Estimate
+
+__all__ = ["Entry", "FilterError", "FLOAT", "FIXED", "ENTRIES", "FILTERS", "FILTERS_FIXED",
+           "entry", "filter_names", "reference_class", "compiled_class", "param_names",
+           "resolve_params", "make_filter", "estimate", "why_no_estimate", "inputs_for", "KINDS"]
+
+
+class FilterError(ValueError):
+    """Unknown filter or parameter, or parameters the filter rejects."""
+
+
+@dataclass(frozen=True)
+class Entry:
+    """One filter of the catalogue (see the module documentation)."""
+    name: str
+    defaults: Mapping[str, Any] = field(default_factory=dict)
+    alternatives: Tuple[FrozenSet[str], ...] = ()
+    estimate: Optional[str] = None
+    fixed: bool = False
+
+    # ---- derived from the reference class: one source for each fact
+    @property
+    def reference(self) -> type:
+        return getattr(reference, self.name)
+
+    @property
+    def compiled(self) -> type:
+        return getattr(compiled, self.name)
+
+    @property
+    def kind(self) -> str:
+        return self.reference.kind
+
+    @property
+    def inputs(self) -> Tuple[str, ...]:
+        return KINDS[self.kind]
+
+    @property
+    def c_name(self) -> str:
+        return self.reference.c_name
+
+    @property
+    def state_names(self) -> Tuple[str, ...]:
+        return tuple(self.reference.state_names)
+
+    @property
+    def params(self) -> Dict[str, Any]:
+        """Constructor keywords -> default (inspect.Parameter.empty: required)."""
+        sig = inspect.signature(self.reference._params)
+        return {p.name: p.default for p in sig.parameters.values()}
+
+    @property
+    def init_args(self) -> Tuple[str, ...]:
+        """The C init arguments after `self`, in order: the names of _params' result."""
+        return tuple(inspect.signature(self.reference._init).parameters)[1:]
+
+    def make(self, backend: str = "c", **kwargs: Any) -> Any:
+        """An instance on backend "c" (imufuse_c) or "ref" (imufuse.reference)."""
+        if backend not in ("c", "ref"):
+            raise FilterError(f"backend: must be 'c' or 'ref', got {backend!r}")
+        cls = self.compiled if backend == "c" else self.reference
+        return cls(**kwargs)
+
+
+def _alt(*groups: Sequence[str]) -> Tuple[FrozenSet[str], ...]:
+    return tuple(frozenset(g) for g in groups)
+
+
+# Gains for 100-500 Hz MEMS data; the published Mahony defaults (kp 0.5, ki 0)
+# leave a gyro bias uncorrected, so the harnesses use those of the other PI filters.
+FLOAT: Tuple[Entry, ...] = (
+    # chapter 2: single axis, Eq. 2.2, 2.5, 2.8
+    Entry("Complementary1D", dict(T=0.5), _alt({"alpha", "T"}), estimate="angle"),
+    Entry("Kalman1D", dict(k0=0.01), estimate="angle"),
+    Entry("Mahony1D", dict(kp=2.0), estimate="angle"),
+    # chapter 3: single axis with gyro bias, Eq. 3.3, 3.6/3.9, 3.10-3.12
+    Entry("Kalman1DBias", dict(k0=0.01, k1=-0.02), estimate="angle"),
+    Entry("Mahony1DBias", dict(kp=2.0, ki=0.3), estimate="angle"),
+    Entry("Complementary1DBias", dict(kp=2.0, ki=0.3),
+          _alt({"kp", "omega0"}, {"ki", "xi"}, {"kp", "xi"}, {"ki", "omega0"}), estimate="angle"),
+    # 4.1 and appendix: Mahony in quaternion form; chapter 5: Madgwick
+    Entry("MahonyIMU", dict(kp=2.0, ki=0.5), estimate="quaternion"),
+    Entry("MahonyAHRS", dict(kp=2.0, ki=0.5), estimate="quaternion"),
+    Entry("MadgwickIMU", estimate="quaternion"),
+    Entry("MadgwickAHRS", estimate="quaternion"),
+    # appendix: MultiWii 2.2, KK; 4.2 Mahony2D; 4.3 DCM
+    Entry("MultiWii", estimate="gravity"),
+    Entry("KK", dict(kp=0.01), estimate="euler"),
+    Entry("Mahony2D", dict(kp=2.0, ki=0.5), estimate="gravity"),
+    Entry("DCM", dict(kp=2.0, ki=0.5), estimate="matrix"),
+)
+
+# Fixed point (csrc/fixed): the float twin's keywords plus the sensor scales
+# and profile; the defaults are those of a 16-bit MEMS IMU (2000 deg/s, 8 g).
+_GYR = 1.0642e-3   # rad/s per count
+FIXED: Tuple[Entry, ...] = (
+    Entry("Complementary1DQ", dict(T=0.5, gyr_scale=_GYR, angle_scale=1e-4),
+          _alt({"alpha", "T"}), estimate="angle", fixed=True),
+    Entry("Mahony1DBiasQ", dict(kp=2.0, ki=0.3, gyr_scale=_GYR, angle_scale=1e-4),
+          estimate="angle", fixed=True),
+    Entry("KKQ", dict(kp=0.01, gyr_scale=_GYR), estimate="euler", fixed=True),
+    Entry("MultiWiiQ", dict(acc_1g=4096, gyr_scale=_GYR), estimate="gravity", fixed=True),
+    Entry("MahonyIMUQ", dict(kp=1.0, ki=0.05, gyr_scale=_GYR), estimate="quaternion", fixed=True),
+    Entry("MadgwickIMUQ", dict(gyr_scale=_GYR), estimate="quaternion", fixed=True),
+)
+
+ENTRIES: Dict[str, Entry] = {e.name: e for e in (*FLOAT, *FIXED)}
+#: every float filter, in catalogue order (imufuse_c and imufuse.reference export them)
+FILTERS: Tuple[str, ...] = tuple(e.name for e in FLOAT)
+#: every fixed-point filter
+FILTERS_FIXED: Tuple[str, ...] = tuple(e.name for e in FIXED)
+
+
+# ---------------------------------------------------------------------------
+# lookup and construction (the command line, demo and harnesses)
+
+def entry(name: str) -> Entry:
+    """The catalogue entry of a filter; FilterError naming close matches."""
+    try:
+        return ENTRIES[name]
+    except (KeyError, TypeError):
+        close = difflib.get_close_matches(str(name), ENTRIES, n=3, cutoff=0.5)
+        hint = f" (did you mean {', '.join(close)}?)" if close else ""
+        raise FilterError(f"unknown filter {name!r}{hint}; valid filters: "
+                          f"{', '.join(FILTERS)}") from None
+
+
+def filter_names(kinds: Optional[Sequence[str]] = None) -> List[str]:
+    """Names of the float filters, optionally of some kinds."""
+    return [e.name for e in FLOAT if kinds is None or e.kind in kinds]
+
+
+def reference_class(name: str) -> type:
+    """The pure-Python class of a float filter (FilterError for unknown names)."""
+    e = entry(name)
+    if e.fixed:
+        raise FilterError(f"{name}: a fixed-point filter; valid filters: {', '.join(FILTERS)}")
+    return e.reference
+
+
+def compiled_class(name: str) -> type:
+    return entry(name).compiled
+
+
+def param_names(name: str) -> List[str]:
+    """Keyword parameters of a filter's constructor, dt included."""
+    return [p for p in entry(name).params if p != "profile"]
+
+
+def resolve_params(name: str, dt: float, overrides: Optional[Mapping[str, Any]] = None
+                   ) -> Dict[str, Any]:
+    """dt plus the entry's defaults updated by overrides; checks the names."""
+    e = entry(name)
+    valid = param_names(name)
+    overrides = dict(overrides or {})
+    for k in overrides:
+        if k == "dt":
+            raise FilterError("dt: set by the sample rate (--rate or the log's time column)")
+        if k not in valid:
+            raise FilterError(f"{name}: unknown parameter {k!r}; valid parameters: "
+                              f"{', '.join(v for v in valid if v != 'dt')}")
+    params = dict(e.defaults)
+    # a user's alternative parametrisation replaces the default one
+    for k in overrides:
+        for alt in e.alternatives:
+            if k in alt:
+                for other in alt - {k}:
+                    params.pop(other, None)
+    params.update(overrides)
+    return {"dt": dt, **params}
+
+
+def make_filter(name: str, backend: str, dtype: str, params: Mapping[str, Any]) -> Any:
+    """A float filter instance: backend "c" (imufuse_c) or "ref" (imufuse.reference)."""
+    e = entry(name)
+    reference_class(name)
+    try:
+        return e.make(backend, **params, dtype=check_dtype(dtype))
+    except TypeError as err:
+        raise FilterError(f"{name}: {err}; valid parameters: "
+                          f"{', '.join(v for v in param_names(name) if v != 'dt')}") from None
+    except ValueError as err:
+        raise FilterError(f"{name}: {err}") from None
+
+
+# ---------------------------------------------------------------------------
+# state -> estimate
+
+def estimate(cls: Any, states: Any) -> Optional[Estimate]:
+    """Estimate from the (N, len(state)) trajectory of a filter (class or
+    instance, either backend), or None (see why_no_estimate)."""
+    e = entry(cls.__name__ if isinstance(cls, type) else type(cls).__name__)
+    if e.estimate is None:
+        return None
+    return ADAPTERS[e.estimate](e.state_names, e.kind, states)
+
+
+def why_no_estimate(cls: Any) -> str:
+    return (f"no orientation estimate derivable from state {', '.join(cls.state_names)} "
+            "(see imufuse.estimate)")
+
+
+def inputs_for(kind: str, data: Any) -> tuple:
+    """The run() inputs of a filter kind from simulated data (imufuse.sim)."""
+    if kind == "1d":
+        return (data.gyr, data.acc_angle)
+    if kind == "imu":
+        return (data.gyr, data.acc)
+    return (data.gyr, data.acc, data.mag)

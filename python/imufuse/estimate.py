@@ -1,0 +1,111 @@
+"""State trajectory -> orientation estimate: the adapters a catalogue entry
+names (imufuse.catalogue.Entry.estimate).
+
+  "angle"       1d, state "theta"                   -> angle (rad)
+  "quaternion"  q0, q1, q2, q3 first                -> quaternion [w, x, y, z] body -> earth
+  "matrix"      9 names ending 11..33 or 00..22     -> rotation matrix R (body -> earth,
+                                                       row-major)
+  "gravity"     3 names <p>x, <p>y, <p>z first      -> gravity direction in the body frame
+                                                       (what a level, resting accelerometer
+                                                       reads: +z); tilt only, no heading
+  "euler"       roll, pitch [, yaw] or phi, theta [, psi] -> ZYX Euler angles (rad); tilt
+                                                       only without yaw
+Heading is meaningful only for AHRS filters with a full attitude.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable, Dict, Optional, Sequence
+
+import numpy as np
+
+from . import rotations
+
+
+@dataclass
+class Estimate:
+    """What a state trajectory says about the orientation.
+
+    angle: (N,) rad for single-axis filters; q: (N, 4) body -> earth for 3D
+    filters; heading: whether q's yaw means anything (AHRS with a full
+    attitude); source: how it was derived."""
+    angle: Optional[np.ndarray] = None
+    q: Optional[np.ndarray] = None
+    heading: bool = False
+    source: str = ""
+
+
+def _angle(names: Sequence[str], kind: str, S: np.ndarray) -> Estimate:
+    return Estimate(angle=S[:, list(names).index("theta")], source="theta")
+
+
+def _quaternion(names: Sequence[str], kind: str, S: np.ndarray) -> Estimate:
+    if tuple(names[:4]) != ("q0", "q1", "q2", "q3"):
+        raise ValueError(f"quaternion adapter: state must start q0..q3, got {names}")
+    with np.errstate(all="ignore"):
+        q = S[:, :4] / np.linalg.norm(S[:, :4], axis=1, keepdims=True)
+    return Estimate(q=q, heading=kind == "ahrs", source="q0..q3")
+
+
+_MATRIX = (("11", "12", "13", "21", "22", "23", "31", "32", "33"),
+           ("00", "01", "02", "10", "11", "12", "20", "21", "22"))
+
+
+def _matrix(names: Sequence[str], kind: str, S: np.ndarray) -> Estimate:
+    if not any(len(names) >= 9 and all(n.endswith(s) and n[:-2] == names[0][:-2]
+                                       for n, s in zip(names[:9], idx)) for idx in _MATRIX):
+        raise ValueError(f"matrix adapter: state must start with a 3x3 matrix, got {names}")
+    R = S[:, :9].reshape(-1, 3, 3)
+    return Estimate(q=rotations.matrix_to_quat(R), heading=kind == "ahrs",
+                    source=f"{names[0]}..{names[8]} (rotation matrix)")
+
+
+def _up_to_quat(up: np.ndarray) -> np.ndarray:
+    """Tilt-only quaternion (yaw 0) whose body-frame earth-up is `up`:
+    R^T e_z = (-sin p, sin r cos p, cos r cos p) for ZYX."""
+    roll = np.arctan2(up[:, 1], up[:, 2])
+    pitch = np.arctan2(-up[:, 0], np.hypot(up[:, 1], up[:, 2]))
+    return rotations.euler_to_quat(np.stack([roll, pitch, np.zeros_like(roll)], axis=-1))
+
+
+def _gravity(names: Sequence[str], kind: str, S: np.ndarray) -> Estimate:
+    if not (len(names) >= 3 and names[0][:-1] == names[1][:-1] == names[2][:-1]
+            and tuple(n[-1] for n in names[:3]) == ("x", "y", "z")):
+        raise ValueError(f"gravity adapter: state must start <p>x, <p>y, <p>z, got {names}")
+    return Estimate(q=_up_to_quat(S[:, :3]), heading=False,
+                    source=f"{names[0]}..{names[2]} (gravity vector)")
+
+
+def _euler(names: Sequence[str], kind: str, S: np.ndarray) -> Estimate:
+    for r, p, y in (("roll", "pitch", "yaw"), ("phi", "theta", "psi")):
+        if r in names and p in names:
+            yaw = S[:, names.index(y)] if y in names else np.zeros(len(S))
+            e = np.stack([S[:, names.index(r)], S[:, names.index(p)], yaw], axis=-1)
+            return Estimate(q=rotations.euler_to_quat(e), heading=y in names and kind == "ahrs",
+                            source=f"{r}, {p}" + (f", {y}" if y in names else "") + " (Euler)")
+    raise ValueError(f"euler adapter: state needs roll, pitch or phi, theta, got {names}")
+
+
+Adapter = Callable[[Sequence[str], str, np.ndarray], Estimate]
+
+#: adapter name (a catalogue entry's `estimate`) -> f(state_names, kind, states)
+_RAW: Dict[str, Adapter] = {"angle": _angle, "quaternion": _quaternion, "matrix": _matrix,
+                            "gravity": _gravity, "euler": _euler}
+
+
+def _as_float(adapter: Adapter) -> Adapter:
+    def f(names: Sequence[str], kind: str, states: np.ndarray) -> Estimate:
+        return adapter(tuple(names), kind, np.asarray(states, dtype=np.float64))
+    f.__doc__ = adapter.__doc__
+    return f
+
+
+ADAPTERS: Dict[str, Adapter] = {k: _as_float(v) for k, v in _RAW.items()}
+
+
+def euler_of(est: Estimate) -> np.ndarray:
+    """(N, 3) roll, pitch, yaw in rad of a quaternion estimate (yaw NaN without heading)."""
+    e = rotations.quat_to_euler(est.q)
+    if not est.heading:
+        e[:, 2] = np.nan
+    return e

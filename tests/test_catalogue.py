@@ -1,0 +1,100 @@
+"""The catalogue is complete and true: every exported filter has an entry,
+every entry reaches every harness (registry, demo/CLI, firmware harness, MCU
+runner, fixed-point driver, stubs), and what an entry derives agrees with the C
+headers."""
+import inspect
+
+import pytest
+
+import imufuse.reference as reference
+import imufuse_c
+from imufuse import catalogue, cproto
+from imufuse._checks import KINDS
+from imufuse._resources import csrc_dir
+from imufuse.estimate import ADAPTERS
+from imufuse.mcu import filters as mcu_filters
+from registry import FIXED_CASES, FLOAT_CASES
+
+HEADERS = "\n".join(p.read_text() for p in sorted(csrc_dir().rglob("*.h")))
+ENTRIES = [pytest.param(e, id=e.name) for e in (*catalogue.FLOAT, *catalogue.FIXED)]
+
+
+def test_every_exported_filter_has_one_entry():
+    assert sorted(catalogue.FILTERS) == sorted(reference.FILTERS)
+    assert sorted(catalogue.FILTERS_FIXED) == sorted(reference.FILTERS_FIXED)
+    assert sorted(catalogue.FILTERS) == sorted(imufuse_c.FILTERS)
+    assert sorted(catalogue.FILTERS_FIXED) == sorted(imufuse_c.FILTERS_FIXED)
+    assert len(catalogue.ENTRIES) == len(catalogue.FLOAT) + len(catalogue.FIXED)
+    assert all(e.fixed for e in catalogue.FIXED) and not any(e.fixed for e in catalogue.FLOAT)
+
+
+@pytest.mark.parametrize("e", ENTRIES)
+def test_entry_matches_both_backends(e):
+    ref, comp = e.reference, e.compiled
+    assert ref.__name__ == e.name
+    assert e.kind in KINDS
+    kw = dict(dtype="float64") if not e.fixed else {}
+    c = e.make("c", dt=0.01, **e.defaults, **kw)
+    r = e.make("ref", dt=0.01, **e.defaults, **kw)
+    assert tuple(c.state_names) == tuple(r.state_names) == e.state_names
+    assert c.kind == r.kind == e.kind
+    assert len(c.state) == len(e.state_names)
+    if not e.fixed:
+        # imufuse_c's constructor shows the reference signature plus dtype
+        params = list(inspect.signature(comp).parameters)
+        assert params == [*e.params, "dtype"] or params[:-1] == list(e.params)
+
+
+@pytest.mark.parametrize("e", ENTRIES)
+def test_entry_c_prototypes_match_by_name(e):
+    """The C init takes the reference's _init arguments, by name and in order
+    (the Cython binding passes them by name); update takes the kind's inputs."""
+    init = cproto.find_prototype(HEADERS, e.c_name + "_init")
+    update = cproto.find_prototype(HEADERS, e.c_name + "_update")
+    assert init is not None and update is not None, f"{e.c_name}_init/_update not in csrc/"
+    assert f"}} {e.c_name}_t;" in HEADERS
+    c_args = tuple(p.name for p in init.params[1:])
+    want = e.init_args
+    if e.fixed and "profile" not in c_args:   # profile selects the update, not an init value
+        want = tuple(a for a in want if a != "profile")
+    assert c_args == want, f"{e.c_name}_init{c_args} vs reference _init{e.init_args}"
+    n_in = sum(1 if e.kind == "1d" else 3 for _ in e.inputs)
+    n_c = sum(3 if p.vector else 1 for p in update.params[1:])
+    assert n_c == n_in, f"{e.c_name}_update takes {n_c} values, kind {e.kind} gives {n_in}"
+
+
+@pytest.mark.parametrize("e", ENTRIES)
+def test_entry_defaults_construct_and_estimate(e):
+    """The defaults are complete (every required parameter but dt) and valid;
+    the adapter reads the state."""
+    required = {k for k, v in e.params.items() if v is inspect.Parameter.empty} - {"dt"}
+    assert required <= set(e.defaults), f"no default for {sorted(required - set(e.defaults))}"
+    assert set(e.defaults) <= set(e.params)
+    for alt in e.alternatives:
+        assert alt <= set(e.params), alt
+    kw = dict(dtype="float64") if not e.fixed else {}
+    f = e.make("ref", dt=0.01, **e.defaults, **kw)
+    e.make("c", dt=0.01, **e.defaults, **kw)
+    assert e.estimate is None or e.estimate in ADAPTERS
+    if e.estimate and not e.fixed:
+        est = catalogue.estimate(e.reference, f.state[None, :])
+        assert est is not None and (est.angle is not None or est.q is not None)
+
+
+@pytest.mark.parametrize("e", ENTRIES)
+def test_entry_reaches_every_harness(e):
+    cases = FIXED_CASES if e.fixed else FLOAT_CASES
+    assert any(c.name == e.name for c in cases), "missing from tests/registry.py"
+    # MCU runner and firmware harness: the prototypes they read
+    cf = mcu_filters.c_library(e.c_name)
+    assert len(cf.init) == len(cproto.find_prototype(HEADERS, e.c_name + "_init").params) - 1
+    if not e.fixed:
+        assert e.name in catalogue.filter_names()       # demo and CLI
+        assert catalogue.resolve_params(e.name, 0.01)["dt"] == 0.01
+
+
+def test_unknown_names_are_reported():
+    with pytest.raises(catalogue.FilterError, match="did you mean MadgwickIMU"):
+        catalogue.entry("MadgwickIMUU")
+    with pytest.raises(catalogue.FilterError, match="fixed-point"):
+        catalogue.reference_class("KKQ")
