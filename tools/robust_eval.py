@@ -90,6 +90,28 @@ def vqf_estimator(gyr, acc, mag, dt):
     return qmul(NWU_TO_ENU * np.array([1, -1, -1, -1]), q)
 
 
+def reference_estimator(**kw):
+    from imufuse import reference
+
+    def est(gyr, acc, mag, dt):
+        if mag is None:
+            f = reference.RobustIMU(dt, **kw)
+            return f.run(gyr, acc)[:, :4]
+        f = reference.RobustAHRS(dt, **kw)
+        return f.run(gyr, acc, mag)[:, :4]
+    return est
+
+
+def compiled_estimator(**kw):
+    import imufuse_c
+
+    def est(gyr, acc, mag, dt):
+        if mag is None:
+            return imufuse_c.RobustIMU(dt, **kw).run(gyr, acc)[:, :4]
+        return imufuse_c.RobustAHRS(dt, **kw).run(gyr, acc, mag)[:, :4]
+    return est
+
+
 def parse(v):
     for t in (int, float):
         try:
@@ -108,7 +130,11 @@ if __name__ == "__main__":
             kw[k] = parse(v)
     six = "--9d-only" not in args
     nine = "--6d-only" not in args
-    if "--vqf" in args:
+    if "--ref" in args:
+        evaluate(reference_estimator(**kw), "reference", six, nine)
+    elif "--c" in args:
+        evaluate(compiled_estimator(**kw), "compiled", six, nine)
+    elif "--vqf" in args:
         evaluate(vqf_estimator, "vqf", six, nine)
     else:
         evaluate(proto_estimator(**kw), "proto " + " ".join(f"{k}={v}" for k, v in kw.items()),
