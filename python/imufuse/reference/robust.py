@@ -81,12 +81,23 @@ class _Robust(ReferenceFilter):
         return (tau_acc, rate_ref * _DEG, tau_bias, tau_bias_rest, rest_gyr * _DEG, rest_acc,
                 rest_time, tau_rest)
 
-    def _check_range(self, names, values):
-        # every constant must be a normal number of the filter's own precision
-        lo, hi = _LIMITS[self.dtype]
-        for n, v in zip(names, values):
-            if v != 0.0 and not (lo <= abs(v) <= hi):
-                raise ValueError(f"{n}: {v!r} is not representable in {self.dtype}")
+    @staticmethod
+    def _check_args(args, dtype):
+        """The constants init derives, in the filter's own precision, must be normal
+        numbers (both backends call this before init)."""
+        import numpy as np
+        R = np.float32 if dtype == "float32" else float
+        lo, hi = _LIMITS[dtype]
+        dt, tau_acc = R(args[0]), R(args[1])
+        with np.errstate(all="ignore"):
+            ta2 = tau_acc * tau_acc
+            derived = (("dt", dt), ("dt", dt * dt), ("dt", R(1.0) / dt),
+                       ("tau_acc", tau_acc), ("tau_acc", ta2 * ta2),
+                       ("tau_acc", R(1.0) / (ta2 * ta2) * dt))
+            for name, v in derived:
+                if not (lo <= abs(float(v)) <= hi):
+                    raise ValueError(f"{name}: {float(args[0 if name == 'dt' else 1])!r} "
+                                     f"gives constants that are not normal {dtype} numbers")
 
     # imf_robust_init (shared settings of both filters)
     def _init_common(self, dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
@@ -125,9 +136,6 @@ class _Robust(ReferenceFilter):
                 tmax = v
         self.t_max = tmax
         self._set_dt(R(dt))
-        self._check_range(("dt", "dt^2", "1/dt", "qg0 dt", "qg0", "pgg0"),
-                          (float(self.dt), float(self.dt2), float(self.r_d),
-                           float(self.qg_dt), float(self.qg0), float(self.pgg0)))
         self.q0, self.q1, self.q2, self.q3 = R(1.0), R(0.0), R(0.0), R(0.0)
         self.s0, self.s1, self.s2, self.s3 = R(1.0), R(0.0), R(0.0), R(0.0)
         self.c0, self.c1, self.c2, self.c3 = R(1.0), R(0.0), R(0.0), R(0.0)
@@ -416,6 +424,7 @@ class RobustIMU(_Robust):
 
     def _init(self, dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
               rest_time, tau_rest):
+        self._check_args(self._args, self.dtype)
         self._init_common(dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
                           rest_time, tau_rest, tau_rest, 0.0, 0.0, tau_rest, 0.0)
 
@@ -464,6 +473,7 @@ class RobustAHRS(_Robust):
 
     def _init(self, dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
               rest_time, tau_rest, tau_mag, mag_norm, mag_dip, tau_mag_ref, mag_new_time):
+        self._check_args(self._args, self.dtype)
         self._init_common(dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
                           rest_time, tau_rest, tau_mag, mag_norm, mag_dip, tau_mag_ref,
                           mag_new_time)
