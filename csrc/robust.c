@@ -89,7 +89,8 @@ static void robust_init(imf_robust_settings_t *const set, uint32_t *const skippe
                         const imf_real rest_acc, const imf_real rest_time,
                         const imf_real tau_rest, const imf_real tau_mag,
                         const imf_real mag_norm, const imf_real mag_dip,
-                        const imf_real tau_mag_ref, const imf_real mag_new_time)
+                        const imf_real tau_mag_ref, const imf_real mag_new_time,
+                        const imf_real mag_hold)
 {
     imf_real ta2, tmax;
     set->tau_acc = tau_acc;
@@ -113,6 +114,7 @@ static void robust_init(imf_robust_settings_t *const set, uint32_t *const skippe
     set->mag_norm = mag_norm;
     set->mag_dip = mag_dip;
     set->mag_new_time = mag_new_time;
+    set->mag_hold = mag_hold;
     set->c48 = IMF_R(1.0) / IMF_R(48.0);
     /* t saturates at the longest start-up horizon */
     tmax = set->tau_acc;
@@ -140,7 +142,7 @@ static void robust_init(imf_robust_settings_t *const set, uint32_t *const skippe
     x->t = IMF_R(0.0); x->t_rest = IMF_R(0.0);
     x->rn = IMF_R(0.0); x->rh = IMF_R(0.0); x->rz = IMF_R(0.0);
     x->cn = IMF_R(0.0); x->ch = IMF_R(0.0); x->cz = IMF_R(0.0);
-    x->t_cand = IMF_R(0.0); x->t_dist = IMF_R(0.0);
+    x->t_cand = IMF_R(0.0); x->t_dist = IMF_R(0.0); x->t_ok = IMF_R(0.0);
 }
 
 void imf_robust_imu_init(imf_robust_imu_t *const self, const imf_real dt, const imf_real tau_acc,
@@ -151,7 +153,7 @@ void imf_robust_imu_init(imf_robust_imu_t *const self, const imf_real dt, const 
 {
     robust_init(&self->set, &self->skipped, &self->x, dt, tau_acc, rate_ref, tau_bias,
                 tau_bias_rest, rest_gyr, rest_acc, rest_time, tau_rest, tau_rest, IMF_R(0.0),
-                IMF_R(0.0), tau_rest, IMF_R(0.0));
+                IMF_R(0.0), tau_rest, IMF_R(0.0), IMF_R(0.0));
 }
 
 void imf_robust_ahrs_init(imf_robust_ahrs_t *const self, const imf_real dt,
@@ -161,11 +163,11 @@ void imf_robust_ahrs_init(imf_robust_ahrs_t *const self, const imf_real dt,
                           const imf_real rest_time, const imf_real tau_rest,
                           const imf_real tau_mag, const imf_real mag_norm,
                           const imf_real mag_dip, const imf_real tau_mag_ref,
-                          const imf_real mag_new_time)
+                          const imf_real mag_new_time, const imf_real mag_hold)
 {
     robust_init(&self->set, &self->skipped, &self->x, dt, tau_acc, rate_ref, tau_bias,
                 tau_bias_rest, rest_gyr, rest_acc, rest_time, tau_rest, tau_mag, mag_norm,
-                mag_dip, tau_mag_ref, mag_new_time);
+                mag_dip, tau_mag_ref, mag_new_time, mag_hold);
 }
 
 void imf_robust_imu_set_dt(imf_robust_imu_t *const self, const imf_real dt)
@@ -336,6 +338,7 @@ static int robust_mag(const imf_robust_settings_t *const set, imf_robust_state_t
 {
     const imf_real dt = set->dt;
     imf_real me[3], h2, n2, mn, mh, inv, hn, zn, k;
+    int match;
     robust_rotate(me, x->q0, x->q1, x->q2, x->q3, mx, my, mz);
     h2 = me[0] * me[0] + me[1] * me[1];
     n2 = h2 + me[2] * me[2];
@@ -351,8 +354,18 @@ static int robust_mag(const imf_robust_settings_t *const set, imf_robust_state_t
         /* first reading: it is the reference */
         x->rn = mn; x->rh = hn; x->rz = zn;
         x->cn = mn; x->ch = hn; x->cz = zn;
+        x->t_ok = set->mag_hold;
     }
-    if (robust_mag_test(set, mn, hn, zn, x->rn, x->rh, x->rz)) {
+    match = robust_mag_test(set, mn, hn, zn, x->rn, x->rh, x->rz);
+    if (match) {
+        x->t_ok = x->t_ok + dt;
+        if (x->t_ok > set->mag_hold) {
+            x->t_ok = set->mag_hold;
+        }
+    } else {
+        x->t_ok = IMF_R(0.0);
+    }
+    if (match && x->t_ok >= set->mag_hold) {
         imf_real ih, fw, fz, f2, fr, zw, zz, z2, zr, c[4], q[4];
         x->t_dist = IMF_R(0.0);
         x->t_cand = IMF_R(0.0);
@@ -402,14 +415,17 @@ static int robust_mag(const imf_robust_settings_t *const set, imf_robust_state_t
         }
         x->q0 = q[0]; x->q1 = q[1]; x->q2 = q[2]; x->q3 = q[3];
     } else {
-        /* disturbed: no heading correction; a new field that stays the same for
-           mag_new_time becomes the reference */
+        /* disturbed (or not yet matching for mag_hold): no heading correction; a new
+           field that stays the same for mag_new_time of motion becomes the reference */
         x->t_dist = x->t_dist + dt;
         if (robust_mag_test(set, mn, hn, zn, x->cn, x->ch, x->cz)) {
             x->cn = x->cn + set->k_rest * (mn - x->cn);
             x->ch = x->ch + set->k_rest * (hn - x->ch);
             x->cz = x->cz + set->k_rest * (zn - x->cz);
-            x->t_cand = x->t_cand + dt;
+            if (x->t_rest < set->rest_time) {
+                /* only motion counts: at rest an attached magnet's field is steady too */
+                x->t_cand = x->t_cand + dt;
+            }
             if (x->t_cand >= set->mag_new_time) {
                 x->rn = x->cn; x->rh = x->ch; x->rz = x->cz;
                 x->t_cand = IMF_R(0.0);

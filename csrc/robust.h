@@ -22,8 +22,9 @@
  *   B3 gyro bias in motion: the inclination correction, seen in the sensor
  *      frame, integrated with gain 1 / tau_bias (Eq. 3.6).
  *   B4 magnetometer, heading only (a rotation of c about earth z), rejected
- *      while the field's norm or dip differ from a learned reference; a new
- *      field that stays the same for mag_new_time becomes the reference.
+ *      while the field's norm or dip differ from a learned reference, and until
+ *      they have matched it again for mag_hold; a new field that stays the
+ *      same for mag_new_time becomes the reference.
  *   B5 start from the first samples: every low-pass is a running mean until
  *      its time constant has passed.
  *
@@ -54,6 +55,7 @@ typedef struct {
     imf_real rn, rh, rz;        /* magnetic reference: norm, cos(dip), vertical part */
     imf_real cn, ch, cz;        /* candidate reference (a changed field) */
     imf_real t_cand, t_dist;    /* candidate stable for, field disturbed for, s */
+    imf_real t_ok;              /* field matching the reference for (saturating), s */
 } imf_robust_state_t;
 
 /* Settings, converted once by init (dt-dependent ones by set_dt). */
@@ -64,7 +66,7 @@ typedef struct {
     imf_real inv_rate_ref2;        /* 1 / rate_ref^2, (rad/s)^-2; 0: constant */
     imf_real inv_tau_bias;         /* 1 / tau_bias, 1/s; 0: no bias in motion */
     imf_real rest_gyr2, rest_acc2, rest_time; /* (rad/s)^2, g^2 (relative), s */
-    imf_real mag_norm, mag_dip, mag_new_time; /* relative, sine, s */
+    imf_real mag_norm, mag_dip, mag_new_time, mag_hold; /* relative, sine, s, s */
     imf_real k_rest, kb_rest, k_mag, k_ref;   /* dt / (tau + dt) */
     imf_real c48;                  /* 1 / 48 */
     imf_real t_max;                /* longest start-up horizon, s */
@@ -94,12 +96,13 @@ void imf_robust_imu_update(imf_robust_imu_t *self, imf_real gx, imf_real gy, imf
                            imf_real ax, imf_real ay, imf_real az);
 
 /* The IMU settings and tau_mag: s; mag_norm: relative; mag_dip: sine of the dip
-   threshold (> 1: no dip test); tau_mag_ref: s; mag_new_time: s. */
+   threshold (> 1: no dip test); tau_mag_ref: s; mag_new_time: s; mag_hold: s. */
 void imf_robust_ahrs_init(imf_robust_ahrs_t *self, imf_real dt, imf_real tau_acc,
                           imf_real rate_ref, imf_real tau_bias, imf_real tau_bias_rest,
                           imf_real rest_gyr, imf_real rest_acc, imf_real rest_time,
                           imf_real tau_rest, imf_real tau_mag, imf_real mag_norm,
-                          imf_real mag_dip, imf_real tau_mag_ref, imf_real mag_new_time);
+                          imf_real mag_dip, imf_real tau_mag_ref, imf_real mag_new_time,
+                          imf_real mag_hold);
 /* gx, gy, gz: rad/s; ax, ay, az and mx, my, mz: any unit (mag all zero: none) */
 void imf_robust_ahrs_update(imf_robust_ahrs_t *self, imf_real gx, imf_real gy, imf_real gz,
                             imf_real ax, imf_real ay, imf_real az,

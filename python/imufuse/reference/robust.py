@@ -61,7 +61,8 @@ class _Robust(ReferenceFilter):
                    "t", "t_rest",               # time since start (saturating), at rest, s
                    "rn", "rh", "rz",            # magnetic reference: norm, cos dip, -sin dip
                    "cn", "ch", "cz",            # candidate reference (a changed field)
-                   "t_cand", "t_dist")          # candidate stable for, disturbed for, s
+                   "t_cand", "t_dist", "t_ok")  # candidate stable for, disturbed for,
+                                                #   field matching the reference for, s
 
     @staticmethod
     def _imu_params(tau_acc=2.5, rate_ref=100.0, tau_bias=100.0, tau_bias_rest=3.0,
@@ -101,7 +102,8 @@ class _Robust(ReferenceFilter):
 
     # imf_robust_init (shared settings of both filters)
     def _init_common(self, dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
-                     rest_time, tau_rest, tau_mag, mag_norm, mag_dip, tau_mag_ref, mag_new_time):
+                     rest_time, tau_rest, tau_mag, mag_norm, mag_dip, tau_mag_ref, mag_new_time,
+                     mag_hold):
         R = self._R
         lo, hi = _LIMITS[self.dtype]
         self._min, self._max = R(lo), R(hi)
@@ -128,6 +130,7 @@ class _Robust(ReferenceFilter):
         self.mag_norm = R(mag_norm)
         self.mag_dip = R(mag_dip)
         self.mag_new_time = R(mag_new_time)
+        self.mag_hold = R(mag_hold)
         self.c48 = R(1.0) / R(48.0)
         # t saturates at the longest start-up horizon
         tmax = self.tau_acc
@@ -148,7 +151,7 @@ class _Robust(ReferenceFilter):
         self.t, self.t_rest = R(0.0), R(0.0)
         self.rn, self.rh, self.rz = R(0.0), R(0.0), R(0.0)
         self.cn, self.ch, self.cz = R(0.0), R(0.0), R(0.0)
-        self.t_cand, self.t_dist = R(0.0), R(0.0)
+        self.t_cand, self.t_dist, self.t_ok = R(0.0), R(0.0), R(0.0)
 
     # imf_robust_*_set_dt: every dt-dependent constant, as init computes it
     def _set_dt(self, dt):
@@ -321,7 +324,15 @@ class _Robust(ReferenceFilter):
             # first reading: it is the reference
             st["rn"], st["rh"], st["rz"] = mn, hn, zn
             st["cn"], st["ch"], st["cz"] = mn, hn, zn
-        if self._mag_test(mn, hn, zn, st["rn"], st["rh"], st["rz"]):
+            st["t_ok"] = self.mag_hold
+        match = self._mag_test(mn, hn, zn, st["rn"], st["rh"], st["rz"])
+        if match:
+            st["t_ok"] = st["t_ok"] + dt
+            if st["t_ok"] > self.mag_hold:
+                st["t_ok"] = self.mag_hold
+        else:
+            st["t_ok"] = R(0.0)
+        if match and st["t_ok"] >= self.mag_hold:
             st["t_dist"] = R(0.0)
             st["t_cand"] = R(0.0)
             k = self._gain(st["t"], self.tau_mag_ref, self.k_ref)
@@ -364,14 +375,16 @@ class _Robust(ReferenceFilter):
                 return False
             st["q0"], st["q1"], st["q2"], st["q3"] = q
         else:
-            # disturbed: no heading correction; a new field that stays the same for
-            # mag_new_time becomes the reference
+            # disturbed (or not yet matching for mag_hold): no heading correction; a new
+            # field that stays the same for mag_new_time of motion becomes the reference
             st["t_dist"] = st["t_dist"] + dt
             if self._mag_test(mn, hn, zn, st["cn"], st["ch"], st["cz"]):
                 st["cn"] = st["cn"] + self.k_rest * (mn - st["cn"])
                 st["ch"] = st["ch"] + self.k_rest * (hn - st["ch"])
                 st["cz"] = st["cz"] + self.k_rest * (zn - st["cz"])
-                st["t_cand"] = st["t_cand"] + dt
+                if st["t_rest"] < self.rest_time:
+                    # only motion counts: at rest an attached magnet's field is steady too
+                    st["t_cand"] = st["t_cand"] + dt
                 if st["t_cand"] >= self.mag_new_time:
                     st["rn"], st["rh"], st["rz"] = st["cn"], st["ch"], st["cz"]
                     st["t_cand"] = R(0.0)
@@ -426,7 +439,7 @@ class RobustIMU(_Robust):
               rest_time, tau_rest):
         self._check_args(self._args, self.dtype)
         self._init_common(dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
-                          rest_time, tau_rest, tau_rest, 0.0, 0.0, tau_rest, 0.0)
+                          rest_time, tau_rest, tau_rest, 0.0, 0.0, tau_rest, 0.0, 0.0)
 
     def _update(self, gx, gy, gz, ax, ay, az):
         if not isfinite(gx, gy, gz, ax, ay, az):
@@ -445,10 +458,11 @@ class RobustAHRS(_Robust):
     (docs/recommended-ahrs.md).
 
     RobustAHRS(dt, ..., tau_mag=10.0, mag_norm=0.1, mag_dip=10.0, tau_mag_ref=20.0,
-    mag_new_time=20.0): the parameters of RobustIMU, and tau_mag (s) the heading
+    mag_new_time=20.0, mag_hold=0.5): the parameters of RobustIMU, and tau_mag (s) the heading
     correction time constant; mag_norm (relative) and mag_dip (deg) the disturbance
     thresholds against the learned reference field, learnt with tau_mag_ref (s); a
-    changed field that stays the same for mag_new_time (s) becomes the reference.
+    changed field that stays the same for mag_new_time (s) becomes the reference; after a
+    disturbance the field must match the reference for mag_hold (s) before it is used.
     Magnetometer in any unit; an all-zero reading means none.
     """
     kind = "ahrs"
@@ -457,7 +471,7 @@ class RobustAHRS(_Robust):
     @staticmethod
     def _params(dt, tau_acc=2.5, rate_ref=100.0, tau_bias=100.0, tau_bias_rest=3.0,
                 rest_gyr=2.0, rest_acc=0.05, rest_time=1.5, tau_rest=0.5, tau_mag=10.0,
-                mag_norm=0.1, mag_dip=10.0, tau_mag_ref=20.0, mag_new_time=20.0):
+                mag_norm=0.1, mag_dip=10.0, tau_mag_ref=20.0, mag_new_time=20.0, mag_hold=0.5):
         dt = _checks.check_dt(dt)
         imu = _Robust._imu_params(tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr,
                                   rest_acc, rest_time, tau_rest)
@@ -466,17 +480,19 @@ class RobustAHRS(_Robust):
         mag_dip = _checks.check_real("mag_dip", mag_dip, lo=0.0, hi=180.0)
         tau_mag_ref = _checks.check_real("tau_mag_ref", tau_mag_ref, lo=0.0, lo_open=True)
         mag_new_time = _checks.check_real("mag_new_time", mag_new_time, lo=0.0)
+        mag_hold = _checks.check_real("mag_hold", mag_hold, lo=0.0)
         # the dip test compares sines: sin(mag_dip), in double, for both backends;
         # 90 deg or more: no dip test
         dip = math.sin(mag_dip * _DEG) if mag_dip < 90.0 else 2.0
-        return (dt,) + imu + (tau_mag, mag_norm, dip, tau_mag_ref, mag_new_time)
+        return (dt,) + imu + (tau_mag, mag_norm, dip, tau_mag_ref, mag_new_time, mag_hold)
 
     def _init(self, dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
-              rest_time, tau_rest, tau_mag, mag_norm, mag_dip, tau_mag_ref, mag_new_time):
+              rest_time, tau_rest, tau_mag, mag_norm, mag_dip, tau_mag_ref, mag_new_time,
+              mag_hold):
         self._check_args(self._args, self.dtype)
         self._init_common(dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
                           rest_time, tau_rest, tau_mag, mag_norm, mag_dip, tau_mag_ref,
-                          mag_new_time)
+                          mag_new_time, mag_hold)
 
     def _update(self, gx, gy, gz, ax, ay, az, mx, my, mz):
         if not isfinite(gx, gy, gz, ax, ay, az, mx, my, mz):
