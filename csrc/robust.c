@@ -209,17 +209,24 @@ static int robust_step(const imf_robust_settings_t *const set, imf_robust_state_
 {
     const imf_real dt = set->dt;
     const int first = x->t == IMF_R(0.0);
+    /* an all-zero accelerometer is no reading: gyro only (and no start without one) */
+    const int has_acc = !(ax == IMF_R(0.0) && ay == IMF_R(0.0) && az == IMF_R(0.0));
     imf_real k, w2, g2, dx, dy, dz, d2, a2, ox, oy, oz, th2, cw, sv, gn;
     imf_real s[4], ai[3], ge[3], r[4], c[4], q[4], e[3];
     int rest;
+    if (first && !has_acc) {
+        return 0;
+    }
     /* B1: rest detection, low-passes of gyro and accelerometer in the sensor frame */
     k = robust_gain(set, x->t, set->tau_rest, set->k_rest);
     x->lwx = x->lwx + k * (gx - x->lwx);
     x->lwy = x->lwy + k * (gy - x->lwy);
     x->lwz = x->lwz + k * (gz - x->lwz);
-    x->lax = x->lax + k * (ax - x->lax);
-    x->lay = x->lay + k * (ay - x->lay);
-    x->laz = x->laz + k * (az - x->laz);
+    if (has_acc) {
+        x->lax = x->lax + k * (ax - x->lax);
+        x->lay = x->lay + k * (ay - x->lay);
+        x->laz = x->laz + k * (az - x->laz);
+    }
     w2 = x->lwx * x->lwx + x->lwy * x->lwy + x->lwz * x->lwz;
     g2 = gx * gx + gy * gy + gz * gz;
     dx = ax - x->lax;
@@ -227,7 +234,7 @@ static int robust_step(const imf_robust_settings_t *const set, imf_robust_state_
     dz = az - x->laz;
     d2 = dx * dx + dy * dy + dz * dz;
     a2 = x->lax * x->lax + x->lay * x->lay + x->laz * x->laz;
-    if (w2 < set->rest_gyr2 && g2 < set->rest_gyr2 && d2 < set->rest_acc2 * a2) {
+    if (has_acc && w2 < set->rest_gyr2 && g2 < set->rest_gyr2 && d2 < set->rest_acc2 * a2) {
         x->t_rest = x->t_rest + dt;
         if (x->t_rest > set->rest_time) {
             x->t_rest = set->rest_time;
@@ -261,7 +268,7 @@ static int robust_step(const imf_robust_settings_t *const set, imf_robust_state_
         x->fx = ai[0]; x->fy = ai[1]; x->fz = ai[2];
         x->vx = IMF_R(0.0); x->vy = IMF_R(0.0); x->vz = IMF_R(0.0);
         x->pvv = IMF_R(0.0); x->pvg = IMF_R(0.0); x->pgg = set->pgg0;
-    } else {
+    } else if (has_acc) {
         imf_real qg, pvv, pvg, pgg, inv, kv, kg;
         /* predict: v' = a - g, g' = 0 (+ process noise growing with the rotation rate) */
         x->vx = x->vx + dt * (ai[0] - x->fx);

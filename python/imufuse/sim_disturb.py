@@ -69,13 +69,14 @@ def _smooth_rates(rng, n, dt, amp, f_hi):
 
 
 def scenario(name, *, rate=285.714, duration=60.0, rest=10.0, seed=0, gyr_noise=0.0017,
-             acc_noise=0.045, mag_noise=0.8, bias_deg=(0.5, -0.3, 0.2)):
+             acc_noise=0.045, mag_noise=0.8, bias_deg=(0.5, -0.3, 0.2), q0=None):
     """Build one scenario (see SCENARIOS).
 
     rate: Hz; duration: s (including the initial rest); rest: s; gyr_noise: rad/s per
     sample; acc_noise: m/s^2 per sample; mag_noise: uT per sample; bias_deg: the constant
-    gyro bias, deg/s (bias_walk adds a random walk to it). The defaults are the BROAD
-    sensor's figures (0.1 deg/s, 0.045 m/s^2, about 1 uT).
+    gyro bias, deg/s (bias_walk adds a random walk to it); q0: the initial orientation
+    (default: level, heading 30 deg). The defaults are the BROAD sensor's figures
+    (0.1 deg/s, 0.045 m/s^2, about 1 uT).
     """
     if name not in SCENARIOS:
         raise ValueError(f"name: must be one of {', '.join(SCENARIOS)}, got {name!r}")
@@ -143,7 +144,9 @@ def scenario(name, *, rate=285.714, duration=60.0, rest=10.0, seed=0, gyr_noise=
         omega[n_rest:] = w
         steps = rng.normal(0.0, math.radians(0.005) * math.sqrt(dt), size=(n, 3))
         bias = bias + np.cumsum(steps, axis=0)
-    q0 = np.array([math.cos(math.radians(15.0)), 0.0, 0.0, math.sin(math.radians(15.0))])
+    if q0 is None:
+        q0 = np.array([math.cos(math.radians(15.0)), 0.0, 0.0, math.sin(math.radians(15.0))])
+    q0 = np.asarray(q0, dtype=np.float64)
     q = integrate(q0, omega, dt)
     g = np.array([0.0, 0.0, GRAVITY_MS2])
     acc = quat_rotate_inv(q, a_lin + g) + rng.normal(0.0, acc_noise, size=(n, 3))

@@ -200,14 +200,19 @@ class _Robust(ReferenceFilter):
         R = self._R
         dt = self.dt
         first = st["t"] == R(0.0)
+        # an all-zero accelerometer is no reading: gyro only (and no start without one)
+        has_acc = not (ax == R(0.0) and ay == R(0.0) and az == R(0.0))
+        if first and not has_acc:
+            return None
         # B1: rest detection, low-passes of gyro and accelerometer in the sensor frame
         k = self._gain(st["t"], self.tau_rest, self.k_rest)
         st["lwx"] = st["lwx"] + k * (gx - st["lwx"])
         st["lwy"] = st["lwy"] + k * (gy - st["lwy"])
         st["lwz"] = st["lwz"] + k * (gz - st["lwz"])
-        st["lax"] = st["lax"] + k * (ax - st["lax"])
-        st["lay"] = st["lay"] + k * (ay - st["lay"])
-        st["laz"] = st["laz"] + k * (az - st["laz"])
+        if has_acc:
+            st["lax"] = st["lax"] + k * (ax - st["lax"])
+            st["lay"] = st["lay"] + k * (ay - st["lay"])
+            st["laz"] = st["laz"] + k * (az - st["laz"])
         w2 = st["lwx"] * st["lwx"] + st["lwy"] * st["lwy"] + st["lwz"] * st["lwz"]
         g2 = gx * gx + gy * gy + gz * gz
         dx = ax - st["lax"]
@@ -215,7 +220,7 @@ class _Robust(ReferenceFilter):
         dz = az - st["laz"]
         d2 = dx * dx + dy * dy + dz * dz
         a2 = st["lax"] * st["lax"] + st["lay"] * st["lay"] + st["laz"] * st["laz"]
-        if w2 < self.rest_gyr2 and g2 < self.rest_gyr2 and d2 < self.rest_acc2 * a2:
+        if has_acc and w2 < self.rest_gyr2 and g2 < self.rest_gyr2 and d2 < self.rest_acc2 * a2:
             st["t_rest"] = st["t_rest"] + dt
             if st["t_rest"] > self.rest_time:
                 st["t_rest"] = self.rest_time
@@ -246,7 +251,7 @@ class _Robust(ReferenceFilter):
             st["fx"], st["fy"], st["fz"] = aix, aiy, aiz
             st["vx"], st["vy"], st["vz"] = R(0.0), R(0.0), R(0.0)
             st["pvv"], st["pvg"], st["pgg"] = R(0.0), R(0.0), self.pgg0
-        else:
+        elif has_acc:
             # predict: v' = a - g, g' = 0 (+ process noise growing with the rotation rate)
             st["vx"] = st["vx"] + dt * (aix - st["fx"])
             st["vy"] = st["vy"] + dt * (aiy - st["fy"])
