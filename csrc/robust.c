@@ -87,7 +87,8 @@ static void robust_init(imf_robust_settings_t *const set, uint32_t *const skippe
                         const imf_real rate_ref, const imf_real tau_bias,
                         const imf_real tau_bias_rest, const imf_real rest_gyr,
                         const imf_real rest_acc, const imf_real rest_time,
-                        const imf_real tau_rest, const imf_real tau_mag,
+                        const imf_real tau_rest, const imf_real latency,
+                        const imf_real tau_mag,
                         const imf_real mag_norm, const imf_real mag_dip,
                         const imf_real tau_mag_ref, const imf_real mag_new_time,
                         const imf_real mag_hold)
@@ -97,6 +98,7 @@ static void robust_init(imf_robust_settings_t *const set, uint32_t *const skippe
     set->tau_bias = tau_bias;
     set->tau_bias_rest = tau_bias_rest;
     set->tau_rest = tau_rest;
+    set->latency = latency;
     set->tau_mag = tau_mag;
     set->tau_mag_ref = tau_mag_ref;
     /* B2: gravity process noise q_g = (1 + |w|^2 / rate_ref^2) / tau_acc^4 per s, with
@@ -149,10 +151,11 @@ void imf_robust_imu_init(imf_robust_imu_t *const self, const imf_real dt, const 
                          const imf_real rate_ref, const imf_real tau_bias,
                          const imf_real tau_bias_rest, const imf_real rest_gyr,
                          const imf_real rest_acc, const imf_real rest_time,
-                         const imf_real tau_rest)
+                         const imf_real tau_rest, const imf_real latency)
 {
     robust_init(&self->set, &self->skipped, &self->x, dt, tau_acc, rate_ref, tau_bias,
-                tau_bias_rest, rest_gyr, rest_acc, rest_time, tau_rest, tau_rest, IMF_R(0.0),
+                tau_bias_rest, rest_gyr, rest_acc, rest_time, tau_rest, latency, tau_rest,
+                IMF_R(0.0),
                 IMF_R(0.0), tau_rest, IMF_R(0.0), IMF_R(0.0));
 }
 
@@ -161,13 +164,14 @@ void imf_robust_ahrs_init(imf_robust_ahrs_t *const self, const imf_real dt,
                           const imf_real tau_bias, const imf_real tau_bias_rest,
                           const imf_real rest_gyr, const imf_real rest_acc,
                           const imf_real rest_time, const imf_real tau_rest,
-                          const imf_real tau_mag, const imf_real mag_norm,
+                          const imf_real latency, const imf_real tau_mag,
+                          const imf_real mag_norm,
                           const imf_real mag_dip, const imf_real tau_mag_ref,
                           const imf_real mag_new_time, const imf_real mag_hold)
 {
     robust_init(&self->set, &self->skipped, &self->x, dt, tau_acc, rate_ref, tau_bias,
-                tau_bias_rest, rest_gyr, rest_acc, rest_time, tau_rest, tau_mag, mag_norm,
-                mag_dip, tau_mag_ref, mag_new_time, mag_hold);
+                tau_bias_rest, rest_gyr, rest_acc, rest_time, tau_rest, latency, tau_mag,
+                mag_norm, mag_dip, tau_mag_ref, mag_new_time, mag_hold);
 }
 
 void imf_robust_imu_set_dt(imf_robust_imu_t *const self, const imf_real dt)
@@ -327,6 +331,30 @@ static int robust_step(const imf_robust_settings_t *const set, imf_robust_state_
     return 1;
 }
 
+/* The output: q = c (x) s, then predicted by the sensor's latency with the
+   bias-corrected rate (q (x) exp(1/2 (w - b) latency), series as the strapdown);
+   0 rejects the sample. */
+static int robust_predict(const imf_robust_settings_t *const set, imf_robust_state_t *const x,
+                          const imf_real gx, const imf_real gy, const imf_real gz)
+{
+    imf_real ox, oy, oz, th2, cw, sv, q[4];
+    if (!(set->latency > IMF_R(0.0))) {
+        return 1;
+    }
+    ox = (gx - x->bx) * set->latency;
+    oy = (gy - x->by) * set->latency;
+    oz = (gz - x->bz) * set->latency;
+    th2 = ox * ox + oy * oy + oz * oz;
+    cw = IMF_R(1.0) - th2 * IMF_R(0.125);
+    sv = IMF_R(0.5) - th2 * set->c48;
+    robust_qmul(q, x->q0, x->q1, x->q2, x->q3, cw, sv * ox, sv * oy, sv * oz);
+    if (!robust_norm4(q)) {
+        return 0;
+    }
+    x->q0 = q[0]; x->q1 = q[1]; x->q2 = q[2]; x->q3 = q[3];
+    return 1;
+}
+
 /* the field (mn, hn, zn) matches the reference (n, h, z): norm within mag_norm n
    and dip within mag_dip (sine of the dip difference = zn h - hn z) */
 static inline int robust_mag_test(const imf_robust_settings_t *const set, const imf_real mn,
@@ -483,6 +511,10 @@ void imf_robust_imu_update(imf_robust_imu_t *const self, const imf_real gx, cons
         self->skipped++;
         return;
     }
+    if (!robust_predict(&self->set, &x, gx, gy, gz)) {
+        self->skipped++;
+        return;
+    }
     robust_advance(&self->set, &x);
     if (!robust_finite(&x)) {
         self->skipped++;
@@ -507,6 +539,10 @@ void imf_robust_ahrs_update(imf_robust_ahrs_t *const self, const imf_real gx, co
         return;
     }
     if (!robust_mag(&self->set, &x, mx, my, mz)) {
+        self->skipped++;
+        return;
+    }
+    if (!robust_predict(&self->set, &x, gx, gy, gz)) {
         self->skipped++;
         return;
     }

@@ -27,6 +27,8 @@
  *      same for mag_new_time becomes the reference.
  *   B5 start from the first samples: every low-pass is a running mean until
  *      its time constant has passed.
+ *   Output: q = c (x) s, predicted forward by the sensor chain's latency (the
+ *      group delay of the gyroscope's internal filter) with the current rate.
  *
  * No transcendental function in the update (sqrt and division only); the
  * strapdown step uses the series of exp(1/2 w dt) to fourth order.
@@ -62,6 +64,7 @@ typedef struct {
 typedef struct {
     imf_real dt, two_dt, dt2, r_d; /* s, 2 dt, dt^2, 1 / dt */
     imf_real tau_acc, tau_bias, tau_bias_rest, tau_rest, tau_mag, tau_mag_ref; /* s */
+    imf_real latency;              /* s, output prediction; 0: none */
     imf_real qg0, qg_dt, pgg0;     /* 1 / tau_acc^4, qg0 dt, 1 / tau_acc^3 */
     imf_real inv_rate_ref2;        /* 1 / rate_ref^2, (rad/s)^-2; 0: constant */
     imf_real inv_tau_bias;         /* 1 / tau_bias, 1/s; 0: no bias in motion */
@@ -86,11 +89,13 @@ typedef struct {
 
 /* dt: s; tau_acc: s; rate_ref: rad/s (0: constant); tau_bias: s (0: off);
    tau_bias_rest: s; rest_gyr: rad/s; rest_acc: g (relative); rest_time: s;
-   tau_rest: s. Validated by the Python layer (imufuse.reference.robust). */
+   tau_rest: s; latency: s, the sensor chain's delay, compensated in the output q by
+   predicting it forward with the current rate (0: none). Validated by the Python
+   layer (imufuse.reference.robust). */
 void imf_robust_imu_init(imf_robust_imu_t *self, imf_real dt, imf_real tau_acc,
                          imf_real rate_ref, imf_real tau_bias, imf_real tau_bias_rest,
                          imf_real rest_gyr, imf_real rest_acc, imf_real rest_time,
-                         imf_real tau_rest);
+                         imf_real tau_rest, imf_real latency);
 /* gx, gy, gz: rad/s; ax, ay, az: any unit */
 void imf_robust_imu_update(imf_robust_imu_t *self, imf_real gx, imf_real gy, imf_real gz,
                            imf_real ax, imf_real ay, imf_real az);
@@ -100,7 +105,8 @@ void imf_robust_imu_update(imf_robust_imu_t *self, imf_real gx, imf_real gy, imf
 void imf_robust_ahrs_init(imf_robust_ahrs_t *self, imf_real dt, imf_real tau_acc,
                           imf_real rate_ref, imf_real tau_bias, imf_real tau_bias_rest,
                           imf_real rest_gyr, imf_real rest_acc, imf_real rest_time,
-                          imf_real tau_rest, imf_real tau_mag, imf_real mag_norm,
+                          imf_real tau_rest, imf_real latency, imf_real tau_mag,
+                          imf_real mag_norm,
                           imf_real mag_dip, imf_real tau_mag_ref, imf_real mag_new_time,
                           imf_real mag_hold);
 /* gx, gy, gz: rad/s; ax, ay, az and mx, my, mz: any unit (mag all zero: none) */

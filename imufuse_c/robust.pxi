@@ -11,7 +11,7 @@ cdef extern from "robust.h" nogil:
     void imf_robust_imu_init(imf_robust_imu_t *self, imf_real dt, imf_real tau_acc,
                              imf_real rate_ref, imf_real tau_bias, imf_real tau_bias_rest,
                              imf_real rest_gyr, imf_real rest_acc, imf_real rest_time,
-                             imf_real tau_rest)
+                             imf_real tau_rest, imf_real latency)
     void imf_robust_imu_update(imf_robust_imu_t *self, imf_real gx, imf_real gy, imf_real gz,
                                imf_real ax, imf_real ay, imf_real az)
     void imf_robust_imu_set_dt(imf_robust_imu_t *self, imf_real dt)
@@ -19,7 +19,8 @@ cdef extern from "robust.h" nogil:
     void imf_robust_ahrs_init(imf_robust_ahrs_t *self, imf_real dt, imf_real tau_acc,
                               imf_real rate_ref, imf_real tau_bias, imf_real tau_bias_rest,
                               imf_real rest_gyr, imf_real rest_acc, imf_real rest_time,
-                              imf_real tau_rest, imf_real tau_mag, imf_real mag_norm,
+                              imf_real tau_rest, imf_real latency, imf_real tau_mag,
+                              imf_real mag_norm,
                               imf_real mag_dip, imf_real tau_mag_ref, imf_real mag_new_time,
                               imf_real mag_hold)
     void imf_robust_ahrs_update(imf_robust_ahrs_t *self, imf_real gx, imf_real gy, imf_real gz,
@@ -36,7 +37,8 @@ cdef class RobustIMU(_FilterIMU):
     cdef int _init(self) except -1:
         a = self._args
         self._ref._check_args(a, DTYPE)
-        imf_robust_imu_init(&self.s, a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8])
+        imf_robust_imu_init(&self.s, a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8],
+                            a[9])
         return self._bind(&self.s.x, sizeof(self.s.x), &self.s.skipped)
 
     cdef void _step(self, const imf_real *gyr, const imf_real *acc) noexcept nogil:
@@ -57,7 +59,7 @@ cdef class RobustAHRS(_FilterAHRS):
         a = self._args
         self._ref._check_args(a, DTYPE)
         imf_robust_ahrs_init(&self.s, a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8],
-                             a[9], a[10], a[11], a[12], a[13], a[14])
+                             a[9], a[10], a[11], a[12], a[13], a[14], a[15])
         return self._bind(&self.s.x, sizeof(self.s.x), &self.s.skipped)
 
     cdef void _step(self, const imf_real *gyr, const imf_real *acc,

@@ -66,7 +66,7 @@ class _Robust(ReferenceFilter):
 
     @staticmethod
     def _imu_params(tau_acc=2.5, rate_ref=100.0, tau_bias=100.0, tau_bias_rest=3.0,
-                    rest_gyr=2.0, rest_acc=0.05, rest_time=1.5, tau_rest=0.5):
+                    rest_gyr=2.0, rest_acc=0.05, rest_time=1.5, tau_rest=0.5, latency=0.002):
         tau_acc = _checks.check_real("tau_acc", tau_acc, lo=0.0, lo_open=True)
         rate_ref = _checks.check_real("rate_ref", rate_ref, lo=0.0)
         tau_bias = _checks.check_real("tau_bias", tau_bias, lo=0.0)
@@ -78,9 +78,10 @@ class _Robust(ReferenceFilter):
         rest_acc = _checks.check_real("rest_acc", rest_acc, lo=0.0)
         rest_time = _checks.check_real("rest_time", rest_time, lo=0.0)
         tau_rest = _checks.check_real("tau_rest", tau_rest, lo=0.0, lo_open=True)
+        latency = _checks.check_real("latency", latency, lo=0.0, hi=0.1)
         # deg/s -> rad/s here, in double, for both backends
         return (tau_acc, rate_ref * _DEG, tau_bias, tau_bias_rest, rest_gyr * _DEG, rest_acc,
-                rest_time, tau_rest)
+                rest_time, tau_rest, latency)
 
     @staticmethod
     def _check_args(args, dtype):
@@ -102,8 +103,8 @@ class _Robust(ReferenceFilter):
 
     # imf_robust_init (shared settings of both filters)
     def _init_common(self, dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
-                     rest_time, tau_rest, tau_mag, mag_norm, mag_dip, tau_mag_ref, mag_new_time,
-                     mag_hold):
+                     rest_time, tau_rest, latency, tau_mag, mag_norm, mag_dip, tau_mag_ref,
+                     mag_new_time, mag_hold):
         R = self._R
         lo, hi = _LIMITS[self.dtype]
         self._min, self._max = R(lo), R(hi)
@@ -111,6 +112,7 @@ class _Robust(ReferenceFilter):
         self.tau_bias = R(tau_bias)
         self.tau_bias_rest = R(tau_bias_rest)
         self.tau_rest = R(tau_rest)
+        self.latency = R(latency)
         self.tau_mag = R(tau_mag)
         self.tau_mag_ref = R(tau_mag_ref)
         # B2: gravity process noise q_g = (1 + |w|^2 / rate_ref^2) / tau_acc^4 per s, with the
@@ -302,6 +304,26 @@ class _Robust(ReferenceFilter):
             st["bz"] = st["bz"] - ez * self.inv_tau_bias
         return True
 
+    def _predict(self, st, gx, gy, gz):
+        """The output: q = c (x) s, then predicted by the sensor's latency with the
+        bias-corrected rate (q (x) exp(1/2 (w - b) latency), series as the strapdown).
+        Returns False to reject the sample."""
+        R = self._R
+        if not (self.latency > R(0.0)):
+            return True
+        ox = (gx - st["bx"]) * self.latency
+        oy = (gy - st["by"]) * self.latency
+        oz = (gz - st["bz"]) * self.latency
+        th2 = ox * ox + oy * oy + oz * oz
+        cw = R(1.0) - th2 * R(0.125)
+        sv = R(0.5) - th2 * self.c48
+        q = self._norm4(*_qmul(st["q0"], st["q1"], st["q2"], st["q3"],
+                               cw, sv * ox, sv * oy, sv * oz))
+        if q is None:
+            return False
+        st["q0"], st["q1"], st["q2"], st["q3"] = q
+        return True
+
     def _mag_test(self, mn, hn, zn, n, h, z):
         # the field matches the reference (n, h, z): norm within mag_norm n and dip
         # within mag_dip (sin of the dip difference = zn h - hn z)
@@ -421,13 +443,16 @@ class RobustIMU(_Robust):
     (docs/recommended-ahrs.md).
 
     RobustIMU(dt, tau_acc=2.5, rate_ref=100.0, tau_bias=100.0, tau_bias_rest=3.0,
-    rest_gyr=2.0, rest_acc=0.05, rest_time=1.5, tau_rest=0.5): dt in s; tau_acc (s)
+    rest_gyr=2.0, rest_acc=0.05, rest_time=1.5, tau_rest=0.5, latency=0.002): dt in s;
+    tau_acc (s)
     the gravity filter's time constant at rest; rate_ref (deg/s) the rotation rate at
     which its gravity uncertainty doubles (0: constant); tau_bias (s) the time
     constant of the bias estimation in motion (0: off, else >= 4 tau_acc);
     tau_bias_rest (s) that of the bias at rest; rest_gyr (deg/s) and rest_acc (g,
     relative to the accelerometer's mean magnitude) the rest thresholds, held for
-    rest_time (s), with low-passes of tau_rest (s). Gyro in rad/s, accelerometer
+    rest_time (s), with low-passes of tau_rest (s); latency (s) the delay of the
+    sensor chain (the gyroscope's internal filter), compensated in the output q0..q3 by
+    predicting it forward (0: none). Gyro in rad/s, accelerometer
     in any unit. State: see state_names; q0..q3 is the estimate (sensor -> earth, NWU).
     """
     kind = "imu"
@@ -435,16 +460,16 @@ class RobustIMU(_Robust):
 
     @staticmethod
     def _params(dt, tau_acc=2.5, rate_ref=100.0, tau_bias=100.0, tau_bias_rest=3.0,
-                rest_gyr=2.0, rest_acc=0.05, rest_time=1.5, tau_rest=0.5):
+                rest_gyr=2.0, rest_acc=0.05, rest_time=1.5, tau_rest=0.5, latency=0.002):
         dt = _checks.check_dt(dt)
         return (dt,) + _Robust._imu_params(tau_acc, rate_ref, tau_bias, tau_bias_rest,
-                                           rest_gyr, rest_acc, rest_time, tau_rest)
+                                           rest_gyr, rest_acc, rest_time, tau_rest, latency)
 
     def _init(self, dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
-              rest_time, tau_rest):
+              rest_time, tau_rest, latency):
         self._check_args(self._args, self.dtype)
         self._init_common(dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
-                          rest_time, tau_rest, tau_rest, 0.0, 0.0, tau_rest, 0.0, 0.0)
+                          rest_time, tau_rest, latency, tau_rest, 0.0, 0.0, tau_rest, 0.0, 0.0)
 
     def _update(self, gx, gy, gz, ax, ay, az):
         if not isfinite(gx, gy, gz, ax, ay, az):
@@ -452,6 +477,9 @@ class RobustIMU(_Robust):
             return
         st = self._work()
         if self._step(st, gx, gy, gz, ax, ay, az) is None:
+            self._skip()
+            return
+        if not self._predict(st, gx, gy, gz):
             self._skip()
             return
         self._advance(st)
@@ -475,11 +503,12 @@ class RobustAHRS(_Robust):
 
     @staticmethod
     def _params(dt, tau_acc=2.5, rate_ref=100.0, tau_bias=100.0, tau_bias_rest=3.0,
-                rest_gyr=2.0, rest_acc=0.05, rest_time=1.5, tau_rest=0.5, tau_mag=10.0,
-                mag_norm=0.1, mag_dip=10.0, tau_mag_ref=20.0, mag_new_time=20.0, mag_hold=0.5):
+                rest_gyr=2.0, rest_acc=0.05, rest_time=1.5, tau_rest=0.5, latency=0.002,
+                tau_mag=10.0, mag_norm=0.1, mag_dip=10.0, tau_mag_ref=20.0, mag_new_time=20.0,
+                mag_hold=0.5):
         dt = _checks.check_dt(dt)
         imu = _Robust._imu_params(tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr,
-                                  rest_acc, rest_time, tau_rest)
+                                  rest_acc, rest_time, tau_rest, latency)
         tau_mag = _checks.check_real("tau_mag", tau_mag, lo=0.0, lo_open=True)
         mag_norm = _checks.check_real("mag_norm", mag_norm, lo=0.0)
         mag_dip = _checks.check_real("mag_dip", mag_dip, lo=0.0, hi=180.0)
@@ -492,11 +521,11 @@ class RobustAHRS(_Robust):
         return (dt,) + imu + (tau_mag, mag_norm, dip, tau_mag_ref, mag_new_time, mag_hold)
 
     def _init(self, dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
-              rest_time, tau_rest, tau_mag, mag_norm, mag_dip, tau_mag_ref, mag_new_time,
-              mag_hold):
+              rest_time, tau_rest, latency, tau_mag, mag_norm, mag_dip, tau_mag_ref,
+              mag_new_time, mag_hold):
         self._check_args(self._args, self.dtype)
         self._init_common(dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
-                          rest_time, tau_rest, tau_mag, mag_norm, mag_dip, tau_mag_ref,
+                          rest_time, tau_rest, latency, tau_mag, mag_norm, mag_dip, tau_mag_ref,
                           mag_new_time, mag_hold)
 
     def _update(self, gx, gy, gz, ax, ay, az, mx, my, mz):
@@ -508,6 +537,9 @@ class RobustAHRS(_Robust):
             self._skip()
             return
         if not self._mag(st, mx, my, mz):
+            self._skip()
+            return
+        if not self._predict(st, gx, gy, gz):
             self._skip()
             return
         self._advance(st)
