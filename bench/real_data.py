@@ -12,8 +12,6 @@ import re
 import subprocess
 import sys
 
-import numpy as np
-
 from imufuse import io
 from imufuse.catalogue import estimate, filter_names, make_filter, reference_class, resolve_params
 from imufuse.cli import effective_params

@@ -100,3 +100,16 @@ def test_unknown_names_are_reported():
         catalogue.entry("MadgwickIMUU")
     with pytest.raises(catalogue.FilterError, match="fixed-point"):
         catalogue.reference_class("KKQ")
+
+
+def test_fusion_suite_in_the_catalogue():
+    """The Fusion suite has its own catalogue section (outside FLOAT, see
+    catalogue.FUSION for why), consistent with both backends."""
+    assert catalogue.FILTERS_FUSION == reference.FILTERS_FUSION == imufuse_c.FILTERS_FUSION
+    for e in catalogue.FUSION:
+        c, r = e.compiled, e.reference
+        assert tuple(c.state_names) == tuple(r.state_names) == e.state_names
+        params = {k for k in e.params if k != "dtype"}
+        assert set(e.defaults) <= params, e.name
+        f = e.make("c", **e.defaults)
+        assert len(f.state) == len(e.state_names)

@@ -89,7 +89,14 @@ def test_demo(tmp_path):
         line = next(ln for ln in r.stdout.splitlines() if ln.startswith(name + " "))
         assert line.split()[2:4] == ["ok", "ok"], line
     assert "0 of" in r.stdout
+    # then every 3D filter on the shipped real recording, against optical truth
+    real = r.stdout[r.stdout.index("real data:"):]
+    assert "CC BY 4.0" in real and "(ENU, sensor-to-earth)" in real
+    for name in demo.filter_names({"imu", "ahrs"}):
+        line = next(ln for ln in real.splitlines() if ln.startswith(name + " "))
+        assert 0 <= float(line.split()[2]) < 90, line
     if HAVE_MPL:
+        assert (tmp_path / "out" / "demo_real.png").stat().st_size > 10000
         assert (tmp_path / "out" / "demo_1d.png").stat().st_size > 10000
         if demo.filter_names({"imu", "ahrs"}):
             assert (tmp_path / "out" / "demo_3d.png").stat().st_size > 10000

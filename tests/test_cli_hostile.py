@@ -289,3 +289,15 @@ def test_a_closed_pipe_is_not_an_error(tmp_path):
     err = p.stderr.read()
     assert p.wait(timeout=120) == 0, err
     assert "Traceback" not in err and "Exception ignored" not in err and "Broken" not in err
+
+
+def test_skip_leaves_the_start_out_of_the_errors(files):
+    """--skip S: the first S seconds do not count (counted as outside the mask)."""
+    a = imf("compare", files["good"], "-f", "MadgwickIMU")
+    b = imf("compare", files["good"], "-f", "MadgwickIMU", "--skip", 1)
+    assert a.returncode == b.returncode == 0, a.stderr + b.stderr
+    na = int(next(ln for ln in a.stdout.splitlines() if ln.startswith("MadgwickIMU ")).split()[5])
+    nb = int(next(ln for ln in b.stdout.splitlines() if ln.startswith("MadgwickIMU ")).split()[5])
+    t = io.read_log(files["good"]).t
+    assert na == len(t) and nb == int(np.count_nonzero(t >= t[0] + 1))
+    assert f"{na - nb} samples outside the movement mask" in b.stdout

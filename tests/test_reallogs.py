@@ -101,7 +101,7 @@ def test_run_xio_log_needs_no_renaming_and_honours_timestamps(tmp_path, data):
 def test_init_first_starts_at_the_right_heading(tmp_path):
     """At rest, turned 120 deg in heading: started from the first sample the
     AHRS filter is right at once; from identity it is still far off."""
-    from imufuse.rotations import quat_from_axis_angle, quat_rotate_inv, quat_to_euler
+    from imufuse.rotations import quat_from_axis_angle, quat_rotate_inv
     n, rate = 500, 100.0
     q = quat_from_axis_angle([0, 0, 1], math.radians(120))
     acc = np.tile(quat_rotate_inv(q, [0, 0, 1.0]), (n, 1))
@@ -239,6 +239,10 @@ def test_broad_csv_through_compare_equals_an_independent_implementation(tmp_path
     head_nwu = float(next(ln for ln in r.stdout.splitlines()
                           if ln.startswith("MadgwickAHRS ")).split()[3])
     assert head_nwu > 45
+    assert "hint" not in r.stderr                 # the user said NWU
+    # not said: a hint names the frame that fits
+    r = imf("compare", csv, "-f", "MadgwickAHRS")
+    assert r.returncode == 0 and "with --ref-frame ENU it would be" in r.stderr, r.stderr
 
 
 def test_npz_and_csv_runs_agree(tmp_path):
@@ -339,3 +343,20 @@ def test_hdf5_in_the_broad_layout(tmp_path):
     p2.write_bytes(b"not hdf5")
     with pytest.raises(LogError, match="not a readable HDF5"):
         read_log(p2)
+
+
+def test_init_window_through_the_cli(tmp_path):
+    """--init first --init-window N is the library's init="first", init_window=N."""
+    from imufuse.catalogue import resolve_params
+    out = tmp_path / "o.csv"
+    r = imf("run", io.example_log(), "-f", "MahonyAHRS", "--init-window", 50, "-o", out)
+    assert r.returncode == 0 and "mean of 50 samples" in r.stderr, r.stderr
+    log = read_log(io.example_log())
+    want = imufuse_c.MahonyAHRS(**resolve_params("MahonyAHRS", log.dt), init="first",
+                                init_window=50).run(log.gyr, log.acc, log.mag)
+    M = np.genfromtxt(out, delimiter=",", names=True)
+    got = np.column_stack([M[c] for c in ("q0", "q1", "q2", "q3")])
+    assert np.array_equal(got, want[:, :4])
+    one = imufuse_c.MahonyAHRS(**resolve_params("MahonyAHRS", log.dt), init="first").run(
+        log.gyr, log.acc, log.mag)
+    assert not np.array_equal(one[:, :4], want[:, :4])      # the window matters

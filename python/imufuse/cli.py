@@ -200,6 +200,10 @@ class Runner:
                 kw["q0"] = init
             elif init == "first":
                 kw["init"] = "first"
+                w = getattr(args, "init_window", None)
+                if w and w > 1:
+                    kw["init_window"] = w
+                    init = f"first (mean of {w} samples)"
         self.init = (None if self.cls.kind == "1d" else
                      "q0=" + ",".join(f"{v:g}" for v in init) if isinstance(init, list) else init)
         self.filter = make_filter(name, self.backend, self.dtype, {**self.params, **kw})
@@ -236,6 +240,9 @@ def _load(args, path=None):
                    time_unit=getattr(args, "time_unit", None))
     for w in log.warnings:
         _err(f"note: {w}")
+    from .preprocess import apply
+    for note in apply(log, args, getattr(args, "backend", "c")):  # --calibration, --align, --offset
+        _err(f"note: {note}")
     return log
 
 
@@ -291,13 +298,24 @@ def _ref_angle(log, axis, args):
     return quat_to_euler(q)[:, 0 if axis == "x" else 1]
 
 
+def _mask(log, args):
+    """The samples that count for errors: the movement column and --skip."""
+    mask = log.movement
+    skip = getattr(args, "skip", None)
+    if skip:
+        t = log.t
+        late = t >= t[0] + skip
+        mask = late if mask is None else (mask & late)
+    return mask
+
+
 def _evaluate(cls, est, log, args):
     """Evaluation (3D) or {'angle': (rms, max), 'n': n} (1D) against the log's
     reference, or None without a reference or estimate."""
     from .evaluation import evaluate
     if est is None or log.q_ref is None:
         return None
-    mask = log.movement
+    mask = _mask(log, args)
     if cls.kind == "1d":
         ref = _ref_angle(log, args.axis, args)
         use = np.isfinite(ref) & (mask if mask is not None else True)
@@ -318,6 +336,25 @@ def _euler_deg(q, chunk=65536):
     for k in range(0, len(q), chunk):
         out[k:k + chunk] = np.degrees(quat_to_euler(q[k:k + chunk]))
     return out
+
+
+def _frame_hint(cls, est, log, args, ev):
+    """A hint when the reference frame was not said and another frame fits far
+    better (an ENU reference read as NWU gives ~90 deg heading errors)."""
+    from .evaluation import evaluate
+    if (getattr(args, "ref_frame", None) or log.ref_frame or cls.kind != "ahrs" or ev is None
+            or isinstance(ev, dict) or not ev.n or not ev.heading > 20):
+        return None
+    alt = {}
+    for fr in ("ENU", "NED"):
+        e = evaluate(est.q, log.q_ref, est_frame="NWU", ref_frame=fr,
+                     ref_direction=args.ref_direction, movement=_mask(log, args))
+        alt[fr] = e.heading
+    fr = min(alt, key=alt.get)
+    if alt[fr] < 0.5 * ev.heading:
+        return (f"hint: the reference was taken as NWU (heading error {ev.heading:.1f} deg); "
+                f"with --ref-frame {fr} it would be {alt[fr]:.1f} deg: is the reference in {fr}?")
+    return None
 
 
 def _frame_q(q, frame):
@@ -380,9 +417,14 @@ def _parser_demo(sub):
 def _run(args):
     from . import io
     from .catalogue import estimate, reference_class, why_no_estimate
-    from .rotations import quat_to_euler
-    cls = reference_class(args.filter)
+    from . import preprocess
     check_outputs([args.log], [("-o", args.output), ("--plot", args.plot)])
+    if preprocess.is_fusion(args.filter):  # Fusion's units and dt per sample
+        cols, msg, f32 = preprocess.run_fusion(args, _load(args), _pairs(args.param))
+        _write_output(args.output, cols, f32)
+        _err(msg)
+        return EXIT_OK
+    cls = reference_class(args.filter)
     log = _load(args)
     r = Runner(args.filter, log, args, _pairs(args.param))
     inputs, src = _inputs(cls, log, args.axis)
@@ -407,17 +449,7 @@ def _run(args):
         else:
             _err(f"note: no heading from {cls.__name__} ({est.source}): yaw omitted")
     f32 = set(cls.state_names) if args.dtype == "float32" else set()
-    try:
-        if args.output == "-":
-            io.write_csv(sys.stdout, cols, float32=f32)
-        elif args.output.lower().endswith(".npz"):
-            io.write_npz(args.output, cols)
-        else:
-            io.write_csv(args.output, cols, float32=f32)
-    except OSError as e:
-        if isinstance(e, BrokenPipeError):
-            raise
-        raise OutputError(f"-o {args.output}: cannot write: {e.strerror or e}") from None
+    _write_output(args.output, cols, f32)
     init = f", init={r.init}" if r.init else ""
     msg = (f"{cls.__name__} ({args.backend}, {args.dtype}, {r.describe_time()}{init}; "
            f"{_fmt_params(args.filter, r.params)}): {len(log)} samples from {src}")
@@ -433,10 +465,29 @@ def _run(args):
                  f"{ev['angle'][1]:.3f} deg over {ev['n']} samples")
         else:
             _err(f"against the log's reference q ({_ref_frame(args, log)}): {ev.summary()}")
+            hint = _frame_hint(cls, est, log, args, ev)
+            if hint:
+                _err(hint)
     if args.plot:
         _plots(args.plot, log, {args.filter: (cls, est)}, args,
                f"{args.filter} ({_fmt_params(args.filter, r.params)})")
     return EXIT_OK
+
+
+def _write_output(path, cols, f32=()):
+    """CSV to stdout ("-") or a file, or NPZ for OUT.npz; OutputError when it cannot be written."""
+    from . import io
+    try:
+        if path == "-":
+            io.write_csv(sys.stdout, cols, float32=f32)
+        elif path.lower().endswith(".npz"):
+            io.write_npz(path, cols)
+        else:
+            io.write_csv(path, cols, float32=f32)
+    except OSError as e:
+        if isinstance(e, BrokenPipeError):
+            raise
+        raise OutputError(f"-o {path}: cannot write: {e.strerror or e}") from None
 
 
 def _parser_run(sub):
@@ -453,6 +504,8 @@ def _parser_run(sub):
     _log_options(r)
     _filter_options(r)
     _eval_options(r)
+    from .preprocess import add_arguments as _preprocess_options
+    _preprocess_options(r)
     r.set_defaults(func=_run)
 
 
@@ -480,7 +533,7 @@ def _compare(args):
     if not names:
         names = _default_filters(log)
     per = _scoped_params(args.param, names)
-    rows, ests, timing = [], {}, None
+    rows, ests, timing, hint = [], {}, None, None
     for n in names:
         cls = reference_class(n)
         try:
@@ -511,7 +564,9 @@ def _compare(args):
                 final = np.degrees(quat_to_euler(_frame_q(est.q[-1:], args.frame))[0])
                 if not est.heading:
                     final[2] = np.nan
-        rows.append((n, cls.kind, _evaluate(cls, est, log, args), final, sps, note))
+        ev = _evaluate(cls, est, log, args)
+        hint = hint or _frame_hint(cls, est, log, args, ev)
+        rows.append((n, cls.kind, ev, final, sps, note))
     if not ests:
         for n, kind, _, _, _, note in rows:
             _err(f"{n}: {note}")
@@ -562,8 +617,12 @@ def _compare(args):
     if excluded is not None and (excluded.n_ref_nan or excluded.n_outside_mask):
         print(f"excluded: {excluded.n_outside_mask} samples outside the movement mask, "
               f"{excluded.n_ref_nan} with a NaN reference")
+    if hint:
+        _err(hint)
     if args.plot:
-        _plots(args.plot, log, ests, args, f"{len(ests)} filters")
+        given = ", ".join(args.param) if args.param else "default gains"
+        _plots(args.plot, log, ests, args, f"{', '.join(ests)} ({given}; {timing}, init "
+                                           f"{getattr(args, 'init', None) or 'first'})")
     if has_ref and not evaluated:
         raise NothingComputed(f"{log.path}: nothing could be evaluated: no sample has a finite "
                               "reference inside the movement mask")
@@ -621,6 +680,8 @@ def _parser_compare(sub):
     _log_options(c)
     _filter_options(c)
     _eval_options(c)
+    from .preprocess import add_arguments as _preprocess_options
+    _preprocess_options(c)
     c.set_defaults(func=_compare)
 
 
@@ -1008,6 +1069,8 @@ def _filter_options(p):
     g.add_argument("--init", metavar="first|identity|W,X,Y,Z",
                    help="initial orientation of 3D filters (default first: from the first "
                         "accelerometer [and magnetometer] sample)")
+    g.add_argument("--init-window", type=_positive(int, 10**6), metavar="N",
+                   help="with --init first: average the first N samples (default 1)")
     g.add_argument("--dtype", choices=("float32", "float64"), default="float64")
     g.add_argument("--backend", choices=("c", "ref"), default="c",
                    help="c: imufuse_c (compiled); ref: imufuse.reference (pure Python)")
@@ -1019,11 +1082,16 @@ def _eval_options(p):
                    help="earth frame of the log's q_w..q_z (default: NWU; ENU for BROAD files)")
     g.add_argument("--ref-direction", choices=("sensor-to-earth", "earth-to-sensor"),
                    default="sensor-to-earth", help="what the reference quaternion rotates")
+    g.add_argument("--skip", type=_positive(float, 1e9), metavar="S",
+                   help="leave the first S seconds out of the errors (the start-up), on top of "
+                        "a movement column")
     g.add_argument("--heading-offset", action="store_true",
                    help="remove the mean heading offset between the reference and the filter "
                         "before the heading and total errors")
     g.add_argument("--frame", choices=("NWU", "ENU", "NED"), default="NWU",
-                   help="earth frame of the output quaternion and Euler angles (default NWU)")
+                   help="earth frame of the output quaternion and Euler angles (default NWU); "
+                        "the sensor axes stay as logged (a z-up sensor in NED reads roll 180 "
+                        "deg when level: align the axes first with --align)")
 
 
 SUBCOMMANDS = [_parser_demo, _parser_run, _parser_compare, _parser_tune, _parser_bench,

@@ -51,7 +51,6 @@ import json
 import math
 import os
 import re
-import sys
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -402,7 +401,7 @@ def _read_csv(path, column_map, time_unit):
                        f"{', '.join(map(repr, header[:12]))}{' ...' if len(header) > 12 else ''}"
                        + (" (the first row holds numbers: the log needs a header row)"
                           if numeric else "")
-                       + f"; expected time, gyr_x..z, acc_x..z[, mag_x..z, q_w..q_z] or "
+                       + "; expected time, gyr_x..z, acc_x..z[, mag_x..z, q_w..q_z] or "
                        "headers such as 'Gyroscope X (deg/s)'; name columns with --columns "
                        'NAME="HEADER"')
     decimal_comma = False

@@ -58,7 +58,8 @@ def colours(names):
 
 def _save(fig, path, title=""):
     if title:
-        fig.suptitle(title, fontsize=10)
+        import textwrap
+        fig.suptitle("\n".join(textwrap.wrap(title, 110)), fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     _plt().close(fig)
