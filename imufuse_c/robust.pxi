@@ -36,7 +36,6 @@ cdef class RobustIMU(_FilterIMU):
 
     cdef int _init(self) except -1:
         a = self._args
-        self._ref._check_args(a, DTYPE)
         imf_robust_imu_init(&self.s, a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8],
                             a[9])
         return self._bind(&self.s.x, sizeof(self.s.x), &self.s.skipped)
@@ -57,7 +56,6 @@ cdef class RobustAHRS(_FilterAHRS):
 
     cdef int _init(self) except -1:
         a = self._args
-        self._ref._check_args(a, DTYPE)
         imf_robust_ahrs_init(&self.s, a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8],
                              a[9], a[10], a[11], a[12], a[13], a[14], a[15])
         return self._bind(&self.s.x, sizeof(self.s.x), &self.s.skipped)

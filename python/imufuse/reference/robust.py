@@ -17,7 +17,7 @@ Building blocks (article chapters 3 and 4 applied to real sensors):
 import math
 
 from .. import _checks
-from ._base import ReferenceFilter, isfinite
+from ._base import QUAT_NORM2_TOL, ReferenceFilter, isfinite
 
 FILTERS = ("RobustIMU", "RobustAHRS")
 
@@ -83,23 +83,19 @@ class _Robust(ReferenceFilter):
         return (tau_acc, rate_ref * _DEG, tau_bias, tau_bias_rest, rest_gyr * _DEG, rest_acc,
                 rest_time, tau_rest, latency)
 
-    @staticmethod
-    def _check_args(args, dtype):
-        """The constants init derives, in the filter's own precision, must be normal
-        numbers (both backends call this before init)."""
-        import numpy as np
-        R = np.float32 if dtype == "float32" else float
-        lo, hi = _LIMITS[dtype]
-        dt, tau_acc = R(args[0]), R(args[1])
-        with np.errstate(all="ignore"):
-            ta2 = tau_acc * tau_acc
-            derived = (("dt", dt), ("dt", dt * dt), ("dt", R(1.0) / dt),
-                       ("tau_acc", tau_acc), ("tau_acc", ta2 * ta2),
-                       ("tau_acc", R(1.0) / (ta2 * ta2) * dt))
-            for name, v in derived:
-                if not (lo <= abs(float(v)) <= hi):
-                    raise ValueError(f"{name}: {float(args[0 if name == 'dt' else 1])!r} "
-                                     f"gives constants that are not normal {dtype} numbers")
+    @classmethod
+    def _valid_state(cls, args, R, state):
+        # state writes: the three quaternions unit, variances and times not negative
+        names = cls.state_names
+        for k in (0, 4, 8):
+            n2 = float(sum(float(v) * float(v) for v in state[k:k + 4]))
+            if not abs(n2 - 1.0) <= QUAT_NORM2_TOL:
+                return (f"|{names[k][0]}|^2 = {n2!r}, must be within 1 +- "
+                        f"{QUAT_NORM2_TOL}")
+        for n in ("pvv", "pgg", "t", "t_rest", "rn", "cn", "t_cand", "t_dist", "t_ok"):
+            if float(state[names.index(n)]) < 0.0:
+                return f"{n} = {float(state[names.index(n)])!r}, must not be negative"
+        return None
 
     # imf_robust_init (shared settings of both filters)
     def _init_common(self, dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
@@ -467,7 +463,6 @@ class RobustIMU(_Robust):
 
     def _init(self, dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
               rest_time, tau_rest, latency):
-        self._check_args(self._args, self.dtype)
         self._init_common(dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
                           rest_time, tau_rest, latency, tau_rest, 0.0, 0.0, tau_rest, 0.0, 0.0)
 
@@ -523,7 +518,6 @@ class RobustAHRS(_Robust):
     def _init(self, dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
               rest_time, tau_rest, latency, tau_mag, mag_norm, mag_dip, tau_mag_ref,
               mag_new_time, mag_hold):
-        self._check_args(self._args, self.dtype)
         self._init_common(dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
                           rest_time, tau_rest, latency, tau_mag, mag_norm, mag_dip, tau_mag_ref,
                           mag_new_time, mag_hold)
