@@ -281,6 +281,23 @@ def test_hostile_burst_then_recovery(backend):
     assert tilt[-100:].max() < 1.0 and head[-100:].max() < 3.0
 
 
+@pytest.mark.parametrize("backend", [imufuse_c, reference])
+def test_state_write_must_be_a_valid_attitude(backend):
+    f = backend.RobustAHRS(0.01)
+    st = f.state.copy()
+    st[NAMES.index("s0")] = 2.0                     # strapdown quaternion not unit
+    with pytest.raises(ValueError, match=r"\|s\|\^2"):
+        f.state = st
+    st = f.state.copy()
+    st[NAMES.index("pgg")] = -1.0                   # a negative variance
+    with pytest.raises(ValueError, match="pgg"):
+        f.state = st
+    st = f.state.copy()
+    st[NAMES.index("bx")] = 0.01                    # a bias: fine
+    f.state = st
+    assert f.state[NAMES.index("bx")] == 0.01
+
+
 @pytest.mark.parametrize("kw", [dict(tau_acc=0.0), dict(tau_acc=-1.0), dict(rate_ref=-1.0),
                                 dict(tau_bias=5.0), dict(tau_bias_rest=0.0),
                                 dict(rest_acc=float("nan")), dict(tau_rest=0.0),
