@@ -301,3 +301,39 @@ def test_skip_leaves_the_start_out_of_the_errors(files):
     t = io.read_log(files["good"]).t
     assert na == len(t) and nb == int(np.count_nonzero(t >= t[0] + 1))
     assert f"{na - nb} samples outside the movement mask" in b.stdout
+
+
+@pytest.mark.parametrize("cmd,name,extra,code", [
+    ("compare", "binary.csv", [], DATA),
+    ("compare", "missing.csv", [], FILE),
+    ("compare", "good", ["-f", "Nope"], USAGE),
+    ("compare", "good", ["--plot", "/nonexistent-dir/p.png"], FILE),
+    ("compare", "times_overflow.csv", [], DATA),
+    ("tune", "adir", ["-f", "MadgwickIMU"], FILE),
+    ("tune", "missing.csv", ["-f", "MadgwickIMU"], FILE),
+    ("tune", "empty.csv", ["-f", "MadgwickIMU"], DATA),
+    ("tune", "good", ["-f", "MadgwickIMU", "--grid", "beta=-1:1:3"], USAGE),
+    ("tune", "good", ["-f", "MadgwickIMU", "--grid", "gamma=0.1,0.2", "-q"], USAGE),
+    ("validate", "good", ["-f", "Kalman1D", "--csrc", "/nonexistent"], FILE),
+    ("validate", "good", ["-f", "Kalman1D", "--timeout", "0"], USAGE),
+])
+def test_hostile_compare_tune_validate(files, tmp_path, cmd, name, extra, code):
+    log = files.get(name, tmp_path / name)
+    args = [cmd] + ([log] if cmd != "validate" else ["--log", log]) + extra
+    one_line_error(imf(*args), code)
+
+
+def test_block_estimates_equal_whole_ones():
+    """The command line derives estimates block by block (long logs stay small
+    in memory): the same values as one catalogue.estimate call, every filter."""
+    from imufuse import cli
+    from imufuse.catalogue import estimate, filter_names, reference_class, resolve_params
+    d = sim.imu("slow", rate=200.0, duration=30.0, seed=3)
+    for n in filter_names():
+        cls = reference_class(n)
+        ins = {"1d": (d.gyr[:, 0], np.arctan2(d.acc[:, 1], d.acc[:, 2])),
+               "imu": (d.gyr, d.acc), "ahrs": (d.gyr, d.acc, d.mag)}[cls.kind]
+        S = getattr(imufuse_c, n)(**resolve_params(n, d.dt)).run(*ins)
+        a, b = estimate(cls, S), cli._estimate(cls, S, chunk=997)
+        x, y = (a.angle, b.angle) if a.angle is not None else (a.q, b.q)
+        assert np.array_equal(x, y), n

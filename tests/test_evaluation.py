@@ -193,3 +193,18 @@ def test_a_real_trial_against_the_independent_implementation():
     assert got.total == pytest.approx(rms(t), rel=1e-9)
     assert got.heading == pytest.approx(rms(h), rel=1e-9)
     assert got.inclination == pytest.approx(rms(i), rel=1e-9)
+
+
+def test_blocks_and_per_sample_do_not_change_the_result(pair):
+    est, ref = pair
+    ref = ref.copy()
+    ref[::7] = np.nan
+    mov = np.arange(len(ref)) % 5 != 0
+    a = ev.evaluate(est, ref, est_frame="ENU", movement=mov, remove_heading_offset=True)
+    b = ev.evaluate(est, ref, est_frame="ENU", movement=mov, remove_heading_offset=True,
+                    chunk=7, per_sample=False)
+    assert b.per_sample == {}
+    for k in ev.METRICS:
+        assert getattr(b, k) == pytest.approx(getattr(a, k), rel=1e-12)
+    assert (a.n, a.n_ref_nan, a.n_outside_mask) == (b.n, b.n_ref_nan, b.n_outside_mask)
+    assert b.heading_offset == pytest.approx(a.heading_offset, rel=1e-12)

@@ -37,7 +37,8 @@ N_MOTION = 300
 # reference on those inputs
 N_MOTION_SMALL = 60
 
-SPECS = mf.specs_from_cases([*registry.FLOAT_CASES, *getattr(registry, "FIXED_CASES", [])], reference)
+SPECS = mf.specs_from_cases([*registry.FLOAT_CASES, *getattr(registry, "FIXED_CASES", []),
+                             *getattr(registry, "CASES_VARIO", [])], reference)
 GROUPS = mf.groups(SPECS)
 
 

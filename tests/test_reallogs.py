@@ -360,3 +360,10 @@ def test_init_window_through_the_cli(tmp_path):
     one = imufuse_c.MahonyAHRS(**resolve_params("MahonyAHRS", log.dt), init="first").run(
         log.gyr, log.acc, log.mag)
     assert not np.array_equal(one[:, :4], want[:, :4])      # the window matters
+
+
+def test_recognition_prefers_close_names_and_checks_time_units():
+    h = ["T (degC)", "t", "Time (s)", "gx", "gyr_x", "ax"]
+    got = io.recognise(h)
+    assert got["time"] == 2 and got["gyr_x"] == 4 and got["acc_x"] == 5
+    assert io.recognise(["T (degC)", "gx"]) == {"gyr_x": 1}

@@ -309,7 +309,7 @@ def _mask(log, args):
     return mask
 
 
-def _evaluate(cls, est, log, args):
+def _evaluate(cls, est, log, args, per_sample=False):
     """Evaluation (3D) or {'angle': (rms, max), 'n': n} (1D) against the log's
     reference, or None without a reference or estimate."""
     from .evaluation import evaluate
@@ -326,7 +326,24 @@ def _evaluate(cls, est, log, args):
                 "n_ref_nan": int(np.count_nonzero(~np.isfinite(ref)))}
     return evaluate(est.q, log.q_ref, est_frame="NWU", ref_frame=_ref_frame(args, log),
                     ref_direction=args.ref_direction, movement=mask,
-                    remove_heading_offset=args.heading_offset)
+                    remove_heading_offset=args.heading_offset, per_sample=per_sample)
+
+
+def _estimate(cls, S, chunk=1 << 16):
+    """catalogue.estimate(cls, S), block by block (the adapters' temporaries
+    stay small for long logs); the same values."""
+    from .catalogue import estimate
+    if len(S) <= chunk:
+        return estimate(cls, S)
+    parts = [estimate(cls, S[k:k + chunk]) for k in range(0, len(S), chunk)]
+    if parts[0] is None:
+        return None
+    e = parts[0]
+    if e.angle is not None:
+        e.angle = np.concatenate([p.angle for p in parts])
+    else:
+        e.q = np.concatenate([p.q for p in parts])
+    return e
 
 
 def _euler_deg(q, chunk=65536):
@@ -348,7 +365,8 @@ def _frame_hint(cls, est, log, args, ev):
     alt = {}
     for fr in ("ENU", "NED"):
         e = evaluate(est.q, log.q_ref, est_frame="NWU", ref_frame=fr,
-                     ref_direction=args.ref_direction, movement=_mask(log, args))
+                     ref_direction=args.ref_direction, movement=_mask(log, args),
+                     per_sample=False)
         alt[fr] = e.heading
     fr = min(alt, key=alt.get)
     if alt[fr] < 0.5 * ev.heading:
@@ -416,8 +434,9 @@ def _parser_demo(sub):
 
 def _run(args):
     from . import io
-    from .catalogue import estimate, reference_class, why_no_estimate
+    from .catalogue import reference_class, why_no_estimate
     from . import preprocess
+    _fusion_hint(args.filter, "run")
     check_outputs([args.log], [("-o", args.output), ("--plot", args.plot)])
     if preprocess.is_fusion(args.filter):  # Fusion's units and dt per sample
         cols, msg, f32 = preprocess.run_fusion(args, _load(args), _pairs(args.param))
@@ -432,7 +451,7 @@ def _run(args):
     cols = {"time": log.t}
     for j, n in enumerate(cls.state_names):
         cols[n] = S[:, j]
-    est = estimate(cls, S)
+    est = _estimate(cls, S)
     if est is None:
         _err(f"note: {why_no_estimate(cls)}; writing the state only")
     elif est.angle is not None:
@@ -521,19 +540,27 @@ def _default_filters(log):
     return filter_names({"1d"})
 
 
+def _fusion_hint(name, command):
+    from .preprocess import fusion_hint
+    hint = fusion_hint(name, command)
+    if hint:
+        raise UsageError(hint)
+
+
 def _compare(args):
-    from .catalogue import FilterError, estimate, reference_class, why_no_estimate
+    from .catalogue import FilterError, reference_class, why_no_estimate
     from .io import LogError
     from .rotations import quat_to_euler
     names = _names(args.filters)
     for n in names:
+        _fusion_hint(n, "compare")
         reference_class(n)
     check_outputs([args.log], [("--plot", args.plot)])
     log = _load(args)
     if not names:
         names = _default_filters(log)
     per = _scoped_params(args.param, names)
-    rows, ests, timing, hint = [], {}, None, None
+    rows, ests, timing, hint, computed = [], {}, None, None, 0
     for n in names:
         cls = reference_class(n)
         try:
@@ -550,12 +577,15 @@ def _compare(args):
         t0 = time.perf_counter()
         S = r.run(inputs)
         sps = len(log) / max(time.perf_counter() - t0, 1e-9)
-        est = estimate(cls, S)
+        est = _estimate(cls, S)
+        del S
         note = why_no_estimate(cls) if est is None else est.source
         if r.notes:
             note += "; " + "; ".join(r.notes)
         if est is not None:
-            ests[n] = (cls, est)
+            computed += 1
+            if args.plot:               # kept for the plot only: long logs stay small
+                ests[n] = (cls, est)
         final = None
         if est is not None:
             if est.angle is not None:
@@ -567,7 +597,7 @@ def _compare(args):
         ev = _evaluate(cls, est, log, args)
         hint = hint or _frame_hint(cls, est, log, args, ev)
         rows.append((n, cls.kind, ev, final, sps, note))
-    if not ests:
+    if not computed:
         for n, kind, _, _, _, note in rows:
             _err(f"{n}: {note}")
         raise NothingComputed(f"{log.path}: no filter could run on this log ({len(log)} samples; "
@@ -654,7 +684,7 @@ def _plots(path, log, ests, args, what):
                                                     args.ref_direction), "NWU"))
                 errors = {}
                 for n, e in three.items():
-                    ev = _evaluate(ests[n][0], e, log, args)
+                    ev = _evaluate(ests[n][0], e, log, args, per_sample=True)
                     errors[n] = ev.per_sample["total" if e.heading else "inclination"]
             plots.plot_euler(p3, log.t, {n: _euler_nwu(e) for n, e in three.items()}, ref,
                              title=title, errors=errors,
@@ -718,7 +748,7 @@ def _grid_spec(text, default):
 def _tune(args):
     import concurrent.futures as cf
     import itertools
-    from .catalogue import FilterError, estimate, reference_class, resolve_params
+    from .catalogue import FilterError, reference_class, resolve_params
     from .evaluation import METRICS, mean_over_trials
     name = args.filter
     cls = reference_class(name)
@@ -746,6 +776,7 @@ def _tune(args):
         if not grids:
             raise UsageError(f"tune: {name} has no positive float parameter to tune; give --grid")
     names = [k for k, _ in grids]
+    resolve_params(name, logs[0].dt, {**fixed, **{k: v[0] for k, v in grids}})  # names exist
     inputs = [_inputs(cls, lg, "x")[0] for lg in logs]
 
     def score(values):
@@ -754,7 +785,7 @@ def _tune(args):
         for lg, inp in zip(logs, inputs):
             r = Runner(name, lg, args, over)
             S = r.filter.run(*inp, **({} if r.dts is None else {"dt": r.dts}))
-            evs.append(_evaluate(cls, estimate(cls, S), lg, args))
+            evs.append(_evaluate(cls, _estimate(cls, S), lg, args))
         return mean_over_trials(evs)[metric], evs
 
     def search(points):
@@ -796,7 +827,9 @@ def _tune(args):
         res.update(search([p for p in new if p not in res]))
     good = sorted((p for p in res if math.isfinite(res[p][0])), key=lambda p: res[p][0])
     if not good:
-        raise NothingComputed(f"tune: no parameter set could be evaluated ({len(res)} tried)")
+        why = next((v[1] for v in res.values() if isinstance(v[1], str)), "")
+        raise NothingComputed(f"tune: no parameter set could be evaluated ({len(res)} tried)"
+                              + (f"; e.g. {why}" if why else ""))
     print(f"{name} on {len(logs)} log{'s' if len(logs) > 1 else ''}: mean over logs of the "
           f"{metric} RMS (deg); {len(res)} parameter sets")
     head = "  ".join(f"{k:>10s}" for k in names) + f"  {metric:>11s}" + "".join(
@@ -1110,6 +1143,8 @@ def build_parser():
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     for add in SUBCOMMANDS:
         add(sub)
+    from .cli_vario import add_parsers  # seed 002: vario, calibrate
+    add_parsers(sub)
     return p
 
 

@@ -144,21 +144,25 @@ class Evaluation:
         return s
 
 
-def _rms(x):
-    return float(np.sqrt(np.mean(x * x))) if x.size else math.nan
-
-
 def evaluate(q_est, q_ref, *, est_frame="NWU", ref_frame="ENU",
              est_direction="sensor-to-earth", ref_direction="sensor-to-earth",
-             movement=None, remove_heading_offset=False):
+             movement=None, remove_heading_offset=False, per_sample=True, chunk=1 << 16):
     """BROAD errors of estimate `q_est` against reference `q_ref` ((N, 4) each).
 
     movement: optional (N,) bool mask of the samples that count (BROAD's
-    movement phases). Returns an Evaluation; `n == 0` means nothing could be
-    evaluated (the caller decides whether that is an error)."""
+    movement phases). per_sample: keep the per-sample errors (Evaluation.
+    per_sample, deg, NaN outside); False keeps the RMS only. The work is done
+    in blocks of `chunk` samples, so memory stays small for long logs.
+    Returns an Evaluation; `n == 0` means nothing could be evaluated (the
+    caller decides whether that is an error)."""
     q_est, q_ref = _quats(q_est, "q_est"), _quats(q_ref, "q_ref")
     if len(q_est) != len(q_ref):
         raise ValueError(f"q_est and q_ref: different lengths ({len(q_est)} and {len(q_ref)})")
+    for f, d, what in ((est_frame, est_direction, "est_frame"),
+                       (ref_frame, ref_direction, "ref_frame")):
+        _check_frame(f, what)
+        if d not in DIRECTIONS:
+            raise ValueError(f"direction: must be one of {', '.join(DIRECTIONS)}, got {d!r}")
     n = len(q_est)
     mask = np.ones(n, dtype=bool)
     if movement is not None:
@@ -176,27 +180,42 @@ def evaluate(q_est, q_ref, *, est_frame="NWU", ref_frame="ENU",
     use = mask & ref_ok
     est_ok = np.all(np.isfinite(q_est), axis=1)
     n_est_nan = int(np.count_nonzero(use & ~est_ok))
-    q = to_enu(q_est, est_frame, est_direction, "est_frame")
-    r = to_enu(q_ref, ref_frame, ref_direction, "ref_frame")
-    e = np.full((n, 4), np.nan)
-    e[use] = error_quaternion(q[use], r[use])
+    idx = np.flatnonzero(use)
+
+    def blocks():
+        """(indices, e) of the counted samples, block by block."""
+        for k in range(0, len(idx), chunk):
+            i = idx[k:k + chunk]
+            q = to_enu(q_est[i], est_frame, est_direction, "est_frame")
+            r = to_enu(q_ref[i], ref_frame, ref_direction, "ref_frame")
+            yield i, error_quaternion(q, r)
+
     offset = 0.0
+    z = None
     if remove_heading_offset:
-        good = use & est_ok
-        if np.any(good):
-            psi = 2.0 * np.arctan2(e[good, 3], e[good, 0])
-            offset = math.atan2(float(np.mean(np.sin(psi))), float(np.mean(np.cos(psi))))
+        ss = cc = 0.0
+        for i, e in blocks():
+            ok = est_ok[i]
+            psi = 2.0 * np.arctan2(e[ok, 3], e[ok, 0])
+            ss += float(np.sum(np.sin(psi)))
+            cc += float(np.sum(np.cos(psi)))
+        if np.any(use & est_ok):
+            offset = math.atan2(ss, cc)
             z = np.array([math.cos(offset / 2), 0.0, 0.0, -math.sin(offset / 2)])
-            e[use] = quat_mul(z, e[use])
-    ang = error_angles(e)
-    per = {}
-    rms = {}
-    for name, a in zip(METRICS, ang):
-        d = np.degrees(a)
-        per[name] = d
-        rms[name] = _rms(d[use])
+    per = {m: np.full(n, np.nan) for m in METRICS} if per_sample else {}
+    sq = dict.fromkeys(METRICS, 0.0)
+    for i, e in blocks():
+        if z is not None:
+            e = quat_mul(z, e)
+        for name, a in zip(METRICS, error_angles(e)):
+            d = np.degrees(a)
+            sq[name] += float(np.dot(d, d))
+            if per_sample:
+                per[name][i] = d
+    cnt = len(idx)
+    rms = {m: (math.sqrt(sq[m] / cnt) if cnt else math.nan) for m in METRICS}
     return Evaluation(total=rms["total"], heading=rms["heading"], inclination=rms["inclination"],
-                      n=int(np.count_nonzero(use)), n_samples=n, n_ref_nan=n_ref_nan,
+                      n=cnt, n_samples=n, n_ref_nan=n_ref_nan,
                       n_outside_mask=n_outside, n_est_nan=n_est_nan,
                       heading_offset=math.degrees(offset), per_sample=per)
 

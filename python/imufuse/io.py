@@ -189,13 +189,22 @@ def _norm(name):
 
 
 def recognise(header):
-    """{known name: header index} for the headers imufuse recognises."""
-    out = {}
+    """{known name: header index} for the headers imufuse recognises. When
+    several headers could be one column, the closer spelling wins (`time`
+    before `t`); a header whose unit belongs to another quantity ("T (degC)")
+    is not taken for time."""
+    best = {}
     for i, h in enumerate(header):
-        canon = _RECOGNISE.get(_norm(split_unit(h)[0]))
-        if canon is not None and canon not in out:
-            out[canon] = i
-    return out
+        name, unit = split_unit(h)
+        canon = _RECOGNISE.get(_norm(name))
+        if canon is None:
+            continue
+        if canon == "time" and unit is not None and unit not in TIME_UNITS:
+            continue
+        rank = _ALIASES[canon].index(_norm(name))
+        if canon not in best or rank < best[canon][0]:
+            best[canon] = (rank, i)
+    return {k: i for k, (r, i) in best.items()}
 
 
 def parse_column_map(text):
@@ -382,6 +391,32 @@ def _numbers_slow(path, enc, delim, header_line, idx, decimal_comma, loader_erro
     raise LogError(f"{path}: cannot read the values: {loader_error}")
 
 
+_BLOCK = 100_000
+
+
+def _loadtxt_blocks(fh, delim, usecols, rows_hint):
+    """numpy.loadtxt block by block into one array sized from the file
+    (numpy's reader grows its own buffer: read at once, a long log would
+    need about twice its size in memory)."""
+    import warnings
+    out, n = None, 0
+    while True:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)      # "input contained no data" at EOF
+            a = np.loadtxt(fh, delimiter=delim, usecols=usecols, ndmin=2, dtype=np.float64,
+                           quotechar='"', comments="#", max_rows=_BLOCK)
+        if out is None:
+            out = np.empty((max(rows_hint, len(a), 1), len(usecols)))
+        if n + len(a) > len(out):
+            grown = np.empty((max(2 * len(out), n + len(a)), len(usecols)))
+            grown[:n] = out[:n]
+            out = grown
+        out[n:n + len(a)] = a
+        n += len(a)
+        if len(a) < _BLOCK:
+            return out[:n]
+
+
 def _read_csv(path, column_map, time_unit):
     enc, lines = _open_text(path)
     if not lines or not any(ln.strip() for ln in lines):
@@ -422,9 +457,14 @@ def _read_csv(path, column_map, time_unit):
         with open(path, encoding=enc, newline="") as fh:
             for _ in range(header_line):
                 fh.readline()
-            src = (ln.replace(",", ".") for ln in fh) if decimal_comma else fh
-            M = np.loadtxt(src, delimiter=delim, usecols=usecols, ndmin=2, dtype=np.float64,
-                           quotechar='"', comments="#")
+            if decimal_comma:
+                M = np.loadtxt((ln.replace(",", ".") for ln in fh), delimiter=delim,
+                               usecols=usecols, ndmin=2, dtype=np.float64, quotechar='"',
+                               comments="#")
+            else:
+                width = len(data[0]) + 1 if data else 64     # bytes per row, first row
+                rows = int(os.path.getsize(path) / max(width, 8) * 1.05)
+                M = _loadtxt_blocks(fh, delim, usecols, rows)
     except (ValueError, IndexError) as e:
         _numbers_slow(path, enc, delim, header_line, found, decimal_comma, e)
     except MemoryError:
