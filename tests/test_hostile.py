@@ -87,6 +87,12 @@ def recovery_budget(case, dtype):
         return int(12 * (p.get("cmpf", 600.0) + 1) + 2 ** p.get("acc_lpf_shift", 4) * ln_max) + 1000
     if case.name == "KK":
         return int((ln_max + 10) / p["kp"]) + 1000
+    if case.name in ("RobustIMU", "RobustAHRS"):
+        # the gravity filter (docs/recommended-ahrs.md, B2) forgets a state of up to the
+        # largest finite value with the envelope exp(-t / (sqrt(2) tau_acc)) of omega_0 =
+        # 1 / tau_acc, damping 1/sqrt(2)
+        tau = p.get("tau_acc", getattr(reference, case.name)._params.__defaults__[0])
+        return int((ln_max + 10) * math.sqrt(2.0) * tau / dt) + 1000
     # single-axis filters: linear; the homogeneous update (rate = angle = 0)
     # contracts by its spectral radius rho per sample, from a state of up to
     # the largest finite value: 2 (L + 5) / -ln(rho) samples (2: transients)
