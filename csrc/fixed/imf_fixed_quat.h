@@ -143,20 +143,15 @@ static inline int32_t imf_q8_rshr_hs(const int32_t x, const int n)
  * t to within one LSB of q(15+hs), however long a rate is held: rounding
  * each sample on its own leaves up to half an LSB per sample (0.002 rad/s for
  * a +-2000 deg/s gyro at 512 Hz), which the accelerometer corrects in tilt
- * but which accumulates in the unobserved yaw.  In two halves, so that
- * Mahony adds its feedback in between:
- * carry in: t + (c mod 2^16) for t a gyro product int16 x uint16, |t| <=
- * 2^15 (2^16 - 1): the sum stays below 2^31, no overflow. */
-static inline int32_t imf_q8_carry_in(const int32_t t, const int32_t c)
+ * but which accumulates in the unobserved yaw.  In 16-bit operations (no
+ * overflow for any t and c): the low words add, their carry goes to the high
+ * word. */
+static inline int32_t imf_q8_carry(const int32_t t, int32_t *const c)
 {
-    return t + (int32_t)(uint16_t)c;
-}
-
-/* carry out: c = u mod 2^16, returns floor(u / 2^16) (high word). */
-static inline int32_t imf_q8_carry_out(const int32_t u, int32_t *const c)
-{
-    *c = (int32_t)(uint16_t)u;
-    return imf_asr32(u, 16); /* byte moves on AVR */
+    const uint16_t lo = (uint16_t)((uint32_t)t & 0xFFFFu);
+    const uint16_t s = (uint16_t)(lo + (uint16_t)((uint32_t)*c & 0xFFFFu));
+    *c = (int32_t)s;
+    return (int32_t)(int16_t)(t >> 16) + (s < lo ? 1 : 0); /* floor(t / 2^16) + carry */
 }
 
 /* 8-bit profile, appendix step 7 / 3: dq = q (x) (0, h), h in q(15+hs)

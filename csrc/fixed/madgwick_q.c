@@ -210,15 +210,15 @@ void imf_madgwick_imu_q8_update(imf_madgwick_imu_q_t *const self, const int16_t 
     int32_t *const q = self->x.q;
     int32_t h[3], dq[4];
     int16_t qs[4], d16;
-    int i;
     d16 = imf_q8_snapshot_norm(q, qs);
     /* step 3: h = 0.5 w dt in q(15+hs), with the remainder carried when kg8
      * has the shift 16 (the product is then in q(31+hs)) */
     if (self->kg8.n == 16) {
-        for (i = 0; i < 3; ++i) {
-            h[i] = imf_q8_carry_out(imf_q8_carry_in(imf_mul16su(gyr[i], self->kg8.m),
-                                                    self->x.c[i]), &self->x.c[i]);
-        }
+        const uint16_t m = self->kg8.m;
+        int32_t *const c = self->x.c;
+        h[0] = imf_q8_carry(imf_mul16su(gyr[0], m), &c[0]);
+        h[1] = imf_q8_carry(imf_mul16su(gyr[1], m), &c[1]);
+        h[2] = imf_q8_carry(imf_mul16su(gyr[2], m), &c[2]);
     } else {
         imf_gain8_mul3(gyr, self->kg8, h);
     }

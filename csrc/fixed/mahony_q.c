@@ -160,18 +160,19 @@ void imf_mahony_imu_q8_update(imf_mahony_imu_q_t *const self, const int16_t gyr[
     int32_t *const q = self->x.q;
     int32_t h[3], dq[4];
     int16_t qs[4], d16;
-    int i;
     d16 = imf_q8_snapshot_norm(q, qs);
     if (self->fast8) {
-        /* step 1 in q(31+hs) (kg8 has the shift 16) plus the carried
-         * remainder, steps 2-6, then h to q(15+hs), the remainder kept */
-        for (i = 0; i < 3; ++i) {
-            h[i] = imf_q8_carry_in(imf_mul16su(gyr[i], self->kg8.m), self->x.c[i]);
-        }
+        /* step 1 in q(31+hs) (kg8 has the shift 16), steps 2-6, then h to
+         * q(15+hs) with the remainder carried */
+        const uint16_t m = self->kg8.m;
+        int32_t *const c = self->x.c;
+        h[0] = imf_mul16su(gyr[0], m);
+        h[1] = imf_mul16su(gyr[1], m);
+        h[2] = imf_mul16su(gyr[2], m);
         imf_mahony_imu_q8_feedback(self, qs, acc, h);
-        for (i = 0; i < 3; ++i) {
-            h[i] = imf_q8_carry_out(h[i], &self->x.c[i]);
-        }
+        h[0] = imf_q8_carry(h[0], &c[0]);
+        h[1] = imf_q8_carry(h[1], &c[1]);
+        h[2] = imf_q8_carry(h[2], &c[2]);
     } else {
         /* step 1 in q(15+hs), rounded; steps 2-6 add Kp e and I rounded */
         imf_gain8_mul3(gyr, self->kg8, h);

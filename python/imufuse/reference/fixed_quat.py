@@ -66,15 +66,13 @@ def check(x):
     return ci.check32(x)
 
 
-def q8_carry_in(t, c):
-    """imf_q8_carry_in: t + (c mod 2^16)."""
-    return check(t + (c & 0xFFFF))
-
-
-def q8_carry_out(u, c, i):
-    """imf_q8_carry_out: c[i] = u mod 2^16, returns floor(u / 2^16)."""
-    c[i] = u & 0xFFFF
-    return u >> 16
+def q8_carry(t, c, i):
+    """imf_q8_carry: floor((t + c[i]) / 2^16), c[i] = the remainder, in 16-bit
+    operations: the low words add, their carry goes to the high word."""
+    lo = t & 0xFFFF
+    s = (lo + (c[i] & 0xFFFF)) & 0xFFFF
+    c[i] = s
+    return (t >> 16) + (1 if s < lo else 0)
 
 
 def rate_q8(qs, h, hs):
