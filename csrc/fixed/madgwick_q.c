@@ -17,7 +17,8 @@ int imf_madgwick_imu_q_init_consts(imf_madgwick_imu_q_t *const self, const imf_q
     self->x.q[0] = IMF_Q30_ONE;
     self->x.q[1] = self->x.q[2] = self->x.q[3] = 0;
     self->x.c[0] = self->x.c[1] = self->x.c[2] = 0;
-    if (kg.m == 0 || !imf_qscale_ok(kg, 31, 61) || !imf_qscale_ok(kb, 16, 46)) {
+    if (kg.m == 0 || !imf_qscale_ok(kg, 31, 61) || !imf_qscale_ok(kb, 16, 46)
+        || !imf_q_profile_ok(profile)) {
         return -1;
     }
     return 0;
@@ -230,9 +231,15 @@ void imf_madgwick_imu_q8_update(imf_madgwick_imu_q_t *const self, const int16_t 
 void imf_madgwick_imu_q_update(imf_madgwick_imu_q_t *const self, const int16_t gyr[3],
                                const int16_t acc[3])
 {
+#if IMF_Q_HAS_P8 && IMF_Q_HAS_P32
     if (self->profile == 8) {
         imf_madgwick_imu_q8_update(self, gyr, acc);
     } else {
         imf_madgwick_imu_q32_update(self, gyr, acc);
     }
+#elif IMF_Q_HAS_P8
+    imf_madgwick_imu_q8_update(self, gyr, acc);
+#else
+    imf_madgwick_imu_q32_update(self, gyr, acc);
+#endif
 }

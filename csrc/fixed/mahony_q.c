@@ -25,7 +25,7 @@ int imf_mahony_imu_q_init_consts(imf_mahony_imu_q_t *const self, const imf_qscal
     /* kg: gyro full scale below 0.25 rad half angle per sample (s >= 31);
      * kp, ki: shifts of imf_scale16/32 in range */
     if (kg.m == 0 || !imf_qscale_ok(kg, 31, 61) || !imf_qscale_ok(kp, 16, 47)
-        || !imf_qscale_ok(ki, 8, 54)) {
+        || !imf_qscale_ok(ki, 8, 54) || !imf_q_profile_ok(profile)) {
         return -1;
     }
     return 0;
@@ -186,9 +186,15 @@ void imf_mahony_imu_q8_update(imf_mahony_imu_q_t *const self, const int16_t gyr[
 void imf_mahony_imu_q_update(imf_mahony_imu_q_t *const self, const int16_t gyr[3],
                              const int16_t acc[3])
 {
+#if IMF_Q_HAS_P8 && IMF_Q_HAS_P32
     if (self->profile == 8) {
         imf_mahony_imu_q8_update(self, gyr, acc);
     } else {
         imf_mahony_imu_q32_update(self, gyr, acc);
     }
+#elif IMF_Q_HAS_P8
+    imf_mahony_imu_q8_update(self, gyr, acc);
+#else
+    imf_mahony_imu_q32_update(self, gyr, acc);
+#endif
 }
