@@ -7,7 +7,6 @@ float module compares one update of every C family with the reference at
 import and raises ImportError if they differ. These tests build a copy of the
 tree (the Cython output is copied too, so only the C is compiled).
 """
-import os
 import shutil
 import subprocess
 import sys

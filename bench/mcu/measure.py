@@ -140,8 +140,9 @@ def _empty_driver(spec, drv):
     ctype = {np.dtype(np.float32): "float", np.dtype(np.float64): "double",
              np.dtype(np.int16): "int16_t"}[np.dtype(spec.input_dtype())]
     names = mf.INPUT_NAMES[spec.kind]
-    reads = [f"imf_sink = {n};" if spec.kind == "1d" else f"imf_sink = {n}[{j}];"
-             for n in names for j in (range(1) if spec.kind == "1d" else range(3))]
+    scalar = spec.kind in ("1d", "vario")     # scalar inputs (VarioKF: accel, baro_alt, dt)
+    reads = [f"imf_sink = {n};" if scalar else f"imf_sink = {n}[{j}];"
+             for n in names for j in (range(1) if scalar else range(3))]
     kinds = sorted({k for _, k in drv.state})
     ctypes = {"f32": "float", "f64": "double", "i32": "int32_t", "u32": "uint32_t", "i16": "int16_t"}
     prelude = f"static volatile {ctype} imf_sink;\n" + "\n".join(
@@ -382,13 +383,15 @@ def write_results(rows, targets, checks, seconds, md: Path, js: Path) -> None:
     js.write_text(json.dumps({"command": COMMAND, "counter_checks": checks, "versions": versions,
                               "samples_motion": N_MOTION, "rows": rows,
                               "fixed_vs_float": fixed_vs_float(rows)}, indent=1) + "\n")
-    # the README quotes both tables, between its markers
-    readme = HERE.parents[1] / "README.md"
-    if readme.is_file():
+    # the docs quote both tables, between their markers
+    docs = HERE.parents[1] / "docs"
+    if docs.is_dir():
         import readme_table
-        text = readme_table.replace_block(readme.read_text(), "fixed-vs-float",
-                                          fixed_vs_float_table(fixed_vs_float(rows)))
-        readme.write_text(readme_table.replace_block(text, "mcu-table", readme_table.table()))
+        fx = docs / "fixed-point.md"
+        fx.write_text(readme_table.replace_block(fx.read_text(), "fixed-vs-float",
+                                                 fixed_vs_float_table(fixed_vs_float(rows))))
+        fw = docs / "firmware.md"
+        fw.write_text(readme_table.replace_block(fw.read_text(), "mcu-table", readme_table.table()))
 
 
 def main(argv=None) -> int:

@@ -1,0 +1,414 @@
+"""Hostile input (docs/robustness.md): every registry configuration, both
+backends, both precisions. Bursts of NaN, +-Inf, huge (1e30, 3.4e38, 1e300),
+subnormal, -0 and alternating extreme samples, and a 1e6 rad/s gyro, followed
+by sane static input. Checked: C equals the reference bit for bit (every state
+variable after every sample) and counts the same rejected samples; a burst of
+non-finite samples is counted exactly; the state is a valid attitude after
+every sample; the filter returns to the static attitude within the stated
+number of samples; 1e6 constant samples (C run()) stay valid. Also: the
+constructor and input acceptance of both backends agree (hypothesis), and no
+compiled object can crash the interpreter when its __init__ never ran."""
+import math
+import re
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st, HealthCheck
+
+import imufuse.reference as reference
+import imufuse_c
+from imufuse import catalogue
+from bits import assert_same_bits
+from registry import FLOAT_CASES, FIXED_CASES, PROFILES, DTYPES
+
+TILT = math.radians(30.0)
+UP = np.array([0.0, math.sin(TILT), math.cos(TILT)])     # a static 30 deg roll
+BURST = 12
+TAIL = 200
+HOSTILE = {
+    "nan": math.nan, "inf": math.inf, "-inf": -math.inf, "1e30": 1e30, "3.4e38": 3.4e38,
+    "1e300": 1e300, "subnormal32": 1e-40, "subnormal64": 5e-324, "-0": -0.0,
+}
+CASES = [c for c in FLOAT_CASES if c.name in reference.FILTERS and not c.name.startswith("Fusion")]
+
+
+def _static(kind, n, angle=TILT, scale=1.0):
+    """n samples at rest at the static attitude (acc in units of scale per g)."""
+    if kind == "1d":
+        return np.zeros(n), np.full(n, angle)
+    g, a = np.zeros((n, 3)), np.tile(UP * scale, (n, 1))
+    if kind == "ahrs":
+        return g, a, np.tile([0.4, 0.0, -0.9], (n, 1))
+    return g, a
+
+
+def _burst(kind, value, where, scale=1.0):
+    """BURST hostile samples: value in the gyro, the accelerometer, every
+    channel, or alternating +-value in every channel."""
+    n = BURST
+    sane = _static(kind, n, scale=scale)
+    out = [np.array(x, dtype=float) for x in sane]
+    sign = np.where(np.arange(n) % 2 == 0, 1.0, -1.0)
+    sel = {"gyr": [0], "acc": [1], "all": range(len(out)), "alt": range(len(out))}[where]
+    for i in sel:
+        v = value * (sign if where == "alt" else 1.0)
+        out[i] = (np.broadcast_to(v[:, None] if np.ndim(v) else v, out[i].shape).copy()
+                  if out[i].ndim == 2 else np.broadcast_to(v, out[i].shape).copy())
+    return tuple(out)
+
+
+def _valid(case, f, S):
+    """Every row of S is a valid attitude (the state-write rule), quaternions
+    unit within the stated tolerance."""
+    R = np.float32 if S.dtype == np.float32 else float
+    ref = case.make("ref", S.dtype.name)
+    for row in S[:: max(1, len(S) // 400)]:
+        problem = ref._valid_state(ref._args, R, row)
+        assert problem is None, (case.id, row, problem)
+    if case.name.startswith(("Mahony", "Madgwick")) and case.kind != "1d" \
+            and case.name != "Mahony2D":
+        tol = 4e-3 if case.params.get("invsqrt") == "fast" else \
+            (1e-5 if S.dtype == np.float32 else 1e-12)
+        n = np.linalg.norm(S[:, :4].astype(float), axis=1)
+        assert np.abs(n - 1.0).max() <= tol, (case.id, np.abs(n - 1.0).max())
+
+
+def recovery_budget(case, dtype):
+    """The stated number of samples to return to the static attitude
+    (docs/robustness.md)."""
+    p = {**catalogue.resolve_params(case.name, case.params.get("dt", 0.01)), **case.params}
+    dt = p["dt"]
+    ln_max = 90.0 if dtype == "float32" else 710.0     # ln of the largest finite value
+    if case.name in ("MahonyIMU", "MahonyAHRS", "DCM", "Mahony2D"):
+        return int(12.0 / (p["kp"] * dt)) + 1000
+    if case.name.startswith("Madgwick"):
+        return int(math.pi / (p["beta"] * dt)) + 1000
+    if case.name == "MultiWii":
+        return int(12 * (p.get("cmpf", 600.0) + 1) + 2 ** p.get("acc_lpf_shift", 4) * ln_max) + 1000
+    if case.name == "KK":
+        return int((ln_max + 10) / p["kp"]) + 1000
+    # single-axis filters: linear; the homogeneous update (rate = angle = 0)
+    # contracts by its spectral radius rho per sample, from a state of up to
+    # the largest finite value: 2 (L + 5) / -ln(rho) samples (2: transients)
+    return int(2 * (ln_max + 5) / -math.log(spectral_radius(case))) + 1000
+
+
+def spectral_radius(case):
+    """Spectral radius of a single-axis filter's homogeneous update matrix,
+    column j = the reference's update (rate = angle = 0) of unit state j."""
+    f = case.make("ref", "float64")
+    n = len(f.state_names)
+    M = np.empty((n, n))
+    for j in range(n):
+        f.reset()
+        e = np.zeros(n)
+        e[j] = 1.0
+        for name, v in zip(f.state_names, e):
+            setattr(f, name, float(v))
+        f._update(0.0, 0.0)
+        M[:, j] = f.state
+    return float(max(abs(np.linalg.eigvals(M))))
+
+
+def _error(case, S):
+    """Attitude error (rad) of the last state against the static attitude."""
+    est = catalogue.estimate(getattr(reference, case.name), S[-1:])
+    if est.q is not None:
+        q0, q1, q2, q3 = est.q[-1]
+        up = np.array([2 * (q1 * q3 - q0 * q2), 2 * (q2 * q3 + q0 * q1),
+                       q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3])
+        c = float(np.dot(up, UP) / np.linalg.norm(up))
+        return math.acos(max(-1.0, min(1.0, c)))
+    return abs(float(est.angle[-1]) - TILT)
+
+
+MATRIX = [pytest.param(c, d, v, id=f"{c.id}-{d}-{v}") for c in CASES for d in DTYPES
+          for v in HOSTILE]
+WHERE = ("gyr", "acc", "all", "alt")
+
+
+@pytest.mark.parametrize("case,dtype,value", MATRIX)
+def test_hostile_burst(case, dtype, value):
+    """The value in the gyro, then in the accelerometer, then in every channel,
+    then alternating +-value (BURST samples each), between sane samples."""
+    c, r = case.make("c", dtype), case.make("ref", dtype)
+    scale = case.params.get("acc_1g", 1.0)
+    where = WHERE if case.kind != "1d" else ("all", "alt")
+    parts = [_static(case.kind, scale=scale, n=100)]
+    for w in where:
+        parts.append(_burst(case.kind, HOSTILE[value], w, scale))
+        parts.append(_static(case.kind, scale=scale, n=20))
+    inputs = tuple(np.concatenate(x) for x in zip(*parts))
+    got, want = c.run(*inputs), r.run(*inputs)
+    assert_same_bits(got, want, c.state_names)
+    assert c.skipped == r.skipped
+    if math.isnan(HOSTILE[value]) or math.isinf(HOSTILE[value]):
+        assert c.skipped == BURST * len(where)   # every non-finite sample, nothing else
+    assert np.isfinite(got).all()
+    _valid(case, c, got)
+    budget = recovery_budget(case, dtype)
+    if budget is None:
+        return
+    S = c.run(*_static(case.kind, scale=scale, n=budget))
+    _valid(case, c, S)
+    assert _error(case, S) <= math.radians(2.0), (case.id, math.degrees(_error(case, S)))
+
+
+@pytest.mark.parametrize("case,dtype", [pytest.param(c, d, id=f"{c.id}-{d}")
+                                        for c in CASES for d in DTYPES if c.kind != "1d"])
+def test_gyro_1e6_rad_s_then_recovery(case, dtype):
+    c, r = case.make("c", dtype), case.make("ref", dtype)
+    g, *rest = _static(case.kind, scale=case.params.get("acc_1g", 1.0), n=BURST)
+    g = np.tile([1e6, -1e6, 1e6], (BURST, 1))
+    inputs = tuple(np.concatenate(x) for x in zip((g, *rest), _static(case.kind, scale=case.params.get("acc_1g", 1.0), n=TAIL)))
+    assert_same_bits(c.run(*inputs), r.run(*inputs), c.state_names)
+    assert c.skipped == r.skipped
+    S = c.run(*_static(case.kind, scale=case.params.get("acc_1g", 1.0), n=recovery_budget(case, dtype)))
+    _valid(case, c, S)
+    assert _error(case, S) <= math.radians(2.0)
+
+
+@pytest.mark.parametrize("case,dtype", [pytest.param(c, d, id=f"{c.id}-{d}")
+                                        for c in CASES for d in DTYPES])
+def test_a_million_constant_samples(case, dtype):
+    c, r = case.make("c", dtype), case.make("ref", dtype)
+    inputs = _static(case.kind, scale=case.params.get("acc_1g", 1.0), n=1_000_000)
+    S = c.run(*inputs)
+    assert np.isfinite(S).all()
+    _valid(case, c, S)
+    if case.name == "Mahony2D" and case.params.get("error") == "exact":
+        # Eq. 4.3 leaves |d| to drift (test_gravity.test_mahony2d_norm); samples are
+        # rejected only once |d|^2 has reached its documented limit 1 / (kp dt)
+        d2 = np.sum(S[:, :3].astype(float) ** 2, axis=1)
+        d2_max = 1.0 / (case.params["kp"] * case.params["dt"])
+        assert c.skipped == 0 or d2.max() >= 0.999 * d2_max, (c.skipped, d2.max())
+    else:
+        assert c.skipped == 0
+    head = tuple(x[:1000] for x in inputs)
+    assert_same_bits(S[:1000], r.run(*head), c.state_names)
+
+
+# ---- acceptance: both backends accept and reject the same things -------------
+
+_ODD = st.one_of(
+    st.floats(allow_nan=True, allow_infinity=True), st.integers(-10 ** 400, 10 ** 400),
+    st.sampled_from(["0.5", "", "x", None, True, 1 + 2j, np.complex128(1), {1, 2, 3},
+                     {"a": 1}, [1.0, 2.0], np.float32(0.1), 1e39, 1e-50, 5e-324, -0.0]))
+
+
+def _outcome(fn):
+    try:
+        fn()
+        return "ok"
+    except (ValueError, TypeError) as e:
+        return f"{type(e).__name__}: {e}"
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=list(HealthCheck))
+@given(case=st.sampled_from(CASES), dtype=st.sampled_from([*DTYPES, None, "float16"]),
+       key=st.integers(0, 10), value=_ODD)
+def test_constructors_agree(case, dtype, key, value):
+    params = dict(case.params)
+    names = list(params)
+    params[names[key % len(names)]] = value
+    out = [_outcome(lambda m=m: getattr(m, case.name)(**params, dtype=dtype))
+           for m in (imufuse_c, reference)]
+    assert out[0] == out[1]
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=list(HealthCheck))
+@given(case=st.sampled_from(CASES), dtype=st.sampled_from(DTYPES), slot=st.integers(0, 8),
+       value=_ODD, vector=st.booleans())
+def test_update_inputs_agree(case, dtype, slot, value, vector):
+    args = [list(x[0]) if np.ndim(x[0]) else float(x[0]) for x in _static(case.kind, scale=case.params.get("acc_1g", 1.0), n=1)]
+    i = slot % len(args)
+    if vector and case.kind != "1d":
+        args[i][slot % 3] = value
+    else:
+        args[i] = value
+    fs = [case.make(b, dtype) for b in ("c", "ref")]
+    out = [_outcome(lambda f=f: f.update(*args)) for f in fs]
+    assert out[0] == out[1]
+    assert_same_bits(fs[0].state, fs[1].state)
+    assert fs[0].skipped == fs[1].skipped
+
+
+@pytest.mark.parametrize("profile", PROFILES)
+@pytest.mark.parametrize("case", [pytest.param(c, id=c.id) for c in FIXED_CASES])
+def test_fixed_constructors_agree(case, profile):
+    for name in case.params:
+        for bad in (math.nan, math.inf, 1e39, 1e-50, "0.5", None, 10 ** 400, 1e-5):
+            p = {**case.params, name: bad}
+            out = [_outcome(lambda m=m: getattr(m, case.name)(**p, profile=profile))
+                   for m in (imufuse_c, reference)]
+            assert out[0] == out[1], (name, bad, out)
+
+
+# ---- API misuse ----------------------------------------------------------------
+
+@pytest.mark.parametrize("name", [*imufuse_c.FILTERS, *imufuse_c.FILTERS_FIXED])
+def test_uninitialised_object_raises(name):
+    cls = getattr(imufuse_c, name)
+    types = list(cls._impl.values()) if hasattr(cls, "_impl") else [cls]
+    for t in types:
+        o = t.__new__(t)
+        repr(o)
+        for attr in ("skipped", "state", "state_float"):
+            if hasattr(t, attr):
+                with pytest.raises(TypeError, match="not initialised"):
+                    getattr(o, attr)
+        n = {"1d": 2, "imu": 2, "ahrs": 3}[t._ref.kind]
+        for meth, args in (("reset", ()), ("update", (0.0,) * n), ("run", (np.zeros(1),) * n)):
+            with pytest.raises(TypeError, match="not initialised"):
+                getattr(o, meth)(*args)
+
+
+@pytest.mark.parametrize("backend", ("c", "ref"))
+@pytest.mark.parametrize("case,dtype", [pytest.param(c, d, id=f"{c.id}-{d}")
+                                        for c in CASES for d in DTYPES])
+def test_run_layouts_and_dtypes(case, dtype, backend):
+    """Any memory layout and real dtype gives the trajectory of the contiguous
+    float64 input; complex, string and object inputs are refused."""
+    f = case.make(backend, dtype)
+    base = [np.asarray(x, dtype=float) for x in _static(case.kind, scale=case.params.get("acc_1g", 1.0), n=20)]
+    base[0] = base[0] + 0.01 * np.arange(20).reshape((20,) + (1,) * (base[0].ndim - 1))
+    want = f.run(*base)
+    variants = [
+        [np.asfortranarray(x) for x in base],
+        [x.astype(np.float32).astype(np.float64) if dtype == "float32" else x for x in base],
+        [np.repeat(x, 2, axis=0)[::2] for x in base],                 # strided
+        [x.astype(">f8") for x in base],                             # byte-swapped
+        [x.tolist() for x in base],
+    ]
+    for v in variants:
+        f.reset()
+        assert_same_bits(f.run(*v), want, f.state_names)
+    for bad in (base[0].astype(complex), base[0].astype(str), base[0].astype(object)):
+        with pytest.raises(ValueError, match=r"^run\(\): "):
+            f.run(bad, *base[1:])
+
+
+@pytest.mark.parametrize("backend", ("c", "ref"))
+@pytest.mark.parametrize("case", [pytest.param(c, id=c.id) for c in CASES if c.kind != "1d"])
+def test_state_writes_must_be_valid(case, backend):
+    f = case.make(backend, "float64")
+    s = f.state.copy()
+    f.state = s                                   # the state it has is valid
+    bad = s.copy()
+    bad[:3] *= 1e6 if case.name != "KK" else 1.0
+    if case.name != "KK":
+        with pytest.raises(ValueError, match="^state: not a valid attitude"):
+            f.state = bad
+        zero = s.copy()
+        zero[:4 if case.name.startswith(("Mahony", "Madgwick")) and case.name != "Mahony2D" else 3] = 0
+        with pytest.raises(ValueError, match="^state: "):
+            f.state = zero
+    assert_same_bits(f.state, s)
+
+
+# ---- the reproductions of the defects, as tests -----------------------------------
+
+@pytest.mark.parametrize("backend", ("c", "ref"))
+@pytest.mark.parametrize("name,dtype,huge", [
+    ("MahonyIMU", "float32", 1e30), ("MahonyAHRS", "float32", 1e30),
+    ("MadgwickIMU", "float32", 1e30), ("MadgwickAHRS", "float32", 1e30),
+    ("MahonyIMU", "float64", 1e300), ("MadgwickIMU", "float64", 1e300)])
+def test_one_huge_sample_is_rejected_not_fatal(backend, name, dtype, huge):
+    mod = imufuse_c if backend == "c" else reference
+    f = getattr(mod, name)(dt=0.005, dtype=dtype)
+    args = [[huge, 0.0, 0.0], [0.0, 0.0, 1.0]] + ([[0.4, 0.0, -0.9]] if f.kind == "ahrs" else [])
+    q = f.state.copy()
+    f.update(*args)
+    assert f.skipped == 1 and f.state.tobytes() == q.tobytes()
+    f.update(*[[0.0, 0.0, 0.0]] + args[1:])
+    assert f.skipped == 1 and abs(np.linalg.norm(f.state[:4]) - 1.0) < 1e-5
+
+
+@pytest.mark.parametrize("backend", ("c", "ref"))
+@pytest.mark.parametrize("name,params,dtype,word", [
+    ("MultiWii", dict(dt=0.01, acc_1g=1e39), "float32", "acc_1g"),
+    ("MultiWii", dict(dt=0.01, acc_1g=1e20), "float32", "acc_1g"),     # derived ((1+w) g)^2
+    ("MahonyIMU", dict(dt=0.01, kp=1e39), "float32", "kp"),
+    ("MadgwickIMU", dict(dt=0.01, beta=1e39), "float32", "beta"),
+    ("MahonyIMU", dict(dt=1e39, kp=0.0), "float32", "dt"),
+    ("MahonyIMU", dict(dt=1e-50), "float32", "dt"),
+    ("Kalman1D", dict(dt=1e-320, k0=0.02), "float64", "dt"),
+    ("MahonyIMU", dict(dt=0.01, kp=250.0), "float64", "kp, ki"),          # 37 deg off before
+    ("MahonyIMU", dict(dt=0.01, kp=1.0, ki=40000.0), "float64", "kp, ki"),
+    ("MahonyIMU", dict(dt=0.01, kp=0.0, ki=0.1), "float64", "kp, ki"),
+    ("MadgwickIMU", dict(dt=0.01, beta=150.0), "float64", "beta"),        # 180 deg off before
+    ("MadgwickAHRS", dict(dt=0.01, beta=11.0), "float64", "beta"),
+    ("Mahony2D", dict(dt=0.01, kp=30.0, ki=0.0, error="exact"), "float64", "kp, ki"),
+])
+def test_parameters_in_own_precision_and_stable_range(backend, name, params, dtype, word):
+    mod = imufuse_c if backend == "c" else reference
+    with pytest.raises(ValueError, match=rf"^{re.escape(word)}\b"):
+        getattr(mod, name)(**params, dtype=dtype)
+
+
+@pytest.mark.parametrize("dtype", DTYPES)
+@pytest.mark.parametrize("name,params,tol_deg", [
+    ("MahonyIMU", dict(dt=0.01, kp=190.0), 2.0),                 # kp dt = 1.9
+    ("MahonyIMU", dict(dt=0.01, kp=100.0, ki=19000.0), 2.0),     # ki dt^2 = 1.9 < 4 - 2
+    ("MahonyIMU", dict(dt=1 / 512, kp=0.5), 2.0),                # published
+    ("MadgwickIMU", dict(dt=0.01, beta=10.0), math.degrees(0.2)),  # beta dt = 0.1
+    ("MadgwickIMU", dict(dt=1 / 512, beta=0.1), 2.0),            # published
+])
+def test_edge_of_stable_range_converges(dtype, name, params, tol_deg):
+    """Inside the stated range the filter settles on a static 30 deg tilt
+    within its stated accuracy (Madgwick: the 2 beta dt limit cycle)."""
+    f = getattr(imufuse_c, name)(**params, dtype=dtype)
+    S = f.run(*_static("imu", n=int(40 / params["dt"])))
+    case = next(c for c in CASES if c.name == name)
+    errs = [_error(case, S[k:k + 1]) for k in range(len(S) - 200, len(S))]
+    assert max(errs) <= math.radians(tol_deg), math.degrees(max(errs))
+    assert f.skipped == 0
+
+
+# ---- fixed point (profiles 32 and 8): extreme counts, API-level agreement ------------
+
+@pytest.mark.parametrize("profile", PROFILES)
+@pytest.mark.parametrize("case", [pytest.param(c, id=c.id) for c in FIXED_CASES])
+def test_fixed_extreme_counts_bit_exact(case, profile):
+    """Full-scale int16 counts (-32768, 32767), alternating extremes and long
+    constant stretches: C equals the reference bit for bit."""
+    c, r = case.make_fixed("c", profile), case.make_fixed("ref", profile)
+    g = np.random.default_rng(3)
+    ext = np.array([-32768, -32767, -1, 0, 1, 32767], dtype=np.int16)
+    n = 240
+    cols = 2 if c.kind == "1d" else 6
+    x = ext[g.integers(0, len(ext), size=(n, cols))]
+    x[60:120] = 32767                                     # constant full scale
+    x[120:180] = np.where(np.arange(60)[:, None] % 2 == 0, -32768, 32767)  # alternating
+    args = (x[:, 0], x[:, 1]) if c.kind == "1d" else (x[:, :3].copy(), x[:, 3:].copy())
+    assert_same_bits(c.run(*args), r.run(*args))
+
+
+@pytest.mark.parametrize("profile", PROFILES)
+@pytest.mark.parametrize("case", [pytest.param(c, id=c.id) for c in FIXED_CASES])
+def test_fixed_update_inputs_agree(case, profile):
+    for bad in (40000, -40000, 1.5, "1", math.nan, None, 10 ** 400, 1 + 1j, {1, 2, 3}):
+        fs = [case.make_fixed(b, profile) for b in ("c", "ref")]
+        if fs[0].kind == "1d":
+            args = (bad, 0)
+        else:
+            args = ([bad, 0, 0], [0, 0, 4096])
+        out = [_outcome(lambda f=f: f.update(*args)) for f in fs]
+        assert out[0] == out[1], (bad, out)
+        assert fs[0].state.tolist() == fs[1].state.tolist()
+
+
+@pytest.mark.parametrize("backend", ("c", "ref"))
+@pytest.mark.parametrize("name,params", [("MahonyIMU", dict(dt=0.005, kp=1.0, ki=0.3)),
+                                         ("DCM", dict(dt=0.005, kp=2.0, ki=0.5))])
+def test_state_write_of_a_runaway_integral_term(backend, name, params):
+    """I = 1e30 rad/s cannot be unwound (ki dt per sample) and makes every
+    float32 sample overflow: refused; |I| dt = 1 rad is the limit."""
+    f = getattr(imufuse_c if backend == "c" else reference, name)(**params, dtype="float32")
+    s = f.state.copy()
+    k = list(f.state_names).index("iy")
+    s[k] = 1e30
+    with pytest.raises(ValueError, match=r"^state: not a valid attitude \(iy = "):
+        f.state = s
+    s[k] = 0.99 / params["dt"]
+    f.state = s
