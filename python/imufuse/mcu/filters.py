@@ -196,6 +196,8 @@ class FilterSpec:
 
     @property
     def defines(self) -> Dict[str, object]:
+        if self.fixed:   # only this profile's update is compiled and linked
+            return {"IMF_FIXED_PROFILE": int(self.precision[1:])}
         return {"IMF_DOUBLE": None} if self.precision == "float64" else {}
 
     @property
