@@ -16,6 +16,7 @@ Subclasses define:
   _init(*args) mirror of imf_<filter>_init
   _update(*scalars) mirror of imf_<filter>_update, inputs already of type R
 """
+import inspect
 import math
 
 import numpy as np
@@ -79,3 +80,20 @@ class ReferenceFilter:
 
 def isfinite(*values):
     return all(math.isfinite(v) for v in values)
+
+
+_INIT_NAMES: dict = {}
+
+
+def init_arguments(cls, args):
+    """The C init arguments of filter class `cls` by name: the tuple `_params`
+    returned, keyed by the names of `_init` (which are the C init's parameter
+    names, checked by tests/test_catalogue.py). The compiled classes call the C
+    init with these, by name."""
+    names = _INIT_NAMES.get(cls)
+    if names is None:
+        names = _INIT_NAMES[cls] = tuple(inspect.signature(cls._init).parameters)[1:]
+    if len(names) != len(args):
+        raise AssertionError(f"{cls.__name__}._params gives {len(args)} values for "
+                             f"_init{names}")
+    return dict(zip(names, args))
