@@ -3,6 +3,7 @@ every entry reaches every harness (registry, demo/CLI, firmware harness, MCU
 runner, fixed-point driver, stubs), and what an entry derives agrees with the C
 headers."""
 import inspect
+from pathlib import Path
 
 import pytest
 
@@ -11,6 +12,7 @@ import imufuse_c
 from imufuse import catalogue, cproto
 from imufuse._checks import KINDS
 from imufuse._resources import csrc_dir
+from imufuse._stubs import stubs
 from imufuse.estimate import ADAPTERS
 from imufuse.mcu import filters as mcu_filters
 from registry import FIXED_CASES, FLOAT_CASES
@@ -98,3 +100,14 @@ def test_unknown_names_are_reported():
         catalogue.entry("MadgwickIMUU")
     with pytest.raises(catalogue.FilterError, match="fixed-point"):
         catalogue.reference_class("KKQ")
+
+
+def test_stubs_are_generated_from_the_catalogue():
+    """imufuse_c/__init__.pyi (shipped with the package) is what the catalogue
+    generates: regenerate with `python -m imufuse._stubs > imufuse_c/__init__.pyi`."""
+    shipped = Path(imufuse_c.__file__).with_name("__init__.pyi")
+    assert shipped.is_file(), "imufuse_c/__init__.pyi is not installed"
+    assert shipped.read_text() == stubs(), "stale stubs: python -m imufuse._stubs > imufuse_c/__init__.pyi"
+    assert Path(imufuse_c.__file__).with_name("py.typed").is_file()
+    for name in (*catalogue.FILTERS, *catalogue.FILTERS_FIXED):
+        assert f"\nclass {name}(" in shipped.read_text()

@@ -30,6 +30,9 @@ SDIST=$(ls "$ROOT"/build/sdist/imufuse-*.tar.gz)
 export IMUFUSE_REQUIRE_ORACLE=1
 # tests/test_packaging.py checks that imufuse and imufuse_c come from the venv
 export IMUFUSE_TEST_INSTALLED="$VENV"
+# lint and types of the sources (configuration in pyproject.toml)
+"$VPY" -m ruff check .
+"$VPY" -m mypy
 # keep the checkout's directory off sys.path (Python >= 3.11): its imufuse_c/
 # must not shadow the installed package
 export PYTHONSAFEPATH=1

@@ -65,7 +65,7 @@ def check_stable2(names, det, p_minus, p_plus, why):
 def as_1d(dtype, **arrays):
     """Convert equally long 1-D inputs to contiguous arrays of dtype."""
     out = []
-    for name, a in arrays.items():
+    for a in arrays.values():
         arr = np.ascontiguousarray(a, dtype=dtype)
         out.append(arr)
     shapes = {name: arr.shape for name, arr in zip(arrays, out)}

@@ -243,7 +243,8 @@ def _compare(args):
           + ("errors against the log's q_w..q_z, degrees, whole log" if has_ref
              else "no reference orientation in the log (q_w..q_z): final attitude shown"))
     if has_ref:
-        head = f"{'filter':22s} {'kind':4s} {'angle/tilt rms    max':>21s} {'heading rms    max':>19s} {'samples/s':>10s}  estimate from"
+        head = (f"{'filter':22s} {'kind':4s} {'angle/tilt rms    max':>21s} {'heading rms    max':>19s} "
+                f"{'samples/s':>10s}  estimate from")
     else:
         head = f"{'filter':22s} {'kind':4s} {'final roll/angle  pitch    yaw':>31s} {'samples/s':>10s}  estimate from"
     print(head)
@@ -251,9 +252,9 @@ def _compare(args):
     for n, kind, errs, final, sps, note in rows:
         sp = f"{sps:10.3g}" if sps else f"{'-':>10s}"
         if has_ref:
-            e = errs or {}
-            m = e.get("angle", e.get("tilt"))
-            h = e.get("heading")
+            er = errs or {}
+            m = er.get("angle", er.get("tilt"))
+            h = er.get("heading")
             ms = f"{m[0]:10.3f} {m[1]:10.3f}" if m else f"{'-':>21s}"
             hs = f"{h[0]:9.3f} {h[1]:9.3f}" if h else f"{'-':>19s}"
             print(f"{n:22s} {kind:4s} {ms:>21s} {hs:>19s} {sp}  {note}")
@@ -292,7 +293,8 @@ def _bench(args):
     d3 = None
     print(f"samples per second (C: run() over {args.samples} samples, best of {args.repeat}; "
           f"reference: run() over {args.ref_samples} samples)")
-    head = f"{'filter':22s} {'C float32':>11s} {'C float64':>11s} {'ref float32':>12s} {'ref float64':>12s} {'C/ref f64':>10s}"
+    head = (f"{'filter':22s} {'C float32':>11s} {'C float64':>11s} {'ref float32':>12s} "
+            f"{'ref float64':>12s} {'C/ref f64':>10s}")
     print(head)
     print("-" * len(head))
     for n in names:

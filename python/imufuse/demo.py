@@ -9,6 +9,7 @@ import os
 import sys
 import time
 from dataclasses import dataclass, field
+from typing import Optional
 
 import numpy as np
 
@@ -65,7 +66,7 @@ class DemoRow:
     checks: dict = field(default_factory=dict)   # dtype -> None | (sample, var) | "error..."
     errors: dict = field(default_factory=dict)   # 'angle'/'tilt'/'heading' -> (rms, max) deg
     note: str = ""
-    estimate: Estimate = None
+    estimate: Optional[Estimate] = None
 
 
 def _fmt_check(c):

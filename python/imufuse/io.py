@@ -23,6 +23,7 @@ import difflib
 import math
 import os
 from dataclasses import dataclass, field
+from typing import Optional
 
 import numpy as np
 
@@ -50,7 +51,7 @@ class Log:
     path: str
     columns: dict                 # known column name -> (N,) float64, units converted
     header: list                  # every column of the file, in order
-    dt: float = None              # fixed sample period used by the filters, s
+    dt: Optional[float] = None    # fixed sample period used by the filters, s
     warnings: list = field(default_factory=list)
 
     def __len__(self):

@@ -29,7 +29,7 @@ import math
 import re
 import struct
 from pathlib import Path
-from typing import Dict, List, Mapping, Optional, Sequence, Tuple
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -170,7 +170,7 @@ def _literal(param: CParam, value, real: str) -> str:
 class FilterSpec:
     """One filter configuration in one precision (float) or profile (fixed point)."""
 
-    ref_class: type
+    ref_class: Any
     params: Mapping[str, object]
     precision: str            # "float32" | "float64" | "q32" | "q8"
     label: str = ""
@@ -233,6 +233,8 @@ class FilterSpec:
         if self.fixed:
             consts = self.reference().c_init_args()
             cparams = self.c.init_consts
+            if cparams is None:
+                raise HarnessError(f"{self.label}: no {self.c.c_name}_init_consts() in the headers")
             if [p.name for p in cparams] != list(consts):
                 raise HarnessError(
                     f"{self.label}: C {self.init_function}({', '.join(p.name for p in cparams)}) "
@@ -313,7 +315,10 @@ class GroupResult:
 
 
 def _driver(specs: Sequence[FilterSpec]) -> Tuple[Driver, List[Tuple[int, int, bool]]]:
-    preludes, inits, steps, state = [], [], [], []
+    preludes: List[str] = []
+    inits: List[str] = []
+    steps: List[str] = []
+    state: List[Tuple[str, str]] = []
     layout = []
     seen_headers = set()
     for i, s in enumerate(specs):
@@ -366,7 +371,7 @@ def run_filters(target: str, specs: Sequence[FilterSpec], inputs: Mapping[str, n
     ins = _inputs_of(specs, inputs)
     n = len(next(iter(ins.values())))
     own = workdir is None
-    base = Path(tempfile.mkdtemp(prefix=f"imf_filters_{target}_")) if own else Path(workdir)
+    base = Path(tempfile.mkdtemp(prefix=f"imf_filters_{target}_")) if workdir is None else Path(workdir)
     states: List[Optional[np.ndarray]] = [None] * len(specs)
     skipped: List[Optional[np.ndarray]] = [None] * len(specs)
     results: List[Result] = []
@@ -398,7 +403,10 @@ def run_filters(target: str, specs: Sequence[FilterSpec], inputs: Mapping[str, n
                     skipped[i] = cols[:, -1].astype(np.uint32)
                     cols = cols[:, :-1]
                 states[i] = cols
-        return GroupResult(target, specs, states, skipped, results, programs)
+        done = [s for s in states if s is not None]
+        if len(done) != len(specs):
+            raise HarnessError(f"{target}: {len(specs) - len(done)} filters produced no state")
+        return GroupResult(target, specs, done, skipped, results, programs)
     finally:
         if own:
             shutil.rmtree(base, ignore_errors=True)

@@ -29,7 +29,7 @@ U32 = 0xFFFFFFFF
 class ReferenceFilter:
     kind = "1d"
     c_name = ""
-    state_names = ()
+    state_names: tuple = ()
 
     def __init__(self, *args, dtype="float64", **kwargs):
         self.dtype = _checks.check_dtype(dtype)
