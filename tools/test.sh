@@ -23,7 +23,8 @@ PIP=("$VPY" -m pip install -q --disable-pip-version-check)
 "${PIP[@]}" "setuptools>=64" "Cython>=3" "numpy>=2" build
 "$VPY" -m build --sdist --no-isolation --outdir "$ROOT/build/sdist" . >/dev/null
 SDIST=$(ls "$ROOT"/build/sdist/imufuse-*.tar.gz)
-"${PIP[@]}" --no-build-isolation "imufuse[test] @ file://$SDIST"
+# --no-cache-dir: never a wheel pip cached from an earlier sdist of the same version
+"${PIP[@]}" --no-build-isolation --no-cache-dir "imufuse[test] @ file://$SDIST"
 
 # the published-code oracle comes from PyPI, which the install above needs anyway:
 # an unreachable oracle is a failure here, not a skip
