@@ -9,9 +9,9 @@
 void imf_dcm_init(imf_dcm_t *const self, const imf_real dt, const imf_real kp,
                   const imf_real ki)
 {
-    self->dt = dt;
     self->kp = kp;
-    self->ki_dt = ki * dt;
+    self->ki = ki;
+    imf_dcm_set_dt(self, dt);
     self->skipped = 0;
     self->x.r00 = IMF_R(1.0);
     self->x.r01 = IMF_R(0.0);
@@ -25,6 +25,25 @@ void imf_dcm_init(imf_dcm_t *const self, const imf_real dt, const imf_real kp,
     self->x.ix = IMF_R(0.0);
     self->x.iy = IMF_R(0.0);
     self->x.iz = IMF_R(0.0);
+}
+
+void imf_dcm_set_dt(imf_dcm_t *const self, const imf_real dt)
+{
+    self->dt = dt;
+    self->ki_dt = self->ki * dt;
+}
+
+void imf_dcm_set_attitude(imf_dcm_t *const self, const imf_attitude_t *const att)
+{
+    self->x.r00 = att->r[0];
+    self->x.r01 = att->r[1];
+    self->x.r02 = att->r[2];
+    self->x.r10 = att->r[3];
+    self->x.r11 = att->r[4];
+    self->x.r12 = att->r[5];
+    self->x.r20 = att->r[6];
+    self->x.r21 = att->r[7];
+    self->x.r22 = att->r[8];
 }
 
 void imf_dcm_update(imf_dcm_t *const self, const imf_real gx, const imf_real gy,

@@ -21,6 +21,7 @@
 
 #include <stdint.h>
 #include "imf_config.h"
+#include "imf_attitude.h"
 
 typedef struct {
     imf_real r00, r01, r02; /* row 0 of R: r_x, earth x in body coordinates */
@@ -32,6 +33,7 @@ typedef struct {
 typedef struct {
     imf_real dt;      /* sample period, s */
     imf_real kp;      /* proportional gain, 1/s */
+    imf_real ki;      /* integral gain Ki, 1/s^2 (kept for set_dt) */
     imf_real ki_dt;   /* Ki dt, 1/s */
     uint32_t skipped; /* samples rejected by the non-finite policy */
     imf_dcm_state_t x;
@@ -43,6 +45,11 @@ void imf_dcm_init(imf_dcm_t *self, imf_real dt, imf_real kp, imf_real ki);
    overflowing) acceleration means e = 0: w' = w + I. */
 void imf_dcm_update(imf_dcm_t *self, imf_real gx, imf_real gy, imf_real gz, imf_real ax,
                     imf_real ay, imf_real az);
+/* A new sample period dt (s): dt and Ki dt by the expressions of init (init
+   calls it). For timestamps with jitter call it before each update. */
+void imf_dcm_set_dt(imf_dcm_t *self, imf_real dt);
+/* Start from a given attitude (imf_attitude.h): R = att->r; I is kept. */
+void imf_dcm_set_attitude(imf_dcm_t *self, const imf_attitude_t *att);
 /* Output, not state: roll and pitch (rad, ZYX) of r_z, in double via libm. */
 void imf_dcm_angles(const imf_dcm_t *self, double *roll, double *pitch);
 

@@ -10,11 +10,16 @@
 void imf_complementary1d_init(imf_complementary1d_t *const self, const imf_real dt,
                               const imf_real alpha)
 {
-    self->dt = dt;
+    imf_complementary1d_set_dt(self, dt);
     self->alpha = alpha;
     self->one_minus_alpha = IMF_R(1.0) - alpha;
     self->skipped = 0;
     self->x.theta = IMF_R(0.0);
+}
+
+void imf_complementary1d_set_dt(imf_complementary1d_t *const self, const imf_real dt)
+{
+    self->dt = dt;
 }
 
 void imf_complementary1d_update(imf_complementary1d_t *const self, const imf_real rate,
@@ -37,11 +42,16 @@ void imf_complementary1d_update(imf_complementary1d_t *const self, const imf_rea
 /* ---- Eq. 2.5 ----------------------------------------------------------- */
 void imf_kalman1d_init(imf_kalman1d_t *const self, const imf_real dt, const imf_real k0)
 {
-    self->dt = dt;
+    imf_kalman1d_set_dt(self, dt);
     self->k0 = k0;
     self->one_minus_k0 = IMF_R(1.0) - k0;
     self->skipped = 0;
     self->x.theta = IMF_R(0.0);
+}
+
+void imf_kalman1d_set_dt(imf_kalman1d_t *const self, const imf_real dt)
+{
+    self->dt = dt;
 }
 
 void imf_kalman1d_update(imf_kalman1d_t *const self, const imf_real rate, const imf_real angle)
@@ -64,10 +74,15 @@ void imf_kalman1d_update(imf_kalman1d_t *const self, const imf_real rate, const 
 /* ---- Eq. 2.8 ----------------------------------------------------------- */
 void imf_mahony1d_init(imf_mahony1d_t *const self, const imf_real dt, const imf_real kp)
 {
-    self->dt = dt;
+    imf_mahony1d_set_dt(self, dt);
     self->kp = kp;
     self->skipped = 0;
     self->x.theta = IMF_R(0.0);
+}
+
+void imf_mahony1d_set_dt(imf_mahony1d_t *const self, const imf_real dt)
+{
+    self->dt = dt;
 }
 
 void imf_mahony1d_update(imf_mahony1d_t *const self, const imf_real rate, const imf_real angle)
@@ -91,7 +106,7 @@ void imf_mahony1d_update(imf_mahony1d_t *const self, const imf_real rate, const 
 void imf_kalman1d_bias_init(imf_kalman1d_bias_t *const self, const imf_real dt,
                             const imf_real k0, const imf_real k1, const int bias_sign)
 {
-    self->dt = dt;
+    imf_kalman1d_bias_set_dt(self, dt);
     self->k0 = k0;
     self->one_minus_k0 = IMF_R(1.0) - k0;
     self->k1 = k1;
@@ -99,6 +114,11 @@ void imf_kalman1d_bias_init(imf_kalman1d_bias_t *const self, const imf_real dt,
     self->skipped = 0;
     self->x.theta = IMF_R(0.0);
     self->x.b = IMF_R(0.0);
+}
+
+void imf_kalman1d_bias_set_dt(imf_kalman1d_bias_t *const self, const imf_real dt)
+{
+    self->dt = dt;
 }
 
 void imf_kalman1d_bias_update(imf_kalman1d_bias_t *const self, const imf_real rate,
@@ -126,13 +146,19 @@ void imf_kalman1d_bias_update(imf_kalman1d_bias_t *const self, const imf_real ra
 void imf_mahony1d_bias_init(imf_mahony1d_bias_t *const self, const imf_real dt,
                             const imf_real kp, const imf_real ki, const int integrate_first)
 {
-    self->dt = dt;
     self->kp = kp;
-    self->ki_dt = ki * dt;
+    self->ki = ki;
+    imf_mahony1d_bias_set_dt(self, dt);
     self->integrate_first = integrate_first != 0;
     self->skipped = 0;
     self->x.theta = IMF_R(0.0);
     self->x.i = IMF_R(0.0);
+}
+
+void imf_mahony1d_bias_set_dt(imf_mahony1d_bias_t *const self, const imf_real dt)
+{
+    self->dt = dt;
+    self->ki_dt = self->ki * dt;
 }
 
 void imf_mahony1d_bias_update(imf_mahony1d_bias_t *const self, const imf_real rate,
@@ -166,9 +192,20 @@ void imf_mahony1d_bias_update(imf_mahony1d_bias_t *const self, const imf_real ra
 void imf_complementary1d_bias_init(imf_complementary1d_bias_t *const self, const imf_real dt,
                                    const imf_real kp, const imf_real ki)
 {
+    self->kp = kp;
+    self->ki = ki;
+    imf_complementary1d_bias_set_dt(self, dt);
+    self->skipped = 0;
+    self->x.theta = IMF_R(0.0);
+    self->x.s1 = IMF_R(0.0);
+    self->x.s2 = IMF_R(0.0);
+}
+
+void imf_complementary1d_bias_set_dt(imf_complementary1d_bias_t *const self, const imf_real dt)
+{
     /* (1 - z^-1)^2 + Kp dt (1 - z^-1) + Ki dt^2, normalised by its z^0 term a0 */
-    const imf_real kp_dt = kp * dt;
-    const imf_real ki_dt2 = ki * dt * dt;
+    const imf_real kp_dt = self->kp * dt;
+    const imf_real ki_dt2 = self->ki * dt * dt;
     const imf_real a0 = IMF_R(1.0) + kp_dt + ki_dt2;
     self->dt = dt;
     self->b0a = (kp_dt + ki_dt2) / a0;
@@ -177,10 +214,6 @@ void imf_complementary1d_bias_init(imf_complementary1d_bias_t *const self, const
     self->b1w = -dt / a0;
     self->a1 = -(IMF_R(2.0) + kp_dt) / a0;
     self->a2 = IMF_R(1.0) / a0;
-    self->skipped = 0;
-    self->x.theta = IMF_R(0.0);
-    self->x.s1 = IMF_R(0.0);
-    self->x.s2 = IMF_R(0.0);
 }
 
 void imf_complementary1d_bias_update(imf_complementary1d_bias_t *const self, const imf_real rate,

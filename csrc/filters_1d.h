@@ -12,6 +12,11 @@
  *   imf_<filter>_update() one fixed step. Non-finite inputs, or an update that
  *                        would make the state non-finite, leave the state
  *                        unchanged and increment `skipped` (imf_math.h).
+ *   imf_<filter>_set_dt() a new sample period: dt and every constant derived
+ *                        from it, by the expressions init uses (init calls
+ *                        it), so a filter whose dt was set equals one
+ *                        initialised with that dt bit for bit. For timestamps
+ *                        with jitter call it before each update.
  * The state struct x holds only imf_real members: it is the `state` seen from
  * Python, in declaration order.
  */
@@ -38,6 +43,8 @@ typedef struct {
 void imf_complementary1d_init(imf_complementary1d_t *self, imf_real dt, imf_real alpha);
 /* rate: rad/s; angle: rad */
 void imf_complementary1d_update(imf_complementary1d_t *self, imf_real rate, imf_real angle);
+/* dt: s (alpha, K0 and the gains stay as given) */
+void imf_complementary1d_set_dt(imf_complementary1d_t *self, imf_real dt);
 
 /* ---- Eq. 2.5: Kalman filter with constant gain, 1st order -------------- */
 typedef struct {
@@ -54,6 +61,8 @@ typedef struct {
 
 void imf_kalman1d_init(imf_kalman1d_t *self, imf_real dt, imf_real k0);
 void imf_kalman1d_update(imf_kalman1d_t *self, imf_real rate, imf_real angle);
+/* dt: s (alpha, K0 and the gains stay as given) */
+void imf_kalman1d_set_dt(imf_kalman1d_t *self, imf_real dt);
 
 /* ---- Eq. 2.8: Mahony&Madgwick filter (P controller), 1st order -------- */
 typedef struct {
@@ -69,6 +78,8 @@ typedef struct {
 
 void imf_mahony1d_init(imf_mahony1d_t *self, imf_real dt, imf_real kp);
 void imf_mahony1d_update(imf_mahony1d_t *self, imf_real rate, imf_real angle);
+/* dt: s (alpha, K0 and the gains stay as given) */
+void imf_mahony1d_set_dt(imf_mahony1d_t *self, imf_real dt);
 
 /* ---- Eq. 3.3: Kalman filter with bias state, 2nd order ---------------- */
 typedef struct {
@@ -90,6 +101,8 @@ typedef struct {
 void imf_kalman1d_bias_init(imf_kalman1d_bias_t *self, imf_real dt, imf_real k0,
                             imf_real k1, int bias_sign);
 void imf_kalman1d_bias_update(imf_kalman1d_bias_t *self, imf_real rate, imf_real angle);
+/* dt: s (alpha, K0 and the gains stay as given) */
+void imf_kalman1d_bias_set_dt(imf_kalman1d_bias_t *self, imf_real dt);
 
 /* ---- Eq. 3.6 / 3.9: Mahony&Madgwick filter (PI controller) ------------ */
 typedef struct {
@@ -100,6 +113,7 @@ typedef struct {
 typedef struct {
     imf_real dt;             /* sample period, s */
     imf_real kp;             /* proportional gain, 1/s (K_p' of Eq. 3.9 if integrate_first) */
+    imf_real ki;             /* integral gain Ki, 1/s^2 (kept for set_dt) */
     imf_real ki_dt;          /* Ki * dt, 1/s */
     int integrate_first;     /* 0: Eq. 3.6; 1: reversed order, Eq. 3.9 */
     uint32_t skipped;
@@ -110,6 +124,8 @@ typedef struct {
 void imf_mahony1d_bias_init(imf_mahony1d_bias_t *self, imf_real dt, imf_real kp,
                             imf_real ki, int integrate_first);
 void imf_mahony1d_bias_update(imf_mahony1d_bias_t *self, imf_real rate, imf_real angle);
+/* dt: s; recomputes the constants derived from dt */
+void imf_mahony1d_bias_set_dt(imf_mahony1d_bias_t *self, imf_real dt);
 
 /* ---- Eq. 3.10: complementary filter, 2nd order ------------------------ */
 /*
@@ -126,6 +142,7 @@ typedef struct {
 
 typedef struct {
     imf_real dt;           /* sample period, s */
+    imf_real kp, ki;       /* the gains, 1/s and 1/s^2 (kept for set_dt) */
     imf_real b0a, b1a;     /* numerator acting on the accelerometer angle */
     imf_real b0w, b1w;     /* numerator acting on the gyro rate */
     imf_real a1, a2;       /* denominator (a0 normalised to 1) */
@@ -138,5 +155,7 @@ void imf_complementary1d_bias_init(imf_complementary1d_bias_t *self, imf_real dt
                                    imf_real kp, imf_real ki);
 void imf_complementary1d_bias_update(imf_complementary1d_bias_t *self, imf_real rate,
                                      imf_real angle);
+/* dt: s; recomputes the constants derived from dt */
+void imf_complementary1d_bias_set_dt(imf_complementary1d_bias_t *self, imf_real dt);
 
 #endif /* IMF_FILTERS_1D_H */

@@ -7,11 +7,22 @@
 
 void imf_kk_init(imf_kk_t *const self, const imf_real dt, const imf_real kp)
 {
-    self->dt = dt;
+    imf_kk_set_dt(self, dt);
     self->kp = kp;
     self->skipped = 0;
     self->x.pitch = IMF_R(0.0);
     self->x.roll = IMF_R(0.0);
+}
+
+void imf_kk_set_dt(imf_kk_t *const self, const imf_real dt)
+{
+    self->dt = dt;
+}
+
+void imf_kk_set_attitude(imf_kk_t *const self, const imf_attitude_t *const att)
+{
+    self->x.pitch = -att->r[6];
+    self->x.roll = att->r[7];
 }
 
 void imf_kk_update(imf_kk_t *const self, const imf_real gx, const imf_real gy,

@@ -22,6 +22,7 @@
 
 #include <stdint.h>
 #include "imf_config.h"
+#include "imf_attitude.h"
 
 typedef struct {
     imf_real pitch; /* theta_pitch, rad (ZYX pitch, small-angle) */
@@ -41,5 +42,13 @@ void imf_kk_init(imf_kk_t *self, imf_real dt, imf_real kp);
    overflowing) acceleration skips the P correction: gyro only. */
 void imf_kk_update(imf_kk_t *self, imf_real gx, imf_real gy, imf_real gz, imf_real ax,
                    imf_real ay, imf_real az);
+
+/* A new sample period dt (s), set as init sets it (init calls it); kp stays a
+   gain per sample. */
+void imf_kk_set_dt(imf_kk_t *self, imf_real dt);
+/* Start from a given attitude (imf_attitude.h), in the filter's own small-
+   angle terms: pitch = -up_x, roll = up_y (up = att->r[6..8]), the angles
+   its accelerometer path measures at rest. */
+void imf_kk_set_attitude(imf_kk_t *self, const imf_attitude_t *att);
 
 #endif /* IMF_KK_H */

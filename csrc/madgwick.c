@@ -5,12 +5,18 @@
  */
 #include "madgwick.h"
 
+/* The settings that depend on the sample period dt (s). */
+static void madgwick_set_dt(imf_madgwick_settings_t *const set, const imf_real dt)
+{
+    set->dt = dt;
+}
+
 /* Settings and initial state shared by both filters. */
 static void madgwick_init(imf_madgwick_settings_t *const set, uint32_t *const skipped,
                           imf_madgwick_state_t *const x, const imf_real dt, const imf_real beta,
                           const int delta_s, const int invsqrt)
 {
-    set->dt = dt;
+    madgwick_set_dt(set, dt);
     set->beta = beta;
     set->delta_s = delta_s == IMF_MADGWICK_DS_SIMPLIFIED ? IMF_MADGWICK_DS_SIMPLIFIED
                                                          : IMF_MADGWICK_DS_FULL;
@@ -33,6 +39,37 @@ void imf_madgwick_ahrs_init(imf_madgwick_ahrs_t *const self, const imf_real dt,
 {
     madgwick_init(&self->set, &self->skipped, &self->x, dt, beta, IMF_MADGWICK_DS_FULL,
                   invsqrt);
+}
+
+void imf_madgwick_imu_set_dt(imf_madgwick_imu_t *const self, const imf_real dt)
+{
+    madgwick_set_dt(&self->set, dt);
+}
+
+void imf_madgwick_ahrs_set_dt(imf_madgwick_ahrs_t *const self, const imf_real dt)
+{
+    madgwick_set_dt(&self->set, dt);
+}
+
+static void madgwick_set_attitude(imf_madgwick_state_t *const x,
+                                  const imf_attitude_t *const att)
+{
+    x->q0 = att->q[0];
+    x->q1 = att->q[1];
+    x->q2 = att->q[2];
+    x->q3 = att->q[3];
+}
+
+void imf_madgwick_imu_set_attitude(imf_madgwick_imu_t *const self,
+                                   const imf_attitude_t *const att)
+{
+    madgwick_set_attitude(&self->x, att);
+}
+
+void imf_madgwick_ahrs_set_attitude(imf_madgwick_ahrs_t *const self,
+                                    const imf_attitude_t *const att)
+{
+    madgwick_set_attitude(&self->x, att);
 }
 
 /* Step 3: dq = 1/2 q (x) omega */

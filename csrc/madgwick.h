@@ -28,6 +28,7 @@
 #include <stdint.h>
 #include "imf_config.h"
 #include "imf_math.h"
+#include "imf_attitude.h"
 
 enum { IMF_MADGWICK_DS_FULL = 0, IMF_MADGWICK_DS_SIMPLIFIED = 1 };
 
@@ -66,6 +67,15 @@ void imf_madgwick_imu_update(imf_madgwick_imu_t *self, imf_real gx, imf_real gy,
                              imf_real ax, imf_real ay, imf_real az);
 
 void imf_madgwick_ahrs_init(imf_madgwick_ahrs_t *self, imf_real dt, imf_real beta, int invsqrt);
+
+/* A new sample period dt (s), set as init sets it (init calls it). For
+   timestamps with jitter call it before each update. */
+void imf_madgwick_imu_set_dt(imf_madgwick_imu_t *self, imf_real dt);
+void imf_madgwick_ahrs_set_dt(imf_madgwick_ahrs_t *self, imf_real dt);
+
+/* Start from a given attitude (imf_attitude.h): q = att->q. */
+void imf_madgwick_imu_set_attitude(imf_madgwick_imu_t *self, const imf_attitude_t *att);
+void imf_madgwick_ahrs_set_attitude(imf_madgwick_ahrs_t *self, const imf_attitude_t *att);
 /* gx, gy, gz: rad/s; ax, ay, az and mx, my, mz: any unit (normalised) */
 void imf_madgwick_ahrs_update(imf_madgwick_ahrs_t *self, imf_real gx, imf_real gy, imf_real gz,
                               imf_real ax, imf_real ay, imf_real az,

@@ -10,13 +10,19 @@
  */
 #include "mahony.h"
 
+/* The settings that depend on the sample period dt (s). */
+static void mahony_set_dt(imf_mahony_settings_t *const set, const imf_real dt)
+{
+    set->dt = dt;
+    set->half_dt = IMF_R(0.5) * dt;
+}
+
 /* Settings and initial state shared by both filters. */
 static void mahony_init(imf_mahony_settings_t *const set, uint32_t *const skipped,
                         imf_mahony_state_t *const x, const imf_real dt, const imf_real kp,
                         const imf_real ki, const int invsqrt)
 {
-    set->dt = dt;
-    set->half_dt = IMF_R(0.5) * dt;
+    mahony_set_dt(set, dt);
     set->two_kp = IMF_R(2.0) * kp;
     set->two_ki = IMF_R(2.0) * ki;
     set->invsqrt = invsqrt == IMF_INVSQRT_FAST ? IMF_INVSQRT_FAST : IMF_INVSQRT_EXACT;
@@ -40,6 +46,34 @@ void imf_mahony_ahrs_init(imf_mahony_ahrs_t *const self, const imf_real dt, cons
                           const imf_real ki, const int invsqrt)
 {
     mahony_init(&self->set, &self->skipped, &self->x, dt, kp, ki, invsqrt);
+}
+
+void imf_mahony_imu_set_dt(imf_mahony_imu_t *const self, const imf_real dt)
+{
+    mahony_set_dt(&self->set, dt);
+}
+
+void imf_mahony_ahrs_set_dt(imf_mahony_ahrs_t *const self, const imf_real dt)
+{
+    mahony_set_dt(&self->set, dt);
+}
+
+static void mahony_set_attitude(imf_mahony_state_t *const x, const imf_attitude_t *const att)
+{
+    x->q0 = att->q[0];
+    x->q1 = att->q[1];
+    x->q2 = att->q[2];
+    x->q3 = att->q[3];
+}
+
+void imf_mahony_imu_set_attitude(imf_mahony_imu_t *const self, const imf_attitude_t *const att)
+{
+    mahony_set_attitude(&self->x, att);
+}
+
+void imf_mahony_ahrs_set_attitude(imf_mahony_ahrs_t *const self, const imf_attitude_t *const att)
+{
+    mahony_set_attitude(&self->x, att);
 }
 
 /* Steps 5 and 6: the PI controller on the half error (ex, ey, ez) = e/2,

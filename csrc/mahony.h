@@ -33,6 +33,7 @@
 #include <stdint.h>
 #include "imf_config.h"
 #include "imf_math.h"
+#include "imf_attitude.h"
 
 typedef struct {
     imf_real q0, q1, q2, q3; /* attitude quaternion, sensor -> earth, w first */
@@ -72,6 +73,16 @@ void imf_mahony_imu_update(imf_mahony_imu_t *self, imf_real gx, imf_real gy, imf
 
 void imf_mahony_ahrs_init(imf_mahony_ahrs_t *self, imf_real dt, imf_real kp, imf_real ki,
                           int invsqrt);
+
+/* A new sample period dt (s): dt and dt / 2 by the expressions of init (init
+   calls it), so the filter equals one initialised with this dt bit for bit.
+   For timestamps with jitter call it before each update. */
+void imf_mahony_imu_set_dt(imf_mahony_imu_t *self, imf_real dt);
+void imf_mahony_ahrs_set_dt(imf_mahony_ahrs_t *self, imf_real dt);
+
+/* Start from a given attitude (imf_attitude.h): q = att->q; I is kept. */
+void imf_mahony_imu_set_attitude(imf_mahony_imu_t *self, const imf_attitude_t *att);
+void imf_mahony_ahrs_set_attitude(imf_mahony_ahrs_t *self, const imf_attitude_t *att);
 /* gx, gy, gz: rad/s; ax, ay, az and mx, my, mz: any unit (normalised) */
 void imf_mahony_ahrs_update(imf_mahony_ahrs_t *self, imf_real gx, imf_real gy, imf_real gz,
                             imf_real ax, imf_real ay, imf_real az,

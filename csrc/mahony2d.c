@@ -8,9 +8,9 @@
 void imf_mahony2d_init(imf_mahony2d_t *const self, const imf_real dt, const imf_real kp,
                        const imf_real ki, const int exact)
 {
-    self->dt = dt;
     self->kp = kp;
-    self->ki_dt = ki * dt;
+    self->ki = ki;
+    imf_mahony2d_set_dt(self, dt);
     self->exact = exact != 0;
     self->skipped = 0;
     self->x.dx = IMF_R(0.0);
@@ -19,6 +19,19 @@ void imf_mahony2d_init(imf_mahony2d_t *const self, const imf_real dt, const imf_
     self->x.ix = IMF_R(0.0);
     self->x.iy = IMF_R(0.0);
     self->x.iz = IMF_R(0.0);
+}
+
+void imf_mahony2d_set_dt(imf_mahony2d_t *const self, const imf_real dt)
+{
+    self->dt = dt;
+    self->ki_dt = self->ki * dt;
+}
+
+void imf_mahony2d_set_attitude(imf_mahony2d_t *const self, const imf_attitude_t *const att)
+{
+    self->x.dx = att->r[6];
+    self->x.dy = att->r[7];
+    self->x.dz = att->r[8];
 }
 
 void imf_mahony2d_update(imf_mahony2d_t *const self, const imf_real gx, const imf_real gy,

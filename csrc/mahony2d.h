@@ -27,6 +27,7 @@
 
 #include <stdint.h>
 #include "imf_config.h"
+#include "imf_attitude.h"
 
 typedef struct {
     imf_real dx, dy, dz; /* gravity direction estimate (body up), unit-less */
@@ -36,6 +37,7 @@ typedef struct {
 typedef struct {
     imf_real dt;      /* sample period, s */
     imf_real kp;      /* proportional gain, 1/s */
+    imf_real ki;      /* integral gain Ki, 1/s^2 (kept for set_dt) */
     imf_real ki_dt;   /* Ki dt, 1/s */
     int exact;        /* 0: E = a - d (Eq. 4.4); 1: E = d x (a x d) (Eq. 4.3) */
     uint32_t skipped; /* samples rejected by the non-finite policy */
@@ -48,6 +50,12 @@ void imf_mahony2d_init(imf_mahony2d_t *self, imf_real dt, imf_real kp, imf_real 
    overflowing) acceleration means E = 0: the gyro path and I only. */
 void imf_mahony2d_update(imf_mahony2d_t *self, imf_real gx, imf_real gy, imf_real gz,
                          imf_real ax, imf_real ay, imf_real az);
+/* A new sample period dt (s): dt and Ki dt by the expressions of init (init
+   calls it). For timestamps with jitter call it before each update. */
+void imf_mahony2d_set_dt(imf_mahony2d_t *self, imf_real dt);
+/* Start from a given attitude (imf_attitude.h): d = the up vector
+   att->r[6..8]; I is kept. */
+void imf_mahony2d_set_attitude(imf_mahony2d_t *self, const imf_attitude_t *att);
 /* Output, not state: roll and pitch (rad, ZYX) of d, in double via libm. */
 void imf_mahony2d_angles(const imf_mahony2d_t *self, double *roll, double *pitch);
 

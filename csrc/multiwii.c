@@ -11,7 +11,7 @@ void imf_multiwii_init(imf_multiwii_t *const self, const imf_real dt, const imf_
 {
     imf_real lo, hi;
     int k;
-    self->dt = dt;
+    imf_multiwii_set_dt(self, dt);
     self->cmpf = cmpf;
     self->inv_cmpf1 = IMF_R(1.0) / (cmpf + IMF_R(1.0));
     /* powers of two: the scalings of the LPF are exact, like the firmware's shifts */
@@ -33,6 +33,21 @@ void imf_multiwii_init(imf_multiwii_t *const self, const imf_real dt, const imf_
     self->x.ax = IMF_R(0.0);
     self->x.ay = IMF_R(0.0);
     self->x.az = acc_1g;
+}
+
+void imf_multiwii_set_dt(imf_multiwii_t *const self, const imf_real dt)
+{
+    self->dt = dt;
+}
+
+void imf_multiwii_set_attitude(imf_multiwii_t *const self, const imf_attitude_t *const att)
+{
+    self->x.dx = self->acc_1g * att->r[6];
+    self->x.dy = self->acc_1g * att->r[7];
+    self->x.dz = self->acc_1g * att->r[8];
+    self->x.ax = self->x.dx;
+    self->x.ay = self->x.dy;
+    self->x.az = self->x.dz;
 }
 
 void imf_multiwii_update(imf_multiwii_t *const self, const imf_real gx, const imf_real gy,

@@ -22,6 +22,7 @@
 
 #include <stdint.h>
 #include "imf_config.h"
+#include "imf_attitude.h"
 
 typedef struct {
     imf_real dx, dy, dz; /* EstG: estimated gravity vector (body up), acc units */
@@ -49,6 +50,12 @@ void imf_multiwii_init(imf_multiwii_t *self, imf_real dt, imf_real cmpf, int acc
 /* gx, gy, gz: rad/s; ax, ay, az: accelerometer units (acc_1g per g) */
 void imf_multiwii_update(imf_multiwii_t *self, imf_real gx, imf_real gy, imf_real gz,
                          imf_real ax, imf_real ay, imf_real az);
+/* A new sample period dt (s), set as init sets it (init calls it); cmpf and
+   the LPF stay per sample, as in the firmware. */
+void imf_multiwii_set_dt(imf_multiwii_t *self, imf_real dt);
+/* Start from a given attitude (imf_attitude.h): d and the smoothed
+   accelerometer both acc_1g times the up vector att->r[6..8]. */
+void imf_multiwii_set_attitude(imf_multiwii_t *self, const imf_attitude_t *att);
 /* Output, not state: roll and pitch (rad, ZYX) of d, in double via libm. */
 void imf_multiwii_angles(const imf_multiwii_t *self, double *roll, double *pitch);
 

@@ -24,8 +24,15 @@ class _Dispatch(type):
 def _dispatch(name):
     ref = getattr(_reference, name)
     sig = inspect.signature(ref._params)
-    params = [*sig.parameters.values(),
-              inspect.Parameter("dtype", inspect.Parameter.KEYWORD_ONLY, default="float64")]
+    kw = inspect.Parameter.KEYWORD_ONLY
+    # how the filter starts (_checks.check_start): state= for every filter,
+    # init=, init_window= and q0= for the 3-D filters
+    start = [inspect.Parameter("state", kw, default=None)]
+    if ref.kind != "1d":
+        start = [inspect.Parameter("init", kw, default="identity"),
+                 inspect.Parameter("init_window", kw, default=1),
+                 inspect.Parameter("q0", kw, default=None), *start]
+    params = [*sig.parameters.values(), inspect.Parameter("dtype", kw, default="float64"), *start]
     return _Dispatch(name, (), {
         "_impl": {dt: getattr(mod, name) for dt, mod in _BUILDS.items()},
         "__doc__": ref.__doc__,
@@ -49,3 +56,42 @@ FILTERS_FIXED = _reference.FILTERS_FIXED
 for _name in FILTERS_FIXED:
     globals()[_name] = getattr(_fixed, _name)
 __all__ += [*FILTERS_FIXED, "FILTERS_FIXED"]
+
+# ---- the Fusion suite (csrc/fusion_*.h): Fusion's units (deg/s, g), dt per update
+FILTERS_FUSION = _reference.FILTERS_FUSION
+
+
+def _dispatch_fusion(name):
+    ref = getattr(_reference, name)
+    sig = inspect.signature(ref.__init__)
+    params = [p for p in sig.parameters.values() if p.name != "self"]
+    if "dtype" not in sig.parameters:
+        params.append(inspect.Parameter("dtype", inspect.Parameter.KEYWORD_ONLY, default="float64"))
+    return _Dispatch(name, (), {
+        "_impl": {dt: getattr(mod, name) for dt, mod in _BUILDS.items()},
+        "__doc__": ref.__doc__,
+        "__signature__": sig.replace(parameters=params),
+        "__module__": __name__,
+        "kind": ref.kind,
+        "state_names": ref.state_names,
+    })
+
+
+for _name in FILTERS_FUSION:
+    globals()[_name] = _dispatch_fusion(_name)
+
+
+def _fusion_function(cname):
+    def f(*args, dtype="float64", **kwargs):
+        return getattr(_BUILDS[_checks.check_dtype(dtype)], cname)(*args, **kwargs)
+    f.__name__ = cname[len("fusion_"):]
+    f.__doc__ = getattr(_reference.fusion, cname[len("fusion_"):]).__doc__
+    return f
+
+
+calibrate_inertial = _fusion_function("fusion_calibrate_inertial")
+calibrate_magnetic = _fusion_function("fusion_calibrate_magnetic")
+axes_apply = _fusion_function("fusion_axes_apply")
+compass_heading = _fusion_function("fusion_compass_heading")
+__all__ += [*FILTERS_FUSION, "FILTERS_FUSION", "calibrate_inertial", "calibrate_magnetic",
+            "axes_apply", "compass_heading"]

@@ -6,6 +6,12 @@
 # class, so both backends accept the same arguments), the state view (a
 # memcpy of the struct's state member x), reset, and the run() loop, which
 # runs without the GIL and calls the filter's _step for every sample.
+#
+# Time: run(..., dt=array) / update(..., dt=value) call the filter's _set_dt
+# (imf_<filter>_set_dt) before each of those samples and restore the
+# constructor's dt afterwards; the fixed-step paths are untouched. Start (3-D
+# filters): init="first" feeds the first samples to the shared attitude window
+# (csrc/imf_attitude.h) and _set_attitude; q0= and state= are set at reset.
 from cpython.float cimport PyFloat_AsDouble
 from libc.string cimport memcpy
 from libc.stdint cimport uint32_t
@@ -17,6 +23,22 @@ cnp.import_array()
 
 # the numpy type of imf_real
 cdef int _NATIVE = cnp.NPY_DOUBLE if sizeof(imf_real) == 8 else cnp.NPY_FLOAT
+
+cdef extern from "imf_math.h" nogil:
+    int imf_finite3(imf_real a, imf_real b, imf_real c)
+
+cdef extern from "imf_attitude.h" nogil:
+    ctypedef struct imf_attitude_t:
+        imf_real q[4]
+        imf_real r[9]
+    ctypedef struct imf_attitude_window_t:
+        uint32_t n
+        uint32_t window
+    int imf_attitude_from_quat(imf_attitude_t *att, imf_real q0, imf_real q1, imf_real q2,
+                               imf_real q3)
+    void imf_attitude_window_init(imf_attitude_window_t *w, uint32_t window)
+    int imf_attitude_window_add(imf_attitude_window_t *w, imf_attitude_t *att, imf_real ax,
+                                imf_real ay, imf_real az, imf_real mx, imf_real my, imf_real mz)
 
 from imufuse import _checks
 from imufuse.reference._base import init_arguments as _init_arguments
@@ -66,18 +88,65 @@ cdef class _Filter:
     cdef uint32_t *_skipped
     cdef tuple _args
     cdef dict _kw
+    cdef tuple _start
+    cdef imf_real _dt0
+    cdef int _pending
+    cdef imf_attitude_window_t _win
     _ref = None
     dtype = DTYPE
 
-    def __init__(self, *args, **kwargs):
+    def __init__(self, *args, init="identity", init_window=1, q0=None, state=None, **kwargs):
         self._args = self._ref._params(*args, **kwargs)
         # the C init arguments by name (the reference _init's = the C init's names)
         self._kw = _init_arguments(self._ref, self._args)
         self._n = len(self._ref.state_names)
+        self._start = _checks.check_start(self._ref.kind, self._ref.state_names, DTYPE, init,
+                                          init_window, q0, state)
+        self._dt0 = <imf_real><double>self._kw["dt"]
         self._init()
+        self._apply_start()
 
     cdef int _init(self) except -1:
         raise NotImplementedError
+
+    cdef void _set_dt(self, imf_real dt) noexcept nogil:
+        pass
+
+    cdef void _set_attitude(self, const imf_attitude_t *att) noexcept nogil:
+        pass
+
+    cdef int _apply_start(self) except -1:
+        cdef imf_attitude_t att
+        how = self._start[0]
+        self._pending = 0
+        if how == "first":
+            imf_attitude_window_init(&self._win, <uint32_t>self._start[1])
+            self._pending = 1
+        elif how == "q":
+            q = self._start[1]
+            if not imf_attitude_from_quat(&att, <double>q[0], <double>q[1], <double>q[2],
+                                          <double>q[3]):
+                raise ValueError(f"q0: not a valid quaternion in {DTYPE}")
+            self._set_attitude(&att)
+        elif how == "state":
+            self.state = self._start[1]
+        return 0
+
+    cdef void _first(self, const imf_real *g, const imf_real *a,
+                     const imf_real *m) noexcept nogil:
+        # init="first": one sample of the window of first readings
+        cdef imf_attitude_t att
+        cdef int r
+        if not imf_finite3(g[0], g[1], g[2]):
+            self._skipped[0] += 1
+            return
+        r = imf_attitude_window_add(&self._win, &att, a[0], a[1], a[2], m[0], m[1], m[2])
+        if r < 0:
+            self._skipped[0] += 1
+        elif r > 0:
+            self._set_attitude(&att)
+            if self._win.n >= self._win.window:
+                self._pending = 0
 
     cdef int _bind(self, void *x, size_t size, uint32_t *skipped) except -1:
         if size != <size_t>self._n * sizeof(imf_real):
@@ -111,10 +180,12 @@ cdef class _Filter:
         arr = _checks.as_state(value, self._n, DTYPE, self._ref.state_names)
         cdef const imf_real[::1] v = arr
         memcpy(self._x, &v[0], self._n * sizeof(imf_real))
+        self._pending = 0   # a state set by hand ends a pending init="first"
 
     def reset(self):
         """Back to the state after construction (init runs again)."""
         self._init()
+        self._apply_start()
 
     def __repr__(self):
         return f"<imufuse_c {type(self).__name__} dtype={DTYPE}>"
@@ -127,8 +198,8 @@ cdef class _Filter:
 # float64 data rounds each value to float32 as it reads it, exactly as
 # numpy's astype would); anything else (lists, strided views, other dtypes, bad
 # shapes) goes through imufuse._checks.run_inputs, which converts it or raises
-# the error naming the shapes.
-
+# the error naming the shapes. (The per-sample dt and init="first" paths
+# convert through _checks.run_inputs.)
 
 cdef inline int _in_place(object v, int ndim, Py_ssize_t *n) except -2:
     """The numpy type number of v if it can be read in place as a (n,) or (n, 3)
@@ -172,8 +243,8 @@ cdef class _Filter1D(_Filter):
     cdef void _step(self, imf_real rate, imf_real angle) noexcept nogil:
         pass
 
-    def update(self, rate, angle):
-        """One sample: rate (rad/s), angle (rad)."""
+    def update(self, rate, angle, dt=None):
+        """One sample: rate (rad/s), angle (rad); dt (s): this sample's period."""
         cdef double w, a
         try:
             w = rate
@@ -181,10 +252,35 @@ cdef class _Filter1D(_Filter):
         except TypeError:
             _checks.update_inputs("1d", (rate, angle))
             raise
-        self._step(<imf_real>w, <imf_real>a)
+        if dt is None:
+            self._step(<imf_real>w, <imf_real>a)
+        else:
+            self._set_dt(<imf_real><double>_checks.dt_value(dt, DTYPE))
+            self._step(<imf_real>w, <imf_real>a)
+            self._set_dt(self._dt0)
 
-    def run(self, rate, angle):
-        """All samples: rate, angle 1-D arrays; returns the (N, len(state)) trajectory."""
+    def _run_dt(self, rate, angle, dt):
+        rate_a, angle_a = _checks.run_inputs("1d", DTYPE, (rate, angle))
+        cdef Py_ssize_t n_samples = rate_a.shape[0], n = self._n, k
+        dt_a = _checks.dt_array(dt, n_samples, DTYPE)
+        out = np.empty((n_samples, n), dtype=DTYPE)
+        cdef const imf_real[::1] w = rate_a
+        cdef const imf_real[::1] a = angle_a
+        cdef const imf_real[::1] d = dt_a
+        cdef imf_real[:, ::1] o = out
+        with nogil:
+            for k in range(n_samples):
+                self._set_dt(d[k])
+                self._step(w[k], a[k])
+                _copy_state(&o[k, 0], self._x, n)
+            self._set_dt(self._dt0)
+        return out
+
+    def run(self, rate, angle, dt=None):
+        """All samples: rate, angle 1-D arrays, dt (optional) the (N,) sample
+        periods; returns the (N, len(state)) trajectory."""
+        if dt is not None:
+            return self._run_dt(rate, angle, dt)
         cdef Py_ssize_t n_samples = -1, n = self._n, k
         cdef int tw = _in_place(rate, 1, &n_samples)
         cdef int ta = _in_place(angle, 1, &n_samples) if tw >= 0 else -1
@@ -207,8 +303,8 @@ cdef class _FilterIMU(_Filter):
     cdef void _step(self, const imf_real *gyr, const imf_real *acc) noexcept nogil:
         pass
 
-    def update(self, gyr, acc):
-        """One sample: gyr (3,) rad/s, acc (3,) any unit."""
+    def update(self, gyr, acc, dt=None):
+        """One sample: gyr (3,) rad/s, acc (3,) any unit; dt (s): this sample's period."""
         cdef imf_real g[3]
         cdef imf_real a[3]
         try:
@@ -217,10 +313,66 @@ cdef class _FilterIMU(_Filter):
         except (TypeError, ValueError):
             _checks.update_inputs("imu", (gyr, acc))
             raise
-        self._step(g, a)
+        if dt is None and not self._pending:
+            self._step(g, a)
+        else:
+            self._update_general(g, a, dt)
 
-    def run(self, gyr, acc):
-        """All samples: gyr, acc (N, 3) arrays; returns the (N, len(state)) trajectory."""
+    def _run_general(self, gyr, acc, dt):
+        # run() with per-sample dt and/or a pending init="first"
+        gyr_a, acc_a = _checks.run_inputs("imu", DTYPE, (gyr, acc))
+        cdef Py_ssize_t n_samples = gyr_a.shape[0], n = self._n, k = 0, k0
+        cdef int use_dt = dt is not None
+        cdef imf_real z3[3]
+        z3[0] = 0
+        z3[1] = 0
+        z3[2] = 0
+        dt_a = _checks.dt_array(dt, n_samples, DTYPE) if use_dt else np.zeros(1, DTYPE)
+        out = np.empty((n_samples, n), dtype=DTYPE)
+        cdef const imf_real[:, ::1] g = gyr_a
+        cdef const imf_real[:, ::1] a = acc_a
+        cdef const imf_real[::1] d = dt_a
+        cdef imf_real[:, ::1] o = out
+        with nogil:
+            while k < n_samples and self._pending:
+                self._first(&g[k, 0], &a[k, 0], z3)
+                _copy_state(&o[k, 0], self._x, n)
+                k += 1
+            k0 = k
+            if use_dt:
+                for k in range(k0, n_samples):
+                    self._set_dt(d[k])
+                    self._step(&g[k, 0], &a[k, 0])
+                    _copy_state(&o[k, 0], self._x, n)
+                self._set_dt(self._dt0)
+            else:
+                for k in range(k0, n_samples):
+                    self._step(&g[k, 0], &a[k, 0])
+                    _copy_state(&o[k, 0], self._x, n)
+        return out
+
+    cdef int _update_general(self, const imf_real *g, const imf_real *a, object dt) except -1:
+        # update() with a dt and/or a pending init="first"
+        cdef imf_real z[3]
+        cdef imf_real step_dt = self._dt0
+        z[0] = 0
+        z[1] = 0
+        z[2] = 0
+        if dt is not None:
+            step_dt = <imf_real><double>_checks.dt_value(dt, DTYPE)
+        if self._pending:
+            self._first(g, a, z)
+        else:
+            self._set_dt(step_dt)
+            self._step(g, a)
+            self._set_dt(self._dt0)
+        return 0
+
+    def run(self, gyr, acc, dt=None):
+        """All samples: gyr, acc (N, 3) arrays, dt (optional) the (N,) sample
+        periods; returns the (N, len(state)) trajectory."""
+        if dt is not None or self._pending:
+            return self._run_general(gyr, acc, dt)
         cdef Py_ssize_t n_samples = -1, n = self._n, k
         cdef int tg = _in_place(gyr, 2, &n_samples)
         cdef int ta = _in_place(acc, 2, &n_samples) if tg >= 0 else -1
@@ -253,8 +405,9 @@ cdef class _FilterAHRS(_Filter):
                     const imf_real *mag) noexcept nogil:
         pass
 
-    def update(self, gyr, acc, mag):
-        """One sample: gyr (3,) rad/s, acc (3,) and mag (3,) any unit."""
+    def update(self, gyr, acc, mag, dt=None):
+        """One sample: gyr (3,) rad/s, acc (3,) and mag (3,) any unit; dt (s): this
+        sample's period."""
         cdef imf_real g[3]
         cdef imf_real a[3]
         cdef imf_real m[3]
@@ -265,10 +418,60 @@ cdef class _FilterAHRS(_Filter):
         except (TypeError, ValueError):
             _checks.update_inputs("ahrs", (gyr, acc, mag))
             raise
-        self._step(g, a, m)
+        if dt is None and not self._pending:
+            self._step(g, a, m)
+        else:
+            self._update_general(g, a, m, dt)
 
-    def run(self, gyr, acc, mag):
-        """All samples: gyr, acc, mag (N, 3) arrays; returns the (N, len(state)) trajectory."""
+    def _run_general(self, gyr, acc, mag, dt):
+        # run() with per-sample dt and/or a pending init="first"
+        gyr_a, acc_a, mag_a = _checks.run_inputs("ahrs", DTYPE, (gyr, acc, mag))
+        cdef Py_ssize_t n_samples = gyr_a.shape[0], n = self._n, k = 0, k0
+        cdef int use_dt = dt is not None
+        dt_a = _checks.dt_array(dt, n_samples, DTYPE) if use_dt else np.zeros(1, DTYPE)
+        out = np.empty((n_samples, n), dtype=DTYPE)
+        cdef const imf_real[:, ::1] g = gyr_a
+        cdef const imf_real[:, ::1] a = acc_a
+        cdef const imf_real[:, ::1] m = mag_a
+        cdef const imf_real[::1] d = dt_a
+        cdef imf_real[:, ::1] o = out
+        with nogil:
+            while k < n_samples and self._pending:
+                self._first(&g[k, 0], &a[k, 0], &m[k, 0])
+                _copy_state(&o[k, 0], self._x, n)
+                k += 1
+            k0 = k
+            if use_dt:
+                for k in range(k0, n_samples):
+                    self._set_dt(d[k])
+                    self._step(&g[k, 0], &a[k, 0], &m[k, 0])
+                    _copy_state(&o[k, 0], self._x, n)
+                self._set_dt(self._dt0)
+            else:
+                for k in range(k0, n_samples):
+                    self._step(&g[k, 0], &a[k, 0], &m[k, 0])
+                    _copy_state(&o[k, 0], self._x, n)
+        return out
+
+    cdef int _update_general(self, const imf_real *g, const imf_real *a, const imf_real *m,
+                             object dt) except -1:
+        # update() with a dt and/or a pending init="first"
+        cdef imf_real step_dt = self._dt0
+        if dt is not None:
+            step_dt = <imf_real><double>_checks.dt_value(dt, DTYPE)
+        if self._pending:
+            self._first(g, a, m)
+        else:
+            self._set_dt(step_dt)
+            self._step(g, a, m)
+            self._set_dt(self._dt0)
+        return 0
+
+    def run(self, gyr, acc, mag, dt=None):
+        """All samples: gyr, acc, mag (N, 3) arrays, dt (optional) the (N,) sample
+        periods; returns the (N, len(state)) trajectory."""
+        if dt is not None or self._pending:
+            return self._run_general(gyr, acc, mag, dt)
         cdef Py_ssize_t n_samples = -1, n = self._n, k
         cdef int tg = _in_place(gyr, 2, &n_samples)
         cdef int ta = _in_place(acc, 2, &n_samples) if tg >= 0 else -1

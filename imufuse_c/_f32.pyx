@@ -9,3 +9,5 @@ import imufuse.reference as _reference
 
 include "_base.pxi"
 include "filters.pxi"
+
+include "_selfcheck.pxi"

@@ -9,6 +9,8 @@ cdef extern from "dcm.h" nogil:
     void imf_dcm_init(imf_dcm_t *self, imf_real dt, imf_real kp, imf_real ki)
     void imf_dcm_update(imf_dcm_t *self, imf_real gx, imf_real gy, imf_real gz, imf_real ax,
                         imf_real ay, imf_real az)
+    void imf_dcm_set_dt(imf_dcm_t *self, imf_real dt)
+    void imf_dcm_set_attitude(imf_dcm_t *self, const imf_attitude_t *att)
     void imf_dcm_angles(const imf_dcm_t *self, double *roll, double *pitch)
 
 
@@ -29,3 +31,9 @@ cdef class DCM(_FilterIMU):
         cdef double roll, pitch
         imf_dcm_angles(&self.s, &roll, &pitch)
         return roll, pitch
+
+    cdef void _set_dt(self, imf_real dt) noexcept nogil:
+        imf_dcm_set_dt(&self.s, dt)
+
+    cdef void _set_attitude(self, const imf_attitude_t *att) noexcept nogil:
+        imf_dcm_set_attitude(&self.s, att)

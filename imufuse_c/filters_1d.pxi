@@ -7,6 +7,7 @@ cdef extern from "filters_1d.h" nogil:
         imf_complementary1d_state_t x
     void imf_complementary1d_init(imf_complementary1d_t *self, imf_real dt, imf_real alpha)
     void imf_complementary1d_update(imf_complementary1d_t *self, imf_real rate, imf_real angle)
+    void imf_complementary1d_set_dt(imf_complementary1d_t *self, imf_real dt)
 
     ctypedef struct imf_kalman1d_state_t:
         pass
@@ -15,6 +16,7 @@ cdef extern from "filters_1d.h" nogil:
         imf_kalman1d_state_t x
     void imf_kalman1d_init(imf_kalman1d_t *self, imf_real dt, imf_real k0)
     void imf_kalman1d_update(imf_kalman1d_t *self, imf_real rate, imf_real angle)
+    void imf_kalman1d_set_dt(imf_kalman1d_t *self, imf_real dt)
 
     ctypedef struct imf_mahony1d_state_t:
         pass
@@ -23,6 +25,7 @@ cdef extern from "filters_1d.h" nogil:
         imf_mahony1d_state_t x
     void imf_mahony1d_init(imf_mahony1d_t *self, imf_real dt, imf_real kp)
     void imf_mahony1d_update(imf_mahony1d_t *self, imf_real rate, imf_real angle)
+    void imf_mahony1d_set_dt(imf_mahony1d_t *self, imf_real dt)
 
     ctypedef struct imf_kalman1d_bias_state_t:
         pass
@@ -32,6 +35,7 @@ cdef extern from "filters_1d.h" nogil:
     void imf_kalman1d_bias_init(imf_kalman1d_bias_t *self, imf_real dt, imf_real k0,
                                 imf_real k1, int bias_sign)
     void imf_kalman1d_bias_update(imf_kalman1d_bias_t *self, imf_real rate, imf_real angle)
+    void imf_kalman1d_bias_set_dt(imf_kalman1d_bias_t *self, imf_real dt)
 
     ctypedef struct imf_mahony1d_bias_state_t:
         pass
@@ -41,6 +45,7 @@ cdef extern from "filters_1d.h" nogil:
     void imf_mahony1d_bias_init(imf_mahony1d_bias_t *self, imf_real dt, imf_real kp,
                                 imf_real ki, int integrate_first)
     void imf_mahony1d_bias_update(imf_mahony1d_bias_t *self, imf_real rate, imf_real angle)
+    void imf_mahony1d_bias_set_dt(imf_mahony1d_bias_t *self, imf_real dt)
 
     ctypedef struct imf_complementary1d_bias_state_t:
         pass
@@ -51,6 +56,7 @@ cdef extern from "filters_1d.h" nogil:
                                        imf_real kp, imf_real ki)
     void imf_complementary1d_bias_update(imf_complementary1d_bias_t *self, imf_real rate,
                                          imf_real angle)
+    void imf_complementary1d_bias_set_dt(imf_complementary1d_bias_t *self, imf_real dt)
 
 
 cdef class Complementary1D(_Filter1D):
@@ -65,6 +71,9 @@ cdef class Complementary1D(_Filter1D):
     cdef void _step(self, imf_real rate, imf_real angle) noexcept nogil:
         imf_complementary1d_update(&self.s, rate, angle)
 
+    cdef void _set_dt(self, imf_real dt) noexcept nogil:
+        imf_complementary1d_set_dt(&self.s, dt)
+
 
 cdef class Kalman1D(_Filter1D):
     _ref = _reference.Kalman1D
@@ -77,6 +86,9 @@ cdef class Kalman1D(_Filter1D):
 
     cdef void _step(self, imf_real rate, imf_real angle) noexcept nogil:
         imf_kalman1d_update(&self.s, rate, angle)
+
+    cdef void _set_dt(self, imf_real dt) noexcept nogil:
+        imf_kalman1d_set_dt(&self.s, dt)
 
 
 cdef class Mahony1D(_Filter1D):
@@ -91,6 +103,9 @@ cdef class Mahony1D(_Filter1D):
     cdef void _step(self, imf_real rate, imf_real angle) noexcept nogil:
         imf_mahony1d_update(&self.s, rate, angle)
 
+    cdef void _set_dt(self, imf_real dt) noexcept nogil:
+        imf_mahony1d_set_dt(&self.s, dt)
+
 
 cdef class Kalman1DBias(_Filter1D):
     _ref = _reference.Kalman1DBias
@@ -103,6 +118,9 @@ cdef class Kalman1DBias(_Filter1D):
 
     cdef void _step(self, imf_real rate, imf_real angle) noexcept nogil:
         imf_kalman1d_bias_update(&self.s, rate, angle)
+
+    cdef void _set_dt(self, imf_real dt) noexcept nogil:
+        imf_kalman1d_bias_set_dt(&self.s, dt)
 
 
 cdef class Mahony1DBias(_Filter1D):
@@ -117,6 +135,9 @@ cdef class Mahony1DBias(_Filter1D):
     cdef void _step(self, imf_real rate, imf_real angle) noexcept nogil:
         imf_mahony1d_bias_update(&self.s, rate, angle)
 
+    cdef void _set_dt(self, imf_real dt) noexcept nogil:
+        imf_mahony1d_bias_set_dt(&self.s, dt)
+
 
 cdef class Complementary1DBias(_Filter1D):
     _ref = _reference.Complementary1DBias
@@ -129,3 +150,6 @@ cdef class Complementary1DBias(_Filter1D):
 
     cdef void _step(self, imf_real rate, imf_real angle) noexcept nogil:
         imf_complementary1d_bias_update(&self.s, rate, angle)
+
+    cdef void _set_dt(self, imf_real dt) noexcept nogil:
+        imf_complementary1d_bias_set_dt(&self.s, dt)

@@ -9,6 +9,8 @@ cdef extern from "kk.h" nogil:
     void imf_kk_init(imf_kk_t *self, imf_real dt, imf_real kp)
     void imf_kk_update(imf_kk_t *self, imf_real gx, imf_real gy, imf_real gz, imf_real ax,
                        imf_real ay, imf_real az)
+    void imf_kk_set_dt(imf_kk_t *self, imf_real dt)
+    void imf_kk_set_attitude(imf_kk_t *self, const imf_attitude_t *att)
 
 
 cdef class KK(_FilterIMU):
@@ -26,3 +28,9 @@ cdef class KK(_FilterIMU):
     def angles(self):
         """(roll, pitch) in rad: the state itself, as double."""
         return <double>self.s.x.roll, <double>self.s.x.pitch
+
+    cdef void _set_dt(self, imf_real dt) noexcept nogil:
+        imf_kk_set_dt(&self.s, dt)
+
+    cdef void _set_attitude(self, const imf_attitude_t *att) noexcept nogil:
+        imf_kk_set_attitude(&self.s, att)

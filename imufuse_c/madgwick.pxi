@@ -12,11 +12,15 @@ cdef extern from "madgwick.h" nogil:
                                int delta_s, int invsqrt)
     void imf_madgwick_imu_update(imf_madgwick_imu_t *self, imf_real gx, imf_real gy,
                                  imf_real gz, imf_real ax, imf_real ay, imf_real az)
+    void imf_madgwick_imu_set_dt(imf_madgwick_imu_t *self, imf_real dt)
+    void imf_madgwick_imu_set_attitude(imf_madgwick_imu_t *self, const imf_attitude_t *att)
     void imf_madgwick_ahrs_init(imf_madgwick_ahrs_t *self, imf_real dt, imf_real beta,
                                 int invsqrt)
     void imf_madgwick_ahrs_update(imf_madgwick_ahrs_t *self, imf_real gx, imf_real gy,
                                   imf_real gz, imf_real ax, imf_real ay, imf_real az,
                                   imf_real mx, imf_real my, imf_real mz)
+    void imf_madgwick_ahrs_set_dt(imf_madgwick_ahrs_t *self, imf_real dt)
+    void imf_madgwick_ahrs_set_attitude(imf_madgwick_ahrs_t *self, const imf_attitude_t *att)
 
 
 cdef class MadgwickIMU(_FilterIMU):
@@ -30,6 +34,12 @@ cdef class MadgwickIMU(_FilterIMU):
 
     cdef void _step(self, const imf_real *gyr, const imf_real *acc) noexcept nogil:
         imf_madgwick_imu_update(&self.s, gyr[0], gyr[1], gyr[2], acc[0], acc[1], acc[2])
+
+    cdef void _set_dt(self, imf_real dt) noexcept nogil:
+        imf_madgwick_imu_set_dt(&self.s, dt)
+
+    cdef void _set_attitude(self, const imf_attitude_t *att) noexcept nogil:
+        imf_madgwick_imu_set_attitude(&self.s, att)
 
 
 cdef class MadgwickAHRS(_FilterAHRS):
@@ -45,3 +55,9 @@ cdef class MadgwickAHRS(_FilterAHRS):
                     const imf_real *mag) noexcept nogil:
         imf_madgwick_ahrs_update(&self.s, gyr[0], gyr[1], gyr[2], acc[0], acc[1], acc[2],
                                  mag[0], mag[1], mag[2])
+
+    cdef void _set_dt(self, imf_real dt) noexcept nogil:
+        imf_madgwick_ahrs_set_dt(&self.s, dt)
+
+    cdef void _set_attitude(self, const imf_attitude_t *att) noexcept nogil:
+        imf_madgwick_ahrs_set_attitude(&self.s, att)

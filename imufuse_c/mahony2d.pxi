@@ -9,6 +9,8 @@ cdef extern from "mahony2d.h" nogil:
                            int exact)
     void imf_mahony2d_update(imf_mahony2d_t *self, imf_real gx, imf_real gy, imf_real gz,
                              imf_real ax, imf_real ay, imf_real az)
+    void imf_mahony2d_set_dt(imf_mahony2d_t *self, imf_real dt)
+    void imf_mahony2d_set_attitude(imf_mahony2d_t *self, const imf_attitude_t *att)
     void imf_mahony2d_angles(const imf_mahony2d_t *self, double *roll, double *pitch)
 
 
@@ -29,3 +31,9 @@ cdef class Mahony2D(_FilterIMU):
         cdef double roll, pitch
         imf_mahony2d_angles(&self.s, &roll, &pitch)
         return roll, pitch
+
+    cdef void _set_dt(self, imf_real dt) noexcept nogil:
+        imf_mahony2d_set_dt(&self.s, dt)
+
+    cdef void _set_attitude(self, const imf_attitude_t *att) noexcept nogil:
+        imf_mahony2d_set_attitude(&self.s, att)

@@ -9,6 +9,8 @@ cdef extern from "multiwii.h" nogil:
                            imf_real acc_1g, imf_real window)
     void imf_multiwii_update(imf_multiwii_t *self, imf_real gx, imf_real gy, imf_real gz,
                              imf_real ax, imf_real ay, imf_real az)
+    void imf_multiwii_set_dt(imf_multiwii_t *self, imf_real dt)
+    void imf_multiwii_set_attitude(imf_multiwii_t *self, const imf_attitude_t *att)
     void imf_multiwii_angles(const imf_multiwii_t *self, double *roll, double *pitch)
 
 
@@ -29,3 +31,9 @@ cdef class MultiWii(_FilterIMU):
         cdef double roll, pitch
         imf_multiwii_angles(&self.s, &roll, &pitch)
         return roll, pitch
+
+    cdef void _set_dt(self, imf_real dt) noexcept nogil:
+        imf_multiwii_set_dt(&self.s, dt)
+
+    cdef void _set_attitude(self, const imf_attitude_t *att) noexcept nogil:
+        imf_multiwii_set_attitude(&self.s, att)

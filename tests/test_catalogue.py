@@ -42,9 +42,11 @@ def test_entry_matches_both_backends(e):
     assert c.kind == r.kind == e.kind
     assert len(c.state) == len(e.state_names)
     if not e.fixed:
-        # imufuse_c's constructor shows the reference signature plus dtype
+        # imufuse_c's constructor shows the reference signature, dtype and how
+        # the filter starts (state=; init=, init_window=, q0= for the 3-D filters)
+        start = ["state"] if e.kind == "1d" else ["init", "init_window", "q0", "state"]
         params = list(inspect.signature(comp).parameters)
-        assert params == [*e.params, "dtype"] or params[:-1] == list(e.params)
+        assert params == [*e.params, "dtype", *start]
 
 
 @pytest.mark.parametrize("e", ENTRIES)
@@ -111,3 +113,19 @@ def test_stubs_are_generated_from_the_catalogue():
     assert Path(imufuse_c.__file__).with_name("py.typed").is_file()
     for name in (*catalogue.FILTERS, *catalogue.FILTERS_FIXED):
         assert f"\nclass {name}(" in shipped.read_text()
+
+
+@pytest.mark.parametrize("e", ENTRIES)
+def test_stub_methods_exist(e):
+    """What the stubs promise, the compiled class has."""
+    import re
+    text = stubs()
+    body = text.split(f"\nclass {e.name}(")[1].split("\nclass ")[0]
+    kw = dict(dtype="float64") if not e.fixed else {}
+    f = e.make("c", dt=0.01, **e.defaults, **kw)
+    for name in re.findall(r"    def (\w+)\(", body):
+        assert name == "__init__" or callable(getattr(f, name)), name
+    ctor = inspect.signature(e.compiled) if not e.fixed else None
+    if ctor is not None:
+        for p in ctor.parameters:
+            assert f" {p}: " in body.split("def __init__(")[1].split(") -> None")[0], p

@@ -137,3 +137,88 @@ def check_scalar(name, v):
         return float(v)
     except (TypeError, ValueError):
         raise ValueError(f"update(): {name} must be a real number, got {v!r}") from None
+
+
+# ---- time: per-sample dt (run(..., dt=array), update(..., dt=value)) ----------
+
+def _dt_problem(v, conv, dtype):
+    if not math.isfinite(v):
+        return "not finite"
+    if not v > 0.0:
+        return "not > 0"
+    return f"not representable in {dtype} (it rounds to {float(conv)!r})"
+
+
+def dt_value(dt, dtype):
+    """One sample period (s) for update(..., dt=...): finite, > 0 and still
+    finite and > 0 once rounded to the filter's precision."""
+    try:
+        v = float(dt)
+    except (TypeError, ValueError):
+        raise ValueError(f"dt: must be a real number (s), got {dt!r}") from None
+    with np.errstate(over="ignore", under="ignore"):
+        conv = np.dtype(dtype).type(v)
+    if not (math.isfinite(v) and v > 0.0 and np.isfinite(conv) and conv > 0):
+        raise ValueError(f"dt: must be finite and > 0 s, representable in {dtype}; "
+                         f"{v!r} is {_dt_problem(v, conv, dtype)}")
+    return v
+
+
+def dt_array(dt, n, dtype):
+    """Per-sample periods for run(..., dt=...): shape (n,), every value finite,
+    > 0 and representable in dtype. Returns a contiguous array of dtype."""
+    try:
+        arr = np.asarray(dt, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"dt: must be an array of {n} sample periods (s), got {type(dt).__name__}") from None
+    if arr.shape != (n,):
+        raise ValueError(f"dt: expected shape ({n},), one period per sample, got {arr.shape}")
+    with np.errstate(over="ignore", under="ignore", invalid="ignore"):
+        conv = arr.astype(dtype)
+        bad = ~(np.isfinite(arr) & (arr > 0.0) & np.isfinite(conv) & (conv > 0))
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise ValueError(f"dt: sample {k} is {float(arr[k])!r}, {_dt_problem(float(arr[k]), conv[k], dtype)}; "
+                         f"every dt must be finite and > 0 s, representable in {dtype}")
+    return np.ascontiguousarray(conv)
+
+
+# ---- initial orientation (init="identity" | "first", q0=, state=) --------------
+
+INITS = ("identity", "first")
+
+
+def check_start(kind, names, dtype, init="identity", init_window=1, q0=None, state=None):
+    """How a filter starts: ("identity",), ("first", window), ("q", (w, x, y, z))
+    or ("state", array). init, init_window and q0 are for 3-D filters; state
+    (the full state vector) for every filter. At most one of init="first",
+    q0 and state."""
+    if kind == "1d" and (init != "identity" or init_window != 1 or q0 is not None):
+        raise ValueError("init, init_window, q0: only 3-D filters have an initial orientation "
+                         "(single-axis filters take state=)")
+    check_choice("init", init, INITS)
+    given = [n for n, v in (("init='first'", init == "first"), ("q0", q0 is not None),
+                            ("state", state is not None)) if v]
+    if len(given) > 1:
+        raise ValueError(f"{', '.join(given)}: give at most one way to start")
+    if isinstance(init_window, bool) or not isinstance(init_window, (int, np.integer)) \
+            or not 1 <= init_window <= 0xFFFFFFFF:
+        raise ValueError(f"init_window: must be an integer >= 1 (samples averaged), got {init_window!r}")
+    if init_window != 1 and init != "first":
+        raise ValueError("init_window: only with init='first'")
+    if init == "first":
+        return ("first", int(init_window))
+    if q0 is not None:
+        try:
+            q = np.asarray(q0, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(f"q0: must be a quaternion (w, x, y, z), got {q0!r}") from None
+        with np.errstate(over="ignore"):
+            qr = q.astype(dtype)
+        if q.shape != (4,) or not np.all(np.isfinite(qr)) or not np.any(qr != 0):
+            raise ValueError(f"q0: must be a finite, non-zero quaternion (w, x, y, z) "
+                             f"in {dtype}, got {q0!r}")
+        return ("q", tuple(float(v) for v in q))
+    if state is not None:
+        return ("state", as_state(state, len(names), dtype, names))
+    return ("identity",)

@@ -58,14 +58,21 @@ class _Fixed:
     def reset(self) -> None: ...
 '''
 
-_METHODS = {
-    "1d": ("    def update(self, rate: float, angle: float) -> None: ...\n"
-           "    def run(self, rate: _Array, angle: _Array) -> npt.NDArray[{t}]: ...\n"),
-    "imu": ("    def update(self, gyr: _Vec3, acc: _Vec3) -> None: ...\n"
-            "    def run(self, gyr: _Array, acc: _Array) -> npt.NDArray[{t}]: ...\n"),
-    "ahrs": ("    def update(self, gyr: _Vec3, acc: _Vec3, mag: _Vec3) -> None: ...\n"
-             "    def run(self, gyr: _Array, acc: _Array, mag: _Array) -> npt.NDArray[{t}]: ...\n"),
-}
+_INPUTS = {"1d": ("rate: float, angle: float", "rate: _Array, angle: _Array"),
+           "imu": ("gyr: _Vec3, acc: _Vec3", "gyr: _Array, acc: _Array"),
+           "ahrs": ("gyr: _Vec3, acc: _Vec3, mag: _Vec3", "gyr: _Array, acc: _Array, mag: _Array")}
+
+#: the constructor keywords every float filter adds to the reference signature
+_EXTRA = {"dtype": "_DType", "state": "_Array | None", "init": 'Literal["identity", "first"]',
+          "init_window": "int", "q0": "_Array | None"}
+
+
+def _methods(e: catalogue.Entry) -> str:
+    one, many = _INPUTS[e.kind]
+    t = "np.int32" if e.fixed else "np.floating[Any]"
+    dt1, dtn = ("", "") if e.fixed else (", dt: float | None = ...", ", dt: _Array | None = ...")
+    return (f"    def update(self, {one}{dt1}) -> None: ...\n"
+            f"    def run(self, {many}{dtn}) -> npt.NDArray[{t}]: ...\n")
 
 
 def _type(default: Any) -> str:
@@ -83,7 +90,8 @@ def _type(default: Any) -> str:
 
 
 def _signature(e: catalogue.Entry) -> str:
-    sig = inspect.signature(e.reference._params)
+    # the compiled class's signature: the reference's plus dtype and the start keywords
+    sig = inspect.signature(e.reference._params if e.fixed else e.compiled)
     parts: List[str] = ["self"]
     star = False
     for p in sig.parameters.values():
@@ -92,12 +100,12 @@ def _signature(e: catalogue.Entry) -> str:
             star = True
         if e.fixed and p.name == "profile":
             continue
-        ann = "int" if p.name == "acc_lpf_shift" else _type(p.default)
+        ann = _EXTRA.get(p.name) or ("int" if p.name == "acc_lpf_shift" else _type(p.default))
         dflt = "" if p.default is inspect.Parameter.empty else " = ..."
         parts.append(f"{p.name}: {ann}{dflt}")
-    if not star:
-        parts.append("*")
-    parts.append("profile: _Profile = ..." if e.fixed else "dtype: _DType = ...")
+    if e.fixed:
+        parts += [] if star else ["*"]
+        parts.append("profile: _Profile = ...")
     return ", ".join(parts)
 
 
@@ -107,8 +115,7 @@ def stubs() -> str:
         doc = (inspect.getdoc(e.reference) or "").split("\n")[0].replace('"""', "'")
         out.append(f"\nclass {e.name}({'_Fixed' if e.fixed else '_Filter'}):\n"
                    f'    """{doc}"""\n'
-                   f"    def __init__({_signature(e)}) -> None: ...\n"
-                   + _METHODS[e.kind].format(t="np.int32" if e.fixed else "np.floating[Any]"))
+                   f"    def __init__({_signature(e)}) -> None: ...\n" + _methods(e))
         if hasattr(e.reference, "angles"):
             out.append("    def angles(self) -> Tuple[float, float]: ...\n")
     return "".join(out)

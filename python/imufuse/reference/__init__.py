@@ -14,6 +14,7 @@ from .filters_1d import tuning
 
 FILTERS: tuple = ()          # every float filter, by class name (imufuse_c exports the same)
 FILTERS_FIXED: tuple = ()    # every fixed-point filter (int16 counts in, integer state)
+FILTERS_FUSION: tuple = ()   # the Fusion suite: Fusion's units (deg/s, g), dt per update
 
 for _info in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
     if _info.name.startswith("_"):
@@ -25,8 +26,11 @@ for _info in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
     for _name in getattr(_mod, "FILTERS_FIXED", ()):
         globals()[_name] = getattr(_mod, _name)
         FILTERS_FIXED += (_name,)
+    for _name in getattr(_mod, "FILTERS_FUSION", ()):
+        globals()[_name] = getattr(_mod, _name)
+        FILTERS_FUSION += (_name,)
 
 FILTERS_1D = tuple(n for n in FILTERS if globals()[n].kind == "1d")
 
-__all__ = ["ReferenceFilter", "FILTERS", "FILTERS_FIXED", "FILTERS_1D", "tuning",
-           *FILTERS, *FILTERS_FIXED]
+__all__ = ["ReferenceFilter", "FILTERS", "FILTERS_FIXED", "FILTERS_FUSION", "FILTERS_1D",
+           "tuning", *FILTERS, *FILTERS_FIXED, *FILTERS_FUSION]

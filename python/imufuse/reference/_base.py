@@ -15,6 +15,13 @@ Subclasses define:
                of C init arguments (shared with imufuse_c)
   _init(*args) mirror of imf_<filter>_init
   _update(*scalars) mirror of imf_<filter>_update, inputs already of type R
+  _set_dt(dt)  mirror of imf_<filter>_set_dt (dt of type R); _init calls it
+  _set_attitude(att) 3-D filters: mirror of imf_<filter>_set_attitude
+
+Time: run(..., dt=array) and update(..., dt=value) run those samples with
+their own period (_set_dt before the update) and then restore the
+constructor's dt. Start (3-D filters): init="identity" | "first" (with
+init_window), q0= or state=; see _checks.check_start and attitude.py.
 """
 import inspect
 import math
@@ -22,6 +29,7 @@ import math
 import numpy as np
 
 from .. import _checks
+from . import attitude as _attitude
 
 U32 = 0xFFFFFFFF
 
@@ -31,10 +39,13 @@ class ReferenceFilter:
     c_name = ""
     state_names: tuple = ()
 
-    def __init__(self, *args, dtype="float64", **kwargs):
+    def __init__(self, *args, dtype="float64", init="identity", init_window=1, q0=None,
+                 state=None, **kwargs):
         self.dtype = _checks.check_dtype(dtype)
         self._R = np.float32 if self.dtype == "float32" else float
         self._args = self._params(*args, **kwargs)
+        self._start = _checks.check_start(self.kind, self.state_names, self.dtype, init,
+                                          init_window, q0, state)
         self.reset()
 
     def reset(self):
@@ -42,6 +53,38 @@ class ReferenceFilter:
         self.skipped = 0
         with np.errstate(all="ignore"):
             self._init(*self._args)
+            self._apply_start()
+
+    def _apply_start(self):
+        # the start of the state (after init): identity, a window of first
+        # readings, a given quaternion or a given state
+        self._pending = None
+        how = self._start[0]
+        if how == "first":
+            self._pending = _attitude.Window(self._R, self._start[1])
+        elif how == "q":
+            R = self._R
+            att = _attitude.from_quat(R, *[R(v) for v in self._start[1]])
+            if att is None:
+                raise ValueError(f"q0: not a valid quaternion in {self.dtype}")
+            self._set_attitude(att)
+        elif how == "state":
+            self.state = self._start[1]
+
+    def _first(self, row):
+        # init="first": one sample of the window (gyro, acc[, mag] flat, type R)
+        R = self._R
+        if not isfinite(*row[:3]):
+            self._skip()
+            return
+        mag = row[6:9] if len(row) > 6 else (R(0.0), R(0.0), R(0.0))
+        r, att = self._pending.add(*row[3:6], *mag)
+        if r < 0:
+            self._skip()
+        elif r > 0:
+            self._set_attitude(att)
+            if self._pending.n >= self._pending.window:
+                self._pending = None
 
     def _skip(self):
         # C: uint32_t skipped; skipped++ wraps modulo 2^32
@@ -57,24 +100,47 @@ class ReferenceFilter:
         R = self._R
         for n, v in zip(self.state_names, arr):
             setattr(self, n, R(v))
+        self._pending = None   # a state set by hand ends a pending init="first"
 
-    def update(self, *args):
+    def update(self, *args, dt=None):
         vals = _checks.update_inputs(self.kind, args)
         R = self._R
+        row = [R(v) for v in vals]
+        if dt is not None:
+            dt = R(_checks.dt_value(dt, self.dtype))
         with np.errstate(all="ignore"):
-            self._update(*[R(v) for v in vals])
+            if self._pending is not None:
+                self._first(row)
+            elif dt is None:
+                self._update(*row)
+            else:
+                self._set_dt(dt)
+                self._update(*row)
+                self._set_dt(R(self._args[0]))
 
-    def run(self, *args):
+    def run(self, *args, dt=None):
         arrays = _checks.run_inputs(self.kind, self.dtype, args)
         cols = np.column_stack([a if a.ndim == 2 else a[:, None] for a in arrays])
         n = len(self.state_names)
         out = np.empty((cols.shape[0], n), dtype=self.dtype)
         rows = cols.tolist() if self.dtype == "float64" else cols
         names = self.state_names
+        dts = None
+        if dt is not None:
+            dts = _checks.dt_array(dt, cols.shape[0], self.dtype)
+            dts = dts.tolist() if self.dtype == "float64" else dts
         with np.errstate(all="ignore"):
             for k, row in enumerate(rows):
-                self._update(*row)
+                if self._pending is not None:
+                    self._first(row)
+                elif dts is None:
+                    self._update(*row)
+                else:
+                    self._set_dt(dts[k])
+                    self._update(*row)
                 out[k] = [getattr(self, s) for s in names]
+            if dts is not None:
+                self._set_dt(self._R(self._args[0]))
         return out
 
 

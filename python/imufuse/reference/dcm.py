@@ -33,9 +33,9 @@ class DCM(ReferenceFilter):
 
     def _init(self, dt, kp, ki):
         R = self._R
-        self.dt = R(dt)
         self.kp = R(kp)
-        self.ki_dt = R(ki) * self.dt
+        self.ki = R(ki)
+        self._set_dt(R(dt))
         self.r00 = R(1.0)
         self.r01 = R(0.0)
         self.r02 = R(0.0)
@@ -48,6 +48,16 @@ class DCM(ReferenceFilter):
         self.ix = R(0.0)
         self.iy = R(0.0)
         self.iz = R(0.0)
+
+    def _set_dt(self, dt):
+        # imf_dcm_set_dt
+        self.dt = dt
+        self.ki_dt = self.ki * dt
+
+    def _set_attitude(self, att):
+        # imf_dcm_set_attitude: R = att.r; I is kept
+        (self.r00, self.r01, self.r02, self.r10, self.r11, self.r12,
+         self.r20, self.r21, self.r22) = att.r
 
     def _update(self, gx, gy, gz, ax, ay, az):
         R = self._R

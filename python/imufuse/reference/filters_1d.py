@@ -42,10 +42,14 @@ class Complementary1D(ReferenceFilter):
 
     def _init(self, dt, alpha):
         R = self._R
-        self.dt = R(dt)
+        self._set_dt(R(dt))
         self.alpha = R(alpha)
         self.one_minus_alpha = R(1.0) - self.alpha
         self.theta = R(0.0)
+
+    def _set_dt(self, dt):
+        # imf_complementary1d_set_dt: dt (s) of type R
+        self.dt = dt
 
     def _update(self, rate, angle):
         if not isfinite(rate, angle):
@@ -70,10 +74,14 @@ class Kalman1D(ReferenceFilter):
 
     def _init(self, dt, k0):
         R = self._R
-        self.dt = R(dt)
+        self._set_dt(R(dt))
         self.k0 = R(k0)
         self.one_minus_k0 = R(1.0) - self.k0
         self.theta = R(0.0)
+
+    def _set_dt(self, dt):
+        # imf_kalman1d_set_dt: dt (s) of type R
+        self.dt = dt
 
     def _update(self, rate, angle):
         if not isfinite(rate, angle):
@@ -100,9 +108,13 @@ class Mahony1D(ReferenceFilter):
 
     def _init(self, dt, kp):
         R = self._R
-        self.dt = R(dt)
+        self._set_dt(R(dt))
         self.kp = R(kp)
         self.theta = R(0.0)
+
+    def _set_dt(self, dt):
+        # imf_mahony1d_set_dt: dt (s) of type R
+        self.dt = dt
 
     def _update(self, rate, angle):
         if not isfinite(rate, angle):
@@ -147,13 +159,17 @@ class Kalman1DBias(ReferenceFilter):
 
     def _init(self, dt, k0, k1, bias_sign):
         R = self._R
-        self.dt = R(dt)
+        self._set_dt(R(dt))
         self.k0 = R(k0)
         self.one_minus_k0 = R(1.0) - self.k0
         self.k1 = R(k1)
         self.bias_sign = R(-1.0) if bias_sign < 0 else R(1.0)
         self.theta = R(0.0)
         self.b = R(0.0)
+
+    def _set_dt(self, dt):
+        # imf_kalman1d_bias_set_dt: dt (s) of type R
+        self.dt = dt
 
     def _update(self, rate, angle):
         if not isfinite(rate, angle):
@@ -200,12 +216,17 @@ class Mahony1DBias(ReferenceFilter):
 
     def _init(self, dt, kp, ki, integrate_first):
         R = self._R
-        self.dt = R(dt)
         self.kp = R(kp)
-        self.ki_dt = R(ki) * self.dt
+        self.ki = R(ki)
+        self._set_dt(R(dt))
         self.integrate_first = integrate_first != 0
         self.theta = R(0.0)
         self.i = R(0.0)
+
+    def _set_dt(self, dt):
+        # imf_mahony1d_bias_set_dt
+        self.dt = dt
+        self.ki_dt = self.ki * dt
 
     def _update(self, rate, angle):
         if not isfinite(rate, angle):
@@ -258,9 +279,19 @@ class Complementary1DBias(ReferenceFilter):
 
     def _init(self, dt, kp, ki):
         R = self._R
-        dt = R(dt)
-        kp_dt = R(kp) * dt
-        ki_dt2 = R(ki) * dt * dt
+        self.kp = R(kp)
+        self.ki = R(ki)
+        self._set_dt(R(dt))
+        self.theta = R(0.0)
+        self.s1 = R(0.0)
+        self.s2 = R(0.0)
+
+    def _set_dt(self, dt):
+        # imf_complementary1d_bias_set_dt:
+        # (1 - z^-1)^2 + Kp dt (1 - z^-1) + Ki dt^2, normalised by its z^0 term a0
+        R = self._R
+        kp_dt = self.kp * dt
+        ki_dt2 = self.ki * dt * dt
         a0 = R(1.0) + kp_dt + ki_dt2
         self.dt = dt
         self.b0a = (kp_dt + ki_dt2) / a0
@@ -269,9 +300,6 @@ class Complementary1DBias(ReferenceFilter):
         self.b1w = -dt / a0
         self.a1 = -(R(2.0) + kp_dt) / a0
         self.a2 = R(1.0) / a0
-        self.theta = R(0.0)
-        self.s1 = R(0.0)
-        self.s2 = R(0.0)
 
     def _update(self, rate, angle):
         if not isfinite(rate, angle):

@@ -34,10 +34,19 @@ class KK(ReferenceFilter):
 
     def _init(self, dt, kp):
         R = self._R
-        self.dt = R(dt)
+        self._set_dt(R(dt))
         self.kp = R(kp)
         self.pitch = R(0.0)
         self.roll = R(0.0)
+
+    def _set_dt(self, dt):
+        # imf_kk_set_dt
+        self.dt = dt
+
+    def _set_attitude(self, att):
+        # imf_kk_set_attitude: pitch = -up_x, roll = up_y (small-angle terms)
+        self.pitch = -att.r[6]
+        self.roll = att.r[7]
 
     def _update(self, gx, gy, gz, ax, ay, az):
         R = self._R

@@ -124,7 +124,7 @@ class _Madgwick(ReferenceFilter):
 
     def _init(self, dt, beta, delta_s, invsqrt):
         R = self._R
-        self.dt = R(dt)
+        self._set_dt(R(dt))
         self.beta = R(beta)
         self.delta_s = DS_SIMPLIFIED if delta_s == DS_SIMPLIFIED else DS_FULL
         self.invsqrt = invsqrt
@@ -132,6 +132,14 @@ class _Madgwick(ReferenceFilter):
         self.q1 = R(0.0)
         self.q2 = R(0.0)
         self.q3 = R(0.0)
+
+    # madgwick_set_dt: the settings that depend on the sample period dt (s)
+    def _set_dt(self, dt):
+        self.dt = dt
+
+    # madgwick_set_attitude: q = att.q (imf_attitude.h)
+    def _set_attitude(self, att):
+        self.q0, self.q1, self.q2, self.q3 = att.q
 
     # Steps 5 and 6: normalise ds, dq' = dq - beta ds
     def _feedback(self, s, dq):

@@ -28,8 +28,7 @@ class _Mahony(ReferenceFilter):
 
     def _init(self, dt, kp, ki, invsqrt):
         R = self._R
-        self.dt = R(dt)
-        self.half_dt = R(0.5) * self.dt
+        self._set_dt(R(dt))
         self.two_kp = R(2.0) * R(kp)
         self.two_ki = R(2.0) * R(ki)
         self.invsqrt = invsqrt
@@ -40,6 +39,15 @@ class _Mahony(ReferenceFilter):
         self.ix = R(0.0)
         self.iy = R(0.0)
         self.iz = R(0.0)
+
+    # mahony_set_dt: the settings that depend on the sample period dt (s)
+    def _set_dt(self, dt):
+        self.dt = dt
+        self.half_dt = self._R(0.5) * dt
+
+    # mahony_set_attitude: q = att.q (imf_attitude.h); I is kept
+    def _set_attitude(self, att):
+        self.q0, self.q1, self.q2, self.q3 = att.q
 
     # Steps 5 and 6: the PI controller on the half error (ex, ey, ez) = e/2,
     # added to the rate in the published order w + I + Kp e.

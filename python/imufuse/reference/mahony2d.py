@@ -68,9 +68,9 @@ class Mahony2D(ReferenceFilter):
 
     def _init(self, dt, kp, ki, exact):
         R = self._R
-        self.dt = R(dt)
         self.kp = R(kp)
-        self.ki_dt = R(ki) * self.dt
+        self.ki = R(ki)
+        self._set_dt(R(dt))
         self.exact = exact != 0
         self.dx = R(0.0)
         self.dy = R(0.0)
@@ -78,6 +78,15 @@ class Mahony2D(ReferenceFilter):
         self.ix = R(0.0)
         self.iy = R(0.0)
         self.iz = R(0.0)
+
+    def _set_dt(self, dt):
+        # imf_mahony2d_set_dt
+        self.dt = dt
+        self.ki_dt = self.ki * dt
+
+    def _set_attitude(self, att):
+        # imf_mahony2d_set_attitude: d = up; I is kept
+        self.dx, self.dy, self.dz = att.r[6], att.r[7], att.r[8]
 
     def _update(self, gx, gy, gz, ax, ay, az):
         R = self._R

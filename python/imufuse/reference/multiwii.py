@@ -82,7 +82,7 @@ class MultiWii(ReferenceFilter):
 
     def _init(self, dt, cmpf, acc_lpf_shift, acc_1g, window):
         R = self._R
-        self.dt = R(dt)
+        self._set_dt(R(dt))
         self.cmpf = R(cmpf)
         self.inv_cmpf1 = R(1.0) / (self.cmpf + R(1.0))
         # powers of two: the scalings of the LPF are exact, like the firmware's shifts
@@ -104,6 +104,19 @@ class MultiWii(ReferenceFilter):
         self.ax = R(0.0)
         self.ay = R(0.0)
         self.az = acc_1g
+
+    def _set_dt(self, dt):
+        # imf_multiwii_set_dt
+        self.dt = dt
+
+    def _set_attitude(self, att):
+        # imf_multiwii_set_attitude: d = accSmooth = acc_1g up
+        self.dx = self.acc_1g * att.r[6]
+        self.dy = self.acc_1g * att.r[7]
+        self.dz = self.acc_1g * att.r[8]
+        self.ax = self.dx
+        self.ay = self.dy
+        self.az = self.dz
 
     def _update(self, gx, gy, gz, ax, ay, az):
         if not isfinite(gx, gy, gz, ax, ay, az):

@@ -1,0 +1,93 @@
+"""The compiled extension is built per precision and checks itself at import.
+
+`setup.py` compiles every csrc source into a per-precision translation unit
+(build/imufuse_units/<module>/), so a parallel build (`build_ext -j 2`) cannot
+link float32 objects into the float64 module or the other way round; each
+float module compares one update of every C family with the reference at
+import and raises ImportError if they differ. These tests build a copy of the
+tree (the Cython output is copied too, so only the C is compiled).
+"""
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+CHECK = r"""
+import sys
+sys.path[:0] = [{tree!r}, {python!r}]
+import imufuse_c, imufuse.reference as ref
+assert imufuse_c.__file__.startswith({tree!r}), imufuse_c.__file__
+for dtype in ("float32", "float64"):
+    c = imufuse_c.Kalman1D(dt=.01, k0=.02, dtype=dtype)
+    r = ref.Kalman1D(dt=.01, k0=.02, dtype=dtype)
+    c.update(1, .5); r.update(1, .5)
+    assert c.skipped == 0 and c.state.tobytes() == r.state.tobytes(), (dtype, c.state, r.state)
+    assert abs(float(c.state[0]) - 0.0198) < 1e-6
+print("ok")
+"""
+
+
+def _copy_tree(dst):
+    for name in ("setup.py", "pyproject.toml", "MANIFEST.in"):
+        if (ROOT / name).exists():
+            shutil.copy2(ROOT / name, dst / name)
+    shutil.copytree(ROOT / "csrc", dst / "csrc")
+    # keep the generated Cython C (same mtimes): cythonize then has nothing to do
+    shutil.copytree(ROOT / "imufuse_c", dst / "imufuse_c",
+                    ignore=shutil.ignore_patterns("*.so", "__pycache__"))
+
+
+def _build(tree, *extra):
+    proc = subprocess.run([sys.executable, "setup.py", "build_ext", "--inplace", *extra],
+                          cwd=tree, capture_output=True, text=True, timeout=900)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    return proc
+
+
+def _import(tree):
+    code = CHECK.format(tree=str(tree), python=str(ROOT / "python"))
+    return subprocess.run([sys.executable, "-c", code], cwd=tree, capture_output=True,
+                          text=True, timeout=120)
+
+
+@pytest.fixture(scope="module")
+def tree(tmp_path_factory):
+    if shutil.which("cc") is None and shutil.which("gcc") is None:
+        pytest.skip("no C compiler")
+    d = tmp_path_factory.mktemp("tree")
+    _copy_tree(d)
+    _build(d, "-j", "2")
+    return d
+
+
+def test_parallel_build_gives_each_precision_its_objects(tree):
+    objs = {p.relative_to(tree).as_posix() for p in (tree / "build").rglob("*.o")}
+    for module in ("_f32", "_f64"):
+        for src in sorted((ROOT / "csrc").glob("*.c")):
+            want = f"imufuse_units/{module}/{src.stem}.o"
+            assert any(o.endswith(want) for o in objs), (want, sorted(objs))
+    # no object is compiled from csrc directly (shared between the precisions)
+    assert not [o for o in objs if "/csrc/" in o], sorted(objs)
+    proc = _import(tree)
+    assert proc.returncode == 0 and proc.stdout.strip() == "ok", proc.stderr[-3000:]
+
+
+def test_module_with_objects_of_the_other_precision_refuses_to_import(tree):
+    """Link _f32 with float64 objects (what a racing build did): ImportError at import."""
+    setup = (tree / "setup.py").read_text()
+    bad = setup.replace('"#ifdef IMF_DOUBLE\\n#error \\"_f32 unit built with IMF_DOUBLE\\"\\n#endif\\n"',
+                        '"#define IMF_DOUBLE\\n"')
+    assert bad != setup, "setup.py's _f32 guard changed; update this test"
+    (tree / "setup.py").write_text(bad)
+    try:
+        _build(tree)
+        proc = _import(tree)
+        assert proc.returncode != 0
+        assert "ImportError" in proc.stderr and "_f32" in proc.stderr, proc.stderr[-3000:]
+        assert "does not compute what the reference computes" in proc.stderr
+    finally:
+        (tree / "setup.py").write_text(setup)
