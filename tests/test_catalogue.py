@@ -62,6 +62,11 @@ def test_entry_c_prototypes_match_by_name(e):
     if e.fixed and "profile" not in c_args:   # profile selects the update, not an init value
         want = tuple(a for a in want if a != "profile")
     assert c_args == want, f"{e.c_name}_init{c_args} vs reference _init{e.init_args}"
+    if not e.fixed:   # per-sample dt and, for 3-D filters, the start attitude
+        hooks = ["_set_dt"] + ([] if e.kind == "1d" else ["_set_attitude"])
+        for h in hooks:
+            assert cproto.find_prototype(HEADERS, e.c_name + h) is not None, e.c_name + h
+            assert callable(getattr(e.reference, h, None)), f"{e.name}.{h}"
     n_in = sum(1 if e.kind == "1d" else 3 for _ in e.inputs)
     n_c = sum(3 if p.vector else 1 for p in update.params[1:])
     assert n_c == n_in, f"{e.c_name}_update takes {n_c} values, kind {e.kind} gives {n_in}"
