@@ -10,6 +10,7 @@ import ast
 import os
 import sys
 import time
+from typing import Optional, Sequence
 
 import numpy as np
 
@@ -487,7 +488,7 @@ def build_parser():
     return p
 
 
-def main(argv=None):
+def main(argv: Optional[Sequence[str]] = None) -> int:
     p = build_parser()
     args = p.parse_args(argv)
     if not getattr(args, "func", None):

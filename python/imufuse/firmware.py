@@ -51,6 +51,7 @@ import json
 import os
 import re
 from dataclasses import dataclass
+from typing import Any, Mapping, Optional, Sequence
 
 import numpy as np
 
@@ -74,7 +75,7 @@ class FirmwareError(ValueError):
 # ---------------------------------------------------------------------------
 # declarations
 
-def parse_prototype(text):
+def parse_prototype(text: str) -> cproto.Prototype:
     """'void f(T *self, float a, const float g[3])' -> cproto.Prototype."""
     try:
         return cproto.parse_prototype(text)
@@ -301,7 +302,8 @@ class Firmware:
         return S.dtype.name
 
 
-def csrc_firmware(name, csrc_dir, dtype="float32", **kwargs):
+def csrc_firmware(name: str, csrc_dir: "str | os.PathLike[str]", dtype: str = "float32",
+                  **kwargs: Any) -> "Firmware":
     """A Firmware for imufuse's own filter `name` from a csrc directory
     (e.g. a copy with changes): prototypes from the headers, state x.<name>."""
     ref = reference_class(name)
@@ -338,7 +340,8 @@ class Validation:
                 + self.comparison.text())
 
 
-def validate(fw, name, params, inputs, backend="c", dtype=None):
+def validate(fw: "Firmware", name: str, params: Mapping[str, Any], inputs: Sequence[Any],
+             backend: str = "c", dtype: Optional[str] = None) -> "Validation":
     """Run firmware `fw` and the imufuse filter `name` (constructor keywords
     `params`, dt included) on the same inputs; return a Validation. dtype:
     the imufuse precision; default the firmware's (from sizeof of its state);
