@@ -33,6 +33,8 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
+from .. import reference as _reference
+from .. import sim
 from .._checks import KINDS
 from .._resources import csrc_dir
 from ..cproto import CParam, PrototypeError, find_prototype, strip_comments
@@ -456,8 +458,6 @@ def float_inputs(group: str, n_motion: int = 300, seed: int = 5) -> Dict[str, np
     """Float64 inputs of a group ("1d" or "3d"): realistic motion from imufuse.sim, then the
     corners (zero accelerometer/magnetometer, all zero, NaN/Inf in each input, overflow,
     tiny and subnormal values), then motion again. Cast to float32 for the float32 builds."""
-    from .. import sim
-
     tail = 20
     if group == "1d":
         d = sim.axis1d("fast", rate=100.0, duration=(n_motion + tail) / 100.0, seed=seed,
@@ -558,7 +558,7 @@ def specs_from_cases(cases, reference=None, csrc: Path = CSRC) -> List[FilterSpe
     classes in float32 and float64, fixed-point classes in their ``profile`` if the case gives
     one, else in both profiles."""
     if reference is None:
-        import imufuse.reference as reference
+        reference = _reference
     out = []
     for case in cases:
         cls = getattr(reference, case.name)
