@@ -6,6 +6,20 @@
 #include "dcm.h"
 #include "imf_math.h"
 
+/* R orthonormal within IMF_DCM_ORTHO_TOL (and therefore finite). */
+static int dcm_orthonormal(const imf_dcm_state_t *const r)
+{
+    const imf_real nx = r->r00 * r->r00 + r->r01 * r->r01 + r->r02 * r->r02;
+    const imf_real ny = r->r10 * r->r10 + r->r11 * r->r11 + r->r12 * r->r12;
+    const imf_real nz = r->r20 * r->r20 + r->r21 * r->r21 + r->r22 * r->r22;
+    const imf_real xy = r->r00 * r->r10 + r->r01 * r->r11 + r->r02 * r->r12;
+    const imf_real xz = r->r00 * r->r20 + r->r01 * r->r21 + r->r02 * r->r22;
+    const imf_real yz = r->r10 * r->r20 + r->r11 * r->r21 + r->r12 * r->r22;
+    return imf_fabs(nx - IMF_R(1.0)) <= IMF_DCM_ORTHO_TOL && imf_fabs(ny - IMF_R(1.0)) <= IMF_DCM_ORTHO_TOL
+           && imf_fabs(nz - IMF_R(1.0)) <= IMF_DCM_ORTHO_TOL && imf_fabs(xy) <= IMF_DCM_ORTHO_TOL
+           && imf_fabs(xz) <= IMF_DCM_ORTHO_TOL && imf_fabs(yz) <= IMF_DCM_ORTHO_TOL;
+}
+
 void imf_dcm_init(imf_dcm_t *const self, const imf_real dt, const imf_real kp,
                   const imf_real ki)
 {
@@ -116,8 +130,8 @@ void imf_dcm_update(imf_dcm_t *const self, const imf_real gx, const imf_real gy,
     out.ix = ix;
     out.iy = iy;
     out.iz = iz;
-    if (!(imf_finite3(out.r00, out.r01, out.r02) && imf_finite3(out.r10, out.r11, out.r12) &&
-          imf_finite3(out.r20, out.r21, out.r22) && imf_finite3(ix, iy, iz))) {
+    /* valid-attitude policy (imf_math.h): R stays orthonormal, I finite */
+    if (!(dcm_orthonormal(&out) && imf_finite3(ix, iy, iz))) {
         self->skipped++;
         return;
     }

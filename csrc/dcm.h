@@ -30,6 +30,14 @@ typedef struct {
     imf_real ix, iy, iz;    /* integral term I, rad/s (converges to minus the gyro bias) */
 } imf_dcm_state_t;
 
+/* Valid attitude (imf_math.h policy): every row of R of squared length
+   1 +- IMF_DCM_ORTHO_TOL and every pair of rows with a dot product within
+   +-IMF_DCM_ORTHO_TOL. A sane update keeps R orthonormal to O(|w dt|^4);
+   an update that does not (a rotation increment far beyond what the
+   first-order step and the Taylor normalisation of 4.3 can represent) is
+   rejected. */
+#define IMF_DCM_ORTHO_TOL IMF_R(0.01)
+
 typedef struct {
     imf_real dt;      /* sample period, s */
     imf_real kp;      /* proportional gain, 1/s */

@@ -30,11 +30,14 @@
 #define IMF_FUSION_REAL_MAX DBL_MAX
 #define IMF_FUSION_PI (3.14159265358979323846)
 #else
-#define imf_fusion_sin(x) sinf(x)
-#define imf_fusion_cos(x) cosf(x)
-#define imf_fusion_atan2(y, x) atan2f(y, x)
-#define imf_fusion_asin(x) asinf(x)
-#define imf_fusion_fabs(x) fabsf(x)
+/* the casts are no-ops except on avr-libc, where sinf, fabsf, ... are macros
+   for the double functions (double is 32 bits there): they keep the float32
+   build free of double promotion */
+#define imf_fusion_sin(x) ((float)sinf(x))
+#define imf_fusion_cos(x) ((float)cosf(x))
+#define imf_fusion_atan2(y, x) ((float)atan2f(y, x))
+#define imf_fusion_asin(x) ((float)asinf(x))
+#define imf_fusion_fabs(x) ((float)fabsf(x))
 #define IMF_FUSION_REAL_MAX FLT_MAX
 #define IMF_FUSION_PI (3.14159265358979323846f) /* pi rounded to float, as (float) M_PI */
 #endif

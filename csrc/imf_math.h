@@ -10,10 +10,13 @@
 #include "imf_config.h"
 
 /*
- * Non-finite policy shared by every filter: a sample with a NaN or +-Inf
- * input, or whose update would leave a non-finite state, is rejected. The
- * state keeps its previous value and the filter's `skipped` counter is
- * incremented. The state therefore never becomes non-finite.
+ * Valid-attitude policy shared by every filter (docs/robustness.md): a sample
+ * with a NaN or +-Inf input, or whose update would leave the state
+ * non-finite or no longer a valid attitude -- a normalisation that fails
+ * (squared norm zero, subnormal or overflowed: imf_normalise3/4), a DCM that
+ * is no longer orthonormal, a gravity vector of implausible length -- is
+ * rejected. The state keeps its previous value and the filter's `skipped`
+ * counter is incremented. The state therefore is always a valid attitude.
  */
 static inline int imf_finite2(const imf_real a, const imf_real b)
 {
@@ -34,15 +37,19 @@ static inline int imf_finite4(const imf_real a, const imf_real b, const imf_real
 /* ---- inverse square root and normalisation ------------------------------
  *
  * Filters that normalise vectors take an `invsqrt` option:
- *   IMF_INVSQRT_EXACT  1/sqrt(x): two correctly rounded operations. A vector
- *                      whose squared norm is zero (zero, or so small that
- *                      its square underflows) is left unchanged, since it
- *                      has no direction to keep.
+ *   IMF_INVSQRT_EXACT  1/sqrt(x): two correctly rounded operations.
  *   IMF_INVSQRT_FAST   the 0x5f3759df estimate refined by one Newton step,
- *                      as in Madgwick's published C (x-io, 2010-2012): no
- *                      zero check, relative error up to about 1.8e-3.
+ *                      as in Madgwick's published C (x-io, 2010-2012):
+ *                      relative error up to about 1.8e-3.
+ * Either way a normalisation is only done when it can succeed: the squared
+ * norm must be a normal number (not zero, not subnormal, not overflowed, not
+ * NaN) and its inverse square root finite and non-zero. Otherwise the vector
+ * is left unchanged and the caller is told why (IMF_NORM_TINY: zero or
+ * subnormal, no direction to keep; IMF_NORM_HUGE: overflowed), so that it can
+ * reject the sample (valid-attitude policy above).
  */
 enum { IMF_INVSQRT_EXACT = 0, IMF_INVSQRT_FAST = 1 };
+enum { IMF_NORM_OK = 0, IMF_NORM_TINY = 1, IMF_NORM_HUGE = 2 };
 
 static inline imf_real imf_invsqrt_exact(const imf_real x)
 {
@@ -81,35 +88,62 @@ static inline imf_real imf_invsqrt(const imf_real x, const int mode)
     return mode == IMF_INVSQRT_FAST ? imf_invsqrt_fast(x) : imf_invsqrt_exact(x);
 }
 
-/* Scale (x, y, z) to unit length; squared norm summed left to right. */
-static inline void imf_normalise3(imf_real *const x, imf_real *const y, imf_real *const z,
-                                  const int mode)
+/* The inverse norm r of a squared norm n2 (IMF_NORM_OK), or why there is
+   none: n2 zero or subnormal (IMF_NORM_TINY), overflowed or NaN, or an
+   inverse that is 0 or Inf (IMF_NORM_HUGE). */
+static inline int imf_inverse_norm(const imf_real n2, const int mode, imf_real *const r)
 {
-    const imf_real n2 = *x * *x + *y * *y + *z * *z;
-    imf_real r;
-    if (mode != IMF_INVSQRT_FAST && n2 == IMF_R(0.0)) {
-        return;
+    if (!(n2 <= IMF_REAL_MAX)) {
+        return IMF_NORM_HUGE;
     }
-    r = imf_invsqrt(n2, mode);
+    if (n2 < IMF_REAL_MIN) {
+        return IMF_NORM_TINY;
+    }
+    *r = imf_invsqrt(n2, mode);
+    return *r > IMF_R(0.0) && *r <= IMF_REAL_MAX ? IMF_NORM_OK : IMF_NORM_HUGE;
+}
+
+/* Scale (x, y, z) to unit length (squared norm summed left to right); on
+   failure leave it unchanged and return IMF_NORM_TINY or IMF_NORM_HUGE. */
+static inline int imf_normalise3(imf_real *const x, imf_real *const y, imf_real *const z,
+                                 const int mode)
+{
+    imf_real r = IMF_R(0.0);
+    const int rc = imf_inverse_norm(*x * *x + *y * *y + *z * *z, mode, &r);
+    if (rc != IMF_NORM_OK) {
+        return rc;
+    }
     *x *= r;
     *y *= r;
     *z *= r;
+    return IMF_NORM_OK;
 }
 
-/* Scale the quaternion (or any 4-vector) (w, x, y, z) to unit length. */
-static inline void imf_normalise4(imf_real *const w, imf_real *const x, imf_real *const y,
-                                  imf_real *const z, const int mode)
+/* Scale the quaternion (or any 4-vector) (w, x, y, z) to unit length; on
+   failure leave it unchanged and return IMF_NORM_TINY or IMF_NORM_HUGE. */
+static inline int imf_normalise4(imf_real *const w, imf_real *const x, imf_real *const y,
+                                 imf_real *const z, const int mode)
 {
-    const imf_real n2 = *w * *w + *x * *x + *y * *y + *z * *z;
-    imf_real r;
-    if (mode != IMF_INVSQRT_FAST && n2 == IMF_R(0.0)) {
-        return;
+    imf_real r = IMF_R(0.0);
+    const int rc = imf_inverse_norm(*w * *w + *x * *x + *y * *y + *z * *z, mode, &r);
+    if (rc != IMF_NORM_OK) {
+        return rc;
     }
-    r = imf_invsqrt(n2, mode);
     *w *= r;
     *x *= r;
     *y *= r;
     *z *= r;
+    return IMF_NORM_OK;
+}
+
+/* A gravity-vector estimate (multiwii, mahony2d) is a valid attitude while
+   its squared length is a normal number (a direction to read angles from)
+   and at most d2_max (never NaN). */
+static inline int imf_gravity_ok(const imf_real dx, const imf_real dy, const imf_real dz,
+                                 const imf_real d2_max)
+{
+    const imf_real n2 = dx * dx + dy * dy + dz * dz;
+    return n2 >= IMF_REAL_MIN && n2 <= d2_max;
 }
 
 /* All three components exactly zero (+0 or -0): a sensor that reports no

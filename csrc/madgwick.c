@@ -182,29 +182,36 @@ static void madgwick_ds_ahrs(const imf_madgwick_state_t *const x, const imf_real
            + (-two_bx * q0 + two_bz * q2) * f5 + two_bx * q1 * f6;
 }
 
-/* Steps 5 and 6: normalise ds, dq' = dq - beta ds */
-static void madgwick_feedback(const imf_madgwick_settings_t *const set, imf_real s[4],
-                              imf_real dq[4])
+/* Steps 5 and 6: normalise ds, dq' = dq - beta ds. A zero (or subnormal)
+   ds is the exact optimum: it has no direction and is left as it is (no
+   correction). Returns 0 if ds overflowed (the sample is rejected). */
+static int madgwick_feedback(const imf_madgwick_settings_t *const set, imf_real s[4],
+                             imf_real dq[4])
 {
-    imf_normalise4(&s[0], &s[1], &s[2], &s[3], set->invsqrt);
+    if (imf_normalise4(&s[0], &s[1], &s[2], &s[3], set->invsqrt) == IMF_NORM_HUGE) {
+        return 0;
+    }
     dq[0] -= set->beta * s[0];
     dq[1] -= set->beta * s[1];
     dq[2] -= set->beta * s[2];
     dq[3] -= set->beta * s[3];
+    return 1;
 }
 
-/* Steps 7 and 8: q_n = q_{n-1} + dq' dt, then normalise */
-static void madgwick_integrate(const imf_madgwick_settings_t *const set,
+/* Steps 7 and 8: q_n = q_{n-1} + dq' dt, then normalise. Returns 0 when q
+   cannot be normalised (the sample is rejected). */
+static int madgwick_integrate(const imf_madgwick_settings_t *const set,
                                imf_madgwick_state_t *const x, const imf_real dq[4])
 {
     x->q0 += dq[0] * set->dt;
     x->q1 += dq[1] * set->dt;
     x->q2 += dq[2] * set->dt;
     x->q3 += dq[3] * set->dt;
-    imf_normalise4(&x->q0, &x->q1, &x->q2, &x->q3, set->invsqrt);
+    return imf_normalise4(&x->q0, &x->q1, &x->q2, &x->q3, set->invsqrt) == IMF_NORM_OK;
 }
 
-static void madgwick_imu_step(const imf_madgwick_settings_t *const set,
+/* One update; returns 0 if a normalisation failed (the sample is rejected). */
+static int madgwick_imu_step(const imf_madgwick_settings_t *const set,
                               imf_madgwick_state_t *const x, const imf_real gx,
                               const imf_real gy, const imf_real gz, imf_real ax, imf_real ay,
                               imf_real az)
@@ -213,18 +220,22 @@ static void madgwick_imu_step(const imf_madgwick_settings_t *const set,
     madgwick_rate(x, gx, gy, gz, dq);
     if (!imf_is_zero3(ax, ay, az)) {
         /* Step 2: normalise a */
-        imf_normalise3(&ax, &ay, &az, set->invsqrt);
+        if (imf_normalise3(&ax, &ay, &az, set->invsqrt) != IMF_NORM_OK) {
+            return 0;
+        }
         if (set->delta_s == IMF_MADGWICK_DS_SIMPLIFIED) {
             madgwick_ds_simplified(x, ax, ay, az, s);
         } else {
             madgwick_ds_full(x, ax, ay, az, s);
         }
-        madgwick_feedback(set, s, dq);
+        if (!madgwick_feedback(set, s, dq)) {
+            return 0;
+        }
     }
-    madgwick_integrate(set, x, dq);
+    return madgwick_integrate(set, x, dq);
 }
 
-static void madgwick_ahrs_step(const imf_madgwick_settings_t *const set,
+static int madgwick_ahrs_step(const imf_madgwick_settings_t *const set,
                                imf_madgwick_state_t *const x, const imf_real gx,
                                const imf_real gy, const imf_real gz, imf_real ax, imf_real ay,
                                imf_real az, imf_real mx, imf_real my, imf_real mz)
@@ -232,24 +243,28 @@ static void madgwick_ahrs_step(const imf_madgwick_settings_t *const set,
     imf_real dq[4], s[4];
     if (imf_is_zero3(mx, my, mz)) {
         /* no magnetometer reading: the IMU update */
-        madgwick_imu_step(set, x, gx, gy, gz, ax, ay, az);
-        return;
+        return madgwick_imu_step(set, x, gx, gy, gz, ax, ay, az);
     }
     madgwick_rate(x, gx, gy, gz, dq);
     if (!imf_is_zero3(ax, ay, az)) {
-        imf_normalise3(&ax, &ay, &az, set->invsqrt);
-        imf_normalise3(&mx, &my, &mz, set->invsqrt);
+        if (imf_normalise3(&ax, &ay, &az, set->invsqrt) != IMF_NORM_OK
+            || imf_normalise3(&mx, &my, &mz, set->invsqrt) != IMF_NORM_OK) {
+            return 0;
+        }
         madgwick_ds_ahrs(x, ax, ay, az, mx, my, mz, s);
-        madgwick_feedback(set, s, dq);
+        if (!madgwick_feedback(set, s, dq)) {
+            return 0;
+        }
     }
-    madgwick_integrate(set, x, dq);
+    return madgwick_integrate(set, x, dq);
 }
 
-/* Keep the new state only if it is finite (non-finite policy, imf_math.h). */
+/* Keep the new state only if the update succeeded and left it finite
+   (valid-attitude policy, imf_math.h). */
 static void madgwick_commit(imf_madgwick_state_t *const dst, uint32_t *const skipped,
-                            const imf_madgwick_state_t *const x)
+                            const imf_madgwick_state_t *const x, const int ok)
 {
-    if (!imf_finite4(x->q0, x->q1, x->q2, x->q3)) {
+    if (!(ok && imf_finite4(x->q0, x->q1, x->q2, x->q3))) {
         (*skipped)++;
         return;
     }
@@ -266,8 +281,8 @@ void imf_madgwick_imu_update(imf_madgwick_imu_t *const self, const imf_real gx,
         return;
     }
     x = self->x;
-    madgwick_imu_step(&self->set, &x, gx, gy, gz, ax, ay, az);
-    madgwick_commit(&self->x, &self->skipped, &x);
+    madgwick_commit(&self->x, &self->skipped, &x,
+                    madgwick_imu_step(&self->set, &x, gx, gy, gz, ax, ay, az));
 }
 
 void imf_madgwick_ahrs_update(imf_madgwick_ahrs_t *const self, const imf_real gx,
@@ -281,6 +296,6 @@ void imf_madgwick_ahrs_update(imf_madgwick_ahrs_t *const self, const imf_real gx
         return;
     }
     x = self->x;
-    madgwick_ahrs_step(&self->set, &x, gx, gy, gz, ax, ay, az, mx, my, mz);
-    madgwick_commit(&self->x, &self->skipped, &x);
+    madgwick_commit(&self->x, &self->skipped, &x,
+                    madgwick_ahrs_step(&self->set, &x, gx, gy, gz, ax, ay, az, mx, my, mz));
 }

@@ -102,8 +102,9 @@ static void mahony_feedback(const imf_mahony_settings_t *const set, imf_mahony_s
     *gz += set->two_kp * ez;
 }
 
-/* Steps 7 and 8: q_n = q_{n-1} + 1/2 q_{n-1} (x) omega' dt, then normalise. */
-static void mahony_integrate(const imf_mahony_settings_t *const set, imf_mahony_state_t *const x,
+/* Steps 7 and 8: q_n = q_{n-1} + 1/2 q_{n-1} (x) omega' dt, then normalise.
+   Returns 0 when q cannot be normalised (the sample is rejected). */
+static int mahony_integrate(const imf_mahony_settings_t *const set, imf_mahony_state_t *const x,
                              imf_real gx, imf_real gy, imf_real gz)
 {
     const imf_real q0 = x->q0, q1 = x->q1, q2 = x->q2, q3 = x->q3;
@@ -114,17 +115,20 @@ static void mahony_integrate(const imf_mahony_settings_t *const set, imf_mahony_
     x->q1 = q1 + (q0 * gx + q2 * gz - q3 * gy);
     x->q2 = q2 + (q0 * gy - q1 * gz + q3 * gx);
     x->q3 = q3 + (q0 * gz + q1 * gy - q2 * gx);
-    imf_normalise4(&x->q0, &x->q1, &x->q2, &x->q3, set->invsqrt);
+    return imf_normalise4(&x->q0, &x->q1, &x->q2, &x->q3, set->invsqrt) == IMF_NORM_OK;
 }
 
-static void mahony_imu_step(const imf_mahony_settings_t *const set, imf_mahony_state_t *const x,
+/* One update; returns 0 if a normalisation failed (the sample is rejected). */
+static int mahony_imu_step(const imf_mahony_settings_t *const set, imf_mahony_state_t *const x,
                             imf_real gx, imf_real gy, imf_real gz,
                             imf_real ax, imf_real ay, imf_real az)
 {
     if (!imf_is_zero3(ax, ay, az)) {
         imf_real vx, vy, vz, ex, ey, ez;
         /* Step 2: normalise a */
-        imf_normalise3(&ax, &ay, &az, set->invsqrt);
+        if (imf_normalise3(&ax, &ay, &az, set->invsqrt) != IMF_NORM_OK) {
+            return 0;
+        }
         /* Step 3: d/2, half the earth's up axis seen in the sensor frame */
         vx = x->q1 * x->q3 - x->q0 * x->q2;
         vy = x->q0 * x->q1 + x->q2 * x->q3;
@@ -135,25 +139,26 @@ static void mahony_imu_step(const imf_mahony_settings_t *const set, imf_mahony_s
         ez = ax * vy - ay * vx;
         mahony_feedback(set, x, &gx, &gy, &gz, ex, ey, ez);
     }
-    mahony_integrate(set, x, gx, gy, gz);
+    return mahony_integrate(set, x, gx, gy, gz);
 }
 
-static void mahony_ahrs_step(const imf_mahony_settings_t *const set, imf_mahony_state_t *const x,
+static int mahony_ahrs_step(const imf_mahony_settings_t *const set, imf_mahony_state_t *const x,
                              imf_real gx, imf_real gy, imf_real gz,
                              imf_real ax, imf_real ay, imf_real az,
                              imf_real mx, imf_real my, imf_real mz)
 {
     if (imf_is_zero3(mx, my, mz)) {
         /* no magnetometer reading: the IMU update */
-        mahony_imu_step(set, x, gx, gy, gz, ax, ay, az);
-        return;
+        return mahony_imu_step(set, x, gx, gy, gz, ax, ay, az);
     }
     if (!imf_is_zero3(ax, ay, az)) {
         imf_real q0q0, q0q1, q0q2, q0q3, q1q1, q1q2, q1q3, q2q2, q2q3, q3q3;
         imf_real hx, hy, bx, bz, vx, vy, vz, wx, wy, wz, ex, ey, ez;
         /* Step 2: normalise a and m */
-        imf_normalise3(&ax, &ay, &az, set->invsqrt);
-        imf_normalise3(&mx, &my, &mz, set->invsqrt);
+        if (imf_normalise3(&ax, &ay, &az, set->invsqrt) != IMF_NORM_OK
+            || imf_normalise3(&mx, &my, &mz, set->invsqrt) != IMF_NORM_OK) {
+            return 0;
+        }
         q0q0 = x->q0 * x->q0;
         q0q1 = x->q0 * x->q1;
         q0q2 = x->q0 * x->q2;
@@ -187,14 +192,15 @@ static void mahony_ahrs_step(const imf_mahony_settings_t *const set, imf_mahony_
         ez = (ax * vy - ay * vx) + (mx * wy - my * wx);
         mahony_feedback(set, x, &gx, &gy, &gz, ex, ey, ez);
     }
-    mahony_integrate(set, x, gx, gy, gz);
+    return mahony_integrate(set, x, gx, gy, gz);
 }
 
-/* Keep the new state only if it is finite (non-finite policy, imf_math.h). */
+/* Keep the new state only if the update succeeded and left it finite
+   (valid-attitude policy, imf_math.h). */
 static void mahony_commit(imf_mahony_state_t *const dst, uint32_t *const skipped,
-                          const imf_mahony_state_t *const x)
+                          const imf_mahony_state_t *const x, const int ok)
 {
-    if (!(imf_finite4(x->q0, x->q1, x->q2, x->q3) && imf_finite3(x->ix, x->iy, x->iz))) {
+    if (!(ok && imf_finite4(x->q0, x->q1, x->q2, x->q3) && imf_finite3(x->ix, x->iy, x->iz))) {
         (*skipped)++;
         return;
     }
@@ -211,8 +217,8 @@ void imf_mahony_imu_update(imf_mahony_imu_t *const self, const imf_real gx, cons
         return;
     }
     x = self->x;
-    mahony_imu_step(&self->set, &x, gx, gy, gz, ax, ay, az);
-    mahony_commit(&self->x, &self->skipped, &x);
+    mahony_commit(&self->x, &self->skipped, &x,
+                  mahony_imu_step(&self->set, &x, gx, gy, gz, ax, ay, az));
 }
 
 void imf_mahony_ahrs_update(imf_mahony_ahrs_t *const self, const imf_real gx, const imf_real gy,
@@ -226,6 +232,6 @@ void imf_mahony_ahrs_update(imf_mahony_ahrs_t *const self, const imf_real gx, co
         return;
     }
     x = self->x;
-    mahony_ahrs_step(&self->set, &x, gx, gy, gz, ax, ay, az, mx, my, mz);
-    mahony_commit(&self->x, &self->skipped, &x);
+    mahony_commit(&self->x, &self->skipped, &x,
+                  mahony_ahrs_step(&self->set, &x, gx, gy, gz, ax, ay, az, mx, my, mz));
 }

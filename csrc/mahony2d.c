@@ -12,6 +12,7 @@ void imf_mahony2d_init(imf_mahony2d_t *const self, const imf_real dt, const imf_
     self->ki = ki;
     imf_mahony2d_set_dt(self, dt);
     self->exact = exact != 0;
+    self->d2_max = self->exact ? IMF_R(1.0) / (kp * dt) : IMF_R(4.0);
     self->skipped = 0;
     self->x.dx = IMF_R(0.0);
     self->x.dy = IMF_R(0.0);
@@ -80,7 +81,8 @@ void imf_mahony2d_update(imf_mahony2d_t *const self, const imf_real gx, const im
     dxn = dx + (self->kp * ex + ix + cx) * self->dt;
     dyn = dy + (self->kp * ey + iy + cy) * self->dt;
     dzn = dz + (self->kp * ez + iz + cz) * self->dt;
-    if (!(imf_finite3(dxn, dyn, dzn) && imf_finite3(ix, iy, iz))) {
+    /* valid-attitude policy (imf_math.h): d of plausible length, I finite */
+    if (!(imf_gravity_ok(dxn, dyn, dzn, self->d2_max) && imf_finite3(ix, iy, iz))) {
         self->skipped++;
         return;
     }

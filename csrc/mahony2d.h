@@ -29,6 +29,12 @@
 #include "imf_config.h"
 #include "imf_attitude.h"
 
+/* Valid attitude (imf_math.h policy): |d|^2 normal and at most d2_max. d is
+   never renormalised. Eq. 4.4 pulls |d| to 1: d2_max = 4 (|d| <= 2). Eq. 4.3
+   leaves |d| to drift (at the rate I.d/|d|) and its loop gain is Kp |d|^2:
+   d2_max = 1 / (Kp dt), the length up to which the loop stays stable
+   (Kp dt |d|^2 <= 1); beyond it samples are rejected. */
+
 typedef struct {
     imf_real dx, dy, dz; /* gravity direction estimate (body up), unit-less */
     imf_real ix, iy, iz; /* integral term I, 1/s (I = -d x b at equilibrium) */
@@ -40,6 +46,7 @@ typedef struct {
     imf_real ki;      /* integral gain Ki, 1/s^2 (kept for set_dt) */
     imf_real ki_dt;   /* Ki dt, 1/s */
     int exact;        /* 0: E = a - d (Eq. 4.4); 1: E = d x (a x d) (Eq. 4.3) */
+    imf_real d2_max;  /* longest valid d, squared (see above) */
     uint32_t skipped; /* samples rejected by the non-finite policy */
     imf_mahony2d_state_t x;
 } imf_mahony2d_t;

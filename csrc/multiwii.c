@@ -25,6 +25,8 @@ void imf_multiwii_init(imf_multiwii_t *const self, const imf_real dt, const imf_
     hi = (IMF_R(1.0) + window) * acc_1g;
     self->mag2_lo = lo * lo;
     self->mag2_hi = hi * hi;
+    /* valid attitude: |d| <= 4 g (the filter pulls d towards |a| < 2 g) */
+    self->d2_max = (IMF_R(4.0) * acc_1g) * (IMF_R(4.0) * acc_1g);
     self->acc_1g = acc_1g;
     self->skipped = 0;
     self->x.dx = IMF_R(0.0);
@@ -82,7 +84,8 @@ void imf_multiwii_update(imf_multiwii_t *const self, const imf_real gx, const im
         dy = (dy * self->cmpf + sy) * self->inv_cmpf1;
         dz = (dz * self->cmpf + sz) * self->inv_cmpf1;
     }
-    if (!(imf_finite3(dx, dy, dz) && imf_finite3(sx, sy, sz))) {
+    /* valid-attitude policy (imf_math.h): d of plausible length, LPF finite */
+    if (!(imf_gravity_ok(dx, dy, dz, self->d2_max) && imf_finite3(sx, sy, sz))) {
         self->skipped++;
         return;
     }

@@ -37,6 +37,7 @@ typedef struct {
     imf_real lpf_inv;   /* 2^-ACC_LPF_FACTOR */
     imf_real mag2_lo;   /* ((1 - window) acc_1g)^2: window on |a|^2 */
     imf_real mag2_hi;   /* ((1 + window) acc_1g)^2 */
+    imf_real d2_max;    /* (4 acc_1g)^2: longest valid d (imf_gravity_ok), squared */
     imf_real acc_1g;    /* accelerometer reading of 1 g */
     uint32_t skipped;   /* samples rejected by the non-finite policy */
     imf_multiwii_state_t x;

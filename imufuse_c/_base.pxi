@@ -12,7 +12,8 @@
 # constructor's dt afterwards; the fixed-step paths are untouched. Start (3-D
 # filters): init="first" feeds the first samples to the shared attitude window
 # (csrc/imf_attitude.h) and _set_attitude; q0= and state= are set at reset.
-from cpython.float cimport PyFloat_AsDouble
+from cpython.float cimport PyFloat_AsDouble, PyFloat_Check
+from cpython.long cimport PyLong_CheckExact
 from libc.string cimport memcpy
 from libc.stdint cimport uint32_t
 cimport numpy as cnp
@@ -43,6 +44,8 @@ cdef extern from "imf_attitude.h" nogil:
 from imufuse import _checks
 from imufuse.reference._base import init_arguments as _init_arguments
 
+_R = np.float32 if DTYPE == "float32" else float
+
 
 cdef inline void _copy_state(imf_real *dst, const char *x, Py_ssize_t n) noexcept nogil:
     # a short element loop: cheaper than a memcpy call for a few words per sample
@@ -52,6 +55,12 @@ cdef inline void _copy_state(imf_real *dst, const char *x, Py_ssize_t n) noexcep
         dst[j] = src[j]
 
 
+cdef inline bint _plain(object x):
+    # a Python float (or subclass: numpy.float64) or a Python int that fits a
+    # double: converted directly; anything else goes through imufuse._checks
+    return PyFloat_Check(x) or (PyLong_CheckExact(x) and -2**1000 < x < 2**1000)
+
+
 cdef int _vec3(object v, imf_real *out) except -1:
     """One 3-vector of update(): fast paths for tuples, lists and contiguous
     float64/float32 arrays; anything else through the sequence protocol. A
@@ -59,7 +68,8 @@ cdef int _vec3(object v, imf_real *out) except -1:
     cdef const double *d
     cdef const float *f
     cdef int i
-    if (type(v) is tuple or type(v) is list) and len(v) == 3:
+    if (type(v) is tuple or type(v) is list) and len(v) == 3 and _plain(v[0]) \
+            and _plain(v[1]) and _plain(v[2]):
         for i in range(3):
             out[i] = <imf_real>PyFloat_AsDouble(v[i])
         return 0
@@ -75,11 +85,18 @@ cdef int _vec3(object v, imf_real *out) except -1:
             for i in range(3):
                 out[i] = <imf_real>f[i]
             return 0
-    x, y, z = v
+    # the shared validation: real numbers only (no strings, complex, sets, dicts)
+    x, y, z = _checks.as_vec3("vector", v)
     out[0] = <imf_real><double>x
     out[1] = <imf_real><double>y
     out[2] = <imf_real><double>z
     return 0
+
+
+cdef int _unbound(object f) except -1:
+    """An instance whose __init__ never ran (type(f).__new__(type(f))): its C
+    struct was never initialised; raise instead of touching it."""
+    raise TypeError(f"{type(f).__name__}: object not initialised (__init__ was not called)")
 
 
 cdef class _Filter:
@@ -96,7 +113,7 @@ cdef class _Filter:
     dtype = DTYPE
 
     def __init__(self, *args, init="identity", init_window=1, q0=None, state=None, **kwargs):
-        self._args = self._ref._params(*args, **kwargs)
+        self._args = self._ref._checked_params(DTYPE, *args, **kwargs)
         # the C init arguments by name (the reference _init's = the C init's names)
         self._kw = _init_arguments(self._ref, self._args)
         self._n = len(self._ref.state_names)
@@ -166,10 +183,14 @@ cdef class _Filter:
     @property
     def skipped(self):
         """Samples rejected by the non-finite policy since construction or reset."""
+        if self._skipped == NULL:
+            _unbound(self)
         return self._skipped[0]
 
     @property
     def state(self):
+        if self._x == NULL:
+            _unbound(self)
         cdef cnp.npy_intp n = self._n
         out = cnp.PyArray_EMPTY(1, &n, _NATIVE, 0)
         memcpy(cnp.PyArray_DATA(<cnp.ndarray>out), self._x, self._n * sizeof(imf_real))
@@ -177,13 +198,18 @@ cdef class _Filter:
 
     @state.setter
     def state(self, value):
+        if self._x == NULL:
+            _unbound(self)
         arr = _checks.as_state(value, self._n, DTYPE, self._ref.state_names)
+        _checks.check_valid_state(self._ref._valid_state(self._args, _R, arr))
         cdef const imf_real[::1] v = arr
         memcpy(self._x, &v[0], self._n * sizeof(imf_real))
         self._pending = 0   # a state set by hand ends a pending init="first"
 
     def reset(self):
         """Back to the state after construction (init runs again)."""
+        if self._x == NULL:
+            _unbound(self)
         self._init()
         self._apply_start()
 
@@ -245,13 +271,14 @@ cdef class _Filter1D(_Filter):
 
     def update(self, rate, angle, dt=None):
         """One sample: rate (rad/s), angle (rad); dt (s): this sample's period."""
+        if self._x == NULL:
+            _unbound(self)
         cdef double w, a
-        try:
+        if _plain(rate) and _plain(angle):
             w = rate
             a = angle
-        except TypeError:
-            _checks.update_inputs("1d", (rate, angle))
-            raise
+        else:
+            w, a = _checks.update_inputs("1d", (rate, angle))
         if dt is None:
             self._step(<imf_real>w, <imf_real>a)
         else:
@@ -279,6 +306,8 @@ cdef class _Filter1D(_Filter):
     def run(self, rate, angle, dt=None):
         """All samples: rate, angle 1-D arrays, dt (optional) the (N,) sample
         periods; returns the (N, len(state)) trajectory."""
+        if self._x == NULL:
+            _unbound(self)
         if dt is not None:
             return self._run_dt(rate, angle, dt)
         cdef Py_ssize_t n_samples = -1, n = self._n, k
@@ -305,6 +334,8 @@ cdef class _FilterIMU(_Filter):
 
     def update(self, gyr, acc, dt=None):
         """One sample: gyr (3,) rad/s, acc (3,) any unit; dt (s): this sample's period."""
+        if self._x == NULL:
+            _unbound(self)
         cdef imf_real g[3]
         cdef imf_real a[3]
         try:
@@ -371,6 +402,8 @@ cdef class _FilterIMU(_Filter):
     def run(self, gyr, acc, dt=None):
         """All samples: gyr, acc (N, 3) arrays, dt (optional) the (N,) sample
         periods; returns the (N, len(state)) trajectory."""
+        if self._x == NULL:
+            _unbound(self)
         if dt is not None or self._pending:
             return self._run_general(gyr, acc, dt)
         cdef Py_ssize_t n_samples = -1, n = self._n, k
@@ -408,6 +441,8 @@ cdef class _FilterAHRS(_Filter):
     def update(self, gyr, acc, mag, dt=None):
         """One sample: gyr (3,) rad/s, acc (3,) and mag (3,) any unit; dt (s): this
         sample's period."""
+        if self._x == NULL:
+            _unbound(self)
         cdef imf_real g[3]
         cdef imf_real a[3]
         cdef imf_real m[3]
@@ -470,6 +505,8 @@ cdef class _FilterAHRS(_Filter):
     def run(self, gyr, acc, mag, dt=None):
         """All samples: gyr, acc, mag (N, 3) arrays, dt (optional) the (N,) sample
         periods; returns the (N, len(state)) trajectory."""
+        if self._x == NULL:
+            _unbound(self)
         if dt is not None or self._pending:
             return self._run_general(gyr, acc, mag, dt)
         cdef Py_ssize_t n_samples = -1, n = self._n, k

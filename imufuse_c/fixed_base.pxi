@@ -13,6 +13,11 @@ from imufuse.reference import fixed_base as _fb
 from imufuse.reference._base import init_arguments as _init_arguments
 
 
+cdef int _unbound(object f) except -1:
+    """An instance whose __init__ never ran (type(f).__new__(type(f)))."""
+    raise TypeError(f"{type(f).__name__}: object not initialised (__init__ was not called)")
+
+
 cdef class _FixedFilter:
     cdef int32_t *_x
     cdef Py_ssize_t _n
@@ -52,10 +57,14 @@ cdef class _FixedFilter:
 
     @property
     def profile(self):
+        if self._x == NULL:
+            _unbound(self)
         return self._conv.profile
 
     @property
     def state(self):
+        if self._x == NULL:
+            _unbound(self)
         out = np.empty(self._n, dtype=np.int32)
         cdef int32_t[::1] o = out
         memcpy(&o[0], self._x, self._n * sizeof(int32_t))
@@ -63,6 +72,8 @@ cdef class _FixedFilter:
 
     @state.setter
     def state(self, value):
+        if self._x == NULL:
+            _unbound(self)
         self._conv.state = value          # same validation as the reference
         arr = np.ascontiguousarray(self._conv.state, dtype=np.int32)
         cdef const int32_t[::1] v = arr
@@ -70,17 +81,25 @@ cdef class _FixedFilter:
 
     @property
     def state_float(self):
+        if self._x == NULL:
+            _unbound(self)
         """The state in the float twin's units (float64)."""
         return np.asarray(self._conv._state_float([int(v) for v in self.state]), dtype=float)
 
     def state_to_float(self, states):
+        if self._x == NULL:
+            _unbound(self)
         return self._conv.state_to_float(states)
 
     def reset(self):
         """Back to the state after construction (init runs again)."""
+        if self._x == NULL:
+            _unbound(self)
         self._init()
 
     def __repr__(self):
+        if self._x == NULL:
+            return f"<imufuse_c {type(self).__name__} (not initialised)>"
         return f"<imufuse_c {type(self).__name__} profile={self.profile}>"
 
 
@@ -90,11 +109,15 @@ cdef class _Fixed1D(_FixedFilter):
 
     def update(self, rate, angle):
         """One sample: rate, angle in counts (int16)."""
+        if self._x == NULL:
+            _unbound(self)
         w, a = _fb.fixed_update_inputs("1d", (rate, angle))
         self._step(<int16_t>w, <int16_t>a)
 
     def run(self, rate, angle):
         """All samples: rate, angle 1-D int16 counts; returns the (N, len(state)) int32 trajectory."""
+        if self._x == NULL:
+            _unbound(self)
         rate_a, angle_a = _fb.fixed_run_inputs("1d", (rate, angle))
         cdef Py_ssize_t n_samples = rate_a.shape[0], n = self._n, k
         out = np.empty((n_samples, n), dtype=np.int32)
@@ -114,6 +137,8 @@ cdef class _FixedIMU(_FixedFilter):
 
     def update(self, gyr, acc):
         """One sample: gyr (3,), acc (3,) in counts (int16)."""
+        if self._x == NULL:
+            _unbound(self)
         cdef int16_t g[3]
         cdef int16_t a[3]
         gl, al = _fb.fixed_update_inputs("imu", (gyr, acc))
@@ -124,6 +149,8 @@ cdef class _FixedIMU(_FixedFilter):
 
     def run(self, gyr, acc):
         """All samples: gyr, acc (N, 3) int16 counts; returns the (N, len(state)) int32 trajectory."""
+        if self._x == NULL:
+            _unbound(self)
         gyr_a, acc_a = _fb.fixed_run_inputs("imu", (gyr, acc))
         cdef Py_ssize_t n_samples = gyr_a.shape[0], n = self._n, k
         out = np.empty((n_samples, n), dtype=np.int32)

@@ -143,3 +143,22 @@ FIXED_CASES = _with_defaults(EXTRA_FIXED_CASES, catalogue.FIXED, 0.002)
 def fixed_matrix():
     """(case, profile) pairs for every fixed-point filter configuration."""
     return [pytest.param(c, p, id=f"{c.id}-q{p}") for c in FIXED_CASES for p in PROFILES]
+
+
+# ---- the Fusion suite (seed 004): csrc/fusion_ahrs.c, fusion_offset.c ------------
+# Not in FLOAT_CASES, on purpose: the generic harnesses construct a filter with
+# dt at init and call update(gyr, acc[, mag]) in rad/s. FusionAHRS is imufusion's
+# API: Fusion's units (deg/s, g), dt given with every update, three update forms;
+# FusionOffset returns the corrected gyroscope. tests/test_fusion.py runs the same
+# checks on them (C vs twin bit for bit in both precisions, update vs run, bad
+# input, the non-finite policy, a long run at rest) and tests/test_fusion_oracle.py
+# compares them with imufusion 1.2.3.
+FUSION_CASES = [
+    Case("FusionAHRS", dict(gain=1.0, gyroscope_range=500.0, acceleration_rejection=5.0,
+                            magnetic_rejection=20.0, recovery_trigger_period=100), "short"),
+    Case("FusionAHRS", dict(), "defaults"),
+    Case("FusionAHRS", dict(gain=0.5, gyroscope_range=2000.0, acceleration_rejection=10.0,
+                            magnetic_rejection=10.0, recovery_trigger_period=50, invsqrt="fast"),
+         "fast"),
+    Case("FusionOffset", dict(sample_rate=100)),
+]

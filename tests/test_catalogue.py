@@ -134,3 +134,16 @@ def test_stub_methods_exist(e):
     if ctor is not None:
         for p in ctor.parameters:
             assert f" {p}: " in body.split("def __init__(")[1].split(") -> None")[0], p
+
+
+def test_fusion_suite_in_the_catalogue():
+    """The Fusion suite has its own catalogue section (outside FLOAT, see
+    catalogue.FUSION for why), consistent with both backends."""
+    assert catalogue.FILTERS_FUSION == reference.FILTERS_FUSION == imufuse_c.FILTERS_FUSION
+    for e in catalogue.FUSION:
+        c, r = e.compiled, e.reference
+        assert tuple(c.state_names) == tuple(r.state_names) == e.state_names
+        params = {k for k in e.params if k != "dtype"}
+        assert set(e.defaults) <= params, e.name
+        f = e.make("c", **e.defaults)
+        assert len(f.state) == len(e.state_names)

@@ -40,12 +40,16 @@ def inputs(kind, seq, n=N, seed=0):
         "sine": ((3000 * np.sin(t / 30 + np.arange(3))).astype(int),
                  (4096 * np.cos(t / 50 + np.arange(3))).astype(int)),
         "zero_acc": (g.integers(-2000, 2000, (n, 3)), np.zeros((n, 3), int)),
+        # at rest, level (q stays at the identity: q0 = 1.0 exactly) and tilted with
+        # +-2 counts of noise: the normalisation must hold |q| at 1 (issue 10)
+        "rest": (np.zeros((n, 3), int), np.tile([0, 0, 4096], (n, 1))),
+        "rest_noise": (g.integers(-2, 3, (n, 3)), g.integers(-2, 3, (n, 3)) + [0, 2896, 2896]),
     }[seq]
     return tuple(np.asarray(a, dtype=np.int16) for a in s)
 
 
 SEQS = ("random", "full", "extreme", "sine")
-SEQS_KIND = {"1d": SEQS + ("zero",), "imu": SEQS + ("zero_acc",)}
+SEQS_KIND = {"1d": SEQS + ("zero",), "imu": SEQS + ("zero_acc", "rest", "rest_noise")}
 
 
 def c_driver_run(case, profile, arrays, state=None, params=None):

@@ -16,15 +16,10 @@ from imufuse import reference as ref
 
 from bits import assert_same_bits
 from fusion_sim import simulated_log
+from registry import FUSION_CASES
 
 DTYPES = ("float32", "float64")
-CONFIGS = {
-    "short": dict(gain=1.0, gyroscope_range=500.0, acceleration_rejection=5.0,
-                  magnetic_rejection=20.0, recovery_trigger_period=100),
-    "defaults": dict(),
-    "fast": dict(gain=0.5, gyroscope_range=2000.0, acceleration_rejection=10.0,
-                 magnetic_rejection=10.0, recovery_trigger_period=50, invsqrt="fast"),
-}
+CONFIGS = {c.label: c.params for c in FUSION_CASES if c.name == "FusionAHRS"}
 
 
 def drive(f, log, n_mag, n_ext):

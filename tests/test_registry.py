@@ -7,7 +7,7 @@ import pytest
 
 import imufuse.reference as reference
 import imufuse_c
-from registry import FLOAT_CASES
+from registry import FLOAT_CASES, FUSION_CASES
 
 HEADERS = "\n".join(open(h).read() for h in glob.glob(
     os.path.join(os.path.dirname(__file__), "..", "csrc", "*.h")))
@@ -20,5 +20,17 @@ def test_filter_is_registered_and_named(name):
     assert ref.c_name, f"{name}.c_name is empty"
     for fn in ("init", "update"):
         assert f"void {ref.c_name}_{fn}(" in HEADERS, f"{ref.c_name}_{fn} not declared in csrc/"
+    assert f"}} {ref.c_name}_t;" in HEADERS
+    assert getattr(imufuse_c, name).state_names == ref.state_names
+
+
+@pytest.mark.parametrize("name", reference.FILTERS_FUSION)
+def test_fusion_class_is_registered_and_named(name):
+    """The Fusion suite is outside the generic matrix (see registry.py) but in
+    FUSION_CASES, with its C twin declared in csrc/."""
+    assert any(c.name == name for c in FUSION_CASES), f"{name} has no entry in FUSION_CASES"
+    ref = getattr(reference, name)
+    for fn in ("init", "update"):
+        assert f"void {ref.c_name}_{fn}(" in HEADERS
     assert f"}} {ref.c_name}_t;" in HEADERS
     assert getattr(imufuse_c, name).state_names == ref.state_names

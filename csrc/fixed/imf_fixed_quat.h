@@ -154,18 +154,38 @@ static inline void imf_q8_rate(const int16_t qs[4], const int32_t h[3], const in
 #undef IMF_P
 }
 
+/* |q|^2 in q30 (uint32, saturated to 2^32 - 1) for the normalisation
+ * (appendix step 8).  Each q30 component is rounded to q15 WITHOUT the
+ * snapshot's saturation: the symmetric q15 snapshot reads 1.0 as 32767, so
+ * a norm taken from it sees the identity as |q|^2 = 1 - 2^-14 and a
+ * normalisation driven by it scales q up at every sample, without bound
+ * (q0 >= 1 never looks too long).  Here |q_i| up to 2 gives magnitudes up
+ * to 2^16 (clamped to 65535; the sum saturates only for |q| >= 2). */
+static inline uint32_t imf_q_norm2(const int32_t q[4])
+{
+    uint32_t n2 = 0u, p;
+    int32_t r;
+    uint16_t u;
+    int i;
+    for (i = 0; i < 4; ++i) {
+        r = imf_rshr32(q[i], 15); /* [-2^16, 2^16] */
+        if (r < 0) {
+            r = -r;
+        }
+        u = (uint16_t)(r > 65535 ? 65535 : r);
+        p = imf_mulu16(u, u);
+        n2 = (n2 > 4294967295u - p) ? 4294967295u : n2 + p;
+    }
+    return n2;
+}
+
 /* q /= |q| with the division-free inverse square root (after q += dq). */
 IMF_Q_OUTLINE void imf_q_normalise(int32_t q[4])
 {
-    int16_t qs[4];
-    uint32_t n2 = 0u;
+    const uint32_t n2 = imf_q_norm2(q);
     uint16_t y;
     int16_t y14;
     int sh, i;
-    imf_q_snapshot(q, qs);
-    for (i = 0; i < 4; ++i) {
-        n2 += (uint32_t)((int32_t)qs[i] * qs[i]);
-    }
     if (n2 == 0u) {
         q[0] = IMF_Q30_ONE;
         q[1] = q[2] = q[3] = 0;
@@ -180,8 +200,8 @@ IMF_Q_OUTLINE void imf_q_normalise(int32_t q[4])
 }
 
 /* 8-bit profile, step 8 folded into the next update (no second snapshot):
- * at the start of an update, q15 snapshot qs of q and d = |qs|^2 - 1 in q22
- * (int16); while |d| < 2^-8 (every ordinary update: a step leaves
+ * at the start of an update, d = |q|^2 - 1 in q22 (int16, from imf_q_norm2)
+ * and the q15 snapshot qs of q; while |d| < 2^-8 (every ordinary update: a step leaves
  * |q|^2 - 1 ~ |h|^2) the update's own step is q += dq - q d / 2
  * (imf_q8_add_step), a first-order normalisation one sample late (|q|^2 - 1
  * stays of the order of |h|^2 + rounding).  Otherwise (a state set by hand,
@@ -189,17 +209,13 @@ IMF_Q_OUTLINE void imf_q_normalise(int32_t q[4])
  * the 32-bit profile) and d = 0. */
 static inline int16_t imf_q8_snapshot_norm(int32_t q[4], int16_t qs[4])
 {
-    uint32_t n2 = 0u;
-    int i;
-    imf_q_snapshot(q, qs);
-    for (i = 0; i < 4; ++i) {
-        n2 += (uint32_t)imf_mul16(qs[i], qs[i]);
-    }
+    const uint32_t n2 = imf_q_norm2(q);
     if (n2 <= 1069547520u || n2 >= 1077936128u) { /* 2^30 -+ 2^22 */
         imf_q_normalise(q);
         imf_q_snapshot(q, qs);
         return 0;
     }
+    imf_q_snapshot(q, qs);
     return (int16_t)imf_rshr32((int32_t)n2 - IMF_Q30_ONE, 8); /* q22, |d| <= 2^14 */
 }
 
@@ -214,7 +230,7 @@ static inline void imf_q8_add_step(int32_t q[4], const int32_t dq[4], const int1
 }
 
 /* q += dq (saturating), then q /= |q| (appendix step 8).  The norm comes
- * from the q15 snapshot (4 * 32767^2 < 2^32, no wrap) and the division-free
+ * from imf_q_norm2 (q rounded to q15, unsaturated) and the division-free
  * inverse square root; the scale factor is applied to the full q30 values.
  * A zero quaternion (possible only from a state set by hand) resets to
  * the identity. */

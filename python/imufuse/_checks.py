@@ -10,8 +10,25 @@ import numpy as np
 DTYPES = ("float32", "float64")
 
 
+def real_number(value):
+    """float(value) for a real number (Python or NumPy int/float/bool, or
+    anything with __float__ that is not complex or text); None otherwise.
+    Strings are not numbers here (both backends reject "0.5"), complex values
+    are rejected instead of losing their imaginary part, and an int too large
+    for a double is rejected instead of raising OverflowError."""
+    if isinstance(value, (str, bytes, bytearray, complex, np.complexfloating)):
+        return None
+    try:
+        return float(value)
+    except (TypeError, ValueError, OverflowError):
+        return None
+
+
 def check_dtype(dtype):
-    """Return "float32" or "float64"; raise ValueError for anything else."""
+    """Return "float32" or "float64"; raise ValueError for anything else
+    (None included: it is not a default here)."""
+    if dtype is None:
+        raise ValueError("dtype: must be 'float32' or 'float64', got None")
     try:
         name = np.dtype(dtype).name
     except TypeError:
@@ -24,10 +41,9 @@ def check_dtype(dtype):
 def check_real(name, value, lo=None, hi=None, lo_open=False, hi_open=False, why=""):
     """Return value as a float, requiring it finite and within [lo, hi]
     (open at an end when lo_open/hi_open)."""
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: must be a real number, got {value!r}") from None
+    v = real_number(value)
+    if v is None:
+        raise ValueError(f"{name}: must be a real number, got {value!r}")
     ok = math.isfinite(v)
     if ok and lo is not None:
         ok = v > lo if lo_open else v >= lo
@@ -62,12 +78,20 @@ def check_stable2(names, det, p_minus, p_plus, why):
         raise ValueError(f"{names}: outside the stable range ({why})")
 
 
+def _as_real_array(name, a, dtype):
+    """A contiguous array of dtype from real numbers only (no strings, no
+    complex values, no sets or dicts), else ValueError naming the input."""
+    if isinstance(a, (str, bytes, set, frozenset, dict)):
+        raise ValueError(f"run(): {name} must be an array of real numbers, got {type(a).__name__}")
+    arr = np.asarray(a)
+    if arr.dtype.kind not in "biuf":
+        raise ValueError(f"run(): {name} must be an array of real numbers, got dtype {arr.dtype}")
+    return np.ascontiguousarray(arr, dtype=dtype)
+
+
 def as_1d(dtype, **arrays):
     """Convert equally long 1-D inputs to contiguous arrays of dtype."""
-    out = []
-    for a in arrays.values():
-        arr = np.ascontiguousarray(a, dtype=dtype)
-        out.append(arr)
+    out = [_as_real_array(name, a, dtype) for name, a in arrays.items()]
     shapes = {name: arr.shape for name, arr in zip(arrays, out)}
     if any(arr.ndim != 1 for arr in out) or len({arr.shape for arr in out}) != 1:
         seen = ", ".join(f"{k}{v}" for k, v in shapes.items())
@@ -77,7 +101,7 @@ def as_1d(dtype, **arrays):
 
 def as_nx3(dtype, **arrays):
     """Convert (N, 3) inputs with a common N to contiguous arrays of dtype."""
-    out = [np.ascontiguousarray(a, dtype=dtype) for a in arrays.values()]
+    out = [_as_real_array(name, a, dtype) for name, a in arrays.items()]
     shapes = {name: arr.shape for name, arr in zip(arrays, out)}
     if any(arr.ndim != 2 or arr.shape[1] != 3 for arr in out) or len({arr.shape for arr in out}) != 1:
         seen = ", ".join(f"{k}{v}" for k, v in shapes.items())
@@ -88,11 +112,16 @@ def as_nx3(dtype, **arrays):
 def as_vec3(name, v):
     """One 3-vector for update(): any sequence or array of three numbers."""
     try:
+        if isinstance(v, (str, bytes, set, frozenset, dict)):
+            raise TypeError
         x, y, z = v
-        return float(x), float(y), float(z)
+        out = real_number(x), real_number(y), real_number(z)
     except (TypeError, ValueError):
         shape = np.shape(v) if not isinstance(v, str) else "str"
         raise ValueError(f"update(): {name} must be a 3-vector, got shape {shape}") from None
+    if None in out:
+        raise ValueError(f"update(): {name} must hold three real numbers, got {v!r}")
+    return out
 
 
 def as_state(value, n, dtype, names):
@@ -102,6 +131,12 @@ def as_state(value, n, dtype, names):
     if not np.all(np.isfinite(arr)):
         raise ValueError("state: must be finite (the state never becomes non-finite)")
     return np.ascontiguousarray(arr)
+
+
+def check_valid_state(problem):
+    """Raise the ValueError of a state write that is not a valid attitude."""
+    if problem is not None:
+        raise ValueError(f"state: not a valid attitude ({problem})")
 
 
 # Per-sample inputs of each kind of filter: update() argument names, and
@@ -133,10 +168,10 @@ def update_inputs(kind, args):
 
 
 def check_scalar(name, v):
-    try:
-        return float(v)
-    except (TypeError, ValueError):
-        raise ValueError(f"update(): {name} must be a real number, got {v!r}") from None
+    x = real_number(v)
+    if x is None:
+        raise ValueError(f"update(): {name} must be a real number, got {v!r}")
+    return x
 
 
 # ---- time: per-sample dt (run(..., dt=array), update(..., dt=value)) ----------

@@ -40,7 +40,8 @@ from . import reference
 from ._checks import KINDS, check_dtype
 from .estimate import ADAPTERS, Estimate
 
-__all__ = ["Entry", "FilterError", "FLOAT", "FIXED", "ENTRIES", "FILTERS", "FILTERS_FIXED",
+__all__ = ["Entry", "FilterError", "FLOAT", "FIXED", "FUSION", "FILTERS_FUSION", "ENTRIES", "FILTERS",
+           "FILTERS_FIXED",
            "entry", "filter_names", "reference_class", "compiled_class", "param_names",
            "resolve_params", "make_filter", "estimate", "why_no_estimate", "inputs_for", "KINDS"]
 
@@ -143,6 +144,21 @@ FIXED: Tuple[Entry, ...] = (
     Entry("MahonyIMUQ", dict(kp=1.0, ki=0.05, gyr_scale=_GYR), estimate="quaternion", fixed=True),
     Entry("MadgwickIMUQ", dict(gyr_scale=_GYR), estimate="quaternion", fixed=True),
 )
+
+# The Fusion suite (seed 004; imufusion 1.2.3): its own API, so apart from FLOAT.
+# The generic harnesses construct a filter with dt at init and feed rad/s through
+# update(gyr, acc[, mag]); FusionAHRS takes Fusion's units (deg/s, g), dt with every
+# update and three update forms, FusionOffset returns the corrected gyroscope.
+# tests/test_fusion.py and tests/test_fusion_oracle.py drive them; the command line
+# runs FusionAHRS through imufuse.preprocess.
+FUSION: Tuple[Entry, ...] = (
+    Entry("FusionAHRS", dict(convention="NWU", gain=0.5, gyroscope_range=0.0,
+                             acceleration_rejection=90.0, magnetic_rejection=90.0,
+                             recovery_trigger_period=0), estimate="quaternion"),
+    Entry("FusionOffset", dict(sample_rate=100)),
+)
+#: the Fusion suite's classes
+FILTERS_FUSION: Tuple[str, ...] = tuple(e.name for e in FUSION)
 
 ENTRIES: Dict[str, Entry] = {e.name: e for e in (*FLOAT, *FIXED)}
 #: every float filter, in catalogue order (imufuse_c and imufuse.reference export them)

@@ -14,7 +14,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from . import io, plots, sim
+from . import io, plots, preprocess, sim
 from ._resources import csrc_dir
 from .catalogue import (FilterError, estimate, filter_names, inputs_for, make_filter,
                         param_names, reference_class, resolve_params, why_no_estimate)
@@ -102,6 +102,8 @@ def _load(args):
     log = read_log(args.log, gyr_unit=args.gyr_unit, acc_unit=args.acc_unit, rate=args.rate)
     for w in log.warnings:
         _err(f"warning: {w}")
+    for note in preprocess.apply(log, args, getattr(args, "backend", "c")):  # --calibration, --align, --offset
+        _err(f"note: {note}")
     return log
 
 
@@ -150,6 +152,11 @@ def _demo(args):
 
 
 def _run(args):
+    if preprocess.is_fusion(args.filter):  # Fusion's units and dt per sample
+        cols, msg, f32 = preprocess.run_fusion(args, _load(args), _pairs(args.param))
+        io.write_csv(sys.stdout if args.output == "-" else args.output, cols, float32=f32)
+        _err(msg)
+        return EXIT_OK
     cls = reference_class(args.filter)
     overrides = _pairs(args.param)
     log = _load(args)
@@ -428,6 +435,7 @@ def build_parser():
     r.add_argument("--plot", metavar="PNG")
     _log_options(r)
     _filter_options(r)
+    preprocess.add_arguments(r)
     r.set_defaults(func=_run)
 
     c = sub.add_parser("compare", help="several filters on one log: table (errors when the log "
@@ -439,6 +447,7 @@ def build_parser():
     c.add_argument("--plot", metavar="PNG")
     _log_options(c)
     _filter_options(c)
+    preprocess.add_arguments(c)
     c.set_defaults(func=_compare)
 
     b = sub.add_parser("bench", help="speed table: C run() vs reference, samples per second")

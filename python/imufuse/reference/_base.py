@@ -33,6 +33,10 @@ from . import attitude as _attitude
 
 U32 = 0xFFFFFFFF
 
+#: state writes of the quaternion filters: |q|^2 within 1 +- this (the filter
+#: itself keeps |q| within 1 +- 2e-3 even with the fast inverse square root)
+QUAT_NORM2_TOL = 0.01
+
 
 class ReferenceFilter:
     kind = "1d"
@@ -43,10 +47,18 @@ class ReferenceFilter:
                  state=None, **kwargs):
         self.dtype = _checks.check_dtype(dtype)
         self._R = np.float32 if self.dtype == "float32" else float
-        self._args = self._params(*args, **kwargs)
+        self._args = self._checked_params(self.dtype, *args, **kwargs)
         self._start = _checks.check_start(self.kind, self.state_names, self.dtype, init,
                                           init_window, q0, state)
         self.reset()
+
+    @classmethod
+    def _checked_params(cls, dtype, *args, **kwargs):
+        """_params, then every C init argument and every constant init derives
+        from them checked in the filter's own precision (shared with imufuse_c)."""
+        args = cls._params(*args, **kwargs)
+        check_precision(cls, args, dtype)
+        return args
 
     def reset(self):
         """Back to the state after construction (init runs again)."""
@@ -98,9 +110,17 @@ class ReferenceFilter:
     def state(self, value):
         arr = _checks.as_state(value, len(self.state_names), self.dtype, self.state_names)
         R = self._R
+        _checks.check_valid_state(self._valid_state(self._args, R, arr))
         for n, v in zip(self.state_names, arr):
             setattr(self, n, R(v))
         self._pending = None   # a state set by hand ends a pending init="first"
+
+    @classmethod
+    def _valid_state(cls, args, R, state):
+        """Valid-attitude policy for state writes: None if `state` (finite,
+        dtype R) is a valid state for a filter built with C init arguments
+        `args`, else what is wrong. Shared with imufuse_c."""
+        return None
 
     def update(self, *args, dt=None):
         vals = _checks.update_inputs(self.kind, args)
@@ -142,6 +162,52 @@ class ReferenceFilter:
             if dts is not None:
                 self._set_dt(self._R(self._args[0]))
         return out
+
+
+def _bare(cls, dtype):
+    obj = cls.__new__(cls)
+    obj.dtype = dtype
+    obj._R = np.float32 if dtype == "float32" else float
+    obj.skipped = 0
+    return obj
+
+
+def check_precision(cls, args, dtype):
+    """Validate C init arguments in the filter's own precision: every real
+    argument must be finite and, unless zero, a normal number in dtype (dt =
+    1e-50 must not become 0, acc_1g = 1e39 must not become inf in float32);
+    every constant that init derives (settings and initial state, computed
+    by the reference's _init in dtype) must be finite, and non-zero and
+    normal wherever its float64 value is non-zero. Raises ValueError naming
+    the parameters."""
+    names = list(inspect.signature(cls._init).parameters)[1:]
+    fi = np.finfo(dtype)
+    tiny = float(fi.tiny)
+    for name, v in zip(names, args):
+        if isinstance(v, float):
+            with np.errstate(all="ignore"):
+                r = float(np.float32(v)) if dtype == "float32" else v
+            if not math.isfinite(r):
+                raise ValueError(f"{name}: {v!r} is not representable in {dtype} "
+                                 f"(largest {float(fi.max):g})")
+            if v != 0.0 and abs(r) < tiny:
+                raise ValueError(f"{name}: {v!r} is too small for {dtype} (below the "
+                                 f"smallest normal number {tiny:g})")
+    mine, wide = _bare(cls, dtype), _bare(cls, "float64")
+    with np.errstate(all="ignore"):
+        mine._init(*args)
+        wide._init(*args)
+    for key, v in vars(mine).items():
+        if key.startswith("_") or isinstance(v, (bool, int)) or \
+                not isinstance(v, (float, np.floating)):
+            continue
+        v64 = getattr(wide, key, None)
+        v = float(v)
+        bad = not math.isfinite(v) or (v64 and abs(v) < tiny)
+        if bad:
+            what = ", ".join(n for n, a in zip(names, args) if isinstance(a, float))
+            raise ValueError(f"{what}: the constant {key} = {v64!r} derived from them is not "
+                             f"representable in {dtype} (it becomes {v!r})")
 
 
 def isfinite(*values):

@@ -6,6 +6,8 @@ return new values instead of writing through pointers.
 import math
 import struct
 
+import numpy as np
+
 INVSQRT = {"exact": 0, "fast": 1}
 INVSQRT_EXACT, INVSQRT_FAST = 0, 1
 
@@ -39,20 +41,65 @@ def invsqrt(R, x, mode):
     return invsqrt_fast(R, x) if mode == INVSQRT_FAST else invsqrt_exact(R, x)
 
 
-def normalise3(R, x, y, z, mode):
-    n2 = x * x + y * y + z * z
-    if mode != INVSQRT_FAST and n2 == R(0.0):
-        return x, y, z
+NORM_OK, NORM_TINY, NORM_HUGE = 0, 1, 2
+
+
+def real_limits(R):
+    """(IMF_REAL_MIN, IMF_REAL_MAX): smallest normal and largest finite value of
+    R; for exact arithmetic (fractions.Fraction, used by tests) every non-zero
+    value is normal: (None, None)."""
+    if R is float or R is np.float32:
+        fi = np.finfo(np.float64 if R is float else np.float32)
+        return R(fi.tiny), R(fi.max)
+    return None, None
+
+
+_LIMITS: dict = {}
+
+
+def _limits(R):
+    lim = _LIMITS.get(R)
+    if lim is None:
+        lim = _LIMITS[R] = real_limits(R)
+    return lim
+
+
+def inverse_norm(R, n2, mode):
+    """imf_inverse_norm: (NORM_OK, r) with r = 1/|v| when n2 is a normal
+    number and r finite and non-zero; (NORM_TINY, None) for n2 zero or
+    subnormal; (NORM_HUGE, None) for n2 overflowed or NaN."""
+    lo, hi = _limits(R)
+    if lo is None:
+        return (NORM_TINY, None) if n2 == 0 else (NORM_OK, invsqrt(R, n2, mode))
+    if not n2 <= hi:
+        return NORM_HUGE, None
+    if n2 < lo:
+        return NORM_TINY, None
     r = invsqrt(R, n2, mode)
-    return x * r, y * r, z * r
+    return (NORM_OK, r) if R(0.0) < r <= hi else (NORM_HUGE, None)
+
+
+def normalise3(R, x, y, z, mode):
+    """imf_normalise3: (rc, (x, y, z)); unchanged unless rc is NORM_OK."""
+    rc, r = inverse_norm(R, x * x + y * y + z * z, mode)
+    if rc != NORM_OK:
+        return rc, (x, y, z)
+    return NORM_OK, (x * r, y * r, z * r)
 
 
 def normalise4(R, w, x, y, z, mode):
-    n2 = w * w + x * x + y * y + z * z
-    if mode != INVSQRT_FAST and n2 == R(0.0):
-        return w, x, y, z
-    r = invsqrt(R, n2, mode)
-    return w * r, x * r, y * r, z * r
+    """imf_normalise4: (rc, (w, x, y, z)); unchanged unless rc is NORM_OK."""
+    rc, r = inverse_norm(R, w * w + x * x + y * y + z * z, mode)
+    if rc != NORM_OK:
+        return rc, (w, x, y, z)
+    return NORM_OK, (w * r, x * r, y * r, z * r)
+
+
+def gravity_ok(R, dx, dy, dz, d2_max):
+    """imf_gravity_ok: |d|^2 a normal number and at most d2_max."""
+    lo = _limits(R)[0]
+    n2 = dx * dx + dy * dy + dz * dz
+    return (n2 != 0 if lo is None else lo <= n2) and n2 <= d2_max
 
 
 def is_zero3(R, x, y, z):

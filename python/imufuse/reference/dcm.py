@@ -11,6 +11,25 @@ FILTERS = ("DCM",)
 _NAMES = ("r00", "r01", "r02", "r10", "r11", "r12", "r20", "r21", "r22", "ix", "iy", "iz")
 
 
+#: IMF_DCM_ORTHO_TOL (csrc/dcm.h): rows of R of squared length 1 +- tol, pairwise
+#: dot products within +-tol; an update that leaves this is rejected.
+ORTHO_TOL = 0.01
+
+
+def _orthonormal(R, r):
+    """dcm_orthonormal: R orthonormal within ORTHO_TOL (and therefore finite)."""
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = r
+    nx = r00 * r00 + r01 * r01 + r02 * r02
+    ny = r10 * r10 + r11 * r11 + r12 * r12
+    nz = r20 * r20 + r21 * r21 + r22 * r22
+    xy = r00 * r10 + r01 * r11 + r02 * r12
+    xz = r00 * r20 + r01 * r21 + r02 * r22
+    yz = r10 * r20 + r11 * r21 + r12 * r22
+    tol = R(ORTHO_TOL)
+    return (abs(nx - R(1.0)) <= tol and abs(ny - R(1.0)) <= tol and abs(nz - R(1.0)) <= tol
+            and abs(xy) <= tol and abs(xz) <= tol and abs(yz) <= tol)
+
+
 class DCM(ReferenceFilter):
     """Mahony DCM filter, article 4.1, with P&B re-orthogonalisation, 4.3.
 
@@ -30,6 +49,12 @@ class DCM(ReferenceFilter):
         dt = _checks.check_dt(dt)
         kp, ki = _check_gains(dt, kp, ki)
         return (dt, kp, ki)
+
+    @classmethod
+    def _valid_state(cls, args, R, state):
+        if not _orthonormal(R, [R(v) for v in state[:9]]):
+            return f"R (r00..r22) must be orthonormal within {ORTHO_TOL}"
+        return None
 
     def _init(self, dt, kp, ki):
         R = self._R
@@ -116,7 +141,9 @@ class DCM(ReferenceFilter):
         r20 = r01 * r12 - r02 * r11
         r21 = r02 * r10 - r00 * r12
         r22 = r00 * r11 - r01 * r10
-        if not isfinite(r00, r01, r02, r10, r11, r12, r20, r21, r22, ix, iy, iz):
+        # valid-attitude policy (imf_math.h): R stays orthonormal, I finite
+        if not (_orthonormal(R, (r00, r01, r02, r10, r11, r12, r20, r21, r22))
+                and isfinite(ix, iy, iz)):
             self._skip()
             return
         (self.r00, self.r01, self.r02, self.r10, self.r11, self.r12,

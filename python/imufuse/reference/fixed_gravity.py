@@ -87,6 +87,9 @@ class MultiWiiQ(FixedFilter):
         if acc_lpf_shift > 15:
             raise ValueError(f"acc_lpf_shift: must be <= 15 in fixed point, got {acc_lpf_shift!r}")
         acc_1g = _checks.check_real("acc_1g", acc_1g, lo=0.0, lo_open=True, hi=32767.0)
+        if not math.floor(acc_1g * 32768.0 + 0.5) > 0:
+            # its q15 form (csrc/fixed/gravity_q.c) must not round to zero
+            raise ValueError(f"acc_1g: must be at least 2^-16 counts in fixed point, got {acc_1g!r}")
         cmpf = _checks.check_real("cmpf", cmpf, lo=0.0, hi=1e9)
         _checks.check_real("window", window, lo=0.0, hi=1.0)
         gyr_scale = check_scale("gyr_scale", gyr_scale)

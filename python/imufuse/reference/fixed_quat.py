@@ -76,14 +76,23 @@ def rate_q8(qs, h, hs):
             r(sub(qs[0] * hz + qs[1] * hy, qs[2] * hx), hs)]
 
 
+def norm2(q):
+    """imf_q_norm2: |q|^2 in q30 from q rounded to q15 without saturation
+    (the snapshot's 32767 for 1.0 would read the identity as too short)."""
+    n2 = 0
+    for v in q:
+        u = min(abs(ci.rshr32(v, 15)), 65535)
+        n2 = min(n2 + u * u, 0xFFFFFFFF)
+    return n2
+
+
 def snapshot_norm8(q):
     """imf_q8_snapshot_norm: (q, qs, d16); q fully normalised when far from 1."""
-    qs = snapshot(q)
-    n2 = sum(v * v for v in qs)
+    n2 = norm2(q)
     if n2 <= 1069547520 or n2 >= 1077936128:
         q = normalise(q)
         return q, snapshot(q), 0
-    return q, qs, ci.rshr32(n2 - Q30_ONE, 8)
+    return q, snapshot(q), ci.rshr32(n2 - Q30_ONE, 8)
 
 
 def add_step8(q, dq, qs, d16):
@@ -99,8 +108,7 @@ def add_normalise(q, dq):
 
 def normalise(q):
     """imf_q_normalise: q /= |q| (full inverse square root)."""
-    qs = snapshot(q)
-    n2 = sum(v * v for v in qs)
+    n2 = norm2(q)
     if n2 == 0:
         return [Q30_ONE, 0, 0, 0]
     y, sh = ci.invsqrt_u32(n2)

@@ -7,7 +7,7 @@ the article's simplified corrective step for a unit quaternion.
 """
 from .. import _checks
 from . import _math
-from ._base import ReferenceFilter, isfinite
+from ._base import QUAT_NORM2_TOL, ReferenceFilter, isfinite
 
 FILTERS = ("MadgwickIMU", "MadgwickAHRS")
 
@@ -119,8 +119,32 @@ def ds_ahrs(R, q, ax, ay, az, mx, my, mz):
     return [s0, s1, s2, s3]
 
 
+#: largest beta*dt (docs/robustness.md)
+BETA_DT_MAX = 0.1
+
+
+def check_beta(dt, beta):
+    """Stable range (docs/robustness.md). The corrective step moves q by
+    beta dt along the unit gradient whatever the error (steps 5-7): it is not
+    proportional, so near the optimum q settles into a limit cycle of up to
+    2 beta dt rad around it (the step overshoots by up to its own length; one
+    quaternion unit is two radians of attitude). beta dt <= 0.1 keeps that
+    below 0.2 rad (11.5 deg) and the first-order step small; beyond it the
+    estimate can be as far off as the step (beta = 150 at 100 Hz: 180 deg)."""
+    if not beta * dt <= BETA_DT_MAX:
+        raise ValueError(f"beta: outside the stable range (beta*dt <= {BETA_DT_MAX} needed; "
+                         f"beta*dt={beta * dt!r})")
+
+
 class _Madgwick(ReferenceFilter):
     state_names = ("q0", "q1", "q2", "q3")
+
+    @classmethod
+    def _valid_state(cls, args, R, state):
+        n2 = float(sum(float(v) * float(v) for v in state[:4]))
+        if not abs(n2 - 1.0) <= QUAT_NORM2_TOL:
+            return f"|q|^2 = {n2!r}, must be within 1 +- {QUAT_NORM2_TOL}"
+        return None
 
     def _init(self, dt, beta, delta_s, invsqrt):
         R = self._R
@@ -141,30 +165,41 @@ class _Madgwick(ReferenceFilter):
     def _set_attitude(self, att):
         self.q0, self.q1, self.q2, self.q3 = att.q
 
-    # Steps 5 and 6: normalise ds, dq' = dq - beta ds
+    # Steps 5 and 6: normalise ds, dq' = dq - beta ds. A zero (or subnormal)
+    # ds is the exact optimum: it has no direction and is left as it is (no
+    # correction). Returns None if ds overflowed (the sample is rejected).
     def _feedback(self, s, dq):
-        s = _math.normalise4(self._R, *s, self.invsqrt)
+        rc, s = _math.normalise4(self._R, *s, self.invsqrt)
+        if rc == _math.NORM_HUGE:
+            return None
         return [dq[0] - self.beta * s[0],
                 dq[1] - self.beta * s[1],
                 dq[2] - self.beta * s[2],
                 dq[3] - self.beta * s[3]]
 
-    # Steps 7 and 8: q_n = q_{n-1} + dq' dt, then normalise
+    # Steps 7 and 8: q_n = q_{n-1} + dq' dt, then normalise. Returns None when
+    # q cannot be normalised (the sample is rejected).
     def _integrate(self, q, dq):
-        return _math.normalise4(self._R, q[0] + dq[0] * self.dt, q[1] + dq[1] * self.dt,
-                                q[2] + dq[2] * self.dt, q[3] + dq[3] * self.dt, self.invsqrt)
+        rc, q = _math.normalise4(self._R, q[0] + dq[0] * self.dt, q[1] + dq[1] * self.dt,
+                                 q[2] + dq[2] * self.dt, q[3] + dq[3] * self.dt, self.invsqrt)
+        return q if rc == _math.NORM_OK else None
 
+    # One update; returns None if a normalisation failed (the sample is rejected).
     def _imu_step(self, q, gx, gy, gz, ax, ay, az):
         R = self._R
         dq = rate(R, q, gx, gy, gz)
         if not _math.is_zero3(R, ax, ay, az):
             # Step 2: normalise a
-            ax, ay, az = _math.normalise3(R, ax, ay, az, self.invsqrt)
+            rc, (ax, ay, az) = _math.normalise3(R, ax, ay, az, self.invsqrt)
+            if rc != _math.NORM_OK:
+                return None
             if self.delta_s == DS_SIMPLIFIED:
                 s = ds_simplified(R, q, ax, ay, az)
             else:
                 s = ds_full(R, q, ax, ay, az)
             dq = self._feedback(s, dq)
+            if dq is None:
+                return None
         return self._integrate(q, dq)
 
     def _ahrs_step(self, q, gx, gy, gz, ax, ay, az, mx, my, mz):
@@ -174,15 +209,22 @@ class _Madgwick(ReferenceFilter):
             return self._imu_step(q, gx, gy, gz, ax, ay, az)
         dq = rate(R, q, gx, gy, gz)
         if not _math.is_zero3(R, ax, ay, az):
-            ax, ay, az = _math.normalise3(R, ax, ay, az, self.invsqrt)
-            mx, my, mz = _math.normalise3(R, mx, my, mz, self.invsqrt)
+            rc, (ax, ay, az) = _math.normalise3(R, ax, ay, az, self.invsqrt)
+            if rc != _math.NORM_OK:
+                return None
+            rc, (mx, my, mz) = _math.normalise3(R, mx, my, mz, self.invsqrt)
+            if rc != _math.NORM_OK:
+                return None
             s = ds_ahrs(R, q, ax, ay, az, mx, my, mz)
             dq = self._feedback(s, dq)
+            if dq is None:
+                return None
         return self._integrate(q, dq)
 
-    # Keep the new state only if it is finite (non-finite policy, imf_math.h).
+    # Keep the new state only if the update succeeded (not None) and left it
+    # finite (valid-attitude policy, imf_math.h).
     def _commit(self, q):
-        if not isfinite(*q):
+        if q is None or not isfinite(*q):
             self._skip()
             return
         self.q0, self.q1, self.q2, self.q3 = q
@@ -205,6 +247,7 @@ class MadgwickIMU(_Madgwick):
     def _params(dt, beta=0.1, delta_s="full", *, invsqrt="exact"):
         dt = _checks.check_dt(dt)
         beta = _checks.check_real("beta", beta, lo=0.0)
+        check_beta(dt, beta)
         _checks.check_choice("delta_s", delta_s, tuple(DELTA_S))
         _checks.check_choice("invsqrt", invsqrt, tuple(_math.INVSQRT))
         return (dt, beta, DELTA_S[delta_s], _math.INVSQRT[invsqrt])
@@ -230,6 +273,7 @@ class MadgwickAHRS(_Madgwick):
     def _params(dt, beta=0.1, *, invsqrt="exact"):
         dt = _checks.check_dt(dt)
         beta = _checks.check_real("beta", beta, lo=0.0)
+        check_beta(dt, beta)
         _checks.check_choice("invsqrt", invsqrt, tuple(_math.INVSQRT))
         return (dt, beta, _math.INVSQRT[invsqrt])
 

@@ -10,19 +10,44 @@ defaults).
 """
 from .. import _checks
 from . import _math
-from ._base import ReferenceFilter, isfinite
+from ._base import QUAT_NORM2_TOL, ReferenceFilter, isfinite
 
 FILTERS = ("MahonyIMU", "MahonyAHRS")
 
 
+def check_mahony_gains(dt, kp, ki):
+    """Stable range (docs/robustness.md). Near the attitude the accelerometer
+    (and magnetometer) give, the error is e = a x d = sin(theta) ~ theta per
+    axis and the update (steps 5-8) is the single-axis loop of Eq. 3.6:
+    I_n = I + Ki dt e, theta_n = theta - (Kp e + I_n) dt, update matrix
+    [[1 - kp dt - ki dt^2, -dt], [ki dt, 1]] (Mahony1DBias). Jury test:
+    0 < kp dt < 2 and ki dt^2 < 4 - 2 kp dt. kp = ki = 0 (gyro integration
+    only) is admitted."""
+    if kp == 0.0 and ki == 0.0:
+        return
+    kpdt, kidt2 = kp * dt, ki * dt * dt
+    if not (0.0 < kpdt < 2.0 and kidt2 < 4.0 - 2.0 * kpdt):
+        raise ValueError(f"kp, ki: outside the stable range (0 < kp*dt < 2 and "
+                         f"ki*dt^2 < 4 - 2 kp*dt needed, or kp = ki = 0; "
+                         f"kp*dt={kpdt!r}, ki*dt^2={kidt2!r})")
+
+
 class _Mahony(ReferenceFilter):
     state_names = ("q0", "q1", "q2", "q3", "ix", "iy", "iz")
+
+    @classmethod
+    def _valid_state(cls, args, R, state):
+        n2 = float(sum(float(v) * float(v) for v in state[:4]))
+        if not abs(n2 - 1.0) <= QUAT_NORM2_TOL:
+            return f"|q|^2 = {n2!r}, must be within 1 +- {QUAT_NORM2_TOL}"
+        return None
 
     @staticmethod
     def _params(dt, kp=0.5, ki=0.0, *, invsqrt="exact"):
         dt = _checks.check_dt(dt)
         kp = _checks.check_real("kp", kp, lo=0.0)
         ki = _checks.check_real("ki", ki, lo=0.0)
+        check_mahony_gains(dt, kp, ki)
         _checks.check_choice("invsqrt", invsqrt, tuple(_math.INVSQRT))
         return (dt, kp, ki, _math.INVSQRT[invsqrt])
 
@@ -75,6 +100,7 @@ class _Mahony(ReferenceFilter):
         return (ix, iy, iz), (gx, gy, gz)
 
     # Steps 7 and 8: q_n = q_{n-1} + 1/2 q_{n-1} (x) omega' dt, then normalise.
+    # Returns None when q cannot be normalised (the sample is rejected).
     def _integrate(self, q, g):
         q0, q1, q2, q3 = q
         gx, gy, gz = g
@@ -85,14 +111,18 @@ class _Mahony(ReferenceFilter):
         n1 = q1 + (q0 * gx + q2 * gz - q3 * gy)
         n2 = q2 + (q0 * gy - q1 * gz + q3 * gx)
         n3 = q3 + (q0 * gz + q1 * gy - q2 * gx)
-        return _math.normalise4(self._R, n0, n1, n2, n3, self.invsqrt)
+        rc, q = _math.normalise4(self._R, n0, n1, n2, n3, self.invsqrt)
+        return q if rc == _math.NORM_OK else None
 
+    # One update; returns None if a normalisation failed (the sample is rejected).
     def _imu_step(self, q, i, gx, gy, gz, ax, ay, az):
         R = self._R
         if not _math.is_zero3(R, ax, ay, az):
             q0, q1, q2, q3 = q
             # Step 2: normalise a
-            ax, ay, az = _math.normalise3(R, ax, ay, az, self.invsqrt)
+            rc, (ax, ay, az) = _math.normalise3(R, ax, ay, az, self.invsqrt)
+            if rc != _math.NORM_OK:
+                return None
             # Step 3: d/2, half the earth's up axis seen in the sensor frame
             vx = q1 * q3 - q0 * q2
             vy = q0 * q1 + q2 * q3
@@ -102,7 +132,8 @@ class _Mahony(ReferenceFilter):
             ey = az * vx - ax * vz
             ez = ax * vy - ay * vx
             i, (gx, gy, gz) = self._feedback(i, (gx, gy, gz), ex, ey, ez)
-        return self._integrate(q, (gx, gy, gz)), i
+        q = self._integrate(q, (gx, gy, gz))
+        return None if q is None else (q, i)
 
     def _ahrs_step(self, q, i, gx, gy, gz, ax, ay, az, mx, my, mz):
         R = self._R
@@ -112,8 +143,12 @@ class _Mahony(ReferenceFilter):
         if not _math.is_zero3(R, ax, ay, az):
             q0, q1, q2, q3 = q
             # Step 2: normalise a and m
-            ax, ay, az = _math.normalise3(R, ax, ay, az, self.invsqrt)
-            mx, my, mz = _math.normalise3(R, mx, my, mz, self.invsqrt)
+            rc, (ax, ay, az) = _math.normalise3(R, ax, ay, az, self.invsqrt)
+            if rc != _math.NORM_OK:
+                return None
+            rc, (mx, my, mz) = _math.normalise3(R, mx, my, mz, self.invsqrt)
+            if rc != _math.NORM_OK:
+                return None
             q0q0 = q0 * q0
             q0q1 = q0 * q1
             q0q2 = q0 * q2
@@ -146,13 +181,16 @@ class _Mahony(ReferenceFilter):
             ey = (az * vx - ax * vz) + (mz * wx - mx * wz)
             ez = (ax * vy - ay * vx) + (mx * wy - my * wx)
             i, (gx, gy, gz) = self._feedback(i, (gx, gy, gz), ex, ey, ez)
-        return self._integrate(q, (gx, gy, gz)), i
+        q = self._integrate(q, (gx, gy, gz))
+        return None if q is None else (q, i)
 
-    # Keep the new state only if it is finite (non-finite policy, imf_math.h).
-    def _commit(self, q, i):
-        if not isfinite(*q, *i):
+    # Keep the new state only if the update succeeded (not None) and left it
+    # finite (valid-attitude policy, imf_math.h).
+    def _commit(self, new):
+        if new is None or not isfinite(*new[0], *new[1]):
             self._skip()
             return
+        q, i = new
         self.q0, self.q1, self.q2, self.q3 = q
         self.ix, self.iy, self.iz = i
 
@@ -177,8 +215,7 @@ class MahonyIMU(_Mahony):
             self._skip()
             return
         q, i = self._state()
-        q, i = self._imu_step(q, i, gx, gy, gz, ax, ay, az)
-        self._commit(q, i)
+        self._commit(self._imu_step(q, i, gx, gy, gz, ax, ay, az))
 
 
 class MahonyAHRS(_Mahony):
@@ -195,5 +232,4 @@ class MahonyAHRS(_Mahony):
             self._skip()
             return
         q, i = self._state()
-        q, i = self._ahrs_step(q, i, gx, gy, gz, ax, ay, az, mx, my, mz)
-        self._commit(q, i)
+        self._commit(self._ahrs_step(q, i, gx, gy, gz, ax, ay, az, mx, my, mz))

@@ -9,6 +9,7 @@ import math
 import numpy as np
 
 from .. import _checks
+from . import _math
 from ._base import ReferenceFilter, isfinite
 
 FILTERS = ("Mahony2D",)
@@ -30,9 +31,17 @@ def tilt_angles(dx, dy, dz):
     return math.atan2(dy, dz), math.atan2(-dx, math.sqrt(dy * dy + dz * dz))
 
 
-def _check_gains(dt, kp, ki):
+def _check_gains(dt, kp, ki, exact=False):
     kp = _checks.check_real("kp", kp, lo=0.0)
     ki = _checks.check_real("ki", ki, lo=0.0)
+    if exact:
+        # Eq. 4.3: the loop gains are Kp |d|^2 and Ki |d|^2 with |d|^2 up to
+        # d2_max = 1 / (kp dt) (csrc/mahony2d.h): kp dt |d|^2 <= 1 and the Jury
+        # condition below at the largest |d|, ki dt^2 / (kp dt) < 4 - 2
+        kpdt, kidt2 = kp * dt, ki * dt * dt
+        if not (0.0 < kpdt <= 0.25 and kidt2 < 2.0 * kpdt):
+            raise ValueError(f"kp, ki: outside the stable range of Eq. 4.3 (0 < kp*dt <= 0.25 "
+                             f"and ki*dt^2 < 2 kp*dt needed; kp*dt={kpdt!r}, ki*dt^2={kidt2!r})")
     # per axis near convergence the loop is the single-axis filter of Eq. 3.6
     # (Mahony1DBias), update matrix [[1 - kp dt - ki dt^2, dt], [-ki dt, 1]]:
     # Jury test |det| < 1, 1 - tr + det = ki dt^2 >= 0, 1 + tr + det > 0,
@@ -62,9 +71,17 @@ class Mahony2D(ReferenceFilter):
     @staticmethod
     def _params(dt, kp, ki, error="approx"):
         dt = _checks.check_dt(dt)
-        kp, ki = _check_gains(dt, kp, ki)
         error = _checks.check_choice("error", error, ("approx", "exact"))
+        kp, ki = _check_gains(dt, kp, ki, exact=error == "exact")
         return (dt, kp, ki, int(error == "exact"))
+
+    @classmethod
+    def _valid_state(cls, args, R, state):
+        dt, kp, _, exact = args
+        d2_max = R(1.0) / (R(kp) * R(dt)) if exact else R(4.0)
+        if not _math.gravity_ok(R, *[R(v) for v in state[:3]], d2_max):
+            return f"d (dx, dy, dz) must have 0 < |d|^2 <= {float(d2_max)!r}"
+        return None
 
     def _init(self, dt, kp, ki, exact):
         R = self._R
@@ -72,6 +89,7 @@ class Mahony2D(ReferenceFilter):
         self.ki = R(ki)
         self._set_dt(R(dt))
         self.exact = exact != 0
+        self.d2_max = R(1.0) / (R(kp) * self.dt) if self.exact else R(4.0)
         self.dx = R(0.0)
         self.dy = R(0.0)
         self.dz = R(1.0)
@@ -127,7 +145,8 @@ class Mahony2D(ReferenceFilter):
         dxn = dx + (self.kp * ex + ix + cx) * self.dt
         dyn = dy + (self.kp * ey + iy + cy) * self.dt
         dzn = dz + (self.kp * ez + iz + cz) * self.dt
-        if not isfinite(dxn, dyn, dzn, ix, iy, iz):
+        # valid-attitude policy (imf_math.h): d of plausible length, I finite
+        if not (_math.gravity_ok(R, dxn, dyn, dzn, self.d2_max) and isfinite(ix, iy, iz)):
             self._skip()
             return
         self.dx = dxn

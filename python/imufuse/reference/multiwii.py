@@ -47,6 +47,7 @@ Where imufuse departs from the firmware, and why:
    copies EstG32. Non-finite samples are rejected (imufuse policy).
 """
 from .. import _checks
+from . import _math
 from ._base import ReferenceFilter, isfinite
 from .mahony2d import tilt_angles
 
@@ -80,6 +81,14 @@ class MultiWii(ReferenceFilter):
         window = _checks.check_real("window", window, lo=0.0, hi=1.0, lo_open=True)
         return (dt, cmpf, acc_lpf_shift, acc_1g, window)
 
+    @classmethod
+    def _valid_state(cls, args, R, state):
+        acc_1g = R(args[3])
+        if not _math.gravity_ok(R, *[R(v) for v in state[:3]],
+                                (R(4.0) * acc_1g) * (R(4.0) * acc_1g)):
+            return "d (dx, dy, dz) must have 0 < |d| <= 4 acc_1g"
+        return None
+
     def _init(self, dt, cmpf, acc_lpf_shift, acc_1g, window):
         R = self._R
         self._set_dt(R(dt))
@@ -97,6 +106,8 @@ class MultiWii(ReferenceFilter):
         hi = (R(1.0) + window) * acc_1g
         self.mag2_lo = lo * lo
         self.mag2_hi = hi * hi
+        # valid attitude: |d| <= 4 g (the filter pulls d towards |a| < 2 g)
+        self.d2_max = (R(4.0) * acc_1g) * (R(4.0) * acc_1g)
         self.acc_1g = acc_1g
         self.dx = R(0.0)
         self.dy = R(0.0)
@@ -144,7 +155,8 @@ class MultiWii(ReferenceFilter):
             dx = (dx * self.cmpf + sx) * self.inv_cmpf1
             dy = (dy * self.cmpf + sy) * self.inv_cmpf1
             dz = (dz * self.cmpf + sz) * self.inv_cmpf1
-        if not isfinite(dx, dy, dz, sx, sy, sz):
+        # valid-attitude policy (imf_math.h): d of plausible length, LPF finite
+        if not (_math.gravity_ok(self._R, dx, dy, dz, self.d2_max) and isfinite(sx, sy, sz)):
             self._skip()
             return
         self.dx = dx

@@ -1,0 +1,139 @@
+"""Sensor calibration files: the models of seed 004 (x-io Fusion) in JSON.
+
+Format (every key optional; a missing sensor or parameter means "identity"):
+
+    {"gyroscope":     {"M": [[...], [...], [...]], "s": [sx, sy, sz], "b": [bx, by, bz]},
+     "accelerometer": {"M": 3x3, "s": [3], "b": [3]},
+     "magnetometer":  {"S": 3x3, "h": [3]}}
+
+Inertial model  i_c = M s (i_u - b)   (M misalignment, s sensitivity, b offset)
+Magnetic model  m_c = S (m_u - h)     (S soft-iron matrix, h hard-iron offset)
+
+Units are Fusion's: gyroscope b in deg/s, accelerometer b in g, magnetometer h
+in the magnetometer's unit; M, s and S are dimensionless. The models are
+evaluated by imufuse_c.calibrate_inertial / calibrate_magnetic (C, in
+Fusion's operation order; pure-Python twin in imufuse.reference.fusion).
+"""
+import json
+from dataclasses import dataclass, field
+from typing import Optional
+
+import numpy as np
+
+import imufuse_c
+
+from .reference import fusion
+
+SENSORS = {"gyroscope": ("M", "s", "b"), "accelerometer": ("M", "s", "b"),
+           "magnetometer": ("S", "h")}
+SHAPES = {"M": (3, 3), "S": (3, 3), "s": (3,), "b": (3,), "h": (3,)}
+IDENTITY = {"M": np.eye(3), "S": np.eye(3), "s": np.ones(3), "b": np.zeros(3), "h": np.zeros(3)}
+
+
+class CalibrationError(ValueError):
+    """A calibration file or dict that does not follow the format."""
+
+
+@dataclass
+class Calibration:
+    """Parameters per sensor (float64 arrays); absent sensors are None."""
+    gyroscope: Optional[dict] = None
+    accelerometer: Optional[dict] = None
+    magnetometer: Optional[dict] = None
+    source: str = ""
+    extra: dict = field(default_factory=dict)
+
+    def params(self, sensor):
+        """The sensor's parameters with the identity filled in."""
+        given = getattr(self, sensor) or {}
+        return {k: given.get(k, IDENTITY[k]) for k in SENSORS[sensor]}
+
+    def apply(self, sensor, x, dtype="float64", backend="c"):
+        """Calibrate (N, 3) samples of one sensor; unchanged if it has no entry."""
+        if getattr(self, sensor) is None:
+            return np.asarray(x, dtype=dtype)
+        mod = imufuse_c if backend == "c" else fusion
+        p = self.params(sensor)
+        if sensor == "magnetometer":
+            return mod.calibrate_magnetic(x, p["S"], p["h"], dtype=dtype)
+        return mod.calibrate_inertial(x, p["M"], p["s"], p["b"], dtype=dtype)
+
+    def to_dict(self):
+        out = {}
+        for sensor in SENSORS:
+            given = getattr(self, sensor)
+            if given is not None:
+                out[sensor] = {k: np.asarray(v).tolist() for k, v in given.items()}
+        return out
+
+
+def _where(src, path):
+    return f"{src}: {path}" if src else path
+
+
+def from_dict(data, source=""):
+    """Validate a calibration dict; raise CalibrationError naming the key."""
+    if not isinstance(data, dict):
+        raise CalibrationError(_where(source, f"expected a JSON object, got {type(data).__name__}"))
+    unknown = sorted(set(data) - set(SENSORS))
+    if unknown:
+        raise CalibrationError(_where(source, f"unknown sensor(s) {', '.join(map(repr, unknown))}; "
+                                              f"expected {', '.join(SENSORS)}"))
+    cal = Calibration(source=source)
+    for sensor, keys in SENSORS.items():
+        if sensor not in data:
+            continue
+        entry = data[sensor]
+        if not isinstance(entry, dict):
+            raise CalibrationError(_where(source, f"{sensor}: expected an object with "
+                                                  f"{', '.join(keys)}"))
+        bad = sorted(set(entry) - set(keys))
+        if bad:
+            raise CalibrationError(_where(source, f"{sensor}: unknown key(s) "
+                                                  f"{', '.join(map(repr, bad))}; expected "
+                                                  f"{', '.join(keys)}"))
+        params = {}
+        for k, v in entry.items():
+            try:
+                arr = np.asarray(v, dtype=np.float64)
+            except (TypeError, ValueError):
+                raise CalibrationError(_where(source, f"{sensor}.{k}: expected numbers, got {v!r}")) \
+                    from None
+            if arr.shape != SHAPES[k]:
+                raise CalibrationError(_where(source, f"{sensor}.{k}: expected shape "
+                                                      f"{SHAPES[k]}, got {arr.shape}"))
+            if not np.all(np.isfinite(arr)):
+                raise CalibrationError(_where(source, f"{sensor}.{k}: values must be finite"))
+            params[k] = arr
+        setattr(cal, sensor, params)
+    return cal
+
+
+def load_calibration(path):
+    """Read and validate a calibration JSON file."""
+    try:
+        with open(path, encoding="utf-8") as fh:
+            data = json.load(fh)
+    except OSError as e:
+        raise CalibrationError(f"{path}: cannot read ({e.strerror or e})") from None
+    except json.JSONDecodeError as e:
+        raise CalibrationError(f"{path}: not valid JSON ({e.msg}, line {e.lineno})") from None
+    return from_dict(data, source=str(path))
+
+
+def save_calibration(path, calibration):
+    """Write a Calibration (or a dict in the format) as JSON, validated first."""
+    cal = calibration if isinstance(calibration, Calibration) else from_dict(calibration)
+    with open(path, "w", encoding="utf-8") as fh:
+        json.dump(cal.to_dict(), fh, indent=2)
+        fh.write("\n")
+    return path
+
+
+def is_identity(cal):
+    return all(getattr(cal, s) is None or all(
+        np.array_equal(v, IDENTITY[k]) for k, v in getattr(cal, s).items()) for s in SENSORS)
+
+
+__all__ = ["Calibration", "CalibrationError", "from_dict", "load_calibration",
+           "save_calibration", "is_identity"]

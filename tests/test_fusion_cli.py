@@ -1,0 +1,124 @@
+"""`imufuse run --filter FusionAHRS`, the calibration file format and the
+preprocessing options (--calibration, --align, --offset) in front of any filter."""
+import json
+
+import numpy as np
+import pytest
+
+import imufuse_c
+from imufuse import calibration_models as cm
+from imufuse import cli, io
+from imufuse import reference as ref
+
+from bits import assert_same_bits
+from fusion_sim import simulated_log
+
+
+@pytest.fixture(scope="module")
+def log_path(tmp_path_factory):
+    d = tmp_path_factory.mktemp("fusion_cli")
+    log = simulated_log(seed=21, n=1500)
+    t = np.cumsum(log.dt.astype(np.float64))
+    t -= t[0]
+    path = d / "log.csv"
+    io.write_log(str(path), t, np.radians(log.gyr.astype(np.float64)),
+                 log.acc.astype(np.float64), log.mag.astype(np.float64))
+    return path
+
+
+def _read(path):
+    import csv
+    with open(path) as fh:
+        rows = list(csv.reader(fh))
+    return rows[0], np.array(rows[1:], dtype=np.float64)
+
+
+def test_run_fusion_ahrs_matches_the_class(log_path, tmp_path):
+    out = tmp_path / "out.csv"
+    rc = cli.main(["run", str(log_path), "--filter", "FusionAHRS", "-p", "gain=0.7",
+                   "-p", "convention='ENU'", "-p", "recovery_trigger_period=300",
+                   "-p", "acceleration_rejection=10", "--dtype", "float32", "-o", str(out)])
+    assert rc == 0
+    header, data = _read(out)
+    log = io.read_log(str(log_path))
+    t = log.columns["time"]
+    dt = np.diff(t, prepend=t[0] - log.dt)
+    f = imufuse_c.FusionAHRS(gain=0.7, convention="ENU", recovery_trigger_period=300,
+                             acceleration_rejection=10, dtype="float32")
+    S = f.run(np.degrees(log.gyr), log.acc, log.mag, dt=dt)
+    got = data[:, [header.index(n) for n in f.state_names]].astype(np.float32)
+    assert_same_bits(got, S, f.state_names)
+    yaw = f.outputs_batch(S)["euler"][:, 2]
+    assert_same_bits(data[:, header.index("yaw_deg")].astype(np.float32), yaw, None)
+
+
+@pytest.mark.parametrize("filt", ["FusionAHRS", "MadgwickAHRS", "MahonyIMU"])
+def test_preprocessing_in_front_of_any_filter(log_path, tmp_path, filt):
+    cal = tmp_path / "cal.json"
+    cm.save_calibration(cal, {"gyroscope": {"b": [0.6, -0.4, 0.3], "s": [1.01, 1, 0.99]},
+                              "accelerometer": {"M": np.eye(3).tolist()},
+                              "magnetometer": {"S": (1.1 * np.eye(3)).tolist(), "h": [1, 2, 3]}})
+    base, pre = tmp_path / "base.csv", tmp_path / "pre.csv"
+    assert cli.main(["run", str(log_path), "--filter", filt, "-o", str(base)]) == 0
+    assert cli.main(["run", str(log_path), "--filter", filt, "--calibration", str(cal),
+                     "--align", "+Y+X-Z", "--offset", "-o", str(pre)]) == 0
+    h0, d0 = _read(base)
+    h1, d1 = _read(pre)
+    assert h0 == h1 and not np.array_equal(d0, d1)
+
+
+def test_preprocess_order_and_values(log_path):
+    """calibration (sensor axes, deg/s), then alignment, then FusionOffset."""
+    from argparse import Namespace
+    from imufuse import preprocess
+    calib = {"gyroscope": {"M": [[1, 0.01, 0], [0, 1, 0], [0, 0, 1]], "s": [1, 1.02, 1],
+                           "b": [0.5, 0, -0.5]}}
+    import os
+    import tempfile
+    with tempfile.TemporaryDirectory() as d:
+        p = os.path.join(d, "c.json")
+        cm.save_calibration(p, calib)
+        log = io.read_log(str(log_path))
+        raw = np.degrees(log.gyr)
+        notes = preprocess.apply(log, Namespace(calibration=p, align="-Z+X-Y", offset=True))
+    assert len(notes) == 3
+    c = cm.from_dict(calib)
+    want = c.apply("gyroscope", raw)
+    want = imufuse_c.axes_apply(want, "-Z+X-Y")
+    want, _ = imufuse_c.FusionOffset(int(round(1 / log.dt))).run(want)
+    np.testing.assert_array_equal(log.gyr, np.radians(want))
+
+
+@pytest.mark.parametrize("data,match", [
+    ([1, 2], "JSON object"), ({"gyro": {}}, "unknown sensor"),
+    ({"gyroscope": {"S": np.eye(3).tolist()}}, "unknown key"),
+    ({"gyroscope": {"b": [1, 2]}}, r"gyroscope\.b: expected shape \(3,\)"),
+    ({"magnetometer": {"S": [[1, 0], [0, 1]]}}, r"magnetometer\.S: expected shape"),
+    ({"accelerometer": {"s": [1, "x", 1]}}, r"accelerometer\.s: expected numbers"),
+    ({"accelerometer": {"b": [1, float("nan"), 1]}}, "finite"),
+])
+def test_calibration_file_errors(tmp_path, data, match):
+    p = tmp_path / "bad.json"
+    p.write_text(json.dumps(data))
+    with pytest.raises(cm.CalibrationError, match=match):
+        cm.load_calibration(p)
+
+
+def test_calibration_file_roundtrip_and_cli_errors(tmp_path, log_path):
+    p = tmp_path / "c.json"
+    cm.save_calibration(p, {"magnetometer": {"h": [1, 2, 3]}})
+    c = cm.load_calibration(p)
+    assert c.gyroscope is None and c.magnetometer["h"].tolist() == [1, 2, 3]
+    assert cm.is_identity(cm.from_dict({}))
+    x = np.array([[1.0, 2.0, 3.0]])
+    assert_same_bits(c.apply("magnetometer", x), ref.fusion.calibrate_magnetic(
+        x, np.eye(3), [1, 2, 3]), None)
+    (tmp_path / "broken.json").write_text("{")
+    with pytest.raises(cm.CalibrationError, match="not valid JSON"):
+        cm.load_calibration(tmp_path / "broken.json")
+    assert cli.main(["run", str(log_path), "--filter", "FusionAHRS", "--calibration",
+                     str(tmp_path / "broken.json"), "-o", str(tmp_path / "x.csv")]) == 2
+    assert cli.main(["run", str(log_path), "--filter", "FusionAHRS", "-p", "gain=-1",
+                     "-o", str(tmp_path / "x.csv")]) == 2
+    assert cli.main(["run", str(log_path), "--filter", "FusionAHRS", "--align", "+X+X+Z",
+                     "-o", str(tmp_path / "x.csv")]) == 2
