@@ -105,3 +105,30 @@ def test_reference(benchmark, case, dtype):
     f = case.make("ref", dtype)
     benchmark.extra_info.update(samples=N_REF)
     benchmark.pedantic(lambda: f.run(*inputs), setup=f.reset, rounds=2, iterations=1)
+
+
+# ---- per-sample time steps (docs/time-and-init.md) -----------------------------
+# run(..., dt=array) recomputes the dt-derived constants before every sample;
+# compare ns_per_sample with test_run's (the fixed-step path, which must not
+# change), and update(..., dt=...) with test_update.
+
+@pytest.mark.parametrize("dtype", DTYPES)
+@pytest.mark.parametrize("case", [pytest.param(c, id=c.id) for c in FLOAT_CASES])
+def test_run_dt(benchmark, case, dtype):
+    inputs = big_inputs(case.kind, dtype)
+    g = np.random.default_rng(0)
+    dt = case.params["dt"] * g.uniform(0.76, 3.0, len(inputs[0]))   # x-io log: 7.6-30.2 ms
+    f = case.make("c", dtype)
+    t = best_of(lambda: f.run(*inputs, dt=dt), 3)
+    benchmark.extra_info.update(samples=N_RUN, ns_per_sample=t / N_RUN * 1e9)
+    benchmark.pedantic(lambda: f.run(*inputs, dt=dt), setup=f.reset, rounds=3, iterations=1)
+
+
+@pytest.mark.parametrize("case", [pytest.param(c, id=c.id) for c in FLOAT_CASES])
+def test_update_dt(benchmark, case):
+    f = case.make("c", "float64")
+    args = [x[0] for x in generate(case.kind, "random", n=1)]
+    if case.kind == "1d":
+        args = [float(a) for a in args]
+    dt = case.params["dt"] * 1.25
+    benchmark(lambda: f.update(*args, dt=dt))

@@ -6,6 +6,12 @@
 #include "dcm.h"
 #include "imf_math.h"
 
+/* |v| <= tol, without fabs (avr-libc's fabsf is the double fabs) */
+static int dcm_small(const imf_real v)
+{
+    return v >= -IMF_DCM_ORTHO_TOL && v <= IMF_DCM_ORTHO_TOL;
+}
+
 /* R orthonormal within IMF_DCM_ORTHO_TOL (and therefore finite). */
 static int dcm_orthonormal(const imf_dcm_state_t *const r)
 {
@@ -15,9 +21,8 @@ static int dcm_orthonormal(const imf_dcm_state_t *const r)
     const imf_real xy = r->r00 * r->r10 + r->r01 * r->r11 + r->r02 * r->r12;
     const imf_real xz = r->r00 * r->r20 + r->r01 * r->r21 + r->r02 * r->r22;
     const imf_real yz = r->r10 * r->r20 + r->r11 * r->r21 + r->r12 * r->r22;
-    return imf_fabs(nx - IMF_R(1.0)) <= IMF_DCM_ORTHO_TOL && imf_fabs(ny - IMF_R(1.0)) <= IMF_DCM_ORTHO_TOL
-           && imf_fabs(nz - IMF_R(1.0)) <= IMF_DCM_ORTHO_TOL && imf_fabs(xy) <= IMF_DCM_ORTHO_TOL
-           && imf_fabs(xz) <= IMF_DCM_ORTHO_TOL && imf_fabs(yz) <= IMF_DCM_ORTHO_TOL;
+    return dcm_small(nx - IMF_R(1.0)) && dcm_small(ny - IMF_R(1.0)) && dcm_small(nz - IMF_R(1.0))
+           && dcm_small(xy) && dcm_small(xz) && dcm_small(yz);
 }
 
 void imf_dcm_init(imf_dcm_t *const self, const imf_real dt, const imf_real kp,

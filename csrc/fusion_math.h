@@ -26,18 +26,14 @@
 #define imf_fusion_cos(x) cos(x)
 #define imf_fusion_atan2(y, x) atan2(y, x)
 #define imf_fusion_asin(x) asin(x)
-#define imf_fusion_fabs(x) fabs(x)
 #define IMF_FUSION_REAL_MAX DBL_MAX
 #define IMF_FUSION_PI (3.14159265358979323846)
 #else
-/* the casts are no-ops except on avr-libc, where sinf, fabsf, ... are macros
-   for the double functions (double is 32 bits there): they keep the float32
-   build free of double promotion */
-#define imf_fusion_sin(x) ((float)sinf(x))
-#define imf_fusion_cos(x) ((float)cosf(x))
-#define imf_fusion_atan2(y, x) ((float)atan2f(y, x))
-#define imf_fusion_asin(x) ((float)asinf(x))
-#define imf_fusion_fabs(x) ((float)fabsf(x))
+/* the casts: avr-libc defines sinf etc. as its 32-bit double functions */
+#define imf_fusion_sin(x) ((imf_real)sinf(x))
+#define imf_fusion_cos(x) ((imf_real)cosf(x))
+#define imf_fusion_atan2(y, x) ((imf_real)atan2f(y, x))
+#define imf_fusion_asin(x) ((imf_real)asinf(x))
 #define IMF_FUSION_REAL_MAX FLT_MAX
 #define IMF_FUSION_PI (3.14159265358979323846f) /* pi rounded to float, as (float) M_PI */
 #endif
@@ -60,6 +56,15 @@ typedef struct {
 typedef struct {
     imf_real m[9];
 } imf_fusion_mat_t;
+
+/* |x| for the threshold comparisons (gyroscope range, rest detection): the
+   comparisons give the results of fabs/fabsf for every input (-0 and NaN
+   included); a function of the build type, unlike avr-libc's fabsf macro,
+   which returns double. */
+static inline imf_real imf_fusion_fabs(const imf_real x)
+{
+    return x < IMF_R(0.0) ? -x : x;
+}
 
 /* degrees * (pi / 180): the factor is rounded once, in the build precision */
 static inline imf_real imf_fusion_deg2rad(const imf_real degrees)

@@ -21,14 +21,12 @@
 typedef double imf_real;
 #define IMF_R(x) (x)
 #define imf_sqrt(x) sqrt(x)
-#define imf_fabs(x) fabs(x)
 #define IMF_REAL_MIN DBL_MIN /* smallest normal imf_real */
 #define IMF_REAL_MAX DBL_MAX /* largest finite imf_real */
 #else
 typedef float imf_real;
 #define IMF_R(x) (x##f)
 #define imf_sqrt(x) sqrtf(x)
-#define imf_fabs(x) fabsf(x)
 #define IMF_REAL_MIN FLT_MIN
 #define IMF_REAL_MAX FLT_MAX
 #endif

@@ -14,9 +14,12 @@ static void madgwick_set_dt(imf_madgwick_settings_t *const set, const imf_real d
 /* Settings and initial state shared by both filters. */
 static void madgwick_init(imf_madgwick_settings_t *const set, uint32_t *const skipped,
                           imf_madgwick_state_t *const x, const imf_real dt, const imf_real beta,
-                          const int delta_s, const int invsqrt)
+                          const int delta_s, const int invsqrt, const imf_real acc_gate_lo,
+                          const imf_real acc_gate_hi, const imf_real acc_1g)
 {
     madgwick_set_dt(set, dt);
+    imf_acc_gate_set(&set->acc_gate, &set->acc_lo2, &set->acc_hi2, acc_gate_lo, acc_gate_hi,
+                     acc_1g);
     set->beta = beta;
     set->delta_s = delta_s == IMF_MADGWICK_DS_SIMPLIFIED ? IMF_MADGWICK_DS_SIMPLIFIED
                                                          : IMF_MADGWICK_DS_FULL;
@@ -29,16 +32,35 @@ static void madgwick_init(imf_madgwick_settings_t *const set, uint32_t *const sk
 }
 
 void imf_madgwick_imu_init(imf_madgwick_imu_t *const self, const imf_real dt,
-                           const imf_real beta, const int delta_s, const int invsqrt)
+                           const imf_real beta, const int delta_s, const int invsqrt,
+                           const imf_real acc_gate_lo, const imf_real acc_gate_hi,
+                           const imf_real acc_1g)
 {
-    madgwick_init(&self->set, &self->skipped, &self->x, dt, beta, delta_s, invsqrt);
+    madgwick_init(&self->set, &self->skipped, &self->x, dt, beta, delta_s, invsqrt,
+                  acc_gate_lo, acc_gate_hi, acc_1g);
 }
 
 void imf_madgwick_ahrs_init(imf_madgwick_ahrs_t *const self, const imf_real dt,
-                            const imf_real beta, const int invsqrt)
+                            const imf_real beta, const int invsqrt, const imf_real acc_gate_lo,
+                            const imf_real acc_gate_hi, const imf_real acc_1g)
 {
     madgwick_init(&self->set, &self->skipped, &self->x, dt, beta, IMF_MADGWICK_DS_FULL,
-                  invsqrt);
+                  invsqrt, acc_gate_lo, acc_gate_hi, acc_1g);
+}
+
+void imf_madgwick_imu_set_acc_gate(imf_madgwick_imu_t *const self, const imf_real acc_gate_lo,
+                                   const imf_real acc_gate_hi, const imf_real acc_1g)
+{
+    imf_acc_gate_set(&self->set.acc_gate, &self->set.acc_lo2, &self->set.acc_hi2, acc_gate_lo,
+                     acc_gate_hi, acc_1g);
+}
+
+void imf_madgwick_ahrs_set_acc_gate(imf_madgwick_ahrs_t *const self,
+                                    const imf_real acc_gate_lo, const imf_real acc_gate_hi,
+                                    const imf_real acc_1g)
+{
+    imf_acc_gate_set(&self->set.acc_gate, &self->set.acc_lo2, &self->set.acc_hi2, acc_gate_lo,
+                     acc_gate_hi, acc_1g);
 }
 
 void imf_madgwick_imu_set_dt(imf_madgwick_imu_t *const self, const imf_real dt)
@@ -218,7 +240,8 @@ static int madgwick_imu_step(const imf_madgwick_settings_t *const set,
 {
     imf_real dq[4], s[4];
     madgwick_rate(x, gx, gy, gz, dq);
-    if (!imf_is_zero3(ax, ay, az)) {
+    if (!imf_is_zero3(ax, ay, az)
+        && imf_acc_gate_pass(set->acc_gate, set->acc_lo2, set->acc_hi2, ax, ay, az)) {
         /* Step 2: normalise a */
         if (imf_normalise3(&ax, &ay, &az, set->invsqrt) != IMF_NORM_OK) {
             return 0;
@@ -246,7 +269,8 @@ static int madgwick_ahrs_step(const imf_madgwick_settings_t *const set,
         return madgwick_imu_step(set, x, gx, gy, gz, ax, ay, az);
     }
     madgwick_rate(x, gx, gy, gz, dq);
-    if (!imf_is_zero3(ax, ay, az)) {
+    if (!imf_is_zero3(ax, ay, az)
+        && imf_acc_gate_pass(set->acc_gate, set->acc_lo2, set->acc_hi2, ax, ay, az)) {
         if (imf_normalise3(&ax, &ay, &az, set->invsqrt) != IMF_NORM_OK
             || imf_normalise3(&mx, &my, &mz, set->invsqrt) != IMF_NORM_OK) {
             return 0;

@@ -18,6 +18,12 @@
  *                               ds = 4 (q1^2 + q2^2) q + 2 (...).
  * The AHRS update always uses the full (published) form.
  *
+ * Accelerometer gate (seed 002): with acc_gate_lo >= 0 the correction runs
+ * only while the squared accelerometer magnitude is within
+ * [(acc_gate_lo acc_1g)^2, (acc_gate_hi acc_1g)^2]; outside, the update
+ * integrates the gyro only. acc_gate_lo < 0 (e.g. -1) turns it off: the
+ * published behaviour.
+ *
  * Guards (published behaviour): an all-zero accelerometer skips the
  * correction (gyro integration only); an all-zero magnetometer makes the
  * AHRS update the IMU update. Non-finite policy: see imf_math.h.
@@ -29,6 +35,7 @@
 #include "imf_config.h"
 #include "imf_math.h"
 #include "imf_attitude.h"
+#include "imf_gate.h"
 
 enum { IMF_MADGWICK_DS_FULL = 0, IMF_MADGWICK_DS_SIMPLIFIED = 1 };
 
@@ -42,6 +49,8 @@ typedef struct {
     imf_real beta; /* gradient step gain, rad/s */
     int delta_s;   /* IMF_MADGWICK_DS_FULL or IMF_MADGWICK_DS_SIMPLIFIED */
     int invsqrt;   /* IMF_INVSQRT_EXACT or IMF_INVSQRT_FAST */
+    int acc_gate;  /* nonzero: correct only when acc_lo2 <= |a|^2 <= acc_hi2 */
+    imf_real acc_lo2, acc_hi2; /* squared gate bounds, accelerometer unit^2 */
 } imf_madgwick_settings_t;
 
 typedef struct {
@@ -58,15 +67,26 @@ typedef struct {
     imf_madgwick_state_t x;
 } imf_madgwick_ahrs_t;
 
-/* dt: s; beta: rad/s; delta_s: IMF_MADGWICK_DS_*; invsqrt: IMF_INVSQRT_*.
-   q = (1, 0, 0, 0). */
+/* dt: s; beta: rad/s; delta_s: IMF_MADGWICK_DS_*; invsqrt: IMF_INVSQRT_*;
+   acc_gate_lo, acc_gate_hi: the accelerometer gate in units of acc_1g (1 g
+   in the accelerometer's unit), acc_gate_lo < 0: off. q = (1, 0, 0, 0). */
 void imf_madgwick_imu_init(imf_madgwick_imu_t *self, imf_real dt, imf_real beta, int delta_s,
-                           int invsqrt);
+                           int invsqrt, imf_real acc_gate_lo, imf_real acc_gate_hi,
+                           imf_real acc_1g);
 /* gx, gy, gz: rad/s; ax, ay, az: any unit (normalised) */
 void imf_madgwick_imu_update(imf_madgwick_imu_t *self, imf_real gx, imf_real gy, imf_real gz,
                              imf_real ax, imf_real ay, imf_real az);
 
-void imf_madgwick_ahrs_init(imf_madgwick_ahrs_t *self, imf_real dt, imf_real beta, int invsqrt);
+void imf_madgwick_ahrs_init(imf_madgwick_ahrs_t *self, imf_real dt, imf_real beta, int invsqrt,
+                            imf_real acc_gate_lo, imf_real acc_gate_hi, imf_real acc_1g);
+
+/* Accelerometer gate (seed 002: 0.6, 1.4), set as init sets it (init calls
+   it): lo, hi in units of acc_1g (1 g in the accelerometer's unit); lo < 0
+   turns it off. */
+void imf_madgwick_imu_set_acc_gate(imf_madgwick_imu_t *self, imf_real acc_gate_lo,
+                                   imf_real acc_gate_hi, imf_real acc_1g);
+void imf_madgwick_ahrs_set_acc_gate(imf_madgwick_ahrs_t *self, imf_real acc_gate_lo,
+                                    imf_real acc_gate_hi, imf_real acc_1g);
 
 /* A new sample period dt (s), set as init sets it (init calls it). For
    timestamps with jitter call it before each update. */

@@ -20,9 +20,12 @@ static void mahony_set_dt(imf_mahony_settings_t *const set, const imf_real dt)
 /* Settings and initial state shared by both filters. */
 static void mahony_init(imf_mahony_settings_t *const set, uint32_t *const skipped,
                         imf_mahony_state_t *const x, const imf_real dt, const imf_real kp,
-                        const imf_real ki, const int invsqrt)
+                        const imf_real ki, const int invsqrt, const imf_real acc_gate_lo,
+                        const imf_real acc_gate_hi, const imf_real acc_1g)
 {
     mahony_set_dt(set, dt);
+    imf_acc_gate_set(&set->acc_gate, &set->acc_lo2, &set->acc_hi2, acc_gate_lo, acc_gate_hi,
+                     acc_1g);
     set->two_kp = IMF_R(2.0) * kp;
     set->two_ki = IMF_R(2.0) * ki;
     set->invsqrt = invsqrt == IMF_INVSQRT_FAST ? IMF_INVSQRT_FAST : IMF_INVSQRT_EXACT;
@@ -37,15 +40,33 @@ static void mahony_init(imf_mahony_settings_t *const set, uint32_t *const skippe
 }
 
 void imf_mahony_imu_init(imf_mahony_imu_t *const self, const imf_real dt, const imf_real kp,
-                         const imf_real ki, const int invsqrt)
+                         const imf_real ki, const int invsqrt, const imf_real acc_gate_lo,
+                         const imf_real acc_gate_hi, const imf_real acc_1g)
 {
-    mahony_init(&self->set, &self->skipped, &self->x, dt, kp, ki, invsqrt);
+    mahony_init(&self->set, &self->skipped, &self->x, dt, kp, ki, invsqrt, acc_gate_lo,
+                acc_gate_hi, acc_1g);
 }
 
 void imf_mahony_ahrs_init(imf_mahony_ahrs_t *const self, const imf_real dt, const imf_real kp,
-                          const imf_real ki, const int invsqrt)
+                          const imf_real ki, const int invsqrt, const imf_real acc_gate_lo,
+                          const imf_real acc_gate_hi, const imf_real acc_1g)
 {
-    mahony_init(&self->set, &self->skipped, &self->x, dt, kp, ki, invsqrt);
+    mahony_init(&self->set, &self->skipped, &self->x, dt, kp, ki, invsqrt, acc_gate_lo,
+                acc_gate_hi, acc_1g);
+}
+
+void imf_mahony_imu_set_acc_gate(imf_mahony_imu_t *const self, const imf_real acc_gate_lo,
+                                 const imf_real acc_gate_hi, const imf_real acc_1g)
+{
+    imf_acc_gate_set(&self->set.acc_gate, &self->set.acc_lo2, &self->set.acc_hi2, acc_gate_lo,
+                     acc_gate_hi, acc_1g);
+}
+
+void imf_mahony_ahrs_set_acc_gate(imf_mahony_ahrs_t *const self, const imf_real acc_gate_lo,
+                                  const imf_real acc_gate_hi, const imf_real acc_1g)
+{
+    imf_acc_gate_set(&self->set.acc_gate, &self->set.acc_lo2, &self->set.acc_hi2, acc_gate_lo,
+                     acc_gate_hi, acc_1g);
 }
 
 void imf_mahony_imu_set_dt(imf_mahony_imu_t *const self, const imf_real dt)
@@ -123,7 +144,8 @@ static int mahony_imu_step(const imf_mahony_settings_t *const set, imf_mahony_st
                             imf_real gx, imf_real gy, imf_real gz,
                             imf_real ax, imf_real ay, imf_real az)
 {
-    if (!imf_is_zero3(ax, ay, az)) {
+    if (!imf_is_zero3(ax, ay, az)
+        && imf_acc_gate_pass(set->acc_gate, set->acc_lo2, set->acc_hi2, ax, ay, az)) {
         imf_real vx, vy, vz, ex, ey, ez;
         /* Step 2: normalise a */
         if (imf_normalise3(&ax, &ay, &az, set->invsqrt) != IMF_NORM_OK) {
@@ -151,7 +173,8 @@ static int mahony_ahrs_step(const imf_mahony_settings_t *const set, imf_mahony_s
         /* no magnetometer reading: the IMU update */
         return mahony_imu_step(set, x, gx, gy, gz, ax, ay, az);
     }
-    if (!imf_is_zero3(ax, ay, az)) {
+    if (!imf_is_zero3(ax, ay, az)
+        && imf_acc_gate_pass(set->acc_gate, set->acc_lo2, set->acc_hi2, ax, ay, az)) {
         imf_real q0q0, q0q1, q0q2, q0q3, q1q1, q1q2, q1q3, q2q2, q2q3, q3q3;
         imf_real hx, hy, bx, bz, vx, vy, vz, wx, wy, wz, ex, ey, ez;
         /* Step 2: normalise a and m */

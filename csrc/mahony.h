@@ -23,6 +23,12 @@
  * published code it is only updated and applied while the accelerometer
  * reads something (not all zero), and it is held at zero while Ki = 0.
  *
+ * Accelerometer gate (seed 002): with acc_gate_lo >= 0 the correction runs
+ * only while the squared accelerometer magnitude is within
+ * [(acc_gate_lo acc_1g)^2, (acc_gate_hi acc_1g)^2]; outside, the update
+ * integrates the gyro only. acc_gate_lo < 0 (e.g. -1) turns it off: the
+ * published behaviour.
+ *
  * Guards (published behaviour): an all-zero accelerometer skips the
  * correction (gyro integration only); an all-zero magnetometer makes the
  * AHRS update the IMU update. Non-finite policy: see imf_math.h.
@@ -34,6 +40,7 @@
 #include "imf_config.h"
 #include "imf_math.h"
 #include "imf_attitude.h"
+#include "imf_gate.h"
 
 typedef struct {
     imf_real q0, q1, q2, q3; /* attitude quaternion, sensor -> earth, w first */
@@ -47,6 +54,8 @@ typedef struct {
     imf_real two_kp;  /* 2 Kp, multiplies the half error vector, 1/s */
     imf_real two_ki;  /* 2 Ki, 1/s^2 */
     int invsqrt;      /* IMF_INVSQRT_EXACT or IMF_INVSQRT_FAST */
+    int acc_gate;     /* nonzero: correct only when acc_lo2 <= |a|^2 <= acc_hi2 */
+    imf_real acc_lo2, acc_hi2; /* squared gate bounds, accelerometer unit^2 */
 } imf_mahony_settings_t;
 
 typedef struct {
@@ -64,15 +73,27 @@ typedef struct {
 } imf_mahony_ahrs_t;
 
 /* dt: s; kp: 1/s (published twoKp / 2); ki: 1/s^2 (published twoKi / 2);
-   invsqrt: IMF_INVSQRT_EXACT or IMF_INVSQRT_FAST. q = (1, 0, 0, 0), I = 0. */
+   invsqrt: IMF_INVSQRT_EXACT or IMF_INVSQRT_FAST; acc_gate_lo, acc_gate_hi:
+   the accelerometer gate in units of acc_1g (1 g in the accelerometer's
+   unit), acc_gate_lo < 0: off. q = (1, 0, 0, 0), I = 0. */
 void imf_mahony_imu_init(imf_mahony_imu_t *self, imf_real dt, imf_real kp, imf_real ki,
-                         int invsqrt);
+                         int invsqrt, imf_real acc_gate_lo, imf_real acc_gate_hi,
+                         imf_real acc_1g);
 /* gx, gy, gz: rad/s; ax, ay, az: any unit (normalised) */
 void imf_mahony_imu_update(imf_mahony_imu_t *self, imf_real gx, imf_real gy, imf_real gz,
                            imf_real ax, imf_real ay, imf_real az);
 
 void imf_mahony_ahrs_init(imf_mahony_ahrs_t *self, imf_real dt, imf_real kp, imf_real ki,
-                          int invsqrt);
+                          int invsqrt, imf_real acc_gate_lo, imf_real acc_gate_hi,
+                          imf_real acc_1g);
+
+/* Accelerometer gate (seed 002: 0.6, 1.4), set as init sets it (init calls
+   it): lo, hi in units of acc_1g (1 g in the accelerometer's unit); lo < 0
+   turns it off. Outside the gate: no proportional or integral feedback. */
+void imf_mahony_imu_set_acc_gate(imf_mahony_imu_t *self, imf_real acc_gate_lo,
+                                 imf_real acc_gate_hi, imf_real acc_1g);
+void imf_mahony_ahrs_set_acc_gate(imf_mahony_ahrs_t *self, imf_real acc_gate_lo,
+                                  imf_real acc_gate_hi, imf_real acc_1g);
 
 /* A new sample period dt (s): dt and dt / 2 by the expressions of init (init
    calls it), so the filter equals one initialised with this dt bit for bit.

@@ -49,6 +49,19 @@ for _name in FILTERS:
 
 __all__ = list(FILTERS)
 
+# ---- seed 002's variometer: VarioKF (dtype dispatch) and vertical_accel
+FILTERS_VARIO = _reference.FILTERS_VARIO
+for _name in FILTERS_VARIO:
+    globals()[_name] = _dispatch(_name)
+
+
+def vertical_accel(q, acc, convention="nwu", one_g=1.0, scale=980.0, dtype="float64"):
+    """Compiled imufuse.reference.vertical_accel (csrc/vario.c)."""
+    return _BUILDS[_checks.check_dtype(dtype)].vertical_accel(q, acc, convention, one_g, scale)
+
+
+__all__ += [*FILTERS_VARIO, "FILTERS_VARIO", "vertical_accel"]
+
 # ---- fixed point (csrc/fixed): profile="32" | "8" instead of dtype
 from . import _fixed  # noqa: E402
 

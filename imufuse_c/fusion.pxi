@@ -68,6 +68,17 @@ cdef extern from "fusion_calibration.h" nogil:
                                      imf_real *out, size_t n, int invsqrt)
 
 
+cdef inline double _dt_value(object dt) except? -1.0:
+    """dt of one update: a float >= 0 (or non-finite: the C's non-finite policy)
+    without a Python call; anything else through _fusion.check_dt_value."""
+    cdef double d
+    if type(dt) is float:
+        d = dt
+        if not d < 0.0:
+            return d
+    return _fusion.check_dt_value(dt)
+
+
 cdef int _settings_from(tuple a, imf_fusion_ahrs_settings_t *st) except -1:
     st.convention = a[0]
     st.gain = <imf_real>a[1]
@@ -131,7 +142,7 @@ cdef class FusionAHRS:
             for name, v in (("gyr", gyr), ("acc", acc), ("mag", mag)):
                 _checks.as_vec3(name, v)
             raise
-        cdef imf_real d = <imf_real>_fusion.check_dt_value(dt)
+        cdef imf_real d = <imf_real>_dt_value(dt)
         imf_fusion_ahrs_update(&self.s, g[0], g[1], g[2], a[0], a[1], a[2], m[0], m[1], m[2], d)
 
     def update_no_magnetometer(self, gyr, acc, dt):
@@ -145,7 +156,7 @@ cdef class FusionAHRS:
             for name, v in (("gyr", gyr), ("acc", acc)):
                 _checks.as_vec3(name, v)
             raise
-        cdef imf_real d = <imf_real>_fusion.check_dt_value(dt)
+        cdef imf_real d = <imf_real>_dt_value(dt)
         imf_fusion_ahrs_update_no_magnetometer(&self.s, g[0], g[1], g[2], a[0], a[1], a[2], d)
 
     def update_external_heading(self, gyr, acc, heading, dt):
@@ -160,7 +171,7 @@ cdef class FusionAHRS:
                 _checks.as_vec3(name, v)
             raise
         cdef imf_real h = <imf_real>_fusion.check_scalar("heading", heading)
-        cdef imf_real d = <imf_real>_fusion.check_dt_value(dt)
+        cdef imf_real d = <imf_real>_dt_value(dt)
         imf_fusion_ahrs_update_external_heading(&self.s, g[0], g[1], g[2], a[0], a[1], a[2], h, d)
 
     def set_heading(self, heading):
@@ -318,9 +329,9 @@ cdef class FusionOffset:
 def fusion_calibrate_inertial(x, M, s, b):
     arr = np.ascontiguousarray(np.atleast_2d(np.asarray(x, dtype=DTYPE)))
     (arr,) = _checks.as_nx3(DTYPE, x=arr)
-    mm = np.ascontiguousarray(np.asarray(M, dtype=DTYPE).reshape(9))
-    ss = np.ascontiguousarray(np.asarray(s, dtype=DTYPE).reshape(3))
-    bb = np.ascontiguousarray(np.asarray(b, dtype=DTYPE).reshape(3))
+    mm = _fusion.model_param("M", M, (3, 3), DTYPE)
+    ss = _fusion.model_param("s", s, (3,), DTYPE)
+    bb = _fusion.model_param("b", b, (3,), DTYPE)
     out = np.empty_like(arr)
     cdef const imf_real[:, ::1] i = arr
     cdef imf_real[:, ::1] o = out
@@ -336,8 +347,8 @@ def fusion_calibrate_inertial(x, M, s, b):
 
 def fusion_calibrate_magnetic(x, S, h):
     (arr,) = _checks.as_nx3(DTYPE, x=np.atleast_2d(x))
-    mm = np.ascontiguousarray(np.asarray(S, dtype=DTYPE).reshape(9))
-    hh = np.ascontiguousarray(np.asarray(h, dtype=DTYPE).reshape(3))
+    mm = _fusion.model_param("S", S, (3, 3), DTYPE)
+    hh = _fusion.model_param("h", h, (3,), DTYPE)
     out = np.empty_like(arr)
     cdef const imf_real[:, ::1] i = arr
     cdef imf_real[:, ::1] o = out

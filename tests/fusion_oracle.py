@@ -79,10 +79,12 @@ static void dump_outputs(const FusionAhrs *a, float *o, unsigned *flags)
 void ahrs_run(int conv, float gain, float range, float accrej, float magrej, unsigned period,
               long n, const int *mode, const int *reset, const float *set_heading,
               const float *g, const float *a, const float *m, const float *h, const float *dt,
-              float *state, float *out, unsigned *flags)
+              long change_at, int conv2, float gain2, float range2, float accrej2, float magrej2,
+              unsigned period2, float *state, float *out, unsigned *flags)
 {
     FusionAhrs ahrs;
     const FusionAhrsSettings s = {(FusionConvention) conv, gain, range, accrej, magrej, period};
+    const FusionAhrsSettings s2 = {(FusionConvention) conv2, gain2, range2, accrej2, magrej2, period2};
     long k;
     FusionAhrsInitialise(&ahrs);
     FusionAhrsSetSettings(&ahrs, &s);
@@ -90,6 +92,9 @@ void ahrs_run(int conv, float gain, float range, float accrej, float magrej, uns
         const FusionVector gv = {.array = {g[3 * k], g[3 * k + 1], g[3 * k + 2]}};
         const FusionVector av = {.array = {a[3 * k], a[3 * k + 1], a[3 * k + 2]}};
         const FusionVector mv = {.array = {m[3 * k], m[3 * k + 1], m[3 * k + 2]}};
+        if (k == change_at) {
+            FusionAhrsSetSettings(&ahrs, &s2);
+        }
         if (reset[k]) {
             FusionAhrsReset(&ahrs);
         }
@@ -190,7 +195,8 @@ CDEF = """
 void ahrs_run(int conv, float gain, float range, float accrej, float magrej, unsigned period,
               long n, const int *mode, const int *reset, const float *set_heading,
               const float *g, const float *a, const float *m, const float *h, const float *dt,
-              float *state, float *out, unsigned *flags);
+              long change_at, int conv2, float gain2, float range2, float accrej2, float magrej2,
+              unsigned period2, float *state, float *out, unsigned *flags);
 void offset_run(unsigned rate, long n, const float *g, float *out, float *state);
 void calib_inertial(long n, const float *in, const float *m, const float *s, const float *b,
                     float *out);

@@ -69,6 +69,15 @@ CASES_QUATERNION = [
          "simplified_fast"),
     Case("MadgwickAHRS", dict(dt=0.01, beta=0.1)),
     Case("MadgwickAHRS", dict(dt=1 / 512, beta=0.1, invsqrt="fast"), "published"),
+    # seed 002: the accelerometer-magnitude gate (gyro only outside lo..hi g)
+    Case("MahonyIMU", dict(dt=0.005, kp=1.0, ki=0.3, acc_gate=(0.6, 1.4)), "gate"),
+    Case("MahonyAHRS", dict(dt=0.005, kp=1.0, ki=0.3, acc_gate=(0.9, 1.1), acc_1g=9.81,
+                            invsqrt="fast"), "gate_ms2"),
+    Case("MadgwickIMU", dict(dt=0.005, beta=0.1, acc_gate=(0.6, 1.4)), "gate"),
+    Case("MadgwickIMU", dict(dt=0.005, beta=0.1, delta_s="simplified", acc_gate=(0.0, 1.05)),
+         "gate_simplified"),
+    Case("MadgwickAHRS", dict(dt=0.005, beta=0.1, acc_gate=(0.6, 1.4), invsqrt="fast"),
+         "gate"),
 ]
 
 # ---- gravity-vector and DCM filters: csrc/multiwii.c, kk.c, mahony2d.c, dcm.c
@@ -143,6 +152,38 @@ FIXED_CASES = _with_defaults(EXTRA_FIXED_CASES, catalogue.FIXED, 0.002)
 def fixed_matrix():
     """(case, profile) pairs for every fixed-point filter configuration."""
     return [pytest.param(c, p, id=f"{c.id}-q{p}") for c in FIXED_CASES for p in PROFILES]
+
+
+# ---- seed 002's variometer (csrc/vario.c): update(accel, baro_alt, dt) ------
+# Its own input kind ("vario"), outside the catalogue's IMU/1-D filters, so it
+# has its own matrix (tests/test_vario.py).
+@dataclass(frozen=True)
+class VarioCase(Case):
+    @property
+    def kind(self):
+        return "vario"
+
+    def make(self, backend, dtype):
+        import imufuse_c
+        import imufuse.reference as reference
+        mod = imufuse_c if backend == "c" else reference
+        return getattr(mod, self.name)(**self.params, dtype=dtype)
+
+
+CASES_VARIO = [
+    VarioCase("VarioKF", {}, "seed_defaults"),
+    VarioCase("VarioKF", dict(predict="model"), "model"),
+    VarioCase("VarioKF", dict(var_z=150.0, var_acc=5000.0, var_bias=0.01,
+                              p0=(10.0, 100.0, 1e3), z0=12345.0, v0=20.0, b0=-3.0,
+                              predict="model"), "tuned"),
+    VarioCase("VarioKF", dict(var_z=1.0, var_acc=0.0, var_bias=0.0, p0=(0.0, 0.0, 0.0)),
+              "zero_noise"),
+]
+
+
+def vario_matrix():
+    """(case, dtype) pairs for every variometer configuration."""
+    return [pytest.param(c, dt, id=f"{c.id}-{dt}") for c in CASES_VARIO for dt in DTYPES]
 
 
 # ---- the Fusion suite (seed 004): csrc/fusion_ahrs.c, fusion_offset.c ------------

@@ -138,6 +138,13 @@ def test_bad_inputs(backend):
         f.run(g, g, g, dt=0.01, heading=np.zeros(5))
     with pytest.raises(ValueError, match="sample_rate"):
         backend.FusionOffset(0)
+    bad = np.zeros((2, 22))
+    bad[:, 0] = 1.0
+    bad[1, 17] = 1e20
+    with pytest.raises(ValueError, match="integral"):
+        f.outputs_batch(bad)
+    with pytest.raises(ValueError, match="states"):
+        f.outputs_batch(bad[:, :5])
 
 
 @pytest.mark.parametrize("dtype", DTYPES)
@@ -253,3 +260,106 @@ def test_seed002_mapping_is_a_reflection():
     for bad in ("+X+X+Z", "XYZ", "+X+Y+W", 5):
         with pytest.raises(ValueError, match="alignment"):
             imufuse_c.axes_apply([[1.0, 2.0, 3.0]], bad)
+
+
+@pytest.mark.parametrize("target", ["m4f", "m0", "avr"])
+def test_fusion_ahrs_on_mcu(target):
+    """FusionAHRS (float32) built for the MCU and run in its emulator gives the
+    twin's state after every sample, bit for bit (the driver is bench/mcu's
+    fusion_ahrs_f32 case, whose cycles are in docs/fusion.md)."""
+    import importlib.util
+    import sys
+    from pathlib import Path
+    import imufuse.mcu as mcu
+    root = Path(__file__).resolve().parents[1]
+    missing = mcu.ensure_toolchains([target])
+    if target in missing:
+        pytest.skip(f"toolchain for {target} unavailable: {missing[target]}")
+    spec = importlib.util.spec_from_file_location("imf_bench_mcu_registry",
+                                                  root / "bench" / "mcu" / "registry.py")
+    reg = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = reg          # its dataclasses look their module up
+    spec.loader.exec_module(reg)
+    case = reg.CASES["fusion_ahrs_f32"]
+    inputs = case.make_inputs(300)
+    res = mcu.run(target, sources=case.sources, include_dirs=case.include_dirs,
+                  driver=case.driver, inputs=inputs)
+    f = ref.FusionAHRS(gain=0.5, gyroscope_range=2000.0, acceleration_rejection=10.0,
+                       magnetic_rejection=10.0, recovery_trigger_period=500, dtype="float32")
+    want = f.run(inputs["gyr"], inputs["acc"], inputs["mag"], dt=np.float32(0.01))
+    vals = res.values()
+    got = np.column_stack([np.asarray(v, dtype=np.float64) for v in vals[:22]])
+    np.testing.assert_array_equal(got[:, 14:], want[:, 14:].astype(np.float64))
+    assert_same_bits(np.column_stack(vals[:14]).astype(np.float32), want[:, :14], None)
+    assert int(vals[22][-1]) == 0
+
+
+@pytest.mark.parametrize("dtype", DTYPES)
+def test_set_settings_mid_run(dtype):
+    """FusionAhrsSetSettings at any time: both backends alike; after the ramp
+    the gain jumps to the new one, the timeouts to the new period."""
+    log = simulated_log(seed=19, n=900)
+    res = []
+    for mod in (imufuse_c, ref):
+        f = mod.FusionAHRS(**CONFIGS["short"], dtype=dtype)
+        a = f.run(log.gyr[:500], log.acc[:500], log.mag[:500], dt=log.dt[:500])
+        f.set_settings(gain=2.0, recovery_trigger_period=40, convention="NED")
+        st = f.state
+        assert st[7] == 2.0 and st[18] == 40 and st[21] == 40
+        b = f.run(log.gyr[500:], log.acc[500:], log.mag[500:], dt=log.dt[500:])
+        res.append(np.concatenate([a, b]))
+        with pytest.raises(ValueError, match="gain"):
+            f.set_settings(gain=-1.0)
+    assert_same_bits(res[0], res[1], _fusion.AHRS_STATE_NAMES)
+
+
+@pytest.mark.parametrize("convention,up", [("NWU", 1.0), ("ENU", 1.0), ("NED", -1.0)])
+def test_gravity_output_at_rest(convention, up):
+    """gravity is what the accelerometer reads at rest, per convention."""
+    acc = np.tile([0.0, 0.0, up], (2000, 1))
+    f = imufuse_c.FusionAHRS(convention=convention)
+    s = f.run(np.zeros((2000, 3)), acc, dt=0.01)
+    out = f.outputs_batch(s[-1:])
+    np.testing.assert_allclose(out["gravity"][0], [0.0, 0.0, up], atol=1e-9)
+    np.testing.assert_allclose(out["linear_acceleration"][0], 0.0, atol=1e-9)
+    np.testing.assert_allclose(out["earth_acceleration"][0], 0.0, atol=1e-9)
+
+
+@pytest.mark.parametrize("mod", [imufuse_c, ref.fusion])
+def test_model_parameter_errors(mod):
+    x = np.zeros((4, 3))
+    with pytest.raises(ValueError, match=r"M: expected shape \(3, 3\)"):
+        mod.calibrate_inertial(x, np.eye(2), [1, 1, 1], [0, 0, 0])
+    with pytest.raises(ValueError, match="s: must be finite"):
+        mod.calibrate_inertial(x, np.eye(3), [1, np.nan, 1], [0, 0, 0])
+    with pytest.raises(ValueError, match=r"h: expected shape \(3,\)"):
+        mod.calibrate_magnetic(x, np.eye(3), [0, 0])
+    with pytest.raises(ValueError, match="shapes"):
+        mod.calibrate_magnetic(np.zeros((4, 2)), np.eye(3), [0, 0, 0])
+
+
+def test_run_releases_the_gil():
+    """FusionAHRS.run() and outputs_batch() loop in C without the GIL."""
+    import threading
+    n = 300_000
+    gyr, acc, mag = np.zeros((n, 3)), np.tile([0.0, 0.0, 1.0], (n, 1)), np.tile([1.0, 0, 0], (n, 1))
+    f = imufuse_c.FusionAHRS()
+    ticks, stop, started = [0], threading.Event(), threading.Event()
+
+    def spin():
+        started.set()
+        while not stop.is_set():
+            ticks[0] += 1
+
+    t = threading.Thread(target=spin)
+    t.start()
+    started.wait()
+    try:
+        before = ticks[0]
+        S = f.run(gyr, acc, mag, dt=0.01)
+        f.outputs_batch(S)
+        during = ticks[0] - before
+    finally:
+        stop.set()
+        t.join()
+    assert during > 1000, during

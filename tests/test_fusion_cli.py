@@ -55,7 +55,7 @@ def test_run_fusion_ahrs_matches_the_class(log_path, tmp_path):
 @pytest.mark.parametrize("filt", ["FusionAHRS", "MadgwickAHRS", "MahonyIMU"])
 def test_preprocessing_in_front_of_any_filter(log_path, tmp_path, filt):
     cal = tmp_path / "cal.json"
-    cm.save_calibration(cal, {"gyroscope": {"b": [0.6, -0.4, 0.3], "s": [1.01, 1, 0.99]},
+    cm.save_calibration(cal, {"gyroscope": {"b": [0.01, -0.007, 0.005], "s": [1.01, 1, 0.99]},
                               "accelerometer": {"M": np.eye(3).tolist()},
                               "magnetometer": {"S": (1.1 * np.eye(3)).tolist(), "h": [1, 2, 3]}})
     base, pre = tmp_path / "base.csv", tmp_path / "pre.csv"
@@ -72,20 +72,20 @@ def test_preprocess_order_and_values(log_path):
     from argparse import Namespace
     from imufuse import preprocess
     calib = {"gyroscope": {"M": [[1, 0.01, 0], [0, 1, 0], [0, 0, 1]], "s": [1, 1.02, 1],
-                           "b": [0.5, 0, -0.5]}}
+                           "b": [0.009, 0, -0.009]}}
     import os
     import tempfile
     with tempfile.TemporaryDirectory() as d:
         p = os.path.join(d, "c.json")
         cm.save_calibration(p, calib)
         log = io.read_log(str(log_path))
-        raw = np.degrees(log.gyr)
+        raw = log.gyr.copy()
         notes = preprocess.apply(log, Namespace(calibration=p, align="-Z+X-Y", offset=True))
     assert len(notes) == 3
     c = cm.from_dict(calib)
-    want = c.apply("gyroscope", raw)
+    want = c.apply("gyroscope", raw)          # the file is in rad/s, as the log is read
     want = imufuse_c.axes_apply(want, "-Z+X-Y")
-    want, _ = imufuse_c.FusionOffset(int(round(1 / log.dt))).run(want)
+    want, _ = imufuse_c.FusionOffset(int(round(1 / log.dt))).run(np.degrees(want))
     np.testing.assert_array_equal(log.gyr, np.radians(want))
 
 
@@ -122,3 +122,49 @@ def test_calibration_file_roundtrip_and_cli_errors(tmp_path, log_path):
                      "-o", str(tmp_path / "x.csv")]) == 2
     assert cli.main(["run", str(log_path), "--filter", "FusionAHRS", "--align", "+X+X+Z",
                      "-o", str(tmp_path / "x.csv")]) == 2
+
+
+def test_run_fusion_reports_errors_against_reference(tmp_path, capsys):
+    """On a simulated log with a reference orientation (imufuse units, NWU),
+    FusionAHRS through the command line tracks it."""
+    from imufuse import sim
+    d = sim.imu("slow", rate=100.0, duration=40.0, seed=2)
+    path = tmp_path / "sim.csv"
+    io.write_log(str(path), d.t, d.gyr, d.acc, d.mag, q=d.q_true)
+    assert cli.main(["run", str(path), "--filter", "FusionAHRS", "-o", str(tmp_path / "o.csv")]) == 0
+    err = capsys.readouterr().err
+    import re
+    m = re.search(r"tilt RMS ([0-9.]+) max ([0-9.]+) deg, heading RMS ([0-9.]+)", err)
+    assert m, err
+    # gain 0.5 leaves the simulated 0.7 deg/s gyroscope bias partly in the tilt
+    assert float(m.group(1)) < 3.0 and float(m.group(3)) < 3.0
+
+
+
+def test_fusion_names_in_other_commands(log_path, tmp_path, capsys):
+    assert cli.main(["compare", str(log_path), "--filter", "FusionAHRS"]) == 2
+    assert "imufuse run LOG --filter FusionAHRS" in capsys.readouterr().err
+    assert cli.main(["run", str(log_path), "--filter", "FusionOffset",
+                     "-o", str(tmp_path / "x.csv")]) == 2
+    assert "--offset" in capsys.readouterr().err
+
+
+
+def test_calibration_file_from_imufuse_calibrate(tmp_path, log_path):
+    """The file imufuse.calibrate writes is the one --calibration reads, in the
+    same units: a gyroscope offset estimated on a still log removes the bias."""
+    from argparse import Namespace
+    from imufuse import calibrate, preprocess
+    n = 3000
+    g = np.random.default_rng(5)
+    bias = np.array([0.01, -0.02, 0.015])                       # rad/s
+    gyr = bias + g.normal(0, 0.002, (n, 3))
+    t = np.arange(n) * 0.01
+    acc = np.tile([0.0, 0.0, 1.0], (n, 1)) + g.normal(0, 0.002, (n, 3))
+    path = tmp_path / "still.csv"
+    io.write_log(str(path), t, gyr, acc)
+    cal_path = tmp_path / "cal.json"
+    calibrate.run_log("gyro", str(path), str(cal_path))
+    log = io.read_log(str(path))
+    preprocess.apply(log, Namespace(calibration=str(cal_path)))
+    assert np.abs(log.gyr.mean(axis=0)).max() < 1e-4

@@ -33,7 +33,8 @@ import imufuse.reference as reference  # noqa: E402
 TARGETS = ["host", "m4f", "m0", "avr"]
 N_MOTION = 300
 
-SPECS = mf.specs_from_cases([*registry.FLOAT_CASES, *getattr(registry, "FIXED_CASES", [])], reference)
+SPECS = mf.specs_from_cases([*registry.FLOAT_CASES, *getattr(registry, "FIXED_CASES", []),
+                             *getattr(registry, "CASES_VARIO", [])], reference)
 GROUPS = mf.groups(SPECS)
 
 

@@ -9,7 +9,8 @@
 # Must run as root (or with sudo available) to install.
 set -eu
 
-PACKAGES="make g++ gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm gcc-avr avr-libc binutils-avr simavr valgrind"
+# clang + libclang-rt-14-dev: the sanitizer and libFuzzer runs of tests/test_sanitizers.py
+PACKAGES="make g++ gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm gcc-avr avr-libc binutils-avr simavr valgrind clang libclang-rt-14-dev"
 
 missing=""
 for p in $PACKAGES; do

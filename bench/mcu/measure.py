@@ -138,8 +138,9 @@ def _empty_driver(spec, drv):
     ctype = {np.dtype(np.float32): "float", np.dtype(np.float64): "double",
              np.dtype(np.int16): "int16_t"}[np.dtype(spec.input_dtype())]
     names = mf.INPUT_NAMES[spec.kind]
-    reads = [f"imf_sink = {n};" if spec.kind == "1d" else f"imf_sink = {n}[{j}];"
-             for n in names for j in (range(1) if spec.kind == "1d" else range(3))]
+    scalar = spec.kind in ("1d", "vario")     # scalar inputs (VarioKF: accel, baro_alt, dt)
+    reads = [f"imf_sink = {n};" if scalar else f"imf_sink = {n}[{j}];"
+             for n in names for j in (range(1) if scalar else range(3))]
     kinds = sorted({k for _, k in drv.state})
     ctypes = {"f32": "float", "f64": "double", "i32": "int32_t", "u32": "uint32_t", "i16": "int16_t"}
     prelude = f"static volatile {ctype} imf_sink;\n" + "\n".join(

@@ -86,6 +86,38 @@ CASES: Dict[str, Case] = {
 }
 
 
+# ---- the Fusion suite (seed 004): its update takes dt and Fusion's units, so it is a
+# hand-written case (tests/registry.py keeps it out of the generic matrix, see FUSION_CASES)
+
+def _fusion_inputs(n: int) -> Dict[str, np.ndarray]:
+    rng = np.random.default_rng(3)
+    gyr = rng.normal(0, 30.0, (n, 3)).astype(np.float32)            # deg/s
+    acc = (rng.normal(0, 0.2, (n, 3)) + [0, 0, 1]).astype(np.float32)  # g
+    mag = (rng.normal(0, 0.1, (n, 3)) + [0.4, 0, -0.8]).astype(np.float32)
+    return {"gyr": gyr, "acc": acc, "mag": mag}
+
+
+_FUSION_STATE = (mcu.state_words("((const float *)(const void *)&k.x)", "f32", 14)
+                 + [(f"((const int32_t *)(const void *)&k.x)[{14 + j}]", "i32") for j in range(8)]
+                 + [("k.skipped", "u32")])
+
+CASES["fusion_ahrs_f32"] = Case(
+    sources=[CSRC / "fusion_ahrs.c"],
+    include_dirs=[CSRC],
+    driver=mcu.Driver(
+        prelude='#include "fusion_ahrs.h"\nstatic imf_fusion_ahrs_t k;',
+        init=("imf_fusion_ahrs_settings_t s;\nimf_fusion_ahrs_default_settings(&s);\n"
+              "s.gain = 0.5f; s.gyroscope_range = 2000.0f; s.acceleration_rejection = 10.0f;\n"
+              "s.magnetic_rejection = 10.0f; s.recovery_trigger_period = 500;\n"
+              "imf_fusion_ahrs_init(&k, &s, IMF_FUSION_INVSQRT_EXACT);"),
+        step=("imf_fusion_ahrs_update(&k, gyr[0], gyr[1], gyr[2], acc[0], acc[1], acc[2], "
+              "mag[0], mag[1], mag[2], 0.01f);"),
+        state=_FUSION_STATE,
+    ),
+    make_inputs=_fusion_inputs,
+    step_function="imf_fusion_ahrs_update",
+)
+
 # ---- every filter configuration of tests/registry.py, generically -------------------------
 #
 # Each (configuration, precision) becomes a FilterSpec (imufuse.mcu.filters): the driver, the
@@ -108,7 +140,8 @@ from imufuse.mcu import filters as mf  # noqa: E402
 FILTER_SPECS: Dict[str, "mf.FilterSpec"] = {
     s.label: s
     for s in mf.specs_from_cases([*_tests_registry.FLOAT_CASES,
-                                  *getattr(_tests_registry, "FIXED_CASES", [])])
+                                  *getattr(_tests_registry, "FIXED_CASES", []),
+                                  *getattr(_tests_registry, "CASES_VARIO", [])[:2]])
 }
 
 

@@ -137,6 +137,28 @@ static inline int32_t imf_q8_rshr_hs(const int32_t x, const int n)
     return x;
 }
 
+/* 8-bit profile, step 1 with the remainder carried: h = floor((t + c) / 2^16)
+ * in q(15+hs) for a rate t in q(31+hs), keeping c = (t + c) mod 2^16 for the
+ * next sample.  The sum of the h applied so far is then the exact sum of the
+ * t to within one LSB of q(15+hs), however long a rate is held: rounding
+ * each sample on its own leaves up to half an LSB per sample (0.002 rad/s for
+ * a +-2000 deg/s gyro at 512 Hz), which the accelerometer corrects in tilt
+ * but which accumulates in the unobserved yaw.  In two halves, so that
+ * Mahony adds its feedback in between:
+ * carry in: t + (c mod 2^16) for t a gyro product int16 x uint16, |t| <=
+ * 2^15 (2^16 - 1): the sum stays below 2^31, no overflow. */
+static inline int32_t imf_q8_carry_in(const int32_t t, const int32_t c)
+{
+    return t + (int32_t)(uint16_t)c;
+}
+
+/* carry out: c = u mod 2^16, returns floor(u / 2^16) (high word). */
+static inline int32_t imf_q8_carry_out(const int32_t u, int32_t *const c)
+{
+    *c = (int32_t)(uint16_t)u;
+    return imf_asr32(u, 16); /* byte moves on AVR */
+}
+
 /* 8-bit profile, appendix step 7 / 3: dq = q (x) (0, h), h in q(15+hs)
  * saturated to int16; each component's three q15 x q(15+hs) products are
  * summed (saturating) and rounded to q30 once. */
@@ -155,26 +177,35 @@ static inline void imf_q8_rate(const int16_t qs[4], const int32_t h[3], const in
 }
 
 /* |q|^2 in q30 (uint32, saturated to 2^32 - 1) for the normalisation
- * (appendix step 8).  Each q30 component is rounded to q15 WITHOUT the
- * snapshot's saturation: the symmetric q15 snapshot reads 1.0 as 32767, so
- * a norm taken from it sees the identity as |q|^2 = 1 - 2^-14 and a
+ * (appendix step 8), from the q15 snapshot qs of q -- except where it
+ * saturates.  The symmetric q15 snapshot reads 1.0 as 32767, so a norm
+ * taken from it alone sees the identity as |q|^2 = 1 - 2^-14, and a
  * normalisation driven by it scales q up at every sample, without bound
- * (q0 >= 1 never looks too long).  Here |q_i| up to 2 gives magnitudes up
- * to 2^16 (clamped to 65535; the sum saturates only for |q| >= 2). */
-static inline uint32_t imf_q_norm2(const int32_t q[4])
+ * (q0 >= 1 never looks too long).  Where qs is +-32767 the component is
+ * rounded to q15 again without saturation (|q_i| up to 2: magnitudes up to
+ * 2^16, clamped to 65535; the sum saturates only for |q| >= 2); elsewhere qs
+ * is that rounding already. */
+static inline uint32_t imf_q_norm2(const int32_t q[4], const int16_t qs[4])
 {
     uint32_t n2 = 0u, p;
     int32_t r;
     uint16_t u;
     int i;
     for (i = 0; i < 4; ++i) {
-        r = imf_rshr32(q[i], 15); /* [-2^16, 2^16] */
-        if (r < 0) {
-            r = -r;
+        if (qs[i] > -32767 && qs[i] < 32767) {
+            u = (uint16_t)(qs[i] < 0 ? -qs[i] : qs[i]);
+        } else {
+            r = imf_rshr32(q[i], 15); /* [-2^16, 2^16] */
+            if (r < 0) {
+                r = -r;
+            }
+            u = (uint16_t)(r > 65535 ? 65535 : r);
         }
-        u = (uint16_t)(r > 65535 ? 65535 : r);
         p = imf_mulu16(u, u);
-        n2 = (n2 > 4294967295u - p) ? 4294967295u : n2 + p;
+        n2 += p;
+        if (n2 < p) { /* wrapped */
+            n2 = 4294967295u;
+        }
     }
     return n2;
 }
@@ -182,10 +213,13 @@ static inline uint32_t imf_q_norm2(const int32_t q[4])
 /* q /= |q| with the division-free inverse square root (after q += dq). */
 IMF_Q_OUTLINE void imf_q_normalise(int32_t q[4])
 {
-    const uint32_t n2 = imf_q_norm2(q);
+    int16_t qs[4];
+    uint32_t n2;
     uint16_t y;
     int16_t y14;
     int sh, i;
+    imf_q_snapshot(q, qs);
+    n2 = imf_q_norm2(q, qs);
     if (n2 == 0u) {
         q[0] = IMF_Q30_ONE;
         q[1] = q[2] = q[3] = 0;
@@ -200,8 +234,8 @@ IMF_Q_OUTLINE void imf_q_normalise(int32_t q[4])
 }
 
 /* 8-bit profile, step 8 folded into the next update (no second snapshot):
- * at the start of an update, d = |q|^2 - 1 in q22 (int16, from imf_q_norm2)
- * and the q15 snapshot qs of q; while |d| < 2^-8 (every ordinary update: a step leaves
+ * at the start of an update, the q15 snapshot qs of q and d = |q|^2 - 1 in
+ * q22 (int16, imf_q_norm2); while |d| < 2^-8 (every ordinary update: a step leaves
  * |q|^2 - 1 ~ |h|^2) the update's own step is q += dq - q d / 2
  * (imf_q8_add_step), a first-order normalisation one sample late (|q|^2 - 1
  * stays of the order of |h|^2 + rounding).  Otherwise (a state set by hand,
@@ -209,13 +243,14 @@ IMF_Q_OUTLINE void imf_q_normalise(int32_t q[4])
  * the 32-bit profile) and d = 0. */
 static inline int16_t imf_q8_snapshot_norm(int32_t q[4], int16_t qs[4])
 {
-    const uint32_t n2 = imf_q_norm2(q);
+    uint32_t n2;
+    imf_q_snapshot(q, qs);
+    n2 = imf_q_norm2(q, qs);
     if (n2 <= 1069547520u || n2 >= 1077936128u) { /* 2^30 -+ 2^22 */
         imf_q_normalise(q);
         imf_q_snapshot(q, qs);
         return 0;
     }
-    imf_q_snapshot(q, qs);
     return (int16_t)imf_rshr32((int32_t)n2 - IMF_Q30_ONE, 8); /* q22, |d| <= 2^14 */
 }
 

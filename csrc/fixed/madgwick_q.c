@@ -16,6 +16,7 @@ int imf_madgwick_imu_q_init_consts(imf_madgwick_imu_q_t *const self, const imf_q
     self->profile = (int16_t)(profile == 8 ? 8 : 32);
     self->x.q[0] = IMF_Q30_ONE;
     self->x.q[1] = self->x.q[2] = self->x.q[3] = 0;
+    self->x.c[0] = self->x.c[1] = self->x.c[2] = 0;
     if (kg.m == 0 || !imf_qscale_ok(kg, 31, 61) || !imf_qscale_ok(kb, 16, 46)) {
         return -1;
     }
@@ -209,8 +210,18 @@ void imf_madgwick_imu_q8_update(imf_madgwick_imu_q_t *const self, const int16_t 
     int32_t *const q = self->x.q;
     int32_t h[3], dq[4];
     int16_t qs[4], d16;
+    int i;
     d16 = imf_q8_snapshot_norm(q, qs);
-    imf_gain8_mul3(gyr, self->kg8, h); /* q(15+hs) */
+    /* step 3: h = 0.5 w dt in q(15+hs), with the remainder carried when kg8
+     * has the shift 16 (the product is then in q(31+hs)) */
+    if (self->kg8.n == 16) {
+        for (i = 0; i < 3; ++i) {
+            h[i] = imf_q8_carry_out(imf_q8_carry_in(imf_mul16su(gyr[i], self->kg8.m),
+                                                    self->x.c[i]), &self->x.c[i]);
+        }
+    } else {
+        imf_gain8_mul3(gyr, self->kg8, h);
+    }
     imf_q8_rate(qs, h, self->hs, dq);
     imf_madgwick_imu_q8_correct(self, qs, acc, dq);
     imf_q8_add_step(q, dq, qs, d16);

@@ -8,7 +8,9 @@
  *   imf_madgwick_imu_q8_update   rates narrowed to int16, 16x16->32 only
  * Both are division-free.
  *
- * State x (int32): q[4] = q0..q3 [w x y z], q30, sensor -> earth.
+ * State x (int32): q[4] = q0..q3 [w x y z], q30, sensor -> earth;
+ * c[3] = cx..cz, 8-bit profile: the low 16 bits of the rate 0.5 w dt in
+ * q(31+hs) not yet applied, in [0, 2^16) (imf_q8_carry_in/out; 0 otherwise).
  * Settings (q-scale constants):
  *   kg = 0.5 gyr_scale dt   gyro counts -> half angle per sample
  *   kb = beta dt            normalised delta-s (q15) -> quaternion step (q30)
@@ -27,6 +29,7 @@
 
 typedef struct {
     int32_t q[4]; /* q0..q3, q30 */
+    int32_t c[3]; /* cx, cy, cz: 8-bit profile, remainder of h carried to the next sample */
 } imf_madgwick_imu_q_state_t;
 
 typedef struct {

@@ -15,11 +15,13 @@ int imf_mahony_imu_q_init_consts(imf_mahony_imu_q_t *const self, const imf_qscal
     self->kp8 = imf_gain8(kp, self->hs);
     self->ki8 = imf_gain8(ki, 38 - 15);
     self->kpi = (uint16_t)(kp.s >= 23 ? imf_rshr32(kp.m, kp.s - 23) : (kp.s == 22 ? kp.m * 2 : 0));
-    self->fast8 = (int16_t)(kp.s >= 22 && self->ki8.n == 16 && self->hs <= 6);
+    self->fast8 = (int16_t)(kp.s >= 22 && self->ki8.n == 16 && self->kg8.n == 16
+                            && self->hs <= 6);
     self->profile = (int16_t)(profile == 8 ? 8 : 32);
     self->x.q[0] = IMF_Q30_ONE;
     self->x.q[1] = self->x.q[2] = self->x.q[3] = 0;
     self->x.i[0] = self->x.i[1] = self->x.i[2] = 0;
+    self->x.c[0] = self->x.c[1] = self->x.c[2] = 0;
     /* kg: gyro full scale below 0.25 rad half angle per sample (s >= 31);
      * kp, ki: shifts of imf_scale16/32 in range */
     if (kg.m == 0 || !imf_qscale_ok(kg, 31, 61) || !imf_qscale_ok(kp, 16, 47)
@@ -39,6 +41,19 @@ int imf_mahony_imu_q_init(imf_mahony_imu_q_t *const self, const double dt, const
         return -1;
     }
     return r;
+}
+
+/* 32-bit profile: t + c in q46 -> q38 (floor), the low 8 bits kept in c
+ * for the next sample.  The integral's component along gravity is not
+ * observed (e = a x d is perpendicular to a): rounding each increment to
+ * q38 on its own let that component walk (1.8e-6 rad/s after 10 minutes
+ * of a slow rotation about the vertical, 0.1 deg of yaw); carried, the
+ * sum of the increments is exact to one LSB of q46. */
+static inline int32_t imf_mahony_imu_q_carry_i(const int32_t t, int32_t *const c)
+{
+    const int32_t u = imf_add_sat32(t, *c);
+    *c = (int32_t)((uint32_t)u & 0xFFu);
+    return imf_asr32(u, 8);
 }
 
 /* Appendix steps 2-6, 32-bit profile: h = 0.5 w' dt (q30).  Returns with
@@ -66,7 +81,13 @@ static IMF_AVR_NOINLINE void imf_mahony_imu_q_feedback(imf_mahony_imu_q_t *const
     e[2] = imf_mul_q15_q30(a[0], d[1]) - imf_mul_q15_q30(a[1], d[0]);
     for (i = 0; i < 3; ++i) {
         int32_t ip, pp;
-        ip = imf_scale32(e[i], self->ki, 30, 38);
+        if (self->ki.s >= 31) {
+            /* Ki dt e in q46 (|.| < 2^31 for |e| <= 2), its 8 bits below q38
+             * carried to the next sample (imf_mahony_imu_q_carry_i) */
+            ip = imf_mahony_imu_q_carry_i(imf_mul_32x16(e[i], self->ki.m, self->ki.s - 16), &x->c[i]);
+        } else {
+            ip = imf_scale32(e[i], self->ki, 30, 38);
+        }
         pp = imf_scale32(e[i], self->kp, 30, 30);
         /* step 5: I_n = I_{n-1} + Ki dt e (as 0.5 I dt, q38) */
         x->i[i] = imf_add_sat32(x->i[i], ip);
@@ -76,8 +97,9 @@ static IMF_AVR_NOINLINE void imf_mahony_imu_q_feedback(imf_mahony_imu_q_t *const
 }
 
 /* The same, 8-bit profile: a block-scaled with the short inverse sqrt; e
- * in q15, one 16x16 product per term with the gains prepared at init; h
- * and Kp e in q(15+hs). */
+ * in q15, one 16x16 product per term with the gains prepared at init.
+ * Short path (fast8): h in q(31+hs), Kp e + I summed in q38 and added to it
+ * rounded once; otherwise h and Kp e in q(15+hs). */
 static void imf_mahony_imu_q8_feedback(imf_mahony_imu_q_t *const self, const int16_t qs[4],
                                        const int16_t acc[3], int32_t h[3])
 {
@@ -96,16 +118,13 @@ static void imf_mahony_imu_q8_feedback(imf_mahony_imu_q_t *const self, const int
     e15[1] = imf_qn_to_q15s(imf_mul16(a[2], d[0]) - imf_mul16(a[0], d[2]), 30);
     e15[2] = imf_qn_to_q15s(imf_mul16(a[0], d[1]) - imf_mul16(a[1], d[0]), 30);
     if (self->fast8) {
-        /* Kp e + I summed in q38, one rounding to q(15+hs) */
+        /* steps 5, 6: Kp e + I summed in q38, rounded once to q(31+hs) */
         const uint16_t kpi = self->kpi;
-        const int k = 6 - hs; /* the rounding shift 23 - hs = 17 + k, k in [0, 6] */
         for (i = 0; i < 3; ++i) {
             const int32_t ii = imf_add_sat32(x->i[i], imf_rshr32(imf_mul16su(e15[i], ki8.m), 16));
             const int32_t v = imf_add_sat32(ii, imf_mul16su(e15[i], kpi));
             x->i[i] = ii;
-            /* floor(v / 2^(17+k) + 1/2) = (floor(v / 2^(16+k)) + 1) >> 1,
-             * the inner shift from the high word in 16 bits */
-            h[i] = imf_add_sat32(h[i], ((int32_t)(int16_t)((int16_t)(v >> 16) >> k) + 1) >> 1);
+            h[i] = imf_add_sat32(h[i], imf_rshr32(v, 7 - hs)); /* shift in [1, 7] */
         }
     } else {
         for (i = 0; i < 3; ++i) {
@@ -141,10 +160,24 @@ void imf_mahony_imu_q8_update(imf_mahony_imu_q_t *const self, const int16_t gyr[
     int32_t *const q = self->x.q;
     int32_t h[3], dq[4];
     int16_t qs[4], d16;
+    int i;
     d16 = imf_q8_snapshot_norm(q, qs);
-    /* step 1 in q(15+hs): the shift kg.s - 15 - hs is 16 unless hs is clamped */
-    imf_gain8_mul3(gyr, self->kg8, h); /* q(15+hs) */
-    imf_mahony_imu_q8_feedback(self, qs, acc, h);
+    if (self->fast8) {
+        /* step 1 in q(31+hs) (kg8 has the shift 16) plus the carried
+         * remainder, steps 2-6, then h to q(15+hs), the remainder kept */
+        for (i = 0; i < 3; ++i) {
+            h[i] = imf_q8_carry_in(imf_mul16su(gyr[i], self->kg8.m), self->x.c[i]);
+        }
+        imf_mahony_imu_q8_feedback(self, qs, acc, h);
+        for (i = 0; i < 3; ++i) {
+            h[i] = imf_q8_carry_out(h[i], &self->x.c[i]);
+        }
+    } else {
+        /* step 1 in q(15+hs), rounded; steps 2-6 add Kp e and I rounded */
+        imf_gain8_mul3(gyr, self->kg8, h);
+        imf_mahony_imu_q8_feedback(self, qs, acc, h);
+    }
+    /* step 7 */
     imf_q8_rate(qs, h, self->hs, dq);
     imf_q8_add_step(q, dq, qs, d16);
 }

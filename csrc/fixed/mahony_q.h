@@ -15,6 +15,11 @@
  *   q0..q3   attitude quaternion [w x y z], q30 (1.0 = 2^30), sensor -> earth
  *   ix..iz   integral term I of step 5 as a half angle per sample,
  *            0.5 * I * dt in q38 (I [rad/s] = i * 2^-38 * 2 / dt)
+ *   cx..cz   the remainder carried to the next sample: 32-bit profile
+ *            (ki.s >= 31), the 8 bits of Ki dt e below q38, in [0, 2^8)
+ *            (imf_mahony_imu_q_carry_i); 8-bit profile's short path, the low 16 bits of
+ *            the rate 0.5 w' dt in q(31+hs), in [0, 2^16) (imf_q8_carry_in/out);
+ *            0 otherwise
  * Settings (q-scale constants m 2^-s, imf_fixed.h):
  *   kg = 0.5 gyr_scale dt   gyro counts -> half angle per sample
  *   kp = 0.5 Kp dt          error (q30) -> half angle per sample (q30)
@@ -24,7 +29,8 @@
  *                           profile's products (imf_gain8, imf_fixed.h)
  *   kpi, fast8              kp rounded to the integral's format q38 (for
  *                           kp.s >= 22) and whether the 8-bit profile's
- *                           short path (kpi, ki8 with shift 16) applies
+ *                           short path (kpi, ki8 and kg8 with shift 16)
+ *                           applies
  */
 #ifndef IMF_MAHONY_Q_H
 #define IMF_MAHONY_Q_H
@@ -35,6 +41,7 @@
 typedef struct {
     int32_t q[4]; /* q0..q3, q30 */
     int32_t i[3]; /* ix, iy, iz: q38, half angle per sample */
+    int32_t c[3]; /* cx, cy, cz: remainder carried to the next sample (see above) */
 } imf_mahony_imu_q_state_t;
 
 typedef struct {

@@ -86,7 +86,8 @@ def _as_real_array(name, a, dtype):
     arr = np.asarray(a)
     if arr.dtype.kind not in "biuf":
         raise ValueError(f"run(): {name} must be an array of real numbers, got dtype {arr.dtype}")
-    return np.ascontiguousarray(arr, dtype=dtype)
+    with np.errstate(over="ignore"):      # float64 beyond float32: inf, a rejected sample
+        return np.ascontiguousarray(arr, dtype=dtype)
 
 
 def as_1d(dtype, **arrays):

@@ -149,6 +149,12 @@ def states_array(states, dtype):
     arr = np.ascontiguousarray(np.asarray(states, dtype=dtype))
     if arr.ndim != 2 or arr.shape[1] != len(AHRS_STATE_NAMES):
         raise ValueError(f"outputs(): expected (N, {len(AHRS_STATE_NAMES)}) states, got {arr.shape}")
+    ints = arr[:, N_REAL:].astype(np.float64)
+    # the C converts these to int32_t: out-of-range values would be undefined behaviour
+    if not (np.all(np.isfinite(arr)) and np.all(ints == np.trunc(ints))
+            and np.all(np.abs(ints) <= MAX_PERIOD)):
+        raise ValueError("outputs(): states must be finite, with integral flags and counters "
+                         f"within +-{MAX_PERIOD} (rows of run())")
     return arr
 
 
@@ -206,3 +212,17 @@ ALL_ALIGNMENTS = tuple(
     f"{s0}{a0}{s1}{a1}{s2}{a2}"
     for a0, a1, a2 in ("XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX")
     for s0 in "+-" for s1 in "+-" for s2 in "+-")
+
+
+def model_param(name, value, shape, dtype):
+    """A calibration-model parameter (3x3 matrix or 3-vector) as a flat contiguous
+    array of dtype; ValueError naming it for a wrong shape or non-finite values."""
+    try:
+        arr = np.asarray(value, dtype=dtype)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected numbers, got {value!r}") from None
+    if arr.shape != shape:
+        raise ValueError(f"{name}: expected shape {shape}, got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name}: must be finite")
+    return np.ascontiguousarray(arr.reshape(-1))

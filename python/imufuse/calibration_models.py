@@ -9,8 +9,11 @@ Format (every key optional; a missing sensor or parameter means "identity"):
 Inertial model  i_c = M s (i_u - b)   (M misalignment, s sensitivity, b offset)
 Magnetic model  m_c = S (m_u - h)     (S soft-iron matrix, h hard-iron offset)
 
-Units are Fusion's: gyroscope b in deg/s, accelerometer b in g, magnetometer h
-in the magnetometer's unit; M, s and S are dimensionless. The models are
+Units: those in which imufuse reads a log (imufuse.io, after --gyr-unit and
+--acc-unit), as `imufuse calibrate` (imufuse.calibrate) writes the file:
+gyroscope b in rad/s, accelerometer b in g, magnetometer h in the
+magnetometer's unit; M, s and S are dimensionless. (The models are linear: a
+caller working in Fusion's deg/s converts b by 180/pi.) The models are
 evaluated by imufuse_c.calibrate_inertial / calibrate_magnetic (C, in
 Fusion's operation order; pure-Python twin in imufuse.reference.fusion).
 """

@@ -14,7 +14,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from . import io, plots, preprocess, sim
+from . import cli_vario, io, plots, preprocess, sim
 from ._resources import csrc_dir
 from .catalogue import (FilterError, estimate, filter_names, inputs_for, make_filter,
                         param_names, reference_class, resolve_params, why_no_estimate)
@@ -152,6 +152,7 @@ def _demo(args):
 
 
 def _run(args):
+    _fusion_hint(args.filter, "run")
     if preprocess.is_fusion(args.filter):  # Fusion's units and dt per sample
         cols, msg, f32 = preprocess.run_fusion(args, _load(args), _pairs(args.param))
         io.write_csv(sys.stdout if args.output == "-" else args.output, cols, float32=f32)
@@ -211,11 +212,18 @@ def _plot_run(path, cls, log, S, est, inputs, axis):
     _err(f"plot: {path}")
 
 
+def _fusion_hint(name, command):
+    hint = preprocess.fusion_hint(name, command)
+    if hint:
+        raise UsageError(hint)
+
+
 def _compare(args):
     log = _load(args)
     if args.filters:
         names = [n for f in args.filters for n in f.split(",") if n]
         for n in names:
+            _fusion_hint(n, "compare")
             reference_class(n)
     else:
         kinds = {"imu", "ahrs"} if log.mag is not None else {"imu"}
@@ -494,6 +502,8 @@ def build_parser():
     v.add_argument("--seed", type=int, default=1)
     v.add_argument("--plot", metavar="PNG", help="divergence plot")
     v.set_defaults(func=_validate)
+
+    cli_vario.add_parsers(sub)  # seed 002: vario, calibrate
     return p
 
 

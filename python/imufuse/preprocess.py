@@ -3,14 +3,15 @@
 
 Options (imufuse run / compare), applied in this order:
   --calibration FILE.json  the sensor models i_c = M s (i_u - b), m_c = S (m_u - h)
-                           (imufuse.calibration_models; gyroscope b in deg/s,
-                           accelerometer b in g), in the sensor's own axes;
+                           (imufuse.calibration_models, written by `imufuse calibrate`),
+                           in the sensor's own axes and in the units imufuse reads the
+                           log in: gyroscope b in rad/s, accelerometer b in g;
   --align ALIGNMENT        signed axis permutation, e.g. "+X-Z+Y": body x = +sensor x,
                            body y = -sensor z, body z = +sensor y; the 24 rotations of
                            Fusion's FusionAxesSwap and the 24 reflections;
   --offset                 FusionOffset, the gyroscope offset estimator, at the log's
                            sample rate (rounded to whole Hz).
-The gyroscope is processed in deg/s (Fusion's unit) and handed back in rad/s.
+FusionOffset runs on the gyroscope in deg/s (Fusion's unit, its 3 deg/s threshold).
 """
 import numpy as np
 
@@ -20,6 +21,8 @@ from . import io, reference
 from ._fusion import parse_alignment
 from .calibration_models import load_calibration
 from .catalogue import FILTERS_FUSION
+from .demo import errors_3d
+from .estimate import Estimate
 from .reference import fusion
 
 
@@ -59,9 +62,9 @@ def apply(log, args, backend="c"):
             "magnetometer": log.has(*io.MAG)}
     cols = {"gyroscope": io.GYR, "accelerometer": io.ACC, "magnetometer": io.MAG}
     data = {s: _sensor(log, cols[s]) for s, ok in have.items() if ok}
-    if "gyroscope" in data:
-        data["gyroscope"] = np.degrees(data["gyroscope"])      # Fusion's unit
     if cal_path:
+        # in the units imufuse reads the log in (gyroscope rad/s, accelerometer g), as
+        # imufuse.calibrate writes the file
         cal = load_calibration(cal_path)
         for sensor in data:
             if getattr(cal, sensor) is not None:
@@ -78,11 +81,11 @@ def apply(log, args, backend="c"):
         rate = int(round(1.0 / log.dt))
         if rate < 1:
             raise ValueError(f"--offset: sample rate {1.0 / log.dt:.3g} Hz is below 1 Hz")
-        data["gyroscope"], st = mod.FusionOffset(rate).run(data["gyroscope"])
+        # FusionOffset works in Fusion's unit, deg/s (its 3 deg/s rest threshold)
+        corrected, st = mod.FusionOffset(rate).run(np.degrees(data["gyroscope"]))
+        data["gyroscope"] = np.radians(corrected)
         notes.append(f"gyroscope offset estimated (FusionOffset at {rate} Hz; final offset "
                      f"{', '.join(f'{v:.3f}' for v in st[-1, :3])} deg/s)")
-    if "gyroscope" in data:
-        data["gyroscope"] = np.radians(data["gyroscope"])
     for sensor, arr in data.items():
         _put(log, cols[sensor], arr)
     return notes
@@ -138,4 +141,21 @@ def run_fusion(args, log, params):
                f"{len(log)} samples from {src}, gyroscope in deg/s, dt per sample")
     if f.skipped:
         summary += f"; {f.skipped} samples skipped (non-finite)"
+    if log.q_ref is not None and params.get("convention", "NWU").upper() == "NWU":
+        # the log's reference is imufuse's NWU body -> earth quaternion, as FusionAHRS's
+        q = np.asarray(S[:, :4], dtype=np.float64)
+        est = Estimate(q=q, heading=log.has(*io.MAG), source="q0..q3")
+        errs = errors_3d(est, log.q_ref, np.ones(len(log), dtype=bool))
+        summary += "; against the log's reference q: " + ", ".join(
+            f"{k} RMS {v[0]:.3f} max {v[1]:.3f} deg" for k, v in errs.items())
     return cols, summary, set(f.state_names) if args.dtype == "float32" else set()
+
+
+def fusion_hint(name, command):
+    """A usage message for a Fusion-suite name a command cannot take, else None."""
+    if name == "FusionOffset":
+        return "FusionOffset is the --offset option (in front of any filter), not a filter"
+    if name == "FusionAHRS" and command != "run":
+        return (f"FusionAHRS is not available in `imufuse {command}` (Fusion's units and dt "
+                "per sample); use `imufuse run LOG --filter FusionAHRS`")
+    return None

@@ -34,7 +34,7 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 import numpy as np
 
 from .. import reference as _reference
-from .. import sim
+from .. import sim, sim_flight
 from .._checks import KINDS
 from .._resources import csrc_dir
 from ..cproto import CParam, PrototypeError, find_prototype, strip_comments
@@ -56,7 +56,8 @@ __all__ = [
 CSRC = csrc_dir()
 
 #: the update inputs of each kind, in order
-INPUT_NAMES = KINDS
+INPUT_NAMES = {**KINDS, "vario": ("accel", "baro_alt", "dt")}   # VarioKF: scalars
+_SCALAR_KINDS = ("1d", "vario")
 
 _STATE_KIND = {np.dtype(np.float32): "f32", np.dtype(np.float64): "f64", np.dtype(np.int32): "i32",
                np.dtype(np.int16): "i16", np.dtype(np.uint32): "u32"}
@@ -202,7 +203,7 @@ class FilterSpec:
     @property
     def group(self) -> Tuple[str, str]:
         """Filters of one group can share a program: same build flags, same input set."""
-        return (self.precision, "1d" if self.kind == "1d" else "3d")
+        return (self.precision, self.kind if self.kind in _SCALAR_KINDS else "3d")
 
     def reference(self):
         if self.fixed:
@@ -259,7 +260,7 @@ class FilterSpec:
 
     def _update_args(self) -> List[str]:
         names = INPUT_NAMES[self.kind]
-        width = {n: (1 if self.kind == "1d" else 3) for n in names}
+        width = {n: (1 if self.kind in _SCALAR_KINDS else 3) for n in names}
         cparams = self.c.update
         if len(cparams) == len(names):
             out = []
@@ -471,8 +472,10 @@ def float_inputs(group: str, n_motion: int = 300, seed: int = 5) -> Dict[str, np
             + [-3e38, 3e38, -1e30, 3e38] + [-1e-40, 1e-45, -1e-30, 1e-38] + [3.0, -3.0]
         return {"rate": np.concatenate([head_r, cr, tail_r]),
                 "angle": np.concatenate([head_a, ca, tail_a])}
+    if group == "vario":
+        return _vario_inputs(n_motion, seed, tail)
     if group != "3d":
-        raise ValueError(f"group must be '1d' or '3d', got {group!r}")
+        raise ValueError(f"group must be '1d', 'vario' or '3d', got {group!r}")
     d = sim.imu("fast", rate=100.0, duration=(n_motion + tail) / 100.0, seed=seed, lin_acc=1.0,
                 amplitude=3.0)
     gyr, acc, mag = (np.asarray(a, float) for a in (d.gyr, d.acc, d.mag))
@@ -501,6 +504,23 @@ def float_inputs(group: str, n_motion: int = 300, seed: int = 5) -> Dict[str, np
     return {"gyr": np.concatenate([gyr[:n_motion], *cg, gyr[n_motion:]]),
             "acc": np.concatenate([acc[:n_motion], *ca, acc[n_motion:]]),
             "mag": np.concatenate([mag[:n_motion], *cm, mag[n_motion:]])}
+
+
+def _vario_inputs(n_motion, seed, tail):
+    """Seed 002's variometer: a simulated flight at the barometer rate (vertical
+    acceleration cm/s^2, barometer altitude cm, dt s), then the corners (NaN/Inf
+    in each input, dt <= 0, overflow, tiny values), then the flight again."""
+    fl = sim_flight.flight(duration=(n_motion + tail) / 50.0 + 1.0, seed=seed)
+    idx = fl.baro_idx[:n_motion + tail]
+    acc = np.diff(fl.climb, prepend=fl.climb[0])[idx] * fl.rate * 100.0 + 20.0
+    alt = fl.baro_alt[:n_motion + tail] * 100.0
+    dt = np.full(n_motion + tail, 0.02)
+    ca = [np.nan, 1.0, 2.0, np.inf, 0.0, 0.0, 3e38, -3e38, 1e-40, 0.0, 5.0, -5.0]
+    cz = [alt[n_motion - 1], np.nan, 1e5, 1e5, -np.inf, 1e5, 3e38, 1e5, 1e-40, 1e5, 1e5, 1e5]
+    cd = [0.02, 0.02, -np.inf, 0.02, 0.02, 0.0, 0.02, 1e30, 1e-30, -0.02, 0.5, 0.001]
+    return {"accel": np.concatenate([acc[:n_motion], ca, acc[n_motion:]]),
+            "baro_alt": np.concatenate([alt[:n_motion], cz, alt[n_motion:]]),
+            "dt": np.concatenate([dt[:n_motion], cd, dt[n_motion:]])}
 
 
 #: int16 counts per unit of the fixed-point inputs (gyro +-2000 deg/s, acc +-8 g, angle +-pi)

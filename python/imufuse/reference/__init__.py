@@ -15,6 +15,7 @@ from .filters_1d import tuning
 FILTERS: tuple = ()          # every float filter, by class name (imufuse_c exports the same)
 FILTERS_FIXED: tuple = ()    # every fixed-point filter (int16 counts in, integer state)
 FILTERS_FUSION: tuple = ()   # the Fusion suite: Fusion's units (deg/s, g), dt per update
+FILTERS_VARIO: tuple = ()    # seed 002's variometer: update(accel, baro_alt, dt)
 
 for _info in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
     if _info.name.startswith("_"):
@@ -29,8 +30,14 @@ for _info in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
     for _name in getattr(_mod, "FILTERS_FUSION", ()):
         globals()[_name] = getattr(_mod, _name)
         FILTERS_FUSION += (_name,)
+    for _name in getattr(_mod, "FILTERS_VARIO", ()):
+        globals()[_name] = getattr(_mod, _name)
+        FILTERS_VARIO += (_name,)
 
 FILTERS_1D = tuple(n for n in FILTERS if globals()[n].kind == "1d")
 
+from .vario import vertical_accel  # noqa: E402  (seed 002)
+
 __all__ = ["ReferenceFilter", "FILTERS", "FILTERS_FIXED", "FILTERS_FUSION", "FILTERS_1D",
-           "tuning", *FILTERS, *FILTERS_FIXED, *FILTERS_FUSION]
+           "FILTERS_VARIO", "tuning", "vertical_accel", *FILTERS, *FILTERS_FIXED,
+           *FILTERS_FUSION, *FILTERS_VARIO]

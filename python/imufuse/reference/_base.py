@@ -125,7 +125,8 @@ class ReferenceFilter:
     def update(self, *args, dt=None):
         vals = _checks.update_inputs(self.kind, args)
         R = self._R
-        row = [R(v) for v in vals]
+        with np.errstate(over="ignore"):    # beyond float32: inf, as C's conversion
+            row = [R(v) for v in vals]
         if dt is not None:
             dt = R(_checks.dt_value(dt, self.dtype))
         with np.errstate(all="ignore"):

@@ -22,11 +22,13 @@ class MadgwickIMUQ(FixedFilter):
     """Madgwick's 6DOF IMU filter (appendix, simplified delta-s), fixed point.
 
     MadgwickIMUQ(dt, beta, gyr_scale=rad/s per count, profile="32" | "8").
-    State q0..q3 in q30; state_float is the unit quaternion.
+    State q0..q3 in q30 and cx, cy, cz (profile "8": the rate's remainder
+    carried to the next sample, in [0, 2^16)); state_float gives the unit
+    quaternion and c / 2^16.
     """
     kind = "imu"
     c_name = "imf_madgwick_imu_q"
-    state_names = ("q0", "q1", "q2", "q3")
+    state_names = ("q0", "q1", "q2", "q3", "cx", "cy", "cz")
 
     @staticmethod
     def _params(dt, beta=0.1, *, gyr_scale, profile="32"):
@@ -52,16 +54,17 @@ class MadgwickIMUQ(FixedFilter):
         self.kg8 = ci.gain8(kg, 15 + self.hs)
         self.kbf = 0 if kb.s < 16 else ((kb.s - 16) // 8) * 8
         self.q = [fq.Q30_ONE, 0, 0, 0]
+        self.c = [0, 0, 0]
         self._update = self._update8 if profile == 8 else self._update32
 
     def _get_state(self):
-        return list(self.q)
+        return self.q + self.c
 
     def _set_state(self, v):
-        self.q = list(v)
+        self.q, self.c = list(v[:4]), list(v[4:])
 
     def _state_float(self, s):
-        return [v * 2.0 ** -30 for v in s]
+        return [v * 2.0 ** -30 for v in s[:4]] + [v * 2.0 ** -16 for v in s[4:]]
 
     def _correct(self, qs, acc, dq, narrow):
         # step 2: normalise a
@@ -143,7 +146,13 @@ class MadgwickIMUQ(FixedFilter):
 
     def _update8(self, gyr, acc):
         self.q, qs, d16 = fq.snapshot_norm8(self.q)
-        h = [ci.gain8_mul(g, self.kg8) for g in gyr]
+        # step 3: h = 0.5 w dt in q(15+hs), with the remainder carried when kg8
+        # has the shift 16 (the product is then in q(31+hs))
+        if self.kg8[1] == 16:
+            h = [fq.q8_carry_out(fq.q8_carry_in(gyr[i] * self.kg8[0], self.c[i]), self.c, i)
+                 for i in range(3)]
+        else:
+            h = [ci.gain8_mul(g, self.kg8) for g in gyr]
         dq = fq.rate_q8(qs, h, self.hs)
         self._correct8(qs, acc, dq)
         self.q = fq.add_step8(self.q, dq, qs, d16)

@@ -10,16 +10,26 @@ from .fixed_base import FixedFilter, check_profile, check_scale, qconst
 
 FILTERS_FIXED = ('MahonyIMUQ',)
 
+
+def carry_i(t, c, i):
+    """imf_mahony_imu_q_carry_i: t + c[i] in q46 -> q38 (floor), the low 8 bits kept in c[i]."""
+    u = ci.add_sat32(t, c[i])
+    c[i] = u & 0xFF
+    return u >> 8
+
+
 class MahonyIMUQ(FixedFilter):
     """Mahony's filter in quaternion form (appendix), fixed point.
 
     MahonyIMUQ(dt, kp, ki, gyr_scale=rad/s per count, profile="32" | "8").
-    State q0..q3 (q30) and ix, iy, iz (0.5 I dt in q38); state_float gives
-    the unit quaternion and I in rad/s.
+    State q0..q3 (q30), ix, iy, iz (0.5 I dt in q38) and cx, cy, cz (the
+    remainder carried to the next sample: profile "32", of Ki dt e below q38,
+    in [0, 2^8); profile "8", of the rate h, in [0, 2^16));
+    state_float gives the unit quaternion, I in rad/s and c / 2^16.
     """
     kind = "imu"
     c_name = "imf_mahony_imu_q"
-    state_names = ("q0", "q1", "q2", "q3", "ix", "iy", "iz")
+    state_names = ("q0", "q1", "q2", "q3", "ix", "iy", "iz", "cx", "cy", "cz")
 
     @staticmethod
     def _params(dt, kp=1.0, ki=0.0, *, gyr_scale, profile="32"):
@@ -51,19 +61,22 @@ class MahonyIMUQ(FixedFilter):
         self.kp8 = ci.gain8(kp, self.hs)
         self.ki8 = ci.gain8(ki, 38 - 15)
         self.kpi = (ci.rshr32(kp.m, kp.s - 23) if kp.s >= 23 else kp.m * 2 if kp.s == 22 else 0)
-        self.fast8 = kp.s >= 22 and self.ki8[1] == 16 and self.hs <= 6
+        self.fast8 = (kp.s >= 22 and self.ki8[1] == 16 and self.kg8[1] == 16
+                      and self.hs <= 6)
         self.q = [fq.Q30_ONE, 0, 0, 0]
         self.i = [0, 0, 0]
+        self.c = [0, 0, 0]
         self._update = self._update8 if profile == 8 else self._update32
 
     def _get_state(self):
-        return self.q + self.i
+        return self.q + self.i + self.c
 
     def _set_state(self, v):
-        self.q, self.i = list(v[:4]), list(v[4:])
+        self.q, self.i, self.c = list(v[:4]), list(v[4:7]), list(v[7:])
 
     def _state_float(self, s):
-        return [v * 2.0 ** -30 for v in s[:4]] + [v * 2.0 ** -38 * 2.0 / self.dt for v in s[4:]]
+        return ([v * 2.0 ** -30 for v in s[:4]] + [v * 2.0 ** -38 * 2.0 / self.dt for v in s[4:7]]
+                + [v * 2.0 ** -16 for v in s[7:]])
 
     def _feedback(self, qs, acc, h, narrow):
         # step 2: normalise a
@@ -83,15 +96,19 @@ class MahonyIMUQ(FixedFilter):
                 e15 = ci.qn_to_q15s(e[i], 30)
                 self.i[i] = ci.add_sat32(self.i[i], ci.gain8_mul(e15, self.ki8))
                 if self.fast8:
+                    # steps 5, 6: Kp e + I summed in q38, rounded once to q(31+hs)
                     v = ci.add_sat32(self.i[i], e15 * self.kpi)
-                    h[i] = ci.add_sat32(h[i], ci.rshr32(v, 23 - self.hs))
+                    h[i] = ci.add_sat32(h[i], ci.rshr32(v, 7 - self.hs))
                 else:
                     h[i] = ci.add_sat32(ci.add_sat32(h[i], ci.gain8_mul(e15, self.kp8)),
                                         ci.rshr32(self.i[i], 23 - self.hs))
                 continue
+            if self.ki.s >= 31:
+                # Ki dt e in q46, its 8 bits below q38 carried (imf_mahony_imu_q_carry_i)
+                ip = carry_i(ci.mul_32x16(e[i], self.ki.m, self.ki.s - 16), self.c, i)
             else:
                 ip = ci.scale32(e[i], self.ki, 30, 38)
-                pp = ci.scale32(e[i], self.kp, 30, 30)
+            pp = ci.scale32(e[i], self.kp, 30, 30)
             # step 5: I_n = I_{n-1} + Ki dt e
             self.i[i] = ci.add_sat32(self.i[i], ip)
             # step 6: w' = w + Kp e + I_n
@@ -109,7 +126,16 @@ class MahonyIMUQ(FixedFilter):
 
     def _update8(self, gyr, acc):
         self.q, qs, d16 = fq.snapshot_norm8(self.q)
-        h = [ci.gain8_mul(g, self.kg8) for g in gyr]
-        self._feedback(qs, acc, h, True)
+        if self.fast8:
+            # step 1 in q(31+hs) (kg8 has the shift 16) plus the carried
+            # remainder, steps 2-6, then h to q(15+hs), the remainder kept
+            h = [fq.q8_carry_in(g * self.kg8[0], c) for g, c in zip(gyr, self.c)]
+            self._feedback(qs, acc, h, True)
+            h = [fq.q8_carry_out(h[i], self.c, i) for i in range(3)]
+        else:
+            # step 1 in q(15+hs), rounded; steps 2-6 add Kp e and I rounded
+            h = [ci.gain8_mul(g, self.kg8) for g in gyr]
+            self._feedback(qs, acc, h, True)
+        # step 7
         dq = fq.rate_q8(qs, h, self.hs)
         self.q = fq.add_step8(self.q, dq, qs, d16)

@@ -66,6 +66,17 @@ def check(x):
     return ci.check32(x)
 
 
+def q8_carry_in(t, c):
+    """imf_q8_carry_in: t + (c mod 2^16)."""
+    return check(t + (c & 0xFFFF))
+
+
+def q8_carry_out(u, c, i):
+    """imf_q8_carry_out: c[i] = u mod 2^16, returns floor(u / 2^16)."""
+    c[i] = u & 0xFFFF
+    return u >> 16
+
+
 def rate_q8(qs, h, hs):
     """imf_q8_rate"""
     hx, hy, hz = (ci.sat_q15(v) for v in h)
@@ -76,23 +87,27 @@ def rate_q8(qs, h, hs):
             r(sub(qs[0] * hz + qs[1] * hy, qs[2] * hx), hs)]
 
 
-def norm2(q):
-    """imf_q_norm2: |q|^2 in q30 from q rounded to q15 without saturation
-    (the snapshot's 32767 for 1.0 would read the identity as too short)."""
+def norm2(q, qs):
+    """imf_q_norm2: |q|^2 in q30 from the snapshot qs, except where it saturates
+    (+-32767): there q rounded to q15 again without saturation."""
     n2 = 0
-    for v in q:
-        u = min(abs(ci.rshr32(v, 15)), 65535)
+    for v, s in zip(q, qs):
+        if -32767 < s < 32767:
+            u = abs(s)
+        else:
+            u = min(abs(ci.rshr32(v, 15)), 65535)
         n2 = min(n2 + u * u, 0xFFFFFFFF)
     return n2
 
 
 def snapshot_norm8(q):
     """imf_q8_snapshot_norm: (q, qs, d16); q fully normalised when far from 1."""
-    n2 = norm2(q)
+    qs = snapshot(q)
+    n2 = norm2(q, qs)
     if n2 <= 1069547520 or n2 >= 1077936128:
         q = normalise(q)
         return q, snapshot(q), 0
-    return q, snapshot(q), ci.rshr32(n2 - Q30_ONE, 8)
+    return q, qs, ci.rshr32(n2 - Q30_ONE, 8)
 
 
 def add_step8(q, dq, qs, d16):
@@ -108,7 +123,7 @@ def add_normalise(q, dq):
 
 def normalise(q):
     """imf_q_normalise: q /= |q| (full inverse square root)."""
-    n2 = norm2(q)
+    n2 = norm2(q, snapshot(q))
     if n2 == 0:
         return [Q30_ONE, 0, 0, 0]
     y, sh = ci.invsqrt_u32(n2)

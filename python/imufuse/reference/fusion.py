@@ -25,7 +25,8 @@ FILTERS_FUSION = ("FusionAHRS", "FusionOffset")
 NWU, ENU, NED = 0, 1, 2
 INVSQRT_EXACT, INVSQRT_FAST = 0, 1
 
-_libm = ctypes.CDLL(ctypes.util.find_library("m"))
+# the C library math functions (None: those already linked into the interpreter)
+_libm = ctypes.CDLL(ctypes.util.find_library("m") or None)
 for _name, _nargs in (("sinf", 1), ("cosf", 1), ("atan2f", 2), ("asinf", 1)):
     _fn = getattr(_libm, _name)
     _fn.restype = ctypes.c_float
@@ -56,7 +57,8 @@ class _Ops:
             self.real_max = F64_MAX
         self.R = R
         self.pi = R(math.pi)
-        self.fabs = abs
+        # imf_fusion_fabs: x < 0 ? -x : x (used in threshold comparisons only)
+        self.fabs = lambda x: -x if x < R(0.0) else x
 
 
 # ---- fusion_math.h ------------------------------------------------------------
@@ -190,11 +192,12 @@ INITIALISATION_PERIOD = 3.0
 
 
 class FusionAHRS:
-    """x-io Fusion's AHRS (seed 004, imufusion 1.2.3), bit-exact with it in float32.
+    """x-io Fusion's AHRS in FUSION'S UNITS: gyroscope deg/s (not rad/s), accelerometer g, dt per update.
 
-    UNITS ARE FUSION'S, not imufuse's: gyroscope in degrees per second,
-    accelerometer in g, magnetometer in any unit, dt in seconds given with
-    every update, angles (rejection thresholds, heading, Euler) in degrees.
+    Seed 004 / imufusion 1.2.3, bit-exact with it in float32. Units in full:
+    gyroscope in degrees per second, accelerometer in g, magnetometer in any
+    unit, dt in seconds given with every update, angles (rejection thresholds,
+    heading, Euler) in degrees.
 
     Settings (Fusion's defaults): convention "NWU" | "ENU" | "NED" ("NWU"),
     gain (0.5), gyroscope_range in deg/s (0: no overrange detection),
@@ -675,10 +678,10 @@ class FusionAHRS:
 # ---- fusion_offset.c ----------------------------------------------------------
 
 class FusionOffset:
-    """x-io Fusion's gyroscope offset estimator (seed 004, imufusion 1.2.3).
+    """x-io Fusion's gyroscope offset estimator in FUSION'S UNITS: gyroscope deg/s, sample_rate Hz.
 
-    UNITS ARE FUSION'S: gyroscope in degrees per second; sample_rate in Hz
-    (one update per sample). After 5 s with every corrected axis within
+    Seed 004 / imufusion 1.2.3, bit-exact with it in float32; one update per
+    sample. After 5 s with every corrected axis within
     3 deg/s the offset follows the gyroscope through a 0.02 Hz low-pass.
     update(gyr) returns the corrected gyroscope; run(gyr) returns
     (corrected (N, 3), state (N, 4)).
@@ -718,7 +721,8 @@ class FusionOffset:
             self.skipped = (self.skipped + 1) & 0xFFFFFFFF
             return out
         # moving: start the rest timer again
-        if fabs(wx) > 3.0 or fabs(wy) > 3.0 or fabs(wz) > 3.0:
+        threshold = self._o.R(3.0)
+        if fabs(wx) > threshold or fabs(wy) > threshold or fabs(wz) > threshold:
             self.timer = 0
             return out
         # at rest, but not yet for the timeout
@@ -776,9 +780,9 @@ def _rows(dtype, name, x):
 def calibrate_inertial(x, M, s, b, dtype="float64"):
     """i_c = M ((i_u - b) .* s) for each row of x (N, 3)."""
     R = _Ops(dtype).R
-    m = [R(v) for v in np.asarray(M, dtype=dtype).reshape(9)]
-    sens = tuple(R(v) for v in np.asarray(s, dtype=dtype).reshape(3))
-    off = tuple(R(v) for v in np.asarray(b, dtype=dtype).reshape(3))
+    m = [R(v) for v in _fusion.model_param("M", M, (3, 3), dtype)]
+    sens = tuple(R(v) for v in _fusion.model_param("s", s, (3,), dtype))
+    off = tuple(R(v) for v in _fusion.model_param("b", b, (3,), dtype))
     arr = _rows(dtype, "x", x)
     out = np.empty_like(arr)
     rows = arr.tolist() if dtype == "float64" else [tuple(r) for r in arr]
@@ -791,8 +795,8 @@ def calibrate_inertial(x, M, s, b, dtype="float64"):
 def calibrate_magnetic(x, S, h, dtype="float64"):
     """m_c = S (m_u - h) for each row of x (N, 3)."""
     R = _Ops(dtype).R
-    m = [R(v) for v in np.asarray(S, dtype=dtype).reshape(9)]
-    hard = tuple(R(v) for v in np.asarray(h, dtype=dtype).reshape(3))
+    m = [R(v) for v in _fusion.model_param("S", S, (3, 3), dtype)]
+    hard = tuple(R(v) for v in _fusion.model_param("h", h, (3,), dtype))
     arr = _rows(dtype, "x", x)
     out = np.empty_like(arr)
     rows = arr.tolist() if dtype == "float64" else [tuple(r) for r in arr]

@@ -6,7 +6,7 @@ appendix step 4 with the published intermediates and order; "simplified" is
 the article's simplified corrective step for a unit quaternion.
 """
 from .. import _checks
-from . import _math
+from . import _gate, _math
 from ._base import QUAT_NORM2_TOL, ReferenceFilter, isfinite
 
 FILTERS = ("MadgwickIMU", "MadgwickAHRS")
@@ -146,8 +146,9 @@ class _Madgwick(ReferenceFilter):
             return f"|q|^2 = {n2!r}, must be within 1 +- {QUAT_NORM2_TOL}"
         return None
 
-    def _init(self, dt, beta, delta_s, invsqrt):
+    def _init(self, dt, beta, delta_s, invsqrt, acc_gate_lo, acc_gate_hi, acc_1g):
         R = self._R
+        self._set_acc_gate(acc_gate_lo, acc_gate_hi, acc_1g)
         self._set_dt(R(dt))
         self.beta = R(beta)
         self.delta_s = DS_SIMPLIFIED if delta_s == DS_SIMPLIFIED else DS_FULL
@@ -160,6 +161,10 @@ class _Madgwick(ReferenceFilter):
     # madgwick_set_dt: the settings that depend on the sample period dt (s)
     def _set_dt(self, dt):
         self.dt = dt
+
+    # imf_madgwick_*_set_acc_gate: seed 002's accelerometer gate (imf_gate.h)
+    def _set_acc_gate(self, acc_gate_lo, acc_gate_hi, acc_1g):
+        self.acc_gate = _gate.set(self._R, acc_gate_lo, acc_gate_hi, acc_1g)
 
     # madgwick_set_attitude: q = att.q (imf_attitude.h)
     def _set_attitude(self, att):
@@ -188,7 +193,7 @@ class _Madgwick(ReferenceFilter):
     def _imu_step(self, q, gx, gy, gz, ax, ay, az):
         R = self._R
         dq = rate(R, q, gx, gy, gz)
-        if not _math.is_zero3(R, ax, ay, az):
+        if not _math.is_zero3(R, ax, ay, az) and _gate.passes(R, self.acc_gate, ax, ay, az):
             # Step 2: normalise a
             rc, (ax, ay, az) = _math.normalise3(R, ax, ay, az, self.invsqrt)
             if rc != _math.NORM_OK:
@@ -208,7 +213,7 @@ class _Madgwick(ReferenceFilter):
             # no magnetometer reading: the IMU update
             return self._imu_step(q, gx, gy, gz, ax, ay, az)
         dq = rate(R, q, gx, gy, gz)
-        if not _math.is_zero3(R, ax, ay, az):
+        if not _math.is_zero3(R, ax, ay, az) and _gate.passes(R, self.acc_gate, ax, ay, az):
             rc, (ax, ay, az) = _math.normalise3(R, ax, ay, az, self.invsqrt)
             if rc != _math.NORM_OK:
                 return None
@@ -244,13 +249,14 @@ class MadgwickIMU(_Madgwick):
     c_name = "imf_madgwick_imu"
 
     @staticmethod
-    def _params(dt, beta=0.1, delta_s="full", *, invsqrt="exact"):
+    def _params(dt, beta=0.1, delta_s="full", *, invsqrt="exact", acc_gate=None, acc_1g=1.0):
         dt = _checks.check_dt(dt)
         beta = _checks.check_real("beta", beta, lo=0.0)
         check_beta(dt, beta)
         _checks.check_choice("delta_s", delta_s, tuple(DELTA_S))
         _checks.check_choice("invsqrt", invsqrt, tuple(_math.INVSQRT))
-        return (dt, beta, DELTA_S[delta_s], _math.INVSQRT[invsqrt])
+        return (dt, beta, DELTA_S[delta_s], _math.INVSQRT[invsqrt],
+                *_gate.check(acc_gate, acc_1g))
 
     def _update(self, gx, gy, gz, ax, ay, az):
         if not isfinite(gx, gy, gz, ax, ay, az):
@@ -270,16 +276,16 @@ class MadgwickAHRS(_Madgwick):
     c_name = "imf_madgwick_ahrs"
 
     @staticmethod
-    def _params(dt, beta=0.1, *, invsqrt="exact"):
+    def _params(dt, beta=0.1, *, invsqrt="exact", acc_gate=None, acc_1g=1.0):
         dt = _checks.check_dt(dt)
         beta = _checks.check_real("beta", beta, lo=0.0)
         check_beta(dt, beta)
         _checks.check_choice("invsqrt", invsqrt, tuple(_math.INVSQRT))
-        return (dt, beta, _math.INVSQRT[invsqrt])
+        return (dt, beta, _math.INVSQRT[invsqrt], *_gate.check(acc_gate, acc_1g))
 
-    def _init(self, dt, beta, invsqrt):
+    def _init(self, dt, beta, invsqrt, acc_gate_lo, acc_gate_hi, acc_1g):
         # imf_madgwick_ahrs_init: the IMU settings with the full ds
-        super()._init(dt, beta, DS_FULL, invsqrt)
+        super()._init(dt, beta, DS_FULL, invsqrt, acc_gate_lo, acc_gate_hi, acc_1g)
 
     def _update(self, gx, gy, gz, ax, ay, az, mx, my, mz):
         if not isfinite(gx, gy, gz, ax, ay, az, mx, my, mz):

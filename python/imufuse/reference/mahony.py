@@ -9,7 +9,7 @@ Its defaults twoKp = 2 * 0.5, twoKi = 2 * 0 are kp = 0.5, ki = 0 (our
 defaults).
 """
 from .. import _checks
-from . import _math
+from . import _gate, _math
 from ._base import QUAT_NORM2_TOL, ReferenceFilter, isfinite
 
 FILTERS = ("MahonyIMU", "MahonyAHRS")
@@ -43,16 +43,17 @@ class _Mahony(ReferenceFilter):
         return None
 
     @staticmethod
-    def _params(dt, kp=0.5, ki=0.0, *, invsqrt="exact"):
+    def _params(dt, kp=0.5, ki=0.0, *, invsqrt="exact", acc_gate=None, acc_1g=1.0):
         dt = _checks.check_dt(dt)
         kp = _checks.check_real("kp", kp, lo=0.0)
         ki = _checks.check_real("ki", ki, lo=0.0)
         check_mahony_gains(dt, kp, ki)
         _checks.check_choice("invsqrt", invsqrt, tuple(_math.INVSQRT))
-        return (dt, kp, ki, _math.INVSQRT[invsqrt])
+        return (dt, kp, ki, _math.INVSQRT[invsqrt], *_gate.check(acc_gate, acc_1g))
 
-    def _init(self, dt, kp, ki, invsqrt):
+    def _init(self, dt, kp, ki, invsqrt, acc_gate_lo, acc_gate_hi, acc_1g):
         R = self._R
+        self._set_acc_gate(acc_gate_lo, acc_gate_hi, acc_1g)
         self._set_dt(R(dt))
         self.two_kp = R(2.0) * R(kp)
         self.two_ki = R(2.0) * R(ki)
@@ -73,6 +74,10 @@ class _Mahony(ReferenceFilter):
     # mahony_set_attitude: q = att.q (imf_attitude.h); I is kept
     def _set_attitude(self, att):
         self.q0, self.q1, self.q2, self.q3 = att.q
+
+    # imf_mahony_*_set_acc_gate: seed 002's accelerometer gate (imf_gate.h)
+    def _set_acc_gate(self, acc_gate_lo, acc_gate_hi, acc_1g):
+        self.acc_gate = _gate.set(self._R, acc_gate_lo, acc_gate_hi, acc_1g)
 
     # Steps 5 and 6: the PI controller on the half error (ex, ey, ez) = e/2,
     # added to the rate in the published order w + I + Kp e.
@@ -117,7 +122,7 @@ class _Mahony(ReferenceFilter):
     # One update; returns None if a normalisation failed (the sample is rejected).
     def _imu_step(self, q, i, gx, gy, gz, ax, ay, az):
         R = self._R
-        if not _math.is_zero3(R, ax, ay, az):
+        if not _math.is_zero3(R, ax, ay, az) and _gate.passes(R, self.acc_gate, ax, ay, az):
             q0, q1, q2, q3 = q
             # Step 2: normalise a
             rc, (ax, ay, az) = _math.normalise3(R, ax, ay, az, self.invsqrt)
@@ -140,7 +145,7 @@ class _Mahony(ReferenceFilter):
         if _math.is_zero3(R, mx, my, mz):
             # no magnetometer reading: the IMU update
             return self._imu_step(q, i, gx, gy, gz, ax, ay, az)
-        if not _math.is_zero3(R, ax, ay, az):
+        if not _math.is_zero3(R, ax, ay, az) and _gate.passes(R, self.acc_gate, ax, ay, az):
             q0, q1, q2, q3 = q
             # Step 2: normalise a and m
             rc, (ax, ay, az) = _math.normalise3(R, ax, ay, az, self.invsqrt)

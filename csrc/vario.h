@@ -1,0 +1,96 @@
+/*
+ * Variometer of seed 002 (Hari Nair, "IMU modules, AHRS and a Kalman filter
+ * for sensor fusion", 2016): gravity-compensated vertical acceleration from
+ * an attitude quaternion, and the three-state Kalman filter that fuses it
+ * with barometric altitude.
+ *
+ * Kalman filter states (seed's units): z altitude (cm), v climb rate (cm/s),
+ * b accelerometer bias (cm/s^2); the true vertical acceleration is the
+ * measured one minus b. Per barometer sample, with dt the interval since the
+ * previous one (s):
+ *
+ *   F = [[1, dt, -dt^2/2], [0, 1, -dt], [0, 0, 1]]
+ *   Q = [[dt^4/4 sa, dt^3/2 sa, 0], [dt^3/2 sa, dt^2 sa, 0], [0, 0, sb]]
+ *   H = [1 0 0],  R = sz
+ *
+ * sa = var_acc ((cm/s^2)^2), sb = var_bias ((cm/s^2)^2, added once per step
+ * as in the seed), sz = var_z (cm^2). The covariance is symmetric and stored
+ * as its upper triangle.
+ *
+ * State prediction (step 2 of the seed):
+ *   IMF_VARIO_PREDICT_SEED   as the seed writes it: v += (a - b) dt, then
+ *                            z += v dt with the new v;
+ *   IMF_VARIO_PREDICT_MODEL  consistent with F: z += v dt + (a - b) dt^2/2,
+ *                            then v += (a - b) dt.
+ *
+ * Start: with z0_from_baro the first accepted sample only sets z to its
+ * altitude (z0 = first barometer altitude); otherwise z starts at z0.
+ * Non-finite policy (imf_math.h): a sample with a non-finite input or a dt
+ * that is not > 0, or whose update would leave the state non-finite, is
+ * rejected and counted in `skipped`.
+ */
+#ifndef IMF_VARIO_H
+#define IMF_VARIO_H
+
+#include <stdint.h>
+#include "imf_config.h"
+#include "imf_math.h"
+
+enum { IMF_VARIO_PREDICT_SEED = 0, IMF_VARIO_PREDICT_MODEL = 1 };
+
+typedef struct {
+    imf_real z;   /* altitude, cm */
+    imf_real v;   /* climb rate, cm/s */
+    imf_real b;   /* accelerometer bias, cm/s^2 */
+    imf_real pzz; /* covariance P, upper triangle */
+    imf_real pzv;
+    imf_real pzb;
+    imf_real pvv;
+    imf_real pvb;
+    imf_real pbb;
+} imf_vario_state_t;
+
+/* Settings, converted once by init. */
+typedef struct {
+    imf_real var_z;    /* R: barometer altitude variance, cm^2 */
+    imf_real var_acc;  /* acceleration variance, (cm/s^2)^2 */
+    imf_real var_bias; /* bias variance added per step, (cm/s^2)^2 */
+    int predict;       /* IMF_VARIO_PREDICT_SEED or IMF_VARIO_PREDICT_MODEL */
+} imf_vario_settings_t;
+
+typedef struct {
+    imf_vario_settings_t set;
+    uint32_t skipped; /* samples rejected by the non-finite policy */
+    int started;      /* 0 until the first sample has set z (z0_from_baro) */
+    imf_vario_state_t x;
+} imf_vario_t;
+
+/* var_z: cm^2; var_acc, var_bias: (cm/s^2)^2; p_z, p_v, p_b: initial
+   variances (cm^2, (cm/s)^2, (cm/s^2)^2; P0 is diagonal); z0: cm, v0: cm/s,
+   b0: cm/s^2; z0_from_baro: nonzero to take z0 from the first sample;
+   predict: IMF_VARIO_PREDICT_*. */
+void imf_vario_init(imf_vario_t *self, imf_real var_z, imf_real var_acc, imf_real var_bias,
+                    imf_real p_z, imf_real p_v, imf_real p_b, imf_real z0, imf_real v0,
+                    imf_real b0, int z0_from_baro, int predict);
+/* accel: net vertical acceleration, up positive, cm/s^2 (bias included);
+   baro_alt: barometer altitude, cm; dt: time since the previous sample, s. */
+void imf_vario_update(imf_vario_t *self, imf_real accel, imf_real baro_alt, imf_real dt);
+
+/*
+ * Gravity-compensated vertical acceleration (seed 002): the z component of
+ * the accelerometer rotated into the earth frame by q (sensor -> earth),
+ *
+ *   az_earth = (2q1q3 - 2q0q2) ax + (2q2q3 + 2q0q1) ay + (q0^2 - q1^2 - q2^2 + q3^2) az,
+ *
+ * returned as (sign az_earth - one_g) scale: the net acceleration along the
+ * vertical, up positive. sign = +1 when the accelerometer reads +1 g along
+ * earth z at rest (imufuse's NWU and ENU, and the seed's NED board, whose
+ * D axis reads +1 g); sign = -1 for a NED frame with a specific-force
+ * accelerometer (-1 g on D at rest). one_g: 1 g in the accelerometer's unit;
+ * scale: output unit per accelerometer unit (the seed: 1 g, scale 980 for cm/s^2).
+ */
+imf_real imf_vertical_accel(imf_real q0, imf_real q1, imf_real q2, imf_real q3, imf_real ax,
+                            imf_real ay, imf_real az, imf_real sign, imf_real one_g,
+                            imf_real scale);
+
+#endif /* IMF_VARIO_H */

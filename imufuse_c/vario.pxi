@@ -1,0 +1,77 @@
+# Variometer of seed 002 (csrc/vario.h): the three-state Kalman filter and
+# the gravity-compensated vertical acceleration.
+cdef extern from "vario.h" nogil:
+    ctypedef struct imf_vario_state_t:
+        pass
+    ctypedef struct imf_vario_t:
+        uint32_t skipped
+        imf_vario_state_t x
+    void imf_vario_init(imf_vario_t *self, imf_real var_z, imf_real var_acc,
+                        imf_real var_bias, imf_real p_z, imf_real p_v, imf_real p_b,
+                        imf_real z0, imf_real v0, imf_real b0, int z0_from_baro, int predict)
+    void imf_vario_update(imf_vario_t *self, imf_real accel, imf_real baro_alt, imf_real dt)
+    imf_real imf_vertical_accel(imf_real q0, imf_real q1, imf_real q2, imf_real q3,
+                                imf_real ax, imf_real ay, imf_real az, imf_real sign,
+                                imf_real one_g, imf_real scale)
+
+from imufuse.reference import vario as _vario_ref
+
+
+cdef class VarioKF(_Filter):
+    _ref = _reference.VarioKF
+    cdef imf_vario_t s
+
+    def __init__(self, *args, **kwargs):
+        _vario_ref.check_start(kwargs)
+        super().__init__(*args, **kwargs)
+
+    cdef int _init(self) except -1:
+        a = self._kw
+        imf_vario_init(&self.s, a["var_z"], a["var_acc"], a["var_bias"], a["p_z"], a["p_v"],
+                       a["p_b"], a["z0"], a["v0"], a["b0"], a["z0_from_baro"], a["predict"])
+        return self._bind(&self.s.x, sizeof(self.s.x), &self.s.skipped)
+
+    def update(self, accel, baro_alt, dt):
+        """One barometer sample: accel (cm/s^2, up positive), baro_alt (cm), dt (s)."""
+        cdef double a, m, d
+        try:
+            a = accel
+            m = baro_alt
+            d = dt
+        except TypeError:
+            _vario_ref.update_inputs(accel, baro_alt, dt)
+            raise
+        imf_vario_update(&self.s, <imf_real>a, <imf_real>m, <imf_real>d)
+
+    def run(self, accel, baro_alt, dt):
+        """All samples: accel, baro_alt 1-D arrays, dt scalar or array; returns
+        the (N, 9) trajectory of the state."""
+        acc_a, alt_a, dt_a = _vario_ref.inputs(DTYPE, accel, baro_alt, dt)
+        cdef Py_ssize_t n_samples = acc_a.shape[0], n = self._n, k
+        out = np.empty((n_samples, n), dtype=DTYPE)
+        cdef const imf_real[::1] a = acc_a
+        cdef const imf_real[::1] m = alt_a
+        cdef const imf_real[::1] d = dt_a
+        cdef imf_real[:, ::1] o = out
+        with nogil:
+            for k in range(n_samples):
+                imf_vario_update(&self.s, a[k], m[k], d[k])
+                _copy_state(&o[k, 0], self._x, n)
+        return out
+
+
+def vertical_accel(q, acc, convention="nwu", one_g=1.0, scale=980.0):
+    """Compiled imufuse.reference.vario.vertical_accel (this build's precision)."""
+    sign, g1, c = _vario_ref.vertical_params(convention, one_g, scale)
+    q_a, acc_a = _vario_ref.vertical_inputs(DTYPE, q, acc)
+    cdef Py_ssize_t n_samples = q_a.shape[0], k
+    out = np.empty(n_samples, dtype=DTYPE)
+    cdef const imf_real[:, ::1] qv = q_a
+    cdef const imf_real[:, ::1] av = acc_a
+    cdef imf_real[::1] o = out
+    cdef imf_real s_ = sign, g_ = g1, c_ = c
+    with nogil:
+        for k in range(n_samples):
+            o[k] = imf_vertical_accel(qv[k, 0], qv[k, 1], qv[k, 2], qv[k, 3],
+                                      av[k, 0], av[k, 1], av[k, 2], s_, g_, c_)
+    return out

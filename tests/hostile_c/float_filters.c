@@ -1,0 +1,320 @@
+/*
+ * Hostile-input driver for every float filter of csrc, built by
+ * tests/test_sanitizers.py with -fsanitize=address,undefined
+ * -fno-sanitize-recover=all (float32, and float64 with -DIMF_DOUBLE).
+ *
+ * Each filter is fed samples whose components are random, or picked from a
+ * table of extremes (NaN, +-Inf, the largest and smallest normal and
+ * subnormal numbers, -0, 1e30, a 1e6 rad/s gyro, ...), or raw random bit
+ * patterns. After every update the C-level invariants of the valid-attitude
+ * policy (csrc/imf_math.h) are checked: `skipped` grows by at most one; a
+ * sample with a non-finite input is counted and leaves the state bytes
+ * unchanged; the state is finite and a valid attitude (unit quaternion,
+ * orthonormal R, gravity vector of valid length). A violation prints the
+ * filter and sample and exits 1; the sanitizers abort on undefined
+ * behaviour or a memory error.
+ *
+ * main(): `float_filters <samples per filter> <seed>`.
+ * With -DIMF_FUZZ it is a libFuzzer target instead (LLVMFuzzerTestOneInput):
+ * the input bytes choose the filter and its samples (raw bit patterns).
+ */
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "dcm.h"
+#include "filters_1d.h"
+#include "kk.h"
+#include "madgwick.h"
+#include "mahony.h"
+#include "mahony2d.h"
+#include "multiwii.h"
+
+#define N_FILTERS 16
+
+typedef union {
+    imf_complementary1d_t c1;
+    imf_kalman1d_t k1;
+    imf_mahony1d_t m1;
+    imf_kalman1d_bias_t kb;
+    imf_mahony1d_bias_t mb;
+    imf_complementary1d_bias_t cb;
+    imf_mahony_imu_t mi;
+    imf_mahony_ahrs_t ma;
+    imf_madgwick_imu_t gi;
+    imf_madgwick_ahrs_t ga;
+    imf_multiwii_t mw;
+    imf_kk_t kk;
+    imf_mahony2d_t m2;
+    imf_dcm_t dc;
+} any_filter_t;
+
+static const char *const NAMES[N_FILTERS] = {
+    "Complementary1D", "Kalman1D", "Mahony1D", "Kalman1DBias", "Mahony1DBias",
+    "Complementary1DBias", "MahonyIMU", "MahonyIMU-fast", "MahonyAHRS", "MadgwickIMU",
+    "MadgwickIMU-simplified-fast", "MadgwickAHRS", "MultiWii", "KK", "Mahony2D-exact", "DCM"};
+
+static void init_filter(const int which, any_filter_t *const f)
+{
+    memset(f, 0, sizeof *f);
+    switch (which) {
+    case 0: imf_complementary1d_init(&f->c1, IMF_R(0.01), IMF_R(0.98)); break;
+    case 1: imf_kalman1d_init(&f->k1, IMF_R(0.01), IMF_R(0.02)); break;
+    case 2: imf_mahony1d_init(&f->m1, IMF_R(0.01), IMF_R(2.0)); break;
+    case 3: imf_kalman1d_bias_init(&f->kb, IMF_R(0.01), IMF_R(0.02), IMF_R(-0.5), -1); break;
+    case 4: imf_mahony1d_bias_init(&f->mb, IMF_R(0.01), IMF_R(2.0), IMF_R(0.3), 0); break;
+    case 5: imf_complementary1d_bias_init(&f->cb, IMF_R(0.01), IMF_R(2.0), IMF_R(0.3)); break;
+    case 6: imf_mahony_imu_init(&f->mi, IMF_R(0.005), IMF_R(1.0), IMF_R(0.3), IMF_INVSQRT_EXACT); break;
+    case 7: imf_mahony_imu_init(&f->mi, IMF_R(0.005), IMF_R(0.5), IMF_R(0.0), IMF_INVSQRT_FAST); break;
+    case 8: imf_mahony_ahrs_init(&f->ma, IMF_R(0.01), IMF_R(2.0), IMF_R(0.5), IMF_INVSQRT_FAST); break;
+    case 9: imf_madgwick_imu_init(&f->gi, IMF_R(0.01), IMF_R(0.1), IMF_MADGWICK_DS_FULL,
+                                  IMF_INVSQRT_EXACT); break;
+    case 10: imf_madgwick_imu_init(&f->gi, IMF_R(0.005), IMF_R(0.3), IMF_MADGWICK_DS_SIMPLIFIED,
+                                   IMF_INVSQRT_FAST); break;
+    case 11: imf_madgwick_ahrs_init(&f->ga, IMF_R(0.01), IMF_R(0.1), IMF_INVSQRT_EXACT); break;
+    case 12: imf_multiwii_init(&f->mw, IMF_R(0.0025), IMF_R(600.0), 4, IMF_R(512.0), IMF_R(0.15));
+        break;
+    case 13: imf_kk_init(&f->kk, IMF_R(0.005), IMF_R(0.01)); break;
+    case 14: imf_mahony2d_init(&f->m2, IMF_R(0.005), IMF_R(2.0), IMF_R(0.5), 1); break;
+    default: imf_dcm_init(&f->dc, IMF_R(0.005), IMF_R(2.0), IMF_R(0.5)); break;
+    }
+}
+
+/* the state member x and the counter of filter `which` */
+static void parts(const int which, any_filter_t *const f, const imf_real **x, size_t *n,
+                  uint32_t **skipped)
+{
+#define PART(m) do { *x = (const imf_real *)&f->m.x; *n = sizeof f->m.x / sizeof(imf_real); \
+                     *skipped = &f->m.skipped; } while (0)
+    switch (which) {
+    case 0: PART(c1); break;
+    case 1: PART(k1); break;
+    case 2: PART(m1); break;
+    case 3: PART(kb); break;
+    case 4: PART(mb); break;
+    case 5: PART(cb); break;
+    case 6: case 7: PART(mi); break;
+    case 8: PART(ma); break;
+    case 9: case 10: PART(gi); break;
+    case 11: PART(ga); break;
+    case 12: PART(mw); break;
+    case 13: PART(kk); break;
+    case 14: PART(m2); break;
+    default: PART(dc); break;
+    }
+#undef PART
+}
+
+static void update(const int which, any_filter_t *const f, const imf_real *const v)
+{
+    switch (which) {
+    case 0: imf_complementary1d_update(&f->c1, v[0], v[1]); break;
+    case 1: imf_kalman1d_update(&f->k1, v[0], v[1]); break;
+    case 2: imf_mahony1d_update(&f->m1, v[0], v[1]); break;
+    case 3: imf_kalman1d_bias_update(&f->kb, v[0], v[1]); break;
+    case 4: imf_mahony1d_bias_update(&f->mb, v[0], v[1]); break;
+    case 5: imf_complementary1d_bias_update(&f->cb, v[0], v[1]); break;
+    case 6: case 7: imf_mahony_imu_update(&f->mi, v[0], v[1], v[2], v[3], v[4], v[5]); break;
+    case 8: imf_mahony_ahrs_update(&f->ma, v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], v[8]);
+        break;
+    case 9: case 10: imf_madgwick_imu_update(&f->gi, v[0], v[1], v[2], v[3], v[4], v[5]); break;
+    case 11: imf_madgwick_ahrs_update(&f->ga, v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7],
+                                      v[8]);
+        break;
+    case 12: imf_multiwii_update(&f->mw, v[0], v[1], v[2], v[3], v[4], v[5]); break;
+    case 13: imf_kk_update(&f->kk, v[0], v[1], v[2], v[3], v[4], v[5]); break;
+    case 14: imf_mahony2d_update(&f->m2, v[0], v[1], v[2], v[3], v[4], v[5]); break;
+    default: imf_dcm_update(&f->dc, v[0], v[1], v[2], v[3], v[4], v[5]); break;
+    }
+}
+
+static int n_inputs(const int which)
+{
+    return which < 6 ? 2 : (which == 8 || which == 11) ? 9 : 6;
+}
+
+static imf_real sq3(const imf_real *const d)
+{
+    return d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+}
+
+/* The valid-attitude invariant of the state x; 0 if violated. */
+static int valid(const int which, const any_filter_t *const f, const imf_real *const x,
+                 const size_t n)
+{
+    size_t i;
+    for (i = 0; i < n; i++) {
+        if (!isfinite(x[i])) {
+            return 0;
+        }
+    }
+    if (which >= 6 && which <= 11) {
+        const imf_real n2 = x[0] * x[0] + x[1] * x[1] + x[2] * x[2] + x[3] * x[3];
+        return n2 >= IMF_R(0.99) && n2 <= IMF_R(1.01);
+    }
+    if (which == 12) {
+        return sq3(x) >= IMF_REAL_MIN && sq3(x) <= f->mw.d2_max;
+    }
+    if (which == 14) {
+        return sq3(x) >= IMF_REAL_MIN && sq3(x) <= f->m2.d2_max;
+    }
+    if (which == 15) {
+        const imf_real t = IMF_DCM_ORTHO_TOL;
+        const imf_real *r = x;
+        const imf_real nx = sq3(r), ny = sq3(r + 3), nz = sq3(r + 6);
+        const imf_real xy = r[0] * r[3] + r[1] * r[4] + r[2] * r[5];
+        return nx - IMF_R(1.0) <= t && IMF_R(1.0) - nx <= t && ny - IMF_R(1.0) <= t
+               && IMF_R(1.0) - ny <= t && nz - IMF_R(1.0) <= t && IMF_R(1.0) - nz <= t
+               && xy <= t && -xy <= t;
+    }
+    return 1;
+}
+
+/* One checked update; 0 (with a message) if an invariant failed. */
+static int checked_update(const int which, any_filter_t *const f, const imf_real *const v,
+                          const long k)
+{
+    const imf_real *x;
+    size_t n, i;
+    uint32_t *skipped, before;
+    imf_real old[16];
+    int finite = 1;
+    parts(which, f, &x, &n, &skipped);
+    memcpy(old, x, n * sizeof(imf_real));
+    before = *skipped;
+    for (i = 0; i < (size_t)n_inputs(which); i++) {
+        finite = finite && isfinite(v[i]);
+    }
+    update(which, f, v);
+    if (*skipped != before && *skipped != before + 1) {
+        fprintf(stderr, "%s sample %ld: skipped jumped from %u to %u\n", NAMES[which], k,
+                (unsigned)before, (unsigned)*skipped);
+        return 0;
+    }
+    if (!finite && (*skipped != before + 1 || memcmp(old, x, n * sizeof(imf_real)) != 0)) {
+        fprintf(stderr, "%s sample %ld: a non-finite sample was not rejected\n", NAMES[which], k);
+        return 0;
+    }
+    if (*skipped == before + 1 && memcmp(old, x, n * sizeof(imf_real)) != 0) {
+        fprintf(stderr, "%s sample %ld: a rejected sample changed the state\n", NAMES[which], k);
+        return 0;
+    }
+    if (!valid(which, f, x, n)) {
+        fprintf(stderr, "%s sample %ld: state is not a valid attitude\n", NAMES[which], k);
+        return 0;
+    }
+    return 1;
+}
+
+#ifdef IMF_FUZZ
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    any_filter_t f;
+    imf_real v[9];
+    int which;
+    long k = 0;
+    size_t per;
+    if (size < 1) {
+        return 0;
+    }
+    which = data[0] % N_FILTERS;
+    data++;
+    size--;
+    init_filter(which, &f);
+    per = (size_t)n_inputs(which) * sizeof(imf_real);
+    while (size >= per) {
+        memcpy(v, data, per);   /* raw bit patterns: NaN, Inf, subnormals, anything */
+        if (!checked_update(which, &f, v, k++)) {
+            abort();
+        }
+        data += per;
+        size -= per;
+    }
+    return 0;
+}
+#else
+static uint64_t rng_state;
+
+static uint64_t rng(void)
+{
+    /* xorshift64*: a reproducible stream from the seed */
+    rng_state ^= rng_state >> 12;
+    rng_state ^= rng_state << 25;
+    rng_state ^= rng_state >> 27;
+    return rng_state * UINT64_C(2685821657736338717);
+}
+
+static imf_real uniform(void)
+{
+    return (imf_real)((double)(rng() >> 11) / 9007199254740992.0);
+}
+
+static imf_real pick(void)
+{
+    static const double extremes[] = {0.0, -0.0, 1e30, -1e30, 3.4e38, -3.4e38, 1e300, -1e300,
+                                      1e-40, -1e-40, 5e-324, 1e-300, 1e6, -1e6, 2000.0, 1.0};
+    const uint64_t r = rng();
+    const int mode = (int)(r % 8);
+    imf_real v;
+    if (mode == 0) {
+        switch ((r >> 8) % 3) {
+        case 0: return (imf_real)NAN;
+        case 1: return (imf_real)INFINITY;
+        default: return -(imf_real)INFINITY;
+        }
+    }
+    if (mode == 1) {
+        return (imf_real)extremes[(r >> 8) % (sizeof extremes / sizeof extremes[0])];
+    }
+    if (mode == 2) {
+        memcpy(&v, &r, sizeof v);   /* raw bits */
+        return v;
+    }
+    return IMF_R(4.0) * uniform() - IMF_R(2.0);
+}
+
+int main(int argc, char **argv)
+{
+    const long n = argc > 1 ? atol(argv[1]) : 100000;
+    int which;
+    rng_state = argc > 2 ? (uint64_t)atoll(argv[2]) | 1u : 88172645463325252u;
+    for (which = 0; which < N_FILTERS; which++) {
+        any_filter_t f;
+        imf_real v[9];
+        long k;
+        int burst = 0;
+        init_filter(which, &f);
+        for (k = 0; k < n; k++) {
+            int i;
+            /* alternate hostile bursts with sane stretches */
+            if (k % 1000 == 0) {
+                burst = (rng() % 2) != 0;
+            }
+            for (i = 0; i < 9; i++) {
+                v[i] = burst ? pick() : IMF_R(0.2) * (uniform() - IMF_R(0.5));
+            }
+            if (!burst && which >= 6) {
+                v[5] += IMF_R(1.0);                      /* gravity */
+                if (which == 12) {
+                    v[3] *= IMF_R(512.0);
+                    v[4] *= IMF_R(512.0);
+                    v[5] *= IMF_R(512.0);
+                }
+            }
+            if (!checked_update(which, &f, v, k)) {
+                return 1;
+            }
+        }
+        printf("%s: %ld samples, %u rejected\n", NAMES[which], n, (unsigned)*(
+            which == 0 ? &f.c1.skipped : which == 1 ? &f.k1.skipped : which == 2 ? &f.m1.skipped
+            : which == 3 ? &f.kb.skipped : which == 4 ? &f.mb.skipped : which == 5 ? &f.cb.skipped
+            : which <= 7 ? &f.mi.skipped : which == 8 ? &f.ma.skipped : which <= 10 ? &f.gi.skipped
+            : which == 11 ? &f.ga.skipped : which == 12 ? &f.mw.skipped : which == 13 ? &f.kk.skipped
+            : which == 14 ? &f.m2.skipped : &f.dc.skipped));
+    }
+    return 0;
+}
+#endif

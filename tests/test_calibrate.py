@@ -1,0 +1,228 @@
+"""Calibration from recordings (seed 002): raw logs simulated from known
+parameters, the parameters recovered within stated tolerances, degenerate
+data refused with a clear error, and `imufuse calibrate` end to end."""
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import imufuse
+import imufuse_c
+from imufuse import calibrate as cal
+from imufuse import sim
+from imufuse.rotations import euler_to_quat, quat_rotate_inv
+
+PATHS = [os.path.dirname(os.path.dirname(imufuse.__file__)),
+         os.path.dirname(os.path.dirname(imufuse_c.__file__))]
+
+
+# ---- gyroscope -------------------------------------------------------------------------------
+
+def test_gyro_offset_recovered():
+    b = np.array([0.021, -0.013, 0.0071])
+    g = np.random.default_rng(0).normal(0, 0.004, (500, 3)) + b
+    c = cal.gyro_offset(g)
+    # tolerance: 4 standard errors of the mean
+    np.testing.assert_allclose(c.params["b"], b, atol=4 * 0.004 / np.sqrt(500))
+    np.testing.assert_allclose(c.apply(g).mean(axis=0), 0.0, atol=1e-12)
+    assert c.as_json() == {"M": np.eye(3).tolist(), "s": [1.0, 1.0, 1.0],
+                           "b": np.asarray(c.params["b"]).tolist()}
+
+
+def test_gyro_motion_is_refused_or_restarted():
+    b = np.array([0.02, 0.0, -0.01])
+    g = np.random.default_rng(1).normal(0, 0.003, (1000, 3)) + b
+    g[300:420, 1] += 0.4                     # someone picks the unit up
+    with pytest.raises(ValueError, match=r"moved .* samples 300\.\.419 .* axis y"):
+        cal.gyro_offset(g)
+    c = cal.gyro_offset(g, restart=True)
+    assert c.figures["samples"] == (420, 1000)
+    np.testing.assert_allclose(c.params["b"], b, atol=4 * 0.003 / np.sqrt(580))
+    g[::150, 0] += 1.0                       # no still stretch of 100 samples left
+    with pytest.raises(ValueError, match="no still stretch"):
+        cal.gyro_offset(g, restart=True, min_samples=200)
+
+
+# ---- accelerometer: six positions ----------------------------------------------------------
+
+# each axis down (+1 g read on it) and up, as (roll, pitch) in NWU: a level sensor reads +z
+POSES = {"+z": (0, 0), "-z": (np.pi, 0), "+x": (0, -np.pi / 2), "-x": (0, np.pi / 2),
+         "+y": (np.pi / 2, 0), "-y": (-np.pi / 2, 0)}
+A_TRUE = np.array([[4100.0, 12.0, -20.0], [-8.0, 4050.0, 15.0], [25.0, -5.0, 4200.0]])
+B_TRUE = np.array([60.0, -110.0, 35.0])
+
+
+def six_position_log(poses=POSES, hold=400, move=200, noise=0.003, seed=0):
+    """Raw counts: still phases of `hold` samples, joined by `move` samples of
+    rotation (changing readings). raw = A a_g + b + noise, a_g in g."""
+    rng = np.random.default_rng(seed)
+    rows, ranges, k = [], [], 0
+    keys = list(poses)
+    for i, key in enumerate(keys):
+        q = euler_to_quat([*poses[key], 0.0])
+        a = np.tile(quat_rotate_inv(q, [0, 0, 1.0]), (hold, 1))
+        rows.append(a)
+        ranges.append((k + 20, k + hold - 20))
+        k += hold
+        if i + 1 < len(keys):
+            nxt = euler_to_quat([*poses[keys[i + 1]], 0.0])
+            t = np.linspace(0, 1, move)[:, None]
+            qs = (1 - t) * q + t * nxt
+            qs /= np.linalg.norm(qs, axis=1, keepdims=True)
+            rows.append(quat_rotate_inv(qs, np.tile([0, 0, 1.0], (move, 1)))
+                        + rng.normal(0, 0.2, (move, 3)))     # handling shakes
+            k += move
+    a = np.vstack(rows) + rng.normal(0, noise, (k, 3))
+    return a @ A_TRUE.T + B_TRUE, ranges
+
+
+@pytest.mark.parametrize("given_ranges", [True, False], ids=["ranges", "found"])
+def test_six_position_seed_formulas(given_ranges):
+    raw, ranges = six_position_log()
+    c = cal.accel_six_position(raw, ranges if given_ranges else None)
+    # per-axis sensitivity and offset (the seed's formulas): the diagonal of A,
+    # and the offset plus the cross-axis leakage (which the seed ignores)
+    np.testing.assert_allclose(c.figures["sensitivity"], np.diag(A_TRUE), rtol=2e-4)
+    np.testing.assert_allclose(c.params["b"], B_TRUE, atol=3.0)
+    np.testing.assert_array_equal(c.params["M"], np.eye(3))
+    assert sorted(c.figures["positions"]) == sorted(POSES)
+
+
+def test_six_position_cross_axis():
+    raw, ranges = six_position_log()
+    c = cal.accel_six_position(raw, cross_axis=True)
+    np.testing.assert_allclose(c.params["b"], B_TRUE, atol=1.0)    # counts (2.5e-4 g)
+    # the calibrated readings of the whole log are unit vectors where still
+    got = c.apply(raw)
+    for s, e in ranges:
+        np.testing.assert_allclose(np.linalg.norm(got[s:e].mean(axis=0)), 1.0, atol=2e-4)
+    # M s = A^-1 within the noise
+    Ms = np.asarray(c.params["M"]) @ np.diag(c.params["s"])
+    np.testing.assert_allclose(Ms @ A_TRUE, np.eye(3), atol=2e-4)
+    assert c.figures["magnitude_error"] < 3e-4
+
+
+def test_six_position_degenerate():
+    five = {k: v for k, v in POSES.items() if k != "-y"}
+    raw, ranges = six_position_log(five)
+    with pytest.raises(ValueError, match="six positions needed"):
+        cal.accel_six_position(raw)
+    doubled = dict(five, **{"+z2": (0.01, 0.0)})
+    raw, ranges = six_position_log(doubled)
+    with pytest.raises(ValueError, match=r"too few orientations: no still phase with axis -y"):
+        cal.accel_six_position(raw)
+    tilted = dict(POSES, **{"-y": (-np.pi / 4, 0)})       # between -y and +z
+    raw, ranges = six_position_log(tilted)
+    with pytest.raises(ValueError, match="not one axis up or down"):
+        cal.accel_six_position(raw, ranges)
+    with pytest.raises(ValueError, match="ranges"):
+        cal.accel_six_position(raw, [(0, 10)] * 5 + [(10, 10**7)])
+
+
+# ---- magnetometer ------------------------------------------------------------------------------
+
+S_TRUE = np.array([[1.10, 0.06, -0.03], [0.06, 0.92, 0.04], [-0.03, 0.04, 1.02]])  # symmetric
+H_TRUE = np.array([180.0, -75.0, 40.0])
+FIELD = 480.0   # raw counts of the earth's field
+
+
+def mag_log(motion="fast", S=S_TRUE, noise=0.002, seed=3, duration=60.0, **kw):
+    """Raw magnetometer along a simulated motion: m_u = S^-1 m + h."""
+    d = sim.imu(motion, rate=100.0, duration=duration, seed=seed, mag_noise=noise,
+                mag_field=FIELD, **kw)
+    return d.mag @ np.linalg.inv(S).T + H_TRUE
+
+
+def test_ellipsoid_fit_recovers_soft_and_hard_iron():
+    raw = mag_log()
+    c = cal.mag_ellipsoid(raw)
+    S = np.asarray(c.params["S"])
+    np.testing.assert_allclose(c.params["h"], H_TRUE, atol=0.01 * FIELD)   # 1 % of the field
+    # S up to the overall scale (the field strength is a free choice)
+    k = np.trace(S) / np.trace(S_TRUE)
+    np.testing.assert_allclose(S / k, S_TRUE, atol=0.01)
+    assert c.figures["residual"] < 0.005 * c.figures["field"]
+    np.testing.assert_allclose(c.figures["field"], FIELD * k, rtol=0.01)
+    # the calibrated field has one strength in every orientation
+    r = np.linalg.norm(c.apply(raw), axis=1)
+    assert r.std() / r.mean() < 0.005
+    fixed = cal.mag_ellipsoid(raw, field=1.0)
+    np.testing.assert_allclose(np.linalg.norm(fixed.apply(raw), axis=1), 1.0, atol=0.01)
+
+
+def test_minmax_hard_iron_and_its_limit():
+    diag = np.diag([1.1, 0.9, 1.0])
+    # min/max needs every axis to have pointed along the field both ways: 60 s
+    # of this motion leave x 19 counts short of its extreme, 240 s do not
+    raw = mag_log(S=diag, duration=240.0)
+    c = cal.mag_minmax(raw)
+    np.testing.assert_allclose(c.params["h"], H_TRUE, atol=0.02 * FIELD)
+    S = np.asarray(c.params["S"])
+    np.testing.assert_allclose(S / S[2, 2], diag / diag[2, 2], atol=0.03)
+    # with soft iron off the axes min/max leaves more residual than the fit
+    raw = mag_log()
+    assert cal.mag_minmax(raw).figures["residual"] > 3 * cal.mag_ellipsoid(raw).figures["residual"]
+
+
+def test_flat_rotation_is_refused():
+    # turning about the vertical only: the readings lie on a circle
+    n = 2000
+    yaw = np.linspace(0, 6 * np.pi, n)
+    q = euler_to_quat(np.column_stack([np.zeros(n), np.zeros(n), yaw]))
+    m = quat_rotate_inv(q, sim.mag_earth(strength=FIELD))
+    raw = m @ np.linalg.inv(S_TRUE).T + H_TRUE
+    for fit in (cal.mag_ellipsoid, cal.mag_minmax):
+        with pytest.raises(ValueError, match="flat rotation"):
+            fit(raw)
+    with pytest.raises(ValueError, match=r"mag: expected an \(N, 3\) array"):
+        cal.mag_ellipsoid(raw[:, :2])
+    with pytest.raises(ValueError, match="at least 20 samples"):
+        cal.mag_ellipsoid(raw[:5])
+
+
+# ---- the command line -----------------------------------------------------------------------
+
+def imf(*args):
+    e = dict(os.environ, PYTHONPATH=os.pathsep.join(PATHS + [os.environ.get("PYTHONPATH", "")]))
+    return subprocess.run([sys.executable, "-m", "imufuse", *map(str, args)], env=e,
+                          capture_output=True, text=True, timeout=120)
+
+
+def _write(path, prefix, x):
+    with open(path, "w") as fh:
+        fh.write(",".join(["time"] + [f"{prefix}_{c}" for c in "xyz"]) + "\n")
+        for k, row in enumerate(x):
+            fh.write(",".join([repr(k * 0.01)] + [repr(float(v)) for v in row]) + "\n")
+
+
+def test_cli_calibrate(tmp_path):
+    out = tmp_path / "calib.json"
+    b = np.array([0.5, -1.2, 0.3])                       # deg/s
+    g = np.random.default_rng(0).normal(0, 0.1, (300, 3)) + b
+    _write(tmp_path / "gyr.csv", "gyr", g)
+    r = imf("calibrate", "gyro", tmp_path / "gyr.csv", "-o", out, "--gyr-unit", "deg/s")
+    assert r.returncode == 0, r.stderr
+    raw, _ = six_position_log()
+    _write(tmp_path / "acc.csv", "acc", raw)
+    assert imf("calibrate", "accel", tmp_path / "acc.csv", "-o", out).returncode == 0
+    _write(tmp_path / "mag.csv", "mag", mag_log())
+    r = imf("calibrate", "mag", tmp_path / "mag.csv", "-o", out)
+    assert r.returncode == 0, r.stderr
+    assert "residual" in r.stdout
+    data = json.loads(out.read_text())
+    assert set(data) == {"gyroscope", "accelerometer", "magnetometer"}
+    assert set(data["gyroscope"]) == {"M", "s", "b"} == set(data["accelerometer"])
+    assert set(data["magnetometer"]) == {"S", "h"}
+    np.testing.assert_allclose(data["gyroscope"]["b"], np.radians(b), atol=4e-4)
+    np.testing.assert_allclose(data["accelerometer"]["b"], B_TRUE, atol=3.0)
+    np.testing.assert_allclose(data["magnetometer"]["h"], H_TRUE, atol=0.01 * FIELD)
+    # refused data: exit code 2 with the reason
+    g[100:150] += 5.0
+    _write(tmp_path / "moved.csv", "gyr", g)
+    r = imf("calibrate", "gyro", tmp_path / "moved.csv", "-o", tmp_path / "x.json",
+            "--gyr-unit", "deg/s")
+    assert r.returncode == 2 and "samples 100..149" in r.stderr
+    assert imf("calibrate", "mag", tmp_path / "none.csv", "-o", out).returncode == 3
