@@ -58,8 +58,8 @@ def main(argv):
     with open(out, "w") as fh:
         fh.write("\n".join(lines) + "\n")
     print("\n".join(lines))
-    # the README quotes the table (between its host-bench markers)
-    readme = os.path.join(HERE, "..", "README.md")
+    # docs/internals.md quotes the table (between its host-bench markers)
+    readme = os.path.join(HERE, "..", "docs", "internals.md")
     text = open(readme).read()
     table = "\n".join(ln for ln in lines if ln.startswith("|"))
     new, n = re.subn(r"(<!-- host-bench[^>]*-->\n).*?(<!-- end host-bench -->)",

@@ -9,6 +9,7 @@ number of samples; 1e6 constant samples (C run()) stay valid. Also: the
 constructor and input acceptance of both backends agree (hypothesis), and no
 compiled object can crash the interpreter when its __init__ never ran."""
 import math
+import re
 
 import numpy as np
 import pytest
@@ -86,7 +87,27 @@ def recovery_budget(case, dtype):
         return int(12 * (p.get("cmpf", 600.0) + 1) + 2 ** p.get("acc_lpf_shift", 4) * ln_max) + 1000
     if case.name == "KK":
         return int((ln_max + 10) / p["kp"]) + 1000
-    return None      # single-axis filters: see test_recovery_1d
+    # single-axis filters: linear; the homogeneous update (rate = angle = 0)
+    # contracts by its spectral radius rho per sample, from a state of up to
+    # the largest finite value: 2 (L + 5) / -ln(rho) samples (2: transients)
+    return int(2 * (ln_max + 5) / -math.log(spectral_radius(case))) + 1000
+
+
+def spectral_radius(case):
+    """Spectral radius of a single-axis filter's homogeneous update matrix,
+    column j = the reference's update (rate = angle = 0) of unit state j."""
+    f = case.make("ref", "float64")
+    n = len(f.state_names)
+    M = np.empty((n, n))
+    for j in range(n):
+        f.reset()
+        e = np.zeros(n)
+        e[j] = 1.0
+        for name, v in zip(f.state_names, e):
+            setattr(f, name, float(v))
+        f._update(0.0, 0.0)
+        M[:, j] = f.state
+    return float(max(abs(np.linalg.eigvals(M))))
 
 
 def _error(case, S):
@@ -285,3 +306,111 @@ def test_state_writes_must_be_valid(case, backend):
         with pytest.raises(ValueError, match="^state: "):
             f.state = zero
     assert_same_bits(f.state, s)
+
+
+# ---- the reproductions of the defects, as tests -----------------------------------
+
+@pytest.mark.parametrize("backend", ("c", "ref"))
+@pytest.mark.parametrize("name,dtype,huge", [
+    ("MahonyIMU", "float32", 1e30), ("MahonyAHRS", "float32", 1e30),
+    ("MadgwickIMU", "float32", 1e30), ("MadgwickAHRS", "float32", 1e30),
+    ("MahonyIMU", "float64", 1e300), ("MadgwickIMU", "float64", 1e300)])
+def test_one_huge_sample_is_rejected_not_fatal(backend, name, dtype, huge):
+    mod = imufuse_c if backend == "c" else reference
+    f = getattr(mod, name)(dt=0.005, dtype=dtype)
+    args = [[huge, 0.0, 0.0], [0.0, 0.0, 1.0]] + ([[0.4, 0.0, -0.9]] if f.kind == "ahrs" else [])
+    q = f.state.copy()
+    f.update(*args)
+    assert f.skipped == 1 and f.state.tobytes() == q.tobytes()
+    f.update(*[[0.0, 0.0, 0.0]] + args[1:])
+    assert f.skipped == 1 and abs(np.linalg.norm(f.state[:4]) - 1.0) < 1e-5
+
+
+@pytest.mark.parametrize("backend", ("c", "ref"))
+@pytest.mark.parametrize("name,params,dtype,word", [
+    ("MultiWii", dict(dt=0.01, acc_1g=1e39), "float32", "acc_1g"),
+    ("MultiWii", dict(dt=0.01, acc_1g=1e20), "float32", "acc_1g"),     # derived ((1+w) g)^2
+    ("MahonyIMU", dict(dt=0.01, kp=1e39), "float32", "kp"),
+    ("MadgwickIMU", dict(dt=0.01, beta=1e39), "float32", "beta"),
+    ("MahonyIMU", dict(dt=1e39, kp=0.0), "float32", "dt"),
+    ("MahonyIMU", dict(dt=1e-50), "float32", "dt"),
+    ("Kalman1D", dict(dt=1e-320, k0=0.02), "float64", "dt"),
+    ("MahonyIMU", dict(dt=0.01, kp=250.0), "float64", "kp, ki"),          # 37 deg off before
+    ("MahonyIMU", dict(dt=0.01, kp=1.0, ki=40000.0), "float64", "kp, ki"),
+    ("MahonyIMU", dict(dt=0.01, kp=0.0, ki=0.1), "float64", "kp, ki"),
+    ("MadgwickIMU", dict(dt=0.01, beta=150.0), "float64", "beta"),        # 180 deg off before
+    ("MadgwickAHRS", dict(dt=0.01, beta=11.0), "float64", "beta"),
+    ("Mahony2D", dict(dt=0.01, kp=30.0, ki=0.0, error="exact"), "float64", "kp, ki"),
+])
+def test_parameters_in_own_precision_and_stable_range(backend, name, params, dtype, word):
+    mod = imufuse_c if backend == "c" else reference
+    with pytest.raises(ValueError, match=rf"^{re.escape(word)}\b"):
+        getattr(mod, name)(**params, dtype=dtype)
+
+
+@pytest.mark.parametrize("dtype", DTYPES)
+@pytest.mark.parametrize("name,params,tol_deg", [
+    ("MahonyIMU", dict(dt=0.01, kp=190.0), 2.0),                 # kp dt = 1.9
+    ("MahonyIMU", dict(dt=0.01, kp=100.0, ki=19000.0), 2.0),     # ki dt^2 = 1.9 < 4 - 2
+    ("MahonyIMU", dict(dt=1 / 512, kp=0.5), 2.0),                # published
+    ("MadgwickIMU", dict(dt=0.01, beta=10.0), math.degrees(0.2)),  # beta dt = 0.1
+    ("MadgwickIMU", dict(dt=1 / 512, beta=0.1), 2.0),            # published
+])
+def test_edge_of_stable_range_converges(dtype, name, params, tol_deg):
+    """Inside the stated range the filter settles on a static 30 deg tilt
+    within its stated accuracy (Madgwick: the 2 beta dt limit cycle)."""
+    f = getattr(imufuse_c, name)(**params, dtype=dtype)
+    S = f.run(*_static("imu", n=int(40 / params["dt"])))
+    case = next(c for c in CASES if c.name == name)
+    errs = [_error(case, S[k:k + 1]) for k in range(len(S) - 200, len(S))]
+    assert max(errs) <= math.radians(tol_deg), math.degrees(max(errs))
+    assert f.skipped == 0
+
+
+# ---- fixed point (profiles 32 and 8): extreme counts, API-level agreement ------------
+
+@pytest.mark.parametrize("profile", PROFILES)
+@pytest.mark.parametrize("case", [pytest.param(c, id=c.id) for c in FIXED_CASES])
+def test_fixed_extreme_counts_bit_exact(case, profile):
+    """Full-scale int16 counts (-32768, 32767), alternating extremes and long
+    constant stretches: C equals the reference bit for bit."""
+    c, r = case.make_fixed("c", profile), case.make_fixed("ref", profile)
+    g = np.random.default_rng(3)
+    ext = np.array([-32768, -32767, -1, 0, 1, 32767], dtype=np.int16)
+    n = 240
+    cols = 2 if c.kind == "1d" else 6
+    x = ext[g.integers(0, len(ext), size=(n, cols))]
+    x[60:120] = 32767                                     # constant full scale
+    x[120:180] = np.where(np.arange(60)[:, None] % 2 == 0, -32768, 32767)  # alternating
+    args = (x[:, 0], x[:, 1]) if c.kind == "1d" else (x[:, :3].copy(), x[:, 3:].copy())
+    assert_same_bits(c.run(*args), r.run(*args))
+
+
+@pytest.mark.parametrize("profile", PROFILES)
+@pytest.mark.parametrize("case", [pytest.param(c, id=c.id) for c in FIXED_CASES])
+def test_fixed_update_inputs_agree(case, profile):
+    for bad in (40000, -40000, 1.5, "1", math.nan, None, 10 ** 400, 1 + 1j, {1, 2, 3}):
+        fs = [case.make_fixed(b, profile) for b in ("c", "ref")]
+        if fs[0].kind == "1d":
+            args = (bad, 0)
+        else:
+            args = ([bad, 0, 0], [0, 0, 4096])
+        out = [_outcome(lambda f=f: f.update(*args)) for f in fs]
+        assert out[0] == out[1], (bad, out)
+        assert fs[0].state.tolist() == fs[1].state.tolist()
+
+
+@pytest.mark.parametrize("backend", ("c", "ref"))
+@pytest.mark.parametrize("name,params", [("MahonyIMU", dict(dt=0.005, kp=1.0, ki=0.3)),
+                                         ("DCM", dict(dt=0.005, kp=2.0, ki=0.5))])
+def test_state_write_of_a_runaway_integral_term(backend, name, params):
+    """I = 1e30 rad/s cannot be unwound (ki dt per sample) and makes every
+    float32 sample overflow: refused; |I| dt = 1 rad is the limit."""
+    f = getattr(imufuse_c if backend == "c" else reference, name)(**params, dtype="float32")
+    s = f.state.copy()
+    k = list(f.state_names).index("iy")
+    s[k] = 1e30
+    with pytest.raises(ValueError, match=r"^state: not a valid attitude \(iy = "):
+        f.state = s
+    s[k] = 0.99 / params["dt"]
+    f.state = s

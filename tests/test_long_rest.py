@@ -22,7 +22,7 @@ Checks, at every sample (numpy over the whole run):
 - against the true attitude: once a scenario has been still for SETTLE seconds, the error
   stays within TRUTH_BOUND at every sample to the end (converges, and stays).
 
-The bounds are in README.md (Fixed point, Long runs at rest); `pytest -s` prints the
+The bounds are in docs/fixed-point.md (Long runs at rest); `pytest -s` prints the
 measured values.
 """
 from __future__ import annotations
@@ -339,7 +339,7 @@ def measure_fixed(case, profile, name):
     return r
 
 
-# ---- bounds (measured worst cases, pytest -s prints them; README.md, Long runs) ------------
+# ---- bounds (measured worst cases, pytest -s prints them; docs/fixed-point.md, Long runs) ------------
 def norm_bound(case, key):
     """| |q| - 1 | (quaternions), max |R R^T - I| (DCM), settled | |d| - 1 g | (gravity)."""
     fam = family(case.name)

@@ -381,13 +381,15 @@ def write_results(rows, targets, checks, seconds, md: Path, js: Path) -> None:
     js.write_text(json.dumps({"command": COMMAND, "counter_checks": checks, "versions": versions,
                               "samples_motion": N_MOTION, "rows": rows,
                               "fixed_vs_float": fixed_vs_float(rows)}, indent=1) + "\n")
-    # the README quotes both tables, between its markers
-    readme = HERE.parents[1] / "README.md"
-    if readme.is_file():
+    # the docs quote both tables, between their markers
+    docs = HERE.parents[1] / "docs"
+    if docs.is_dir():
         import readme_table
-        text = readme_table.replace_block(readme.read_text(), "fixed-vs-float",
-                                          fixed_vs_float_table(fixed_vs_float(rows)))
-        readme.write_text(readme_table.replace_block(text, "mcu-table", readme_table.table()))
+        fx = docs / "fixed-point.md"
+        fx.write_text(readme_table.replace_block(fx.read_text(), "fixed-vs-float",
+                                                 fixed_vs_float_table(fixed_vs_float(rows))))
+        fw = docs / "firmware.md"
+        fw.write_text(readme_table.replace_block(fw.read_text(), "mcu-table", readme_table.table()))
 
 
 def main(argv=None) -> int:

@@ -1,10 +1,10 @@
-"""The compact per-filter MCU table the README quotes, from
+"""The compact per-filter MCU table docs/firmware.md quotes, from
 bench/mcu/results.json: one row per filter class and precision (its first
 registry configuration), float32 and fixed point. `python bench/mcu/measure.py`
-refreshes it in README.md (with the fixed-vs-float table) after a measurement.
+refreshes it in docs/firmware.md (and the fixed-vs-float table in docs/fixed-point.md) after a measurement.
 
     python bench/mcu/readme_table.py            # print the compact table
-    python bench/mcu/readme_table.py --write    # refresh its block in README.md
+    python bench/mcu/readme_table.py --write    # refresh its block in docs/firmware.md
 """
 import json
 import os
@@ -50,7 +50,7 @@ def replace_block(text, tag, body):
     pat = re.compile(rf"(<!-- {tag}[^>]*-->\n).*?(<!-- end {tag} -->)", re.S)
     new, n = pat.subn(lambda m: m.group(1) + body.strip("\n") + "\n" + m.group(2), text)
     if n != 1:
-        raise SystemExit(f"README.md: no <!-- {tag} --> block")
+        raise SystemExit(f"no <!-- {tag} --> block in the page")
     return new
 
 
@@ -58,7 +58,7 @@ def main(argv):
     if "--write" not in argv:
         print(table())
         return
-    readme_path = os.path.join(HERE, "..", "..", "README.md")
+    readme_path = os.path.join(HERE, "..", "..", "docs", "firmware.md")
     text = replace_block(open(readme_path).read(), "mcu-table", table())
     open(readme_path, "w").write(text)
 

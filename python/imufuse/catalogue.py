@@ -129,6 +129,9 @@ FLOAT: Tuple[Entry, ...] = (
     Entry("KK", dict(kp=0.01), estimate="euler"),
     Entry("Mahony2D", dict(kp=2.0, ki=0.5), estimate="gravity"),
     Entry("DCM", dict(kp=2.0, ki=0.5), estimate="matrix"),
+    # imufuse's recommended AHRS (docs/recommended-ahrs.md): its defaults are its own
+    Entry("RobustIMU", estimate="quaternion"),
+    Entry("RobustAHRS", estimate="quaternion"),
 )
 
 # Fixed point (csrc/fixed): the float twin's keywords plus the sensor scales

@@ -218,12 +218,14 @@ class Firmware:
         store = "".join(f"        out[k * {len(st)} + {j}] = (double)({e});\n"
                         for j, e in enumerate(st))
         sizes = "".join(f"    sizes[{j}] = (int)sizeof({e});\n" for j, e in enumerate(st))
+        # an integer expression gives 1 / 2 == 0 in its own arithmetic, a floating one 0.5
+        isint = "".join(f"    isint[{j}] = ((({e}) * 0 + 1) / 2 == 0);\n" for j, e in enumerate(st))
         selfdecl = f"    {self.self_type} *self = 0;\n    (void)self;\n" if self.self_type else ""
         return (
             "#include <string.h>\n#include <stddef.h>\n" + heads +
             "void imufuse_fw_run(const double *p, const double *s0, int set_state, size_t n,\n"
-            "                    const double *in, double dt, double *out)\n{\n"
-            "    size_t k;\n" + obj + init + setst +
+            "                    const double *in, double dt, double *out, int *isint)\n{\n"
+            "    size_t k;\n" + obj + init + setst + isint +
             "    (void)p; (void)s0; (void)set_state; (void)dt;\n"
             "    for (k = 0; k < n; ++k) {\n"
             f"        const double *x = in + k * {n_in};\n"
@@ -251,7 +253,7 @@ class Firmware:
             from cffi import FFI
             ffi = FFI()
             ffi.cdef("void imufuse_fw_run(const double *p, const double *s0, int set_state, "
-                     "size_t n, const double *in, double dt, double *out);\n"
+                     "size_t n, const double *in, double dt, double *out, int *isint);\n"
                      "void imufuse_fw_sizes(int *sizes);")
             defs = [(k, None if v is None else str(v)) for k, v in self.defines.items()]
             ffi.set_source(name, src, sources=self.sources, include_dirs=self.include_dirs,
@@ -264,9 +266,23 @@ class Firmware:
         else:
             path = built[0]
         spec = importlib.util.spec_from_file_location(name, path)
-        mod = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(mod)
+        try:
+            mod = importlib.util.module_from_spec(spec)
+            spec.loader.exec_module(mod)
+        except (ImportError, OSError) as e:
+            m = re.search(r"undefined symbol: (\S+)", str(e))
+            if m:
+                raise FirmwareError(f"symbol not found: {m.group(1)} (declared or called, but "
+                                    "defined in none of the sources)") from None
+            raise FirmwareError(f"the compiled firmware cannot be loaded: {e}") from None
         return mod
+
+    def prepare(self, kind, c_args=(), params=None):
+        """Compile and load the firmware for a `kind` filter (no firmware code runs)."""
+        n_init = len(self._init_values(c_args, params or {})) if self.init else 0
+        key = (kind, n_init)
+        if self._lib is None or self._lib[0] != key:
+            self._lib = (key, self._build(kind, n_init))
 
     def run(self, kind, inputs, dt, c_args=(), params=None, state0=None):
         """Run the firmware on inputs (the run() arrays of a `kind` filter);
@@ -281,9 +297,6 @@ class Firmware:
         sizes = ffi.new("int[]", max(ns, 1))
         lib.imufuse_fw_sizes(sizes)
         sz = set(sizes[j] for j in range(ns))
-        if sz - {4, 8} or len(sz) != 1:
-            raise FirmwareError(f"state expressions must all be float or all double; sizes {sorted(sz)}")
-        dtype = np.float32 if sz == {4} else np.float64
         cols = [np.asarray(a, dtype=np.float64) for a in inputs]
         x = np.ascontiguousarray(np.column_stack([c if c.ndim == 2 else c[:, None] for c in cols]))
         n = x.shape[0]
@@ -291,9 +304,23 @@ class Firmware:
         p = np.ascontiguousarray(self._init_values(c_args, params or {}) if self.init else [0.0],
                                  dtype=np.float64)
         s0 = np.zeros(max(ns, 1)) if state0 is None else np.ascontiguousarray(state0, dtype=np.float64)
+        isint = ffi.new("int[]", max(ns, 1))
         lib.imufuse_fw_run(ffi.cast("double *", p.ctypes.data), ffi.cast("double *", s0.ctypes.data),
                            int(self.set_state), n, ffi.cast("double *", x.ctypes.data),
-                           float(dt), ffi.cast("double *", out.ctypes.data))
+                           float(dt), ffi.cast("double *", out.ctypes.data), isint)
+        ints = {bool(isint[j]) for j in range(ns)}
+        if len(ints) > 1:
+            raise FirmwareError("state expressions mix integer and floating-point types: "
+                                + ", ".join(f"{nm} {'integer' if isint[j] else 'floating'}"
+                                            for j, nm in enumerate(self.state)))
+        if ints == {True}:
+            if sz - {1, 2, 4, 8} or len(sz) != 1:
+                raise FirmwareError(f"integer state expressions of different sizes {sorted(sz)}")
+            # integers are stored through double: exact up to 2^53
+            return out.astype({1: np.int8, 2: np.int16, 4: np.int32, 8: np.int64}[sz.pop()])
+        if sz - {4, 8} or len(sz) != 1:
+            raise FirmwareError(f"state expressions must all be float or all double; sizes {sorted(sz)}")
+        dtype = np.float32 if sz == {4} else np.float64
         return out.astype(dtype)
 
     def dtype(self, kind="1d", c_args=(), params=None):
@@ -353,6 +380,10 @@ def validate(fw: "Firmware", name: str, params: Mapping[str, Any], inputs: Seque
         raise FirmwareError(f"state mapping names {list(names)}; {name} has state "
                             f"{list(ref.state_names)}")
     fw_dtype = fw.dtype(ref.kind, c_args, params)
+    if np.dtype(fw_dtype).kind in "iu":
+        raise FirmwareError(f"the firmware's state is an integer ({fw_dtype}); {name}'s state is "
+                            "floating point, so they cannot be equal bit for bit (an integer "
+                            "state is compared as integers, with an integer filter)")
     dtype = dtype or fw_dtype
     if dtype != fw_dtype:
         raise FirmwareError(f"the firmware's state is {fw_dtype}, asked to compare with {dtype}")
@@ -364,3 +395,104 @@ def validate(fw: "Firmware", name: str, params: Mapping[str, Any], inputs: Seque
     want = want[:, order]
     got = fw.run(ref.kind, inputs, params["dt"], c_args, params, state0[order])
     return Validation(name, backend, compare_states(got, want, names), got, want)
+
+
+# ---------------------------------------------------------------------------
+# isolation: the firmware runs in a child process
+
+#: seconds a firmware run may take in validate_isolated (imufuse validate --timeout)
+DEFAULT_TIMEOUT = 60.0
+
+
+def _child(conn, fw, name, params, inputs, backend, dtype, n):
+    try:
+        inp = inputs if n is None else [a[:n] for a in inputs]
+        conn.send(("ok", validate(fw, name, params, inp, backend, dtype)))
+    except FirmwareError as e:
+        conn.send(("firmware", str(e)))
+    except Exception as e:  # noqa: BLE001 - reported to the parent as one line
+        conn.send(("error", f"{type(e).__name__}: {e}"))
+    finally:
+        conn.close()
+
+
+def _attempt(fw, name, params, inputs, backend, dtype, n, timeout):
+    """One run in a child: ("ok", Validation) | ("firmware"|"error", msg) |
+    ("signal", signum) | ("exit", code) | ("timeout", None)."""
+    import multiprocessing as mp
+    ctx = mp.get_context("fork")
+    r, w = ctx.Pipe(duplex=False)
+    p = ctx.Process(target=_child, args=(w, fw, name, params, inputs, backend, dtype, n),
+                    daemon=True)
+    p.start()
+    w.close()
+    try:
+        msg = None
+        if r.poll(timeout):
+            try:
+                msg = r.recv()
+            except (EOFError, OSError):
+                msg = None
+        if msg is not None:
+            p.join(5)
+            return msg
+        p.join(0.5 if p.is_alive() else 5)
+        if p.is_alive():
+            p.kill()
+            p.join(5)
+            return ("timeout", None)
+        code = p.exitcode
+        return ("signal", -code) if code is not None and code < 0 else ("exit", code)
+    finally:
+        r.close()
+        if p.is_alive():
+            p.kill()
+            p.join(5)
+
+
+def _describe(res, where, timeout):
+    import signal
+    kind, v = res
+    if kind == "signal":
+        try:
+            sig = signal.Signals(v).name
+        except ValueError:
+            sig = f"signal {v}"
+        return f"the firmware crashed with {sig} {where}"
+    if kind == "exit":
+        return f"the firmware called exit({v}) {where}"
+    if kind == "timeout":
+        return f"the firmware gave no answer after {timeout:g} s (an endless loop in init or update?)"
+    return v
+
+
+def validate_isolated(fw, name, params, inputs, backend="c", dtype=None, timeout=DEFAULT_TIMEOUT):
+    """validate() with the firmware in a child process and a timeout.
+
+    A crash (signal), a call to exit() or a run past `timeout` seconds raises
+    FirmwareError with one line: "crashed with SIGSEGV at sample k" (found by
+    re-running on shorter prefixes) or "during init", "called exit(3) ...",
+    "no answer after N s". Compilation and loading (a missing symbol) happen
+    first, in this process, where no firmware code runs."""
+    ref = reference_class(name)
+    fw.prepare(ref.kind, ref._params(**params), params)
+    res = _attempt(fw, name, params, inputs, backend, dtype, None, timeout)
+    if res[0] == "ok":
+        return res[1]
+    if res[0] in ("firmware", "error"):
+        raise FirmwareError(res[1])
+    if res[0] == "timeout":
+        raise FirmwareError(_describe(res, "", timeout))
+    # locate the sample: the shortest prefix that fails the same way
+    first = _attempt(fw, name, params, inputs, backend, dtype, 0, timeout)
+    if first[0] not in ("ok", "firmware", "error"):
+        raise FirmwareError(_describe(first, "during init", timeout))
+    lo, hi = 0, len(inputs[0])          # run(lo) succeeds, run(hi) fails
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        r = _attempt(fw, name, params, inputs, backend, dtype, mid, timeout)
+        if r[0] in ("ok", "firmware", "error"):
+            lo = mid
+        else:
+            hi, res = mid, r
+    raise FirmwareError(_describe(res, f"at sample {hi - 1}", timeout))

@@ -165,12 +165,49 @@ class ReferenceFilter:
         return out
 
 
+def integral_problem(names, state, dt):
+    """State writes of Mahony's integral term I (rad/s; ix, iy, iz): the
+    correction it applies per sample, |I_k| dt, must stay within 1 rad, or the
+    first-order step would be meaningless and the filter could not unwind it
+    (it changes by at most ki dt per sample)."""
+    for n in ("ix", "iy", "iz"):
+        v = float(state[list(names).index(n)])
+        if not abs(v) * dt <= 1.0:
+            return f"{n} = {v!r}: the integral term must satisfy |{n}| dt <= 1 rad"
+    return None
+
+
 def _bare(cls, dtype):
     obj = cls.__new__(cls)
     obj.dtype = dtype
     obj._R = np.float32 if dtype == "float32" else float
     obj.skipped = 0
     return obj
+
+
+def _bad_constant(v, v64, tiny):
+    v = float(v)
+    return not math.isfinite(v) or bool(v64 and abs(v) < tiny)
+
+
+def _culprits(cls, names, args, dtype, key, tiny):
+    """The real arguments a bad derived constant depends on: those whose
+    replacement by 1.0 makes it representable (all of them if none does)."""
+    real = [i for i, a in enumerate(args) if isinstance(a, float)]
+    out = []
+    for i in real:
+        trial = list(args)
+        trial[i] = 1.0
+        mine, wide = _bare(cls, dtype), _bare(cls, "float64")
+        try:
+            with np.errstate(all="ignore"):
+                mine._init(*trial)
+                wide._init(*trial)
+        except Exception:       # noqa: BLE001 - a trial value init cannot take
+            continue
+        if not _bad_constant(getattr(mine, key), getattr(wide, key), tiny):
+            out.append(names[i])
+    return out or [names[i] for i in real]
 
 
 def check_precision(cls, args, dtype):
@@ -204,9 +241,8 @@ def check_precision(cls, args, dtype):
             continue
         v64 = getattr(wide, key, None)
         v = float(v)
-        bad = not math.isfinite(v) or (v64 and abs(v) < tiny)
-        if bad:
-            what = ", ".join(n for n, a in zip(names, args) if isinstance(a, float))
+        if _bad_constant(v, v64, tiny):
+            what = ", ".join(_culprits(cls, names, args, dtype, key, tiny))
             raise ValueError(f"{what}: the constant {key} = {v64!r} derived from them is not "
                              f"representable in {dtype} (it becomes {v!r})")
 

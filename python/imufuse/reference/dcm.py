@@ -3,7 +3,7 @@
 import math
 
 from .. import _checks
-from ._base import ReferenceFilter, isfinite
+from ._base import ReferenceFilter, integral_problem, isfinite
 from .mahony2d import _check_gains, sqrt_r, tilt_angles
 
 FILTERS = ("DCM",)
@@ -54,7 +54,7 @@ class DCM(ReferenceFilter):
     def _valid_state(cls, args, R, state):
         if not _orthonormal(R, [R(v) for v in state[:9]]):
             return f"R (r00..r22) must be orthonormal within {ORTHO_TOL}"
-        return None
+        return integral_problem(cls.state_names, state, args[0])
 
     def _init(self, dt, kp, ki):
         R = self._R

@@ -10,7 +10,7 @@ defaults).
 """
 from .. import _checks
 from . import _gate, _math
-from ._base import QUAT_NORM2_TOL, ReferenceFilter, isfinite
+from ._base import QUAT_NORM2_TOL, ReferenceFilter, integral_problem, isfinite
 
 FILTERS = ("MahonyIMU", "MahonyAHRS")
 
@@ -40,7 +40,7 @@ class _Mahony(ReferenceFilter):
         n2 = float(sum(float(v) * float(v) for v in state[:4]))
         if not abs(n2 - 1.0) <= QUAT_NORM2_TOL:
             return f"|q|^2 = {n2!r}, must be within 1 +- {QUAT_NORM2_TOL}"
-        return None
+        return integral_problem(cls.state_names, state, args[0])
 
     @staticmethod
     def _params(dt, kp=0.5, ki=0.0, *, invsqrt="exact", acc_gate=None, acc_1g=1.0):

@@ -1,0 +1,555 @@
+/*
+ * imufuse's recommended AHRS. See robust.h. The pure-Python twin is
+ * python/imufuse/reference/robust.py: the same lines in the same order.
+ */
+#include <float.h>
+
+#include "robust.h"
+
+#ifdef IMF_DOUBLE
+#define ROBUST_MIN DBL_MIN
+#define ROBUST_MAX DBL_MAX
+#else
+#define ROBUST_MIN FLT_MIN
+#define ROBUST_MAX FLT_MAX
+#endif
+
+/* ---- quaternion helpers ------------------------------------------------- */
+
+/* Hamilton product a (x) b into o[4] */
+static inline void robust_qmul(imf_real *const o, const imf_real a0, const imf_real a1,
+                               const imf_real a2, const imf_real a3, const imf_real b0,
+                               const imf_real b1, const imf_real b2, const imf_real b3)
+{
+    o[0] = a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3;
+    o[1] = a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2;
+    o[2] = a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1;
+    o[3] = a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0;
+}
+
+/* R(q) v = v + w t + q_v x t, t = 2 q_v x v, into o[3] */
+static inline void robust_rotate(imf_real *const o, const imf_real w, const imf_real x,
+                                 const imf_real y, const imf_real z, const imf_real vx,
+                                 const imf_real vy, const imf_real vz)
+{
+    const imf_real tx = IMF_R(2.0) * (y * vz - z * vy);
+    const imf_real ty = IMF_R(2.0) * (z * vx - x * vz);
+    const imf_real tz = IMF_R(2.0) * (x * vy - y * vx);
+    o[0] = vx + w * tx + (y * tz - z * ty);
+    o[1] = vy + w * ty + (z * tx - x * tz);
+    o[2] = vz + w * tz + (x * ty - y * tx);
+}
+
+/* Unit quaternion in place; 0 when the normalisation fails (squared norm
+   zero, subnormal, overflowed or NaN: valid-attitude policy). */
+static inline int robust_norm4(imf_real *const q)
+{
+    const imf_real n2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
+    imf_real r;
+    if (!(n2 >= ROBUST_MIN && n2 <= ROBUST_MAX)) {
+        return 0;
+    }
+    r = IMF_R(1.0) / imf_sqrt(n2);
+    q[0] *= r;
+    q[1] *= r;
+    q[2] *= r;
+    q[3] *= r;
+    return 1;
+}
+
+/* B5: a running mean until tau, then the low-pass gain k = dt / (tau + dt) */
+static inline imf_real robust_gain(const imf_robust_settings_t *const set, const imf_real t,
+                                   const imf_real tau, const imf_real k)
+{
+    if (t < tau) {
+        return set->dt / (t + set->dt);
+    }
+    return k;
+}
+
+/* ---- init, dt, attitude ------------------------------------------------- */
+
+static void robust_set_dt(imf_robust_settings_t *const set, const imf_real dt)
+{
+    set->dt = dt;
+    set->two_dt = IMF_R(2.0) * dt;
+    set->dt2 = dt * dt;
+    set->r_d = IMF_R(1.0) / dt;
+    set->qg_dt = set->qg0 * dt;
+    set->k_rest = dt / (set->tau_rest + dt);
+    set->kb_rest = dt / (set->tau_bias_rest + dt);
+    set->k_mag = dt / (set->tau_mag + dt);
+    set->k_ref = dt / (set->tau_mag_ref + dt);
+}
+
+static void robust_init(imf_robust_settings_t *const set, uint32_t *const skipped,
+                        imf_robust_state_t *const x, const imf_real dt, const imf_real tau_acc,
+                        const imf_real rate_ref, const imf_real tau_bias,
+                        const imf_real tau_bias_rest, const imf_real rest_gyr,
+                        const imf_real rest_acc, const imf_real rest_time,
+                        const imf_real tau_rest, const imf_real latency,
+                        const imf_real tau_mag,
+                        const imf_real mag_norm, const imf_real mag_dip,
+                        const imf_real tau_mag_ref, const imf_real mag_new_time,
+                        const imf_real mag_hold)
+{
+    imf_real ta2, tmax;
+    set->tau_acc = tau_acc;
+    set->tau_bias = tau_bias;
+    set->tau_bias_rest = tau_bias_rest;
+    set->tau_rest = tau_rest;
+    set->latency = latency;
+    set->tau_mag = tau_mag;
+    set->tau_mag_ref = tau_mag_ref;
+    /* B2: gravity process noise q_g = (1 + |w|^2 / rate_ref^2) / tau_acc^4 per s, with
+       the velocity measurement noise 1 (any acc unit): the steady state is a
+       second-order low-pass with omega_0 = 1 / tau_acc and damping 1/sqrt(2) at rest */
+    ta2 = set->tau_acc * set->tau_acc;
+    set->qg0 = IMF_R(1.0) / (ta2 * ta2);
+    set->pgg0 = IMF_R(1.0) / (ta2 * set->tau_acc);
+    set->inv_rate_ref2 = rate_ref > IMF_R(0.0) ? IMF_R(1.0) / (rate_ref * rate_ref)
+                                               : IMF_R(0.0);
+    set->inv_tau_bias = set->tau_bias > IMF_R(0.0) ? IMF_R(1.0) / set->tau_bias : IMF_R(0.0);
+    set->rest_gyr2 = rest_gyr * rest_gyr;
+    set->rest_acc2 = rest_acc * rest_acc;
+    set->rest_time = rest_time;
+    set->mag_norm = mag_norm;
+    set->mag_dip = mag_dip;
+    set->mag_new_time = mag_new_time;
+    set->mag_hold = mag_hold;
+    set->c48 = IMF_R(1.0) / IMF_R(48.0);
+    /* t saturates at the longest start-up horizon */
+    tmax = set->tau_acc;
+    if (set->tau_rest > tmax) {
+        tmax = set->tau_rest;
+    }
+    if (set->tau_mag > tmax) {
+        tmax = set->tau_mag;
+    }
+    if (set->tau_mag_ref > tmax) {
+        tmax = set->tau_mag_ref;
+    }
+    set->t_max = tmax;
+    robust_set_dt(set, dt);
+    *skipped = 0;
+    x->q0 = IMF_R(1.0); x->q1 = IMF_R(0.0); x->q2 = IMF_R(0.0); x->q3 = IMF_R(0.0);
+    x->s0 = IMF_R(1.0); x->s1 = IMF_R(0.0); x->s2 = IMF_R(0.0); x->s3 = IMF_R(0.0);
+    x->c0 = IMF_R(1.0); x->c1 = IMF_R(0.0); x->c2 = IMF_R(0.0); x->c3 = IMF_R(0.0);
+    x->fx = IMF_R(0.0); x->fy = IMF_R(0.0); x->fz = IMF_R(0.0);
+    x->vx = IMF_R(0.0); x->vy = IMF_R(0.0); x->vz = IMF_R(0.0);
+    x->pvv = IMF_R(0.0); x->pvg = IMF_R(0.0); x->pgg = IMF_R(0.0);
+    x->bx = IMF_R(0.0); x->by = IMF_R(0.0); x->bz = IMF_R(0.0);
+    x->lwx = IMF_R(0.0); x->lwy = IMF_R(0.0); x->lwz = IMF_R(0.0);
+    x->lax = IMF_R(0.0); x->lay = IMF_R(0.0); x->laz = IMF_R(0.0);
+    x->t = IMF_R(0.0); x->t_rest = IMF_R(0.0);
+    x->rn = IMF_R(0.0); x->rh = IMF_R(0.0); x->rz = IMF_R(0.0);
+    x->cn = IMF_R(0.0); x->ch = IMF_R(0.0); x->cz = IMF_R(0.0);
+    x->t_cand = IMF_R(0.0); x->t_dist = IMF_R(0.0); x->t_ok = IMF_R(0.0);
+}
+
+void imf_robust_imu_init(imf_robust_imu_t *const self, const imf_real dt, const imf_real tau_acc,
+                         const imf_real rate_ref, const imf_real tau_bias,
+                         const imf_real tau_bias_rest, const imf_real rest_gyr,
+                         const imf_real rest_acc, const imf_real rest_time,
+                         const imf_real tau_rest, const imf_real latency)
+{
+    robust_init(&self->set, &self->skipped, &self->x, dt, tau_acc, rate_ref, tau_bias,
+                tau_bias_rest, rest_gyr, rest_acc, rest_time, tau_rest, latency, tau_rest,
+                IMF_R(0.0),
+                IMF_R(0.0), tau_rest, IMF_R(0.0), IMF_R(0.0));
+}
+
+void imf_robust_ahrs_init(imf_robust_ahrs_t *const self, const imf_real dt,
+                          const imf_real tau_acc, const imf_real rate_ref,
+                          const imf_real tau_bias, const imf_real tau_bias_rest,
+                          const imf_real rest_gyr, const imf_real rest_acc,
+                          const imf_real rest_time, const imf_real tau_rest,
+                          const imf_real latency, const imf_real tau_mag,
+                          const imf_real mag_norm,
+                          const imf_real mag_dip, const imf_real tau_mag_ref,
+                          const imf_real mag_new_time, const imf_real mag_hold)
+{
+    robust_init(&self->set, &self->skipped, &self->x, dt, tau_acc, rate_ref, tau_bias,
+                tau_bias_rest, rest_gyr, rest_acc, rest_time, tau_rest, latency, tau_mag,
+                mag_norm, mag_dip, tau_mag_ref, mag_new_time, mag_hold);
+}
+
+void imf_robust_imu_set_dt(imf_robust_imu_t *const self, const imf_real dt)
+{
+    robust_set_dt(&self->set, dt);
+}
+
+void imf_robust_ahrs_set_dt(imf_robust_ahrs_t *const self, const imf_real dt)
+{
+    robust_set_dt(&self->set, dt);
+}
+
+/* start again from att (the next sample is the first) */
+static void robust_set_attitude(imf_robust_state_t *const x, const imf_attitude_t *const att)
+{
+    x->q0 = att->q[0]; x->q1 = att->q[1]; x->q2 = att->q[2]; x->q3 = att->q[3];
+    x->s0 = att->q[0]; x->s1 = att->q[1]; x->s2 = att->q[2]; x->s3 = att->q[3];
+    x->c0 = IMF_R(1.0); x->c1 = IMF_R(0.0); x->c2 = IMF_R(0.0); x->c3 = IMF_R(0.0);
+    x->t = IMF_R(0.0);
+    x->rn = IMF_R(0.0);
+}
+
+void imf_robust_imu_set_attitude(imf_robust_imu_t *const self, const imf_attitude_t *const att)
+{
+    robust_set_attitude(&self->x, att);
+}
+
+void imf_robust_ahrs_set_attitude(imf_robust_ahrs_t *const self, const imf_attitude_t *const att)
+{
+    robust_set_attitude(&self->x, att);
+}
+
+/* ---- the update --------------------------------------------------------- */
+
+/* Gyro + accelerometer part on the working state x; 0 rejects the sample. */
+static int robust_step(const imf_robust_settings_t *const set, imf_robust_state_t *const x,
+                       const imf_real gx, const imf_real gy, const imf_real gz,
+                       const imf_real ax, const imf_real ay, const imf_real az)
+{
+    const imf_real dt = set->dt;
+    const int first = x->t == IMF_R(0.0);
+    /* an all-zero accelerometer is no reading: gyro only (and no start without one) */
+    const int has_acc = !(ax == IMF_R(0.0) && ay == IMF_R(0.0) && az == IMF_R(0.0));
+    imf_real k, w2, g2, dx, dy, dz, d2, a2, ox, oy, oz, th2, cw, sv, gn;
+    imf_real s[4], ai[3], ge[3], r[4], c[4], q[4], e[3];
+    int rest;
+    if (first && !has_acc) {
+        return 0;
+    }
+    /* B1: rest detection, low-passes of gyro and accelerometer in the sensor frame */
+    k = robust_gain(set, x->t, set->tau_rest, set->k_rest);
+    x->lwx = x->lwx + k * (gx - x->lwx);
+    x->lwy = x->lwy + k * (gy - x->lwy);
+    x->lwz = x->lwz + k * (gz - x->lwz);
+    if (has_acc) {
+        x->lax = x->lax + k * (ax - x->lax);
+        x->lay = x->lay + k * (ay - x->lay);
+        x->laz = x->laz + k * (az - x->laz);
+    }
+    w2 = x->lwx * x->lwx + x->lwy * x->lwy + x->lwz * x->lwz;
+    g2 = gx * gx + gy * gy + gz * gz;
+    dx = ax - x->lax;
+    dy = ay - x->lay;
+    dz = az - x->laz;
+    d2 = dx * dx + dy * dy + dz * dz;
+    a2 = x->lax * x->lax + x->lay * x->lay + x->laz * x->laz;
+    if (has_acc && w2 < set->rest_gyr2 && g2 < set->rest_gyr2 && d2 < set->rest_acc2 * a2) {
+        x->t_rest = x->t_rest + dt;
+        if (x->t_rest > set->rest_time) {
+            x->t_rest = set->rest_time;
+        }
+    } else {
+        x->t_rest = IMF_R(0.0);
+    }
+    rest = x->t_rest >= set->rest_time;
+    if (rest) {
+        /* Eq. 3.1: b_k = b_{k-1}, observed directly at rest */
+        x->bx = x->bx + set->kb_rest * (gx - x->bx);
+        x->by = x->by + set->kb_rest * (gy - x->by);
+        x->bz = x->bz + set->kb_rest * (gz - x->bz);
+    }
+    /* strapdown: s = s (x) exp(1/2 (w - b) dt), series to 4th order (no sin/cos) */
+    ox = (gx - x->bx) * dt;
+    oy = (gy - x->by) * dt;
+    oz = (gz - x->bz) * dt;
+    th2 = ox * ox + oy * oy + oz * oz;
+    cw = IMF_R(1.0) - th2 * IMF_R(0.125);
+    sv = IMF_R(0.5) - th2 * set->c48;
+    robust_qmul(s, x->s0, x->s1, x->s2, x->s3, cw, sv * ox, sv * oy, sv * oz);
+    if (!robust_norm4(s)) {
+        return 0;
+    }
+    x->s0 = s[0]; x->s1 = s[1]; x->s2 = s[2]; x->s3 = s[3];
+    /* B2: the accelerometer in the inertial frame */
+    robust_rotate(ai, s[0], s[1], s[2], s[3], ax, ay, az);
+    if (first) {
+        /* B5: gravity from the first sample */
+        x->fx = ai[0]; x->fy = ai[1]; x->fz = ai[2];
+        x->vx = IMF_R(0.0); x->vy = IMF_R(0.0); x->vz = IMF_R(0.0);
+        x->pvv = IMF_R(0.0); x->pvg = IMF_R(0.0); x->pgg = set->pgg0;
+    } else if (has_acc) {
+        imf_real qg, pvv, pvg, pgg, inv, kv, kg;
+        /* predict: v' = a - g, g' = 0 (+ process noise growing with the rotation rate) */
+        x->vx = x->vx + dt * (ai[0] - x->fx);
+        x->vy = x->vy + dt * (ai[1] - x->fy);
+        x->vz = x->vz + dt * (ai[2] - x->fz);
+        qg = set->qg_dt + set->qg_dt * (w2 * set->inv_rate_ref2);
+        pvv = x->pvv - set->two_dt * x->pvg + set->dt2 * x->pgg;
+        pvg = x->pvg - dt * x->pgg;
+        pgg = x->pgg + qg;
+        /* update with the pseudo-measurement v = 0 (noise 1 / dt per sample) */
+        inv = IMF_R(1.0) / (pvv + set->r_d);
+        kv = pvv * inv;
+        kg = pvg * inv;
+        x->fx = x->fx - kg * x->vx;
+        x->fy = x->fy - kg * x->vy;
+        x->fz = x->fz - kg * x->vz;
+        x->vx = x->vx - kv * x->vx;
+        x->vy = x->vy - kv * x->vy;
+        x->vz = x->vz - kv * x->vz;
+        x->pgg = pgg - kg * pvg;
+        x->pvg = pvg - kv * pvg;
+        x->pvv = pvv - kv * pvv;
+    }
+    /* inclination: the smallest rotation r that turns the gravity estimate onto earth z */
+    robust_rotate(ge, x->c0, x->c1, x->c2, x->c3, x->fx, x->fy, x->fz);
+    gn = imf_sqrt(ge[0] * ge[0] + ge[1] * ge[1] + ge[2] * ge[2]);
+    r[0] = gn + ge[2];
+    r[1] = ge[1];
+    r[2] = -ge[0];
+    r[3] = IMF_R(0.0);
+    if (!robust_norm4(r)) {
+        return 0;
+    }
+    c[0] = r[0] * x->c0 - r[1] * x->c1 - r[2] * x->c2;
+    c[1] = r[0] * x->c1 + r[1] * x->c0 + r[2] * x->c3;
+    c[2] = r[0] * x->c2 - r[1] * x->c3 + r[2] * x->c0;
+    c[3] = r[0] * x->c3 + r[1] * x->c2 - r[2] * x->c1;
+    if (!robust_norm4(c)) {
+        return 0;
+    }
+    x->c0 = c[0]; x->c1 = c[1]; x->c2 = c[2]; x->c3 = c[3];
+    robust_qmul(q, c[0], c[1], c[2], c[3], s[0], s[1], s[2], s[3]);
+    if (!robust_norm4(q)) {
+        return 0;
+    }
+    x->q0 = q[0]; x->q1 = q[1]; x->q2 = q[2]; x->q3 = q[3];
+    /* B3: the correction rate seen in the sensor frame is minus the bias error
+       (Eq. 3.6, I_k = I_{k-1} + Ki dt e_k, with Ki dt = 1 / tau_bias) */
+    if (!rest && x->t >= set->tau_acc && set->inv_tau_bias > IMF_R(0.0)) {
+        robust_rotate(e, q[0], -q[1], -q[2], -q[3], IMF_R(2.0) * r[1], IMF_R(2.0) * r[2],
+                      IMF_R(0.0));
+        x->bx = x->bx - e[0] * set->inv_tau_bias;
+        x->by = x->by - e[1] * set->inv_tau_bias;
+        x->bz = x->bz - e[2] * set->inv_tau_bias;
+    }
+    return 1;
+}
+
+/* The output: q = c (x) s, then predicted by the sensor's latency with the
+   bias-corrected rate (q (x) exp(1/2 (w - b) latency), series as the strapdown);
+   0 rejects the sample. */
+static int robust_predict(const imf_robust_settings_t *const set, imf_robust_state_t *const x,
+                          const imf_real gx, const imf_real gy, const imf_real gz)
+{
+    imf_real ox, oy, oz, th2, cw, sv, q[4];
+    if (!(set->latency > IMF_R(0.0))) {
+        return 1;
+    }
+    ox = (gx - x->bx) * set->latency;
+    oy = (gy - x->by) * set->latency;
+    oz = (gz - x->bz) * set->latency;
+    th2 = ox * ox + oy * oy + oz * oz;
+    cw = IMF_R(1.0) - th2 * IMF_R(0.125);
+    sv = IMF_R(0.5) - th2 * set->c48;
+    robust_qmul(q, x->q0, x->q1, x->q2, x->q3, cw, sv * ox, sv * oy, sv * oz);
+    if (!robust_norm4(q)) {
+        return 0;
+    }
+    x->q0 = q[0]; x->q1 = q[1]; x->q2 = q[2]; x->q3 = q[3];
+    return 1;
+}
+
+/* the field (mn, hn, zn) matches the reference (n, h, z): norm within mag_norm n
+   and dip within mag_dip (sine of the dip difference = zn h - hn z) */
+static inline int robust_mag_test(const imf_robust_settings_t *const set, const imf_real mn,
+                                  const imf_real hn, const imf_real zn, const imf_real n,
+                                  const imf_real h, const imf_real z)
+{
+    const imf_real dn = mn - n;
+    const imf_real dd = zn * h - hn * z;
+    const imf_real tn = set->mag_norm * n;
+    return dn < tn && -dn < tn && dd < set->mag_dip && -dd < set->mag_dip;
+}
+
+/* B4: heading from the magnetometer; 0 rejects the sample. */
+static int robust_mag(const imf_robust_settings_t *const set, imf_robust_state_t *const x,
+                      const imf_real mx, const imf_real my, const imf_real mz)
+{
+    const imf_real dt = set->dt;
+    imf_real me[3], h2, n2, mn, mh, inv, hn, zn, k;
+    int match;
+    robust_rotate(me, x->q0, x->q1, x->q2, x->q3, mx, my, mz);
+    h2 = me[0] * me[0] + me[1] * me[1];
+    n2 = h2 + me[2] * me[2];
+    if (!(n2 >= ROBUST_MIN && n2 <= ROBUST_MAX)) {
+        return 1; /* no usable reading: gyro and accelerometer only */
+    }
+    mn = imf_sqrt(n2);
+    mh = imf_sqrt(h2);
+    inv = IMF_R(1.0) / mn;
+    hn = mh * inv;
+    zn = me[2] * inv;
+    if (x->rn == IMF_R(0.0)) {
+        /* first reading: it is the reference */
+        x->rn = mn; x->rh = hn; x->rz = zn;
+        x->cn = mn; x->ch = hn; x->cz = zn;
+        x->t_ok = set->mag_hold;
+    }
+    match = robust_mag_test(set, mn, hn, zn, x->rn, x->rh, x->rz);
+    if (match) {
+        x->t_ok = x->t_ok + dt;
+        if (x->t_ok > set->mag_hold) {
+            x->t_ok = set->mag_hold;
+        }
+    } else {
+        x->t_ok = IMF_R(0.0);
+    }
+    if (match && x->t_ok >= set->mag_hold) {
+        imf_real ih, fw, fz, f2, fr, zw, zz, z2, zr, c[4], q[4];
+        x->t_dist = IMF_R(0.0);
+        x->t_cand = IMF_R(0.0);
+        k = robust_gain(set, x->t, set->tau_mag_ref, set->k_ref);
+        x->rn = x->rn + k * (mn - x->rn);
+        x->rh = x->rh + k * (hn - x->rh);
+        x->rz = x->rz + k * (zn - x->rz);
+        x->cn = mn; x->ch = hn; x->cz = zn;
+        if (!(h2 >= ROBUST_MIN)) {
+            return 1; /* field vertical: no heading information */
+        }
+        /* heading: the rotation about earth z that turns the horizontal field onto
+           north (+x), (1 + cos, 0, 0, -sin) normalised, taken by the fraction k */
+        ih = IMF_R(1.0) / mh;
+        fw = IMF_R(1.0) + me[0] * ih;
+        fz = -(me[1] * ih);
+        f2 = fw * fw + fz * fz;
+        if (f2 >= ROBUST_MIN) {
+            fr = IMF_R(1.0) / imf_sqrt(f2);
+            fw = fw * fr;
+            fz = fz * fr;
+        } else {
+            fw = IMF_R(0.0);
+            fz = IMF_R(1.0);
+        }
+        k = robust_gain(set, x->t, set->tau_mag, set->k_mag);
+        zw = IMF_R(1.0) - k + k * fw;
+        zz = k * fz;
+        z2 = zw * zw + zz * zz;
+        if (!(z2 >= ROBUST_MIN)) {
+            return 0;
+        }
+        zr = IMF_R(1.0) / imf_sqrt(z2);
+        zw = zw * zr;
+        zz = zz * zr;
+        c[0] = zw * x->c0 - zz * x->c3;
+        c[1] = zw * x->c1 - zz * x->c2;
+        c[2] = zw * x->c2 + zz * x->c1;
+        c[3] = zw * x->c3 + zz * x->c0;
+        if (!robust_norm4(c)) {
+            return 0;
+        }
+        x->c0 = c[0]; x->c1 = c[1]; x->c2 = c[2]; x->c3 = c[3];
+        robust_qmul(q, c[0], c[1], c[2], c[3], x->s0, x->s1, x->s2, x->s3);
+        if (!robust_norm4(q)) {
+            return 0;
+        }
+        x->q0 = q[0]; x->q1 = q[1]; x->q2 = q[2]; x->q3 = q[3];
+    } else {
+        /* disturbed (or not yet matching for mag_hold): no heading correction; a new
+           field that stays the same for mag_new_time of motion becomes the reference */
+        x->t_dist = x->t_dist + dt;
+        if (robust_mag_test(set, mn, hn, zn, x->cn, x->ch, x->cz)) {
+            x->cn = x->cn + set->k_rest * (mn - x->cn);
+            x->ch = x->ch + set->k_rest * (hn - x->ch);
+            x->cz = x->cz + set->k_rest * (zn - x->cz);
+            if (x->t_rest < set->rest_time) {
+                /* only motion counts: at rest an attached magnet's field is steady too */
+                x->t_cand = x->t_cand + dt;
+            }
+            if (x->t_cand >= set->mag_new_time) {
+                x->rn = x->cn; x->rh = x->ch; x->rz = x->cz;
+                x->t_cand = IMF_R(0.0);
+            }
+        } else {
+            x->cn = mn; x->ch = hn; x->cz = zn;
+            x->t_cand = IMF_R(0.0);
+        }
+    }
+    return 1;
+}
+
+/* the clock of the start-up (saturating: no growth once every start is over) */
+static inline void robust_advance(const imf_robust_settings_t *const set,
+                                  imf_robust_state_t *const x)
+{
+    x->t = x->t + set->dt;
+    if (x->t > set->t_max) {
+        x->t = set->t_max;
+    }
+}
+
+/* valid-attitude policy: the whole new state must be finite */
+static int robust_finite(const imf_robust_state_t *const x)
+{
+    const imf_real *const v = (const imf_real *)x;
+    const unsigned n = (unsigned)(sizeof *x / sizeof(imf_real));
+    unsigned i;
+    for (i = 0; i < n; i++) {
+        if (!isfinite(v[i])) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+void imf_robust_imu_update(imf_robust_imu_t *const self, const imf_real gx, const imf_real gy,
+                           const imf_real gz, const imf_real ax, const imf_real ay,
+                           const imf_real az)
+{
+    imf_robust_state_t x;
+    if (!(imf_finite3(gx, gy, gz) && imf_finite3(ax, ay, az))) {
+        self->skipped++;
+        return;
+    }
+    x = self->x;
+    if (!robust_step(&self->set, &x, gx, gy, gz, ax, ay, az)) {
+        self->skipped++;
+        return;
+    }
+    if (!robust_predict(&self->set, &x, gx, gy, gz)) {
+        self->skipped++;
+        return;
+    }
+    robust_advance(&self->set, &x);
+    if (!robust_finite(&x)) {
+        self->skipped++;
+        return;
+    }
+    self->x = x;
+}
+
+void imf_robust_ahrs_update(imf_robust_ahrs_t *const self, const imf_real gx, const imf_real gy,
+                            const imf_real gz, const imf_real ax, const imf_real ay,
+                            const imf_real az, const imf_real mx, const imf_real my,
+                            const imf_real mz)
+{
+    imf_robust_state_t x;
+    if (!(imf_finite3(gx, gy, gz) && imf_finite3(ax, ay, az) && imf_finite3(mx, my, mz))) {
+        self->skipped++;
+        return;
+    }
+    x = self->x;
+    if (!robust_step(&self->set, &x, gx, gy, gz, ax, ay, az)) {
+        self->skipped++;
+        return;
+    }
+    if (!robust_mag(&self->set, &x, mx, my, mz)) {
+        self->skipped++;
+        return;
+    }
+    if (!robust_predict(&self->set, &x, gx, gy, gz)) {
+        self->skipped++;
+        return;
+    }
+    robust_advance(&self->set, &x);
+    if (!robust_finite(&x)) {
+        self->skipped++;
+        return;
+    }
+    self->x = x;
+}

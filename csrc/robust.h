@@ -1,0 +1,127 @@
+/*
+ * imufuse's recommended AHRS (docs/recommended-ahrs.md): the article's
+ * chapter 3 (the gyro bias as a state, PI tuning by Eq. 3.12) and chapter 4
+ * (correction on SO(3)) built for real sensors.
+ *
+ *   q = c (x) s      s: strapdown quaternion, sensor -> inertial frame, from
+ *                       the bias-corrected gyro only;
+ *                    c: correction, inertial -> earth frame (NWU, z up), set so
+ *                       that the gravity estimated in the inertial frame points
+ *                       up, and turned about z towards magnetic north.
+ *
+ * Blocks:
+ *   B1 gyro bias at rest: rest when the low-passed and the current gyro are
+ *      below rest_gyr and the accelerometer stays within rest_acc (g) of its
+ *      low-pass for rest_time; then the bias is the low-passed gyro.
+ *   B2 gravity in the inertial frame: a Kalman filter of (v, g) per axis with
+ *      v' = a - g (v: velocity, stays bounded: pseudo-measurement v = 0) and a
+ *      random walk of g whose rate grows with (|w| / rate_ref)^2 (gyro scale
+ *      and misalignment errors turn the inertial frame). At rest it is a
+ *      second-order low-pass with omega_0 = 1 / tau_acc, damping 1/sqrt(2).
+ *      Linear accelerations integrate to a bounded velocity and cancel.
+ *   B3 gyro bias in motion: the inclination correction, seen in the sensor
+ *      frame, integrated with gain 1 / tau_bias (Eq. 3.6).
+ *   B4 magnetometer, heading only (a rotation of c about earth z), rejected
+ *      while the field's norm or dip differ from a learned reference, and until
+ *      they have matched it again for mag_hold; a new field that stays the
+ *      same for mag_new_time becomes the reference.
+ *   B5 start from the first samples: every low-pass is a running mean until
+ *      its time constant has passed.
+ *   Output: q = c (x) s, predicted forward by the sensor chain's latency (the
+ *      group delay of the gyroscope's internal filter) with the current rate.
+ *
+ * No transcendental function in the update (sqrt and division only); the
+ * strapdown step uses the series of exp(1/2 w dt) to fourth order.
+ * Valid-attitude policy (imf_math.h): a sample with a non-finite input, a
+ * normalisation that fails or a non-finite new state is rejected and counted.
+ */
+#ifndef IMF_ROBUST_H
+#define IMF_ROBUST_H
+
+#include <stdint.h>
+#include "imf_config.h"
+#include "imf_math.h"
+#include "imf_attitude.h"
+
+typedef struct {
+    imf_real q0, q1, q2, q3;    /* estimate, sensor -> earth (NWU), w first */
+    imf_real s0, s1, s2, s3;    /* strapdown: sensor -> inertial frame */
+    imf_real c0, c1, c2, c3;    /* correction: inertial -> earth frame */
+    imf_real fx, fy, fz;        /* gravity (specific force) in the inertial frame, acc unit */
+    imf_real vx, vy, vz;        /* B2 velocity-like state, acc unit * s */
+    imf_real pvv, pvg, pgg;     /* B2 covariance, shared by the three axes */
+    imf_real bx, by, bz;        /* gyro bias, rad/s */
+    imf_real lwx, lwy, lwz;     /* low-passed gyro (rest detection), rad/s */
+    imf_real lax, lay, laz;     /* low-passed accelerometer (rest detection), acc unit */
+    imf_real t, t_rest;         /* time since start (saturating), time at rest, s */
+    imf_real rn, rh, rz;        /* magnetic reference: norm, cos(dip), vertical part */
+    imf_real cn, ch, cz;        /* candidate reference (a changed field) */
+    imf_real t_cand, t_dist;    /* candidate stable for, field disturbed for, s */
+    imf_real t_ok;              /* field matching the reference for (saturating), s */
+} imf_robust_state_t;
+
+/* Settings, converted once by init (dt-dependent ones by set_dt). */
+typedef struct {
+    imf_real dt, two_dt, dt2, r_d; /* s, 2 dt, dt^2, 1 / dt */
+    imf_real tau_acc, tau_bias, tau_bias_rest, tau_rest, tau_mag, tau_mag_ref; /* s */
+    imf_real latency;              /* s, output prediction; 0: none */
+    imf_real qg0, qg_dt, pgg0;     /* 1 / tau_acc^4, qg0 dt, 1 / tau_acc^3 */
+    imf_real inv_rate_ref2;        /* 1 / rate_ref^2, (rad/s)^-2; 0: constant */
+    imf_real inv_tau_bias;         /* 1 / tau_bias, 1/s; 0: no bias in motion */
+    imf_real rest_gyr2, rest_acc2, rest_time; /* (rad/s)^2, g^2 (relative), s */
+    imf_real mag_norm, mag_dip, mag_new_time, mag_hold; /* relative, sine, s, s */
+    imf_real k_rest, kb_rest, k_mag, k_ref;   /* dt / (tau + dt) */
+    imf_real c48;                  /* 1 / 48 */
+    imf_real t_max;                /* longest start-up horizon, s */
+} imf_robust_settings_t;
+
+typedef struct {
+    uint32_t skipped; /* samples rejected by the valid-attitude policy */
+    imf_robust_state_t x;
+    imf_robust_settings_t set;
+} imf_robust_imu_t;
+
+typedef struct {
+    uint32_t skipped; /* samples rejected by the valid-attitude policy */
+    imf_robust_state_t x;
+    imf_robust_settings_t set;
+} imf_robust_ahrs_t;
+
+/* dt: s; tau_acc: s; rate_ref: rad/s (0: constant); tau_bias: s (0: off);
+   tau_bias_rest: s; rest_gyr: rad/s; rest_acc: g (relative); rest_time: s;
+   tau_rest: s; latency: s, the sensor chain's delay, compensated in the output q by
+   predicting it forward with the current rate (0: none). Validated by the Python
+   layer (imufuse.reference.robust). */
+void imf_robust_imu_init(imf_robust_imu_t *self, imf_real dt, imf_real tau_acc,
+                         imf_real rate_ref, imf_real tau_bias, imf_real tau_bias_rest,
+                         imf_real rest_gyr, imf_real rest_acc, imf_real rest_time,
+                         imf_real tau_rest, imf_real latency);
+/* gx, gy, gz: rad/s; ax, ay, az: any unit */
+void imf_robust_imu_update(imf_robust_imu_t *self, imf_real gx, imf_real gy, imf_real gz,
+                           imf_real ax, imf_real ay, imf_real az);
+
+/* The IMU settings and tau_mag: s; mag_norm: relative; mag_dip: sine of the dip
+   threshold (> 1: no dip test); tau_mag_ref: s; mag_new_time: s; mag_hold: s. */
+void imf_robust_ahrs_init(imf_robust_ahrs_t *self, imf_real dt, imf_real tau_acc,
+                          imf_real rate_ref, imf_real tau_bias, imf_real tau_bias_rest,
+                          imf_real rest_gyr, imf_real rest_acc, imf_real rest_time,
+                          imf_real tau_rest, imf_real latency, imf_real tau_mag,
+                          imf_real mag_norm,
+                          imf_real mag_dip, imf_real tau_mag_ref, imf_real mag_new_time,
+                          imf_real mag_hold);
+/* gx, gy, gz: rad/s; ax, ay, az and mx, my, mz: any unit (mag all zero: none) */
+void imf_robust_ahrs_update(imf_robust_ahrs_t *self, imf_real gx, imf_real gy, imf_real gz,
+                            imf_real ax, imf_real ay, imf_real az,
+                            imf_real mx, imf_real my, imf_real mz);
+
+/* A new sample period dt (s): every dt-dependent constant by the expressions
+   of init, so the filter equals one initialised with this dt bit for bit. */
+void imf_robust_imu_set_dt(imf_robust_imu_t *self, imf_real dt);
+void imf_robust_ahrs_set_dt(imf_robust_ahrs_t *self, imf_real dt);
+
+/* Start again from att: q = s = att->q, c = 1; the next sample is the first
+   (gravity, tilt and magnetic reference from it; the bias is kept). */
+void imf_robust_imu_set_attitude(imf_robust_imu_t *self, const imf_attitude_t *att);
+void imf_robust_ahrs_set_attitude(imf_robust_ahrs_t *self, const imf_attitude_t *att);
+
+#endif /* IMF_ROBUST_H */

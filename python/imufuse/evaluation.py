@@ -1,0 +1,228 @@
+"""Orientation errors against a reference, as the BROAD benchmark defines them.
+
+D. Laidig, M. Caruso, A. Cereatti, T. Seel. BROAD - A Benchmark for Robust
+Inertial Orientation Estimation. Data 6(7), 2021. doi:10.3390/data6070072
+
+Both orientations are brought to one earth frame, ENU, as sensor-to-earth unit
+quaternions [w, x, y, z]. With q the estimate and r the reference, the
+earth-frame error quaternion is e = q (x) r^-1 and, per sample,
+
+    total error        = 2 arccos(|e_w|)
+    heading error      = 2 arctan(|e_z / e_w|)        (evaluated as 2 atan2(|e_z|, |e_w|))
+    inclination error  = 2 arccos(sqrt(e_w^2 + e_z^2))
+
+(heading and inclination are the twist about earth z and the swing of e).
+Each is reported as an RMS in degrees over the samples that count: the
+movement mask (when given) is true and the reference row is finite. Reference
+rows with NaN are excluded and counted. A non-finite estimate in a counted
+sample is counted too, and makes the RMS NaN (a broken filter is never hidden).
+
+Frames. imufuse's filters use an NWU earth frame (x north, y west, z up).
+NWU -> ENU is a rotation of +90 deg about z applied on the earth side:
+q_ENU = z(+90 deg) (x) q_NWU. NED -> ENU is the 180 deg rotation about
+(1, 1, 0)/sqrt(2) (x <-> y, z -> -z), also on the earth side. A quaternion
+given earth-to-sensor is conjugated first.
+
+Heading offset removal (option): the optical frame's north and the magnetic
+north differ by a constant; with `remove_heading_offset=True` the circular
+mean of the signed heading error (2 atan2(e_z, e_w), over the counted
+samples) is removed on the earth side, e' = z(-offset) (x) e, before the
+heading and total errors are taken (inclination does not change). The offset
+is reported.
+
+6-DOF (IMU) filters have no heading reference: compare them on inclination only.
+"""
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .rotations import quat_conj, quat_mul
+
+FRAMES = ("NWU", "ENU", "NED")
+DIRECTIONS = ("sensor-to-earth", "earth-to-sensor")
+
+_S = math.sqrt(0.5)
+#: earth-side rotation taking a frame's coordinates to ENU coordinates
+TO_ENU = {
+    "ENU": np.array([1.0, 0.0, 0.0, 0.0]),
+    "NWU": np.array([_S, 0.0, 0.0, _S]),        # +90 deg about z
+    "NED": np.array([0.0, _S, _S, 0.0]),        # 180 deg about (1, 1, 0)/sqrt(2)
+}
+
+METRICS = ("total", "heading", "inclination")
+
+
+def _check_frame(frame, name):
+    if frame not in FRAMES:
+        raise ValueError(f"{name}: must be one of {', '.join(FRAMES)}, got {frame!r}")
+
+
+def _quats(q, name):
+    q = np.asarray(q, dtype=np.float64)
+    if q.ndim != 2 or q.shape[1] != 4:
+        raise ValueError(f"{name}: expected an (N, 4) array of [w, x, y, z] quaternions, "
+                         f"got shape {q.shape}")
+    return q
+
+
+def to_enu(q, frame="NWU", direction="sensor-to-earth", what="frame"):
+    """(N, 4) quaternions in `frame` (`direction` as given) -> sensor-to-ENU."""
+    _check_frame(frame, what)
+    if direction not in DIRECTIONS:
+        raise ValueError(f"direction: must be one of {', '.join(DIRECTIONS)}, got {direction!r}")
+    q = _quats(q, "q")
+    if direction == "earth-to-sensor":
+        q = quat_conj(q)
+    return quat_mul(TO_ENU[frame], q)
+
+
+def from_enu(q, frame="NWU", direction="sensor-to-earth"):
+    """Inverse of to_enu: sensor-to-ENU quaternions -> `frame`, `direction`."""
+    _check_frame(frame, "frame")
+    if direction not in DIRECTIONS:
+        raise ValueError(f"direction: must be one of {', '.join(DIRECTIONS)}, got {direction!r}")
+    q = quat_mul(quat_conj(TO_ENU[frame]), _quats(q, "q"))
+    return quat_conj(q) if direction == "earth-to-sensor" else q
+
+
+def error_quaternion(q, r):
+    """e = q (x) r^-1 (both sensor-to-earth in one earth frame), normalised."""
+    q, r = _quats(q, "q"), _quats(r, "r")
+    with np.errstate(invalid="ignore", divide="ignore"):
+        q = q / np.linalg.norm(q, axis=1, keepdims=True)
+        r = r / np.linalg.norm(r, axis=1, keepdims=True)
+    return quat_mul(q, quat_conj(r))
+
+
+def error_angles(e):
+    """(total, heading, inclination) in radians, per sample, of error quaternions e."""
+    e = _quats(e, "e")
+    aw, az = np.abs(e[:, 0]), np.abs(e[:, 3])
+    total = 2.0 * np.arccos(np.minimum(aw, 1.0))
+    heading = 2.0 * np.arctan2(az, aw)
+    inclination = 2.0 * np.arccos(np.minimum(np.sqrt(e[:, 0] ** 2 + e[:, 3] ** 2), 1.0))
+    return total, heading, inclination
+
+
+@dataclass
+class Evaluation:
+    """Errors of one estimate against one reference (degrees)."""
+    total: float                    # RMS, deg
+    heading: float
+    inclination: float
+    n: int                          # samples counted
+    n_samples: int                  # samples in the log
+    n_ref_nan: int                  # excluded: reference not finite (within the mask)
+    n_outside_mask: int             # excluded: movement mask false
+    n_est_nan: int                  # counted samples whose estimate is not finite
+    heading_offset: float = 0.0     # deg, removed from the heading (0 unless asked)
+    per_sample: dict = field(default_factory=dict, repr=False)  # metric -> (N,) deg, NaN outside
+
+    def rms(self, metric):
+        return getattr(self, metric)
+
+    @property
+    def ok(self):
+        """Something was evaluated and every counted estimate was finite."""
+        return self.n > 0 and self.n_est_nan == 0
+
+    def summary(self):
+        s = (f"total {self.total:.3f}, heading {self.heading:.3f}, inclination "
+             f"{self.inclination:.3f} deg RMS over {self.n} of {self.n_samples} samples")
+        excl = []
+        if self.n_outside_mask:
+            excl.append(f"{self.n_outside_mask} outside the movement mask")
+        if self.n_ref_nan:
+            excl.append(f"{self.n_ref_nan} with a NaN reference")
+        if excl:
+            s += f" ({', '.join(excl)} excluded)"
+        if self.heading_offset:
+            s += f"; heading offset {self.heading_offset:.3f} deg removed"
+        if self.n_est_nan:
+            s += f"; {self.n_est_nan} non-finite estimates"
+        return s
+
+
+def evaluate(q_est, q_ref, *, est_frame="NWU", ref_frame="ENU",
+             est_direction="sensor-to-earth", ref_direction="sensor-to-earth",
+             movement=None, remove_heading_offset=False, per_sample=True, chunk=1 << 16):
+    """BROAD errors of estimate `q_est` against reference `q_ref` ((N, 4) each).
+
+    movement: optional (N,) bool mask of the samples that count (BROAD's
+    movement phases). per_sample: keep the per-sample errors (Evaluation.
+    per_sample, deg, NaN outside); False keeps the RMS only. The work is done
+    in blocks of `chunk` samples, so memory stays small for long logs.
+    Returns an Evaluation; `n == 0` means nothing could be evaluated (the
+    caller decides whether that is an error)."""
+    q_est, q_ref = _quats(q_est, "q_est"), _quats(q_ref, "q_ref")
+    if len(q_est) != len(q_ref):
+        raise ValueError(f"q_est and q_ref: different lengths ({len(q_est)} and {len(q_ref)})")
+    for f, d, what in ((est_frame, est_direction, "est_frame"),
+                       (ref_frame, ref_direction, "ref_frame")):
+        _check_frame(f, what)
+        if d not in DIRECTIONS:
+            raise ValueError(f"direction: must be one of {', '.join(DIRECTIONS)}, got {d!r}")
+    n = len(q_est)
+    mask = np.ones(n, dtype=bool)
+    if movement is not None:
+        m = np.asarray(movement)
+        if m.shape != (n,):
+            raise ValueError(f"movement: expected shape ({n},), got {m.shape}")
+        if m.dtype != bool:
+            if not np.all(np.isin(m, (0, 1))):
+                raise ValueError("movement: must be boolean (0/1) values")
+            m = m.astype(bool)
+        mask = m.copy()
+    ref_ok = np.all(np.isfinite(q_ref), axis=1)
+    n_outside = int(np.count_nonzero(~mask))
+    n_ref_nan = int(np.count_nonzero(mask & ~ref_ok))
+    use = mask & ref_ok
+    est_ok = np.all(np.isfinite(q_est), axis=1)
+    n_est_nan = int(np.count_nonzero(use & ~est_ok))
+    idx = np.flatnonzero(use)
+
+    def blocks():
+        """(indices, e) of the counted samples, block by block."""
+        for k in range(0, len(idx), chunk):
+            i = idx[k:k + chunk]
+            q = to_enu(q_est[i], est_frame, est_direction, "est_frame")
+            r = to_enu(q_ref[i], ref_frame, ref_direction, "ref_frame")
+            yield i, error_quaternion(q, r)
+
+    offset = 0.0
+    z = None
+    if remove_heading_offset:
+        ss = cc = 0.0
+        for i, e in blocks():
+            ok = est_ok[i]
+            psi = 2.0 * np.arctan2(e[ok, 3], e[ok, 0])
+            ss += float(np.sum(np.sin(psi)))
+            cc += float(np.sum(np.cos(psi)))
+        if np.any(use & est_ok):
+            offset = math.atan2(ss, cc)
+            z = np.array([math.cos(offset / 2), 0.0, 0.0, -math.sin(offset / 2)])
+    per = {m: np.full(n, np.nan) for m in METRICS} if per_sample else {}
+    sq = dict.fromkeys(METRICS, 0.0)
+    for i, e in blocks():
+        if z is not None:
+            e = quat_mul(z, e)
+        for name, a in zip(METRICS, error_angles(e)):
+            d = np.degrees(a)
+            sq[name] += float(np.dot(d, d))
+            if per_sample:
+                per[name][i] = d
+    cnt = len(idx)
+    rms = {m: (math.sqrt(sq[m] / cnt) if cnt else math.nan) for m in METRICS}
+    return Evaluation(total=rms["total"], heading=rms["heading"], inclination=rms["inclination"],
+                      n=cnt, n_samples=n, n_ref_nan=n_ref_nan,
+                      n_outside_mask=n_outside, n_est_nan=n_est_nan,
+                      heading_offset=math.degrees(offset), per_sample=per)
+
+
+def mean_over_trials(evaluations):
+    """{metric: mean of the per-trial RMS} (BROAD averages the trials' RMS values).
+    Trials that evaluated nothing are left out; NaN if none is left."""
+    ev = [e for e in evaluations if e.n > 0]
+    return {m: (float(np.mean([getattr(e, m) for e in ev])) if ev else math.nan)
+            for m in METRICS}

@@ -1,0 +1,539 @@
+"""imufuse's recommended AHRS (docs/recommended-ahrs.md): pure-Python twin of
+csrc/robust.c, line for line.
+
+Building blocks (article chapters 3 and 4 applied to real sensors):
+  B1 gyro bias at rest: rest detected from gyro and accelerometer statistics,
+     the bias is the low-passed gyro (chapter 3: the bias as a state);
+  B2 gravity from the accelerometer in a quasi-inertial frame: a Kalman filter
+     of (velocity, gravity) under "the velocity stays bounded", whose gravity
+     uncertainty grows with the rotation rate; the attitude is aligned to it
+     every sample;
+  B3 gyro bias in motion: the integral of the inclination correction (chapter
+     3.2/4.1: the I term of Mahony's PI), with tau_bias >= 4 tau_acc (Eq. 3.12);
+  B4 magnetometer confined to heading, with a disturbance detector (field
+     norm and dip against learned references) that rejects, then re-learns;
+  B5 start from the first samples: every low-pass starts as a running mean.
+"""
+import math
+
+from .. import _checks
+from ._base import QUAT_NORM2_TOL, ReferenceFilter, isfinite
+
+FILTERS = ("RobustIMU", "RobustAHRS")
+
+# smallest normal and largest finite value of each precision (C: FLT_MIN, ...)
+_LIMITS = {"float32": (1.1754943508222875e-38, 3.4028234663852886e+38),
+           "float64": (2.2250738585072014e-308, 1.7976931348623157e+308)}
+
+_DEG = math.pi / 180.0
+
+
+# ---- quaternion helpers (robust.c: static inline, same order) ----------------
+
+def _qmul(a0, a1, a2, a3, b0, b1, b2, b3):
+    # Hamilton product a (x) b
+    return (a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
+            a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
+            a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
+            a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0)
+
+
+def _rotate(R, w, x, y, z, vx, vy, vz):
+    # R(q) v = v + w t + q_v x t, t = 2 q_v x v
+    tx = R(2.0) * (y * vz - z * vy)
+    ty = R(2.0) * (z * vx - x * vz)
+    tz = R(2.0) * (x * vy - y * vx)
+    return (vx + w * tx + (y * tz - z * ty),
+            vy + w * ty + (z * tx - x * tz),
+            vz + w * tz + (x * ty - y * tx))
+
+
+class _Robust(ReferenceFilter):
+    state_names = ("q0", "q1", "q2", "q3",      # estimate, sensor -> earth
+                   "s0", "s1", "s2", "s3",      # strapdown: sensor -> inertial frame
+                   "c0", "c1", "c2", "c3",      # correction: inertial -> earth frame
+                   "fx", "fy", "fz",            # gravity (specific force) in the inertial frame
+                   "vx", "vy", "vz",            # velocity-like state of B2, acc unit * s
+                   "pvv", "pvg", "pgg",         # its covariance (shared by the three axes)
+                   "bx", "by", "bz",            # gyro bias, rad/s
+                   "lwx", "lwy", "lwz",         # low-passed gyro (rest detection), rad/s
+                   "lax", "lay", "laz",         # low-passed accelerometer (rest detection)
+                   "t", "t_rest",               # time since start (saturating), at rest, s
+                   "rn", "rh", "rz",            # magnetic reference: norm, cos dip, -sin dip
+                   "cn", "ch", "cz",            # candidate reference (a changed field)
+                   "t_cand", "t_dist", "t_ok")  # candidate stable for, disturbed for,
+                                                #   field matching the reference for, s
+
+    @staticmethod
+    def _imu_params(tau_acc=2.5, rate_ref=100.0, tau_bias=100.0, tau_bias_rest=3.0,
+                    rest_gyr=2.0, rest_acc=0.05, rest_time=1.5, tau_rest=0.5, latency=0.002):
+        tau_acc = _checks.check_real("tau_acc", tau_acc, lo=0.0, lo_open=True)
+        rate_ref = _checks.check_real("rate_ref", rate_ref, lo=0.0)
+        tau_bias = _checks.check_real("tau_bias", tau_bias, lo=0.0)
+        if 0.0 < tau_bias < 4.0 * tau_acc:
+            raise ValueError("tau_bias: must be 0 (off) or >= 4 tau_acc (Eq. 3.12: "
+                             f"a damped bias loop), got {tau_bias!r}")
+        tau_bias_rest = _checks.check_real("tau_bias_rest", tau_bias_rest, lo=0.0, lo_open=True)
+        rest_gyr = _checks.check_real("rest_gyr", rest_gyr, lo=0.0)
+        rest_acc = _checks.check_real("rest_acc", rest_acc, lo=0.0)
+        rest_time = _checks.check_real("rest_time", rest_time, lo=0.0)
+        tau_rest = _checks.check_real("tau_rest", tau_rest, lo=0.0, lo_open=True)
+        latency = _checks.check_real("latency", latency, lo=0.0, hi=0.1)
+        # deg/s -> rad/s here, in double, for both backends
+        return (tau_acc, rate_ref * _DEG, tau_bias, tau_bias_rest, rest_gyr * _DEG, rest_acc,
+                rest_time, tau_rest, latency)
+
+    @classmethod
+    def _valid_state(cls, args, R, state):
+        # state writes: the three quaternions unit, variances and times not negative
+        names = cls.state_names
+        for k in (0, 4, 8):
+            n2 = float(sum(float(v) * float(v) for v in state[k:k + 4]))
+            if not abs(n2 - 1.0) <= QUAT_NORM2_TOL:
+                return (f"|{names[k][0]}|^2 = {n2!r}, must be within 1 +- "
+                        f"{QUAT_NORM2_TOL}")
+        for n in ("pvv", "pgg", "t", "t_rest", "rn", "cn", "t_cand", "t_dist", "t_ok"):
+            if float(state[names.index(n)]) < 0.0:
+                return f"{n} = {float(state[names.index(n)])!r}, must not be negative"
+        return None
+
+    # imf_robust_init (shared settings of both filters)
+    def _init_common(self, dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
+                     rest_time, tau_rest, latency, tau_mag, mag_norm, mag_dip, tau_mag_ref,
+                     mag_new_time, mag_hold):
+        R = self._R
+        lo, hi = _LIMITS[self.dtype]
+        self._min, self._max = R(lo), R(hi)
+        self.tau_acc = R(tau_acc)
+        self.tau_bias = R(tau_bias)
+        self.tau_bias_rest = R(tau_bias_rest)
+        self.tau_rest = R(tau_rest)
+        self.latency = R(latency)
+        self.tau_mag = R(tau_mag)
+        self.tau_mag_ref = R(tau_mag_ref)
+        # B2: gravity process noise q_g = (1 + |w|^2 / rate_ref^2) / tau_acc^4 per s, with the
+        # velocity measurement noise 1 (any acc unit): the steady state is a second-order
+        # low-pass with omega_0 = 1 / tau_acc and damping 1/sqrt(2) at rest
+        ta2 = self.tau_acc * self.tau_acc
+        self.qg0 = R(1.0) / (ta2 * ta2)
+        self.pgg0 = R(1.0) / (ta2 * self.tau_acc)
+        rr = R(rate_ref)
+        self.inv_rate_ref2 = R(1.0) / (rr * rr) if rr > R(0.0) else R(0.0)
+        self.inv_tau_bias = R(1.0) / self.tau_bias if self.tau_bias > R(0.0) else R(0.0)
+        rg = R(rest_gyr)
+        self.rest_gyr2 = rg * rg
+        ra = R(rest_acc)
+        self.rest_acc2 = ra * ra
+        self.rest_time = R(rest_time)
+        self.mag_norm = R(mag_norm)
+        self.mag_dip = R(mag_dip)
+        self.mag_new_time = R(mag_new_time)
+        self.mag_hold = R(mag_hold)
+        self.c48 = R(1.0) / R(48.0)
+        # t saturates at the longest start-up horizon
+        tmax = self.tau_acc
+        for v in (self.tau_rest, self.tau_mag, self.tau_mag_ref):
+            if v > tmax:
+                tmax = v
+        self.t_max = tmax
+        self._set_dt(R(dt))
+        self.q0, self.q1, self.q2, self.q3 = R(1.0), R(0.0), R(0.0), R(0.0)
+        self.s0, self.s1, self.s2, self.s3 = R(1.0), R(0.0), R(0.0), R(0.0)
+        self.c0, self.c1, self.c2, self.c3 = R(1.0), R(0.0), R(0.0), R(0.0)
+        self.fx, self.fy, self.fz = R(0.0), R(0.0), R(0.0)
+        self.vx, self.vy, self.vz = R(0.0), R(0.0), R(0.0)
+        self.pvv, self.pvg, self.pgg = R(0.0), R(0.0), R(0.0)
+        self.bx, self.by, self.bz = R(0.0), R(0.0), R(0.0)
+        self.lwx, self.lwy, self.lwz = R(0.0), R(0.0), R(0.0)
+        self.lax, self.lay, self.laz = R(0.0), R(0.0), R(0.0)
+        self.t, self.t_rest = R(0.0), R(0.0)
+        self.rn, self.rh, self.rz = R(0.0), R(0.0), R(0.0)
+        self.cn, self.ch, self.cz = R(0.0), R(0.0), R(0.0)
+        self.t_cand, self.t_dist, self.t_ok = R(0.0), R(0.0), R(0.0)
+
+    # imf_robust_*_set_dt: every dt-dependent constant, as init computes it
+    def _set_dt(self, dt):
+        R = self._R
+        self.dt = dt
+        self.two_dt = R(2.0) * dt
+        self.dt2 = dt * dt
+        self.r_d = R(1.0) / dt
+        self.qg_dt = self.qg0 * dt
+        self.k_rest = dt / (self.tau_rest + dt)
+        self.kb_rest = dt / (self.tau_bias_rest + dt)
+        self.k_mag = dt / (self.tau_mag + dt)
+        self.k_ref = dt / (self.tau_mag_ref + dt)
+
+    # imf_robust_*_set_attitude: start again from att (the next sample is the first)
+    def _set_attitude(self, att):
+        R = self._R
+        self.q0, self.q1, self.q2, self.q3 = att.q
+        self.s0, self.s1, self.s2, self.s3 = att.q
+        self.c0, self.c1, self.c2, self.c3 = R(1.0), R(0.0), R(0.0), R(0.0)
+        self.t = R(0.0)
+        self.rn = R(0.0)
+
+    # ---- helpers ------------------------------------------------------------
+
+    def _norm4(self, w, x, y, z):
+        # unit quaternion, or None when the normalisation fails (valid-attitude policy)
+        R = self._R
+        n2 = w * w + x * x + y * y + z * z
+        if not (n2 >= self._min and n2 <= self._max):
+            return None
+        r = R(1.0) / R(math.sqrt(n2))
+        return w * r, x * r, y * r, z * r
+
+    def _gain(self, t, tau, k):
+        # B5: a running mean until tau, then the low-pass gain k = dt / (tau + dt)
+        if t < tau:
+            return self.dt / (t + self.dt)
+        return k
+
+    # ---- the update ---------------------------------------------------------
+
+    def _step(self, st, gx, gy, gz, ax, ay, az):
+        """Gyro + accelerometer part. st: dict of the working state. Returns the
+        inclination correction r (for the bias) or None to reject the sample."""
+        R = self._R
+        dt = self.dt
+        first = st["t"] == R(0.0)
+        # an all-zero accelerometer is no reading: gyro only (and no start without one)
+        has_acc = not (ax == R(0.0) and ay == R(0.0) and az == R(0.0))
+        if first and not has_acc:
+            return None
+        # B1: rest detection, low-passes of gyro and accelerometer in the sensor frame
+        k = self._gain(st["t"], self.tau_rest, self.k_rest)
+        st["lwx"] = st["lwx"] + k * (gx - st["lwx"])
+        st["lwy"] = st["lwy"] + k * (gy - st["lwy"])
+        st["lwz"] = st["lwz"] + k * (gz - st["lwz"])
+        if has_acc:
+            st["lax"] = st["lax"] + k * (ax - st["lax"])
+            st["lay"] = st["lay"] + k * (ay - st["lay"])
+            st["laz"] = st["laz"] + k * (az - st["laz"])
+        w2 = st["lwx"] * st["lwx"] + st["lwy"] * st["lwy"] + st["lwz"] * st["lwz"]
+        g2 = gx * gx + gy * gy + gz * gz
+        dx = ax - st["lax"]
+        dy = ay - st["lay"]
+        dz = az - st["laz"]
+        d2 = dx * dx + dy * dy + dz * dz
+        a2 = st["lax"] * st["lax"] + st["lay"] * st["lay"] + st["laz"] * st["laz"]
+        if has_acc and w2 < self.rest_gyr2 and g2 < self.rest_gyr2 and d2 < self.rest_acc2 * a2:
+            st["t_rest"] = st["t_rest"] + dt
+            if st["t_rest"] > self.rest_time:
+                st["t_rest"] = self.rest_time
+        else:
+            st["t_rest"] = R(0.0)
+        rest = st["t_rest"] >= self.rest_time
+        if rest:
+            # Eq. 3.1: b_k = b_{k-1}, observed directly at rest
+            st["bx"] = st["bx"] + self.kb_rest * (gx - st["bx"])
+            st["by"] = st["by"] + self.kb_rest * (gy - st["by"])
+            st["bz"] = st["bz"] + self.kb_rest * (gz - st["bz"])
+        # strapdown: s = s (x) exp(1/2 (w - b) dt), series to 4th order (no sin/cos)
+        ox = (gx - st["bx"]) * dt
+        oy = (gy - st["by"]) * dt
+        oz = (gz - st["bz"]) * dt
+        th2 = ox * ox + oy * oy + oz * oz
+        cw = R(1.0) - th2 * R(0.125)
+        sv = R(0.5) - th2 * self.c48
+        s = _qmul(st["s0"], st["s1"], st["s2"], st["s3"], cw, sv * ox, sv * oy, sv * oz)
+        s = self._norm4(*s)
+        if s is None:
+            return None
+        st["s0"], st["s1"], st["s2"], st["s3"] = s
+        # B2: the accelerometer in the inertial frame
+        aix, aiy, aiz = _rotate(R, *s, ax, ay, az)
+        if first:
+            # B5: gravity from the first sample
+            st["fx"], st["fy"], st["fz"] = aix, aiy, aiz
+            st["vx"], st["vy"], st["vz"] = R(0.0), R(0.0), R(0.0)
+            st["pvv"], st["pvg"], st["pgg"] = R(0.0), R(0.0), self.pgg0
+        elif has_acc:
+            # predict: v' = a - g, g' = 0 (+ process noise growing with the rotation rate)
+            st["vx"] = st["vx"] + dt * (aix - st["fx"])
+            st["vy"] = st["vy"] + dt * (aiy - st["fy"])
+            st["vz"] = st["vz"] + dt * (aiz - st["fz"])
+            qg = self.qg_dt + self.qg_dt * (w2 * self.inv_rate_ref2)
+            pvv = st["pvv"] - self.two_dt * st["pvg"] + self.dt2 * st["pgg"]
+            pvg = st["pvg"] - dt * st["pgg"]
+            pgg = st["pgg"] + qg
+            # update with the pseudo-measurement v = 0 (noise 1 / dt per sample)
+            inv = R(1.0) / (pvv + self.r_d)
+            kv = pvv * inv
+            kg = pvg * inv
+            st["fx"] = st["fx"] - kg * st["vx"]
+            st["fy"] = st["fy"] - kg * st["vy"]
+            st["fz"] = st["fz"] - kg * st["vz"]
+            st["vx"] = st["vx"] - kv * st["vx"]
+            st["vy"] = st["vy"] - kv * st["vy"]
+            st["vz"] = st["vz"] - kv * st["vz"]
+            st["pgg"] = pgg - kg * pvg
+            st["pvg"] = pvg - kv * pvg
+            st["pvv"] = pvv - kv * pvv
+        # inclination: the smallest rotation r that turns the gravity estimate onto earth z
+        gex, gey, gez = _rotate(R, st["c0"], st["c1"], st["c2"], st["c3"],
+                                st["fx"], st["fy"], st["fz"])
+        gn = R(math.sqrt(gex * gex + gey * gey + gez * gez))
+        r = self._norm4(gn + gez, gey, -gex, R(0.0))
+        if r is None:
+            return None
+        r0, r1, r2, _ = r
+        c0, c1, c2, c3 = st["c0"], st["c1"], st["c2"], st["c3"]
+        c = self._norm4(r0 * c0 - r1 * c1 - r2 * c2,
+                        r0 * c1 + r1 * c0 + r2 * c3,
+                        r0 * c2 - r1 * c3 + r2 * c0,
+                        r0 * c3 + r1 * c2 - r2 * c1)
+        if c is None:
+            return None
+        st["c0"], st["c1"], st["c2"], st["c3"] = c
+        q = self._norm4(*_qmul(*c, *s))
+        if q is None:
+            return None
+        st["q0"], st["q1"], st["q2"], st["q3"] = q
+        # B3: the correction rate seen in the sensor frame is minus the bias error
+        # (Eq. 3.6, I_k = I_{k-1} + Ki dt e_k, with Ki dt = 1 / tau_bias)
+        if not rest and st["t"] >= self.tau_acc and self.inv_tau_bias > R(0.0):
+            ex, ey, ez = _rotate(R, q[0], -q[1], -q[2], -q[3], R(2.0) * r1, R(2.0) * r2, R(0.0))
+            st["bx"] = st["bx"] - ex * self.inv_tau_bias
+            st["by"] = st["by"] - ey * self.inv_tau_bias
+            st["bz"] = st["bz"] - ez * self.inv_tau_bias
+        return True
+
+    def _predict(self, st, gx, gy, gz):
+        """The output: q = c (x) s, then predicted by the sensor's latency with the
+        bias-corrected rate (q (x) exp(1/2 (w - b) latency), series as the strapdown).
+        Returns False to reject the sample."""
+        R = self._R
+        if not (self.latency > R(0.0)):
+            return True
+        ox = (gx - st["bx"]) * self.latency
+        oy = (gy - st["by"]) * self.latency
+        oz = (gz - st["bz"]) * self.latency
+        th2 = ox * ox + oy * oy + oz * oz
+        cw = R(1.0) - th2 * R(0.125)
+        sv = R(0.5) - th2 * self.c48
+        q = self._norm4(*_qmul(st["q0"], st["q1"], st["q2"], st["q3"],
+                               cw, sv * ox, sv * oy, sv * oz))
+        if q is None:
+            return False
+        st["q0"], st["q1"], st["q2"], st["q3"] = q
+        return True
+
+    def _mag_test(self, mn, hn, zn, n, h, z):
+        # the field matches the reference (n, h, z): norm within mag_norm n and dip
+        # within mag_dip (sin of the dip difference = zn h - hn z)
+        dn = mn - n
+        dd = zn * h - hn * z
+        tn = self.mag_norm * n
+        return dn < tn and -dn < tn and dd < self.mag_dip and -dd < self.mag_dip
+
+    def _mag(self, st, mx, my, mz):
+        """B4: heading from the magnetometer. Returns False to reject the sample."""
+        R = self._R
+        dt = self.dt
+        mex, mey, mez = _rotate(R, st["q0"], st["q1"], st["q2"], st["q3"], mx, my, mz)
+        h2 = mex * mex + mey * mey
+        n2 = h2 + mez * mez
+        if not (n2 >= self._min and n2 <= self._max):
+            return True   # no usable reading: gyro and accelerometer only
+        mn = R(math.sqrt(n2))
+        mh = R(math.sqrt(h2))
+        inv = R(1.0) / mn
+        hn = mh * inv
+        zn = mez * inv
+        if st["rn"] == R(0.0):
+            # first reading: it is the reference
+            st["rn"], st["rh"], st["rz"] = mn, hn, zn
+            st["cn"], st["ch"], st["cz"] = mn, hn, zn
+            st["t_ok"] = self.mag_hold
+        match = self._mag_test(mn, hn, zn, st["rn"], st["rh"], st["rz"])
+        if match:
+            st["t_ok"] = st["t_ok"] + dt
+            if st["t_ok"] > self.mag_hold:
+                st["t_ok"] = self.mag_hold
+        else:
+            st["t_ok"] = R(0.0)
+        if match and st["t_ok"] >= self.mag_hold:
+            st["t_dist"] = R(0.0)
+            st["t_cand"] = R(0.0)
+            k = self._gain(st["t"], self.tau_mag_ref, self.k_ref)
+            st["rn"] = st["rn"] + k * (mn - st["rn"])
+            st["rh"] = st["rh"] + k * (hn - st["rh"])
+            st["rz"] = st["rz"] + k * (zn - st["rz"])
+            st["cn"], st["ch"], st["cz"] = mn, hn, zn
+            if not (h2 >= self._min):
+                return True   # field vertical: no heading information
+            # heading: the rotation about earth z that turns the horizontal field onto
+            # north (+x), (1 + cos, 0, 0, -sin) normalised, taken by the fraction k
+            ih = R(1.0) / mh
+            fw = R(1.0) + mex * ih
+            fz = -(mey * ih)
+            f2 = fw * fw + fz * fz
+            if f2 >= self._min:
+                fr = R(1.0) / R(math.sqrt(f2))
+                fw = fw * fr
+                fz = fz * fr
+            else:
+                fw = R(0.0)
+                fz = R(1.0)
+            k = self._gain(st["t"], self.tau_mag, self.k_mag)
+            zw = R(1.0) - k + k * fw
+            zz = k * fz
+            z2 = zw * zw + zz * zz
+            if not (z2 >= self._min):
+                return False
+            zr = R(1.0) / R(math.sqrt(z2))
+            zw = zw * zr
+            zz = zz * zr
+            c0, c1, c2, c3 = st["c0"], st["c1"], st["c2"], st["c3"]
+            c = self._norm4(zw * c0 - zz * c3, zw * c1 - zz * c2,
+                            zw * c2 + zz * c1, zw * c3 + zz * c0)
+            if c is None:
+                return False
+            st["c0"], st["c1"], st["c2"], st["c3"] = c
+            q = self._norm4(*_qmul(*c, st["s0"], st["s1"], st["s2"], st["s3"]))
+            if q is None:
+                return False
+            st["q0"], st["q1"], st["q2"], st["q3"] = q
+        else:
+            # disturbed (or not yet matching for mag_hold): no heading correction; a new
+            # field that stays the same for mag_new_time of motion becomes the reference
+            st["t_dist"] = st["t_dist"] + dt
+            if self._mag_test(mn, hn, zn, st["cn"], st["ch"], st["cz"]):
+                st["cn"] = st["cn"] + self.k_rest * (mn - st["cn"])
+                st["ch"] = st["ch"] + self.k_rest * (hn - st["ch"])
+                st["cz"] = st["cz"] + self.k_rest * (zn - st["cz"])
+                if st["t_rest"] < self.rest_time:
+                    # only motion counts: at rest an attached magnet's field is steady too
+                    st["t_cand"] = st["t_cand"] + dt
+                if st["t_cand"] >= self.mag_new_time:
+                    st["rn"], st["rh"], st["rz"] = st["cn"], st["ch"], st["cz"]
+                    st["t_cand"] = R(0.0)
+            else:
+                st["cn"], st["ch"], st["cz"] = mn, hn, zn
+                st["t_cand"] = R(0.0)
+        return True
+
+    def _commit(self, st):
+        # valid-attitude policy: the whole new state must be finite
+        if not isfinite(*st.values()):
+            self._skip()
+            return
+        for n in self.state_names:
+            setattr(self, n, st[n])
+
+    def _advance(self, st):
+        # the clock of the start-up (saturating: no growth once every start is over)
+        st["t"] = st["t"] + self.dt
+        if st["t"] > self.t_max:
+            st["t"] = self.t_max
+
+    def _work(self):
+        return {n: getattr(self, n) for n in self.state_names}
+
+
+class RobustIMU(_Robust):
+    """imufuse's recommended attitude filter, gyroscope + accelerometer
+    (docs/recommended-ahrs.md).
+
+    RobustIMU(dt, tau_acc=2.5, rate_ref=100.0, tau_bias=100.0, tau_bias_rest=3.0,
+    rest_gyr=2.0, rest_acc=0.05, rest_time=1.5, tau_rest=0.5, latency=0.002): dt in s;
+    tau_acc (s)
+    the gravity filter's time constant at rest; rate_ref (deg/s) the rotation rate at
+    which its gravity uncertainty doubles (0: constant); tau_bias (s) the time
+    constant of the bias estimation in motion (0: off, else >= 4 tau_acc);
+    tau_bias_rest (s) that of the bias at rest; rest_gyr (deg/s) and rest_acc (g,
+    relative to the accelerometer's mean magnitude) the rest thresholds, held for
+    rest_time (s), with low-passes of tau_rest (s); latency (s) the delay of the
+    sensor chain (the gyroscope's internal filter), compensated in the output q0..q3 by
+    predicting it forward (0: none). Gyro in rad/s, accelerometer
+    in any unit. State: see state_names; q0..q3 is the estimate (sensor -> earth, NWU).
+    """
+    kind = "imu"
+    c_name = "imf_robust_imu"
+
+    @staticmethod
+    def _params(dt, tau_acc=2.5, rate_ref=100.0, tau_bias=100.0, tau_bias_rest=3.0,
+                rest_gyr=2.0, rest_acc=0.05, rest_time=1.5, tau_rest=0.5, latency=0.002):
+        dt = _checks.check_dt(dt)
+        return (dt,) + _Robust._imu_params(tau_acc, rate_ref, tau_bias, tau_bias_rest,
+                                           rest_gyr, rest_acc, rest_time, tau_rest, latency)
+
+    def _init(self, dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
+              rest_time, tau_rest, latency):
+        self._init_common(dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
+                          rest_time, tau_rest, latency, tau_rest, 0.0, 0.0, tau_rest, 0.0, 0.0)
+
+    def _update(self, gx, gy, gz, ax, ay, az):
+        if not isfinite(gx, gy, gz, ax, ay, az):
+            self._skip()
+            return
+        st = self._work()
+        if self._step(st, gx, gy, gz, ax, ay, az) is None:
+            self._skip()
+            return
+        if not self._predict(st, gx, gy, gz):
+            self._skip()
+            return
+        self._advance(st)
+        self._commit(st)
+
+
+class RobustAHRS(_Robust):
+    """imufuse's recommended attitude filter with a magnetometer
+    (docs/recommended-ahrs.md).
+
+    RobustAHRS(dt, ..., tau_mag=10.0, mag_norm=0.1, mag_dip=10.0, tau_mag_ref=20.0,
+    mag_new_time=20.0, mag_hold=0.5): the parameters of RobustIMU, and tau_mag (s) the heading
+    correction time constant; mag_norm (relative) and mag_dip (deg) the disturbance
+    thresholds against the learned reference field, learnt with tau_mag_ref (s); a
+    changed field that stays the same for mag_new_time (s) becomes the reference; after a
+    disturbance the field must match the reference for mag_hold (s) before it is used.
+    Magnetometer in any unit; an all-zero reading means none.
+    """
+    kind = "ahrs"
+    c_name = "imf_robust_ahrs"
+
+    @staticmethod
+    def _params(dt, tau_acc=2.5, rate_ref=100.0, tau_bias=100.0, tau_bias_rest=3.0,
+                rest_gyr=2.0, rest_acc=0.05, rest_time=1.5, tau_rest=0.5, latency=0.002,
+                tau_mag=10.0, mag_norm=0.1, mag_dip=10.0, tau_mag_ref=20.0, mag_new_time=20.0,
+                mag_hold=0.5):
+        dt = _checks.check_dt(dt)
+        imu = _Robust._imu_params(tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr,
+                                  rest_acc, rest_time, tau_rest, latency)
+        tau_mag = _checks.check_real("tau_mag", tau_mag, lo=0.0, lo_open=True)
+        mag_norm = _checks.check_real("mag_norm", mag_norm, lo=0.0)
+        mag_dip = _checks.check_real("mag_dip", mag_dip, lo=0.0, hi=180.0)
+        tau_mag_ref = _checks.check_real("tau_mag_ref", tau_mag_ref, lo=0.0, lo_open=True)
+        mag_new_time = _checks.check_real("mag_new_time", mag_new_time, lo=0.0)
+        mag_hold = _checks.check_real("mag_hold", mag_hold, lo=0.0)
+        # the dip test compares sines: sin(mag_dip), in double, for both backends;
+        # 90 deg or more: no dip test
+        dip = math.sin(mag_dip * _DEG) if mag_dip < 90.0 else 2.0
+        return (dt,) + imu + (tau_mag, mag_norm, dip, tau_mag_ref, mag_new_time, mag_hold)
+
+    def _init(self, dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
+              rest_time, tau_rest, latency, tau_mag, mag_norm, mag_dip, tau_mag_ref,
+              mag_new_time, mag_hold):
+        self._init_common(dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
+                          rest_time, tau_rest, latency, tau_mag, mag_norm, mag_dip, tau_mag_ref,
+                          mag_new_time, mag_hold)
+
+    def _update(self, gx, gy, gz, ax, ay, az, mx, my, mz):
+        if not isfinite(gx, gy, gz, ax, ay, az, mx, my, mz):
+            self._skip()
+            return
+        st = self._work()
+        if self._step(st, gx, gy, gz, ax, ay, az) is None:
+            self._skip()
+            return
+        if not self._mag(st, mx, my, mz):
+            self._skip()
+            return
+        if not self._predict(st, gx, gy, gz):
+            self._skip()
+            return
+        self._advance(st)
+        self._commit(st)
