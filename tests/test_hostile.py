@@ -166,7 +166,8 @@ def test_gyro_1e6_rad_s_then_recovery(case, dtype):
     c, r = case.make("c", dtype), case.make("ref", dtype)
     g, *rest = _static(case.kind, scale=case.params.get("acc_1g", 1.0), n=BURST)
     g = np.tile([1e6, -1e6, 1e6], (BURST, 1))
-    inputs = tuple(np.concatenate(x) for x in zip((g, *rest), _static(case.kind, scale=case.params.get("acc_1g", 1.0), n=TAIL)))
+    tail = _static(case.kind, scale=case.params.get("acc_1g", 1.0), n=TAIL)
+    inputs = tuple(np.concatenate(x) for x in zip((g, *rest), tail))
     assert_same_bits(c.run(*inputs), r.run(*inputs), c.state_names)
     assert c.skipped == r.skipped
     S = c.run(*_static(case.kind, scale=case.params.get("acc_1g", 1.0), n=recovery_budget(case, dtype)))
@@ -226,7 +227,8 @@ def test_constructors_agree(case, dtype, key, value):
 @given(case=st.sampled_from(CASES), dtype=st.sampled_from(DTYPES), slot=st.integers(0, 8),
        value=_ODD, vector=st.booleans())
 def test_update_inputs_agree(case, dtype, slot, value, vector):
-    args = [list(x[0]) if np.ndim(x[0]) else float(x[0]) for x in _static(case.kind, scale=case.params.get("acc_1g", 1.0), n=1)]
+    one = _static(case.kind, scale=case.params.get("acc_1g", 1.0), n=1)
+    args = [list(x[0]) if np.ndim(x[0]) else float(x[0]) for x in one]
     i = slot % len(args)
     if vector and case.kind != "1d":
         args[i][slot % 3] = value

@@ -63,7 +63,7 @@ class _Runs:
         self.out = {}
         self.ref = {}
         jobs = []
-        for (prec, grp), specs in GROUPS.items():
+        for prec, grp in GROUPS:
             self.inputs[prec, grp] = mf.inputs_for(prec, grp, N_MOTION)
             for t in TARGETS:
                 if t not in toolchains and prec in mf.TARGET_PRECISIONS[t]:
@@ -329,7 +329,8 @@ def test_arithmetic(toolchains, target, precision):
         g, w = got[i], want[op]
         nan = np.isnan(w)
         # NaN payloads are not specified by IEEE 754; only a NaN-ness mismatch is an error
-        bad = np.where(nan, ~np.isnan(g), g.view(g.dtype.str.replace("f", "u")) != w.view(w.dtype.str.replace("f", "u")))
+        bad = np.where(nan, ~np.isnan(g),
+                       g.view(g.dtype.str.replace("f", "u")) != w.view(w.dtype.str.replace("f", "u")))
         if bad.any():
             j = int(np.argmax(bad))
             d = ulps(g[bad & ~nan], w[bad & ~nan]) if (bad & ~nan).any() else np.array([np.inf])

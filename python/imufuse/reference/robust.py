@@ -334,7 +334,6 @@ class _Robust(ReferenceFilter):
     def _mag_test(self, mn, hn, zn, n, h, z):
         # the field matches the reference (n, h, z): norm within mag_norm n and dip
         # within mag_dip (sin of the dip difference = zn h - hn z)
-        R = self._R
         dn = mn - n
         dd = zn * h - hn * z
         tn = self.mag_norm * n
