@@ -16,6 +16,27 @@
 
 #include "imf_fixed.h"
 
+/* Profiles compiled into the dispatching imf_<filter>_update: both, or only
+ * the one IMF_FIXED_PROFILE (32 or 8) names -- then the other profile's code
+ * is not linked (on AVR the 32-bit profile is about half the flash of these
+ * filters) and init_consts rejects that profile. */
+#if defined(IMF_FIXED_PROFILE) && (IMF_FIXED_PROFILE == 8)
+#define IMF_Q_HAS_P32 0
+#define IMF_Q_HAS_P8 1
+#elif defined(IMF_FIXED_PROFILE) && (IMF_FIXED_PROFILE == 32)
+#define IMF_Q_HAS_P32 1
+#define IMF_Q_HAS_P8 0
+#else
+#define IMF_Q_HAS_P32 1
+#define IMF_Q_HAS_P8 1
+#endif
+
+/* 1 if the profile given to init (8, anything else = 32) is compiled in. */
+static inline int imf_q_profile_ok(const int profile)
+{
+    return profile == 8 ? IMF_Q_HAS_P8 : IMF_Q_HAS_P32;
+}
+
 /* On AVR, keep the rarely taken or self-contained steps out of line: the
  * inlined copies cost more in register spills than the call. */
 #if defined(__AVR__)
@@ -70,22 +91,6 @@ IMF_Q_OUTLINE void imf_q_rate32(const int16_t qs[4], const int32_t h[3], int32_t
     dq[1] = imf_sub_sat32(imf_add_sat32(x0, z2), y3);
     dq[2] = imf_add_sat32(imf_sub_sat32(y0, z1), x3);
     dq[3] = imf_sub_sat32(imf_add_sat32(z0, y1), x2);
-}
-
-/* 8-bit profile: the same with h narrowed to int16 in q(15+hs) and one
- * 16x16->32 multiply per product, each rounded back to q30. */
-static inline void imf_q_rate8(const int16_t qs[4], const int32_t h[3], const int hs, int32_t dq[4])
-{
-    int16_t hx, hy, hz;
-    hx = imf_sat_q15(imf_rshr32(h[0], 15 - hs));
-    hy = imf_sat_q15(imf_rshr32(h[1], 15 - hs));
-    hz = imf_sat_q15(imf_rshr32(h[2], 15 - hs));
-#define IMF_P(a, b) imf_rshr32((int32_t)(a) * (int32_t)(b), hs)
-    dq[0] = imf_sub_sat32(imf_sub_sat32(-IMF_P(qs[1], hx), IMF_P(qs[2], hy)), IMF_P(qs[3], hz));
-    dq[1] = imf_sub_sat32(imf_add_sat32(IMF_P(qs[0], hx), IMF_P(qs[2], hz)), IMF_P(qs[3], hy));
-    dq[2] = imf_add_sat32(imf_sub_sat32(IMF_P(qs[0], hy), IMF_P(qs[1], hz)), IMF_P(qs[3], hx));
-    dq[3] = imf_sub_sat32(imf_add_sat32(IMF_P(qs[0], hz), IMF_P(qs[1], hy)), IMF_P(qs[2], hx));
-#undef IMF_P
 }
 
 /* 8-bit profile: unit vector of an int16 3-vector in symmetric q15, or 0
@@ -143,20 +148,15 @@ static inline int32_t imf_q8_rshr_hs(const int32_t x, const int n)
  * t to within one LSB of q(15+hs), however long a rate is held: rounding
  * each sample on its own leaves up to half an LSB per sample (0.002 rad/s for
  * a +-2000 deg/s gyro at 512 Hz), which the accelerometer corrects in tilt
- * but which accumulates in the unobserved yaw.  In two halves, so that
- * Mahony adds its feedback in between:
- * carry in: t + (c mod 2^16) for t a gyro product int16 x uint16, |t| <=
- * 2^15 (2^16 - 1): the sum stays below 2^31, no overflow. */
-static inline int32_t imf_q8_carry_in(const int32_t t, const int32_t c)
+ * but which accumulates in the unobserved yaw.  In 16-bit operations (no
+ * overflow for any t and c): the low words add, their carry goes to the high
+ * word. */
+static inline int32_t imf_q8_carry(const int32_t t, int32_t *const c)
 {
-    return t + (int32_t)(uint16_t)c;
-}
-
-/* carry out: c = u mod 2^16, returns floor(u / 2^16) (high word). */
-static inline int32_t imf_q8_carry_out(const int32_t u, int32_t *const c)
-{
-    *c = (int32_t)(uint16_t)u;
-    return imf_asr32(u, 16); /* byte moves on AVR */
+    const uint16_t lo = (uint16_t)((uint32_t)t & 0xFFFFu);
+    const uint16_t s = (uint16_t)(lo + (uint16_t)((uint32_t)*c & 0xFFFFu));
+    *c = (int32_t)s;
+    return (int32_t)(int16_t)(t >> 16) + (s < lo ? 1 : 0); /* floor(t / 2^16) + carry */
 }
 
 /* 8-bit profile, appendix step 7 / 3: dq = q (x) (0, h), h in q(15+hs)

@@ -17,7 +17,8 @@ int imf_madgwick_imu_q_init_consts(imf_madgwick_imu_q_t *const self, const imf_q
     self->x.q[0] = IMF_Q30_ONE;
     self->x.q[1] = self->x.q[2] = self->x.q[3] = 0;
     self->x.c[0] = self->x.c[1] = self->x.c[2] = 0;
-    if (kg.m == 0 || !imf_qscale_ok(kg, 31, 61) || !imf_qscale_ok(kb, 16, 46)) {
+    if (kg.m == 0 || !imf_qscale_ok(kg, 31, 61) || !imf_qscale_ok(kb, 16, 46)
+        || !imf_q_profile_ok(profile)) {
         return -1;
     }
     return 0;
@@ -210,15 +211,15 @@ void imf_madgwick_imu_q8_update(imf_madgwick_imu_q_t *const self, const int16_t 
     int32_t *const q = self->x.q;
     int32_t h[3], dq[4];
     int16_t qs[4], d16;
-    int i;
     d16 = imf_q8_snapshot_norm(q, qs);
     /* step 3: h = 0.5 w dt in q(15+hs), with the remainder carried when kg8
      * has the shift 16 (the product is then in q(31+hs)) */
     if (self->kg8.n == 16) {
-        for (i = 0; i < 3; ++i) {
-            h[i] = imf_q8_carry_out(imf_q8_carry_in(imf_mul16su(gyr[i], self->kg8.m),
-                                                    self->x.c[i]), &self->x.c[i]);
-        }
+        const uint16_t m = self->kg8.m;
+        int32_t *const c = self->x.c;
+        h[0] = imf_q8_carry(imf_mul16su(gyr[0], m), &c[0]);
+        h[1] = imf_q8_carry(imf_mul16su(gyr[1], m), &c[1]);
+        h[2] = imf_q8_carry(imf_mul16su(gyr[2], m), &c[2]);
     } else {
         imf_gain8_mul3(gyr, self->kg8, h);
     }
@@ -230,9 +231,15 @@ void imf_madgwick_imu_q8_update(imf_madgwick_imu_q_t *const self, const int16_t 
 void imf_madgwick_imu_q_update(imf_madgwick_imu_q_t *const self, const int16_t gyr[3],
                                const int16_t acc[3])
 {
+#if IMF_Q_HAS_P8 && IMF_Q_HAS_P32
     if (self->profile == 8) {
         imf_madgwick_imu_q8_update(self, gyr, acc);
     } else {
         imf_madgwick_imu_q32_update(self, gyr, acc);
     }
+#elif IMF_Q_HAS_P8
+    imf_madgwick_imu_q8_update(self, gyr, acc);
+#else
+    imf_madgwick_imu_q32_update(self, gyr, acc);
+#endif
 }

@@ -10,7 +10,7 @@
  *
  * State x (int32): q[4] = q0..q3 [w x y z], q30, sensor -> earth;
  * c[3] = cx..cz, 8-bit profile: the low 16 bits of the rate 0.5 w dt in
- * q(31+hs) not yet applied, in [0, 2^16) (imf_q8_carry_in/out; 0 otherwise).
+ * q(31+hs) not yet applied, in [0, 2^16) (imf_q8_carry; 0 otherwise).
  * Settings (q-scale constants):
  *   kg = 0.5 gyr_scale dt   gyro counts -> half angle per sample
  *   kb = beta dt            normalised delta-s (q15) -> quaternion step (q30)

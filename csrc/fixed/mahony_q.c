@@ -25,7 +25,7 @@ int imf_mahony_imu_q_init_consts(imf_mahony_imu_q_t *const self, const imf_qscal
     /* kg: gyro full scale below 0.25 rad half angle per sample (s >= 31);
      * kp, ki: shifts of imf_scale16/32 in range */
     if (kg.m == 0 || !imf_qscale_ok(kg, 31, 61) || !imf_qscale_ok(kp, 16, 47)
-        || !imf_qscale_ok(ki, 8, 54)) {
+        || !imf_qscale_ok(ki, 8, 54) || !imf_q_profile_ok(profile)) {
         return -1;
     }
     return 0;
@@ -160,18 +160,19 @@ void imf_mahony_imu_q8_update(imf_mahony_imu_q_t *const self, const int16_t gyr[
     int32_t *const q = self->x.q;
     int32_t h[3], dq[4];
     int16_t qs[4], d16;
-    int i;
     d16 = imf_q8_snapshot_norm(q, qs);
     if (self->fast8) {
-        /* step 1 in q(31+hs) (kg8 has the shift 16) plus the carried
-         * remainder, steps 2-6, then h to q(15+hs), the remainder kept */
-        for (i = 0; i < 3; ++i) {
-            h[i] = imf_q8_carry_in(imf_mul16su(gyr[i], self->kg8.m), self->x.c[i]);
-        }
+        /* step 1 in q(31+hs) (kg8 has the shift 16), steps 2-6, then h to
+         * q(15+hs) with the remainder carried */
+        const uint16_t m = self->kg8.m;
+        int32_t *const c = self->x.c;
+        h[0] = imf_mul16su(gyr[0], m);
+        h[1] = imf_mul16su(gyr[1], m);
+        h[2] = imf_mul16su(gyr[2], m);
         imf_mahony_imu_q8_feedback(self, qs, acc, h);
-        for (i = 0; i < 3; ++i) {
-            h[i] = imf_q8_carry_out(h[i], &self->x.c[i]);
-        }
+        h[0] = imf_q8_carry(h[0], &c[0]);
+        h[1] = imf_q8_carry(h[1], &c[1]);
+        h[2] = imf_q8_carry(h[2], &c[2]);
     } else {
         /* step 1 in q(15+hs), rounded; steps 2-6 add Kp e and I rounded */
         imf_gain8_mul3(gyr, self->kg8, h);
@@ -185,9 +186,15 @@ void imf_mahony_imu_q8_update(imf_mahony_imu_q_t *const self, const int16_t gyr[
 void imf_mahony_imu_q_update(imf_mahony_imu_q_t *const self, const int16_t gyr[3],
                              const int16_t acc[3])
 {
+#if IMF_Q_HAS_P8 && IMF_Q_HAS_P32
     if (self->profile == 8) {
         imf_mahony_imu_q8_update(self, gyr, acc);
     } else {
         imf_mahony_imu_q32_update(self, gyr, acc);
     }
+#elif IMF_Q_HAS_P8
+    imf_mahony_imu_q8_update(self, gyr, acc);
+#else
+    imf_mahony_imu_q32_update(self, gyr, acc);
+#endif
 }

@@ -18,7 +18,7 @@
  *   cx..cz   the remainder carried to the next sample: 32-bit profile
  *            (ki.s >= 31), the 8 bits of Ki dt e below q38, in [0, 2^8)
  *            (imf_mahony_imu_q_carry_i); 8-bit profile's short path, the low 16 bits of
- *            the rate 0.5 w' dt in q(31+hs), in [0, 2^16) (imf_q8_carry_in/out);
+ *            the rate 0.5 w' dt in q(31+hs), in [0, 2^16) (imf_q8_carry);
  *            0 otherwise
  * Settings (q-scale constants m 2^-s, imf_fixed.h):
  *   kg = 0.5 gyr_scale dt   gyro counts -> half angle per sample

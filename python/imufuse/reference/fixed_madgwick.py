@@ -149,8 +149,7 @@ class MadgwickIMUQ(FixedFilter):
         # step 3: h = 0.5 w dt in q(15+hs), with the remainder carried when kg8
         # has the shift 16 (the product is then in q(31+hs))
         if self.kg8[1] == 16:
-            h = [fq.q8_carry_out(fq.q8_carry_in(gyr[i] * self.kg8[0], self.c[i]), self.c, i)
-                 for i in range(3)]
+            h = [fq.q8_carry(gyr[i] * self.kg8[0], self.c, i) for i in range(3)]
         else:
             h = [ci.gain8_mul(g, self.kg8) for g in gyr]
         dq = fq.rate_q8(qs, h, self.hs)

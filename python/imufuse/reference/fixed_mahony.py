@@ -127,11 +127,11 @@ class MahonyIMUQ(FixedFilter):
     def _update8(self, gyr, acc):
         self.q, qs, d16 = fq.snapshot_norm8(self.q)
         if self.fast8:
-            # step 1 in q(31+hs) (kg8 has the shift 16) plus the carried
-            # remainder, steps 2-6, then h to q(15+hs), the remainder kept
-            h = [fq.q8_carry_in(g * self.kg8[0], c) for g, c in zip(gyr, self.c)]
+            # step 1 in q(31+hs) (kg8 has the shift 16), steps 2-6, then h to
+            # q(15+hs) with the remainder carried
+            h = [g * self.kg8[0] for g in gyr]
             self._feedback(qs, acc, h, True)
-            h = [fq.q8_carry_out(h[i], self.c, i) for i in range(3)]
+            h = [fq.q8_carry(h[i], self.c, i) for i in range(3)]
         else:
             # step 1 in q(15+hs), rounded; steps 2-6 add Kp e and I rounded
             h = [ci.gain8_mul(g, self.kg8) for g in gyr]

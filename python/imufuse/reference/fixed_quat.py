@@ -32,20 +32,6 @@ def rate32(qs, h):
             sub(add(z0, y1), x2)]
 
 
-def rate8(qs, h, hs):
-    hx = ci.sat_q15(ci.rshr32(h[0], 15 - hs))
-    hy = ci.sat_q15(ci.rshr32(h[1], 15 - hs))
-    hz = ci.sat_q15(ci.rshr32(h[2], 15 - hs))
-
-    def P(a, b):
-        return ci.rshr32(a * b, hs)
-    sub, add = ci.sub_sat32, ci.add_sat32
-    return [sub(sub(-P(qs[1], hx), P(qs[2], hy)), P(qs[3], hz)),
-            sub(add(P(qs[0], hx), P(qs[2], hz)), P(qs[3], hy)),
-            add(sub(P(qs[0], hy), P(qs[1], hz)), P(qs[3], hx)),
-            sub(add(P(qs[0], hz), P(qs[1], hy)), P(qs[2], hx))]
-
-
 def unit3_8(v):
     """imf_q8_unit3: symmetric q15 unit vector of an int16 3-vector, or None."""
     b = [max(x, -32767) for x in v]
@@ -66,15 +52,13 @@ def check(x):
     return ci.check32(x)
 
 
-def q8_carry_in(t, c):
-    """imf_q8_carry_in: t + (c mod 2^16)."""
-    return check(t + (c & 0xFFFF))
-
-
-def q8_carry_out(u, c, i):
-    """imf_q8_carry_out: c[i] = u mod 2^16, returns floor(u / 2^16)."""
-    c[i] = u & 0xFFFF
-    return u >> 16
+def q8_carry(t, c, i):
+    """imf_q8_carry: floor((t + c[i]) / 2^16), c[i] = the remainder, in 16-bit
+    operations: the low words add, their carry goes to the high word."""
+    lo = t & 0xFFFF
+    s = (lo + (c[i] & 0xFFFF)) & 0xFFFF
+    c[i] = s
+    return (t >> 16) + (1 if s < lo else 0)
 
 
 def rate_q8(qs, h, hs):
