@@ -116,7 +116,7 @@ def main(argv=None):
     data = trials(a.dir)
     ids = " ".join(t for t, _ in data)
     if not a.ablation_only:
-        print(f"| filter | 6D tilt | 9D tilt | 9D heading |\n|---|---|---|---|")
+        print("| filter | 6D tilt | 9D tilt | 9D heading |\n|---|---|---|---|")
         rows = []
         pairs = [("RobustIMU", "RobustAHRS"), ("MadgwickIMU", "MadgwickAHRS"),
                  ("MahonyIMU", "MahonyAHRS"), ("DCM", None), ("Mahony2D", None),
@@ -147,7 +147,7 @@ def main(argv=None):
         # per trial, the recommended filter and VQF
         t6, _, per6, _ = score(data, imufuse_estimator("RobustIMU"), False)
         t9, h9, per9, perh = score(data, imufuse_estimator("RobustAHRS"), True)
-        print(f"| trial | " + " | ".join(t for t, _ in data) + " | mean |")
+        print("| trial | " + " | ".join(t for t, _ in data) + " | mean |")
         print("|---" * (len(data) + 2) + "|")
         print("| RobustIMU tilt | " + " | ".join("%.2f" % v for v in per6) + f" | {t6:.2f} |")
         print("| RobustAHRS tilt | " + " | ".join("%.2f" % v for v in per9) + f" | {t9:.2f} |")

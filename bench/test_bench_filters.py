@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 import imufuse.reference as reference
+from plain_loop import build
 from registry import DTYPES, FLOAT_CASES
 from sequences import generate
 
@@ -28,7 +29,6 @@ _plain = {}
 
 def plain_lib(dtype):
     if dtype not in _plain:
-        from plain_loop import build
         classes = sorted({getattr(reference, c.name) for c in FLOAT_CASES}, key=lambda c: c.__name__)
         _plain[dtype] = build(dtype, classes)
     return _plain[dtype]

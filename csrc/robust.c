@@ -214,12 +214,20 @@ static int robust_step(const imf_robust_settings_t *const set, imf_robust_state_
     const imf_real dt = set->dt;
     const int first = x->t == IMF_R(0.0);
     /* an all-zero accelerometer is no reading: gyro only (and no start without one) */
-    const int has_acc = !(ax == IMF_R(0.0) && ay == IMF_R(0.0) && az == IMF_R(0.0));
+    int has_acc = !(ax == IMF_R(0.0) && ay == IMF_R(0.0) && az == IMF_R(0.0));
     imf_real k, w2, g2, dx, dy, dz, d2, a2, ox, oy, oz, th2, cw, sv, gn;
     imf_real s[4], ai[3], ge[3], r[4], c[4], q[4], e[3];
     int rest;
     if (first && !has_acc) {
         return 0;
+    }
+    if (has_acc && !first) {
+        /* a reading beyond 100 times the gravity estimate (100 g) is a shock or a
+           hostile value: it says nothing about gravity, and is no reading */
+        const imf_real f2 = x->fx * x->fx + x->fy * x->fy + x->fz * x->fz;
+        if (!(ax * ax + ay * ay + az * az <= IMF_R(1.0e4) * f2)) {
+            has_acc = 0;
+        }
     }
     /* B1: rest detection, low-passes of gyro and accelerometer in the sensor frame */
     k = robust_gain(set, x->t, set->tau_rest, set->k_rest);
@@ -273,12 +281,18 @@ static int robust_step(const imf_robust_settings_t *const set, imf_robust_state_
         x->vx = IMF_R(0.0); x->vy = IMF_R(0.0); x->vz = IMF_R(0.0);
         x->pvv = IMF_R(0.0); x->pvg = IMF_R(0.0); x->pgg = set->pgg0;
     } else if (has_acc) {
-        imf_real qg, pvv, pvg, pgg, inv, kv, kg;
+        imf_real rr, qg, pvv, pvg, pgg, inv, kv, kg;
         /* predict: v' = a - g, g' = 0 (+ process noise growing with the rotation rate) */
         x->vx = x->vx + dt * (ai[0] - x->fx);
         x->vy = x->vy + dt * (ai[1] - x->fy);
         x->vz = x->vz + dt * (ai[2] - x->fz);
-        qg = set->qg_dt + set->qg_dt * (w2 * set->inv_rate_ref2);
+        /* (w / rate_ref)^2 capped at 10^4 (100 rate_ref: beyond any gyro's range), so
+           that hostile rates cannot blow the covariance up */
+        rr = w2 * set->inv_rate_ref2;
+        if (!(rr <= IMF_R(1.0e4))) {
+            rr = IMF_R(1.0e4);
+        }
+        qg = set->qg_dt + set->qg_dt * rr;
         pvv = x->pvv - set->two_dt * x->pvg + set->dt2 * x->pgg;
         pvg = x->pvg - dt * x->pgg;
         pgg = x->pgg + qg;

@@ -22,6 +22,9 @@ import numpy as np
 
 cnp.import_array()
 
+# the numpy type of imf_real
+cdef int _NATIVE = cnp.NPY_DOUBLE if sizeof(imf_real) == 8 else cnp.NPY_FLOAT
+
 cdef extern from "imf_math.h" nogil:
     int imf_finite3(imf_real a, imf_real b, imf_real c)
 
@@ -39,6 +42,7 @@ cdef extern from "imf_attitude.h" nogil:
                                 imf_real ay, imf_real az, imf_real mx, imf_real my, imf_real mz)
 
 from imufuse import _checks
+from imufuse.reference._base import init_arguments as _init_arguments
 
 _R = np.float32 if DTYPE == "float32" else float
 
@@ -100,6 +104,7 @@ cdef class _Filter:
     cdef Py_ssize_t _n
     cdef uint32_t *_skipped
     cdef tuple _args
+    cdef dict _kw
     cdef tuple _start
     cdef imf_real _dt0
     cdef int _pending
@@ -109,10 +114,13 @@ cdef class _Filter:
 
     def __init__(self, *args, init="identity", init_window=1, q0=None, state=None, **kwargs):
         self._args = self._ref._checked_params(DTYPE, *args, **kwargs)
+        # the C init arguments by name (the reference _init's = the C init's names)
+        self._kw = _init_arguments(self._ref, self._args)
         self._n = len(self._ref.state_names)
         self._start = _checks.check_start(self._ref.kind, self._ref.state_names, DTYPE, init,
                                           init_window, q0, state)
-        self._dt0 = <imf_real><double>self._args[0]
+        # the constructor's period (filters without a dt, like VarioKF, never use it)
+        self._dt0 = <imf_real><double>self._kw.get("dt", 0.0)
         self._init()
         self._apply_start()
 
@@ -184,9 +192,9 @@ cdef class _Filter:
     def state(self):
         if self._x == NULL:
             _unbound(self)
-        out = np.empty(self._n, dtype=DTYPE)
-        cdef imf_real[::1] o = out
-        memcpy(&o[0], self._x, self._n * sizeof(imf_real))
+        cdef cnp.npy_intp n = self._n
+        out = cnp.PyArray_EMPTY(1, &n, _NATIVE, 0)
+        memcpy(cnp.PyArray_DATA(<cnp.ndarray>out), self._x, self._n * sizeof(imf_real))
         return out
 
     @state.setter
@@ -208,6 +216,54 @@ cdef class _Filter:
 
     def __repr__(self):
         return f"<imufuse_c {type(self).__name__} dtype={DTYPE}>"
+
+
+# ---- run(): inputs read in place ---------------------------------------------
+# A C-contiguous, aligned, native-endian float32 or float64 array of the right
+# shape is read where it lies: no copy, no temporary. Arrays of the other float
+# type are converted element by element inside the loop (a float32 filter given
+# float64 data rounds each value to float32 as it reads it, exactly as
+# numpy's astype would); anything else (lists, strided views, other dtypes, bad
+# shapes) goes through imufuse._checks.run_inputs, which converts it or raises
+# the error naming the shapes. (The per-sample dt and init="first" paths
+# convert through _checks.run_inputs.)
+
+cdef inline int _in_place(object v, int ndim, Py_ssize_t *n) except -2:
+    """The numpy type number of v if it can be read in place as a (n,) or (n, 3)
+    float array (n = -1: any, set to v's), else -1."""
+    if not cnp.PyArray_Check(v):
+        return -1
+    cdef cnp.ndarray arr = <cnp.ndarray>v
+    cdef int t = cnp.PyArray_TYPE(arr)
+    if (t != cnp.NPY_DOUBLE and t != cnp.NPY_FLOAT) or cnp.PyArray_NDIM(arr) != ndim \
+            or not cnp.PyArray_ISCARRAY_RO(arr) or not cnp.PyArray_ISNOTSWAPPED(arr):
+        return -1
+    if ndim == 2 and cnp.PyArray_DIM(arr, 1) != 3:
+        return -1
+    if n[0] < 0:
+        n[0] = cnp.PyArray_DIM(arr, 0)
+    elif cnp.PyArray_DIM(arr, 0) != n[0]:
+        return -1
+    return t
+
+
+cdef inline imf_real _load(const char *base, int t, Py_ssize_t i) noexcept nogil:
+    if t == cnp.NPY_DOUBLE:
+        return <imf_real>(<const double *>base)[i]
+    return <imf_real>(<const float *>base)[i]
+
+
+cdef inline void _load3(const char *base, int t, Py_ssize_t k, imf_real *out) noexcept nogil:
+    out[0] = _load(base, t, 3 * k)
+    out[1] = _load(base, t, 3 * k + 1)
+    out[2] = _load(base, t, 3 * k + 2)
+
+
+cdef inline object _trajectory(Py_ssize_t n_samples, Py_ssize_t n):
+    cdef cnp.npy_intp dims[2]
+    dims[0] = n_samples
+    dims[1] = n
+    return cnp.PyArray_EMPTY(2, dims, _NATIVE, 0)
 
 
 cdef class _Filter1D(_Filter):
@@ -255,16 +311,21 @@ cdef class _Filter1D(_Filter):
             _unbound(self)
         if dt is not None:
             return self._run_dt(rate, angle, dt)
-        rate_a, angle_a = _checks.run_inputs("1d", DTYPE, (rate, angle))
-        cdef Py_ssize_t n_samples = rate_a.shape[0], n = self._n, k
-        out = np.empty((n_samples, n), dtype=DTYPE)
-        cdef const imf_real[::1] w = rate_a
-        cdef const imf_real[::1] a = angle_a
-        cdef imf_real[:, ::1] o = out
+        cdef Py_ssize_t n_samples = -1, n = self._n, k
+        cdef int tw = _in_place(rate, 1, &n_samples)
+        cdef int ta = _in_place(angle, 1, &n_samples) if tw >= 0 else -1
+        if ta < 0:
+            rate, angle = _checks.run_inputs("1d", DTYPE, (rate, angle))
+            tw = ta = _NATIVE
+            n_samples = cnp.PyArray_DIM(<cnp.ndarray>rate, 0)
+        out = _trajectory(n_samples, n)
+        cdef const char *w = <const char *>cnp.PyArray_DATA(<cnp.ndarray>rate)
+        cdef const char *a = <const char *>cnp.PyArray_DATA(<cnp.ndarray>angle)
+        cdef imf_real *o = <imf_real *>cnp.PyArray_DATA(<cnp.ndarray>out)
         with nogil:
             for k in range(n_samples):
-                self._step(w[k], a[k])
-                _copy_state(&o[k, 0], self._x, n)
+                self._step(_load(w, tw, k), _load(a, ta, k))
+                _copy_state(o + k * n, self._x, n)
         return out
 
 
@@ -346,16 +407,30 @@ cdef class _FilterIMU(_Filter):
             _unbound(self)
         if dt is not None or self._pending:
             return self._run_general(gyr, acc, dt)
-        gyr_a, acc_a = _checks.run_inputs("imu", DTYPE, (gyr, acc))
-        cdef Py_ssize_t n_samples = gyr_a.shape[0], n = self._n, k
-        out = np.empty((n_samples, n), dtype=DTYPE)
-        cdef const imf_real[:, ::1] g = gyr_a
-        cdef const imf_real[:, ::1] a = acc_a
-        cdef imf_real[:, ::1] o = out
+        cdef Py_ssize_t n_samples = -1, n = self._n, k
+        cdef int tg = _in_place(gyr, 2, &n_samples)
+        cdef int ta = _in_place(acc, 2, &n_samples) if tg >= 0 else -1
+        if ta < 0:
+            gyr, acc = _checks.run_inputs("imu", DTYPE, (gyr, acc))
+            tg = ta = _NATIVE
+            n_samples = cnp.PyArray_DIM(<cnp.ndarray>gyr, 0)
+        out = _trajectory(n_samples, n)
+        cdef const char *pg = <const char *>cnp.PyArray_DATA(<cnp.ndarray>gyr)
+        cdef const char *pa = <const char *>cnp.PyArray_DATA(<cnp.ndarray>acc)
+        cdef imf_real *o = <imf_real *>cnp.PyArray_DATA(<cnp.ndarray>out)
+        cdef imf_real g[3]
+        cdef imf_real a[3]
         with nogil:
-            for k in range(n_samples):
-                self._step(&g[k, 0], &a[k, 0])
-                _copy_state(&o[k, 0], self._x, n)
+            if tg == _NATIVE and ta == _NATIVE:
+                for k in range(n_samples):
+                    self._step(<const imf_real *>pg + 3 * k, <const imf_real *>pa + 3 * k)
+                    _copy_state(o + k * n, self._x, n)
+            else:
+                for k in range(n_samples):
+                    _load3(pg, tg, k, g)
+                    _load3(pa, ta, k, a)
+                    self._step(g, a)
+                    _copy_state(o + k * n, self._x, n)
         return out
 
 
@@ -435,15 +510,33 @@ cdef class _FilterAHRS(_Filter):
             _unbound(self)
         if dt is not None or self._pending:
             return self._run_general(gyr, acc, mag, dt)
-        gyr_a, acc_a, mag_a = _checks.run_inputs("ahrs", DTYPE, (gyr, acc, mag))
-        cdef Py_ssize_t n_samples = gyr_a.shape[0], n = self._n, k
-        out = np.empty((n_samples, n), dtype=DTYPE)
-        cdef const imf_real[:, ::1] g = gyr_a
-        cdef const imf_real[:, ::1] a = acc_a
-        cdef const imf_real[:, ::1] m = mag_a
-        cdef imf_real[:, ::1] o = out
+        cdef Py_ssize_t n_samples = -1, n = self._n, k
+        cdef int tg = _in_place(gyr, 2, &n_samples)
+        cdef int ta = _in_place(acc, 2, &n_samples) if tg >= 0 else -1
+        cdef int tm = _in_place(mag, 2, &n_samples) if ta >= 0 else -1
+        if tm < 0:
+            gyr, acc, mag = _checks.run_inputs("ahrs", DTYPE, (gyr, acc, mag))
+            tg = ta = tm = _NATIVE
+            n_samples = cnp.PyArray_DIM(<cnp.ndarray>gyr, 0)
+        out = _trajectory(n_samples, n)
+        cdef const char *pg = <const char *>cnp.PyArray_DATA(<cnp.ndarray>gyr)
+        cdef const char *pa = <const char *>cnp.PyArray_DATA(<cnp.ndarray>acc)
+        cdef const char *pm = <const char *>cnp.PyArray_DATA(<cnp.ndarray>mag)
+        cdef imf_real *o = <imf_real *>cnp.PyArray_DATA(<cnp.ndarray>out)
+        cdef imf_real g[3]
+        cdef imf_real a[3]
+        cdef imf_real m[3]
         with nogil:
-            for k in range(n_samples):
-                self._step(&g[k, 0], &a[k, 0], &m[k, 0])
-                _copy_state(&o[k, 0], self._x, n)
+            if tg == _NATIVE and ta == _NATIVE and tm == _NATIVE:
+                for k in range(n_samples):
+                    self._step(<const imf_real *>pg + 3 * k, <const imf_real *>pa + 3 * k,
+                               <const imf_real *>pm + 3 * k)
+                    _copy_state(o + k * n, self._x, n)
+            else:
+                for k in range(n_samples):
+                    _load3(pg, tg, k, g)
+                    _load3(pa, ta, k, a)
+                    _load3(pm, tm, k, m)
+                    self._step(g, a, m)
+                    _copy_state(o + k * n, self._x, n)
         return out

@@ -19,8 +19,8 @@ cdef class DCM(_FilterIMU):
     cdef imf_dcm_t s
 
     cdef int _init(self) except -1:
-        a = self._args
-        imf_dcm_init(&self.s, a[0], a[1], a[2])
+        a = self._kw
+        imf_dcm_init(&self.s, a["dt"], a["kp"], a["ki"])
         return self._bind(&self.s.x, sizeof(self.s.x), &self.s.skipped)
 
     cdef void _step(self, const imf_real *gyr, const imf_real *acc) noexcept nogil:

@@ -64,7 +64,8 @@ cdef class Complementary1D(_Filter1D):
     cdef imf_complementary1d_t s
 
     cdef int _init(self) except -1:
-        imf_complementary1d_init(&self.s, self._args[0], self._args[1])
+        a = self._kw
+        imf_complementary1d_init(&self.s, a["dt"], a["alpha"])
         return self._bind(&self.s.x, sizeof(self.s.x), &self.s.skipped)
 
     cdef void _step(self, imf_real rate, imf_real angle) noexcept nogil:
@@ -79,7 +80,8 @@ cdef class Kalman1D(_Filter1D):
     cdef imf_kalman1d_t s
 
     cdef int _init(self) except -1:
-        imf_kalman1d_init(&self.s, self._args[0], self._args[1])
+        a = self._kw
+        imf_kalman1d_init(&self.s, a["dt"], a["k0"])
         return self._bind(&self.s.x, sizeof(self.s.x), &self.s.skipped)
 
     cdef void _step(self, imf_real rate, imf_real angle) noexcept nogil:
@@ -94,7 +96,8 @@ cdef class Mahony1D(_Filter1D):
     cdef imf_mahony1d_t s
 
     cdef int _init(self) except -1:
-        imf_mahony1d_init(&self.s, self._args[0], self._args[1])
+        a = self._kw
+        imf_mahony1d_init(&self.s, a["dt"], a["kp"])
         return self._bind(&self.s.x, sizeof(self.s.x), &self.s.skipped)
 
     cdef void _step(self, imf_real rate, imf_real angle) noexcept nogil:
@@ -109,8 +112,8 @@ cdef class Kalman1DBias(_Filter1D):
     cdef imf_kalman1d_bias_t s
 
     cdef int _init(self) except -1:
-        imf_kalman1d_bias_init(&self.s, self._args[0], self._args[1], self._args[2],
-                               self._args[3])
+        a = self._kw
+        imf_kalman1d_bias_init(&self.s, a["dt"], a["k0"], a["k1"], a["bias_sign"])
         return self._bind(&self.s.x, sizeof(self.s.x), &self.s.skipped)
 
     cdef void _step(self, imf_real rate, imf_real angle) noexcept nogil:
@@ -125,8 +128,8 @@ cdef class Mahony1DBias(_Filter1D):
     cdef imf_mahony1d_bias_t s
 
     cdef int _init(self) except -1:
-        imf_mahony1d_bias_init(&self.s, self._args[0], self._args[1], self._args[2],
-                               self._args[3])
+        a = self._kw
+        imf_mahony1d_bias_init(&self.s, a["dt"], a["kp"], a["ki"], a["integrate_first"])
         return self._bind(&self.s.x, sizeof(self.s.x), &self.s.skipped)
 
     cdef void _step(self, imf_real rate, imf_real angle) noexcept nogil:
@@ -141,7 +144,8 @@ cdef class Complementary1DBias(_Filter1D):
     cdef imf_complementary1d_bias_t s
 
     cdef int _init(self) except -1:
-        imf_complementary1d_bias_init(&self.s, self._args[0], self._args[1], self._args[2])
+        a = self._kw
+        imf_complementary1d_bias_init(&self.s, a["dt"], a["kp"], a["ki"])
         return self._bind(&self.s.x, sizeof(self.s.x), &self.s.skipped)
 
     cdef void _step(self, imf_real rate, imf_real angle) noexcept nogil:

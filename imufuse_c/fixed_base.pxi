@@ -10,6 +10,7 @@ from libc.stdint cimport int16_t, int32_t
 import numpy as np
 
 from imufuse.reference import fixed_base as _fb
+from imufuse.reference._base import init_arguments as _init_arguments
 
 
 cdef int _unbound(object f) except -1:
@@ -21,6 +22,7 @@ cdef class _FixedFilter:
     cdef int32_t *_x
     cdef Py_ssize_t _n
     cdef tuple _args
+    cdef dict _kw
     cdef object _conv
     _ref = None
     dtype = "int32"
@@ -29,6 +31,8 @@ cdef class _FixedFilter:
         # the reference instance validates the arguments and converts states
         self._conv = self._ref(*args, profile=profile, **kwargs)
         self._args = self._conv._args
+        # the C init arguments by name (the reference _init's = the C init's names)
+        self._kw = _init_arguments(self._ref, self._args)
         self._n = len(self._ref.state_names)
         self._init()
 

@@ -62,8 +62,9 @@ cdef class Complementary1DQ(_Fixed1D):
     cdef imf_complementary1d_q_t s
 
     cdef int _init(self) except -1:
-        a = self._args
-        rc = imf_complementary1d_q_init(&self.s, a[0], a[1], a[2], a[3])
+        a = self._kw
+        rc = imf_complementary1d_q_init(&self.s, a["dt"], a["alpha"], a["gyr_scale"],
+                                        a["angle_scale"])
         return self._bind(&self.s.x, sizeof(self.s.x), rc)
 
     cdef void _step(self, int16_t rate, int16_t angle) noexcept nogil:
@@ -75,8 +76,9 @@ cdef class Mahony1DBiasQ(_Fixed1D):
     cdef imf_mahony1d_bias_q_t s
 
     cdef int _init(self) except -1:
-        a = self._args
-        rc = imf_mahony1d_bias_q_init(&self.s, a[0], a[1], a[2], a[3], a[4], a[5])
+        a = self._kw
+        rc = imf_mahony1d_bias_q_init(&self.s, a["dt"], a["kp"], a["ki"], a["integrate_first"],
+                                      a["gyr_scale"], a["angle_scale"])
         return self._bind(&self.s.x, sizeof(self.s.x), rc)
 
     cdef void _step(self, int16_t rate, int16_t angle) noexcept nogil:
@@ -88,8 +90,8 @@ cdef class KKQ(_FixedIMU):
     cdef imf_kk_q_t s
 
     cdef int _init(self) except -1:
-        a = self._args
-        rc = imf_kk_q_init(&self.s, a[0], a[1], a[2])
+        a = self._kw
+        rc = imf_kk_q_init(&self.s, a["dt"], a["kp"], a["gyr_scale"])
         return self._bind(&self.s.x, sizeof(self.s.x), rc)
 
     cdef void _step(self, const int16_t *gyr, const int16_t *acc) noexcept nogil:
@@ -101,8 +103,9 @@ cdef class MultiWiiQ(_FixedIMU):
     cdef imf_multiwii_q_t s
 
     cdef int _init(self) except -1:
-        a = self._args
-        rc = imf_multiwii_q_init(&self.s, a[0], a[1], a[2], a[3], a[4], a[5])
+        a = self._kw
+        rc = imf_multiwii_q_init(&self.s, a["dt"], a["cmpf"], a["acc_lpf_shift"], a["acc_1g"],
+                                 a["window"], a["gyr_scale"])
         return self._bind(&self.s.x, sizeof(self.s.x), rc)
 
     cdef void _step(self, const int16_t *gyr, const int16_t *acc) noexcept nogil:
@@ -114,8 +117,8 @@ cdef class MahonyIMUQ(_FixedIMU):
     cdef imf_mahony_imu_q_t s
 
     cdef int _init(self) except -1:
-        a = self._args
-        rc = imf_mahony_imu_q_init(&self.s, a[0], a[1], a[2], a[3], a[4])
+        a = self._kw
+        rc = imf_mahony_imu_q_init(&self.s, a["dt"], a["kp"], a["ki"], a["gyr_scale"], a["profile"])
         return self._bind(&self.s.x, sizeof(self.s.x), rc)
 
     cdef void _step(self, const int16_t *gyr, const int16_t *acc) noexcept nogil:
@@ -127,8 +130,8 @@ cdef class MadgwickIMUQ(_FixedIMU):
     cdef imf_madgwick_imu_q_t s
 
     cdef int _init(self) except -1:
-        a = self._args
-        rc = imf_madgwick_imu_q_init(&self.s, a[0], a[1], a[2], a[3])
+        a = self._kw
+        rc = imf_madgwick_imu_q_init(&self.s, a["dt"], a["beta"], a["gyr_scale"], a["profile"])
         return self._bind(&self.s.x, sizeof(self.s.x), rc)
 
     cdef void _step(self, const int16_t *gyr, const int16_t *acc) noexcept nogil:

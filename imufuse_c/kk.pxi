@@ -18,7 +18,8 @@ cdef class KK(_FilterIMU):
     cdef imf_kk_t s
 
     cdef int _init(self) except -1:
-        imf_kk_init(&self.s, self._args[0], self._args[1])
+        a = self._kw
+        imf_kk_init(&self.s, a["dt"], a["kp"])
         return self._bind(&self.s.x, sizeof(self.s.x), &self.s.skipped)
 
     cdef void _step(self, const imf_real *gyr, const imf_real *acc) noexcept nogil:

@@ -30,8 +30,9 @@ cdef class MadgwickIMU(_FilterIMU):
     cdef imf_madgwick_imu_t s
 
     cdef int _init(self) except -1:
-        a = self._args
-        imf_madgwick_imu_init(&self.s, a[0], a[1], a[2], a[3], a[4], a[5], a[6])
+        a = self._kw
+        imf_madgwick_imu_init(&self.s, a["dt"], a["beta"], a["delta_s"], a["invsqrt"],
+                              a["acc_gate_lo"], a["acc_gate_hi"], a["acc_1g"])
         return self._bind(&self.s.x, sizeof(self.s.x), &self.s.skipped)
 
     cdef void _step(self, const imf_real *gyr, const imf_real *acc) noexcept nogil:
@@ -49,8 +50,9 @@ cdef class MadgwickAHRS(_FilterAHRS):
     cdef imf_madgwick_ahrs_t s
 
     cdef int _init(self) except -1:
-        a = self._args
-        imf_madgwick_ahrs_init(&self.s, a[0], a[1], a[2], a[3], a[4], a[5])
+        a = self._kw
+        imf_madgwick_ahrs_init(&self.s, a["dt"], a["beta"], a["invsqrt"], a["acc_gate_lo"],
+                               a["acc_gate_hi"], a["acc_1g"])
         return self._bind(&self.s.x, sizeof(self.s.x), &self.s.skipped)
 
     cdef void _step(self, const imf_real *gyr, const imf_real *acc,

@@ -19,8 +19,8 @@ cdef class MultiWii(_FilterIMU):
     cdef imf_multiwii_t s
 
     cdef int _init(self) except -1:
-        a = self._args
-        imf_multiwii_init(&self.s, a[0], a[1], a[2], a[3], a[4])
+        a = self._kw
+        imf_multiwii_init(&self.s, a["dt"], a["cmpf"], a["acc_lpf_shift"], a["acc_1g"], a["window"])
         return self._bind(&self.s.x, sizeof(self.s.x), &self.s.skipped)
 
     cdef void _step(self, const imf_real *gyr, const imf_real *acc) noexcept nogil:

@@ -35,9 +35,10 @@ cdef class RobustIMU(_FilterIMU):
     cdef imf_robust_imu_t s
 
     cdef int _init(self) except -1:
-        a = self._args
-        imf_robust_imu_init(&self.s, a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8],
-                            a[9])
+        a = self._kw
+        imf_robust_imu_init(&self.s, a["dt"], a["tau_acc"], a["rate_ref"], a["tau_bias"],
+                            a["tau_bias_rest"], a["rest_gyr"], a["rest_acc"], a["rest_time"],
+                            a["tau_rest"], a["latency"])
         return self._bind(&self.s.x, sizeof(self.s.x), &self.s.skipped)
 
     cdef void _step(self, const imf_real *gyr, const imf_real *acc) noexcept nogil:
@@ -55,9 +56,11 @@ cdef class RobustAHRS(_FilterAHRS):
     cdef imf_robust_ahrs_t s
 
     cdef int _init(self) except -1:
-        a = self._args
-        imf_robust_ahrs_init(&self.s, a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8],
-                             a[9], a[10], a[11], a[12], a[13], a[14], a[15])
+        a = self._kw
+        imf_robust_ahrs_init(&self.s, a["dt"], a["tau_acc"], a["rate_ref"], a["tau_bias"],
+                             a["tau_bias_rest"], a["rest_gyr"], a["rest_acc"], a["rest_time"],
+                             a["tau_rest"], a["latency"], a["tau_mag"], a["mag_norm"],
+                             a["mag_dip"], a["tau_mag_ref"], a["mag_new_time"], a["mag_hold"])
         return self._bind(&self.s.x, sizeof(self.s.x), &self.s.skipped)
 
     cdef void _step(self, const imf_real *gyr, const imf_real *acc,

@@ -26,9 +26,9 @@ cdef class VarioKF(_Filter):
         super().__init__(*args, **kwargs)
 
     cdef int _init(self) except -1:
-        a = self._args
-        imf_vario_init(&self.s, a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8], a[9],
-                       a[10])
+        a = self._kw
+        imf_vario_init(&self.s, a["var_z"], a["var_acc"], a["var_bias"], a["p_z"], a["p_v"],
+                       a["p_b"], a["z0"], a["v0"], a["b0"], a["z0_from_baro"], a["predict"])
         return self._bind(&self.s.x, sizeof(self.s.x), &self.s.skipped)
 
     def update(self, accel, baro_alt, dt):

@@ -3,6 +3,7 @@ every entry reaches every harness (registry, demo/CLI, firmware harness, MCU
 runner, fixed-point driver, stubs), and what an entry derives agrees with the C
 headers."""
 import inspect
+from pathlib import Path
 
 import pytest
 
@@ -11,6 +12,7 @@ import imufuse_c
 from imufuse import catalogue, cproto
 from imufuse._checks import KINDS
 from imufuse._resources import csrc_dir
+from imufuse._stubs import stubs
 from imufuse.estimate import ADAPTERS
 from imufuse.mcu import filters as mcu_filters
 from registry import FIXED_CASES, FLOAT_CASES
@@ -60,6 +62,11 @@ def test_entry_c_prototypes_match_by_name(e):
     if e.fixed and "profile" not in c_args:   # profile selects the update, not an init value
         want = tuple(a for a in want if a != "profile")
     assert c_args == want, f"{e.c_name}_init{c_args} vs reference _init{e.init_args}"
+    if not e.fixed:   # per-sample dt and, for 3-D filters, the start attitude
+        hooks = ["_set_dt"] + ([] if e.kind == "1d" else ["_set_attitude"])
+        for h in hooks:
+            assert cproto.find_prototype(HEADERS, e.c_name + h) is not None, e.c_name + h
+            assert callable(getattr(e.reference, h, None)), f"{e.name}.{h}"
     n_in = sum(1 if e.kind == "1d" else 3 for _ in e.inputs)
     n_c = sum(3 if p.vector else 1 for p in update.params[1:])
     assert n_c == n_in, f"{e.c_name}_update takes {n_c} values, kind {e.kind} gives {n_in}"
@@ -100,6 +107,33 @@ def test_unknown_names_are_reported():
         catalogue.entry("MadgwickIMUU")
     with pytest.raises(catalogue.FilterError, match="fixed-point"):
         catalogue.reference_class("KKQ")
+
+
+def test_stubs_are_generated_from_the_catalogue():
+    """imufuse_c/__init__.pyi (shipped with the package) is what the catalogue
+    generates: regenerate with `python -m imufuse._stubs > imufuse_c/__init__.pyi`."""
+    shipped = Path(imufuse_c.__file__).with_name("__init__.pyi")
+    assert shipped.is_file(), "imufuse_c/__init__.pyi is not installed"
+    assert shipped.read_text() == stubs(), "stale stubs: python -m imufuse._stubs > imufuse_c/__init__.pyi"
+    assert Path(imufuse_c.__file__).with_name("py.typed").is_file()
+    for name in (*catalogue.FILTERS, *catalogue.FILTERS_FIXED):
+        assert f"\nclass {name}(" in shipped.read_text()
+
+
+@pytest.mark.parametrize("e", ENTRIES)
+def test_stub_methods_exist(e):
+    """What the stubs promise, the compiled class has."""
+    import re
+    text = stubs()
+    body = text.split(f"\nclass {e.name}(")[1].split("\nclass ")[0]
+    kw = dict(dtype="float64") if not e.fixed else {}
+    f = e.make("c", dt=0.01, **e.defaults, **kw)
+    for name in re.findall(r"    def (\w+)\(", body):
+        assert name == "__init__" or callable(getattr(f, name)), name
+    ctor = inspect.signature(e.compiled) if not e.fixed else None
+    if ctor is not None:
+        for p in ctor.parameters:
+            assert f" {p}: " in body.split("def __init__(")[1].split(") -> None")[0], p
 
 
 def test_fusion_suite_in_the_catalogue():

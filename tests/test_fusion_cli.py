@@ -73,7 +73,8 @@ def test_preprocess_order_and_values(log_path):
     from imufuse import preprocess
     calib = {"gyroscope": {"M": [[1, 0.01, 0], [0, 1, 0], [0, 0, 1]], "s": [1, 1.02, 1],
                            "b": [0.009, 0, -0.009]}}
-    import tempfile, os
+    import os
+    import tempfile
     with tempfile.TemporaryDirectory() as d:
         p = os.path.join(d, "c.json")
         cm.save_calibration(p, calib)

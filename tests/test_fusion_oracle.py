@@ -15,7 +15,6 @@ bit-equal too: imufuse's float32 build calls the same libm functions (atan2f,
 asinf, sinf, cosf) in the same precision, and its twin calls them through ctypes.
 Gravity is not compared with the oracle: 1.2.3 has no gravity output.
 """
-import math
 
 import numpy as np
 import pytest

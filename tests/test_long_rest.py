@@ -102,7 +102,7 @@ def _acc_angle(acc):
 
 # ---- estimates: what each filter's state says about the attitude --------------------------
 QUAT = {"MahonyIMU", "MahonyAHRS", "MadgwickIMU", "MadgwickAHRS", "MahonyIMUQ",
-        "MadgwickIMUQ"}
+        "MadgwickIMUQ", "RobustIMU", "RobustAHRS"}
 GRAV = {"MultiWii", "Mahony2D", "MultiWiiQ"}
 
 

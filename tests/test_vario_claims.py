@@ -31,7 +31,7 @@ def test_fusion_removes_the_lag(lag):
     assert abs(fused - truth) <= 0.1
     baro = {k: v for k, v in lag.items() if k.startswith("barometer only")}
     assert len(baro) == 4
-    for name, (l90, steady, rms) in baro.items():
+    for name, (l90, _steady, rms) in baro.items():
         assert l90 > fused + 0.35, name
         assert rms > 4 * fused_rms, name
     assert baro["barometer only, var_acc 200"][0] > fused + 2.5

@@ -140,7 +140,8 @@ class Proto:
             for i in range(3):
                 self.vI[i] += dt * (aI[i] - self.gI[i])
             wn = math.sqrt(wn2)
-            qg = (p["sv"] ** 2 * p["T_v"] / p["tau_acc"] ** 4) * (1.0 + (wn / (p["w_ref"] * DEG)) ** 2 if p["w_ref"] > 0 else 1.0) * dt
+            rate_gain = (1.0 + (wn / (p["w_ref"] * DEG)) ** 2 if p["w_ref"] > 0 else 1.0)
+            qg = (p["sv"] ** 2 * p["T_v"] / p["tau_acc"] ** 4) * rate_gain * dt
             pvv = P[0] - 2 * dt * P[1] + dt * dt * P[2]
             pvg = P[1] - dt * P[2]
             pgg = P[2] + qg

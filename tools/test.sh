@@ -23,13 +23,17 @@ PIP=("$VPY" -m pip install -q --disable-pip-version-check)
 "${PIP[@]}" "setuptools>=64" "Cython>=3" "numpy>=2" build
 "$VPY" -m build --sdist --no-isolation --outdir "$ROOT/build/sdist" . >/dev/null
 SDIST=$(ls "$ROOT"/build/sdist/imufuse-*.tar.gz)
-"${PIP[@]}" --no-build-isolation "imufuse[test] @ file://$SDIST"
+# --no-cache-dir: never a wheel pip cached from an earlier sdist of the same version
+"${PIP[@]}" --no-build-isolation --no-cache-dir "imufuse[test] @ file://$SDIST"
 
 # the published-code oracle comes from PyPI, which the install above needs anyway:
 # an unreachable oracle is a failure here, not a skip
 export IMUFUSE_REQUIRE_ORACLE=1
 # tests/test_packaging.py checks that imufuse and imufuse_c come from the venv
 export IMUFUSE_TEST_INSTALLED="$VENV"
+# lint and types of the sources (configuration in pyproject.toml)
+"$VPY" -m ruff check .
+"$VPY" -m mypy
 # keep the checkout's directory off sys.path (Python >= 3.11): its imufuse_c/
 # must not shadow the installed package
 export PYTHONSAFEPATH=1

@@ -36,6 +36,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .io import LogError
+
 __all__ = ["Calibration", "gyro_offset", "still_phases", "accel_six_position", "mag_minmax",
            "mag_ellipsoid", "save", "run_log", "describe", "SECTIONS"]
 
@@ -294,7 +296,6 @@ def save(path, cal):
 
 def _read_columns(path, names):
     import csv
-    from .io import LogError
     if not os.path.exists(path):
         raise LogError(f"{path}: no such file", "file")
     with open(path, newline="") as fh:

@@ -19,8 +19,13 @@ Fusion's operation order; pure-Python twin in imufuse.reference.fusion).
 """
 import json
 from dataclasses import dataclass, field
+from typing import Optional
 
 import numpy as np
+
+import imufuse_c
+
+from .reference import fusion
 
 SENSORS = {"gyroscope": ("M", "s", "b"), "accelerometer": ("M", "s", "b"),
            "magnetometer": ("S", "h")}
@@ -35,9 +40,9 @@ class CalibrationError(ValueError):
 @dataclass
 class Calibration:
     """Parameters per sensor (float64 arrays); absent sensors are None."""
-    gyroscope: dict = None
-    accelerometer: dict = None
-    magnetometer: dict = None
+    gyroscope: Optional[dict] = None
+    accelerometer: Optional[dict] = None
+    magnetometer: Optional[dict] = None
     source: str = ""
     extra: dict = field(default_factory=dict)
 
@@ -50,10 +55,7 @@ class Calibration:
         """Calibrate (N, 3) samples of one sensor; unchanged if it has no entry."""
         if getattr(self, sensor) is None:
             return np.asarray(x, dtype=dtype)
-        if backend == "c":
-            import imufuse_c as mod
-        else:
-            from .reference import fusion as mod
+        mod = imufuse_c if backend == "c" else fusion
         p = self.params(sensor)
         if sensor == "magnetometer":
             return mod.calibrate_magnetic(x, p["S"], p["h"], dtype=dtype)

@@ -32,7 +32,7 @@ from __future__ import annotations
 import difflib
 import inspect
 from dataclasses import dataclass, field
-from typing import Any, Dict, FrozenSet, List, Mapping, Optional, Sequence, Tuple
+from typing import Any, Dict, FrozenSet, Iterable, List, Mapping, Optional, Sequence, Tuple
 
 import imufuse_c as compiled
 
@@ -40,7 +40,8 @@ from . import reference
 from ._checks import KINDS, check_dtype
 from .estimate import ADAPTERS, Estimate
 
-__all__ = ["Entry", "FilterError", "FLOAT", "FIXED", "FUSION", "FILTERS_FUSION", "ENTRIES", "FILTERS", "FILTERS_FIXED",
+__all__ = ["Entry", "FilterError", "FLOAT", "FIXED", "FUSION", "FILTERS_FUSION", "ENTRIES", "FILTERS",
+           "FILTERS_FIXED",
            "entry", "filter_names", "reference_class", "compiled_class", "param_names",
            "resolve_params", "make_filter", "estimate", "why_no_estimate", "inputs_for", "KINDS"]
 
@@ -60,11 +61,11 @@ class Entry:
 
     # ---- derived from the reference class: one source for each fact
     @property
-    def reference(self) -> type:
+    def reference(self) -> Any:
         return getattr(reference, self.name)
 
     @property
-    def compiled(self) -> type:
+    def compiled(self) -> Any:
         return getattr(compiled, self.name)
 
     @property
@@ -102,7 +103,7 @@ class Entry:
         return cls(**kwargs)
 
 
-def _alt(*groups: Sequence[str]) -> Tuple[FrozenSet[str], ...]:
+def _alt(*groups: Iterable[str]) -> Tuple[FrozenSet[str], ...]:
     return tuple(frozenset(g) for g in groups)
 
 
@@ -188,7 +189,7 @@ def filter_names(kinds: Optional[Sequence[str]] = None) -> List[str]:
     return [e.name for e in FLOAT if kinds is None or e.kind in kinds]
 
 
-def reference_class(name: str) -> type:
+def reference_class(name: str) -> Any:
     """The pure-Python class of a float filter (FilterError for unknown names)."""
     e = entry(name)
     if e.fixed:
@@ -196,7 +197,7 @@ def reference_class(name: str) -> type:
     return e.reference
 
 
-def compiled_class(name: str) -> type:
+def compiled_class(name: str) -> Any:
     return entry(name).compiled
 
 

@@ -23,8 +23,25 @@ import math
 import os
 import sys
 import time
+import concurrent.futures as cf
+import itertools
 
 import numpy as np
+
+from . import io, plots, preprocess, sim
+from ._resources import csrc_dir
+from .catalogue import (FilterError, estimate, filter_names, inputs_for, make_filter,
+                        param_names, reference_class, resolve_params,
+                        why_no_estimate)
+from .cli_vario import add_parsers
+from .demo import run_demo
+from .estimate import euler_of
+from .evaluation import METRICS, evaluate, from_enu, mean_over_trials, to_enu
+from .firmware import DEFAULT_TIMEOUT, Firmware, FirmwareError, csrc_firmware, validate_isolated
+from .io import (ACC, EXAMPLE_ATTRIBUTION, GYR, LogError, MAG, axis_inputs, example_log,
+                 parse_column_map, read_column_map, read_log, require)
+from .preprocess import add_arguments as _preprocess_options, apply, fusion_hint
+from .rotations import quat_to_euler
 
 EXIT_OK, EXIT_FAIL, EXIT_USAGE, EXIT_FILE, EXIT_DATA, EXIT_FIRMWARE, EXIT_INTERNAL = range(7)
 EXIT_INTERRUPT = 130
@@ -75,7 +92,6 @@ def _names(items):
 
 def _scoped_params(items, names):
     """--param NAME=V (every filter that has NAME) or FILTER.NAME=V -> {filter: {name: v}}."""
-    from .catalogue import param_names
     out = {n: {} for n in names}
     for k, v in _pairs(items).items():
         if "." in k:
@@ -97,7 +113,6 @@ def _scoped_params(items, names):
 def effective_params(name, params):
     """The constructor's keyword defaults updated by `params` (what the filter
     really runs with), dt included."""
-    from .catalogue import reference_class
     sig = inspect.signature(reference_class(name)._params)
     out = {p.name: p.default for p in sig.parameters.values()
            if p.default is not inspect.Parameter.empty}
@@ -117,7 +132,6 @@ def _fmt_params(name, params):
 
 def supports_dt_array(name):
     """True when the filter's run() takes dt=array (per-sample periods)."""
-    from .catalogue import reference_class
     try:
         return "dt" in inspect.signature(reference_class(name).run).parameters
     except (TypeError, ValueError):
@@ -126,7 +140,6 @@ def supports_dt_array(name):
 
 def supports_init(name):
     """True when the filter's constructor takes init= ("first" or a quaternion)."""
-    from .catalogue import reference_class
     cls = reference_class(name)
     for fn in (cls.__init__, cls._params):
         try:
@@ -175,7 +188,6 @@ class Runner:
     """One filter, configured from the command line, run over a log."""
 
     def __init__(self, name, log, args, overrides):
-        from .catalogue import make_filter, reference_class, resolve_params
         self.name, self.cls, self.log = name, reference_class(name), log
         self.params = resolve_params(name, log.dt, overrides)
         self.backend, self.dtype = args.backend, args.dtype
@@ -223,7 +235,6 @@ class Runner:
 # logs
 
 def _column_map(args):
-    from .io import parse_column_map, read_column_map
     cmap = {}
     if getattr(args, "column_map", None):
         cmap.update(read_column_map(args.column_map))
@@ -233,14 +244,12 @@ def _column_map(args):
 
 
 def _load(args, path=None):
-    from .io import read_log
     log = read_log(path or args.log, gyr_unit=args.gyr_unit, acc_unit=args.acc_unit,
                    rate=args.rate, columns=_column_map(args),
                    fixed_rate=getattr(args, "fixed_rate", False),
                    time_unit=getattr(args, "time_unit", None))
     for w in log.warnings:
         _err(f"note: {w}")
-    from .preprocess import apply
     for note in apply(log, args, getattr(args, "backend", "c")):  # --calibration, --align, --offset
         _err(f"note: {note}")
     return log
@@ -271,7 +280,6 @@ def check_outputs(inputs, outputs):
 
 def _inputs(cls, log, axis):
     """run() arguments of a filter from a log, and a description."""
-    from .io import ACC, GYR, MAG, axis_inputs, require
     if cls.kind == "1d":
         rate, angle, src = axis_inputs(log, axis)
         return (rate, angle), src
@@ -289,8 +297,6 @@ def _ref_frame(args, log):
 
 def _ref_angle(log, axis, args):
     """Reference angle of the single-axis filters (roll or pitch of the reference, NWU)."""
-    from .evaluation import from_enu, to_enu
-    from .rotations import quat_to_euler
     q = log.q_ref
     if q is None:
         return None
@@ -312,7 +318,6 @@ def _mask(log, args):
 def _evaluate(cls, est, log, args, per_sample=False):
     """Evaluation (3D) or {'angle': (rms, max), 'n': n} (1D) against the log's
     reference, or None without a reference or estimate."""
-    from .evaluation import evaluate
     if est is None or log.q_ref is None:
         return None
     mask = _mask(log, args)
@@ -332,7 +337,6 @@ def _evaluate(cls, est, log, args, per_sample=False):
 def _estimate(cls, S, chunk=1 << 16):
     """catalogue.estimate(cls, S), block by block (the adapters' temporaries
     stay small for long logs); the same values."""
-    from .catalogue import estimate
     if len(S) <= chunk:
         return estimate(cls, S)
     parts = [estimate(cls, S[k:k + chunk]) for k in range(0, len(S), chunk)]
@@ -348,7 +352,6 @@ def _estimate(cls, S, chunk=1 << 16):
 
 def _euler_deg(q, chunk=65536):
     """(N, 3) roll, pitch, yaw in degrees, computed in chunks (bounded memory)."""
-    from .rotations import quat_to_euler
     out = np.empty((len(q), 3))
     for k in range(0, len(q), chunk):
         out[k:k + chunk] = np.degrees(quat_to_euler(q[k:k + chunk]))
@@ -358,7 +361,6 @@ def _euler_deg(q, chunk=65536):
 def _frame_hint(cls, est, log, args, ev):
     """A hint when the reference frame was not said and another frame fits far
     better (an ENU reference read as NWU gives ~90 deg heading errors)."""
-    from .evaluation import evaluate
     if (getattr(args, "ref_frame", None) or log.ref_frame or cls.kind != "ahrs" or ev is None
             or isinstance(ev, dict) or not ev.n or not ev.heading > 20):
         return None
@@ -376,7 +378,6 @@ def _frame_hint(cls, est, log, args, ev):
 
 
 def _frame_q(q, frame):
-    from .evaluation import from_enu, to_enu
     return q if frame == "NWU" else from_enu(to_enu(q, "NWU"), frame)
 
 
@@ -384,9 +385,6 @@ def _frame_q(q, frame):
 # demo
 
 def _demo(args):
-    from .demo import run_demo
-    from .catalogue import reference_class
-    from .io import EXAMPLE_ATTRIBUTION, example_log
     names = None
     if args.filters:
         names = _names(args.filters)
@@ -433,9 +431,6 @@ def _parser_demo(sub):
 # run
 
 def _run(args):
-    from . import io
-    from .catalogue import reference_class, why_no_estimate
-    from . import preprocess
     _fusion_hint(args.filter, "run")
     check_outputs([args.log], [("-o", args.output), ("--plot", args.plot)])
     if preprocess.is_fusion(args.filter):  # Fusion's units and dt per sample
@@ -495,7 +490,6 @@ def _run(args):
 
 def _write_output(path, cols, f32=()):
     """CSV to stdout ("-") or a file, or NPZ for OUT.npz; OutputError when it cannot be written."""
-    from . import io
     try:
         if path == "-":
             io.write_csv(sys.stdout, cols, float32=f32)
@@ -523,7 +517,6 @@ def _parser_run(sub):
     _log_options(r)
     _filter_options(r)
     _eval_options(r)
-    from .preprocess import add_arguments as _preprocess_options
     _preprocess_options(r)
     r.set_defaults(func=_run)
 
@@ -533,24 +526,18 @@ def _parser_run(sub):
 
 def _default_filters(log):
     """3D filters the log can feed (AHRS ones only with a magnetometer), else the 1D ones."""
-    from .catalogue import filter_names
-    from .io import ACC, GYR, MAG
     if log.has(*GYR, *ACC):
         return filter_names({"imu", "ahrs"} if log.has(*MAG) else {"imu"}) or filter_names({"1d"})
     return filter_names({"1d"})
 
 
 def _fusion_hint(name, command):
-    from .preprocess import fusion_hint
     hint = fusion_hint(name, command)
     if hint:
         raise UsageError(hint)
 
 
 def _compare(args):
-    from .catalogue import FilterError, reference_class, why_no_estimate
-    from .io import LogError
-    from .rotations import quat_to_euler
     names = _names(args.filters)
     for n in names:
         _fusion_hint(n, "compare")
@@ -598,7 +585,7 @@ def _compare(args):
         hint = hint or _frame_hint(cls, est, log, args, ev)
         rows.append((n, cls.kind, ev, final, sps, note))
     if not computed:
-        for n, kind, _, _, _, note in rows:
+        for n, _kind, _, _, _, note in rows:
             _err(f"{n}: {note}")
         raise NothingComputed(f"{log.path}: no filter could run on this log ({len(log)} samples; "
                               f"columns found: {', '.join(map(repr, log.header))})")
@@ -660,8 +647,6 @@ def _compare(args):
 
 
 def _plots(path, log, ests, args, what):
-    from . import plots
-    from .rotations import quat_to_euler
     if not plots.available():
         _err("plots unavailable: matplotlib is not installed (pip install 'imufuse[plot]')")
         return
@@ -672,14 +657,12 @@ def _plots(path, log, ests, args, what):
     title = f"{os.path.basename(log.path)}: {what}"
     try:
         if one:
-            from .io import axis_inputs
             plots.plot_1d(p1, log.t, _ref_angle(log, args.axis, args), one,
                           axis_inputs(log, args.axis)[1], title=title)
             _err(f"plot: {p1}")
         if three:
             ref, errors = None, None
             if log.q_ref is not None:
-                from .evaluation import from_enu, to_enu
                 ref = quat_to_euler(from_enu(to_enu(log.q_ref, _ref_frame(args, log),
                                                     args.ref_direction), "NWU"))
                 errors = {}
@@ -695,7 +678,6 @@ def _plots(path, log, ests, args, what):
 
 
 def _euler_nwu(est):
-    from .estimate import euler_of
     return euler_of(est)
 
 
@@ -710,7 +692,6 @@ def _parser_compare(sub):
     _log_options(c)
     _filter_options(c)
     _eval_options(c)
-    from .preprocess import add_arguments as _preprocess_options
     _preprocess_options(c)
     c.set_defaults(func=_compare)
 
@@ -746,10 +727,6 @@ def _grid_spec(text, default):
 
 
 def _tune(args):
-    import concurrent.futures as cf
-    import itertools
-    from .catalogue import FilterError, reference_class, resolve_params
-    from .evaluation import METRICS, mean_over_trials
     name = args.filter
     cls = reference_class(name)
     if cls.kind == "1d":
@@ -818,7 +795,7 @@ def _tune(args):
             break
         best = min(good, key=lambda p: res[p][0])
         axes = []
-        for j, (k, vals) in enumerate(grids):
+        for j in range(len(grids)):
             vs = sorted({p[j] for p in res})
             i = vs.index(best[j])
             lo, hi = vs[max(i - 1, 0)], vs[min(i + 1, len(vs) - 1)]
@@ -881,8 +858,6 @@ def _parser_tune(sub):
 # bench
 
 def _bench(args):
-    from . import sim
-    from .catalogue import FilterError, filter_names, inputs_for, make_filter, reference_class, resolve_params
     names = _names(args.filters) or filter_names()
     for n in names:
         reference_class(n)
@@ -891,7 +866,8 @@ def _bench(args):
     d3 = None
     print(f"samples per second (C: run() over {args.samples} samples, best of {args.repeat}; "
           f"reference: run() over {args.ref_samples} samples)")
-    head = f"{'filter':22s} {'C float32':>11s} {'C float64':>11s} {'ref float32':>12s} {'ref float64':>12s} {'C/ref f64':>10s}"
+    head = (f"{'filter':22s} {'C float32':>11s} {'C float64':>11s} {'ref float32':>12s} "
+            f"{'ref float64':>12s} {'C/ref f64':>10s}")
     print(head)
     print("-" * len(head))
     for n in names:
@@ -939,10 +915,6 @@ def _parser_bench(sub):
 # validate
 
 def _validate(args):
-    from . import sim
-    from .catalogue import inputs_for, reference_class, resolve_params
-    from .firmware import Firmware, csrc_firmware, validate_isolated
-    from .io import LogError
     cls = reference_class(args.filter)
     overrides = _pairs(args.param)
     check_outputs([args.log] if args.log else [], [("--plot", args.plot)])
@@ -988,7 +960,6 @@ def _validate(args):
           f"{', '.join(f'{k}={val}' for k, val in params.items())}")
     print(v.text())
     if args.plot:
-        from . import plots
         if not plots.available():
             _err("plots unavailable: matplotlib is not installed (pip install 'imufuse[plot]')")
         else:
@@ -1003,7 +974,6 @@ def _validate(args):
 
 
 def _parser_validate(sub):
-    from .firmware import DEFAULT_TIMEOUT
     v = sub.add_parser("validate", help="compile firmware C with cffi and compare it with an "
                        "imufuse filter bit for bit", formatter_class=argparse.RawDescriptionHelpFormatter,
                        description="Validate firmware filter code against imufuse (see "
@@ -1015,7 +985,6 @@ def _parser_validate(sub):
                        "  imufuse validate --csrc --filter Kalman1D --dtype float32")
     v.add_argument("sources", nargs="*", metavar="SOURCE.c")
     v.add_argument("--filter", "-f", required=True, help="the imufuse filter to compare with")
-    from ._resources import csrc_dir
     v.add_argument("--csrc", metavar="DIR", nargs="?", const=str(csrc_dir()),
                    help="validate imufuse's own sources in DIR (default: the C library "
                         "installed with imufuse)")
@@ -1143,15 +1112,11 @@ def build_parser():
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     for add in SUBCOMMANDS:
         add(sub)
-    from .cli_vario import add_parsers  # seed 002: vario, calibrate
     add_parsers(sub)
     return p
 
 
 def main(argv=None):
-    from .catalogue import FilterError
-    from .firmware import FirmwareError
-    from .io import LogError
     p = build_parser()
     try:
         args = p.parse_args(argv)

@@ -5,6 +5,8 @@ and imufuse.calibrate."""
 import ast
 import os
 
+from . import calibrate, plots, vario
+
 
 def _pairs(items, what):
     """NAME=VALUE strings -> dict; values as Python literals, else strings."""
@@ -21,7 +23,6 @@ def _pairs(items, what):
 
 
 def _vario(args):
-    from . import plots, vario
     params = _pairs(args.param, "--param")
     kf = _pairs(args.kf, "--kf")
     if args.acc_gate:
@@ -39,7 +40,6 @@ def _vario(args):
 
 
 def _calibrate(args):
-    from . import calibrate
     res = calibrate.run_log(args.sensor, args.log, args.output, gyr_unit=args.gyr_unit,
                             ranges=args.ranges, threshold=args.threshold, method=args.method)
     print(calibrate.describe(args.sensor, res))

@@ -68,7 +68,7 @@ def parse_prototype(text: str) -> Prototype:
         raise PrototypeError(f"cannot read C prototype {text!r}")
     ret = " ".join(w for w in m.group(1).split() if w not in ("static", "inline", "extern"))
     body = m.group(3).strip()
-    params = ()
+    params: Tuple[CParam, ...] = ()
     if body and body != "void":
         params = tuple(_param(i, m.group(2), p) for i, p in enumerate(body.split(",")))
     return Prototype(m.group(2), ret or "int", params)

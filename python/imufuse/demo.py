@@ -9,6 +9,7 @@ import os
 import sys
 import time
 from dataclasses import dataclass, field
+from typing import Any, Optional, Sequence, TextIO
 
 import numpy as np
 
@@ -65,7 +66,7 @@ class DemoRow:
     checks: dict = field(default_factory=dict)   # dtype -> None | (sample, var) | "error..."
     errors: dict = field(default_factory=dict)   # 'angle'/'tilt'/'heading' -> (rms, max) deg
     note: str = ""
-    estimate: Estimate = None
+    estimate: Optional[Estimate] = None
 
 
 def _fmt_check(c):
@@ -80,8 +81,9 @@ def _fmt_err(e):
     return "-" if e is None else f"{e[0]:7.3f} {e[1]:7.3f}"
 
 
-def run_demo(out_dir="imufuse-demo", rate=200.0, duration=20.0, seed=1, plot=True,
-             stream=None, names=None):
+def run_demo(out_dir: str = "imufuse-demo", rate: float = 200.0, duration: float = 20.0,
+             seed: int = 1, plot: bool = True, stream: Optional[TextIO] = None,
+             names: Optional[Sequence[str]] = None) -> int:
     """Run the demo; return the process exit code (1 when a bit-exact check fails)."""
     stream = stream or sys.stdout
     pr = lambda *a: print(*a, file=stream)  # noqa: E731
@@ -100,7 +102,7 @@ def run_demo(out_dir="imufuse-demo", rate=200.0, duration=20.0, seed=1, plot=Tru
     rows, failed = [], False
     for name in names:
         cls = reference_class(name)
-        data = d1 if cls.kind == "1d" else d3
+        data: Any = d1 if cls.kind == "1d" else d3
         row = DemoRow(name, cls.kind)
         rows.append(row)
         try:

@@ -51,6 +51,7 @@ import json
 import os
 import re
 from dataclasses import dataclass
+from typing import Any, Mapping, Optional, Sequence
 
 import numpy as np
 
@@ -74,7 +75,7 @@ class FirmwareError(ValueError):
 # ---------------------------------------------------------------------------
 # declarations
 
-def parse_prototype(text):
+def parse_prototype(text: str) -> cproto.Prototype:
     """'void f(T *self, float a, const float g[3])' -> cproto.Prototype."""
     try:
         return cproto.parse_prototype(text)
@@ -328,7 +329,8 @@ class Firmware:
         return S.dtype.name
 
 
-def csrc_firmware(name, csrc_dir, dtype="float32", **kwargs):
+def csrc_firmware(name: str, csrc_dir: "str | os.PathLike[str]", dtype: str = "float32",
+                  **kwargs: Any) -> "Firmware":
     """A Firmware for imufuse's own filter `name` from a csrc directory
     (e.g. a copy with changes): prototypes from the headers, state x.<name>."""
     ref = reference_class(name)
@@ -365,7 +367,8 @@ class Validation:
                 + self.comparison.text())
 
 
-def validate(fw, name, params, inputs, backend="c", dtype=None):
+def validate(fw: "Firmware", name: str, params: Mapping[str, Any], inputs: Sequence[Any],
+             backend: str = "c", dtype: Optional[str] = None) -> "Validation":
     """Run firmware `fw` and the imufuse filter `name` (constructor keywords
     `params`, dt included) on the same inputs; return a Validation. dtype:
     the imufuse precision; default the firmware's (from sizeof of its state);
@@ -471,7 +474,6 @@ def validate_isolated(fw, name, params, inputs, backend="c", dtype=None, timeout
     re-running on shorter prefixes) or "during init", "called exit(3) ...",
     "no answer after N s". Compilation and loading (a missing symbol) happen
     first, in this process, where no firmware code runs."""
-    from .catalogue import reference_class
     ref = reference_class(name)
     fw.prepare(ref.kind, ref._params(**params), params)
     res = _attempt(fw, name, params, inputs, backend, dtype, None, timeout)

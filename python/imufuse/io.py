@@ -52,8 +52,11 @@ import math
 import os
 import re
 from dataclasses import dataclass, field
+from typing import Optional
 
 import numpy as np
+
+from ._resources import _path
 
 GRAVITY = 9.80665
 GYR = ("gyr_x", "gyr_y", "gyr_z")
@@ -112,12 +115,12 @@ class Log:
     path: str
     columns: dict                 # known column name -> (N,) float64, units converted
     header: list                  # every column of the file, in order
-    dt: float = None              # fixed sample period (median interval or 1/rate), s
+    dt: Optional[float] = None    # fixed sample period (median interval or 1/rate), s
     warnings: list = field(default_factory=list)
     sources: dict = field(default_factory=dict)   # known name -> header it came from
     units: dict = field(default_factory=dict)     # "gyr"/"acc"/"mag"/"time" -> (unit, where from)
     fixed_rate: bool = True       # True: every sample at dt; False: dts (the time column)
-    ref_frame: str = None         # frame of q_w..q_z when the format says (BROAD: "ENU")
+    ref_frame: Optional[str] = None  # frame of q_w..q_z when the format says (BROAD: "ENU")
 
     def __len__(self):
         return len(next(iter(self.columns.values()))) if self.columns else 0
@@ -721,7 +724,6 @@ def example_log():
     """Path of the real recording shipped with imufuse: 45 s of a BROAD trial
     (gyr, acc, mag, optical reference quat_ref in ENU, movement mask, rate;
     CC BY 4.0, see data/BROAD-EXCERPT.md beside it)."""
-    from ._resources import _path
     return str(_path("imufuse", "data", EXAMPLE))
 
 

@@ -10,6 +10,7 @@ saved and closed: its artists can still be inspected).
 """
 import numpy as np
 
+from .catalogue import FILTERS, reference_class
 from .rotations import heading_error, tilt_error
 
 #: the reference line (drawn on top of the filters)
@@ -36,7 +37,6 @@ def colours(names):
     imufuse's filters of its kind (single-axis or 3D), so a filter has the same
     colour in every panel of every plot; strong colours first (tab10)."""
     import matplotlib
-    from .catalogue import FILTERS, reference_class
     strong = matplotlib.colormaps["tab10"]
     light = matplotlib.colormaps["tab20"]
 

@@ -15,6 +15,16 @@ FusionOffset runs on the gyroscope in deg/s (Fusion's unit, its 3 deg/s threshol
 """
 import numpy as np
 
+import imufuse_c
+
+from . import io, reference
+from ._fusion import parse_alignment
+from .calibration_models import load_calibration
+from .catalogue import FILTERS_FUSION
+from .demo import errors_3d
+from .estimate import Estimate
+from .reference import fusion
+
 
 
 def add_arguments(parser):
@@ -41,9 +51,6 @@ def _put(log, names, arr):
 def apply(log, args, backend="c"):
     """Apply the options in `args` (missing attributes: not requested) to the
     log's columns in place; return notes describing what was done."""
-    from . import io
-    from ._fusion import parse_alignment
-    from .calibration_models import load_calibration
     cal_path = getattr(args, "calibration", None)
     align = getattr(args, "align", None)
     offset = getattr(args, "offset", False)
@@ -86,15 +93,12 @@ def apply(log, args, backend="c"):
 
 def _backend(backend):
     if backend == "c":
-        import imufuse_c
         return imufuse_c
-    from .reference import fusion
     return fusion
 
 
 def is_fusion(name):
     """FusionAHRS: run by run_fusion (FusionOffset is the --offset option)."""
-    from .catalogue import FILTERS_FUSION
     return name in FILTERS_FUSION and name != "FusionOffset"
 
 
@@ -102,9 +106,6 @@ def run_fusion(args, log, params):
     """`imufuse run --filter FusionAHRS`: Fusion's units and dt per sample from
     the log's time column (Fusion integrates with the interval it is given).
     Returns (columns, summary)."""
-    from . import io
-    import imufuse_c
-    from . import reference
     mod = imufuse_c if args.backend == "c" else reference
     f = mod.FusionAHRS(**params, dtype=args.dtype)
     io.require(log, io.GYR + io.ACC)
@@ -142,8 +143,6 @@ def run_fusion(args, log, params):
         summary += f"; {f.skipped} samples skipped (non-finite)"
     if log.q_ref is not None and params.get("convention", "NWU").upper() == "NWU":
         # the log's reference is imufuse's NWU body -> earth quaternion, as FusionAHRS's
-        from .demo import errors_3d
-        from .estimate import Estimate
         q = np.asarray(S[:, :4], dtype=np.float64)
         est = Estimate(q=q, heading=log.has(*io.MAG), source="q0..q3")
         errs = errors_3d(est, log.q_ref, np.ones(len(log), dtype=bool))

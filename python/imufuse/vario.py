@@ -21,7 +21,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import _checks
+import imufuse_c
+
+from . import _checks, reference
+from .plots import _plt, _save
 
 __all__ = ["P_REF", "pressure_to_altitude", "altitude_to_pressure", "VarioResult",
            "vertical_acceleration", "norm_accel", "decimate", "baro_kf", "run",
@@ -54,11 +57,7 @@ def altitude_to_pressure(h, p_ref=P_REF):
 
 def _modules(backend):
     _checks.check_choice("backend", backend, ("c", "reference"))
-    if backend == "c":
-        import imufuse_c as mod
-    else:
-        import imufuse.reference as mod
-    return mod
+    return imufuse_c if backend == "c" else reference
 
 
 def vertical_acceleration(q, acc, convention="nwu", one_g=1.0, scale=100.0 * GRAVITY,
@@ -273,7 +272,6 @@ def run_log(path, out_csv, *, plot=None, gyr_unit="rad/s", acc_unit="g", p_ref=P
 
 def plot_vario(path, res, truth=None):
     """Altitude (barometer and filter) and climb rate over time, PNG."""
-    from .plots import _plt, _save
     plt = _plt()
     fig, ax = plt.subplots(3, 1, figsize=(9, 7), sharex=True)
     ax[0].plot(res.t, res.baro_alt, ".", ms=2, color="0.6", label="barometer")

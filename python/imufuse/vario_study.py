@@ -13,6 +13,8 @@ and ``python -m imufuse.vario_study`` prints the tables of docs/vario.md.
 """
 import numpy as np
 
+import imufuse_c
+
 from . import sim_flight as sf
 from . import vario as V
 from .rotations import quat_rotate, tilt_error
@@ -33,7 +35,6 @@ def _rms(x):
 def _kf_true_attitude(fl, **kf):
     """The Kalman filter fed with the vertical acceleration of the true
     attitude: the filter alone, without attitude errors."""
-    import imufuse_c
     va = imufuse_c.vertical_accel(fl.q, fl.acc, scale=G_CM)
     a_b = V.decimate(va, fl.baro_idx)
     dt = np.diff(fl.baro_t, prepend=fl.baro_t[0] - 1.0 / fl.baro_rate)

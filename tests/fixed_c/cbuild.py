@@ -71,10 +71,10 @@ def filter_driver_source() -> str:
         out += [f"static int run_{c}(int profile, const double *p, const int32_t *st, int ns)",
                 "{", f"    {c}_t o;", f"    int32_t s[{n}];", "    long v[6];",
                 "    int16_t g[3], a[3];", "    int i;", "    (void)profile; (void)g; (void)a; (void)i;",
-                f"    if (sizeof o.x != sizeof s) return 4;",
+                "    if (sizeof o.x != sizeof s) return 4;",
                 f"    if ({c}_init(&o, {', '.join(args)}) != 0) return 3;",
                 f"    if (ns == {n}) memcpy(&o.x, st, sizeof s);",
-                f"    else if (ns != 0) return 5;",
+                "    else if (ns != 0) return 5;",
                 f'    while (scanf("{fmt}", {vs}) == {width}) {{',
                 *([] if e.kind == "1d" else
                   ["        for (i = 0; i < 3; ++i) { g[i] = (int16_t)v[i]; "

@@ -32,6 +32,9 @@
 #include "multiwii.h"
 
 #define N_FILTERS 16
+/* the accelerometer gate (seed 002) off, and on at 0.6 .. 1.4 g */
+#define GATE_OFF IMF_R(-1.0), IMF_R(0.0), IMF_R(1.0)
+#define GATE_ON IMF_R(0.6), IMF_R(1.4), IMF_R(1.0)
 
 typedef union {
     imf_complementary1d_t c1;
@@ -52,8 +55,8 @@ typedef union {
 
 static const char *const NAMES[N_FILTERS] = {
     "Complementary1D", "Kalman1D", "Mahony1D", "Kalman1DBias", "Mahony1DBias",
-    "Complementary1DBias", "MahonyIMU", "MahonyIMU-fast", "MahonyAHRS", "MadgwickIMU",
-    "MadgwickIMU-simplified-fast", "MadgwickAHRS", "MultiWii", "KK", "Mahony2D-exact", "DCM"};
+    "Complementary1DBias", "MahonyIMU", "MahonyIMU-fast", "MahonyAHRS-gate", "MadgwickIMU",
+    "MadgwickIMU-simplified-fast-gate", "MadgwickAHRS", "MultiWii", "KK", "Mahony2D-exact", "DCM"};
 
 static void init_filter(const int which, any_filter_t *const f)
 {
@@ -65,14 +68,17 @@ static void init_filter(const int which, any_filter_t *const f)
     case 3: imf_kalman1d_bias_init(&f->kb, IMF_R(0.01), IMF_R(0.02), IMF_R(-0.5), -1); break;
     case 4: imf_mahony1d_bias_init(&f->mb, IMF_R(0.01), IMF_R(2.0), IMF_R(0.3), 0); break;
     case 5: imf_complementary1d_bias_init(&f->cb, IMF_R(0.01), IMF_R(2.0), IMF_R(0.3)); break;
-    case 6: imf_mahony_imu_init(&f->mi, IMF_R(0.005), IMF_R(1.0), IMF_R(0.3), IMF_INVSQRT_EXACT); break;
-    case 7: imf_mahony_imu_init(&f->mi, IMF_R(0.005), IMF_R(0.5), IMF_R(0.0), IMF_INVSQRT_FAST); break;
-    case 8: imf_mahony_ahrs_init(&f->ma, IMF_R(0.01), IMF_R(2.0), IMF_R(0.5), IMF_INVSQRT_FAST); break;
+    case 6: imf_mahony_imu_init(&f->mi, IMF_R(0.005), IMF_R(1.0), IMF_R(0.3), IMF_INVSQRT_EXACT,
+                                GATE_OFF); break;
+    case 7: imf_mahony_imu_init(&f->mi, IMF_R(0.005), IMF_R(0.5), IMF_R(0.0), IMF_INVSQRT_FAST,
+                                GATE_OFF); break;
+    case 8: imf_mahony_ahrs_init(&f->ma, IMF_R(0.01), IMF_R(2.0), IMF_R(0.5), IMF_INVSQRT_FAST,
+                                GATE_ON); break;
     case 9: imf_madgwick_imu_init(&f->gi, IMF_R(0.01), IMF_R(0.1), IMF_MADGWICK_DS_FULL,
-                                  IMF_INVSQRT_EXACT); break;
+                                  IMF_INVSQRT_EXACT, GATE_OFF); break;
     case 10: imf_madgwick_imu_init(&f->gi, IMF_R(0.005), IMF_R(0.3), IMF_MADGWICK_DS_SIMPLIFIED,
-                                   IMF_INVSQRT_FAST); break;
-    case 11: imf_madgwick_ahrs_init(&f->ga, IMF_R(0.01), IMF_R(0.1), IMF_INVSQRT_EXACT); break;
+                                   IMF_INVSQRT_FAST, GATE_ON); break;
+    case 11: imf_madgwick_ahrs_init(&f->ga, IMF_R(0.01), IMF_R(0.1), IMF_INVSQRT_EXACT, GATE_OFF); break;
     case 12: imf_multiwii_init(&f->mw, IMF_R(0.0025), IMF_R(600.0), 4, IMF_R(512.0), IMF_R(0.15));
         break;
     case 13: imf_kk_init(&f->kk, IMF_R(0.005), IMF_R(0.01)); break;

@@ -47,7 +47,7 @@ class Driver:
     prelude: str = ""
 
     def __post_init__(self) -> None:
-        self.state = [tuple(s) for s in self.state]
+        self.state = [(s[0], s[1]) for s in self.state]
         for expr, kind in self.state:
             if kind not in _KINDS:
                 raise ValueError(f"state {expr!r}: unknown kind {kind!r}; known: {sorted(_KINDS)}")

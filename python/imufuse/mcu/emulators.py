@@ -172,8 +172,8 @@ def run_elf(
             text=True, timeout=timeout, errors="replace",
         )
     except subprocess.TimeoutExpired as e:
-        out = e.stdout or b""
-        out = out.decode(errors="replace") if isinstance(out, bytes) else out
+        got = e.stdout or b""
+        out = got.decode(errors="replace") if isinstance(got, bytes) else got
         raise HarnessError(f"{target}: timeout after {timeout} s: {' '.join(cmd)}\n{out[-2000:]}") from None
     seconds = time.perf_counter() - t0
     text = proc.stdout
@@ -182,7 +182,7 @@ def run_elf(
     if proc.returncode != 0 or "IMF_FAULT" in text:
         raise HarnessError(f"{target}: exit status {proc.returncode}: {' '.join(cmd)}\n{text[-3000:]}")
     state, raw, overhead, stack, window = _parse(text, n)
-    if stack is not None and stack >= window:
+    if stack is not None and window is not None and stack >= window:
         stack = None  # the step went past the painted band: no figure rather than a wrong one
     counts = _to_counts(tgt, raw, overhead) if count and tgt.count_unit else None
     names = driver.names if isinstance(driver, Driver) else None
@@ -207,7 +207,7 @@ def run(
     count=True measures every step (avr: cycles; m4f/m0: instructions via qemu -icount).
     """
     own = workdir is None
-    wd = Path(tempfile.mkdtemp(prefix=f"imf_mcu_{target}_")) if own else Path(workdir)
+    wd = Path(tempfile.mkdtemp(prefix=f"imf_mcu_{target}_")) if workdir is None else Path(workdir)
     try:
         if n is None and inputs:
             n = len(np.asarray(next(iter(inputs.values()))))

@@ -29,10 +29,12 @@ import math
 import re
 import struct
 from pathlib import Path
-from typing import Dict, List, Mapping, Optional, Sequence, Tuple
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
+from .. import reference as _reference
+from .. import sim, sim_flight
 from .._checks import KINDS
 from .._resources import csrc_dir
 from ..cproto import CParam, PrototypeError, find_prototype, strip_comments
@@ -171,7 +173,7 @@ def _literal(param: CParam, value, real: str) -> str:
 class FilterSpec:
     """One filter configuration in one precision (float) or profile (fixed point)."""
 
-    ref_class: type
+    ref_class: Any
     params: Mapping[str, object]
     precision: str            # "float32" | "float64" | "q32" | "q8"
     label: str = ""
@@ -236,6 +238,8 @@ class FilterSpec:
         if self.fixed:
             consts = self.reference().c_init_args()
             cparams = self.c.init_consts
+            if cparams is None:
+                raise HarnessError(f"{self.label}: no {self.c.c_name}_init_consts() in the headers")
             if [p.name for p in cparams] != list(consts):
                 raise HarnessError(
                     f"{self.label}: C {self.init_function}({', '.join(p.name for p in cparams)}) "
@@ -316,7 +320,10 @@ class GroupResult:
 
 
 def _driver(specs: Sequence[FilterSpec]) -> Tuple[Driver, List[Tuple[int, int, bool]]]:
-    preludes, inits, steps, state = [], [], [], []
+    preludes: List[str] = []
+    inits: List[str] = []
+    steps: List[str] = []
+    state: List[Tuple[str, str]] = []
     layout = []
     seen_headers = set()
     for i, s in enumerate(specs):
@@ -369,7 +376,7 @@ def run_filters(target: str, specs: Sequence[FilterSpec], inputs: Mapping[str, n
     ins = _inputs_of(specs, inputs)
     n = len(next(iter(ins.values())))
     own = workdir is None
-    base = Path(tempfile.mkdtemp(prefix=f"imf_filters_{target}_")) if own else Path(workdir)
+    base = Path(tempfile.mkdtemp(prefix=f"imf_filters_{target}_")) if workdir is None else Path(workdir)
     states: List[Optional[np.ndarray]] = [None] * len(specs)
     skipped: List[Optional[np.ndarray]] = [None] * len(specs)
     results: List[Result] = []
@@ -401,7 +408,10 @@ def run_filters(target: str, specs: Sequence[FilterSpec], inputs: Mapping[str, n
                     skipped[i] = cols[:, -1].astype(np.uint32)
                     cols = cols[:, :-1]
                 states[i] = cols
-        return GroupResult(target, specs, states, skipped, results, programs)
+        done = [s for s in states if s is not None]
+        if len(done) != len(specs):
+            raise HarnessError(f"{target}: {len(specs) - len(done)} filters produced no state")
+        return GroupResult(target, specs, done, skipped, results, programs)
     finally:
         if own:
             shutil.rmtree(base, ignore_errors=True)
@@ -451,8 +461,6 @@ def float_inputs(group: str, n_motion: int = 300, seed: int = 5) -> Dict[str, np
     """Float64 inputs of a group ("1d" or "3d"): realistic motion from imufuse.sim, then the
     corners (zero accelerometer/magnetometer, all zero, NaN/Inf in each input, overflow,
     tiny and subnormal values), then motion again. Cast to float32 for the float32 builds."""
-    from .. import sim
-
     tail = 20
     if group == "1d":
         d = sim.axis1d("fast", rate=100.0, duration=(n_motion + tail) / 100.0, seed=seed,
@@ -504,8 +512,6 @@ def _vario_inputs(n_motion, seed, tail):
     """Seed 002's variometer: a simulated flight at the barometer rate (vertical
     acceleration cm/s^2, barometer altitude cm, dt s), then the corners (NaN/Inf
     in each input, dt <= 0, overflow, tiny values), then the flight again."""
-    from .. import sim_flight
-
     fl = sim_flight.flight(duration=(n_motion + tail) / 50.0 + 1.0, seed=seed)
     idx = fl.baro_idx[:n_motion + tail]
     acc = np.diff(fl.climb, prepend=fl.climb[0])[idx] * fl.rate * 100.0 + 20.0
@@ -574,7 +580,7 @@ def specs_from_cases(cases, reference=None, csrc: Path = CSRC) -> List[FilterSpe
     classes in float32 and float64, fixed-point classes in their ``profile`` if the case gives
     one, else in both profiles."""
     if reference is None:
-        import imufuse.reference as reference
+        reference = _reference
     out = []
     for case in cases:
         cls = getattr(reference, case.name)

@@ -104,7 +104,8 @@ def _inputs_header(inputs: Mapping[str, np.ndarray], target: str, n: Optional[in
         else:
             rd = f"IMF_RD16(&imf_in_{name}[i * {k}u + j])"
         if a.ndim == 1:
-            loads.append(f"    {{ const uint32_t j = 0u; {stype} imf_w_ = {rd}; memcpy({dst}, &imf_w_, sizeof imf_w_); }}")
+            loads.append(f"    {{ const uint32_t j = 0u; {stype} imf_w_ = {rd}; "
+                         f"memcpy({dst}, &imf_w_, sizeof imf_w_); }}")
         else:
             loads.append(
                 f"    for (j = 0u; j < {k}u; ++j) {{ {stype} imf_w_ = {rd}; memcpy({dst}, &imf_w_, sizeof imf_w_); }}"

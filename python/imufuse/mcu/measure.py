@@ -29,7 +29,7 @@ def code_size(
     tgt = _target(target)
     _require(tgt, [tgt.cc, tgt.size_tool])
     own = workdir is None
-    wd = Path(tempfile.mkdtemp(prefix=f"imf_size_{target}_")) if own else Path(workdir)
+    wd = Path(tempfile.mkdtemp(prefix=f"imf_size_{target}_")) if workdir is None else Path(workdir)
     wd.mkdir(parents=True, exist_ok=True)
     try:
         objs = []
@@ -68,7 +68,7 @@ def stack_usage(
     tgt = _target(target)
     _require(tgt, [tgt.cc])
     own = workdir is None
-    wd = Path(tempfile.mkdtemp(prefix=f"imf_stack_{target}_")) if own else Path(workdir)
+    wd = Path(tempfile.mkdtemp(prefix=f"imf_stack_{target}_")) if workdir is None else Path(workdir)
     wd.mkdir(parents=True, exist_ok=True)
     try:
         result: Dict[str, Dict[str, object]] = {}
@@ -106,7 +106,7 @@ def callgrind_instructions(
     if shutil.which("valgrind") is None:
         raise ToolchainMissing("valgrind not found; run tools/install-toolchains.sh")
     own = workdir is None
-    wd = Path(tempfile.mkdtemp(prefix="imf_cg_")) if own else Path(workdir)
+    wd = Path(tempfile.mkdtemp(prefix="imf_cg_")) if workdir is None else Path(workdir)
     try:
         if n is None and inputs:
             n = len(np.asarray(next(iter(inputs.values()))))

@@ -41,7 +41,7 @@ QUAT_NORM2_TOL = 0.01
 class ReferenceFilter:
     kind = "1d"
     c_name = ""
-    state_names = ()
+    state_names: tuple = ()
 
     def __init__(self, *args, dtype="float64", init="identity", init_window=1, q0=None,
                  state=None, **kwargs):
@@ -249,3 +249,20 @@ def check_precision(cls, args, dtype):
 
 def isfinite(*values):
     return all(math.isfinite(v) for v in values)
+
+
+_INIT_NAMES: dict = {}
+
+
+def init_arguments(cls, args):
+    """The C init arguments of filter class `cls` by name: the tuple `_params`
+    returned, keyed by the names of `_init` (which are the C init's parameter
+    names, checked by tests/test_catalogue.py). The compiled classes call the C
+    init with these, by name."""
+    names = _INIT_NAMES.get(cls)
+    if names is None:
+        names = _INIT_NAMES[cls] = tuple(inspect.signature(cls._init).parameters)[1:]
+    if len(names) != len(args):
+        raise AssertionError(f"{cls.__name__}._params gives {len(args)} values for "
+                             f"_init{names}")
+    return dict(zip(names, args))

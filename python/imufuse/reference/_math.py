@@ -54,7 +54,7 @@ def real_limits(R):
     return None, None
 
 
-_LIMITS = {}
+_LIMITS: dict = {}
 
 
 def _limits(R):

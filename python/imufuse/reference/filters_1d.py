@@ -333,5 +333,5 @@ def tuning(kp, ki):
     }
 
 
-Complementary1DBias.tuning = staticmethod(tuning)
-Mahony1DBias.tuning = staticmethod(tuning)
+Complementary1DBias.tuning = staticmethod(tuning)  # type: ignore[attr-defined]
+Mahony1DBias.tuning = staticmethod(tuning)  # type: ignore[attr-defined]

@@ -87,7 +87,8 @@ def fixed_run_inputs(kind, args):
     shapes = {arr.shape for arr in arrs}
     if len(shapes) != 1 or (ndim == 2 and arrs[0].shape[1] != 3):
         seen = ", ".join(f"{n}{a.shape}" for n, a in zip(names, arrs))
-        raise ValueError(f"run(): expected {'1-D arrays of equal length' if ndim == 1 else '(N, 3) arrays with the same N'}, got shapes {seen}")
+        want = "1-D arrays of equal length" if ndim == 1 else "(N, 3) arrays with the same N"
+        raise ValueError(f"run(): expected {want}, got shapes {seen}")
     return arrs
 
 
@@ -108,14 +109,14 @@ def fixed_update_inputs(kind, args):
 class FixedFilter:
     kind = "1d"
     c_name = ""
-    state_names = ()
+    state_names: tuple = ()
     dtype = "int32"
 
     def c_init_args(self) -> dict:
         """The arguments of <c_name>_init_consts after the filter pointer, by C parameter
         name: ints, and ci.QScale for imf_qscale_t.  The same constants the host's
         <c_name>_init computes from this filter's parameters."""
-        return self._consts(*self._args)
+        return self._consts(*self._args)  # type: ignore[attr-defined]
 
     def c_init_call(self, var: str) -> str:
         """C statement initialising the filter variable ``var`` (an ``<c_name>_t``) from the

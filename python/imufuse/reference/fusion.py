@@ -655,7 +655,6 @@ class FusionAHRS:
         g, a, m, h, d = _fusion.run_arrays(self.dtype, gyr, acc, mag, heading, dt)
         n = g.shape[0]
         out = np.empty((n, len(self.state_names)), dtype=self.dtype)
-        R = self._o.R
         conv = (lambda x: x.tolist()) if self.dtype == "float64" else (lambda x: [tuple(r) for r in x])
         gl, al = conv(g), conv(a)
         dl = d.tolist() if self.dtype == "float64" else list(d)

@@ -202,6 +202,12 @@ class _Robust(ReferenceFilter):
         has_acc = not (ax == R(0.0) and ay == R(0.0) and az == R(0.0))
         if first and not has_acc:
             return None
+        if has_acc and not first:
+            # a reading beyond 100 times the gravity estimate (100 g) is a shock or a
+            # hostile value: it says nothing about gravity, and is no reading
+            f2 = st["fx"] * st["fx"] + st["fy"] * st["fy"] + st["fz"] * st["fz"]
+            if not (ax * ax + ay * ay + az * az <= R(1.0e4) * f2):
+                has_acc = False
         # B1: rest detection, low-passes of gyro and accelerometer in the sensor frame
         k = self._gain(st["t"], self.tau_rest, self.k_rest)
         st["lwx"] = st["lwx"] + k * (gx - st["lwx"])
@@ -254,7 +260,12 @@ class _Robust(ReferenceFilter):
             st["vx"] = st["vx"] + dt * (aix - st["fx"])
             st["vy"] = st["vy"] + dt * (aiy - st["fy"])
             st["vz"] = st["vz"] + dt * (aiz - st["fz"])
-            qg = self.qg_dt + self.qg_dt * (w2 * self.inv_rate_ref2)
+            # (w / rate_ref)^2 capped at 10^4 (100 rate_ref: beyond any gyro's range), so
+            # that hostile rates cannot blow the covariance up
+            rr = w2 * self.inv_rate_ref2
+            if not (rr <= R(1.0e4)):
+                rr = R(1.0e4)
+            qg = self.qg_dt + self.qg_dt * rr
             pvv = st["pvv"] - self.two_dt * st["pvg"] + self.dt2 * st["pgg"]
             pvg = st["pvg"] - dt * st["pgg"]
             pgg = st["pgg"] + qg
@@ -323,7 +334,6 @@ class _Robust(ReferenceFilter):
     def _mag_test(self, mn, hn, zn, n, h, z):
         # the field matches the reference (n, h, z): norm within mag_norm n and dip
         # within mag_dip (sin of the dip difference = zn h - hn z)
-        R = self._R
         dn = mn - n
         dd = zn * h - hn * z
         tn = self.mag_norm * n

@@ -1,0 +1,94 @@
+"""The dependency direction of the Python package: cli -> catalogue ->
+{imufuse_c, reference} -> shared helpers, without cycles, and no import of a
+project module inside a function body (the usual way to hide a cycle)."""
+import ast
+from pathlib import Path
+
+import imufuse
+
+PKG = Path(imufuse.__file__).resolve().parent
+
+
+def _modules():
+    for p in sorted(PKG.rglob("*.py")):
+        rel = p.relative_to(PKG.parent).with_suffix("")
+        parts = list(rel.parts)
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        yield ".".join(parts), p, p.name == "__init__.py"
+
+
+def _target(mod, is_pkg, node):
+    """Absolute name of a project module an import statement refers to, or None."""
+    if isinstance(node, ast.Import):
+        names = [a.name for a in node.names]
+    else:
+        base = mod.split(".") if is_pkg else mod.split(".")[:-1]
+        if node.level:
+            base = base[:len(base) - node.level + 1]
+            head = ".".join(base + ([node.module] if node.module else []))
+        else:
+            head = node.module or ""
+        names = [head] + [f"{head}.{a.name}" for a in node.names]
+    return [n for n in names if n.split(".")[0] in ("imufuse", "imufuse_c")]
+
+
+def _graph():
+    mods = {m: (p, pkg) for m, p, pkg in _modules()}
+    edges, inner = {}, []
+    for m, (p, pkg) in mods.items():
+        tree = ast.parse(p.read_text())
+        deps = set()
+        for node in ast.walk(tree):
+            if isinstance(node, (ast.Import, ast.ImportFrom)):
+                for t in _target(m, pkg, node):
+                    # `from . import x` names a submodule or an attribute: keep what exists
+                    while t and t not in mods and t != "imufuse_c":
+                        t = t.rpartition(".")[0]
+                    if t and t != m:
+                        deps.add(t)
+        for fn in ast.walk(tree):
+            if isinstance(fn, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                for node in ast.walk(fn):
+                    if isinstance(node, (ast.Import, ast.ImportFrom)) and _target(m, pkg, node):
+                        inner.append(f"{m}.{fn.name}: line {node.lineno}")
+        edges[m] = deps
+    return edges, inner
+
+
+def test_no_project_imports_in_function_bodies():
+    _, inner = _graph()
+    assert not inner, inner
+
+
+def test_no_import_cycles():
+    edges, _ = _graph()
+    # a package's __init__ re-exporting its submodules is not a cycle of the design
+    def deps(m):
+        return {d for d in edges.get(m, ()) if not (m.startswith(d + ".") and edges.get(d))}
+    state, stack = {}, []
+
+    def visit(m):
+        state[m] = "open"
+        stack.append(m)
+        for d in sorted(deps(m)):
+            if state.get(d) == "open":
+                raise AssertionError("import cycle: " + " -> ".join(stack[stack.index(d):] + [d]))
+            if d not in state:
+                visit(d)
+        stack.pop()
+        state[m] = "done"
+    for m in sorted(edges):
+        if m not in state:
+            visit(m)
+
+
+def test_direction():
+    """The layers: nothing below the catalogue imports it or the command line."""
+    edges, _ = _graph()
+    low = [m for m in edges if m.startswith("imufuse.reference") or m in (
+        "imufuse._checks", "imufuse.bits", "imufuse.cproto", "imufuse.rotations", "imufuse.estimate")]
+    for m in low:
+        bad = {d for d in edges[m] if d in ("imufuse.catalogue", "imufuse.cli", "imufuse.demo",
+                                              "imufuse.firmware") or d.startswith("imufuse.mcu")}
+        assert not bad, f"{m} imports {bad}"
