@@ -96,7 +96,7 @@ def fusion_estimator(nine):
 
 ABLATION = [
     ("all blocks (defaults)", {}),
-    ("no latency compensation (latency=0)", dict(latency=0.0)),
+    ("latency=0.002: output predicted by the 2 ms delay of BROAD's IMU", dict(latency=0.002)),
     ("B1 off: no bias at rest (rest_gyr=0)", dict(rest_gyr=0.0)),
     ("B2 short: gravity filter tau_acc=0.5 s", dict(tau_acc=0.5, tau_bias=0.0)),
     ("B2 without the rotation-rate term (rate_ref=0)", dict(rate_ref=0.0)),

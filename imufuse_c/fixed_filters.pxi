@@ -1,5 +1,5 @@
 # The fixed-point filters of csrc/fixed (one class per C filter; the profile
-# given to init selects imf_<filter>_q32_update or _q8_update where they differ).
+# given to init selects imf_<filter>_q_update_p32 or _p8 where they differ).
 cdef extern from "imf_fixed.h" nogil:
     ctypedef struct imf_qscale_t:
         pass

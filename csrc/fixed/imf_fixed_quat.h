@@ -77,7 +77,7 @@ static inline int imf_q_normalise_acc(const int16_t acc[3], int16_t a[3])
 /* 32-bit profile, appendix step 7 (Mahony) / 3 (Madgwick):
  * dq = q (x) (0, h), h = 0.5 w dt in q30; products q15 x q30 -> q30 by
  * imf_mul_32x16 (rounded), sums saturate. */
-IMF_Q_OUTLINE void imf_q_rate32(const int16_t qs[4], const int32_t h[3], int32_t dq[4])
+IMF_Q_OUTLINE void imf_q_rate_p32(const int16_t qs[4], const int32_t h[3], int32_t dq[4])
 {
     const int32_t x0 = imf_mul_32x16(h[0], qs[0], 15), x1 = imf_mul_32x16(h[0], qs[1], 15);
     const int32_t x2 = imf_mul_32x16(h[0], qs[2], 15), x3 = imf_mul_32x16(h[0], qs[3], 15);
@@ -98,7 +98,7 @@ IMF_Q_OUTLINE void imf_q_rate32(const int16_t qs[4], const int32_t h[3], int32_t
  * -32768 clamped to -32767) until its largest component is in [2^14, 2^15),
  * so its squared norm is in [2^28, 2^32) for imf_invsqrt8_u32 and the
  * final product needs a constant shift only. */
-static inline int imf_q8_unit3(const int16_t v[3], int16_t a[3])
+static inline int imf_q_unit3_p8(const int16_t v[3], int16_t a[3])
 {
     int16_t b[3];
     uint16_t m = 0u;
@@ -131,7 +131,7 @@ static inline int imf_q8_unit3(const int16_t v[3], int16_t a[3])
 
 /* imf_rshr32 for n in [0, 15] (the 8-bit profile's hs): the same value
  * with fewer range checks, bit steps for n < 8 (AVR). */
-static inline int32_t imf_q8_rshr_hs(const int32_t x, const int n)
+static inline int32_t imf_q_rshr_hs_p8(const int32_t x, const int n)
 {
     if (n >= 2) {
         return (imf_asr32(x, n - 1) + 1) >> 1; /* <= 2^30 + 1: no overflow */
@@ -151,7 +151,7 @@ static inline int32_t imf_q8_rshr_hs(const int32_t x, const int n)
  * but which accumulates in the unobserved yaw.  In 16-bit operations (no
  * overflow for any t and c): the low words add, their carry goes to the high
  * word. */
-static inline int32_t imf_q8_carry(const int32_t t, int32_t *const c)
+static inline int32_t imf_q_carry_p8(const int32_t t, int32_t *const c)
 {
     const uint16_t lo = (uint16_t)((uint32_t)t & 0xFFFFu);
     const uint16_t s = (uint16_t)(lo + (uint16_t)((uint32_t)*c & 0xFFFFu));
@@ -162,17 +162,17 @@ static inline int32_t imf_q8_carry(const int32_t t, int32_t *const c)
 /* 8-bit profile, appendix step 7 / 3: dq = q (x) (0, h), h in q(15+hs)
  * saturated to int16; each component's three q15 x q(15+hs) products are
  * summed (saturating) and rounded to q30 once. */
-static inline void imf_q8_rate(const int16_t qs[4], const int32_t h[3], const int hs,
+static inline void imf_q_rate_p8(const int16_t qs[4], const int32_t h[3], const int hs,
                                int32_t dq[4])
 {
     const int16_t hx = imf_sat_q15(h[0]);
     const int16_t hy = imf_sat_q15(h[1]);
     const int16_t hz = imf_sat_q15(h[2]);
 #define IMF_P(a, b) imf_mul16((a), (b)) /* |.| <= 2^30 */
-    dq[0] = imf_q8_rshr_hs(imf_sub_sat32(-IMF_P(qs[1], hx) - IMF_P(qs[2], hy), IMF_P(qs[3], hz)), hs);
-    dq[1] = imf_q8_rshr_hs(imf_sub_sat32(IMF_P(qs[0], hx) + IMF_P(qs[2], hz), IMF_P(qs[3], hy)), hs);
-    dq[2] = imf_q8_rshr_hs(imf_add_sat32(IMF_P(qs[0], hy) - IMF_P(qs[1], hz), IMF_P(qs[3], hx)), hs);
-    dq[3] = imf_q8_rshr_hs(imf_sub_sat32(IMF_P(qs[0], hz) + IMF_P(qs[1], hy), IMF_P(qs[2], hx)), hs);
+    dq[0] = imf_q_rshr_hs_p8(imf_sub_sat32(-IMF_P(qs[1], hx) - IMF_P(qs[2], hy), IMF_P(qs[3], hz)), hs);
+    dq[1] = imf_q_rshr_hs_p8(imf_sub_sat32(IMF_P(qs[0], hx) + IMF_P(qs[2], hz), IMF_P(qs[3], hy)), hs);
+    dq[2] = imf_q_rshr_hs_p8(imf_add_sat32(IMF_P(qs[0], hy) - IMF_P(qs[1], hz), IMF_P(qs[3], hx)), hs);
+    dq[3] = imf_q_rshr_hs_p8(imf_sub_sat32(IMF_P(qs[0], hz) + IMF_P(qs[1], hy), IMF_P(qs[2], hx)), hs);
 #undef IMF_P
 }
 
@@ -237,11 +237,11 @@ IMF_Q_OUTLINE void imf_q_normalise(int32_t q[4])
  * at the start of an update, the q15 snapshot qs of q and d = |q|^2 - 1 in
  * q22 (int16, imf_q_norm2); while |d| < 2^-8 (every ordinary update: a step leaves
  * |q|^2 - 1 ~ |h|^2) the update's own step is q += dq - q d / 2
- * (imf_q8_add_step), a first-order normalisation one sample late (|q|^2 - 1
+ * (imf_q_add_step_p8), a first-order normalisation one sample late (|q|^2 - 1
  * stays of the order of |h|^2 + rounding).  Otherwise (a state set by hand,
  * a rotation above 0.06 rad per sample) q is first fully normalised (as in
  * the 32-bit profile) and d = 0. */
-static inline int16_t imf_q8_snapshot_norm(int32_t q[4], int16_t qs[4])
+static inline int16_t imf_q_snapshot_norm_p8(int32_t q[4], int16_t qs[4])
 {
     uint32_t n2;
     imf_q_snapshot(q, qs);
@@ -255,7 +255,7 @@ static inline int16_t imf_q8_snapshot_norm(int32_t q[4], int16_t qs[4])
 }
 
 /* q += dq - q d / 2: q d / 2 in q30 = qs (q15) d16 (q22) / 2^8, |.| < 2^29. */
-static inline void imf_q8_add_step(int32_t q[4], const int32_t dq[4], const int16_t qs[4],
+static inline void imf_q_add_step_p8(int32_t q[4], const int32_t dq[4], const int16_t qs[4],
                                    const int16_t d16)
 {
     int i;

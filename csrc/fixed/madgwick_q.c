@@ -56,7 +56,7 @@ static int imf_bitlen32(uint32_t v)
 
 /* Appendix steps 2, 4, 5, 6: dq -= beta dt * normalised delta-s.
  * Nothing happens for a zero accelerometer vector or a zero delta-s. */
-static void imf_madgwick_imu_q_correct(const imf_madgwick_imu_q_t *const self, const int16_t qs[4],
+static void imf_madgwick_imu_q_correct_p32(const imf_madgwick_imu_q_t *const self, const int16_t qs[4],
                                        const int16_t acc[3], int32_t dq[4])
 {
     int16_t a[3], s15[4];
@@ -115,7 +115,7 @@ static void imf_madgwick_imu_q_correct(const imf_madgwick_imu_q_t *const self, c
  * terms rounded once), block-scaled in byte and bit steps (left shifts
  * only) to q15 with a constant rounding shift, and the step kb * s / |s|
  * as s15 * yk / 2^kbf with yk = y kb.m rounded to int16 once per update. */
-static void imf_madgwick_imu_q8_correct(const imf_madgwick_imu_q_t *const self,
+static void imf_madgwick_imu_q_correct_p8(const imf_madgwick_imu_q_t *const self,
                                         const int16_t qs[4], const int16_t acc[3], int32_t dq[4])
 {
     int16_t a[3], s15[4], w15;
@@ -123,7 +123,7 @@ static void imf_madgwick_imu_q8_correct(const imf_madgwick_imu_q_t *const self,
     uint32_t m = 0u, n2 = 0u;
     uint16_t y, yk;
     int e, i;
-    if (!imf_q8_unit3(acc, a)) {
+    if (!imf_q_unit3_p8(acc, a)) {
         return;
     }
     /* |q1^2 + q2^2| < 2^31; each pair of products below < 2^31 */
@@ -187,7 +187,7 @@ static void imf_madgwick_imu_q8_correct(const imf_madgwick_imu_q_t *const self,
     }
 }
 
-void imf_madgwick_imu_q32_update(imf_madgwick_imu_q_t *const self, const int16_t gyr[3],
+void imf_madgwick_imu_q_update_p32(imf_madgwick_imu_q_t *const self, const int16_t gyr[3],
                                  const int16_t acc[3])
 {
     int32_t *const q = self->x.q;
@@ -199,33 +199,33 @@ void imf_madgwick_imu_q32_update(imf_madgwick_imu_q_t *const self, const int16_t
     for (i = 0; i < 3; ++i) {
         h[i] = imf_scale16(gyr[i], self->kg, 30);
     }
-    imf_q_rate32(qs, h, dq);
-    imf_madgwick_imu_q_correct(self, qs, acc, dq);
+    imf_q_rate_p32(qs, h, dq);
+    imf_madgwick_imu_q_correct_p32(self, qs, acc, dq);
     /* steps 7, 8: q += dq'; normalise */
     imf_q_add_normalise(q, dq);
 }
 
-void imf_madgwick_imu_q8_update(imf_madgwick_imu_q_t *const self, const int16_t gyr[3],
+void imf_madgwick_imu_q_update_p8(imf_madgwick_imu_q_t *const self, const int16_t gyr[3],
                                 const int16_t acc[3])
 {
     int32_t *const q = self->x.q;
     int32_t h[3], dq[4];
     int16_t qs[4], d16;
-    d16 = imf_q8_snapshot_norm(q, qs);
+    d16 = imf_q_snapshot_norm_p8(q, qs);
     /* step 3: h = 0.5 w dt in q(15+hs), with the remainder carried when kg8
      * has the shift 16 (the product is then in q(31+hs)) */
     if (self->kg8.n == 16) {
         const uint16_t m = self->kg8.m;
         int32_t *const c = self->x.c;
-        h[0] = imf_q8_carry(imf_mul16su(gyr[0], m), &c[0]);
-        h[1] = imf_q8_carry(imf_mul16su(gyr[1], m), &c[1]);
-        h[2] = imf_q8_carry(imf_mul16su(gyr[2], m), &c[2]);
+        h[0] = imf_q_carry_p8(imf_mul16su(gyr[0], m), &c[0]);
+        h[1] = imf_q_carry_p8(imf_mul16su(gyr[1], m), &c[1]);
+        h[2] = imf_q_carry_p8(imf_mul16su(gyr[2], m), &c[2]);
     } else {
         imf_gain8_mul3(gyr, self->kg8, h);
     }
-    imf_q8_rate(qs, h, self->hs, dq);
-    imf_madgwick_imu_q8_correct(self, qs, acc, dq);
-    imf_q8_add_step(q, dq, qs, d16);
+    imf_q_rate_p8(qs, h, self->hs, dq);
+    imf_madgwick_imu_q_correct_p8(self, qs, acc, dq);
+    imf_q_add_step_p8(q, dq, qs, d16);
 }
 
 void imf_madgwick_imu_q_update(imf_madgwick_imu_q_t *const self, const int16_t gyr[3],
@@ -233,13 +233,13 @@ void imf_madgwick_imu_q_update(imf_madgwick_imu_q_t *const self, const int16_t g
 {
 #if IMF_Q_HAS_P8 && IMF_Q_HAS_P32
     if (self->profile == 8) {
-        imf_madgwick_imu_q8_update(self, gyr, acc);
+        imf_madgwick_imu_q_update_p8(self, gyr, acc);
     } else {
-        imf_madgwick_imu_q32_update(self, gyr, acc);
+        imf_madgwick_imu_q_update_p32(self, gyr, acc);
     }
 #elif IMF_Q_HAS_P8
-    imf_madgwick_imu_q8_update(self, gyr, acc);
+    imf_madgwick_imu_q_update_p8(self, gyr, acc);
 #else
-    imf_madgwick_imu_q32_update(self, gyr, acc);
+    imf_madgwick_imu_q_update_p32(self, gyr, acc);
 #endif
 }

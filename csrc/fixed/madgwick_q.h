@@ -4,13 +4,13 @@
  *
  * Inputs are raw int16 counts: gyr in counts of gyr_scale rad/s, acc in
  * any unit (it is normalised).  Profiles as in mahony_q.h:
- *   imf_madgwick_imu_q32_update  rates in q30, 32x16 products, no int64
- *   imf_madgwick_imu_q8_update   rates narrowed to int16, 16x16->32 only
+ *   imf_madgwick_imu_q_update_p32  rates in q30, 32x16 products, no int64
+ *   imf_madgwick_imu_q_update_p8   rates narrowed to int16, 16x16->32 only
  * Both are division-free.
  *
  * State x (int32): q[4] = q0..q3 [w x y z], q30, sensor -> earth;
  * c[3] = cx..cz, 8-bit profile: the low 16 bits of the rate 0.5 w dt in
- * q(31+hs) not yet applied, in [0, 2^16) (imf_q8_carry; 0 otherwise).
+ * q(31+hs) not yet applied, in [0, 2^16) (imf_q_carry_p8; 0 otherwise).
  * Settings (q-scale constants):
  *   kg = 0.5 gyr_scale dt   gyro counts -> half angle per sample
  *   kb = beta dt            normalised delta-s (q15) -> quaternion step (q30)
@@ -50,9 +50,9 @@ int imf_madgwick_imu_q_init(imf_madgwick_imu_q_t *self, double dt, double beta,
  * imf_mahony_imu_q_init_consts for why firmware uses it. */
 int imf_madgwick_imu_q_init_consts(imf_madgwick_imu_q_t *self, imf_qscale_t kg, imf_qscale_t kb,
                                    int profile);
-void imf_madgwick_imu_q32_update(imf_madgwick_imu_q_t *self, const int16_t gyr[3],
+void imf_madgwick_imu_q_update_p32(imf_madgwick_imu_q_t *self, const int16_t gyr[3],
                                  const int16_t acc[3]);
-void imf_madgwick_imu_q8_update(imf_madgwick_imu_q_t *self, const int16_t gyr[3],
+void imf_madgwick_imu_q_update_p8(imf_madgwick_imu_q_t *self, const int16_t gyr[3],
                                 const int16_t acc[3]);
 void imf_madgwick_imu_q_update(imf_madgwick_imu_q_t *self, const int16_t gyr[3],
                                const int16_t acc[3]);

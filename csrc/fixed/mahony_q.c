@@ -58,7 +58,7 @@ static inline int32_t imf_mahony_imu_q_carry_i(const int32_t t, int32_t *const c
 
 /* Appendix steps 2-6, 32-bit profile: h = 0.5 w' dt (q30).  Returns with
  * h holding the gyro term only when acc is the zero vector. */
-static IMF_AVR_NOINLINE void imf_mahony_imu_q_feedback(imf_mahony_imu_q_t *const self, const int16_t qs[4],
+static IMF_AVR_NOINLINE void imf_mahony_imu_q_feedback_p32(imf_mahony_imu_q_t *const self, const int16_t qs[4],
                                       const int16_t acc[3], int32_t h[3])
 {
     imf_mahony_imu_q_state_t *const x = &self->x;
@@ -100,7 +100,7 @@ static IMF_AVR_NOINLINE void imf_mahony_imu_q_feedback(imf_mahony_imu_q_t *const
  * in q15, one 16x16 product per term with the gains prepared at init.
  * Short path (fast8): h in q(31+hs), Kp e + I summed in q38 and added to it
  * rounded once; otherwise h and Kp e in q(15+hs). */
-static void imf_mahony_imu_q8_feedback(imf_mahony_imu_q_t *const self, const int16_t qs[4],
+static void imf_mahony_imu_q_feedback_p8(imf_mahony_imu_q_t *const self, const int16_t qs[4],
                                        const int16_t acc[3], int32_t h[3])
 {
     imf_mahony_imu_q_state_t *const x = &self->x;
@@ -108,12 +108,15 @@ static void imf_mahony_imu_q8_feedback(imf_mahony_imu_q_t *const self, const int
     const int hs = self->hs;
     int16_t a[3], d[3], e15[3];
     int i;
-    if (!imf_q8_unit3(acc, a)) {
+    /* step 2: normalise a (block-scaled, short inverse sqrt) */
+    if (!imf_q_unit3_p8(acc, a)) {
         return;
     }
+    /* step 3: d, q15 */
     d[0] = imf_qn_to_q15s(imf_mul16(qs[1], qs[3]) - imf_mul16(qs[0], qs[2]), 29);
     d[1] = imf_qn_to_q15s(imf_mul16(qs[0], qs[1]) + imf_mul16(qs[2], qs[3]), 29);
     d[2] = imf_qn_to_q15s(imf_mul16(qs[0], qs[0]) + imf_mul16(qs[3], qs[3]) - 536870912L, 29);
+    /* step 4: e = a x d, rounded to q15 */
     e15[0] = imf_qn_to_q15s(imf_mul16(a[1], d[2]) - imf_mul16(a[2], d[1]), 30);
     e15[1] = imf_qn_to_q15s(imf_mul16(a[2], d[0]) - imf_mul16(a[0], d[2]), 30);
     e15[2] = imf_qn_to_q15s(imf_mul16(a[0], d[1]) - imf_mul16(a[1], d[0]), 30);
@@ -135,7 +138,7 @@ static void imf_mahony_imu_q8_feedback(imf_mahony_imu_q_t *const self, const int
     }
 }
 
-void imf_mahony_imu_q32_update(imf_mahony_imu_q_t *const self, const int16_t gyr[3],
+void imf_mahony_imu_q_update_p32(imf_mahony_imu_q_t *const self, const int16_t gyr[3],
                                const int16_t acc[3])
 {
     int32_t *const q = self->x.q;
@@ -147,20 +150,20 @@ void imf_mahony_imu_q32_update(imf_mahony_imu_q_t *const self, const int16_t gyr
     for (i = 0; i < 3; ++i) {
         h[i] = imf_scale16(gyr[i], self->kg, 30);
     }
-    imf_mahony_imu_q_feedback(self, qs, acc, h);
+    imf_mahony_imu_q_feedback_p32(self, qs, acc, h);
     /* step 7: q += 0.5 q (x) w' dt */
-    imf_q_rate32(qs, h, dq);
+    imf_q_rate_p32(qs, h, dq);
     /* step 8 */
     imf_q_add_normalise(q, dq);
 }
 
-void imf_mahony_imu_q8_update(imf_mahony_imu_q_t *const self, const int16_t gyr[3],
+void imf_mahony_imu_q_update_p8(imf_mahony_imu_q_t *const self, const int16_t gyr[3],
                               const int16_t acc[3])
 {
     int32_t *const q = self->x.q;
     int32_t h[3], dq[4];
     int16_t qs[4], d16;
-    d16 = imf_q8_snapshot_norm(q, qs);
+    d16 = imf_q_snapshot_norm_p8(q, qs);
     if (self->fast8) {
         /* step 1 in q(31+hs) (kg8 has the shift 16), steps 2-6, then h to
          * q(15+hs) with the remainder carried */
@@ -169,18 +172,18 @@ void imf_mahony_imu_q8_update(imf_mahony_imu_q_t *const self, const int16_t gyr[
         h[0] = imf_mul16su(gyr[0], m);
         h[1] = imf_mul16su(gyr[1], m);
         h[2] = imf_mul16su(gyr[2], m);
-        imf_mahony_imu_q8_feedback(self, qs, acc, h);
-        h[0] = imf_q8_carry(h[0], &c[0]);
-        h[1] = imf_q8_carry(h[1], &c[1]);
-        h[2] = imf_q8_carry(h[2], &c[2]);
+        imf_mahony_imu_q_feedback_p8(self, qs, acc, h);
+        h[0] = imf_q_carry_p8(h[0], &c[0]);
+        h[1] = imf_q_carry_p8(h[1], &c[1]);
+        h[2] = imf_q_carry_p8(h[2], &c[2]);
     } else {
         /* step 1 in q(15+hs), rounded; steps 2-6 add Kp e and I rounded */
         imf_gain8_mul3(gyr, self->kg8, h);
-        imf_mahony_imu_q8_feedback(self, qs, acc, h);
+        imf_mahony_imu_q_feedback_p8(self, qs, acc, h);
     }
     /* step 7 */
-    imf_q8_rate(qs, h, self->hs, dq);
-    imf_q8_add_step(q, dq, qs, d16);
+    imf_q_rate_p8(qs, h, self->hs, dq);
+    imf_q_add_step_p8(q, dq, qs, d16);
 }
 
 void imf_mahony_imu_q_update(imf_mahony_imu_q_t *const self, const int16_t gyr[3],
@@ -188,13 +191,13 @@ void imf_mahony_imu_q_update(imf_mahony_imu_q_t *const self, const int16_t gyr[3
 {
 #if IMF_Q_HAS_P8 && IMF_Q_HAS_P32
     if (self->profile == 8) {
-        imf_mahony_imu_q8_update(self, gyr, acc);
+        imf_mahony_imu_q_update_p8(self, gyr, acc);
     } else {
-        imf_mahony_imu_q32_update(self, gyr, acc);
+        imf_mahony_imu_q_update_p32(self, gyr, acc);
     }
 #elif IMF_Q_HAS_P8
-    imf_mahony_imu_q8_update(self, gyr, acc);
+    imf_mahony_imu_q_update_p8(self, gyr, acc);
 #else
-    imf_mahony_imu_q32_update(self, gyr, acc);
+    imf_mahony_imu_q_update_p32(self, gyr, acc);
 #endif
 }

@@ -4,10 +4,10 @@
  *
  * Inputs are raw int16 sensor counts: gyr in counts of gyr_scale rad/s,
  * acc in any unit (it is normalised).  Two profiles:
- *   imf_mahony_imu_q32_update  int32 state and vectors, 32x16 products
+ *   imf_mahony_imu_q_update_p32  int32 state and vectors, 32x16 products
  *                              (two 16x16->32 multiplies), no int64
  *                              (Cortex-M0/M3)
- *   imf_mahony_imu_q8_update   error vector and rates narrowed to int16,
+ *   imf_mahony_imu_q_update_p8   error vector and rates narrowed to int16,
  *                              one 16x16->32 multiply per product, no int64,
  *                              no division (AVR)
  *
@@ -18,7 +18,7 @@
  *   cx..cz   the remainder carried to the next sample: 32-bit profile
  *            (ki.s >= 31), the 8 bits of Ki dt e below q38, in [0, 2^8)
  *            (imf_mahony_imu_q_carry_i); 8-bit profile's short path, the low 16 bits of
- *            the rate 0.5 w' dt in q(31+hs), in [0, 2^16) (imf_q8_carry);
+ *            the rate 0.5 w' dt in q(31+hs), in [0, 2^16) (imf_q_carry_p8);
  *            0 otherwise
  * Settings (q-scale constants m 2^-s, imf_fixed.h):
  *   kg = 0.5 gyr_scale dt   gyro counts -> half angle per sample
@@ -67,8 +67,8 @@ int imf_mahony_imu_q_init(imf_mahony_imu_q_t *self, double dt, double kp, double
 int imf_mahony_imu_q_init_consts(imf_mahony_imu_q_t *self, imf_qscale_t kg, imf_qscale_t kp,
                                  imf_qscale_t ki, int profile);
 /* gyr: counts; acc: counts (any scale, zero vector = no correction) */
-void imf_mahony_imu_q32_update(imf_mahony_imu_q_t *self, const int16_t gyr[3], const int16_t acc[3]);
-void imf_mahony_imu_q8_update(imf_mahony_imu_q_t *self, const int16_t gyr[3], const int16_t acc[3]);
+void imf_mahony_imu_q_update_p32(imf_mahony_imu_q_t *self, const int16_t gyr[3], const int16_t acc[3]);
+void imf_mahony_imu_q_update_p8(imf_mahony_imu_q_t *self, const int16_t gyr[3], const int16_t acc[3]);
 /* calls the update of the profile given to init */
 void imf_mahony_imu_q_update(imf_mahony_imu_q_t *self, const int16_t gyr[3], const int16_t acc[3]);
 

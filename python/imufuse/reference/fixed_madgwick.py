@@ -9,7 +9,14 @@ from .fixed_base import FixedFilter, check_profile, check_scale, qconst
 
 
 def _bitlen32(v):
+    """imf_bitlen32: number of bits of v >= 0, byte steps first."""
     n = 0
+    if v >= 65536:
+        v >>= 16
+        n = 16
+    if v >= 256:
+        v >>= 8
+        n += 8
     while v:
         v >>= 1
         n += 1
@@ -55,7 +62,7 @@ class MadgwickIMUQ(FixedFilter):
         self.kbf = 0 if kb.s < 16 else ((kb.s - 16) // 8) * 8
         self.q = [fq.Q30_ONE, 0, 0, 0]
         self.c = [0, 0, 0]
-        self._update = self._update8 if profile == 8 else self._update32
+        self._update = self._update_p8 if profile == 8 else self._update_p32
 
     def _get_state(self):
         return self.q + self.c
@@ -66,9 +73,10 @@ class MadgwickIMUQ(FixedFilter):
     def _state_float(self, s):
         return [v * 2.0 ** -30 for v in s[:4]] + [v * 2.0 ** -16 for v in s[4:]]
 
-    def _correct(self, qs, acc, dq, narrow):
+    def _correct_p32(self, qs, acc, dq):
+        """imf_madgwick_imu_q_correct_p32: appendix steps 2, 4, 5, 6."""
         # step 2: normalise a
-        a = fq.unit3_8(acc) if narrow else fq.normalise_acc(acc)
+        a = fq.normalise_acc(acc)
         if a is None:
             return
         # step 4 (simplified): s = delta-s / 2, q28
@@ -92,20 +100,16 @@ class MadgwickIMUQ(FixedFilter):
         k = _bitlen32(m) - 15
         s15 = [ci.sat_q15s(ci.rshift_sat32(v, k)) for v in s]
         n2 = sum(v * v for v in s15)
-        if narrow:
-            y, e = ci.invsqrt8_u32(n2)
-            sh = 31 - e
-        else:
-            y, sh = ci.invsqrt_u32(n2)
+        y, sh = ci.invsqrt_u32(n2)
         for i in range(4):
             u = ci.sat_q15s(ci.rshr32(s15[i] * y, sh - 15))
             # step 6: dq' = dq - beta dt * unit delta-s
             dq[i] = ci.sub_sat32(dq[i], ci.scale16(u, self.kb, 30 - 15))
 
-    def _correct8(self, qs, acc, dq):
-        # imf_madgwick_imu_q8_correct: s in q29, block scaling by left
+    def _correct_p8(self, qs, acc, dq):
+        # imf_madgwick_imu_q_correct_p8: s in q29, block scaling by left
         # shifts, step s15 * yk / 2^kbf
-        a = fq.unit3_8(acc)
+        a = fq.unit3_p8(acc)
         if a is None:
             return
         r, add = ci.rshr32, ci.add_sat32
@@ -128,30 +132,30 @@ class MadgwickIMUQ(FixedFilter):
             while m < 1 << 30:
                 m <<= 1
                 s = [v + v for v in s]
-            s15 = [ci.sat_q15s(r(v, 16)) for v in s]
+            s15 = [ci.qn_to_q15s(v, 31) for v in s]
         n2 = sum(v * v for v in s15)
         y, e = ci.invsqrt8_u32(n2)
         yk = r(y * self.kb.m, self.kb.s + 1 - e - self.kbf)
         for i in range(4):
             dq[i] = ci.sub_sat32(dq[i], r(s15[i] * yk, self.kbf))
 
-    def _update32(self, gyr, acc):
+    def _update_p32(self, gyr, acc):
         qs = fq.snapshot(self.q)
         # step 3: dq = 0.5 q (x) w dt
         h = [ci.scale16(g, self.kg, 30) for g in gyr]
-        dq = fq.rate32(qs, h)
-        self._correct(qs, acc, dq, False)
+        dq = fq.rate_p32(qs, h)
+        self._correct_p32(qs, acc, dq)
         # steps 7, 8
         self.q = fq.add_normalise(self.q, dq)
 
-    def _update8(self, gyr, acc):
-        self.q, qs, d16 = fq.snapshot_norm8(self.q)
+    def _update_p8(self, gyr, acc):
+        self.q, qs, d16 = fq.snapshot_norm_p8(self.q)
         # step 3: h = 0.5 w dt in q(15+hs), with the remainder carried when kg8
         # has the shift 16 (the product is then in q(31+hs))
         if self.kg8[1] == 16:
-            h = [fq.q8_carry(gyr[i] * self.kg8[0], self.c, i) for i in range(3)]
+            h = [fq.carry_p8(gyr[i] * self.kg8[0], self.c, i) for i in range(3)]
         else:
             h = [ci.gain8_mul(g, self.kg8) for g in gyr]
-        dq = fq.rate_q8(qs, h, self.hs)
-        self._correct8(qs, acc, dq)
-        self.q = fq.add_step8(self.q, dq, qs, d16)
+        dq = fq.rate_p8(qs, h, self.hs)
+        self._correct_p8(qs, acc, dq)
+        self.q = fq.add_step_p8(self.q, dq, qs, d16)

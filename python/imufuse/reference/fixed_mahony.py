@@ -66,7 +66,7 @@ class MahonyIMUQ(FixedFilter):
         self.q = [fq.Q30_ONE, 0, 0, 0]
         self.i = [0, 0, 0]
         self.c = [0, 0, 0]
-        self._update = self._update8 if profile == 8 else self._update32
+        self._update = self._update_p8 if profile == 8 else self._update_p32
 
     def _get_state(self):
         return self.q + self.i + self.c
@@ -78,9 +78,10 @@ class MahonyIMUQ(FixedFilter):
         return ([v * 2.0 ** -30 for v in s[:4]] + [v * 2.0 ** -38 * 2.0 / self.dt for v in s[4:7]]
                 + [v * 2.0 ** -16 for v in s[7:]])
 
-    def _feedback(self, qs, acc, h, narrow):
+    def _feedback_p32(self, qs, acc, h):
+        """imf_mahony_imu_q_feedback_p32: appendix steps 2-6, h = 0.5 w' dt (q30)."""
         # step 2: normalise a
-        a = fq.unit3_8(acc) if narrow else fq.normalise_acc(acc)
+        a = fq.normalise_acc(acc)
         if a is None:
             return
         # step 3: d = 2 (q1 q3 - q0 q2, q0 q1 + q2 q3, q0^2 + q3^2 - 1/2), q15
@@ -92,50 +93,65 @@ class MahonyIMUQ(FixedFilter):
              a[2] * d[0] - a[0] * d[2],
              a[0] * d[1] - a[1] * d[0]]
         for i in range(3):
-            if narrow:
-                e15 = ci.qn_to_q15s(e[i], 30)
-                self.i[i] = ci.add_sat32(self.i[i], ci.gain8_mul(e15, self.ki8))
-                if self.fast8:
-                    # steps 5, 6: Kp e + I summed in q38, rounded once to q(31+hs)
-                    v = ci.add_sat32(self.i[i], e15 * self.kpi)
-                    h[i] = ci.add_sat32(h[i], ci.rshr32(v, 7 - self.hs))
-                else:
-                    h[i] = ci.add_sat32(ci.add_sat32(h[i], ci.gain8_mul(e15, self.kp8)),
-                                        ci.rshr32(self.i[i], 23 - self.hs))
-                continue
             if self.ki.s >= 31:
                 # Ki dt e in q46, its 8 bits below q38 carried (imf_mahony_imu_q_carry_i)
                 ip = carry_i(ci.mul_32x16(e[i], self.ki.m, self.ki.s - 16), self.c, i)
             else:
                 ip = ci.scale32(e[i], self.ki, 30, 38)
             pp = ci.scale32(e[i], self.kp, 30, 30)
-            # step 5: I_n = I_{n-1} + Ki dt e
+            # step 5: I_n = I_{n-1} + Ki dt e (as 0.5 I dt, q38)
             self.i[i] = ci.add_sat32(self.i[i], ip)
-            # step 6: w' = w + Kp e + I_n
+            # step 6: w' = w + Kp e + I_n (as 0.5 w' dt, q30)
             h[i] = ci.add_sat32(ci.add_sat32(h[i], pp), ci.rshr32(self.i[i], 8))
 
-    def _update32(self, gyr, acc):
+    def _feedback_p8(self, qs, acc, h):
+        """imf_mahony_imu_q_feedback_p8: the same, 8-bit profile."""
+        # step 2: normalise a (block-scaled, short inverse sqrt)
+        a = fq.unit3_p8(acc)
+        if a is None:
+            return
+        # step 3: d, q15
+        d = [ci.qn_to_q15s(qs[1] * qs[3] - qs[0] * qs[2], 29),
+             ci.qn_to_q15s(qs[0] * qs[1] + qs[2] * qs[3], 29),
+             ci.qn_to_q15s(qs[0] * qs[0] + qs[3] * qs[3] - 536870912, 29)]
+        # step 4: e = a x d, rounded to q15
+        e15 = [ci.qn_to_q15s(a[1] * d[2] - a[2] * d[1], 30),
+               ci.qn_to_q15s(a[2] * d[0] - a[0] * d[2], 30),
+               ci.qn_to_q15s(a[0] * d[1] - a[1] * d[0], 30)]
+        for i in range(3):
+            if self.fast8:
+                # steps 5, 6: Kp e + I summed in q38, rounded once to q(31+hs)
+                ii = ci.add_sat32(self.i[i], ci.rshr32(e15[i] * self.ki8[0], 16))
+                v = ci.add_sat32(ii, e15[i] * self.kpi)
+                self.i[i] = ii
+                h[i] = ci.add_sat32(h[i], ci.rshr32(v, 7 - self.hs))
+            else:
+                self.i[i] = ci.add_sat32(self.i[i], ci.gain8_mul(e15[i], self.ki8))
+                h[i] = ci.add_sat32(ci.add_sat32(h[i], ci.gain8_mul(e15[i], self.kp8)),
+                                    ci.rshr32(self.i[i], 23 - self.hs))
+
+    def _update_p32(self, gyr, acc):
         qs = fq.snapshot(self.q)
         # step 1: gyro counts -> half angle per sample, q30
         h = [ci.scale16(g, self.kg, 30) for g in gyr]
-        self._feedback(qs, acc, h, False)
+        self._feedback_p32(qs, acc, h)
         # step 7: q += 0.5 q (x) w' dt
-        dq = fq.rate32(qs, h)
+        dq = fq.rate_p32(qs, h)
         # step 8
         self.q = fq.add_normalise(self.q, dq)
 
-    def _update8(self, gyr, acc):
-        self.q, qs, d16 = fq.snapshot_norm8(self.q)
+    def _update_p8(self, gyr, acc):
+        self.q, qs, d16 = fq.snapshot_norm_p8(self.q)
         if self.fast8:
             # step 1 in q(31+hs) (kg8 has the shift 16), steps 2-6, then h to
             # q(15+hs) with the remainder carried
             h = [g * self.kg8[0] for g in gyr]
-            self._feedback(qs, acc, h, True)
-            h = [fq.q8_carry(h[i], self.c, i) for i in range(3)]
+            self._feedback_p8(qs, acc, h)
+            h = [fq.carry_p8(h[i], self.c, i) for i in range(3)]
         else:
             # step 1 in q(15+hs), rounded; steps 2-6 add Kp e and I rounded
             h = [ci.gain8_mul(g, self.kg8) for g in gyr]
-            self._feedback(qs, acc, h, True)
+            self._feedback_p8(qs, acc, h)
         # step 7
-        dq = fq.rate_q8(qs, h, self.hs)
-        self.q = fq.add_step8(self.q, dq, qs, d16)
+        dq = fq.rate_p8(qs, h, self.hs)
+        self.q = fq.add_step_p8(self.q, dq, qs, d16)

@@ -20,7 +20,7 @@ def normalise_acc(acc):
     return [ci.sat_q15s(ci.rshr32(ci.check32(a * y), sh - 15)) for a in acc]
 
 
-def rate32(qs, h):
+def rate_p32(qs, h):
     m = ci.mul_32x16
     x0, x1, x2, x3 = (m(h[0], v, 15) for v in qs)
     y0, y1, y2, y3 = (m(h[1], v, 15) for v in qs)
@@ -32,8 +32,8 @@ def rate32(qs, h):
             sub(add(z0, y1), x2)]
 
 
-def unit3_8(v):
-    """imf_q8_unit3: symmetric q15 unit vector of an int16 3-vector, or None."""
+def unit3_p8(v):
+    """imf_q_unit3_p8: symmetric q15 unit vector of an int16 3-vector, or None."""
     b = [max(x, -32767) for x in v]
     m = 0
     for x in b:
@@ -52,8 +52,8 @@ def check(x):
     return ci.check32(x)
 
 
-def q8_carry(t, c, i):
-    """imf_q8_carry: floor((t + c[i]) / 2^16), c[i] = the remainder, in 16-bit
+def carry_p8(t, c, i):
+    """imf_q_carry_p8: floor((t + c[i]) / 2^16), c[i] = the remainder, in 16-bit
     operations: the low words add, their carry goes to the high word."""
     lo = t & 0xFFFF
     s = (lo + (c[i] & 0xFFFF)) & 0xFFFF
@@ -61,8 +61,8 @@ def q8_carry(t, c, i):
     return (t >> 16) + (1 if s < lo else 0)
 
 
-def rate_q8(qs, h, hs):
-    """imf_q8_rate"""
+def rate_p8(qs, h, hs):
+    """imf_q_rate_p8"""
     hx, hy, hz = (ci.sat_q15(v) for v in h)
     sub, add, r = ci.sub_sat32, ci.add_sat32, ci.rshr32
     return [r(sub(-qs[1] * hx - qs[2] * hy, qs[3] * hz), hs),
@@ -84,8 +84,8 @@ def norm2(q, qs):
     return n2
 
 
-def snapshot_norm8(q):
-    """imf_q8_snapshot_norm: (q, qs, d16); q fully normalised when far from 1."""
+def snapshot_norm_p8(q):
+    """imf_q_snapshot_norm_p8: (q, qs, d16); q fully normalised when far from 1."""
     qs = snapshot(q)
     n2 = norm2(q, qs)
     if n2 <= 1069547520 or n2 >= 1077936128:
@@ -94,8 +94,8 @@ def snapshot_norm8(q):
     return q, qs, ci.rshr32(n2 - Q30_ONE, 8)
 
 
-def add_step8(q, dq, qs, d16):
-    """imf_q8_add_step: q += dq - q d / 2."""
+def add_step_p8(q, dq, qs, d16):
+    """imf_q_add_step_p8: q += dq - q d / 2."""
     return [ci.add_sat32(a, ci.sub_sat32(b, ci.rshr32(s * d16, 8)))
             for a, b, s in zip(q, dq, qs)]
 

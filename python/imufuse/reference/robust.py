@@ -66,7 +66,7 @@ class _Robust(ReferenceFilter):
 
     @staticmethod
     def _imu_params(tau_acc=2.5, rate_ref=100.0, tau_bias=100.0, tau_bias_rest=3.0,
-                    rest_gyr=2.0, rest_acc=0.05, rest_time=1.5, tau_rest=0.5, latency=0.002):
+                    rest_gyr=2.0, rest_acc=0.05, rest_time=1.5, tau_rest=0.5, latency=0.0):
         tau_acc = _checks.check_real("tau_acc", tau_acc, lo=0.0, lo_open=True)
         rate_ref = _checks.check_real("rate_ref", rate_ref, lo=0.0)
         tau_bias = _checks.check_real("tau_bias", tau_bias, lo=0.0)
@@ -449,7 +449,7 @@ class RobustIMU(_Robust):
     (docs/recommended-ahrs.md).
 
     RobustIMU(dt, tau_acc=2.5, rate_ref=100.0, tau_bias=100.0, tau_bias_rest=3.0,
-    rest_gyr=2.0, rest_acc=0.05, rest_time=1.5, tau_rest=0.5, latency=0.002): dt in s;
+    rest_gyr=2.0, rest_acc=0.05, rest_time=1.5, tau_rest=0.5, latency=0.0): dt in s;
     tau_acc (s)
     the gravity filter's time constant at rest; rate_ref (deg/s) the rotation rate at
     which its gravity uncertainty doubles (0: constant); tau_bias (s) the time
@@ -466,7 +466,7 @@ class RobustIMU(_Robust):
 
     @staticmethod
     def _params(dt, tau_acc=2.5, rate_ref=100.0, tau_bias=100.0, tau_bias_rest=3.0,
-                rest_gyr=2.0, rest_acc=0.05, rest_time=1.5, tau_rest=0.5, latency=0.002):
+                rest_gyr=2.0, rest_acc=0.05, rest_time=1.5, tau_rest=0.5, latency=0.0):
         dt = _checks.check_dt(dt)
         return (dt,) + _Robust._imu_params(tau_acc, rate_ref, tau_bias, tau_bias_rest,
                                            rest_gyr, rest_acc, rest_time, tau_rest, latency)
@@ -508,7 +508,7 @@ class RobustAHRS(_Robust):
 
     @staticmethod
     def _params(dt, tau_acc=2.5, rate_ref=100.0, tau_bias=100.0, tau_bias_rest=3.0,
-                rest_gyr=2.0, rest_acc=0.05, rest_time=1.5, tau_rest=0.5, latency=0.002,
+                rest_gyr=2.0, rest_acc=0.05, rest_time=1.5, tau_rest=0.5, latency=0.0,
                 tau_mag=10.0, mag_norm=0.1, mag_dip=10.0, tau_mag_ref=20.0, mag_new_time=20.0,
                 mag_hold=0.5):
         dt = _checks.check_dt(dt)
