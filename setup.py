@@ -66,7 +66,11 @@ def units(module, sources, guard):
 
 def build(name):
     sources, macros, guard = BUILDS[name]
+    # the units only #include their csrc sources: list every csrc file so that
+    # an edit of one rebuilds the extension (distutils compares mtimes)
+    depends = sorted(glob.glob("csrc/*.[ch]") + glob.glob("csrc/fixed/*.[ch]"))
     return Extension(f"imufuse_c.{name}", [f"imufuse_c/{name}.pyx", *units(name, sources, guard)],
+                     depends=depends,
                      include_dirs=["csrc", "csrc/fixed", numpy.get_include()],
                      define_macros=[*macros, ("NPY_NO_DEPRECATED_API", "NPY_1_7_API_VERSION")],
                      extra_compile_args=CFLAGS)

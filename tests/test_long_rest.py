@@ -40,7 +40,7 @@ import twins  # noqa: E402
 
 import imufuse.reference as reference  # noqa: E402
 from imufuse import catalogue, sim  # noqa: E402
-from registry import DTYPES, fixed_matrix, float_matrix  # noqa: E402
+from registry import fixed_matrix, float_matrix  # noqa: E402
 
 imufuse_c = pytest.importorskip("imufuse_c", reason="the long runs need the compiled run()")
 
