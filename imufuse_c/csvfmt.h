@@ -13,7 +13,8 @@
  * Python). "-0" keeps its sign.
  *
  * The digits are computed exactly with 128-bit integers when the value's
- * magnitude allows (about 1e-6 <= |x| < 1.7e38 for P = 17, wider for P = 9);
+ * magnitude allows (about 1e-6 <= |x| < 1.7e38 for P = 17, 1e-14 <= |x| < 1.7e38
+ * for P = 9);
  * otherwise (tiny values, or a compiler without unsigned __int128) by
  * snprintf, whose "%.*g" is correctly rounded in glibc, musl and the BSD and
  * macOS C libraries. No allocation, no global state: callable without the GIL.
@@ -138,10 +139,10 @@ static int csvfmt_exact(double ax, int P, uint64_t *D_out, int *X_out)
                 half = den >> 1;
             }
         } else {                                  /* divide by 10^-s */
-            if (-s > 19 || e > 74 || e < 0)
+            if (-s > 38 || e > 74 || e < 0)
                 return 0;
             num = (csvfmt_u128)m << e;
-            den = p10[-s];
+            den = -s > 19 ? (csvfmt_u128)p10[19] * p10[-s - 19] : (csvfmt_u128)p10[-s];
             q = num / den;
             r = num % den;
             half = den >> 1;                      /* den even: exact half */
