@@ -76,5 +76,11 @@ def build(name):
                      extra_compile_args=CFLAGS)
 
 
-setup(ext_modules=cythonize([build(name) for name in BUILDS],
+# CSV output (imufuse.io.write_csv): the text formatter, imufuse_c/csvfmt.h; no csrc
+csvout = Extension("imufuse_c._csvout", ["imufuse_c/_csvout.pyx"],
+                   include_dirs=["imufuse_c", numpy.get_include()],
+                   define_macros=[("NPY_NO_DEPRECATED_API", "NPY_1_7_API_VERSION")],
+                   extra_compile_args=CFLAGS)
+
+setup(ext_modules=cythonize([*(build(name) for name in BUILDS), csvout],
                             compiler_directives={"language_level": 3}))
