@@ -55,6 +55,7 @@ from dataclasses import dataclass, field
 from typing import Optional
 
 import numpy as np
+from imufuse_c._csvout import iter_blocks as _csv_blocks
 
 from ._resources import _path
 
@@ -758,8 +759,6 @@ def write_csv(path, columns, float32=()):
     The text is made in C (imufuse_c._csvout, without the GIL) in blocks of
     whole rows in one fixed 1 MB buffer: memory stays small for long logs,
     and 10^6 rows of 7 columns take about 0.4 s (docs/csv-output.md)."""
-    from imufuse_c import _csvout
-
     names = list(columns)
     arrs = [columns[n] for n in names]
     precisions = [9 if n in float32 else 17 for n in names]
@@ -767,11 +766,11 @@ def write_csv(path, columns, float32=()):
     if not hasattr(path, "write"):
         with open(path, "wb") as fh:
             fh.write(header.encode("utf-8"))
-            for block in _csvout.iter_blocks(arrs, precisions):
+            for block in _csv_blocks(arrs, precisions):
                 fh.write(block)
         return
     path.write(header)
-    for block in _csvout.iter_blocks(arrs, precisions):
+    for block in _csv_blocks(arrs, precisions):
         path.write(block.decode("ascii"))
 
 
