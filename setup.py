@@ -66,11 +66,21 @@ def units(module, sources, guard):
 
 def build(name):
     sources, macros, guard = BUILDS[name]
+    # the units only #include their csrc sources: list every csrc file so that
+    # an edit of one rebuilds the extension (distutils compares mtimes)
+    depends = sorted(glob.glob("csrc/*.[ch]") + glob.glob("csrc/fixed/*.[ch]"))
     return Extension(f"imufuse_c.{name}", [f"imufuse_c/{name}.pyx", *units(name, sources, guard)],
+                     depends=depends,
                      include_dirs=["csrc", "csrc/fixed", numpy.get_include()],
                      define_macros=[*macros, ("NPY_NO_DEPRECATED_API", "NPY_1_7_API_VERSION")],
                      extra_compile_args=CFLAGS)
 
 
-setup(ext_modules=cythonize([build(name) for name in BUILDS],
+# CSV output (imufuse.io.write_csv): the text formatter, imufuse_c/csvfmt.h; no csrc
+csvout = Extension("imufuse_c._csvout", ["imufuse_c/_csvout.pyx"],
+                   include_dirs=["imufuse_c", numpy.get_include()],
+                   define_macros=[("NPY_NO_DEPRECATED_API", "NPY_1_7_API_VERSION")],
+                   extra_compile_args=CFLAGS)
+
+setup(ext_modules=cythonize([*(build(name) for name in BUILDS), csvout],
                             compiler_directives={"language_level": 3}))

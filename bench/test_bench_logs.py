@@ -2,7 +2,7 @@
 time and peak RSS of the command (a child process), and read_log alone.
 
 Goal (issue 9, defect 11): 10^6 rows in <= 2 s and <= 300 MB peak RSS for
-`run` (NPZ output; CSV output adds the time to format 10^6 rows of text).
+`run`, with NPZ and with CSV output (the CSV text is made in C: docs/csv-output.md).
 
     pytest bench/test_bench_logs.py --benchmark-only
 """

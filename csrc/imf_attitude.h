@@ -4,7 +4,7 @@
  * given quaternion. The pure-Python twin is
  * python/imufuse/reference/attitude.py: the same lines in the same order.
  *
- * Frames (DESIGN.md): the earth frame is NWU (x north, y west, z up); a level
+ * Frames (README.md, Conventions): the earth frame is NWU (x north, y west, z up); a level
  * sensor at rest reads acc = (0, 0, +1 g). The attitude rotates sensor to
  * earth, v_earth = R v_body, so the rows of R are the earth axes seen in the
  * sensor frame:

@@ -154,7 +154,7 @@ static inline int imf_is_zero3(const imf_real x, const imf_real y, const imf_rea
 }
 
 /* ---- gravity-vector filters (multiwii, kk, mahony2d, dcm) ---------------
- * Outputs only, never part of a state update (DESIGN.md, contract 5): roll
+ * Outputs only, never part of a state update (docs/internals.md, numerical contract 5): roll
  * and pitch (rad, ZYX aerospace sequence as in imufuse.rotations) of the
  * attitude whose body-frame "up" vector R^T e_z is (dx, dy, dz) (any length
  * > 0). Evaluated in double with libm; Python's math.atan2/math.sqrt are the

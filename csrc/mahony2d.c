@@ -12,7 +12,7 @@ void imf_mahony2d_init(imf_mahony2d_t *const self, const imf_real dt, const imf_
     self->ki = ki;
     imf_mahony2d_set_dt(self, dt);
     self->exact = exact != 0;
-    self->d2_max = self->exact ? IMF_R(1.0) / (kp * dt) : IMF_R(4.0);
+    self->d2_max = IMF_R(4.0);
     self->skipped = 0;
     self->x.dx = IMF_R(0.0);
     self->x.dy = IMF_R(0.0);
@@ -81,6 +81,14 @@ void imf_mahony2d_update(imf_mahony2d_t *const self, const imf_real gx, const im
     dxn = dx + (self->kp * ex + ix + cx) * self->dt;
     dyn = dy + (self->kp * ey + iy + cy) * self->dt;
     dzn = dz + (self->kp * ez + iz + cz) * self->dt;
+    /* Eq. 4.3 only (task T2, see mahony2d.h): E and d x w are perpendicular to
+       d, so d keeps its meaning only as a direction; scale it back to unit
+       length, where Eq. 4.3's loop gain Kp |d|^2 is Kp. A normalisation that
+       fails rejects the sample (imf_math.h). */
+    if (self->exact && imf_normalise3(&dxn, &dyn, &dzn, IMF_INVSQRT_EXACT) != IMF_NORM_OK) {
+        self->skipped++;
+        return;
+    }
     /* valid-attitude policy (imf_math.h): d of plausible length, I finite */
     if (!(imf_gravity_ok(dxn, dyn, dzn, self->d2_max) && imf_finite3(ix, iy, iz))) {
         self->skipped++;

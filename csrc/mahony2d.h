@@ -7,14 +7,25 @@
  *
  * discretised like the single-axis filter of Eq. 3.6, per axis:
  *   I_n = I_{n-1} + Ki dt E_n;   d_n = d_{n-1} + (Kp E_n + I_n + d_{n-1} x w_n) dt
- * with E_n from d_{n-1} and the normalised accelerometer. d is never
- * renormalised (the article: "the MultiWii approach suggests itself"); with
- * E = a - d the controller itself pulls |d| to 1. With the exact E (always
- * perpendicular to d) |d| is not controlled: d.d' = d.I, and the integral,
- * applied outside the cross product, keeps any component along d that it
- * gathered while d moved, so |d| grows without bound at the rate I.d/|d|
- * (tests/test_gravity.py: 1 -> 2.33 in 60 s after a 25 deg initial error).
- * The direction of d, and so the tilt, is unaffected.
+ * with E_n from d_{n-1} and the normalised accelerometer.
+ *
+ * Eq. 4.4 (E = a - d): d is never renormalised (the article: "the MultiWii
+ * approach suggests itself"); the controller itself pulls |d| to 1.
+ *
+ * Eq. 4.3 (E = d x (a x d)): d is scaled back to unit length after every
+ * update (task T2). E and d x w are perpendicular to d, so nothing in Eq. 4.3
+ * controls |d|: d.d' = d.I, and the integral, applied outside the cross
+ * product ("thanks to linearity", exact only while d does not move), keeps
+ * any component along d that it gathered while d moved; the forward step
+ * adds |d|^2 dt^2 |E, d x w|^2 on top. Left alone |d| grew without bound
+ * (1 -> 2.33 in 60 s after a 25 deg initial error, 10 after 270 s at a static
+ * 30 deg), the loop gain Kp |d|^2 with it, and once |d| reached the length
+ * where that loop turns unstable every later sample had to be rejected. Only
+ * the direction of d carries attitude, and E = a |d|^2 - d (a.d) is the
+ * article's E with "both d and a normalized". From a unit d each step turns
+ * d exactly as the unnormalised Eq. 4.3 step does (the scaling does not change
+ * its direction); keeping |d| = 1 keeps the loop the single-axis filter of
+ * Eq. 3.6 with gains Kp, Ki per axis, so its stable range is that of Eq. 4.4.
  *
  * Sign: d is the body-frame up vector R^T e_z (a level sensor at rest reads
  * acc = (0, 0, +1) = d), minus the article's d = -R^T e_z; E and d flip
@@ -29,11 +40,9 @@
 #include "imf_config.h"
 #include "imf_attitude.h"
 
-/* Valid attitude (imf_math.h policy): |d|^2 normal and at most d2_max. d is
-   never renormalised. Eq. 4.4 pulls |d| to 1: d2_max = 4 (|d| <= 2). Eq. 4.3
-   leaves |d| to drift (at the rate I.d/|d|) and its loop gain is Kp |d|^2:
-   d2_max = 1 / (Kp dt), the length up to which the loop stays stable
-   (Kp dt |d|^2 <= 1); beyond it samples are rejected. */
+/* Valid attitude (imf_math.h policy): |d|^2 normal and at most d2_max = 4
+   (|d| <= 2). Eq. 4.4 pulls |d| to 1; Eq. 4.3 renormalises d every update
+   (|d| = 1 to rounding), and a normalisation that fails rejects the sample. */
 
 typedef struct {
     imf_real dx, dy, dz; /* gravity direction estimate (body up), unit-less */
@@ -46,7 +55,7 @@ typedef struct {
     imf_real ki;      /* integral gain Ki, 1/s^2 (kept for set_dt) */
     imf_real ki_dt;   /* Ki dt, 1/s */
     int exact;        /* 0: E = a - d (Eq. 4.4); 1: E = d x (a x d) (Eq. 4.3) */
-    imf_real d2_max;  /* longest valid d, squared (see above) */
+    imf_real d2_max;  /* longest valid d, squared: 4 (see above) */
     uint32_t skipped; /* samples rejected by the non-finite policy */
     imf_mahony2d_state_t x;
 } imf_mahony2d_t;

@@ -1,5 +1,5 @@
 """Bit-pattern comparison for the tests: imufuse.bits (the one definition of
-"equal", DESIGN.md numerical contract 4) plus an assertion."""
+"equal", docs/internals.md numerical contract 4) plus an assertion."""
 from imufuse.bits import UINT, compare_states, first_difference, ulps
 
 __all__ = ["UINT", "ulps", "compare_states", "first_difference", "assert_same_bits"]

@@ -9,12 +9,10 @@ import pytest
 from scipy.spatial.transform import Rotation as R
 
 from imufuse import evaluation as ev
+from broad_data import BROAD, SKIP_REASON
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 # ../shared beside the checkout (main and CI), or two levels up (a worktree)
-BROAD = next((d for d in (os.path.join(ROOT, "..", "shared", "data", "broad"),
-                          os.path.join(ROOT, "..", "..", "shared", "data", "broad"))
-              if os.path.isdir(d)), os.path.join(ROOT, "..", "shared", "data", "broad"))
+
 
 
 def _rot(q_wxyz):
@@ -176,7 +174,7 @@ def test_mean_over_trials(pair):
     assert m["total"] == pytest.approx((a.total + b.total) / 2)
 
 
-@pytest.mark.skipif(not os.path.isdir(BROAD), reason="BROAD development data not present")
+@pytest.mark.skipif(BROAD is None, reason=SKIP_REASON)
 def test_a_real_trial_against_the_independent_implementation():
     """A filter's NWU output on a real BROAD trial (ENU reference with
     dropouts, movement mask): the module and the independent code agree."""

@@ -41,6 +41,7 @@ def test_run_fusion_ahrs_matches_the_class(log_path, tmp_path):
     assert rc == 0
     header, data = _read(out)
     log = io.read_log(str(log_path))
+    assert "each sample's own interval" in " ".join(log.warnings)
     t = log.columns["time"]
     dt = np.diff(t, prepend=t[0] - log.dt)
     f = imufuse_c.FusionAHRS(gain=0.7, convention="ENU", recovery_trigger_period=300,
@@ -50,6 +51,26 @@ def test_run_fusion_ahrs_matches_the_class(log_path, tmp_path):
     assert_same_bits(got, S, f.state_names)
     yaw = f.outputs_batch(S)["euler"][:, 2]
     assert_same_bits(data[:, header.index("yaw_deg")].astype(np.float32), yaw, None)
+
+
+@pytest.mark.parametrize("how", [["--fixed-rate"], ["--rate", "50"]])
+def test_run_fusion_ahrs_fixed_rate(log_path, tmp_path, capsys, how):
+    """--fixed-rate and --rate run FusionAHRS at one period, as every filter,
+    and what the loader's note says is what it did (the log's intervals vary
+    from 7.6 to 30 ms)."""
+    out = tmp_path / "out.csv"
+    rc = cli.main(["run", str(log_path), "--filter", "FusionAHRS", *how, "-o", str(out)])
+    assert rc == 0
+    err = capsys.readouterr().err
+    header, data = _read(out)
+    log = io.read_log(str(log_path), fixed_rate=True,
+                      rate=float(how[1]) if how[0] == "--rate" else None)
+    f = imufuse_c.FusionAHRS()
+    S = f.run(np.degrees(log.gyr), log.acc, log.mag, dt=log.dt)
+    assert_same_bits(data[:, [header.index(n) for n in f.state_names]], S, f.state_names)
+    assert f"dt={log.dt:.6g} s" in err and "dt per sample" not in err
+    if how[0] == "--fixed-rate":
+        assert f"the filters use the median {log.dt:.6g} s" in err
 
 
 @pytest.mark.parametrize("filt", ["FusionAHRS", "MadgwickAHRS", "MahonyIMU"])

@@ -40,7 +40,7 @@ import twins  # noqa: E402
 
 import imufuse.reference as reference  # noqa: E402
 from imufuse import catalogue, sim  # noqa: E402
-from registry import DTYPES, fixed_matrix, float_matrix  # noqa: E402
+from registry import fixed_matrix, float_matrix  # noqa: E402
 
 imufuse_c = pytest.importorskip("imufuse_c", reason="the long runs need the compiled run()")
 
@@ -298,7 +298,8 @@ def truth_worst(case, s, sc):
 def norm_worst(case, s, sc, g1=1.0):
     """Worst deviation of the kept norm over the run (None: the filter keeps angles).
     Quaternions and DCM: at every sample from the second second on (the identity start
-    is exact).  MultiWii and Mahony2D never renormalise d: while converging, d is a blend
+    is exact).  MultiWii and Mahony2D with Eq. 4.4 never renormalise d (Eq. 4.3 does,
+    every update, so |d| = 1 throughout): while converging, d is a blend
     of the old estimate and the reading (shorter) or overshoots with the PI loop (longer,
     see gravity_peak); what they keep is |d| = 1 g once settled (from converge_time()
     after each motion)."""
@@ -382,12 +383,6 @@ def twin_rms_bound(case, profile):
 
 # Defects the long runs found in float filters (not fixed here; each must still fail):
 KNOWN_DEFECTS = {
-    # error="exact" with ki > 0: E = d x (a x d) is perpendicular to d, nothing restores
-    # |d|, and the integral term drives it: |d| grows without bound when tilted (138 g
-    # after 586 s at 90 deg)
-    **{("Mahony2D-exact", dt, sc): "Mahony2D error='exact' with ki > 0: |d| grows without bound"
-       for dt in DTYPES for sc in ("tilt45", "tilt90", "upside_down", "noisy", "yaw_spin",
-                                   "rest_tilt_rest")},
     # float32: a steady-state offset proportional to the angle (0.28 deg at 45 deg,
     # 2.1 deg upside down; float64: none): the direct-form-II-transposed delay elements
     # lose the small difference at dt = 1/512

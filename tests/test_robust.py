@@ -17,6 +17,7 @@ import pytest
 import imufuse_c
 from imufuse import reference
 from imufuse import sim_disturb as sd
+from broad_data import BROAD, SKIP_REASON
 
 NAMES = imufuse_c.RobustAHRS(0.01).state_names
 
@@ -313,13 +314,9 @@ def test_bad_parameters(backend, kw):
 
 # ---- 4. BROAD development trials ---------------------------------------------------------
 
-BROAD = os.environ.get("IMUFUSE_BROAD", os.path.join(os.path.dirname(__file__), "..", "..",
-                                                     "shared", "data", "broad"))
-BROAD = BROAD if os.path.isdir(BROAD) else "/work/shared/data/broad"
 
 
-@pytest.mark.skipif(not os.path.isdir(BROAD), reason="BROAD development trials not present "
-                    "(set IMUFUSE_BROAD to their directory)")
+@pytest.mark.skipif(BROAD is None, reason=SKIP_REASON)
 def test_broad_development_trials():
     import glob
     nwu_to_enu = np.array([math.cos(math.pi / 4), 0, 0, math.sin(math.pi / 4)])

@@ -1,4 +1,4 @@
-"""Per-sample time steps and the initial orientation (DESIGN.md, API contract:
+"""Per-sample time steps and the initial orientation (README.md, API:
 "Time" and "Initial orientation"; docs/time-and-init.md).
 
 Time: run(..., dt=array) / update(..., dt=value) recompute every constant

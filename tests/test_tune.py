@@ -14,13 +14,11 @@ import imufuse
 import imufuse_c
 from imufuse import io
 from imufuse.evaluation import evaluate
+from broad_data import BROAD, SKIP_REASON
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PATHS = [os.path.dirname(os.path.dirname(imufuse.__file__)),
          os.path.dirname(os.path.dirname(imufuse_c.__file__))]
-BROAD = next((d for d in (os.path.join(ROOT, "..", "shared", "data", "broad"),
-                          os.path.join(ROOT, "..", "..", "shared", "data", "broad"))
-              if os.path.isdir(d)), None)
+
 
 
 def imf(*args, timeout=600):
@@ -69,7 +67,7 @@ def test_tune_finds_the_best_beta_on_the_excerpt():
     assert best_of(one.stdout) == best_of(r.stdout)
 
 
-@pytest.mark.skipif(BROAD is None, reason="BROAD development trials (../shared/data/broad) absent")
+@pytest.mark.skipif(BROAD is None, reason=SKIP_REASON)
 def test_tune_finds_the_best_beta_on_the_broad_development_trials():
     paths = sorted(glob.glob(os.path.join(BROAD, "*.npz")))
     assert len(paths) == 7

@@ -129,7 +129,8 @@ def run_arrays(dtype, gyr, acc, mag, heading, dt):
     n = arrays[0].shape[0]
     h = None
     if heading is not None:
-        h = np.ascontiguousarray(heading, dtype=dtype)
+        with np.errstate(over="ignore"):    # float64 beyond float32: inf, a rejected sample
+            h = np.ascontiguousarray(heading, dtype=dtype)
         if h.shape != (n,):
             raise ValueError(f"run(): heading must have shape ({n},), got {h.shape}")
     if dt is None:
@@ -141,7 +142,8 @@ def run_arrays(dtype, gyr, acc, mag, heading, dt):
         raise ValueError(f"run(): dt must be a scalar or have shape ({n},), got {d.shape}")
     if np.any(d < 0):
         raise ValueError("dt: must be >= 0 seconds")
-    d = np.ascontiguousarray(d, dtype=dtype)
+    with np.errstate(over="ignore"):        # likewise
+        d = np.ascontiguousarray(d, dtype=dtype)
     return arrays[0], arrays[1], (arrays[2] if mag is not None else None), h, d
 
 

@@ -1,5 +1,5 @@
 """Bit-pattern comparison of state trajectories: the meaning of "equal" in
-imufuse (DESIGN.md, numerical contract 4). One module, used by the demo, the
+imufuse (docs/internals.md, numerical contract 4). One module, used by the demo, the
 firmware and MCU harnesses and the tests.
 
   ulps(a, b)                  distance in units in the last place

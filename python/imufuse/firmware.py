@@ -40,7 +40,7 @@ The declaration:
 The precision of the firmware is read from sizeof of the state expressions.
 
 Compilation: `cflags` default DEFAULT_CFLAGS (the numerical contract of
-DESIGN.md); give a list to replace them. `defines` {NAME: value or None}.
+docs/internals.md); give a list to replace them. `defines` {NAME: value or None}.
 Builds are cached under $IMUFUSE_CACHE or ~/.cache/imufuse/firmware, keyed by
 the generated source, the flags and the contents of the sources and headers.
 """

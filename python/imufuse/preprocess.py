@@ -104,16 +104,19 @@ def is_fusion(name):
 
 def run_fusion(args, log, params):
     """`imufuse run --filter FusionAHRS`: Fusion's units and dt per sample from
-    the log's time column (Fusion integrates with the interval it is given).
+    the log's time column (Fusion integrates with the interval it is given),
+    or, as for every filter, the fixed period with --fixed-rate or --rate.
     Returns (columns, summary)."""
     mod = imufuse_c if args.backend == "c" else reference
     f = mod.FusionAHRS(**params, dtype=args.dtype)
     io.require(log, io.GYR + io.ACC)
     gyr = np.degrees(log.gyr)
-    if "time" in log.columns:
+    if "time" in log.columns and not log.fixed_rate:
         dt = np.diff(log.columns["time"], prepend=log.columns["time"][0] - log.dt)
+        when = "dt per sample"
     else:
         dt = log.dt
+        when = f"dt={log.dt:.6g} s"
     if log.has(*io.MAG):
         S = f.run(gyr, log.acc, log.mag, dt=dt)
         src = "gyr, acc, mag (update)"
@@ -138,7 +141,7 @@ def run_fusion(args, log, params):
         cols[name] = out[name].astype(np.float64)
     summary = (f"FusionAHRS ({args.backend}, {args.dtype}, "
                f"{', '.join(f'{k}={v}' for k, v in params.items()) or 'defaults'}): "
-               f"{len(log)} samples from {src}, gyroscope in deg/s, dt per sample")
+               f"{len(log)} samples from {src}, gyroscope in deg/s, {when}")
     if f.skipped:
         summary += f"; {f.skipped} samples skipped (non-finite)"
     if log.q_ref is not None and params.get("convention", "NWU").upper() == "NWU":

@@ -1,6 +1,6 @@
 """Quaternion, rotation-matrix and Euler-angle helpers (float64, vectorised).
 
-Conventions (DESIGN.md):
+Conventions (README.md, Conventions):
 
 - A quaternion is ``[w, x, y, z]`` (scalar first, Madgwick's q0..q3) and rotates the *sensor*
   (body) frame into the *earth* frame: ``v_earth = R(q) v_body``, ``v_body = R(q)^T v_earth``.

@@ -2,7 +2,7 @@
  * Hostile-input driver for every fixed-point filter of csrc/fixed (both
  * profiles), built by tests/test_sanitizers.py with
  * -fsanitize=address,undefined -fno-sanitize-recover=all. The contract
- * (DESIGN.md, numerical contract 6): no int16 input can cause undefined
+ * (docs/internals.md, numerical contract 6): no int16 input can cause undefined
  * behaviour. Inputs are random counts, the extremes -32768, -32767, -1, 0,
  * 1, 32767 and long constant stretches of them; an init that rejects its
  * constants is an error here (the parameters are the registry's).

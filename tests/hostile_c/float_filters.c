@@ -162,8 +162,8 @@ static int valid(const int which, const any_filter_t *const f, const imf_real *c
     if (which == 12) {
         return sq3(x) >= IMF_REAL_MIN && sq3(x) <= f->mw.d2_max;
     }
-    if (which == 14) {
-        return sq3(x) >= IMF_REAL_MIN && sq3(x) <= f->m2.d2_max;
+    if (which == 14) { /* Eq. 4.3: d renormalised every update */
+        return sq3(x) >= IMF_R(0.99) && sq3(x) <= IMF_R(1.01) && sq3(x) <= f->m2.d2_max;
     }
     if (which == 15) {
         const imf_real t = IMF_DCM_ORTHO_TOL;

@@ -2,7 +2,7 @@
 
 A fixed-point reference mirrors its C twin in csrc/fixed/ operation for
 operation on Python ints, through the C-semantics helpers of _cint.py.  The
-API is that of the float filters (DESIGN.md, API contract) with these
+API is that of the float filters (README.md, API) with these
 differences: `profile="32" | "8"` replaces dtype; update() and run() take raw
 int16 sensor counts; `state` is an int32 array; `state_float` gives the state
 in the float twin's units.

@@ -31,19 +31,12 @@ def tilt_angles(dx, dy, dz):
     return math.atan2(dy, dz), math.atan2(-dx, math.sqrt(dy * dy + dz * dz))
 
 
-def _check_gains(dt, kp, ki, exact=False):
+def _check_gains(dt, kp, ki):
     kp = _checks.check_real("kp", kp, lo=0.0)
     ki = _checks.check_real("ki", ki, lo=0.0)
-    if exact:
-        # Eq. 4.3: the loop gains are Kp |d|^2 and Ki |d|^2 with |d|^2 up to
-        # d2_max = 1 / (kp dt) (csrc/mahony2d.h): kp dt |d|^2 <= 1 and the Jury
-        # condition below at the largest |d|, ki dt^2 / (kp dt) < 4 - 2
-        kpdt, kidt2 = kp * dt, ki * dt * dt
-        if not (0.0 < kpdt <= 0.25 and kidt2 < 2.0 * kpdt):
-            raise ValueError(f"kp, ki: outside the stable range of Eq. 4.3 (0 < kp*dt <= 0.25 "
-                             f"and ki*dt^2 < 2 kp*dt needed; kp*dt={kpdt!r}, ki*dt^2={kidt2!r})")
     # per axis near convergence the loop is the single-axis filter of Eq. 3.6
-    # (Mahony1DBias), update matrix [[1 - kp dt - ki dt^2, dt], [-ki dt, 1]]:
+    # (Mahony1DBias; with Eq. 4.3 too, since d is kept at unit length there),
+    # update matrix [[1 - kp dt - ki dt^2, dt], [-ki dt, 1]]:
     # Jury test |det| < 1, 1 - tr + det = ki dt^2 >= 0, 1 + tr + det > 0,
     # written out so that ki = 0 (1 - tr + det = 0 exactly) is not lost to rounding
     kpdt, kidt2 = kp * dt, ki * dt * dt
@@ -59,8 +52,10 @@ class Mahony2D(ReferenceFilter):
     Mahony2D(dt, kp, ki, error="approx"): error="approx" is Eq. 4.4 (E = a - d),
     error="exact" Eq. 4.3 (E = d x (a x d)). Per sample, per axis (Eq. 3.6):
     I_n = I_{n-1} + Ki dt E_n; d_n = d_{n-1} + (Kp E_n + I_n + d_{n-1} x w) dt.
-    d is the body up vector R^T e_z (level: (0, 0, 1)), never renormalised: with
-    Eq. 4.3 |d| is not controlled and grows at the rate I.d/|d| (csrc/mahony2d.h).
+    d is the body up vector R^T e_z (level: (0, 0, 1)). With Eq. 4.4 it is never
+    renormalised (the controller pulls |d| to 1); with Eq. 4.3, which does not
+    control |d| at all, it is scaled back to unit length after every update
+    (task T2, csrc/mahony2d.h).
     angles() gives (roll, pitch). At equilibrium I = -d x b for a gyro bias b:
     the bias seen is d x I (rad/s), its part perpendicular to gravity.
     """
@@ -72,15 +67,13 @@ class Mahony2D(ReferenceFilter):
     def _params(dt, kp, ki, error="approx"):
         dt = _checks.check_dt(dt)
         error = _checks.check_choice("error", error, ("approx", "exact"))
-        kp, ki = _check_gains(dt, kp, ki, exact=error == "exact")
+        kp, ki = _check_gains(dt, kp, ki)
         return (dt, kp, ki, int(error == "exact"))
 
     @classmethod
     def _valid_state(cls, args, R, state):
-        dt, kp, _, exact = args
-        d2_max = R(1.0) / (R(kp) * R(dt)) if exact else R(4.0)
-        if not _math.gravity_ok(R, *[R(v) for v in state[:3]], d2_max):
-            return f"d (dx, dy, dz) must have 0 < |d|^2 <= {float(d2_max)!r}"
+        if not _math.gravity_ok(R, *[R(v) for v in state[:3]], R(4.0)):
+            return "d (dx, dy, dz) must have 0 < |d|^2 <= 4.0"
         return None
 
     def _init(self, dt, kp, ki, exact):
@@ -89,7 +82,7 @@ class Mahony2D(ReferenceFilter):
         self.ki = R(ki)
         self._set_dt(R(dt))
         self.exact = exact != 0
-        self.d2_max = R(1.0) / (R(kp) * self.dt) if self.exact else R(4.0)
+        self.d2_max = R(4.0)
         self.dx = R(0.0)
         self.dy = R(0.0)
         self.dz = R(1.0)
@@ -145,6 +138,15 @@ class Mahony2D(ReferenceFilter):
         dxn = dx + (self.kp * ex + ix + cx) * self.dt
         dyn = dy + (self.kp * ey + iy + cy) * self.dt
         dzn = dz + (self.kp * ez + iz + cz) * self.dt
+        # Eq. 4.3 only (task T2, see mahony2d.h): E and d x w are perpendicular to
+        # d, so d keeps its meaning only as a direction; scale it back to unit
+        # length, where Eq. 4.3's loop gain Kp |d|^2 is Kp. A normalisation that
+        # fails rejects the sample (imf_math.h).
+        if self.exact:
+            rc, (dxn, dyn, dzn) = _math.normalise3(R, dxn, dyn, dzn, _math.INVSQRT_EXACT)
+            if rc != _math.NORM_OK:
+                self._skip()
+                return
         # valid-attitude policy (imf_math.h): d of plausible length, I finite
         if not (_math.gravity_ok(R, dxn, dyn, dzn, self.d2_max) and isfinite(ix, iy, iz)):
             self._skip()

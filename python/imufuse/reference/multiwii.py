@@ -29,7 +29,7 @@ Where imufuse departs from the firmware, and why:
    signs substituted the firmware's three expressions are the same
    floating-point operations, component by component, from the old d.
    The increment w dt is formed first, as the firmware's deltaGyroAngle.
-4. Angles (follows the article and DESIGN.md): the firmware converts EstG to
+4. Angles (follows the article and the README's conventions): the firmware converts EstG to
    int32 and uses an approximate atan2 (Hastings, deci-degrees) and
    InvSqrt; the article writes pitch = atan2(d_x/d_z), roll =
    atan2(d_y/sqrt(...)). imufuse gives ZYX roll = atan2(d_y, d_z), pitch =
