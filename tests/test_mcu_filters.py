@@ -34,8 +34,8 @@ TARGETS = ["host", "m4f", "m0", "avr"]
 N_MOTION = 300
 # a filter whose program does not fit the AVR's flash with N_MOTION samples stored in it
 # runs there alone on N_MOTION_SMALL samples (and the same corner cases), against the
-# reference on those inputs
-N_MOTION_SMALL = 60
+# reference on those inputs (imufuse.mcu.filters.run_fitting, as bench/mcu/measure.py)
+N_MOTION_SMALL = mf.N_MOTION_SMALL
 
 SPECS = mf.specs_from_cases([*registry.FLOAT_CASES, *getattr(registry, "FIXED_CASES", []),
                              *getattr(registry, "CASES_VARIO", [])], reference)
@@ -88,17 +88,12 @@ class _Runs:
                 raise
         # one filter alone does not fit with N_MOTION samples: run each filter alone,
         # on fewer samples where it must
-        small = mf.inputs_for(prec, grp, N_MOTION_SMALL)
         out = {}
+        common = self.inputs[prec, grp]
         for spec in GROUPS[prec, grp]:
-            try:
-                r = mf.run_filters(target, [spec], self.inputs[prec, grp], timeout=600)
-                out[spec.label] = (r.states[0], r.skipped[0], None)
-            except mcu.HarnessError as e:
-                if "does not fit" not in str(e):
-                    raise
-                r = mf.run_filters(target, [spec], small, timeout=600)
-                out[spec.label] = (r.states[0], r.skipped[0], small)
+            r, used = mf.run_fitting(target, [spec], N_MOTION, N_MOTION_SMALL, inputs=common,
+                                     timeout=600)
+            out[spec.label] = (r.states[0], r.skipped[0], None if used is common else used)
         return out
 
     def get(self, target, spec):
@@ -241,8 +236,7 @@ def test_fixed_init_from_double_and_from_constants(toolchains, target):
     for i, s in enumerate(specs):
         c = s.c
         v = f"imf_a{i}"
-        p = s.ref_class._params(**s.params, profile=s.precision[1:])
-        dbl = [mf._literal(cp, a, "double") for cp, a in zip(c.init, p)]
+        dbl = s.double_init_args()
         pre.append(f'#include "{c.header.name}"\nstatic {c.c_name}_t {v}, {v}b;\n'
                    f"static int32_t imf_r{i};")
         body.append(f"memset(&{v}, 0, sizeof {v}); memset(&{v}b, 0, sizeof {v}b);\n"

@@ -4,12 +4,17 @@
     python bench/mcu/measure.py --filters Mahony1D-float32 --targets avr,m0 --no-write
     python bench/mcu/measure.py --kernels  # the harness's own example kernels (registry.CASES)
 
-Per (filter configuration and precision, target), generically from tests/registry.py:
+Per (filter configuration and precision, target), generically from tests/registry.py, plus
+the hand-written library cases of registry.LIBRARY_CASES (FusionAHRS: its update takes dt and
+Fusion's units, so the generic driver cannot call it; measured with its Case's driver, bits
+= its state on the target equals the host build's):
   text            bytes of the filter's <c>_init + <c>_update (nm -S of its object, built with
                   the contract's flags and -ffunction-sections); static helpers they call
                   separately are in the object's other functions, not here
   linked          bytes the filter adds to a linked program (-Wl,--gc-sections): its functions
-                  plus the library routines it pulls in (soft float, sqrtf, isfinite)
+                  plus the library routines it pulls in (soft float, sqrtf, isfinite); fixed
+                  point initialised by <c>_init_consts (checked: <c>_init is not in the ELF)
+  linked_double_init  fixed point: the same, initialised by the double <c>_init instead
   data, bss       bytes of the filter's object file (the library has no globals: 0)
   ram             sizeof(<c>_t): RAM of one filter instance
   stack_static    -fstack-usage frame of <c>_update alone (no callees)
@@ -17,6 +22,10 @@ Per (filter configuration and precision, target), generically from tests/registr
   per_update      avr: CPU cycles at 16 MHz (Timer1 at clk/1); m4f/m0: instructions (qemu
                   -icount, SysTick); host: x86-64 instructions under callgrind.
                   median and max over the samples (motion, then the corners)
+  samples         input rows run: N_MOTION samples of motion and the corners, or
+                  imufuse.mcu.filters.N_MOTION_SMALL of motion where the program does not fit
+                  the target with N_MOTION stored (RobustIMU/RobustAHRS on AVR), as
+                  tests/test_mcu_filters.py does (one function: filters.run_fitting)
   bits            the target's state after every sample equals the host build's and the
                   Python reference's, bit for bit (the measurement runs are checked too)
 Before measuring, the counters are validated on kernels of known cost (AVR: _delay_loop_2
@@ -152,7 +161,8 @@ def _empty_driver(spec, drv):
 def linked_size(spec, target, inputs, elf, wd: Path) -> int:
     """Bytes of flash the filter adds to a program: ELF(filter) - ELF(same driver, no filter)."""
     drv, _ = mf._driver([spec])
-    key = (target, spec.precision, spec.kind, tuple(k for _, k in drv.state))
+    n = len(next(iter(inputs.values())))
+    key = (target, spec.precision, spec.kind, tuple(k for _, k in drv.state), n)
     if key not in _EMPTY:
         used = {n: inputs[n] for n in mf.INPUT_NAMES[spec.kind]}
         e = mcu.build(target, driver=_empty_driver(spec, drv), inputs=used,
@@ -161,19 +171,41 @@ def linked_size(spec, target, inputs, elf, wd: Path) -> int:
     return _elf_text(target, elf) - _EMPTY[key]
 
 
+def _elf_symbols(target, elf) -> set:
+    out = subprocess.run([_tool(target, "nm"), str(elf)], check=True, capture_output=True,
+                         text=True).stdout
+    return {ln.split()[-1] for ln in out.splitlines() if ln.split()}
+
+
+def double_init_flash(spec, target, inputs, elf, wd: Path) -> int:
+    """Fixed point: the linked flash of the same firmware initialised by <c>_init (double
+    parameters) instead of <c>_init_consts; and a check that the _init_consts firmware
+    (``elf``) does not contain the double init."""
+    c = spec.c
+    if f"{c.c_name}_init" in _elf_symbols(target, elf):
+        raise SystemExit(f"{spec.label} on {target}: the init_consts firmware links {c.c_name}_init")
+    drv, _ = mf._driver([spec], double_init=True)
+    e = mcu.build(target, sources=[str(c.source)], include_dirs=[spec.csrc, spec.csrc / "fixed"],
+                  defines=spec.defines, driver=drv, inputs=mf._inputs_of([spec], inputs),
+                  workdir=wd / "dbl")
+    if f"{c.c_name}_init" not in _elf_symbols(target, e):
+        raise SystemExit(f"{spec.label} on {target}: the double-init firmware lacks {c.c_name}_init")
+    return linked_size(spec, target, inputs, e, wd)
+
+
 # --------------------------------------------------------------------------------------------
 # one filter on one target
 
 
 def measure_filter(name: str, target: str, host_cache: dict) -> dict:
     spec = registry.FILTER_SPECS[name]
-    inputs = mf.inputs_for(spec.precision, spec.group[1], N_MOTION)
     wd = Path(tempfile.mkdtemp(prefix=f"imf_measure_{target}_"))
     try:
         row = {"filter": name, "class": spec.ref_class.__name__, "precision": spec.precision,
                "target": target, **sizes(spec, target, wd)}
-        want, _ = mf.reference_states(spec, inputs)
         if target == "host":
+            inputs = mf.inputs_for(spec.precision, spec.group[1], N_MOTION)
+            want, _ = mf.reference_states(spec, inputs)
             drv, _ = mf._driver([spec])
             cg = mcu.callgrind_instructions(sources=[spec.c.source],
                                             include_dirs=[spec.csrc, spec.csrc / "fixed"],
@@ -184,17 +216,24 @@ def measure_filter(name: str, target: str, host_cache: dict) -> dict:
             res = mf.run_filters("host", [spec], inputs, workdir=wd / "run")
             row.update(unit="x86-64 instructions", per_update_median=round(cg["per_update"], 1),
                        per_update_max=None, stack_measured=None,
+                       samples=len(next(iter(inputs.values()))),
                        bits=bool(np.array_equal(res.states[0], want)))
             return row
-        res = mf.run_filters(target, [spec], inputs, count=True, workdir=wd / "run")
+        # the rule of tests/test_mcu_filters.py: a filter whose program does not fit with
+        # N_MOTION samples stored runs on mf.N_MOTION_SMALL
+        res, inputs = mf.run_fitting(target, [spec], N_MOTION, count=True, workdir=wd / "run")
+        n = len(next(iter(inputs.values())))          # samples run (motion and corners)
+        want, _ = mf.reference_states(spec, inputs)
         r = res.results[0]
-        host = host_cache.get(name)
+        host = host_cache.get((name, n))
         if host is None:
             host = mf.run_filters("host", [spec], inputs).states[0]
-            host_cache[name] = host
+            host_cache[(name, n)] = host
         row["linked"] = linked_size(spec, target, inputs, r.elf, wd)
+        if spec.fixed:
+            row["linked_double_init"] = double_init_flash(spec, target, inputs, r.elf, wd)
         c = r.counts
-        row.update(unit=mcu.TARGETS[target].count_unit,
+        row.update(unit=mcu.TARGETS[target].count_unit, samples=n,
                    per_update_median=float(np.median(c)), per_update_max=int(c.max()),
                    stack_measured=r.stack_bytes,
                    bits=bool(np.array_equal(res.states[0], want) and np.array_equal(res.states[0], host)))
@@ -225,12 +264,39 @@ def measure_case(name: str, case, target: str, samples: int) -> dict:
     return row
 
 
+def measure_library_case(name: str, target: str) -> dict:
+    """A library filter the generic path cannot drive (registry.LIBRARY_CASES: FusionAHRS takes
+    dt and Fusion's units in every update): measure_case, plus the linked flash (ELF of the
+    case minus the same program whose init and step only read the inputs); bits: the target's
+    state equals the host build's (tests/test_fusion.py checks the host against the reference)."""
+    case = registry.CASES[name]
+    row = measure_case(name, case, target, N_MOTION)
+    row.update({"class": registry.LIBRARY_CASES[name], "precision": "float32",
+                "samples": N_MOTION})
+    inputs = case.make_inputs(N_MOTION)
+    wd = Path(tempfile.mkdtemp(prefix=f"imf_measure_{target}_"))
+    try:
+        common = dict(sources=case.sources, include_dirs=case.include_dirs, defines=case.defines)
+        elf = mcu.build(target, driver=case.driver, inputs=inputs, workdir=wd / "f", **common)
+        ctype = {np.dtype(np.float32): "float", np.dtype(np.int16): "int16_t"}
+        reads = [f"imf_sink_{k} = {k}[{j}];" for k, a in inputs.items() for j in range(a.shape[1])]
+        pre = "\n".join(f"static volatile {ctype[a.dtype]} imf_sink_{k};" for k, a in inputs.items())
+        empty = mcu.Driver(prelude=case.driver.prelude + "\n" + pre, step="\n".join(reads),
+                           state=case.driver.state)
+        e = mcu.build(target, driver=empty, inputs=inputs, workdir=wd / "e", **common)
+        row["linked"] = _elf_text(target, elf) - _elf_text(target, e)
+    finally:
+        shutil.rmtree(wd, ignore_errors=True)
+    return row
+
+
 # --------------------------------------------------------------------------------------------
 # output
 
 
-COLS = ["filter", "target", "text", "linked", "data", "bss", "ram", "stack_static",
-        "stack_measured", "per_update_median", "per_update_max", "unit", "bits"]
+COLS = ["filter", "target", "text", "linked", "linked_double_init", "data", "bss", "ram",
+        "stack_static", "stack_measured", "per_update_median", "per_update_max", "unit",
+        "samples", "bits"]
 
 
 def _fmt(v):
@@ -322,6 +388,40 @@ def fixed_vs_float_table(entries) -> str:
     return "\n".join(out)
 
 
+def fixed_flash(rows) -> list:
+    """Per fixed-point configuration on the soft-float MCUs (AVR, Cortex-M0): the linked flash
+    of a firmware initialised by <c>_init_consts (the headline: it needs no floating point),
+    that of one initialised by <c>_init (double parameters), and the smallest linked flash of
+    a float32 configuration of its float twin on the same target."""
+    twins = {}
+    for r in rows:
+        if r["precision"] == "float32" and r.get("linked") is not None:
+            k = (r["class"], r["target"])
+            if k not in twins or r["linked"] < twins[k]["linked"]:
+                twins[k] = r
+    out = []
+    for r in rows:
+        if not r["precision"].startswith("q") or r["target"] not in ("avr", "m0"):
+            continue
+        t = twins.get((r["class"][:-1], r["target"]))
+        out.append({"fixed": r["filter"], "target": r["target"], "init_consts": r["linked"],
+                    "double_init": r.get("linked_double_init"), "float": t and t["filter"],
+                    "float_flash": t and t["linked"],
+                    "ratio": t and r["linked"] / t["linked"]})
+    return out
+
+
+def fixed_flash_table(entries) -> str:
+    out = ["| fixed point | target | flash, init_consts | flash, double init | "
+           "float32 twin (smallest) | flash | init_consts / float32 |",
+           "|---|---|---:|---:|---|---:|---:|"]
+    for e in sorted(entries, key=lambda e: (e["target"], e["fixed"])):
+        tw = [e["float"], _fmt(e["float_flash"]), f"{e['ratio']:.2f}"] if e["float"] else ["-"] * 3
+        out.append("| " + " | ".join([e["fixed"], e["target"], _fmt(e["init_consts"]),
+                                        _fmt(e["double_init"]), *tw]) + " |")
+    return "\n".join(out)
+
+
 def _versions(targets):
     v = {}
     for t in targets:
@@ -368,10 +468,23 @@ def write_results(rows, targets, checks, seconds, md: Path, js: Path) -> None:
         "",
         fixed_vs_float_table(fixed_vs_float(rows)),
         "",
+        "## Flash of the fixed-point filters",
+        "",
+        "Bytes a fixed-point filter adds to a linked program (`-Wl,--gc-sections`, library",
+        "routines included) when the firmware initialises it with `<filter>_init_consts()` (the",
+        "headline figure: integer constants, no floating point linked; the measurement checks",
+        "that `<filter>_init` is absent from that ELF) and when it calls the double-precision",
+        "`<filter>_init()` instead, against the smallest float32 configuration of its float twin.",
+        "",
+        fixed_flash_table(fixed_flash(rows)),
+        "",
         "## All figures",
         "",
         "text: the filter's init + update functions; linked: flash added to a program, library",
-        "routines included (soft float, sqrtf); ram: one filter instance; stacks in bytes.",
+        "routines included (soft float, sqrtf), fixed point initialised by `_init_consts`;",
+        "linked_double_init: the same with the double `_init`; ram: one filter instance; stacks",
+        f"in bytes; samples: inputs run (a program that does not fit the AVR with {N_MOTION}",
+        f"samples of motion stored runs {mf.N_MOTION_SMALL}, the rule of tests/test_mcu_filters.py).",
         "",
         table(rows),
         "",
@@ -380,14 +493,17 @@ def write_results(rows, targets, checks, seconds, md: Path, js: Path) -> None:
     ]))
     js.write_text(json.dumps({"command": COMMAND, "counter_checks": checks, "versions": versions,
                               "samples_motion": N_MOTION, "rows": rows,
-                              "fixed_vs_float": fixed_vs_float(rows)}, indent=1) + "\n")
+                              "fixed_vs_float": fixed_vs_float(rows),
+                              "fixed_flash": fixed_flash(rows)}, indent=1) + "\n")
     # the docs quote both tables, between their markers
     docs = HERE.parents[1] / "docs"
     if docs.is_dir():
         import readme_table
         fx = docs / "fixed-point.md"
-        fx.write_text(readme_table.replace_block(fx.read_text(), "fixed-vs-float",
-                                                 fixed_vs_float_table(fixed_vs_float(rows))))
+        text = readme_table.replace_block(fx.read_text(), "fixed-vs-float",
+                                          fixed_vs_float_table(fixed_vs_float(rows)))
+        fx.write_text(readme_table.replace_block(text, "fixed-flash",
+                                                 fixed_flash_table(fixed_flash(rows))))
         fw = docs / "firmware.md"
         fw.write_text(readme_table.replace_block(fw.read_text(), "mcu-table", readme_table.table()))
 
@@ -415,11 +531,16 @@ def main(argv=None) -> int:
         return 0 if all(r["bits"] for r in rows) else 1
 
     checks = validate_counters(targets)
-    jobs = [(n, t) for n in args.filters.split(",") if n for t in targets
+    jobs = [(n, t) for n in args.filters.split(",") if n and n not in registry.LIBRARY_CASES
+            for t in targets
             if registry.FILTER_SPECS[n].precision in mf.TARGET_PRECISIONS[t]]
     host_cache: dict = {}
+    lib = [(n, t) for n in registry.LIBRARY_CASES if n in args.filters.split(",")
+           or args.filters == ap.get_default("filters") for t in targets
+           if t == "host" or t in registry.CASES[n].targets]
     with ThreadPoolExecutor(max_workers=args.jobs) as ex:
         rows = list(ex.map(lambda j: measure_filter(j[0], j[1], host_cache), jobs))
+        rows += list(ex.map(lambda j: measure_library_case(j[0], j[1]), lib))
     seconds = time.perf_counter() - t0
     print(summary(rows, targets))
     print()

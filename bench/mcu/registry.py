@@ -118,6 +118,10 @@ CASES["fusion_ahrs_f32"] = Case(
     step_function="imf_fusion_ahrs_update",
 )
 
+#: hand-written cases that are library filters (not harness examples): measure.py runs them
+#: with the generic filters, under this class name
+LIBRARY_CASES = {"fusion_ahrs_f32": "FusionAHRS"}
+
 # ---- every filter configuration of tests/registry.py, generically -------------------------
 #
 # Each (configuration, precision) becomes a FilterSpec (imufuse.mcu.filters): the driver, the

@@ -276,8 +276,17 @@ class FilterSpec:
             return scalars
         raise HarnessError(f"{self.label}: update takes {len(cparams)} arguments; inputs are {names}")
 
-    def c_parts(self, var: str) -> Tuple[str, str, str, List[Tuple[str, str]]]:
-        """(prelude, init, step, state words) for a filter variable named ``var``."""
+    def double_init_args(self) -> List[str]:
+        """Fixed point: the arguments of <c_name>_init (double parameters), as exact double
+        literals of the reference's parameters (firmware that computes its constants)."""
+        if not self.fixed:
+            raise HarnessError(f"{self.label}: only fixed-point filters have a double init")
+        p = self.ref_class._params(**self.params, profile=self.precision[1:])
+        return [_literal(cp, a, "double") for cp, a in zip(self.c.init, p)]
+
+    def c_parts(self, var: str, double_init: bool = False) -> Tuple[str, str, str, List[Tuple[str, str]]]:
+        """(prelude, init, step, state words) for a filter variable named ``var``; fixed point
+        with ``double_init``: initialised by <c_name>_init from doubles, not _init_consts."""
         c = self.c
         n = len(self.ref_class.state_names)
         kind = _STATE_KIND[self.state_dtype()]
@@ -287,7 +296,10 @@ class FilterSpec:
             f"static {c.c_name}_t {var};\n"
             f"typedef char {var}_state_is_{n}_words[sizeof({var}.x) == {n}u * sizeof({ctype}) ? 1 : -1];"
         )
-        call = f"{self.init_function}(&{var}{''.join(', ' + a for a in self._init_args())})"
+        if double_init:
+            call = f"{c.c_name}_init(&{var}{''.join(', ' + a for a in self.double_init_args())})"
+        else:
+            call = f"{self.init_function}(&{var}{''.join(', ' + a for a in self._init_args())})"
         if c.init_returns != "void":
             init = f'if ({call} != 0) {{ imf_port_write("IMF_FAULT {self.label} init\\n"); }}'
         else:
@@ -319,7 +331,7 @@ class GroupResult:
         return sum(r.seconds for r in self.results)
 
 
-def _driver(specs: Sequence[FilterSpec]) -> Tuple[Driver, List[Tuple[int, int, bool]]]:
+def _driver(specs: Sequence[FilterSpec], double_init: bool = False) -> Tuple[Driver, List[Tuple[int, int, bool]]]:
     preludes: List[str] = []
     inits: List[str] = []
     steps: List[str] = []
@@ -327,7 +339,7 @@ def _driver(specs: Sequence[FilterSpec]) -> Tuple[Driver, List[Tuple[int, int, b
     layout = []
     seen_headers = set()
     for i, s in enumerate(specs):
-        pre, ini, stp, st = s.c_parts(f"imf_f{i}")
+        pre, ini, stp, st = s.c_parts(f"imf_f{i}", double_init)
         lines = pre.splitlines()
         if lines[0] in seen_headers:
             lines = lines[1:]
@@ -415,6 +427,31 @@ def run_filters(target: str, specs: Sequence[FilterSpec], inputs: Mapping[str, n
     finally:
         if own:
             shutil.rmtree(base, ignore_errors=True)
+
+
+#: samples of motion for a filter whose program does not fit the target's flash with the
+#: usual number stored in it (AVR: RobustIMU/RobustAHRS beside 200 samples)
+N_MOTION_SMALL = 60
+
+
+def run_fitting(target: str, specs: Sequence[FilterSpec], n_motion: int,
+                n_small: int = N_MOTION_SMALL,
+                inputs: Optional[Mapping[str, np.ndarray]] = None,
+                **kw) -> Tuple[GroupResult, Mapping[str, np.ndarray]]:
+    """``run_filters`` on ``n_motion`` samples of motion (``inputs`` if given, else
+    ``inputs_for`` the specs' group), or on ``n_small`` samples where a program of one filter
+    does not fit the target's flash with the larger set stored in it. Returns the result and
+    the inputs it ran on (the same object as ``inputs`` when those fitted)."""
+    specs = list(specs)
+    if inputs is None:
+        inputs = inputs_for(specs[0].precision, specs[0].group[1], n_motion)
+    try:
+        return run_filters(target, specs, inputs, **kw), inputs
+    except HarnessError as e:
+        if "does not fit" not in str(e):
+            raise
+    small = inputs_for(specs[0].precision, specs[0].group[1], n_small)
+    return run_filters(target, specs, small, **kw), small
 
 
 def reference_states(spec: FilterSpec, inputs: Mapping[str, np.ndarray]) -> Tuple[np.ndarray, int]:
