@@ -338,28 +338,3 @@ def test_model_parameter_errors(mod):
         mod.calibrate_magnetic(np.zeros((4, 2)), np.eye(3), [0, 0, 0])
 
 
-def test_run_releases_the_gil():
-    """FusionAHRS.run() and outputs_batch() loop in C without the GIL."""
-    import threading
-    n = 300_000
-    gyr, acc, mag = np.zeros((n, 3)), np.tile([0.0, 0.0, 1.0], (n, 1)), np.tile([1.0, 0, 0], (n, 1))
-    f = imufuse_c.FusionAHRS()
-    ticks, stop, started = [0], threading.Event(), threading.Event()
-
-    def spin():
-        started.set()
-        while not stop.is_set():
-            ticks[0] += 1
-
-    t = threading.Thread(target=spin)
-    t.start()
-    started.wait()
-    try:
-        before = ticks[0]
-        S = f.run(gyr, acc, mag, dt=0.01)
-        f.outputs_batch(S)
-        during = ticks[0] - before
-    finally:
-        stop.set()
-        t.join()
-    assert during > 1000, during
