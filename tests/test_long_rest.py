@@ -101,23 +101,15 @@ def _acc_angle(acc):
 
 
 # ---- estimates: what each filter's state says about the attitude --------------------------
-QUAT = {"MahonyIMU", "MahonyAHRS", "MadgwickIMU", "MadgwickAHRS", "MahonyIMUQ",
-        "MadgwickIMUQ", "RobustIMU", "RobustAHRS"}
-GRAV = {"MultiWii", "Mahony2D", "MultiWiiQ"}
+# the catalogue's estimate adapter says which state representation a filter keeps; the
+# Fusion suite (own API: deg/s, dt per update) goes through its adapter as a whole
+_FAMILY = {"quaternion": "quat", "gravity": "grav", "matrix": "dcm", "euler": "kk", "angle": "1d"}
+_GENERIC = {e.name: _FAMILY.get(e.estimate or "", "catalogue")
+            for e in (*catalogue.FLOAT, *catalogue.FIXED)}
 
 
 def family(name):
-    if name in QUAT:
-        return "quat"
-    if name in GRAV:
-        return "grav"
-    if name == "DCM":
-        return "dcm"
-    if name in ("KK", "KKQ"):
-        return "kk"
-    if getattr(reference, name).kind == "1d":
-        return "1d"
-    return "catalogue"   # any other filter: the attitude its catalogue entry derives
+    return _GENERIC.get(name, "catalogue")
 
 
 def has_attitude(name):
