@@ -2,6 +2,7 @@
  * Mirrored line for line by python/imufuse/reference/fixed_1d.py. */
 #include "filters_1d_q.h"
 #include "imf_fixed_init.h"
+#include "imf_fixed_scale.h"
 
 /* Constant ranges: imf_scale16 shifts c.s - 15 and imf_scale32 shifts
  * c.s + K - N must lie in [-31, 31] and [0, 47]. */
@@ -37,9 +38,9 @@ void imf_complementary1d_q_update(imf_complementary1d_q_t *const self, const int
                                   const int16_t angle)
 {
     /* Eq. 2.2 as Eq. 2.12: theta^- = theta + w dt; theta = theta^- + (1 - alpha)(a - theta^-) */
-    const int32_t tp = imf_add_sat32(self->x.theta, imf_scale16(rate, self->kr, 15));
-    const int32_t e = imf_sub_sat32(imf_q15_to_q30(angle), tp); /* a in q15 counts */
-    self->x.theta = imf_add_sat32(tp, imf_scale32(e, self->ka, 15, 15));
+    const int32_t tp = imf_add_sat32(self->x.theta, imf_mulk16(rate, self->kr, 15));
+    const int32_t e = imf_sub_sat32(imf_i16_to_q15(angle), tp); /* a in q15 counts */
+    self->x.theta = imf_add_sat32(tp, imf_mulk32(e, self->ka, 15, 15));
 }
 
 int imf_mahony1d_bias_q_init_consts(imf_mahony1d_bias_q_t *const self, const imf_qscale_t kr,
@@ -76,10 +77,10 @@ void imf_mahony1d_bias_q_update(imf_mahony1d_bias_q_t *const self, const int16_t
 {
     imf_mahony1d_bias_q_state_t *const x = &self->x;
     /* e_k = a_k - theta_{k-1} (q15 counts) */
-    const int32_t e = imf_sub_sat32(imf_q15_to_q30(angle), x->theta);
-    const int32_t w = imf_scale16(rate, self->kr, 15);  /* w dt, q15 counts */
-    const int32_t p = imf_scale32(e, self->kp, 15, 15); /* Kp dt e, q15 counts */
-    const int32_t di = imf_scale32(e, self->ki, 15, 23); /* Ki dt^2 e, q23 */
+    const int32_t e = imf_sub_sat32(imf_i16_to_q15(angle), x->theta);
+    const int32_t w = imf_mulk16(rate, self->kr, 15);  /* w dt, q15 counts */
+    const int32_t p = imf_mulk32(e, self->kp, 15, 15); /* Kp dt e, q15 counts */
+    const int32_t di = imf_mulk32(e, self->ki, 15, 23); /* Ki dt^2 e, q23 */
     int32_t theta;
     if (!self->integrate_first) {
         /* Eq. 3.6: I_k = I_{k-1} + Ki dt e_k; theta_k = theta_{k-1} + (Kp e_k + I_k + w_k) dt */

@@ -3,6 +3,7 @@
 #include "gravity_q.h"
 #include "imf_fixed_init.h"
 #include "imf_fixed_quat.h"
+#include "imf_fixed_scale.h"
 
 int imf_kk_q_init_consts(imf_kk_q_t *const self, const imf_qscale_t kw, const imf_qscale_t kp)
 {
@@ -33,17 +34,17 @@ void imf_kk_q_update(imf_kk_q_t *const self, const int16_t gyr[3], const int16_t
     /* the state as q15 rad, operand of the yaw cross terms */
     const int16_t p15 = imf_qn_to_q15s(t[0], 28), r15 = imf_qn_to_q15s(t[1], 28);
     /* roll w_z dt and pitch w_z dt: (q15 x counts) x kw -> q28 */
-    const int32_t cr = imf_scale32((int32_t)r15 * gyr[2], self->kw, 15, 28);
-    const int32_t cp = imf_scale32((int32_t)p15 * gyr[2], self->kw, 15, 28);
+    const int32_t cr = imf_mulk32((int32_t)r15 * gyr[2], self->kw, 15, 28);
+    const int32_t cp = imf_mulk32((int32_t)p15 * gyr[2], self->kw, 15, 28);
     /* Eq. 4.5, gyro path: (w_y - roll w_z) dt, (w_x + pitch w_z) dt, q28 */
-    int32_t pitch = imf_sub_sat32(imf_add_sat32(t[0], imf_scale16(gyr[1], self->kw, 28)), cr);
-    int32_t roll = imf_add_sat32(imf_add_sat32(t[1], imf_scale16(gyr[0], self->kw, 28)), cp);
+    int32_t pitch = imf_sub_sat32(imf_add_sat32(t[0], imf_mulk16(gyr[1], self->kw, 28)), cr);
+    int32_t roll = imf_add_sat32(imf_add_sat32(t[1], imf_mulk16(gyr[0], self->kw, 28)), cp);
     if (imf_q_normalise_acc(acc, a)) {
         /* a_pitch = -a_x/|a|, a_roll = a_y/|a| (symmetric q15 -> q28 exactly);
          * P controller Kp (a - theta_{n-1}) */
         const int32_t ap = (int32_t)(-a[0]) * 8192, ar = (int32_t)a[1] * 8192;
-        pitch = imf_add_sat32(pitch, imf_scale32(imf_sub_sat32(ap, t[0]), self->kp, 28, 28));
-        roll = imf_add_sat32(roll, imf_scale32(imf_sub_sat32(ar, t[1]), self->kp, 28, 28));
+        pitch = imf_add_sat32(pitch, imf_mulk32(imf_sub_sat32(ap, t[0]), self->kp, 28, 28));
+        roll = imf_add_sat32(roll, imf_mulk32(imf_sub_sat32(ar, t[1]), self->kp, 28, 28));
     }
     t[0] = pitch;
     t[1] = roll;
@@ -104,24 +105,24 @@ void imf_multiwii_q_update(imf_multiwii_q_t *const self, const int16_t gyr[3], c
     /* accelerometer LPF: accLPF32 -= accLPF32 >> k (rounded); += acc */
     for (i = 0; i < 3; ++i) {
         int16_t sc;
-        l[i] = imf_add_sat32(imf_sub_sat32(l[i], imf_rshr32(l[i], k)), acc[i]);
-        s[i] = imf_shl_sat32(l[i], 15 - k);      /* accSmooth, q15 counts (exact) */
-        sc = imf_sat_q15(imf_rshr32(l[i], k));   /* accSmooth, counts */
+        l[i] = imf_add_sat32(imf_sub_sat32(l[i], imf_rshrk(l[i], k)), acc[i]);
+        s[i] = imf_shl_satk(l[i], 15 - k);      /* accSmooth, q15 counts (exact) */
+        sc = imf_sat_q15(imf_rshrk(l[i], k));   /* accSmooth, counts */
         n2 += (uint32_t)((int32_t)sc * sc);      /* three squares <= 2^30: no wrap */
     }
     /* step 3: d_n = d_{n-1} + d_{n-1} x w dt; each product d_j w_k first in
      * acc counts x gyro counts (d q15 x counts / 2^15), then x kw -> q15 */
-    c[0] = imf_sub_sat32(imf_mul_32x16(d[1], gyr[2], 15), imf_mul_32x16(d[2], gyr[1], 15));
-    c[1] = imf_sub_sat32(imf_mul_32x16(d[2], gyr[0], 15), imf_mul_32x16(d[0], gyr[2], 15));
-    c[2] = imf_sub_sat32(imf_mul_32x16(d[0], gyr[1], 15), imf_mul_32x16(d[1], gyr[0], 15));
+    c[0] = imf_sub_sat32(imf_mul32x16k(d[1], gyr[2], 15), imf_mul32x16k(d[2], gyr[1], 15));
+    c[1] = imf_sub_sat32(imf_mul32x16k(d[2], gyr[0], 15), imf_mul32x16k(d[0], gyr[2], 15));
+    c[2] = imf_sub_sat32(imf_mul32x16k(d[0], gyr[1], 15), imf_mul32x16k(d[1], gyr[0], 15));
     for (i = 0; i < 3; ++i) {
-        d[i] = imf_add_sat32(d[i], imf_scale32(c[i], self->kw, 0, 15));
+        d[i] = imf_add_sat32(d[i], imf_mulk32(c[i], self->kw, 0, 15));
     }
     /* step 4: complementary weighting while |accSmooth| is within the window */
     if (n2 > self->lo2 && n2 < self->hi2) {
         for (i = 0; i < 3; ++i) {
             /* (d F + s)/(F + 1) = d + (s - d)/(F + 1) */
-            d[i] = imf_add_sat32(d[i], imf_scale32(imf_sub_sat32(s[i], d[i]), self->kc, 15, 15));
+            d[i] = imf_add_sat32(d[i], imf_mulk32(imf_sub_sat32(s[i], d[i]), self->kc, 15, 15));
         }
     }
 }

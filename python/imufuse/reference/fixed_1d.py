@@ -3,6 +3,7 @@ csrc/fixed/filters_1d_q.c, line for line (Q formats in filters_1d_q.h)."""
 from __future__ import annotations
 
 from . import _cint as ci
+from . import fixed_scale as fs
 from .filters_1d import Complementary1D, Mahony1DBias
 from .fixed_base import FixedFilter, check_profile, check_scale, qconst
 
@@ -58,9 +59,9 @@ class Complementary1DQ(FixedFilter):
 
     def _update(self, rate, angle):
         # Eq. 2.2 as Eq. 2.12: theta^- = theta + w dt; theta = theta^- + (1 - alpha)(a - theta^-)
-        tp = ci.add_sat32(self.theta, ci.scale16(rate, self.kr, 15))
-        e = ci.sub_sat32(ci.q15_to_q30(angle), tp)
-        self.theta = ci.add_sat32(tp, ci.scale32(e, self.ka, 15, 15))
+        tp = ci.add_sat32(self.theta, fs.mulk16(rate, self.kr, 15))
+        e = ci.sub_sat32(fs.i16_to_q15(angle), tp)
+        self.theta = ci.add_sat32(tp, fs.mulk32(e, self.ka, 15, 15))
 
 
 class Mahony1DBiasQ(FixedFilter):
@@ -109,10 +110,10 @@ class Mahony1DBiasQ(FixedFilter):
 
     def _update(self, rate, angle):
         # e_k = a_k - theta_{k-1} (q15 counts)
-        e = ci.sub_sat32(ci.q15_to_q30(angle), self.theta)
-        w = ci.scale16(rate, self.kr, 15)
-        p = ci.scale32(e, self.kp, 15, 15)
-        di = ci.scale32(e, self.ki, 15, 23)
+        e = ci.sub_sat32(fs.i16_to_q15(angle), self.theta)
+        w = fs.mulk16(rate, self.kr, 15)
+        p = fs.mulk32(e, self.kp, 15, 15)
+        di = fs.mulk32(e, self.ki, 15, 23)
         if not self.integrate_first:
             # Eq. 3.6: I_k = I_{k-1} + Ki dt e_k; theta_k = theta_{k-1} + (Kp e_k + I_k + w_k) dt
             self.j = ci.add_sat32(self.j, di)

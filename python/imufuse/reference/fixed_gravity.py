@@ -7,6 +7,7 @@ import math
 from .. import _checks
 from . import _cint as ci
 from . import fixed_quat as fq
+from . import fixed_scale as fs
 from .fixed_base import FixedFilter, check_profile, check_scale, qconst
 from .kk import KK
 from .multiwii import MultiWii
@@ -56,17 +57,17 @@ class KKQ(FixedFilter):
         t = self.t
         p15, r15 = ci.qn_to_q15s(t[0], 28), ci.qn_to_q15s(t[1], 28)
         # roll w_z dt and pitch w_z dt
-        cr = ci.scale32(r15 * gyr[2], self.kw, 15, 28)
-        cp = ci.scale32(p15 * gyr[2], self.kw, 15, 28)
+        cr = fs.mulk32(r15 * gyr[2], self.kw, 15, 28)
+        cp = fs.mulk32(p15 * gyr[2], self.kw, 15, 28)
         # Eq. 4.5, gyro path: (w_y - roll w_z) dt, (w_x + pitch w_z) dt
-        pitch = ci.sub_sat32(ci.add_sat32(t[0], ci.scale16(gyr[1], self.kw, 28)), cr)
-        roll = ci.add_sat32(ci.add_sat32(t[1], ci.scale16(gyr[0], self.kw, 28)), cp)
+        pitch = ci.sub_sat32(ci.add_sat32(t[0], fs.mulk16(gyr[1], self.kw, 28)), cr)
+        roll = ci.add_sat32(ci.add_sat32(t[1], fs.mulk16(gyr[0], self.kw, 28)), cp)
         a = fq.normalise_acc(acc)
         if a is not None:
             # a_pitch = -a_x/|a|, a_roll = a_y/|a|; P controller Kp (a - theta_{n-1})
             ap, ar = -a[0] * 8192, a[1] * 8192
-            pitch = ci.add_sat32(pitch, ci.scale32(ci.sub_sat32(ap, t[0]), self.kp, 28, 28))
-            roll = ci.add_sat32(roll, ci.scale32(ci.sub_sat32(ar, t[1]), self.kp, 28, 28))
+            pitch = ci.add_sat32(pitch, fs.mulk32(ci.sub_sat32(ap, t[0]), self.kp, 28, 28))
+            roll = ci.add_sat32(roll, fs.mulk32(ci.sub_sat32(ar, t[1]), self.kp, 28, 28))
         self.t = [pitch, roll]
 
 
@@ -133,22 +134,22 @@ class MultiWiiQ(FixedFilter):
 
     def _update(self, gyr, acc):
         d, l, k = self.d, self.l, self.k
-        m = ci.mul_32x16
+        m = fs.mul32x16k
         s = [0, 0, 0]
         n2 = 0
         # accelerometer LPF: accLPF32 -= accLPF32 >> k (rounded); += acc
         for i in range(3):
-            l[i] = ci.add_sat32(ci.sub_sat32(l[i], ci.rshr32(l[i], k)), acc[i])
-            s[i] = ci.shl_sat32(l[i], 15 - k)
-            sc = ci.sat_q15(ci.rshr32(l[i], k))
+            l[i] = ci.add_sat32(ci.sub_sat32(l[i], fs.rshrk(l[i], k)), acc[i])
+            s[i] = fs.shl_satk(l[i], 15 - k)
+            sc = ci.sat_q15(fs.rshrk(l[i], k))
             n2 += sc * sc
         # step 3: d_n = d_{n-1} + d_{n-1} x w dt
         c = [ci.sub_sat32(m(d[1], gyr[2], 15), m(d[2], gyr[1], 15)),
              ci.sub_sat32(m(d[2], gyr[0], 15), m(d[0], gyr[2], 15)),
              ci.sub_sat32(m(d[0], gyr[1], 15), m(d[1], gyr[0], 15))]
         for i in range(3):
-            d[i] = ci.add_sat32(d[i], ci.scale32(c[i], self.kw, 0, 15))
+            d[i] = ci.add_sat32(d[i], fs.mulk32(c[i], self.kw, 0, 15))
         # step 4: complementary weighting while |accSmooth| is within the window
         if self.lo2 < n2 < self.hi2:
             for i in range(3):
-                d[i] = ci.add_sat32(d[i], ci.scale32(ci.sub_sat32(s[i], d[i]), self.kc, 15, 15))
+                d[i] = ci.add_sat32(d[i], fs.mulk32(ci.sub_sat32(s[i], d[i]), self.kc, 15, 15))

@@ -1,0 +1,167 @@
+/*
+ * imf_fixed_scale.h -- the products of the single-axis and gravity-vector
+ * fixed-point filters (filters_1d_q.c, gravity_q.c) with a q-scale
+ * constant, shaped for 8-bit cores.  Mirrored by
+ * python/imufuse/reference/fixed_scale.py.
+ *
+ * imf_mulk16 and imf_mulk32 return exactly the values of imf_scale16 and
+ * imf_scale32 (imf_fixed.h): x c 2^N (or x c 2^(N-K)) rounded to nearest,
+ * ties up, saturated to int32; off AVR they are those functions.  On AVR
+ * they get there in small code, because imf_fixed.h's general shifts,
+ * inlined, made these filters' updates several KB:
+ *   - the common shift (a rounding right shift by 1..31 after the product)
+ *     is one out-of-line function, imf_rshr32_avr: byte moves, then at
+ *     most 7 single-bit steps;
+ *   - every 16x16 partial product is the inline MUL sequence of
+ *     imf_mul16 / imf_mulu16 (no __mulsi3, no __usmulhisi3);
+ *   - the rare shifts (saturating left shifts, a 32x16 product whose shift
+ *     is below 16) take a short out-of-line path of single doublings.
+ * Defining IMF_SCALE_SHORT selects the AVR code on any target: the host
+ * test (tests/test_fixed_core.py) compares it with imf_scale16 /
+ * imf_scale32 over every shift; the emulated ATmega328P runs of
+ * tests/test_mcu_filters.py compare the filters bit for bit.
+ */
+#ifndef IMF_FIXED_SCALE_H
+#define IMF_FIXED_SCALE_H
+
+#include "imf_fixed.h"
+
+#if defined(__GNUC__)
+#define IMF_SCALE_OUTLINE static __attribute__((noinline, unused))
+#else
+#define IMF_SCALE_OUTLINE static
+#endif
+
+#if defined(__AVR__) || defined(IMF_SCALE_SHORT)
+
+/* imf_rshr32's value for n in [1, 31]: floor(floor(x / 2^(n-1)) / 2 + 1/2)
+ * = (floor(x / 2^(n-1)) + 1) >> 1 (n = 1 adds the low bit: x = INT32_MAX). */
+IMF_SCALE_OUTLINE int32_t imf_rshr32_avr(int32_t x, int n)
+{
+    if (n == 1) {
+        return (x >> 1) + (x & 1);
+    }
+    n -= 1;
+    while (n >= 8) {
+        x >>= 8; /* byte moves */
+        n -= 8;
+    }
+    x >>= n; /* at most 7 bit steps */
+    return (x + 1) >> 1;
+}
+
+/* imf_shl_sat32's value, k >= 0, by k doublings: x > (2^31 - 1)/2 (or
+ * x < -2^30) before a doubling is exactly the case it leaves int32. */
+IMF_SCALE_OUTLINE int32_t imf_shl_sat32_avr(int32_t x, int k)
+{
+    for (; k > 0; --k) {
+        if (x > IMF_INT32_MAX / 2) {
+            return IMF_INT32_MAX;
+        }
+        if (x < IMF_INT32_MIN / 2) {
+            return IMF_INT32_MIN;
+        }
+        x += x;
+    }
+    return x;
+}
+
+/* imf_mul_32x16's tail for n in [0, 15]: (m 2^16 + lol) / 2^n rounded,
+ * saturated (m the high part, lol in [0, 2^16) the low 16 bits). */
+IMF_SCALE_OUTLINE int32_t imf_mulk_low_avr(const int32_t m, const uint16_t lol, const int n)
+{
+    /* (lol + 2^(n-1)) >> n = ((lol >> (n-1)) + 1) >> 1 for n >= 1, 16-bit */
+    const int32_t r = (n == 0) ? (int32_t)lol : (int32_t)(((uint16_t)(lol >> (n - 1)) >> 1)
+                                                         + ((uint16_t)(lol >> (n - 1)) & 1u));
+    /* m < -2^(15+n), i.e. (m + 1) 2^(16-n) <= -2^31: below INT32_MIN whatever
+     * the non-negative low part adds */
+    if (imf_shl_sat32_avr(m + 1, 16 - n) == IMF_INT32_MIN) {
+        return IMF_INT32_MIN;
+    }
+    return imf_add_sat32(imf_shl_sat32_avr(m, 16 - n), r);
+}
+
+/* imf_rshr32, n in [0, 31] */
+static inline int32_t imf_rshrk(const int32_t x, const int n)
+{
+    return (n >= 1) ? imf_rshr32_avr(x, n) : x;
+}
+
+/* imf_shl_sat32, k in [0, 31] */
+static inline int32_t imf_shl_satk(const int32_t x, const int k)
+{
+    return imf_shl_sat32_avr(x, k);
+}
+
+/* imf_mul_32x16, n in [0, 47]: the two partial products signed x unsigned
+ * (imf_mul16su) and signed x signed, then the shift. */
+static inline int32_t imf_mul32x16k(const int32_t a, const int16_t b, const int n)
+{
+    const int32_t lo = imf_mul16su(b, (uint16_t)((uint32_t)a & 0xFFFFu));
+    const int32_t m = imf_mul16((int16_t)(a >> 16), b) + (lo >> 16);
+    if (n >= 17) {
+        return imf_rshr32_avr(m, n - 16);
+    }
+    if (n == 16) {
+        return m + (int32_t)((uint16_t)lo >> 15);
+    }
+    return imf_mulk_low_avr(m, (uint16_t)lo, n);
+}
+
+static inline int32_t imf_mulk16(const int16_t x, const imf_qscale_t c, const int N)
+{
+    const int n = c.s - N;
+    const int32_t p = imf_mul16(x, c.m);
+    if (n >= 1) {
+        return imf_rshr32_avr(p, n); /* n <= 31: the callers' init checks */
+    }
+    return imf_shl_sat32_avr(p, -n);
+}
+
+static inline int32_t imf_mulk32(const int32_t x, const imf_qscale_t c, const int K, const int N)
+{
+    return imf_mul32x16k(x, c.m, c.s + K - N);
+}
+
+#else
+
+/* rounding right shift by n in [0, 31]: imf_rshr32 */
+static inline int32_t imf_rshrk(const int32_t x, const int n)
+{
+    return imf_rshr32(x, n);
+}
+
+/* x 2^k saturated, k in [0, 31]: imf_shl_sat32 */
+static inline int32_t imf_shl_satk(const int32_t x, const int k)
+{
+    return imf_shl_sat32(x, k);
+}
+
+/* a b 2^-n rounded, saturated, n in [0, 47]: imf_mul_32x16 */
+static inline int32_t imf_mul32x16k(const int32_t a, const int16_t b, const int n)
+{
+    return imf_mul_32x16(a, b, n);
+}
+
+/* x c 2^N for int16 x: imf_scale16 (shift c.s - N in [-31, 31]). */
+static inline int32_t imf_mulk16(const int16_t x, const imf_qscale_t c, const int N)
+{
+    return imf_scale16(x, c, N);
+}
+
+/* x c 2^(N-K) for int32 x in qK: imf_scale32 (shift c.s + K - N in [0, 47]). */
+static inline int32_t imf_mulk32(const int32_t x, const imf_qscale_t c, const int K, const int N)
+{
+    return imf_scale32(x, c, K, N);
+}
+
+#endif
+
+/* a 2^15 for int16 a (q15 -> q30 exactly, the value of imf_q15_to_q30):
+ * a 2^16 is byte moves, the halving one step (exact: even). */
+static inline int32_t imf_i16_to_q15(const int16_t a)
+{
+    return ((int32_t)a * 65536) >> 1;
+}
+
+#endif /* IMF_FIXED_SCALE_H */
