@@ -34,15 +34,15 @@ void imf_kk_q_update(imf_kk_q_t *const self, const int16_t gyr[3], const int16_t
     /* the state as q15 rad, operand of the yaw cross terms */
     const int16_t p15 = imf_qn_to_q15s(t[0], 28), r15 = imf_qn_to_q15s(t[1], 28);
     /* roll w_z dt and pitch w_z dt: (q15 x counts) x kw -> q28 */
-    const int32_t cr = imf_mulk32((int32_t)r15 * gyr[2], self->kw, 15, 28);
-    const int32_t cp = imf_mulk32((int32_t)p15 * gyr[2], self->kw, 15, 28);
+    const int32_t cr = imf_mulk32(imf_mul16(r15, gyr[2]), self->kw, 15, 28);
+    const int32_t cp = imf_mulk32(imf_mul16(p15, gyr[2]), self->kw, 15, 28);
     /* Eq. 4.5, gyro path: (w_y - roll w_z) dt, (w_x + pitch w_z) dt, q28 */
     int32_t pitch = imf_sub_sat32(imf_add_sat32(t[0], imf_mulk16(gyr[1], self->kw, 28)), cr);
     int32_t roll = imf_add_sat32(imf_add_sat32(t[1], imf_mulk16(gyr[0], self->kw, 28)), cp);
-    if (imf_q_normalise_acc(acc, a)) {
+    if (imf_normalise_acc_k(acc, a)) {
         /* a_pitch = -a_x/|a|, a_roll = a_y/|a| (symmetric q15 -> q28 exactly);
          * P controller Kp (a - theta_{n-1}) */
-        const int32_t ap = (int32_t)(-a[0]) * 8192, ar = (int32_t)a[1] * 8192;
+        const int32_t ap = -imf_mul16(a[0], 8192), ar = imf_mul16(a[1], 8192);
         pitch = imf_add_sat32(pitch, imf_mulk32(imf_sub_sat32(ap, t[0]), self->kp, 28, 28));
         roll = imf_add_sat32(roll, imf_mulk32(imf_sub_sat32(ar, t[1]), self->kp, 28, 28));
     }
@@ -108,7 +108,7 @@ void imf_multiwii_q_update(imf_multiwii_q_t *const self, const int16_t gyr[3], c
         l[i] = imf_add_sat32(imf_sub_sat32(l[i], imf_rshrk(l[i], k)), acc[i]);
         s[i] = imf_shl_satk(l[i], 15 - k);      /* accSmooth, q15 counts (exact) */
         sc = imf_sat_q15(imf_rshrk(l[i], k));   /* accSmooth, counts */
-        n2 += (uint32_t)((int32_t)sc * sc);      /* three squares <= 2^30: no wrap */
+        n2 += (uint32_t)imf_mul16(sc, sc);      /* three squares <= 2^30: no wrap */
     }
     /* step 3: d_n = d_{n-1} + d_{n-1} x w dt; each product d_j w_k first in
      * acc counts x gyro counts (d q15 x counts / 2^15), then x kw -> q15 */

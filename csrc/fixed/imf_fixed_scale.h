@@ -15,7 +15,7 @@
  *   - every 16x16 partial product is the inline MUL sequence of
  *     imf_mul16 / imf_mulu16 (no __mulsi3, no __usmulhisi3);
  *   - the rare shifts (saturating left shifts, a 32x16 product whose shift
- *     is below 16) take a short out-of-line path of single doublings.
+ *     is below 16) take a short out-of-line path.
  * Defining IMF_SCALE_SHORT selects the AVR code on any target: the host
  * test (tests/test_fixed_core.py) compares it with imf_scale16 /
  * imf_scale32 over every shift; the emulated ATmega328P runs of
@@ -25,6 +25,7 @@
 #define IMF_FIXED_SCALE_H
 
 #include "imf_fixed.h"
+#include "imf_fixed_quat.h"
 
 #if defined(__GNUC__)
 #define IMF_SCALE_OUTLINE static __attribute__((noinline, unused))
@@ -50,26 +51,39 @@ IMF_SCALE_OUTLINE int32_t imf_rshr32_avr(int32_t x, int n)
     return (x + 1) >> 1;
 }
 
-/* imf_shl_sat32's value, k >= 0, by k doublings: x > (2^31 - 1)/2 (or
- * x < -2^30) before a doubling is exactly the case it leaves int32. */
-IMF_SCALE_OUTLINE int32_t imf_shl_sat32_avr(int32_t x, int k)
+/* imf_shl_sat32's value, k in [0, 31]. */
+IMF_SCALE_OUTLINE int32_t imf_shl_sat32_avr(const int32_t x, const int k)
 {
-    for (; k > 0; --k) {
-        if (x > IMF_INT32_MAX / 2) {
-            return IMF_INT32_MAX;
-        }
-        if (x < IMF_INT32_MIN / 2) {
-            return IMF_INT32_MIN;
-        }
-        x += x;
+    /* |x| against the largest magnitude that does not saturate, then the
+     * shift of the magnitude (imf_lsr32/imf_lsl32: bytes, then bits) */
+    const uint32_t mag = (x >= 0) ? (uint32_t)x : 0u - (uint32_t)x;
+    const uint32_t lim = (x >= 0) ? (uint32_t)IMF_INT32_MAX : (uint32_t)1 << 31;
+    uint32_t y;
+    if (mag > imf_lsr32(lim, k)) {
+        return (x >= 0) ? IMF_INT32_MAX : IMF_INT32_MIN;
     }
-    return x;
+    y = imf_lsl32(mag, k); /* <= lim */
+    if (x >= 0) {
+        return (int32_t)y;
+    }
+    return (y == ((uint32_t)1 << 31)) ? IMF_INT32_MIN : -(int32_t)y;
 }
 
 /* imf_mul_32x16's tail for n in [0, 15]: (m 2^16 + lol) / 2^n rounded,
  * saturated (m the high part, lol in [0, 2^16) the low 16 bits). */
 IMF_SCALE_OUTLINE int32_t imf_mulk_low_avr(const int32_t m, const uint16_t lol, const int n)
 {
+    if (n == 15) {
+        /* 2m + round(lol / 2^15), saturated: 2m leaves int32 exactly when
+         * m >= 2^30 or m < -2^30 (m = -2^30: INT32_MIN + the low part) */
+        if (m >= ((int32_t)1 << 30)) {
+            return IMF_INT32_MAX;
+        }
+        if (m < -((int32_t)1 << 30)) {
+            return IMF_INT32_MIN;
+        }
+        return imf_add_sat32(m + m, (int32_t)((lol >> 15) + ((lol >> 14) & 1u)));
+    }
     /* (lol + 2^(n-1)) >> n = ((lol >> (n-1)) + 1) >> 1 for n >= 1, 16-bit */
     const int32_t r = (n == 0) ? (int32_t)lol : (int32_t)(((uint16_t)(lol >> (n - 1)) >> 1)
                                                          + ((uint16_t)(lol >> (n - 1)) & 1u));
@@ -123,6 +137,73 @@ static inline int32_t imf_mulk32(const int32_t x, const imf_qscale_t c, const in
     return imf_mul32x16k(x, c.m, c.s + K - N);
 }
 
+
+/* imf_invsqrt_u32's value (x > 0: y in [2^15, 2^16), *shift in [16, 31]) in
+ * 16-bit operations: the chords as in imf_invsqrt8_u32 (the same values as
+ * the 32-bit products), every product an inline imf_mulu16, the division
+ * by 2^15 from the high word. */
+IMF_SCALE_OUTLINE uint16_t imf_invsqrt_u32_avr(uint32_t x, int *const shift)
+{
+    int e = 0;
+    int i;
+    uint16_t u, y, y2, w, d;
+    uint32_t t;
+    while (x < ((uint32_t)1 << 22)) {
+        x <<= 8;
+        e += 8;
+    }
+    while (x < ((uint32_t)1 << 30)) {
+        x <<= 2;
+        e += 2;
+    }
+    u = (uint16_t)(x >> 16);
+    /* floor(38 d / 32) = d + floor(3 d / 16) for d < 2^14;
+     * floor(27 d / 64) = 27 floor(d / 64) + floor(27 (d mod 64) / 64) */
+    if (u < 32768u) {
+        d = (uint16_t)(u - 16384u);
+        y = (uint16_t)(65535u - (uint16_t)(d + (uint16_t)((uint16_t)(d * 3u) >> 4)));
+    } else {
+        d = (uint16_t)(u - 32768u);
+        y = (uint16_t)(46341u - (uint16_t)((uint16_t)((d >> 6) * 27u)
+                                           + (uint16_t)((uint16_t)((d & 63u) * 27u) >> 6)));
+    }
+    for (i = 0; i < 3; ++i) {
+        y2 = (uint16_t)((imf_mulu16(y, y) + 32768u) >> 16);
+        t = imf_mulu16(u, y2);
+        if (t >= 3221225472u) {
+            t = 3221225471u;
+        }
+        w = (uint16_t)((3221225472u - t) >> 16);
+        /* (y w + 2^14) / 2^15 = 2 hi + bit 15 of lo; > 65535 iff hi >= 2^15 */
+        t = imf_mulu16(y, w) + 16384u;
+        if ((uint16_t)(t >> 16) >= 32768u) {
+            y = 65535u;
+        } else {
+            y = (uint16_t)((uint16_t)((uint16_t)(t >> 16) << 1) | (uint16_t)(((uint16_t)t) >> 15));
+        }
+    }
+    *shift = 31 - e / 2;
+    return y;
+}
+
+/* imf_q_normalise_acc's values (symmetric q15 unit vector of raw counts;
+ * 0 for the zero vector): squares and products inline, the rounding
+ * shift sh - 15 in [1, 16] by imf_rshr32_avr. */
+static inline int imf_normalise_acc_k(const int16_t acc[3], int16_t a[3])
+{
+    const uint32_t n2 = (uint32_t)imf_mul16(acc[0], acc[0]) + (uint32_t)imf_mul16(acc[1], acc[1])
+                      + (uint32_t)imf_mul16(acc[2], acc[2]);
+    int sh, i;
+    uint16_t y;
+    if (n2 == 0u) {
+        return 0;
+    }
+    y = imf_invsqrt_u32_avr(n2, &sh);
+    for (i = 0; i < 3; ++i) {
+        a[i] = imf_sat_q15s(imf_rshr32_avr(imf_mul16su(acc[i], y), sh - 15));
+    }
+    return 1;
+}
 #else
 
 /* rounding right shift by n in [0, 31]: imf_rshr32 */
@@ -153,6 +234,14 @@ static inline int32_t imf_mulk16(const int16_t x, const imf_qscale_t c, const in
 static inline int32_t imf_mulk32(const int32_t x, const imf_qscale_t c, const int K, const int N)
 {
     return imf_scale32(x, c, K, N);
+}
+
+
+/* the symmetric q15 unit vector of raw counts (0 for the zero vector):
+ * imf_q_normalise_acc */
+static inline int imf_normalise_acc_k(const int16_t acc[3], int16_t a[3])
+{
+    return imf_q_normalise_acc(acc, a);
 }
 
 #endif

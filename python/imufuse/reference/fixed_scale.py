@@ -7,6 +7,7 @@ per shift, inline 16x16 multiplies, the rare left shifts out of line)."""
 from __future__ import annotations
 
 from . import _cint as ci
+from . import fixed_quat as fq
 
 
 def rshrk(x: int, n: int) -> int:
@@ -37,3 +38,9 @@ def mulk32(x: int, c: ci.QScale, K: int, N: int) -> int:
 def i16_to_q15(a: int) -> int:
     """imf_i16_to_q15: a 2^15 exactly (imf_q15_to_q30)."""
     return (a * 65536) >> 1
+
+
+def normalise_acc_k(acc):
+    """imf_normalise_acc_k: symmetric q15 unit vector of raw counts, or None
+    for the zero vector (imf_q_normalise_acc)."""
+    return fq.normalise_acc(acc)
