@@ -5,6 +5,8 @@ same, over every shift, edge values and hypothesis values. The emulated
 ATmega328P runs (tests/test_mcu_filters.py) check the filters built on it."""
 from __future__ import annotations
 
+import math
+
 import pytest
 from hypothesis import given, settings, strategies as st, HealthCheck
 
@@ -65,3 +67,35 @@ CASES = st.one_of(
 @given(st.lists(CASES, min_size=50, max_size=400))
 def test_scale_random(cases):
     check(cases)
+
+
+def test_invsqrt16_accuracy_exhaustive_mantissa():
+    """imf_invsqrt16_u32 (chord and two Newton steps): relative error < 6e-5."""
+    worst = 0.0
+    for u in range(16384, 65536):
+        for x in (u << 16, (u << 16) | 0xFFFF):
+            y, e = fs.invsqrt16_u32(x)
+            worst = max(worst, abs(y * 2.0 ** (e - 31) * math.sqrt(x) - 1.0))
+    assert worst < 6e-5
+
+
+V16 = st.integers(-32768, 32767)
+VEC = st.one_of(st.tuples(V16, V16, V16),
+                st.tuples(*[st.sampled_from([-32768, -32767, -1, 0, 1, 2, 4095, 4096, 32767])] * 3),
+                st.tuples(*[st.integers(-8, 8)] * 3))
+
+
+@settings(max_examples=30, deadline=None, suppress_health_check=list(HealthCheck))
+@given(st.lists(VEC, min_size=50, max_size=300))
+def test_unit3_c_equals_python_and_is_a_unit_vector(vs):
+    out = cbuild.run("scale_driver", "".join(f"unit3_k {a} {b} {c}\n" for a, b, c in vs))
+    for v, line in zip(vs, out.split("\n")):
+        ok, *u = (int(x) for x in line.split())
+        want = fs.unit3_k(list(v))
+        assert (want is None) == (ok == 0), v
+        if want is None:
+            continue
+        assert u == want, (v, u, want)
+        n = math.sqrt(sum(x * x for x in v))
+        # the direction within the inverse square root's error and the q15 rounding
+        assert max(abs(ui / 32768.0 - x / n) for ui, x in zip(u, v)) < 6e-5 + 2.0 ** -15

@@ -39,7 +39,7 @@ void imf_kk_q_update(imf_kk_q_t *const self, const int16_t gyr[3], const int16_t
     /* Eq. 4.5, gyro path: (w_y - roll w_z) dt, (w_x + pitch w_z) dt, q28 */
     int32_t pitch = imf_sub_sat32(imf_add_sat32(t[0], imf_mulk16(gyr[1], self->kw, 28)), cr);
     int32_t roll = imf_add_sat32(imf_add_sat32(t[1], imf_mulk16(gyr[0], self->kw, 28)), cp);
-    if (imf_normalise_acc_k(acc, a)) {
+    if (imf_unit3_k(acc, a)) {
         /* a_pitch = -a_x/|a|, a_roll = a_y/|a| (symmetric q15 -> q28 exactly);
          * P controller Kp (a - theta_{n-1}) */
         const int32_t ap = -imf_mul16(a[0], 8192), ar = imf_mul16(a[1], 8192);

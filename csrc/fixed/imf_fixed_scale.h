@@ -25,7 +25,6 @@
 #define IMF_FIXED_SCALE_H
 
 #include "imf_fixed.h"
-#include "imf_fixed_quat.h"
 
 #if defined(__GNUC__)
 #define IMF_SCALE_OUTLINE static __attribute__((noinline, unused))
@@ -138,72 +137,7 @@ static inline int32_t imf_mulk32(const int32_t x, const imf_qscale_t c, const in
 }
 
 
-/* imf_invsqrt_u32's value (x > 0: y in [2^15, 2^16), *shift in [16, 31]) in
- * 16-bit operations: the chords as in imf_invsqrt8_u32 (the same values as
- * the 32-bit products), every product an inline imf_mulu16, the division
- * by 2^15 from the high word. */
-IMF_SCALE_OUTLINE uint16_t imf_invsqrt_u32_avr(uint32_t x, int *const shift)
-{
-    int e = 0;
-    int i;
-    uint16_t u, y, y2, w, d;
-    uint32_t t;
-    while (x < ((uint32_t)1 << 22)) {
-        x <<= 8;
-        e += 8;
-    }
-    while (x < ((uint32_t)1 << 30)) {
-        x <<= 2;
-        e += 2;
-    }
-    u = (uint16_t)(x >> 16);
-    /* floor(38 d / 32) = d + floor(3 d / 16) for d < 2^14;
-     * floor(27 d / 64) = 27 floor(d / 64) + floor(27 (d mod 64) / 64) */
-    if (u < 32768u) {
-        d = (uint16_t)(u - 16384u);
-        y = (uint16_t)(65535u - (uint16_t)(d + (uint16_t)((uint16_t)(d * 3u) >> 4)));
-    } else {
-        d = (uint16_t)(u - 32768u);
-        y = (uint16_t)(46341u - (uint16_t)((uint16_t)((d >> 6) * 27u)
-                                           + (uint16_t)((uint16_t)((d & 63u) * 27u) >> 6)));
-    }
-    for (i = 0; i < 3; ++i) {
-        y2 = (uint16_t)((imf_mulu16(y, y) + 32768u) >> 16);
-        t = imf_mulu16(u, y2);
-        if (t >= 3221225472u) {
-            t = 3221225471u;
-        }
-        w = (uint16_t)((3221225472u - t) >> 16);
-        /* (y w + 2^14) / 2^15 = 2 hi + bit 15 of lo; > 65535 iff hi >= 2^15 */
-        t = imf_mulu16(y, w) + 16384u;
-        if ((uint16_t)(t >> 16) >= 32768u) {
-            y = 65535u;
-        } else {
-            y = (uint16_t)((uint16_t)((uint16_t)(t >> 16) << 1) | (uint16_t)(((uint16_t)t) >> 15));
-        }
-    }
-    *shift = 31 - e / 2;
-    return y;
-}
 
-/* imf_q_normalise_acc's values (symmetric q15 unit vector of raw counts;
- * 0 for the zero vector): squares and products inline, the rounding
- * shift sh - 15 in [1, 16] by imf_rshr32_avr. */
-static inline int imf_normalise_acc_k(const int16_t acc[3], int16_t a[3])
-{
-    const uint32_t n2 = (uint32_t)imf_mul16(acc[0], acc[0]) + (uint32_t)imf_mul16(acc[1], acc[1])
-                      + (uint32_t)imf_mul16(acc[2], acc[2]);
-    int sh, i;
-    uint16_t y;
-    if (n2 == 0u) {
-        return 0;
-    }
-    y = imf_invsqrt_u32_avr(n2, &sh);
-    for (i = 0; i < 3; ++i) {
-        a[i] = imf_sat_q15s(imf_rshr32_avr(imf_mul16su(acc[i], y), sh - 15));
-    }
-    return 1;
-}
 #else
 
 /* rounding right shift by n in [0, 31]: imf_rshr32 */
@@ -237,14 +171,88 @@ static inline int32_t imf_mulk32(const int32_t x, const imf_qscale_t c, const in
 }
 
 
-/* the symmetric q15 unit vector of raw counts (0 for the zero vector):
- * imf_q_normalise_acc */
-static inline int imf_normalise_acc_k(const int16_t acc[3], int16_t a[3])
-{
-    return imf_q_normalise_acc(acc, a);
-}
 
 #endif
+
+/* ---- unit vector of raw accelerometer counts (KKQ) -------------------- */
+
+/* 1/sqrt(x) for x in [2^28, 2^32): y (unsigned q15) and *e in {0, 1} with
+ * 1/sqrt(x) ~= y 2^(*e - 31).  The chord of imf_invsqrt8_u32 (in 16-bit
+ * operations) and two Newton steps y <- y (3 - u y^2) / 2, each three
+ * unsigned 16x16->32 products: relative error below 6e-5 (tested
+ * exhaustively over the mantissa, tests/test_fixed_scale.py). */
+static inline uint16_t imf_invsqrt16_u32(uint32_t x, int *const e)
+{
+    uint16_t u, y, y2, w, d;
+    uint32_t t;
+    int i;
+    *e = 0;
+    if (x < ((uint32_t)1 << 30)) {
+        x <<= 2;
+        *e = 1;
+    }
+    u = (uint16_t)(x >> 16); /* q16 in [2^14, 2^16) */
+    if (u < 32768u) {
+        d = (uint16_t)(u - 16384u);
+        y = (uint16_t)(64635u - (uint16_t)(d + (uint16_t)((uint16_t)(d * 3u) >> 4)));
+    } else {
+        d = (uint16_t)(u - 32768u);
+        y = (uint16_t)(45691u - (uint16_t)((uint16_t)((d >> 6) * 27u)
+                                           + (uint16_t)((uint16_t)((d & 63u) * 27u) >> 6)));
+    }
+    for (i = 0; i < 2; ++i) {
+        y2 = (uint16_t)((imf_mulu16(y, y) + 32768u) >> 16); /* q14 */
+        t = imf_mulu16(u, y2);                             /* q30, < 3 2^30 */
+        if (t >= 3221225472u) {
+            t = 3221225471u; /* cannot happen from the chord; kept for safety */
+        }
+        w = (uint16_t)((3221225472u - t) >> 16);
+        /* (y w + 2^14) / 2^15 from the high word, saturated to 16 bits */
+        t = imf_mulu16(y, w) + 16384u;
+        if ((uint16_t)(t >> 16) >= 32768u) {
+            y = 65535u;
+        } else {
+            y = (uint16_t)((uint16_t)((uint16_t)(t >> 16) << 1) | (uint16_t)(((uint16_t)t) >> 15));
+        }
+    }
+    return y;
+}
+
+/* Unit vector of int16 counts in symmetric q15, 0 for the zero vector: the
+ * vector block-scaled by 2^k until its largest magnitude is in
+ * [2^14, 2^15] (one 16-bit product by 2^k each), |b|^2 in [2^28, 2^32)
+ * for imf_invsqrt16_u32, then b y with a constant rounding shift of 15
+ * or 16 (imf_qn_to_q15s from q30 / q31: 16-bit operations on AVR). */
+static inline int imf_unit3_k(const int16_t v[3], int16_t a[3])
+{
+    int16_t b[3];
+    uint16_t m = 0u;
+    uint32_t n2;
+    int i, e, k = 0;
+    uint16_t y;
+    for (i = 0; i < 3; ++i) {
+        const uint16_t u = (uint16_t)v[i];
+        m |= (v[i] < 0) ? (uint16_t)(0u - u) : u; /* |v|, same top bit as the max */
+    }
+    if (m == 0u) {
+        return 0;
+    }
+    while (m < 16384u) {
+        m = (uint16_t)(m << 1);
+        ++k;
+    }
+    for (i = 0; i < 3; ++i) {
+        b[i] = (int16_t)(v[i] * (1 << k)); /* |v 2^k| < 2^15 (int16 arithmetic) */
+    }
+    n2 = (uint32_t)imf_mul16(b[0], b[0]) + (uint32_t)imf_mul16(b[1], b[1])
+       + (uint32_t)imf_mul16(b[2], b[2]); /* [2^28, 3 2^30] */
+    y = imf_invsqrt16_u32(n2, &e);        /* 1/|b| ~= y 2^(e-31) */
+    for (i = 0; i < 3; ++i) {
+        const int32_t p = imf_mul16su(b[i], y); /* |b| <= 2^15, y < 2^16: > -2^31 */
+        a[i] = e ? imf_qn_to_q15s(p, 30) : imf_qn_to_q15s(p, 31);
+    }
+    return 1;
+}
 
 /* a 2^15 for int16 a (q15 -> q30 exactly, the value of imf_q15_to_q30):
  * a 2^16 is byte moves, the halving one step (exact: even). */

@@ -1,7 +1,8 @@
 /* Test driver for csrc/fixed/imf_fixed_scale.h: its AVR code
  * (IMF_SCALE_SHORT) on the host, against imf_fixed.h's helpers whose values
  * it must return.  Reads "op a b n" lines, prints "short general" per line.
- * Built by tests/test_fixed_scale.py, also with UBSan. */
+ * unit3_k prints its result instead.  Built by tests/test_fixed_scale.py,
+ * also with UBSan. */
 #define IMF_SCALE_SHORT 1
 #include <stdio.h>
 #include <string.h>
@@ -31,6 +32,12 @@ int main(void)
         } else if (!strcmp(op, "mulk32")) { /* K = N: shift c.s */
             r = imf_mulk32((int32_t)a, c, 0, 0);
             g = imf_scale32((int32_t)a, c, 0, 0);
+        } else if (!strcmp(op, "unit3_k")) { /* prints a0 a1 a2 (or 0 0 0 ok=0) */
+            const int16_t v[3] = {(int16_t)a, (int16_t)b, (int16_t)n};
+            int16_t u[3] = {0, 0, 0};
+            const int ok = imf_unit3_k(v, u);
+            printf("%d %d %d %d\n", ok, u[0], u[1], u[2]);
+            continue;
         } else if (!strcmp(op, "i16_to_q15")) {
             r = imf_i16_to_q15((int16_t)a);
             g = imf_q15_to_q30((int16_t)a);

@@ -61,7 +61,7 @@ class KKQ(FixedFilter):
         # Eq. 4.5, gyro path: (w_y - roll w_z) dt, (w_x + pitch w_z) dt
         pitch = ci.sub_sat32(ci.add_sat32(t[0], fs.mulk16(gyr[1], self.kw, 28)), cr)
         roll = ci.add_sat32(ci.add_sat32(t[1], fs.mulk16(gyr[0], self.kw, 28)), cp)
-        a = fs.normalise_acc_k(acc)
+        a = fs.unit3_k(acc)
         if a is not None:
             # a_pitch = -a_x/|a|, a_roll = a_y/|a|; P controller Kp (a - theta_{n-1})
             ap, ar = -a[0] * 8192, a[1] * 8192

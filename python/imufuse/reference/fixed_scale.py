@@ -7,7 +7,6 @@ per shift, inline 16x16 multiplies, the rare left shifts out of line)."""
 from __future__ import annotations
 
 from . import _cint as ci
-from . import fixed_quat as fq
 
 
 def rshrk(x: int, n: int) -> int:
@@ -40,7 +39,43 @@ def i16_to_q15(a: int) -> int:
     return (a * 65536) >> 1
 
 
-def normalise_acc_k(acc):
-    """imf_normalise_acc_k: symmetric q15 unit vector of raw counts, or None
-    for the zero vector (imf_q_normalise_acc)."""
-    return fq.normalise_acc(acc)
+
+def invsqrt16_u32(x: int) -> tuple[int, int]:
+    """imf_invsqrt16_u32, x in [2^28, 2^32): (y, e), 1/sqrt(x) ~= y 2^(e - 31)."""
+    e = 0
+    if x < (1 << 30):
+        x <<= 2
+        e = 1
+    u = x >> 16
+    if u < 32768:
+        d = u - 16384
+        y = 64635 - (d + ((d * 3) >> 4))
+    else:
+        d = u - 32768
+        y = 45691 - ((d >> 6) * 27 + (((d & 63) * 27) >> 6))
+    for _ in range(2):
+        y2 = (y * y + 32768) >> 16
+        t = ci.checku32(u * y2)
+        if t >= 3221225472:
+            t = 3221225471
+        w = (3221225472 - t) >> 16
+        t = y * w + 16384
+        y = 65535 if (t >> 16) >= 32768 else ((t >> 16) << 1) | ((t & 0xFFFF) >> 15)
+    return y, e
+
+
+def unit3_k(v):
+    """imf_unit3_k: symmetric q15 unit vector of int16 counts, or None."""
+    m = 0
+    for x in v:
+        m |= abs(x)
+    if m == 0:
+        return None
+    k = 0
+    while m < 16384:
+        m <<= 1
+        k += 1
+    b = [x * (1 << k) for x in v]
+    n2 = b[0] * b[0] + b[1] * b[1] + b[2] * b[2]
+    y, e = invsqrt16_u32(n2)
+    return [ci.qn_to_q15s(ci.check32(x * y), 30 if e else 31) for x in b]
