@@ -28,7 +28,9 @@ def py(op, a, b, n):
     c = ci.QScale(b, n) if op in ("mulk16", "mulk32") else None
     return {"rshrk": lambda: fs.rshrk(a, n), "shl_satk": lambda: fs.shl_satk(a, n),
             "mul32x16k": lambda: fs.mul32x16k(a, b, n), "mulk16": lambda: fs.mulk16(a, c, 0),
-            "mulk32": lambda: fs.mulk32(a, c, 0, 0), "i16_to_q15": lambda: fs.i16_to_q15(a)}[op]()
+            "mulk32": lambda: fs.mulk32(a, c, 0, 0), "i16_to_q15": lambda: fs.i16_to_q15(a),
+            "cross16": lambda: fs.cross16(a, n >> 16, b, ((n & 0xFFFF) ^ 0x8000) - 0x8000),
+            "shl_exact32": lambda: fs.shl_exact32(a, n)}[op]()
 
 
 def check(cases):
@@ -99,3 +101,30 @@ def test_unit3_c_equals_python_and_is_a_unit_vector(vs):
         n = math.sqrt(sum(x * x for x in v))
         # the direction within the inverse square root's error and the q15 rounding
         assert max(abs(ui / 32768.0 - x / n) for ui, x in zip(u, v)) < 6e-5 + 2.0 ** -15
+
+
+def cross_case(a1, b1, a2, b2):
+    return ("cross16", a1, a2, (b1 << 16) | (b2 & 0xFFFF))
+
+
+def test_cross16_is_the_rounded_saturated_difference():
+    """imf_cross16 (C, Python) = round((a1 b1 - a2 b2) / 2^16) saturated, exactly."""
+    import random
+    rnd = random.Random(3)
+    edges = EDGE32
+    cases = [cross_case(a1, b1, a2, b2) for a1 in edges for a2 in edges[::3]
+             for b1 in EDGE16[::2] for b2 in EDGE16[::3]]
+    for _ in range(3000):
+        cases.append(cross_case(rnd.randint(ci.INT32_MIN, ci.INT32_MAX), rnd.randint(-32768, 32767),
+                                rnd.randint(ci.INT32_MIN, ci.INT32_MAX), rnd.randint(-32768, 32767)))
+    check(cases)
+    for _, a1, a2, packed in cases:
+        b1, b2 = packed >> 16, ((packed & 0xFFFF) ^ 0x8000) - 0x8000
+        exact = (a1 * b1 - a2 * b2 + 32768) >> 16
+        assert fs.cross16(a1, b1, a2, b2) == max(ci.INT32_MIN, min(ci.INT32_MAX, exact))
+
+
+def test_shl_exact32_in_its_range():
+    cases = [("shl_exact32", x, 0, k) for k in range(31) for x in
+             (0, 1, -1, (1 << (30 - k)) - 1, -(1 << (30 - k)), 12345 >> min(k, 13), -(12345 >> min(k, 13)))]
+    check(cases)

@@ -66,12 +66,12 @@ int imf_multiwii_q_init_consts(imf_multiwii_q_t *const self, const imf_qscale_t 
         self->x.l[i] = 0;
     }
     if (k != acc_lpf_shift || !(acc_1g_q15 > 0) || acc_1g_q15 > (int32_t)32767 * 32768
-        || kw.m == 0 || !imf_qscale_ok(kw, 15, 62) || !imf_qscale_ok(kc, 14, 47)) {
+        || kw.m == 0 || !imf_qscale_ok(kw, 16, 62) || !imf_qscale_ok(kc, 14, 47)) {
         return -1;
     }
     /* start level: d = accSmooth = (0, 0, acc_1g); accLPF32 = acc_1g 2^k, rounded */
     self->x.d[2] = acc_1g_q15;
-    self->x.l[2] = imf_rshr32(acc_1g_q15, 15 - k);
+    self->x.l[2] = imf_rshrk(acc_1g_q15, 15 - k);
     return 0;
 }
 
@@ -101,22 +101,26 @@ void imf_multiwii_q_update(imf_multiwii_q_t *const self, const int16_t gyr[3], c
     const int k = self->k;
     int32_t c[3], s[3];
     uint32_t n2 = 0u;
+    int16_t sc;
     int i;
     /* accelerometer LPF: accLPF32 -= accLPF32 >> k (rounded); += acc */
     for (i = 0; i < 3; ++i) {
-        int16_t sc;
+        int32_t t;
         l[i] = imf_add_sat32(imf_sub_sat32(l[i], imf_rshrk(l[i], k)), acc[i]);
-        s[i] = imf_shl_satk(l[i], 15 - k);      /* accSmooth, q15 counts (exact) */
-        sc = imf_sat_q15(imf_rshrk(l[i], k));   /* accSmooth, counts */
-        n2 += (uint32_t)imf_mul16(sc, sc);      /* three squares <= 2^30: no wrap */
+        t = imf_rshrk(l[i], k); /* accSmooth, counts */
+        /* accSmooth, q15 counts (exact): |t| < 32767 bounds |l| 2^(15-k) by 2^30 */
+        s[i] = (t > -32767 && t < 32767) ? imf_shl_exact32(l[i], 15 - k) : imf_shl_satk(l[i], 15 - k);
+        sc = imf_sat_q15(t);
+        n2 += (uint32_t)imf_mul16(sc, sc); /* three squares <= 2^30: no wrap */
     }
-    /* step 3: d_n = d_{n-1} + d_{n-1} x w dt; each product d_j w_k first in
-     * acc counts x gyro counts (d q15 x counts / 2^15), then x kw -> q15 */
-    c[0] = imf_sub_sat32(imf_mul32x16k(d[1], gyr[2], 15), imf_mul32x16k(d[2], gyr[1], 15));
-    c[1] = imf_sub_sat32(imf_mul32x16k(d[2], gyr[0], 15), imf_mul32x16k(d[0], gyr[2], 15));
-    c[2] = imf_sub_sat32(imf_mul32x16k(d[0], gyr[1], 15), imf_mul32x16k(d[1], gyr[0], 15));
+    /* step 3: d_n = d_{n-1} + d_{n-1} x w dt; the cross product d x w first,
+     * in half acc counts x gyro counts (d q15 x counts / 2^16, each component
+     * rounded once), then x kw -> q15 */
+    c[0] = imf_cross16(d[1], gyr[2], d[2], gyr[1]);
+    c[1] = imf_cross16(d[2], gyr[0], d[0], gyr[2]);
+    c[2] = imf_cross16(d[0], gyr[1], d[1], gyr[0]);
     for (i = 0; i < 3; ++i) {
-        d[i] = imf_add_sat32(d[i], imf_mulk32(c[i], self->kw, 0, 15));
+        d[i] = imf_add_sat32(d[i], imf_mulk32(c[i], self->kw, 0, 16));
     }
     /* step 4: complementary weighting while |accSmooth| is within the window */
     if (n2 > self->lo2 && n2 < self->hi2) {

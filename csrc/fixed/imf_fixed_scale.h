@@ -254,6 +254,34 @@ static inline int imf_unit3_k(const int16_t v[3], int16_t a[3])
     return 1;
 }
 
+/* ---- MultiWiiQ --------------------------------------------------------- */
+
+/* round((a1 b1 - a2 b2) / 2^16), saturated, for int32 a, int16 b: each
+ * product as h = floor(a b / 2^16) and its low 16 bits (two 16x16
+ * products), the two low words rounded together:
+ * lo1 - lo2 + 2^15 lies in (-2^15, 3 2^15), its floor / 2^16 in {-1, 0, 1};
+ * |h| <= 2^30 + 2^15, so only the final difference can leave int32. */
+static inline int32_t imf_cross16(const int32_t a1, const int16_t b1, const int32_t a2,
+                                  const int16_t b2)
+{
+    const int32_t lo1 = imf_mul16su(b1, (uint16_t)((uint32_t)a1 & 0xFFFFu));
+    const int32_t lo2 = imf_mul16su(b2, (uint16_t)((uint32_t)a2 & 0xFFFFu));
+    const int32_t h1 = imf_mul16((int16_t)(a1 >> 16), b1) + (lo1 >> 16);
+    const int32_t h2 = imf_mul16((int16_t)(a2 >> 16), b2) + (lo2 >> 16);
+    const int32_t r = ((int32_t)(uint16_t)lo1 - (int32_t)(uint16_t)lo2 + 32768) >> 16;
+    return imf_sub_sat32(h1 + r, h2);
+}
+
+/* x 2^k for |x| 2^k < 2^31, k in [0, 31] (no saturation needed): the shift
+ * of the magnitude (imf_lsl32: bytes, then bits). */
+static inline int32_t imf_shl_exact32(const int32_t x, const int k)
+{
+    if (x >= 0) {
+        return (int32_t)imf_lsl32((uint32_t)x, k);
+    }
+    return -(int32_t)imf_lsl32(0u - (uint32_t)x, k);
+}
+
 /* a 2^15 for int16 a (q15 -> q30 exactly, the value of imf_q15_to_q30):
  * a 2^16 is byte moves, the halving one step (exact: even). */
 static inline int32_t imf_i16_to_q15(const int16_t a)

@@ -32,6 +32,13 @@ int main(void)
         } else if (!strcmp(op, "mulk32")) { /* K = N: shift c.s */
             r = imf_mulk32((int32_t)a, c, 0, 0);
             g = imf_scale32((int32_t)a, c, 0, 0);
+        } else if (!strcmp(op, "cross16")) { /* a1 b1 a2 b2 packed: a b n = a1 a2 (b1 << 16 | b2) */
+            const int16_t b1 = (int16_t)(n >> 16), b2 = (int16_t)(n & 0xFFFF);
+            r = imf_cross16((int32_t)a, b1, (int32_t)b, b2);
+            g = r;
+        } else if (!strcmp(op, "shl_exact32")) {
+            r = imf_shl_exact32((int32_t)a, (int)n);
+            g = imf_shl_sat32((int32_t)a, (int)n);
         } else if (!strcmp(op, "unit3_k")) { /* prints a0 a1 a2 (or 0 0 0 ok=0) */
             const int16_t v[3] = {(int16_t)a, (int16_t)b, (int16_t)n};
             int16_t u[3] = {0, 0, 0};

@@ -93,7 +93,7 @@ class MultiWiiQ(FixedFilter):
         cmpf = _checks.check_real("cmpf", cmpf, lo=0.0, hi=1e9)
         _checks.check_real("window", window, lo=0.0, hi=1.0)
         gyr_scale = check_scale("gyr_scale", gyr_scale)
-        qconst("gyr_scale*dt", gyr_scale * dt, 15, 62, nonzero=True)
+        qconst("gyr_scale*dt", gyr_scale * dt, 16, 62, nonzero=True)
         qconst("1/(cmpf+1)", 1.0 / (cmpf + 1.0), 14, 47)
         return (dt, cmpf, acc_lpf_shift, acc_1g, window, gyr_scale, check_profile(profile))
 
@@ -120,7 +120,7 @@ class MultiWiiQ(FixedFilter):
         self.hi2 = hi2
         # start level: d = accSmooth = (0, 0, acc_1g); accLPF32 = acc_1g 2^k, rounded
         self.d = [0, 0, acc_1g_q15]
-        self.l = [0, 0, ci.rshr32(acc_1g_q15, 15 - self.k)]
+        self.l = [0, 0, fs.rshrk(acc_1g_q15, 15 - self.k)]
 
     def _get_state(self):
         return self.d + self.l
@@ -133,21 +133,24 @@ class MultiWiiQ(FixedFilter):
 
     def _update(self, gyr, acc):
         d, l, k = self.d, self.l, self.k
-        m = fs.mul32x16k
         s = [0, 0, 0]
         n2 = 0
         # accelerometer LPF: accLPF32 -= accLPF32 >> k (rounded); += acc
         for i in range(3):
             l[i] = ci.add_sat32(ci.sub_sat32(l[i], fs.rshrk(l[i], k)), acc[i])
-            s[i] = fs.shl_satk(l[i], 15 - k)
-            sc = ci.sat_q15(fs.rshrk(l[i], k))
+            t = fs.rshrk(l[i], k)
+            # accSmooth, q15 counts (exact): |t| < 32767 bounds |l| 2^(15-k) by 2^30
+            s[i] = fs.shl_exact32(l[i], 15 - k) if -32767 < t < 32767 else fs.shl_satk(l[i], 15 - k)
+            sc = ci.sat_q15(t)
             n2 += sc * sc
-        # step 3: d_n = d_{n-1} + d_{n-1} x w dt
-        c = [ci.sub_sat32(m(d[1], gyr[2], 15), m(d[2], gyr[1], 15)),
-             ci.sub_sat32(m(d[2], gyr[0], 15), m(d[0], gyr[2], 15)),
-             ci.sub_sat32(m(d[0], gyr[1], 15), m(d[1], gyr[0], 15))]
+        # step 3: d_n = d_{n-1} + d_{n-1} x w dt; the cross product d x w first,
+        # in half acc counts x gyro counts (d q15 x counts / 2^16, each component
+        # rounded once), then x kw -> q15
+        c = [fs.cross16(d[1], gyr[2], d[2], gyr[1]),
+             fs.cross16(d[2], gyr[0], d[0], gyr[2]),
+             fs.cross16(d[0], gyr[1], d[1], gyr[0])]
         for i in range(3):
-            d[i] = ci.add_sat32(d[i], fs.mulk32(c[i], self.kw, 0, 15))
+            d[i] = ci.add_sat32(d[i], fs.mulk32(c[i], self.kw, 0, 16))
         # step 4: complementary weighting while |accSmooth| is within the window
         if self.lo2 < n2 < self.hi2:
             for i in range(3):

@@ -79,3 +79,18 @@ def unit3_k(v):
     n2 = b[0] * b[0] + b[1] * b[1] + b[2] * b[2]
     y, e = invsqrt16_u32(n2)
     return [ci.qn_to_q15s(ci.check32(x * y), 30 if e else 31) for x in b]
+
+
+def cross16(a1: int, b1: int, a2: int, b2: int) -> int:
+    """imf_cross16: round((a1 b1 - a2 b2) / 2^16) saturated to int32, from
+    h = floor(a b / 2^16) and the low 16 bits of each product."""
+    p1, p2 = ci.check32((a1 & 0xFFFF) * b1), ci.check32((a2 & 0xFFFF) * b2)
+    h1 = (a1 >> 16) * b1 + (p1 >> 16)
+    h2 = (a2 >> 16) * b2 + (p2 >> 16)
+    r = ((p1 & 0xFFFF) - (p2 & 0xFFFF) + 32768) >> 16
+    return ci.sub_sat32(h1 + r, h2)
+
+
+def shl_exact32(x: int, k: int) -> int:
+    """imf_shl_exact32: x 2^k for |x| 2^k < 2^31."""
+    return ci.check32(x * (1 << k))
