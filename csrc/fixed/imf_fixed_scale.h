@@ -50,39 +50,27 @@ IMF_SCALE_OUTLINE int32_t imf_rshr32_avr(int32_t x, int n)
     return (x + 1) >> 1;
 }
 
-/* imf_shl_sat32's value, k in [0, 31]. */
-IMF_SCALE_OUTLINE int32_t imf_shl_sat32_avr(const int32_t x, const int k)
+/* imf_shl_sat32's value, k in [0, 31], by k doublings (the rare left
+ * shifts: small code): x > (2^31 - 1) / 2 or x < -2^30 before a doubling
+ * is exactly the case in which it leaves int32. */
+IMF_SCALE_OUTLINE int32_t imf_shl_sat32_avr(int32_t x, int k)
 {
-    /* |x| against the largest magnitude that does not saturate, then the
-     * shift of the magnitude (imf_lsr32/imf_lsl32: bytes, then bits) */
-    const uint32_t mag = (x >= 0) ? (uint32_t)x : 0u - (uint32_t)x;
-    const uint32_t lim = (x >= 0) ? (uint32_t)IMF_INT32_MAX : (uint32_t)1 << 31;
-    uint32_t y;
-    if (mag > imf_lsr32(lim, k)) {
-        return (x >= 0) ? IMF_INT32_MAX : IMF_INT32_MIN;
+    for (; k > 0; --k) {
+        if (x > IMF_INT32_MAX / 2) {
+            return IMF_INT32_MAX;
+        }
+        if (x < IMF_INT32_MIN / 2) {
+            return IMF_INT32_MIN;
+        }
+        x += x;
     }
-    y = imf_lsl32(mag, k); /* <= lim */
-    if (x >= 0) {
-        return (int32_t)y;
-    }
-    return (y == ((uint32_t)1 << 31)) ? IMF_INT32_MIN : -(int32_t)y;
+    return x;
 }
 
 /* imf_mul_32x16's tail for n in [0, 15]: (m 2^16 + lol) / 2^n rounded,
  * saturated (m the high part, lol in [0, 2^16) the low 16 bits). */
 IMF_SCALE_OUTLINE int32_t imf_mulk_low_avr(const int32_t m, const uint16_t lol, const int n)
 {
-    if (n == 15) {
-        /* 2m + round(lol / 2^15), saturated: 2m leaves int32 exactly when
-         * m >= 2^30 or m < -2^30 (m = -2^30: INT32_MIN + the low part) */
-        if (m >= ((int32_t)1 << 30)) {
-            return IMF_INT32_MAX;
-        }
-        if (m < -((int32_t)1 << 30)) {
-            return IMF_INT32_MIN;
-        }
-        return imf_add_sat32(m + m, (int32_t)((lol >> 15) + ((lol >> 14) & 1u)));
-    }
     /* (lol + 2^(n-1)) >> n = ((lol >> (n-1)) + 1) >> 1 for n >= 1, 16-bit */
     const int32_t r = (n == 0) ? (int32_t)lol : (int32_t)(((uint16_t)(lol >> (n - 1)) >> 1)
                                                          + ((uint16_t)(lol >> (n - 1)) & 1u));
