@@ -12,7 +12,9 @@
  *           I dt, in q23 angle counts: I [rad/s] = j 2^-23 angle_scale / dt
  * Constants (q-scale m 2^-s):
  *   kr  = gyr_scale dt / angle_scale   rate counts -> angle counts per sample
- *   ka  = 1 - alpha                    (Complementary1DQ)
+ *   ka  = 1 - alpha                    (Complementary1DQ; the update uses
+ *                                       ka16, ka rounded to 16 bits with a
+ *                                       byte-aligned shift: imf_gain16)
  *   kp  = Kp dt, ki = Ki dt^2          (Mahony1DBiasQ)
  */
 #ifndef IMF_FILTERS_1D_Q_H
@@ -20,6 +22,7 @@
 
 #include <stdint.h>
 #include "imf_fixed.h"
+#include "imf_fixed_scale.h"
 
 /* ---- Eq. 2.2: complementary filter --------------------------------- */
 typedef struct {
@@ -28,6 +31,7 @@ typedef struct {
 
 typedef struct {
     imf_qscale_t kr, ka;
+    imf_gain16_t ka16; /* ka rounded to 16 bits, byte-aligned shift (imf_gain16) */
     imf_complementary1d_q_state_t x;
 } imf_complementary1d_q_t;
 

@@ -46,6 +46,7 @@ class Complementary1DQ(FixedFilter):
     def _init_consts(self, kr, ka):
         self.kr = kr
         self.ka = ka
+        self.ka16 = fs.gain16(ka)
         self.theta = 0
 
     def _get_state(self):
@@ -61,7 +62,7 @@ class Complementary1DQ(FixedFilter):
         # Eq. 2.2 as Eq. 2.12: theta^- = theta + w dt; theta = theta^- + (1 - alpha)(a - theta^-)
         tp = ci.add_sat32(self.theta, fs.mulk16(rate, self.kr, 15))
         e = ci.sub_sat32(fs.i16_to_q15(angle), tp)
-        self.theta = ci.add_sat32(tp, fs.mulk32(e, self.ka, 15, 15))
+        self.theta = ci.add_sat32(tp, fs.gain16_mul(e, self.ka16))  # (1 - alpha) e
 
 
 class Mahony1DBiasQ(FixedFilter):

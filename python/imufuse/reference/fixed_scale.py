@@ -94,3 +94,25 @@ def cross16(a1: int, b1: int, a2: int, b2: int) -> int:
 def shl_exact32(x: int, k: int) -> int:
     """imf_shl_exact32: x 2^k for |x| 2^k < 2^31."""
     return ci.check32(x * (1 << k))
+
+
+def gain16(c: ci.QScale) -> tuple[int, int]:
+    """imf_gain16: (m, j), c ~= m 2^-(16 + 8 j) (j = -1: c = 1)."""
+    if c.s <= 14:
+        return 0, -1
+    j = (c.s - 15) // 8
+    return ci.rshr32(c.m * 2, c.s - 15 - 8 * j), j
+
+
+def gain16_mul(x: int, g: tuple[int, int]) -> int:
+    """imf_gain16_mul: round(x m / 2^(16 + 8 j)) for int32 x."""
+    m, j = g
+    if j < 0:
+        return x
+    p = (x & 0xFFFF) * m
+    h = (x >> 16) * m + (p >> 16)
+    if j == 0:
+        return h + ((p & 0xFFFF) >> 15)
+    for _ in range(1, j):
+        h >>= 8
+    return (h >> 8) + ((h >> 7) & 1)
