@@ -115,6 +115,9 @@ def test_unknown_names_are_reported():
         catalogue.entry("MadgwickIMUU")
     with pytest.raises(catalogue.FilterError, match="fixed-point"):
         catalogue.reference_class("KKQ")
+    for name in (*catalogue.FILTERS_FUSION, *catalogue.FILTERS_VARIO):
+        with pytest.raises(catalogue.FilterError, match=f"^{name}: has an API of its own"):
+            catalogue.entry(name)
 
 
 def test_stubs_are_generated_from_the_catalogue():

@@ -234,6 +234,11 @@ def entry(name: str) -> Entry:
     try:
         return ENTRIES[name]
     except (KeyError, TypeError):
+        if isinstance(name, str) and name in ALL_ENTRIES:
+            section = "FUSION" if name in FILTERS_FUSION else "VARIO"
+            raise FilterError(f"{name}: has an API of its own (catalogue.{section}), which the "
+                              f"generic harnesses cannot drive; valid filters: "
+                              f"{', '.join(FILTERS)}") from None
         close = difflib.get_close_matches(str(name), ENTRIES, n=3, cutoff=0.5)
         hint = f" (did you mean {', '.join(close)}?)" if close else ""
         raise FilterError(f"unknown filter {name!r}{hint}; valid filters: "
