@@ -16,7 +16,7 @@ int imf_complementary1d_q_init_consts(imf_complementary1d_q_t *const self, const
 {
     self->kr = kr;
     self->ka = ka;
-    self->ka16 = imf_gain16(ka);
+    self->ka16 = imf_gain16(ka, 15, 15);
     self->x.theta = 0;
     if (!imf_1d_q_kr_ok(kr) || !imf_qscale_ok(ka, 14, 47)) {
         return -1;
@@ -41,7 +41,8 @@ void imf_complementary1d_q_update(imf_complementary1d_q_t *const self, const int
     /* Eq. 2.2 as Eq. 2.12: theta^- = theta + w dt; theta = theta^- + (1 - alpha)(a - theta^-) */
     const int32_t tp = imf_add_sat32(self->x.theta, imf_mulk16(rate, self->kr, 15));
     const int32_t e = imf_sub_sat32(imf_i16_to_q15(angle), tp); /* a in q15 counts */
-    self->x.theta = imf_add_sat32(tp, imf_gain16_mul(e, self->ka16)); /* (1 - alpha) e */
+    /* (1 - alpha) e; 1 - alpha >= 1 (ka16.j < 0) is exactly 1 (alpha in [0, 1]) */
+    self->x.theta = imf_add_sat32(tp, (self->ka16.j >= 0) ? imf_gain16_mul(e, self->ka16) : e);
 }
 
 int imf_mahony1d_bias_q_init_consts(imf_mahony1d_bias_q_t *const self, const imf_qscale_t kr,

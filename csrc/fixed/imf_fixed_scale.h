@@ -164,44 +164,44 @@ static inline int32_t imf_mulk32(const int32_t x, const imf_qscale_t c, const in
 
 /* ---- 16-bit gains (Complementary1DQ) ----------------------------------- */
 
-/* A gain g in (0, 1] rounded at init to 16 bits with a byte-aligned
- * shift, so that its product needs no bit shifts: g ~= m 2^-(16 + 8 j),
- * j in [0, 4] the largest that keeps m below 2^16.  From the q-scale
- * c.m 2^-c.s, d = c.s - 15 - 8 j in [0, 7] and m = round(2 c.m / 2^d) in
+/* A constant factor g = c 2^(N-K) of the products x (qK) c -> qN of an
+ * update, rounded at init to 16 bits with a byte-aligned shift so that the
+ * product needs no bit shifts: g ~= m 2^-(16 + 8 j).  With the product's
+ * shift n = c.s + K - N >= 15 (g < 1 or c = 1 exactly), j = (n - 15) / 8
+ * in [0, 4], d = n - 15 - 8 j in [0, 7] and m = round(2 c.m / 2^d) in
  * [2^8, 2^16): exact for d <= 1, otherwise a relative error below
- * 2^(d - 16), at most 2^-9 (0.2 %).  j = -1 marks g = 1 (c.s = 14). */
+ * 2^(d - 16), at most 2^-9 (0.2 %).  A shift below 15 (g >= 1) marks
+ * j = -1: the caller takes another path (imf_gain16_mul needs j >= 0). */
 typedef struct {
     uint16_t m;
     int16_t j;
 } imf_gain16_t;
 
-/* From a q-scale c = c.m 2^-c.s in (0, 1] (c.s >= 14; c.s = 14 only for 1). */
-static inline imf_gain16_t imf_gain16(const imf_qscale_t c)
+
+static inline imf_gain16_t imf_gain16(const imf_qscale_t c, const int K, const int N)
 {
     imf_gain16_t g;
-    int d;
-    if (c.s <= 14) {
+    const int n = c.s + K - N;
+    if (n < 15) {
         g.m = 0u;
         g.j = -1;
         return g;
     }
-    g.j = (int16_t)((c.s - 15) / 8);
-    d = c.s - 15 - 8 * g.j; /* [0, 7]: m = round(2 c.m / 2^d) */
-    g.m = (uint16_t)imf_rshr32((int32_t)c.m * 2, d);
+    g.j = (int16_t)((n - 15) / 8);
+    g.m = (uint16_t)imf_rshr32((int32_t)c.m * 2, n - 15 - 8 * g.j);
     return g;
 }
 
-/* round(x g) for int32 x (no saturation: |x g| <= |x|): h = floor(x m / 2^16)
- * from two 16x16 products (|h| < 2^31 - 2^15), then the rounding shift by
- * 8 j from whole bytes: floor(h / 2^(8j)) plus the last dropped bit. */
+/* round(x g) for int32 x, g.j >= 0: h = floor(x m / 2^16) from two 16x16
+ * products (|h| < 2^31 - 2^15), then the rounding shift by 8 j from whole
+ * bytes: floor(h / 2^(8j)) plus the last dropped bit (|x g| < |x|: no
+ * saturation). */
 static inline int32_t imf_gain16_mul(const int32_t x, const imf_gain16_t g)
 {
-    const uint32_t lo = imf_mulu16((uint16_t)((uint32_t)x & 0xFFFFu), g.m);
+    uint32_t lo;
     int32_t h;
     int i;
-    if (g.j < 0) {
-        return x;
-    }
+    lo = imf_mulu16((uint16_t)((uint32_t)x & 0xFFFFu), g.m);
     h = imf_mul16su((int16_t)(x >> 16), g.m) + (int32_t)(uint16_t)(lo >> 16);
     if (g.j == 0) {
         return h + (int32_t)((uint16_t)lo >> 15);

@@ -32,8 +32,8 @@ int main(void)
         } else if (!strcmp(op, "mulk32")) { /* K = N: shift c.s */
             r = imf_mulk32((int32_t)a, c, 0, 0);
             g = imf_scale32((int32_t)a, c, 0, 0);
-        } else if (!strcmp(op, "gain16_mul")) { /* x, c.m, c.s: both columns the result */
-            r = imf_gain16_mul((int32_t)a, imf_gain16(c));
+        } else if (!strcmp(op, "gain16_mul")) { /* x, c.m, c.s (c < 1): both columns the result */
+            r = imf_gain16_mul((int32_t)a, imf_gain16(c, 0, 0));
             g = r;
         } else if (!strcmp(op, "cross16")) { /* a1 b1 a2 b2 packed: a b n = a1 a2 (b1 << 16 | b2) */
             const int16_t b1 = (int16_t)(n >> 16), b2 = (int16_t)(n & 0xFFFF);

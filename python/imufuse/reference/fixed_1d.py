@@ -46,7 +46,7 @@ class Complementary1DQ(FixedFilter):
     def _init_consts(self, kr, ka):
         self.kr = kr
         self.ka = ka
-        self.ka16 = fs.gain16(ka)
+        self.ka16 = fs.gain16(ka, 15, 15)
         self.theta = 0
 
     def _get_state(self):
@@ -62,7 +62,8 @@ class Complementary1DQ(FixedFilter):
         # Eq. 2.2 as Eq. 2.12: theta^- = theta + w dt; theta = theta^- + (1 - alpha)(a - theta^-)
         tp = ci.add_sat32(self.theta, fs.mulk16(rate, self.kr, 15))
         e = ci.sub_sat32(fs.i16_to_q15(angle), tp)
-        self.theta = ci.add_sat32(tp, fs.gain16_mul(e, self.ka16))  # (1 - alpha) e
+        # (1 - alpha) e; 1 - alpha >= 1 (ka16.j < 0) is exactly 1 (alpha in [0, 1])
+        self.theta = ci.add_sat32(tp, fs.gain16_mul(e, self.ka16) if self.ka16[1] >= 0 else e)
 
 
 class Mahony1DBiasQ(FixedFilter):

@@ -96,19 +96,18 @@ def shl_exact32(x: int, k: int) -> int:
     return ci.check32(x * (1 << k))
 
 
-def gain16(c: ci.QScale) -> tuple[int, int]:
-    """imf_gain16: (m, j), c ~= m 2^-(16 + 8 j) (j = -1: c = 1)."""
-    if c.s <= 14:
+def gain16(c: ci.QScale, K: int, N: int) -> tuple[int, int]:
+    """imf_gain16: (m, j), c 2^(N-K) ~= m 2^-(16 + 8 j); j = -1: not representable (>= 1)."""
+    n = c.s + K - N
+    if n < 15:
         return 0, -1
-    j = (c.s - 15) // 8
-    return ci.rshr32(c.m * 2, c.s - 15 - 8 * j), j
+    j = (n - 15) // 8
+    return ci.rshr32(c.m * 2, n - 15 - 8 * j), j
 
 
 def gain16_mul(x: int, g: tuple[int, int]) -> int:
-    """imf_gain16_mul: round(x m / 2^(16 + 8 j)) for int32 x."""
+    """imf_gain16_mul: round(x m / 2^(16 + 8 j)) for int32 x, j >= 0."""
     m, j = g
-    if j < 0:
-        return x
     p = (x & 0xFFFF) * m
     h = (x >> 16) * m + (p >> 16)
     if j == 0:
