@@ -9,6 +9,8 @@ int imf_kk_q_init_consts(imf_kk_q_t *const self, const imf_qscale_t kw, const im
 {
     self->kw = kw;
     self->kp = kp;
+    self->kwc16 = imf_gain16(kw, 15, 28);
+    self->kp16 = imf_gain16(kp, 28, 28);
     self->x.t[0] = self->x.t[1] = 0;
     /* shifts: kw.s - 28 and kw.s + 15 - 28 in [0, 47]; kp.s in [14, 47] */
     if (kw.m == 0 || !imf_qscale_ok(kw, 28, 59) || !imf_qscale_ok(kp, 14, 47)) {
@@ -30,21 +32,21 @@ int imf_kk_q_init(imf_kk_q_t *const self, const double dt, const double kp, cons
 void imf_kk_q_update(imf_kk_q_t *const self, const int16_t gyr[3], const int16_t acc[3])
 {
     int32_t *const t = self->x.t;
-    int16_t a[3];
+    int16_t a[2];
     /* the state as q15 rad, operand of the yaw cross terms */
     const int16_t p15 = imf_qn_to_q15s(t[0], 28), r15 = imf_qn_to_q15s(t[1], 28);
     /* roll w_z dt and pitch w_z dt: (q15 x counts) x kw -> q28 */
-    const int32_t cr = imf_mulk32(imf_mul16(r15, gyr[2]), self->kw, 15, 28);
-    const int32_t cp = imf_mulk32(imf_mul16(p15, gyr[2]), self->kw, 15, 28);
+    const int32_t cr = imf_gain16_or_mulk32(imf_mul16(r15, gyr[2]), self->kwc16, self->kw, 15, 28);
+    const int32_t cp = imf_gain16_or_mulk32(imf_mul16(p15, gyr[2]), self->kwc16, self->kw, 15, 28);
     /* Eq. 4.5, gyro path: (w_y - roll w_z) dt, (w_x + pitch w_z) dt, q28 */
     int32_t pitch = imf_sub_sat32(imf_add_sat32(t[0], imf_mulk16(gyr[1], self->kw, 28)), cr);
     int32_t roll = imf_add_sat32(imf_add_sat32(t[1], imf_mulk16(gyr[0], self->kw, 28)), cp);
-    if (imf_unit3_k(acc, a)) {
+    if (imf_unit_xy_k(acc, a)) {
         /* a_pitch = -a_x/|a|, a_roll = a_y/|a| (symmetric q15 -> q28 exactly);
          * P controller Kp (a - theta_{n-1}) */
         const int32_t ap = -imf_mul16(a[0], 8192), ar = imf_mul16(a[1], 8192);
-        pitch = imf_add_sat32(pitch, imf_mulk32(imf_sub_sat32(ap, t[0]), self->kp, 28, 28));
-        roll = imf_add_sat32(roll, imf_mulk32(imf_sub_sat32(ar, t[1]), self->kp, 28, 28));
+        pitch = imf_add_sat32(pitch, imf_gain16_or_mulk32(imf_sub_sat32(ap, t[0]), self->kp16, self->kp, 28, 28));
+        roll = imf_add_sat32(roll, imf_gain16_or_mulk32(imf_sub_sat32(ar, t[1]), self->kp16, self->kp, 28, 28));
     }
     t[0] = pitch;
     t[1] = roll;
@@ -58,6 +60,7 @@ int imf_multiwii_q_init_consts(imf_multiwii_q_t *const self, const imf_qscale_t 
     int i;
     self->kw = kw;
     self->kc = kc;
+    self->kc16 = imf_gain16(kc, 15, 15);
     self->k = (int16_t)k;
     self->lo2 = lo2;
     self->hi2 = hi2;
@@ -126,7 +129,7 @@ void imf_multiwii_q_update(imf_multiwii_q_t *const self, const int16_t gyr[3], c
     if (n2 > self->lo2 && n2 < self->hi2) {
         for (i = 0; i < 3; ++i) {
             /* (d F + s)/(F + 1) = d + (s - d)/(F + 1) */
-            d[i] = imf_add_sat32(d[i], imf_mulk32(imf_sub_sat32(s[i], d[i]), self->kc, 15, 15));
+            d[i] = imf_add_sat32(d[i], imf_gain16_or_mulk32(imf_sub_sat32(s[i], d[i]), self->kc16, self->kc, 15, 15));
         }
     }
 }

@@ -29,6 +29,7 @@
 
 #include <stdint.h>
 #include "imf_fixed.h"
+#include "imf_fixed_scale.h"
 
 typedef struct {
     int32_t t[2]; /* pitch, roll: q28 rad */
@@ -36,6 +37,7 @@ typedef struct {
 
 typedef struct {
     imf_qscale_t kw, kp;
+    imf_gain16_t kwc16, kp16; /* kw (yaw cross terms), kp in 16 bits (imf_gain16) */
     imf_kk_q_state_t x;
 } imf_kk_q_t;
 
@@ -55,6 +57,7 @@ typedef struct {
 
 typedef struct {
     imf_qscale_t kw, kc;
+    imf_gain16_t kc16; /* kc in 16 bits (imf_gain16) */
     uint32_t lo2, hi2; /* window on |accSmooth|^2, counts^2 */
     int16_t k;         /* ACC_LPF_FACTOR, 0..15 */
     imf_multiwii_q_state_t x;

@@ -171,7 +171,8 @@ static inline int32_t imf_mulk32(const int32_t x, const imf_qscale_t c, const in
  * in [0, 4], d = n - 15 - 8 j in [0, 7] and m = round(2 c.m / 2^d) in
  * [2^8, 2^16): exact for d <= 1, otherwise a relative error below
  * 2^(d - 16), at most 2^-9 (0.2 %).  A shift below 15 (g >= 1) marks
- * j = -1: the caller takes another path (imf_gain16_mul needs j >= 0). */
+ * j = -2 for g = 1 exactly, else j = -1: the caller takes another path
+ * (imf_gain16_mul needs j >= 0). */
 typedef struct {
     uint16_t m;
     int16_t j;
@@ -184,7 +185,7 @@ static inline imf_gain16_t imf_gain16(const imf_qscale_t c, const int K, const i
     const int n = c.s + K - N;
     if (n < 15) {
         g.m = 0u;
-        g.j = -1;
+        g.j = (int16_t)((n == 14 && c.m == 16384) ? -2 : -1); /* -2: exactly 1 */
         return g;
     }
     g.j = (int16_t)((n - 15) / 8);
@@ -210,6 +211,30 @@ static inline int32_t imf_gain16_mul(const int32_t x, const imf_gain16_t g)
         h >>= 8;
     }
     return (h >> 8) + ((h >> 7) & 1);
+}
+
+/* The gains without a 16-bit form (>= 1): x for a gain of exactly 1,
+ * else imf_mulk32; out of line on AVR (rare). */
+#if defined(__AVR__) || defined(IMF_SCALE_SHORT)
+IMF_SCALE_OUTLINE
+#else
+static inline
+#endif
+int32_t imf_gain16_above(const int32_t x, const imf_gain16_t g, const imf_qscale_t c, const int K,
+                         const int N)
+{
+    return (g.j == -2) ? x : imf_mulk32(x, c, K, N);
+}
+
+/* x c 2^(N-K) by the 16-bit gain g = imf_gain16(c, K, N) when it has one
+ * (g.j >= 0), else exactly (imf_gain16_above). */
+static inline int32_t imf_gain16_or_mulk32(const int32_t x, const imf_gain16_t g,
+                                           const imf_qscale_t c, const int K, const int N)
+{
+    if (g.j >= 0) {
+        return imf_gain16_mul(x, g);
+    }
+    return imf_gain16_above(x, g, c, K, N);
 }
 
 /* ---- unit vector of raw accelerometer counts (KKQ) -------------------- */
@@ -256,12 +281,13 @@ static inline uint16_t imf_invsqrt16_u32(uint32_t x, int *const e)
     return y;
 }
 
-/* Unit vector of int16 counts in symmetric q15, 0 for the zero vector: the
+/* x and y components of the unit vector of int16 counts v (KKQ needs no
+ * more) in symmetric q15; returns 0 for the zero vector.  The
  * vector block-scaled by 2^k until its largest magnitude is in
  * [2^14, 2^15] (one 16-bit product by 2^k each), |b|^2 in [2^28, 2^32)
  * for imf_invsqrt16_u32, then b y with a constant rounding shift of 15
  * or 16 (imf_qn_to_q15s from q30 / q31: 16-bit operations on AVR). */
-static inline int imf_unit3_k(const int16_t v[3], int16_t a[3])
+static inline int imf_unit_xy_k(const int16_t v[3], int16_t a[2])
 {
     int16_t b[3];
     uint16_t m = 0u;
@@ -285,7 +311,7 @@ static inline int imf_unit3_k(const int16_t v[3], int16_t a[3])
     n2 = (uint32_t)imf_mul16(b[0], b[0]) + (uint32_t)imf_mul16(b[1], b[1])
        + (uint32_t)imf_mul16(b[2], b[2]); /* [2^28, 3 2^30] */
     y = imf_invsqrt16_u32(n2, &e);        /* 1/|b| ~= y 2^(e-31) */
-    for (i = 0; i < 3; ++i) {
+    for (i = 0; i < 2; ++i) {
         const int32_t p = imf_mul16su(b[i], y); /* |b| <= 2^15, y < 2^16: > -2^31 */
         a[i] = e ? imf_qn_to_q15s(p, 30) : imf_qn_to_q15s(p, 31);
     }

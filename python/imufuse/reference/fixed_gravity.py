@@ -41,6 +41,8 @@ class KKQ(FixedFilter):
     def _init_consts(self, kw, kp):
         self.kw = kw
         self.kp = kp
+        self.kwc16 = fs.gain16(kw, 15, 28)
+        self.kp16 = fs.gain16(kp, 28, 28)
         self.t = [0, 0]
 
     def _get_state(self):
@@ -56,17 +58,17 @@ class KKQ(FixedFilter):
         t = self.t
         p15, r15 = ci.qn_to_q15s(t[0], 28), ci.qn_to_q15s(t[1], 28)
         # roll w_z dt and pitch w_z dt
-        cr = fs.mulk32(r15 * gyr[2], self.kw, 15, 28)
-        cp = fs.mulk32(p15 * gyr[2], self.kw, 15, 28)
+        cr = fs.gain16_or_mulk32(r15 * gyr[2], self.kwc16, self.kw, 15, 28)
+        cp = fs.gain16_or_mulk32(p15 * gyr[2], self.kwc16, self.kw, 15, 28)
         # Eq. 4.5, gyro path: (w_y - roll w_z) dt, (w_x + pitch w_z) dt
         pitch = ci.sub_sat32(ci.add_sat32(t[0], fs.mulk16(gyr[1], self.kw, 28)), cr)
         roll = ci.add_sat32(ci.add_sat32(t[1], fs.mulk16(gyr[0], self.kw, 28)), cp)
-        a = fs.unit3_k(acc)
+        a = fs.unit_xy_k(acc)
         if a is not None:
             # a_pitch = -a_x/|a|, a_roll = a_y/|a|; P controller Kp (a - theta_{n-1})
             ap, ar = -a[0] * 8192, a[1] * 8192
-            pitch = ci.add_sat32(pitch, fs.mulk32(ci.sub_sat32(ap, t[0]), self.kp, 28, 28))
-            roll = ci.add_sat32(roll, fs.mulk32(ci.sub_sat32(ar, t[1]), self.kp, 28, 28))
+            pitch = ci.add_sat32(pitch, fs.gain16_or_mulk32(ci.sub_sat32(ap, t[0]), self.kp16, self.kp, 28, 28))
+            roll = ci.add_sat32(roll, fs.gain16_or_mulk32(ci.sub_sat32(ar, t[1]), self.kp16, self.kp, 28, 28))
         self.t = [pitch, roll]
 
 
@@ -115,6 +117,7 @@ class MultiWiiQ(FixedFilter):
     def _init_consts(self, kw, kc, acc_lpf_shift, lo2, hi2, acc_1g_q15):
         self.kw = kw
         self.kc = kc
+        self.kc16 = fs.gain16(kc, 15, 15)
         self.k = acc_lpf_shift
         self.lo2 = lo2
         self.hi2 = hi2
@@ -154,4 +157,4 @@ class MultiWiiQ(FixedFilter):
         # step 4: complementary weighting while |accSmooth| is within the window
         if self.lo2 < n2 < self.hi2:
             for i in range(3):
-                d[i] = ci.add_sat32(d[i], fs.mulk32(ci.sub_sat32(s[i], d[i]), self.kc, 15, 15))
+                d[i] = ci.add_sat32(d[i], fs.gain16_or_mulk32(ci.sub_sat32(s[i], d[i]), self.kc16, self.kc, 15, 15))

@@ -64,8 +64,8 @@ def invsqrt16_u32(x: int) -> tuple[int, int]:
     return y, e
 
 
-def unit3_k(v):
-    """imf_unit3_k: symmetric q15 unit vector of int16 counts, or None."""
+def unit_xy_k(v):
+    """imf_unit_xy_k: x, y of the symmetric q15 unit vector of int16 counts, or None."""
     m = 0
     for x in v:
         m |= abs(x)
@@ -78,7 +78,7 @@ def unit3_k(v):
     b = [x * (1 << k) for x in v]
     n2 = b[0] * b[0] + b[1] * b[1] + b[2] * b[2]
     y, e = invsqrt16_u32(n2)
-    return [ci.qn_to_q15s(ci.check32(x * y), 30 if e else 31) for x in b]
+    return [ci.qn_to_q15s(ci.check32(x * y), 30 if e else 31) for x in b[:2]]
 
 
 def cross16(a1: int, b1: int, a2: int, b2: int) -> int:
@@ -97,10 +97,10 @@ def shl_exact32(x: int, k: int) -> int:
 
 
 def gain16(c: ci.QScale, K: int, N: int) -> tuple[int, int]:
-    """imf_gain16: (m, j), c 2^(N-K) ~= m 2^-(16 + 8 j); j = -1: not representable (>= 1)."""
+    """imf_gain16: (m, j), c 2^(N-K) ~= m 2^-(16 + 8 j); j = -2: exactly 1, -1: above."""
     n = c.s + K - N
     if n < 15:
-        return 0, -1
+        return 0, (-2 if n == 14 and c.m == 16384 else -1)  # -2: exactly 1
     j = (n - 15) // 8
     return ci.rshr32(c.m * 2, n - 15 - 8 * j), j
 
@@ -115,3 +115,15 @@ def gain16_mul(x: int, g: tuple[int, int]) -> int:
     for _ in range(1, j):
         h >>= 8
     return (h >> 8) + ((h >> 7) & 1)
+
+
+def gain16_above(x: int, g: tuple[int, int], c: ci.QScale, K: int, N: int) -> int:
+    """imf_gain16_above: x for a gain of exactly 1 (j = -2), else mulk32."""
+    return x if g[1] == -2 else mulk32(x, c, K, N)
+
+
+def gain16_or_mulk32(x: int, g: tuple[int, int], c: ci.QScale, K: int, N: int) -> int:
+    """imf_gain16_or_mulk32: by the 16-bit gain when it has one, else gain16_above."""
+    if g[1] >= 0:
+        return gain16_mul(x, g)
+    return gain16_above(x, g, c, K, N)
