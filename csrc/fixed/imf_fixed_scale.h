@@ -189,7 +189,7 @@ static inline imf_gain16_t imf_gain16(const imf_qscale_t c, const int K, const i
         return g;
     }
     g.j = (int16_t)((n - 15) / 8);
-    g.m = (uint16_t)imf_rshr32((int32_t)c.m * 2, n - 15 - 8 * g.j);
+    g.m = (uint16_t)imf_rshrk((int32_t)c.m * 2, n - 15 - 8 * g.j);
     return g;
 }
 

@@ -102,7 +102,7 @@ def gain16(c: ci.QScale, K: int, N: int) -> tuple[int, int]:
     if n < 15:
         return 0, (-2 if n == 14 and c.m == 16384 else -1)  # -2: exactly 1
     j = (n - 15) // 8
-    return ci.rshr32(c.m * 2, n - 15 - 8 * j), j
+    return rshrk(c.m * 2, n - 15 - 8 * j), j
 
 
 def gain16_mul(x: int, g: tuple[int, int]) -> int:
