@@ -2,9 +2,9 @@
  * Fixed-point single-axis filters (article chapters 2 and 3) for MCUs
  * without an FPU.  Inputs are raw int16 counts: rate in counts of
  * gyr_scale rad/s, angle in counts of angle_scale rad.  The update uses
- * only 16x16->32 multiplies (imf_mul_32x16 is two of them), shifts and
- * saturating int32 adds, no int64 and no division, so one update serves
- * both profiles ("32" and "8" give identical results).
+ * only 16x16->32 multiplies, shifts and saturating int32 adds, no int64
+ * and no division, so one update serves both profiles ("32" and "8" give
+ * identical results).  The products are those of imf_fixed_scale.h.
  *
  * Formats:
  *   theta   q15 angle counts (int32): theta [rad] = theta * 2^-15 * angle_scale

@@ -1,28 +1,34 @@
 /*
  * Fixed-point gravity-vector filters of the appendix, in the integer
  * arithmetic 8-bit flight-controller firmware runs: only 16x16->32
- * multiplies (imf_mul_32x16 is two of them), shifts and saturating int32
- * adds; no int64, no division.  One update serves both profiles.
+ * multiplies, shifts and saturating int32 adds; no int64, no division.
+ * One update serves both profiles.  The products are those of
+ * imf_fixed_scale.h (short code on AVR).
  *
  * Inputs: gyr in counts of gyr_scale rad/s, acc in counts.
  *
  * KKQ (appendix "KK", Eq. 4.5 with a P controller; twin of KK, csrc/kk.h):
  *   pitch_n = pitch + (w_y - roll w_z) dt + Kp (a_pitch - pitch)
  *   roll_n  = roll  + (w_x + pitch w_z) dt + Kp (a_roll - roll)
- *   a_pitch = -a_x/|a|, a_roll = a_y/|a| (small angles; |a| by the
- *   division-free inverse square root; a zero vector skips the P term).
+ *   a_pitch = -a_x/|a|, a_roll = a_y/|a| (small angles; a block-scaled to
+ *   [2^14, 2^15] and |a| by a 16-bit inverse square root with two Newton
+ *   steps, imf_unit_xy_k; a zero vector skips the P term).
  *   State: pitch, roll in q28 rad.  Constants: kw = gyr_scale dt, kp (per
- *   sample, < 2).  The yaw cross terms multiply the state rounded to q15.
+ *   sample, < 2).  The yaw cross terms multiply the state rounded to q15;
+ *   they and the P term use kw, kp rounded at init to 16-bit gains with a
+ *   byte-aligned shift (imf_gain16, docs/fixed-point.md).
  *
  * MultiWiiQ (appendix "MultiWii 2.2"; twin of MultiWii, csrc/multiwii.h):
  *   accelerometer LPF  L = L - L/2^k + a (accLPF32, rounded shift: no
  *                      truncation bias), accSmooth = L / 2^k
- *   rotation           d_n = d + d x w dt (d from before the step)
+ *   rotation           d_n = d + d x w dt (d from before the step; each
+ *                      component of d x w rounded once, imf_cross16)
  *   complementary      d = (d F + s) / (F + 1) = d + (s - d)/(F + 1) while
  *                      (1 - window) acc_1g < |accSmooth| < (1 + window) acc_1g
  *   State: d[3] in q15 acc counts, l[3] = L in q(k) acc counts (accSmooth
  *   2^k, as MultiWii's accLPF32).  Constants: kw = gyr_scale dt,
- *   kc = 1/(F+1), the window on |accSmooth|^2 in counts^2, k <= 15.
+ *   kc = 1/(F+1) (in the update as a 16-bit gain, imf_gain16), the window
+ *   on |accSmooth|^2 in counts^2, k <= 15.
  */
 #ifndef IMF_GRAVITY_Q_H
 #define IMF_GRAVITY_Q_H
