@@ -2,7 +2,6 @@
  * Mirrored line for line by python/imufuse/reference/fixed_gravity.py. */
 #include "gravity_q.h"
 #include "imf_fixed_init.h"
-#include "imf_fixed_quat.h"
 #include "imf_fixed_scale.h"
 
 int imf_kk_q_init_consts(imf_kk_q_t *const self, const imf_qscale_t kw, const imf_qscale_t kp)
