@@ -219,6 +219,26 @@ static inline int16_t imf_sat_q15s(const int32_t x)
 /* a + b, results are saturated to [INT32_MIN, INT32_MAX]. */
 static inline int32_t imf_add_sat32(const int32_t a, const int32_t b)
 {
+#if defined(__AVR__)
+    /* the same value: add, and on signed overflow (V) the bound of the
+     * true sign, which is the opposite of the wrapped sum's */
+    int32_t r = a;
+    __asm__("add %A[r], %A[b]\n\t"
+            "adc %B[r], %B[b]\n\t"
+            "adc %C[r], %C[b]\n\t"
+            "adc %D[r], %D[b]\n\t"
+            "brvc 1f\n\t"
+            "lsl %D[r]\n\t"
+            "sbc %A[r], %A[r]\n\t"
+            "mov %B[r], %A[r]\n\t"
+            "mov %C[r], %A[r]\n\t"
+            "mov %D[r], %A[r]\n\t"
+            "subi %D[r], 0x80\n"
+            "1:"
+            : [r] "+d"(r)
+            : [b] "r"(b));
+    return r;
+#else
     if (b > 0 && a > IMF_INT32_MAX - b) {
         return IMF_INT32_MAX;
     }
@@ -226,11 +246,30 @@ static inline int32_t imf_add_sat32(const int32_t a, const int32_t b)
         return IMF_INT32_MIN;
     }
     return a + b;
+#endif
 }
 
 /* a - b, results are saturated to [INT32_MIN, INT32_MAX]. */
 static inline int32_t imf_sub_sat32(const int32_t a, const int32_t b)
 {
+#if defined(__AVR__)
+    int32_t r = a; /* as imf_add_sat32 */
+    __asm__("sub %A[r], %A[b]\n\t"
+            "sbc %B[r], %B[b]\n\t"
+            "sbc %C[r], %C[b]\n\t"
+            "sbc %D[r], %D[b]\n\t"
+            "brvc 1f\n\t"
+            "lsl %D[r]\n\t"
+            "sbc %A[r], %A[r]\n\t"
+            "mov %B[r], %A[r]\n\t"
+            "mov %C[r], %A[r]\n\t"
+            "mov %D[r], %A[r]\n\t"
+            "subi %D[r], 0x80\n"
+            "1:"
+            : [r] "+d"(r)
+            : [b] "r"(b));
+    return r;
+#else
     if (b < 0 && a > IMF_INT32_MAX + b) {
         return IMF_INT32_MAX;
     }
@@ -238,6 +277,7 @@ static inline int32_t imf_sub_sat32(const int32_t a, const int32_t b)
         return IMF_INT32_MIN;
     }
     return a - b;
+#endif
 }
 
 /* q15 + q15, saturated to q15 (the int32 sum is exact). */

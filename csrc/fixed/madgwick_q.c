@@ -115,7 +115,7 @@ static void imf_madgwick_imu_q_correct_p32(const imf_madgwick_imu_q_t *const sel
  * terms rounded once), block-scaled in byte and bit steps (left shifts
  * only) to q15 with a constant rounding shift, and the step kb * s / |s|
  * as s15 * yk / 2^kbf with yk = y kb.m rounded to int16 once per update. */
-static void imf_madgwick_imu_q_correct_p8(const imf_madgwick_imu_q_t *const self,
+IMF_Q_OUTLINE void imf_madgwick_imu_q_correct_p8(const imf_madgwick_imu_q_t *const self,
                                         const int16_t qs[4], const int16_t acc[3], int32_t dq[4])
 {
     int16_t a[3], s15[4], w15;

@@ -100,7 +100,7 @@ static IMF_AVR_NOINLINE void imf_mahony_imu_q_feedback_p32(imf_mahony_imu_q_t *c
  * in q15, one 16x16 product per term with the gains prepared at init.
  * Short path (fast8): h in q(31+hs), Kp e + I summed in q38 and added to it
  * rounded once; otherwise h and Kp e in q(15+hs). */
-static void imf_mahony_imu_q_feedback_p8(imf_mahony_imu_q_t *const self, const int16_t qs[4],
+IMF_Q_OUTLINE void imf_mahony_imu_q_feedback_p8(imf_mahony_imu_q_t *const self, const int16_t qs[4],
                                        const int16_t acc[3], int32_t h[3])
 {
     imf_mahony_imu_q_state_t *const x = &self->x;
