@@ -634,40 +634,62 @@ static inline int16_t imf_q30_to_q15(const int32_t x)
 }
 
 /* qN -> q15 (N in [15, 46]), rounded, saturated symmetric to +-32767.
- * On AVR, N = 29, 30, 31 take the high word and 16-bit operations. */
+ * On AVR, N = 29, 30, 31 (constants) take the same value in a few byte
+ * operations: add the rounding bit 2^(N-16), shift left by 31 - N bit
+ * steps (an overflow flag V on the add or on a step means the value is out
+ * of range: saturate by its sign), and the high word is the result. */
+#if defined(__AVR__)
+#define IMF_QN_SAT_AVR \
+    "brvc 3f\n\t" /* out of range: carry = sign */ \
+    "2:\n\t" \
+    "sbc %C[r], %C[r]\n\t" \
+    "com %C[r]\n\t" \
+    "mov %D[r], %C[r]\n\t" \
+    "subi %D[r], 0x80\n" /* 0x7FFF, or 0x8000 if negative */ \
+    "3:"
+#endif
 static inline int16_t imf_qn_to_q15s(const int32_t x, const int N)
 {
 #if defined(__AVR__)
-    if (N == 30 || N == 29) {
-        /* the same value in 16-bit operations: with m = 31 - N (1 or 2),
-         * t = floor(x / 2^16) and the low word lo,
-         * floor(x / 2^(N-15) + 1/2) = t 2^m + floor(lo / 2^(N-15) + 1/2) */
-        const int m = 31 - N;
-        const int16_t t = (int16_t)(x >> 16);
-        const uint16_t lo = (uint16_t)((uint32_t)x & 0xFFFFu);
-        const int16_t r = (int16_t)(((uint16_t)(lo >> (N - 16)) + 1u) >> 1); /* [0, 2^m] */
+    if (N == 29 || N == 30 || N == 31) {
+        int32_t r = x;
         int16_t v;
-        if (t >= (int16_t)(16384 >> (m - 1))) {
-            return IMF_Q15_MAX;
+        if (N == 31) {
+            __asm__("lsl %B[r]\n\t"             /* C = bit 15: the rounding */
+                    "adc %C[r], __zero_reg__\n\t"
+                    "adc %D[r], __zero_reg__\n\t"
+                    "clc\n\t"                   /* overflow: positive */
+                    IMF_QN_SAT_AVR
+                    : [r] "+d"(r));
+        } else if (N == 30) {
+            __asm__("subi %B[r], 0xC0\n\t"      /* + 2^14 */
+                    "sbci %C[r], 0xFF\n\t"
+                    "sbci %D[r], 0xFF\n\t"
+                    "clc\n\t"
+                    "brvs 2f\n\t"               /* overflow: positive */
+                    "lsl %B[r]\n\t"
+                    "rol %C[r]\n\t"
+                    "rol %D[r]\n\t"             /* V = bit 31 ^ bit 30 */
+                    IMF_QN_SAT_AVR
+                    : [r] "+d"(r));
+        } else {
+            __asm__("subi %B[r], 0xE0\n\t"      /* + 2^13 */
+                    "sbci %C[r], 0xFF\n\t"
+                    "sbci %D[r], 0xFF\n\t"
+                    "clc\n\t"
+                    "brvs 2f\n\t"
+                    "lsl %B[r]\n\t"
+                    "rol %C[r]\n\t"
+                    "rol %D[r]\n\t"
+                    "brvs 2f\n\t"               /* carry = bit 31 */
+                    "lsl %B[r]\n\t"
+                    "rol %C[r]\n\t"
+                    "rol %D[r]\n\t"
+                    IMF_QN_SAT_AVR
+                    : [r] "+d"(r));
         }
-        if (t < (int16_t)-(16384 >> (m - 1))) {
-            return (int16_t)-32767;
-        }
-        v = (int16_t)(t * (1 << m)); /* [-32768, 32768 - 2^m] */
-        if (v > IMF_Q15_MAX - r) {
-            return IMF_Q15_MAX;
-        }
-        v = (int16_t)(v + r);
+        v = (int16_t)(r >> 16);
         return (v < -32767) ? (int16_t)-32767 : v;
-    }
-    if (N == 31) {
-        /* floor(x / 2^16 + 1/2) = t + bit 15 */
-        const int16_t t = (int16_t)(x >> 16);
-        const int16_t r = (int16_t)(((uint16_t)((uint32_t)x & 0xFFFFu)) >> 15);
-        if (t > IMF_Q15_MAX - r) {
-            return IMF_Q15_MAX;
-        }
-        return (t < -32767) ? (int16_t)-32767 : (int16_t)(t + r);
     }
 #endif
     return imf_sat_q15s(imf_rshr32(x, N - 15));
