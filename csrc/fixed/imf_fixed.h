@@ -76,6 +76,16 @@ static inline int imf_qscale_ok(const imf_qscale_t c, const int smin, const int 
 #define IMF_AVR_OUTLINE static inline
 #endif
 
+/* On AVR, a helper called with a shift count known only at run time goes
+ * to one out-of-line copy (its inlined copies, each a loop over the count,
+ * are most of a filter's flash); with a constant count it stays inline
+ * and folds to byte moves and a few bit steps. */
+#if defined(__AVR__)
+#define IMF_AVR_VARIABLE(n) (!__builtin_constant_p(n))
+#else
+#define IMF_AVR_VARIABLE(n) 0
+#endif
+
 /* ---- shifts -------------------------------------------------------- */
 
 /* 32-bit shifts by n in [0, 31].  The 8-bit target has no barrel shifter:
@@ -124,7 +134,7 @@ static inline uint32_t imf_lsl32(const uint32_t x, const int n)
  * = floor((floor(x / 2^(n-1)) + 1) / 2): one shift by n - 1, then one by 1;
  * floor(x / 2^(n-1)) + 1 <= 2^30 + 1 for n >= 2 cannot overflow, and
  * n = 1 adds the low bit instead (x = INT32_MAX). */
-static inline int32_t imf_rshr32(const int32_t x, const int n)
+static inline int32_t imf_rshr32_k(const int32_t x, const int n)
 {
     if (n <= 0) {
         return x;
@@ -157,9 +167,22 @@ static inline int32_t imf_rshr32(const int32_t x, const int n)
     return (imf_asr32(x, n - 1) + 1) >> 1;
 }
 
+IMF_AVR_OUTLINE int32_t imf_rshr32_v(const int32_t x, const int n)
+{
+    return imf_rshr32_k(x, n);
+}
+
+static inline int32_t imf_rshr32(const int32_t x, const int n)
+{
+    if (IMF_AVR_VARIABLE(n)) {
+        return imf_rshr32_v(x, n);
+    }
+    return imf_rshr32_k(x, n);
+}
+
 /* x * 2^k, k in [0, 31], saturated to int32.  Uses the unsigned magnitude:
  * a left shift of a negative value is undefined in C99. */
-static inline int32_t imf_shl_sat32(const int32_t x, const int k)
+static inline int32_t imf_shl_sat32_k(const int32_t x, const int k)
 {
     uint32_t mag;
     if (k <= 0) {
@@ -181,6 +204,19 @@ static inline int32_t imf_shl_sat32(const int32_t x, const int k)
         return IMF_INT32_MIN;
     }
     return -(int32_t)mag;
+}
+
+IMF_AVR_OUTLINE int32_t imf_shl_sat32_v(const int32_t x, const int k)
+{
+    return imf_shl_sat32_k(x, k);
+}
+
+static inline int32_t imf_shl_sat32(const int32_t x, const int k)
+{
+    if (IMF_AVR_VARIABLE(k)) {
+        return imf_shl_sat32_v(x, k);
+    }
+    return imf_shl_sat32_k(x, k);
 }
 
 /* Rounding shift by n (right if n > 0, saturating left if n < 0). */
@@ -374,7 +410,7 @@ static inline int32_t imf_mul_q15_q30(const int16_t a, const int16_t b)
  * type: a = ah*2^16 + al with al in [0, 2^16), so
  * a*b = (ah*b + asr(al*b, 16))*2^16 + (al*b mod 2^16) = m*2^16 + lol.
  * ah*b <= 2^30 and |al*b| < 2^31 fit int32 (two 16x16->32 multiplies). */
-static inline int32_t imf_mul_32x16(const int32_t a, const int16_t b, const int n)
+static inline int32_t imf_mul_32x16_k(const int32_t a, const int16_t b, const int n)
 {
     /* 16-bit operand types let 8-bit compilers use 16x16->32 multiplies
      * (avr-gcc: __mulhisi3, __usmulhisi3) instead of 32x32 */
@@ -398,6 +434,19 @@ static inline int32_t imf_mul_32x16(const int32_t a, const int16_t b, const int 
     }
     return imf_add_sat32(imf_shl_sat32(m, 16 - n),
                          imf_asr32(lol + (int32_t)(imf_lsl32(1u, n) >> 1), n));
+}
+
+IMF_AVR_OUTLINE int32_t imf_mul_32x16_v(const int32_t a, const int16_t b, const int n)
+{
+    return imf_mul_32x16_k(a, b, n);
+}
+
+static inline int32_t imf_mul_32x16(const int32_t a, const int16_t b, const int n)
+{
+    if (IMF_AVR_VARIABLE(n)) {
+        return imf_mul_32x16_v(a, b, n);
+    }
+    return imf_mul_32x16_k(a, b, n);
 }
 
 /* int16 x (an integer count, or qK: then pass N - K) times a q-scale
@@ -432,7 +481,7 @@ IMF_AVR_OUTLINE int32_t imf_rshift_sat32_ool(const int32_t x, const int n)
     return imf_rshift_sat32(x, n);
 }
 
-static inline imf_gain8_t imf_gain8(const imf_qscale_t c, const int N)
+IMF_AVR_OUTLINE imf_gain8_t imf_gain8(const imf_qscale_t c, const int N)
 {
     imf_gain8_t g;
     const int n = c.s - N;
@@ -536,7 +585,7 @@ static inline uint16_t imf_isqrt_u32(uint32_t x)
  * Method: x' = x * 4^k in [2^30, 2^32), u = x'/2^32 in [1/4, 1),
  * a chord on [1/4,1/2) or [1/2,1) as first guess, then three Newton
  * steps y <- y (3 - u y^2) / 2 in unsigned 16x16->32 products. */
-static inline uint16_t imf_invsqrt_u32(uint32_t x, int *const shift)
+IMF_AVR_OUTLINE uint16_t imf_invsqrt_u32(uint32_t x, int *const shift)
 {
     int e = 0;
     uint16_t u, y, y2, w; /* 16-bit operands: unsigned 16x16->32 products */
