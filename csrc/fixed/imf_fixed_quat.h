@@ -131,7 +131,7 @@ static inline int imf_q_unit3_p8(const int16_t v[3], int16_t a[3])
 
 /* imf_rshr32 for n in [0, 15] (the 8-bit profile's hs): the same value
  * with fewer range checks, bit steps for n < 8 (AVR). */
-static inline int32_t imf_q_rshr_hs_p8(const int32_t x, const int n)
+IMF_Q_OUTLINE int32_t imf_q_rshr_hs_p8(const int32_t x, const int n)
 {
     if (n >= 2) {
         return (imf_asr32(x, n - 1) + 1) >> 1; /* <= 2^30 + 1: no overflow */
@@ -191,6 +191,13 @@ static inline uint32_t imf_q_norm2(const int32_t q[4], const int16_t qs[4])
     int32_t r;
     uint16_t u;
     int i;
+    if (qs[0] > -32767 && qs[0] < 32767 && qs[1] > -32767 && qs[1] < 32767 && qs[2] > -32767
+        && qs[2] < 32767 && qs[3] > -32767 && qs[3] < 32767) {
+        /* every component from qs (the usual case): four squares < 2^30
+         * each, the sum < 2^32 needs no saturation -- the same value */
+        return (uint32_t)imf_mul16(qs[0], qs[0]) + (uint32_t)imf_mul16(qs[1], qs[1])
+             + (uint32_t)imf_mul16(qs[2], qs[2]) + (uint32_t)imf_mul16(qs[3], qs[3]);
+    }
     for (i = 0; i < 4; ++i) {
         if (qs[i] > -32767 && qs[i] < 32767) {
             u = (uint16_t)(qs[i] < 0 ? -qs[i] : qs[i]);
