@@ -429,6 +429,13 @@ static inline int32_t imf_mul_32x16_k(const int32_t a, const int16_t b, const in
     }
     /* n < 16: m*2^(16-n) may leave int32: saturate.  Below -2^(15+n) the
      * sum is below INT32_MIN whatever the (non-negative) low part adds. */
+#if !defined(__AVR__)
+    if (imf_asr32(m, 14 + n) == 0 || imf_asr32(m, 14 + n) == -1) {
+        /* |m 2^(16-n)| <= 2^30 and the rounded low part <= 2^(16-n):
+         * no saturation, the same value without the range tests */
+        return m * ((int32_t)1 << (16 - n)) + ((lol + ((int32_t)1 << n >> 1)) >> n);
+    }
+#endif
     if (m < -(int32_t)imf_lsl32(1u, 15 + n)) {
         return IMF_INT32_MIN;
     }
