@@ -547,7 +547,7 @@ static inline int32_t imf_gain8_mul(const int16_t x, const imf_gain8_t g)
 
 /* y[i] = x[i] * g for three int16 values (the 8-bit profile's gyro
  * conversion): the shift test once for the vector. */
-static inline void imf_gain8_mul3(const int16_t x[3], const imf_gain8_t g, int32_t y[3])
+IMF_AVR_OUTLINE void imf_gain8_mul3(const int16_t x[3], const imf_gain8_t g, int32_t y[3])
 {
     int i;
     if (g.n == 16) {

@@ -77,14 +77,21 @@ static inline int imf_q_normalise_acc(const int16_t acc[3], int16_t a[3])
 /* 32-bit profile, appendix step 7 (Mahony) / 3 (Madgwick):
  * dq = q (x) (0, h), h = 0.5 w dt in q30; products q15 x q30 -> q30 by
  * imf_mul_32x16 (rounded), sums saturate. */
+/* h q15 -> q30 (imf_mul_32x16 with the shift 15), one out-of-line copy on
+ * AVR: twelve inlined copies are most of the 32-bit profile's flash. */
+IMF_Q_OUTLINE int32_t imf_q_mul_hq_p32(const int32_t h, const int16_t qs)
+{
+    return imf_mul_32x16(h, qs, 15);
+}
+
 IMF_Q_OUTLINE void imf_q_rate_p32(const int16_t qs[4], const int32_t h[3], int32_t dq[4])
 {
-    const int32_t x0 = imf_mul_32x16(h[0], qs[0], 15), x1 = imf_mul_32x16(h[0], qs[1], 15);
-    const int32_t x2 = imf_mul_32x16(h[0], qs[2], 15), x3 = imf_mul_32x16(h[0], qs[3], 15);
-    const int32_t y0 = imf_mul_32x16(h[1], qs[0], 15), y1 = imf_mul_32x16(h[1], qs[1], 15);
-    const int32_t y2 = imf_mul_32x16(h[1], qs[2], 15), y3 = imf_mul_32x16(h[1], qs[3], 15);
-    const int32_t z0 = imf_mul_32x16(h[2], qs[0], 15), z1 = imf_mul_32x16(h[2], qs[1], 15);
-    const int32_t z2 = imf_mul_32x16(h[2], qs[2], 15), z3 = imf_mul_32x16(h[2], qs[3], 15);
+    const int32_t x0 = imf_q_mul_hq_p32(h[0], qs[0]), x1 = imf_q_mul_hq_p32(h[0], qs[1]);
+    const int32_t x2 = imf_q_mul_hq_p32(h[0], qs[2]), x3 = imf_q_mul_hq_p32(h[0], qs[3]);
+    const int32_t y0 = imf_q_mul_hq_p32(h[1], qs[0]), y1 = imf_q_mul_hq_p32(h[1], qs[1]);
+    const int32_t y2 = imf_q_mul_hq_p32(h[1], qs[2]), y3 = imf_q_mul_hq_p32(h[1], qs[3]);
+    const int32_t z0 = imf_q_mul_hq_p32(h[2], qs[0]), z1 = imf_q_mul_hq_p32(h[2], qs[1]);
+    const int32_t z2 = imf_q_mul_hq_p32(h[2], qs[2]), z3 = imf_q_mul_hq_p32(h[2], qs[3]);
     /* |each product| <= |h| < 2^30 for |h| < 1: the sums of three stay in int32
      * only while |h| < 2/3; saturate anyway */
     dq[0] = imf_sub_sat32(imf_sub_sat32(imf_sub_sat32(0, x1), y2), z3);
@@ -153,10 +160,31 @@ IMF_Q_OUTLINE int32_t imf_q_rshr_hs_p8(const int32_t x, const int n)
  * word. */
 static inline int32_t imf_q_carry_p8(const int32_t t, int32_t *const c)
 {
+#if defined(__AVR__)
+    /* the same in one 16-bit add whose carry goes straight to the result */
+    int32_t r;
+    uint16_t s;
+    __asm__("movw %A[r], %C[t]\n\t"
+            "mov %C[r], %D[t]\n\t"
+            "lsl %C[r]\n\t"
+            "sbc %C[r], %C[r]\n\t"  /* sign of t */
+            "mov %D[r], %C[r]\n\t"
+            "add %A[s], %A[t]\n\t"
+            "adc %B[s], %B[t]\n\t"  /* C = carry of the low words */
+            "adc %A[r], __zero_reg__\n\t"
+            "adc %B[r], __zero_reg__\n\t"
+            "adc %C[r], __zero_reg__\n\t"
+            "adc %D[r], __zero_reg__"
+            : [r] "=&r"(r), [s] "=&r"(s)
+            : [t] "r"(t), "1"((uint16_t)((uint32_t)*c & 0xFFFFu)));
+    *c = (int32_t)s;
+    return r;
+#else
     const uint16_t lo = (uint16_t)((uint32_t)t & 0xFFFFu);
     const uint16_t s = (uint16_t)(lo + (uint16_t)((uint32_t)*c & 0xFFFFu));
     *c = (int32_t)s;
     return (int32_t)(int16_t)(t >> 16) + (s < lo ? 1 : 0); /* floor(t / 2^16) + carry */
+#endif
 }
 
 /* 8-bit profile, appendix step 7 / 3: dq = q (x) (0, h), h in q(15+hs)
@@ -185,7 +213,7 @@ static inline void imf_q_rate_p8(const int16_t qs[4], const int32_t h[3], const 
  * rounded to q15 again without saturation (|q_i| up to 2: magnitudes up to
  * 2^16, clamped to 65535; the sum saturates only for |q| >= 2); elsewhere qs
  * is that rounding already. */
-static inline uint32_t imf_q_norm2(const int32_t q[4], const int16_t qs[4])
+IMF_Q_OUTLINE uint32_t imf_q_norm2(const int32_t q[4], const int16_t qs[4])
 {
     uint32_t n2 = 0u, p;
     int32_t r;

@@ -127,7 +127,7 @@ IMF_Q_OUTLINE void imf_mahony_imu_q_feedback_p8(imf_mahony_imu_q_t *const self, 
             const int32_t ii = imf_add_sat32(x->i[i], imf_rshr32(imf_mul16su(e15[i], ki8.m), 16));
             const int32_t v = imf_add_sat32(ii, imf_mul16su(e15[i], kpi));
             x->i[i] = ii;
-            h[i] = imf_add_sat32(h[i], imf_rshr32(v, 7 - hs)); /* shift in [1, 7] */
+            h[i] = imf_add_sat32(h[i], imf_q_rshr_hs_p8(v, 7 - hs)); /* shift in [1, 7] */
         }
     } else {
         for (i = 0; i < 3; ++i) {

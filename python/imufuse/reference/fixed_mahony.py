@@ -124,7 +124,7 @@ class MahonyIMUQ(FixedFilter):
                 ii = ci.add_sat32(self.i[i], ci.rshr32(e15[i] * self.ki8[0], 16))
                 v = ci.add_sat32(ii, e15[i] * self.kpi)
                 self.i[i] = ii
-                h[i] = ci.add_sat32(h[i], ci.rshr32(v, 7 - self.hs))
+                h[i] = ci.add_sat32(h[i], fq.rshr_hs_p8(v, 7 - self.hs))  # shift in [1, 7]
             else:
                 self.i[i] = ci.add_sat32(self.i[i], ci.gain8_mul(e15[i], self.ki8))
                 h[i] = ci.add_sat32(ci.add_sat32(h[i], ci.gain8_mul(e15[i], self.kp8)),
