@@ -641,6 +641,7 @@ IMF_AVR_OUTLINE uint16_t imf_invsqrt_u32(uint32_t x, int *const shift)
  * Madgwick's delta-s), so the error scales a gain by at most 0.12 %. */
 static inline uint16_t imf_invsqrt8_u32(uint32_t x, int *const e)
 {
+#if defined(__AVR__)
     uint16_t u, y, y2, w, d;
     uint32_t t;
     *e = 0;
@@ -672,6 +673,30 @@ static inline uint16_t imf_invsqrt8_u32(uint32_t x, int *const e)
         return 65535u;
     }
     return (uint16_t)((uint16_t)((uint16_t)(t >> 16) << 1) | (uint16_t)(((uint16_t)t) >> 15));
+#else
+    /* the same values in 32-bit operations (no 16-bit intermediate above
+     * wraps: d < 2^14, y < 2^16, w <= 49152) */
+    uint32_t u, y, d, t;
+    *e = 0;
+    if (x < ((uint32_t)1 << 30)) {
+        x <<= 2;
+        *e = 1;
+    }
+    u = x >> 16;
+    if (u < 32768u) {
+        d = u - 16384u;
+        y = 64635u - (d + ((d * 3u) >> 4));
+    } else {
+        d = u - 32768u;
+        y = 45691u - ((d >> 6) * 27u + (((d & 63u) * 27u) >> 6));
+    }
+    t = u * ((y * y + 32768u) >> 16);
+    if (t >= 3221225472u) {
+        t = 3221225471u;
+    }
+    t = (y * ((3221225472u - t) >> 16) + 16384u) >> 15;
+    return (uint16_t)(t > 65535u ? 65535u : t);
+#endif
 }
 
 /* ---- conversions --------------------------------------------------- */

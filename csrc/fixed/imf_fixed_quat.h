@@ -119,12 +119,25 @@ static inline int imf_q_unit3_p8(const int16_t v[3], int16_t a[3])
     if (m == 0u) {
         return 0;
     }
+#if defined(__AVR__)
     while (m < 16384u) {
         m = (uint16_t)(m << 1);
         for (i = 0; i < 3; ++i) {
             b[i] = (int16_t)(b[i] + b[i]); /* |b| < 2^14: no overflow */
         }
     }
+#else
+    if (m < 16384u) { /* the same scaling with one multiply per component */
+        int16_t k = 1;
+        while (m < 16384u) {
+            m = (uint16_t)(m << 1);
+            k = (int16_t)(k + k);
+        }
+        for (i = 0; i < 3; ++i) {
+            b[i] = (int16_t)(b[i] * k); /* |b k| < 2^15 */
+        }
+    }
+#endif
     n2 = (uint32_t)imf_mul16(b[0], b[0]) + (uint32_t)imf_mul16(b[1], b[1])
        + (uint32_t)imf_mul16(b[2], b[2]); /* [2^28, 3 2^30] */
     y = imf_invsqrt8_u32(n2, &e);          /* 1/|b| ~= y 2^(e-31) */
