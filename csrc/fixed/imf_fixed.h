@@ -169,7 +169,21 @@ static inline int32_t imf_rshr32_k(const int32_t x, const int n)
 
 IMF_AVR_OUTLINE int32_t imf_rshr32_v(const int32_t x, const int n)
 {
+#if defined(__AVR__)
+    /* the same value in the plain form: one compact copy */
+    if (n <= 0) {
+        return x;
+    }
+    if (n > 31) {
+        return 0;
+    }
+    if (n == 1) {
+        return (x >> 1) + (x & 1);
+    }
+    return (imf_asr32(x, n - 1) + 1) >> 1; /* byte moves, <= 7 bit steps */
+#else
     return imf_rshr32_k(x, n);
+#endif
 }
 
 static inline int32_t imf_rshr32(const int32_t x, const int n)
@@ -208,7 +222,24 @@ static inline int32_t imf_shl_sat32_k(const int32_t x, const int k)
 
 IMF_AVR_OUTLINE int32_t imf_shl_sat32_v(const int32_t x, const int k)
 {
+#if defined(__AVR__)
+    /* the same value with one shift each way (one compact copy) */
+    const int neg = x < 0;
+    uint32_t mag = neg ? 0u - (uint32_t)x : (uint32_t)x; /* 2^31 for INT32_MIN */
+    if (k <= 0) {
+        return x;
+    }
+    if (mag > imf_lsr32(neg ? (uint32_t)1 << 31 : (uint32_t)IMF_INT32_MAX, k)) {
+        return neg ? IMF_INT32_MIN : IMF_INT32_MAX;
+    }
+    mag = imf_lsl32(mag, k); /* <= 2^31 */
+    if (!neg) {
+        return (int32_t)mag;
+    }
+    return (mag == ((uint32_t)1 << 31)) ? IMF_INT32_MIN : -(int32_t)mag;
+#else
     return imf_shl_sat32_k(x, k);
+#endif
 }
 
 static inline int32_t imf_shl_sat32(const int32_t x, const int k)

@@ -232,13 +232,24 @@ IMF_Q_OUTLINE uint32_t imf_q_norm2(const int32_t q[4], const int16_t qs[4])
     int32_t r;
     uint16_t u;
     int i;
+    /* the usual case, every component from qs: four squares < 2^30 each,
+     * the sum < 2^32 needs no saturation (the same value); a loop on AVR
+     * (flash), unrolled elsewhere */
+#if defined(__AVR__)
+    for (i = 0; i < 4 && qs[i] > -32767 && qs[i] < 32767; ++i) {
+        n2 += (uint32_t)imf_mul16(qs[i], qs[i]);
+    }
+    if (i == 4) {
+        return n2;
+    }
+    n2 = 0u;
+#else
     if (qs[0] > -32767 && qs[0] < 32767 && qs[1] > -32767 && qs[1] < 32767 && qs[2] > -32767
         && qs[2] < 32767 && qs[3] > -32767 && qs[3] < 32767) {
-        /* every component from qs (the usual case): four squares < 2^30
-         * each, the sum < 2^32 needs no saturation -- the same value */
         return (uint32_t)imf_mul16(qs[0], qs[0]) + (uint32_t)imf_mul16(qs[1], qs[1])
              + (uint32_t)imf_mul16(qs[2], qs[2]) + (uint32_t)imf_mul16(qs[3], qs[3]);
     }
+#endif
     for (i = 0; i < 4; ++i) {
         if (qs[i] > -32767 && qs[i] < 32767) {
             u = (uint16_t)(qs[i] < 0 ? -qs[i] : qs[i]);

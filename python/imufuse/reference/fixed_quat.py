@@ -89,8 +89,9 @@ def norm2(q, qs):
     """imf_q_norm2: |q|^2 in q30 from the snapshot qs, except where it saturates
     (+-32767): there q rounded to q15 again without saturation."""
     if all(-32767 < s < 32767 for s in qs):
-        # every component from qs: four squares < 2^30, the sum < 2^32
-        return qs[0] * qs[0] + qs[1] * qs[1] + qs[2] * qs[2] + qs[3] * qs[3]
+        # the usual case, every component from qs: four squares < 2^30 each,
+        # the sum < 2^32 needs no saturation
+        return sum(s * s for s in qs)
     n2 = 0
     for v, s in zip(q, qs):
         if -32767 < s < 32767:
