@@ -86,18 +86,30 @@ IMF_Q_OUTLINE int32_t imf_q_mul_hq_p32(const int32_t h, const int16_t qs)
 
 IMF_Q_OUTLINE void imf_q_rate_p32(const int16_t qs[4], const int32_t h[3], int32_t dq[4])
 {
-    const int32_t x0 = imf_q_mul_hq_p32(h[0], qs[0]), x1 = imf_q_mul_hq_p32(h[0], qs[1]);
-    const int32_t x2 = imf_q_mul_hq_p32(h[0], qs[2]), x3 = imf_q_mul_hq_p32(h[0], qs[3]);
-    const int32_t y0 = imf_q_mul_hq_p32(h[1], qs[0]), y1 = imf_q_mul_hq_p32(h[1], qs[1]);
-    const int32_t y2 = imf_q_mul_hq_p32(h[1], qs[2]), y3 = imf_q_mul_hq_p32(h[1], qs[3]);
-    const int32_t z0 = imf_q_mul_hq_p32(h[2], qs[0]), z1 = imf_q_mul_hq_p32(h[2], qs[1]);
-    const int32_t z2 = imf_q_mul_hq_p32(h[2], qs[2]), z3 = imf_q_mul_hq_p32(h[2], qs[3]);
+    /* p[j][i] = h[j] qs[i] (q30): x = p[0], y = p[1], z = p[2]; a loop on
+     * AVR (flash), unrolled elsewhere */
+    int32_t p[3][4];
+#if defined(__AVR__)
+    int i, j;
+    for (j = 0; j < 3; ++j) {
+        for (i = 0; i < 4; ++i) {
+            p[j][i] = imf_q_mul_hq_p32(h[j], qs[i]);
+        }
+    }
+#else
+    p[0][0] = imf_q_mul_hq_p32(h[0], qs[0]), p[0][1] = imf_q_mul_hq_p32(h[0], qs[1]);
+    p[0][2] = imf_q_mul_hq_p32(h[0], qs[2]), p[0][3] = imf_q_mul_hq_p32(h[0], qs[3]);
+    p[1][0] = imf_q_mul_hq_p32(h[1], qs[0]), p[1][1] = imf_q_mul_hq_p32(h[1], qs[1]);
+    p[1][2] = imf_q_mul_hq_p32(h[1], qs[2]), p[1][3] = imf_q_mul_hq_p32(h[1], qs[3]);
+    p[2][0] = imf_q_mul_hq_p32(h[2], qs[0]), p[2][1] = imf_q_mul_hq_p32(h[2], qs[1]);
+    p[2][2] = imf_q_mul_hq_p32(h[2], qs[2]), p[2][3] = imf_q_mul_hq_p32(h[2], qs[3]);
+#endif
     /* |each product| <= |h| < 2^30 for |h| < 1: the sums of three stay in int32
      * only while |h| < 2/3; saturate anyway */
-    dq[0] = imf_sub_sat32(imf_sub_sat32(imf_sub_sat32(0, x1), y2), z3);
-    dq[1] = imf_sub_sat32(imf_add_sat32(x0, z2), y3);
-    dq[2] = imf_add_sat32(imf_sub_sat32(y0, z1), x3);
-    dq[3] = imf_sub_sat32(imf_add_sat32(z0, y1), x2);
+    dq[0] = imf_sub_sat32(imf_sub_sat32(imf_sub_sat32(0, p[0][1]), p[1][2]), p[2][3]);
+    dq[1] = imf_sub_sat32(imf_add_sat32(p[0][0], p[2][2]), p[1][3]);
+    dq[2] = imf_add_sat32(imf_sub_sat32(p[1][0], p[2][1]), p[0][3]);
+    dq[3] = imf_sub_sat32(imf_add_sat32(p[2][0], p[1][1]), p[0][2]);
 }
 
 /* 8-bit profile: unit vector of an int16 3-vector in symmetric q15, or 0

@@ -73,7 +73,7 @@ static void imf_madgwick_imu_q_correct_p32(const imf_madgwick_imu_q_t *const sel
      *   + (q2 ax - q1 ay, -q3 ax - q0 ay + 2 q1 az, q0 ax - q3 ay + 2 q2 az, -q1 ax - q2 ay),
      * every q15 x q15 product (q30) rounded to q28 */
     w = imf_mul_q15_q30(qs[1], qs[1]) + imf_mul_q15_q30(qs[2], qs[2]); /* < 2^31 */
-    w15 = imf_sat_q15s(imf_rshr32(w, 15));                             /* q1^2+q2^2, q15 */
+    w15 = imf_qn_to_q15s(w, 30);                                       /* q1^2+q2^2, q15 */
 #define IMF_P2(a, b) imf_rshr32(imf_mul_q15_q30(a, b), 2) /* q28 */
 #define IMF_P1(a, b) imf_rshr32(imf_mul_q15_q30(a, b), 1) /* 2 a b, q28 */
     s[0] = imf_add_sat32(IMF_P1(w15, qs[0]), IMF_P2(qs[2], a[0]) - IMF_P2(qs[1], a[1]));

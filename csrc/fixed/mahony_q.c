@@ -71,10 +71,10 @@ static IMF_AVR_NOINLINE void imf_mahony_imu_q_feedback_p32(imf_mahony_imu_q_t *c
     }
     /* step 3: d = 2 (q1 q3 - q0 q2, q0 q1 + q2 q3, q0^2 + q3^2 - 1/2), q15;
      * symmetric q15 products < 2^30, so the q30 sums cannot overflow */
-    d[0] = imf_sat_q15s(imf_rshr32(imf_mul_q15_q30(qs[1], qs[3]) - imf_mul_q15_q30(qs[0], qs[2]), 14));
-    d[1] = imf_sat_q15s(imf_rshr32(imf_mul_q15_q30(qs[0], qs[1]) + imf_mul_q15_q30(qs[2], qs[3]), 14));
-    d[2] = imf_sat_q15s(imf_rshr32(imf_mul_q15_q30(qs[0], qs[0]) + imf_mul_q15_q30(qs[3], qs[3])
-                                   - 536870912L, 14));
+    d[0] = imf_qn_to_q15s(imf_mul_q15_q30(qs[1], qs[3]) - imf_mul_q15_q30(qs[0], qs[2]), 29);
+    d[1] = imf_qn_to_q15s(imf_mul_q15_q30(qs[0], qs[1]) + imf_mul_q15_q30(qs[2], qs[3]), 29);
+    d[2] = imf_qn_to_q15s(imf_mul_q15_q30(qs[0], qs[0]) + imf_mul_q15_q30(qs[3], qs[3])
+                          - 536870912L, 29);
     /* step 4: e = a x d, q30 */
     e[0] = imf_mul_q15_q30(a[1], d[2]) - imf_mul_q15_q30(a[2], d[1]);
     e[1] = imf_mul_q15_q30(a[2], d[0]) - imf_mul_q15_q30(a[0], d[2]);

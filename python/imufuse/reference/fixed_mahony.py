@@ -85,9 +85,9 @@ class MahonyIMUQ(FixedFilter):
         if a is None:
             return
         # step 3: d = 2 (q1 q3 - q0 q2, q0 q1 + q2 q3, q0^2 + q3^2 - 1/2), q15
-        d = [ci.sat_q15s(ci.rshr32(qs[1] * qs[3] - qs[0] * qs[2], 14)),
-             ci.sat_q15s(ci.rshr32(qs[0] * qs[1] + qs[2] * qs[3], 14)),
-             ci.sat_q15s(ci.rshr32(qs[0] * qs[0] + qs[3] * qs[3] - 536870912, 14))]
+        d = [ci.qn_to_q15s(qs[1] * qs[3] - qs[0] * qs[2], 29),
+             ci.qn_to_q15s(qs[0] * qs[1] + qs[2] * qs[3], 29),
+             ci.qn_to_q15s(qs[0] * qs[0] + qs[3] * qs[3] - 536870912, 29)]
         # step 4: e = a x d, q30
         e = [a[1] * d[2] - a[2] * d[1],
              a[2] * d[0] - a[0] * d[2],
