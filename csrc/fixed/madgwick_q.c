@@ -10,9 +10,14 @@ int imf_madgwick_imu_q_init_consts(imf_madgwick_imu_q_t *const self, const imf_q
     self->kg = kg;
     self->kb = kb;
     self->hs = imf_q_rate_exponent(kg);
-    self->kg8 = imf_gain8(kg, 15 + self->hs);
-    /* largest multiple of 8 with kb.s - kbf >= 16 (kb.s in [16, 46]) */
-    self->kbf = (int16_t)(kb.s < 16 ? 0 : ((kb.s - 16) / 8) * 8);
+    if (IMF_Q_HAS_P8) {
+        self->kg8 = imf_gain8(kg, 15 + self->hs);
+        /* largest multiple of 8 with kb.s - kbf >= 16 (kb.s in [16, 46]) */
+        self->kbf = (int16_t)(kb.s < 16 ? 0 : ((kb.s - 16) / 8) * 8);
+    } else { /* no 8-bit profile compiled in: its constants unused, zero */
+        self->kg8.m = 0u;
+        self->kg8.n = self->kbf = 0;
+    }
     self->profile = (int16_t)(profile == 8 ? 8 : 32);
     self->x.q[0] = IMF_Q30_ONE;
     self->x.q[1] = self->x.q[2] = self->x.q[3] = 0;

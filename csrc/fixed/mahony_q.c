@@ -11,12 +11,19 @@ int imf_mahony_imu_q_init_consts(imf_mahony_imu_q_t *const self, const imf_qscal
     self->kp = kp;
     self->ki = ki;
     self->hs = imf_q_rate_exponent(kg);
-    self->kg8 = imf_gain8(kg, 15 + self->hs);
-    self->kp8 = imf_gain8(kp, self->hs);
-    self->ki8 = imf_gain8(ki, 38 - 15);
-    self->kpi = (uint16_t)(kp.s >= 23 ? imf_rshr32(kp.m, kp.s - 23) : (kp.s == 22 ? kp.m * 2 : 0));
-    self->fast8 = (int16_t)(kp.s >= 22 && self->ki8.n == 16 && self->kg8.n == 16
-                            && self->hs <= 6);
+    if (IMF_Q_HAS_P8) {
+        self->kg8 = imf_gain8(kg, 15 + self->hs);
+        self->kp8 = imf_gain8(kp, self->hs);
+        self->ki8 = imf_gain8(ki, 38 - 15);
+        self->kpi = (uint16_t)(kp.s >= 23 ? imf_rshr32(kp.m, kp.s - 23) : (kp.s == 22 ? kp.m * 2 : 0));
+        self->fast8 = (int16_t)(kp.s >= 22 && self->ki8.n == 16 && self->kg8.n == 16
+                                && self->hs <= 6);
+    } else {
+        /* a build without the 8-bit profile (IMF_FIXED_PROFILE 32): its
+         * constants are unused, left zero (no code linked to compute them) */
+        self->kg8.m = self->kp8.m = self->ki8.m = self->kpi = 0u;
+        self->kg8.n = self->kp8.n = self->ki8.n = self->fast8 = 0;
+    }
     self->profile = (int16_t)(profile == 8 ? 8 : 32);
     self->x.q[0] = IMF_Q30_ONE;
     self->x.q[1] = self->x.q[2] = self->x.q[3] = 0;
