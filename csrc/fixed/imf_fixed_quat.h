@@ -140,13 +140,13 @@ static inline int imf_q_unit3_p8(const int16_t v[3], int16_t a[3])
     }
 #else
     if (m < 16384u) { /* the same scaling with one multiply per component */
-        int16_t k = 1;
-        while (m < 16384u) {
-            m = (uint16_t)(m << 1);
-            k = (int16_t)(k + k);
+        unsigned int mm = m, k = 1u;
+        while (mm < 16384u) {
+            mm <<= 1;
+            k <<= 1;
         }
         for (i = 0; i < 3; ++i) {
-            b[i] = (int16_t)(b[i] * k); /* |b k| < 2^15 */
+            b[i] = (int16_t)(b[i] * (int)k); /* |b k| < 2^15 */
         }
     }
 #endif
