@@ -460,10 +460,13 @@ static inline int32_t imf_mul_32x16_k(const int32_t a, const int16_t b, const in
     }
     /* n < 16: m*2^(16-n) may leave int32: saturate.  Below -2^(15+n) the
      * sum is below INT32_MIN whatever the (non-negative) low part adds. */
-#if !defined(__AVR__)
-    if (imf_asr32(m, 14 + n) == 0 || imf_asr32(m, 14 + n) == -1) {
-        /* |m 2^(16-n)| <= 2^30 and the rounded low part <= 2^(16-n):
-         * no saturation, the same value without the range tests */
+#if !defined(__AVR__) && defined(__GNUC__)
+    if (__builtin_constant_p(n) && (uint32_t)(m >> (14 + n)) + 1u <= 1u) {
+        /* a shift known at compile time (with a run-time shift the larger
+         * body is no longer inlined and costs more than it saves):
+         * m >> (14 + n) in {-1, 0}, so |m 2^(16-n)| <= 2^30 and the rounded
+         * low part <= 2^(16-n), no saturation: the same value without the
+         * range tests */
         return m * ((int32_t)1 << (16 - n)) + ((lol + ((int32_t)1 << n >> 1)) >> n);
     }
 #endif

@@ -299,7 +299,14 @@ IMF_Q_OUTLINE void imf_q_normalise(int32_t q[4])
     y = imf_invsqrt_u32(n2, &sh);        /* 1/sqrt(n2) = y 2^-sh, n2 in q30 */
     y14 = (int16_t)((y >= 65535u) ? 32767 : (y + 1u) >> 1); /* y/2, q14 -> int16 */
     for (i = 0; i < 4; ++i) {
-        /* q / sqrt(n2 / 2^30) = q * y14 * 2^(16 - sh) */
+        /* q / sqrt(n2 / 2^30) = q * y14 * 2^(16 - sh); sh = 30 for |q| near 1
+         * (the usual case): outside AVR, that shift as a constant (faster) */
+#if !defined(__AVR__)
+        if (sh == 30) {
+            q[i] = imf_mul_32x16(q[i], y14, 14);
+            continue;
+        }
+#endif
         q[i] = imf_mul_32x16(q[i], y14, sh - 16);
     }
 }
