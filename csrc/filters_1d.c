@@ -197,42 +197,38 @@ void imf_complementary1d_bias_init(imf_complementary1d_bias_t *const self, const
     imf_complementary1d_bias_set_dt(self, dt);
     self->skipped = 0;
     self->x.theta = IMF_R(0.0);
-    self->x.s1 = IMF_R(0.0);
-    self->x.s2 = IMF_R(0.0);
+    self->x.i = IMF_R(0.0);
 }
 
 void imf_complementary1d_bias_set_dt(imf_complementary1d_bias_t *const self, const imf_real dt)
 {
-    /* (1 - z^-1)^2 + Kp dt (1 - z^-1) + Ki dt^2, normalised by its z^0 term a0 */
+    /* a0 = 1 + Kp dt + Ki dt^2: the z^0 term of (1 - z^-1)^2 + Kp dt (1 - z^-1) + Ki dt^2 */
     const imf_real kp_dt = self->kp * dt;
     const imf_real ki_dt2 = self->ki * dt * dt;
     const imf_real a0 = IMF_R(1.0) + kp_dt + ki_dt2;
     self->dt = dt;
     self->b0a = (kp_dt + ki_dt2) / a0;
-    self->b1a = -kp_dt / a0;
     self->b0w = dt / a0;
-    self->b1w = -dt / a0;
-    self->a1 = -(IMF_R(2.0) + kp_dt) / a0;
-    self->a2 = IMF_R(1.0) / a0;
+    self->ki_dt = self->ki * dt;
 }
 
 void imf_complementary1d_bias_update(imf_complementary1d_bias_t *const self, const imf_real rate,
                                      const imf_real angle)
 {
-    imf_real theta, s1, s2;
+    imf_real theta, i;
     if (!imf_finite2(rate, angle)) {
         self->skipped++;
         return;
     }
-    /* direct form II transposed, two inputs, b2a = b2w = 0 */
-    theta = self->b0a * angle + self->b0w * rate + self->x.s1;
-    s1 = self->b1a * angle + self->b1w * rate - self->a1 * theta + self->x.s2;
-    s2 = -self->a2 * theta;
-    if (!imf_finite3(theta, s1, s2)) {
+    /* Eq. 3.10 by backward difference, solved for theta_k:
+       theta_k = theta_{k-1} + (dt (w_k + I_{k-1}) + (Kp dt + Ki dt^2)(a_k - theta_{k-1})) / a0 */
+    theta = self->x.theta + (self->b0w * (rate + self->x.i) + self->b0a * (angle - self->x.theta));
+    /* I_k = I_{k-1} + Ki dt e_k, e_k = a_k - theta_k */
+    i = self->x.i + self->ki_dt * (angle - theta);
+    if (!imf_finite2(theta, i)) {
         self->skipped++;
         return;
     }
     self->x.theta = theta;
-    self->x.s1 = s1;
-    self->x.s2 = s2;
+    self->x.i = i;
 }

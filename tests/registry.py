@@ -103,10 +103,12 @@ CASES_GRAVITY = [
 EXTRA_FLOAT_CASES = [*CASES_1D, *CASES_QUATERNION, *CASES_GRAVITY]
 
 
-def _with_defaults(extra, entries, dt):
-    """The extra cases plus one default case for every entry without one."""
+def _with_defaults(extra, entries, dt, case=None):
+    """The extra cases plus one default case for every entry without one (dt
+    None: a filter constructed without a sample interval)."""
     have = {c.name for c in extra}
-    return [*extra, *(Case(e.name, dict(dt=dt, **e.defaults), "defaults")
+    step = {} if dt is None else dict(dt=dt)
+    return [*extra, *((case or Case)(e.name, dict(**step, **e.defaults), "defaults")
                       for e in entries if e.name not in have)]
 
 
@@ -151,12 +153,12 @@ FIXED_CASES = _with_defaults(EXTRA_FIXED_CASES, catalogue.FIXED, 0.002)
 
 def fixed_matrix():
     """(case, profile) pairs for every fixed-point filter configuration."""
-    return [pytest.param(c, p, id=f"{c.id}-q{p}") for c in FIXED_CASES for p in PROFILES]
+    return [pytest.param(c, p, id=f"{c.id}-p{p}") for c in FIXED_CASES for p in PROFILES]
 
 
 # ---- seed 002's variometer (csrc/vario.c): update(accel, baro_alt, dt) ------
-# Its own input kind ("vario"), outside the catalogue's IMU/1-D filters, so it
-# has its own matrix (tests/test_vario.py).
+# Its own input kind ("vario") and catalogue section (catalogue.VARIO), outside
+# the IMU/1-D filters, so it has its own matrix (tests/test_vario.py).
 @dataclass(frozen=True)
 class VarioCase(Case):
     @property
@@ -164,13 +166,10 @@ class VarioCase(Case):
         return "vario"
 
     def make(self, backend, dtype):
-        import imufuse_c
-        import imufuse.reference as reference
-        mod = imufuse_c if backend == "c" else reference
-        return getattr(mod, self.name)(**self.params, dtype=dtype)
+        return catalogue.ALL_ENTRIES[self.name].make(backend, **self.params, dtype=dtype)
 
 
-CASES_VARIO = [
+EXTRA_CASES_VARIO = [
     VarioCase("VarioKF", {}, "seed_defaults"),
     VarioCase("VarioKF", dict(predict="model"), "model"),
     VarioCase("VarioKF", dict(var_z=150.0, var_acc=5000.0, var_bias=0.01,
@@ -179,6 +178,7 @@ CASES_VARIO = [
     VarioCase("VarioKF", dict(var_z=1.0, var_acc=0.0, var_bias=0.0, p0=(0.0, 0.0, 0.0)),
               "zero_noise"),
 ]
+CASES_VARIO = _with_defaults(EXTRA_CASES_VARIO, catalogue.VARIO, None, VarioCase)
 
 
 def vario_matrix():
@@ -193,8 +193,9 @@ def vario_matrix():
 # FusionOffset returns the corrected gyroscope. tests/test_fusion.py runs the same
 # checks on them (C vs twin bit for bit in both precisions, update vs run, bad
 # input, the non-finite policy, a long run at rest) and tests/test_fusion_oracle.py
-# compares them with imufusion 1.2.3.
-FUSION_CASES = [
+# compares them with imufusion 1.2.3. A filter of catalogue.FUSION without a case
+# here runs with its catalogue defaults.
+EXTRA_FUSION_CASES = [
     Case("FusionAHRS", dict(gain=1.0, gyroscope_range=500.0, acceleration_rejection=5.0,
                             magnetic_rejection=20.0, recovery_trigger_period=100), "short"),
     Case("FusionAHRS", dict(), "defaults"),
@@ -203,3 +204,4 @@ FUSION_CASES = [
          "fast"),
     Case("FusionOffset", dict(sample_rate=100)),
 ]
+FUSION_CASES = _with_defaults(EXTRA_FUSION_CASES, catalogue.FUSION, None)

@@ -39,6 +39,14 @@ def _copy_tree(dst):
     # keep the generated Cython C (same mtimes): cythonize then has nothing to do
     shutil.copytree(ROOT / "imufuse_c", dst / "imufuse_c",
                     ignore=shutil.ignore_patterns("*.so", "__pycache__"))
+    # setup.py lists the Cython bindings from the reference modules' FILTERS declarations;
+    # the generated list keeps its mtime too (a tree built before: nothing to cythonize)
+    shutil.copytree(ROOT / "python" / "imufuse" / "reference", dst / "python" / "imufuse" / "reference",
+                    ignore=shutil.ignore_patterns("__pycache__"))
+    generated = ROOT / "build" / "imufuse_units" / "filters.pxi"
+    if generated.is_file():
+        (dst / "build" / "imufuse_units").mkdir(parents=True)
+        shutil.copy2(generated, dst / "build" / "imufuse_units")
 
 
 def _build(tree, *extra):
@@ -91,3 +99,18 @@ def test_module_with_objects_of_the_other_precision_refuses_to_import(tree):
         assert "does not compute what the reference computes" in proc.stderr
     finally:
         (tree / "setup.py").write_text(setup)
+
+
+def test_a_filter_family_without_its_binding_stops_the_build(tmp_path):
+    """setup.py includes imufuse_c/<family>.pxi in _f32.pyx and _f64.pyx for every
+    reference module that declares filters (no hand-kept include list): a family
+    whose binding is missing stops the build, naming the file."""
+    if shutil.which("cc") is None and shutil.which("gcc") is None:
+        pytest.skip("no C compiler")
+    _copy_tree(tmp_path)
+    (tmp_path / "python" / "imufuse" / "reference" / "newfamily.py").write_text(
+        'FILTERS = ("NewFilter",)\n')
+    proc = subprocess.run([sys.executable, "setup.py", "build_ext", "--inplace"], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode != 0
+    assert "binding imufuse_c/newfamily.pxi does not exist" in proc.stdout + proc.stderr, proc.stderr[-3000:]

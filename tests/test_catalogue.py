@@ -3,22 +3,27 @@ every entry reaches every harness (registry, demo/CLI, firmware harness, MCU
 runner, fixed-point driver, stubs), and what an entry derives agrees with the C
 headers."""
 import inspect
+import re
 from pathlib import Path
 
 import pytest
 
 import imufuse.reference as reference
 import imufuse_c
-from imufuse import catalogue, cproto
+from imufuse import catalogue, cproto, recovery
 from imufuse._checks import KINDS
 from imufuse._resources import csrc_dir
 from imufuse._stubs import stubs
 from imufuse.estimate import ADAPTERS
 from imufuse.mcu import filters as mcu_filters
-from registry import FIXED_CASES, FLOAT_CASES
+from registry import CASES_VARIO, FIXED_CASES, FLOAT_CASES, FUSION_CASES
 
 HEADERS = "\n".join(p.read_text() for p in sorted(csrc_dir().rglob("*.h")))
 ENTRIES = [pytest.param(e, id=e.name) for e in (*catalogue.FLOAT, *catalogue.FIXED)]
+#: the sections with an API of their own: the Fusion suite and the variometer
+OWN = [pytest.param(e, id=e.name) for e in (*catalogue.FUSION, *catalogue.VARIO)]
+EVERY = [*ENTRIES, *OWN]
+ROOT = Path(__file__).resolve().parents[1]      # the source tree (a checkout or the sdist)
 
 
 def test_every_exported_filter_has_one_entry():
@@ -26,7 +31,10 @@ def test_every_exported_filter_has_one_entry():
     assert sorted(catalogue.FILTERS_FIXED) == sorted(reference.FILTERS_FIXED)
     assert sorted(catalogue.FILTERS) == sorted(imufuse_c.FILTERS)
     assert sorted(catalogue.FILTERS_FIXED) == sorted(imufuse_c.FILTERS_FIXED)
+    assert sorted(catalogue.FILTERS_FUSION) == sorted(reference.FILTERS_FUSION) == sorted(imufuse_c.FILTERS_FUSION)
+    assert sorted(catalogue.FILTERS_VARIO) == sorted(reference.FILTERS_VARIO) == sorted(imufuse_c.FILTERS_VARIO)
     assert len(catalogue.ENTRIES) == len(catalogue.FLOAT) + len(catalogue.FIXED)
+    assert len(catalogue.ALL_ENTRIES) == len(EVERY)
     assert all(e.fixed for e in catalogue.FIXED) and not any(e.fixed for e in catalogue.FLOAT)
 
 
@@ -107,6 +115,9 @@ def test_unknown_names_are_reported():
         catalogue.entry("MadgwickIMUU")
     with pytest.raises(catalogue.FilterError, match="fixed-point"):
         catalogue.reference_class("KKQ")
+    for name in (*catalogue.FILTERS_FUSION, *catalogue.FILTERS_VARIO):
+        with pytest.raises(catalogue.FilterError, match=f"^{name}: has an API of its own"):
+            catalogue.entry(name)
 
 
 def test_stubs_are_generated_from_the_catalogue():
@@ -123,7 +134,6 @@ def test_stubs_are_generated_from_the_catalogue():
 @pytest.mark.parametrize("e", ENTRIES)
 def test_stub_methods_exist(e):
     """What the stubs promise, the compiled class has."""
-    import re
     text = stubs()
     body = text.split(f"\nclass {e.name}(")[1].split("\nclass ")[0]
     kw = dict(dtype="float64") if not e.fixed else {}
@@ -147,3 +157,52 @@ def test_fusion_suite_in_the_catalogue():
         assert set(e.defaults) <= params, e.name
         f = e.make("c", **e.defaults)
         assert len(f.state) == len(e.state_names)
+
+
+@pytest.mark.parametrize("e", EVERY)
+def test_binding_is_compiled(e):
+    """setup.py generates the include list of imufuse_c/_f32.pyx and _f64.pyx from
+    the reference modules' FILTERS declarations: the entry's binding file exists,
+    defines the class, and the class is in the compiled modules."""
+    pxi = ROOT / e.binding
+    assert pxi.is_file(), f"{e.name}: its Cython binding {e.binding} does not exist"
+    assert re.search(rf"^cdef class {e.name}\b", pxi.read_text(), re.M), f"{e.binding} defines no class {e.name}"
+    if e.fixed:
+        assert hasattr(imufuse_c._fixed, e.name)
+    else:
+        for mod in (imufuse_c._f32, imufuse_c._f64):
+            assert hasattr(mod, e.name), f"{e.name} not compiled into {mod.__name__}: is {e.binding} included?"
+
+
+@pytest.mark.parametrize("e", [*catalogue.FLOAT, *catalogue.FUSION], ids=lambda e: e.name)
+def test_entry_declares_its_recovery_budget(e):
+    """Every float and Fusion entry states how many samples it needs to come back
+    after a hostile burst (tests/test_hostile.py runs that many), as a function of
+    its parameters whose documentation gives the derivation."""
+    assert e.recovery is not None, f"{e.name}: no recovery= in its catalogue entry (imufuse.recovery)"
+    assert len(inspect.getdoc(e.recovery) or "") > 80, f"{e.recovery.__name__}: no derivation documented"
+    for dtype in ("float32", "float64"):
+        n = e.recovery_budget(dict(e.defaults, **({} if e in catalogue.FUSION else dict(dt=0.01))),
+                              dtype, dt=0.01)
+        assert isinstance(n, int) and recovery.MARGIN < n < 10 ** 8, (e.name, dtype, n)
+
+
+@pytest.mark.parametrize("e", OWN)
+def test_own_api_sections_reach_every_harness(e):
+    """The Fusion suite and the variometer: their own catalogue sections, read by
+    the registry (whose matrices test_fusion.py, test_fusion_oracle.py,
+    test_hostile.py and test_vario.py run), the stubs, the MCU runner's header
+    reader and the benchmarks (bench/test_bench_*.py time them by name)."""
+    cases = FUSION_CASES if e in catalogue.FUSION else CASES_VARIO
+    assert any(c.name == e.name for c in cases), "missing from tests/registry.py"
+    c = e.make("c", **e.defaults)
+    r = e.make("ref", **e.defaults)
+    assert tuple(c.state_names) == tuple(r.state_names) == e.state_names
+    assert f"\nclass {e.name}(" in stubs()
+    cf = mcu_filters.c_library(e.c_name)
+    assert len(cf.init) == len(cproto.find_prototype(HEADERS, e.c_name + "_init").params) - 1
+    for name in vars(e.reference):     # the compiled class has the reference's methods
+        if not name.startswith("_") and inspect.isfunction(getattr(e.reference, name)):
+            assert callable(getattr(c, name, None)), f"{e.name}.{name}"
+    bench = "".join(p.read_text() for p in sorted((ROOT / "bench").glob("test_bench_*.py")))
+    assert f"{e.name}(" in bench, f"{e.name}: no benchmark in bench/test_bench_*.py"

@@ -83,46 +83,9 @@ def _valid(case, f, S):
 
 
 def recovery_budget(case, dtype):
-    """The stated number of samples to return to the static attitude
-    (docs/robustness.md)."""
-    p = {**catalogue.resolve_params(case.name, case.params.get("dt", 0.01)), **case.params}
-    dt = p["dt"]
-    ln_max = 90.0 if dtype == "float32" else 710.0     # ln of the largest finite value
-    if case.name in ("MahonyIMU", "MahonyAHRS", "DCM", "Mahony2D"):
-        return int(12.0 / (p["kp"] * dt)) + 1000
-    if case.name.startswith("Madgwick"):
-        return int(math.pi / (p["beta"] * dt)) + 1000
-    if case.name == "MultiWii":
-        return int(12 * (p.get("cmpf", 600.0) + 1) + 2 ** p.get("acc_lpf_shift", 4) * ln_max) + 1000
-    if case.name == "KK":
-        return int((ln_max + 10) / p["kp"]) + 1000
-    if case.name in ("RobustIMU", "RobustAHRS"):
-        # the gravity filter (docs/recommended-ahrs.md, B2) forgets a state of up to the
-        # largest finite value with the envelope exp(-t / (sqrt(2) tau_acc)) of omega_0 =
-        # 1 / tau_acc, damping 1/sqrt(2)
-        tau = p.get("tau_acc", getattr(reference, case.name)._params.__defaults__[0])
-        return int((ln_max + 10) * math.sqrt(2.0) * tau / dt) + 1000
-    # single-axis filters: linear; the homogeneous update (rate = angle = 0)
-    # contracts by its spectral radius rho per sample, from a state of up to
-    # the largest finite value: 2 (L + 5) / -ln(rho) samples (2: transients)
-    return int(2 * (ln_max + 5) / -math.log(spectral_radius(case))) + 1000
-
-
-def spectral_radius(case):
-    """Spectral radius of a single-axis filter's homogeneous update matrix,
-    column j = the reference's update (rate = angle = 0) of unit state j."""
-    f = case.make("ref", "float64")
-    n = len(f.state_names)
-    M = np.empty((n, n))
-    for j in range(n):
-        f.reset()
-        e = np.zeros(n)
-        e[j] = 1.0
-        for name, v in zip(f.state_names, e):
-            setattr(f, name, float(v))
-        f._update(0.0, 0.0)
-        M[:, j] = f.state
-    return float(max(abs(np.linalg.eigvals(M))))
+    """The stated number of samples to return to the static attitude: the
+    catalogue entry's budget (imufuse.recovery, docs/robustness.md)."""
+    return catalogue.entry(case.name).recovery_budget(case.params, dtype)
 
 
 def _error(case, S, angle=TILT):
@@ -161,10 +124,7 @@ def test_hostile_burst(case, dtype, value):
         assert c.skipped == BURST * len(where)   # every non-finite sample, nothing else
     assert np.isfinite(got).all()
     _valid(case, c, got)
-    budget = recovery_budget(case, dtype)
-    if budget is None:
-        return
-    S = c.run(*_static(case.kind, scale=scale, n=budget))
+    S = c.run(*_static(case.kind, scale=scale, n=recovery_budget(case, dtype)))
     _valid(case, c, S)
     assert _error(case, S) <= math.radians(2.0), (case.id, math.degrees(_error(case, S)))
 
@@ -272,14 +232,10 @@ def _fusion_valid(case, S):
     assert np.abs(n - 1.0).max() <= tol, (case.id, np.abs(n - 1.0).max())
 
 
-def fusion_recovery_budget(case):
-    """Samples to return to the static attitude (docs/robustness.md): the
-    feedback turns q at gain * sin(error) rad/s (as Mahony's kp), after an
-    overrange restart the 3 s startup ramp runs again, and a rejected feedback
-    is forced back on after recovery_trigger_period samples."""
-    p = case.params
-    return (int(12.0 / (p.get("gain", 0.5) * FDT)) + int(3.0 / FDT)
-            + p.get("recovery_trigger_period", 0) + 1000)
+def fusion_recovery_budget(case, dtype):
+    """Samples to return to the static attitude: the catalogue entry's budget
+    (imufuse.recovery.fusion_ahrs), at the sample interval FDT."""
+    return catalogue.ALL_ENTRIES[case.name].recovery_budget(case.params, dtype, dt=FDT)
 
 
 def _rotation_angle(q, p):
@@ -323,7 +279,7 @@ def test_fusion_ahrs_hostile_burst(case, form, dtype, value):
     if _nonfinite_in(dtype, x):
         assert c.skipped == F_BURST * len(where)   # every non-finite sample, nothing else
     _fusion_valid(case, got)
-    tail = _fusion_static(form, fusion_recovery_budget(case))
+    tail = _fusion_static(form, fusion_recovery_budget(case, dtype))
     S = _fusion_run(c, tail)
     _fusion_valid(case, S)
     q = S[-1, :4]
@@ -349,7 +305,6 @@ def test_fusion_offset_hostile_burst(dtype, value):
     of it), and it converges on the bias within the stated budget: the 5 s rest
     timeout and ln(4.2 / 0.01) time constants of its 0.02 Hz low-pass."""
     case = next(k for k in FUSION_CASES if k.name == "FusionOffset")
-    rate = case.params["sample_rate"]
     c, r = (m.FusionOffset(**case.params, dtype=dtype) for m in (imufuse_c, reference))
     x = HOSTILE[value]
     sane = lambda n: np.tile(FUSION_BIAS, (n, 1))              # noqa: E731
@@ -364,8 +319,7 @@ def test_fusion_offset_hostile_burst(dtype, value):
         assert c.skipped == 2 * BURST
     assert np.isfinite(sc).all()
     assert np.abs(sc[:, :3]).max() <= np.abs(FUSION_BIAS).max() + 3.0
-    coef = 2.0 * math.pi * 0.02 / rate
-    budget = 5 * rate + int(math.log(4.2 / 0.01) / coef) + 1000
+    budget = catalogue.ALL_ENTRIES["FusionOffset"].recovery_budget(case.params, dtype)
     _, S = c.run(sane(budget))
     assert np.abs(S[-1, :3] - FUSION_BIAS).max() <= 0.01, S[-1]
     assert c.skipped == r.skipped

@@ -22,10 +22,20 @@ The entry itself adds what only a user of the filter needs:
                 one drops the defaults of the others
   estimate      how the state trajectory becomes an orientation estimate (see
                 imufuse.estimate.ADAPTERS), or None
+  recovery      the samples of sane input the filter needs to come back to the
+                right attitude after a hostile burst, as a function of its
+                parameters (imufuse.recovery, each with its derivation);
+                required for every float and Fusion entry
+                (tests/test_hostile.py runs it)
+
+The Cython binding of the classes of reference/<family>.py is
+imufuse_c/<family>.pxi (Entry.binding); setup.py includes one for every
+reference module that declares FILTERS, FILTERS_FUSION or FILTERS_VARIO.
 
 A new float filter is its C pair, its reference module, its Cython binding and
 one Entry in FLOAT below (docs/adding-a-filter.md); tests/test_catalogue.py
-fails until every harness finds it.
+fails until every harness finds it. FUSION and VARIO hold the filters with an
+API of their own (their own harness sections, see below).
 """
 from __future__ import annotations
 
@@ -36,12 +46,13 @@ from typing import Any, Dict, FrozenSet, Iterable, List, Mapping, Optional, Sequ
 
 import imufuse_c as compiled
 
+from . import recovery as _recovery
 from . import reference
 from ._checks import KINDS, check_dtype
 from .estimate import ADAPTERS, Estimate
 
-__all__ = ["Entry", "FilterError", "FLOAT", "FIXED", "FUSION", "FILTERS_FUSION", "ENTRIES", "FILTERS",
-           "FILTERS_FIXED",
+__all__ = ["Entry", "FilterError", "FLOAT", "FIXED", "FUSION", "FILTERS_FUSION", "VARIO", "FILTERS_VARIO",
+           "ENTRIES", "ALL_ENTRIES", "FILTERS", "FILTERS_FIXED",
            "entry", "filter_names", "reference_class", "compiled_class", "param_names",
            "resolve_params", "make_filter", "estimate", "why_no_estimate", "inputs_for", "KINDS"]
 
@@ -58,6 +69,7 @@ class Entry:
     alternatives: Tuple[FrozenSet[str], ...] = ()
     estimate: Optional[str] = None
     fixed: bool = False
+    recovery: Optional[_recovery.Budget] = None
 
     # ---- derived from the reference class: one source for each fact
     @property
@@ -95,6 +107,35 @@ class Entry:
         """The C init arguments after `self`, in order: the names of _params' result."""
         return tuple(inspect.signature(self.reference._init).parameters)[1:]
 
+    @property
+    def binding(self) -> str:
+        """The Cython binding's file: imufuse_c/<family>.pxi for the classes of
+        reference/<family>.py (setup.py includes it), fixed_filters.pxi for the
+        fixed-point ones."""
+        if self.fixed:
+            return "imufuse_c/fixed_filters.pxi"
+        return f"imufuse_c/{self.reference.__module__.rpartition('.')[2]}.pxi"
+
+    def full_params(self, params: Mapping[str, Any]) -> Dict[str, Any]:
+        """params completed with the constructor's defaults (TypeError for
+        unknown or missing keywords)."""
+        bound = inspect.signature(self.reference._params).bind(**params)
+        bound.apply_defaults()
+        return dict(bound.arguments)
+
+    def recovery_budget(self, params: Mapping[str, Any], dtype: str, dt: Optional[float] = None) -> int:
+        """Samples of sane input after which the filter constructed with params
+        is back at the right attitude (imufuse.recovery); dt: the sample interval
+        of filters that take it with every update (the Fusion suite)."""
+        if self.recovery is None:
+            raise FilterError(f"{self.name}: no recovery budget in the catalogue")
+        p = self.full_params(params)
+        try:
+            n = self.recovery(self.reference, p, p.get("dt", dt), check_dtype(dtype))
+        except ValueError as err:
+            raise FilterError(f"{self.name}: {err}") from None
+        return int(n) + _recovery.MARGIN
+
     def make(self, backend: str = "c", **kwargs: Any) -> Any:
         """An instance on backend "c" (imufuse_c) or "ref" (imufuse.reference)."""
         if backend not in ("c", "ref"):
@@ -107,31 +148,34 @@ def _alt(*groups: Iterable[str]) -> Tuple[FrozenSet[str], ...]:
     return tuple(frozenset(g) for g in groups)
 
 
+_LINEAR = _recovery.linear   # the single-axis filters: linear, budget from the update matrix
+
 # Gains for 100-500 Hz MEMS data; the published Mahony defaults (kp 0.5, ki 0)
 # leave a gyro bias uncorrected, so the harnesses use those of the other PI filters.
 FLOAT: Tuple[Entry, ...] = (
     # chapter 2: single axis, Eq. 2.2, 2.5, 2.8
-    Entry("Complementary1D", dict(T=0.5), _alt({"alpha", "T"}), estimate="angle"),
-    Entry("Kalman1D", dict(k0=0.01), estimate="angle"),
-    Entry("Mahony1D", dict(kp=2.0), estimate="angle"),
+    Entry("Complementary1D", dict(T=0.5), _alt({"alpha", "T"}), estimate="angle", recovery=_LINEAR),
+    Entry("Kalman1D", dict(k0=0.01), estimate="angle", recovery=_LINEAR),
+    Entry("Mahony1D", dict(kp=2.0), estimate="angle", recovery=_LINEAR),
     # chapter 3: single axis with gyro bias, Eq. 3.3, 3.6/3.9, 3.10-3.12
-    Entry("Kalman1DBias", dict(k0=0.01, k1=-0.02), estimate="angle"),
-    Entry("Mahony1DBias", dict(kp=2.0, ki=0.3), estimate="angle"),
+    Entry("Kalman1DBias", dict(k0=0.01, k1=-0.02), estimate="angle", recovery=_LINEAR),
+    Entry("Mahony1DBias", dict(kp=2.0, ki=0.3), estimate="angle", recovery=_LINEAR),
     Entry("Complementary1DBias", dict(kp=2.0, ki=0.3),
-          _alt({"kp", "omega0"}, {"ki", "xi"}, {"kp", "xi"}, {"ki", "omega0"}), estimate="angle"),
+          _alt({"kp", "omega0"}, {"ki", "xi"}, {"kp", "xi"}, {"ki", "omega0"}), estimate="angle",
+          recovery=_LINEAR),
     # 4.1 and appendix: Mahony in quaternion form; chapter 5: Madgwick
-    Entry("MahonyIMU", dict(kp=2.0, ki=0.5), estimate="quaternion"),
-    Entry("MahonyAHRS", dict(kp=2.0, ki=0.5), estimate="quaternion"),
-    Entry("MadgwickIMU", estimate="quaternion"),
-    Entry("MadgwickAHRS", estimate="quaternion"),
+    Entry("MahonyIMU", dict(kp=2.0, ki=0.5), estimate="quaternion", recovery=_recovery.mahony),
+    Entry("MahonyAHRS", dict(kp=2.0, ki=0.5), estimate="quaternion", recovery=_recovery.mahony),
+    Entry("MadgwickIMU", estimate="quaternion", recovery=_recovery.madgwick),
+    Entry("MadgwickAHRS", estimate="quaternion", recovery=_recovery.madgwick),
     # appendix: MultiWii 2.2, KK; 4.2 Mahony2D; 4.3 DCM
-    Entry("MultiWii", estimate="gravity"),
-    Entry("KK", dict(kp=0.01), estimate="euler"),
-    Entry("Mahony2D", dict(kp=2.0, ki=0.5), estimate="gravity"),
-    Entry("DCM", dict(kp=2.0, ki=0.5), estimate="matrix"),
+    Entry("MultiWii", estimate="gravity", recovery=_recovery.multiwii),
+    Entry("KK", dict(kp=0.01), estimate="euler", recovery=_recovery.kk),
+    Entry("Mahony2D", dict(kp=2.0, ki=0.5), estimate="gravity", recovery=_recovery.mahony),
+    Entry("DCM", dict(kp=2.0, ki=0.5), estimate="matrix", recovery=_recovery.mahony),
     # imufuse's recommended AHRS (docs/recommended-ahrs.md): its defaults are its own
-    Entry("RobustIMU", estimate="quaternion"),
-    Entry("RobustAHRS", estimate="quaternion"),
+    Entry("RobustIMU", estimate="quaternion", recovery=_recovery.robust),
+    Entry("RobustAHRS", estimate="quaternion", recovery=_recovery.robust),
 )
 
 # Fixed point (csrc/fixed): the float twin's keywords plus the sensor scales
@@ -157,13 +201,25 @@ FIXED: Tuple[Entry, ...] = (
 FUSION: Tuple[Entry, ...] = (
     Entry("FusionAHRS", dict(convention="NWU", gain=0.5, gyroscope_range=0.0,
                              acceleration_rejection=90.0, magnetic_rejection=90.0,
-                             recovery_trigger_period=0), estimate="quaternion"),
-    Entry("FusionOffset", dict(sample_rate=100)),
+                             recovery_trigger_period=0), estimate="quaternion",
+          recovery=_recovery.fusion_ahrs),
+    Entry("FusionOffset", dict(sample_rate=100), recovery=_recovery.fusion_offset),
 )
 #: the Fusion suite's classes
 FILTERS_FUSION: Tuple[str, ...] = tuple(e.name for e in FUSION)
 
+# Seed 002's variometer: update(accel, baro_alt, dt), its own input kind ("vario"),
+# no attitude. tests/test_vario.py drives it (C vs twin, hostile input, the seed's
+# claims), the MCU runner runs it, bench/test_bench_vario.py times it.
+VARIO: Tuple[Entry, ...] = (
+    Entry("VarioKF"),
+)
+#: the variometer's classes
+FILTERS_VARIO: Tuple[str, ...] = tuple(e.name for e in VARIO)
+
 ENTRIES: Dict[str, Entry] = {e.name: e for e in (*FLOAT, *FIXED)}
+#: every entry of every section (the Fusion suite and the variometer included)
+ALL_ENTRIES: Dict[str, Entry] = {e.name: e for e in (*FLOAT, *FIXED, *FUSION, *VARIO)}
 #: every float filter, in catalogue order (imufuse_c and imufuse.reference export them)
 FILTERS: Tuple[str, ...] = tuple(e.name for e in FLOAT)
 #: every fixed-point filter
@@ -178,6 +234,11 @@ def entry(name: str) -> Entry:
     try:
         return ENTRIES[name]
     except (KeyError, TypeError):
+        if isinstance(name, str) and name in ALL_ENTRIES:
+            section = "FUSION" if name in FILTERS_FUSION else "VARIO"
+            raise FilterError(f"{name}: has an API of its own (catalogue.{section}), which the "
+                              f"generic harnesses cannot drive; valid filters: "
+                              f"{', '.join(FILTERS)}") from None
         close = difflib.get_close_matches(str(name), ENTRIES, n=3, cutoff=0.5)
         hint = f" (did you mean {', '.join(close)}?)" if close else ""
         raise FilterError(f"unknown filter {name!r}{hint}; valid filters: "

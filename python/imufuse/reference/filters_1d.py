@@ -254,12 +254,13 @@ class Complementary1DBias(ReferenceFilter):
 
     Complementary1DBias(dt, kp, ki) or Complementary1DBias(dt, omega0=..., xi=...)
     with Ki = omega0^2, Kp = 2 xi omega0 (Eq. 3.11). Discretised by backward
-    difference (Eq. 1.2) and run as a direct form II transposed section with
-    two inputs; state: the last output theta and the two delay elements.
-    See tuning() for Eq. 3.12 and the rule of thumb.
+    difference (Eq. 1.2) and run in its PI form (theta' = w + Kp e + I,
+    I' = Ki e), solved for theta_k; state: the angle theta and the integral
+    term i (rad/s). See csrc/filters_1d.h for why not a direct-form section,
+    and tuning() for Eq. 3.12 and the rule of thumb.
     """
     c_name = "imf_complementary1d_bias"
-    state_names = ("theta", "s1", "s2")
+    state_names = ("theta", "i")
 
     @staticmethod
     def _params(dt, kp=None, ki=None, *, omega0=None, xi=None):
@@ -283,38 +284,34 @@ class Complementary1DBias(ReferenceFilter):
         self.ki = R(ki)
         self._set_dt(R(dt))
         self.theta = R(0.0)
-        self.s1 = R(0.0)
-        self.s2 = R(0.0)
+        self.i = R(0.0)
 
     def _set_dt(self, dt):
         # imf_complementary1d_bias_set_dt:
-        # (1 - z^-1)^2 + Kp dt (1 - z^-1) + Ki dt^2, normalised by its z^0 term a0
+        # a0 = 1 + Kp dt + Ki dt^2: the z^0 term of (1 - z^-1)^2 + Kp dt (1 - z^-1) + Ki dt^2
         R = self._R
         kp_dt = self.kp * dt
         ki_dt2 = self.ki * dt * dt
         a0 = R(1.0) + kp_dt + ki_dt2
         self.dt = dt
         self.b0a = (kp_dt + ki_dt2) / a0
-        self.b1a = -kp_dt / a0
         self.b0w = dt / a0
-        self.b1w = -dt / a0
-        self.a1 = -(R(2.0) + kp_dt) / a0
-        self.a2 = R(1.0) / a0
+        self.ki_dt = self.ki * dt
 
     def _update(self, rate, angle):
         if not isfinite(rate, angle):
             self._skip()
             return
-        # direct form II transposed, two inputs, b2a = b2w = 0
-        theta = self.b0a * angle + self.b0w * rate + self.s1
-        s1 = self.b1a * angle + self.b1w * rate - self.a1 * theta + self.s2
-        s2 = -self.a2 * theta
-        if not isfinite(theta, s1, s2):
+        # Eq. 3.10 by backward difference, solved for theta_k:
+        # theta_k = theta_{k-1} + (dt (w_k + I_{k-1}) + (Kp dt + Ki dt^2)(a_k - theta_{k-1})) / a0
+        theta = self.theta + (self.b0w * (rate + self.i) + self.b0a * (angle - self.theta))
+        # I_k = I_{k-1} + Ki dt e_k, e_k = a_k - theta_k
+        i = self.i + self.ki_dt * (angle - theta)
+        if not isfinite(theta, i):
             self._skip()
             return
         self.theta = theta
-        self.s1 = s1
-        self.s2 = s2
+        self.i = i
 
 
 def tuning(kp, ki):
