@@ -4,9 +4,13 @@ extension), and a bare C loop (cffi, bench/plain_loop.py).
 
   run/N       imufuse_c MadgwickIMU.run() on N samples (N = 0: the fixed cost per
               call), against BasicVQF.updateBatch and the bare C loop
-  state       reading .state, against imufusion's get_quaternion()
+  state       reading .state, against imufusion's get_quaternion(); "kept": every
+              read kept (the last three in a deque), so that each read is a new
+              array (imufuse_c/_stateout.pxi), against the same for imufusion
   update      update() with ndarray rows, against imufusion's update_no_magnetometer
-              and BasicVQF.update
+              and BasicVQF.update; "floor": an empty call with the same two
+              arguments (operator.is_), to which the C update's own time
+              (run() per sample, N = 1000) is added in the table
   update+read the pair, per sample, as a Python loop does it
   convert     a float32 filter given float64 arrays (converted in C, no temporaries)
 
@@ -15,6 +19,7 @@ getting to the C and back, which is why N = 0 and the per-call operations
 matter. `python bench/wrapper_table.py` runs this file and prints the table of
 bench/RESULTS.md and the README.
 """
+import collections
 import operator
 
 import numpy as np
@@ -93,6 +98,26 @@ def test_state_imufusion(benchmark):
     benchmark.group = "state"
     a = imufusion.Ahrs()
     benchmark(a.get_quaternion)
+
+
+def test_state_kept_imufuse(benchmark):
+    benchmark.group = "state kept"
+    f = imufuse_c.MadgwickIMU(dt=DT)
+    keep = collections.deque(maxlen=3)
+    benchmark(lambda: keep.append(f.state))
+
+
+def test_state_kept_imufusion(benchmark):
+    benchmark.group = "state kept"
+    a = imufusion.Ahrs()
+    keep = collections.deque(maxlen=3)
+    benchmark(lambda: keep.append(a.get_quaternion()))
+
+
+def test_update_floor(benchmark):
+    benchmark.group = "update"
+    gyr, acc = _inputs(1)
+    benchmark(operator.is_, gyr[0], acc[0])
 
 
 def test_update_imufuse(benchmark):

@@ -3,9 +3,11 @@
 #
 # A filter class wraps one C struct imf_<filter>_t. The base classes hold
 # everything generic: parameter validation (delegated to the reference
-# class, so both backends accept the same arguments), the state view (a
-# memcpy of the struct's state member x), reset, and the run() loop, which
-# runs without the GIL and calls the filter's _step for every sample.
+# class, so both backends accept the same arguments), the state read (a
+# copy of the struct's state member x into a new array, _stateout.pxi), the
+# update() inputs (contiguous float rows read in place, _row3), reset, and
+# the run() loop, which runs without the GIL and calls the filter's _step for
+# every sample.
 #
 # Time: run(..., dt=array) / update(..., dt=value) call the filter's _set_dt
 # (imf_<filter>_set_dt) before each of those samples and restore the
@@ -21,6 +23,8 @@ cimport numpy as cnp
 import numpy as np
 
 cnp.import_array()
+
+include "_stateout.pxi"
 
 # the numpy type of imf_real
 cdef int _NATIVE = cnp.NPY_DOUBLE if sizeof(imf_real) == 8 else cnp.NPY_FLOAT
@@ -61,30 +65,45 @@ cdef inline bint _plain(object x):
     return PyFloat_Check(x) or (PyLong_CheckExact(x) and -2**1000 < x < 2**1000)
 
 
+# one float64 or float32 element (type number t) as imf_real
+cdef inline imf_real _load(const char *base, int t, Py_ssize_t i) noexcept nogil:
+    if t == cnp.NPY_DOUBLE:
+        return <imf_real>(<const double *>base)[i]
+    return <imf_real>(<const float *>base)[i]
+
+
+cdef inline bint _row3(object v, imf_real *out) noexcept:
+    """A 1-D array of three float64 or float32 values, C-contiguous, aligned and
+    native-endian (a row of an (N, 3) array): read in place through the numpy
+    C API (the values are those the generic path would read)."""
+    if not cnp.PyArray_Check(v):
+        return False
+    cdef int t = cnp.PyArray_TYPE(<cnp.ndarray>v)
+    if cnp.PyArray_NDIM(<cnp.ndarray>v) != 1 or cnp.PyArray_DIM(<cnp.ndarray>v, 0) != 3 \
+            or (t != cnp.NPY_DOUBLE and t != cnp.NPY_FLOAT) \
+            or not cnp.PyArray_ISCARRAY_RO(<cnp.ndarray>v) \
+            or not cnp.PyArray_ISNOTSWAPPED(<cnp.ndarray>v):
+        return False
+    cdef const char *p = <const char *>cnp.PyArray_DATA(<cnp.ndarray>v)
+    out[0] = _load(p, t, 0)
+    out[1] = _load(p, t, 1)
+    out[2] = _load(p, t, 2)
+    return True
+
+
 cdef int _vec3(object v, imf_real *out) except -1:
-    """One 3-vector of update(): fast paths for tuples, lists and contiguous
-    float64/float32 arrays; anything else through the sequence protocol. A
-    conversion error raises TypeError/ValueError (update() reports it)."""
-    cdef const double *d
-    cdef const float *f
+    """One 3-vector of update(): fast paths for contiguous float64/float32
+    arrays (_row3), tuples and lists; anything else through the sequence
+    protocol. A conversion error raises TypeError/ValueError (update() reports
+    it)."""
     cdef int i
+    if _row3(v, out):
+        return 0
     if (type(v) is tuple or type(v) is list) and len(v) == 3 and _plain(v[0]) \
             and _plain(v[1]) and _plain(v[2]):
         for i in range(3):
             out[i] = <imf_real>PyFloat_AsDouble(v[i])
         return 0
-    if cnp.PyArray_Check(v) and cnp.PyArray_NDIM(v) == 1 and cnp.PyArray_DIM(v, 0) == 3 \
-            and cnp.PyArray_ISCARRAY_RO(v) and cnp.PyArray_ISNOTSWAPPED(v):
-        if cnp.PyArray_TYPE(v) == cnp.NPY_DOUBLE:
-            d = <const double *>cnp.PyArray_DATA(v)
-            for i in range(3):
-                out[i] = <imf_real>d[i]
-            return 0
-        if cnp.PyArray_TYPE(v) == cnp.NPY_FLOAT:
-            f = <const float *>cnp.PyArray_DATA(v)
-            for i in range(3):
-                out[i] = <imf_real>f[i]
-            return 0
     # the shared validation: real numbers only (no strings, complex, sets, dicts)
     x, y, z = _checks.as_vec3("vector", v)
     out[0] = <imf_real><double>x
@@ -109,6 +128,7 @@ cdef class _Filter:
     cdef imf_real _dt0
     cdef int _pending
     cdef imf_attitude_window_t _win
+    cdef _StateOut _out
     _ref = None
     dtype = DTYPE
 
@@ -117,6 +137,7 @@ cdef class _Filter:
         # the C init arguments by name (the reference _init's = the C init's names)
         self._kw = _init_arguments(self._ref, self._args)
         self._n = len(self._ref.state_names)
+        self._out = _StateOut(self._n, _NATIVE)
         self._start = _checks.check_start(self._ref.kind, self._ref.state_names, DTYPE, init,
                                           init_window, q0, state)
         # the constructor's period (filters without a dt, like VarioKF, never use it)
@@ -192,8 +213,7 @@ cdef class _Filter:
     def state(self):
         if self._x == NULL:
             _unbound(self)
-        cdef cnp.npy_intp n = self._n
-        out = cnp.PyArray_EMPTY(1, &n, _NATIVE, 0)
+        out = self._out.take()          # a new copy for every read (_stateout.pxi)
         memcpy(cnp.PyArray_DATA(<cnp.ndarray>out), self._x, self._n * sizeof(imf_real))
         return out
 
@@ -245,12 +265,6 @@ cdef inline int _in_place(object v, int ndim, Py_ssize_t *n) except -2:
     elif cnp.PyArray_DIM(arr, 0) != n[0]:
         return -1
     return t
-
-
-cdef inline imf_real _load(const char *base, int t, Py_ssize_t i) noexcept nogil:
-    if t == cnp.NPY_DOUBLE:
-        return <imf_real>(<const double *>base)[i]
-    return <imf_real>(<const float *>base)[i]
 
 
 cdef inline void _load3(const char *base, int t, Py_ssize_t k, imf_real *out) noexcept nogil:
@@ -339,12 +353,13 @@ cdef class _FilterIMU(_Filter):
             _unbound(self)
         cdef imf_real g[3]
         cdef imf_real a[3]
-        try:
-            _vec3(gyr, g)
-            _vec3(acc, a)
-        except (TypeError, ValueError):
-            _checks.update_inputs("imu", (gyr, acc))
-            raise
+        if not (_row3(gyr, g) and _row3(acc, a)):
+            try:
+                _vec3(gyr, g)
+                _vec3(acc, a)
+            except (TypeError, ValueError):
+                _checks.update_inputs("imu", (gyr, acc))
+                raise
         if dt is None and not self._pending:
             self._step(g, a)
         else:
@@ -447,13 +462,14 @@ cdef class _FilterAHRS(_Filter):
         cdef imf_real g[3]
         cdef imf_real a[3]
         cdef imf_real m[3]
-        try:
-            _vec3(gyr, g)
-            _vec3(acc, a)
-            _vec3(mag, m)
-        except (TypeError, ValueError):
-            _checks.update_inputs("ahrs", (gyr, acc, mag))
-            raise
+        if not (_row3(gyr, g) and _row3(acc, a) and _row3(mag, m)):
+            try:
+                _vec3(gyr, g)
+                _vec3(acc, a)
+                _vec3(mag, m)
+            except (TypeError, ValueError):
+                _checks.update_inputs("ahrs", (gyr, acc, mag))
+                raise
         if dt is None and not self._pending:
             self._step(g, a, m)
         else:

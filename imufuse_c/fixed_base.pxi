@@ -9,6 +9,8 @@ from libc.stdint cimport int16_t, int32_t
 
 import numpy as np
 
+include "_stateout.pxi"
+
 from imufuse.reference import fixed_base as _fb
 from imufuse.reference._base import init_arguments as _init_arguments
 
@@ -24,6 +26,7 @@ cdef class _FixedFilter:
     cdef tuple _args
     cdef dict _kw
     cdef object _conv
+    cdef _StateOut _out
     _ref = None
     dtype = "int32"
 
@@ -34,6 +37,7 @@ cdef class _FixedFilter:
         # the C init arguments by name (the reference _init's = the C init's names)
         self._kw = _init_arguments(self._ref, self._args)
         self._n = len(self._ref.state_names)
+        self._out = _StateOut(self._n, cnp.NPY_INT32)
         self._init()
 
     cdef int _init(self) except -1:
@@ -65,9 +69,8 @@ cdef class _FixedFilter:
     def state(self):
         if self._x == NULL:
             _unbound(self)
-        out = np.empty(self._n, dtype=np.int32)
-        cdef int32_t[::1] o = out
-        memcpy(&o[0], self._x, self._n * sizeof(int32_t))
+        out = self._out.take()          # a new copy for every read (_stateout.pxi)
+        memcpy(cnp.PyArray_DATA(<cnp.ndarray>out), self._x, self._n * sizeof(int32_t))
         return out
 
     @state.setter

@@ -92,11 +92,15 @@ cdef int _settings_from(tuple a, imf_fusion_ahrs_settings_t *st) except -1:
 cdef class FusionAHRS:
     cdef imf_fusion_ahrs_t s
     cdef tuple _args
+    cdef _StateOut _out
     _ref = _reference.FusionAHRS
     dtype = DTYPE
     kind = "fusion"
     state_names = _fusion.AHRS_STATE_NAMES
     __doc__ = _reference.FusionAHRS.__doc__
+
+    def __cinit__(self, *args, **kwargs):
+        self._out = _StateOut(IMF_FUSION_AHRS_N_STATE, _NATIVE)
 
     def __init__(self, *args, **kwargs):
         self._args = _reference.FusionAHRS._params(*args, dtype=DTYPE, **kwargs)
@@ -183,9 +187,8 @@ cdef class FusionAHRS:
 
     @property
     def state(self):
-        out = np.empty(IMF_FUSION_AHRS_N_STATE, dtype=DTYPE)
-        cdef imf_real[::1] o = out
-        imf_fusion_ahrs_get_state(&self.s, &o[0])
+        out = self._out.take()          # a new copy for every read (_stateout.pxi)
+        imf_fusion_ahrs_get_state(&self.s, <imf_real *>cnp.PyArray_DATA(<cnp.ndarray>out))
         return out
 
     @state.setter
@@ -263,11 +266,15 @@ cdef class FusionAHRS:
 cdef class FusionOffset:
     cdef imf_fusion_offset_t s
     cdef tuple _args
+    cdef _StateOut _out
     _ref = _reference.FusionOffset
     dtype = DTYPE
     kind = "fusion_offset"
     state_names = _fusion.OFFSET_STATE_NAMES
     __doc__ = _reference.FusionOffset.__doc__
+
+    def __cinit__(self, *args, **kwargs):
+        self._out = _StateOut(4, _NATIVE)
 
     def __init__(self, sample_rate):
         self._args = _reference.FusionOffset._params(sample_rate)
@@ -308,9 +315,8 @@ cdef class FusionOffset:
 
     @property
     def state(self):
-        out = np.empty(4, dtype=DTYPE)
-        cdef imf_real[::1] o = out
-        imf_fusion_offset_get_state(&self.s, &o[0])
+        out = self._out.take()          # a new copy for every read (_stateout.pxi)
+        imf_fusion_offset_get_state(&self.s, <imf_real *>cnp.PyArray_DATA(<cnp.ndarray>out))
         return out
 
     @state.setter

@@ -153,7 +153,7 @@ FIXED_CASES = _with_defaults(EXTRA_FIXED_CASES, catalogue.FIXED, 0.002)
 
 def fixed_matrix():
     """(case, profile) pairs for every fixed-point filter configuration."""
-    return [pytest.param(c, p, id=f"{c.id}-q{p}") for c in FIXED_CASES for p in PROFILES]
+    return [pytest.param(c, p, id=f"{c.id}-p{p}") for c in FIXED_CASES for p in PROFILES]
 
 
 # ---- seed 002's variometer (csrc/vario.c): update(accel, baro_alt, dt) ------

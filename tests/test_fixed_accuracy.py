@@ -61,7 +61,7 @@ def test_tilt_rms_vs_float64_twin(name, profile, motion):
     ref = twin(g, a, imu.dt)
     d = twins.tilt_between(q, ref)
     rms = float(np.sqrt(np.mean(d ** 2)))
-    print(f"{name} q{profile} {motion}: tilt RMS diff {rms:.4f} deg, max {d.max():.4f} deg")
+    print(f"{name} p{profile} {motion}: tilt RMS diff {rms:.4f} deg, max {d.max():.4f} deg")
     assert rms <= BUDGET[profile]
     # the twin itself tracks the truth (the comparison is meaningful)
     assert np.sqrt(np.mean(twins.tilt_between(ref, imu.q_true)[len(ref) // 4:] ** 2)) < 3.0
@@ -86,7 +86,7 @@ def test_no_drift_over_1e6_samples(name, profile):
     first = np.sqrt(np.mean(err[n // 20: n // 20 + n // 10] ** 2))
     last = np.sqrt(np.mean(err[-n // 10:] ** 2))
     norm = np.linalg.norm(q, axis=1)
-    print(f"{name} q{profile}: tilt RMS first {first:.3f} last {last:.3f} deg; "
+    print(f"{name} p{profile}: tilt RMS first {first:.3f} last {last:.3f} deg; "
           f"|q|-1 max {np.abs(norm - 1).max():.2e}")
     assert last <= first * 1.5 + 0.1
     assert np.abs(norm - 1.0).max() < 1e-3
@@ -133,7 +133,7 @@ def test_multiwiiq_and_kkq_vs_float64_twins(profile):
     t = kk.state_to_float(kk.run(g, a))
     tk = reference.KK(imu.dt, 0.002).run(g * GYR_SCALE, a.astype(float))
     e = np.degrees(np.abs(t - tk))
-    print(f"q{profile}: MultiWiiQ direction RMS diff {np.sqrt(np.mean(ang ** 2)):.4f} deg, "
+    print(f"p{profile}: MultiWiiQ direction RMS diff {np.sqrt(np.mean(ang ** 2)):.4f} deg, "
           f"accLPF max diff {np.abs(d[:, 3:] - tw[:, 3:]).max():.3f} counts; "
           f"KKQ RMS diff {np.sqrt(np.mean(e ** 2)):.4f} deg")
     assert np.sqrt(np.mean(ang ** 2)) < 0.05

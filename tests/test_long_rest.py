@@ -420,7 +420,7 @@ def test_float_long_run(case, dtype, name):
 @pytest.mark.parametrize("case,profile,name", _fixed_params())
 def test_fixed_long_run(case, profile, name):
     r = measure_fixed(case, profile, name)
-    print(f"LONG {name} {case.id} q{profile} {r}")
+    print(f"LONG {name} {case.id} p{profile} {r}")
     if r["norm"] is not None:
         assert r["norm"] <= norm_bound(case, profile), r
     assert r.get("peak", 1.0) <= GRAVITY_PEAK, r

@@ -339,8 +339,8 @@ def summary(rows, targets) -> str:
 #: fixed-vs-float targets (issue "fixed point must beat soft-float on MCUs"): per target, the
 #: fixed-point profile measured, the largest allowed ratio fixed / float32 per update, and the
 #: fixed-point classes the target applies to (the others are listed for information)
-FIXED_TARGETS = {"avr": ("q8", 1 / 3, ("MahonyIMUQ", "MadgwickIMUQ")),
-                 "m0": ("q32", 1 / 2, ("MahonyIMUQ", "MadgwickIMUQ"))}
+FIXED_TARGETS = {"avr": ("p8", 1 / 3, ("MahonyIMUQ", "MadgwickIMUQ")),
+                 "m0": ("p32", 1 / 2, ("MahonyIMUQ", "MadgwickIMUQ"))}
 
 
 def fixed_vs_float(rows) -> list:
@@ -401,7 +401,7 @@ def fixed_flash(rows) -> list:
                 twins[k] = r
     out = []
     for r in rows:
-        if not r["precision"].startswith("q") or r["target"] not in ("avr", "m0"):
+        if not r["precision"].startswith("p") or r["target"] not in ("avr", "m0"):
             continue
         t = twins.get((r["class"][:-1], r["target"]))
         out.append({"fixed": r["filter"], "target": r["target"], "init_consts": r["linked"],

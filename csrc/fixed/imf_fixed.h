@@ -76,6 +76,16 @@ static inline int imf_qscale_ok(const imf_qscale_t c, const int smin, const int 
 #define IMF_AVR_OUTLINE static inline
 #endif
 
+/* On AVR, a helper called with a shift count known only at run time goes
+ * to one out-of-line copy (its inlined copies, each a loop over the count,
+ * are most of a filter's flash); with a constant count it stays inline
+ * and folds to byte moves and a few bit steps. */
+#if defined(__AVR__)
+#define IMF_AVR_VARIABLE(n) (!__builtin_constant_p(n))
+#else
+#define IMF_AVR_VARIABLE(n) 0
+#endif
+
 /* ---- shifts -------------------------------------------------------- */
 
 /* 32-bit shifts by n in [0, 31].  The 8-bit target has no barrel shifter:
@@ -124,7 +134,7 @@ static inline uint32_t imf_lsl32(const uint32_t x, const int n)
  * = floor((floor(x / 2^(n-1)) + 1) / 2): one shift by n - 1, then one by 1;
  * floor(x / 2^(n-1)) + 1 <= 2^30 + 1 for n >= 2 cannot overflow, and
  * n = 1 adds the low bit instead (x = INT32_MAX). */
-static inline int32_t imf_rshr32(const int32_t x, const int n)
+static inline int32_t imf_rshr32_k(const int32_t x, const int n)
 {
     if (n <= 0) {
         return x;
@@ -157,9 +167,36 @@ static inline int32_t imf_rshr32(const int32_t x, const int n)
     return (imf_asr32(x, n - 1) + 1) >> 1;
 }
 
+IMF_AVR_OUTLINE int32_t imf_rshr32_v(const int32_t x, const int n)
+{
+#if defined(__AVR__)
+    /* the same value in the plain form: one compact copy */
+    if (n <= 0) {
+        return x;
+    }
+    if (n > 31) {
+        return 0;
+    }
+    if (n == 1) {
+        return (x >> 1) + (x & 1);
+    }
+    return (imf_asr32(x, n - 1) + 1) >> 1; /* byte moves, <= 7 bit steps */
+#else
+    return imf_rshr32_k(x, n);
+#endif
+}
+
+static inline int32_t imf_rshr32(const int32_t x, const int n)
+{
+    if (IMF_AVR_VARIABLE(n)) {
+        return imf_rshr32_v(x, n);
+    }
+    return imf_rshr32_k(x, n);
+}
+
 /* x * 2^k, k in [0, 31], saturated to int32.  Uses the unsigned magnitude:
  * a left shift of a negative value is undefined in C99. */
-static inline int32_t imf_shl_sat32(const int32_t x, const int k)
+static inline int32_t imf_shl_sat32_k(const int32_t x, const int k)
 {
     uint32_t mag;
     if (k <= 0) {
@@ -181,6 +218,36 @@ static inline int32_t imf_shl_sat32(const int32_t x, const int k)
         return IMF_INT32_MIN;
     }
     return -(int32_t)mag;
+}
+
+IMF_AVR_OUTLINE int32_t imf_shl_sat32_v(const int32_t x, const int k)
+{
+#if defined(__AVR__)
+    /* the same value with one shift each way (one compact copy) */
+    const int neg = x < 0;
+    uint32_t mag = neg ? 0u - (uint32_t)x : (uint32_t)x; /* 2^31 for INT32_MIN */
+    if (k <= 0) {
+        return x;
+    }
+    if (mag > imf_lsr32(neg ? (uint32_t)1 << 31 : (uint32_t)IMF_INT32_MAX, k)) {
+        return neg ? IMF_INT32_MIN : IMF_INT32_MAX;
+    }
+    mag = imf_lsl32(mag, k); /* <= 2^31 */
+    if (!neg) {
+        return (int32_t)mag;
+    }
+    return (mag == ((uint32_t)1 << 31)) ? IMF_INT32_MIN : -(int32_t)mag;
+#else
+    return imf_shl_sat32_k(x, k);
+#endif
+}
+
+static inline int32_t imf_shl_sat32(const int32_t x, const int k)
+{
+    if (IMF_AVR_VARIABLE(k)) {
+        return imf_shl_sat32_v(x, k);
+    }
+    return imf_shl_sat32_k(x, k);
 }
 
 /* Rounding shift by n (right if n > 0, saturating left if n < 0). */
@@ -219,6 +286,26 @@ static inline int16_t imf_sat_q15s(const int32_t x)
 /* a + b, results are saturated to [INT32_MIN, INT32_MAX]. */
 static inline int32_t imf_add_sat32(const int32_t a, const int32_t b)
 {
+#if defined(__AVR__)
+    /* the same value: add, and on signed overflow (V) the bound of the
+     * true sign, which is the opposite of the wrapped sum's */
+    int32_t r = a;
+    __asm__("add %A[r], %A[b]\n\t"
+            "adc %B[r], %B[b]\n\t"
+            "adc %C[r], %C[b]\n\t"
+            "adc %D[r], %D[b]\n\t"
+            "brvc 1f\n\t"
+            "lsl %D[r]\n\t"
+            "sbc %A[r], %A[r]\n\t"
+            "mov %B[r], %A[r]\n\t"
+            "mov %C[r], %A[r]\n\t"
+            "mov %D[r], %A[r]\n\t"
+            "subi %D[r], 0x80\n"
+            "1:"
+            : [r] "+d"(r)
+            : [b] "r"(b));
+    return r;
+#else
     if (b > 0 && a > IMF_INT32_MAX - b) {
         return IMF_INT32_MAX;
     }
@@ -226,11 +313,30 @@ static inline int32_t imf_add_sat32(const int32_t a, const int32_t b)
         return IMF_INT32_MIN;
     }
     return a + b;
+#endif
 }
 
 /* a - b, results are saturated to [INT32_MIN, INT32_MAX]. */
 static inline int32_t imf_sub_sat32(const int32_t a, const int32_t b)
 {
+#if defined(__AVR__)
+    int32_t r = a; /* as imf_add_sat32 */
+    __asm__("sub %A[r], %A[b]\n\t"
+            "sbc %B[r], %B[b]\n\t"
+            "sbc %C[r], %C[b]\n\t"
+            "sbc %D[r], %D[b]\n\t"
+            "brvc 1f\n\t"
+            "lsl %D[r]\n\t"
+            "sbc %A[r], %A[r]\n\t"
+            "mov %B[r], %A[r]\n\t"
+            "mov %C[r], %A[r]\n\t"
+            "mov %D[r], %A[r]\n\t"
+            "subi %D[r], 0x80\n"
+            "1:"
+            : [r] "+d"(r)
+            : [b] "r"(b));
+    return r;
+#else
     if (b < 0 && a > IMF_INT32_MAX + b) {
         return IMF_INT32_MAX;
     }
@@ -238,6 +344,7 @@ static inline int32_t imf_sub_sat32(const int32_t a, const int32_t b)
         return IMF_INT32_MIN;
     }
     return a - b;
+#endif
 }
 
 /* q15 + q15, saturated to q15 (the int32 sum is exact). */
@@ -334,7 +441,7 @@ static inline int32_t imf_mul_q15_q30(const int16_t a, const int16_t b)
  * type: a = ah*2^16 + al with al in [0, 2^16), so
  * a*b = (ah*b + asr(al*b, 16))*2^16 + (al*b mod 2^16) = m*2^16 + lol.
  * ah*b <= 2^30 and |al*b| < 2^31 fit int32 (two 16x16->32 multiplies). */
-static inline int32_t imf_mul_32x16(const int32_t a, const int16_t b, const int n)
+static inline int32_t imf_mul_32x16_k(const int32_t a, const int16_t b, const int n)
 {
     /* 16-bit operand types let 8-bit compilers use 16x16->32 multiplies
      * (avr-gcc: __mulhisi3, __usmulhisi3) instead of 32x32 */
@@ -353,11 +460,34 @@ static inline int32_t imf_mul_32x16(const int32_t a, const int16_t b, const int 
     }
     /* n < 16: m*2^(16-n) may leave int32: saturate.  Below -2^(15+n) the
      * sum is below INT32_MIN whatever the (non-negative) low part adds. */
+#if !defined(__AVR__) && defined(__GNUC__)
+    if (__builtin_constant_p(n) && (uint32_t)(m >> (14 + n)) + 1u <= 1u) {
+        /* a shift known at compile time (with a run-time shift the larger
+         * body is no longer inlined and costs more than it saves):
+         * m >> (14 + n) in {-1, 0}, so |m 2^(16-n)| <= 2^30 and the rounded
+         * low part <= 2^(16-n), no saturation: the same value without the
+         * range tests */
+        return m * ((int32_t)1 << (16 - n)) + ((lol + ((int32_t)1 << n >> 1)) >> n);
+    }
+#endif
     if (m < -(int32_t)imf_lsl32(1u, 15 + n)) {
         return IMF_INT32_MIN;
     }
     return imf_add_sat32(imf_shl_sat32(m, 16 - n),
                          imf_asr32(lol + (int32_t)(imf_lsl32(1u, n) >> 1), n));
+}
+
+IMF_AVR_OUTLINE int32_t imf_mul_32x16_v(const int32_t a, const int16_t b, const int n)
+{
+    return imf_mul_32x16_k(a, b, n);
+}
+
+static inline int32_t imf_mul_32x16(const int32_t a, const int16_t b, const int n)
+{
+    if (IMF_AVR_VARIABLE(n)) {
+        return imf_mul_32x16_v(a, b, n);
+    }
+    return imf_mul_32x16_k(a, b, n);
 }
 
 /* int16 x (an integer count, or qK: then pass N - K) times a q-scale
@@ -392,7 +522,7 @@ IMF_AVR_OUTLINE int32_t imf_rshift_sat32_ool(const int32_t x, const int n)
     return imf_rshift_sat32(x, n);
 }
 
-static inline imf_gain8_t imf_gain8(const imf_qscale_t c, const int N)
+IMF_AVR_OUTLINE imf_gain8_t imf_gain8(const imf_qscale_t c, const int N)
 {
     imf_gain8_t g;
     const int n = c.s - N;
@@ -451,7 +581,7 @@ static inline int32_t imf_gain8_mul(const int16_t x, const imf_gain8_t g)
 
 /* y[i] = x[i] * g for three int16 values (the 8-bit profile's gyro
  * conversion): the shift test once for the vector. */
-static inline void imf_gain8_mul3(const int16_t x[3], const imf_gain8_t g, int32_t y[3])
+IMF_AVR_OUTLINE void imf_gain8_mul3(const int16_t x[3], const imf_gain8_t g, int32_t y[3])
 {
     int i;
     if (g.n == 16) {
@@ -496,7 +626,7 @@ static inline uint16_t imf_isqrt_u32(uint32_t x)
  * Method: x' = x * 4^k in [2^30, 2^32), u = x'/2^32 in [1/4, 1),
  * a chord on [1/4,1/2) or [1/2,1) as first guess, then three Newton
  * steps y <- y (3 - u y^2) / 2 in unsigned 16x16->32 products. */
-static inline uint16_t imf_invsqrt_u32(uint32_t x, int *const shift)
+IMF_AVR_OUTLINE uint16_t imf_invsqrt_u32(uint32_t x, int *const shift)
 {
     int e = 0;
     uint16_t u, y, y2, w; /* 16-bit operands: unsigned 16x16->32 products */
@@ -545,6 +675,7 @@ static inline uint16_t imf_invsqrt_u32(uint32_t x, int *const shift)
  * Madgwick's delta-s), so the error scales a gain by at most 0.12 %. */
 static inline uint16_t imf_invsqrt8_u32(uint32_t x, int *const e)
 {
+#if defined(__AVR__)
     uint16_t u, y, y2, w, d;
     uint32_t t;
     *e = 0;
@@ -576,6 +707,30 @@ static inline uint16_t imf_invsqrt8_u32(uint32_t x, int *const e)
         return 65535u;
     }
     return (uint16_t)((uint16_t)((uint16_t)(t >> 16) << 1) | (uint16_t)(((uint16_t)t) >> 15));
+#else
+    /* the same values in 32-bit operations (no 16-bit intermediate above
+     * wraps: d < 2^14, y < 2^16, w <= 49152) */
+    uint32_t u, y, d, t;
+    *e = 0;
+    if (x < ((uint32_t)1 << 30)) {
+        x <<= 2;
+        *e = 1;
+    }
+    u = x >> 16;
+    if (u < 32768u) {
+        d = u - 16384u;
+        y = 64635u - (d + ((d * 3u) >> 4));
+    } else {
+        d = u - 32768u;
+        y = 45691u - ((d >> 6) * 27u + (((d & 63u) * 27u) >> 6));
+    }
+    t = u * ((y * y + 32768u) >> 16);
+    if (t >= 3221225472u) {
+        t = 3221225471u;
+    }
+    t = (y * ((3221225472u - t) >> 16) + 16384u) >> 15;
+    return (uint16_t)(t > 65535u ? 65535u : t);
+#endif
 }
 
 /* ---- conversions --------------------------------------------------- */
@@ -594,40 +749,62 @@ static inline int16_t imf_q30_to_q15(const int32_t x)
 }
 
 /* qN -> q15 (N in [15, 46]), rounded, saturated symmetric to +-32767.
- * On AVR, N = 29, 30, 31 take the high word and 16-bit operations. */
+ * On AVR, N = 29, 30, 31 (constants) take the same value in a few byte
+ * operations: add the rounding bit 2^(N-16), shift left by 31 - N bit
+ * steps (an overflow flag V on the add or on a step means the value is out
+ * of range: saturate by its sign), and the high word is the result. */
+#if defined(__AVR__)
+#define IMF_QN_SAT_AVR \
+    "brvc 3f\n\t" /* out of range: carry = sign */ \
+    "2:\n\t" \
+    "sbc %C[r], %C[r]\n\t" \
+    "com %C[r]\n\t" \
+    "mov %D[r], %C[r]\n\t" \
+    "subi %D[r], 0x80\n" /* 0x7FFF, or 0x8000 if negative */ \
+    "3:"
+#endif
 static inline int16_t imf_qn_to_q15s(const int32_t x, const int N)
 {
 #if defined(__AVR__)
-    if (N == 30 || N == 29) {
-        /* the same value in 16-bit operations: with m = 31 - N (1 or 2),
-         * t = floor(x / 2^16) and the low word lo,
-         * floor(x / 2^(N-15) + 1/2) = t 2^m + floor(lo / 2^(N-15) + 1/2) */
-        const int m = 31 - N;
-        const int16_t t = (int16_t)(x >> 16);
-        const uint16_t lo = (uint16_t)((uint32_t)x & 0xFFFFu);
-        const int16_t r = (int16_t)(((uint16_t)(lo >> (N - 16)) + 1u) >> 1); /* [0, 2^m] */
+    if (N == 29 || N == 30 || N == 31) {
+        int32_t r = x;
         int16_t v;
-        if (t >= (int16_t)(16384 >> (m - 1))) {
-            return IMF_Q15_MAX;
+        if (N == 31) {
+            __asm__("lsl %B[r]\n\t"             /* C = bit 15: the rounding */
+                    "adc %C[r], __zero_reg__\n\t"
+                    "adc %D[r], __zero_reg__\n\t"
+                    "clc\n\t"                   /* overflow: positive */
+                    IMF_QN_SAT_AVR
+                    : [r] "+d"(r));
+        } else if (N == 30) {
+            __asm__("subi %B[r], 0xC0\n\t"      /* + 2^14 */
+                    "sbci %C[r], 0xFF\n\t"
+                    "sbci %D[r], 0xFF\n\t"
+                    "clc\n\t"
+                    "brvs 2f\n\t"               /* overflow: positive */
+                    "lsl %B[r]\n\t"
+                    "rol %C[r]\n\t"
+                    "rol %D[r]\n\t"             /* V = bit 31 ^ bit 30 */
+                    IMF_QN_SAT_AVR
+                    : [r] "+d"(r));
+        } else {
+            __asm__("subi %B[r], 0xE0\n\t"      /* + 2^13 */
+                    "sbci %C[r], 0xFF\n\t"
+                    "sbci %D[r], 0xFF\n\t"
+                    "clc\n\t"
+                    "brvs 2f\n\t"
+                    "lsl %B[r]\n\t"
+                    "rol %C[r]\n\t"
+                    "rol %D[r]\n\t"
+                    "brvs 2f\n\t"               /* carry = bit 31 */
+                    "lsl %B[r]\n\t"
+                    "rol %C[r]\n\t"
+                    "rol %D[r]\n\t"
+                    IMF_QN_SAT_AVR
+                    : [r] "+d"(r));
         }
-        if (t < (int16_t)-(16384 >> (m - 1))) {
-            return (int16_t)-32767;
-        }
-        v = (int16_t)(t * (1 << m)); /* [-32768, 32768 - 2^m] */
-        if (v > IMF_Q15_MAX - r) {
-            return IMF_Q15_MAX;
-        }
-        v = (int16_t)(v + r);
+        v = (int16_t)(r >> 16);
         return (v < -32767) ? (int16_t)-32767 : v;
-    }
-    if (N == 31) {
-        /* floor(x / 2^16 + 1/2) = t + bit 15 */
-        const int16_t t = (int16_t)(x >> 16);
-        const int16_t r = (int16_t)(((uint16_t)((uint32_t)x & 0xFFFFu)) >> 15);
-        if (t > IMF_Q15_MAX - r) {
-            return IMF_Q15_MAX;
-        }
-        return (t < -32767) ? (int16_t)-32767 : (int16_t)(t + r);
     }
 #endif
     return imf_sat_q15s(imf_rshr32(x, N - 15));

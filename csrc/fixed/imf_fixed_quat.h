@@ -77,20 +77,39 @@ static inline int imf_q_normalise_acc(const int16_t acc[3], int16_t a[3])
 /* 32-bit profile, appendix step 7 (Mahony) / 3 (Madgwick):
  * dq = q (x) (0, h), h = 0.5 w dt in q30; products q15 x q30 -> q30 by
  * imf_mul_32x16 (rounded), sums saturate. */
+/* h q15 -> q30 (imf_mul_32x16 with the shift 15), one out-of-line copy on
+ * AVR: twelve inlined copies are most of the 32-bit profile's flash. */
+IMF_Q_OUTLINE int32_t imf_q_mul_hq_p32(const int32_t h, const int16_t qs)
+{
+    return imf_mul_32x16(h, qs, 15);
+}
+
 IMF_Q_OUTLINE void imf_q_rate_p32(const int16_t qs[4], const int32_t h[3], int32_t dq[4])
 {
-    const int32_t x0 = imf_mul_32x16(h[0], qs[0], 15), x1 = imf_mul_32x16(h[0], qs[1], 15);
-    const int32_t x2 = imf_mul_32x16(h[0], qs[2], 15), x3 = imf_mul_32x16(h[0], qs[3], 15);
-    const int32_t y0 = imf_mul_32x16(h[1], qs[0], 15), y1 = imf_mul_32x16(h[1], qs[1], 15);
-    const int32_t y2 = imf_mul_32x16(h[1], qs[2], 15), y3 = imf_mul_32x16(h[1], qs[3], 15);
-    const int32_t z0 = imf_mul_32x16(h[2], qs[0], 15), z1 = imf_mul_32x16(h[2], qs[1], 15);
-    const int32_t z2 = imf_mul_32x16(h[2], qs[2], 15), z3 = imf_mul_32x16(h[2], qs[3], 15);
+    /* p[j][i] = h[j] qs[i] (q30): x = p[0], y = p[1], z = p[2]; a loop on
+     * AVR (flash), unrolled elsewhere */
+    int32_t p[3][4];
+#if defined(__AVR__)
+    int i, j;
+    for (j = 0; j < 3; ++j) {
+        for (i = 0; i < 4; ++i) {
+            p[j][i] = imf_q_mul_hq_p32(h[j], qs[i]);
+        }
+    }
+#else
+    p[0][0] = imf_q_mul_hq_p32(h[0], qs[0]), p[0][1] = imf_q_mul_hq_p32(h[0], qs[1]);
+    p[0][2] = imf_q_mul_hq_p32(h[0], qs[2]), p[0][3] = imf_q_mul_hq_p32(h[0], qs[3]);
+    p[1][0] = imf_q_mul_hq_p32(h[1], qs[0]), p[1][1] = imf_q_mul_hq_p32(h[1], qs[1]);
+    p[1][2] = imf_q_mul_hq_p32(h[1], qs[2]), p[1][3] = imf_q_mul_hq_p32(h[1], qs[3]);
+    p[2][0] = imf_q_mul_hq_p32(h[2], qs[0]), p[2][1] = imf_q_mul_hq_p32(h[2], qs[1]);
+    p[2][2] = imf_q_mul_hq_p32(h[2], qs[2]), p[2][3] = imf_q_mul_hq_p32(h[2], qs[3]);
+#endif
     /* |each product| <= |h| < 2^30 for |h| < 1: the sums of three stay in int32
      * only while |h| < 2/3; saturate anyway */
-    dq[0] = imf_sub_sat32(imf_sub_sat32(imf_sub_sat32(0, x1), y2), z3);
-    dq[1] = imf_sub_sat32(imf_add_sat32(x0, z2), y3);
-    dq[2] = imf_add_sat32(imf_sub_sat32(y0, z1), x3);
-    dq[3] = imf_sub_sat32(imf_add_sat32(z0, y1), x2);
+    dq[0] = imf_sub_sat32(imf_sub_sat32(imf_sub_sat32(0, p[0][1]), p[1][2]), p[2][3]);
+    dq[1] = imf_sub_sat32(imf_add_sat32(p[0][0], p[2][2]), p[1][3]);
+    dq[2] = imf_add_sat32(imf_sub_sat32(p[1][0], p[2][1]), p[0][3]);
+    dq[3] = imf_sub_sat32(imf_add_sat32(p[2][0], p[1][1]), p[0][2]);
 }
 
 /* 8-bit profile: unit vector of an int16 3-vector in symmetric q15, or 0
@@ -112,12 +131,25 @@ static inline int imf_q_unit3_p8(const int16_t v[3], int16_t a[3])
     if (m == 0u) {
         return 0;
     }
+#if defined(__AVR__)
     while (m < 16384u) {
         m = (uint16_t)(m << 1);
         for (i = 0; i < 3; ++i) {
             b[i] = (int16_t)(b[i] + b[i]); /* |b| < 2^14: no overflow */
         }
     }
+#else
+    if (m < 16384u) { /* the same scaling with one multiply per component */
+        unsigned int mm = m, k = 1u;
+        while (mm < 16384u) {
+            mm <<= 1;
+            k <<= 1;
+        }
+        for (i = 0; i < 3; ++i) {
+            b[i] = (int16_t)(b[i] * (int)k); /* |b k| < 2^15 */
+        }
+    }
+#endif
     n2 = (uint32_t)imf_mul16(b[0], b[0]) + (uint32_t)imf_mul16(b[1], b[1])
        + (uint32_t)imf_mul16(b[2], b[2]); /* [2^28, 3 2^30] */
     y = imf_invsqrt8_u32(n2, &e);          /* 1/|b| ~= y 2^(e-31) */
@@ -131,7 +163,7 @@ static inline int imf_q_unit3_p8(const int16_t v[3], int16_t a[3])
 
 /* imf_rshr32 for n in [0, 15] (the 8-bit profile's hs): the same value
  * with fewer range checks, bit steps for n < 8 (AVR). */
-static inline int32_t imf_q_rshr_hs_p8(const int32_t x, const int n)
+IMF_Q_OUTLINE int32_t imf_q_rshr_hs_p8(const int32_t x, const int n)
 {
     if (n >= 2) {
         return (imf_asr32(x, n - 1) + 1) >> 1; /* <= 2^30 + 1: no overflow */
@@ -153,10 +185,31 @@ static inline int32_t imf_q_rshr_hs_p8(const int32_t x, const int n)
  * word. */
 static inline int32_t imf_q_carry_p8(const int32_t t, int32_t *const c)
 {
+#if defined(__AVR__)
+    /* the same in one 16-bit add whose carry goes straight to the result */
+    int32_t r;
+    uint16_t s;
+    __asm__("movw %A[r], %C[t]\n\t"
+            "mov %C[r], %D[t]\n\t"
+            "lsl %C[r]\n\t"
+            "sbc %C[r], %C[r]\n\t"  /* sign of t */
+            "mov %D[r], %C[r]\n\t"
+            "add %A[s], %A[t]\n\t"
+            "adc %B[s], %B[t]\n\t"  /* C = carry of the low words */
+            "adc %A[r], __zero_reg__\n\t"
+            "adc %B[r], __zero_reg__\n\t"
+            "adc %C[r], __zero_reg__\n\t"
+            "adc %D[r], __zero_reg__"
+            : [r] "=&r"(r), [s] "=&r"(s)
+            : [t] "r"(t), "1"((uint16_t)((uint32_t)*c & 0xFFFFu)));
+    *c = (int32_t)s;
+    return r;
+#else
     const uint16_t lo = (uint16_t)((uint32_t)t & 0xFFFFu);
     const uint16_t s = (uint16_t)(lo + (uint16_t)((uint32_t)*c & 0xFFFFu));
     *c = (int32_t)s;
     return (int32_t)(int16_t)(t >> 16) + (s < lo ? 1 : 0); /* floor(t / 2^16) + carry */
+#endif
 }
 
 /* 8-bit profile, appendix step 7 / 3: dq = q (x) (0, h), h in q(15+hs)
@@ -185,12 +238,30 @@ static inline void imf_q_rate_p8(const int16_t qs[4], const int32_t h[3], const 
  * rounded to q15 again without saturation (|q_i| up to 2: magnitudes up to
  * 2^16, clamped to 65535; the sum saturates only for |q| >= 2); elsewhere qs
  * is that rounding already. */
-static inline uint32_t imf_q_norm2(const int32_t q[4], const int16_t qs[4])
+IMF_Q_OUTLINE uint32_t imf_q_norm2(const int32_t q[4], const int16_t qs[4])
 {
     uint32_t n2 = 0u, p;
     int32_t r;
     uint16_t u;
     int i;
+    /* the usual case, every component from qs: four squares < 2^30 each,
+     * the sum < 2^32 needs no saturation (the same value); a loop on AVR
+     * (flash), unrolled elsewhere */
+#if defined(__AVR__)
+    for (i = 0; i < 4 && qs[i] > -32767 && qs[i] < 32767; ++i) {
+        n2 += (uint32_t)imf_mul16(qs[i], qs[i]);
+    }
+    if (i == 4) {
+        return n2;
+    }
+    n2 = 0u;
+#else
+    if (qs[0] > -32767 && qs[0] < 32767 && qs[1] > -32767 && qs[1] < 32767 && qs[2] > -32767
+        && qs[2] < 32767 && qs[3] > -32767 && qs[3] < 32767) {
+        return (uint32_t)imf_mul16(qs[0], qs[0]) + (uint32_t)imf_mul16(qs[1], qs[1])
+             + (uint32_t)imf_mul16(qs[2], qs[2]) + (uint32_t)imf_mul16(qs[3], qs[3]);
+    }
+#endif
     for (i = 0; i < 4; ++i) {
         if (qs[i] > -32767 && qs[i] < 32767) {
             u = (uint16_t)(qs[i] < 0 ? -qs[i] : qs[i]);
@@ -228,7 +299,14 @@ IMF_Q_OUTLINE void imf_q_normalise(int32_t q[4])
     y = imf_invsqrt_u32(n2, &sh);        /* 1/sqrt(n2) = y 2^-sh, n2 in q30 */
     y14 = (int16_t)((y >= 65535u) ? 32767 : (y + 1u) >> 1); /* y/2, q14 -> int16 */
     for (i = 0; i < 4; ++i) {
-        /* q / sqrt(n2 / 2^30) = q * y14 * 2^(16 - sh) */
+        /* q / sqrt(n2 / 2^30) = q * y14 * 2^(16 - sh); sh = 30 for |q| near 1
+         * (the usual case): outside AVR, that shift as a constant (faster) */
+#if !defined(__AVR__)
+        if (sh == 30) {
+            q[i] = imf_mul_32x16(q[i], y14, 14);
+            continue;
+        }
+#endif
         q[i] = imf_mul_32x16(q[i], y14, sh - 16);
     }
 }

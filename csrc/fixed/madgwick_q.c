@@ -10,9 +10,14 @@ int imf_madgwick_imu_q_init_consts(imf_madgwick_imu_q_t *const self, const imf_q
     self->kg = kg;
     self->kb = kb;
     self->hs = imf_q_rate_exponent(kg);
-    self->kg8 = imf_gain8(kg, 15 + self->hs);
-    /* largest multiple of 8 with kb.s - kbf >= 16 (kb.s in [16, 46]) */
-    self->kbf = (int16_t)(kb.s < 16 ? 0 : ((kb.s - 16) / 8) * 8);
+    if (IMF_Q_HAS_P8) {
+        self->kg8 = imf_gain8(kg, 15 + self->hs);
+        /* largest multiple of 8 with kb.s - kbf >= 16 (kb.s in [16, 46]) */
+        self->kbf = (int16_t)(kb.s < 16 ? 0 : ((kb.s - 16) / 8) * 8);
+    } else { /* no 8-bit profile compiled in: its constants unused, zero */
+        self->kg8.m = 0u;
+        self->kg8.n = self->kbf = 0;
+    }
     self->profile = (int16_t)(profile == 8 ? 8 : 32);
     self->x.q[0] = IMF_Q30_ONE;
     self->x.q[1] = self->x.q[2] = self->x.q[3] = 0;
@@ -73,7 +78,7 @@ static void imf_madgwick_imu_q_correct_p32(const imf_madgwick_imu_q_t *const sel
      *   + (q2 ax - q1 ay, -q3 ax - q0 ay + 2 q1 az, q0 ax - q3 ay + 2 q2 az, -q1 ax - q2 ay),
      * every q15 x q15 product (q30) rounded to q28 */
     w = imf_mul_q15_q30(qs[1], qs[1]) + imf_mul_q15_q30(qs[2], qs[2]); /* < 2^31 */
-    w15 = imf_sat_q15s(imf_rshr32(w, 15));                             /* q1^2+q2^2, q15 */
+    w15 = imf_qn_to_q15s(w, 30);                                       /* q1^2+q2^2, q15 */
 #define IMF_P2(a, b) imf_rshr32(imf_mul_q15_q30(a, b), 2) /* q28 */
 #define IMF_P1(a, b) imf_rshr32(imf_mul_q15_q30(a, b), 1) /* 2 a b, q28 */
     s[0] = imf_add_sat32(IMF_P1(w15, qs[0]), IMF_P2(qs[2], a[0]) - IMF_P2(qs[1], a[1]));
@@ -115,7 +120,7 @@ static void imf_madgwick_imu_q_correct_p32(const imf_madgwick_imu_q_t *const sel
  * terms rounded once), block-scaled in byte and bit steps (left shifts
  * only) to q15 with a constant rounding shift, and the step kb * s / |s|
  * as s15 * yk / 2^kbf with yk = y kb.m rounded to int16 once per update. */
-static void imf_madgwick_imu_q_correct_p8(const imf_madgwick_imu_q_t *const self,
+IMF_Q_OUTLINE void imf_madgwick_imu_q_correct_p8(const imf_madgwick_imu_q_t *const self,
                                         const int16_t qs[4], const int16_t acc[3], int32_t dq[4])
 {
     int16_t a[3], s15[4], w15;

@@ -11,12 +11,19 @@ int imf_mahony_imu_q_init_consts(imf_mahony_imu_q_t *const self, const imf_qscal
     self->kp = kp;
     self->ki = ki;
     self->hs = imf_q_rate_exponent(kg);
-    self->kg8 = imf_gain8(kg, 15 + self->hs);
-    self->kp8 = imf_gain8(kp, self->hs);
-    self->ki8 = imf_gain8(ki, 38 - 15);
-    self->kpi = (uint16_t)(kp.s >= 23 ? imf_rshr32(kp.m, kp.s - 23) : (kp.s == 22 ? kp.m * 2 : 0));
-    self->fast8 = (int16_t)(kp.s >= 22 && self->ki8.n == 16 && self->kg8.n == 16
-                            && self->hs <= 6);
+    if (IMF_Q_HAS_P8) {
+        self->kg8 = imf_gain8(kg, 15 + self->hs);
+        self->kp8 = imf_gain8(kp, self->hs);
+        self->ki8 = imf_gain8(ki, 38 - 15);
+        self->kpi = (uint16_t)(kp.s >= 23 ? imf_rshr32(kp.m, kp.s - 23) : (kp.s == 22 ? kp.m * 2 : 0));
+        self->fast8 = (int16_t)(kp.s >= 22 && self->ki8.n == 16 && self->kg8.n == 16
+                                && self->hs <= 6);
+    } else {
+        /* a build without the 8-bit profile (IMF_FIXED_PROFILE 32): its
+         * constants are unused, left zero (no code linked to compute them) */
+        self->kg8.m = self->kp8.m = self->ki8.m = self->kpi = 0u;
+        self->kg8.n = self->kp8.n = self->ki8.n = self->fast8 = 0;
+    }
     self->profile = (int16_t)(profile == 8 ? 8 : 32);
     self->x.q[0] = IMF_Q30_ONE;
     self->x.q[1] = self->x.q[2] = self->x.q[3] = 0;
@@ -71,10 +78,10 @@ static IMF_AVR_NOINLINE void imf_mahony_imu_q_feedback_p32(imf_mahony_imu_q_t *c
     }
     /* step 3: d = 2 (q1 q3 - q0 q2, q0 q1 + q2 q3, q0^2 + q3^2 - 1/2), q15;
      * symmetric q15 products < 2^30, so the q30 sums cannot overflow */
-    d[0] = imf_sat_q15s(imf_rshr32(imf_mul_q15_q30(qs[1], qs[3]) - imf_mul_q15_q30(qs[0], qs[2]), 14));
-    d[1] = imf_sat_q15s(imf_rshr32(imf_mul_q15_q30(qs[0], qs[1]) + imf_mul_q15_q30(qs[2], qs[3]), 14));
-    d[2] = imf_sat_q15s(imf_rshr32(imf_mul_q15_q30(qs[0], qs[0]) + imf_mul_q15_q30(qs[3], qs[3])
-                                   - 536870912L, 14));
+    d[0] = imf_qn_to_q15s(imf_mul_q15_q30(qs[1], qs[3]) - imf_mul_q15_q30(qs[0], qs[2]), 29);
+    d[1] = imf_qn_to_q15s(imf_mul_q15_q30(qs[0], qs[1]) + imf_mul_q15_q30(qs[2], qs[3]), 29);
+    d[2] = imf_qn_to_q15s(imf_mul_q15_q30(qs[0], qs[0]) + imf_mul_q15_q30(qs[3], qs[3])
+                          - 536870912L, 29);
     /* step 4: e = a x d, q30 */
     e[0] = imf_mul_q15_q30(a[1], d[2]) - imf_mul_q15_q30(a[2], d[1]);
     e[1] = imf_mul_q15_q30(a[2], d[0]) - imf_mul_q15_q30(a[0], d[2]);
@@ -100,7 +107,7 @@ static IMF_AVR_NOINLINE void imf_mahony_imu_q_feedback_p32(imf_mahony_imu_q_t *c
  * in q15, one 16x16 product per term with the gains prepared at init.
  * Short path (fast8): h in q(31+hs), Kp e + I summed in q38 and added to it
  * rounded once; otherwise h and Kp e in q(15+hs). */
-static void imf_mahony_imu_q_feedback_p8(imf_mahony_imu_q_t *const self, const int16_t qs[4],
+IMF_Q_OUTLINE void imf_mahony_imu_q_feedback_p8(imf_mahony_imu_q_t *const self, const int16_t qs[4],
                                        const int16_t acc[3], int32_t h[3])
 {
     imf_mahony_imu_q_state_t *const x = &self->x;
@@ -127,7 +134,7 @@ static void imf_mahony_imu_q_feedback_p8(imf_mahony_imu_q_t *const self, const i
             const int32_t ii = imf_add_sat32(x->i[i], imf_rshr32(imf_mul16su(e15[i], ki8.m), 16));
             const int32_t v = imf_add_sat32(ii, imf_mul16su(e15[i], kpi));
             x->i[i] = ii;
-            h[i] = imf_add_sat32(h[i], imf_rshr32(v, 7 - hs)); /* shift in [1, 7] */
+            h[i] = imf_add_sat32(h[i], imf_q_rshr_hs_p8(v, 7 - hs)); /* shift in [1, 7] */
         }
     } else {
         for (i = 0; i < 3; ++i) {

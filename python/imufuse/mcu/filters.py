@@ -175,7 +175,7 @@ class FilterSpec:
 
     ref_class: Any
     params: Mapping[str, object]
-    precision: str            # "float32" | "float64" | "q32" | "q8"
+    precision: str            # "float32" | "float64" | "p32" | "p8" (fixed-point profiles)
     label: str = ""
     csrc: Path = CSRC
 
@@ -186,7 +186,7 @@ class FilterSpec:
     # -- what kind of filter
     @property
     def fixed(self) -> bool:
-        return self.precision.startswith("q")
+        return self.precision.startswith("p")
 
     @property
     def kind(self) -> str:
@@ -587,7 +587,7 @@ def fixed_inputs(group: str, n_motion: int = 300, seed: int = 5) -> Dict[str, np
 
 def inputs_for(precision: str, group: str, n_motion: int = 300, seed: int = 5) -> Dict[str, np.ndarray]:
     """The inputs of a (precision, group) in the dtype the builds take."""
-    if precision.startswith("q"):
+    if precision.startswith("p"):
         return fixed_inputs(group, n_motion, seed)
     dt = np.float32 if precision == "float32" else np.float64
     with np.errstate(over="ignore", under="ignore"):
@@ -600,10 +600,10 @@ def inputs_for(precision: str, group: str, n_motion: int = 300, seed: int = 5) -
 
 #: precisions each target runs: AVR's double is 32 bits, so no float64 there
 TARGET_PRECISIONS = {
-    "host": ("float32", "float64", "q32", "q8"),
-    "m4f": ("float32", "float64", "q32", "q8"),
-    "m0": ("float32", "float64", "q32", "q8"),
-    "avr": ("float32", "q32", "q8"),
+    "host": ("float32", "float64", "p32", "p8"),
+    "m4f": ("float32", "float64", "p32", "p8"),
+    "m0": ("float32", "float64", "p32", "p8"),
+    "avr": ("float32", "p32", "p8"),
 }
 
 
@@ -624,7 +624,7 @@ def specs_from_cases(cases, reference=None, csrc: Path = CSRC) -> List[FilterSpe
         params = dict(case.params)
         if is_fixed_class(cls):
             profiles = [str(params.pop("profile"))] if "profile" in params else ["32", "8"]
-            precisions = ["q" + p for p in profiles]
+            precisions = ["p" + p for p in profiles]
         else:
             precisions = ["float32", "float64"]
         for p in precisions:

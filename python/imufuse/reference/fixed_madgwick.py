@@ -81,7 +81,7 @@ class MadgwickIMUQ(FixedFilter):
             return
         # step 4 (simplified): s = delta-s / 2, q28
         w = qs[1] * qs[1] + qs[2] * qs[2]
-        w15 = ci.sat_q15s(ci.rshr32(w, 15))
+        w15 = ci.qn_to_q15s(w, 30)
 
         def P2(x, y):
             return ci.rshr32(x * y, 2)

@@ -85,9 +85,9 @@ class MahonyIMUQ(FixedFilter):
         if a is None:
             return
         # step 3: d = 2 (q1 q3 - q0 q2, q0 q1 + q2 q3, q0^2 + q3^2 - 1/2), q15
-        d = [ci.sat_q15s(ci.rshr32(qs[1] * qs[3] - qs[0] * qs[2], 14)),
-             ci.sat_q15s(ci.rshr32(qs[0] * qs[1] + qs[2] * qs[3], 14)),
-             ci.sat_q15s(ci.rshr32(qs[0] * qs[0] + qs[3] * qs[3] - 536870912, 14))]
+        d = [ci.qn_to_q15s(qs[1] * qs[3] - qs[0] * qs[2], 29),
+             ci.qn_to_q15s(qs[0] * qs[1] + qs[2] * qs[3], 29),
+             ci.qn_to_q15s(qs[0] * qs[0] + qs[3] * qs[3] - 536870912, 29)]
         # step 4: e = a x d, q30
         e = [a[1] * d[2] - a[2] * d[1],
              a[2] * d[0] - a[0] * d[2],
@@ -124,7 +124,7 @@ class MahonyIMUQ(FixedFilter):
                 ii = ci.add_sat32(self.i[i], ci.rshr32(e15[i] * self.ki8[0], 16))
                 v = ci.add_sat32(ii, e15[i] * self.kpi)
                 self.i[i] = ii
-                h[i] = ci.add_sat32(h[i], ci.rshr32(v, 7 - self.hs))
+                h[i] = ci.add_sat32(h[i], fq.rshr_hs_p8(v, 7 - self.hs))  # shift in [1, 7]
             else:
                 self.i[i] = ci.add_sat32(self.i[i], ci.gain8_mul(e15[i], self.ki8))
                 h[i] = ci.add_sat32(ci.add_sat32(h[i], ci.gain8_mul(e15[i], self.kp8)),

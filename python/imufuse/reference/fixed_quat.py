@@ -20,11 +20,16 @@ def normalise_acc(acc):
     return [ci.sat_q15s(ci.rshr32(ci.check32(a * y), sh - 15)) for a in acc]
 
 
+def mul_hq_p32(h, qs):
+    """imf_q_mul_hq_p32: h (q30) times a q15 snapshot component, q30."""
+    return ci.mul_32x16(h, qs, 15)
+
+
 def rate_p32(qs, h):
-    m = ci.mul_32x16
-    x0, x1, x2, x3 = (m(h[0], v, 15) for v in qs)
-    y0, y1, y2, y3 = (m(h[1], v, 15) for v in qs)
-    z0, z1, z2, z3 = (m(h[2], v, 15) for v in qs)
+    m = mul_hq_p32
+    x0, x1, x2, x3 = (m(h[0], v) for v in qs)
+    y0, y1, y2, y3 = (m(h[1], v) for v in qs)
+    z0, z1, z2, z3 = (m(h[2], v) for v in qs)
     sub, add = ci.sub_sat32, ci.add_sat32
     return [sub(sub(sub(0, x1), y2), z3),
             sub(add(x0, z2), y3),
@@ -52,6 +57,15 @@ def check(x):
     return ci.check32(x)
 
 
+def rshr_hs_p8(x, n):
+    """imf_q_rshr_hs_p8: ci.rshr32 for n in [0, 15] (the same value)."""
+    if n >= 2:
+        return ((x >> (n - 1)) + 1) >> 1
+    if n == 1:
+        return (x >> 1) + (x & 1)
+    return x
+
+
 def carry_p8(t, c, i):
     """imf_q_carry_p8: floor((t + c[i]) / 2^16), c[i] = the remainder, in 16-bit
     operations: the low words add, their carry goes to the high word."""
@@ -64,7 +78,7 @@ def carry_p8(t, c, i):
 def rate_p8(qs, h, hs):
     """imf_q_rate_p8"""
     hx, hy, hz = (ci.sat_q15(v) for v in h)
-    sub, add, r = ci.sub_sat32, ci.add_sat32, ci.rshr32
+    sub, add, r = ci.sub_sat32, ci.add_sat32, rshr_hs_p8
     return [r(sub(-qs[1] * hx - qs[2] * hy, qs[3] * hz), hs),
             r(sub(qs[0] * hx + qs[2] * hz, qs[3] * hy), hs),
             r(add(qs[0] * hy - qs[1] * hz, qs[3] * hx), hs),
@@ -74,6 +88,10 @@ def rate_p8(qs, h, hs):
 def norm2(q, qs):
     """imf_q_norm2: |q|^2 in q30 from the snapshot qs, except where it saturates
     (+-32767): there q rounded to q15 again without saturation."""
+    if all(-32767 < s < 32767 for s in qs):
+        # the usual case, every component from qs: four squares < 2^30 each,
+        # the sum < 2^32 needs no saturation
+        return sum(s * s for s in qs)
     n2 = 0
     for v, s in zip(q, qs):
         if -32767 < s < 32767:
