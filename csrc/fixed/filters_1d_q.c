@@ -52,6 +52,8 @@ int imf_mahony1d_bias_q_init_consts(imf_mahony1d_bias_q_t *const self, const imf
     self->kr = kr;
     self->kp = kp;
     self->ki = ki;
+    self->kp16 = imf_gain16(kp, 15, 15);
+    self->ki16 = imf_gain16(ki, 15, 23);
     self->integrate_first = (int16_t)(integrate_first != 0);
     self->x.theta = 0;
     self->x.j = 0;
@@ -81,16 +83,16 @@ void imf_mahony1d_bias_q_update(imf_mahony1d_bias_q_t *const self, const int16_t
     /* e_k = a_k - theta_{k-1} (q15 counts) */
     const int32_t e = imf_sub_sat32(imf_i16_to_q15(angle), x->theta);
     const int32_t w = imf_mulk16(rate, self->kr, 15);  /* w dt, q15 counts */
-    const int32_t p = imf_mulk32(e, self->kp, 15, 15); /* Kp dt e, q15 counts */
-    const int32_t di = imf_mulk32(e, self->ki, 15, 23); /* Ki dt^2 e, q23 */
+    const int32_t p = imf_gain16_or_mulk32(e, self->kp16, self->kp, 15, 15); /* Kp dt e, q15 counts */
+    const int32_t di = imf_gain16_or_mulk32(e, self->ki16, self->ki, 15, 23); /* Ki dt^2 e, q23 */
     int32_t theta;
+    /* Eq. 3.6: I_k = I_{k-1} + Ki dt e_k first; theta_k = theta_{k-1} + (Kp e_k + I_k + w_k) dt.
+     * Eq. 3.9 (integrate_first): theta_k = theta_{k-1} + (w_k + I_{k-1}) dt + Kp' dt e_k; then I_k */
     if (!self->integrate_first) {
-        /* Eq. 3.6: I_k = I_{k-1} + Ki dt e_k; theta_k = theta_{k-1} + (Kp e_k + I_k + w_k) dt */
         x->j = imf_add_sat32(x->j, di);
-        theta = imf_add_sat32(imf_add_sat32(imf_add_sat32(x->theta, p), imf_rshr32(x->j, 8)), w);
-    } else {
-        /* Eq. 3.9: theta_k = theta_{k-1} + (w_k + I_{k-1}) dt + Kp' dt e_k; then I_k */
-        theta = imf_add_sat32(imf_add_sat32(imf_add_sat32(x->theta, p), imf_rshr32(x->j, 8)), w);
+    }
+    theta = imf_add_sat32(imf_add_sat32(imf_add_sat32(x->theta, p), imf_rshr32(x->j, 8)), w);
+    if (self->integrate_first) {
         x->j = imf_add_sat32(x->j, di);
     }
     x->theta = theta;

@@ -15,7 +15,9 @@
  *   ka  = 1 - alpha                    (Complementary1DQ; the update uses
  *                                       ka16, ka rounded to 16 bits with a
  *                                       byte-aligned shift: imf_gain16)
- *   kp  = Kp dt, ki = Ki dt^2          (Mahony1DBiasQ)
+ *   kp  = Kp dt, ki = Ki dt^2          (Mahony1DBiasQ; the update uses
+ *                                       them as 16-bit gains likewise, exact
+ *                                       products for gains >= 1)
  */
 #ifndef IMF_FILTERS_1D_Q_H
 #define IMF_FILTERS_1D_Q_H
@@ -58,6 +60,7 @@ typedef struct {
 
 typedef struct {
     imf_qscale_t kr, kp, ki;
+    imf_gain16_t kp16, ki16; /* kp, ki 2^8 as 16-bit gains (imf_gain16) */
     int16_t integrate_first; /* 1: Eq. 3.9 order (Corollary #1) */
     imf_mahony1d_bias_q_state_t x;
 } imf_mahony1d_bias_q_t;

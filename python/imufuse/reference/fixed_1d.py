@@ -97,6 +97,8 @@ class Mahony1DBiasQ(FixedFilter):
         self.kr = kr
         self.kp = kp
         self.ki = ki
+        self.kp16 = fs.gain16(kp, 15, 15)
+        self.ki16 = fs.gain16(ki, 15, 23)
         self.integrate_first = integrate_first != 0
         self.theta = 0
         self.j = 0
@@ -114,14 +116,13 @@ class Mahony1DBiasQ(FixedFilter):
         # e_k = a_k - theta_{k-1} (q15 counts)
         e = ci.sub_sat32(fs.i16_to_q15(angle), self.theta)
         w = fs.mulk16(rate, self.kr, 15)
-        p = fs.mulk32(e, self.kp, 15, 15)
-        di = fs.mulk32(e, self.ki, 15, 23)
+        p = fs.gain16_or_mulk32(e, self.kp16, self.kp, 15, 15)
+        di = fs.gain16_or_mulk32(e, self.ki16, self.ki, 15, 23)
+        # Eq. 3.6: I_k = I_{k-1} + Ki dt e_k first; theta_k = theta_{k-1} + (Kp e_k + I_k + w_k) dt.
+        # Eq. 3.9 (integrate_first): theta_k = theta_{k-1} + (w_k + I_{k-1}) dt + Kp' dt e_k; then I_k
         if not self.integrate_first:
-            # Eq. 3.6: I_k = I_{k-1} + Ki dt e_k; theta_k = theta_{k-1} + (Kp e_k + I_k + w_k) dt
             self.j = ci.add_sat32(self.j, di)
-            theta = ci.add_sat32(ci.add_sat32(ci.add_sat32(self.theta, p), ci.rshr32(self.j, 8)), w)
-        else:
-            # Eq. 3.9: theta_k = theta_{k-1} + (w_k + I_{k-1}) dt + Kp' dt e_k; then I_k
-            theta = ci.add_sat32(ci.add_sat32(ci.add_sat32(self.theta, p), ci.rshr32(self.j, 8)), w)
+        theta = ci.add_sat32(ci.add_sat32(ci.add_sat32(self.theta, p), ci.rshr32(self.j, 8)), w)
+        if self.integrate_first:
             self.j = ci.add_sat32(self.j, di)
         self.theta = theta
