@@ -59,6 +59,7 @@ int imf_multiwii_q_init_consts(imf_multiwii_q_t *const self, const imf_qscale_t 
     int i;
     self->kw = kw;
     self->kc = kc;
+    self->kw16 = imf_gain16(kw, 0, 16);
     self->kc16 = imf_gain16(kc, 15, 15);
     self->k = (int16_t)k;
     self->lo2 = lo2;
@@ -122,7 +123,7 @@ void imf_multiwii_q_update(imf_multiwii_q_t *const self, const int16_t gyr[3], c
     c[1] = imf_cross16(d[2], gyr[0], d[0], gyr[2]);
     c[2] = imf_cross16(d[0], gyr[1], d[1], gyr[0]);
     for (i = 0; i < 3; ++i) {
-        d[i] = imf_add_sat32(d[i], imf_mulk32(c[i], self->kw, 0, 16));
+        d[i] = imf_add_sat32(d[i], imf_gain16_or_mulk32(c[i], self->kw16, self->kw, 0, 16));
     }
     /* step 4: complementary weighting while |accSmooth| is within the window */
     if (n2 > self->lo2 && n2 < self->hi2) {

@@ -63,7 +63,7 @@ typedef struct {
 
 typedef struct {
     imf_qscale_t kw, kc;
-    imf_gain16_t kc16; /* kc in 16 bits (imf_gain16) */
+    imf_gain16_t kw16, kc16; /* kw (rotation), kc as 16-bit gains (imf_gain16) */
     uint32_t lo2, hi2; /* window on |accSmooth|^2, counts^2 */
     int16_t k;         /* ACC_LPF_FACTOR, 0..15 */
     imf_multiwii_q_state_t x;

@@ -117,6 +117,7 @@ class MultiWiiQ(FixedFilter):
     def _init_consts(self, kw, kc, acc_lpf_shift, lo2, hi2, acc_1g_q15):
         self.kw = kw
         self.kc = kc
+        self.kw16 = fs.gain16(kw, 0, 16)
         self.kc16 = fs.gain16(kc, 15, 15)
         self.k = acc_lpf_shift
         self.lo2 = lo2
@@ -153,7 +154,7 @@ class MultiWiiQ(FixedFilter):
              fs.cross16(d[2], gyr[0], d[0], gyr[2]),
              fs.cross16(d[0], gyr[1], d[1], gyr[0])]
         for i in range(3):
-            d[i] = ci.add_sat32(d[i], fs.mulk32(c[i], self.kw, 0, 16))
+            d[i] = ci.add_sat32(d[i], fs.gain16_or_mulk32(c[i], self.kw16, self.kw, 0, 16))
         # step 4: complementary weighting while |accSmooth| is within the window
         if self.lo2 < n2 < self.hi2:
             for i in range(3):
