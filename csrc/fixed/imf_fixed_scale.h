@@ -179,17 +179,26 @@ typedef struct {
 } imf_gain16_t;
 
 
-static inline imf_gain16_t imf_gain16(const imf_qscale_t c, const int K, const int N)
+#if defined(__AVR__) || defined(IMF_SCALE_SHORT)
+IMF_SCALE_OUTLINE /* init only: one small copy */
+#else
+static inline
+#endif
+imf_gain16_t imf_gain16(const imf_qscale_t c, const int K, const int N)
 {
     imf_gain16_t g;
-    const int n = c.s + K - N;
-    if (n < 15) {
-        g.m = 0u;
-        g.j = (int16_t)((n == 14 && c.m == 16384) ? -2 : -1); /* -2: exactly 1 */
+    int d = c.s + K - N - 15;
+    g.m = 0u;
+    g.j = 0;
+    if (d < 0) {
+        g.j = (int16_t)((d == -1 && c.m == 16384) ? -2 : -1); /* -2: exactly 1 */
         return g;
     }
-    g.j = (int16_t)((n - 15) / 8);
-    g.m = (uint16_t)imf_rshrk((int32_t)c.m * 2, n - 15 - 8 * g.j);
+    while (d >= 8) { /* j = (n - 15) / 8, d = n - 15 - 8 j */
+        d -= 8;
+        ++g.j;
+    }
+    g.m = (uint16_t)imf_rshrk((int32_t)c.m * 2, d);
     return g;
 }
 

@@ -98,11 +98,14 @@ def shl_exact32(x: int, k: int) -> int:
 
 def gain16(c: ci.QScale, K: int, N: int) -> tuple[int, int]:
     """imf_gain16: (m, j), c 2^(N-K) ~= m 2^-(16 + 8 j); j = -2: exactly 1, -1: above."""
-    n = c.s + K - N
-    if n < 15:
-        return 0, (-2 if n == 14 and c.m == 16384 else -1)  # -2: exactly 1
-    j = (n - 15) // 8
-    return rshrk(c.m * 2, n - 15 - 8 * j), j
+    d = c.s + K - N - 15
+    if d < 0:
+        return 0, (-2 if d == -1 and c.m == 16384 else -1)  # -2: exactly 1
+    j = 0
+    while d >= 8:  # j = (n - 15) / 8, d = n - 15 - 8 j
+        d -= 8
+        j += 1
+    return rshrk(c.m * 2, d), j
 
 
 def gain16_mul(x: int, g: tuple[int, int]) -> int:
