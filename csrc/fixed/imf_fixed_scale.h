@@ -1,25 +1,32 @@
 /*
- * imf_fixed_scale.h -- the products of the single-axis and gravity-vector
- * fixed-point filters (filters_1d_q.c, gravity_q.c) with a q-scale
- * constant, shaped for 8-bit cores.  Mirrored by
- * python/imufuse/reference/fixed_scale.py.
+ * imf_fixed_scale.h -- the arithmetic of the single-axis and gravity-vector
+ * fixed-point filters (filters_1d_q.c, gravity_q.c), shaped for 8-bit
+ * cores.  Mirrored by python/imufuse/reference/fixed_scale.py (same names
+ * without the imf_ prefix).  docs/fixed-point.md, "Single-axis and
+ * gravity-vector filters on AVR", gives the cost and accuracy of each.
  *
- * imf_mulk16 and imf_mulk32 return exactly the values of imf_scale16 and
- * imf_scale32 (imf_fixed.h): x c 2^N (or x c 2^(N-K)) rounded to nearest,
- * ties up, saturated to int32; off AVR they are those functions.  On AVR
+ * Same values as imf_fixed.h: imf_mulk16, imf_mulk32, imf_mul32x16k,
+ * imf_rshrk, imf_shl_satk return exactly what imf_scale16, imf_scale32,
+ * imf_mul_32x16, imf_rshr32, imf_shl_sat32 return (rounded to nearest,
+ * ties up, saturated to int32); off AVR they are those functions.  On AVR
  * they get there in small code, because imf_fixed.h's general shifts,
  * inlined, made these filters' updates several KB:
  *   - the common shift (a rounding right shift by 1..31 after the product)
  *     is one out-of-line function, imf_rshr32_avr: byte moves, then at
  *     most 7 single-bit steps;
  *   - every 16x16 partial product is the inline MUL sequence of
- *     imf_mul16 / imf_mulu16 (no __mulsi3, no __usmulhisi3);
+ *     imf_mul16 / imf_mulu16 / imf_mul16su (no __mulsi3);
  *   - the rare shifts (saturating left shifts, a 32x16 product whose shift
  *     is below 16) take a short out-of-line path.
  * Defining IMF_SCALE_SHORT selects the AVR code on any target: the host
- * test (tests/test_fixed_core.py) compares it with imf_scale16 /
- * imf_scale32 over every shift; the emulated ATmega328P runs of
+ * test tests/test_fixed_scale.py compares it with the imf_fixed.h helpers
+ * over every shift; the emulated ATmega328P runs of
  * tests/test_mcu_filters.py compare the filters bit for bit.
+ *
+ * Own values: imf_gain16 / imf_gain16_mul (a gain rounded at init to 16
+ * bits with a byte-aligned shift), imf_cross16 (a cross-product component
+ * rounded once), imf_invsqrt16_u32 / imf_unit_xy_k (the accelerometer
+ * direction), imf_shl_exact32, imf_mul16su-based helpers below.
  */
 #ifndef IMF_FIXED_SCALE_H
 #define IMF_FIXED_SCALE_H
