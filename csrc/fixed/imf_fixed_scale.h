@@ -26,7 +26,7 @@
  * Own values: imf_gain16 / imf_gain16_mul (a gain rounded at init to 16
  * bits with a byte-aligned shift), imf_cross16 (a cross-product component
  * rounded once), imf_invsqrt16_u32 / imf_unit_xy_k (the accelerometer
- * direction), imf_shl_exact32, imf_mul16su-based helpers below.
+ * direction), imf_shl_exact32 (a left shift known not to saturate).
  */
 #ifndef IMF_FIXED_SCALE_H
 #define IMF_FIXED_SCALE_H
