@@ -72,9 +72,9 @@ int imf_multiwii_q_init_consts(imf_multiwii_q_t *const self, const imf_qscale_t 
         || kw.m == 0 || !imf_qscale_ok(kw, 16, 62) || !imf_qscale_ok(kc, 14, 47)) {
         return -1;
     }
-    /* start level: d = accSmooth = (0, 0, acc_1g); accLPF32 = acc_1g 2^k, rounded */
+    /* start level: d = accSmooth = (0, 0, acc_1g) */
     self->x.d[2] = acc_1g_q15;
-    self->x.l[2] = imf_rshrk(acc_1g_q15, 15 - k);
+    self->x.l[2] = acc_1g_q15;
     return 0;
 }
 
@@ -102,19 +102,16 @@ void imf_multiwii_q_update(imf_multiwii_q_t *const self, const int16_t gyr[3], c
     int32_t *const d = self->x.d;
     int32_t *const l = self->x.l;
     const int k = self->k;
-    int32_t c[3], s[3];
+    int32_t c[3];
     uint32_t n2 = 0u;
     int16_t sc;
     int i;
-    /* accelerometer LPF: accLPF32 -= accLPF32 >> k (rounded); += acc */
+    /* accelerometer LPF, MultiWii's accLPF32 -= accLPF32 >> k; += acc divided by
+     * 2^k: accSmooth += (acc - accSmooth) / 2^k, in q15 counts (rounded) */
     for (i = 0; i < 3; ++i) {
-        int32_t t;
-        l[i] = imf_add_sat32(imf_sub_sat32(l[i], imf_rshrk(l[i], k)), acc[i]);
-        t = imf_rshrk(l[i], k); /* accSmooth, counts */
-        /* accSmooth, q15 counts (exact): |t| < 32767 bounds |l| 2^(15-k) by 2^30 */
-        s[i] = (t > -32767 && t < 32767) ? imf_shl_exact32(l[i], 15 - k) : imf_shl_satk(l[i], 15 - k);
-        sc = imf_sat_q15(t);
-        n2 += (uint32_t)imf_mul16(sc, sc); /* three squares <= 2^30: no wrap */
+        l[i] = imf_add_sat32(l[i], imf_rshrk(imf_sub_sat32(imf_i16_to_q15(acc[i]), l[i]), k));
+        sc = imf_sat_q15(imf_rshr32(l[i], 15)); /* accSmooth, counts */
+        n2 += (uint32_t)imf_mul16(sc, sc);     /* three squares <= 2^30: no wrap */
     }
     /* step 3: d_n = d_{n-1} + d_{n-1} x w dt; the cross product d x w first,
      * in half acc counts x gyro counts (d q15 x counts / 2^16, each component
@@ -129,7 +126,7 @@ void imf_multiwii_q_update(imf_multiwii_q_t *const self, const int16_t gyr[3], c
     if (n2 > self->lo2 && n2 < self->hi2) {
         for (i = 0; i < 3; ++i) {
             /* (d F + s)/(F + 1) = d + (s - d)/(F + 1) */
-            d[i] = imf_add_sat32(d[i], imf_gain16_or_mulk32(imf_sub_sat32(s[i], d[i]), self->kc16, self->kc, 15, 15));
+            d[i] = imf_add_sat32(d[i], imf_gain16_or_mulk32(imf_sub_sat32(l[i], d[i]), self->kc16, self->kc, 15, 15));
         }
     }
 }

@@ -19,14 +19,15 @@
  *   byte-aligned shift (imf_gain16, docs/fixed-point.md).
  *
  * MultiWiiQ (appendix "MultiWii 2.2"; twin of MultiWii, csrc/multiwii.h):
- *   accelerometer LPF  L = L - L/2^k + a (accLPF32, rounded shift: no
- *                      truncation bias), accSmooth = L / 2^k
+ *   accelerometer LPF  MultiWii's L = L - L/2^k + a (accLPF32), divided by
+ *                      2^k: accSmooth += (a - accSmooth)/2^k (rounded
+ *                      shift: no truncation bias), in q15 counts
  *   rotation           d_n = d + d x w dt (d from before the step; each
  *                      component of d x w rounded once, imf_cross16)
  *   complementary      d = (d F + s) / (F + 1) = d + (s - d)/(F + 1) while
  *                      (1 - window) acc_1g < |accSmooth| < (1 + window) acc_1g
- *   State: d[3] in q15 acc counts, l[3] = L in q(k) acc counts (accSmooth
- *   2^k, as MultiWii's accLPF32).  Constants: kw = gyr_scale dt,
+ *   State: d[3] in q15 acc counts, l[3] = accSmooth in q15 acc counts
+ *   (MultiWii's accLPF32 / 2^k).  Constants: kw = gyr_scale dt,
  *   kc = 1/(F+1) (in the update as a 16-bit gain, imf_gain16), the window
  *   on |accSmooth|^2 in counts^2, k <= 15.
  */
@@ -58,7 +59,7 @@ void imf_kk_q_update(imf_kk_q_t *self, const int16_t gyr[3], const int16_t acc[3
 
 typedef struct {
     int32_t d[3]; /* q15 acc counts */
-    int32_t l[3]; /* accLPF32: q(k) acc counts */
+    int32_t l[3]; /* accSmooth (accLPF32 / 2^k): q15 acc counts */
 } imf_multiwii_q_state_t;
 
 typedef struct {

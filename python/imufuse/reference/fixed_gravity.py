@@ -75,9 +75,9 @@ class KKQ(FixedFilter):
 class MultiWiiQ(FixedFilter):
     """MultiWii 2.2 gravity-vector filter (appendix) in integer arithmetic;
     twin of MultiWii (same keywords; acc_1g in counts, required). State d
-    (q15 acc counts) and the accelerometer LPF accumulator l (accLPF32, q(k)
-    counts); state_float gives both in acc counts, like the float twin fed
-    with counts."""
+    (q15 acc counts) and the accelerometer LPF l (accSmooth = accLPF32 / 2^k,
+    q15 counts); state_float gives both in acc counts, like the float twin
+    fed with counts."""
     kind = "imu"
     c_name = "imf_multiwii_q"
     state_names = ("dx", "dy", "dz", "ax", "ay", "az")
@@ -122,9 +122,9 @@ class MultiWiiQ(FixedFilter):
         self.k = acc_lpf_shift
         self.lo2 = lo2
         self.hi2 = hi2
-        # start level: d = accSmooth = (0, 0, acc_1g); accLPF32 = acc_1g 2^k, rounded
+        # start level: d = accSmooth = (0, 0, acc_1g)
         self.d = [0, 0, acc_1g_q15]
-        self.l = [0, 0, fs.rshrk(acc_1g_q15, 15 - self.k)]
+        self.l = [0, 0, acc_1g_q15]
 
     def _get_state(self):
         return self.d + self.l
@@ -133,19 +133,16 @@ class MultiWiiQ(FixedFilter):
         self.d, self.l = list(v[:3]), list(v[3:])
 
     def _state_float(self, s):
-        return [v * 2.0 ** -15 for v in s[:3]] + [v * 2.0 ** -self.k for v in s[3:]]
+        return [v * 2.0 ** -15 for v in s]
 
     def _update(self, gyr, acc):
         d, l, k = self.d, self.l, self.k
-        s = [0, 0, 0]
         n2 = 0
-        # accelerometer LPF: accLPF32 -= accLPF32 >> k (rounded); += acc
+        # accelerometer LPF, MultiWii's accLPF32 -= accLPF32 >> k; += acc divided by
+        # 2^k: accSmooth += (acc - accSmooth) / 2^k, in q15 counts (rounded)
         for i in range(3):
-            l[i] = ci.add_sat32(ci.sub_sat32(l[i], fs.rshrk(l[i], k)), acc[i])
-            t = fs.rshrk(l[i], k)
-            # accSmooth, q15 counts (exact): |t| < 32767 bounds |l| 2^(15-k) by 2^30
-            s[i] = fs.shl_exact32(l[i], 15 - k) if -32767 < t < 32767 else fs.shl_satk(l[i], 15 - k)
-            sc = ci.sat_q15(t)
+            l[i] = ci.add_sat32(l[i], fs.rshrk(ci.sub_sat32(fs.i16_to_q15(acc[i]), l[i]), k))
+            sc = ci.sat_q15(ci.rshr32(l[i], 15))
             n2 += sc * sc
         # step 3: d_n = d_{n-1} + d_{n-1} x w dt; the cross product d x w first,
         # in half acc counts x gyro counts (d q15 x counts / 2^16, each component
@@ -158,4 +155,4 @@ class MultiWiiQ(FixedFilter):
         # step 4: complementary weighting while |accSmooth| is within the window
         if self.lo2 < n2 < self.hi2:
             for i in range(3):
-                d[i] = ci.add_sat32(d[i], fs.gain16_or_mulk32(ci.sub_sat32(s[i], d[i]), self.kc16, self.kc, 15, 15))
+                d[i] = ci.add_sat32(d[i], fs.gain16_or_mulk32(ci.sub_sat32(l[i], d[i]), self.kc16, self.kc, 15, 15))
