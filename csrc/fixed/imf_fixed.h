@@ -673,7 +673,7 @@ IMF_AVR_OUTLINE uint16_t imf_invsqrt_u32(uint32_t x, int *const shift)
  * balance the error) and one Newton step, three unsigned 16x16->32
  * products, no loop.  Used where only a direction matters (accelerometer,
  * Madgwick's delta-s), so the error scales a gain by at most 0.12 %. */
-static inline uint16_t imf_invsqrt8_u32(uint32_t x, int *const e)
+IMF_AVR_OUTLINE uint16_t imf_invsqrt8_u32(uint32_t x, int *const e)
 {
 #if defined(__AVR__)
     uint16_t u, y, y2, w, d;

@@ -311,21 +311,69 @@ IMF_Q_OUTLINE void imf_q_normalise(int32_t q[4])
     }
 }
 
+/* 8-bit profile, the rare full normalisation of step 8 (imf_q_snapshot_norm_p8)
+ * in 16-bit operations, to the precision the next updates need: q is
+ * block-scaled by 2^-k (floor) or 2^k until its largest component is in
+ * [2^14, 2^15) (-32768 clamped to -32767), so |b|^2 is in [2^28, 2^32) for
+ * the short inverse square root imf_invsqrt8_u32 (relative error < 1.2e-3);
+ * then q30 = b y 2^(e-1), exact for e = 1, rounded for e = 0.  |q|^2 - 1
+ * after it is below 2.5e-3, inside the band of the first-order step, which
+ * removes it over the next updates; the direction is kept to b's 15 bits.
+ * A zero quaternion (possible only from a state set by hand) resets to
+ * the identity. */
+IMF_Q_OUTLINE void imf_q_normalise_p8(int32_t q[4])
+{
+    int16_t b[4];
+    uint32_t m = 0u, n2 = 0u;
+    uint16_t y;
+    int e, i;
+    for (i = 0; i < 4; ++i) {
+        m |= (q[i] < 0) ? 0u - (uint32_t)q[i] : (uint32_t)q[i]; /* top bit of the max */
+    }
+    if (m == 0u) {
+        q[0] = IMF_Q30_ONE;
+        q[1] = q[2] = q[3] = 0;
+        return;
+    }
+    while (m >= 32768u) {
+        m >>= 1;
+        for (i = 0; i < 4; ++i) {
+            q[i] >>= 1; /* floor */
+        }
+    }
+    while (m < 16384u) {
+        m <<= 1;
+        for (i = 0; i < 4; ++i) {
+            q[i] += q[i]; /* |q| < 2^14: no overflow */
+        }
+    }
+    for (i = 0; i < 4; ++i) {
+        b[i] = (int16_t)(q[i] < -32767 ? -32767 : q[i]);
+        n2 += (uint32_t)imf_mul16(b[i], b[i]); /* each < 2^30: no wrap */
+    }
+    y = imf_invsqrt8_u32(n2, &e); /* 1/|b| ~= y 2^(e-31) */
+    for (i = 0; i < 4; ++i) {
+        /* |b| < 2^15, y < 2^16: the product fits int32 */
+        const int32_t p = imf_mul16su(b[i], y);
+        q[i] = e ? p : imf_rshr32(p, 1);
+    }
+}
+
 /* 8-bit profile, step 8 folded into the next update (no second snapshot):
  * at the start of an update, the q15 snapshot qs of q and d = |q|^2 - 1 in
  * q22 (int16, imf_q_norm2); while |d| < 2^-8 (every ordinary update: a step leaves
  * |q|^2 - 1 ~ |h|^2) the update's own step is q += dq - q d / 2
  * (imf_q_add_step_p8), a first-order normalisation one sample late (|q|^2 - 1
  * stays of the order of |h|^2 + rounding).  Otherwise (a state set by hand,
- * a rotation above 0.06 rad per sample) q is first fully normalised (as in
- * the 32-bit profile) and d = 0. */
+ * a rotation above 0.06 rad per sample) q is first normalised
+ * (imf_q_normalise_p8) and d = 0. */
 static inline int16_t imf_q_snapshot_norm_p8(int32_t q[4], int16_t qs[4])
 {
     uint32_t n2;
     imf_q_snapshot(q, qs);
     n2 = imf_q_norm2(q, qs);
     if (n2 <= 1069547520u || n2 >= 1077936128u) { /* 2^30 -+ 2^22 */
-        imf_q_normalise(q);
+        imf_q_normalise_p8(q);
         imf_q_snapshot(q, qs);
         return 0;
     }
