@@ -256,10 +256,15 @@ IMF_Q_OUTLINE uint32_t imf_q_norm2(const int32_t q[4], const int16_t qs[4])
     }
     n2 = 0u;
 #else
-    if (qs[0] > -32767 && qs[0] < 32767 && qs[1] > -32767 && qs[1] < 32767 && qs[2] > -32767
-        && qs[2] < 32767 && qs[3] > -32767 && qs[3] < 32767) {
-        return (uint32_t)imf_mul16(qs[0], qs[0]) + (uint32_t)imf_mul16(qs[1], qs[1])
-             + (uint32_t)imf_mul16(qs[2], qs[2]) + (uint32_t)imf_mul16(qs[3], qs[3]);
+    {
+        /* the same test on the squares: qs in [-32767, 32767], so qs is +-32767
+         * iff its square is 32767^2 = 2^30 - 2^16 + 1, the only one that
+         * reaches 2^30 with 2^16 - 1 added */
+        const uint32_t p0 = (uint32_t)imf_mul16(qs[0], qs[0]), p1 = (uint32_t)imf_mul16(qs[1], qs[1]);
+        const uint32_t p2 = (uint32_t)imf_mul16(qs[2], qs[2]), p3 = (uint32_t)imf_mul16(qs[3], qs[3]);
+        if ((((p0 + 65535u) | (p1 + 65535u) | (p2 + 65535u) | (p3 + 65535u)) >> 30) == 0u) {
+            return p0 + p1 + p2 + p3;
+        }
     }
 #endif
     for (i = 0; i < 4; ++i) {
