@@ -570,7 +570,7 @@ static inline int32_t imf_mul16su(const int16_t a, const uint16_t b)
 
 /* x * g, rounded to nearest, saturated: one 16x16->32 multiply and (on the
  * fast path) a shift by 16 taken from the high word. */
-static inline int32_t imf_gain8_mul(const int16_t x, const imf_gain8_t g)
+IMF_AVR_OUTLINE int32_t imf_gain8_mul(const int16_t x, const imf_gain8_t g)
 {
     const int32_t p = imf_mul16su(x, g.m);
     if (g.n == 16) {
@@ -584,6 +584,13 @@ static inline int32_t imf_gain8_mul(const int16_t x, const imf_gain8_t g)
 IMF_AVR_OUTLINE void imf_gain8_mul3(const int16_t x[3], const imf_gain8_t g, int32_t y[3])
 {
     int i;
+#if defined(__AVR__)
+    /* AVR: three calls of the out-of-line imf_gain8_mul (flash; the callers
+     * take this only for gains outside their fast case) */
+    for (i = 0; i < 3; ++i) {
+        y[i] = imf_gain8_mul(x[i], g);
+    }
+#else
     if (g.n == 16) {
         for (i = 0; i < 3; ++i) {
             y[i] = imf_rshr32(imf_mul16su(x[i], g.m), 16);
@@ -593,6 +600,7 @@ IMF_AVR_OUTLINE void imf_gain8_mul3(const int16_t x[3], const imf_gain8_t g, int
             y[i] = imf_rshift_sat32_ool(imf_mul16su(x[i], g.m), g.n);
         }
     }
+#endif
 }
 
 /* ---- square roots -------------------------------------------------- */
