@@ -45,6 +45,14 @@ static inline int imf_q_profile_ok(const int profile)
 #define IMF_Q_OUTLINE static inline
 #endif
 
+/* Out of line on every target: a rarely taken step (its inlined copy
+ * costs the usual path registers). */
+#if defined(__GNUC__)
+#define IMF_Q_NOINLINE __attribute__((noinline, unused))
+#else
+#define IMF_Q_NOINLINE
+#endif
+
 /* q30 quaternion -> symmetric q15 snapshot. */
 static inline void imf_q_snapshot(const int32_t q[4], int16_t qs[4])
 {
@@ -318,20 +326,20 @@ IMF_Q_OUTLINE void imf_q_normalise(int32_t q[4])
 
 /* 8-bit profile, the rare full normalisation of step 8 (imf_q_snapshot_norm_p8)
  * in 16-bit operations, to the precision the next updates need: q is
- * block-scaled by 2^-k (floor) or 2^k until its largest component is in
- * [2^14, 2^15) (-32768 clamped to -32767), so |b|^2 is in [2^28, 2^32) for
+ * block-scaled by 2^-k (rounded, saturated to symmetric q15) so that its
+ * largest component is in [2^14, 2^15], so |b|^2 is in [2^28, 2^32) for
  * the short inverse square root imf_invsqrt8_u32 (relative error < 1.2e-3);
  * then q30 = b y 2^(e-1), exact for e = 1, rounded for e = 0.  |q|^2 - 1
  * after it is below 2.5e-3, inside the band of the first-order step, which
  * removes it over the next updates; the direction is kept to b's 15 bits.
  * A zero quaternion (possible only from a state set by hand) resets to
  * the identity. */
-IMF_Q_OUTLINE void imf_q_normalise_p8(int32_t q[4])
+static IMF_Q_NOINLINE void imf_q_normalise_p8(int32_t q[4])
 {
     int16_t b[4];
     uint32_t m = 0u, n2 = 0u;
     uint16_t y;
-    int e, i;
+    int k = 0, e, i;
     for (i = 0; i < 4; ++i) {
         m |= (q[i] < 0) ? 0u - (uint32_t)q[i] : (uint32_t)q[i]; /* top bit of the max */
     }
@@ -342,18 +350,16 @@ IMF_Q_OUTLINE void imf_q_normalise_p8(int32_t q[4])
     }
     while (m >= 32768u) {
         m >>= 1;
-        for (i = 0; i < 4; ++i) {
-            q[i] >>= 1; /* floor */
-        }
+        ++k;
     }
     while (m < 16384u) {
         m <<= 1;
-        for (i = 0; i < 4; ++i) {
-            q[i] += q[i]; /* |q| < 2^14: no overflow */
-        }
+        --k;
     }
     for (i = 0; i < 4; ++i) {
-        b[i] = (int16_t)(q[i] < -32767 ? -32767 : q[i]);
+        /* q 2^-k rounded (the largest in [2^14, 2^15], saturated to 32767;
+         * k < 0: exact) */
+        b[i] = imf_sat_q15s(imf_rshift_sat32_ool(q[i], k));
         n2 += (uint32_t)imf_mul16(b[i], b[i]); /* each < 2^30: no wrap */
     }
     y = imf_invsqrt8_u32(n2, &e); /* 1/|b| ~= y 2^(e-31) */

@@ -104,21 +104,21 @@ def norm2(q, qs):
 
 def normalise_p8(q):
     """imf_q_normalise_p8: the rare full normalisation of the 8-bit profile, in
-    16-bit operations: q block-scaled to [2^14, 2^15), the short inverse square
+    16-bit operations: q block-scaled to [2^14, 2^15], the short inverse square
     root, q30 = b y 2^(e-1)."""
-    t = list(q)
     m = 0
-    for v in t:
+    for v in q:
         m |= abs(v)  # top bit of the max
     if m == 0:
         return [Q30_ONE, 0, 0, 0]
+    k = 0
     while m >= 32768:
         m >>= 1
-        t = [v >> 1 for v in t]  # floor
+        k += 1
     while m < 16384:
         m <<= 1
-        t = [v + v for v in t]
-    b = [max(v, -32767) for v in t]
+        k -= 1
+    b = [ci.sat_q15s(ci.rshift_sat32(v, k)) for v in q]
     n2 = sum(v * v for v in b)
     y, e = ci.invsqrt8_u32(n2)  # 1/|b| ~= y 2^(e-31)
     return [check(v * y) if e else ci.rshr32(check(v * y), 1) for v in b]
