@@ -579,30 +579,6 @@ IMF_AVR_OUTLINE int32_t imf_gain8_mul(const int16_t x, const imf_gain8_t g)
     return imf_rshift_sat32_ool(p, g.n);
 }
 
-/* y[i] = x[i] * g for three int16 values (the 8-bit profile's gyro
- * conversion): the shift test once for the vector. */
-IMF_AVR_OUTLINE void imf_gain8_mul3(const int16_t x[3], const imf_gain8_t g, int32_t y[3])
-{
-    int i;
-#if defined(__AVR__)
-    /* AVR: three calls of the out-of-line imf_gain8_mul (flash; the callers
-     * take this only for gains outside their fast case) */
-    for (i = 0; i < 3; ++i) {
-        y[i] = imf_gain8_mul(x[i], g);
-    }
-#else
-    if (g.n == 16) {
-        for (i = 0; i < 3; ++i) {
-            y[i] = imf_rshr32(imf_mul16su(x[i], g.m), 16);
-        }
-    } else {
-        for (i = 0; i < 3; ++i) {
-            y[i] = imf_rshift_sat32_ool(imf_mul16su(x[i], g.m), g.n);
-        }
-    }
-#endif
-}
-
 /* ---- square roots -------------------------------------------------- */
 
 /* Integer square root: floor(sqrt(x)) for any uint32 x.  Bit by bit,

@@ -357,9 +357,9 @@ static IMF_Q_NOINLINE void imf_q_normalise_p8(int32_t q[4])
         --k;
     }
     for (i = 0; i < 4; ++i) {
-        /* q 2^-k rounded (the largest in [2^14, 2^15], saturated to 32767;
-         * k < 0: exact) */
-        b[i] = imf_sat_q15s(imf_rshift_sat32_ool(q[i], k));
+        /* q 2^-k rounded (the largest in [2^14, 2^15], saturated to 32767);
+         * k < 0: exact, |q 2^-k| < 2^15 (imf_rshift_sat32's value) */
+        b[i] = imf_sat_q15s(k >= 0 ? imf_rshr32(q[i], k) : (int32_t)((uint32_t)q[i] << -k));
         n2 += (uint32_t)imf_mul16(b[i], b[i]); /* each < 2^30: no wrap */
     }
     y = imf_invsqrt8_u32(n2, &e); /* 1/|b| ~= y 2^(e-31) */
