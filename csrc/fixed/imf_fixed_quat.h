@@ -253,21 +253,13 @@ IMF_Q_OUTLINE uint32_t imf_q_norm2(const int32_t q[4], const int16_t qs[4])
     uint16_t u;
     int i;
     /* the usual case, every component from qs: four squares < 2^30 each,
-     * the sum < 2^32 needs no saturation (the same value); a loop on AVR
-     * (flash), unrolled elsewhere */
-#if defined(__AVR__)
-    for (i = 0; i < 4 && qs[i] > -32767 && qs[i] < 32767; ++i) {
-        n2 += (uint32_t)imf_mul16(qs[i], qs[i]);
-    }
-    if (i == 4) {
-        return n2;
-    }
-    n2 = 0u;
-#else
+     * the sum < 2^32 needs no saturation (the same value as the loop below).
+     * Not on AVR, where the loop below alone is the smaller code (flash) */
+#if !defined(__AVR__)
     {
-        /* the same test on the squares: qs in [-32767, 32767], so qs is +-32767
-         * iff its square is 32767^2 = 2^30 - 2^16 + 1, the only one that
-         * reaches 2^30 with 2^16 - 1 added */
+        /* the test for +-32767 on the squares: qs in [-32767, 32767], so qs
+         * is +-32767 iff its square is 32767^2 = 2^30 - 2^16 + 1, the only
+         * one that reaches 2^30 with 2^16 - 1 added */
         const uint32_t p0 = (uint32_t)imf_mul16(qs[0], qs[0]), p1 = (uint32_t)imf_mul16(qs[1], qs[1]);
         const uint32_t p2 = (uint32_t)imf_mul16(qs[2], qs[2]), p3 = (uint32_t)imf_mul16(qs[3], qs[3]);
         if ((((p0 + 65535u) | (p1 + 65535u) | (p2 + 65535u) | (p3 + 65535u)) >> 30) == 0u) {
