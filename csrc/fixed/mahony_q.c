@@ -179,6 +179,17 @@ void imf_mahony_imu_q_update_p8(imf_mahony_imu_q_t *const self, const int16_t gy
     if (self->fast8) {
         /* steps 2-6 on h in q(31+hs), then h to q(15+hs) with the remainder
          * carried */
+#if defined(__AVR__)
+        /* loops on AVR (flash), unrolled elsewhere */
+        int i;
+        for (i = 0; i < 3; ++i) {
+            h[i] = imf_mul16su(gyr[i], m);
+        }
+        imf_mahony_imu_q_feedback_p8(self, qs, acc, h);
+        for (i = 0; i < 3; ++i) {
+            h[i] = imf_q_carry_p8(h[i], &c[i]);
+        }
+#else
         h[0] = imf_mul16su(gyr[0], m);
         h[1] = imf_mul16su(gyr[1], m);
         h[2] = imf_mul16su(gyr[2], m);
@@ -186,6 +197,7 @@ void imf_mahony_imu_q_update_p8(imf_mahony_imu_q_t *const self, const int16_t gy
         h[0] = imf_q_carry_p8(h[0], &c[0]);
         h[1] = imf_q_carry_p8(h[1], &c[1]);
         h[2] = imf_q_carry_p8(h[2], &c[2]);
+#endif
     } else {
         /* h rounded to q(15+hs); steps 2-6 add Kp e and I rounded */
 #if defined(__AVR__)
