@@ -7,6 +7,7 @@
 int imf_madgwick_imu_q_init_consts(imf_madgwick_imu_q_t *const self, const imf_qscale_t kg,
                                    const imf_qscale_t kb, const int profile)
 {
+    int i;
     self->kg = kg;
     self->kb = kb;
     self->hs = imf_q_rate_exponent(kg);
@@ -20,8 +21,9 @@ int imf_madgwick_imu_q_init_consts(imf_madgwick_imu_q_t *const self, const imf_q
     }
     self->profile = (int16_t)(profile == 8 ? 8 : 32);
     self->x.q[0] = IMF_Q30_ONE;
-    self->x.q[1] = self->x.q[2] = self->x.q[3] = 0;
-    self->x.c[0] = self->x.c[1] = self->x.c[2] = 0;
+    for (i = 0; i < 3; ++i) {
+        self->x.q[i + 1] = self->x.c[i] = 0;
+    }
     if (kg.m == 0 || !imf_qscale_ok(kg, 31, 61) || !imf_qscale_ok(kb, 16, 46)
         || !imf_q_profile_ok(profile)) {
         return -1;

@@ -7,6 +7,7 @@
 int imf_mahony_imu_q_init_consts(imf_mahony_imu_q_t *const self, const imf_qscale_t kg,
                                  const imf_qscale_t kp, const imf_qscale_t ki, const int profile)
 {
+    int i;
     self->kg = kg;
     self->kp = kp;
     self->ki = ki;
@@ -26,9 +27,9 @@ int imf_mahony_imu_q_init_consts(imf_mahony_imu_q_t *const self, const imf_qscal
     }
     self->profile = (int16_t)(profile == 8 ? 8 : 32);
     self->x.q[0] = IMF_Q30_ONE;
-    self->x.q[1] = self->x.q[2] = self->x.q[3] = 0;
-    self->x.i[0] = self->x.i[1] = self->x.i[2] = 0;
-    self->x.c[0] = self->x.c[1] = self->x.c[2] = 0;
+    for (i = 0; i < 3; ++i) {
+        self->x.q[i + 1] = self->x.i[i] = self->x.c[i] = 0;
+    }
     /* kg: gyro full scale below 0.25 rad half angle per sample (s >= 31);
      * kp, ki: shifts of imf_scale16/32 in range */
     if (kg.m == 0 || !imf_qscale_ok(kg, 31, 61) || !imf_qscale_ok(kp, 16, 47)
