@@ -570,29 +570,13 @@ static inline int32_t imf_mul16su(const int16_t a, const uint16_t b)
 
 /* x * g, rounded to nearest, saturated: one 16x16->32 multiply and (on the
  * fast path) a shift by 16 taken from the high word. */
-static inline int32_t imf_gain8_mul(const int16_t x, const imf_gain8_t g)
+IMF_AVR_OUTLINE int32_t imf_gain8_mul(const int16_t x, const imf_gain8_t g)
 {
     const int32_t p = imf_mul16su(x, g.m);
     if (g.n == 16) {
         return imf_rshr32(p, 16);
     }
     return imf_rshift_sat32_ool(p, g.n);
-}
-
-/* y[i] = x[i] * g for three int16 values (the 8-bit profile's gyro
- * conversion): the shift test once for the vector. */
-IMF_AVR_OUTLINE void imf_gain8_mul3(const int16_t x[3], const imf_gain8_t g, int32_t y[3])
-{
-    int i;
-    if (g.n == 16) {
-        for (i = 0; i < 3; ++i) {
-            y[i] = imf_rshr32(imf_mul16su(x[i], g.m), 16);
-        }
-    } else {
-        for (i = 0; i < 3; ++i) {
-            y[i] = imf_rshift_sat32_ool(imf_mul16su(x[i], g.m), g.n);
-        }
-    }
 }
 
 /* ---- square roots -------------------------------------------------- */
@@ -673,7 +657,7 @@ IMF_AVR_OUTLINE uint16_t imf_invsqrt_u32(uint32_t x, int *const shift)
  * balance the error) and one Newton step, three unsigned 16x16->32
  * products, no loop.  Used where only a direction matters (accelerometer,
  * Madgwick's delta-s), so the error scales a gain by at most 0.12 %. */
-static inline uint16_t imf_invsqrt8_u32(uint32_t x, int *const e)
+IMF_AVR_OUTLINE uint16_t imf_invsqrt8_u32(uint32_t x, int *const e)
 {
 #if defined(__AVR__)
     uint16_t u, y, y2, w, d;

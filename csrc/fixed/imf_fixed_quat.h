@@ -45,6 +45,14 @@ static inline int imf_q_profile_ok(const int profile)
 #define IMF_Q_OUTLINE static inline
 #endif
 
+/* Out of line on every target: a rarely taken step (its inlined copy
+ * costs the usual path registers). */
+#if defined(__GNUC__)
+#define IMF_Q_NOINLINE __attribute__((noinline, unused))
+#else
+#define IMF_Q_NOINLINE
+#endif
+
 /* q30 quaternion -> symmetric q15 snapshot. */
 static inline void imf_q_snapshot(const int32_t q[4], int16_t qs[4])
 {
@@ -245,21 +253,18 @@ IMF_Q_OUTLINE uint32_t imf_q_norm2(const int32_t q[4], const int16_t qs[4])
     uint16_t u;
     int i;
     /* the usual case, every component from qs: four squares < 2^30 each,
-     * the sum < 2^32 needs no saturation (the same value); a loop on AVR
-     * (flash), unrolled elsewhere */
-#if defined(__AVR__)
-    for (i = 0; i < 4 && qs[i] > -32767 && qs[i] < 32767; ++i) {
-        n2 += (uint32_t)imf_mul16(qs[i], qs[i]);
-    }
-    if (i == 4) {
-        return n2;
-    }
-    n2 = 0u;
-#else
-    if (qs[0] > -32767 && qs[0] < 32767 && qs[1] > -32767 && qs[1] < 32767 && qs[2] > -32767
-        && qs[2] < 32767 && qs[3] > -32767 && qs[3] < 32767) {
-        return (uint32_t)imf_mul16(qs[0], qs[0]) + (uint32_t)imf_mul16(qs[1], qs[1])
-             + (uint32_t)imf_mul16(qs[2], qs[2]) + (uint32_t)imf_mul16(qs[3], qs[3]);
+     * the sum < 2^32 needs no saturation (the same value as the loop below).
+     * Not on AVR, where the loop below alone is the smaller code (flash) */
+#if !defined(__AVR__)
+    {
+        /* the test for +-32767 on the squares: qs in [-32767, 32767], so qs
+         * is +-32767 iff its square is 32767^2 = 2^30 - 2^16 + 1, the only
+         * one that reaches 2^30 with 2^16 - 1 added */
+        const uint32_t p0 = (uint32_t)imf_mul16(qs[0], qs[0]), p1 = (uint32_t)imf_mul16(qs[1], qs[1]);
+        const uint32_t p2 = (uint32_t)imf_mul16(qs[2], qs[2]), p3 = (uint32_t)imf_mul16(qs[3], qs[3]);
+        if ((((p0 + 65535u) | (p1 + 65535u) | (p2 + 65535u) | (p3 + 65535u)) >> 30) == 0u) {
+            return p0 + p1 + p2 + p3;
+        }
     }
 #endif
     for (i = 0; i < 4; ++i) {
@@ -311,21 +316,67 @@ IMF_Q_OUTLINE void imf_q_normalise(int32_t q[4])
     }
 }
 
+/* 8-bit profile, the rare full normalisation of step 8 (imf_q_snapshot_norm_p8)
+ * in 16-bit operations, to the precision the next updates need: q is
+ * block-scaled by 2^-k (rounded, saturated to symmetric q15) so that its
+ * largest component is in [2^14, 2^15], so |b|^2 is in [2^28, 2^32) for
+ * the short inverse square root imf_invsqrt8_u32 (relative error < 1.2e-3);
+ * then q30 = b y 2^(e-1), exact for e = 1, rounded for e = 0.  |q|^2 - 1
+ * after it is below 2.5e-3, inside the band of the first-order step, which
+ * removes it over the next updates; the direction is kept to b's 15 bits.
+ * A zero quaternion (possible only from a state set by hand) resets to
+ * the identity. */
+static IMF_Q_NOINLINE void imf_q_normalise_p8(int32_t q[4])
+{
+    int16_t b[4];
+    uint32_t m = 0u, n2 = 0u;
+    uint16_t y;
+    int k = 0, e, i;
+    for (i = 0; i < 4; ++i) {
+        m |= (q[i] < 0) ? 0u - (uint32_t)q[i] : (uint32_t)q[i]; /* top bit of the max */
+    }
+    if (m == 0u) {
+        q[0] = IMF_Q30_ONE;
+        q[1] = q[2] = q[3] = 0;
+        return;
+    }
+    while (m >= 32768u) {
+        m >>= 1;
+        ++k;
+    }
+    while (m < 16384u) {
+        m <<= 1;
+        --k;
+    }
+    for (i = 0; i < 4; ++i) {
+        /* q 2^-k rounded (the largest in [2^14, 2^15], saturated to 32767);
+         * k < 0: exact, |q 2^-k| < 2^15 (imf_rshift_sat32's value) */
+        b[i] = imf_sat_q15s(k >= 0 ? imf_rshr32(q[i], k) : (int32_t)((uint32_t)q[i] << -k));
+        n2 += (uint32_t)imf_mul16(b[i], b[i]); /* each < 2^30: no wrap */
+    }
+    y = imf_invsqrt8_u32(n2, &e); /* 1/|b| ~= y 2^(e-31) */
+    for (i = 0; i < 4; ++i) {
+        /* |b| < 2^15, y < 2^16: the product fits int32 */
+        const int32_t p = imf_mul16su(b[i], y);
+        q[i] = e ? p : imf_rshr32(p, 1);
+    }
+}
+
 /* 8-bit profile, step 8 folded into the next update (no second snapshot):
  * at the start of an update, the q15 snapshot qs of q and d = |q|^2 - 1 in
  * q22 (int16, imf_q_norm2); while |d| < 2^-8 (every ordinary update: a step leaves
  * |q|^2 - 1 ~ |h|^2) the update's own step is q += dq - q d / 2
  * (imf_q_add_step_p8), a first-order normalisation one sample late (|q|^2 - 1
  * stays of the order of |h|^2 + rounding).  Otherwise (a state set by hand,
- * a rotation above 0.06 rad per sample) q is first fully normalised (as in
- * the 32-bit profile) and d = 0. */
+ * a rotation above 0.06 rad per sample) q is first normalised
+ * (imf_q_normalise_p8) and d = 0. */
 static inline int16_t imf_q_snapshot_norm_p8(int32_t q[4], int16_t qs[4])
 {
     uint32_t n2;
     imf_q_snapshot(q, qs);
     n2 = imf_q_norm2(q, qs);
     if (n2 <= 1069547520u || n2 >= 1077936128u) { /* 2^30 -+ 2^22 */
-        imf_q_normalise(q);
+        imf_q_normalise_p8(q);
         imf_q_snapshot(q, qs);
         return 0;
     }

@@ -7,6 +7,7 @@
 int imf_madgwick_imu_q_init_consts(imf_madgwick_imu_q_t *const self, const imf_qscale_t kg,
                                    const imf_qscale_t kb, const int profile)
 {
+    int i;
     self->kg = kg;
     self->kb = kb;
     self->hs = imf_q_rate_exponent(kg);
@@ -20,8 +21,9 @@ int imf_madgwick_imu_q_init_consts(imf_madgwick_imu_q_t *const self, const imf_q
     }
     self->profile = (int16_t)(profile == 8 ? 8 : 32);
     self->x.q[0] = IMF_Q30_ONE;
-    self->x.q[1] = self->x.q[2] = self->x.q[3] = 0;
-    self->x.c[0] = self->x.c[1] = self->x.c[2] = 0;
+    for (i = 0; i < 3; ++i) {
+        self->x.q[i + 1] = self->x.c[i] = 0;
+    }
     if (kg.m == 0 || !imf_qscale_ok(kg, 31, 61) || !imf_qscale_ok(kb, 16, 46)
         || !imf_q_profile_ok(profile)) {
         return -1;
@@ -214,20 +216,18 @@ void imf_madgwick_imu_q_update_p8(imf_madgwick_imu_q_t *const self, const int16_
                                 const int16_t acc[3])
 {
     int32_t *const q = self->x.q;
+    int32_t *const c = self->x.c;
+    const uint16_t m = self->kg8.m;
     int32_t h[3], dq[4];
     int16_t qs[4], d16;
     d16 = imf_q_snapshot_norm_p8(q, qs);
-    /* step 3: h = 0.5 w dt in q(15+hs), with the remainder carried when kg8
-     * has the shift 16 (the product is then in q(31+hs)) */
-    if (self->kg8.n == 16) {
-        const uint16_t m = self->kg8.m;
-        int32_t *const c = self->x.c;
-        h[0] = imf_q_carry_p8(imf_mul16su(gyr[0], m), &c[0]);
-        h[1] = imf_q_carry_p8(imf_mul16su(gyr[1], m), &c[1]);
-        h[2] = imf_q_carry_p8(imf_mul16su(gyr[2], m), &c[2]);
-    } else {
-        imf_gain8_mul3(gyr, self->kg8, h);
-    }
+    /* step 3: h = 0.5 w dt in q(15+hs), from the product in q(31+hs) with
+     * the remainder carried: kg8 has the shift 16 for every kg init accepts
+     * (kg.s in [31, 61], hs = kg.s - 31 clamped to [0, 15], so
+     * kg.s - 15 - hs >= 16) */
+    h[0] = imf_q_carry_p8(imf_mul16su(gyr[0], m), &c[0]);
+    h[1] = imf_q_carry_p8(imf_mul16su(gyr[1], m), &c[1]);
+    h[2] = imf_q_carry_p8(imf_mul16su(gyr[2], m), &c[2]);
     imf_q_rate_p8(qs, h, self->hs, dq);
     imf_madgwick_imu_q_correct_p8(self, qs, acc, dq);
     imf_q_add_step_p8(q, dq, qs, d16);

@@ -7,6 +7,7 @@
 int imf_mahony_imu_q_init_consts(imf_mahony_imu_q_t *const self, const imf_qscale_t kg,
                                  const imf_qscale_t kp, const imf_qscale_t ki, const int profile)
 {
+    int i;
     self->kg = kg;
     self->kp = kp;
     self->ki = ki;
@@ -26,9 +27,9 @@ int imf_mahony_imu_q_init_consts(imf_mahony_imu_q_t *const self, const imf_qscal
     }
     self->profile = (int16_t)(profile == 8 ? 8 : 32);
     self->x.q[0] = IMF_Q30_ONE;
-    self->x.q[1] = self->x.q[2] = self->x.q[3] = 0;
-    self->x.i[0] = self->x.i[1] = self->x.i[2] = 0;
-    self->x.c[0] = self->x.c[1] = self->x.c[2] = 0;
+    for (i = 0; i < 3; ++i) {
+        self->x.q[i + 1] = self->x.i[i] = self->x.c[i] = 0;
+    }
     /* kg: gyro full scale below 0.25 rad half angle per sample (s >= 31);
      * kp, ki: shifts of imf_scale16/32 in range */
     if (kg.m == 0 || !imf_qscale_ok(kg, 31, 61) || !imf_qscale_ok(kp, 16, 47)
@@ -168,14 +169,28 @@ void imf_mahony_imu_q_update_p8(imf_mahony_imu_q_t *const self, const int16_t gy
                               const int16_t acc[3])
 {
     int32_t *const q = self->x.q;
+    int32_t *const c = self->x.c;
+    const uint16_t m = self->kg8.m;
     int32_t h[3], dq[4];
     int16_t qs[4], d16;
     d16 = imf_q_snapshot_norm_p8(q, qs);
+    /* step 1: kg8 has the shift 16 for every kg init accepts (kg.s in
+     * [31, 61], hs = kg.s - 31 clamped to [0, 15], so kg.s - 15 - hs >= 16):
+     * gyr m is h in q(31+hs) */
     if (self->fast8) {
-        /* step 1 in q(31+hs) (kg8 has the shift 16), steps 2-6, then h to
-         * q(15+hs) with the remainder carried */
-        const uint16_t m = self->kg8.m;
-        int32_t *const c = self->x.c;
+        /* steps 2-6 on h in q(31+hs), then h to q(15+hs) with the remainder
+         * carried */
+#if defined(__AVR__)
+        /* loops on AVR (flash), unrolled elsewhere */
+        int i;
+        for (i = 0; i < 3; ++i) {
+            h[i] = imf_mul16su(gyr[i], m);
+        }
+        imf_mahony_imu_q_feedback_p8(self, qs, acc, h);
+        for (i = 0; i < 3; ++i) {
+            h[i] = imf_q_carry_p8(h[i], &c[i]);
+        }
+#else
         h[0] = imf_mul16su(gyr[0], m);
         h[1] = imf_mul16su(gyr[1], m);
         h[2] = imf_mul16su(gyr[2], m);
@@ -183,9 +198,19 @@ void imf_mahony_imu_q_update_p8(imf_mahony_imu_q_t *const self, const int16_t gy
         h[0] = imf_q_carry_p8(h[0], &c[0]);
         h[1] = imf_q_carry_p8(h[1], &c[1]);
         h[2] = imf_q_carry_p8(h[2], &c[2]);
+#endif
     } else {
-        /* step 1 in q(15+hs), rounded; steps 2-6 add Kp e and I rounded */
-        imf_gain8_mul3(gyr, self->kg8, h);
+        /* h rounded to q(15+hs); steps 2-6 add Kp e and I rounded */
+#if defined(__AVR__)
+        int i;
+        for (i = 0; i < 3; ++i) {
+            h[i] = imf_gain8_mul(gyr[i], self->kg8); /* the same value, out of line (flash) */
+        }
+#else
+        h[0] = imf_rshr32(imf_mul16su(gyr[0], m), 16);
+        h[1] = imf_rshr32(imf_mul16su(gyr[1], m), 16);
+        h[2] = imf_rshr32(imf_mul16su(gyr[2], m), 16);
+#endif
         imf_mahony_imu_q_feedback_p8(self, qs, acc, h);
     }
     /* step 7 */

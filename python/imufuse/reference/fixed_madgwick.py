@@ -150,12 +150,11 @@ class MadgwickIMUQ(FixedFilter):
 
     def _update_p8(self, gyr, acc):
         self.q, qs, d16 = fq.snapshot_norm_p8(self.q)
-        # step 3: h = 0.5 w dt in q(15+hs), with the remainder carried when kg8
-        # has the shift 16 (the product is then in q(31+hs))
-        if self.kg8[1] == 16:
-            h = [fq.carry_p8(gyr[i] * self.kg8[0], self.c, i) for i in range(3)]
-        else:
-            h = [ci.gain8_mul(g, self.kg8) for g in gyr]
+        # step 3: h = 0.5 w dt in q(15+hs), from the product in q(31+hs) with
+        # the remainder carried: kg8 has the shift 16 for every kg init accepts
+        # (kg.s in [31, 61], hs = kg.s - 31 clamped to [0, 15], so
+        # kg.s - 15 - hs >= 16)
+        h = [fq.carry_p8(gyr[i] * self.kg8[0], self.c, i) for i in range(3)]
         dq = fq.rate_p8(qs, h, self.hs)
         self._correct_p8(qs, acc, dq)
         self.q = fq.add_step_p8(self.q, dq, qs, d16)

@@ -142,15 +142,18 @@ class MahonyIMUQ(FixedFilter):
 
     def _update_p8(self, gyr, acc):
         self.q, qs, d16 = fq.snapshot_norm_p8(self.q)
+        # step 1: kg8 has the shift 16 for every kg init accepts (kg.s in
+        # [31, 61], hs = kg.s - 31 clamped to [0, 15], so kg.s - 15 - hs >= 16):
+        # gyr m is h in q(31+hs)
         if self.fast8:
-            # step 1 in q(31+hs) (kg8 has the shift 16), steps 2-6, then h to
-            # q(15+hs) with the remainder carried
+            # steps 2-6 on h in q(31+hs), then h to q(15+hs) with the remainder
+            # carried
             h = [g * self.kg8[0] for g in gyr]
             self._feedback_p8(qs, acc, h)
             h = [fq.carry_p8(h[i], self.c, i) for i in range(3)]
         else:
-            # step 1 in q(15+hs), rounded; steps 2-6 add Kp e and I rounded
-            h = [ci.gain8_mul(g, self.kg8) for g in gyr]
+            # h rounded to q(15+hs); steps 2-6 add Kp e and I rounded
+            h = [ci.rshr32(g * self.kg8[0], 16) for g in gyr]
             self._feedback_p8(qs, acc, h)
         # step 7
         dq = fq.rate_p8(qs, h, self.hs)

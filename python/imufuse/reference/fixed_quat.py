@@ -102,12 +102,35 @@ def norm2(q, qs):
     return n2
 
 
+def normalise_p8(q):
+    """imf_q_normalise_p8: the rare full normalisation of the 8-bit profile, in
+    16-bit operations: q block-scaled to [2^14, 2^15], the short inverse square
+    root, q30 = b y 2^(e-1)."""
+    m = 0
+    for v in q:
+        m |= abs(v)  # top bit of the max
+    if m == 0:
+        return [Q30_ONE, 0, 0, 0]
+    k = 0
+    while m >= 32768:
+        m >>= 1
+        k += 1
+    while m < 16384:
+        m <<= 1
+        k -= 1
+    b = [ci.sat_q15s(ci.rshift_sat32(v, k)) for v in q]
+    n2 = sum(v * v for v in b)
+    y, e = ci.invsqrt8_u32(n2)  # 1/|b| ~= y 2^(e-31)
+    return [check(v * y) if e else ci.rshr32(check(v * y), 1) for v in b]
+
+
 def snapshot_norm_p8(q):
-    """imf_q_snapshot_norm_p8: (q, qs, d16); q fully normalised when far from 1."""
+    """imf_q_snapshot_norm_p8: (q, qs, d16); q normalised (normalise_p8) when far
+    from 1."""
     qs = snapshot(q)
     n2 = norm2(q, qs)
     if n2 <= 1069547520 or n2 >= 1077936128:
-        q = normalise(q)
+        q = normalise_p8(q)
         return q, snapshot(q), 0
     return q, qs, ci.rshr32(n2 - Q30_ONE, 8)
 
