@@ -239,7 +239,20 @@ static inline
 int32_t imf_gain16_above(const int32_t x, const imf_gain16_t g, const imf_qscale_t c, const int K,
                          const int N)
 {
+#if defined(__AVR__) || defined(IMF_SCALE_SHORT)
+    /* imf_mulk32's value; its shift c.s + K - N is below 15 here (g.j < 0)
+     * and not negative (the callers' init checks): imf_mul32x16k's tail for
+     * n < 16 only */
+    int32_t lo;
+    if (g.j == -2) {
+        return x;
+    }
+    lo = imf_mul16su(c.m, (uint16_t)((uint32_t)x & 0xFFFFu));
+    return imf_mulk_low_avr(imf_mul16((int16_t)(x >> 16), c.m) + (lo >> 16), (uint16_t)lo,
+                            c.s + K - N);
+#else
     return (g.j == -2) ? x : imf_mulk32(x, c, K, N);
+#endif
 }
 
 /* x c 2^(N-K) by the 16-bit gain g = imf_gain16(c, K, N) when it has one
