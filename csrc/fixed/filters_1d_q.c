@@ -85,15 +85,12 @@ void imf_mahony1d_bias_q_update(imf_mahony1d_bias_q_t *const self, const int16_t
     const int32_t w = imf_mulk16(rate, self->kr, 15);  /* w dt, q15 counts */
     const int32_t p = imf_gain16_or_mulk32(e, self->kp16, self->kp, 15, 15); /* Kp dt e, q15 counts */
     const int32_t di = imf_gain16_or_mulk32(e, self->ki16, self->ki, 15, 23); /* Ki dt^2 e, q23 */
-    int32_t theta;
-    /* Eq. 3.6: I_k = I_{k-1} + Ki dt e_k first; theta_k = theta_{k-1} + (Kp e_k + I_k + w_k) dt.
-     * Eq. 3.9 (integrate_first): theta_k = theta_{k-1} + (w_k + I_{k-1}) dt + Kp' dt e_k; then I_k */
-    if (!self->integrate_first) {
-        x->j = imf_add_sat32(x->j, di);
-    }
-    theta = imf_add_sat32(imf_add_sat32(imf_add_sat32(x->theta, p), imf_rshr32(x->j, 8)), w);
-    if (self->integrate_first) {
-        x->j = imf_add_sat32(x->j, di);
-    }
-    x->theta = theta;
+    /* I_k = I_{k-1} + Ki dt e_k */
+    const int32_t j = imf_add_sat32(x->j, di);
+    /* Eq. 3.6: theta_k = theta_{k-1} + (Kp e_k + I_k + w_k) dt.
+     * Eq. 3.9 (integrate_first): theta_k = theta_{k-1} + (w_k + I_{k-1}) dt + Kp' dt e_k
+     * (one angle step for both: only the I term it adds differs) */
+    const int32_t jt = self->integrate_first ? x->j : j;
+    x->theta = imf_add_sat32(imf_add_sat32(imf_add_sat32(x->theta, p), imf_rshr32(jt, 8)), w);
+    x->j = j;
 }

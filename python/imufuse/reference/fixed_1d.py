@@ -118,11 +118,11 @@ class Mahony1DBiasQ(FixedFilter):
         w = fs.mulk16(rate, self.kr, 15)
         p = fs.gain16_or_mulk32(e, self.kp16, self.kp, 15, 15)
         di = fs.gain16_or_mulk32(e, self.ki16, self.ki, 15, 23)
-        # Eq. 3.6: I_k = I_{k-1} + Ki dt e_k first; theta_k = theta_{k-1} + (Kp e_k + I_k + w_k) dt.
-        # Eq. 3.9 (integrate_first): theta_k = theta_{k-1} + (w_k + I_{k-1}) dt + Kp' dt e_k; then I_k
-        if not self.integrate_first:
-            self.j = ci.add_sat32(self.j, di)
-        theta = ci.add_sat32(ci.add_sat32(ci.add_sat32(self.theta, p), ci.rshr32(self.j, 8)), w)
-        if self.integrate_first:
-            self.j = ci.add_sat32(self.j, di)
-        self.theta = theta
+        # I_k = I_{k-1} + Ki dt e_k
+        j = ci.add_sat32(self.j, di)
+        # Eq. 3.6: theta_k = theta_{k-1} + (Kp e_k + I_k + w_k) dt.
+        # Eq. 3.9 (integrate_first): theta_k = theta_{k-1} + (w_k + I_{k-1}) dt + Kp' dt e_k
+        # (one angle step for both: only the I term it adds differs)
+        jt = self.j if self.integrate_first else j
+        self.theta = ci.add_sat32(ci.add_sat32(ci.add_sat32(self.theta, p), ci.rshr32(jt, 8)), w)
+        self.j = j
