@@ -116,9 +116,7 @@ void imf_multiwii_q_update(imf_multiwii_q_t *const self, const int16_t gyr[3], c
     /* step 3: d_n = d_{n-1} + d_{n-1} x w dt; the cross product d x w first,
      * in half acc counts x gyro counts (d q15 x counts / 2^16, each component
      * rounded once), then x kw -> q15 */
-    c[0] = imf_cross16(d[1], gyr[2], d[2], gyr[1]);
-    c[1] = imf_cross16(d[2], gyr[0], d[0], gyr[2]);
-    c[2] = imf_cross16(d[0], gyr[1], d[1], gyr[0]);
+    imf_cross3_16(d, gyr, c);
     for (i = 0; i < 3; ++i) {
         d[i] = imf_add_sat32(d[i], imf_gain16_or_mulk32(c[i], self->kw16, self->kw, 0, 16));
     }

@@ -365,6 +365,26 @@ static inline int32_t imf_cross16(const int32_t a1, const int16_t b1, const int3
     return imf_sub_sat32(h1 + r, h2);
 }
 
+/* The cross product c = a x b of an int32 vector a and an int16 vector b,
+ * each component imf_cross16 (round((a1 b1 - a2 b2) / 2^16), saturated).
+ * On AVR one copy of the code in a loop (the three inline copies were
+ * 540 bytes); elsewhere straight-line (a loop costs the Cortex-M0 ~50
+ * instructions).  Same values either way. */
+static inline void imf_cross3_16(const int32_t a[3], const int16_t b[3], int32_t c[3])
+{
+#if defined(__AVR__) || defined(IMF_SCALE_SHORT)
+    int i;
+    for (i = 0; i < 3; ++i) { /* (i1, i2) = (i + 1, i + 2) mod 3 */
+        const int i1 = (i == 2) ? 0 : i + 1, i2 = (i == 0) ? 2 : i - 1;
+        c[i] = imf_cross16(a[i1], b[i2], a[i2], b[i1]);
+    }
+#else
+    c[0] = imf_cross16(a[1], b[2], a[2], b[1]);
+    c[1] = imf_cross16(a[2], b[0], a[0], b[2]);
+    c[2] = imf_cross16(a[0], b[1], a[1], b[0]);
+#endif
+}
+
 /* x 2^k for |x| 2^k < 2^31, k in [0, 31] (no saturation needed): the shift
  * of the magnitude (imf_lsl32: bytes, then bits). */
 static inline int32_t imf_shl_exact32(const int32_t x, const int k)

@@ -147,9 +147,7 @@ class MultiWiiQ(FixedFilter):
         # step 3: d_n = d_{n-1} + d_{n-1} x w dt; the cross product d x w first,
         # in half acc counts x gyro counts (d q15 x counts / 2^16, each component
         # rounded once), then x kw -> q15
-        c = [fs.cross16(d[1], gyr[2], d[2], gyr[1]),
-             fs.cross16(d[2], gyr[0], d[0], gyr[2]),
-             fs.cross16(d[0], gyr[1], d[1], gyr[0])]
+        c = fs.cross3_16(d, gyr)
         for i in range(3):
             d[i] = ci.add_sat32(d[i], fs.gain16_or_mulk32(c[i], self.kw16, self.kw, 0, 16))
         # step 4: complementary weighting while |accSmooth| is within the window

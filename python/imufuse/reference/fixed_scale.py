@@ -91,6 +91,12 @@ def cross16(a1: int, b1: int, a2: int, b2: int) -> int:
     return ci.sub_sat32(h1 + r, h2)
 
 
+def cross3_16(a, b) -> list:
+    """imf_cross3_16: the cross product a x b, each component cross16."""
+    return [cross16(a[(i + 1) % 3], b[(i + 2) % 3], a[(i + 2) % 3], b[(i + 1) % 3])
+            for i in range(3)]
+
+
 def shl_exact32(x: int, k: int) -> int:
     """imf_shl_exact32: x 2^k for |x| 2^k < 2^31."""
     return ci.check32(x * (1 << k))
