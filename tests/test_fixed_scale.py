@@ -125,6 +125,20 @@ def test_cross16_is_the_rounded_saturated_difference():
         assert fs.cross16(a1, b1, a2, b2) == max(ci.INT32_MIN, min(ci.INT32_MAX, exact))
 
 
+def test_cross3_16_is_the_cross_product_rounded_per_component():
+    """cross3_16 (the twin of imf_cross3_16: a loop on AVR, straight-line elsewhere; the
+    filters' AVR and host runs compare the C forms bit for bit) = a x b, each component
+    round(/ 2^16) saturated."""
+    import random
+    rnd = random.Random(5)
+    for _ in range(2000):
+        a = [rnd.choice((rnd.randint(ci.INT32_MIN, ci.INT32_MAX), rnd.choice(EDGE32))) for _ in range(3)]
+        b = [rnd.choice((rnd.randint(-32768, 32767), rnd.choice(EDGE16))) for _ in range(3)]
+        exact = [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+        want = [max(ci.INT32_MIN, min(ci.INT32_MAX, (e + 32768) >> 16)) for e in exact]
+        assert fs.cross3_16(a, b) == want, (a, b)
+
+
 def test_shl_exact32_in_its_range():
     cases = [("shl_exact32", x, 0, k) for k in range(31) for x in
              (0, 1, -1, (1 << (30 - k)) - 1, -(1 << (30 - k)), 12345 >> min(k, 13), -(12345 >> min(k, 13)))]
