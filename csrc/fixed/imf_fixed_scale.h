@@ -194,18 +194,14 @@ static inline
 imf_gain16_t imf_gain16(const imf_qscale_t c, const int K, const int N)
 {
     imf_gain16_t g;
-    int d = c.s + K - N - 15;
+    const int d = c.s + K - N - 15;
     g.m = 0u;
-    g.j = 0;
     if (d < 0) {
         g.j = (int16_t)((d == -1 && c.m == 16384) ? -2 : -1); /* -2: exactly 1 */
         return g;
     }
-    while (d >= 8) { /* j = (n - 15) / 8, d = n - 15 - 8 j */
-        d -= 8;
-        ++g.j;
-    }
-    g.m = (uint16_t)imf_rshrk((int32_t)c.m * 2, d);
+    g.j = (int16_t)(d / 8); /* j = (n - 15) / 8, d - 8 j = n - 15 - 8 j */
+    g.m = (uint16_t)imf_rshrk((int32_t)c.m * 2, d % 8);
     return g;
 }
 

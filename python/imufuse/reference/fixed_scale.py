@@ -107,11 +107,8 @@ def gain16(c: ci.QScale, K: int, N: int) -> tuple[int, int]:
     d = c.s + K - N - 15
     if d < 0:
         return 0, (-2 if d == -1 and c.m == 16384 else -1)  # -2: exactly 1
-    j = 0
-    while d >= 8:  # j = (n - 15) / 8, d = n - 15 - 8 j
-        d -= 8
-        j += 1
-    return rshrk(c.m * 2, d), j
+    j = d // 8  # j = (n - 15) / 8, d - 8 j = n - 15 - 8 j
+    return rshrk(c.m * 2, d % 8), j
 
 
 def gain16_mul(x: int, g: tuple[int, int]) -> int:
