@@ -32,20 +32,21 @@ void imf_kk_q_update(imf_kk_q_t *const self, const int16_t gyr[3], const int16_t
 {
     int32_t *const t = self->x.t;
     int16_t a[2];
+    int32_t cr, cp, pitch, roll;
     /* the state as q15 rad, operand of the yaw cross terms */
     const int16_t p15 = imf_qn_to_q15s(t[0], 28), r15 = imf_qn_to_q15s(t[1], 28);
     /* roll w_z dt and pitch w_z dt: (q15 x counts) x kw -> q28 */
-    const int32_t cr = imf_gain16_or_mulk32(imf_mul16(r15, gyr[2]), self->kwc16, self->kw, 15, 28);
-    const int32_t cp = imf_gain16_or_mulk32(imf_mul16(p15, gyr[2]), self->kwc16, self->kw, 15, 28);
+    IMF_GAIN16_OR_MULK32_2(cr, imf_mul16(r15, gyr[2]), cp, imf_mul16(p15, gyr[2]), self->kwc16,
+                           self->kw, 15, 28);
     /* Eq. 4.5, gyro path: (w_y - roll w_z) dt, (w_x + pitch w_z) dt, q28 */
-    int32_t pitch = imf_sub_sat32(imf_add_sat32(t[0], imf_mulk16(gyr[1], self->kw, 28)), cr);
-    int32_t roll = imf_add_sat32(imf_add_sat32(t[1], imf_mulk16(gyr[0], self->kw, 28)), cp);
+    pitch = imf_sub_sat32(imf_add_sat32(t[0], imf_mulk16(gyr[1], self->kw, 28)), cr);
+    roll = imf_add_sat32(imf_add_sat32(t[1], imf_mulk16(gyr[0], self->kw, 28)), cp);
     if (imf_unit_xy_k(acc, a)) {
         /* a_pitch = -a_x/|a|, a_roll = a_y/|a| (symmetric q15 -> q28 exactly);
          * P controller Kp (a - theta_{n-1}) */
         const int32_t ap = -imf_mul16(a[0], 8192), ar = imf_mul16(a[1], 8192);
-        pitch = imf_add_sat32(pitch, imf_gain16_or_mulk32(imf_sub_sat32(ap, t[0]), self->kp16, self->kp, 28, 28));
-        roll = imf_add_sat32(roll, imf_gain16_or_mulk32(imf_sub_sat32(ar, t[1]), self->kp16, self->kp, 28, 28));
+        IMF_ADD_GAIN16_OR_MULK32_2(pitch, imf_sub_sat32(ap, t[0]), roll, imf_sub_sat32(ar, t[1]),
+                                   self->kp16, self->kp, 28, 28);
     }
     t[0] = pitch;
     t[1] = roll;

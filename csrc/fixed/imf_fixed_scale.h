@@ -262,6 +262,44 @@ static inline int32_t imf_gain16_or_mulk32(const int32_t x, const imf_gain16_t g
     return imf_gain16_above(x, g, c, K, N);
 }
 
+/* y0 = imf_gain16_or_mulk32(x0, g, c, K, N); y1 = the same of x1 (KKQ's pitch
+ * and roll), and the same added to a0, a1 (imf_add_sat32): on AVR one copy
+ * of the code in a loop, elsewhere the two statements as written out (the
+ * Cortex-M0 pays for a loop and for holding x0 and x1 at once).  Same values
+ * either way. */
+#if defined(__AVR__) || defined(IMF_SCALE_SHORT)
+#define IMF_GAIN16_OR_MULK32_2(y0, x0, y1, x1, g, c, K, N)                    \
+    do {                                                                      \
+        int32_t imf_x_[2];                                                    \
+        int imf_i_;                                                           \
+        imf_x_[0] = (x0);                                                     \
+        imf_x_[1] = (x1);                                                     \
+        for (imf_i_ = 0; imf_i_ < 2; ++imf_i_) {                              \
+            imf_x_[imf_i_] = imf_gain16_or_mulk32(imf_x_[imf_i_], g, c, K, N); \
+        }                                                                     \
+        (y0) = imf_x_[0];                                                     \
+        (y1) = imf_x_[1];                                                     \
+    } while (0)
+#define IMF_ADD_GAIN16_OR_MULK32_2(a0, x0, a1, x1, g, c, K, N)               \
+    do {                                                                      \
+        int32_t imf_y0_, imf_y1_;                                             \
+        IMF_GAIN16_OR_MULK32_2(imf_y0_, x0, imf_y1_, x1, g, c, K, N);         \
+        (a0) = imf_add_sat32((a0), imf_y0_);                                  \
+        (a1) = imf_add_sat32((a1), imf_y1_);                                  \
+    } while (0)
+#else
+#define IMF_GAIN16_OR_MULK32_2(y0, x0, y1, x1, g, c, K, N) \
+    do {                                                   \
+        (y0) = imf_gain16_or_mulk32((x0), g, c, K, N);     \
+        (y1) = imf_gain16_or_mulk32((x1), g, c, K, N);     \
+    } while (0)
+#define IMF_ADD_GAIN16_OR_MULK32_2(a0, x0, a1, x1, g, c, K, N)          \
+    do {                                                                \
+        (a0) = imf_add_sat32((a0), imf_gain16_or_mulk32((x0), g, c, K, N)); \
+        (a1) = imf_add_sat32((a1), imf_gain16_or_mulk32((x1), g, c, K, N)); \
+    } while (0)
+#endif
+
 /* ---- unit vector of raw accelerometer counts (KKQ) -------------------- */
 
 /* 1/sqrt(x) for x in [2^28, 2^32): y (unsigned q15) and *e in {0, 1} with
