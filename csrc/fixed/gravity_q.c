@@ -118,6 +118,32 @@ void imf_multiwii_q_update(imf_multiwii_q_t *const self, const int16_t gyr[3], c
      * in half acc counts x gyro counts (d q15 x counts / 2^16, each component
      * rounded once), then x kw -> q15 */
     imf_cross3_16(d, gyr, c);
+#if defined(__AVR__) || defined(IMF_SCALE_SHORT)
+    /* on AVR steps 3 and 4 as two passes of one loop (one copy of the 16-bit
+     * gain product; the same values as the two loops below) */
+    {
+        const int passes = (n2 > self->lo2 && n2 < self->hi2) ? 2 : 1;
+        imf_gain16_t g = self->kw16;
+        imf_qscale_t q = self->kw;
+        int kq = 0, nq = 16, p = 0;
+        for (;;) {
+            for (i = 0; i < 3; ++i) {
+                d[i] = imf_add_sat32(d[i], imf_gain16_or_mulk32(c[i], g, q, kq, nq));
+            }
+            if (++p == passes) {
+                break;
+            }
+            /* step 4: (d F + s)/(F + 1) = d + (s - d)/(F + 1) */
+            for (i = 0; i < 3; ++i) {
+                c[i] = imf_sub_sat32(l[i], d[i]);
+            }
+            g = self->kc16;
+            q = self->kc;
+            kq = 15;
+            nq = 15;
+        }
+    }
+#else
     for (i = 0; i < 3; ++i) {
         d[i] = imf_add_sat32(d[i], imf_gain16_or_mulk32(c[i], self->kw16, self->kw, 0, 16));
     }
@@ -128,4 +154,5 @@ void imf_multiwii_q_update(imf_multiwii_q_t *const self, const int16_t gyr[3], c
             d[i] = imf_add_sat32(d[i], imf_gain16_or_mulk32(imf_sub_sat32(l[i], d[i]), self->kc16, self->kc, 15, 15));
         }
     }
+#endif
 }

@@ -407,10 +407,11 @@ static inline int32_t imf_cross16(const int32_t a1, const int16_t b1, const int3
 static inline void imf_cross3_16(const int32_t a[3], const int16_t b[3], int32_t c[3])
 {
 #if defined(__AVR__) || defined(IMF_SCALE_SHORT)
-    int i;
+    int i, i1 = 1, i2 = 2;
     for (i = 0; i < 3; ++i) { /* (i1, i2) = (i + 1, i + 2) mod 3 */
-        const int i1 = (i == 2) ? 0 : i + 1, i2 = (i == 0) ? 2 : i - 1;
         c[i] = imf_cross16(a[i1], b[i2], a[i2], b[i1]);
+        i1 = i2;
+        i2 = i;
     }
 #else
     c[0] = imf_cross16(a[1], b[2], a[2], b[1]);
