@@ -14,14 +14,13 @@ static int imf_1d_q_kr_ok(const imf_qscale_t kr)
 int imf_complementary1d_q_init_consts(imf_complementary1d_q_t *const self, const imf_qscale_t kr,
                                       const imf_qscale_t ka)
 {
+    /* checked first: only self and the result live across the gain's call */
+    const int r = (imf_1d_q_kr_ok(kr) && imf_qscale_ok(ka, 14, 47)) ? 0 : -1;
     self->kr = kr;
     self->ka = ka;
-    self->ka16 = imf_gain16(ka, 15, 15);
     self->x.theta = 0;
-    if (!imf_1d_q_kr_ok(kr) || !imf_qscale_ok(ka, 14, 47)) {
-        return -1;
-    }
-    return 0;
+    self->ka16 = imf_gain16(ka, 15, 15);
+    return r;
 }
 
 int imf_complementary1d_q_init(imf_complementary1d_q_t *const self, const double dt,
@@ -49,18 +48,18 @@ int imf_mahony1d_bias_q_init_consts(imf_mahony1d_bias_q_t *const self, const imf
                                     const imf_qscale_t kp, const imf_qscale_t ki,
                                     const int integrate_first)
 {
+    /* checked first, the gains last (as in imf_complementary1d_q_init_consts) */
+    const int r =
+        (imf_1d_q_kr_ok(kr) && imf_qscale_ok(kp, 14, 47) && imf_qscale_ok(ki, 8, 55)) ? 0 : -1;
     self->kr = kr;
     self->kp = kp;
     self->ki = ki;
-    self->kp16 = imf_gain16(kp, 15, 15);
-    self->ki16 = imf_gain16(ki, 15, 23);
     self->integrate_first = (int16_t)(integrate_first != 0);
     self->x.theta = 0;
     self->x.j = 0;
-    if (!imf_1d_q_kr_ok(kr) || !imf_qscale_ok(kp, 14, 47) || !imf_qscale_ok(ki, 8, 55)) {
-        return -1;
-    }
-    return 0;
+    self->kp16 = imf_gain16(kp, 15, 15);
+    self->ki16 = imf_gain16(ki, 15, 23);
+    return r;
 }
 
 int imf_mahony1d_bias_q_init(imf_mahony1d_bias_q_t *const self, const double dt, const double kp,

@@ -195,13 +195,21 @@ imf_gain16_t imf_gain16(const imf_qscale_t c, const int K, const int N)
 {
     imf_gain16_t g;
     const int d = c.s + K - N - 15;
+    unsigned int r, u;
     g.m = 0u;
     if (d < 0) {
         g.j = (int16_t)((d == -1 && c.m == 16384) ? -2 : -1); /* -2: exactly 1 */
         return g;
     }
-    g.j = (int16_t)(d / 8); /* j = (n - 15) / 8, d - 8 j = n - 15 - 8 j */
-    g.m = (uint16_t)imf_rshrk((int32_t)c.m * 2, d % 8);
+    /* j = (n - 15) / 8, r = d - 8 j = n - 15 - 8 j; m = 2 c.m 2^-r rounded
+     * (imf_rshrk's value, in unsigned 16-bit steps: 2 c.m < 2^16) */
+    r = (unsigned int)d % 8u;
+    g.j = (int16_t)((unsigned int)d / 8u);
+    u = (unsigned int)(uint16_t)c.m * 2u;
+    if (r != 0u) {
+        u = ((u >> (r - 1u)) + 1u) >> 1;
+    }
+    g.m = (uint16_t)u;
     return g;
 }
 

@@ -46,8 +46,8 @@ class Complementary1DQ(FixedFilter):
     def _init_consts(self, kr, ka):
         self.kr = kr
         self.ka = ka
-        self.ka16 = fs.gain16(ka, 15, 15)
         self.theta = 0
+        self.ka16 = fs.gain16(ka, 15, 15)
 
     def _get_state(self):
         return [self.theta]
@@ -97,11 +97,11 @@ class Mahony1DBiasQ(FixedFilter):
         self.kr = kr
         self.kp = kp
         self.ki = ki
-        self.kp16 = fs.gain16(kp, 15, 15)
-        self.ki16 = fs.gain16(ki, 15, 23)
         self.integrate_first = integrate_first != 0
         self.theta = 0
         self.j = 0
+        self.kp16 = fs.gain16(kp, 15, 15)
+        self.ki16 = fs.gain16(ki, 15, 23)
 
     def _get_state(self):
         return [self.theta, self.j]
