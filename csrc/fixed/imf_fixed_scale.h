@@ -42,19 +42,17 @@
 #if defined(__AVR__) || defined(IMF_SCALE_SHORT)
 
 /* imf_rshr32's value for n in [1, 31]: floor(floor(x / 2^(n-1)) / 2 + 1/2)
- * = (floor(x / 2^(n-1)) + 1) >> 1 (n = 1 adds the low bit: x = INT32_MAX). */
+ * = (y + 1) >> 1 = (y >> 1) + (y & 1) for y = floor(x / 2^(n-1)) (the
+ * second form without the overflow of y + 1 for y = INT32_MAX). */
 IMF_SCALE_OUTLINE int32_t imf_rshr32_avr(int32_t x, int n)
 {
-    if (n == 1) {
-        return (x >> 1) + (x & 1);
-    }
     n -= 1;
     while (n >= 8) {
         x >>= 8; /* byte moves */
         n -= 8;
     }
     x >>= n; /* at most 7 bit steps */
-    return (x + 1) >> 1;
+    return (x >> 1) + (x & 1);
 }
 
 /* imf_shl_sat32's value, k in [0, 31], by k doublings (the rare left
