@@ -166,5 +166,6 @@ def test_gain16_relative_error():
             continue
         d = sh - 15 - 8 * j
         assert 0 <= d <= 7 and 256 <= gm < 65536
+        assert gm == (2 * m * 2 + (1 << d)) >> (d + 1)  # round(2 m 2^-d), ties up
         rel = abs(gm * 2.0 ** -(16 + 8 * j) / (m * 2.0 ** -sh) - 1.0)
         assert rel == 0.0 if d <= 1 else rel < 2.0 ** (d - 16)

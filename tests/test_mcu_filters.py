@@ -255,6 +255,29 @@ def test_fixed_init_from_double_and_from_constants(toolchains, target):
         assert all(c == 0 for c in codes.values()), codes
 
 
+def test_complementary1d_q_init_consts_checks_the_gain(toolchains):
+    """imf_complementary1d_q_init_consts stores the 16-bit gain ka16 (m, j) as given: it
+    accepts the reference's constants for alpha 0, 1 and in between, and rejects a gain
+    imf_gain16 cannot give for 1 - alpha in [0, 1]."""
+    need(toolchains, "host")
+    from imufuse.reference import Complementary1DQ
+    good = [Complementary1DQ(0.002, a, gyr_scale=1e-3, angle_scale=1e-4).c_init_args()
+            for a in (0.0, 1.0, 0.5, 0.995, 1.0 - 2.0 ** -30)]
+    kr = good[0]["kr"]
+    bad = [(0, -1), (16384, -1), (1, -2), (0, -3), (300, 5), (255, 0), (1, 4)]
+    cases = [(g["kr"], g["ka16_m"], g["ka16_j"]) for g in good] + [(kr, m, j) for m, j in bad]
+    body = "\n".join(f"imf_r{i} = imf_complementary1d_q_init_consts(&imf_f, (imf_qscale_t){{{k.m}, "
+                     f"{k.s}}}, {m}u, {j});" for i, (k, m, j) in enumerate(cases))
+    pre = '#include "filters_1d_q.h"\nstatic imf_complementary1d_q_t imf_f;\n' + "".join(
+        f"static int32_t imf_r{i};\n" for i in range(len(cases)))
+    drv = mcu.Driver(prelude=pre, step=body, state=[(f"imf_r{i}", "i32") for i in range(len(cases))])
+    res = mcu.run("host", sources=[str(mf.CSRC / "fixed" / "filters_1d_q.c")],
+                  include_dirs=[mf.CSRC, mf.CSRC / "fixed"], driver=drv,
+                  inputs={"k": np.zeros(1, np.int16)})
+    codes = [int(col[0]) for col in res.values()]
+    assert codes == [0] * len(good) + [-1] * len(bad), (cases, codes)
+
+
 # --------------------------------------------------------------------------------------------
 # elementary operations
 

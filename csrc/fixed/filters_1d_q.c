@@ -12,13 +12,18 @@ static int imf_1d_q_kr_ok(const imf_qscale_t kr)
 }
 
 int imf_complementary1d_q_init_consts(imf_complementary1d_q_t *const self, const imf_qscale_t kr,
-                                      const imf_qscale_t ka)
+                                      const uint16_t ka16_m, const int ka16_j)
 {
+    /* ka16 = imf_gain16(1 - alpha, 15, 15), stored as given (no init-time
+     * arithmetic in an integer-initialised firmware): j in [0, 4] with m = 0
+     * (alpha = 1) or m in [2^8, 2^16), or j = -2, m = 0 (alpha = 0, exactly 1) */
     self->kr = kr;
-    self->ka = ka;
-    self->ka16 = imf_gain16(ka, 15, 15);
+    self->ka16.m = ka16_m;
+    self->ka16.j = (int16_t)ka16_j;
     self->x.theta = 0;
-    if (!imf_1d_q_kr_ok(kr) || !imf_qscale_ok(ka, 14, 47)) {
+    if (!imf_1d_q_kr_ok(kr)
+        || !((ka16_j >= 0 && ka16_j <= 4 && (ka16_m == 0u || ka16_m >= 256u))
+             || (ka16_j == -2 && ka16_m == 0u))) {
         return -1;
     }
     return 0;
@@ -27,8 +32,9 @@ int imf_complementary1d_q_init_consts(imf_complementary1d_q_t *const self, const
 int imf_complementary1d_q_init(imf_complementary1d_q_t *const self, const double dt,
                                const double alpha, const double gyr_scale, const double angle_scale)
 {
+    const imf_gain16_t ka16 = imf_gain16(imf_qscale_from_double(1.0 - alpha), 15, 15);
     const int r = imf_complementary1d_q_init_consts(
-        self, imf_qscale_from_double(gyr_scale * dt / angle_scale), imf_qscale_from_double(1.0 - alpha));
+        self, imf_qscale_from_double(gyr_scale * dt / angle_scale), ka16.m, ka16.j);
     if (!(dt > 0.0) || !imf_param_ok(alpha, 0.0, 1.0) || !(gyr_scale > 0.0) || !(angle_scale > 0.0)) {
         return -1;
     }
@@ -49,18 +55,18 @@ int imf_mahony1d_bias_q_init_consts(imf_mahony1d_bias_q_t *const self, const imf
                                     const imf_qscale_t kp, const imf_qscale_t ki,
                                     const int integrate_first)
 {
+    /* checked first, the gains last (as in imf_complementary1d_q_init_consts) */
+    const int r =
+        (imf_1d_q_kr_ok(kr) && imf_qscale_ok(kp, 14, 47) && imf_qscale_ok(ki, 8, 55)) ? 0 : -1;
     self->kr = kr;
     self->kp = kp;
     self->ki = ki;
-    self->kp16 = imf_gain16(kp, 15, 15);
-    self->ki16 = imf_gain16(ki, 15, 23);
     self->integrate_first = (int16_t)(integrate_first != 0);
     self->x.theta = 0;
     self->x.j = 0;
-    if (!imf_1d_q_kr_ok(kr) || !imf_qscale_ok(kp, 14, 47) || !imf_qscale_ok(ki, 8, 55)) {
-        return -1;
-    }
-    return 0;
+    self->kp16 = imf_gain16(kp, 15, 15);
+    self->ki16 = imf_gain16(ki, 15, 23);
+    return r;
 }
 
 int imf_mahony1d_bias_q_init(imf_mahony1d_bias_q_t *const self, const double dt, const double kp,

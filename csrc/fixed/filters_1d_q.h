@@ -32,7 +32,7 @@ typedef struct {
 } imf_complementary1d_q_state_t;
 
 typedef struct {
-    imf_qscale_t kr, ka;
+    imf_qscale_t kr;
     imf_gain16_t ka16; /* ka rounded to 16 bits, byte-aligned shift (imf_gain16) */
     imf_complementary1d_q_state_t x;
 } imf_complementary1d_q_t;
@@ -43,12 +43,13 @@ typedef struct {
  * (avr-gcc) they can differ from a host's; use _init_consts there. */
 int imf_complementary1d_q_init(imf_complementary1d_q_t *self, double dt, double alpha,
                                double gyr_scale, double angle_scale);
-/* The same from the precomputed constants kr, ka (q-scales as above; computed
- * once on a host: imufuse.reference.Complementary1DQ(...).c_init_args()).
- * Integer only, identical on every target.  Returns 0, or -1 if a constant
- * is out of range. */
+/* The same from the precomputed constants kr (q-scale as above) and ka16
+ * (m, j: imf_gain16(ka, 15, 15), the 16-bit gain the update uses), computed
+ * once on a host: imufuse.reference.Complementary1DQ(...).c_init_args().
+ * Integer only, identical on every target, and it only stores them (no
+ * init arithmetic linked).  Returns 0, or -1 if a constant is out of range. */
 int imf_complementary1d_q_init_consts(imf_complementary1d_q_t *self, imf_qscale_t kr,
-                                      imf_qscale_t ka);
+                                      uint16_t ka16_m, int ka16_j);
 /* rate, angle: counts */
 void imf_complementary1d_q_update(imf_complementary1d_q_t *self, int16_t rate, int16_t angle);
 

@@ -42,19 +42,17 @@
 #if defined(__AVR__) || defined(IMF_SCALE_SHORT)
 
 /* imf_rshr32's value for n in [1, 31]: floor(floor(x / 2^(n-1)) / 2 + 1/2)
- * = (floor(x / 2^(n-1)) + 1) >> 1 (n = 1 adds the low bit: x = INT32_MAX). */
+ * = (y + 1) >> 1 = (y >> 1) + (y & 1) for y = floor(x / 2^(n-1)) (the
+ * second form without the overflow of y + 1 for y = INT32_MAX). */
 IMF_SCALE_OUTLINE int32_t imf_rshr32_avr(int32_t x, int n)
 {
-    if (n == 1) {
-        return (x >> 1) + (x & 1);
-    }
     n -= 1;
     while (n >= 8) {
         x >>= 8; /* byte moves */
         n -= 8;
     }
     x >>= n; /* at most 7 bit steps */
-    return (x + 1) >> 1;
+    return (x >> 1) + (x & 1);
 }
 
 /* imf_shl_sat32's value, k in [0, 31], by k doublings (the rare left
@@ -195,13 +193,21 @@ imf_gain16_t imf_gain16(const imf_qscale_t c, const int K, const int N)
 {
     imf_gain16_t g;
     const int d = c.s + K - N - 15;
+    unsigned int r, u;
     g.m = 0u;
     if (d < 0) {
         g.j = (int16_t)((d == -1 && c.m == 16384) ? -2 : -1); /* -2: exactly 1 */
         return g;
     }
-    g.j = (int16_t)(d / 8); /* j = (n - 15) / 8, d - 8 j = n - 15 - 8 j */
-    g.m = (uint16_t)imf_rshrk((int32_t)c.m * 2, d % 8);
+    /* j = (n - 15) / 8, r = d - 8 j = n - 15 - 8 j; m = 2 c.m 2^-r rounded
+     * (imf_rshrk's value, in unsigned 16-bit steps: 2 c.m < 2^16) */
+    r = (unsigned int)d % 8u;
+    g.j = (int16_t)((unsigned int)d / 8u);
+    u = (unsigned int)(uint16_t)c.m * 2u;
+    if (r != 0u) {
+        u = ((u >> (r - 1u)) + 1u) >> 1;
+    }
+    g.m = (uint16_t)u;
     return g;
 }
 

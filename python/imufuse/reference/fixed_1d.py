@@ -37,16 +37,16 @@ class Complementary1DQ(FixedFilter):
     @staticmethod
     def _consts(dt, alpha, gyr_scale, angle_scale, profile):
         # imf_complementary1d_q_init: the constants from the double parameters
-        return dict(kr=ci.qscale(gyr_scale * dt / angle_scale), ka=ci.qscale(1.0 - alpha))
+        ka16 = fs.gain16(ci.qscale(1.0 - alpha), 15, 15)
+        return dict(kr=ci.qscale(gyr_scale * dt / angle_scale), ka16_m=ka16[0], ka16_j=ka16[1])
 
     def _init(self, dt, alpha, gyr_scale, angle_scale, profile):
         self.angle_scale = angle_scale
         self._init_consts(**self._consts(dt, alpha, gyr_scale, angle_scale, profile))
 
-    def _init_consts(self, kr, ka):
+    def _init_consts(self, kr, ka16_m, ka16_j):
         self.kr = kr
-        self.ka = ka
-        self.ka16 = fs.gain16(ka, 15, 15)
+        self.ka16 = (ka16_m, ka16_j)
         self.theta = 0
 
     def _get_state(self):
@@ -97,11 +97,11 @@ class Mahony1DBiasQ(FixedFilter):
         self.kr = kr
         self.kp = kp
         self.ki = ki
-        self.kp16 = fs.gain16(kp, 15, 15)
-        self.ki16 = fs.gain16(ki, 15, 23)
         self.integrate_first = integrate_first != 0
         self.theta = 0
         self.j = 0
+        self.kp16 = fs.gain16(kp, 15, 15)
+        self.ki16 = fs.gain16(ki, 15, 23)
 
     def _get_state(self):
         return [self.theta, self.j]

@@ -107,8 +107,14 @@ def gain16(c: ci.QScale, K: int, N: int) -> tuple[int, int]:
     d = c.s + K - N - 15
     if d < 0:
         return 0, (-2 if d == -1 and c.m == 16384 else -1)  # -2: exactly 1
-    j = d // 8  # j = (n - 15) / 8, d - 8 j = n - 15 - 8 j
-    return rshrk(c.m * 2, d % 8), j
+    # j = (n - 15) / 8, r = d - 8 j = n - 15 - 8 j; m = 2 c.m 2^-r rounded
+    # (rshrk's value, in unsigned 16-bit steps: 2 c.m < 2^16)
+    r = d % 8
+    j = d // 8
+    u = (c.m & 0xFFFF) * 2
+    if r != 0:
+        u = ((u >> (r - 1)) + 1) >> 1
+    return u & 0xFFFF, j
 
 
 def gain16_mul(x: int, g: tuple[int, int]) -> int:
