@@ -4,37 +4,47 @@
 #include "imf_fixed_init.h"
 #include "imf_fixed_quat.h"
 
+/* The 8-bit profile's constants from kg, kp, ki and hs in self (out of
+ * line on AVR: fewer registers held across the calls of init_consts). */
+static IMF_AVR_NOINLINE void imf_mahony_imu_q_init_p8(imf_mahony_imu_q_t *const self)
+{
+    const imf_qscale_t kp = self->kp;
+    const int hs = self->hs;
+    self->kg8 = imf_gain8(self->kg, 15 + hs);
+    self->kp8 = imf_gain8(kp, hs);
+    self->ki8 = imf_gain8(self->ki, 38 - 15);
+    /* kp rounded to q38 for e in q15: imf_gain8's mantissa for the shift
+     * kp.s - 7 >= 15 (kp.m 2, or kp.m rounded by kp.s - 23) */
+    self->kpi = (uint16_t)(kp.s >= 22 ? imf_gain8(kp, 7).m : 0u);
+    self->fast8 = (int16_t)(kp.s >= 22 && self->ki8.n == 16 && self->kg8.n == 16 && hs <= 6);
+}
+
 int imf_mahony_imu_q_init_consts(imf_mahony_imu_q_t *const self, const imf_qscale_t kg,
                                  const imf_qscale_t kp, const imf_qscale_t ki, const int profile)
 {
     int i;
-    self->kg = kg;
-    self->kp = kp;
-    self->ki = ki;
-    self->hs = imf_q_rate_exponent(kg);
-    if (IMF_Q_HAS_P8) {
-        self->kg8 = imf_gain8(kg, 15 + self->hs);
-        self->kp8 = imf_gain8(kp, self->hs);
-        self->ki8 = imf_gain8(ki, 38 - 15);
-        self->kpi = (uint16_t)(kp.s >= 23 ? imf_rshr32(kp.m, kp.s - 23) : (kp.s == 22 ? kp.m * 2 : 0));
-        self->fast8 = (int16_t)(kp.s >= 22 && self->ki8.n == 16 && self->kg8.n == 16
-                                && self->hs <= 6);
-    } else {
-        /* a build without the 8-bit profile (IMF_FIXED_PROFILE 32): its
-         * constants are unused, left zero (no code linked to compute them) */
-        self->kg8.m = self->kp8.m = self->ki8.m = self->kpi = 0u;
-        self->kg8.n = self->kp8.n = self->ki8.n = self->fast8 = 0;
-    }
-    self->profile = (int16_t)(profile == 8 ? 8 : 32);
-    self->x.q[0] = IMF_Q30_ONE;
-    for (i = 0; i < 3; ++i) {
-        self->x.q[i + 1] = self->x.i[i] = self->x.c[i] = 0;
-    }
     /* kg: gyro full scale below 0.25 rad half angle per sample (s >= 31);
      * kp, ki: shifts of imf_scale16/32 in range */
     if (kg.m == 0 || !imf_qscale_ok(kg, 31, 61) || !imf_qscale_ok(kp, 16, 47)
         || !imf_qscale_ok(ki, 8, 54) || !imf_q_profile_ok(profile)) {
         return -1;
+    }
+    self->kg = kg;
+    self->kp = kp;
+    self->ki = ki;
+    self->hs = imf_q_rate_exponent(kg);
+    self->profile = (int16_t)(profile == 8 ? 8 : 32);
+    self->x.q[0] = IMF_Q30_ONE;
+    for (i = 0; i < 3; ++i) {
+        self->x.q[i + 1] = self->x.i[i] = self->x.c[i] = 0;
+    }
+    if (IMF_Q_HAS_P8) {
+        imf_mahony_imu_q_init_p8(self);
+    } else {
+        /* a build without the 8-bit profile (IMF_FIXED_PROFILE 32): its
+         * constants are unused, left zero (no code linked to compute them) */
+        self->kg8.m = self->kp8.m = self->ki8.m = self->kpi = 0u;
+        self->kg8.n = self->kp8.n = self->ki8.n = self->fast8 = 0;
     }
     return 0;
 }
