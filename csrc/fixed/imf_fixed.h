@@ -517,9 +517,28 @@ typedef struct {
     int16_t n;  /* 16, or the general shift c.s - N */
 } imf_gain8_t;
 
-IMF_AVR_OUTLINE int32_t imf_rshift_sat32_ool(const int32_t x, const int n)
+IMF_AVR_OUTLINE int32_t imf_rshift_sat32_ool(int32_t x, int n)
 {
+#if defined(__AVR__)
+    /* the same value in small code: the rare left shift by doublings (x >
+     * (2^31 - 1) / 2 or x < -2^30 before a doubling is exactly the case in
+     * which it leaves int32) */
+    if (n >= 0) {
+        return imf_rshr32_v(x, n);
+    }
+    for (; n < 0; ++n) {
+        if (x > IMF_INT32_MAX / 2) {
+            return IMF_INT32_MAX;
+        }
+        if (x < IMF_INT32_MIN / 2) {
+            return IMF_INT32_MIN;
+        }
+        x += x;
+    }
+    return x;
+#else
     return imf_rshift_sat32(x, n);
+#endif
 }
 
 IMF_AVR_OUTLINE imf_gain8_t imf_gain8(const imf_qscale_t c, const int N)
