@@ -170,7 +170,15 @@ static inline int imf_q_unit3_p8(const int16_t v[3], int16_t a[3])
 }
 
 /* imf_rshr32 for n in [0, 15] (the 8-bit profile's hs): the same value
- * with fewer range checks, bit steps for n < 8 (AVR). */
+ * with fewer range checks.  On AVR it is imf_rshr32_v, whose compact copy
+ * (byte moves, at most 7 bit steps, the last one's carry added back) is
+ * linked anyway: one copy instead of two (flash). */
+#if defined(__AVR__)
+static inline int32_t imf_q_rshr_hs_p8(const int32_t x, const int n)
+{
+    return imf_rshr32_v(x, n);
+}
+#else
 IMF_Q_OUTLINE int32_t imf_q_rshr_hs_p8(const int32_t x, const int n)
 {
     if (n >= 2) {
@@ -181,6 +189,7 @@ IMF_Q_OUTLINE int32_t imf_q_rshr_hs_p8(const int32_t x, const int n)
     }
     return x;
 }
+#endif
 
 /* 8-bit profile, step 1 with the remainder carried: h = floor((t + c) / 2^16)
  * in q(15+hs) for a rate t in q(31+hs), keeping c = (t + c) mod 2^16 for the
