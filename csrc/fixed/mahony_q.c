@@ -122,8 +122,10 @@ IMF_Q_OUTLINE void imf_mahony_imu_q_feedback_p8(imf_mahony_imu_q_t *const self, 
                                        const int16_t acc[3], int32_t h[3])
 {
     imf_mahony_imu_q_state_t *const x = &self->x;
+#if !defined(__AVR__)
     const imf_gain8_t ki8 = self->ki8, kp8 = self->kp8;
     const int hs = self->hs;
+#endif
     int16_t a[3], d[3], e15[3];
     int i;
     /* step 2: normalise a (block-scaled, short inverse sqrt) */
@@ -134,13 +136,31 @@ IMF_Q_OUTLINE void imf_mahony_imu_q_feedback_p8(imf_mahony_imu_q_t *const self, 
     d[0] = imf_qn_to_q15s(imf_mul16(qs[1], qs[3]) - imf_mul16(qs[0], qs[2]), 29);
     d[1] = imf_qn_to_q15s(imf_mul16(qs[0], qs[1]) + imf_mul16(qs[2], qs[3]), 29);
     d[2] = imf_qn_to_q15s(imf_mul16(qs[0], qs[0]) + imf_mul16(qs[3], qs[3]) - 536870912L, 29);
-    /* step 4: e = a x d, rounded to q15 */
+    /* step 4: e = a x d, rounded to q15; a loop on AVR (flash), unrolled
+     * elsewhere */
+#if defined(__AVR__)
+    {
+        int i1 = 1, i2 = 2;
+        for (i = 0; i < 3; ++i) { /* (i1, i2) = (i + 1, i + 2) mod 3 */
+            e15[i] = imf_qn_to_q15s(imf_mul16(a[i1], d[i2]) - imf_mul16(a[i2], d[i1]), 30);
+            i1 = i2;
+            i2 = i;
+        }
+    }
+#else
     e15[0] = imf_qn_to_q15s(imf_mul16(a[1], d[2]) - imf_mul16(a[2], d[1]), 30);
     e15[1] = imf_qn_to_q15s(imf_mul16(a[2], d[0]) - imf_mul16(a[0], d[2]), 30);
     e15[2] = imf_qn_to_q15s(imf_mul16(a[0], d[1]) - imf_mul16(a[1], d[0]), 30);
+#endif
     if (self->fast8) {
         /* steps 5, 6: Kp e + I summed in q38, rounded once to q(31+hs) */
         const uint16_t kpi = self->kpi;
+#if defined(__AVR__)
+        /* AVR: the gains read here, not held in registers through steps
+         * 2-4 (fewer spills: faster, smaller) */
+        const imf_gain8_t ki8 = self->ki8;
+        const int hs = self->hs;
+#endif
         for (i = 0; i < 3; ++i) {
             const int32_t ii = imf_add_sat32(x->i[i], imf_rshr32(imf_mul16su(e15[i], ki8.m), 16));
             const int32_t v = imf_add_sat32(ii, imf_mul16su(e15[i], kpi));
@@ -148,6 +168,10 @@ IMF_Q_OUTLINE void imf_mahony_imu_q_feedback_p8(imf_mahony_imu_q_t *const self, 
             h[i] = imf_add_sat32(h[i], imf_q_rshr_hs_p8(v, 7 - hs)); /* shift in [1, 7] */
         }
     } else {
+#if defined(__AVR__)
+        const imf_gain8_t ki8 = self->ki8, kp8 = self->kp8;
+        const int hs = self->hs;
+#endif
         for (i = 0; i < 3; ++i) {
             x->i[i] = imf_add_sat32(x->i[i], imf_gain8_mul(e15[i], ki8));
             h[i] = imf_add_sat32(imf_add_sat32(h[i], imf_gain8_mul(e15[i], kp8)),
