@@ -398,7 +398,12 @@ static inline void imf_q_add_step_p8(int32_t q[4], const int32_t dq[4], const in
 {
     int i;
     for (i = 0; i < 4; ++i) {
+#if defined(__AVR__)
+        /* imf_rshr32(., 8) without its overflow test: |.| < 2^29 */
+        q[i] = imf_add_sat32(q[i], imf_sub_sat32(dq[i], (imf_mul16(qs[i], d16) + 128) >> 8));
+#else
         q[i] = imf_add_sat32(q[i], imf_sub_sat32(dq[i], imf_rshr32(imf_mul16(qs[i], d16), 8)));
+#endif
     }
 }
 
