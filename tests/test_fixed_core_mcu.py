@@ -1,8 +1,8 @@
 """The target-specific paths of the Q-format core (csrc/fixed/imf_fixed.h) on the emulated
 MCUs against its Python mirror (imufuse.reference._cint).
 
-On AVR the saturating add/sub, the qN -> q15 conversions (N = 29, 30, 31), the carry of the
-8-bit profile and the shifts by a run-time count are inline assembly or out-of-line copies
+On AVR the saturating add/sub, the qN -> q15 conversions (N = 29, 30, 31), the carry and the
+rate saturation of the 8-bit profile and the shifts by a run-time count are inline assembly or out-of-line copies
 that the host build (tests/test_fixed_core.py) never compiles; the filters exercise them only
 on the values their inputs happen to produce.  Here every one of them runs over edge values
 (the saturation bounds, the rounding ties, INT32_MIN/MAX) and random ones, on the ATmega328P
@@ -81,6 +81,7 @@ OPS = [
     # gain ki >= 2^-9 by doublings on AVR)
     ("imf_gain8_mul((int16_t)ab[3], imf_test_gain8((uint16_t)ab[0], ab[2] - 15))", "i32",
      lambda a, b, n: ci.gain8_mul(_i16(b), (a & 0xFFFF, n - 15))),
+    ("imf_q_sat_q15_p8(ab[0])", "i32", lambda a, b, n: ci.sat_q15(a)),
     ("imf_q_carry_p8(ab[0], &cc)", "i32", None),   # checked with its state below
     ("cc", "i32", None),
 ]

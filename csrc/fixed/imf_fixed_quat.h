@@ -229,15 +229,42 @@ static inline int32_t imf_q_carry_p8(const int32_t t, int32_t *const c)
 #endif
 }
 
+/* imf_sat_q15 of the rates: on AVR the same value in a few byte operations
+ * (x is in range iff its high word is the sign extension of its low word;
+ * otherwise 0x7FFF, plus 1 = 0x8000 if negative). */
+static inline int16_t imf_q_sat_q15_p8(const int32_t x)
+{
+#if defined(__AVR__)
+    int32_t r = x;
+    uint8_t t;
+    __asm__("mov %[t], %B[r]\n\t"
+            "lsl %[t]\n\t"
+            "sbc %[t], %[t]\n\t"       /* sign of the low word: 0 or 0xFF */
+            "cp %C[r], %[t]\n\t"
+            "cpc %D[r], %[t]\n\t"
+            "breq 1f\n\t"               /* in range */
+            "lsl %D[r]\n\t"             /* C = sign of x */
+            "ldi %A[r], 0xFF\n\t"
+            "ldi %B[r], 0x7F\n\t"
+            "adc %A[r], __zero_reg__\n\t"
+            "adc %B[r], __zero_reg__\n"
+            "1:"
+            : [r] "+d"(r), [t] "=&r"(t));
+    return (int16_t)r;
+#else
+    return imf_sat_q15(x);
+#endif
+}
+
 /* 8-bit profile, appendix step 7 / 3: dq = q (x) (0, h), h in q(15+hs)
  * saturated to int16; each component's three q15 x q(15+hs) products are
  * summed (saturating) and rounded to q30 once. */
 static inline void imf_q_rate_p8(const int16_t qs[4], const int32_t h[3], const int hs,
                                int32_t dq[4])
 {
-    const int16_t hx = imf_sat_q15(h[0]);
-    const int16_t hy = imf_sat_q15(h[1]);
-    const int16_t hz = imf_sat_q15(h[2]);
+    const int16_t hx = imf_q_sat_q15_p8(h[0]);
+    const int16_t hy = imf_q_sat_q15_p8(h[1]);
+    const int16_t hz = imf_q_sat_q15_p8(h[2]);
 #define IMF_P(a, b) imf_mul16((a), (b)) /* |.| <= 2^30 */
     dq[0] = imf_q_rshr_hs_p8(imf_sub_sat32(-IMF_P(qs[1], hx) - IMF_P(qs[2], hy), IMF_P(qs[3], hz)), hs);
     dq[1] = imf_q_rshr_hs_p8(imf_sub_sat32(IMF_P(qs[0], hx) + IMF_P(qs[2], hz), IMF_P(qs[3], hy)), hs);
