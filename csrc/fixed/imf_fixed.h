@@ -524,28 +524,9 @@ typedef struct {
     int16_t n;  /* 16, or the general shift c.s - N */
 } imf_gain8_t;
 
-IMF_AVR_OUTLINE int32_t imf_rshift_sat32_ool(int32_t x, int n)
+IMF_AVR_OUTLINE int32_t imf_rshift_sat32_ool(const int32_t x, const int n)
 {
-#if defined(__AVR__)
-    /* the same value in small code: the rare left shift by doublings (x >
-     * (2^31 - 1) / 2 or x < -2^30 before a doubling is exactly the case in
-     * which it leaves int32) */
-    if (n >= 0) {
-        return imf_rshr32_v(x, n);
-    }
-    for (; n < 0; ++n) {
-        if (x > IMF_INT32_MAX / 2) {
-            return IMF_INT32_MAX;
-        }
-        if (x < IMF_INT32_MIN / 2) {
-            return IMF_INT32_MIN;
-        }
-        x += x;
-    }
-    return x;
-#else
     return imf_rshift_sat32(x, n);
-#endif
 }
 
 IMF_AVR_OUTLINE imf_gain8_t imf_gain8(const imf_qscale_t c, const int N)
@@ -599,10 +580,29 @@ static inline int32_t imf_mul16su(const int16_t a, const uint16_t b)
 IMF_AVR_OUTLINE int32_t imf_gain8_mul(const int16_t x, const imf_gain8_t g)
 {
     const int32_t p = imf_mul16su(x, g.m);
+#if defined(__AVR__)
+    /* the same value in one compact copy (only the slow gain paths call
+     * it): imf_rshr32_v for n >= 0 (16 included); the rare left shift by
+     * doublings, saturated where a doubling leaves int32 (bits 31 and 30
+     * differ) */
+    uint32_t u = (uint32_t)p;
+    int n = g.n;
+    if (n >= 0) {
+        return imf_rshr32_v(p, n);
+    }
+    for (; n < 0; ++n) {
+        if (((u ^ (u << 1)) & 0x80000000u) != 0u) {
+            return p < 0 ? IMF_INT32_MIN : IMF_INT32_MAX;
+        }
+        u <<= 1;
+    }
+    return (int32_t)u;
+#else
     if (g.n == 16) {
         return imf_rshr32(p, 16);
     }
     return imf_rshift_sat32_ool(p, g.n);
+#endif
 }
 
 /* ---- square roots -------------------------------------------------- */
