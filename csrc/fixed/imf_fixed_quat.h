@@ -394,7 +394,7 @@ static IMF_Q_NOINLINE void imf_q_normalise_p8(int32_t q[4])
     for (i = 0; i < 4; ++i) {
         /* |b| < 2^15, y < 2^16: the product fits int32 */
         const int32_t p = imf_mul16su(b[i], y);
-        q[i] = e ? p : imf_rshr32(p, 1);
+        q[i] = imf_rshr32(p, 1 - e); /* e in {0, 1} */
     }
 }
 
