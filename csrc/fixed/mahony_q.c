@@ -132,10 +132,27 @@ IMF_Q_OUTLINE void imf_mahony_imu_q_feedback_p8(imf_mahony_imu_q_t *const self, 
     if (!imf_q_unit3_p8(acc, a)) {
         return;
     }
-    /* step 3: d, q15 */
+    /* step 3: d, q15; a loop on AVR (flash): d_i = u v + w z - k with
+     * (u, v, w, z, k) = (q1, q3, -q0, q2, 0), (q0, q1, q2, q3, 0),
+     * (q0, q0, q3, q3, 2^29): each step (v, w) = (u, z), (u, z) = (q0, q3) */
+#if defined(__AVR__)
+    {
+        int16_t u = qs[1], v = qs[3], w = (int16_t)-qs[0], z = qs[2];
+        int32_t k = 0;
+        for (i = 0; i < 3; ++i) {
+            d[i] = imf_qn_to_q15s(imf_mul16(u, v) + imf_mul16(w, z) - k, 29);
+            v = u;
+            w = z;
+            u = qs[0];
+            z = qs[3];
+            k = i ? 536870912L : 0;
+        }
+    }
+#else
     d[0] = imf_qn_to_q15s(imf_mul16(qs[1], qs[3]) - imf_mul16(qs[0], qs[2]), 29);
     d[1] = imf_qn_to_q15s(imf_mul16(qs[0], qs[1]) + imf_mul16(qs[2], qs[3]), 29);
     d[2] = imf_qn_to_q15s(imf_mul16(qs[0], qs[0]) + imf_mul16(qs[3], qs[3]) - 536870912L, 29);
+#endif
     /* step 4: e = a x d, rounded to q15; a loop on AVR (flash), unrolled
      * elsewhere */
 #if defined(__AVR__)
