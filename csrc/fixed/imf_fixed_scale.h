@@ -308,22 +308,17 @@ static inline int32_t imf_gain16_or_mulk32(const int32_t x, const imf_gain16_t g
 
 /* ---- unit vector of raw accelerometer counts (KKQ) -------------------- */
 
-/* 1/sqrt(x) for x in [2^28, 2^32): y (unsigned q15) and *e in {0, 1} with
- * 1/sqrt(x) ~= y 2^(*e - 31).  The chord of imf_invsqrt8_u32 (in 16-bit
- * operations) and two Newton steps y <- y (3 - u y^2) / 2, each three
- * unsigned 16x16->32 products: relative error below 6e-5 (tested
- * exhaustively over the mantissa, tests/test_fixed_scale.py). */
-static inline uint16_t imf_invsqrt16_u32(uint32_t x, int *const e)
+/* 1/sqrt(x) for x in [2^30, 2^32): y (unsigned q15) with 1/sqrt(x) ~= y 2^-31.
+ * The chord of imf_invsqrt8_u32 on u = x / 2^16 (in 16-bit operations) and
+ * two Newton steps y <- y (3 - u y^2) / 2, each three unsigned 16x16->32
+ * products: relative error below 6e-5 (tested exhaustively over the
+ * mantissa, tests/test_fixed_scale.py). */
+static inline uint16_t imf_invsqrt16_u32(const uint32_t x)
 {
-    uint16_t u, y, y2, w, d;
+    const uint16_t u = (uint16_t)(x >> 16); /* q16 in [2^14, 2^16) */
+    uint16_t y, y2, w, d;
     uint32_t t;
     int i;
-    *e = 0;
-    if (x < ((uint32_t)1 << 30)) {
-        x <<= 2;
-        *e = 1;
-    }
-    u = (uint16_t)(x >> 16); /* q16 in [2^14, 2^16) */
     if (u < 32768u) {
         d = (uint16_t)(u - 16384u);
         y = (uint16_t)(64635u - (uint16_t)(d + (uint16_t)((uint16_t)(d * 3u) >> 4)));
@@ -351,38 +346,27 @@ static inline uint16_t imf_invsqrt16_u32(uint32_t x, int *const e)
 }
 
 /* x and y components of the unit vector of int16 counts v (KKQ needs no
- * more) in symmetric q15; returns 0 for the zero vector.  The
- * vector block-scaled by 2^k until its largest magnitude is in
- * [2^14, 2^15] (one 16-bit product by 2^k each), |b|^2 in [2^28, 2^32)
- * for imf_invsqrt16_u32, then b y with a constant rounding shift of 15
- * or 16 (imf_qn_to_q15s from q30 / q31: 16-bit operations on AVR). */
+ * more) in symmetric q15; returns 0 for the zero vector.  |v|^2 < 2^32
+ * scaled by 4^k into [2^30, 2^32) (two bits per step) for
+ * imf_invsqrt16_u32: 1/|v| ~= y 2^(k - 31), v / |v| in q15 = v y 2^(k - 16)
+ * (imf_rshrk, k in [0, 15]). */
 static inline int imf_unit_xy_k(const int16_t v[3], int16_t a[2])
 {
-    int16_t b[3];
-    uint16_t m = 0u;
-    uint32_t n2;
-    int i, e, k = 0;
+    uint32_t n2 = (uint32_t)imf_mul16(v[0], v[0]) + (uint32_t)imf_mul16(v[1], v[1])
+                + (uint32_t)imf_mul16(v[2], v[2]); /* <= 3 2^30 */
     uint16_t y;
-    for (i = 0; i < 3; ++i) {
-        const uint16_t u = (uint16_t)v[i];
-        m |= (v[i] < 0) ? (uint16_t)(0u - u) : u; /* |v|, same top bit as the max */
-    }
-    if (m == 0u) {
+    int i, k = 16;
+    if (n2 == 0u) {
         return 0;
     }
-    while (m < 16384u) {
-        m = (uint16_t)(m << 1);
-        ++k;
+    while (n2 < ((uint32_t)1 << 30)) {
+        n2 <<= 2;
+        --k;
     }
-    for (i = 0; i < 3; ++i) {
-        b[i] = (int16_t)(v[i] * (1 << k)); /* |v 2^k| < 2^15 (int16 arithmetic) */
-    }
-    n2 = (uint32_t)imf_mul16(b[0], b[0]) + (uint32_t)imf_mul16(b[1], b[1])
-       + (uint32_t)imf_mul16(b[2], b[2]); /* [2^28, 3 2^30] */
-    y = imf_invsqrt16_u32(n2, &e);        /* 1/|b| ~= y 2^(e-31) */
+    y = imf_invsqrt16_u32(n2);
     for (i = 0; i < 2; ++i) {
-        const int32_t p = imf_mul16su(b[i], y); /* |b| <= 2^15, y < 2^16: > -2^31 */
-        a[i] = e ? imf_qn_to_q15s(p, 30) : imf_qn_to_q15s(p, 31);
+        /* |v| <= 2^15, y < 2^16: > -2^31 */
+        a[i] = imf_sat_q15s(imf_rshrk(imf_mul16su(v[i], y), k));
     }
     return 1;
 }
