@@ -53,6 +53,7 @@ BAD = [
     ("Complementary1DQ", dict(dt=0.01, alpha=0.9, gyr_scale=1e-3), "angle_scale"),
     ("Mahony1DBiasQ", dict(dt=0.01, kp=2.0, ki=0.3, gyr_scale=1e-3, angle_scale=-1.0), "angle_scale"),
     ("KKQ", dict(dt=0.01, kp=2.0, gyr_scale=1e-3), "kp"),
+    ("KKQ", dict(dt=0.01, kp=1.5, gyr_scale=1e-3), "kp"),   # > 1: more than the whole error
     ("MultiWiiQ", dict(dt=0.01, cmpf=600, gyr_scale=1e-3, acc_1g=-1.0), "acc_1g"),
     ("MultiWiiQ", dict(dt=0.01, cmpf=600, gyr_scale=1e-3, acc_1g=4096, acc_lpf_shift=16),
      "acc_lpf_shift"),

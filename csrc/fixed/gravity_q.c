@@ -6,50 +6,71 @@
 
 int imf_kk_q_init_consts(imf_kk_q_t *const self, const imf_qscale_t kw, const imf_qscale_t kp)
 {
+    /* checked first, the gains last (fewer registers kept across the calls).
+     * shifts: kw.s - 28 in [0, 31] (kw < 2^-13: the cross terms' gain kw 2^13
+     * is below 1, kwc16.j >= 0); kp in [0, 1] (kp.s in [15, 47], or exactly 1:
+     * kp16.j >= 0 or -2) */
+    const int r = (kw.m != 0 && imf_qscale_ok(kw, 28, 59) && imf_qscale_ok(kp, 14, 47)
+                   && (kp.s != 14 || kp.m == 16384)) ? 0 : -1;
     self->kw = kw;
-    self->kp = kp;
+    self->x.t[0] = self->x.t[1] = 0;
     self->kwc16 = imf_gain16(kw, 15, 28);
     self->kp16 = imf_gain16(kp, 28, 28);
-    self->x.t[0] = self->x.t[1] = 0;
-    /* shifts: kw.s - 28 and kw.s + 15 - 28 in [0, 47]; kp.s in [14, 47] */
-    if (kw.m == 0 || !imf_qscale_ok(kw, 28, 59) || !imf_qscale_ok(kp, 14, 47)) {
-        return -1;
-    }
-    return 0;
+    return r;
 }
 
 int imf_kk_q_init(imf_kk_q_t *const self, const double dt, const double kp, const double gyr_scale)
 {
     const int r = imf_kk_q_init_consts(self, imf_qscale_from_double(gyr_scale * dt),
                                        imf_qscale_from_double(kp));
-    if (!(dt > 0.0) || !(kp >= 0.0) || !(kp < 2.0) || !(gyr_scale > 0.0)) {
+    if (!(dt > 0.0) || !(kp >= 0.0) || !(kp <= 1.0) || !(gyr_scale > 0.0)) {
         return -1;
     }
     return r;
 }
 
+/* Eq. 4.5 for one angle theta_i (pitch: i = 0, neg = 1; roll: i = 1, neg = 0)
+ * with theta_j the other one, w_j the gyro rate about the same axis and a_i
+ * the accelerometer's x (pitch) or y (roll) of the unit vector, ok = 0 for
+ * none:  theta_i + (w_j -+ theta_j w_z) dt + Kp (-+a_i - theta_i), q28. */
+static inline int32_t imf_kk_q_angle(const imf_kk_q_t *const self, const int32_t ti,
+                                     const int32_t tj, const int16_t wj, const int16_t wz,
+                                     const int neg, const int ok, const int16_t ai)
+{
+    /* theta_j w_z dt: (q15 x counts) x kw -> q28 (the state rounded to q15) */
+    const int32_t c = imf_gain16_mul(imf_mul16(imf_qn_to_q15s(tj, 28), wz), self->kwc16);
+    /* gyro path: w_j dt (imf_mulk16's value, its shift kw.s - 28 >= 0) */
+    int32_t x = imf_add_sat32(ti, imf_rshrk(imf_mul16(wj, self->kw.m), self->kw.s - 28));
+    x = imf_add_sat32(x, neg ? -c : c);
+    if (ok) {
+        /* a_pitch = -a_x/|a|, a_roll = a_y/|a| (symmetric q15 -> q28 exactly);
+         * P controller Kp (a - theta_{n-1}); kp = 1 (kp16.j < 0): the whole error */
+        const int32_t p = imf_mul16(ai, 8192);
+        const int32_t e = imf_sub_sat32(neg ? -p : p, ti);
+        x = imf_add_sat32(x, (self->kp16.j >= 0) ? imf_gain16_mul(e, self->kp16) : e);
+    }
+    return x;
+}
+
 void imf_kk_q_update(imf_kk_q_t *const self, const int16_t gyr[3], const int16_t acc[3])
 {
     int32_t *const t = self->x.t;
-    int16_t a[2];
-    int32_t cr, cp, pitch, roll;
-    /* the state as q15 rad, operand of the yaw cross terms */
-    const int16_t p15 = imf_qn_to_q15s(t[0], 28), r15 = imf_qn_to_q15s(t[1], 28);
-    /* roll w_z dt and pitch w_z dt: (q15 x counts) x kw -> q28 */
-    IMF_GAIN16_OR_MULK32_2(cr, imf_mul16(r15, gyr[2]), cp, imf_mul16(p15, gyr[2]), self->kwc16,
-                           self->kw, 15, 28);
-    /* Eq. 4.5, gyro path: (w_y - roll w_z) dt, (w_x + pitch w_z) dt, q28 */
-    pitch = imf_sub_sat32(imf_add_sat32(t[0], imf_mulk16(gyr[1], self->kw, 28)), cr);
-    roll = imf_add_sat32(imf_add_sat32(t[1], imf_mulk16(gyr[0], self->kw, 28)), cp);
-    if (imf_unit_xy_k(acc, a)) {
-        /* a_pitch = -a_x/|a|, a_roll = a_y/|a| (symmetric q15 -> q28 exactly);
-         * P controller Kp (a - theta_{n-1}) */
-        const int32_t ap = -imf_mul16(a[0], 8192), ar = imf_mul16(a[1], 8192);
-        IMF_ADD_GAIN16_OR_MULK32_2(pitch, imf_sub_sat32(ap, t[0]), roll, imf_sub_sat32(ar, t[1]),
-                                   self->kp16, self->kp, 28, 28);
+    int16_t a[2] = {0, 0};
+    int32_t n[2];
+    const int ok = imf_unit_xy_k(acc, a);
+#if defined(__AVR__) || defined(IMF_SCALE_SHORT)
+    /* on AVR pitch and roll in a loop (one copy of the code), elsewhere the
+     * two calls written out (the Cortex-M0 pays for the loop); same values */
+    int i;
+    for (i = 0; i < 2; ++i) {
+        n[i] = imf_kk_q_angle(self, t[i], t[1 - i], gyr[1 - i], gyr[2], i == 0, ok, a[i]);
     }
-    t[0] = pitch;
-    t[1] = roll;
+#else
+    n[0] = imf_kk_q_angle(self, t[0], t[1], gyr[1], gyr[2], 1, ok, a[0]);
+    n[1] = imf_kk_q_angle(self, t[1], t[0], gyr[0], gyr[2], 0, ok, a[1]);
+#endif
+    t[0] = n[0];
+    t[1] = n[1];
 }
 
 int imf_multiwii_q_init_consts(imf_multiwii_q_t *const self, const imf_qscale_t kw,
@@ -98,6 +119,20 @@ int imf_multiwii_q_init(imf_multiwii_q_t *const self, const double dt, const dou
     return r;
 }
 
+#if !(defined(__AVR__) || defined(IMF_SCALE_SHORT)) && defined(__GNUC__)
+/* imf_gain16_or_mulk32, one copy called from the three products below (GCC
+ * inlines a static function with a single caller: 356 bytes more on the
+ * Cortex-M0 than this call) */
+__attribute__((noinline)) static int32_t imf_multiwii_q_gain(const int32_t x, const imf_gain16_t g,
+                                                            const imf_qscale_t c, const int K,
+                                                            const int N)
+{
+    return imf_gain16_or_mulk32(x, g, c, K, N);
+}
+#else
+#define imf_multiwii_q_gain imf_gain16_or_mulk32
+#endif
+
 void imf_multiwii_q_update(imf_multiwii_q_t *const self, const int16_t gyr[3], const int16_t acc[3])
 {
     int32_t *const d = self->x.d;
@@ -145,13 +180,13 @@ void imf_multiwii_q_update(imf_multiwii_q_t *const self, const int16_t gyr[3], c
     }
 #else
     for (i = 0; i < 3; ++i) {
-        d[i] = imf_add_sat32(d[i], imf_gain16_or_mulk32(c[i], self->kw16, self->kw, 0, 16));
+        d[i] = imf_add_sat32(d[i], imf_multiwii_q_gain(c[i], self->kw16, self->kw, 0, 16));
     }
     /* step 4: complementary weighting while |accSmooth| is within the window */
     if (n2 > self->lo2 && n2 < self->hi2) {
         for (i = 0; i < 3; ++i) {
             /* (d F + s)/(F + 1) = d + (s - d)/(F + 1) */
-            d[i] = imf_add_sat32(d[i], imf_gain16_or_mulk32(imf_sub_sat32(l[i], d[i]), self->kc16, self->kc, 15, 15));
+            d[i] = imf_add_sat32(d[i], imf_multiwii_q_gain(imf_sub_sat32(l[i], d[i]), self->kc16, self->kc, 15, 15));
         }
     }
 #endif

@@ -13,8 +13,9 @@
  *   a_pitch = -a_x/|a|, a_roll = a_y/|a| (small angles; a block-scaled to
  *   [2^14, 2^15] and |a| by a 16-bit inverse square root with two Newton
  *   steps, imf_unit_xy_k; a zero vector skips the P term).
- *   State: pitch, roll in q28 rad.  Constants: kw = gyr_scale dt, kp (per
- *   sample, < 2).  The yaw cross terms multiply the state rounded to q15;
+ *   State: pitch, roll in q28 rad.  Constants: kw = gyr_scale dt (< 2^-13
+ *   rad per count and sample), kp (per sample, in [0, 1]: kp > 1 would
+ *   correct more than the whole error in one sample).  The yaw cross terms multiply the state rounded to q15;
  *   they and the P term use kw, kp rounded at init to 16-bit gains with a
  *   byte-aligned shift (imf_gain16, docs/fixed-point.md).
  *
@@ -43,12 +44,12 @@ typedef struct {
 } imf_kk_q_state_t;
 
 typedef struct {
-    imf_qscale_t kw, kp;
+    imf_qscale_t kw;
     imf_gain16_t kwc16, kp16; /* kw (yaw cross terms), kp in 16 bits (imf_gain16) */
     imf_kk_q_state_t x;
 } imf_kk_q_t;
 
-/* dt: s; kp: per sample, [0, 2); gyr_scale: rad/s per count.  Constants
+/* dt: s; kp: per sample, [0, 1]; gyr_scale: rad/s per count.  Constants
  * computed in double: on a target whose double is 32 bits (avr-gcc) they
  * can differ from a host's; use _init_consts there. */
 int imf_kk_q_init(imf_kk_q_t *self, double dt, double kp, double gyr_scale);

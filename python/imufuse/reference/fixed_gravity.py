@@ -27,6 +27,10 @@ class KKQ(FixedFilter):
         dt, kp = KK._params(dt, kp)
         gyr_scale = check_scale("gyr_scale", gyr_scale)
         qconst("gyr_scale*dt", gyr_scale * dt, 28, 59, nonzero=True)
+        if kp > 1.0:
+            # imf_kk_q_init_consts: kp in [0, 1]
+            raise ValueError(f"kp: must be in [0, 1] in fixed point (kp > 1 corrects more than "
+                             f"the whole error in one sample: an oscillating P loop), got {kp!r}")
         qconst("kp", kp, 14, 47)
         return (dt, kp, gyr_scale, check_profile(profile))
 
@@ -40,10 +44,9 @@ class KKQ(FixedFilter):
 
     def _init_consts(self, kw, kp):
         self.kw = kw
-        self.kp = kp
+        self.t = [0, 0]
         self.kwc16 = fs.gain16(kw, 15, 28)
         self.kp16 = fs.gain16(kp, 28, 28)
-        self.t = [0, 0]
 
     def _get_state(self):
         return list(self.t)
@@ -54,22 +57,28 @@ class KKQ(FixedFilter):
     def _state_float(self, s):
         return [s[0] * 2.0 ** -28, s[1] * 2.0 ** -28]
 
+    def _angle(self, ti, tj, wj, wz, neg, ok, ai):
+        # theta_j w_z dt: (q15 x counts) x kw -> q28 (the state rounded to q15)
+        c = fs.gain16_mul(ci.qn_to_q15s(tj, 28) * wz, self.kwc16)
+        # gyro path: w_j dt (imf_mulk16's value, its shift kw.s - 28 >= 0)
+        x = ci.add_sat32(ti, fs.rshrk(wj * self.kw.m, self.kw.s - 28))
+        x = ci.add_sat32(x, -c if neg else c)
+        if ok:
+            # a_pitch = -a_x/|a|, a_roll = a_y/|a| (symmetric q15 -> q28 exactly);
+            # P controller Kp (a - theta_{n-1}); kp = 1 (kp16.j < 0): the whole error
+            p = ai * 8192
+            e = ci.sub_sat32(-p if neg else p, ti)
+            x = ci.add_sat32(x, fs.gain16_mul(e, self.kp16) if self.kp16[1] >= 0 else e)
+        return x
+
     def _update(self, gyr, acc):
         t = self.t
-        p15, r15 = ci.qn_to_q15s(t[0], 28), ci.qn_to_q15s(t[1], 28)
-        # roll w_z dt and pitch w_z dt
-        cr = fs.gain16_or_mulk32(r15 * gyr[2], self.kwc16, self.kw, 15, 28)
-        cp = fs.gain16_or_mulk32(p15 * gyr[2], self.kwc16, self.kw, 15, 28)
-        # Eq. 4.5, gyro path: (w_y - roll w_z) dt, (w_x + pitch w_z) dt
-        pitch = ci.sub_sat32(ci.add_sat32(t[0], fs.mulk16(gyr[1], self.kw, 28)), cr)
-        roll = ci.add_sat32(ci.add_sat32(t[1], fs.mulk16(gyr[0], self.kw, 28)), cp)
         a = fs.unit_xy_k(acc)
-        if a is not None:
-            # a_pitch = -a_x/|a|, a_roll = a_y/|a|; P controller Kp (a - theta_{n-1})
-            ap, ar = -a[0] * 8192, a[1] * 8192
-            pitch = ci.add_sat32(pitch, fs.gain16_or_mulk32(ci.sub_sat32(ap, t[0]), self.kp16, self.kp, 28, 28))
-            roll = ci.add_sat32(roll, fs.gain16_or_mulk32(ci.sub_sat32(ar, t[1]), self.kp16, self.kp, 28, 28))
-        self.t = [pitch, roll]
+        ok = a is not None
+        a = a if ok else [0, 0]
+        # pitch (theta_0 with roll, w_y, -a_x) and roll (theta_1 with pitch, w_x, a_y)
+        self.t = [self._angle(t[0], t[1], gyr[1], gyr[2], True, ok, a[0]),
+                  self._angle(t[1], t[0], gyr[0], gyr[2], False, ok, a[1])]
 
 
 class MultiWiiQ(FixedFilter):
