@@ -278,23 +278,25 @@ def test_complementary1d_q_init_consts_checks_the_gain(toolchains):
     assert codes == [0] * len(good) + [-1] * len(bad), (cases, codes)
 
 
-def test_kk_q_init_rejects_kp_above_1(toolchains):
+def test_kk_q_init_checks_kp(toolchains):
     """KKQ takes kp in [0, 1] (kp > 1 corrects more than the whole error in one sample):
-    imf_kk_q_init_consts accepts kp = 0, 0.5, 1 and rejects the q-scales of kp in (1, 2);
-    imf_kk_q_init rejects kp = 1.5 and accepts kp = 1; the reference raises a ValueError
-    naming kp."""
+    imf_kk_q_init rejects kp = 1.5 and accepts kp = 1, the reference raises a ValueError
+    naming kp; imf_kk_q_init_consts stores the 16-bit gain kp16 (m, j) as given: it accepts
+    the reference's constants for kp 0, 1 and in between, and rejects a gain imf_gain16
+    cannot give for kp in [0, 1]."""
     need(toolchains, "host")
     from imufuse.reference import KKQ
     with pytest.raises(ValueError, match="kp"):
         KKQ(0.002, 1.5, gyr_scale=1e-3)
-    kw = KKQ(0.002, 1.0, gyr_scale=1e-3).c_init_args()["kw"]
-    kps = [KKQ(0.002, k, gyr_scale=1e-3).c_init_args()["kp"] for k in (0.0, 0.5, 1.0)]
-    calls = [f"imf_kk_q_init_consts(&imf_f, (imf_qscale_t){{{kw.m}, {kw.s}}}, "
-             f"(imf_qscale_t){{{k.m}, {k.s}}})" for k in kps]
-    calls += [f"imf_kk_q_init_consts(&imf_f, (imf_qscale_t){{{kw.m}, {kw.s}}}, "
-              f"(imf_qscale_t){{{m}, 14}})" for m in (16385, 24576, 32767)]
+    good = [KKQ(0.002, k, gyr_scale=1e-3).c_init_args() for k in (0.0, 1.0, 0.5, 0.002, 1.0 - 2.0 ** -30)]
+    kw = good[0]["kw"]
+    bad = [(0, -1), (16384, -1), (1, -2), (0, -3), (300, 5), (255, 0), (1, 4)]
+    calls = [f"imf_kk_q_init_consts(&imf_f, (imf_qscale_t){{{g['kw'].m}, {g['kw'].s}}}, "
+             f"{g['kp16_m']}u, {g['kp16_j']})" for g in good]
+    calls += [f"imf_kk_q_init_consts(&imf_f, (imf_qscale_t){{{kw.m}, {kw.s}}}, {m}u, {j})"
+              for m, j in bad]
     calls += ["imf_kk_q_init(&imf_f, 0.002, 1.0, 1e-3)", "imf_kk_q_init(&imf_f, 0.002, 1.5, 1e-3)"]
-    want = [0, 0, 0, -1, -1, -1, 0, -1]
+    want = [0] * len(good) + [-1] * len(bad) + [0, -1]
     body = "\n".join(f"imf_r{i} = {c};" for i, c in enumerate(calls))
     pre = '#include "gravity_q.h"\nstatic imf_kk_q_t imf_f;\n' + "".join(
         f"static int32_t imf_r{i};\n" for i in range(len(calls)))
@@ -302,7 +304,7 @@ def test_kk_q_init_rejects_kp_above_1(toolchains):
     res = mcu.run("host", sources=[str(mf.CSRC / "fixed" / "gravity_q.c")],
                   include_dirs=[mf.CSRC, mf.CSRC / "fixed"], driver=drv,
                   inputs={"k": np.zeros(1, np.int16)})
-    assert [int(col[0]) for col in res.values()] == want
+    assert [int(col[0]) for col in res.values()] == want, calls
 
 
 # --------------------------------------------------------------------------------------------

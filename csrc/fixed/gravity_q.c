@@ -4,49 +4,66 @@
 #include "imf_fixed_init.h"
 #include "imf_fixed_scale.h"
 
-int imf_kk_q_init_consts(imf_kk_q_t *const self, const imf_qscale_t kw, const imf_qscale_t kp)
+int imf_kk_q_init_consts(imf_kk_q_t *const self, const imf_qscale_t kw, const uint16_t kp16_m,
+                         const int kp16_j)
 {
-    /* checked first, the gains last (fewer registers kept across the calls).
-     * shifts: kw.s - 28 in [0, 31] (kw < 2^-13: the cross terms' gain kw 2^13
-     * is below 1, kwc16.j >= 0); kp in [0, 1] (kp.s in [15, 47], or exactly 1:
-     * kp16.j >= 0 or -2) */
-    const int r = (kw.m != 0 && imf_qscale_ok(kw, 28, 59) && imf_qscale_ok(kp, 14, 47)
-                   && (kp.s != 14 || kp.m == 16384)) ? 0 : -1;
+    /* kp16 = imf_gain16(kp, 15, 15), stored as given (no init-time arithmetic
+     * in an integer-initialised firmware): kp in [0, 1], so j in [0, 4] with
+     * m = 0 (kp = 0) or m in [2^8, 2^16), or j = -2, m = 0 (kp = 1 exactly).
+     * kw: its shift kw.s - 28 in [0, 31] (kw < 2^-13 rad per count and sample) */
     self->kw = kw;
+    self->kp16.m = kp16_m;
+    self->kp16.j = (int16_t)kp16_j;
     self->x.t[0] = self->x.t[1] = 0;
-    self->kwc16 = imf_gain16(kw, 15, 28);
-    self->kp16 = imf_gain16(kp, 28, 28);
-    return r;
+    if (kw.m == 0 || !imf_qscale_ok(kw, 28, 59)
+        || !((kp16_j >= 0 && kp16_j <= 4 && (kp16_m == 0u || kp16_m >= 256u))
+             || (kp16_j == -2 && kp16_m == 0u))) {
+        return -1;
+    }
+    return 0;
 }
 
 int imf_kk_q_init(imf_kk_q_t *const self, const double dt, const double kp, const double gyr_scale)
 {
-    const int r = imf_kk_q_init_consts(self, imf_qscale_from_double(gyr_scale * dt),
-                                       imf_qscale_from_double(kp));
+    const imf_gain16_t kp16 = imf_gain16(imf_qscale_from_double(kp), 15, 15);
+    const int r = imf_kk_q_init_consts(self, imf_qscale_from_double(gyr_scale * dt), kp16.m, kp16.j);
     if (!(dt > 0.0) || !(kp >= 0.0) || !(kp <= 1.0) || !(gyr_scale > 0.0)) {
         return -1;
     }
     return r;
 }
 
+/* round(w q / 2^15) for int32 w, int16 q (|q| < 2^15: no saturation): the
+ * high part h = floor(w q / 2^16) and the low 16 bits from two 16x16
+ * products, then 2 h plus the two top bits of the low word. */
+static inline int32_t imf_kk_q_mul15(const int32_t w, const int16_t q)
+{
+    const int32_t lo = imf_mul16su(q, (uint16_t)((uint32_t)w & 0xFFFFu));
+    const int32_t h = imf_mul16((int16_t)(w >> 16), q) + (lo >> 16);
+    const uint16_t l = (uint16_t)lo;
+    return h * 2 + (int32_t)(l >> 15) + (int32_t)((l >> 14) & 1u);
+}
+
 /* Eq. 4.5 for one angle theta_i (pitch: i = 0, neg = 1; roll: i = 1, neg = 0)
- * with theta_j the other one, w_j the gyro rate about the same axis and a_i
- * the accelerometer's x (pitch) or y (roll) of the unit vector, ok = 0 for
- * none:  theta_i + (w_j -+ theta_j w_z) dt + Kp (-+a_i - theta_i), q28. */
+ * with theta_j the other one, wj = w_j dt and wz = w_z dt (q28 rad), and
+ * a_i = -a_x (pitch) or a_y (roll) of the unit vector (ok = 0: none):
+ *   theta_i + w_j dt -+ theta_j w_z dt + Kp (a_i - theta_i), q28. */
 static inline int32_t imf_kk_q_angle(const imf_kk_q_t *const self, const int32_t ti,
-                                     const int32_t tj, const int16_t wj, const int16_t wz,
+                                     const int32_t tj, const int32_t wj, const int32_t wz,
                                      const int neg, const int ok, const int16_t ai)
 {
-    /* theta_j w_z dt: (q15 x counts) x kw -> q28 (the state rounded to q15) */
-    const int32_t c = imf_gain16_mul(imf_mul16(imf_qn_to_q15s(tj, 28), wz), self->kwc16);
-    /* gyro path: w_j dt (imf_mulk16's value, its shift kw.s - 28 >= 0) */
-    int32_t x = imf_add_sat32(ti, imf_rshrk(imf_mul16(wj, self->kw.m), self->kw.s - 28));
-    x = imf_add_sat32(x, neg ? -c : c);
+    /* -+ theta_j w_z dt: the state rounded to q15, its sign applied there
+     * (symmetric q15), times w_z dt in q28, / 2^15 rounded */
+    int16_t q = imf_qn_to_q15s(tj, 28);
+    int32_t x = imf_add_sat32(ti, wj);
+    if (neg) {
+        q = (int16_t)-q;
+    }
+    x = imf_add_sat32(x, imf_kk_q_mul15(wz, q));
     if (ok) {
-        /* a_pitch = -a_x/|a|, a_roll = a_y/|a| (symmetric q15 -> q28 exactly);
-         * P controller Kp (a - theta_{n-1}); kp = 1 (kp16.j < 0): the whole error */
-        const int32_t p = imf_mul16(ai, 8192);
-        const int32_t e = imf_sub_sat32(neg ? -p : p, ti);
+        /* P controller Kp (a - theta_{n-1}), a in q28 (symmetric q15 -> q28
+         * exactly); kp = 1 (kp16.j < 0): the whole error */
+        const int32_t e = imf_sub_sat32(imf_mul16(ai, 8192), ti);
         x = imf_add_sat32(x, (self->kp16.j >= 0) ? imf_gain16_mul(e, self->kp16) : e);
     }
     return x;
@@ -56,18 +73,23 @@ void imf_kk_q_update(imf_kk_q_t *const self, const int16_t gyr[3], const int16_t
 {
     int32_t *const t = self->x.t;
     int16_t a[2] = {0, 0};
-    int32_t n[2];
+    int32_t w[3], n[2];
+    int i;
     const int ok = imf_unit_xy_k(acc, a);
+    /* w dt in q28 (imf_mulk16's value, its shift kw.s - 28 >= 0) */
+    for (i = 0; i < 3; ++i) {
+        w[i] = imf_rshrk(imf_mul16(gyr[i], self->kw.m), self->kw.s - 28);
+    }
 #if defined(__AVR__) || defined(IMF_SCALE_SHORT)
     /* on AVR pitch and roll in a loop (one copy of the code), elsewhere the
      * two calls written out (the Cortex-M0 pays for the loop); same values */
-    int i;
     for (i = 0; i < 2; ++i) {
-        n[i] = imf_kk_q_angle(self, t[i], t[1 - i], gyr[1 - i], gyr[2], i == 0, ok, a[i]);
+        n[i] = imf_kk_q_angle(self, t[i], t[1 - i], w[1 - i], w[2], i == 0, ok,
+                              i ? a[1] : (int16_t)-a[0]);
     }
 #else
-    n[0] = imf_kk_q_angle(self, t[0], t[1], gyr[1], gyr[2], 1, ok, a[0]);
-    n[1] = imf_kk_q_angle(self, t[1], t[0], gyr[0], gyr[2], 0, ok, a[1]);
+    n[0] = imf_kk_q_angle(self, t[0], t[1], w[1], w[2], 1, ok, (int16_t)-a[0]);
+    n[1] = imf_kk_q_angle(self, t[1], t[0], w[0], w[2], 0, ok, a[1]);
 #endif
     t[0] = n[0];
     t[1] = n[1];

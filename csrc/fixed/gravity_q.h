@@ -45,7 +45,7 @@ typedef struct {
 
 typedef struct {
     imf_qscale_t kw;
-    imf_gain16_t kwc16, kp16; /* kw (yaw cross terms), kp in 16 bits (imf_gain16) */
+    imf_gain16_t kp16; /* kp in 16 bits (imf_gain16) */
     imf_kk_q_state_t x;
 } imf_kk_q_t;
 
@@ -55,7 +55,7 @@ typedef struct {
 int imf_kk_q_init(imf_kk_q_t *self, double dt, double kp, double gyr_scale);
 /* From the precomputed constants kw = gyr_scale dt, kp (integer only,
  * identical on every target; imufuse.reference.KKQ(...).c_init_args()). */
-int imf_kk_q_init_consts(imf_kk_q_t *self, imf_qscale_t kw, imf_qscale_t kp);
+int imf_kk_q_init_consts(imf_kk_q_t *self, imf_qscale_t kw, uint16_t kp16_m, int kp16_j);
 void imf_kk_q_update(imf_kk_q_t *self, const int16_t gyr[3], const int16_t acc[3]);
 
 typedef struct {

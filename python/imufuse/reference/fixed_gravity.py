@@ -14,6 +14,11 @@ from .multiwii import MultiWii
 
 FILTERS_FIXED = ('KKQ', 'MultiWiiQ')
 
+def _mul15(w, q):
+    """imf_kk_q_mul15: round(w q / 2^15) for int32 w, int16 q (no saturation)."""
+    return (ci.check32(w) * q + 16384) >> 15
+
+
 class KKQ(FixedFilter):
     """KK filter of the appendix (Eq. 4.5 with a P controller), fixed point;
     twin of KK (same equations): pitch, roll in q28 rad, a_pitch = -a_x/|a|,
@@ -37,16 +42,16 @@ class KKQ(FixedFilter):
     @staticmethod
     def _consts(dt, kp, gyr_scale, profile):
         # imf_kk_q_init: the constants from the double parameters
-        return dict(kw=ci.qscale(gyr_scale * dt), kp=ci.qscale(kp))
+        kp16 = fs.gain16(ci.qscale(kp), 15, 15)
+        return dict(kw=ci.qscale(gyr_scale * dt), kp16_m=kp16[0], kp16_j=kp16[1])
 
     def _init(self, dt, kp, gyr_scale, profile):
         self._init_consts(**self._consts(dt, kp, gyr_scale, profile))
 
-    def _init_consts(self, kw, kp):
+    def _init_consts(self, kw, kp16_m, kp16_j):
         self.kw = kw
+        self.kp16 = (kp16_m, kp16_j)
         self.t = [0, 0]
-        self.kwc16 = fs.gain16(kw, 15, 28)
-        self.kp16 = fs.gain16(kp, 28, 28)
 
     def _get_state(self):
         return list(self.t)
@@ -58,16 +63,17 @@ class KKQ(FixedFilter):
         return [s[0] * 2.0 ** -28, s[1] * 2.0 ** -28]
 
     def _angle(self, ti, tj, wj, wz, neg, ok, ai):
-        # theta_j w_z dt: (q15 x counts) x kw -> q28 (the state rounded to q15)
-        c = fs.gain16_mul(ci.qn_to_q15s(tj, 28) * wz, self.kwc16)
-        # gyro path: w_j dt (imf_mulk16's value, its shift kw.s - 28 >= 0)
-        x = ci.add_sat32(ti, fs.rshrk(wj * self.kw.m, self.kw.s - 28))
-        x = ci.add_sat32(x, -c if neg else c)
+        # -+ theta_j w_z dt: the state rounded to q15, its sign applied there
+        # (symmetric q15), times w_z dt in q28, / 2^15 rounded
+        q = ci.qn_to_q15s(tj, 28)
+        x = ci.add_sat32(ti, wj)
+        if neg:
+            q = -q
+        x = ci.add_sat32(x, _mul15(wz, q))
         if ok:
-            # a_pitch = -a_x/|a|, a_roll = a_y/|a| (symmetric q15 -> q28 exactly);
-            # P controller Kp (a - theta_{n-1}); kp = 1 (kp16.j < 0): the whole error
-            p = ai * 8192
-            e = ci.sub_sat32(-p if neg else p, ti)
+            # P controller Kp (a - theta_{n-1}), a in q28 (symmetric q15 -> q28
+            # exactly); kp = 1 (kp16.j < 0): the whole error
+            e = ci.sub_sat32(ai * 8192, ti)
             x = ci.add_sat32(x, fs.gain16_mul(e, self.kp16) if self.kp16[1] >= 0 else e)
         return x
 
@@ -76,9 +82,11 @@ class KKQ(FixedFilter):
         a = fs.unit_xy_k(acc)
         ok = a is not None
         a = a if ok else [0, 0]
-        # pitch (theta_0 with roll, w_y, -a_x) and roll (theta_1 with pitch, w_x, a_y)
-        self.t = [self._angle(t[0], t[1], gyr[1], gyr[2], True, ok, a[0]),
-                  self._angle(t[1], t[0], gyr[0], gyr[2], False, ok, a[1])]
+        # w dt in q28 (imf_mulk16's value, its shift kw.s - 28 >= 0)
+        w = [fs.rshrk(g * self.kw.m, self.kw.s - 28) for g in gyr]
+        # pitch (theta_0 with roll, w_y dt, -a_x) and roll (theta_1 with pitch, w_x dt, a_y)
+        self.t = [self._angle(t[0], t[1], w[1], w[2], True, ok, -a[0]),
+                  self._angle(t[1], t[0], w[0], w[2], False, ok, a[1])]
 
 
 class MultiWiiQ(FixedFilter):
