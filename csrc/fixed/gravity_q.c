@@ -44,6 +44,29 @@ static inline int32_t imf_kk_q_mul15(const int32_t w, const int16_t q)
     return h * 2 + (int32_t)(l >> 15) + (int32_t)((l >> 14) & 1u);
 }
 
+/* The state rounded to q15: imf_qn_to_q15s(t, 28).  On AVR in 16-bit steps
+ * (the general shift is a 13-step loop): r = t + 2^12 (saturated: beyond the
+ * q15 range either way), h = floor(r / 2^16); floor(r / 2^13) is 8 h plus
+ * bits 13..15 of r, saturated to the symmetric q15 range. */
+static inline int16_t imf_kk_q_q15(const int32_t t)
+{
+#if defined(__AVR__) || defined(IMF_SCALE_SHORT)
+    const int32_t r = imf_add_sat32(t, 4096);
+    const int16_t h = (int16_t)(r >> 16);
+    int16_t v;
+    if (h >= 4096) {
+        return 32767;
+    }
+    if (h < -4096) {
+        return -32767;
+    }
+    v = (int16_t)(h * 8 + (int16_t)((uint16_t)((uint32_t)r & 0xFFFFu) >> 13));
+    return (v == -32768) ? (int16_t)-32767 : v;
+#else
+    return imf_qn_to_q15s(t, 28);
+#endif
+}
+
 /* Eq. 4.5 for one angle theta_i (pitch: i = 0, neg = 1; roll: i = 1, neg = 0)
  * with theta_j the other one, wj = w_j dt and wz = w_z dt (q28 rad), and
  * a_i = -a_x (pitch) or a_y (roll) of the unit vector (ok = 0: none):
@@ -52,9 +75,9 @@ static inline int32_t imf_kk_q_angle(const imf_kk_q_t *const self, const int32_t
                                      const int32_t tj, const int32_t wj, const int32_t wz,
                                      const int neg, const int ok, const int16_t ai)
 {
-    /* -+ theta_j w_z dt: the state rounded to q15, its sign applied there
-     * (symmetric q15), times w_z dt in q28, / 2^15 rounded */
-    int16_t q = imf_qn_to_q15s(tj, 28);
+    /* -+ theta_j w_z dt: the state rounded to q15 (imf_kk_q_q15), its sign
+     * applied there (symmetric q15), times w_z dt in q28, / 2^15 rounded */
+    int16_t q = imf_kk_q_q15(tj);
     int32_t x = imf_add_sat32(ti, wj);
     if (neg) {
         q = (int16_t)-q;

@@ -352,10 +352,12 @@ static inline uint16_t imf_invsqrt16_u32(const uint32_t x)
  * (imf_rshrk, k in [0, 15]). */
 static inline int imf_unit_xy_k(const int16_t v[3], int16_t a[2])
 {
-    uint32_t n2 = (uint32_t)imf_mul16(v[0], v[0]) + (uint32_t)imf_mul16(v[1], v[1])
-                + (uint32_t)imf_mul16(v[2], v[2]); /* <= 3 2^30 */
+    uint32_t n2 = 0u;
     uint16_t y;
     int i, k = 16;
+    for (i = 0; i < 3; ++i) {
+        n2 += (uint32_t)imf_mul16(v[i], v[i]); /* <= 3 2^30 */
+    }
     if (n2 == 0u) {
         return 0;
     }

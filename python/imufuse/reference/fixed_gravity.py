@@ -14,6 +14,11 @@ from .multiwii import MultiWii
 
 FILTERS_FIXED = ('KKQ', 'MultiWiiQ')
 
+def _q15(t):
+    """imf_kk_q_q15: the state rounded to q15, imf_qn_to_q15s(t, 28)."""
+    return ci.qn_to_q15s(t, 28)
+
+
 def _mul15(w, q):
     """imf_kk_q_mul15: round(w q / 2^15) for int32 w, int16 q (no saturation)."""
     return (ci.check32(w) * q + 16384) >> 15
@@ -63,9 +68,9 @@ class KKQ(FixedFilter):
         return [s[0] * 2.0 ** -28, s[1] * 2.0 ** -28]
 
     def _angle(self, ti, tj, wj, wz, neg, ok, ai):
-        # -+ theta_j w_z dt: the state rounded to q15, its sign applied there
-        # (symmetric q15), times w_z dt in q28, / 2^15 rounded
-        q = ci.qn_to_q15s(tj, 28)
+        # -+ theta_j w_z dt: the state rounded to q15 (imf_kk_q_q15), its sign
+        # applied there (symmetric q15), times w_z dt in q28, / 2^15 rounded
+        q = _q15(tj)
         x = ci.add_sat32(ti, wj)
         if neg:
             q = -q
