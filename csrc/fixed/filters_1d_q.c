@@ -101,6 +101,27 @@ int imf_mahony1d_bias_q_init(imf_mahony1d_bias_q_t *const self, const double dt,
     return r;
 }
 
+/* y0 = imf_gain16_mul(x, g0); y1 = imf_gain16_mul(x, g1): on AVR one copy of
+ * the product in a loop, elsewhere the two statements.  Same values. */
+#if defined(__AVR__) || defined(IMF_SCALE_SHORT)
+#define IMF_1D_Q_GAIN16_MUL_2(y0, g0, y1, g1, x)                    \
+    do {                                                            \
+        int32_t imf_y_[2];                                          \
+        int imf_i_;                                                 \
+        for (imf_i_ = 0; imf_i_ < 2; ++imf_i_) {                    \
+            imf_y_[imf_i_] = imf_gain16_mul((x), imf_i_ ? (g1) : (g0)); \
+        }                                                           \
+        (y0) = imf_y_[0];                                           \
+        (y1) = imf_y_[1];                                           \
+    } while (0)
+#else
+#define IMF_1D_Q_GAIN16_MUL_2(y0, g0, y1, g1, x) \
+    do {                                         \
+        (y0) = imf_gain16_mul((x), (g0));        \
+        (y1) = imf_gain16_mul((x), (g1));        \
+    } while (0)
+#endif
+
 void imf_mahony1d_bias_q_update(imf_mahony1d_bias_q_t *const self, const int16_t rate,
                                 const int16_t angle)
 {
@@ -108,8 +129,8 @@ void imf_mahony1d_bias_q_update(imf_mahony1d_bias_q_t *const self, const int16_t
     /* e_k = a_k - theta_{k-1} (q15 counts) */
     const int32_t e = imf_sub_sat32(imf_i16_to_q15(angle), x->theta);
     const int32_t w = imf_mulk16(rate, self->kr, 15);  /* w dt, q15 counts */
-    const int32_t p = imf_gain16_mul(e, self->kp16);  /* Kp dt e, q15 counts */
-    const int32_t di = imf_gain16_mul(e, self->ki16); /* Ki dt^2 e, q23 counts */
+    int32_t p, di;
+    IMF_1D_Q_GAIN16_MUL_2(p, self->kp16, di, self->ki16, e); /* Kp dt e (q15), Ki dt^2 e (q23) */
     /* I_k = I_{k-1} + Ki dt e_k */
     const int32_t j = imf_add_sat32(x->j, di);
     /* Eq. 3.6: theta_k = theta_{k-1} + (Kp e_k + I_k + w_k) dt.
