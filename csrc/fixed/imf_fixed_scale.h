@@ -213,8 +213,8 @@ imf_gain16_t imf_gain16(const imf_qscale_t c, const int K, const int N)
 
 /* round(x g) for int32 x, g.j >= 0: h = floor(x m / 2^16) from two 16x16
  * products (|h| < 2^31 - 2^15), then the rounding shift by 8 j from whole
- * bytes: floor(h / 2^(8j)) plus the last dropped bit (|x g| < |x|: no
- * saturation). */
+ * bytes: floor(h / 2^(8j)) plus the last dropped bit, bit 7 of the low byte
+ * (on AVR no 32-bit shift by 7) (|x g| < |x|: no saturation). */
 static inline int32_t imf_gain16_mul(const int32_t x, const imf_gain16_t g)
 {
     uint32_t lo;
@@ -228,7 +228,7 @@ static inline int32_t imf_gain16_mul(const int32_t x, const imf_gain16_t g)
     for (i = 1; i < g.j; ++i) {
         h >>= 8;
     }
-    return (h >> 8) + ((h >> 7) & 1);
+    return (h >> 8) + (int32_t)((uint8_t)h >> 7);
 }
 
 /* The gains without a 16-bit form (>= 1): x for a gain of exactly 1,

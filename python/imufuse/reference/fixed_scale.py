@@ -118,7 +118,7 @@ def gain16_mul(x: int, g: tuple[int, int]) -> int:
         return h + ((p & 0xFFFF) >> 15)
     for _ in range(1, j):
         h >>= 8
-    return (h >> 8) + ((h >> 7) & 1)
+    return (h >> 8) + ((h & 0xFF) >> 7)
 
 
 def gain16_above(x: int, g: tuple[int, int], c: ci.QScale, K: int, N: int) -> int:
