@@ -27,7 +27,7 @@ def _mul15(w, q):
 class KKQ(FixedFilter):
     """KK filter of the appendix (Eq. 4.5 with a P controller), fixed point;
     twin of KK (same equations): pitch, roll in q28 rad, a_pitch = -a_x/|a|,
-    a_roll = a_y/|a|; kp per sample. KKQ(dt, kp, gyr_scale=rad/s per count)."""
+    a_roll = a_y/|a|; kp per sample, in [0, 1]. KKQ(dt, kp, gyr_scale=rad/s per count)."""
     kind = "imu"
     c_name = "imf_kk_q"
     state_names = ("pitch", "roll")
