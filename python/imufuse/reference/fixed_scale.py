@@ -52,11 +52,11 @@ def invsqrt16_u32(x: int) -> int:
     for _ in range(2):
         y2 = (y * y + 32768) >> 16
         t = ci.checku32(u * y2)
-        if t >= 3221225472:
-            t = 3221225471
-        w = (3221225472 - t) >> 16
+        w = ci.checku32(3221225472 - t) >> 16  # u y^2 <= 3 2^30 for every u (tested)
         t = y * w + 16384
-        y = 65535 if (t >> 16) >= 32768 else ((t >> 16) << 1) | ((t & 0xFFFF) >> 15)
+        y = ((t >> 16) << 1) | ((t & 0xFFFF) >> 15)
+        if y > 0xFFFF:
+            raise OverflowError(f"imf_invsqrt16_u32: y = {y} leaves uint16 (u = {u})")
     return y
 
 
