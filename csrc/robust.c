@@ -497,6 +497,18 @@ static inline void robust_advance(const imf_robust_settings_t *const set,
     }
 }
 
+/* The end of every update: the output prediction, then the clock. Returns 0
+   to reject the sample. */
+static int robust_finish(const imf_robust_settings_t *const set, imf_robust_state_t *const x,
+                         const imf_real gx, const imf_real gy, const imf_real gz)
+{
+    if (!robust_predict(set, x, gx, gy, gz)) {
+        return 0;
+    }
+    robust_advance(set, x);
+    return 1;
+}
+
 /* valid-attitude policy: the whole new state must be finite */
 static int robust_finite(const imf_robust_state_t *const x)
 {
@@ -511,6 +523,18 @@ static int robust_finite(const imf_robust_state_t *const x)
     return 1;
 }
 
+/* Keep the new state only if every block accepted the sample and left the
+   whole state finite (valid-attitude policy, imf_math.h). */
+static void robust_commit(imf_robust_state_t *const dst, uint32_t *const skipped,
+                          const imf_robust_state_t *const x, const int ok)
+{
+    if (!(ok && robust_finite(x))) {
+        (*skipped)++;
+        return;
+    }
+    *dst = *x;
+}
+
 void imf_robust_imu_update(imf_robust_imu_t *const self, const imf_real gx, const imf_real gy,
                            const imf_real gz, const imf_real ax, const imf_real ay,
                            const imf_real az)
@@ -521,20 +545,9 @@ void imf_robust_imu_update(imf_robust_imu_t *const self, const imf_real gx, cons
         return;
     }
     x = self->x;
-    if (!robust_step(&self->set, &x, gx, gy, gz, ax, ay, az)) {
-        self->skipped++;
-        return;
-    }
-    if (!robust_predict(&self->set, &x, gx, gy, gz)) {
-        self->skipped++;
-        return;
-    }
-    robust_advance(&self->set, &x);
-    if (!robust_finite(&x)) {
-        self->skipped++;
-        return;
-    }
-    self->x = x;
+    robust_commit(&self->x, &self->skipped, &x,
+                  robust_step(&self->set, &x, gx, gy, gz, ax, ay, az)
+                      && robust_finish(&self->set, &x, gx, gy, gz));
 }
 
 void imf_robust_ahrs_update(imf_robust_ahrs_t *const self, const imf_real gx, const imf_real gy,
@@ -548,22 +561,8 @@ void imf_robust_ahrs_update(imf_robust_ahrs_t *const self, const imf_real gx, co
         return;
     }
     x = self->x;
-    if (!robust_step(&self->set, &x, gx, gy, gz, ax, ay, az)) {
-        self->skipped++;
-        return;
-    }
-    if (!robust_mag(&self->set, &x, mx, my, mz)) {
-        self->skipped++;
-        return;
-    }
-    if (!robust_predict(&self->set, &x, gx, gy, gz)) {
-        self->skipped++;
-        return;
-    }
-    robust_advance(&self->set, &x);
-    if (!robust_finite(&x)) {
-        self->skipped++;
-        return;
-    }
-    self->x = x;
+    robust_commit(&self->x, &self->skipped, &x,
+                  robust_step(&self->set, &x, gx, gy, gz, ax, ay, az)
+                      && robust_mag(&self->set, &x, mx, my, mz)
+                      && robust_finish(&self->set, &x, gx, gy, gz));
 }

@@ -52,7 +52,16 @@ BAD = [
     ("Complementary1DQ", dict(dt=0.01, alpha=1.5, gyr_scale=1e-3, angle_scale=1e-4), "alpha"),
     ("Complementary1DQ", dict(dt=0.01, alpha=0.9, gyr_scale=1e-3), "angle_scale"),
     ("Mahony1DBiasQ", dict(dt=0.01, kp=2.0, ki=0.3, gyr_scale=1e-3, angle_scale=-1.0), "angle_scale"),
+    # Kp dt < 1 and Ki dt^2 < 2^-8 (stable in float, outside the 16-bit gains)
+    ("Mahony1DBiasQ", dict(dt=0.01, kp=100.0, ki=0.3, gyr_scale=1e-3, angle_scale=1e-4), "^kp[:*]"),
+    ("Mahony1DBiasQ", dict(dt=0.01, kp=150.0, ki=0.3, gyr_scale=1e-3, angle_scale=1e-4), "^kp[:*]"),
+    ("Mahony1DBiasQ", dict(dt=0.01, kp=99.99999, ki=0.3, gyr_scale=1e-3, angle_scale=1e-4),
+     "^kp[:*]"),                                               # rounds to 1 in 15 bits
+    ("Mahony1DBiasQ", dict(dt=0.01, kp=2.0, ki=39.0625, gyr_scale=1e-3, angle_scale=1e-4), "^ki[:*]"),
+    ("Mahony1DBiasQ", dict(dt=0.1, kp=2.0, ki=0.5, integrate_first=True, gyr_scale=1e-3,
+                           angle_scale=1e-4), "^ki[:*]"),
     ("KKQ", dict(dt=0.01, kp=2.0, gyr_scale=1e-3), "kp"),
+    ("KKQ", dict(dt=0.01, kp=1.5, gyr_scale=1e-3), "kp"),   # > 1: more than the whole error
     ("MultiWiiQ", dict(dt=0.01, cmpf=600, gyr_scale=1e-3, acc_1g=-1.0), "acc_1g"),
     ("MultiWiiQ", dict(dt=0.01, cmpf=600, gyr_scale=1e-3, acc_1g=4096, acc_lpf_shift=16),
      "acc_lpf_shift"),

@@ -190,7 +190,7 @@ PARAM_SPACE = {
                              gyr_scale=_logu(1e-7, 1.0), angle_scale=_logu(1e-7, 1.0)),
     "Mahony1DBiasQ": dict(dt=_logu(1e-5, 0.1), kp=_logu(1e-3, 100.0), ki=_logu(1e-4, 1e3),
                           gyr_scale=_logu(1e-7, 1.0), angle_scale=_logu(1e-7, 1.0)),
-    "KKQ": dict(dt=_logu(1e-5, 0.1), kp=st.floats(0.0, 1.999), gyr_scale=_logu(1e-7, 1e-2)),
+    "KKQ": dict(dt=_logu(1e-5, 0.1), kp=st.one_of(st.just(1.0), st.floats(0.0, 1.0)), gyr_scale=_logu(1e-7, 1e-2)),
     "MultiWiiQ": dict(dt=_logu(1e-5, 0.1), cmpf=st.one_of(st.just(0.0), _logu(1e-3, 1e6)),
                       acc_lpf_shift=st.integers(0, 15), acc_1g=st.floats(1e-3, 32767.0),
                       window=st.floats(0.0, 1.0), gyr_scale=_logu(1e-7, 1e-2)),

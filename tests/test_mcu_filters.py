@@ -278,6 +278,76 @@ def test_complementary1d_q_init_consts_checks_the_gain(toolchains):
     assert codes == [0] * len(good) + [-1] * len(bad), (cases, codes)
 
 
+def test_kk_q_init_checks_kp(toolchains):
+    """KKQ takes kp in [0, 1] (kp > 1 corrects more than the whole error in one sample):
+    imf_kk_q_init rejects kp = 1.5 and accepts kp = 1, the reference raises a ValueError
+    naming kp; imf_kk_q_init_consts stores the 16-bit gain kp16 (m, j) as given: it accepts
+    the reference's constants for kp 0, 1 and in between, and rejects a gain imf_gain16
+    cannot give for kp in [0, 1]."""
+    need(toolchains, "host")
+    from imufuse.reference import KKQ
+    with pytest.raises(ValueError, match="kp"):
+        KKQ(0.002, 1.5, gyr_scale=1e-3)
+    good = [KKQ(0.002, k, gyr_scale=1e-3).c_init_args() for k in (0.0, 1.0, 0.5, 0.002, 1.0 - 2.0 ** -30)]
+    kw = good[0]["kw"]
+    bad = [(0, -1), (16384, -1), (1, -2), (0, -3), (300, 5), (255, 0), (1, 4)]
+    calls = [f"imf_kk_q_init_consts(&imf_f, (imf_qscale_t){{{g['kw'].m}, {g['kw'].s}}}, "
+             f"{g['kp16_m']}u, {g['kp16_j']})" for g in good]
+    calls += [f"imf_kk_q_init_consts(&imf_f, (imf_qscale_t){{{kw.m}, {kw.s}}}, {m}u, {j})"
+              for m, j in bad]
+    calls += ["imf_kk_q_init(&imf_f, 0.002, 1.0, 1e-3)", "imf_kk_q_init(&imf_f, 0.002, 1.5, 1e-3)"]
+    want = [0] * len(good) + [-1] * len(bad) + [0, -1]
+    body = "\n".join(f"imf_r{i} = {c};" for i, c in enumerate(calls))
+    pre = '#include "gravity_q.h"\nstatic imf_kk_q_t imf_f;\n' + "".join(
+        f"static int32_t imf_r{i};\n" for i in range(len(calls)))
+    drv = mcu.Driver(prelude=pre, step=body, state=[(f"imf_r{i}", "i32") for i in range(len(calls))])
+    res = mcu.run("host", sources=[str(mf.CSRC / "fixed" / "gravity_q.c")],
+                  include_dirs=[mf.CSRC, mf.CSRC / "fixed"], driver=drv,
+                  inputs={"k": np.zeros(1, np.int16)})
+    assert [int(col[0]) for col in res.values()] == want, calls
+
+
+def _host_codes(calls, struct):
+    """Return values of C calls (expressions of imf_f, a static ``struct``) on the host."""
+    body = "\n".join(f"imf_r{i} = {c};" for i, c in enumerate(calls))
+    pre = f'#include "filters_1d_q.h"\nstatic {struct} imf_f;\n' + "".join(
+        f"static int32_t imf_r{i};\n" for i in range(len(calls)))
+    drv = mcu.Driver(prelude=pre, step=body, state=[(f"imf_r{i}", "i32") for i in range(len(calls))])
+    res = mcu.run("host", sources=[str(mf.CSRC / "fixed" / "filters_1d_q.c")],
+                  include_dirs=[mf.CSRC, mf.CSRC / "fixed"], driver=drv,
+                  inputs={"k": np.zeros(1, np.int16)})
+    return [int(col[0]) for col in res.values()]
+
+
+def test_mahony1d_bias_q_gain_range(toolchains):
+    """Mahony1DBiasQ takes Kp dt < 1 and Ki dt^2 < 2^-8 (the 16-bit gains of its update):
+    imf_mahony1d_bias_q_init returns -1 at and above those bounds, where the reference raises
+    ValueError naming kp or ki; imf_mahony1d_bias_q_init_consts accepts the reference's
+    constants and rejects 16-bit gains imf_gain16 cannot give below 1."""
+    need(toolchains, "host")
+    from imufuse.reference import Mahony1DBiasQ
+    sc = dict(gyr_scale=1e-3, angle_scale=1e-4)
+    ok = [(0.01, 99.9, 0.3), (0.01, 1e-3, 0.0), (0.01, 2.0, 0.0), (0.01, 2.0, 39.0),
+          (0.002, 2.0, 0.2), (1e-5, 1e-3, 100.0), (0.1, 9.99, 0.39)]
+    bad = [(0.01, 100.0, 0.3), (0.01, 150.0, 0.3), (0.01, 99.99999, 0.3), (0.01, 2.0, 39.0625),
+           (0.01, 2.0, 100.0), (0.1, 2.0, 0.5)]
+    for dt, kp, ki in bad:
+        with pytest.raises(ValueError, match=r"^kp[:*]" if kp * dt >= 0.9999 else r"^ki[:*]"):
+            Mahony1DBiasQ(dt, kp, ki, **sc)
+    good = [Mahony1DBiasQ(dt, kp, ki, **sc).c_init_args() for dt, kp, ki in ok]
+    dbl = [f"imf_mahony1d_bias_q_init(&imf_f, {dt!r}, {kp!r}, {ki!r}, 0, 1e-3, 1e-4)"
+           for dt, kp, ki in ok + bad]
+    kr = good[0]["kr"]
+    consts = [(g["kr"], g["kp16_m"], g["kp16_j"], g["ki16_m"], g["ki16_j"]) for g in good]
+    wrong = [(0, -1), (16384, -1), (0, -2), (300, 5), (255, 0), (1, 4)]
+    consts += [(kr, m, j, 300, 0) for m, j in wrong] + [(kr, 300, 0, m, j) for m, j in wrong]
+    calls = dbl + [f"imf_mahony1d_bias_q_init_consts(&imf_f, (imf_qscale_t){{{k.m}, {k.s}}}, "
+                   f"{pm}u, {pj}, {im}u, {ij}, 1)" for k, pm, pj, im, ij in consts]
+    codes = _host_codes(calls, "imf_mahony1d_bias_q_t")
+    want = [0] * len(ok) + [-1] * len(bad) + [0] * len(good) + [-1] * (2 * len(wrong))
+    assert codes == want, list(zip(calls, codes))
+
+
 # --------------------------------------------------------------------------------------------
 # elementary operations
 

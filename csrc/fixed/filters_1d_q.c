@@ -51,36 +51,76 @@ void imf_complementary1d_q_update(imf_complementary1d_q_t *const self, const int
     self->x.theta = imf_add_sat32(tp, (self->ka16.j >= 0) ? imf_gain16_mul(e, self->ka16) : e);
 }
 
+/* A 16-bit gain imf_gain16(c, 15, N) of a q-scale c below 2^(15-N) (g < 1):
+ * j in [0, 4] and m = 0 (c = 0) or m in [2^8, 2^16). */
+static int imf_1d_q_gain16_ok(const uint16_t m, const int j)
+{
+    return j >= 0 && j <= 4 && (m == 0u || m >= 256u);
+}
+
 int imf_mahony1d_bias_q_init_consts(imf_mahony1d_bias_q_t *const self, const imf_qscale_t kr,
-                                    const imf_qscale_t kp, const imf_qscale_t ki,
+                                    const uint16_t kp16_m, const int kp16_j,
+                                    const uint16_t ki16_m, const int ki16_j,
                                     const int integrate_first)
 {
-    /* checked first, the gains last (as in imf_complementary1d_q_init_consts) */
-    const int r =
-        (imf_1d_q_kr_ok(kr) && imf_qscale_ok(kp, 14, 47) && imf_qscale_ok(ki, 8, 55)) ? 0 : -1;
+    /* kp16 = imf_gain16(Kp dt, 15, 15), ki16 = imf_gain16(Ki dt^2, 15, 23),
+     * stored as given (no init-time arithmetic in an integer-initialised
+     * firmware): Kp dt < 1 and Ki dt^2 < 2^-8, so both are 16-bit gains */
     self->kr = kr;
-    self->kp = kp;
-    self->ki = ki;
+    self->kp16.m = kp16_m;
+    self->kp16.j = (int16_t)kp16_j;
+    self->ki16.m = ki16_m;
+    self->ki16.j = (int16_t)ki16_j;
     self->integrate_first = (int16_t)(integrate_first != 0);
     self->x.theta = 0;
     self->x.j = 0;
-    self->kp16 = imf_gain16(kp, 15, 15);
-    self->ki16 = imf_gain16(ki, 15, 23);
-    return r;
+    if (!imf_1d_q_kr_ok(kr) || !imf_1d_q_gain16_ok(kp16_m, kp16_j)
+        || !imf_1d_q_gain16_ok(ki16_m, ki16_j)) {
+        return -1;
+    }
+    return 0;
 }
 
 int imf_mahony1d_bias_q_init(imf_mahony1d_bias_q_t *const self, const double dt, const double kp,
                              const double ki, const int integrate_first, const double gyr_scale,
                              const double angle_scale)
 {
+    const imf_qscale_t kpq = imf_qscale_from_double(kp * dt);
+    const imf_qscale_t kiq = imf_qscale_from_double(ki * dt * dt);
+    const imf_gain16_t kp16 = imf_gain16(kpq, 15, 15);
+    const imf_gain16_t ki16 = imf_gain16(kiq, 15, 23);
+    /* Ki = 0: the gain 0 (imf_gain16 gives j = -1 for its q-scale 0 2^-16) */
     const int r = imf_mahony1d_bias_q_init_consts(
-        self, imf_qscale_from_double(gyr_scale * dt / angle_scale), imf_qscale_from_double(kp * dt),
-        imf_qscale_from_double(ki * dt * dt), integrate_first);
-    if (!(dt > 0.0) || !(kp >= 0.0) || !(ki >= 0.0) || !(gyr_scale > 0.0) || !(angle_scale > 0.0)) {
+        self, imf_qscale_from_double(gyr_scale * dt / angle_scale), kp16.m, kp16.j, ki16.m,
+        (kiq.m == 0) ? 0 : ki16.j, integrate_first);
+    /* Kp dt < 1, Ki dt^2 < 2^-8: q-scale s >= 15, >= 23 (Ki = 0: 0 2^-16) */
+    if (!(dt > 0.0) || !(kp >= 0.0) || !(ki >= 0.0) || !(gyr_scale > 0.0) || !(angle_scale > 0.0)
+        || !imf_qscale_ok(kpq, 15, 47) || !(kiq.m == 0 || imf_qscale_ok(kiq, 23, 55))) {
         return -1;
     }
     return r;
 }
+
+/* y0 = imf_gain16_mul(x, g0); y1 = imf_gain16_mul(x, g1): on AVR one copy of
+ * the product in a loop, elsewhere the two statements.  Same values. */
+#if defined(__AVR__) || defined(IMF_SCALE_SHORT)
+#define IMF_1D_Q_GAIN16_MUL_2(y0, g0, y1, g1, x)                    \
+    do {                                                            \
+        int32_t imf_y_[2];                                          \
+        int imf_i_;                                                 \
+        for (imf_i_ = 0; imf_i_ < 2; ++imf_i_) {                    \
+            imf_y_[imf_i_] = imf_gain16_mul((x), imf_i_ ? (g1) : (g0)); \
+        }                                                           \
+        (y0) = imf_y_[0];                                           \
+        (y1) = imf_y_[1];                                           \
+    } while (0)
+#else
+#define IMF_1D_Q_GAIN16_MUL_2(y0, g0, y1, g1, x) \
+    do {                                         \
+        (y0) = imf_gain16_mul((x), (g0));        \
+        (y1) = imf_gain16_mul((x), (g1));        \
+    } while (0)
+#endif
 
 void imf_mahony1d_bias_q_update(imf_mahony1d_bias_q_t *const self, const int16_t rate,
                                 const int16_t angle)
@@ -89,8 +129,8 @@ void imf_mahony1d_bias_q_update(imf_mahony1d_bias_q_t *const self, const int16_t
     /* e_k = a_k - theta_{k-1} (q15 counts) */
     const int32_t e = imf_sub_sat32(imf_i16_to_q15(angle), x->theta);
     const int32_t w = imf_mulk16(rate, self->kr, 15);  /* w dt, q15 counts */
-    const int32_t p = imf_gain16_or_mulk32(e, self->kp16, self->kp, 15, 15); /* Kp dt e, q15 counts */
-    const int32_t di = imf_gain16_or_mulk32(e, self->ki16, self->ki, 15, 23); /* Ki dt^2 e, q23 */
+    int32_t p, di;
+    IMF_1D_Q_GAIN16_MUL_2(p, self->kp16, di, self->ki16, e); /* Kp dt e (q15), Ki dt^2 e (q23) */
     /* I_k = I_{k-1} + Ki dt e_k */
     const int32_t j = imf_add_sat32(x->j, di);
     /* Eq. 3.6: theta_k = theta_{k-1} + (Kp e_k + I_k + w_k) dt.

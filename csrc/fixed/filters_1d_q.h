@@ -16,8 +16,8 @@
  *                                       ka16, ka rounded to 16 bits with a
  *                                       byte-aligned shift: imf_gain16)
  *   kp  = Kp dt, ki = Ki dt^2          (Mahony1DBiasQ; the update uses
- *                                       them as 16-bit gains likewise, exact
- *                                       products for gains >= 1)
+ *                                       them as 16-bit gains likewise, kp16
+ *                                       and ki16 2^8: Kp dt < 1, Ki dt^2 < 2^-8)
  */
 #ifndef IMF_FILTERS_1D_Q_H
 #define IMF_FILTERS_1D_Q_H
@@ -60,18 +60,26 @@ typedef struct {
 } imf_mahony1d_bias_q_state_t;
 
 typedef struct {
-    imf_qscale_t kr, kp, ki;
+    imf_qscale_t kr;
     imf_gain16_t kp16, ki16; /* kp, ki 2^8 as 16-bit gains (imf_gain16) */
     int16_t integrate_first; /* 1: Eq. 3.9 order (Corollary #1) */
     imf_mahony1d_bias_q_state_t x;
 } imf_mahony1d_bias_q_t;
 
-/* dt: s; kp: 1/s; ki: 1/s^2; scales as above (double: see above). */
+/* dt: s; kp: 1/s; ki: 1/s^2; scales as above (double: see above).  Kp dt
+ * must be below 1 (a correction faster than one sample overshoots the
+ * measured angle) and Ki dt^2 below 2^-8 (the I loop's natural frequency
+ * sqrt(Ki) below 1/16 rad per sample): the gains the 16-bit products
+ * cover.  Returns 0, or -1 for a parameter out of range. */
 int imf_mahony1d_bias_q_init(imf_mahony1d_bias_q_t *self, double dt, double kp, double ki,
                              int integrate_first, double gyr_scale, double angle_scale);
-/* From the precomputed constants kr, kp = Kp dt, ki = Ki dt^2 (integer only). */
-int imf_mahony1d_bias_q_init_consts(imf_mahony1d_bias_q_t *self, imf_qscale_t kr, imf_qscale_t kp,
-                                    imf_qscale_t ki, int integrate_first);
+/* The same from the precomputed constants kr (q-scale), kp16 (m, j:
+ * imf_gain16(Kp dt, 15, 15)) and ki16 (imf_gain16(Ki dt^2, 15, 23); m = j = 0
+ * for Ki = 0), computed once on a host:
+ * imufuse.reference.Mahony1DBiasQ(...).c_init_args().  Integer only, and it
+ * only stores them.  Returns 0, or -1 if a constant is out of range. */
+int imf_mahony1d_bias_q_init_consts(imf_mahony1d_bias_q_t *self, imf_qscale_t kr, uint16_t kp16_m,
+                                    int kp16_j, uint16_t ki16_m, int ki16_j, int integrate_first);
 void imf_mahony1d_bias_q_update(imf_mahony1d_bias_q_t *self, int16_t rate, int16_t angle);
 
 #endif /* IMF_FILTERS_1D_Q_H */

@@ -4,15 +4,20 @@
 #include "imf_fixed_init.h"
 #include "imf_fixed_scale.h"
 
-int imf_kk_q_init_consts(imf_kk_q_t *const self, const imf_qscale_t kw, const imf_qscale_t kp)
+int imf_kk_q_init_consts(imf_kk_q_t *const self, const imf_qscale_t kw, const uint16_t kp16_m,
+                         const int kp16_j)
 {
+    /* kp16 = imf_gain16(kp, 15, 15), stored as given (no init-time arithmetic
+     * in an integer-initialised firmware): kp in [0, 1], so j in [0, 4] with
+     * m = 0 (kp = 0) or m in [2^8, 2^16), or j = -2, m = 0 (kp = 1 exactly).
+     * kw: its shift kw.s - 28 in [0, 31] (kw < 2^-13 rad per count and sample) */
     self->kw = kw;
-    self->kp = kp;
-    self->kwc16 = imf_gain16(kw, 15, 28);
-    self->kp16 = imf_gain16(kp, 28, 28);
+    self->kp16.m = kp16_m;
+    self->kp16.j = (int16_t)kp16_j;
     self->x.t[0] = self->x.t[1] = 0;
-    /* shifts: kw.s - 28 and kw.s + 15 - 28 in [0, 47]; kp.s in [14, 47] */
-    if (kw.m == 0 || !imf_qscale_ok(kw, 28, 59) || !imf_qscale_ok(kp, 14, 47)) {
+    if (kw.m == 0 || !imf_qscale_ok(kw, 28, 59)
+        || !((kp16_j >= 0 && kp16_j <= 4 && (kp16_m == 0u || kp16_m >= 256u))
+             || (kp16_j == -2 && kp16_m == 0u))) {
         return -1;
     }
     return 0;
@@ -20,36 +25,97 @@ int imf_kk_q_init_consts(imf_kk_q_t *const self, const imf_qscale_t kw, const im
 
 int imf_kk_q_init(imf_kk_q_t *const self, const double dt, const double kp, const double gyr_scale)
 {
-    const int r = imf_kk_q_init_consts(self, imf_qscale_from_double(gyr_scale * dt),
-                                       imf_qscale_from_double(kp));
-    if (!(dt > 0.0) || !(kp >= 0.0) || !(kp < 2.0) || !(gyr_scale > 0.0)) {
+    const imf_gain16_t kp16 = imf_gain16(imf_qscale_from_double(kp), 15, 15);
+    const int r = imf_kk_q_init_consts(self, imf_qscale_from_double(gyr_scale * dt), kp16.m, kp16.j);
+    if (!(dt > 0.0) || !(kp >= 0.0) || !(kp <= 1.0) || !(gyr_scale > 0.0)) {
         return -1;
     }
     return r;
 }
 
+/* round(w q / 2^15) for int32 w, int16 q (|q| < 2^15: no saturation): the
+ * high part h = floor(w q / 2^16) and the low 16 bits from two 16x16
+ * products, then 2 h plus the two top bits of the low word. */
+static inline int32_t imf_kk_q_mul15(const int32_t w, const int16_t q)
+{
+    const int32_t lo = imf_mul16su(q, (uint16_t)((uint32_t)w & 0xFFFFu));
+    const int32_t h = imf_mul16((int16_t)(w >> 16), q) + (lo >> 16);
+    const uint16_t l = (uint16_t)lo;
+    return h * 2 + (int32_t)(l >> 15) + (int32_t)((l >> 14) & 1u);
+}
+
+/* The state rounded to q15: imf_qn_to_q15s(t, 28).  On AVR in 16-bit steps
+ * (the general shift is a 13-step loop): r = t + 2^12 (saturated: beyond the
+ * q15 range either way), h = floor(r / 2^16); floor(r / 2^13) is 8 h plus
+ * bits 13..15 of r, saturated to the symmetric q15 range. */
+static inline int16_t imf_kk_q_q15(const int32_t t)
+{
+#if defined(__AVR__) || defined(IMF_SCALE_SHORT)
+    const int32_t r = imf_add_sat32(t, 4096);
+    const int16_t h = (int16_t)(r >> 16);
+    int16_t v;
+    if (h >= 4096) {
+        return 32767;
+    }
+    if (h < -4096) {
+        return -32767;
+    }
+    v = (int16_t)(h * 8 + (int16_t)((uint16_t)((uint32_t)r & 0xFFFFu) >> 13));
+    return (v == -32768) ? (int16_t)-32767 : v;
+#else
+    return imf_qn_to_q15s(t, 28);
+#endif
+}
+
+/* Eq. 4.5 for one angle theta_i (pitch: i = 0, neg = 1; roll: i = 1, neg = 0)
+ * with theta_j the other one, wj = w_j dt and wz = w_z dt (q28 rad), and
+ * a_i = -a_x (pitch) or a_y (roll) of the unit vector (ok = 0: none):
+ *   theta_i + w_j dt -+ theta_j w_z dt + Kp (a_i - theta_i), q28. */
+static inline int32_t imf_kk_q_angle(const imf_kk_q_t *const self, const int32_t ti,
+                                     const int32_t tj, const int32_t wj, const int32_t wz,
+                                     const int neg, const int ok, const int16_t ai)
+{
+    /* -+ theta_j w_z dt: the state rounded to q15 (imf_kk_q_q15), its sign
+     * applied there (symmetric q15), times w_z dt in q28, / 2^15 rounded */
+    int16_t q = imf_kk_q_q15(tj);
+    int32_t x = imf_add_sat32(ti, wj);
+    if (neg) {
+        q = (int16_t)-q;
+    }
+    x = imf_add_sat32(x, imf_kk_q_mul15(wz, q));
+    if (ok) {
+        /* P controller Kp (a - theta_{n-1}), a in q28 (symmetric q15 -> q28
+         * exactly); kp = 1 (kp16.j < 0): the whole error */
+        const int32_t e = imf_sub_sat32(imf_mul16(ai, 8192), ti);
+        x = imf_add_sat32(x, (self->kp16.j >= 0) ? imf_gain16_mul(e, self->kp16) : e);
+    }
+    return x;
+}
+
 void imf_kk_q_update(imf_kk_q_t *const self, const int16_t gyr[3], const int16_t acc[3])
 {
     int32_t *const t = self->x.t;
-    int16_t a[2];
-    int32_t cr, cp, pitch, roll;
-    /* the state as q15 rad, operand of the yaw cross terms */
-    const int16_t p15 = imf_qn_to_q15s(t[0], 28), r15 = imf_qn_to_q15s(t[1], 28);
-    /* roll w_z dt and pitch w_z dt: (q15 x counts) x kw -> q28 */
-    IMF_GAIN16_OR_MULK32_2(cr, imf_mul16(r15, gyr[2]), cp, imf_mul16(p15, gyr[2]), self->kwc16,
-                           self->kw, 15, 28);
-    /* Eq. 4.5, gyro path: (w_y - roll w_z) dt, (w_x + pitch w_z) dt, q28 */
-    pitch = imf_sub_sat32(imf_add_sat32(t[0], imf_mulk16(gyr[1], self->kw, 28)), cr);
-    roll = imf_add_sat32(imf_add_sat32(t[1], imf_mulk16(gyr[0], self->kw, 28)), cp);
-    if (imf_unit_xy_k(acc, a)) {
-        /* a_pitch = -a_x/|a|, a_roll = a_y/|a| (symmetric q15 -> q28 exactly);
-         * P controller Kp (a - theta_{n-1}) */
-        const int32_t ap = -imf_mul16(a[0], 8192), ar = imf_mul16(a[1], 8192);
-        IMF_ADD_GAIN16_OR_MULK32_2(pitch, imf_sub_sat32(ap, t[0]), roll, imf_sub_sat32(ar, t[1]),
-                                   self->kp16, self->kp, 28, 28);
+    int16_t a[2] = {0, 0};
+    int32_t w[3], n[2];
+    int i;
+    const int ok = imf_unit_xy_k(acc, a);
+    /* w dt in q28 (imf_mulk16's value, its shift kw.s - 28 >= 0) */
+    for (i = 0; i < 3; ++i) {
+        w[i] = imf_rshrk(imf_mul16(gyr[i], self->kw.m), self->kw.s - 28);
     }
-    t[0] = pitch;
-    t[1] = roll;
+#if defined(__AVR__) || defined(IMF_SCALE_SHORT)
+    /* on AVR pitch and roll in a loop (one copy of the code), elsewhere the
+     * two calls written out (the Cortex-M0 pays for the loop); same values */
+    for (i = 0; i < 2; ++i) {
+        n[i] = imf_kk_q_angle(self, t[i], t[1 - i], w[1 - i], w[2], i == 0, ok,
+                              i ? a[1] : (int16_t)-a[0]);
+    }
+#else
+    n[0] = imf_kk_q_angle(self, t[0], t[1], w[1], w[2], 1, ok, (int16_t)-a[0]);
+    n[1] = imf_kk_q_angle(self, t[1], t[0], w[0], w[2], 0, ok, a[1]);
+#endif
+    t[0] = n[0];
+    t[1] = n[1];
 }
 
 int imf_multiwii_q_init_consts(imf_multiwii_q_t *const self, const imf_qscale_t kw,
@@ -98,6 +164,20 @@ int imf_multiwii_q_init(imf_multiwii_q_t *const self, const double dt, const dou
     return r;
 }
 
+#if !(defined(__AVR__) || defined(IMF_SCALE_SHORT)) && defined(__GNUC__)
+/* imf_gain16_or_mulk32, one copy called from the three products below (GCC
+ * inlines a static function with a single caller: 356 bytes more on the
+ * Cortex-M0 than this call) */
+__attribute__((noinline)) static int32_t imf_multiwii_q_gain(const int32_t x, const imf_gain16_t g,
+                                                            const imf_qscale_t c, const int K,
+                                                            const int N)
+{
+    return imf_gain16_or_mulk32(x, g, c, K, N);
+}
+#else
+#define imf_multiwii_q_gain imf_gain16_or_mulk32
+#endif
+
 void imf_multiwii_q_update(imf_multiwii_q_t *const self, const int16_t gyr[3], const int16_t acc[3])
 {
     int32_t *const d = self->x.d;
@@ -145,13 +225,13 @@ void imf_multiwii_q_update(imf_multiwii_q_t *const self, const int16_t gyr[3], c
     }
 #else
     for (i = 0; i < 3; ++i) {
-        d[i] = imf_add_sat32(d[i], imf_gain16_or_mulk32(c[i], self->kw16, self->kw, 0, 16));
+        d[i] = imf_add_sat32(d[i], imf_multiwii_q_gain(c[i], self->kw16, self->kw, 0, 16));
     }
     /* step 4: complementary weighting while |accSmooth| is within the window */
     if (n2 > self->lo2 && n2 < self->hi2) {
         for (i = 0; i < 3; ++i) {
             /* (d F + s)/(F + 1) = d + (s - d)/(F + 1) */
-            d[i] = imf_add_sat32(d[i], imf_gain16_or_mulk32(imf_sub_sat32(l[i], d[i]), self->kc16, self->kc, 15, 15));
+            d[i] = imf_add_sat32(d[i], imf_multiwii_q_gain(imf_sub_sat32(l[i], d[i]), self->kc16, self->kc, 15, 15));
         }
     }
 #endif

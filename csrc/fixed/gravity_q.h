@@ -10,13 +10,15 @@
  * KKQ (appendix "KK", Eq. 4.5 with a P controller; twin of KK, csrc/kk.h):
  *   pitch_n = pitch + (w_y - roll w_z) dt + Kp (a_pitch - pitch)
  *   roll_n  = roll  + (w_x + pitch w_z) dt + Kp (a_roll - roll)
- *   a_pitch = -a_x/|a|, a_roll = a_y/|a| (small angles; a block-scaled to
- *   [2^14, 2^15] and |a| by a 16-bit inverse square root with two Newton
- *   steps, imf_unit_xy_k; a zero vector skips the P term).
- *   State: pitch, roll in q28 rad.  Constants: kw = gyr_scale dt, kp (per
- *   sample, < 2).  The yaw cross terms multiply the state rounded to q15;
- *   they and the P term use kw, kp rounded at init to 16-bit gains with a
- *   byte-aligned shift (imf_gain16, docs/fixed-point.md).
+ *   a_pitch = -a_x/|a|, a_roll = a_y/|a| (small angles; |a|^2 scaled by 4^k
+ *   into [2^30, 2^32) and 1/|a| by a 16-bit inverse square root with two
+ *   Newton steps, imf_unit_xy_k; a zero vector skips the P term).
+ *   State: pitch, roll in q28 rad.  Constants: kw = gyr_scale dt (< 2^-13
+ *   rad per count and sample), kp (per sample, in [0, 1]: kp > 1 would
+ *   correct more than the whole error in one sample) as the 16-bit gain
+ *   kp16 = imf_gain16(kp, 15, 15) (byte-aligned shift, docs/fixed-point.md;
+ *   kp = 1 exactly: j = -2).  w dt in q28 (gyro path); the yaw cross terms
+ *   multiply the state rounded to q15 by w_z dt (q28), rounded once.
  *
  * MultiWiiQ (appendix "MultiWii 2.2"; twin of MultiWii, csrc/multiwii.h):
  *   accelerometer LPF  MultiWii's L = L - L/2^k + a (accLPF32), divided by
@@ -43,18 +45,19 @@ typedef struct {
 } imf_kk_q_state_t;
 
 typedef struct {
-    imf_qscale_t kw, kp;
-    imf_gain16_t kwc16, kp16; /* kw (yaw cross terms), kp in 16 bits (imf_gain16) */
+    imf_qscale_t kw;
+    imf_gain16_t kp16; /* kp in 16 bits (imf_gain16) */
     imf_kk_q_state_t x;
 } imf_kk_q_t;
 
-/* dt: s; kp: per sample, [0, 2); gyr_scale: rad/s per count.  Constants
+/* dt: s; kp: per sample, [0, 1]; gyr_scale: rad/s per count.  Constants
  * computed in double: on a target whose double is 32 bits (avr-gcc) they
  * can differ from a host's; use _init_consts there. */
 int imf_kk_q_init(imf_kk_q_t *self, double dt, double kp, double gyr_scale);
-/* From the precomputed constants kw = gyr_scale dt, kp (integer only,
- * identical on every target; imufuse.reference.KKQ(...).c_init_args()). */
-int imf_kk_q_init_consts(imf_kk_q_t *self, imf_qscale_t kw, imf_qscale_t kp);
+/* From the precomputed constants kw = gyr_scale dt and kp16 = (m, j) =
+ * imf_gain16(kp, 15, 15), stored as given (integer only, identical on every
+ * target; imufuse.reference.KKQ(...).c_init_args()). */
+int imf_kk_q_init_consts(imf_kk_q_t *self, imf_qscale_t kw, uint16_t kp16_m, int kp16_j);
 void imf_kk_q_update(imf_kk_q_t *self, const int16_t gyr[3], const int16_t acc[3]);
 
 typedef struct {

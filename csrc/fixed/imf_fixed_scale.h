@@ -213,8 +213,8 @@ imf_gain16_t imf_gain16(const imf_qscale_t c, const int K, const int N)
 
 /* round(x g) for int32 x, g.j >= 0: h = floor(x m / 2^16) from two 16x16
  * products (|h| < 2^31 - 2^15), then the rounding shift by 8 j from whole
- * bytes: floor(h / 2^(8j)) plus the last dropped bit (|x g| < |x|: no
- * saturation). */
+ * bytes: floor(h / 2^(8j)) plus the last dropped bit, bit 7 of the low byte
+ * (on AVR no 32-bit shift by 7) (|x g| < |x|: no saturation). */
 static inline int32_t imf_gain16_mul(const int32_t x, const imf_gain16_t g)
 {
     uint32_t lo;
@@ -228,7 +228,7 @@ static inline int32_t imf_gain16_mul(const int32_t x, const imf_gain16_t g)
     for (i = 1; i < g.j; ++i) {
         h >>= 8;
     }
-    return (h >> 8) + ((h >> 7) & 1);
+    return (h >> 8) + (int32_t)((uint8_t)h >> 7);
 }
 
 /* The gains without a 16-bit form (>= 1): x for a gain of exactly 1,
@@ -308,22 +308,19 @@ static inline int32_t imf_gain16_or_mulk32(const int32_t x, const imf_gain16_t g
 
 /* ---- unit vector of raw accelerometer counts (KKQ) -------------------- */
 
-/* 1/sqrt(x) for x in [2^28, 2^32): y (unsigned q15) and *e in {0, 1} with
- * 1/sqrt(x) ~= y 2^(*e - 31).  The chord of imf_invsqrt8_u32 (in 16-bit
- * operations) and two Newton steps y <- y (3 - u y^2) / 2, each three
- * unsigned 16x16->32 products: relative error below 6e-5 (tested
- * exhaustively over the mantissa, tests/test_fixed_scale.py). */
-static inline uint16_t imf_invsqrt16_u32(uint32_t x, int *const e)
+/* 1/sqrt(x) for x in [2^30, 2^32): y (unsigned q15) with 1/sqrt(x) ~= y 2^-31.
+ * The chord of imf_invsqrt8_u32 on u = x / 2^16 (in 16-bit operations) and
+ * two Newton steps y <- y (3 - u y^2) / 2, each three unsigned 16x16->32
+ * products: relative error below 6e-5.  y depends on u alone, and every u
+ * is tested (tests/test_fixed_scale.py: the twin raises where a bound below
+ * fails): u y^2 stays below 3 2^30 and the new y below 2^16 (no clamp, no
+ * saturation needed). */
+static inline uint16_t imf_invsqrt16_u32(const uint32_t x)
 {
-    uint16_t u, y, y2, w, d;
+    const uint16_t u = (uint16_t)(x >> 16); /* q16 in [2^14, 2^16) */
+    uint16_t y, y2, w, d;
     uint32_t t;
     int i;
-    *e = 0;
-    if (x < ((uint32_t)1 << 30)) {
-        x <<= 2;
-        *e = 1;
-    }
-    u = (uint16_t)(x >> 16); /* q16 in [2^14, 2^16) */
     if (u < 32768u) {
         d = (uint16_t)(u - 16384u);
         y = (uint16_t)(64635u - (uint16_t)(d + (uint16_t)((uint16_t)(d * 3u) >> 4)));
@@ -335,54 +332,38 @@ static inline uint16_t imf_invsqrt16_u32(uint32_t x, int *const e)
     for (i = 0; i < 2; ++i) {
         y2 = (uint16_t)((imf_mulu16(y, y) + 32768u) >> 16); /* q14 */
         t = imf_mulu16(u, y2);                             /* q30, < 3 2^30 */
-        if (t >= 3221225472u) {
-            t = 3221225471u; /* cannot happen from the chord; kept for safety */
-        }
         w = (uint16_t)((3221225472u - t) >> 16);
-        /* (y w + 2^14) / 2^15 from the high word, saturated to 16 bits */
+        /* (y w + 2^14) / 2^15 from the high word (< 2^15: below 2^16) */
         t = imf_mulu16(y, w) + 16384u;
-        if ((uint16_t)(t >> 16) >= 32768u) {
-            y = 65535u;
-        } else {
-            y = (uint16_t)((uint16_t)((uint16_t)(t >> 16) << 1) | (uint16_t)(((uint16_t)t) >> 15));
-        }
+        y = (uint16_t)((uint16_t)((uint16_t)(t >> 16) << 1) | (uint16_t)(((uint16_t)t) >> 15));
     }
     return y;
 }
 
 /* x and y components of the unit vector of int16 counts v (KKQ needs no
- * more) in symmetric q15; returns 0 for the zero vector.  The
- * vector block-scaled by 2^k until its largest magnitude is in
- * [2^14, 2^15] (one 16-bit product by 2^k each), |b|^2 in [2^28, 2^32)
- * for imf_invsqrt16_u32, then b y with a constant rounding shift of 15
- * or 16 (imf_qn_to_q15s from q30 / q31: 16-bit operations on AVR). */
+ * more) in symmetric q15; returns 0 for the zero vector.  |v|^2 < 2^32
+ * scaled by 4^k into [2^30, 2^32) (two bits per step) for
+ * imf_invsqrt16_u32: 1/|v| ~= y 2^(k - 31), v / |v| in q15 = v y 2^(k - 16)
+ * (imf_rshrk, k in [0, 15]). */
 static inline int imf_unit_xy_k(const int16_t v[3], int16_t a[2])
 {
-    int16_t b[3];
-    uint16_t m = 0u;
-    uint32_t n2;
-    int i, e, k = 0;
+    uint32_t n2 = 0u;
     uint16_t y;
+    int i, k = 16;
     for (i = 0; i < 3; ++i) {
-        const uint16_t u = (uint16_t)v[i];
-        m |= (v[i] < 0) ? (uint16_t)(0u - u) : u; /* |v|, same top bit as the max */
+        n2 += (uint32_t)imf_mul16(v[i], v[i]); /* <= 3 2^30 */
     }
-    if (m == 0u) {
+    if (n2 == 0u) {
         return 0;
     }
-    while (m < 16384u) {
-        m = (uint16_t)(m << 1);
-        ++k;
+    while (n2 < ((uint32_t)1 << 30)) {
+        n2 <<= 2;
+        --k;
     }
-    for (i = 0; i < 3; ++i) {
-        b[i] = (int16_t)(v[i] * (1 << k)); /* |v 2^k| < 2^15 (int16 arithmetic) */
-    }
-    n2 = (uint32_t)imf_mul16(b[0], b[0]) + (uint32_t)imf_mul16(b[1], b[1])
-       + (uint32_t)imf_mul16(b[2], b[2]); /* [2^28, 3 2^30] */
-    y = imf_invsqrt16_u32(n2, &e);        /* 1/|b| ~= y 2^(e-31) */
+    y = imf_invsqrt16_u32(n2);
     for (i = 0; i < 2; ++i) {
-        const int32_t p = imf_mul16su(b[i], y); /* |b| <= 2^15, y < 2^16: > -2^31 */
-        a[i] = e ? imf_qn_to_q15s(p, 30) : imf_qn_to_q15s(p, 31);
+        /* |v| <= 2^15, y < 2^16: > -2^31 */
+        a[i] = imf_sat_q15s(imf_rshrk(imf_mul16su(v[i], y), k));
     }
     return 1;
 }

@@ -13,6 +13,21 @@ def _kr(dt, gyr_scale, angle_scale):
     return qconst("gyr_scale*dt/angle_scale", gyr_scale * dt / angle_scale, -14, 46, nonzero=True)
 
 
+def _kp_ki(dt, kp, ki):
+    """imf_mahony1d_bias_q_init's ranges: Kp dt < 1 (a correction faster than one sample
+    overshoots the measured angle) and Ki dt^2 < 2^-8 (the I loop's natural frequency sqrt(Ki)
+    below 1/16 rad per sample), the gains the 16-bit products cover (q-scale s >= 15, 23)."""
+    if not kp * dt < 1.0:
+        raise ValueError(f"kp: kp*dt must be below 1 (a correction faster than one sample), "
+                         f"got kp*dt={kp * dt!r}")
+    if not ki * dt * dt < 2.0 ** -8:
+        raise ValueError(f"ki: ki*dt^2 must be below 2^-8 (sqrt(ki)*dt below 1/16), "
+                         f"got ki*dt^2={ki * dt * dt!r}")
+    qconst("kp*dt", kp * dt, 15, 47)
+    if ki > 0.0:                     # Ki = 0: the q-scale 0 2^-16, the gain 0
+        qconst("ki*dt^2", ki * dt * dt, 23, 55)
+
+
 FILTERS_FIXED = ('Complementary1DQ', 'Mahony1DBiasQ')
 
 class Complementary1DQ(FixedFilter):
@@ -78,30 +93,32 @@ class Mahony1DBiasQ(FixedFilter):
         gyr_scale = check_scale("gyr_scale", gyr_scale)
         angle_scale = check_scale("angle_scale", angle_scale)
         _kr(dt, gyr_scale, angle_scale)
-        qconst("kp*dt", kp * dt, 14, 47)
-        qconst("ki*dt^2", ki * dt * dt, 8, 55)
+        _kp_ki(dt, kp, ki)
         return (dt, kp, ki, integrate_first, gyr_scale, angle_scale, check_profile(profile))
 
     @staticmethod
     def _consts(dt, kp, ki, integrate_first, gyr_scale, angle_scale, profile):
         # imf_mahony1d_bias_q_init: the constants from the double parameters
-        return dict(kr=ci.qscale(gyr_scale * dt / angle_scale), kp=ci.qscale(kp * dt),
-                    ki=ci.qscale(ki * dt * dt), integrate_first=int(integrate_first != 0))
+        kiq = ci.qscale(ki * dt * dt)
+        kp16 = fs.gain16(ci.qscale(kp * dt), 15, 15)
+        ki16 = fs.gain16(kiq, 15, 23)
+        # Ki = 0: the gain 0 (gain16 gives j = -1 for its q-scale 0 2^-16)
+        return dict(kr=ci.qscale(gyr_scale * dt / angle_scale), kp16_m=kp16[0], kp16_j=kp16[1],
+                    ki16_m=ki16[0], ki16_j=0 if kiq.m == 0 else ki16[1],
+                    integrate_first=int(integrate_first != 0))
 
     def _init(self, dt, kp, ki, integrate_first, gyr_scale, angle_scale, profile):
         self.dt, self.angle_scale = dt, angle_scale
         self._init_consts(**self._consts(dt, kp, ki, integrate_first, gyr_scale, angle_scale,
                                          profile))
 
-    def _init_consts(self, kr, kp, ki, integrate_first):
+    def _init_consts(self, kr, kp16_m, kp16_j, ki16_m, ki16_j, integrate_first):
         self.kr = kr
-        self.kp = kp
-        self.ki = ki
+        self.kp16 = (kp16_m, kp16_j)
+        self.ki16 = (ki16_m, ki16_j)
         self.integrate_first = integrate_first != 0
         self.theta = 0
         self.j = 0
-        self.kp16 = fs.gain16(kp, 15, 15)
-        self.ki16 = fs.gain16(ki, 15, 23)
 
     def _get_state(self):
         return [self.theta, self.j]
@@ -115,9 +132,9 @@ class Mahony1DBiasQ(FixedFilter):
     def _update(self, rate, angle):
         # e_k = a_k - theta_{k-1} (q15 counts)
         e = ci.sub_sat32(fs.i16_to_q15(angle), self.theta)
-        w = fs.mulk16(rate, self.kr, 15)
-        p = fs.gain16_or_mulk32(e, self.kp16, self.kp, 15, 15)
-        di = fs.gain16_or_mulk32(e, self.ki16, self.ki, 15, 23)
+        w = fs.mulk16(rate, self.kr, 15)  # w dt, q15 counts
+        p = fs.gain16_mul(e, self.kp16)  # Kp dt e, q15 counts
+        di = fs.gain16_mul(e, self.ki16)  # Ki dt^2 e, q23 counts
         # I_k = I_{k-1} + Ki dt e_k
         j = ci.add_sat32(self.j, di)
         # Eq. 3.6: theta_k = theta_{k-1} + (Kp e_k + I_k + w_k) dt.

@@ -14,10 +14,20 @@ from .multiwii import MultiWii
 
 FILTERS_FIXED = ('KKQ', 'MultiWiiQ')
 
+def _q15(t):
+    """imf_kk_q_q15: the state rounded to q15, imf_qn_to_q15s(t, 28)."""
+    return ci.qn_to_q15s(t, 28)
+
+
+def _mul15(w, q):
+    """imf_kk_q_mul15: round(w q / 2^15) for int32 w, int16 q (no saturation)."""
+    return (ci.check32(w) * q + 16384) >> 15
+
+
 class KKQ(FixedFilter):
     """KK filter of the appendix (Eq. 4.5 with a P controller), fixed point;
     twin of KK (same equations): pitch, roll in q28 rad, a_pitch = -a_x/|a|,
-    a_roll = a_y/|a|; kp per sample. KKQ(dt, kp, gyr_scale=rad/s per count)."""
+    a_roll = a_y/|a|; kp per sample, in [0, 1]. KKQ(dt, kp, gyr_scale=rad/s per count)."""
     kind = "imu"
     c_name = "imf_kk_q"
     state_names = ("pitch", "roll")
@@ -27,22 +37,25 @@ class KKQ(FixedFilter):
         dt, kp = KK._params(dt, kp)
         gyr_scale = check_scale("gyr_scale", gyr_scale)
         qconst("gyr_scale*dt", gyr_scale * dt, 28, 59, nonzero=True)
+        if kp > 1.0:
+            # imf_kk_q_init_consts: kp in [0, 1]
+            raise ValueError(f"kp: must be in [0, 1] in fixed point (kp > 1 corrects more than "
+                             f"the whole error in one sample: an oscillating P loop), got {kp!r}")
         qconst("kp", kp, 14, 47)
         return (dt, kp, gyr_scale, check_profile(profile))
 
     @staticmethod
     def _consts(dt, kp, gyr_scale, profile):
         # imf_kk_q_init: the constants from the double parameters
-        return dict(kw=ci.qscale(gyr_scale * dt), kp=ci.qscale(kp))
+        kp16 = fs.gain16(ci.qscale(kp), 15, 15)
+        return dict(kw=ci.qscale(gyr_scale * dt), kp16_m=kp16[0], kp16_j=kp16[1])
 
     def _init(self, dt, kp, gyr_scale, profile):
         self._init_consts(**self._consts(dt, kp, gyr_scale, profile))
 
-    def _init_consts(self, kw, kp):
+    def _init_consts(self, kw, kp16_m, kp16_j):
         self.kw = kw
-        self.kp = kp
-        self.kwc16 = fs.gain16(kw, 15, 28)
-        self.kp16 = fs.gain16(kp, 28, 28)
+        self.kp16 = (kp16_m, kp16_j)
         self.t = [0, 0]
 
     def _get_state(self):
@@ -54,22 +67,31 @@ class KKQ(FixedFilter):
     def _state_float(self, s):
         return [s[0] * 2.0 ** -28, s[1] * 2.0 ** -28]
 
+    def _angle(self, ti, tj, wj, wz, neg, ok, ai):
+        # -+ theta_j w_z dt: the state rounded to q15 (imf_kk_q_q15), its sign
+        # applied there (symmetric q15), times w_z dt in q28, / 2^15 rounded
+        q = _q15(tj)
+        x = ci.add_sat32(ti, wj)
+        if neg:
+            q = -q
+        x = ci.add_sat32(x, _mul15(wz, q))
+        if ok:
+            # P controller Kp (a - theta_{n-1}), a in q28 (symmetric q15 -> q28
+            # exactly); kp = 1 (kp16.j < 0): the whole error
+            e = ci.sub_sat32(ai * 8192, ti)
+            x = ci.add_sat32(x, fs.gain16_mul(e, self.kp16) if self.kp16[1] >= 0 else e)
+        return x
+
     def _update(self, gyr, acc):
         t = self.t
-        p15, r15 = ci.qn_to_q15s(t[0], 28), ci.qn_to_q15s(t[1], 28)
-        # roll w_z dt and pitch w_z dt
-        cr = fs.gain16_or_mulk32(r15 * gyr[2], self.kwc16, self.kw, 15, 28)
-        cp = fs.gain16_or_mulk32(p15 * gyr[2], self.kwc16, self.kw, 15, 28)
-        # Eq. 4.5, gyro path: (w_y - roll w_z) dt, (w_x + pitch w_z) dt
-        pitch = ci.sub_sat32(ci.add_sat32(t[0], fs.mulk16(gyr[1], self.kw, 28)), cr)
-        roll = ci.add_sat32(ci.add_sat32(t[1], fs.mulk16(gyr[0], self.kw, 28)), cp)
         a = fs.unit_xy_k(acc)
-        if a is not None:
-            # a_pitch = -a_x/|a|, a_roll = a_y/|a|; P controller Kp (a - theta_{n-1})
-            ap, ar = -a[0] * 8192, a[1] * 8192
-            pitch = ci.add_sat32(pitch, fs.gain16_or_mulk32(ci.sub_sat32(ap, t[0]), self.kp16, self.kp, 28, 28))
-            roll = ci.add_sat32(roll, fs.gain16_or_mulk32(ci.sub_sat32(ar, t[1]), self.kp16, self.kp, 28, 28))
-        self.t = [pitch, roll]
+        ok = a is not None
+        a = a if ok else [0, 0]
+        # w dt in q28 (imf_mulk16's value, its shift kw.s - 28 >= 0)
+        w = [fs.rshrk(g * self.kw.m, self.kw.s - 28) for g in gyr]
+        # pitch (theta_0 with roll, w_y dt, -a_x) and roll (theta_1 with pitch, w_x dt, a_y)
+        self.t = [self._angle(t[0], t[1], w[1], w[2], True, ok, -a[0]),
+                  self._angle(t[1], t[0], w[0], w[2], False, ok, a[1])]
 
 
 class MultiWiiQ(FixedFilter):

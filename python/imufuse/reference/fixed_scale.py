@@ -40,12 +40,8 @@ def i16_to_q15(a: int) -> int:
 
 
 
-def invsqrt16_u32(x: int) -> tuple[int, int]:
-    """imf_invsqrt16_u32, x in [2^28, 2^32): (y, e), 1/sqrt(x) ~= y 2^(e - 31)."""
-    e = 0
-    if x < (1 << 30):
-        x <<= 2
-        e = 1
+def invsqrt16_u32(x: int) -> int:
+    """imf_invsqrt16_u32, x in [2^30, 2^32): y, 1/sqrt(x) ~= y 2^-31."""
     u = x >> 16
     if u < 32768:
         d = u - 16384
@@ -56,29 +52,25 @@ def invsqrt16_u32(x: int) -> tuple[int, int]:
     for _ in range(2):
         y2 = (y * y + 32768) >> 16
         t = ci.checku32(u * y2)
-        if t >= 3221225472:
-            t = 3221225471
-        w = (3221225472 - t) >> 16
+        w = ci.checku32(3221225472 - t) >> 16  # u y^2 <= 3 2^30 for every u (tested)
         t = y * w + 16384
-        y = 65535 if (t >> 16) >= 32768 else ((t >> 16) << 1) | ((t & 0xFFFF) >> 15)
-    return y, e
+        y = ((t >> 16) << 1) | ((t & 0xFFFF) >> 15)
+        if y > 0xFFFF:
+            raise OverflowError(f"imf_invsqrt16_u32: y = {y} leaves uint16 (u = {u})")
+    return y
 
 
 def unit_xy_k(v):
     """imf_unit_xy_k: x, y of the symmetric q15 unit vector of int16 counts, or None."""
-    m = 0
-    for x in v:
-        m |= abs(x)
-    if m == 0:
+    n2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2]
+    if n2 == 0:
         return None
-    k = 0
-    while m < 16384:
-        m <<= 1
-        k += 1
-    b = [x * (1 << k) for x in v]
-    n2 = b[0] * b[0] + b[1] * b[1] + b[2] * b[2]
-    y, e = invsqrt16_u32(n2)
-    return [ci.qn_to_q15s(ci.check32(x * y), 30 if e else 31) for x in b[:2]]
+    k = 16
+    while n2 < (1 << 30):
+        n2 <<= 2
+        k -= 1
+    y = invsqrt16_u32(n2)
+    return [ci.sat_q15s(rshrk(ci.check32(x * y), k)) for x in v[:2]]
 
 
 def cross16(a1: int, b1: int, a2: int, b2: int) -> int:
@@ -126,7 +118,7 @@ def gain16_mul(x: int, g: tuple[int, int]) -> int:
         return h + ((p & 0xFFFF) >> 15)
     for _ in range(1, j):
         h >>= 8
-    return (h >> 8) + ((h >> 7) & 1)
+    return (h >> 8) + ((h & 0xFF) >> 7)
 
 
 def gain16_above(x: int, g: tuple[int, int], c: ci.QScale, K: int, N: int) -> int:

@@ -426,9 +426,17 @@ class _Robust(ReferenceFilter):
                 st["t_cand"] = R(0.0)
         return True
 
-    def _commit(self, st):
-        # valid-attitude policy: the whole new state must be finite
-        if not isfinite(*st.values()):
+    def _finish(self, st, gx, gy, gz):
+        # the end of every update: the output prediction, then the clock
+        if not self._predict(st, gx, gy, gz):
+            return False
+        self._advance(st)
+        return True
+
+    def _commit(self, st, ok):
+        # keep the new state only if every block accepted the sample and left the
+        # whole state finite (valid-attitude policy)
+        if not (ok and isfinite(*st.values())):
             self._skip()
             return
         for n in self.state_names:
@@ -481,14 +489,8 @@ class RobustIMU(_Robust):
             self._skip()
             return
         st = self._work()
-        if self._step(st, gx, gy, gz, ax, ay, az) is None:
-            self._skip()
-            return
-        if not self._predict(st, gx, gy, gz):
-            self._skip()
-            return
-        self._advance(st)
-        self._commit(st)
+        self._commit(st, self._step(st, gx, gy, gz, ax, ay, az) is not None
+                     and self._finish(st, gx, gy, gz))
 
 
 class RobustAHRS(_Robust):
@@ -537,14 +539,5 @@ class RobustAHRS(_Robust):
             self._skip()
             return
         st = self._work()
-        if self._step(st, gx, gy, gz, ax, ay, az) is None:
-            self._skip()
-            return
-        if not self._mag(st, mx, my, mz):
-            self._skip()
-            return
-        if not self._predict(st, gx, gy, gz):
-            self._skip()
-            return
-        self._advance(st)
-        self._commit(st)
+        self._commit(st, self._step(st, gx, gy, gz, ax, ay, az) is not None
+                     and self._mag(st, mx, my, mz) and self._finish(st, gx, gy, gz))
