@@ -134,7 +134,8 @@ IMF_Q_OUTLINE void imf_mahony_imu_q_feedback_p8(imf_mahony_imu_q_t *const self, 
     }
     /* step 3: d, q15; a loop on AVR (flash): d_i = u v + w z - k with
      * (u, v, w, z, k) = (q1, q3, -q0, q2, 0), (q0, q1, q2, q3, 0),
-     * (q0, q0, q3, q3, 2^29): each step (v, w) = (u, z), (u, z) = (q0, q3) */
+     * (q0, q0, q3, q3, 2^29): after step i, (v, w) = (u, z),
+     * (u, z) = (q0, q3), k = i 2^29 */
 #if defined(__AVR__)
     {
         int16_t u = qs[1], v = qs[3], w = (int16_t)-qs[0], z = qs[2];
@@ -145,7 +146,7 @@ IMF_Q_OUTLINE void imf_mahony_imu_q_feedback_p8(imf_mahony_imu_q_t *const self, 
             w = z;
             u = qs[0];
             z = qs[3];
-            k = i ? 536870912L : 0;
+            k = (int32_t)i * 536870912L;
         }
     }
 #else
