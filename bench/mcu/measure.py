@@ -45,6 +45,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
+from imufuse import catalogue
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
@@ -342,8 +343,10 @@ def summary(rows, targets) -> str:
 # (profile measured, {class: limit}, limit of every other Q class or None): on AVR every Q
 # filter at <= 1/2 of its float32 twin, the quaternion filters at <= 1/3 with a 10 % margin
 # (0.30); on Cortex-M0 the quaternion filters at <= 1/2, the others for information
-FIXED_TARGETS = {"avr": ("p8", {"MahonyIMUQ": 0.3, "MadgwickIMUQ": 0.3}, 1 / 2),
-                 "m0": ("p32", {"MahonyIMUQ": 1 / 2, "MadgwickIMUQ": 1 / 2}, None)}
+#: the quaternion filters, from the catalogue (a new one gets the quaternion goal)
+QUATERNION_Q = tuple(e.name for e in catalogue.FIXED if e.estimate == "quaternion")
+FIXED_TARGETS = {"avr": ("p8", dict.fromkeys(QUATERNION_Q, 0.3), 1 / 2),
+                 "m0": ("p32", dict.fromkeys(QUATERNION_Q, 1 / 2), None)}
 
 
 def fixed_vs_float(rows) -> list:
@@ -472,8 +475,8 @@ def write_results(rows, targets, checks, seconds, md: Path, js: Path) -> None:
         "Median cost per update of each fixed-point configuration (8-bit profile on AVR, 32-bit",
         "profile on Cortex-M0) against the cheapest float32 configuration of its float twin",
         "(class name without the Q) on the same target. Targets: on AVR every Q filter <= 1/2, and",
-        "MahonyIMUQ and MadgwickIMUQ <= 0.30 (1/3 with a 10 % margin); on Cortex-M0 MahonyIMUQ and",
-        "MadgwickIMUQ <= 1/2 (the others for information: '-').",
+        f"the quaternion filters ({' and '.join(QUATERNION_Q)}) <= 0.30 (1/3 with a 10 % margin);",
+        "on Cortex-M0 the quaternion filters <= 1/2 (the others for information: '-').",
         "",
         fixed_vs_float_table(fixed_vs_float(rows)),
         "",
