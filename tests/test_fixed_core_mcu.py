@@ -1,8 +1,8 @@
 """The target-specific paths of the Q-format core (csrc/fixed/imf_fixed.h) on the emulated
 MCUs against its Python mirror (imufuse.reference._cint).
 
-On AVR the saturating add/sub, the qN -> q15 conversions (N = 29, 30, 31), the carry of the
-8-bit profile and the shifts by a run-time count are inline assembly or out-of-line copies
+On AVR the saturating add/sub, the qN -> q15 conversions (N = 29, 30, 31), the carry and the
+rate saturation of the 8-bit profile and the shifts by a run-time count are inline assembly or out-of-line copies
 that the host build (tests/test_fixed_core.py) never compiles; the filters exercise them only
 on the values their inputs happen to produce.  Here every one of them runs over edge values
 (the saturation bounds, the rounding ties, INT32_MIN/MAX) and random ones, on the ATmega328P
@@ -54,6 +54,12 @@ def _operands(n_random=600, seed=11):
     a = np.where(np.arange(a.size) % 3 == 2, a >> sh, a)
     b = np.where(np.arange(b.size) % 5 == 4, b >> np.roll(sh, 1), b)
     nsh = rng.integers(0, 32, a.size)          # run-time shift counts
+    # imf_gain8_mul's left shifts at the int32 bounds: (a mod 2^16) b = 2^30 - 1, -2^30,
+    # -(2^30 - 1), -(2^30 + 1), 2^30 + 32766 doubled once and twice (shift n - 15 = -1, -2)
+    extra = [(32769, 32767), (32768, -32768), (32769, -32767), (33025, -32513), (32770, 32767)]
+    a = np.concatenate([a, [x for x, _ in extra for _ in (0, 1)]])
+    b = np.concatenate([b, [y for _, y in extra for _ in (0, 1)]])
+    nsh = np.concatenate([nsh, [14, 13] * len(extra)])
     return a.astype(np.int32), b.astype(np.int32), nsh.astype(np.int32)
 
 
@@ -71,6 +77,11 @@ OPS = [
      lambda a, b, n: ci.mul_32x16(a, _i16(b), n + 16)),
     ("imf_mul_32x16(ab[0], (int16_t)ab[3], ab[2] / 2)", "i32",
      lambda a, b, n: ci.mul_32x16(a, _i16(b), n // 2)),
+    # imf_gain8_mul's general path (out of line on AVR), shifts -15..16 (the left shifts of a
+    # gain ki >= 2^-9 by doublings on AVR)
+    ("imf_gain8_mul((int16_t)ab[3], imf_test_gain8((uint16_t)ab[0], ab[2] - 15))", "i32",
+     lambda a, b, n: ci.gain8_mul(_i16(b), (a & 0xFFFF, n - 15))),
+    ("imf_q_sat_q15_p8(ab[0])", "i32", lambda a, b, n: ci.sat_q15(a)),
     ("imf_q_carry_p8(ab[0], &cc)", "i32", None),   # checked with its state below
     ("cc", "i32", None),
 ]
@@ -92,7 +103,9 @@ def test_core_paths_on_target(toolchains, target):
     step = "\n".join(f"out[{k}] = (int32_t)({expr});" for k, (expr, _, _) in enumerate(OPS[:-1]))
     step += f"\nout[{len(OPS) - 1}] = cc;"
     drv = Driver(prelude='#include "imf_fixed_quat.h"\nstatic int32_t out[%d];\n'
-                         "static int32_t cc;" % len(OPS),
+                         "static int32_t cc;\n"
+                         "static imf_gain8_t imf_test_gain8(uint16_t m, int n)\n"
+                         "{ imf_gain8_t g; g.m = m; g.n = (int16_t)n; return g; }" % len(OPS),
                  init="cc = 0;", step=step, state=state)
     res = mcu.run(target, include_dirs=[CSRC, CSRC / "fixed"], driver=drv, inputs={"ab": ab})
     got = res.state.astype(np.uint32).view(np.int32)

@@ -170,17 +170,24 @@ static inline int32_t imf_rshr32_k(const int32_t x, const int n)
 IMF_AVR_OUTLINE int32_t imf_rshr32_v(const int32_t x, const int n)
 {
 #if defined(__AVR__)
-    /* the same value in the plain form: one compact copy */
-    if (n <= 0) {
-        return x;
+    /* the same value in one compact copy: y = x / 2^(n-1) (floor; byte
+     * moves, <= 7 bit steps), then (y >> 1) + (y & 1) = (y + 1) >> 1
+     * without its overflow at y = INT32_MAX: the bit shifted out is the
+     * carry added back */
+    if ((unsigned int)n - 1u <= 30u) {
+        int32_t y = imf_asr32(x, n - 1);
+        __asm__("asr %D0\n\t"
+                "ror %C0\n\t"
+                "ror %B0\n\t"
+                "ror %A0\n\t"
+                "adc %A0, __zero_reg__\n\t"
+                "adc %B0, __zero_reg__\n\t"
+                "adc %C0, __zero_reg__\n\t"
+                "adc %D0, __zero_reg__"
+                : "+r"(y));
+        return y;
     }
-    if (n > 31) {
-        return 0;
-    }
-    if (n == 1) {
-        return (x >> 1) + (x & 1);
-    }
-    return (imf_asr32(x, n - 1) + 1) >> 1; /* byte moves, <= 7 bit steps */
+    return n <= 0 ? x : 0;
 #else
     return imf_rshr32_k(x, n);
 #endif
@@ -573,10 +580,29 @@ static inline int32_t imf_mul16su(const int16_t a, const uint16_t b)
 IMF_AVR_OUTLINE int32_t imf_gain8_mul(const int16_t x, const imf_gain8_t g)
 {
     const int32_t p = imf_mul16su(x, g.m);
+#if defined(__AVR__)
+    /* the same value in one compact copy (only the slow gain paths call
+     * it): imf_rshr32_v for n >= 0 (16 included); the rare left shift by
+     * doublings, saturated where a doubling leaves int32 (bits 31 and 30
+     * differ) */
+    uint32_t u = (uint32_t)p;
+    int n = g.n;
+    if (n >= 0) {
+        return imf_rshr32_v(p, n);
+    }
+    for (; n < 0; ++n) {
+        if (((u ^ (u << 1)) & 0x80000000u) != 0u) {
+            return p < 0 ? IMF_INT32_MIN : IMF_INT32_MAX;
+        }
+        u <<= 1;
+    }
+    return (int32_t)u;
+#else
     if (g.n == 16) {
         return imf_rshr32(p, 16);
     }
     return imf_rshift_sat32_ool(p, g.n);
+#endif
 }
 
 /* ---- square roots -------------------------------------------------- */

@@ -170,7 +170,15 @@ static inline int imf_q_unit3_p8(const int16_t v[3], int16_t a[3])
 }
 
 /* imf_rshr32 for n in [0, 15] (the 8-bit profile's hs): the same value
- * with fewer range checks, bit steps for n < 8 (AVR). */
+ * with fewer range checks.  On AVR it is imf_rshr32_v, whose compact copy
+ * (byte moves, at most 7 bit steps, the last one's carry added back) is
+ * linked anyway: one copy instead of two (flash). */
+#if defined(__AVR__)
+static inline int32_t imf_q_rshr_hs_p8(const int32_t x, const int n)
+{
+    return imf_rshr32_v(x, n);
+}
+#else
 IMF_Q_OUTLINE int32_t imf_q_rshr_hs_p8(const int32_t x, const int n)
 {
     if (n >= 2) {
@@ -181,6 +189,7 @@ IMF_Q_OUTLINE int32_t imf_q_rshr_hs_p8(const int32_t x, const int n)
     }
     return x;
 }
+#endif
 
 /* 8-bit profile, step 1 with the remainder carried: h = floor((t + c) / 2^16)
  * in q(15+hs) for a rate t in q(31+hs), keeping c = (t + c) mod 2^16 for the
@@ -220,15 +229,42 @@ static inline int32_t imf_q_carry_p8(const int32_t t, int32_t *const c)
 #endif
 }
 
+/* imf_sat_q15 of the rates: on AVR the same value in a few byte operations
+ * (x is in range iff its high word is the sign extension of its low word;
+ * otherwise 0x7FFF, plus 1 = 0x8000 if negative). */
+static inline int16_t imf_q_sat_q15_p8(const int32_t x)
+{
+#if defined(__AVR__)
+    int32_t r = x;
+    uint8_t t;
+    __asm__("mov %[t], %B[r]\n\t"
+            "lsl %[t]\n\t"
+            "sbc %[t], %[t]\n\t"       /* sign of the low word: 0 or 0xFF */
+            "cp %C[r], %[t]\n\t"
+            "cpc %D[r], %[t]\n\t"
+            "breq 1f\n\t"               /* in range */
+            "lsl %D[r]\n\t"             /* C = sign of x */
+            "ldi %A[r], 0xFF\n\t"
+            "ldi %B[r], 0x7F\n\t"
+            "adc %A[r], __zero_reg__\n\t"
+            "adc %B[r], __zero_reg__\n"
+            "1:"
+            : [r] "+d"(r), [t] "=&r"(t));
+    return (int16_t)r;
+#else
+    return imf_sat_q15(x);
+#endif
+}
+
 /* 8-bit profile, appendix step 7 / 3: dq = q (x) (0, h), h in q(15+hs)
  * saturated to int16; each component's three q15 x q(15+hs) products are
  * summed (saturating) and rounded to q30 once. */
 static inline void imf_q_rate_p8(const int16_t qs[4], const int32_t h[3], const int hs,
                                int32_t dq[4])
 {
-    const int16_t hx = imf_sat_q15(h[0]);
-    const int16_t hy = imf_sat_q15(h[1]);
-    const int16_t hz = imf_sat_q15(h[2]);
+    const int16_t hx = imf_q_sat_q15_p8(h[0]);
+    const int16_t hy = imf_q_sat_q15_p8(h[1]);
+    const int16_t hz = imf_q_sat_q15_p8(h[2]);
 #define IMF_P(a, b) imf_mul16((a), (b)) /* |.| <= 2^30 */
     dq[0] = imf_q_rshr_hs_p8(imf_sub_sat32(-IMF_P(qs[1], hx) - IMF_P(qs[2], hy), IMF_P(qs[3], hz)), hs);
     dq[1] = imf_q_rshr_hs_p8(imf_sub_sat32(IMF_P(qs[0], hx) + IMF_P(qs[2], hz), IMF_P(qs[3], hy)), hs);
@@ -358,7 +394,7 @@ static IMF_Q_NOINLINE void imf_q_normalise_p8(int32_t q[4])
     for (i = 0; i < 4; ++i) {
         /* |b| < 2^15, y < 2^16: the product fits int32 */
         const int32_t p = imf_mul16su(b[i], y);
-        q[i] = e ? p : imf_rshr32(p, 1);
+        q[i] = imf_rshr32(p, 1 - e); /* e in {0, 1} */
     }
 }
 
@@ -389,7 +425,12 @@ static inline void imf_q_add_step_p8(int32_t q[4], const int32_t dq[4], const in
 {
     int i;
     for (i = 0; i < 4; ++i) {
+#if defined(__AVR__)
+        /* imf_rshr32(., 8) without its overflow test: |.| < 2^29 */
+        q[i] = imf_add_sat32(q[i], imf_sub_sat32(dq[i], (imf_mul16(qs[i], d16) + 128) >> 8));
+#else
         q[i] = imf_add_sat32(q[i], imf_sub_sat32(dq[i], imf_rshr32(imf_mul16(qs[i], d16), 8)));
+#endif
     }
 }
 

@@ -4,37 +4,47 @@
 #include "imf_fixed_init.h"
 #include "imf_fixed_quat.h"
 
+/* The 8-bit profile's constants from kg, kp, ki and hs in self (out of
+ * line on AVR: fewer registers held across the calls of init_consts). */
+static IMF_AVR_NOINLINE void imf_mahony_imu_q_init_p8(imf_mahony_imu_q_t *const self)
+{
+    const imf_qscale_t kp = self->kp;
+    const int hs = self->hs;
+    self->kg8 = imf_gain8(self->kg, 15 + hs);
+    self->kp8 = imf_gain8(kp, hs);
+    self->ki8 = imf_gain8(self->ki, 38 - 15);
+    /* kp rounded to q38 for e in q15: imf_gain8's mantissa for the shift
+     * kp.s - 7 >= 15 (kp.m 2, or kp.m rounded by kp.s - 23) */
+    self->kpi = (uint16_t)(kp.s >= 22 ? imf_gain8(kp, 7).m : 0u);
+    self->fast8 = (int16_t)(kp.s >= 22 && self->ki8.n == 16 && self->kg8.n == 16 && hs <= 6);
+}
+
 int imf_mahony_imu_q_init_consts(imf_mahony_imu_q_t *const self, const imf_qscale_t kg,
                                  const imf_qscale_t kp, const imf_qscale_t ki, const int profile)
 {
     int i;
-    self->kg = kg;
-    self->kp = kp;
-    self->ki = ki;
-    self->hs = imf_q_rate_exponent(kg);
-    if (IMF_Q_HAS_P8) {
-        self->kg8 = imf_gain8(kg, 15 + self->hs);
-        self->kp8 = imf_gain8(kp, self->hs);
-        self->ki8 = imf_gain8(ki, 38 - 15);
-        self->kpi = (uint16_t)(kp.s >= 23 ? imf_rshr32(kp.m, kp.s - 23) : (kp.s == 22 ? kp.m * 2 : 0));
-        self->fast8 = (int16_t)(kp.s >= 22 && self->ki8.n == 16 && self->kg8.n == 16
-                                && self->hs <= 6);
-    } else {
-        /* a build without the 8-bit profile (IMF_FIXED_PROFILE 32): its
-         * constants are unused, left zero (no code linked to compute them) */
-        self->kg8.m = self->kp8.m = self->ki8.m = self->kpi = 0u;
-        self->kg8.n = self->kp8.n = self->ki8.n = self->fast8 = 0;
-    }
-    self->profile = (int16_t)(profile == 8 ? 8 : 32);
-    self->x.q[0] = IMF_Q30_ONE;
-    for (i = 0; i < 3; ++i) {
-        self->x.q[i + 1] = self->x.i[i] = self->x.c[i] = 0;
-    }
     /* kg: gyro full scale below 0.25 rad half angle per sample (s >= 31);
      * kp, ki: shifts of imf_scale16/32 in range */
     if (kg.m == 0 || !imf_qscale_ok(kg, 31, 61) || !imf_qscale_ok(kp, 16, 47)
         || !imf_qscale_ok(ki, 8, 54) || !imf_q_profile_ok(profile)) {
         return -1;
+    }
+    self->kg = kg;
+    self->kp = kp;
+    self->ki = ki;
+    self->hs = imf_q_rate_exponent(kg);
+    self->profile = (int16_t)(profile == 8 ? 8 : 32);
+    self->x.q[0] = IMF_Q30_ONE;
+    for (i = 0; i < 3; ++i) {
+        self->x.q[i + 1] = self->x.i[i] = self->x.c[i] = 0;
+    }
+    if (IMF_Q_HAS_P8) {
+        imf_mahony_imu_q_init_p8(self);
+    } else {
+        /* a build without the 8-bit profile (IMF_FIXED_PROFILE 32): its
+         * constants are unused, left zero (no code linked to compute them) */
+        self->kg8.m = self->kp8.m = self->ki8.m = self->kpi = 0u;
+        self->kg8.n = self->kp8.n = self->ki8.n = self->fast8 = 0;
     }
     return 0;
 }
@@ -112,25 +122,63 @@ IMF_Q_OUTLINE void imf_mahony_imu_q_feedback_p8(imf_mahony_imu_q_t *const self, 
                                        const int16_t acc[3], int32_t h[3])
 {
     imf_mahony_imu_q_state_t *const x = &self->x;
+#if !defined(__AVR__)
     const imf_gain8_t ki8 = self->ki8, kp8 = self->kp8;
     const int hs = self->hs;
+#endif
     int16_t a[3], d[3], e15[3];
     int i;
     /* step 2: normalise a (block-scaled, short inverse sqrt) */
     if (!imf_q_unit3_p8(acc, a)) {
         return;
     }
-    /* step 3: d, q15 */
+    /* step 3: d, q15; a loop on AVR (flash): d_i = u v + w z - k with
+     * (u, v, w, z, k) = (q1, q3, -q0, q2, 0), (q0, q1, q2, q3, 0),
+     * (q0, q0, q3, q3, 2^29): after step i, (v, w) = (u, z),
+     * (u, z) = (q0, q3), k = i 2^29 */
+#if defined(__AVR__)
+    {
+        int16_t u = qs[1], v = qs[3], w = (int16_t)-qs[0], z = qs[2];
+        int32_t k = 0;
+        for (i = 0; i < 3; ++i) {
+            d[i] = imf_qn_to_q15s(imf_mul16(u, v) + imf_mul16(w, z) - k, 29);
+            v = u;
+            w = z;
+            u = qs[0];
+            z = qs[3];
+            k = (int32_t)i * 536870912L;
+        }
+    }
+#else
     d[0] = imf_qn_to_q15s(imf_mul16(qs[1], qs[3]) - imf_mul16(qs[0], qs[2]), 29);
     d[1] = imf_qn_to_q15s(imf_mul16(qs[0], qs[1]) + imf_mul16(qs[2], qs[3]), 29);
     d[2] = imf_qn_to_q15s(imf_mul16(qs[0], qs[0]) + imf_mul16(qs[3], qs[3]) - 536870912L, 29);
-    /* step 4: e = a x d, rounded to q15 */
+#endif
+    /* step 4: e = a x d, rounded to q15; a loop on AVR (flash), unrolled
+     * elsewhere */
+#if defined(__AVR__)
+    {
+        int i1 = 1, i2 = 2;
+        for (i = 0; i < 3; ++i) { /* (i1, i2) = (i + 1, i + 2) mod 3 */
+            e15[i] = imf_qn_to_q15s(imf_mul16(a[i1], d[i2]) - imf_mul16(a[i2], d[i1]), 30);
+            i1 = i2;
+            i2 = i;
+        }
+    }
+#else
     e15[0] = imf_qn_to_q15s(imf_mul16(a[1], d[2]) - imf_mul16(a[2], d[1]), 30);
     e15[1] = imf_qn_to_q15s(imf_mul16(a[2], d[0]) - imf_mul16(a[0], d[2]), 30);
     e15[2] = imf_qn_to_q15s(imf_mul16(a[0], d[1]) - imf_mul16(a[1], d[0]), 30);
+#endif
     if (self->fast8) {
         /* steps 5, 6: Kp e + I summed in q38, rounded once to q(31+hs) */
         const uint16_t kpi = self->kpi;
+#if defined(__AVR__)
+        /* AVR: the gains read here, not held in registers through steps
+         * 2-4 (fewer spills: faster, smaller) */
+        const imf_gain8_t ki8 = self->ki8;
+        const int hs = self->hs;
+#endif
         for (i = 0; i < 3; ++i) {
             const int32_t ii = imf_add_sat32(x->i[i], imf_rshr32(imf_mul16su(e15[i], ki8.m), 16));
             const int32_t v = imf_add_sat32(ii, imf_mul16su(e15[i], kpi));
@@ -138,6 +186,10 @@ IMF_Q_OUTLINE void imf_mahony_imu_q_feedback_p8(imf_mahony_imu_q_t *const self, 
             h[i] = imf_add_sat32(h[i], imf_q_rshr_hs_p8(v, 7 - hs)); /* shift in [1, 7] */
         }
     } else {
+#if defined(__AVR__)
+        const imf_gain8_t ki8 = self->ki8, kp8 = self->kp8;
+        const int hs = self->hs;
+#endif
         for (i = 0; i < 3; ++i) {
             x->i[i] = imf_add_sat32(x->i[i], imf_gain8_mul(e15[i], ki8));
             h[i] = imf_add_sat32(imf_add_sat32(h[i], imf_gain8_mul(e15[i], kp8)),

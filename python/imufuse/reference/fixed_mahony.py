@@ -52,20 +52,27 @@ class MahonyIMUQ(FixedFilter):
         self.dt = dt
         self._init_consts(**self._consts(dt, kp, ki, gyr_scale, profile))
 
+    def _init_p8(self):
+        """imf_mahony_imu_q_init_p8: the 8-bit profile's constants from kg, kp, ki, hs."""
+        kp = self.kp
+        hs = self.hs
+        self.kg8 = ci.gain8(self.kg, 15 + hs)
+        self.kp8 = ci.gain8(kp, hs)
+        self.ki8 = ci.gain8(self.ki, 38 - 15)
+        # kp rounded to q38 for e in q15: gain8's mantissa for the shift
+        # kp.s - 7 >= 15 (kp.m 2, or kp.m rounded by kp.s - 23)
+        self.kpi = ci.gain8(kp, 7)[0] if kp.s >= 22 else 0
+        self.fast8 = (kp.s >= 22 and self.ki8[1] == 16 and self.kg8[1] == 16 and hs <= 6)
+
     def _init_consts(self, kg, kp, ki, profile):
         self.kg = kg
         self.kp = kp
         self.ki = ki
         self.hs = fq.rate_exponent(self.kg)
-        self.kg8 = ci.gain8(kg, 15 + self.hs)
-        self.kp8 = ci.gain8(kp, self.hs)
-        self.ki8 = ci.gain8(ki, 38 - 15)
-        self.kpi = (ci.rshr32(kp.m, kp.s - 23) if kp.s >= 23 else kp.m * 2 if kp.s == 22 else 0)
-        self.fast8 = (kp.s >= 22 and self.ki8[1] == 16 and self.kg8[1] == 16
-                      and self.hs <= 6)
         self.q = [fq.Q30_ONE, 0, 0, 0]
         self.i = [0, 0, 0]
         self.c = [0, 0, 0]
+        self._init_p8()
         self._update = self._update_p8 if profile == 8 else self._update_p32
 
     def _get_state(self):

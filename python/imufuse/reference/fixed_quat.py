@@ -121,7 +121,7 @@ def normalise_p8(q):
     b = [ci.sat_q15s(ci.rshift_sat32(v, k)) for v in q]
     n2 = sum(v * v for v in b)
     y, e = ci.invsqrt8_u32(n2)  # 1/|b| ~= y 2^(e-31)
-    return [check(v * y) if e else ci.rshr32(check(v * y), 1) for v in b]
+    return [ci.rshr32(check(v * y), 1 - e) for v in b]  # e in {0, 1}
 
 
 def snapshot_norm_p8(q):
