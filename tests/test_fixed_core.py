@@ -11,6 +11,7 @@ from hypothesis import given, settings, strategies as st, HealthCheck
 import cbuild  # noqa: E402
 
 from imufuse.reference import _cint as ci  # noqa: E402
+from imufuse.reference import fixed_quat as fq  # noqa: E402
 
 pytestmark = pytest.mark.skipif(not cbuild.have_gcc(), reason="needs gcc")
 
@@ -35,6 +36,8 @@ def py_op(op, a, b, n):
             return c.m, c.s
         except ValueError:
             return 0, 16
+    if op == "q_mul_hq_p32":
+        return fq.mul_hq_p32(a, b), 0
     f = getattr(ci, op)
     args = {"rshr32": (a, n), "asr32": (a, n), "shl_sat32": (a, n), "rshift_sat32": (a, n),
             "sat_q15": (a,), "sat_q15s": (a,), "add_sat32": (a, b), "sub_sat32": (a, b),
@@ -63,6 +66,7 @@ CASES = st.one_of(
     st.tuples(st.sampled_from(["add_sat_q15", "sub_sat_q15", "mul_q15", "mul_q15_q30"]),
               any16, any16, st.just(0)),
     st.tuples(st.just("mul_32x16"), any32, any16, st.integers(0, 47)),
+    st.tuples(st.just("q_mul_hq_p32"), any32, st.integers(-32767, 32767), st.just(0)),
     st.tuples(st.sampled_from(["isqrt_u32", "invsqrt_u32"]), st.one_of(u32, st.integers(0, 4096)),
               st.just(0), st.just(0)),
     st.tuples(st.just("q30_to_q15"), any32, st.just(0), st.just(0)),
@@ -91,6 +95,7 @@ def test_core_edges_exhaustive():
             cases += [("rshr32", a, 0, n), ("shl_sat32", a, 0, n), ("asr32", a, 0, n)]
         for n in range(48):
             cases += [("mul_32x16", a, b, n) for b in edges16]
+        cases += [("q_mul_hq_p32", a, b, 0) for b in edges16 if b != -32768]
         cases += [("add_sat32", a, b, 0) for b in edges32]
         cases += [("sub_sat32", a, b, 0) for b in edges32]
     for a in edges16:
@@ -106,6 +111,23 @@ def test_mul_32x16_is_exactly_rounded():
     for _ in range(20000):
         a, b, n = rnd.randint(ci.INT32_MIN, ci.INT32_MAX), rnd.randint(-32768, 32767), rnd.randint(0, 47)
         assert ci.mul_32x16(a, b, n) == ci.mul_32x16_exact(a, b, n)
+
+
+def test_q_mul_hq_p32_is_mul_32x16():
+    """imf_q_mul_hq_p32 (2 m + the rounded low part, no range tests) is
+    imf_mul_32x16(h, qs, 15) for every int32 h and symmetric q15 qs: the
+    int32 edges against every |qs| edge, and random pairs (pure Python; the
+    C equals this twin in the tests above)."""
+    import random
+    rnd = random.Random(2)
+    hs = [ci.INT32_MIN, ci.INT32_MIN + 1, -(1 << 30) - 1, -(1 << 30), -65537, -65536, -1, 0, 1,
+          65535, 65536, (1 << 30) - 1, 1 << 30, ci.INT32_MAX - 1, ci.INT32_MAX]
+    qss = [-32767, -32766, -16385, -16384, -1, 0, 1, 16384, 32766, 32767]
+    pairs = [(h, q) for h in hs for q in qss]
+    pairs += [(rnd.randint(ci.INT32_MIN, ci.INT32_MAX), rnd.randint(-32767, 32767))
+              for _ in range(20000)]
+    for h, q in pairs:
+        assert fq.mul_hq_p32(h, q) == ci.mul_32x16(h, q, 15) == ci.mul_32x16_exact(h, q, 15), (h, q)
 
 
 def test_invsqrt_accuracy_exhaustive_mantissa():

@@ -85,11 +85,21 @@ static inline int imf_q_normalise_acc(const int16_t acc[3], int16_t a[3])
 /* 32-bit profile, appendix step 7 (Mahony) / 3 (Madgwick):
  * dq = q (x) (0, h), h = 0.5 w dt in q30; products q15 x q30 -> q30 by
  * imf_mul_32x16 (rounded), sums saturate. */
-/* h q15 -> q30 (imf_mul_32x16 with the shift 15), one out-of-line copy on
- * AVR: twelve inlined copies are most of the 32-bit profile's flash. */
+/* h q15 -> q30: imf_mul_32x16(h, qs, 15)'s value without its range tests.
+ * qs is a symmetric q15 snapshot (|qs| <= 32767), so for any int32 h,
+ * |h qs| < 2^46, the high part m = floor(h qs / 2^16) is in
+ * [-2^30, 2^30 - 2^15] and 2 m + (lol + 2^14) / 2^15 (lol the low 16 bits,
+ * the rounded term in [0, 2]) never leaves int32: no saturation.  (Each
+ * inlined copy of imf_mul_32x16's saturating path cost ~200 bytes on the
+ * Cortex-M0; on AVR its general path cost ~250 cycles a product.)  One
+ * out-of-line copy on AVR: twelve inlined copies are most of the 32-bit
+ * profile's flash. */
 IMF_Q_OUTLINE int32_t imf_q_mul_hq_p32(const int32_t h, const int16_t qs)
 {
-    return imf_mul_32x16(h, qs, 15);
+    const int32_t lo = imf_mul16su(qs, (uint16_t)((uint32_t)h & 0xFFFFu)); /* |.| < 2^31 */
+    const int32_t m = imf_mul16((int16_t)(h >> 16), qs) + (lo >> 16);
+    /* (lol + 2^14) >> 15 = ((lol >> 14) + 1) >> 1, lol = lo mod 2^16 */
+    return m * 2 + (int32_t)((uint16_t)(((uint16_t)((uint32_t)lo & 0xFFFFu) >> 14) + 1u) >> 1);
 }
 
 IMF_Q_OUTLINE void imf_q_rate_p32(const int16_t qs[4], const int32_t h[3], int32_t dq[4])

@@ -21,8 +21,13 @@ def normalise_acc(acc):
 
 
 def mul_hq_p32(h, qs):
-    """imf_q_mul_hq_p32: h (q30) times a q15 snapshot component, q30."""
-    return ci.mul_32x16(h, qs, 15)
+    """imf_q_mul_hq_p32: h (q30) times a symmetric q15 snapshot component, q30:
+    imf_mul_32x16(h, qs, 15)'s value as 2 m + the rounded low part, which never
+    saturates for |qs| <= 32767."""
+    lo = ci.check32(qs * (h & 0xFFFF))                 # |.| < 2^31
+    m = ci.check32((h >> 16) * qs + (lo >> 16))
+    # (lol + 2^14) >> 15 = ((lol >> 14) + 1) >> 1, lol = lo mod 2^16
+    return ci.check32(m * 2 + ((((lo & 0xFFFF) >> 14) + 1) >> 1))
 
 
 def rate_p32(qs, h):
