@@ -42,7 +42,7 @@ def py_op(op, a, b, n):
     args = {"rshr32": (a, n), "asr32": (a, n), "shl_sat32": (a, n), "rshift_sat32": (a, n),
             "sat_q15": (a,), "sat_q15s": (a,), "add_sat32": (a, b), "sub_sat32": (a, b),
             "add_sat_q15": (a, b), "sub_sat_q15": (a, b), "mul_q15": (a, b),
-            "mul_q15_q30": (a, b), "mul_32x16": (a, b, n), "isqrt_u32": (a,),
+            "mul_q15_q30": (a, b), "mul_32x16": (a, b, n), "mul_32x16_s": (a, b, n), "isqrt_u32": (a,),
             "q30_to_q15": (a,), "q15_to_q30": (a,), "qn_to_q15s": (a, n)}[op]
     return f(*args), 0
 
@@ -65,7 +65,7 @@ CASES = st.one_of(
     st.tuples(st.sampled_from(["add_sat32", "sub_sat32"]), any32, any32, st.just(0)),
     st.tuples(st.sampled_from(["add_sat_q15", "sub_sat_q15", "mul_q15", "mul_q15_q30"]),
               any16, any16, st.just(0)),
-    st.tuples(st.just("mul_32x16"), any32, any16, st.integers(0, 47)),
+    st.tuples(st.sampled_from(["mul_32x16", "mul_32x16_s"]), any32, any16, st.integers(0, 47)),
     st.tuples(st.just("q_mul_hq_p32"), any32, st.integers(-32767, 32767), st.just(0)),
     st.tuples(st.sampled_from(["isqrt_u32", "invsqrt_u32"]), st.one_of(u32, st.integers(0, 4096)),
               st.just(0), st.just(0)),
@@ -94,7 +94,7 @@ def test_core_edges_exhaustive():
         for n in range(32):
             cases += [("rshr32", a, 0, n), ("shl_sat32", a, 0, n), ("asr32", a, 0, n)]
         for n in range(48):
-            cases += [("mul_32x16", a, b, n) for b in edges16]
+            cases += [(op, a, b, n) for b in edges16 for op in ("mul_32x16", "mul_32x16_s")]
         cases += [("q_mul_hq_p32", a, b, 0) for b in edges16 if b != -32768]
         cases += [("add_sat32", a, b, 0) for b in edges32]
         cases += [("sub_sat32", a, b, 0) for b in edges32]

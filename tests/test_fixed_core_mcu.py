@@ -77,6 +77,14 @@ OPS = [
      lambda a, b, n: ci.mul_32x16(a, _i16(b), n + 16)),
     ("imf_mul_32x16(ab[0], (int16_t)ab[3], ab[2] / 2)", "i32",
      lambda a, b, n: ci.mul_32x16(a, _i16(b), n // 2)),
+    # imf_mul_32x16_s (outside AVR: n <= 16 out of line) over n = 0..31 and 16..47
+    ("imf_mul_32x16_s(ab[0], (int16_t)ab[3], ab[2])", "i32",
+     lambda a, b, n: ci.mul_32x16_s(a, _i16(b), n)),
+    ("imf_mul_32x16_s(ab[0], (int16_t)ab[3], ab[2] + 16)", "i32",
+     lambda a, b, n: ci.mul_32x16_s(a, _i16(b), n + 16)),
+    # imf_q_mul_hq_p32 (no range tests) with a symmetric q15 operand
+    ("imf_q_mul_hq_p32(ab[0], (int16_t)(ab[3] == -32768 ? -32767 : ab[3]))", "i32",
+     lambda a, b, n: fq.mul_hq_p32(a, max(_i16(b), -32767))),
     # imf_gain8_mul's general path (out of line on AVR), shifts -15..16 (the left shifts of a
     # gain ki >= 2^-9 by doublings on AVR)
     ("imf_gain8_mul((int16_t)ab[3], imf_test_gain8((uint16_t)ab[0], ab[2] - 15))", "i32",

@@ -820,4 +820,53 @@ static inline int16_t imf_qn_to_q15s(const int32_t x, const int N)
     return imf_sat_q15s(imf_rshr32(x, N - 15));
 }
 
+/* ---- 32x16 products in compact code outside AVR --------------------- */
+
+/* imf_mul_32x16 (the same value, n in [0, 47]) for callers with a run-time
+ * shift whose usual value is n > 16 (MahonyIMUQ's gains): outside AVR that
+ * case stays inline (two products, then a rounding shift) and the rest
+ * (n = 16, n < 16 with its saturation) is one out-of-line copy,
+ * imf_mul_32x16_rest: each inlined copy of it cost a caller ~150 bytes on
+ * the Cortex-M0.  On AVR, imf_mul_32x16 (out of line for a run-time
+ * shift). */
+#if !defined(__AVR__) && defined(__GNUC__)
+/* (m 2^16 + lol) / 2^n rounded, saturated, n in [0, 16]: imf_mul_32x16_k's
+ * tail (m its high part, lol in [0, 2^16) the low 16 bits) */
+static __attribute__((noinline, unused)) int32_t imf_mul_32x16_rest(const int32_t m, const int32_t lol,
+                                                                    const int n)
+{
+    if (n == 16) {
+        return m + (lol >> 15);
+    }
+    if (m < -(int32_t)imf_lsl32(1u, 15 + n)) {
+        return IMF_INT32_MIN;
+    }
+    return imf_add_sat32(imf_shl_sat32(m, 16 - n),
+                         imf_asr32(lol + (int32_t)(imf_lsl32(1u, n) >> 1), n));
+}
+#endif
+
+static inline int32_t imf_mul_32x16_s(const int32_t a, const int16_t b, const int n)
+{
+#if !defined(__AVR__) && defined(__GNUC__)
+    const int16_t ah = (int16_t)(a >> 16);
+    const uint16_t al = (uint16_t)((uint32_t)a & 0xFFFFu);
+    const int32_t lo = (int32_t)al * (int32_t)b;
+    const int32_t m = (int32_t)ah * (int32_t)b + (lo >> 16);
+    const int32_t lol = (int32_t)((uint32_t)lo & 0xFFFFu);
+    if (n > 16) {
+        return imf_rshr32(m, n - 16);
+    }
+    return imf_mul_32x16_rest(m, lol, n);
+#else
+    return imf_mul_32x16(a, b, n);
+#endif
+}
+
+/* imf_scale32 through imf_mul_32x16_s (shift c.s + K - N in [0, 47]). */
+static inline int32_t imf_scale32_s(const int32_t x, const imf_qscale_t c, const int K, const int N)
+{
+    return imf_mul_32x16_s(x, c.m, c.s + K - N);
+}
+
 #endif /* IMF_FIXED_H */

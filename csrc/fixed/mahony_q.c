@@ -102,11 +102,11 @@ static IMF_AVR_NOINLINE void imf_mahony_imu_q_feedback_p32(imf_mahony_imu_q_t *c
         if (self->ki.s >= 31) {
             /* Ki dt e in q46 (|.| < 2^31 for |e| <= 2), its 8 bits below q38
              * carried to the next sample (imf_mahony_imu_q_carry_i) */
-            ip = imf_mahony_imu_q_carry_i(imf_mul_32x16(e[i], self->ki.m, self->ki.s - 16), &x->c[i]);
+            ip = imf_mahony_imu_q_carry_i(imf_mul_32x16_s(e[i], self->ki.m, self->ki.s - 16), &x->c[i]);
         } else {
-            ip = imf_scale32(e[i], self->ki, 30, 38);
+            ip = imf_scale32_s(e[i], self->ki, 30, 38);
         }
-        pp = imf_scale32(e[i], self->kp, 30, 30);
+        pp = imf_scale32_s(e[i], self->kp, 30, 30);
         /* step 5: I_n = I_{n-1} + Ki dt e (as 0.5 I dt, q38) */
         x->i[i] = imf_add_sat32(x->i[i], ip);
         /* step 6: w' = w + Kp e + I_n (as 0.5 w' dt, q30) */

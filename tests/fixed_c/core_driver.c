@@ -26,6 +26,7 @@ int main(void)
         else if (!strcmp(op, "mul_q15")) r = imf_mul_q15((int16_t)a, (int16_t)b);
         else if (!strcmp(op, "mul_q15_q30")) r = imf_mul_q15_q30((int16_t)a, (int16_t)b);
         else if (!strcmp(op, "mul_32x16")) r = imf_mul_32x16((int32_t)a, (int16_t)b, (int)n);
+        else if (!strcmp(op, "mul_32x16_s")) r = imf_mul_32x16_s((int32_t)a, (int16_t)b, (int)n);
         else if (!strcmp(op, "q_mul_hq_p32")) r = imf_q_mul_hq_p32((int32_t)a, (int16_t)b);
         else if (!strcmp(op, "isqrt_u32")) r = imf_isqrt_u32((uint32_t)a);
         else if (!strcmp(op, "invsqrt_u32")) { r = imf_invsqrt_u32((uint32_t)a, &sh); r2 = sh; }

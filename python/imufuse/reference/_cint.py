@@ -193,6 +193,17 @@ def scale32(x: int, c: QScale, K: int, N: int) -> int:
     return mul_32x16(x, c.m, c.s + K - N)
 
 
+def mul_32x16_s(a: int, b: int, n: int) -> int:
+    """imf_mul_32x16_s: imf_mul_32x16's value (the C keeps the n = 16 and saturating
+    paths out of line outside AVR: flash)."""
+    return mul_32x16(a, b, n)
+
+
+def scale32_s(x: int, c: QScale, K: int, N: int) -> int:
+    """imf_scale32_s: imf_scale32 through imf_mul_32x16_s."""
+    return mul_32x16_s(x, c.m, c.s + K - N)
+
+
 def gain8(c: QScale, N: int) -> tuple[int, int]:
     """imf_gain8: (m, n) with the product x * c * 2^N = rshift(x * m, n)."""
     n = c.s - N

@@ -102,10 +102,10 @@ class MahonyIMUQ(FixedFilter):
         for i in range(3):
             if self.ki.s >= 31:
                 # Ki dt e in q46, its 8 bits below q38 carried (imf_mahony_imu_q_carry_i)
-                ip = carry_i(ci.mul_32x16(e[i], self.ki.m, self.ki.s - 16), self.c, i)
+                ip = carry_i(ci.mul_32x16_s(e[i], self.ki.m, self.ki.s - 16), self.c, i)
             else:
-                ip = ci.scale32(e[i], self.ki, 30, 38)
-            pp = ci.scale32(e[i], self.kp, 30, 30)
+                ip = ci.scale32_s(e[i], self.ki, 30, 38)
+            pp = ci.scale32_s(e[i], self.kp, 30, 30)
             # step 5: I_n = I_{n-1} + Ki dt e (as 0.5 I dt, q38)
             self.i[i] = ci.add_sat32(self.i[i], ip)
             # step 6: w' = w + Kp e + I_n (as 0.5 w' dt, q30)
