@@ -676,6 +676,39 @@ IMF_AVR_OUTLINE uint16_t imf_invsqrt_u32(uint32_t x, int *const shift)
     return (uint16_t)y;
 }
 
+/* The chord of the short inverse square roots (imf_invsqrt8_u32,
+ * imf_invsqrt16_u32): y ~= 2^31 / sqrt(u 2^16) (< 2^16) for u = x / 2^16
+ * in [2^14, 2^16), lowered to balance the error of the Newton step after
+ * it: 64635 - floor(38 d / 32) below 2^15, 45691 - floor(27 d / 64) above,
+ * as floor(38 d / 32) = d + floor(3 d / 16) for d < 2^14 and
+ * floor(27 d / 64) = 27 floor(d / 64) + floor(27 (d mod 64) / 64): 16-bit
+ * operations on AVR, 32-bit elsewhere (the same values). */
+static inline uint32_t imf_invsqrt_chord16(const uint32_t u)
+{
+#if defined(__AVR__)
+    uint16_t d, y;
+    if ((uint16_t)u < 32768u) {
+        d = (uint16_t)(u - 16384u);
+        y = (uint16_t)(64635u - (uint16_t)(d + (uint16_t)((uint16_t)(d * 3u) >> 4)));
+    } else {
+        d = (uint16_t)(u - 32768u);
+        y = (uint16_t)(45691u - (uint16_t)((uint16_t)((d >> 6) * 27u)
+                                           + (uint16_t)((uint16_t)((d & 63u) * 27u) >> 6)));
+    }
+    return (uint32_t)y;
+#else
+    uint32_t d, y;
+    if (u < 32768u) {
+        d = u - 16384u;
+        y = 64635u - (d + ((d * 3u) >> 4));
+    } else {
+        d = u - 32768u;
+        y = 45691u - ((d >> 6) * 27u + (((d & 63u) * 27u) >> 6));
+    }
+    return y;
+#endif
+}
+
 /* Short inverse square root of the 8-bit profile, for x in [2^28, 2^32)
  * (callers block-scale their vector first): returns y (unsigned q15) and
  * *e in {0, 1} so that 1/sqrt(x) ~= y * 2^(*e - 31).  Relative error below
@@ -686,7 +719,7 @@ IMF_AVR_OUTLINE uint16_t imf_invsqrt_u32(uint32_t x, int *const shift)
 IMF_AVR_OUTLINE uint16_t imf_invsqrt8_u32(uint32_t x, int *const e)
 {
 #if defined(__AVR__)
-    uint16_t u, y, y2, w, d;
+    uint16_t u, y, y2, w;
     uint32_t t;
     *e = 0;
     if (x < ((uint32_t)1 << 30)) {
@@ -694,17 +727,7 @@ IMF_AVR_OUTLINE uint16_t imf_invsqrt8_u32(uint32_t x, int *const e)
         *e = 1;
     }
     u = (uint16_t)(x >> 16); /* q16 in [2^14, 2^16) */
-    /* the chords in 16-bit operations (the same values):
-     * floor(38 d / 32) = d + floor(3 d / 16) for d < 2^14, and
-     * floor(27 d / 64) = 27 floor(d / 64) + floor(27 (d mod 64) / 64) */
-    if (u < 32768u) {
-        d = (uint16_t)(u - 16384u);
-        y = (uint16_t)(64635u - (uint16_t)(d + (uint16_t)((uint16_t)(d * 3u) >> 4)));
-    } else {
-        d = (uint16_t)(u - 32768u);
-        y = (uint16_t)(45691u - (uint16_t)((uint16_t)((d >> 6) * 27u)
-                                           + (uint16_t)((uint16_t)((d & 63u) * 27u) >> 6)));
-    }
+    y = (uint16_t)imf_invsqrt_chord16(u);
     y2 = (uint16_t)((imf_mulu16(y, y) + 32768u) >> 16); /* q14, y < 2^16 */
     t = imf_mulu16(u, y2);                             /* q30, < 3 2^30 here */
     if (t >= 3221225472u) {
@@ -718,22 +741,16 @@ IMF_AVR_OUTLINE uint16_t imf_invsqrt8_u32(uint32_t x, int *const e)
     }
     return (uint16_t)((uint16_t)((uint16_t)(t >> 16) << 1) | (uint16_t)(((uint16_t)t) >> 15));
 #else
-    /* the same values in 32-bit operations (no 16-bit intermediate above
-     * wraps: d < 2^14, y < 2^16, w <= 49152) */
-    uint32_t u, y, d, t;
+    /* the Newton step in 32-bit operations (the same values: y < 2^16,
+     * w <= 49152) */
+    uint32_t u, y, t;
     *e = 0;
     if (x < ((uint32_t)1 << 30)) {
         x <<= 2;
         *e = 1;
     }
     u = x >> 16;
-    if (u < 32768u) {
-        d = u - 16384u;
-        y = 64635u - (d + ((d * 3u) >> 4));
-    } else {
-        d = u - 32768u;
-        y = 45691u - ((d >> 6) * 27u + (((d & 63u) * 27u) >> 6));
-    }
+    y = imf_invsqrt_chord16(u); /* < 2^16 */
     t = u * ((y * y + 32768u) >> 16);
     if (t >= 3221225472u) {
         t = 3221225471u;

@@ -309,7 +309,7 @@ static inline int32_t imf_gain16_or_mulk32(const int32_t x, const imf_gain16_t g
 /* ---- unit vector of raw accelerometer counts (KKQ) -------------------- */
 
 /* 1/sqrt(x) for x in [2^30, 2^32): y (unsigned q15) with 1/sqrt(x) ~= y 2^-31.
- * The chord of imf_invsqrt8_u32 on u = x / 2^16 (in 16-bit operations) and
+ * The chord imf_invsqrt_chord16 of imf_invsqrt8_u32 on u = x / 2^16 and
  * two Newton steps y <- y (3 - u y^2) / 2, each three unsigned 16x16->32
  * products: relative error below 6e-5.  y depends on u alone, and every u
  * is tested (tests/test_fixed_scale.py: the twin raises where a bound below
@@ -318,17 +318,9 @@ static inline int32_t imf_gain16_or_mulk32(const int32_t x, const imf_gain16_t g
 static inline uint16_t imf_invsqrt16_u32(const uint32_t x)
 {
     const uint16_t u = (uint16_t)(x >> 16); /* q16 in [2^14, 2^16) */
-    uint16_t y, y2, w, d;
+    uint16_t y = (uint16_t)imf_invsqrt_chord16(u), y2, w;
     uint32_t t;
     int i;
-    if (u < 32768u) {
-        d = (uint16_t)(u - 16384u);
-        y = (uint16_t)(64635u - (uint16_t)(d + (uint16_t)((uint16_t)(d * 3u) >> 4)));
-    } else {
-        d = (uint16_t)(u - 32768u);
-        y = (uint16_t)(45691u - (uint16_t)((uint16_t)((d >> 6) * 27u)
-                                           + (uint16_t)((uint16_t)((d & 63u) * 27u) >> 6)));
-    }
     for (i = 0; i < 2; ++i) {
         y2 = (uint16_t)((imf_mulu16(y, y) + 32768u) >> 16); /* q14 */
         t = imf_mulu16(u, y2);                             /* q30, < 3 2^30 */

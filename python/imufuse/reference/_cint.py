@@ -258,6 +258,16 @@ def invsqrt_u32(x: int) -> tuple[int, int]:
     return y, 31 - e // 2
 
 
+def invsqrt_chord16(u: int) -> int:
+    """imf_invsqrt_chord16: the chord y ~= 2^31 / sqrt(u 2^16), u in [2^14, 2^16), of
+    invsqrt8_u32 and invsqrt16_u32 (64635 - floor(38 d / 32), 45691 - floor(27 d / 64))."""
+    if u < 32768:
+        d = u - 16384
+        return 64635 - (d + ((d * 3) >> 4))
+    d = u - 32768
+    return 45691 - ((d >> 6) * 27 + (((d & 63) * 27) >> 6))
+
+
 def invsqrt8_u32(x: int) -> tuple[int, int]:
     """imf_invsqrt8_u32, x in [2^28, 2^32): (y, e), 1/sqrt(x) ~= y * 2^(e - 31)."""
     e = 0
@@ -265,10 +275,7 @@ def invsqrt8_u32(x: int) -> tuple[int, int]:
         x <<= 2
         e = 1
     u = x >> 16
-    if u < 32768:
-        y = 64635 - (((u - 16384) * 38) >> 5)
-    else:
-        y = 45691 - (((u - 32768) * 27) >> 6)
+    y = invsqrt_chord16(u)
     y2 = (y * y + 32768) >> 16
     t = checku32(u * y2)
     if t >= 3221225472:

@@ -43,12 +43,7 @@ def i16_to_q15(a: int) -> int:
 def invsqrt16_u32(x: int) -> int:
     """imf_invsqrt16_u32, x in [2^30, 2^32): y, 1/sqrt(x) ~= y 2^-31."""
     u = x >> 16
-    if u < 32768:
-        d = u - 16384
-        y = 64635 - (d + ((d * 3) >> 4))
-    else:
-        d = u - 32768
-        y = 45691 - ((d >> 6) * 27 + (((d & 63) * 27) >> 6))
+    y = ci.invsqrt_chord16(u)
     for _ in range(2):
         y2 = (y * y + 32768) >> 16
         t = ci.checku32(u * y2)
