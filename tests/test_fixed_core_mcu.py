@@ -85,6 +85,12 @@ OPS = [
     # imf_q_mul_hq_p32 (no range tests) with a symmetric q15 operand
     ("imf_q_mul_hq_p32(ab[0], (int16_t)(ab[3] == -32768 ? -32767 : ab[3]))", "i32",
      lambda a, b, n: fq.mul_hq_p32(a, max(_i16(b), -32767))),
+    # imf_invsqrt8_u32 (chord and Newton step shared with imf_invsqrt16_u32): y + e 2^16,
+    # x in [2^30, 2^32) and in [2^28, 2^30)
+    ("imf_test_invsqrt8((uint32_t)ab[0] | 0x40000000u)", "i32",
+     lambda a, b, n: _inv8((a & 0xFFFFFFFF) | 0x40000000)),
+    ("imf_test_invsqrt8(((uint32_t)ab[0] >> 2) | 0x10000000u)", "i32",
+     lambda a, b, n: _inv8(((a & 0xFFFFFFFF) >> 2) | 0x10000000)),
     # imf_gain8_mul's general path (out of line on AVR), shifts -15..16 (the left shifts of a
     # gain ki >= 2^-9 by doublings on AVR)
     ("imf_gain8_mul((int16_t)ab[3], imf_test_gain8((uint16_t)ab[0], ab[2] - 15))", "i32",
@@ -93,6 +99,11 @@ OPS = [
     ("imf_q_carry_p8(ab[0], &cc)", "i32", None),   # checked with its state below
     ("cc", "i32", None),
 ]
+
+
+def _inv8(x):
+    y, e = ci.invsqrt8_u32(x)
+    return y + (e << 16)
 
 
 def _i16(v):
@@ -113,7 +124,10 @@ def test_core_paths_on_target(toolchains, target):
     drv = Driver(prelude='#include "imf_fixed_quat.h"\nstatic int32_t out[%d];\n'
                          "static int32_t cc;\n"
                          "static imf_gain8_t imf_test_gain8(uint16_t m, int n)\n"
-                         "{ imf_gain8_t g; g.m = m; g.n = (int16_t)n; return g; }" % len(OPS),
+                         "{ imf_gain8_t g; g.m = m; g.n = (int16_t)n; return g; }\n"
+                         "static int32_t imf_test_invsqrt8(uint32_t x)\n"
+                         "{ int e; uint16_t y = imf_invsqrt8_u32(x, &e);"
+                         " return (int32_t)y + (int32_t)e * 65536L; }" % len(OPS),
                  init="cc = 0;", step=step, state=state)
     res = mcu.run(target, include_dirs=[CSRC, CSRC / "fixed"], driver=drv, inputs={"ab": ab})
     got = res.state.astype(np.uint32).view(np.int32)

@@ -676,6 +676,14 @@ IMF_AVR_OUTLINE uint16_t imf_invsqrt_u32(uint32_t x, int *const shift)
     return (uint16_t)y;
 }
 
+/* The operand and result type of imf_invsqrt_chord16 / imf_invsqrt_newton16
+ * (values below 2^16): 16 bits on AVR, 32 elsewhere (no conversions). */
+#if defined(__AVR__)
+typedef uint16_t imf_invsqrt16_t;
+#else
+typedef uint32_t imf_invsqrt16_t;
+#endif
+
 /* The chord of the short inverse square roots (imf_invsqrt8_u32,
  * imf_invsqrt16_u32): y ~= 2^31 / sqrt(u 2^16) (< 2^16) for u = x / 2^16
  * in [2^14, 2^16), lowered to balance the error of the Newton step after
@@ -683,11 +691,11 @@ IMF_AVR_OUTLINE uint16_t imf_invsqrt_u32(uint32_t x, int *const shift)
  * as floor(38 d / 32) = d + floor(3 d / 16) for d < 2^14 and
  * floor(27 d / 64) = 27 floor(d / 64) + floor(27 (d mod 64) / 64): 16-bit
  * operations on AVR, 32-bit elsewhere (the same values). */
-static inline uint32_t imf_invsqrt_chord16(const uint32_t u)
+static inline imf_invsqrt16_t imf_invsqrt_chord16(const imf_invsqrt16_t u)
 {
 #if defined(__AVR__)
     uint16_t d, y;
-    if ((uint16_t)u < 32768u) {
+    if (u < 32768u) {
         d = (uint16_t)(u - 16384u);
         y = (uint16_t)(64635u - (uint16_t)(d + (uint16_t)((uint16_t)(d * 3u) >> 4)));
     } else {
@@ -695,7 +703,7 @@ static inline uint32_t imf_invsqrt_chord16(const uint32_t u)
         y = (uint16_t)(45691u - (uint16_t)((uint16_t)((d >> 6) * 27u)
                                            + (uint16_t)((uint16_t)((d & 63u) * 27u) >> 6)));
     }
-    return (uint32_t)y;
+    return y;
 #else
     uint32_t d, y;
     if (u < 32768u) {
@@ -709,55 +717,44 @@ static inline uint32_t imf_invsqrt_chord16(const uint32_t u)
 #endif
 }
 
+/* One Newton step y <- y (3 - u y^2) / 2 of the short inverse square roots
+ * (y in q15, u as in imf_invsqrt_chord16), after the chord or a previous
+ * step: three unsigned 16x16->32 products.  From the chord, u y^2 stays
+ * below 3 2^30 and the new y below 2^16 after each of two steps for every u
+ * (tests/test_fixed_scale.py runs them all; the twin raises otherwise): no
+ * clamp, no saturation.  16-bit operations on AVR (the rounding from the
+ * high word: y w + 2^14 < 2^31), 32-bit elsewhere (the same values). */
+static inline imf_invsqrt16_t imf_invsqrt_newton16(const imf_invsqrt16_t u, const imf_invsqrt16_t y)
+{
+#if defined(__AVR__)
+    const uint16_t y2 = (uint16_t)((imf_mulu16(y, y) + 32768u) >> 16); /* q14 */
+    const uint32_t t = imf_mulu16(u, y2);                   /* q30, < 3 2^30 */
+    const uint16_t w = (uint16_t)((3221225472u - t) >> 16);
+    const uint32_t r = imf_mulu16(y, w) + 16384u;           /* (y w + 2^14) / 2^15 */
+    return (uint16_t)((uint16_t)((uint16_t)(r >> 16) << 1) | (uint16_t)(((uint16_t)r) >> 15));
+#else
+    return (y * ((3221225472u - u * ((y * y + 32768u) >> 16)) >> 16) + 16384u) >> 15;
+#endif
+}
+
 /* Short inverse square root of the 8-bit profile, for x in [2^28, 2^32)
  * (callers block-scale their vector first): returns y (unsigned q15) and
  * *e in {0, 1} so that 1/sqrt(x) ~= y * 2^(*e - 31).  Relative error below
  * 1.2e-3 (tested exhaustively over the mantissa): one chord (lowered to
- * balance the error) and one Newton step, three unsigned 16x16->32
- * products, no loop.  Used where only a direction matters (accelerometer,
- * Madgwick's delta-s), so the error scales a gain by at most 0.12 %. */
+ * balance the error) and one Newton step (imf_invsqrt_chord16,
+ * imf_invsqrt_newton16), three unsigned 16x16->32 products, no loop.  Used
+ * where only a direction matters (accelerometer, Madgwick's delta-s), so
+ * the error scales a gain by at most 0.12 %. */
 IMF_AVR_OUTLINE uint16_t imf_invsqrt8_u32(uint32_t x, int *const e)
 {
-#if defined(__AVR__)
-    uint16_t u, y, y2, w;
-    uint32_t t;
+    imf_invsqrt16_t u;
     *e = 0;
     if (x < ((uint32_t)1 << 30)) {
         x <<= 2;
         *e = 1;
     }
-    u = (uint16_t)(x >> 16); /* q16 in [2^14, 2^16) */
-    y = (uint16_t)imf_invsqrt_chord16(u);
-    y2 = (uint16_t)((imf_mulu16(y, y) + 32768u) >> 16); /* q14, y < 2^16 */
-    t = imf_mulu16(u, y2);                             /* q30, < 3 2^30 here */
-    if (t >= 3221225472u) {
-        t = 3221225471u; /* cannot happen from the chords; kept for safety */
-    }
-    w = (uint16_t)((3221225472u - t) >> 16);
-    /* (y w + 2^14) / 2^15 from the high word: y w + 2^14 < 2^32 */
-    t = imf_mulu16(y, w) + 16384u;
-    if ((t >> 16) >= 32768u) {
-        return 65535u;
-    }
-    return (uint16_t)((uint16_t)((uint16_t)(t >> 16) << 1) | (uint16_t)(((uint16_t)t) >> 15));
-#else
-    /* the Newton step in 32-bit operations (the same values: y < 2^16,
-     * w <= 49152) */
-    uint32_t u, y, t;
-    *e = 0;
-    if (x < ((uint32_t)1 << 30)) {
-        x <<= 2;
-        *e = 1;
-    }
-    u = x >> 16;
-    y = imf_invsqrt_chord16(u); /* < 2^16 */
-    t = u * ((y * y + 32768u) >> 16);
-    if (t >= 3221225472u) {
-        t = 3221225471u;
-    }
-    t = (y * ((3221225472u - t) >> 16) + 16384u) >> 15;
-    return (uint16_t)(t > 65535u ? 65535u : t);
-#endif
+    u = (imf_invsqrt16_t)(x >> 16); /* q16 in [2^14, 2^16) */
+    return (uint16_t)imf_invsqrt_newton16(u, imf_invsqrt_chord16(u));
 }
 
 /* ---- conversions --------------------------------------------------- */

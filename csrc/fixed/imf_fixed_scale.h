@@ -309,27 +309,21 @@ static inline int32_t imf_gain16_or_mulk32(const int32_t x, const imf_gain16_t g
 /* ---- unit vector of raw accelerometer counts (KKQ) -------------------- */
 
 /* 1/sqrt(x) for x in [2^30, 2^32): y (unsigned q15) with 1/sqrt(x) ~= y 2^-31.
- * The chord imf_invsqrt_chord16 of imf_invsqrt8_u32 on u = x / 2^16 and
- * two Newton steps y <- y (3 - u y^2) / 2, each three unsigned 16x16->32
- * products: relative error below 6e-5.  y depends on u alone, and every u
+ * The chord of imf_invsqrt8_u32 on u = x / 2^16 (imf_invsqrt_chord16) and
+ * two Newton steps y <- y (3 - u y^2) / 2 (imf_invsqrt_newton16), each three
+ * unsigned 16x16->32 products: relative error below 6e-5.  y depends on u alone, and every u
  * is tested (tests/test_fixed_scale.py: the twin raises where a bound below
  * fails): u y^2 stays below 3 2^30 and the new y below 2^16 (no clamp, no
  * saturation needed). */
 static inline uint16_t imf_invsqrt16_u32(const uint32_t x)
 {
-    const uint16_t u = (uint16_t)(x >> 16); /* q16 in [2^14, 2^16) */
-    uint16_t y = (uint16_t)imf_invsqrt_chord16(u), y2, w;
-    uint32_t t;
+    const imf_invsqrt16_t u = (imf_invsqrt16_t)(x >> 16); /* q16 in [2^14, 2^16) */
+    imf_invsqrt16_t y = imf_invsqrt_chord16(u);
     int i;
     for (i = 0; i < 2; ++i) {
-        y2 = (uint16_t)((imf_mulu16(y, y) + 32768u) >> 16); /* q14 */
-        t = imf_mulu16(u, y2);                             /* q30, < 3 2^30 */
-        w = (uint16_t)((3221225472u - t) >> 16);
-        /* (y w + 2^14) / 2^15 from the high word (< 2^15: below 2^16) */
-        t = imf_mulu16(y, w) + 16384u;
-        y = (uint16_t)((uint16_t)((uint16_t)(t >> 16) << 1) | (uint16_t)(((uint16_t)t) >> 15));
+        y = imf_invsqrt_newton16(u, y);
     }
-    return y;
+    return (uint16_t)y;
 }
 
 /* x and y components of the unit vector of int16 counts v (KKQ needs no

@@ -268,6 +268,20 @@ def invsqrt_chord16(u: int) -> int:
     return 45691 - ((d >> 6) * 27 + (((d & 63) * 27) >> 6))
 
 
+def invsqrt_newton16(u: int, y: int) -> int:
+    """imf_invsqrt_newton16: one Newton step y <- y (3 - u y^2) / 2 (q15 y, u in
+    [2^14, 2^16)); raises OverflowError where u y^2 would reach 3 2^30 or the new y
+    leave uint16 (the C has neither a clamp nor a saturation)."""
+    y2 = (y * y + 32768) >> 16
+    t = checku32(u * y2)
+    w = checku32(3221225472 - t) >> 16
+    t = y * w + 16384
+    y = ((t >> 16) << 1) | ((t & 0xFFFF) >> 15)
+    if y > 0xFFFF:
+        raise OverflowError(f"imf_invsqrt_newton16: y = {y} leaves uint16 (u = {u})")
+    return y
+
+
 def invsqrt8_u32(x: int) -> tuple[int, int]:
     """imf_invsqrt8_u32, x in [2^28, 2^32): (y, e), 1/sqrt(x) ~= y * 2^(e - 31)."""
     e = 0
@@ -275,14 +289,7 @@ def invsqrt8_u32(x: int) -> tuple[int, int]:
         x <<= 2
         e = 1
     u = x >> 16
-    y = invsqrt_chord16(u)
-    y2 = (y * y + 32768) >> 16
-    t = checku32(u * y2)
-    if t >= 3221225472:
-        t = 3221225471
-    w = (3221225472 - t) >> 16
-    y = (y * w + 16384) >> 15
-    return min(y, 65535), e
+    return invsqrt_newton16(u, invsqrt_chord16(u)), e
 
 
 def q15_to_q30(x: int) -> int:

@@ -45,13 +45,7 @@ def invsqrt16_u32(x: int) -> int:
     u = x >> 16
     y = ci.invsqrt_chord16(u)
     for _ in range(2):
-        y2 = (y * y + 32768) >> 16
-        t = ci.checku32(u * y2)
-        w = ci.checku32(3221225472 - t) >> 16  # u y^2 <= 3 2^30 for every u (tested)
-        t = y * w + 16384
-        y = ((t >> 16) << 1) | ((t & 0xFFFF) >> 15)
-        if y > 0xFFFF:
-            raise OverflowError(f"imf_invsqrt16_u32: y = {y} leaves uint16 (u = {u})")
+        y = ci.invsqrt_newton16(u, y)  # raises where a bound fails (tested for every u)
     return y
 
 
