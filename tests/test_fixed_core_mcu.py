@@ -91,6 +91,9 @@ OPS = [
      lambda a, b, n: _inv8((a & 0xFFFFFFFF) | 0x40000000)),
     ("imf_test_invsqrt8(((uint32_t)ab[0] >> 2) | 0x10000000u)", "i32",
      lambda a, b, n: _inv8(((a & 0xFFFFFFFF) >> 2) | 0x10000000)),
+    # imf_invsqrt_u32 (its Newton steps are imf_invsqrt_newton16's): y + shift 2^16
+    ("imf_test_invsqrt((uint32_t)ab[0])", "i32",
+     lambda a, b, n: _inv(a & 0xFFFFFFFF)),
     # imf_gain8_mul's general path (out of line on AVR), shifts -15..16 (the left shifts of a
     # gain ki >= 2^-9 by doublings on AVR)
     ("imf_gain8_mul((int16_t)ab[3], imf_test_gain8((uint16_t)ab[0], ab[2] - 15))", "i32",
@@ -99,6 +102,11 @@ OPS = [
     ("imf_q_carry_p8(ab[0], &cc)", "i32", None),   # checked with its state below
     ("cc", "i32", None),
 ]
+
+
+def _inv(x):
+    y, sh = ci.invsqrt_u32(x)
+    return y + (sh << 16)
 
 
 def _inv8(x):
@@ -125,6 +133,9 @@ def test_core_paths_on_target(toolchains, target):
                          "static int32_t cc;\n"
                          "static imf_gain8_t imf_test_gain8(uint16_t m, int n)\n"
                          "{ imf_gain8_t g; g.m = m; g.n = (int16_t)n; return g; }\n"
+                         "static int32_t imf_test_invsqrt(uint32_t x)\n"
+                         "{ int sh; uint16_t y = imf_invsqrt_u32(x, &sh);"
+                         " return (int32_t)y + (int32_t)sh * 65536L; }\n"
                          "static int32_t imf_test_invsqrt8(uint32_t x)\n"
                          "{ int e; uint16_t y = imf_invsqrt8_u32(x, &e);"
                          " return (int32_t)y + (int32_t)e * 65536L; }" % len(OPS),

@@ -628,54 +628,6 @@ static inline uint16_t imf_isqrt_u32(uint32_t x)
     return (uint16_t)res;
 }
 
-/* Inverse square root without division: for x > 0 returns y (unsigned
- * q15, in [2^15, 2^16)) and *shift so that
- *     1/sqrt(x) ~= y * 2^-(*shift),  *shift in [16, 31].
- * Relative error below 1e-4 (tested exhaustively over the mantissa).
- * x = 0 returns 0 with *shift = 0 (callers test for it).
- * Method: x' = x * 4^k in [2^30, 2^32), u = x'/2^32 in [1/4, 1),
- * a chord on [1/4,1/2) or [1/2,1) as first guess, then three Newton
- * steps y <- y (3 - u y^2) / 2 in unsigned 16x16->32 products. */
-IMF_AVR_OUTLINE uint16_t imf_invsqrt_u32(uint32_t x, int *const shift)
-{
-    int e = 0;
-    uint16_t u, y, y2, w; /* 16-bit operands: unsigned 16x16->32 products */
-    uint32_t t;
-    int i;
-    if (x == 0u) {
-        *shift = 0;
-        return 0u;
-    }
-    while (x < ((uint32_t)1 << 22)) {
-        x <<= 8; /* unsigned: no UB; byte moves on 8-bit targets */
-        e += 8;
-    }
-    while (x < ((uint32_t)1 << 30)) {
-        x <<= 2;
-        e += 2;
-    }
-    u = (uint16_t)(x >> 16); /* q16 in [2^14, 2^16) */
-    /* chords through (1/4, 2), (1/2, sqrt 2) and (1/2, sqrt 2), (1, 1), q15 */
-    if (u < 32768u) {
-        y = (uint16_t)(65535u - (((uint32_t)(u - 16384u) * 38u) >> 5)); /* slope ~ 2(2-sqrt2)4 */
-    } else {
-        y = (uint16_t)(46341u - (((uint32_t)(u - 32768u) * 27u) >> 6)); /* slope ~ (sqrt2-1)2 */
-    }
-    for (i = 0; i < 3; ++i) {
-        /* q14: y < 2^16 -> y2 <= 65534 */
-        y2 = (uint16_t)(((uint32_t)y * y + 32768u) >> 16);
-        t = (uint32_t)u * y2;         /* q30, < 2^32 */
-        if (t >= 3221225472u) {       /* 3 - u y^2 <= 0 cannot happen */
-            t = 3221225471u;          /* from the chords; kept for safety */
-        }
-        w = (uint16_t)((3221225472u - t) >> 16); /* q14, (3 - u y^2) <= 49152 */
-        t = ((uint32_t)y * w + 16384u) >> 15;    /* q15: y w / 2 */
-        y = (uint16_t)(t > 65535u ? 65535u : t);
-    }
-    *shift = 31 - e / 2;
-    return (uint16_t)y;
-}
-
 /* The operand and result type of imf_invsqrt_chord16 / imf_invsqrt_newton16
  * (values below 2^16): 16 bits on AVR, 32 elsewhere (no conversions). */
 #if defined(__AVR__)
@@ -719,10 +671,11 @@ static inline imf_invsqrt16_t imf_invsqrt_chord16(const imf_invsqrt16_t u)
 
 /* One Newton step y <- y (3 - u y^2) / 2 of the short inverse square roots
  * (y in q15, u as in imf_invsqrt_chord16), after the chord or a previous
- * step: three unsigned 16x16->32 products.  From the chord, u y^2 stays
- * below 3 2^30 and the new y below 2^16 after each of two steps for every u
- * (tests/test_fixed_scale.py runs them all; the twin raises otherwise): no
- * clamp, no saturation.  16-bit operations on AVR (the rounding from the
+ * step: three unsigned 16x16->32 products.  From imf_invsqrt_chord16, u y^2
+ * stays below 3 2^30 and the new y below 2^16 after each of two steps for
+ * every u, and from imf_invsqrt_u32's chords after each of three
+ * (tests/test_fixed_scale.py, tests/test_fixed_core.py run every u; the
+ * twin raises otherwise): no clamp, no saturation.  16-bit operations on AVR (the rounding from the
  * high word: y w + 2^14 < 2^31), 32-bit elsewhere (the same values). */
 static inline imf_invsqrt16_t imf_invsqrt_newton16(const imf_invsqrt16_t u, const imf_invsqrt16_t y)
 {
@@ -735,6 +688,47 @@ static inline imf_invsqrt16_t imf_invsqrt_newton16(const imf_invsqrt16_t u, cons
 #else
     return (y * ((3221225472u - u * ((y * y + 32768u) >> 16)) >> 16) + 16384u) >> 15;
 #endif
+}
+
+/* Inverse square root without division: for x > 0 returns y (unsigned
+ * q15, in [2^15, 2^16)) and *shift so that
+ *     1/sqrt(x) ~= y * 2^-(*shift),  *shift in [16, 31].
+ * Relative error below 1e-4 (tested exhaustively over the mantissa).
+ * x = 0 returns 0 with *shift = 0 (callers test for it).
+ * Method: x' = x * 4^k in [2^30, 2^32), u = x'/2^32 in [1/4, 1),
+ * a chord on [1/4,1/2) or [1/2,1) as first guess, then three Newton
+ * steps y <- y (3 - u y^2) / 2 in unsigned 16x16->32 products. */
+IMF_AVR_OUTLINE uint16_t imf_invsqrt_u32(uint32_t x, int *const shift)
+{
+    int e = 0;
+    imf_invsqrt16_t u, y;
+    int i;
+    if (x == 0u) {
+        *shift = 0;
+        return 0u;
+    }
+    while (x < ((uint32_t)1 << 22)) {
+        x <<= 8; /* unsigned: no UB; byte moves on 8-bit targets */
+        e += 8;
+    }
+    while (x < ((uint32_t)1 << 30)) {
+        x <<= 2;
+        e += 2;
+    }
+    u = (imf_invsqrt16_t)(x >> 16); /* q16 in [2^14, 2^16) */
+    /* chords through (1/4, 2), (1/2, sqrt 2) and (1/2, sqrt 2), (1, 1), q15 */
+    if (u < 32768u) {
+        y = (imf_invsqrt16_t)(65535u - (((uint32_t)(u - 16384u) * 38u) >> 5)); /* slope ~ 2(2-sqrt2)4 */
+    } else {
+        y = (imf_invsqrt16_t)(46341u - (((uint32_t)(u - 32768u) * 27u) >> 6)); /* slope ~ (sqrt2-1)2 */
+    }
+    for (i = 0; i < 3; ++i) {
+        /* from these chords too, u y^2 < 3 2^30 and y < 2^16 after every
+         * step for every u (tests/test_fixed_core.py: the twin raises) */
+        y = imf_invsqrt_newton16(u, y);
+    }
+    *shift = 31 - e / 2;
+    return (uint16_t)y;
 }
 
 /* Short inverse square root of the 8-bit profile, for x in [2^28, 2^32)

@@ -247,14 +247,7 @@ def invsqrt_u32(x: int) -> tuple[int, int]:
     else:
         y = 46341 - (((u - 32768) * 27) >> 6)
     for _ in range(3):
-        y2 = (y * y + 32768) >> 16
-        t = checku32(u * y2)
-        if t >= 3221225472:
-            t = 3221225471
-        w = (3221225472 - t) >> 16
-        y = (y * w + 16384) >> 15
-        if y > 65535:
-            y = 65535
+        y = invsqrt_newton16(u, y)  # raises where a bound fails (tested for every u)
     return y, 31 - e // 2
 
 
