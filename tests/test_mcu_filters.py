@@ -255,6 +255,19 @@ def test_fixed_init_from_double_and_from_constants(toolchains, target):
         assert all(c == 0 for c in codes.values()), codes
 
 
+def _host_codes(calls, struct, unit):
+    """Return values of C calls (expressions of imf_f, a static ``struct``) on the host, built
+    with csrc/fixed/``unit``.c."""
+    body = "\n".join(f"imf_r{i} = {c};" for i, c in enumerate(calls))
+    pre = f'#include "{unit}.h"\nstatic {struct} imf_f;\n' + "".join(
+        f"static int32_t imf_r{i};\n" for i in range(len(calls)))
+    drv = mcu.Driver(prelude=pre, step=body, state=[(f"imf_r{i}", "i32") for i in range(len(calls))])
+    res = mcu.run("host", sources=[str(mf.CSRC / "fixed" / f"{unit}.c")],
+                  include_dirs=[mf.CSRC, mf.CSRC / "fixed"], driver=drv,
+                  inputs={"k": np.zeros(1, np.int16)})
+    return [int(col[0]) for col in res.values()]
+
+
 def test_complementary1d_q_init_consts_checks_the_gain(toolchains):
     """imf_complementary1d_q_init_consts stores the 16-bit gain ka16 (m, j) as given: it
     accepts the reference's constants for alpha 0, 1 and in between, and rejects a gain
@@ -266,15 +279,9 @@ def test_complementary1d_q_init_consts_checks_the_gain(toolchains):
     kr = good[0]["kr"]
     bad = [(0, -1), (16384, -1), (1, -2), (0, -3), (300, 5), (255, 0), (1, 4)]
     cases = [(g["kr"], g["ka16_m"], g["ka16_j"]) for g in good] + [(kr, m, j) for m, j in bad]
-    body = "\n".join(f"imf_r{i} = imf_complementary1d_q_init_consts(&imf_f, (imf_qscale_t){{{k.m}, "
-                     f"{k.s}}}, {m}u, {j});" for i, (k, m, j) in enumerate(cases))
-    pre = '#include "filters_1d_q.h"\nstatic imf_complementary1d_q_t imf_f;\n' + "".join(
-        f"static int32_t imf_r{i};\n" for i in range(len(cases)))
-    drv = mcu.Driver(prelude=pre, step=body, state=[(f"imf_r{i}", "i32") for i in range(len(cases))])
-    res = mcu.run("host", sources=[str(mf.CSRC / "fixed" / "filters_1d_q.c")],
-                  include_dirs=[mf.CSRC, mf.CSRC / "fixed"], driver=drv,
-                  inputs={"k": np.zeros(1, np.int16)})
-    codes = [int(col[0]) for col in res.values()]
+    calls = [f"imf_complementary1d_q_init_consts(&imf_f, (imf_qscale_t){{{k.m}, {k.s}}}, {m}u, {j})"
+             for k, m, j in cases]
+    codes = _host_codes(calls, "imf_complementary1d_q_t", "filters_1d_q")
     assert codes == [0] * len(good) + [-1] * len(bad), (cases, codes)
 
 
@@ -297,26 +304,7 @@ def test_kk_q_init_checks_kp(toolchains):
               for m, j in bad]
     calls += ["imf_kk_q_init(&imf_f, 0.002, 1.0, 1e-3)", "imf_kk_q_init(&imf_f, 0.002, 1.5, 1e-3)"]
     want = [0] * len(good) + [-1] * len(bad) + [0, -1]
-    body = "\n".join(f"imf_r{i} = {c};" for i, c in enumerate(calls))
-    pre = '#include "gravity_q.h"\nstatic imf_kk_q_t imf_f;\n' + "".join(
-        f"static int32_t imf_r{i};\n" for i in range(len(calls)))
-    drv = mcu.Driver(prelude=pre, step=body, state=[(f"imf_r{i}", "i32") for i in range(len(calls))])
-    res = mcu.run("host", sources=[str(mf.CSRC / "fixed" / "gravity_q.c")],
-                  include_dirs=[mf.CSRC, mf.CSRC / "fixed"], driver=drv,
-                  inputs={"k": np.zeros(1, np.int16)})
-    assert [int(col[0]) for col in res.values()] == want, calls
-
-
-def _host_codes(calls, struct):
-    """Return values of C calls (expressions of imf_f, a static ``struct``) on the host."""
-    body = "\n".join(f"imf_r{i} = {c};" for i, c in enumerate(calls))
-    pre = f'#include "filters_1d_q.h"\nstatic {struct} imf_f;\n' + "".join(
-        f"static int32_t imf_r{i};\n" for i in range(len(calls)))
-    drv = mcu.Driver(prelude=pre, step=body, state=[(f"imf_r{i}", "i32") for i in range(len(calls))])
-    res = mcu.run("host", sources=[str(mf.CSRC / "fixed" / "filters_1d_q.c")],
-                  include_dirs=[mf.CSRC, mf.CSRC / "fixed"], driver=drv,
-                  inputs={"k": np.zeros(1, np.int16)})
-    return [int(col[0]) for col in res.values()]
+    assert _host_codes(calls, "imf_kk_q_t", "gravity_q") == want, calls
 
 
 def test_mahony1d_bias_q_gain_range(toolchains):
@@ -343,7 +331,7 @@ def test_mahony1d_bias_q_gain_range(toolchains):
     consts += [(kr, m, j, 300, 0) for m, j in wrong] + [(kr, 300, 0, m, j) for m, j in wrong]
     calls = dbl + [f"imf_mahony1d_bias_q_init_consts(&imf_f, (imf_qscale_t){{{k.m}, {k.s}}}, "
                    f"{pm}u, {pj}, {im}u, {ij}, 1)" for k, pm, pj, im, ij in consts]
-    codes = _host_codes(calls, "imf_mahony1d_bias_q_t")
+    codes = _host_codes(calls, "imf_mahony1d_bias_q_t", "filters_1d_q")
     want = [0] * len(ok) + [-1] * len(bad) + [0] * len(good) + [-1] * (2 * len(wrong))
     assert codes == want, list(zip(calls, codes))
 
