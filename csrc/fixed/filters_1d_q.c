@@ -21,9 +21,7 @@ int imf_complementary1d_q_init_consts(imf_complementary1d_q_t *const self, const
     self->ka16.m = ka16_m;
     self->ka16.j = (int16_t)ka16_j;
     self->x.theta = 0;
-    if (!imf_1d_q_kr_ok(kr)
-        || !((ka16_j >= 0 && ka16_j <= 4 && (ka16_m == 0u || ka16_m >= 256u))
-             || (ka16_j == -2 && ka16_m == 0u))) {
+    if (!imf_1d_q_kr_ok(kr) || !imf_gain16_ok(ka16_m, ka16_j, 1)) {
         return -1;
     }
     return 0;
@@ -51,13 +49,6 @@ void imf_complementary1d_q_update(imf_complementary1d_q_t *const self, const int
     self->x.theta = imf_add_sat32(tp, (self->ka16.j >= 0) ? imf_gain16_mul(e, self->ka16) : e);
 }
 
-/* A 16-bit gain imf_gain16(c, 15, N) of a q-scale c below 2^(15-N) (g < 1):
- * j in [0, 4] and m = 0 (c = 0) or m in [2^8, 2^16). */
-static int imf_1d_q_gain16_ok(const uint16_t m, const int j)
-{
-    return j >= 0 && j <= 4 && (m == 0u || m >= 256u);
-}
-
 int imf_mahony1d_bias_q_init_consts(imf_mahony1d_bias_q_t *const self, const imf_qscale_t kr,
                                     const uint16_t kp16_m, const int kp16_j,
                                     const uint16_t ki16_m, const int ki16_j,
@@ -74,8 +65,8 @@ int imf_mahony1d_bias_q_init_consts(imf_mahony1d_bias_q_t *const self, const imf
     self->integrate_first = (int16_t)(integrate_first != 0);
     self->x.theta = 0;
     self->x.j = 0;
-    if (!imf_1d_q_kr_ok(kr) || !imf_1d_q_gain16_ok(kp16_m, kp16_j)
-        || !imf_1d_q_gain16_ok(ki16_m, ki16_j)) {
+    if (!imf_1d_q_kr_ok(kr) || !imf_gain16_ok(kp16_m, kp16_j, 0)
+        || !imf_gain16_ok(ki16_m, ki16_j, 0)) {
         return -1;
     }
     return 0;

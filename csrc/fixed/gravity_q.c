@@ -15,9 +15,7 @@ int imf_kk_q_init_consts(imf_kk_q_t *const self, const imf_qscale_t kw, const ui
     self->kp16.m = kp16_m;
     self->kp16.j = (int16_t)kp16_j;
     self->x.t[0] = self->x.t[1] = 0;
-    if (kw.m == 0 || !imf_qscale_ok(kw, 28, 59)
-        || !((kp16_j >= 0 && kp16_j <= 4 && (kp16_m == 0u || kp16_m >= 256u))
-             || (kp16_j == -2 && kp16_m == 0u))) {
+    if (kw.m == 0 || !imf_qscale_ok(kw, 28, 59) || !imf_gain16_ok(kp16_m, kp16_j, 1)) {
         return -1;
     }
     return 0;

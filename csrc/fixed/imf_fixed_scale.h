@@ -183,6 +183,14 @@ typedef struct {
     int16_t j;
 } imf_gain16_t;
 
+/* A 16-bit gain (m, j) that imf_gain16 gives for g < 1 (j in [0, 4] with
+ * m = 0 or m in [2^8, 2^16)) or, if one_ok, for g = 1 exactly (j = -2,
+ * m = 0): the check of init_consts, which stores such gains as given. */
+static inline int imf_gain16_ok(const uint16_t m, const int j, const int one_ok)
+{
+    return (j >= 0 && j <= 4 && (m == 0u || m >= 256u)) || (one_ok && j == -2 && m == 0u);
+}
+
 
 #if defined(__AVR__) || defined(IMF_SCALE_SHORT)
 IMF_SCALE_OUTLINE /* init only: one small copy */
