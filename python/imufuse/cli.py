@@ -1,4 +1,4 @@
-"""The imufuse command line: demo, run, compare, tune, bench, validate.
+"""The imufuse command line: demo, run, compare, tune, latency, bench, validate.
 
 Exit codes (every failure is one line on stderr, "imufuse: error: ..."):
   0  success
@@ -36,7 +36,8 @@ from .catalogue import (FilterError, estimate, filter_names, inputs_for, make_fi
 from .cli_vario import add_parsers
 from .demo import run_demo
 from .estimate import euler_of
-from .evaluation import METRICS, evaluate, from_enu, mean_over_trials, to_enu
+from .evaluation import (METRICS, estimate_latency, evaluate, from_enu, mean_over_trials,
+                         to_enu)
 from .firmware import DEFAULT_TIMEOUT, Firmware, FirmwareError, csrc_firmware, validate_isolated
 from .io import (ACC, EXAMPLE_ATTRIBUTION, GYR, LogError, MAG, axis_inputs, example_log,
                  parse_column_map, read_column_map, read_log, require)
@@ -1096,8 +1097,51 @@ def _eval_options(p):
                         "deg when level: align the axes first with --align)")
 
 
-SUBCOMMANDS = [_parser_demo, _parser_run, _parser_compare, _parser_tune, _parser_bench,
-               _parser_validate]
+def _latency(args):
+    delays = []
+    for path in args.logs:
+        log = _load(args, path)
+        if log.q_ref is None:
+            raise NothingComputed(f"{log.path}: no reference orientation (q_w..q_z): nothing to "
+                                  "time the gyroscope against")
+        require(log, GYR)
+        t = log.t if log.dts is not None else None
+        try:
+            d = estimate_latency(log.gyr, log.q_ref, None if t is not None else log.dt, t=t,
+                                 ref_direction=args.ref_direction, max_delay=args.max_delay)
+        except ValueError as e:
+            raise NothingComputed(f"{log.path}: {e}") from None
+        delays.append(d)
+        how = "lags" if d >= 0 else "leads"
+        print(f"{log.path}: the gyroscope {how} the reference by {abs(d) * 1e3:.2f} ms")
+    d = float(np.mean(delays))
+    if len(delays) > 1:
+        print(f"mean over {len(delays)} logs: {d * 1e3:.2f} ms "
+              f"({min(delays) * 1e3:.2f} to {max(delays) * 1e3:.2f})")
+    if 0.0 <= d <= 0.1:
+        print(f"RobustIMU / RobustAHRS: -p latency={d:.6f} predicts the output by this delay")
+    elif d < 0:
+        print("the gyroscope leads the reference: latency (>= 0) cannot compensate that; "
+              "check the logger's timestamps")
+    else:
+        print("the delay is beyond latency's range (0 to 0.1 s)")
+    return EXIT_OK
+
+
+def _parser_latency(sub):
+    d = sub.add_parser("latency", help="delay of the gyroscope behind a log's reference "
+                       "orientation (RobustIMU's latency), from the rates alone")
+    d.add_argument("logs", nargs="+", metavar="LOG")
+    d.add_argument("--max-delay", type=_positive(float, 1.0), default=0.05, metavar="S",
+                   help="search shifts within +-S seconds (default 0.05)")
+    d.add_argument("--ref-direction", choices=("sensor-to-earth", "earth-to-sensor"),
+                   default="sensor-to-earth", help="what the reference quaternion rotates")
+    _log_options(d)
+    d.set_defaults(func=_latency)
+
+
+SUBCOMMANDS = [_parser_demo, _parser_run, _parser_compare, _parser_tune, _parser_latency,
+               _parser_bench, _parser_validate]
 
 
 class _Parser(argparse.ArgumentParser):
