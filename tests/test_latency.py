@@ -109,6 +109,12 @@ def test_too_little_rotation_and_bad_arguments(rot):
             estimate_latency(args.pop("gyr"), args.pop("q_ref"), args.pop("dt"), **args)
     with pytest.raises(ValueError, match="increasing"):
         estimate_latency(g, q, t=np.zeros(len(g)))
+    absurd = g.copy()
+    absurd[100, 1] = 1e200                      # finite, but no gyroscope's value
+    with pytest.raises(ValueError, match="beyond 1e4 rad/s"):
+        estimate_latency(absurd, q, DT)
+    with pytest.raises(ValueError, match="usable rate"):
+        estimate_latency(g, np.full_like(q, np.nan), DT)
 
 
 def test_cli(tmp_path, capsys, rot):

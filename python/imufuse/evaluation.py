@@ -258,9 +258,10 @@ def estimate_latency(gyr, q_ref, dt=None, *, t=None, ref_direction="sensor-to-ea
     (the gyro's digital filter, the logger, the reference's own timing),
     measured without running any filter.
 
-    gyr (N, 3) rad/s in the sensor axes of the reference; q_ref (N, 4) [w x y z],
-    NaN rows where the reference dropped out (rate pairs touching them, and
-    gyro samples that would need them, are left out); dt (s) for a fixed rate,
+    gyr (N, 3) rad/s in the sensor axes of the reference (non-finite rows are
+    left out); q_ref (N, 4) [w x y z], NaN rows where the reference dropped
+    out (rate pairs touching them, and gyro samples that would need them, are
+    left out); dt (s) for a fixed rate,
     or t (N,) increasing sample times. The earth frame of q_ref does not matter
     (body rates do not depend on it); its direction does.
 
@@ -306,26 +307,31 @@ def estimate_latency(gyr, q_ref, dt=None, *, t=None, ref_direction="sensor-to-ea
     ok = np.all(np.isfinite(w), axis=1)
     w, tw = w[ok], tw[ok]
     g_ok = np.all(np.isfinite(gyr), axis=1)
+    if np.any(np.abs(gyr[g_ok]) > 1e4):
+        raise ValueError("gyr: values beyond 1e4 rad/s, which no gyroscope measures (the unit "
+                         "is rad/s)")
     if len(tw) < 2:
         raise ValueError("the reference has fewer than two usable rate samples")
     gap = 1.5 * float(np.median(h))
 
+    def msq(x):
+        x = x - x.mean(axis=0)
+        return float(np.mean(np.einsum("ij,ij->i", x, x)))
+
     def fit(tau):
-        """mean squared difference, mean removed, at shift tau, and its sample count"""
+        """(mean squared gyro - reference difference, mean squared reference rate), means
+        removed, at shift tau; inf when fewer than 100 samples line up"""
         tq = tg - tau
         j = np.searchsorted(tw, tq)
         use = g_ok & (j > 0) & (j < len(tw))
         jj = j[use]
         use[use] = (tw[jj] - tw[jj - 1]) <= gap         # no interpolation across a dropout
         if np.count_nonzero(use) < 100:
-            return math.inf, 0
+            return math.inf, math.inf
         wi = np.column_stack([np.interp(tq[use], tw, w[:, i]) for i in range(3)])
-        d = gyr[use] - wi
-        d -= d.mean(axis=0)
-        return float(np.mean(np.einsum("ij,ij->i", d, d))), int(np.count_nonzero(use))
+        return msq(gyr[use] - wi), msq(wi)
 
-    wc = w - w.mean(axis=0)
-    if len(w) < 100 or math.sqrt(float(np.mean(np.einsum("ij,ij->i", wc, wc)))) < 0.05:
+    if len(w) < 100 or math.sqrt(msq(w)) < 0.05:
         raise ValueError("too little rotation to time: the reference's rates are below "
                          "0.05 rad/s RMS or fewer than 100 samples are usable")
     step = float(np.median(h)) / 2.0
@@ -352,10 +358,7 @@ def estimate_latency(gyr, q_ref, dt=None, *, t=None, ref_direction="sensor-to-ea
             d = a + r * (b - a)
             fd = fit(d)[0]
     tau = 0.5 * (a + b)
-    misfit, used = fit(tau)
-    wi = np.column_stack([np.interp(tg - tau, tw, w[:, i]) for i in range(3)])[g_ok]
-    wi -= wi.mean(axis=0)
-    spread = float(np.mean(np.einsum("ij,ij->i", wi, wi)))
+    misfit, spread = fit(tau)
     if not misfit <= 0.25 * spread:
         raise ValueError(f"the gyroscope does not follow the reference's rates (RMS misfit "
                          f"{math.sqrt(misfit):.3g} against {math.sqrt(spread):.3g} rad/s at the "
