@@ -37,7 +37,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .rotations import quat_conj, quat_mul
+from .rotations import quat_conj, quat_mul, quat_to_rotvec
 
 FRAMES = ("NWU", "ENU", "NED")
 DIRECTIONS = ("sensor-to-earth", "earth-to-sensor")
@@ -234,15 +234,7 @@ def _ref_rates(q_ref, t):
     where either row is not finite."""
     q = q_ref / np.linalg.norm(q_ref, axis=1, keepdims=True)
     d = quat_mul(quat_conj(q[:-1]), q[1:])            # r_k^-1 (x) r_k+1, sensor frame
-    d = d * np.where(d[:, :1] < 0, -1.0, 1.0)          # the short way round
-    v = d[:, 1:]
-    s = np.linalg.norm(v, axis=1)
-    angle = 2.0 * np.arctan2(s, d[:, 0])
-    h = np.diff(t)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        axis = np.where(s[:, None] > 1e-12, v / s[:, None], 0.0)
-        w = axis * (angle / h)[:, None]
-    return w, 0.5 * (t[:-1] + t[1:])
+    return quat_to_rotvec(d) / np.diff(t)[:, None], 0.5 * (t[:-1] + t[1:])
 
 
 def estimate_latency(gyr, q_ref, dt=None, *, t=None, ref_direction="sensor-to-earth",
