@@ -132,6 +132,14 @@ def test_cli(tmp_path, capsys, rot):
                header="time,gyr_x,gyr_y,gyr_z,acc_x,acc_y,acc_z")
     assert cli.main(["latency", str(nref)]) == cli.EXIT_DATA
     assert "no reference orientation" in capsys.readouterr().err
+    lead = tmp_path / "lead.csv"
+    cols[:, 1:4] = delayed(rot.gyr, -1.0)
+    np.savetxt(lead, cols, delimiter=",", comments="",
+               header="time,gyr_x,gyr_y,gyr_z,acc_x,acc_y,acc_z,q_w,q_x,q_y,q_z")
+    assert cli.main(["latency", str(lead)]) == cli.EXIT_OK
+    out = capsys.readouterr().out
+    assert "leads the reference by 2.00 ms" in out and "cannot compensate" in out
+    assert "latency=" not in out
     assert cli.main(["latency", str(path), "--max-delay", "0.0005"]) == cli.EXIT_DATA
     assert cli.main(["latency", str(path), "--max-delay", "-1"]) == cli.EXIT_USAGE
 
