@@ -165,7 +165,8 @@ class Program:
     in_dtype: np.dtype
     flash: int                  # the firmware's own flash bytes in the image
     ram: int                    # its static RAM bytes (filter object included)
-    library: Dict[str, int]     # library functions it calls -> bytes in the image
+    library: List[str]          # library routines it calls (soft float, libm)
+    library_flash: int          # flash of the archive members they pull in
     build_seconds: float
 
 
@@ -203,59 +204,115 @@ def _block_source(chunk_bytes: int, ram_cap: int) -> str:
         f"const uint8_t imf_fw_ram[{max(ram_cap, 1)}] IMF_FLASH = {{ 1u }};\n")
 
 
-def _parse_map_sizes(map_text: str, objects: Sequence[Path]) -> Tuple[int, int]:
-    """(flash, RAM) bytes of the input sections of `objects` kept in the image."""
-    names = {o.name for o in objects}
-    flash = ram = 0
-    pending = None
-    in_map = False
-    for line in map_text.splitlines():
-        if line.startswith("Linker script and memory map"):
-            in_map = True
-            continue
-        if not in_map:
-            continue
-        m = re.match(r"^ (\.\S+|COMMON)\s*$", line)
-        if m:
-            pending = m.group(1)
-            continue
-        m = re.match(r"^ (\.\S+|COMMON)?\s+0x([0-9a-f]+)\s+0x([0-9a-f]+)\s+(\S+)$", line)
-        if m:
-            sec = m.group(1) or pending
-            pending = None
-            obj = os.path.basename(m.group(4))
-            if sec is None or obj not in names:
+@dataclasses.dataclass
+class _Map:
+    """What a GNU ld map file says about objects, archive members and symbols."""
+    sizes: Dict[str, Dict[str, int]]        # input file -> {"flash": B, "ram": B}
+    symbol_file: Dict[str, str]             # symbol -> input file defining it
+    included_by: Dict[str, str]             # archive member -> the file that pulled it in
+
+    @classmethod
+    def parse(cls, text: str) -> "_Map":
+        sizes: Dict[str, Dict[str, int]] = {}
+        symbol_file: Dict[str, str] = {}
+        included_by: Dict[str, str] = {}
+        lines = text.splitlines()
+        k = 0
+        if lines and lines[0].startswith("Archive member included"):
+            k = 1
+            member = None
+            while k < len(lines) and not lines[k].startswith(("Discarded", "Memory Configuration",
+                                                               "Allocating common")):
+                ln = lines[k]
+                m = re.match(r"^(\S+\.a\(\S+\))(?:\s+(\S+) \((\S+)\))?$", ln)
+                if m:
+                    member = m.group(1)
+                    if m.group(2):
+                        included_by[member] = m.group(2)
+                else:
+                    m = re.match(r"^\s+(\S+) \((\S+)\)$", ln)
+                    if m and member:
+                        included_by[member] = m.group(1)
+                k += 1
+        in_map = False
+        pending = None
+        current = None
+        for ln in lines[k:]:
+            if ln.startswith("Linker script and memory map"):
+                in_map = True
                 continue
-            size = int(m.group(3), 16)
-            if sec.startswith((".bss", "COMMON", ".noinit")):
-                ram += size
-            elif sec.startswith(".data"):
-                ram += size
-                flash += size
-            elif sec.startswith((".text", ".rodata", ".progmem")):
-                flash += size
-        else:
+            if not in_map:
+                continue
+            m = re.match(r"^ (\.\S+|COMMON)\s*$", ln)
+            if m:
+                pending, current = m.group(1), None
+                continue
+            m = re.match(r"^ (\.\S+|COMMON)?\s+0x([0-9a-f]+)\s+0x([0-9a-f]+)\s+(\S+)$", ln)
+            if m:
+                sec = m.group(1) or pending
+                pending = None
+                current = m.group(4)
+                size = int(m.group(3), 16)
+                d = sizes.setdefault(current, {"flash": 0, "ram": 0})
+                if sec is None:
+                    continue
+                if sec.startswith((".bss", "COMMON", ".noinit")):
+                    d["ram"] += size
+                elif sec.startswith(".data"):
+                    d["ram"] += size
+                    d["flash"] += size
+                elif sec.startswith((".text", ".rodata", ".progmem")):
+                    d["flash"] += size
+                continue
+            m = re.match(r"^\s+0x[0-9a-f]+\s+([A-Za-z_][\w.$]*)$", ln)
+            if m and current:
+                symbol_file.setdefault(m.group(1), current)
+                continue
             pending = None
-    return flash, ram
+            if not ln.startswith(" "):
+                current = None
+        return cls(sizes, symbol_file, included_by)
+
+    def of_objects(self, objects: Sequence[Path]) -> Tuple[int, int]:
+        names = {str(o) for o in objects} | {o.name for o in objects}
+        flash = ram = 0
+        for f, d in self.sizes.items():
+            if f in names or os.path.basename(f) in names:
+                flash += d["flash"]
+                ram += d["ram"]
+        return flash, ram
+
+    def library(self, calls: Sequence[str], objects: Sequence[Path]) -> Tuple[List[str], int]:
+        """The library routines among `calls` and the flash of the archive members they pull
+        in (with the helpers those members pulled in)."""
+        members = {self.symbol_file[c] for c in calls
+                   if c in self.symbol_file and ".a(" in self.symbol_file[c]}
+        grew = True
+        while grew:
+            grew = False
+            for mem, by in self.included_by.items():
+                if mem not in members and by in members:
+                    members.add(mem)
+                    grew = True
+        routines = [c for c in calls if c in self.symbol_file and ".a(" in self.symbol_file[c]]
+        return routines, sum(self.sizes.get(m, {}).get("flash", 0) for m in members)
 
 
-def _library_calls(tool_prefix: str, objects: Sequence[Path], elf: _Elf, cwd: Path) -> Dict[str, int]:
-    """Functions the firmware's objects call that the image takes from libraries."""
+def _undefined(tool_prefix: str, objects: Sequence[Path], cwd: Path) -> List[str]:
+    """Symbols the firmware's objects use and do not define."""
     nm = tool_prefix + "nm"
-    out: Dict[str, int] = {}
     if shutil.which(nm) is None:
-        return out
-    proc = subprocess.run([nm, "-u", *map(str, objects)], cwd=cwd, capture_output=True, text=True)
-    defined = subprocess.run([nm, "--defined-only", *map(str, objects)], cwd=cwd,
-                             capture_output=True, text=True).stdout.split()
-    for line in proc.stdout.splitlines():
+        return []
+    und = subprocess.run([nm, "-u", *map(str, objects)], cwd=cwd, capture_output=True,
+                         text=True).stdout
+    defined = set(subprocess.run([nm, "--defined-only", *map(str, objects)], cwd=cwd,
+                                 capture_output=True, text=True).stdout.split())
+    out = set()
+    for line in und.splitlines():
         parts = line.split()
-        if len(parts) >= 2 and parts[-2] == "U":
-            name = parts[-1]
-            if name in defined or name not in elf.symbols:
-                continue
-            out[name] = elf.symbols[name][1]
-    return dict(sorted(out.items()))
+        if len(parts) >= 2 and parts[-2] == "U" and parts[-1] not in defined:
+            out.add(parts[-1])
+    return sorted(out)
 
 
 def _tool_prefix(tgt: "_tc.Target") -> str:
@@ -347,13 +404,14 @@ def build_program(fw: Any, target: str, kind: str, driver: str, row: int, cflags
     elf = link(chunk * row_bytes, ram_image)
     if elf.symbols["__heap_start"][0] - elf.symbols["__data_start"][0] != ram_image:
         raise TargetError("the RAM layout changed between the probe and the program")
-    flash, ram = _parse_map_sizes((wd / "imf_fw.map").read_text(errors="replace"), objs)
+    lmap = _Map.parse((wd / "imf_fw.map").read_text(errors="replace"))
+    flash, ram = lmap.of_objects(objs)
     obj = elf.symbols.get("imf_fw_obj")
     if obj:
         ram += obj[1]
-    lib = _library_calls(_tool_prefix(tgt), objs, elf, wd)
+    routines, lib_flash = lmap.library(_undefined(_tool_prefix(tgt), objs, wd), objs)
     return Program(target, elf.path, wd, objs, list(cflags), types, int(chunk), int(ram_image),
-                   row, in_dtype, flash, ram, lib, time.perf_counter() - t0)
+                   row, in_dtype, flash, ram, routines, lib_flash, time.perf_counter() - t0)
 
 
 # ---------------------------------------------------------------------------
