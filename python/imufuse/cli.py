@@ -39,6 +39,7 @@ from .estimate import euler_of
 from .evaluation import (METRICS, estimate_latency, evaluate, from_enu, mean_over_trials,
                          to_enu)
 from .firmware import DEFAULT_TIMEOUT, Firmware, FirmwareError, csrc_firmware, validate_isolated
+from .firmware_target import target_names
 from .io import (ACC, EXAMPLE_ATTRIBUTION, GYR, LogError, MAG, axis_inputs, example_log,
                  parse_column_map, read_column_map, read_log, require)
 from .preprocess import add_arguments as _preprocess_options, apply, fusion_hint
@@ -916,7 +917,9 @@ def _parser_bench(sub):
 # validate
 
 def _validate(args):
-    cls = reference_class(args.filter)
+    from .catalogue import entry as _entry
+    cls = reference_class(args.filter) if not _entry(args.filter).fixed else \
+        _entry(args.filter).reference
     overrides = _pairs(args.param)
     check_outputs([args.log] if args.log else [], [("--plot", args.plot)])
     defines = {}
@@ -955,8 +958,11 @@ def _validate(args):
         dt, inputs, t = data.dt, inputs_for(cls.kind, data), data.t
         src = f"simulated 'slow' motion, {rate:g} Hz, {args.duration:g} s, seed {args.seed}"
     params = resolve_params(args.filter, dt, overrides)
+    if _entry(args.filter).fixed:
+        inputs = _counts(cls, params, inputs)
+        src += f"; int16 counts (gyr_scale {params['gyr_scale']:g} rad/s, acc 4096 per g)"
     v = validate_isolated(fw, args.filter, params, inputs, backend=args.backend, dtype=args.dtype,
-                          timeout=args.timeout)
+                          timeout=args.timeout, target=args.target)
     print(f"inputs: {src}; {args.filter} "
           f"{', '.join(f'{k}={val}' for k, val in params.items())}")
     print(v.text())
@@ -974,16 +980,36 @@ def _validate(args):
     return EXIT_OK if v.bit_exact else EXIT_FAIL
 
 
+def _counts(cls, params, inputs):
+    """int16 counts of float inputs for a fixed-point filter: the gyro by gyr_scale, the
+    accelerometer and magnetometer (any unit: they are normalised) at 4096 per unit, angles by
+    angle_scale."""
+    out = []
+    for k, a in enumerate(inputs):
+        a = np.asarray(a, dtype=np.float64)
+        if k == 0:
+            c = a / params["gyr_scale"]
+        elif cls.kind == "1d":
+            c = a / params["angle_scale"]
+        else:
+            c = a * 4096.0
+        out.append(np.clip(np.rint(c), -32768, 32767).astype(np.int16))
+    return out
+
+
 def _parser_validate(sub):
-    v = sub.add_parser("validate", help="compile firmware C with cffi and compare it with an "
-                       "imufuse filter bit for bit", formatter_class=argparse.RawDescriptionHelpFormatter,
+    v = sub.add_parser("validate", help="compile firmware C (for the host, or for an emulated "
+                       "MCU with your flags) and compare it with an imufuse filter bit for bit", formatter_class=argparse.RawDescriptionHelpFormatter,
                        description="Validate firmware filter code against imufuse (see "
                        "imufuse.firmware).\nThe firmware runs in a child process: a crash, exit() "
                        "or hang is reported (exit 5).\n\nexample:\n  imufuse validate fw/att.c -I fw "
                        "--header att.h --filter Kalman1D \\\n     --init 'void att_init(att_t *s, "
                        "float dt, float k0)' \\\n     --update 'void att_update(att_t *s, float rate, "
                        "float angle)' \\\n     --state theta=x.theta --param k0=0.01\n"
-                       "  imufuse validate --csrc --filter Kalman1D --dtype float32")
+                       "  imufuse validate --csrc --filter Kalman1D --dtype float32\n"
+                       "  imufuse validate fw/cf.c --header cf.h --filter Complementary1D "
+                       "--init cf_init \\\n     --update cf_update --state theta=theta "
+                       "--target cortex-m4f --cflags '-O2 -ffp-contract=off'")
     v.add_argument("sources", nargs="*", metavar="SOURCE.c")
     v.add_argument("--filter", "-f", required=True, help="the imufuse filter to compare with")
     v.add_argument("--csrc", metavar="DIR", nargs="?", const=str(csrc_dir()),
@@ -998,8 +1024,15 @@ def _parser_validate(sub):
                    help="imufuse state variable = member path or '=C expression' "
                         "(default x.NAME for every state variable)")
     v.add_argument("--init-arg", action="append", metavar="NAME=VALUE")
+    v.add_argument("--target", choices=target_names(), default="host",
+                   help="where the firmware runs: host (cffi, this machine) or an emulated MCU "
+                        "built with its cross compiler and your --cflags: cortex-m4f (QEMU "
+                        "mps2-an386), cortex-m0 (QEMU microbit), atmega328p (simavr). The report "
+                        "adds the cause of a divergence and the cost per update")
     v.add_argument("--cflags", metavar="FLAGS",
-                   help="compiler flags replacing '-std=c99 -O2 -ffp-contract=off'")
+                   help="your compiler flags (the target adds only -mcpu/-mfpu/-mfloat-abi or "
+                        "-mmcu); default '-std=c99 -O2 -ffp-contract=off' on the host, '-O2' on "
+                        "an MCU target (the compiler's default standard, as a firmware build)")
     v.add_argument("--param", "-p", action="append", metavar="NAME=VALUE")
     v.add_argument("--dtype", choices=("float32", "float64"),
                    help="precision (default: the firmware's, from sizeof of its state)")

@@ -455,7 +455,8 @@ class Cost:
     min: int
     median: float
     max: int
-    flash: int                     # bytes of the firmware's objects in the image
+    flash: Optional[int]           # bytes of the firmware's objects in the image (None: -flto
+                                   # inlined them into the harness's call)
     ram: int                       # static RAM of the firmware (its filter object included)
     stack: Optional[int]           # deepest stack an update reached, bytes
     library: List[str] = field(default_factory=list)   # library routines it calls
@@ -466,9 +467,11 @@ class Cost:
         libs = (f" + {self.library_flash} B of library code for {', '.join(self.library)}"
                 if self.library else "")
         stack = f"{self.stack} B" if self.stack is not None else "beyond the painted band"
+        fl = f"{self.flash} B" if self.flash is not None else \
+            "not separable (-flto inlined the firmware into the call)"
         return (f"cost per update: {self.min} / {self.median:.0f} / {self.max} {self.unit} "
                 f"(min / median / max)\n"
-                f"flash {self.flash} B{libs}; static RAM {self.ram} B; stack {stack}")
+                f"flash {fl}{libs}; static RAM {self.ram} B; stack {stack}")
 
 
 @dataclass
@@ -506,6 +509,17 @@ class Validation:
         if self.cost is not None:
             lines.append(self.cost.text())
         return "\n".join(lines)
+
+
+def _strip_arch(flags):
+    return [f for f in flags if not f.startswith(("-mmcu", "-mcpu", "-mfpu", "-mfloat-abi",
+                                                  "-mthumb", "-march", "-mtune"))]
+
+
+def _defs_incs(fw):
+    defs = [f"-D{k}" if v is None else f"-D{k}={v}" for k, v in fw.defines.items()]
+    return defs + [f"-I{d}" for d in fw.include_dirs] + \
+        [f"-I{d}" for d in sorted({os.path.dirname(s) for s in fw.sources})]
 
 
 def _filter_entry(name):
@@ -699,9 +713,19 @@ def _validate_target(fw, name, params, inputs, backend, dtype, target, timeout, 
         dtype = fw_dtype
         if np.dtype(dtype) != prog.in_dtype:
             prog = ft.build_program(fw, target, e.kind, driver, row, flags, np.dtype(dtype))
-        if target == "atmega328p" and any(t.double for t in types):
-            notes.append("the firmware's state is declared double, which avr-gcc makes 32 bits: "
-                         "it is compared with imufuse in float32")
+        if target == "atmega328p":
+            if any(t.double for t in types):
+                notes.append("the firmware's state is declared double, which avr-gcc makes 32 "
+                             "bits: it is compared with imufuse in float32")
+            # what the host compiler (64-bit double) says about the same sources
+            host = [os.environ.get("CC", "cc"), *_strip_arch(flags), *_defs_incs(fw)]
+            promo = ft.double_promotions(host, fw.sources, prog.workdir)
+            if promo:
+                notes.append("the firmware computes in double at " + ", ".join(promo[:4]) +
+                             (f" (+{len(promo) - 4} more)" if len(promo) > 4 else "") +
+                             ": avr-gcc's double is 32 bits, so here that is float32 arithmetic; "
+                             "built where double is 64 bits (Cortex-M4F, a PC) it rounds "
+                             "differently (-fsingle-precision-constant or float literals 0.5f)")
     try:
         return _finish_target(fw, name, params, inputs, backend, dtype, target, timeout, explain,
                               flags, prog, types, integer_state, notes, order, names, row, e)
@@ -741,11 +765,8 @@ def _finish_target(fw, name, params, inputs, backend, dtype, target, timeout, ex
         v.max_angle_deg = _angle(name, params, got, want, names)
     if explain and not v.bit_exact and not integer_state:
         tgt = ft._tc.TARGETS[ft.harness_target(target)]
-        defs = [f"-D{k}" if val is None else f"-D{k}={val}" for k, val in fw.defines.items()]
-        incs = [f"-I{d}" for d in fw.include_dirs] + \
-            [f"-I{d}" for d in sorted({os.path.dirname(s) for s in fw.sources})]
         v.causes = ft.find_causes(ft._tool_prefix(tgt) + "objdump", prog.user_objects, fw.sources,
-                                  flags, [tgt.cc, *tgt.arch_flags, *flags, *defs, *incs], dtype,
+                                  flags, [tgt.cc, *tgt.arch_flags, *flags, *_defs_incs(fw)], dtype,
                                   target, any(t.double for t in types), prog.workdir)
         _confirm(v.causes, lambda extra: _validate_target(
             fw, name, params, inputs, backend, dtype, target, timeout, False,

@@ -163,7 +163,8 @@ class Program:
     ram_image: int              # bytes of .data/.bss saved between chunks
     row: int                    # input values per sample
     in_dtype: np.dtype
-    flash: int                  # the firmware's own flash bytes in the image
+    flash: Optional[int]        # the firmware's own flash bytes in the image (None: -flto
+                                # inlined it into the harness)
     ram: int                    # its static RAM bytes (filter object included)
     library: List[str]          # library routines it calls (soft float, libm)
     library_flash: int          # flash of the archive members they pull in
@@ -298,6 +299,16 @@ class _Map:
         return routines, sum(self.sizes.get(m, {}).get("flash", 0) for m in members)
 
 
+def _defined(tool_prefix: str, objects: Sequence[Path], cwd: Path) -> List[str]:
+    """Symbols the firmware's objects define (gcc-nm reads LTO objects too)."""
+    nm = tool_prefix + "gcc-nm" if tool_prefix else "gcc-nm"
+    if shutil.which(nm) is None:
+        nm = tool_prefix + "nm"
+    out = subprocess.run([nm, "--defined-only", *map(str, objects)], cwd=cwd,
+                         capture_output=True, text=True).stdout
+    return sorted({ln.split()[-1] for ln in out.splitlines() if len(ln.split()) >= 2})
+
+
 def _undefined(tool_prefix: str, objects: Sequence[Path], cwd: Path) -> List[str]:
     """Symbols the firmware's objects use and do not define."""
     nm = tool_prefix + "nm"
@@ -406,12 +417,26 @@ def build_program(fw: Any, target: str, kind: str, driver: str, row: int, cflags
         raise TargetError("the RAM layout changed between the probe and the program")
     lmap = _Map.parse((wd / "imf_fw.map").read_text(errors="replace"))
     flash, ram = lmap.of_objects(objs)
+    if any(f.startswith("-flto") for f in cflags):
+        # link-time optimisation: the image's code comes from ltrans objects; count the symbols
+        # the firmware's objects define, as they ended up in the image
+        flash = ram = 0
+        for sym in _defined(_tool_prefix(tgt), objs, wd):
+            if sym in elf.symbols:
+                addr, size, _ = elf.symbols[sym]
+                if addr >= _RAM_BASE[name]:
+                    ram += size
+                else:
+                    flash += size
+        flash_or_none: Optional[int] = flash or None   # None: inlined across units
+    else:
+        flash_or_none = flash
     obj = elf.symbols.get("imf_fw_obj")
     if obj:
         ram += obj[1]
     routines, lib_flash = lmap.library(_undefined(_tool_prefix(tgt), objs, wd), objs)
     return Program(target, elf.path, wd, objs, list(cflags), types, int(chunk), int(ram_image),
-                   row, in_dtype, flash, ram, routines, lib_flash, time.perf_counter() - t0)
+                   row, in_dtype, flash_or_none, ram, routines, lib_flash, time.perf_counter() - t0)
 
 
 # ---------------------------------------------------------------------------
@@ -696,15 +721,7 @@ def find_causes(objdump: str, objects: Sequence[Path], sources: Sequence[str], c
         calls = sorted(set(_DOUBLE_CALLS.findall(" ".join(ln for ln in asm.splitlines()
                                                           if "R_" in ln))))
         x86 = re.findall(r"\bcvtss2sd\b|\b\w+sd\s+%xmm", asm) if not calls else []
-        warn = []
-        if compile_cmd:
-            for s in sources:
-                p = subprocess.run([*compile_cmd, "-Wdouble-promotion", "-fsyntax-only", s],
-                                   cwd=cwd, capture_output=True, text=True)
-                for ln in p.stderr.splitlines():
-                    m = re.match(r"^(.*?):(\d+):(\d+): warning: .*\[-Wdouble-promotion\]", ln)
-                    if m:
-                        warn.append(f"{os.path.basename(m.group(1))}:{m.group(2)}:{m.group(3)}")
+        warn = double_promotions(compile_cmd, sources, cwd)
         if calls or x86 or warn:
             ev = []
             if calls:
@@ -721,6 +738,21 @@ def find_causes(objdump: str, objects: Sequence[Path], sources: Sequence[str], c
         causes.append(Cause("avr-double", "avr-gcc's double is the 32-bit float: the firmware's "
                             "double state was compared with imufuse in float32", None))
     return causes
+
+
+def double_promotions(compile_cmd: Sequence[str], sources: Sequence[str], cwd: Path) -> List[str]:
+    """file:line:col of every -Wdouble-promotion warning of the sources."""
+    warn: List[str] = []
+    if not compile_cmd or shutil.which(compile_cmd[0]) is None:
+        return warn
+    for s in sources:
+        p = subprocess.run([*compile_cmd, "-Wdouble-promotion", "-fsyntax-only", s],
+                           cwd=cwd, capture_output=True, text=True)
+        for ln in p.stderr.splitlines():
+            m = re.match(r"^(.*?):(\d+):(\d+): warning: .*\[-Wdouble-promotion\]", ln)
+            if m:
+                warn.append(f"{os.path.basename(m.group(1))}:{m.group(2)}:{m.group(3)}")
+    return warn
 
 
 def angle_divergence_deg(name: str, params: Dict[str, Any], got: np.ndarray, want: np.ndarray,
