@@ -38,7 +38,8 @@ from .demo import run_demo
 from .estimate import euler_of
 from .evaluation import (METRICS, estimate_latency, evaluate, from_enu, mean_over_trials,
                          to_enu)
-from .firmware import DEFAULT_TIMEOUT, Firmware, FirmwareError, csrc_firmware, validate_isolated
+from .firmware import (DEFAULT_TIMEOUT, Firmware, FirmwareError, counts_for, csrc_firmware,
+                       validate_isolated)
 from .firmware_target import target_names
 from .io import (ACC, EXAMPLE_ATTRIBUTION, GYR, LogError, MAG, axis_inputs, example_log,
                  parse_column_map, read_column_map, read_log, require)
@@ -959,7 +960,7 @@ def _validate(args):
         src = f"simulated 'slow' motion, {rate:g} Hz, {args.duration:g} s, seed {args.seed}"
     params = resolve_params(args.filter, dt, overrides)
     if _entry(args.filter).fixed:
-        inputs = _counts(cls, params, inputs)
+        inputs = counts_for(cls.kind, params, inputs)
         src += f"; int16 counts (gyr_scale {params['gyr_scale']:g} rad/s, acc 4096 per g)"
     v = validate_isolated(fw, args.filter, params, inputs, backend=args.backend, dtype=args.dtype,
                           timeout=args.timeout, target=args.target)
@@ -980,26 +981,10 @@ def _validate(args):
     return EXIT_OK if v.bit_exact else EXIT_FAIL
 
 
-def _counts(cls, params, inputs):
-    """int16 counts of float inputs for a fixed-point filter: the gyro by gyr_scale, the
-    accelerometer and magnetometer (any unit: they are normalised) at 4096 per unit, angles by
-    angle_scale."""
-    out = []
-    for k, a in enumerate(inputs):
-        a = np.asarray(a, dtype=np.float64)
-        if k == 0:
-            c = a / params["gyr_scale"]
-        elif cls.kind == "1d":
-            c = a / params["angle_scale"]
-        else:
-            c = a * 4096.0
-        out.append(np.clip(np.rint(c), -32768, 32767).astype(np.int16))
-    return out
-
-
 def _parser_validate(sub):
     v = sub.add_parser("validate", help="compile firmware C (for the host, or for an emulated "
-                       "MCU with your flags) and compare it with an imufuse filter bit for bit", formatter_class=argparse.RawDescriptionHelpFormatter,
+                       "MCU with your flags) and compare it with an imufuse filter bit for "
+                       "bit", formatter_class=argparse.RawDescriptionHelpFormatter,
                        description="Validate firmware filter code against imufuse (see "
                        "imufuse.firmware).\nThe firmware runs in a child process: a crash, exit() "
                        "or hang is reported (exit 5).\n\nexample:\n  imufuse validate fw/att.c -I fw "

@@ -511,6 +511,23 @@ class Validation:
         return "\n".join(lines)
 
 
+def counts_for(kind: str, params: Mapping[str, Any], inputs: Sequence[Any]) -> List[np.ndarray]:
+    """int16 counts of float inputs for a fixed-point filter: the gyro by params' gyr_scale
+    (rad/s per count), angles by angle_scale (rad per count), the accelerometer and
+    magnetometer (any unit: they are normalised) at 4096 counts per unit."""
+    out = []
+    for k, a in enumerate(inputs):
+        a = np.asarray(a, dtype=np.float64)
+        if k == 0:
+            c = a / params["gyr_scale"]
+        elif kind == "1d":
+            c = a / params["angle_scale"]
+        else:
+            c = a * 4096.0
+        out.append(np.clip(np.rint(c), -32768, 32767).astype(np.int16))
+    return out
+
+
 def _strip_arch(flags):
     return [f for f in flags if not f.startswith(("-mmcu", "-mcpu", "-mfpu", "-mfloat-abi",
                                                   "-mthumb", "-march", "-mtune"))]

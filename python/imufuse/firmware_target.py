@@ -363,7 +363,10 @@ def build_program(fw: Any, target: str, kind: str, driver: str, row: int, cflags
         _run([tgt.cc, *arch, *_tc.BASE_FLAGS, f"-I{data}", "-c", str(data / tgt.sources[0]), "-o",
               str(port)], wd, "compiling the harness port")
         main = wd / "imf_fw_main.o"
-        _run([tgt.cc, *arch, *_strip_warnings(user), *defs, f"-I{wd}", f"-I{data}", *incs, "-c",
+        # the driver with the user's flags (ABI, defines) and the harness's section flags, as
+        # the MCU benchmarks build their drivers (same call code, same counts)
+        _run([tgt.cc, *arch, *_strip_warnings(user), *_tc._SECTION_FLAGS, *defs, f"-I{wd}",
+              f"-I{data}", *incs, "-c",
               str(data / "imf_fw_main.c"), "-o", str(main)], wd,
              f"compiling the validation driver with the firmware's headers for {target}")
     except _BuildFailed as e:
@@ -494,7 +497,7 @@ def run_program(prog: Program, inputs: np.ndarray, timeout: float) -> TargetRun:
     exit, a reset, a stack overflow or a timeout, naming the sample."""
     name = harness_target(prog.target)
     tgt = _tc.TARGETS[name]
-    _tc._require(tgt, [tgt.emulator])
+    _tc._require(tgt, [tgt.emulator or "emulator"])
     elf = _Elf.read(prog.elf)
     inputs = np.asarray(inputs, dtype=prog.in_dtype).reshape(len(inputs), prog.row)
     n_total = inputs.shape[0]
@@ -635,6 +638,7 @@ def _decode(words: List[List[str]], types: Sequence[StateType]) -> List[np.ndarr
     cols = list(zip(*words)) if n else [()] * len(types)
     for j, t in enumerate(types):
         vals = np.array([int(h, 16) for h in cols[j]], dtype=np.uint64)
+        a: np.ndarray
         if not t.integer:
             a = vals.astype(np.uint32).view(np.float32) if t.size == 4 else vals.view(np.float64)
         elif t.size > 4:
@@ -723,15 +727,15 @@ def find_causes(objdump: str, objects: Sequence[Path], sources: Sequence[str], c
         x86 = re.findall(r"\bcvtss2sd\b|\b\w+sd\s+%xmm", asm) if not calls else []
         warn = double_promotions(compile_cmd, sources, cwd)
         if calls or x86 or warn:
-            ev = []
+            found: List[str] = []
             if calls:
-                ev.append(f"double routines called: {', '.join(calls)}")
+                found.append(f"double routines called: {', '.join(calls)}")
             if x86:
-                ev.append(f"{len(x86)} double-precision instruction(s)")
+                found.append(f"{len(x86)} double-precision instruction(s)")
             if warn:
-                ev.append("-Wdouble-promotion warns at " + ", ".join(warn[:4]) +
-                          (f" (+{len(warn) - 4} more)" if len(warn) > 4 else ""))
-            causes.append(Cause("double", "; ".join(ev) + ": a double constant or function "
+                found.append("-Wdouble-promotion warns at " + ", ".join(warn[:4]) +
+                             (f" (+{len(warn) - 4} more)" if len(warn) > 4 else ""))
+            causes.append(Cause("double", "; ".join(found) + ": a double constant or function "
                                 "(0.5, sqrt) promotes float operands, rounding once in double "
                                 "instead of in float", "-fsingle-precision-constant"))
     if target == "atmega328p" and state_double:

@@ -1,4 +1,4 @@
-/* A user's firmware for the tests of `imufuse validate --target`: Eq. 2.2 written the way
+/* Example firmware (docs/firmware.md, test_cf_firmware.py): Eq. 2.2 written the way
  * firmware usually writes it, with its own names and a sample counter of its own. */
 #ifndef CF_H
 #define CF_H

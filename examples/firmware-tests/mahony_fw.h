@@ -1,4 +1,4 @@
-/* A user's fixed-point firmware for the tests of `imufuse validate --target`: imufuse's
+/* Example fixed-point firmware (docs/firmware.md): imufuse's
  * MahonyIMUQ taken into a project the way firmware does it (a global filter, the sensor's
  * counts as six int16 arguments, constants computed once on a host and given as macros). */
 #ifndef MAHONY_FW_H
