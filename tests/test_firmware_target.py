@@ -337,3 +337,19 @@ def test_example_tests_run(tmp_path):
 def test_bad_target_is_an_error():
     with pytest.raises(ValueError, match="unknown target 'cortex-m7'"):
         _validate(*_cf(), ["-O2"], "cortex-m7")
+
+
+def test_readme_firmware_section_shows_a_real_report():
+    """The README's firmware command, run as written, prints the README's report."""
+    import re
+    import shlex
+    readme = open(os.path.join(ROOT, "README.md")).read()
+    sec = readme[readme.index("## Firmware: validate your C where it runs"):]
+    cmd = re.search(r"```sh\n(.*?)```", sec, re.S).group(1).replace("\\\n", " ")
+    report = re.search(r"```\n(inputs:.*?)```", sec, re.S).group(1)
+    argv = shlex.split(cmd)
+    assert argv[0] == "imufuse"
+    p = subprocess.run([sys.executable, "-m", "imufuse", *argv[1:]], capture_output=True,
+                       text=True, cwd=ROOT)
+    assert p.returncode == 1, p.stderr
+    assert p.stdout == report

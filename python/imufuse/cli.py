@@ -30,6 +30,7 @@ import numpy as np
 
 from . import io, plots, preprocess, sim
 from ._resources import csrc_dir
+from .catalogue import entry as _entry
 from .catalogue import (FilterError, estimate, filter_names, inputs_for, make_filter,
                         param_names, reference_class, resolve_params,
                         why_no_estimate)
@@ -918,7 +919,6 @@ def _parser_bench(sub):
 # validate
 
 def _validate(args):
-    from .catalogue import entry as _entry
     cls = reference_class(args.filter) if not _entry(args.filter).fixed else \
         _entry(args.filter).reference
     overrides = _pairs(args.param)

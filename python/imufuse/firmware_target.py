@@ -32,6 +32,8 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from .catalogue import entry
+from .estimate import ADAPTERS
 from .mcu import toolchains as _tc
 from .mcu.emulators import _simavr_text
 
@@ -370,8 +372,7 @@ def build_program(fw: Any, target: str, kind: str, driver: str, row: int, cflags
               str(data / "imf_fw_main.c"), "-o", str(main)], wd,
              f"compiling the validation driver with the firmware's headers for {target}")
     except _BuildFailed as e:
-        from .firmware import FirmwareError
-        raise FirmwareError(str(e)) from None
+        raise TargetError(str(e)) from None
 
     def link(chunk_bytes, ram_cap):
         (wd / "imf_fw_block.c").write_text(_block_source(chunk_bytes, ram_cap))
@@ -390,12 +391,11 @@ def build_program(fw: Any, target: str, kind: str, driver: str, row: int, cflags
         try:
             _run(cmd, wd, f"linking for {target}")
         except _BuildFailed as e:
-            from .firmware import FirmwareError
             msg = str(e)
             if "overflow" in msg or "will not fit" in msg:
-                raise FirmwareError(f"the firmware does not fit the {target}'s memory "
+                raise TargetError(f"the firmware does not fit the {target}'s memory "
                                     f"({tgt.flash} B flash, {tgt.ram} B RAM):\n{msg}") from None
-            raise FirmwareError(msg) from None
+            raise TargetError(msg) from None
         return _Elf.read(elf)
 
     probe = link(1, 1)
@@ -412,8 +412,7 @@ def build_program(fw: Any, target: str, kind: str, driver: str, row: int, cflags
     free = tgt.flash - probe.flash_used(_RAM_BASE[name]) - ram_image - 512
     chunk = min(MAX_CHUNK, free // max(row_bytes, 1))
     if chunk < 1:
-        from .firmware import FirmwareError
-        raise FirmwareError(f"the firmware leaves no flash for inputs on the {target} "
+        raise TargetError(f"the firmware leaves no flash for inputs on the {target} "
                             f"({tgt.flash} B)")
     elf = link(chunk * row_bytes, ram_image)
     if elf.symbols["__heap_start"][0] - elf.symbols["__data_start"][0] != ram_image:
@@ -763,8 +762,6 @@ def angle_divergence_deg(name: str, params: Dict[str, Any], got: np.ndarray, wan
                          fixed: bool) -> Optional[float]:
     """The largest orientation difference over the run, in degrees (None without an
     orientation estimate)."""
-    from .catalogue import entry
-    from .estimate import ADAPTERS
     e = entry(name)
     if e.estimate is None:
         return None

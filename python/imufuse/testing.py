@@ -32,6 +32,8 @@ import numpy as np
 
 from . import sim
 from .catalogue import entry, inputs_for, resolve_params
+from .firmware_target import harness_target
+from .mcu import missing_tools
 from .firmware import Firmware, Validation, counts_for, validate_isolated
 
 __all__ = ["validate_firmware", "FirmwareResult", "simulated_inputs", "target_missing"]
@@ -119,8 +121,6 @@ def target_missing(target: str) -> Optional[str]:
         except ImportError:
             return "cffi is not installed (pip install 'imufuse[firmware]')"
         return None
-    from .firmware_target import harness_target
-    from .mcu import missing_tools
     miss = missing_tools(harness_target(target))
     return f"{target} needs {' '.join(miss)} (run tools/install-toolchains.sh)" if miss else None
 
