@@ -23,6 +23,10 @@
 #include "imf_config.h"
 #include "imf_attitude.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 typedef struct {
     imf_real r00, r01, r02; /* row 0 of R: r_x, earth x in body coordinates */
     imf_real r10, r11, r12; /* row 1 of R: r_y */
@@ -60,5 +64,9 @@ void imf_dcm_set_dt(imf_dcm_t *self, imf_real dt);
 void imf_dcm_set_attitude(imf_dcm_t *self, const imf_attitude_t *att);
 /* Output, not state: roll and pitch (rad, ZYX) of r_z, in double via libm. */
 void imf_dcm_angles(const imf_dcm_t *self, double *roll, double *pitch);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* IMF_DCM_H */

@@ -26,6 +26,10 @@
 #include <stdint.h>
 #include "imf_config.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /* ---- Eq. 2.2: complementary filter, 1st order ------------------------- */
 typedef struct {
     imf_real theta; /* angle estimate, rad */
@@ -163,5 +167,9 @@ void imf_complementary1d_bias_update(imf_complementary1d_bias_t *self, imf_real 
                                      imf_real angle);
 /* dt: s; recomputes the constants derived from dt */
 void imf_complementary1d_bias_set_dt(imf_complementary1d_bias_t *self, imf_real dt);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* IMF_FILTERS_1D_H */

@@ -37,6 +37,10 @@
 #include <stdint.h>
 #include "fusion_math.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /* Settings as given by the user (FusionAhrsSettings). */
 typedef struct {
     int convention;                  /* IMF_FUSION_NWU, _ENU or _NED */
@@ -149,5 +153,9 @@ unsigned imf_fusion_ahrs_flags(const imf_fusion_ahrs_t *self);
    (FusionCompassCalculateHeading). */
 imf_real imf_fusion_compass_heading(int convention, imf_fusion_vec_t acc, imf_fusion_vec_t mag,
                                     int invsqrt);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* IMF_FUSION_AHRS_H */

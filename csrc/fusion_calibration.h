@@ -16,6 +16,10 @@
 #include <stddef.h>
 #include "fusion_math.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 void imf_fusion_calibrate_inertial(const imf_real *m, const imf_real *s, const imf_real *b,
                                    const imf_real *in, imf_real *out, size_t n);
 void imf_fusion_calibrate_magnetic(const imf_real *soft_iron, const imf_real *hard_iron,
@@ -26,5 +30,9 @@ void imf_fusion_axes_apply(const int *perm, const int *negate, const imf_real *i
 /* heading (degrees) for N accelerometer/magnetometer rows, per convention */
 void imf_fusion_compass_headings(int convention, const imf_real *acc, const imf_real *mag,
                                  imf_real *out, size_t n, int invsqrt);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* IMF_FUSION_CALIBRATION_H */

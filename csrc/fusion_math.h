@@ -17,6 +17,10 @@
 #include "imf_config.h"
 #include "imf_math.h" /* imf_finite3, imf_finite4 */
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /* Transcendentals in the precision of the build: Fusion calls the float
    functions (sinf, cosf, atan2f, asinf) in its state update (set heading,
    external heading, settings) and in its outputs; a float32 build calls the
@@ -249,5 +253,9 @@ static inline imf_fusion_vec_t imf_fusion_mat_mul_vec(const imf_fusion_mat_t *co
     };
     return r;
 }
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* IMF_FUSION_MATH_H */

@@ -14,6 +14,10 @@
 #include <stdint.h>
 #include "fusion_math.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 typedef struct {
     imf_real filter_coefficient; /* 2 pi fc / fs */
     uint32_t timeout;            /* samples at rest before the offset adapts */
@@ -38,5 +42,9 @@ void imf_fusion_offset_init(imf_fusion_offset_t *self, uint32_t sample_rate);
 void imf_fusion_offset_update(imf_fusion_offset_t *self, const imf_real *g, imf_real *out);
 void imf_fusion_offset_get_state(const imf_fusion_offset_t *self, imf_real *out);
 void imf_fusion_offset_set_state(imf_fusion_offset_t *self, const imf_real *in);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* IMF_FUSION_OFFSET_H */

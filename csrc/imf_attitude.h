@@ -29,6 +29,10 @@
 #include <stdint.h>
 #include "imf_config.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /* One attitude in both representations. */
 typedef struct {
     imf_real q[4]; /* quaternion w, x, y, z, sensor -> earth, unit length */
@@ -63,5 +67,9 @@ void imf_attitude_window_init(imf_attitude_window_t *w, uint32_t window);
    that cancel; nothing changed). The window is full when n == window. */
 int imf_attitude_window_add(imf_attitude_window_t *w, imf_attitude_t *att, imf_real ax,
                             imf_real ay, imf_real az, imf_real mx, imf_real my, imf_real mz);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* IMF_ATTITUDE_H */

@@ -10,6 +10,10 @@
 
 #include "imf_config.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /* Convert the gate settings once: lo, hi in units of 1 g, one_g in the
    accelerometer's unit. lo < 0 turns the gate off (the state after init). */
 static inline void imf_acc_gate_set(int *const on, imf_real *const lo2, imf_real *const hi2,
@@ -34,5 +38,9 @@ static inline int imf_acc_gate_pass(const int on, const imf_real lo2, const imf_
     n2 = ax * ax + ay * ay + az * az;
     return n2 >= lo2 && n2 <= hi2;
 }
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* IMF_GATE_H */

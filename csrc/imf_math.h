@@ -9,6 +9,10 @@
 
 #include "imf_config.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /*
  * Valid-attitude policy shared by every filter (docs/robustness.md): a sample
  * with a NaN or +-Inf input, or whose update would leave the state
@@ -165,5 +169,9 @@ static inline void imf_tilt_angles(const double dx, const double dy, const doubl
     *roll = atan2(dy, dz);
     *pitch = atan2(-dx, sqrt(dy * dy + dz * dz));
 }
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* IMF_MATH_H */

@@ -24,6 +24,10 @@
 #include "imf_config.h"
 #include "imf_attitude.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 typedef struct {
     imf_real pitch; /* theta_pitch, rad (ZYX pitch, small-angle) */
     imf_real roll;  /* theta_roll, rad (ZYX roll, small-angle) */
@@ -50,5 +54,9 @@ void imf_kk_set_dt(imf_kk_t *self, imf_real dt);
    angle terms: pitch = -up_x, roll = up_y (up = att->r[6..8]), the angles
    its accelerometer path measures at rest. */
 void imf_kk_set_attitude(imf_kk_t *self, const imf_attitude_t *att);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* IMF_KK_H */

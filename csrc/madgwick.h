@@ -37,6 +37,10 @@
 #include "imf_attitude.h"
 #include "imf_gate.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 enum { IMF_MADGWICK_DS_FULL = 0, IMF_MADGWICK_DS_SIMPLIFIED = 1 };
 
 typedef struct {
@@ -100,5 +104,9 @@ void imf_madgwick_ahrs_set_attitude(imf_madgwick_ahrs_t *self, const imf_attitud
 void imf_madgwick_ahrs_update(imf_madgwick_ahrs_t *self, imf_real gx, imf_real gy, imf_real gz,
                               imf_real ax, imf_real ay, imf_real az,
                               imf_real mx, imf_real my, imf_real mz);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* IMF_MADGWICK_H */

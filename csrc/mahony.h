@@ -42,6 +42,10 @@
 #include "imf_attitude.h"
 #include "imf_gate.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 typedef struct {
     imf_real q0, q1, q2, q3; /* attitude quaternion, sensor -> earth, w first */
     imf_real ix, iy, iz;     /* integral term I of step 5, rad/s */
@@ -108,5 +112,9 @@ void imf_mahony_ahrs_set_attitude(imf_mahony_ahrs_t *self, const imf_attitude_t 
 void imf_mahony_ahrs_update(imf_mahony_ahrs_t *self, imf_real gx, imf_real gy, imf_real gz,
                             imf_real ax, imf_real ay, imf_real az,
                             imf_real mx, imf_real my, imf_real mz);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* IMF_MAHONY_H */

@@ -40,6 +40,10 @@
 #include "imf_config.h"
 #include "imf_attitude.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /* Valid attitude (imf_math.h policy): |d|^2 normal and at most d2_max = 4
    (|d| <= 2). Eq. 4.4 pulls |d| to 1; Eq. 4.3 renormalises d every update
    (|d| = 1 to rounding), and a normalisation that fails rejects the sample. */
@@ -74,5 +78,9 @@ void imf_mahony2d_set_dt(imf_mahony2d_t *self, imf_real dt);
 void imf_mahony2d_set_attitude(imf_mahony2d_t *self, const imf_attitude_t *att);
 /* Output, not state: roll and pitch (rad, ZYX) of d, in double via libm. */
 void imf_mahony2d_angles(const imf_mahony2d_t *self, double *roll, double *pitch);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* IMF_MAHONY2D_H */

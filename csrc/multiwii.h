@@ -24,6 +24,10 @@
 #include "imf_config.h"
 #include "imf_attitude.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 typedef struct {
     imf_real dx, dy, dz; /* EstG: estimated gravity vector (body up), acc units */
     imf_real ax, ay, az; /* accSmooth: low-passed accelerometer, acc units */
@@ -59,5 +63,9 @@ void imf_multiwii_set_dt(imf_multiwii_t *self, imf_real dt);
 void imf_multiwii_set_attitude(imf_multiwii_t *self, const imf_attitude_t *att);
 /* Output, not state: roll and pitch (rad, ZYX) of d, in double via libm. */
 void imf_multiwii_angles(const imf_multiwii_t *self, double *roll, double *pitch);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* IMF_MULTIWII_H */

@@ -43,6 +43,10 @@
 #include "imf_math.h"
 #include "imf_attitude.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 typedef struct {
     imf_real q0, q1, q2, q3;    /* estimate, sensor -> earth (NWU), w first */
     imf_real s0, s1, s2, s3;    /* strapdown: sensor -> inertial frame */
@@ -123,5 +127,9 @@ void imf_robust_ahrs_set_dt(imf_robust_ahrs_t *self, imf_real dt);
    (gravity, tilt and magnetic reference from it; the bias is kept). */
 void imf_robust_imu_set_attitude(imf_robust_imu_t *self, const imf_attitude_t *att);
 void imf_robust_ahrs_set_attitude(imf_robust_ahrs_t *self, const imf_attitude_t *att);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* IMF_ROBUST_H */

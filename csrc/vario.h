@@ -36,6 +36,10 @@
 #include "imf_config.h"
 #include "imf_math.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 enum { IMF_VARIO_PREDICT_SEED = 0, IMF_VARIO_PREDICT_MODEL = 1 };
 
 typedef struct {
@@ -92,5 +96,9 @@ void imf_vario_update(imf_vario_t *self, imf_real accel, imf_real baro_alt, imf_
 imf_real imf_vertical_accel(imf_real q0, imf_real q1, imf_real q2, imf_real q3, imf_real ax,
                             imf_real ay, imf_real az, imf_real sign, imf_real one_g,
                             imf_real scale);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* IMF_VARIO_H */

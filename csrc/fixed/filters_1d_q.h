@@ -26,6 +26,10 @@
 #include "imf_fixed.h"
 #include "imf_fixed_scale.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /* ---- Eq. 2.2: complementary filter --------------------------------- */
 typedef struct {
     int32_t theta; /* q15 angle counts */
@@ -81,5 +85,9 @@ int imf_mahony1d_bias_q_init(imf_mahony1d_bias_q_t *self, double dt, double kp, 
 int imf_mahony1d_bias_q_init_consts(imf_mahony1d_bias_q_t *self, imf_qscale_t kr, uint16_t kp16_m,
                                     int kp16_j, uint16_t ki16_m, int ki16_j, int integrate_first);
 void imf_mahony1d_bias_q_update(imf_mahony1d_bias_q_t *self, int16_t rate, int16_t angle);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* IMF_FILTERS_1D_Q_H */

@@ -40,6 +40,10 @@
 #include "imf_fixed.h"
 #include "imf_fixed_scale.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 typedef struct {
     int32_t t[2]; /* pitch, roll: q28 rad */
 } imf_kk_q_state_t;
@@ -84,5 +88,9 @@ int imf_multiwii_q_init(imf_multiwii_q_t *self, double dt, double cmpf, int acc_
 int imf_multiwii_q_init_consts(imf_multiwii_q_t *self, imf_qscale_t kw, imf_qscale_t kc,
                                int acc_lpf_shift, uint32_t lo2, uint32_t hi2, int32_t acc_1g_q15);
 void imf_multiwii_q_update(imf_multiwii_q_t *self, const int16_t gyr[3], const int16_t acc[3]);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* IMF_GRAVITY_Q_H */

@@ -37,6 +37,10 @@
 
 #include <stdint.h>
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /* Right shift of a negative value must be arithmetic (sign-extending). */
 #if ((-1) >> 1) != -1
 #error "imf_fixed.h needs an arithmetic right shift of negative integers"
@@ -876,5 +880,9 @@ static inline int32_t imf_scale32_s(const int32_t x, const imf_qscale_t c, const
 {
     return imf_mul_32x16_s(x, c.m, c.s + K - N);
 }
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* IMF_FIXED_H */

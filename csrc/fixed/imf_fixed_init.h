@@ -13,6 +13,10 @@
 #include <math.h>
 #include "imf_fixed.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /* v >= 0 -> m * 2^-s with m = floor(f * 2^15 + 1/2), v = f * 2^e,
  * f in [1/2, 1) (frexp is exact); 0 -> {0, 16}.  Returns {0, 16} for
  * negative or non-finite v; callers validate v first. */
@@ -45,5 +49,9 @@ static inline int imf_param_ok(const double v, const double lo, const double hi)
 {
     return (v >= lo) && (v <= hi);
 }
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* IMF_FIXED_INIT_H */

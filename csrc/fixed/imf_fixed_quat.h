@@ -16,6 +16,10 @@
 
 #include "imf_fixed.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /* Profiles compiled into the dispatching imf_<filter>_update: both, or only
  * the one IMF_FIXED_PROFILE (32 or 8) names -- then the other profile's code
  * is not linked (on AVR the 32-bit profile is about half the flash of these
@@ -472,5 +476,9 @@ static inline int16_t imf_q_rate_exponent(const imf_qscale_t kg)
     }
     return (int16_t)hs;
 }
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* IMF_FIXED_QUAT_H */

@@ -33,6 +33,10 @@
 
 #include "imf_fixed.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 #if defined(__GNUC__)
 #define IMF_SCALE_OUTLINE static __attribute__((noinline, unused))
 #else
@@ -417,5 +421,9 @@ static inline int32_t imf_i16_to_q15(const int16_t a)
 {
     return ((int32_t)a * 65536) >> 1;
 }
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* IMF_FIXED_SCALE_H */

@@ -27,6 +27,10 @@
 #include <stdint.h>
 #include "imf_fixed.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 typedef struct {
     int32_t q[4]; /* q0..q3, q30 */
     int32_t c[3]; /* cx, cy, cz: 8-bit profile, remainder of h carried to the next sample */
@@ -56,5 +60,9 @@ void imf_madgwick_imu_q_update_p8(imf_madgwick_imu_q_t *self, const int16_t gyr[
                                 const int16_t acc[3]);
 void imf_madgwick_imu_q_update(imf_madgwick_imu_q_t *self, const int16_t gyr[3],
                                const int16_t acc[3]);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* IMF_MADGWICK_Q_H */

@@ -38,6 +38,10 @@
 #include <stdint.h>
 #include "imf_fixed.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 typedef struct {
     int32_t q[4]; /* q0..q3, q30 */
     int32_t i[3]; /* ix, iy, iz: q38, half angle per sample */
@@ -71,5 +75,9 @@ void imf_mahony_imu_q_update_p32(imf_mahony_imu_q_t *self, const int16_t gyr[3],
 void imf_mahony_imu_q_update_p8(imf_mahony_imu_q_t *self, const int16_t gyr[3], const int16_t acc[3]);
 /* calls the update of the profile given to init */
 void imf_mahony_imu_q_update(imf_mahony_imu_q_t *self, const int16_t gyr[3], const int16_t acc[3]);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* IMF_MAHONY_Q_H */

@@ -28,7 +28,8 @@ import itertools
 
 import numpy as np
 
-from . import io, plots, preprocess, sim
+from . import __version__, io, plots, preprocess, sim
+from .arduino import export_arduino
 from ._resources import csrc_dir
 from .catalogue import entry as _entry
 from .catalogue import (FilterError, estimate, filter_names, inputs_for, make_filter,
@@ -1036,6 +1037,30 @@ def _parser_validate(sub):
 
 
 # ---------------------------------------------------------------------------
+# export
+
+def _export(args):
+    lib = export_arduino(args.dir, make_zip=args.zip)
+    print(f"Arduino library: {lib}")
+    if args.zip:
+        print(f"zip for the IDE (Sketch > Include Library > Add .ZIP Library): "
+              f"{lib.parent / f'imufuse-{__version__}.zip'}")
+    return EXIT_OK
+
+
+def _parser_export(sub):
+    e = sub.add_parser("export", help="write the C library in a form firmware projects take",
+                       description="imufuse export arduino DIR: an Arduino library in DIR/imufuse "
+                       "(library.properties, src/, keywords.txt, example sketches for an Uno and "
+                       "ARM boards); --zip also writes DIR/imufuse-VERSION.zip for the Arduino "
+                       "IDE's 'Add .ZIP Library'. See docs/firmware.md.")
+    e.add_argument("what", choices=("arduino",))
+    e.add_argument("dir", metavar="DIR")
+    e.add_argument("--zip", action="store_true", help="also write the .zip the IDE installs")
+    e.set_defaults(func=_export)
+
+
+# ---------------------------------------------------------------------------
 # options shared by several subcommands
 
 def _positive(typ, hi, lo=0):
@@ -1159,7 +1184,7 @@ def _parser_latency(sub):
 
 
 SUBCOMMANDS = [_parser_demo, _parser_run, _parser_compare, _parser_tune, _parser_latency,
-               _parser_bench, _parser_validate]
+               _parser_bench, _parser_validate, _parser_export]
 
 
 class _Parser(argparse.ArgumentParser):
