@@ -243,7 +243,8 @@ def _properties() -> str:
 
 
 def _keywords(headers: Sequence[Path]) -> str:
-    types, funcs = set(), set()
+    types: set = set()
+    funcs: set = set()
     for h in headers:
         text = h.read_text()
         types.update(re.findall(r"\}\s*(imf_\w+_t)\s*;", text))
