@@ -245,7 +245,8 @@ def test_cli_fault_exits_5(tmp_path):
     src, inc = _cf(tmp_path, "/* FAULT */", "if (s->n == 50u) { ((void (*)(void))0)(); }")
     p = subprocess.run([sys.executable, "-m", "imufuse", "validate", src, "--header", "cf.h",
                         "-I", inc, "--filter", "Complementary1D", "--init", "cf_init", "--update",
-                        "cf_update", "--state", "theta=theta", "--target", "cortex-m0"],
+                        "cf_update", "--state", "theta=theta", "--target", "cortex-m0",
+                        "--cflags", "-O2"],
                        capture_output=True, text=True, cwd=tmp_path)
     assert p.returncode == 5, p.stdout + p.stderr
     assert "hard fault at sample 49" in p.stderr and len(p.stderr.strip().splitlines()) == 1

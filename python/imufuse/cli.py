@@ -1203,10 +1203,23 @@ def build_parser():
     return p
 
 
+def _join_flag_values(argv):
+    """`--cflags -O2` as `--cflags=-O2`: argparse would take a value starting with '-' for an
+    option, and compiler flags always start with one."""
+    out, it = [], iter(argv)
+    for a in it:
+        if a == "--cflags":
+            nxt = next(it, None)
+            out.append(a if nxt is None else f"--cflags={nxt}")
+        else:
+            out.append(a)
+    return out
+
+
 def main(argv=None):
     p = build_parser()
     try:
-        args = p.parse_args(argv)
+        args = p.parse_args(_join_flag_values(sys.argv[1:] if argv is None else list(argv)))
     except SystemExit as e:
         return e.code if isinstance(e.code, int) else EXIT_USAGE
     if not getattr(args, "func", None):

@@ -17,8 +17,6 @@ update reached (painted band), the firmware's flash and RAM in the linked image.
 from __future__ import annotations
 
 import dataclasses
-import hashlib
-import json
 import math
 import os
 import re
@@ -341,12 +339,18 @@ def build_program(fw: Any, target: str, kind: str, driver: str, row: int, cflags
     name = harness_target(target)
     tgt = _tc.TARGETS[name]
     _tc._require(tgt, [tgt.cc])
-    key = hashlib.sha256(json.dumps([target, list(cflags), driver, fw.include_dirs, fw.sources,
-                                     sorted(fw.defines.items())]).encode())
-    for f in fw.sources:
-        key.update(Path(f).read_bytes())
     wd = Path(workdir) if workdir else Path(tempfile.mkdtemp(prefix=f"imf_fw_{name}_"))
     wd.mkdir(parents=True, exist_ok=True)
+    try:
+        return _build_in(fw, target, name, tgt, driver, row, cflags, in_dtype, wd, t0)
+    except BaseException:
+        if not workdir:
+            shutil.rmtree(wd, ignore_errors=True)
+        raise
+
+
+def _build_in(fw: Any, target: str, name: str, tgt: "_tc.Target", driver: str, row: int,
+              cflags: Sequence[str], in_dtype: Optional[np.dtype], wd: Path, t0: float) -> Program:
     (wd / "imf_driver.h").write_text(driver)
     data = _tc.DATA_DIR
     defs = [f"-D{k}" if v is None else f"-D{k}={v}" for k, v in fw.defines.items()]

@@ -21,14 +21,14 @@
 static char imf_out_buf[IMF_OUT_CAP + 1];
 static uint8_t imf_out_len;
 
-static inline void imf_out_flush(void)
+static void imf_out_flush(void)
 {
     imf_out_buf[imf_out_len] = '\0';
     imf_port_write(imf_out_buf);
     imf_out_len = 0u;
 }
 
-static inline void imf_out_char(char c)
+static void imf_out_char(char c)
 {
     if (imf_out_len >= IMF_OUT_CAP) {
         imf_out_flush();
@@ -36,7 +36,7 @@ static inline void imf_out_char(char c)
     imf_out_buf[imf_out_len++] = c;
 }
 
-static inline void imf_out_hex(uint32_t v, uint8_t ndigits)
+static void imf_out_hex(uint32_t v, uint8_t ndigits)
 {
     static const char digits[] = "0123456789abcdef";
     while (ndigits > 0u) {
