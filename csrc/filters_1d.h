@@ -63,7 +63,9 @@ typedef struct {
     imf_kalman1d_state_t x;
 } imf_kalman1d_t;
 
+/* dt: s (> 0); k0: the constant Kalman gain K0, 0..1. theta = 0. */
 void imf_kalman1d_init(imf_kalman1d_t *self, imf_real dt, imf_real k0);
+/* One sample: rate rad/s (gyro), angle rad (accelerometer). A non-finite input, or an update whose result is not finite, is rejected: the state keeps its value and skipped counts it. */
 void imf_kalman1d_update(imf_kalman1d_t *self, imf_real rate, imf_real angle);
 /* dt: s (alpha, K0 and the gains stay as given) */
 void imf_kalman1d_set_dt(imf_kalman1d_t *self, imf_real dt);
@@ -80,7 +82,9 @@ typedef struct {
     imf_mahony1d_state_t x;
 } imf_mahony1d_t;
 
+/* dt: s (> 0); kp: 1/s (kp dt < 2 for a stable loop). theta = 0. */
 void imf_mahony1d_init(imf_mahony1d_t *self, imf_real dt, imf_real kp);
+/* One sample: rate rad/s (gyro), angle rad (accelerometer). A non-finite input, or an update whose result is not finite, is rejected: the state keeps its value and skipped counts it. */
 void imf_mahony1d_update(imf_mahony1d_t *self, imf_real rate, imf_real angle);
 /* dt: s (alpha, K0 and the gains stay as given) */
 void imf_mahony1d_set_dt(imf_mahony1d_t *self, imf_real dt);
@@ -104,6 +108,7 @@ typedef struct {
 /* bias_sign: -1 or +1 */
 void imf_kalman1d_bias_init(imf_kalman1d_bias_t *self, imf_real dt, imf_real k0,
                             imf_real k1, int bias_sign);
+/* One sample: rate rad/s (gyro), angle rad (accelerometer). A non-finite input, or an update whose result is not finite, is rejected: the state keeps its value and skipped counts it. */
 void imf_kalman1d_bias_update(imf_kalman1d_bias_t *self, imf_real rate, imf_real angle);
 /* dt: s (alpha, K0 and the gains stay as given) */
 void imf_kalman1d_bias_set_dt(imf_kalman1d_bias_t *self, imf_real dt);
@@ -127,6 +132,7 @@ typedef struct {
 /* kp: 1/s; ki: 1/s^2; integrate_first: 0 or 1 */
 void imf_mahony1d_bias_init(imf_mahony1d_bias_t *self, imf_real dt, imf_real kp,
                             imf_real ki, int integrate_first);
+/* One sample: rate rad/s (gyro), angle rad (accelerometer). A non-finite input, or an update whose result is not finite, is rejected: the state keeps its value and skipped counts it. */
 void imf_mahony1d_bias_update(imf_mahony1d_bias_t *self, imf_real rate, imf_real angle);
 /* dt: s; recomputes the constants derived from dt */
 void imf_mahony1d_bias_set_dt(imf_mahony1d_bias_t *self, imf_real dt);
@@ -163,6 +169,7 @@ typedef struct {
 /* kp: 1/s; ki: 1/s^2 (omega0 = sqrt(ki), xi = kp / (2 sqrt(ki)), Eq. 3.11) */
 void imf_complementary1d_bias_init(imf_complementary1d_bias_t *self, imf_real dt,
                                    imf_real kp, imf_real ki);
+/* One sample: rate rad/s (gyro), angle rad (accelerometer). A non-finite input, or an update whose result is not finite, is rejected: the state keeps its value and skipped counts it. */
 void imf_complementary1d_bias_update(imf_complementary1d_bias_t *self, imf_real rate,
                                      imf_real angle);
 /* dt: s; recomputes the constants derived from dt */

@@ -20,8 +20,13 @@
 extern "C" {
 #endif
 
+/* Fusion's inertial model, n samples of 3: out = m (s * (in - b)) with the
+ * misalignment m (3x3, row major), sensitivity s (3) and offset b (3), in the
+ * sensor's units (deg/s, g). */
 void imf_fusion_calibrate_inertial(const imf_real *m, const imf_real *s, const imf_real *b,
                                    const imf_real *in, imf_real *out, size_t n);
+/* Fusion's magnetic model, n samples of 3: out = soft_iron (in - hard_iron), soft
+ * iron 3x3 row major, hard iron in the magnetometer's unit (uT). */
 void imf_fusion_calibrate_magnetic(const imf_real *soft_iron, const imf_real *hard_iron,
                                    const imf_real *in, imf_real *out, size_t n);
 /* perm: source axis (0..2) of each output axis; negate: nonzero to negate */

@@ -40,6 +40,8 @@ typedef struct {
 void imf_fusion_offset_init(imf_fusion_offset_t *self, uint32_t sample_rate);
 /* g: gyroscope (3), degrees per second; out: corrected gyroscope (3) */
 void imf_fusion_offset_update(imf_fusion_offset_t *self, const imf_real *g, imf_real *out);
+/* The state as IMF_FUSION_OFFSET_N_STATE reals (the offset, deg/s, and the
+ * stationary timer), and back. */
 void imf_fusion_offset_get_state(const imf_fusion_offset_t *self, imf_real *out);
 void imf_fusion_offset_set_state(imf_fusion_offset_t *self, const imf_real *in);
 

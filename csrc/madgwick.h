@@ -81,6 +81,8 @@ void imf_madgwick_imu_init(imf_madgwick_imu_t *self, imf_real dt, imf_real beta,
 void imf_madgwick_imu_update(imf_madgwick_imu_t *self, imf_real gx, imf_real gy, imf_real gz,
                              imf_real ax, imf_real ay, imf_real az);
 
+/* dt: s; beta: rad/s; invsqrt: IMF_INVSQRT_*; the gate as for the IMU (lo < 0:
+   off). q = (1, 0, 0, 0). */
 void imf_madgwick_ahrs_init(imf_madgwick_ahrs_t *self, imf_real dt, imf_real beta, int invsqrt,
                             imf_real acc_gate_lo, imf_real acc_gate_hi, imf_real acc_1g);
 

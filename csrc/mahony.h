@@ -87,6 +87,8 @@ void imf_mahony_imu_init(imf_mahony_imu_t *self, imf_real dt, imf_real kp, imf_r
 void imf_mahony_imu_update(imf_mahony_imu_t *self, imf_real gx, imf_real gy, imf_real gz,
                            imf_real ax, imf_real ay, imf_real az);
 
+/* dt: s; kp: 1/s; ki: 1/s^2; invsqrt: IMF_INVSQRT_*; the gate as for the IMU
+   (lo < 0: off). q = (1, 0, 0, 0), I = 0. */
 void imf_mahony_ahrs_init(imf_mahony_ahrs_t *self, imf_real dt, imf_real kp, imf_real ki,
                           int invsqrt, imf_real acc_gate_lo, imf_real acc_gate_hi,
                           imf_real acc_1g);

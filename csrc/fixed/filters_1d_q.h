@@ -84,6 +84,8 @@ int imf_mahony1d_bias_q_init(imf_mahony1d_bias_q_t *self, double dt, double kp, 
  * only stores them.  Returns 0, or -1 if a constant is out of range. */
 int imf_mahony1d_bias_q_init_consts(imf_mahony1d_bias_q_t *self, imf_qscale_t kr, uint16_t kp16_m,
                                     int kp16_j, uint16_t ki16_m, int ki16_j, int integrate_first);
+/* One sample: rate in gyro counts, angle in angle counts (int16: every input is a
+ * number; sums saturate, so no input is rejected). */
 void imf_mahony1d_bias_q_update(imf_mahony1d_bias_q_t *self, int16_t rate, int16_t angle);
 
 #ifdef __cplusplus

@@ -62,6 +62,8 @@ int imf_kk_q_init(imf_kk_q_t *self, double dt, double kp, double gyr_scale);
  * imf_gain16(kp, 15, 15), stored as given (integer only, identical on every
  * target; imufuse.reference.KKQ(...).c_init_args()). */
 int imf_kk_q_init_consts(imf_kk_q_t *self, imf_qscale_t kw, uint16_t kp16_m, int kp16_j);
+/* One sample: gyr and acc in sensor counts (int16; every input is accepted, sums
+ * saturate; a zero accelerometer gives no correction). */
 void imf_kk_q_update(imf_kk_q_t *self, const int16_t gyr[3], const int16_t acc[3]);
 
 typedef struct {
@@ -87,6 +89,8 @@ int imf_multiwii_q_init(imf_multiwii_q_t *self, double dt, double cmpf, int acc_
  * acc_1g_q15 = acc_1g in q15 counts, in (0, 32767 * 2^15]. */
 int imf_multiwii_q_init_consts(imf_multiwii_q_t *self, imf_qscale_t kw, imf_qscale_t kc,
                                int acc_lpf_shift, uint32_t lo2, uint32_t hi2, int32_t acc_1g_q15);
+/* One sample: gyr and acc in sensor counts (int16; every input is accepted, sums
+ * saturate; outside the |acc| window the accelerometer gives no correction). */
 void imf_multiwii_q_update(imf_multiwii_q_t *self, const int16_t gyr[3], const int16_t acc[3]);
 
 #ifdef __cplusplus

@@ -196,6 +196,8 @@ static inline int imf_gain16_ok(const uint16_t m, const int j, const int one_ok)
 }
 
 
+/* The gain c as a 16-bit multiplier m and a shift j for products with q(K) values
+ * giving q(N) (init only). */
 #if defined(__AVR__) || defined(IMF_SCALE_SHORT)
 IMF_SCALE_OUTLINE /* init only: one small copy */
 #else

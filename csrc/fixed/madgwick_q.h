@@ -54,10 +54,13 @@ int imf_madgwick_imu_q_init(imf_madgwick_imu_q_t *self, double dt, double beta,
  * imf_mahony_imu_q_init_consts for why firmware uses it. */
 int imf_madgwick_imu_q_init_consts(imf_madgwick_imu_q_t *self, imf_qscale_t kg, imf_qscale_t kb,
                                    int profile);
+/* One sample, 32-bit and 8-bit profile: gyr and acc in sensor counts (int16;
+ * every input is accepted; a zero accelerometer vector gives no correction). */
 void imf_madgwick_imu_q_update_p32(imf_madgwick_imu_q_t *self, const int16_t gyr[3],
                                  const int16_t acc[3]);
 void imf_madgwick_imu_q_update_p8(imf_madgwick_imu_q_t *self, const int16_t gyr[3],
                                 const int16_t acc[3]);
+/* One sample with the update of the profile given to init. */
 void imf_madgwick_imu_q_update(imf_madgwick_imu_q_t *self, const int16_t gyr[3],
                                const int16_t acc[3]);
 

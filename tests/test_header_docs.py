@@ -1,0 +1,51 @@
+"""Every public function declared in csrc/*.h and csrc/fixed/*.h carries a doc comment: the
+comment that ends right above it, or above the block of declarations it belongs to (the IMU
+and AHRS variants of one call share one), names its units, ranges or behaviour."""
+import re
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+HEADERS = sorted((ROOT / "csrc").glob("*.h")) + sorted((ROOT / "csrc" / "fixed").glob("*.h"))
+_DECL = re.compile(r"^(?:const\s+)?[A-Za-z_]\w*(?:\s+\w+)*\s+\**(imf_\w+)\s*\(")
+
+
+def undocumented(text):
+    lines = text.split("\n")
+    out = []
+    for i, line in enumerate(lines):
+        m = _DECL.match(line)
+        if not m or line.startswith(("static", "typedef", "#")):
+            continue
+        # a declaration (ends with ';' on this or a continuation line)
+        j = i
+        while j < len(lines) and ")" not in lines[j]:
+            j += 1
+        if j >= len(lines) or not lines[j].rstrip().endswith(";"):
+            continue
+        k = i - 1
+        documented = False
+        while k >= 0 and lines[k].strip():
+            if lines[k].rstrip().endswith("*/") or "//" in lines[k]:
+                documented = True
+                break
+            k -= 1
+        if not documented:
+            out.append(f"line {i + 1}: {m.group(1)}")
+    return out
+
+
+def test_headers_found():
+    assert len(HEADERS) >= 20
+
+
+@pytest.mark.parametrize("header", HEADERS, ids=[h.name for h in HEADERS])
+def test_every_public_function_is_documented(header):
+    assert not undocumented(header.read_text()), f"{header.name}: {undocumented(header.read_text())}"
+
+
+def test_the_check_can_fail():
+    assert undocumented("typedef int t;\n\nvoid imf_x_init(t *self, float dt);\n") == \
+        ["line 3: imf_x_init"]
+    assert undocumented("/* dt: s */\nvoid imf_x_init(t *self,\n    float dt);\n") == []
