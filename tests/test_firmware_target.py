@@ -354,3 +354,18 @@ def test_readme_firmware_section_shows_a_real_report():
                        text=True, cwd=ROOT)
     assert p.returncode == 1, p.stderr
     assert p.stdout == report
+
+
+@pytest.mark.parametrize("flags", [["-std=c89", "-O2"], ["-ansi", "-pedantic", "-Werror", "-O2"],
+                                   ["-std=gnu17", "-Os", "-flto", "-Wall", "-Wextra", "-Werror"]])
+def test_firmware_flags_of_other_standards(flags):
+    """C89 firmware (no hexadecimal literals in the driver: decimal ones that round the same),
+    warnings as errors (the driver's own code is not the user's to warn about), LTO."""
+    v, _, _ = _validate(*_cf(), flags, "atmega328p", n=200)
+    assert v.bit_exact, v.text()
+
+
+def test_architecture_flags_of_the_user_are_named():
+    v, _, _ = _validate(*_cf(), ["-O2", "-mcpu=cortex-m0plus"], "cortex-m0", n=200)
+    assert v.bit_exact, v.text()
+    assert "your --cflags set the architecture (-mcpu=cortex-m0plus)" in v.text()

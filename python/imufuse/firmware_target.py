@@ -356,8 +356,11 @@ def _build_in(fw: Any, target: str, name: str, tgt: "_tc.Target", driver: str, r
     defs = [f"-D{k}" if v is None else f"-D{k}={v}" for k, v in fw.defines.items()]
     incs = [f"-I{d}" for d in fw.include_dirs] + \
         [f"-I{d}" for d in sorted({os.path.dirname(s) for s in fw.sources})]
-    arch = list(tgt.arch_flags)
     user = list(cflags)
+    # the target's architecture, then any the user's flags set (an ABI the harness's own
+    # objects must share: -mfloat-abi=softfp, -mcpu=...)
+    arch = list(tgt.arch_flags) + [f for f in user if f.startswith(
+        ("-mcpu", "-mfpu", "-mfloat-abi", "-march", "-mthumb", "-marm", "-mmcu"))]
     objs: List[Path] = []
     try:
         for i, src in enumerate(fw.sources):

@@ -46,19 +46,19 @@ extern char __data_start[], __bss_end[], __heap_start[];
      ((__typeof__(e))-1 < (__typeof__(e))0 ? 0x200u : 0u) |                             \
      (__builtin_types_compatible_p(__typeof__(e), double) ? 0x400u : 0u))
 
-static inline void imf_fw_out64(uint32_t hi, uint32_t lo)
+static __inline__ void imf_fw_out64(uint32_t hi, uint32_t lo)
 {
     imf_out_char(' ');
     imf_out_hex(hi, 8u);
     imf_out_hex(lo, 8u);
 }
 
-static inline void imf_fw_out_u64(unsigned long long v)
+static __inline__ void imf_fw_out_u64(unsigned long long v)
 {
     imf_fw_out64((uint32_t)(v >> 32), (uint32_t)v);
 }
 
-static inline void imf_fw_out_double(double v)
+static __inline__ void imf_fw_out_double(double v)
 {
     unsigned long long b = 0u;
     memcpy(&b, &v, sizeof v);
@@ -183,7 +183,7 @@ static void imf_fw_load(uint32_t i, uint32_t kind, uint32_t row)
 #define IMF_FW_WINDOW 8192u
 #endif
 
-static inline uintptr_t imf_fw_sp(void)
+static __inline__ uintptr_t imf_fw_sp(void)
 {
 #if defined(__AVR__)
     return (uintptr_t)SP;

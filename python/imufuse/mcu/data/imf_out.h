@@ -47,18 +47,18 @@ static void imf_out_hex(uint32_t v, uint8_t ndigits)
 
 /* State dumpers for imf_user_dump(): every word is printed as its bit pattern. Integers narrower
  * than 32 bits are widened (sign-extended when signed) to 32 bits first. */
-static inline void imf_out_u32(uint32_t v)
+static __inline__ void imf_out_u32(uint32_t v)
 {
     imf_out_char(' ');
     imf_out_hex(v, 8u);
 }
 
-static inline void imf_out_i32(int32_t v)
+static __inline__ void imf_out_i32(int32_t v)
 {
     imf_out_u32((uint32_t)v);
 }
 
-static inline void imf_out_f32(float v)
+static __inline__ void imf_out_f32(float v)
 {
     uint32_t bits;
     memcpy(&bits, &v, sizeof bits);
@@ -66,7 +66,7 @@ static inline void imf_out_f32(float v)
 }
 
 #if IMF_HAVE_F64
-static inline void imf_out_f64(double v)
+static __inline__ void imf_out_f64(double v)
 {
     uint32_t w[2];
     uint64_t bits;
@@ -80,22 +80,22 @@ static inline void imf_out_f64(double v)
 #endif
 
 /* Widening dumpers for narrower integers. */
-static inline void imf_out_i16(int16_t v)
+static __inline__ void imf_out_i16(int16_t v)
 {
     imf_out_i32((int32_t)v);
 }
 
-static inline void imf_out_u16(uint16_t v)
+static __inline__ void imf_out_u16(uint16_t v)
 {
     imf_out_u32((uint32_t)v);
 }
 
-static inline void imf_out_i8(int8_t v)
+static __inline__ void imf_out_i8(int8_t v)
 {
     imf_out_i32((int32_t)v);
 }
 
-static inline void imf_out_u8(uint8_t v)
+static __inline__ void imf_out_u8(uint8_t v)
 {
     imf_out_u32((uint32_t)v);
 }
