@@ -357,7 +357,7 @@ def test_readme_firmware_section_shows_a_real_report():
 
 
 @pytest.mark.parametrize("flags", [["-std=c89", "-O2"], ["-ansi", "-pedantic", "-Werror", "-O2"],
-                                   ["-std=gnu17", "-Os", "-flto", "-Wall", "-Wextra", "-Werror"]])
+                                   ["-std=gnu11", "-Os", "-flto", "-Wall", "-Wextra", "-Werror"]])
 def test_firmware_flags_of_other_standards(flags):
     """C89 firmware (no hexadecimal literals in the driver: decimal ones that round the same),
     warnings as errors (the driver's own code is not the user's to warn about), LTO."""
