@@ -239,10 +239,24 @@ def entry(name: str) -> Entry:
             raise FilterError(f"{name}: has an API of its own (catalogue.{section}), which the "
                               f"generic harnesses cannot drive; valid filters: "
                               f"{', '.join(FILTERS)}") from None
-        close = difflib.get_close_matches(str(name), ENTRIES, n=3, cutoff=0.5)
+        # suggestions from the names the message lists (and the fixed-point ones after
+        # them), compared without case
+        listed = list(FILTERS) + list(FILTERS_FIXED)
+        lower = {n.lower(): n for n in listed}
+        close = [lower[c] for c in difflib.get_close_matches(str(name).lower(), lower, n=3,
+                                                             cutoff=0.5)]
         hint = f" (did you mean {', '.join(close)}?)" if close else ""
         raise FilterError(f"unknown filter {name!r}{hint}; valid filters: "
-                          f"{', '.join(FILTERS)}") from None
+                          f"{', '.join(FILTERS)}; fixed point: {', '.join(FILTERS_FIXED)}") from None
+
+
+def canonical_name(name: str) -> str:
+    """The catalogue's spelling of a filter name given in any case (madgwickahrs ->
+    MadgwickAHRS); an unknown name comes back unchanged (entry() then reports it)."""
+    if name in ALL_ENTRIES:
+        return name
+    lower = {n.lower(): n for n in ALL_ENTRIES}
+    return lower.get(str(name).lower(), name)
 
 
 def filter_names(kinds: Optional[Sequence[str]] = None) -> List[str]:

@@ -1,4 +1,5 @@
-"""The imufuse command line: demo, run, compare, tune, latency, bench, validate.
+"""The imufuse command line: demo, run, compare, tune, latency, bench, validate, export,
+vario, calibrate.
 
 Exit codes (every failure is one line on stderr, "imufuse: error: ..."):
   0  success
@@ -12,10 +13,9 @@ Exit codes (every failure is one line on stderr, "imufuse: error: ..."):
      hang past --timeout, a missing symbol)
   6  an unexpected internal error (a bug; IMUFUSE_DEBUG=1 shows the traceback)
 130  interrupted (Ctrl-C)
-
-Adding a subcommand: write `_name(args) -> exit code` and a `_parser_name(sub)`
-that builds its parser, and list it in SUBCOMMANDS.
 """
+# Adding a subcommand: write `_name(args) -> exit code` and a `_parser_name(sub)` that builds
+# its parser, and list it in SUBCOMMANDS.
 import argparse
 import ast
 import inspect
@@ -31,6 +31,7 @@ import numpy as np
 from . import __version__, io, plots, preprocess, sim
 from .arduino import export_arduino
 from ._resources import csrc_dir
+from .catalogue import canonical_name
 from .catalogue import entry as _entry
 from .catalogue import (FilterError, estimate, filter_names, inputs_for, make_filter,
                         param_names, reference_class, resolve_params,
@@ -92,7 +93,7 @@ def _pairs(items, what="--param"):
 
 
 def _names(items):
-    return [n.strip() for f in items or () for n in f.split(",") if n.strip()]
+    return [canonical_name(n.strip()) for f in items or () for n in f.split(",") if n.strip()]
 
 
 def _scoped_params(items, names):
@@ -516,7 +517,7 @@ def _parser_run(sub):
                        "angle_deg (single-axis), or [q_w..q_z when the state is not already the\n"
                        "quaternion,] roll_deg, pitch_deg[, yaw_deg]. OUT.npz writes NumPy arrays.")
     r.add_argument("log", metavar="LOG")
-    r.add_argument("--filter", "-f", required=True)
+    r.add_argument("--filter", "-f", required=True, type=canonical_name)
     r.add_argument("-o", "--output", default="-", metavar="OUT.csv", help="default: stdout")
     r.add_argument("--plot", metavar="PNG")
     _log_options(r)
@@ -839,7 +840,7 @@ def _parser_tune(sub):
                        "releases the GIL).\n\nexample:\n  imufuse tune trial1.npz trial2.npz -f "
                        "MadgwickIMU --grid beta=0.005:1:15")
     t.add_argument("logs", nargs="+", metavar="LOG")
-    t.add_argument("--filter", "-f", required=True)
+    t.add_argument("--filter", "-f", required=True, type=canonical_name)
     t.add_argument("--grid", "-g", action="append", metavar="NAME=LO:HI:N[lin]|V1,V2,..",
                    help="values of a parameter (repeatable; log-spaced unless 'lin'); default: "
                         "every gain, /10 .. x10 around its default")
@@ -997,7 +998,7 @@ def _parser_validate(sub):
                        "--init cf_init \\\n     --update cf_update --state theta=theta "
                        "--target cortex-m4f --cflags '-O2 -ffp-contract=off'")
     v.add_argument("sources", nargs="*", metavar="SOURCE.c")
-    v.add_argument("--filter", "-f", required=True, help="the imufuse filter to compare with")
+    v.add_argument("--filter", "-f", required=True, help="the imufuse filter to compare with", type=canonical_name)
     v.add_argument("--csrc", metavar="DIR", nargs="?", const=str(csrc_dir()),
                    help="validate imufuse's own sources in DIR (default: the C library "
                         "installed with imufuse)")
@@ -1196,6 +1197,7 @@ class _Parser(argparse.ArgumentParser):
 def build_parser():
     p = _Parser(prog="imufuse", description=__doc__,
                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--version", action="version", version=f"imufuse {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     for add in SUBCOMMANDS:
         add(sub)

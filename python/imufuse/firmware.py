@@ -357,7 +357,12 @@ class Firmware:
         built = glob.glob(os.path.join(outdir, name + ".*so")) + \
             glob.glob(os.path.join(outdir, name + ".*pyd"))
         if not built:
-            from cffi import FFI
+            try:
+                from cffi import FFI
+            except ImportError:
+                raise FirmwareError("validating on the host compiles the firmware with cffi, "
+                                    "which is not installed: pip install 'imufuse[firmware]' "
+                                    "(or validate on an emulated MCU with --target)") from None
             ffi = FFI()
             ffi.cdef("void imufuse_fw_run(const double *p, const double *s0, int set_state, "
                      "size_t n, const double *in, double dt, double *out, int *isint);\n"
