@@ -80,3 +80,12 @@ def test_run_million_rows(benchmark, big_log, tmp_path, out):
 def test_read_log_million_rows(benchmark, big_log):
     log = benchmark.pedantic(io.read_log, args=(big_log,), rounds=1, iterations=1)
     assert len(log) == ROWS
+
+
+def test_log_gyr_access(benchmark):
+    """Log.gyr once computed: an update() loop may index it per sample (issue: 1.4 ms when it
+    was rebuilt on every access)."""
+    from imufuse.io import example_log, read_log
+    log = read_log(example_log())
+    log.gyr
+    benchmark(lambda: log.gyr)

@@ -132,12 +132,28 @@ class Log:
     def vec(self, names):
         return np.column_stack([self.columns[n] for n in names])
 
+    def _cached(self, key, names, make):
+        """make() computed once while the columns it reads (the same array objects), dt and
+        fixed_rate stay as they were; read-only, since every access shares it. A column
+        replaced (imufuse.preprocess) or dt changed gives a new array."""
+        cache = self.__dict__.setdefault("_cache", {})
+        token = (tuple(self.columns.get(n) for n in names), self.dt, self.fixed_rate)
+        hit = cache.get(key)
+        if hit is not None and len(hit[0][0]) == len(token[0]) and \
+                all(a is b for a, b in zip(hit[0][0], token[0])) and hit[0][1:] == token[1:]:
+            return hit[1]
+        value = make()
+        if isinstance(value, np.ndarray):
+            value.flags.writeable = False
+        cache[key] = (token, value)
+        return value
+
     @property
     def t(self):
         """Sample times, s: the time column, else k * dt."""
         if "time" in self.columns:
             return self.columns["time"]
-        return np.arange(len(self)) * self.dt
+        return self._cached("t", (), lambda: np.arange(len(self)) * self.dt)
 
     @property
     def dts(self):
@@ -145,26 +161,33 @@ class Log:
         column's intervals (the first sample: the median interval, dt)."""
         if self.fixed_rate or "time" not in self.columns:
             return None
-        d = np.empty(len(self))
-        d[0] = self.dt
-        np.subtract(self.columns["time"][1:], self.columns["time"][:-1], out=d[1:])
-        return d
+
+        def make():
+            d = np.empty(len(self))
+            d[0] = self.dt
+            np.subtract(self.columns["time"][1:], self.columns["time"][:-1], out=d[1:])
+            return d
+        return self._cached("dts", ("time",), make)
 
     @property
     def gyr(self):
-        return self.vec(GYR)
+        """(N, 3) gyroscope, rad/s (computed once; read-only)."""
+        return self._cached("gyr", GYR, lambda: self.vec(GYR))
 
     @property
     def acc(self):
-        return self.vec(ACC)
+        """(N, 3) accelerometer, g (computed once; read-only)."""
+        return self._cached("acc", ACC, lambda: self.vec(ACC))
 
     @property
     def mag(self):
-        return self.vec(MAG) if self.has(*MAG) else None
+        """(N, 3) magnetometer, or None (computed once; read-only)."""
+        return self._cached("mag", MAG, lambda: self.vec(MAG) if self.has(*MAG) else None)
 
     @property
     def q_ref(self):
-        return self.vec(QUAT) if self.has(*QUAT) else None
+        """(N, 4) reference quaternion w, x, y, z, or None (computed once; read-only)."""
+        return self._cached("q_ref", QUAT, lambda: self.vec(QUAT) if self.has(*QUAT) else None)
 
     @property
     def movement(self):
