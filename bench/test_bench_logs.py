@@ -87,5 +87,5 @@ def test_log_gyr_access(benchmark):
     was rebuilt on every access)."""
     from imufuse.io import example_log, read_log
     log = read_log(example_log())
-    log.gyr
-    benchmark(lambda: log.gyr)
+    first = log.gyr
+    assert benchmark(lambda: log.gyr) is first
