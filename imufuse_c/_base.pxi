@@ -51,6 +51,20 @@ from imufuse.reference._base import init_arguments as _init_arguments
 _R = np.float32 if DTYPE == "float32" else float
 
 
+cdef inline imf_real _dt_step(object dt) except? -1:
+    """dt of one update(..., dt=...): a Python float that is finite and > 0, and still so in
+    imf_real, without a Python call (update(dt=) within a few ns of update()); anything
+    else through _checks.dt_value, which accepts and refuses exactly the same values."""
+    cdef double v
+    cdef imf_real r
+    if type(dt) is float:
+        v = dt
+        r = <imf_real>v
+        if v > 0.0 and v - v == 0.0 and r > 0 and r - r == 0:
+            return r
+    return <imf_real><double>_checks.dt_value(dt, DTYPE)
+
+
 cdef inline void _copy_state(imf_real *dst, const char *x, Py_ssize_t n) noexcept nogil:
     # a short element loop: cheaper than a memcpy call for a few words per sample
     cdef const imf_real *src = <const imf_real *>x
@@ -297,7 +311,7 @@ cdef class _Filter1D(_Filter):
         if dt is None:
             self._step(<imf_real>w, <imf_real>a)
         else:
-            self._set_dt(<imf_real><double>_checks.dt_value(dt, DTYPE))
+            self._set_dt(_dt_step(dt))
             self._step(<imf_real>w, <imf_real>a)
             self._set_dt(self._dt0)
 
@@ -406,7 +420,7 @@ cdef class _FilterIMU(_Filter):
         z[1] = 0
         z[2] = 0
         if dt is not None:
-            step_dt = <imf_real><double>_checks.dt_value(dt, DTYPE)
+            step_dt = _dt_step(dt)
         if self._pending:
             self._first(g, a, z)
         else:
@@ -510,7 +524,7 @@ cdef class _FilterAHRS(_Filter):
         # update() with a dt and/or a pending init="first"
         cdef imf_real step_dt = self._dt0
         if dt is not None:
-            step_dt = <imf_real><double>_checks.dt_value(dt, DTYPE)
+            step_dt = _dt_step(dt)
         if self._pending:
             self._first(g, a, m)
         else:
