@@ -57,6 +57,7 @@ from typing import Optional
 import numpy as np
 from imufuse_c._csvout import iter_blocks as _csv_blocks
 
+from .plausible import check_log
 from ._resources import _path
 
 GRAVITY = 9.80665
@@ -617,6 +618,7 @@ def read_log(path, gyr_unit=None, acc_unit=None, rate=None, *, columns=None,
     g, s); rate: Hz, a fixed sample rate (the time column is then not needed);
     columns: {name: header} column map; fixed_rate: run at the median interval
     even when the time column is there."""
+    user_rate = rate
     if gyr_unit is not None and gyr_unit not in GYR_UNITS:
         raise ValueError(f"gyr_unit: must be one of {', '.join(GYR_UNITS)}, got {gyr_unit!r}")
     if acc_unit is not None and acc_unit not in ACC_UNITS:
@@ -674,6 +676,7 @@ def read_log(path, gyr_unit=None, acc_unit=None, rate=None, *, columns=None,
             k = int(np.argmax(~np.isfinite(d))) + 1
             raise LogError(f"{where(k)}: the interval from {float(t[k - 1])!r} to "
                            f"{float(t[k])!r} s is not a finite number")
+    time_cols = cols.get("time")      # the file's own times, before a rate generates any
     if rate is None and file_rate is not None and "time" not in cols:
         rate = file_rate
     if rate is not None:
@@ -701,6 +704,8 @@ def read_log(path, gyr_unit=None, acc_unit=None, rate=None, *, columns=None,
         raise LogError(f"{path}: no time column (found {', '.join(map(repr, header[:12]))}); "
                        "give the sample rate (--rate HZ), or name the time column "
                        '(--columns time="HEADER")')
+    # the usual unit and rate mistakes, named with the option that fixes them
+    warnings += check_log(log, user_rate, file_rate, time_cols)
     log.warnings = warnings
     return log
 

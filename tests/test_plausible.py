@@ -1,0 +1,88 @@
+"""Plausibility instead of silence: the usual mistakes (deg/s read as rad/s, m/s^2 read as g,
+time in ms, a --rate that contradicts the time column) give a one-line note naming the option
+that fixes them, and none fires on logs read correctly: the shipped example, the seven BROAD
+development trials, x-io's layout with its units."""
+import glob
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from broad_data import BROAD, SKIP_REASON
+from imufuse import sim
+from imufuse.io import example_log, read_log
+
+XIO = ["Time (s)", "Gyroscope X (deg/s)", "Gyroscope Y (deg/s)", "Gyroscope Z (deg/s)",
+       "Accelerometer X (g)", "Accelerometer Y (g)", "Accelerometer Z (g)"]
+
+
+def _csv(path, header, rows):
+    with open(path, "w") as f:
+        f.write(",".join(header) + "\n")
+        for r in rows:
+            f.write(",".join(repr(float(v)) for v in r) + "\n")
+    return path
+
+
+@pytest.fixture(scope="module")
+def motion():
+    # a lively motion: rates beyond 35 deg/s (so that deg/s read as rad/s shows)
+    return sim.imu("fast", rate=200.0, duration=10.0, seed=3)
+
+
+def test_silent_on_the_shipped_example():
+    assert read_log(example_log()).warnings == []
+
+
+@pytest.mark.skipif(BROAD is None, reason=SKIP_REASON)
+def test_silent_on_the_broad_trials():
+    files = sorted(glob.glob(os.path.join(BROAD, "*.npz")))
+    assert len(files) == 7
+    for f in files:
+        assert read_log(f).warnings == [], f
+
+
+def test_silent_on_xio_layout(tmp_path, motion):
+    t = np.arange(len(motion.gyr)) * motion.dt
+    rows = np.column_stack([t, np.degrees(motion.gyr), motion.acc])
+    assert read_log(_csv(tmp_path / "x.csv", XIO, rows)).warnings == []
+
+
+def test_deg_per_s_without_a_unit(tmp_path, motion):
+    t = np.arange(len(motion.gyr)) * motion.dt
+    rows = np.column_stack([t, np.degrees(motion.gyr), motion.acc])
+    log = read_log(_csv(tmp_path / "d.csv", ["time", "gyr_x", "gyr_y", "gyr_z", "acc_x", "acc_y",
+                                             "acc_z"], rows))
+    assert any("--gyr-unit deg/s" in w for w in log.warnings), log.warnings
+
+
+def test_m_per_s2_read_as_g(tmp_path, motion):
+    t = np.arange(len(motion.gyr)) * motion.dt
+    rows = np.column_stack([t, motion.gyr, motion.acc * 9.80665])
+    log = read_log(_csv(tmp_path / "a.csv", ["time", "gyr_x", "gyr_y", "gyr_z", "acc_x", "acc_y",
+                                             "acc_z"], rows))
+    assert any("--acc-unit m/s2" in w for w in log.warnings), log.warnings
+    # and g read as m/s^2
+    rows = np.column_stack([t, motion.gyr, motion.acc])
+    log = read_log(_csv(tmp_path / "b.csv", ["time", "gyr_x", "gyr_y", "gyr_z", "acc_x", "acc_y",
+                                             "acc_z"], rows), acc_unit="m/s2")
+    assert any("--acc-unit g" in w for w in log.warnings), log.warnings
+
+
+def test_time_in_ms(tmp_path, motion):
+    t = np.arange(len(motion.gyr)) * motion.dt * 1000.0
+    rows = np.column_stack([t, motion.gyr, motion.acc])
+    log = read_log(_csv(tmp_path / "t.csv", ["time", "gyr_x", "gyr_y", "gyr_z", "acc_x", "acc_y",
+                                             "acc_z"], rows))
+    assert any("--time-unit ms" in w for w in log.warnings), log.warnings
+    assert read_log(str(tmp_path / "t.csv"), time_unit="ms").warnings == []
+
+
+def test_rate_that_contradicts_the_time_column(tmp_path):
+    p = subprocess.run([sys.executable, "-m", "imufuse", "run", example_log(), "-f", "MadgwickIMU",
+                        "--rate", "100", "-o", str(tmp_path / "o.npz")],
+                       capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    assert "--rate 100 Hz, but the file says 285.714 Hz" in p.stderr
