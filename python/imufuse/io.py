@@ -527,6 +527,11 @@ def _first(z, *keys):
     return None
 
 
+#: the arrays (and rate keys) a log in the BROAD layout may hold
+_ARRAY_KEYS = ("gyr", "imu_gyr", "acc", "imu_acc", "mag", "imu_mag", "quat_ref", "opt_quat",
+               "q_ref", "movement", "time", "t", "rate", "sampling_rate")
+
+
 def _read_arrays(path):
     """NPZ or HDF5 in the BROAD layout -> (columns, header, sources, rate)."""
     ext = os.path.splitext(path)[1].lower()
@@ -539,13 +544,26 @@ def _read_arrays(path):
         try:
             import h5py
         except ImportError:
-            raise LogError(f"{path}: HDF5 logs need h5py (pip install h5py)", "file") from None
+            raise LogError(f"{path}: HDF5 logs need h5py: pip install 'imufuse[hdf5]'",
+                           "file") from None
         try:
             with h5py.File(path, "r") as f:
-                z = {k: np.asarray(f[k]) for k in f.keys()
-                     if isinstance(f[k], h5py.Dataset)}
-        except OSError as e:
+                # only the datasets a log uses (a file may hold others, of any size), and the
+                # file's attributes: BROAD as published states its rate as `sampling_rate`
+                z = {}
+                for k in _ARRAY_KEYS:
+                    if k in f and isinstance(f[k], h5py.Dataset):
+                        z[k] = np.asarray(f[k])
+                for k in ("rate", "sampling_rate"):
+                    if k not in z and k in f.attrs:
+                        z[k] = np.asarray(f.attrs[k])
+                keys_in_file = sorted(f.keys())
+        except (OSError, KeyError) as e:
             raise LogError(f"{path}: not a readable HDF5 file: {e}") from None
+        if not {"gyr", "imu_gyr"} & set(z) or not {"acc", "imu_acc"} & set(z):
+            raise LogError(f"{path}: expected arrays gyr and acc (N, 3) (BROAD layout: imu_gyr, "
+                           f"imu_acc, imu_mag, opt_quat, movement, attribute sampling_rate); "
+                           f"found {', '.join(keys_in_file) or 'none'}")
     keys = sorted(z)
     parts = {"gyr": _first(z, "gyr", "imu_gyr"), "acc": _first(z, "acc", "imu_acc"),
              "mag": _first(z, "mag", "imu_mag"), "quat": _first(z, "quat_ref", "opt_quat", "q_ref"),
