@@ -36,6 +36,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ._atomic import replacing
 from .io import LogError
 
 __all__ = ["Calibration", "gyro_offset", "still_phases", "accel_six_position", "mag_minmax",
@@ -288,7 +289,7 @@ def save(path, cal):
         if not isinstance(data, dict):
             raise ValueError(f"{path}: not a calibration file (expected a JSON object)")
     data[SECTIONS[cal.sensor]] = cal.as_json()
-    with open(path, "w") as fh:
+    with replacing(path) as tmp, open(tmp, "w") as fh:
         json.dump(data, fh, indent=2)
         fh.write("\n")
     return data

@@ -29,6 +29,7 @@ import itertools
 import numpy as np
 
 from . import __version__, io, plots, preprocess, sim
+from ._atomic import check_outputs
 from .arduino import export_arduino
 from ._resources import csrc_dir
 from .catalogue import canonical_name
@@ -261,27 +262,20 @@ def _load(args, path=None):
     return log
 
 
-def _same_file(a, b):
-    try:
-        return os.path.samefile(a, b)
-    except OSError:
-        return False
+def _input_files(args):
+    """Every file a log command reads: the log, a column map, a calibration."""
+    return [getattr(args, "log", None), getattr(args, "column_map", None),
+            getattr(args, "calibration", None)]
 
 
-def check_outputs(inputs, outputs):
-    """Refuse outputs that are an input (also through a link) or that cannot
-    be created, before any work is done."""
-    for opt, out in outputs:
-        if out in (None, "-"):
-            continue
-        for inp in inputs:
-            if _same_file(out, inp) or os.path.abspath(out) == os.path.abspath(inp):
-                raise UsageError(f"{opt} {out}: is the input log {inp}; refusing to overwrite it")
-        if os.path.isdir(out):
-            raise OutputError(f"{opt} {out}: is a directory; give a file name")
-        d = os.path.dirname(os.path.abspath(out))
-        if not os.path.isdir(d):
-            raise OutputError(f"{opt} {out}: directory {d} does not exist")
+def _headers(args):
+    out = []
+    for h in args.header or ():
+        for d in ["", *(args.include or ())]:
+            p = os.path.join(d, h) if d else h
+            if os.path.isfile(p):
+                out.append(p)
+    return out
 
 
 def _inputs(cls, log, axis):
@@ -438,7 +432,7 @@ def _parser_demo(sub):
 
 def _run(args):
     _fusion_hint(args.filter, "run")
-    check_outputs([args.log], [("-o", args.output), ("--plot", args.plot)])
+    check_outputs(_input_files(args), [("-o", args.output), ("--plot", args.plot)])
     if preprocess.is_fusion(args.filter):  # Fusion's units and dt per sample
         cols, msg, f32 = preprocess.run_fusion(args, _load(args), _pairs(args.param))
         _write_output(args.output, cols, f32)
@@ -548,7 +542,7 @@ def _compare(args):
     for n in names:
         _fusion_hint(n, "compare")
         reference_class(n)
-    check_outputs([args.log], [("--plot", args.plot)])
+    check_outputs(_input_files(args), [("--plot", args.plot)])
     log = _load(args)
     if not names:
         names = _default_filters(log)
@@ -924,7 +918,7 @@ def _validate(args):
     cls = reference_class(args.filter) if not _entry(args.filter).fixed else \
         _entry(args.filter).reference
     overrides = _pairs(args.param)
-    check_outputs([args.log] if args.log else [], [("--plot", args.plot)])
+    check_outputs([args.log, *(args.sources or ()), *_headers(args)], [("--plot", args.plot)])
     defines = {}
     for d in args.define or ():
         k, _, v = d.partition("=")

@@ -6,6 +6,7 @@ import ast
 import os
 
 from . import calibrate, plots, vario
+from ._atomic import check_outputs
 
 
 def _pairs(items, what):
@@ -30,6 +31,7 @@ def _vario(args):
     out = args.out or os.path.splitext(args.log)[0] + "-vario.csv"
     plot = None if args.no_plot or not plots.available() else (
         args.plot or os.path.splitext(out)[0] + ".png")
+    check_outputs([args.log], [("-o", out), ("--plot", plot)])
     res = vario.run_log(args.log, out, plot=plot, gyr_unit=args.gyr_unit,
                         acc_unit=args.acc_unit, p_ref=args.p_ref, filter=args.filter,
                         filter_params=params, kf_params=kf, convention=args.convention)
@@ -40,6 +42,7 @@ def _vario(args):
 
 
 def _calibrate(args):
+    check_outputs([args.log], [("-o", args.output)])
     res = calibrate.run_log(args.sensor, args.log, args.output, gyr_unit=args.gyr_unit,
                             ranges=args.ranges, threshold=args.threshold, method=args.method)
     print(calibrate.describe(args.sensor, res))

@@ -57,6 +57,7 @@ from typing import Optional
 import numpy as np
 from imufuse_c._csvout import iter_blocks as _csv_blocks
 
+from ._atomic import replacing
 from .plausible import check_log
 from ._resources import _path
 
@@ -810,7 +811,7 @@ def write_csv(path, columns, float32=()):
     precisions = [9 if n in float32 else 17 for n in names]
     header = ",".join(names) + "\n"
     if not hasattr(path, "write"):
-        with open(path, "wb") as fh:
+        with replacing(path) as tmp, open(tmp, "wb") as fh:
             fh.write(header.encode("utf-8"))
             for block in _csv_blocks(arrs, precisions):
                 fh.write(block)
@@ -822,7 +823,8 @@ def write_csv(path, columns, float32=()):
 
 def write_npz(path, columns):
     """Write {name: (N,) array} as an uncompressed NPZ (fast for long logs)."""
-    np.savez(path, **{n: np.asarray(v) for n, v in columns.items()})
+    with replacing(path) as tmp, open(tmp, "wb") as fh:
+        np.savez(fh, **{n: np.asarray(v) for n, v in columns.items()})
 
 
 def write_log(path, t, gyr, acc, mag=None, q=None, extra=None):

@@ -8,7 +8,11 @@ scaled to the errors after the start-up transient (`steady_limits`), so the
 steady state is visible. Each function returns the matplotlib Figure (already
 saved and closed: its artists can still be inspected).
 """
+import os
+
 import numpy as np
+
+from ._atomic import replacing
 
 from .catalogue import FILTERS, reference_class
 from .rotations import heading_error, tilt_error
@@ -61,8 +65,12 @@ def _save(fig, path, title=""):
         import textwrap
         fig.suptitle("\n".join(textwrap.wrap(title, 110)), fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    _plt().close(fig)
+    fmt = os.path.splitext(os.fspath(path))[1].lstrip(".").lower() or "png"
+    try:
+        with replacing(path) as tmp:
+            fig.savefig(tmp, dpi=100, format=fmt)
+    finally:
+        _plt().close(fig)
     return fig
 
 

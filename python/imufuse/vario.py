@@ -24,6 +24,7 @@ import numpy as np
 import imufuse_c
 
 from . import _checks, reference
+from ._atomic import replacing
 from .plots import _plt, _save
 
 __all__ = ["P_REF", "pressure_to_altitude", "altitude_to_pressure", "VarioResult",
@@ -263,8 +264,9 @@ def run_log(path, out_csv, *, plot=None, gyr_unit="rad/s", acc_unit="g", p_ref=P
               filter=filter, filter_params=filter_params, kf_params=kf_params,
               convention=convention)
     M = np.column_stack([res.t, res.baro_alt, res.altitude, res.climb, res.bias])
-    np.savetxt(out_csv, M, fmt="%.9g", delimiter=",",
-               header="time,baro_alt,altitude,climb,bias", comments="")
+    with replacing(out_csv) as tmp:
+        np.savetxt(tmp, M, fmt="%.9g", delimiter=",",
+                   header="time,baro_alt,altitude,climb,bias", comments="")
     if plot:
         plot_vario(plot, res)
     return res
