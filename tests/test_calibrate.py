@@ -219,10 +219,23 @@ def test_cli_calibrate(tmp_path):
     np.testing.assert_allclose(data["gyroscope"]["b"], np.radians(b), atol=4e-4)
     np.testing.assert_allclose(data["accelerometer"]["b"], B_TRUE, atol=3.0)
     np.testing.assert_allclose(data["magnetometer"]["h"], H_TRUE, atol=0.01 * FIELD)
-    # refused data: exit code 2 with the reason
+    # refused data: exit code 4 (bad data, not a bad command line) with the reason and the
+    # option that takes the longest still stretch instead
     g[100:150] += 5.0
     _write(tmp_path / "moved.csv", "gyr", g)
     r = imf("calibrate", "gyro", tmp_path / "moved.csv", "-o", tmp_path / "x.json",
             "--gyr-unit", "deg/s")
-    assert r.returncode == 2 and "samples 100..149" in r.stderr
+    assert r.returncode == 4 and "samples 100..149" in r.stderr and "--longest-still" in r.stderr
+    assert not (tmp_path / "x.json").exists()
+    r = imf("calibrate", "gyro", tmp_path / "moved.csv", "-o", tmp_path / "x.json",
+            "--gyr-unit", "deg/s", "--longest-still")
+    assert r.returncode == 0, r.stderr
+    assert "rad/s from samples 150.." in r.stdout
+    # a magnetometer that never turned: refused, the existing file untouched
+    _write(tmp_path / "still.csv", "mag", np.tile(H_TRUE, (200, 1)))
+    before = out.read_bytes()
+    for method in ("minmax", "ellipsoid"):
+        r = imf("calibrate", "mag", tmp_path / "still.csv", "-o", out, "--method", method)
+        assert r.returncode == 4 and "never turned" in r.stderr, r.stderr
+        assert out.read_bytes() == before
     assert imf("calibrate", "mag", tmp_path / "none.csv", "-o", out).returncode == 3

@@ -112,7 +112,8 @@ def gyro_offset(gyr, threshold=0.05, restart=False, min_samples=100):
                 f"gyr: the unit moved during the offset calibration: samples {where} are "
                 f"more than {threshold:g} from the median (first: sample {k}, axis {ax}, "
                 f"{g[k]['xyz'.index(ax)] - med['xyz'.index(ax)]:+.4g}); keep it still and "
-                f"record again, or pass restart=True to use the longest still stretch")
+                f"record again, or use the longest still stretch (restart=True; "
+                f"imufuse calibrate gyro --longest-still)")
         still = _runs(~moving)
         lo, hi = max(still, key=lambda r: r[1] - r[0]) if still else (0, 0)
         if hi - lo < min_samples:
@@ -218,12 +219,25 @@ def _check_spread(m, center):
                          f"unit about all three axes (a figure of 8 in three dimensions)")
 
 
+def _check_turned(m, lo, hi):
+    """Refuse readings that never change on an axis (a unit that never turned)."""
+    span = hi - lo
+    tiny = 1e-9 * max(float(np.abs(m).max()), 1e-300)
+    flat = [("xyz"[j], float(span[j])) for j in range(3) if not span[j] > tiny]
+    if flat:
+        raise ValueError("mag: the readings do not change on axis " +
+                         ", ".join(f"{a} (range {s:g})" for a, s in flat) +
+                         ": the unit never turned; record while turning it about all three "
+                         "axes (a figure of 8 in three dimensions)")
+
+
 def mag_minmax(mag, field=None):
     """The seed's hard-iron calibration: h = (max + min)/2 per axis and a
     per-axis scale (max - min)/2; S = diag(field / scale) with field the
     mean of the three scales unless given (keeps the sensor's unit)."""
     m = _nx3("mag", mag, 10)
     lo, hi = m.min(axis=0), m.max(axis=0)
+    _check_turned(m, lo, hi)
     h = (hi + lo) / 2.0
     _check_spread(m, h)
     scale = (hi - lo) / 2.0
@@ -244,6 +258,7 @@ def mag_ellipsoid(mag, field=None):
     radii, residual (RMS of |m_c| - field), field_spread (std of |m_c|)."""
     m = _nx3("mag", mag, 20)
     lo, hi = m.min(axis=0), m.max(axis=0)
+    _check_turned(m, lo, hi)
     _check_spread(m, (hi + lo) / 2.0)
     # centre and scale for conditioning
     c0 = m.mean(axis=0)
@@ -288,7 +303,11 @@ def save(path, cal):
                 raise ValueError(f"{path}: not a calibration file ({e})") from None
         if not isinstance(data, dict):
             raise ValueError(f"{path}: not a calibration file (expected a JSON object)")
-    data[SECTIONS[cal.sensor]] = cal.as_json()
+    section = cal.as_json()
+    if not all(np.all(np.isfinite(np.asarray(v, dtype=float))) for v in cal.params.values()):
+        raise ValueError(f"{path}: the {cal.sensor} calibration is not finite "
+                         f"({cal.params}); nothing written")
+    data[SECTIONS[cal.sensor]] = section
     with replacing(path) as tmp, open(tmp, "w") as fh:
         json.dump(data, fh, indent=2)
         fh.write("\n")
@@ -320,26 +339,31 @@ def _read_columns(path, names):
 
 
 def run_log(sensor, path, output, gyr_unit="rad/s", ranges=None, threshold=None,
-            method="ellipsoid"):
+            method="ellipsoid", longest_still=False):
     """`imufuse calibrate gyro|accel|mag LOG.csv -o calib.json`."""
     if sensor not in SECTIONS:
         raise ValueError(f"sensor: must be one of {', '.join(SECTIONS)}, got {sensor!r}")
     prefix = {"gyro": "gyr", "accel": "acc", "mag": "mag"}[sensor]
     x = _read_columns(path, [f"{prefix}_{c}" for c in "xyz"])
-    if sensor == "gyro":
-        if gyr_unit == "deg/s":
-            x = np.radians(x)
-        cal = gyro_offset(x, **({} if threshold is None else dict(threshold=threshold)))
-    elif sensor == "accel":
-        rng = None
-        if ranges:
-            try:
-                rng = [tuple(int(v) for v in r.split(":")) for r in ranges.split(",")]
-            except ValueError:
-                raise ValueError(f"--ranges: expected A:B,C:D,..., got {ranges!r}") from None
-        cal = accel_six_position(x, rng, threshold=threshold)
-    else:
-        cal = (mag_ellipsoid if method == "ellipsoid" else mag_minmax)(x)
+    rng = None
+    if sensor == "accel" and ranges:
+        try:
+            rng = [tuple(int(v) for v in r.split(":")) for r in ranges.split(",")]
+        except ValueError:
+            raise ValueError(f"--ranges: expected A:B,C:D,..., got {ranges!r}") from None
+    try:
+        if sensor == "gyro":
+            if gyr_unit == "deg/s":
+                x = np.radians(x)
+            kw = {} if threshold is None else dict(threshold=threshold)
+            cal = gyro_offset(x, restart=longest_still, **kw)
+        elif sensor == "accel":
+            cal = accel_six_position(x, rng, threshold=threshold)
+        else:
+            cal = (mag_ellipsoid if method == "ellipsoid" else mag_minmax)(x)
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError) as e:
+        # the recording cannot give a calibration: bad data (exit 4), not a bad command line
+        raise LogError(f"{path}: {e}") from None
     save(output, cal)
     return cal
 
@@ -348,12 +372,13 @@ def describe(sensor, cal):
     p, f = cal.params, cal.figures
     np.set_printoptions(precision=5, suppress=True)
     if sensor == "gyro":
-        return (f"gyroscope offset b = {np.asarray(p['b'])} from samples "
-                f"{f['samples'][0]}..{f['samples'][1] - 1} (noise {np.asarray(f['noise'])})")
+        return (f"gyroscope offset b = {np.asarray(p['b'])} rad/s from samples "
+                f"{f['samples'][0]}..{f['samples'][1] - 1} (noise {np.asarray(f['noise'])} "
+                f"rad/s)")
     if sensor == "accel":
-        return (f"accelerometer: offset b = {np.asarray(p['b'])}, sensitivity "
+        return (f"accelerometer: offset b = {np.asarray(p['b'])} (the log's unit), sensitivity "
                 f"{np.asarray(f['sensitivity'])} per g; worst |a| error at the six "
                 f"positions {f['magnitude_error']:.2g} g")
-    return (f"magnetometer: hard iron h = {np.asarray(p['h'])}, soft iron S =\n"
+    return (f"magnetometer: hard iron h = {np.asarray(p['h'])} (the log's unit), soft iron S =\n"
             f"{np.asarray(p['S'])}\nfield strength {f['field']:.5g}, residual "
             f"{f['residual']:.3g} ({100 * f['residual'] / f['field']:.2f} % of the field)")

@@ -44,7 +44,8 @@ def _vario(args):
 def _calibrate(args):
     check_outputs([args.log], [("-o", args.output)])
     res = calibrate.run_log(args.sensor, args.log, args.output, gyr_unit=args.gyr_unit,
-                            ranges=args.ranges, threshold=args.threshold, method=args.method)
+                            ranges=args.ranges, threshold=args.threshold, method=args.method,
+                            longest_still=args.longest_still)
     print(calibrate.describe(args.sensor, res))
     print(f"-> {args.output}")
     return 0
@@ -86,6 +87,8 @@ def add_parsers(sub):
     c.add_argument("--threshold", type=float, metavar="X",
                    help="gyro: largest reading at rest (motion check); accel: stillness "
                    "threshold")
+    c.add_argument("--longest-still", action="store_true",
+                   help="gyro: use the longest still stretch of a recording that moved")
     c.add_argument("--method", choices=("ellipsoid", "minmax"), default="ellipsoid",
                    help="mag: least-squares ellipsoid (soft and hard iron) or the seed's "
                    "min/max (hard iron and per-axis scale)")
