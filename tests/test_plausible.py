@@ -86,3 +86,22 @@ def test_rate_that_contradicts_the_time_column(tmp_path):
                        capture_output=True, text=True)
     assert p.returncode == 0, p.stderr
     assert "--rate 100 Hz, but the file says 285.714 Hz" in p.stderr
+
+
+@pytest.mark.parametrize("given, want", [("NED", "ENU"), ("NWU", "ENU")])
+def test_a_wrong_reference_frame_is_named(tmp_path, given, want):
+    """The shipped example's reference is ENU: read as NED the inclination error is 179 deg,
+    as NWU the heading error 88 deg; the note names the frame that fits."""
+    p = subprocess.run([sys.executable, "-m", "imufuse", "run", example_log(), "-f",
+                        "MadgwickAHRS", "--ref-frame", given, "-o", str(tmp_path / "o.npz")],
+                       capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    assert f"against the reference as {given} (given)" in p.stderr
+    assert f"with --ref-frame {want} it would be" in p.stderr
+
+
+def test_no_frame_note_when_the_frame_is_right(tmp_path):
+    p = subprocess.run([sys.executable, "-m", "imufuse", "run", example_log(), "-f",
+                        "MadgwickAHRS", "-o", str(tmp_path / "o.npz")], capture_output=True,
+                       text=True)
+    assert p.returncode == 0 and "hint:" not in p.stderr and "note:" not in p.stderr, p.stderr

@@ -239,7 +239,8 @@ def test_broad_csv_through_compare_equals_an_independent_implementation(tmp_path
     head_nwu = float(next(ln for ln in r.stdout.splitlines()
                           if ln.startswith("MadgwickAHRS ")).split()[3])
     assert head_nwu > 45
-    assert "hint" not in r.stderr                 # the user said NWU
+    # the user said NWU, and the errors point at the mistake: the hint names the frame that fits
+    assert "against the reference as NWU (given)" in r.stderr and "--ref-frame ENU" in r.stderr
     # not said: a hint names the frame that fits
     r = imf("compare", csv, "-f", "MadgwickAHRS")
     assert r.returncode == 0 and "with --ref-frame ENU it would be" in r.stderr, r.stderr

@@ -359,22 +359,39 @@ def _euler_deg(q, chunk=65536):
 
 
 def _frame_hint(cls, est, log, args, ev):
-    """A hint when the reference frame was not said and another frame fits far
-    better (an ENU reference read as NWU gives ~90 deg heading errors)."""
-    if (getattr(args, "ref_frame", None) or log.ref_frame or cls.kind != "ahrs" or ev is None
-            or isinstance(ev, dict) or not ev.n or not ev.heading > 20):
+    """A hint when the errors point at a frame or direction mistake: an inclination or
+    heading error near 90 or 180 degrees that another reference frame or direction takes
+    down by more than half (an ENU reference read as NWU gives ~90 deg of heading, read as
+    NED ~180 deg of inclination). Said also when the frame was given: the option may be the
+    mistake."""
+    if cls.kind == "1d" or ev is None or isinstance(ev, dict) or not ev.n:
         return None
-    alt = {}
-    for fr in ("ENU", "NED"):
-        e = evaluate(est.q, log.q_ref, est_frame="NWU", ref_frame=fr,
-                     ref_direction=args.ref_direction, movement=_mask(log, args),
-                     per_sample=False)
-        alt[fr] = e.heading
-    fr = min(alt, key=alt.get)
-    if alt[fr] < 0.5 * ev.heading:
-        return (f"hint: the reference was taken as NWU (heading error {ev.heading:.1f} deg); "
-                f"with --ref-frame {fr} it would be {alt[fr]:.1f} deg: is the reference in {fr}?")
-    return None
+    heading = cls.kind == "ahrs"
+    worst = max(ev.inclination, ev.heading if heading else 0.0)
+    if not worst > 45.0:
+        return None
+    cur = (_ref_frame(args, log), args.ref_direction)
+    mask = _mask(log, args)
+    best = None
+    for fr in ("NWU", "ENU", "NED"):
+        for dr in ("sensor-to-earth", "earth-to-sensor"):
+            if (fr, dr) == cur:
+                continue
+            e = evaluate(est.q, log.q_ref, est_frame="NWU", ref_frame=fr, ref_direction=dr,
+                         movement=mask, remove_heading_offset=args.heading_offset,
+                         per_sample=False)
+            score = max(e.inclination, e.heading if heading else 0.0)
+            if best is None or score < best[0]:
+                best = (score, fr, dr)
+    if best is None or not best[0] < 0.5 * worst:
+        return None
+    said = ("given" if getattr(args, "ref_frame", None) else
+            "from the file" if log.ref_frame else "assumed")
+    opts = (f"--ref-frame {best[1]}" +
+            (f" --ref-direction {best[2]}" if best[2] != cur[1] else ""))
+    return (f"hint: against the reference as {cur[0]} ({said}), {cur[1]}, the error reaches "
+            f"{worst:.1f} deg; with {opts} it would be {best[0]:.1f} deg: is the reference in "
+            f"{best[1]}{', ' + best[2] if best[2] != cur[1] else ''}?")
 
 
 def _frame_q(q, frame):
