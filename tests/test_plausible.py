@@ -105,3 +105,20 @@ def test_no_frame_note_when_the_frame_is_right(tmp_path):
                         "MadgwickAHRS", "-o", str(tmp_path / "o.npz")], capture_output=True,
                        text=True)
     assert p.returncode == 0 and "hint:" not in p.stderr and "note:" not in p.stderr, p.stderr
+
+
+def test_tune_varies_what_acts_sorted_by_score():
+    """MadgwickIMU's acc_1g does nothing with the gate off: not varied (9 sets, not 81); the
+    table is sorted by the score, best first, with the log's full name."""
+    p = subprocess.run([sys.executable, "-m", "imufuse", "tune", example_log(), "-f",
+                        "MadgwickIMU", "--refine", "0", "-j", "2", "--quiet"],
+                       capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    assert "not varied (no effect with these settings): acc_1g" in p.stderr
+    assert "9 parameter sets" in p.stdout
+    lines = p.stdout.splitlines()
+    head = next(i for i, ln in enumerate(lines) if ln.startswith("-"))
+    rows = [ln for ln in lines[head + 1:] if ln and not ln.startswith("best")]
+    scores = [float(r.split()[1]) for r in rows]
+    assert scores == sorted(scores) and rows[0].endswith("<- best")
+    assert os.path.basename(example_log()) in lines[head - 1]

@@ -772,6 +772,31 @@ def _tune(args):
     names = [k for k, _ in grids]
     resolve_params(name, logs[0].dt, {**fixed, **{k: v[0] for k, v in grids}})  # names exist
     inputs = [_inputs(cls, lg, "x")[0] for lg in logs]
+    if not args.grid:
+        # vary only what acts: a parameter whose x10 leaves the first log's states unchanged
+        # (acc_1g with the accelerometer gate off) is left at its default, and said so
+        head = [np.asarray(a)[:4000] for a in inputs[0]]
+        eff = effective_params(name, resolve_params(name, 0.01, fixed))
+
+        def states(over):
+            r = Runner(name, logs[0], args, {**fixed, **over})
+            return r.filter.run(*head)
+        base = states({})
+        idle = []
+        for k in names:
+            try:
+                same = np.array_equal(states({k: eff[k] * 10.0}), base, equal_nan=True)
+            except FilterError:
+                same = False
+            if same:
+                idle.append(k)
+        if idle:
+            _err(f"note: not varied (no effect with these settings): {', '.join(idle)}")
+            grids = [(k, v) for k, v in grids if k not in idle]
+            names = [k for k, _ in grids]
+            if not grids:
+                raise UsageError(f"tune: no parameter of {name} acts with these settings; "
+                                 "give --grid")
 
     def score(values):
         over = {**fixed, **dict(zip(names, values))}
@@ -826,15 +851,18 @@ def _tune(args):
                               + (f"; e.g. {why}" if why else ""))
     print(f"{name} on {len(logs)} log{'s' if len(logs) > 1 else ''}: mean over logs of the "
           f"{metric} RMS (deg); {len(res)} parameter sets")
+    # the best first; every log by its full name
+    w = [max(len(os.path.basename(lg.path)), 8) for lg in logs]
     head = "  ".join(f"{k:>10s}" for k in names) + f"  {metric:>11s}" + "".join(
-        f"  {os.path.basename(lg.path)[:14]:>14s}" for lg in logs)
+        f"  {os.path.basename(lg.path):>{wi}s}" for lg, wi in zip(logs, w))
     print(head)
     print("-" * len(head))
     show = good if args.all else good[:args.top]
-    for p in sorted(show):
+    for p in show:
         s, evs = res[p]
         print("  ".join(f"{v:10.4g}" for v in p) + f"  {s:11.3f}" + "".join(
-            f"  {getattr(e, metric):14.3f}" for e in evs) + ("  <- best" if p == good[0] else ""))
+            f"  {getattr(e, metric):{wi}.3f}" for e, wi in zip(evs, w))
+            + ("  <- best" if p == good[0] else ""))
     best = good[0]
     print(f"best: {', '.join(f'{k}={v:.4g}' for k, v in zip(names, best))} "
           f"({metric} {res[best][0]:.3f} deg)")
