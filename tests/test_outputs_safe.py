@@ -131,9 +131,6 @@ def test_a_device_is_written_in_place_never_replaced(log):
     p = _cli("run", log, "-f", "MadgwickIMU", "-o", "/dev/full")
     assert p.returncode == 3 and "cannot write" in p.stderr
     assert stat.S_ISCHR(os.stat("/dev/full").st_mode)
-    for out in (os.devnull, os.devnull + ".npz"):
-        if out.endswith(".npz"):
-            continue
-        p = _cli("run", log, "-f", "MadgwickIMU", "-o", out)
-        assert p.returncode == 0, p.stderr
-        assert stat.S_ISCHR(os.stat(os.devnull).st_mode)
+    p = _cli("run", log, "-f", "MadgwickIMU", "-o", os.devnull)
+    assert p.returncode == 0, p.stderr
+    assert stat.S_ISCHR(os.stat(os.devnull).st_mode)
