@@ -153,3 +153,17 @@ def test_broad_delay_is_the_documented_two_milliseconds():
         d.append(estimate_latency(z["gyr"], z["quat_ref"], 1.0 / float(z["rate"])))
     assert len(d) == 7
     assert all(1.7e-3 < x < 2.2e-3 for x in d) and abs(np.mean(d) - 1.99e-3) < 0.05e-3
+
+
+def test_max_delay_is_bounded_by_the_data(rot):
+    """The search grid grows with max_delay: one beyond half the log is refused at once, not
+    a grid of 10^12 shifts (memory bounded by the data, not by the argument)."""
+    import time
+    t0 = time.perf_counter()
+    with pytest.raises(ValueError, match="more than half the log"):
+        estimate_latency(rot.gyr, rot.q_true, DT, max_delay=1e9)
+    assert time.perf_counter() - t0 < 5.0
+    span = (len(rot.gyr) - 1) * DT
+    assert abs(estimate_latency(rot.gyr, rot.q_true, DT, max_delay=0.1)) < 0.01 * DT
+    with pytest.raises(ValueError, match="more than half the log"):
+        estimate_latency(rot.gyr, rot.q_true, DT, max_delay=0.51 * span)

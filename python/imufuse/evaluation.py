@@ -289,6 +289,11 @@ def estimate_latency(gyr, q_ref, dt=None, *, t=None, ref_direction="sensor-to-ea
             raise ValueError("t: sample times must be finite and increasing")
     if n < 3:
         raise ValueError(f"too few samples to time ({n})")
+    span = float(t[-1] - t[0])
+    if max_delay > 0.5 * span:
+        # the search grid grows with max_delay: bounded by the data, not by the argument
+        raise ValueError(f"max_delay: {max_delay!r} s is more than half the log "
+                         f"({span:.6g} s); no shift that large can line up the samples")
     if ref_direction == "earth-to-sensor":
         q = quat_conj(q)
     h = np.diff(t)
