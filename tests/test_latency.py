@@ -158,11 +158,8 @@ def test_broad_delay_is_the_documented_two_milliseconds():
 def test_max_delay_is_bounded_by_the_data(rot):
     """The search grid grows with max_delay: one beyond half the log is refused at once, not
     a grid of 10^12 shifts (memory bounded by the data, not by the argument)."""
-    import time
-    t0 = time.perf_counter()
     with pytest.raises(ValueError, match="more than half the log"):
         estimate_latency(rot.gyr, rot.q_true, DT, max_delay=1e9)
-    assert time.perf_counter() - t0 < 5.0
     span = (len(rot.gyr) - 1) * DT
     assert abs(estimate_latency(rot.gyr, rot.q_true, DT, max_delay=0.1)) < 0.01 * DT
     with pytest.raises(ValueError, match="more than half the log"):
