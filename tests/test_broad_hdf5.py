@@ -77,3 +77,40 @@ def test_real_published_trial_equals_its_npz(tmp_path):
         assert "against the log's reference q (ENU)" in p.stderr
         out[name] = np.load(tmp_path / f"{name}.npz")
     assert all(np.array_equal(out["h5"][k], out["npz"][k]) for k in out["npz"].files)
+
+
+def _npz(path, **arrays):
+    base = dict(gyr=np.zeros((50, 3)), acc=np.tile([0, 0, 9.81], (50, 1)), rate=np.array(100.0))
+    base.update(arrays)
+    np.savez(path, **{k: v for k, v in base.items() if v is not None})
+    return str(path)
+
+
+@pytest.mark.parametrize("arrays, msg", [
+    (dict(rate=np.array([])), "rate has 0 values"),
+    (dict(rate=np.array(0.0)), "rate is 0.0"),
+    (dict(rate=np.array(np.nan)), "rate is nan"),
+    (dict(gyr=np.array(1.0)), "array gyr has shape ()"),
+    (dict(gyr=np.array([["a", "b", "c"]] * 50)), "array gyr holds <U1 values"),
+])
+def test_bad_npz_contents_are_data_errors(tmp_path, arrays, msg):
+    """exit 4 naming the file, the key and what was expected: never an internal error."""
+    p = _npz(tmp_path / "bad.npz", **arrays)
+    r = subprocess.run([sys.executable, "-m", "imufuse", "run", p, "-f", "MadgwickIMU"],
+                       capture_output=True, text=True)
+    assert r.returncode == 4 and msg in r.stderr and "bad.npz" in r.stderr, r.stderr
+
+
+def test_bad_hdf5_datasets_are_data_errors(tmp_path):
+    p = _write(str(tmp_path / "null.hdf5"))
+    with h5py.File(p, "a") as f:
+        del f["imu_mag"]
+        f.create_dataset("imu_mag", data=h5py.Empty("f8"))         # a null dataspace
+    q = _write(str(tmp_path / "link.hdf5"))
+    with h5py.File(q, "a") as f:
+        del f["imu_mag"]
+        f["imu_mag"] = h5py.ExternalLink(str(tmp_path / "missing.hdf5"), "/x")
+    for path in (p, q):
+        r = subprocess.run([sys.executable, "-m", "imufuse", "run", path, "-f", "MadgwickIMU"],
+                           capture_output=True, text=True)
+        assert r.returncode == 4 and "imu_mag" in r.stderr and "internal" not in r.stderr, r.stderr

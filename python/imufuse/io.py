@@ -553,13 +553,20 @@ def _read_arrays(path):
                 # file's attributes: BROAD as published states its rate as `sampling_rate`
                 z = {}
                 for k in _ARRAY_KEYS:
-                    if k in f and isinstance(f[k], h5py.Dataset):
-                        z[k] = np.asarray(f[k])
+                    try:
+                        if k in f and isinstance(f[k], h5py.Dataset):
+                            z[k] = np.asarray(f[k])
+                    except Exception as e:  # noqa: BLE001 - a link to a missing file, a null
+                        # dataspace, a damaged dataset: h5py raises many kinds of error
+                        raise LogError(f"{path}: dataset {k!r} cannot be read: "
+                                       f"{type(e).__name__}: {e}") from None
                 for k in ("rate", "sampling_rate"):
                     if k not in z and k in f.attrs:
                         z[k] = np.asarray(f.attrs[k])
                 keys_in_file = sorted(f.keys())
-        except (OSError, KeyError) as e:
+        except LogError:
+            raise
+        except Exception as e:  # noqa: BLE001 - not HDF5, or damaged
             raise LogError(f"{path}: not a readable HDF5 file: {e}") from None
         if not {"gyr", "imu_gyr"} & set(z) or not {"acc", "imu_acc"} & set(z):
             raise LogError(f"{path}: expected arrays gyr and acc (N, 3) (BROAD layout: imu_gyr, "
@@ -573,6 +580,11 @@ def _read_arrays(path):
     if parts["gyr"] is None or parts["acc"] is None:
         raise LogError(f"{path}: expected arrays gyr and acc (N, 3) (BROAD layout: gyr, acc, mag, "
                        f"quat_ref, movement, rate); found {', '.join(keys) or 'none'}")
+    for kind, a in parts.items():
+        if a is not None and a.dtype.kind not in "biuf":
+            raise LogError(f"{path}: array {kind} holds {a.dtype} values; expected numbers")
+    if parts["gyr"].ndim != 2:
+        raise LogError(f"{path}: array gyr has shape {parts['gyr'].shape}; expected (N, 3)")
     n = len(parts["gyr"])
     cols, sources = {}, {}
     for kind, names, width in (("gyr", GYR, 3), ("acc", ACC, 3), ("mag", MAG, 3),
@@ -594,7 +606,12 @@ def _read_arrays(path):
             sources[kind] = kind
     rate = parts["rate"]
     if rate is not None:
-        rate = float(np.asarray(rate).reshape(-1)[0])
+        if rate.size != 1:
+            raise LogError(f"{path}: rate has {rate.size} values (shape {rate.shape}); expected "
+                           "one sample rate in Hz")
+        rate = float(rate.reshape(-1)[0])
+        if not (math.isfinite(rate) and rate > 0 and math.isfinite(1.0 / rate)):
+            raise LogError(f"{path}: rate is {rate!r}; expected a finite sample rate > 0 Hz")
     return cols, keys, sources, rate
 
 
