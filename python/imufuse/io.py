@@ -335,6 +335,53 @@ _DELIMS = (",", ";", "\t", "|")
 _DEC_COMMA = re.compile(r"^\s*[-+]?\d+,\d+(?:[eE][-+]?\d+)?\s*$")
 
 
+def _nul_tail_start(path, block=1 << 20):
+    """Where the run of NUL bytes that ends the file starts (the file's size when it does not
+    end in NUL): SD-card loggers preallocate their files and fill them from the start. Read
+    backwards block by block: constant memory."""
+    size = os.path.getsize(path)
+    end = size
+    with open(path, "rb") as fh:
+        while end > 0:
+            start = max(0, end - block)
+            fh.seek(start)
+            chunk = fh.read(end - start)
+            stripped = chunk.rstrip(b"\0")
+            if stripped:
+                return start + len(stripped)
+            end = start
+    return 0
+
+
+def _lines_until_nul(fh, state, max_line=1 << 20):
+    """The text lines of fh up to the first NUL byte, read in pieces (a NUL-filled tail has no
+    newline to end a line): memory bounded by max_line, not by the file. state gets "nul"
+    (lines read before it) and "cut" (a partial row dropped before it)."""
+    buf = ""
+    n = 0
+    while True:
+        piece = fh.readline(1 << 16)
+        if not piece:
+            if buf:
+                yield buf
+            return
+        k = piece.find("\0")
+        if k >= 0:
+            buf += piece[:k]
+            state["nul"] = n
+            if buf.strip():
+                state["cut"] = buf.strip()[:40]
+            return
+        buf += piece
+        if buf.endswith("\n") or buf.endswith("\r"):
+            n += 1
+            yield buf
+            buf = ""
+        elif len(buf) > max_line:
+            raise LogError(f"a line longer than {max_line} characters after data line {n}: "
+                           "not a CSV log")
+
+
 def _open_text(path):
     """(encoding, first lines) of a text file; LogError when it is not one."""
     try:
@@ -349,6 +396,10 @@ def _open_text(path):
         if head.startswith(bom):
             enc = name
             break
+    if enc == "utf-8" and b"\0" in head:
+        k = head.index(b"\0")
+        if k > 0 and not head[k:].strip(b"\0") and _nul_tail_start(path) <= k:
+            head = head[:k]          # a preallocated file: text, then only NUL to the end
     if enc == "utf-8" and b"\0" in head:
         raise LogError(f"{path}: not a text (CSV) log: it contains NUL bytes "
                        "(expected a header row of column names)")
@@ -388,11 +439,12 @@ def _numbers_slow(path, enc, delim, header_line, idx, decimal_comma, loader_erro
     with open(path, newline="", encoding=enc) as fh:
         for _ in range(header_line):
             fh.readline()
+        lines = _lines_until_nul(fh, {})          # never into a NUL-filled tail
         if delim is None:
-            rows = ((ln.split()) for ln in fh)
+            rows = ((ln.split()) for ln in lines)
             reader = None
         else:
-            reader = csv.reader(fh, delimiter=delim)
+            reader = csv.reader(lines, delimiter=delim)
             rows = reader
         ln = header_line
         try:
@@ -482,6 +534,7 @@ def _read_csv(path, column_map, time_unit):
                            "from the comma delimiter; write the log with a decimal point, or with "
                            "';' or tabs between the values")
     usecols = sorted(set(found.values()))
+    nul_state: dict = {}
     try:
         with open(path, encoding=enc, newline="") as fh:
             for _ in range(header_line):
@@ -492,14 +545,22 @@ def _read_csv(path, column_map, time_unit):
                                comments="#")
             else:
                 width = len(data[0]) + 1 if data else 64     # bytes per row, first row
-                rows = int(os.path.getsize(path) / max(width, 8) * 1.05)
-                M = _loadtxt_blocks(fh, delim, usecols, rows)
+                # sized from the text, not from a NUL-filled tail of a preallocated file
+                rows = int(_nul_tail_start(path) / max(width, 8) * 1.05)
+                M = _loadtxt_blocks(_lines_until_nul(fh, nul_state), delim, usecols, rows)
+    except LogError as e:
+        raise LogError(f"{path}: {e}") from None
     except (ValueError, IndexError) as e:
         _numbers_slow(path, enc, delim, header_line, found, decimal_comma, e)
     except MemoryError:
         raise LogError(f"{path}: too large to read into memory") from None
     except (OSError, UnicodeDecodeError) as e:
         raise LogError(f"{path}: cannot read: {e}", "file") from None
+    if "nul" in nul_state:
+        notes.append(f"the file ends in NUL bytes after line "
+                     f"{header_line + nul_state['nul']} (a preallocated file): read up to there"
+                     + (f"; a row cut by them was dropped ({nul_state['cut']!r})"
+                        if "cut" in nul_state else ""))
     if M.shape[0] == 0:
         raise LogError(f"{path}: no data rows after the header")
     # columns are views of the one array the reader made (no copies: long logs

@@ -1,0 +1,50 @@
+"""A CSV log from a preallocated SD-card file: the rows, then NUL bytes to the end. Read up to
+the NUL tail with a note, in memory bounded by the rows (not the file's size); a row cut by
+the tail is dropped and named; NUL bytes inside the text are still an error."""
+import tracemalloc
+
+import numpy as np
+import pytest
+
+from imufuse import io, sim
+from imufuse.io import LogError, read_log
+
+
+@pytest.fixture
+def rows(tmp_path):
+    d = sim.imu("slow", rate=100.0, duration=10.0, seed=1)
+    p = tmp_path / "log.csv"
+    io.write_log(str(p), d.t, d.gyr, d.acc)
+    return p, d
+
+
+def test_a_nul_tail_is_the_end_of_the_log(rows):
+    p, d = rows
+    text = p.read_bytes()
+    with open(p, "ab") as fh:
+        fh.write(b"\0" * (40 << 20))                     # 40 MB of preallocated space
+    tracemalloc.start()
+    try:
+        log = read_log(str(p))
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert len(log) == len(d.t) and np.array_equal(log.gyr, np.asarray(d.gyr, dtype=np.float64))
+    assert any("ends in NUL bytes after line" in w for w in log.warnings), log.warnings
+    assert peak < 20e6, f"{peak / 1e6:.0f} MB for {len(text) / 1e6:.1f} MB of rows"
+
+
+def test_a_small_file_with_a_nul_tail_and_a_cut_row(tmp_path):
+    p = tmp_path / "small.csv"
+    p.write_bytes(b"time,gyr_x,gyr_y,gyr_z,acc_x,acc_y,acc_z\n0,0,0,0,0,0,1\n0.01,0,0,0,0,0,1\n"
+                  b"0.02,0,0," + b"\0" * 5000)
+    log = read_log(str(p))
+    assert len(log) == 2
+    assert any("a row cut by them was dropped ('0.02,0,0,')" in w for w in log.warnings)
+
+
+def test_nul_inside_the_text_is_still_an_error(tmp_path):
+    p = tmp_path / "mixed.csv"
+    p.write_bytes(b"time,gyr_x,gyr_y,gyr_z,acc_x,acc_y,acc_z\n0,0,0\0,0,0,0,1\n0.01,0,0,0,0,0,1\n")
+    with pytest.raises(LogError, match="NUL"):
+        read_log(str(p))
