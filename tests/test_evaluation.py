@@ -206,3 +206,18 @@ def test_blocks_and_per_sample_do_not_change_the_result(pair):
         assert getattr(b, k) == pytest.approx(getattr(a, k), rel=1e-12)
     assert (a.n, a.n_ref_nan, a.n_outside_mask) == (b.n, b.n_ref_nan, b.n_outside_mask)
     assert b.heading_offset == pytest.approx(a.heading_offset, rel=1e-12)
+
+
+def test_zero_reference_rows_are_excluded_and_counted_like_nan_rows():
+    """A zero reference row (a 'no tracking' marker) has no orientation: excluded and counted,
+    never a NaN score with ok=True; a zero estimate row makes the evaluation not ok."""
+    from imufuse.evaluation import evaluate
+    q = np.tile([1.0, 0.0, 0.0, 0.0], (10, 1))
+    r = q.copy()
+    r[3] = 0.0
+    r[7] = np.nan
+    e = evaluate(q, r, est_frame="NWU", ref_frame="NWU")
+    assert (e.n, e.n_ref_nan, e.total) == (8, 2, 0.0) and e.ok
+    q[5] = 0.0
+    e = evaluate(q, r, est_frame="NWU", ref_frame="NWU")
+    assert e.n_est_nan == 1 and not e.ok

@@ -113,7 +113,7 @@ class Evaluation:
     inclination: float
     n: int                          # samples counted
     n_samples: int                  # samples in the log
-    n_ref_nan: int                  # excluded: reference not finite (within the mask)
+    n_ref_nan: int                  # excluded: reference not finite or zero (within the mask)
     n_outside_mask: int             # excluded: movement mask false
     n_est_nan: int                  # counted samples whose estimate is not finite
     heading_offset: float = 0.0     # deg, removed from the heading (0 unless asked)
@@ -134,7 +134,7 @@ class Evaluation:
         if self.n_outside_mask:
             excl.append(f"{self.n_outside_mask} outside the movement mask")
         if self.n_ref_nan:
-            excl.append(f"{self.n_ref_nan} with a NaN reference")
+            excl.append(f"{self.n_ref_nan} with a NaN reference")   # (or a zero one)
         if excl:
             s += f" ({', '.join(excl)} excluded)"
         if self.heading_offset:
@@ -174,11 +174,14 @@ def evaluate(q_est, q_ref, *, est_frame="NWU", ref_frame="ENU",
                 raise ValueError("movement: must be boolean (0/1) values")
             m = m.astype(bool)
         mask = m.copy()
-    ref_ok = np.all(np.isfinite(q_ref), axis=1)
+    # a reference row is missing when it is not finite or is (near) zero: a zero row is the
+    # "no tracking" marker of some systems and has no orientation; both are excluded and counted
+    with np.errstate(all="ignore"):
+        ref_ok = np.all(np.isfinite(q_ref), axis=1) & (np.einsum("ij,ij->i", q_ref, q_ref) > 1e-12)
+        est_ok = np.all(np.isfinite(q_est), axis=1) & (np.einsum("ij,ij->i", q_est, q_est) > 1e-12)
     n_outside = int(np.count_nonzero(~mask))
     n_ref_nan = int(np.count_nonzero(mask & ~ref_ok))
     use = mask & ref_ok
-    est_ok = np.all(np.isfinite(q_est), axis=1)
     n_est_nan = int(np.count_nonzero(use & ~est_ok))
     idx = np.flatnonzero(use)
 
