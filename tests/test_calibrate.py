@@ -239,3 +239,19 @@ def test_cli_calibrate(tmp_path):
         assert r.returncode == 4 and "never turned" in r.stderr, r.stderr
         assert out.read_bytes() == before
     assert imf("calibrate", "mag", tmp_path / "none.csv", "-o", out).returncode == 3
+
+
+def test_coverage_is_checked_with_numbers():
+    """Readings from a cap of directions (a unit turned a little) or a few noisy rows do not
+    give a calibration: refused with the axis, the sample and how far off the axis it was."""
+    rng = np.random.default_rng(0)
+    v = rng.normal(size=(200000, 3))
+    v /= np.linalg.norm(v, axis=1, keepdims=True)
+    cap = v[v[:, 2] > np.cos(np.radians(18.0))] * FIELD + H_TRUE
+    for fit in (cal.mag_minmax, cal.mag_ellipsoid):
+        with pytest.raises(ValueError, match=r"do not cover the directions: where [+-][xyz] is "
+                                             r"(largest|smallest) \(sample \d+\) the other axes "
+                                             r"are 0\.\d\d of the field"):
+            fit(cap)
+    with pytest.raises(ValueError, match="do not cover the directions"):
+        cal.mag_minmax(rng.normal(size=(12, 3)) + H_TRUE)

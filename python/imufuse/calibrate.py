@@ -231,6 +231,22 @@ def _check_turned(m, lo, hi):
                          "axes (a figure of 8 in three dimensions)")
 
 
+def _check_coverage(u, what):
+    """u: calibrated readings in units of the field (unit sphere when the fit is right). A
+    calibration needs each axis to have pointed along the field: at the reading where an axis
+    is largest (and smallest), the two others must be small. Readings from a cap of directions
+    (a unit that turned a little) put the extremes off the axes."""
+    for j, ax in enumerate("xyz"):
+        for k, sign in ((int(np.argmax(u[:, j])), "+"), (int(np.argmin(u[:, j])), "-")):
+            others = float(np.hypot(*np.delete(u[k], j)))
+            if not others < 0.75:
+                raise ValueError(
+                    f"mag: {what}: the readings do not cover the directions: where {sign}{ax} is "
+                    f"{'largest' if sign == '+' else 'smallest'} (sample {k}) the other axes are "
+                    f"{others:.2f} of the field (below 0.75 when {sign}{ax} points near it); "
+                    "turn the unit about all three axes (a figure of 8 in three dimensions)")
+
+
 def mag_minmax(mag, field=None):
     """The seed's hard-iron calibration: h = (max + min)/2 per axis and a
     per-axis scale (max - min)/2; S = diag(field / scale) with field the
@@ -244,6 +260,7 @@ def mag_minmax(mag, field=None):
     f = float(scale.mean()) if field is None else float(field)
     S = np.diag(f / scale)
     cal = Calibration("mag", dict(S=S, h=h))
+    _check_coverage((m - h) / scale, "min/max")
     r = np.linalg.norm(cal.apply(m), axis=1)
     return Calibration("mag", cal.params, dict(field=f, scale=scale.tolist(),
                                                residual=float(np.sqrt(np.mean((r - f) ** 2))),
@@ -284,6 +301,7 @@ def mag_ellipsoid(mag, field=None):
     f = float(np.prod(radii) ** (1.0 / 3.0)) if field is None else float(field)
     S = f / sc * (V @ np.diag(np.sqrt(w)) @ V.T)
     cal = Calibration("mag", dict(S=S, h=h))
+    _check_coverage(cal.apply(m) / f, "ellipsoid")
     r = np.linalg.norm(cal.apply(m), axis=1)
     figures = dict(field=f, radii=sorted(radii.tolist()),
                    residual=float(np.sqrt(np.mean((r - f) ** 2))), field_spread=float(r.std()))
