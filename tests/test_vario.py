@@ -277,3 +277,20 @@ def test_hypothesis_sequences(case, dtype):
         assert c.skipped == ref.skipped
 
     check()
+
+
+@pytest.mark.parametrize("backend", ["c", "ref"])
+def test_run_refuses_what_update_refuses(backend):
+    """run(acc, baro, None) skipped every sample and returned zeros; complex values lost their
+    imaginary part, objects and strings became NaN: refused, as update() refuses them."""
+    import imufuse_c
+    from imufuse import reference
+    cls = (imufuse_c if backend == "c" else reference).VarioKF
+    z = np.zeros(5)
+    for args, msg in [((z, z, None), "dt: give the sample period"),
+                      ((z.astype(complex), z, 0.01), "accel: expected real numbers"),
+                      ((z, [None] * 5, 0.01), "baro_alt: expected real numbers"),
+                      ((z, z, np.array(["0.01"] * 5)), "dt: expected real numbers")]:
+        with pytest.raises(ValueError, match=msg):
+            cls().run(*args)
+    assert cls().run(z, z, 0.01).shape == (5, 9)

@@ -27,7 +27,16 @@ VAR_Z, VAR_ACC, VAR_BIAS, P0 = 300.0, 200.0, 1.0, (1.0, 1.0, 1e5)
 
 def inputs(dtype, accel, baro_alt, dt):
     """run() arguments of VarioKF: accel and baro_alt 1-D arrays, dt a scalar
-    or an array of their length; returns three contiguous arrays of dtype."""
+    or an array of their length; returns three contiguous arrays of dtype. Real numbers
+    only, as update() takes: None, strings, objects and complex values are refused (not
+    converted to NaN or cut to their real part)."""
+    if dt is None:
+        raise ValueError("dt: give the sample period(s) in s, a scalar or an array (got None)")
+    for name, v in (("accel", accel), ("baro_alt", baro_alt), ("dt", dt)):
+        kind = np.asarray(v).dtype.kind
+        if kind not in "biuf":
+            raise ValueError(f"{name}: expected real numbers, got an array of "
+                             f"{np.asarray(v).dtype}")
     accel = np.ascontiguousarray(accel, dtype=dtype)
     baro_alt = np.ascontiguousarray(baro_alt, dtype=dtype)
     dt_a = np.asarray(dt, dtype=dtype)
