@@ -132,7 +132,17 @@ cdef int _unbound(object f) except -1:
     raise TypeError(f"{type(f).__name__}: object not initialised (__init__ was not called)")
 
 
+def _rebuild(cls, ctor, x, skipped, pending, win):
+    """Unpickle / copy a filter: constructed as it was, then its state bytes, skipped count
+    and a pending init="first" window restored as they were (it continues bit for bit)."""
+    args, kwargs = ctor
+    f = cls(*args, **kwargs)
+    (<_Filter>f)._restore(x, skipped, pending, win)
+    return f
+
+
 cdef class _Filter:
+    cdef tuple _ctor
     cdef char *_x
     cdef Py_ssize_t _n
     cdef uint32_t *_skipped
@@ -147,6 +157,10 @@ cdef class _Filter:
     dtype = DTYPE
 
     def __init__(self, *args, init="identity", init_window=1, q0=None, state=None, **kwargs):
+        start = {k: v for k, v, d in (("init", init, "identity"), ("init_window", init_window, 1),
+                                      ("q0", q0, None), ("state", state, None))
+                 if not (v is d or (isinstance(v, (str, int)) and v == d))}
+        self._ctor = (args, dict(kwargs, **start))
         self._args = self._ref._checked_params(DTYPE, *args, **kwargs)
         # the C init arguments by name (the reference _init's = the C init's names)
         self._kw = _init_arguments(self._ref, self._args)
@@ -200,6 +214,30 @@ cdef class _Filter:
             self._set_attitude(&att)
             if self._win.n >= self._win.window:
                 self._pending = 0
+
+    # ---- filters are values: copy, deepcopy and pickle continue bit for bit
+    def __reduce__(self):
+        if self._x == NULL:
+            _unbound(self)
+        return (_rebuild, (type(self), self._ctor,
+                           (<char *>self._x)[:self._n * sizeof(imf_real)], self._skipped[0],
+                           self._pending, (<char *>&self._win)[:sizeof(self._win)]))
+
+    def __copy__(self):
+        fn, args = self.__reduce__()
+        return fn(*args)
+
+    def __deepcopy__(self, memo):
+        return self.__copy__()
+
+    cdef int _restore(self, bytes x, uint32_t skipped, int pending, bytes win) except -1:
+        if len(x) != self._n * <Py_ssize_t>sizeof(imf_real) or len(win) != sizeof(self._win):
+            raise ValueError(f"{type(self).__name__}: pickled state of another build")
+        memcpy(self._x, <const char *>x, len(x))
+        self._skipped[0] = skipped
+        self._pending = pending
+        memcpy(&self._win, <const char *>win, len(win))
+        return 0
 
     cdef int _bind(self, void *x, size_t size, uint32_t *skipped) except -1:
         if size != <size_t>self._n * sizeof(imf_real):

@@ -20,7 +20,16 @@ cdef int _unbound(object f) except -1:
     raise TypeError(f"{type(f).__name__}: object not initialised (__init__ was not called)")
 
 
+def _rebuild_fixed(cls, ctor, x):
+    """Unpickle / copy a fixed-point filter: constructed as it was, its state bytes restored."""
+    args, kwargs = ctor
+    f = cls(*args, **kwargs)
+    (<_FixedFilter>f)._restore(x)
+    return f
+
+
 cdef class _FixedFilter:
+    cdef tuple _ctor
     cdef int32_t *_x
     cdef Py_ssize_t _n
     cdef tuple _args
@@ -31,6 +40,7 @@ cdef class _FixedFilter:
     dtype = "int32"
 
     def __init__(self, *args, profile="32", **kwargs):
+        self._ctor = (args, dict(kwargs, profile=profile))
         # the reference instance validates the arguments and converts states
         self._conv = self._ref(*args, profile=profile, **kwargs)
         self._args = self._conv._args
@@ -42,6 +52,25 @@ cdef class _FixedFilter:
 
     cdef int _init(self) except -1:
         raise NotImplementedError
+
+    def __reduce__(self):
+        if self._x == NULL:
+            raise TypeError(f"{type(self).__name__}: object not initialised")
+        return (_rebuild_fixed, (type(self), self._ctor,
+                                 (<char *>self._x)[:self._n * sizeof(int32_t)]))
+
+    def __copy__(self):
+        fn, args = self.__reduce__()
+        return fn(*args)
+
+    def __deepcopy__(self, memo):
+        return self.__copy__()
+
+    cdef int _restore(self, bytes x) except -1:
+        if len(x) != self._n * <Py_ssize_t>sizeof(int32_t):
+            raise ValueError(f"{type(self).__name__}: pickled state of another build")
+        memcpy(self._x, <const char *>x, len(x))
+        return 0
 
     cdef int _bind(self, void *x, size_t size, int rc) except -1:
         if rc != 0:

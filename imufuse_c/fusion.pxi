@@ -89,6 +89,10 @@ cdef int _settings_from(tuple a, imf_fusion_ahrs_settings_t *st) except -1:
     return 0
 
 
+def _empty(cls):
+    return cls.__new__(cls)
+
+
 cdef class FusionAHRS:
     cdef imf_fusion_ahrs_t s
     cdef tuple _args
@@ -114,6 +118,26 @@ cdef class FusionAHRS:
     def reset(self):
         """Back to the initial state, keeping the settings (FusionAhrsReset)."""
         imf_fusion_ahrs_reset(&self.s)
+
+    # a value: the whole C struct (settings and state, no pointers) is copied as it is
+    def __reduce__(self):
+        return (_empty, (type(self),), (self._args, (<char *>&self.s)[:sizeof(self.s)]))
+
+    def __setstate__(self, st):
+        args, raw = st
+        if len(raw) != sizeof(self.s):
+            raise ValueError("FusionAHRS: pickled state of another build")
+        self._args = args
+        memcpy(&self.s, <const char *>raw, sizeof(self.s))
+
+    def __copy__(self):
+        fn, a, st = self.__reduce__()
+        f = fn(*a)
+        f.__setstate__(st)
+        return f
+
+    def __deepcopy__(self, memo):
+        return self.__copy__()
 
     def set_settings(self, **settings):
         """New settings at any time (FusionAhrsSetSettings): the state is kept."""
@@ -282,6 +306,25 @@ cdef class FusionOffset:
 
     def reset(self):
         imf_fusion_offset_init(&self.s, self._args[0])
+
+    def __reduce__(self):
+        return (_empty, (type(self),), (self._args, (<char *>&self.s)[:sizeof(self.s)]))
+
+    def __setstate__(self, st):
+        args, raw = st
+        if len(raw) != sizeof(self.s):
+            raise ValueError("FusionOffset: pickled state of another build")
+        self._args = args
+        memcpy(&self.s, <const char *>raw, sizeof(self.s))
+
+    def __copy__(self):
+        fn, a, st = self.__reduce__()
+        f = fn(*a)
+        f.__setstate__(st)
+        return f
+
+    def __deepcopy__(self, memo):
+        return self.__copy__()
 
     @property
     def skipped(self):

@@ -17,9 +17,27 @@ cdef extern from "vario.h" nogil:
 from imufuse.reference import vario as _vario_ref
 
 
+def _rebuild_vario(cls, ctor, raw):
+    """Unpickle / copy a VarioKF: constructed as it was, then its whole C struct (the state,
+    the skipped count and whether z0 is still to come from the first barometer sample)."""
+    args, kwargs = ctor
+    f = cls(*args, **kwargs)
+    (<VarioKF>f)._restore_raw(raw)
+    return f
+
+
 cdef class VarioKF(_Filter):
     _ref = _reference.VarioKF
     cdef imf_vario_t s
+
+    def __reduce__(self):
+        return (_rebuild_vario, (type(self), self._ctor, (<char *>&self.s)[:sizeof(self.s)]))
+
+    cdef int _restore_raw(self, bytes raw) except -1:
+        if len(raw) != sizeof(self.s):
+            raise ValueError("VarioKF: pickled state of another build")
+        memcpy(&self.s, <const char *>raw, sizeof(self.s))
+        return 0
 
     def __init__(self, *args, **kwargs):
         _vario_ref.check_start(kwargs)

@@ -26,6 +26,8 @@ init_window), q0= or state=; see _checks.check_start and attitude.py.
 import inspect
 import math
 
+import copy
+
 import numpy as np
 
 from .. import _checks
@@ -43,6 +45,10 @@ class ReferenceFilter:
     c_name = ""
     state_names: tuple = ()
 
+
+    def __copy__(self):
+        """A copy is an independent filter (a shallow copy would share the state's lists)."""
+        return copy.deepcopy(self)
     def __init__(self, *args, dtype="float64", init="identity", init_window=1, q0=None,
                  state=None, **kwargs):
         self.dtype = _checks.check_dtype(dtype)

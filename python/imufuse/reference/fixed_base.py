@@ -24,6 +24,8 @@ imf_<filter>_init_consts (integer only, identical on every target).
 """
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 
 from .. import _checks
@@ -112,6 +114,10 @@ class FixedFilter:
     state_names: tuple = ()
     dtype = "int32"
 
+
+    def __copy__(self):
+        """A copy is an independent filter (a shallow copy would share the state's lists)."""
+        return copy.deepcopy(self)
     def c_init_args(self) -> dict:
         """The arguments of <c_name>_init_consts after the filter pointer, by C parameter
         name: ints, and ci.QScale for imf_qscale_t.  The same constants the host's

@@ -43,7 +43,12 @@ F64_MAX = float(np.finfo(np.float64).max)
 class _Ops:
     """fusion_math.h for one precision: R, the transcendentals, pi."""
 
+    def __reduce__(self):
+        # the libm wrappers are rebuilt for the precision (they cannot be pickled)
+        return (_Ops, (self._dtype,))
+
     def __init__(self, dtype):
+        self._dtype = dtype
         if dtype == "float32":
             R = np.float32
             self.sin = lambda x: R(_libm.sinf(float(x)))
