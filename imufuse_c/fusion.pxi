@@ -141,6 +141,7 @@ cdef class FusionAHRS:
 
     def set_settings(self, **settings):
         """New settings at any time (FusionAhrsSetSettings): the state is kept."""
+        _fusion.check_settings(settings)
         names = ("convention", "gain", "gyroscope_range", "acceleration_rejection",
                  "magnetic_rejection", "recovery_trigger_period")
         a = self._args

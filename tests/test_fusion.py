@@ -338,3 +338,18 @@ def test_model_parameter_errors(mod):
         mod.calibrate_magnetic(np.zeros((4, 2)), np.eye(3), [0, 0, 0])
 
 
+
+
+@pytest.mark.parametrize("backend", ["c", "ref"])
+def test_set_settings_names_what_it_changes(backend):
+    """invsqrt is chosen at construction (as the C init takes it): set_settings refuses it, and
+    unknown names, with the six settings it does change (it raised 'multiple values for
+    keyword argument')."""
+    import imufuse_c
+    from imufuse import reference
+    f = (imufuse_c if backend == "c" else reference).FusionAHRS()
+    with pytest.raises(ValueError, match=r"invsqrt: chosen at construction.*convention, gain"):
+        f.set_settings(invsqrt="fast")
+    with pytest.raises(ValueError, match="gian: not a setting of FusionAHRS"):
+        f.set_settings(gian=0.3)
+    f.set_settings(gain=0.3)

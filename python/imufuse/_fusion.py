@@ -228,3 +228,20 @@ def model_param(name, value, shape, dtype):
     if not np.all(np.isfinite(arr)):
         raise ValueError(f"{name}: must be finite")
     return np.ascontiguousarray(arr.reshape(-1))
+
+
+#: what FusionAHRS.set_settings changes (FusionAhrsSettings); invsqrt is set at construction
+SETTINGS = ("convention", "gain", "gyroscope_range", "acceleration_rejection",
+            "magnetic_rejection", "recovery_trigger_period")
+
+
+def check_settings(settings):
+    """set_settings' keywords: the six Fusion settings; invsqrt (chosen at construction, as in
+    the C init) and unknown names are refused with the names that can be set."""
+    for k in settings:
+        if k == "invsqrt":
+            raise ValueError("invsqrt: chosen at construction (FusionAHRS(..., invsqrt=...)); "
+                             f"set_settings changes {', '.join(SETTINGS)}")
+        if k not in SETTINGS:
+            raise ValueError(f"{k}: not a setting of FusionAHRS; set_settings changes "
+                             f"{', '.join(SETTINGS)}")

@@ -278,6 +278,7 @@ class FusionAHRS:
     def set_settings(self, **settings):
         """New settings at any time, Fusion's FusionAhrsSetSettings: the state
         is kept (a finished ramp jumps to the new gain)."""
+        _fusion.check_settings(settings)
         cur = dict(zip(("convention", "gain", "gyroscope_range", "acceleration_rejection",
                         "magnetic_rejection", "recovery_trigger_period"), self._user))
         cur.update(settings)
