@@ -542,6 +542,15 @@ def counts_for(kind: str, params: Mapping[str, Any], inputs: Sequence[Any]) -> L
     return out
 
 
+def _state_names(fw, name, e):
+    """The firmware's state names, which must be the imufuse filter's."""
+    names = tuple(fw.state)
+    if set(names) != set(e.state_names):
+        raise FirmwareError(f"state mapping names {list(names)}; {name} has state "
+                            f"{list(e.state_names)}")
+    return names
+
+
 def _strip_arch(flags):
     return [f for f in flags if not f.startswith(("-mmcu", "-mcpu", "-mfpu", "-mfloat-abi",
                                                   "-mthumb", "-march", "-mtune"))]
@@ -603,10 +612,7 @@ def validate(fw: "Firmware", name: str, params: Mapping[str, Any], inputs: Seque
         return _validate_target(fw, name, params, inputs, backend, dtype, target, timeout, explain)
     e = _filter_entry(name)
     c_args = e.reference._params(**params)
-    names = tuple(fw.state)
-    if set(names) != set(e.state_names):
-        raise FirmwareError(f"state mapping names {list(names)}; {name} has state "
-                            f"{list(e.state_names)}")
+    names = _state_names(fw, name, e)
     fw_dtype = fw.dtype(e.kind, c_args, params)
     integer = np.dtype(fw_dtype).kind in "iu"
     if integer != e.fixed:
@@ -694,10 +700,7 @@ def _validate_target(fw, name, params, inputs, backend, dtype, target, timeout, 
                      cflags=None):
     e = _filter_entry(name)
     c_args = e.reference._params(**params)
-    names = tuple(fw.state)
-    if set(names) != set(e.state_names):
-        raise FirmwareError(f"state mapping names {list(names)}; {name} has state "
-                            f"{list(e.state_names)}")
+    names = _state_names(fw, name, e)
     flags = list(cflags if cflags is not None else
                  (fw.cflags_given if fw.cflags_given is not None else ft.DEFAULT_TARGET_CFLAGS))
     init_values = fw._init_values(c_args, params) if fw.init else []

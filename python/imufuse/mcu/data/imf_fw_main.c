@@ -105,10 +105,10 @@ static IMF_NOINLINE void imf_step_empty(void)
     __asm__ volatile("" ::: "memory");
 }
 
-#if defined(__arm__)
-/* exit() of the firmware (newlib): named in the output, then the emulation ends */
-void _exit(int status);
-void _exit(int status)
+/* exit() of the firmware, named in the output, then the emulation ends: newlib's exit() calls
+ * _exit (ARM); avr-libc's would end in a loop with interrupts off, so exit itself is replaced. */
+#if defined(__arm__) || defined(__AVR__)
+static void imf_fw_exit(int status)
 {
     imf_port_write("\nIMF_EXIT ");
     imf_out_i32((int32_t)status);
@@ -118,16 +118,18 @@ void _exit(int status)
     for (;;) {
     }
 }
+#endif
+#if defined(__arm__)
+void _exit(int status);
+void _exit(int status)
+{
+    imf_fw_exit(status);
+}
 #elif defined(__AVR__)
-/* exit() of the firmware (avr-libc ends in a loop with interrupts off): named in the output */
 void exit(int status) __attribute__((noreturn));
 void exit(int status)
 {
-    imf_port_write("\nIMF_EXIT ");
-    imf_out_i32((int32_t)status);
-    imf_out_char('\n');
-    imf_out_flush();
-    imf_port_exit(1);
+    imf_fw_exit(status);
     for (;;) {
     }
 }
