@@ -6,13 +6,13 @@
 #include "madgwick.h"
 
 /* The settings that depend on the sample period dt (s). */
-static void madgwick_set_dt(imf_madgwick_settings_t *const set, const imf_real dt)
+static void madgwick_set_dt(imf_madgwick_consts_t *const set, const imf_real dt)
 {
     set->dt = dt;
 }
 
 /* Settings and initial state shared by both filters. */
-static void madgwick_init(imf_madgwick_settings_t *const set, uint32_t *const skipped,
+static void madgwick_init(imf_madgwick_consts_t *const set, uint32_t *const skipped,
                           imf_madgwick_state_t *const x, const imf_real dt, const imf_real beta,
                           const int delta_s, const int invsqrt, const imf_real acc_gate_lo,
                           const imf_real acc_gate_hi, const imf_real acc_1g)
@@ -31,21 +31,39 @@ static void madgwick_init(imf_madgwick_settings_t *const set, uint32_t *const sk
     x->q3 = IMF_R(0.0);
 }
 
-void imf_madgwick_imu_init(imf_madgwick_imu_t *const self, const imf_real dt,
-                           const imf_real beta, const int delta_s, const int invsqrt,
-                           const imf_real acc_gate_lo, const imf_real acc_gate_hi,
-                           const imf_real acc_1g)
+void imf_madgwick_imu_default_settings(imf_madgwick_imu_settings_t *const settings)
 {
-    madgwick_init(&self->set, &self->skipped, &self->x, dt, beta, delta_s, invsqrt,
-                  acc_gate_lo, acc_gate_hi, acc_1g);
+    settings->dt = IMF_R(0.01);
+    settings->beta = IMF_R(0.1);
+    settings->delta_s = IMF_MADGWICK_DS_FULL;
+    settings->invsqrt = IMF_INVSQRT_EXACT;
+    settings->acc_gate_lo = IMF_R(-1.0);
+    settings->acc_gate_hi = IMF_R(0.0);
+    settings->acc_1g = IMF_R(1.0);
 }
 
-void imf_madgwick_ahrs_init(imf_madgwick_ahrs_t *const self, const imf_real dt,
-                            const imf_real beta, const int invsqrt, const imf_real acc_gate_lo,
-                            const imf_real acc_gate_hi, const imf_real acc_1g)
+void imf_madgwick_ahrs_default_settings(imf_madgwick_ahrs_settings_t *const settings)
 {
-    madgwick_init(&self->set, &self->skipped, &self->x, dt, beta, IMF_MADGWICK_DS_FULL,
-                  invsqrt, acc_gate_lo, acc_gate_hi, acc_1g);
+    settings->dt = IMF_R(0.01);
+    settings->beta = IMF_R(0.1);
+    settings->invsqrt = IMF_INVSQRT_EXACT;
+    settings->acc_gate_lo = IMF_R(-1.0);
+    settings->acc_gate_hi = IMF_R(0.0);
+    settings->acc_1g = IMF_R(1.0);
+}
+
+void imf_madgwick_imu_init(imf_madgwick_imu_t *const self,
+                           const imf_madgwick_imu_settings_t *const s)
+{
+    madgwick_init(&self->set, &self->skipped, &self->x, s->dt, s->beta, s->delta_s, s->invsqrt,
+                  s->acc_gate_lo, s->acc_gate_hi, s->acc_1g);
+}
+
+void imf_madgwick_ahrs_init(imf_madgwick_ahrs_t *const self,
+                            const imf_madgwick_ahrs_settings_t *const s)
+{
+    madgwick_init(&self->set, &self->skipped, &self->x, s->dt, s->beta, IMF_MADGWICK_DS_FULL,
+                  s->invsqrt, s->acc_gate_lo, s->acc_gate_hi, s->acc_1g);
 }
 
 void imf_madgwick_imu_set_acc_gate(imf_madgwick_imu_t *const self, const imf_real acc_gate_lo,
@@ -207,7 +225,7 @@ static void madgwick_ds_ahrs(const imf_madgwick_state_t *const x, const imf_real
 /* Steps 5 and 6: normalise ds, dq' = dq - beta ds. A zero (or subnormal)
    ds is the exact optimum: it has no direction and is left as it is (no
    correction). Returns 0 if ds overflowed (the sample is rejected). */
-static int madgwick_feedback(const imf_madgwick_settings_t *const set, imf_real s[4],
+static int madgwick_feedback(const imf_madgwick_consts_t *const set, imf_real s[4],
                              imf_real dq[4])
 {
     if (imf_normalise4(&s[0], &s[1], &s[2], &s[3], set->invsqrt) == IMF_NORM_HUGE) {
@@ -222,7 +240,7 @@ static int madgwick_feedback(const imf_madgwick_settings_t *const set, imf_real 
 
 /* Steps 7 and 8: q_n = q_{n-1} + dq' dt, then normalise. Returns 0 when q
    cannot be normalised (the sample is rejected). */
-static int madgwick_integrate(const imf_madgwick_settings_t *const set,
+static int madgwick_integrate(const imf_madgwick_consts_t *const set,
                                imf_madgwick_state_t *const x, const imf_real dq[4])
 {
     x->q0 += dq[0] * set->dt;
@@ -233,7 +251,7 @@ static int madgwick_integrate(const imf_madgwick_settings_t *const set,
 }
 
 /* One update; returns 0 if a normalisation failed (the sample is rejected). */
-static int madgwick_imu_step(const imf_madgwick_settings_t *const set,
+static int madgwick_imu_step(const imf_madgwick_consts_t *const set,
                               imf_madgwick_state_t *const x, const imf_real gx,
                               const imf_real gy, const imf_real gz, imf_real ax, imf_real ay,
                               imf_real az)
@@ -258,7 +276,7 @@ static int madgwick_imu_step(const imf_madgwick_settings_t *const set,
     return madgwick_integrate(set, x, dq);
 }
 
-static int madgwick_ahrs_step(const imf_madgwick_settings_t *const set,
+static int madgwick_ahrs_step(const imf_madgwick_consts_t *const set,
                                imf_madgwick_state_t *const x, const imf_real gx,
                                const imf_real gy, const imf_real gz, imf_real ax, imf_real ay,
                                imf_real az, imf_real mx, imf_real my, imf_real mz)

@@ -47,7 +47,7 @@ typedef struct {
     imf_real q0, q1, q2, q3; /* attitude quaternion, sensor -> earth, w first */
 } imf_madgwick_state_t;
 
-/* Settings, converted once by init. */
+/* Internal: the settings as init converts them once (read by the update). */
 typedef struct {
     imf_real dt;   /* sample period, s */
     imf_real beta; /* gradient step gain, rad/s */
@@ -55,10 +55,10 @@ typedef struct {
     int invsqrt;   /* IMF_INVSQRT_EXACT or IMF_INVSQRT_FAST */
     int acc_gate;  /* nonzero: correct only when acc_lo2 <= |a|^2 <= acc_hi2 */
     imf_real acc_lo2, acc_hi2; /* squared gate bounds, accelerometer unit^2 */
-} imf_madgwick_settings_t;
+} imf_madgwick_consts_t;
 
 typedef struct {
-    imf_madgwick_settings_t set;
+    imf_madgwick_consts_t set;
     uint32_t skipped; /* samples rejected by the non-finite policy */
     imf_madgwick_state_t x;
 } imf_madgwick_imu_t;
@@ -66,25 +66,52 @@ typedef struct {
 /* Same settings (delta_s always full) and state; the update falls back to
    the IMU update when the magnetometer reads all zero. */
 typedef struct {
-    imf_madgwick_settings_t set;
+    imf_madgwick_consts_t set;
     uint32_t skipped; /* samples rejected by the non-finite policy */
     imf_madgwick_state_t x;
 } imf_madgwick_ahrs_t;
 
-/* dt: s; beta: rad/s; delta_s: IMF_MADGWICK_DS_*; invsqrt: IMF_INVSQRT_*;
-   acc_gate_lo, acc_gate_hi: the accelerometer gate in units of acc_1g (1 g
-   in the accelerometer's unit), acc_gate_lo < 0: off. q = (1, 0, 0, 0). */
-void imf_madgwick_imu_init(imf_madgwick_imu_t *self, imf_real dt, imf_real beta, int delta_s,
-                           int invsqrt, imf_real acc_gate_lo, imf_real acc_gate_hi,
-                           imf_real acc_1g);
+/* The settings of imf_madgwick_imu_init. Start from
+   imf_madgwick_imu_default_settings(), then set dt (and what else differs). */
+typedef struct {
+    imf_real dt;          /* sample period, s; > 0 (default 0.01: 100 Hz) */
+    imf_real beta;        /* gradient step gain, rad/s; >= 0, beta dt <= 0.1 (default 0.1,
+                             the published value) */
+    int delta_s;          /* IMF_MADGWICK_DS_FULL (default, the appendix) or
+                             IMF_MADGWICK_DS_SIMPLIFIED (the article's form, unit q) */
+    int invsqrt;          /* IMF_INVSQRT_EXACT (default) or IMF_INVSQRT_FAST */
+    imf_real acc_gate_lo; /* accelerometer gate, lower bound in units of acc_1g; < 0 turns
+                             the gate off (default -1: off, the published behaviour) */
+    imf_real acc_gate_hi; /* upper bound in units of acc_1g (seed 002: 1.4; default 0) */
+    imf_real acc_1g;      /* 1 g in the accelerometer's unit, > 0 (default 1) */
+} imf_madgwick_imu_settings_t;
+
+/* The settings of imf_madgwick_ahrs_init: those of the IMU filter without delta_s
+   (the AHRS update always uses the full, published form). */
+typedef struct {
+    imf_real dt;          /* sample period, s; > 0 (default 0.01: 100 Hz) */
+    imf_real beta;        /* gradient step gain, rad/s; >= 0, beta dt <= 0.1 (default 0.1) */
+    int invsqrt;          /* IMF_INVSQRT_EXACT (default) or IMF_INVSQRT_FAST */
+    imf_real acc_gate_lo; /* accelerometer gate lower bound, units of acc_1g; < 0: off
+                             (default -1) */
+    imf_real acc_gate_hi; /* upper bound, units of acc_1g (default 0) */
+    imf_real acc_1g;      /* 1 g in the accelerometer's unit, > 0 (default 1) */
+} imf_madgwick_ahrs_settings_t;
+
+/* The defaults listed with each member (those of imufuse.reference.MadgwickIMU(0.01)). */
+void imf_madgwick_imu_default_settings(imf_madgwick_imu_settings_t *settings);
+/* Settings as documented above (not checked here: imufuse.reference checks them);
+   q = (1, 0, 0, 0). */
+void imf_madgwick_imu_init(imf_madgwick_imu_t *self, const imf_madgwick_imu_settings_t *settings);
 /* gx, gy, gz: rad/s; ax, ay, az: any unit (normalised) */
 void imf_madgwick_imu_update(imf_madgwick_imu_t *self, imf_real gx, imf_real gy, imf_real gz,
                              imf_real ax, imf_real ay, imf_real az);
 
-/* dt: s; beta: rad/s; invsqrt: IMF_INVSQRT_*; the gate as for the IMU (lo < 0:
-   off). q = (1, 0, 0, 0). */
-void imf_madgwick_ahrs_init(imf_madgwick_ahrs_t *self, imf_real dt, imf_real beta, int invsqrt,
-                            imf_real acc_gate_lo, imf_real acc_gate_hi, imf_real acc_1g);
+/* The defaults listed with each member (those of imufuse.reference.MadgwickAHRS(0.01)). */
+void imf_madgwick_ahrs_default_settings(imf_madgwick_ahrs_settings_t *settings);
+/* Settings as documented above (not checked here); q = (1, 0, 0, 0). */
+void imf_madgwick_ahrs_init(imf_madgwick_ahrs_t *self,
+                            const imf_madgwick_ahrs_settings_t *settings);
 
 /* Accelerometer gate (seed 002: 0.6, 1.4), set as init sets it (init calls
    it): lo, hi in units of acc_1g (1 g in the accelerometer's unit); lo < 0

@@ -11,14 +11,14 @@
 #include "mahony.h"
 
 /* The settings that depend on the sample period dt (s). */
-static void mahony_set_dt(imf_mahony_settings_t *const set, const imf_real dt)
+static void mahony_set_dt(imf_mahony_consts_t *const set, const imf_real dt)
 {
     set->dt = dt;
     set->half_dt = IMF_R(0.5) * dt;
 }
 
 /* Settings and initial state shared by both filters. */
-static void mahony_init(imf_mahony_settings_t *const set, uint32_t *const skipped,
+static void mahony_init(imf_mahony_consts_t *const set, uint32_t *const skipped,
                         imf_mahony_state_t *const x, const imf_real dt, const imf_real kp,
                         const imf_real ki, const int invsqrt, const imf_real acc_gate_lo,
                         const imf_real acc_gate_hi, const imf_real acc_1g)
@@ -39,20 +39,32 @@ static void mahony_init(imf_mahony_settings_t *const set, uint32_t *const skippe
     x->iz = IMF_R(0.0);
 }
 
-void imf_mahony_imu_init(imf_mahony_imu_t *const self, const imf_real dt, const imf_real kp,
-                         const imf_real ki, const int invsqrt, const imf_real acc_gate_lo,
-                         const imf_real acc_gate_hi, const imf_real acc_1g)
+void imf_mahony_imu_default_settings(imf_mahony_imu_settings_t *const settings)
 {
-    mahony_init(&self->set, &self->skipped, &self->x, dt, kp, ki, invsqrt, acc_gate_lo,
-                acc_gate_hi, acc_1g);
+    settings->dt = IMF_R(0.01);
+    settings->kp = IMF_R(0.5);
+    settings->ki = IMF_R(0.0);
+    settings->invsqrt = IMF_INVSQRT_EXACT;
+    settings->acc_gate_lo = IMF_R(-1.0);
+    settings->acc_gate_hi = IMF_R(0.0);
+    settings->acc_1g = IMF_R(1.0);
 }
 
-void imf_mahony_ahrs_init(imf_mahony_ahrs_t *const self, const imf_real dt, const imf_real kp,
-                          const imf_real ki, const int invsqrt, const imf_real acc_gate_lo,
-                          const imf_real acc_gate_hi, const imf_real acc_1g)
+void imf_mahony_ahrs_default_settings(imf_mahony_ahrs_settings_t *const settings)
 {
-    mahony_init(&self->set, &self->skipped, &self->x, dt, kp, ki, invsqrt, acc_gate_lo,
-                acc_gate_hi, acc_1g);
+    imf_mahony_imu_default_settings(settings);
+}
+
+void imf_mahony_imu_init(imf_mahony_imu_t *const self, const imf_mahony_imu_settings_t *const s)
+{
+    mahony_init(&self->set, &self->skipped, &self->x, s->dt, s->kp, s->ki, s->invsqrt,
+                s->acc_gate_lo, s->acc_gate_hi, s->acc_1g);
+}
+
+void imf_mahony_ahrs_init(imf_mahony_ahrs_t *const self, const imf_mahony_ahrs_settings_t *const s)
+{
+    mahony_init(&self->set, &self->skipped, &self->x, s->dt, s->kp, s->ki, s->invsqrt,
+                s->acc_gate_lo, s->acc_gate_hi, s->acc_1g);
 }
 
 void imf_mahony_imu_set_acc_gate(imf_mahony_imu_t *const self, const imf_real acc_gate_lo,
@@ -99,7 +111,7 @@ void imf_mahony_ahrs_set_attitude(imf_mahony_ahrs_t *const self, const imf_attit
 
 /* Steps 5 and 6: the PI controller on the half error (ex, ey, ez) = e/2,
    added to the rate (*gx, *gy, *gz) in the published order w + I + Kp e. */
-static void mahony_feedback(const imf_mahony_settings_t *const set, imf_mahony_state_t *const x,
+static void mahony_feedback(const imf_mahony_consts_t *const set, imf_mahony_state_t *const x,
                             imf_real *const gx, imf_real *const gy, imf_real *const gz,
                             const imf_real ex, const imf_real ey, const imf_real ez)
 {
@@ -125,7 +137,7 @@ static void mahony_feedback(const imf_mahony_settings_t *const set, imf_mahony_s
 
 /* Steps 7 and 8: q_n = q_{n-1} + 1/2 q_{n-1} (x) omega' dt, then normalise.
    Returns 0 when q cannot be normalised (the sample is rejected). */
-static int mahony_integrate(const imf_mahony_settings_t *const set, imf_mahony_state_t *const x,
+static int mahony_integrate(const imf_mahony_consts_t *const set, imf_mahony_state_t *const x,
                              imf_real gx, imf_real gy, imf_real gz)
 {
     const imf_real q0 = x->q0, q1 = x->q1, q2 = x->q2, q3 = x->q3;
@@ -140,7 +152,7 @@ static int mahony_integrate(const imf_mahony_settings_t *const set, imf_mahony_s
 }
 
 /* One update; returns 0 if a normalisation failed (the sample is rejected). */
-static int mahony_imu_step(const imf_mahony_settings_t *const set, imf_mahony_state_t *const x,
+static int mahony_imu_step(const imf_mahony_consts_t *const set, imf_mahony_state_t *const x,
                             imf_real gx, imf_real gy, imf_real gz,
                             imf_real ax, imf_real ay, imf_real az)
 {
@@ -164,7 +176,7 @@ static int mahony_imu_step(const imf_mahony_settings_t *const set, imf_mahony_st
     return mahony_integrate(set, x, gx, gy, gz);
 }
 
-static int mahony_ahrs_step(const imf_mahony_settings_t *const set, imf_mahony_state_t *const x,
+static int mahony_ahrs_step(const imf_mahony_consts_t *const set, imf_mahony_state_t *const x,
                              imf_real gx, imf_real gy, imf_real gz,
                              imf_real ax, imf_real ay, imf_real az,
                              imf_real mx, imf_real my, imf_real mz)

@@ -51,7 +51,7 @@ typedef struct {
     imf_real ix, iy, iz;     /* integral term I of step 5, rad/s */
 } imf_mahony_state_t;
 
-/* Settings, converted once by init. */
+/* Internal: the settings as init converts them once (read by the update). */
 typedef struct {
     imf_real dt;      /* sample period, s */
     imf_real half_dt; /* dt / 2, the factor of dq = 1/2 q (x) omega' dt */
@@ -60,10 +60,10 @@ typedef struct {
     int invsqrt;      /* IMF_INVSQRT_EXACT or IMF_INVSQRT_FAST */
     int acc_gate;     /* nonzero: correct only when acc_lo2 <= |a|^2 <= acc_hi2 */
     imf_real acc_lo2, acc_hi2; /* squared gate bounds, accelerometer unit^2 */
-} imf_mahony_settings_t;
+} imf_mahony_consts_t;
 
 typedef struct {
-    imf_mahony_settings_t set;
+    imf_mahony_consts_t set;
     uint32_t skipped; /* samples rejected by the non-finite policy */
     imf_mahony_state_t x;
 } imf_mahony_imu_t;
@@ -71,27 +71,41 @@ typedef struct {
 /* Same settings and state; the update falls back to the IMU update when the
    magnetometer reads all zero. */
 typedef struct {
-    imf_mahony_settings_t set;
+    imf_mahony_consts_t set;
     uint32_t skipped; /* samples rejected by the non-finite policy */
     imf_mahony_state_t x;
 } imf_mahony_ahrs_t;
 
-/* dt: s; kp: 1/s (published twoKp / 2); ki: 1/s^2 (published twoKi / 2);
-   invsqrt: IMF_INVSQRT_EXACT or IMF_INVSQRT_FAST; acc_gate_lo, acc_gate_hi:
-   the accelerometer gate in units of acc_1g (1 g in the accelerometer's
-   unit), acc_gate_lo < 0: off. q = (1, 0, 0, 0), I = 0. */
-void imf_mahony_imu_init(imf_mahony_imu_t *self, imf_real dt, imf_real kp, imf_real ki,
-                         int invsqrt, imf_real acc_gate_lo, imf_real acc_gate_hi,
-                         imf_real acc_1g);
+/* The settings of imf_mahony_imu_init and imf_mahony_ahrs_init. Start from
+   imf_mahony_imu_default_settings() (or _ahrs_), then set dt and the gains. */
+typedef struct {
+    imf_real dt;          /* sample period, s; > 0 (default 0.01: 100 Hz) */
+    imf_real kp;          /* proportional gain, 1/s, >= 0: the published twoKp / 2
+                             (default 0.5, the published twoKp = 2 * 0.5) */
+    imf_real ki;          /* integral gain, 1/s^2, >= 0: the published twoKi / 2; 0 turns the
+                             gyro-bias integral off (default 0, published) */
+    int invsqrt;          /* IMF_INVSQRT_EXACT (default) or IMF_INVSQRT_FAST */
+    imf_real acc_gate_lo; /* accelerometer gate lower bound, units of acc_1g; < 0 turns the
+                             gate off (default -1: off, the published behaviour) */
+    imf_real acc_gate_hi; /* upper bound, units of acc_1g (seed 002: 1.4; default 0) */
+    imf_real acc_1g;      /* 1 g in the accelerometer's unit, > 0 (default 1) */
+} imf_mahony_imu_settings_t;
+/* The AHRS filter takes the same members. */
+typedef imf_mahony_imu_settings_t imf_mahony_ahrs_settings_t;
+
+/* The defaults listed with each member (those of imufuse.reference.MahonyIMU(0.01)). */
+void imf_mahony_imu_default_settings(imf_mahony_imu_settings_t *settings);
+/* Settings as documented above (not checked here: imufuse.reference checks them);
+   q = (1, 0, 0, 0), I = 0. */
+void imf_mahony_imu_init(imf_mahony_imu_t *self, const imf_mahony_imu_settings_t *settings);
 /* gx, gy, gz: rad/s; ax, ay, az: any unit (normalised) */
 void imf_mahony_imu_update(imf_mahony_imu_t *self, imf_real gx, imf_real gy, imf_real gz,
                            imf_real ax, imf_real ay, imf_real az);
 
-/* dt: s; kp: 1/s; ki: 1/s^2; invsqrt: IMF_INVSQRT_*; the gate as for the IMU
-   (lo < 0: off). q = (1, 0, 0, 0), I = 0. */
-void imf_mahony_ahrs_init(imf_mahony_ahrs_t *self, imf_real dt, imf_real kp, imf_real ki,
-                          int invsqrt, imf_real acc_gate_lo, imf_real acc_gate_hi,
-                          imf_real acc_1g);
+/* The defaults listed with each member (those of imufuse.reference.MahonyAHRS(0.01)). */
+void imf_mahony_ahrs_default_settings(imf_mahony_ahrs_settings_t *settings);
+/* Settings as documented above (not checked here); q = (1, 0, 0, 0), I = 0. */
+void imf_mahony_ahrs_init(imf_mahony_ahrs_t *self, const imf_mahony_ahrs_settings_t *settings);
 
 /* Accelerometer gate (seed 002: 0.6, 1.4), set as init sets it (init calls
    it): lo, hi in units of acc_1g (1 g in the accelerometer's unit); lo < 0

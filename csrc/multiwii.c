@@ -6,9 +6,20 @@
 #include "multiwii.h"
 #include "imf_math.h"
 
-void imf_multiwii_init(imf_multiwii_t *const self, const imf_real dt, const imf_real cmpf,
-                       const int acc_lpf_shift, const imf_real acc_1g, const imf_real window)
+void imf_multiwii_default_settings(imf_multiwii_settings_t *const settings)
 {
+    settings->dt = IMF_R(0.01);
+    settings->cmpf = IMF_R(600.0);
+    settings->acc_lpf_shift = 4;
+    settings->acc_1g = IMF_R(1.0);
+    settings->window = IMF_R(0.15);
+}
+
+void imf_multiwii_init(imf_multiwii_t *const self, const imf_multiwii_settings_t *const settings)
+{
+    const imf_real dt = settings->dt, cmpf = settings->cmpf, acc_1g = settings->acc_1g;
+    const imf_real window = settings->window;
+    const int acc_lpf_shift = settings->acc_lpf_shift;
     imf_real lo, hi;
     int k;
     imf_multiwii_set_dt(self, dt);

@@ -47,11 +47,23 @@ typedef struct {
     imf_multiwii_state_t x;
 } imf_multiwii_t;
 
-/* dt: s; cmpf: dimensionless (firmware 600); acc_lpf_shift: 0..16, LPF length
-   2^shift samples (firmware 4); acc_1g: accelerometer units per g (> 0);
-   window: g, 0 < window <= 1 (firmware 0.15). State starts level. */
-void imf_multiwii_init(imf_multiwii_t *self, imf_real dt, imf_real cmpf, int acc_lpf_shift,
-                       imf_real acc_1g, imf_real window);
+/* The settings of imf_multiwii_init. Start from imf_multiwii_default_settings(), then
+   set dt and acc_1g (the accelerometer's reading of 1 g). */
+typedef struct {
+    imf_real dt;       /* sample period, s; > 0 (default 0.01: 100 Hz) */
+    imf_real cmpf;     /* GYR_CMPF_FACTOR, dimensionless, >= 0 (default 600, the firmware's) */
+    int acc_lpf_shift; /* ACC_LPF_FACTOR: accelerometer LPF of 2^shift samples, 0..16
+                          (default 4, the firmware's) */
+    imf_real acc_1g;   /* accelerometer units per g, > 0 (default 1) */
+    imf_real window;   /* |a| window around 1 g for the correction, g, 0 < window <= 1
+                          (default 0.15, the firmware's 0.85 g .. 1.15 g) */
+} imf_multiwii_settings_t;
+
+/* The defaults listed with each member (those of imufuse.reference.MultiWii(0.01)). */
+void imf_multiwii_default_settings(imf_multiwii_settings_t *settings);
+/* Settings as documented above (not checked here: imufuse.reference checks them).
+   State starts level. */
+void imf_multiwii_init(imf_multiwii_t *self, const imf_multiwii_settings_t *settings);
 /* gx, gy, gz: rad/s; ax, ay, az: accelerometer units (acc_1g per g) */
 void imf_multiwii_update(imf_multiwii_t *self, imf_real gx, imf_real gy, imf_real gz,
                          imf_real ax, imf_real ay, imf_real az);

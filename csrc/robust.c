@@ -58,7 +58,7 @@ static inline int robust_norm4(imf_real *const q)
 }
 
 /* B5: a running mean until tau, then the low-pass gain k = dt / (tau + dt) */
-static inline imf_real robust_gain(const imf_robust_settings_t *const set, const imf_real t,
+static inline imf_real robust_gain(const imf_robust_consts_t *const set, const imf_real t,
                                    const imf_real tau, const imf_real k)
 {
     if (t < tau) {
@@ -69,7 +69,7 @@ static inline imf_real robust_gain(const imf_robust_settings_t *const set, const
 
 /* ---- init, dt, attitude ------------------------------------------------- */
 
-static void robust_set_dt(imf_robust_settings_t *const set, const imf_real dt)
+static void robust_set_dt(imf_robust_consts_t *const set, const imf_real dt)
 {
     set->dt = dt;
     set->two_dt = IMF_R(2.0) * dt;
@@ -82,25 +82,18 @@ static void robust_set_dt(imf_robust_settings_t *const set, const imf_real dt)
     set->k_ref = dt / (set->tau_mag_ref + dt);
 }
 
-static void robust_init(imf_robust_settings_t *const set, uint32_t *const skipped,
-                        imf_robust_state_t *const x, const imf_real dt, const imf_real tau_acc,
-                        const imf_real rate_ref, const imf_real tau_bias,
-                        const imf_real tau_bias_rest, const imf_real rest_gyr,
-                        const imf_real rest_acc, const imf_real rest_time,
-                        const imf_real tau_rest, const imf_real latency,
-                        const imf_real tau_mag,
-                        const imf_real mag_norm, const imf_real mag_dip,
-                        const imf_real tau_mag_ref, const imf_real mag_new_time,
-                        const imf_real mag_hold)
+static void robust_init(imf_robust_consts_t *const set, uint32_t *const skipped,
+                        imf_robust_state_t *const x, const imf_robust_ahrs_settings_t *const s)
 {
+    const imf_real rate_ref = s->rate_ref, rest_gyr = s->rest_gyr, rest_acc = s->rest_acc;
     imf_real ta2, tmax;
-    set->tau_acc = tau_acc;
-    set->tau_bias = tau_bias;
-    set->tau_bias_rest = tau_bias_rest;
-    set->tau_rest = tau_rest;
-    set->latency = latency;
-    set->tau_mag = tau_mag;
-    set->tau_mag_ref = tau_mag_ref;
+    set->tau_acc = s->tau_acc;
+    set->tau_bias = s->tau_bias;
+    set->tau_bias_rest = s->tau_bias_rest;
+    set->tau_rest = s->tau_rest;
+    set->latency = s->latency;
+    set->tau_mag = s->tau_mag;
+    set->tau_mag_ref = s->tau_mag_ref;
     /* B2: gravity process noise q_g = (1 + |w|^2 / rate_ref^2) / tau_acc^4 per s, with
        the velocity measurement noise 1 (any acc unit): the steady state is a
        second-order low-pass with omega_0 = 1 / tau_acc and damping 1/sqrt(2) at rest */
@@ -112,11 +105,11 @@ static void robust_init(imf_robust_settings_t *const set, uint32_t *const skippe
     set->inv_tau_bias = set->tau_bias > IMF_R(0.0) ? IMF_R(1.0) / set->tau_bias : IMF_R(0.0);
     set->rest_gyr2 = rest_gyr * rest_gyr;
     set->rest_acc2 = rest_acc * rest_acc;
-    set->rest_time = rest_time;
-    set->mag_norm = mag_norm;
-    set->mag_dip = mag_dip;
-    set->mag_new_time = mag_new_time;
-    set->mag_hold = mag_hold;
+    set->rest_time = s->rest_time;
+    set->mag_norm = s->mag_norm;
+    set->mag_dip = s->mag_dip;
+    set->mag_new_time = s->mag_new_time;
+    set->mag_hold = s->mag_hold;
     set->c48 = IMF_R(1.0) / IMF_R(48.0);
     /* t saturates at the longest start-up horizon */
     tmax = set->tau_acc;
@@ -130,7 +123,7 @@ static void robust_init(imf_robust_settings_t *const set, uint32_t *const skippe
         tmax = set->tau_mag_ref;
     }
     set->t_max = tmax;
-    robust_set_dt(set, dt);
+    robust_set_dt(set, s->dt);
     *skipped = 0;
     x->q0 = IMF_R(1.0); x->q1 = IMF_R(0.0); x->q2 = IMF_R(0.0); x->q3 = IMF_R(0.0);
     x->s0 = IMF_R(1.0); x->s1 = IMF_R(0.0); x->s2 = IMF_R(0.0); x->s3 = IMF_R(0.0);
@@ -147,31 +140,68 @@ static void robust_init(imf_robust_settings_t *const set, uint32_t *const skippe
     x->t_cand = IMF_R(0.0); x->t_dist = IMF_R(0.0); x->t_ok = IMF_R(0.0);
 }
 
-void imf_robust_imu_init(imf_robust_imu_t *const self, const imf_real dt, const imf_real tau_acc,
-                         const imf_real rate_ref, const imf_real tau_bias,
-                         const imf_real tau_bias_rest, const imf_real rest_gyr,
-                         const imf_real rest_acc, const imf_real rest_time,
-                         const imf_real tau_rest, const imf_real latency)
+void imf_robust_imu_default_settings(imf_robust_imu_settings_t *const settings)
 {
-    robust_init(&self->set, &self->skipped, &self->x, dt, tau_acc, rate_ref, tau_bias,
-                tau_bias_rest, rest_gyr, rest_acc, rest_time, tau_rest, latency, tau_rest,
-                IMF_R(0.0),
-                IMF_R(0.0), tau_rest, IMF_R(0.0), IMF_R(0.0));
+    settings->dt = IMF_R(0.01);
+    settings->tau_acc = IMF_R(2.5);
+    settings->rate_ref = (imf_real)1.7453292519943295;     /* 100 deg/s */
+    settings->tau_bias = IMF_R(100.0);
+    settings->tau_bias_rest = IMF_R(3.0);
+    settings->rest_gyr = (imf_real)0.03490658503988659;    /* 2 deg/s */
+    settings->rest_acc = IMF_R(0.05);
+    settings->rest_time = IMF_R(1.5);
+    settings->tau_rest = IMF_R(0.5);
+    settings->latency = IMF_R(0.0);
 }
 
-void imf_robust_ahrs_init(imf_robust_ahrs_t *const self, const imf_real dt,
-                          const imf_real tau_acc, const imf_real rate_ref,
-                          const imf_real tau_bias, const imf_real tau_bias_rest,
-                          const imf_real rest_gyr, const imf_real rest_acc,
-                          const imf_real rest_time, const imf_real tau_rest,
-                          const imf_real latency, const imf_real tau_mag,
-                          const imf_real mag_norm,
-                          const imf_real mag_dip, const imf_real tau_mag_ref,
-                          const imf_real mag_new_time, const imf_real mag_hold)
+void imf_robust_ahrs_default_settings(imf_robust_ahrs_settings_t *const settings)
 {
-    robust_init(&self->set, &self->skipped, &self->x, dt, tau_acc, rate_ref, tau_bias,
-                tau_bias_rest, rest_gyr, rest_acc, rest_time, tau_rest, latency, tau_mag,
-                mag_norm, mag_dip, tau_mag_ref, mag_new_time, mag_hold);
+    settings->dt = IMF_R(0.01);
+    settings->tau_acc = IMF_R(2.5);
+    settings->rate_ref = (imf_real)1.7453292519943295;     /* 100 deg/s */
+    settings->tau_bias = IMF_R(100.0);
+    settings->tau_bias_rest = IMF_R(3.0);
+    settings->rest_gyr = (imf_real)0.03490658503988659;    /* 2 deg/s */
+    settings->rest_acc = IMF_R(0.05);
+    settings->rest_time = IMF_R(1.5);
+    settings->tau_rest = IMF_R(0.5);
+    settings->latency = IMF_R(0.0);
+    settings->tau_mag = IMF_R(10.0);
+    settings->mag_norm = IMF_R(0.1);
+    settings->mag_dip = (imf_real)0.17364817766693033;     /* sin(10 deg) */
+    settings->tau_mag_ref = IMF_R(20.0);
+    settings->mag_new_time = IMF_R(20.0);
+    settings->mag_hold = IMF_R(0.5);
+}
+
+/* The IMU filter is the AHRS filter without a magnetometer: the magnetic settings are
+   inert (never read without a field); tau_mag and tau_mag_ref = tau_rest keep the
+   start-up horizon t_max that of the IMU blocks. */
+void imf_robust_imu_init(imf_robust_imu_t *const self, const imf_robust_imu_settings_t *const s)
+{
+    imf_robust_ahrs_settings_t a;
+    a.dt = s->dt;
+    a.tau_acc = s->tau_acc;
+    a.rate_ref = s->rate_ref;
+    a.tau_bias = s->tau_bias;
+    a.tau_bias_rest = s->tau_bias_rest;
+    a.rest_gyr = s->rest_gyr;
+    a.rest_acc = s->rest_acc;
+    a.rest_time = s->rest_time;
+    a.tau_rest = s->tau_rest;
+    a.latency = s->latency;
+    a.tau_mag = s->tau_rest;
+    a.mag_norm = IMF_R(0.0);
+    a.mag_dip = IMF_R(0.0);
+    a.tau_mag_ref = s->tau_rest;
+    a.mag_new_time = IMF_R(0.0);
+    a.mag_hold = IMF_R(0.0);
+    robust_init(&self->set, &self->skipped, &self->x, &a);
+}
+
+void imf_robust_ahrs_init(imf_robust_ahrs_t *const self, const imf_robust_ahrs_settings_t *const s)
+{
+    robust_init(&self->set, &self->skipped, &self->x, s);
 }
 
 void imf_robust_imu_set_dt(imf_robust_imu_t *const self, const imf_real dt)
@@ -207,7 +237,7 @@ void imf_robust_ahrs_set_attitude(imf_robust_ahrs_t *const self, const imf_attit
 /* ---- the update --------------------------------------------------------- */
 
 /* Gyro + accelerometer part on the working state x; 0 rejects the sample. */
-static int robust_step(const imf_robust_settings_t *const set, imf_robust_state_t *const x,
+static int robust_step(const imf_robust_consts_t *const set, imf_robust_state_t *const x,
                        const imf_real gx, const imf_real gy, const imf_real gz,
                        const imf_real ax, const imf_real ay, const imf_real az)
 {
@@ -348,7 +378,7 @@ static int robust_step(const imf_robust_settings_t *const set, imf_robust_state_
 /* The output: q = c (x) s, then predicted by the sensor's latency with the
    bias-corrected rate (q (x) exp(1/2 (w - b) latency), series as the strapdown);
    0 rejects the sample. */
-static int robust_predict(const imf_robust_settings_t *const set, imf_robust_state_t *const x,
+static int robust_predict(const imf_robust_consts_t *const set, imf_robust_state_t *const x,
                           const imf_real gx, const imf_real gy, const imf_real gz)
 {
     imf_real ox, oy, oz, th2, cw, sv, q[4];
@@ -371,7 +401,7 @@ static int robust_predict(const imf_robust_settings_t *const set, imf_robust_sta
 
 /* the field (mn, hn, zn) matches the reference (n, h, z): norm within mag_norm n
    and dip within mag_dip (sine of the dip difference = zn h - hn z) */
-static inline int robust_mag_test(const imf_robust_settings_t *const set, const imf_real mn,
+static inline int robust_mag_test(const imf_robust_consts_t *const set, const imf_real mn,
                                   const imf_real hn, const imf_real zn, const imf_real n,
                                   const imf_real h, const imf_real z)
 {
@@ -382,7 +412,7 @@ static inline int robust_mag_test(const imf_robust_settings_t *const set, const 
 }
 
 /* B4: heading from the magnetometer; 0 rejects the sample. */
-static int robust_mag(const imf_robust_settings_t *const set, imf_robust_state_t *const x,
+static int robust_mag(const imf_robust_consts_t *const set, imf_robust_state_t *const x,
                       const imf_real mx, const imf_real my, const imf_real mz)
 {
     const imf_real dt = set->dt;
@@ -488,7 +518,7 @@ static int robust_mag(const imf_robust_settings_t *const set, imf_robust_state_t
 }
 
 /* the clock of the start-up (saturating: no growth once every start is over) */
-static inline void robust_advance(const imf_robust_settings_t *const set,
+static inline void robust_advance(const imf_robust_consts_t *const set,
                                   imf_robust_state_t *const x)
 {
     x->t = x->t + set->dt;
@@ -499,7 +529,7 @@ static inline void robust_advance(const imf_robust_settings_t *const set,
 
 /* The end of every update: the output prediction, then the clock. Returns 0
    to reject the sample. */
-static int robust_finish(const imf_robust_settings_t *const set, imf_robust_state_t *const x,
+static int robust_finish(const imf_robust_consts_t *const set, imf_robust_state_t *const x,
                          const imf_real gx, const imf_real gy, const imf_real gz)
 {
     if (!robust_predict(set, x, gx, gy, gz)) {

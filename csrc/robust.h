@@ -64,7 +64,7 @@ typedef struct {
     imf_real t_ok;              /* field matching the reference for (saturating), s */
 } imf_robust_state_t;
 
-/* Settings, converted once by init (dt-dependent ones by set_dt). */
+/* Internal: the settings as init converts them once (dt-dependent ones by set_dt). */
 typedef struct {
     imf_real dt, two_dt, dt2, r_d; /* s, 2 dt, dt^2, 1 / dt */
     imf_real tau_acc, tau_bias, tau_bias_rest, tau_rest, tau_mag, tau_mag_ref; /* s */
@@ -77,42 +77,89 @@ typedef struct {
     imf_real k_rest, kb_rest, k_mag, k_ref;   /* dt / (tau + dt) */
     imf_real c48;                  /* 1 / 48 */
     imf_real t_max;                /* longest start-up horizon, s */
-} imf_robust_settings_t;
+} imf_robust_consts_t;
 
 typedef struct {
     uint32_t skipped; /* samples rejected by the valid-attitude policy */
     imf_robust_state_t x;
-    imf_robust_settings_t set;
+    imf_robust_consts_t set;
 } imf_robust_imu_t;
 
 typedef struct {
     uint32_t skipped; /* samples rejected by the valid-attitude policy */
     imf_robust_state_t x;
-    imf_robust_settings_t set;
+    imf_robust_consts_t set;
 } imf_robust_ahrs_t;
 
-/* dt: s; tau_acc: s; rate_ref: rad/s (0: constant); tau_bias: s (0: off);
-   tau_bias_rest: s; rest_gyr: rad/s; rest_acc: g (relative); rest_time: s;
-   tau_rest: s; latency: s, the sensor chain's delay, compensated in the output q by
-   predicting it forward with the current rate (0: none). Validated by the Python
-   layer (imufuse.reference.robust). */
-void imf_robust_imu_init(imf_robust_imu_t *self, imf_real dt, imf_real tau_acc,
-                         imf_real rate_ref, imf_real tau_bias, imf_real tau_bias_rest,
-                         imf_real rest_gyr, imf_real rest_acc, imf_real rest_time,
-                         imf_real tau_rest, imf_real latency);
+/* The settings of imf_robust_imu_init. Start from imf_robust_imu_default_settings(),
+   then set dt. Units are those of the C (rad/s, sines); imufuse.reference.RobustIMU takes
+   deg/s and converts. Blocks B1-B5: docs/recommended-ahrs.md. */
+typedef struct {
+    imf_real dt;            /* sample period, s; > 0 (default 0.01: 100 Hz) */
+    imf_real tau_acc;       /* B2: tilt correction time constant, s; > 0 (default 2.5) */
+    imf_real rate_ref;      /* B2: the turn rate at which gravity's process noise doubles,
+                               rad/s; >= 0, 0: constant (default 100 deg/s = 1.745 rad/s) */
+    imf_real tau_bias;      /* B3: gyro-bias time constant in motion, s; 0 (off) or
+                               >= 4 tau_acc (default 100) */
+    imf_real tau_bias_rest; /* B3: gyro-bias time constant at rest, s; > 0 (default 3) */
+    imf_real rest_gyr;      /* B1: rest threshold on the low-passed rate, rad/s; >= 0
+                               (default 2 deg/s = 0.0349 rad/s) */
+    imf_real rest_acc;      /* B1: rest threshold on |a| - 1 g, relative to 1 g; >= 0
+                               (default 0.05) */
+    imf_real rest_time;     /* B1: time below both thresholds before rest, s; >= 0
+                               (default 1.5) */
+    imf_real tau_rest;      /* B1: low-pass time constant of the rest detector, s; > 0
+                               (default 0.5) */
+    imf_real latency;       /* B5: the sensor chain's delay, compensated in the output q by
+                               predicting it forward with the current rate, s;
+                               0 .. 0.1, 0: none (default 0) */
+} imf_robust_imu_settings_t;
+
+/* The settings of imf_robust_ahrs_init: those of the IMU filter and the magnetometer's. */
+typedef struct {
+    imf_real dt;            /* sample period, s; > 0 (default 0.01: 100 Hz) */
+    imf_real tau_acc;       /* B2: tilt correction time constant, s; > 0 (default 2.5) */
+    imf_real rate_ref;      /* B2: the turn rate at which gravity's process noise doubles,
+                               rad/s; >= 0, 0: constant (default 100 deg/s = 1.745 rad/s) */
+    imf_real tau_bias;      /* B3: gyro-bias time constant in motion, s; 0 (off) or
+                               >= 4 tau_acc (default 100) */
+    imf_real tau_bias_rest; /* B3: gyro-bias time constant at rest, s; > 0 (default 3) */
+    imf_real rest_gyr;      /* B1: rest threshold on the low-passed rate, rad/s; >= 0
+                               (default 2 deg/s = 0.0349 rad/s) */
+    imf_real rest_acc;      /* B1: rest threshold on |a| - 1 g, relative to 1 g; >= 0
+                               (default 0.05) */
+    imf_real rest_time;     /* B1: time below both thresholds before rest, s; >= 0
+                               (default 1.5) */
+    imf_real tau_rest;      /* B1: low-pass time constant of the rest detector, s; > 0
+                               (default 0.5) */
+    imf_real latency;       /* B5: the sensor chain's delay, compensated in the output q by
+                               predicting it forward with the current rate, s;
+                               0 .. 0.1, 0: none (default 0) */
+    imf_real tau_mag;       /* B4: heading correction time constant, s; > 0 (default 10) */
+    imf_real mag_norm;      /* B4: disturbance threshold on |m| against the reference's,
+                               relative; >= 0 (default 0.1) */
+    imf_real mag_dip;       /* B4: disturbance threshold on the dip angle, as its sine;
+                               > 1: no dip test (default sin(10 deg) = 0.1736) */
+    imf_real tau_mag_ref;   /* B4: time constant of the learned reference field, s; > 0
+                               (default 20) */
+    imf_real mag_new_time;  /* B4: a changed field steady this long becomes the reference,
+                               s; >= 0 (default 20) */
+    imf_real mag_hold;      /* B4: after a disturbance the field must match the reference
+                               this long before it is used, s; >= 0 (default 0.5) */
+} imf_robust_ahrs_settings_t;
+
+/* The defaults listed with each member (those of imufuse.reference.RobustIMU(0.01)). */
+void imf_robust_imu_default_settings(imf_robust_imu_settings_t *settings);
+/* Settings as documented above (not checked here: imufuse.reference checks them). */
+void imf_robust_imu_init(imf_robust_imu_t *self, const imf_robust_imu_settings_t *settings);
 /* gx, gy, gz: rad/s; ax, ay, az: any unit */
 void imf_robust_imu_update(imf_robust_imu_t *self, imf_real gx, imf_real gy, imf_real gz,
                            imf_real ax, imf_real ay, imf_real az);
 
-/* The IMU settings and tau_mag: s; mag_norm: relative; mag_dip: sine of the dip
-   threshold (> 1: no dip test); tau_mag_ref: s; mag_new_time: s; mag_hold: s. */
-void imf_robust_ahrs_init(imf_robust_ahrs_t *self, imf_real dt, imf_real tau_acc,
-                          imf_real rate_ref, imf_real tau_bias, imf_real tau_bias_rest,
-                          imf_real rest_gyr, imf_real rest_acc, imf_real rest_time,
-                          imf_real tau_rest, imf_real latency, imf_real tau_mag,
-                          imf_real mag_norm,
-                          imf_real mag_dip, imf_real tau_mag_ref, imf_real mag_new_time,
-                          imf_real mag_hold);
+/* The defaults listed with each member (those of imufuse.reference.RobustAHRS(0.01)). */
+void imf_robust_ahrs_default_settings(imf_robust_ahrs_settings_t *settings);
+/* Settings as documented above (not checked here). */
+void imf_robust_ahrs_init(imf_robust_ahrs_t *self, const imf_robust_ahrs_settings_t *settings);
 /* gx, gy, gz: rad/s; ax, ay, az and mx, my, mz: any unit (mag all zero: none) */
 void imf_robust_ahrs_update(imf_robust_ahrs_t *self, imf_real gx, imf_real gy, imf_real gz,
                             imf_real ax, imf_real ay, imf_real az,

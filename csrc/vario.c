@@ -5,32 +5,44 @@
  */
 #include "vario.h"
 
-void imf_vario_init(imf_vario_t *const self, const imf_real var_z, const imf_real var_acc,
-                    const imf_real var_bias, const imf_real p_z, const imf_real p_v,
-                    const imf_real p_b, const imf_real z0, const imf_real v0, const imf_real b0,
-                    const int z0_from_baro, const int predict)
+void imf_vario_default_settings(imf_vario_settings_t *const settings)
 {
-    self->set.var_z = var_z;
-    self->set.var_acc = var_acc;
-    self->set.var_bias = var_bias;
-    self->set.predict = predict == IMF_VARIO_PREDICT_MODEL ? IMF_VARIO_PREDICT_MODEL
+    settings->var_z = IMF_R(300.0);
+    settings->var_acc = IMF_R(200.0);
+    settings->var_bias = IMF_R(1.0);
+    settings->p_z = IMF_R(1.0);
+    settings->p_v = IMF_R(1.0);
+    settings->p_b = IMF_R(100000.0);
+    settings->z0 = IMF_R(0.0);
+    settings->v0 = IMF_R(0.0);
+    settings->b0 = IMF_R(0.0);
+    settings->z0_from_baro = 1;
+    settings->predict = IMF_VARIO_PREDICT_SEED;
+}
+
+void imf_vario_init(imf_vario_t *const self, const imf_vario_settings_t *const s)
+{
+    self->set.var_z = s->var_z;
+    self->set.var_acc = s->var_acc;
+    self->set.var_bias = s->var_bias;
+    self->set.predict = s->predict == IMF_VARIO_PREDICT_MODEL ? IMF_VARIO_PREDICT_MODEL
                                                            : IMF_VARIO_PREDICT_SEED;
     self->skipped = 0;
-    self->started = z0_from_baro ? 0 : 1;
-    self->x.z = z0;
-    self->x.v = v0;
-    self->x.b = b0;
-    self->x.pzz = p_z;
+    self->started = s->z0_from_baro ? 0 : 1;
+    self->x.z = s->z0;
+    self->x.v = s->v0;
+    self->x.b = s->b0;
+    self->x.pzz = s->p_z;
     self->x.pzv = IMF_R(0.0);
     self->x.pzb = IMF_R(0.0);
-    self->x.pvv = p_v;
+    self->x.pvv = s->p_v;
     self->x.pvb = IMF_R(0.0);
-    self->x.pbb = p_b;
+    self->x.pbb = s->p_b;
 }
 
 /* Step 1: P = F P F^T + Q, with A = F P (rows 0 and 1; row 2 of F P is
    row 2 of P) and F's entries dt and h = -(-dt^2/2). */
-static void vario_predict_covariance(const imf_vario_settings_t *const set,
+static void vario_predict_covariance(const imf_vario_consts_t *const set,
                                      imf_vario_state_t *const x, const imf_real dt)
 {
     const imf_real dt2 = dt * dt;
@@ -51,7 +63,7 @@ static void vario_predict_covariance(const imf_vario_settings_t *const set,
 }
 
 /* Step 2: a priori state, accel_real = accel_meas - b */
-static void vario_predict_state(const imf_vario_settings_t *const set,
+static void vario_predict_state(const imf_vario_consts_t *const set,
                                 imf_vario_state_t *const x, const imf_real accel,
                                 const imf_real dt)
 {
@@ -69,7 +81,7 @@ static void vario_predict_state(const imf_vario_settings_t *const set,
 
 /* Steps 3-7: innovation, its covariance, gain, a posteriori state and
    covariance P = (I - K H) P. */
-static void vario_correct(const imf_vario_settings_t *const set, imf_vario_state_t *const x,
+static void vario_correct(const imf_vario_consts_t *const set, imf_vario_state_t *const x,
                           const imf_real baro_alt)
 {
     /* Step 3: y = m - H x */

@@ -54,28 +54,41 @@ typedef struct {
     imf_real pbb;
 } imf_vario_state_t;
 
-/* Settings, converted once by init. */
+/* Internal: the settings as init keeps them (read by the update). */
 typedef struct {
     imf_real var_z;    /* R: barometer altitude variance, cm^2 */
     imf_real var_acc;  /* acceleration variance, (cm/s^2)^2 */
     imf_real var_bias; /* bias variance added per step, (cm/s^2)^2 */
     int predict;       /* IMF_VARIO_PREDICT_SEED or IMF_VARIO_PREDICT_MODEL */
-} imf_vario_settings_t;
+} imf_vario_consts_t;
 
 typedef struct {
-    imf_vario_settings_t set;
+    imf_vario_consts_t set;
     uint32_t skipped; /* samples rejected by the non-finite policy */
     int started;      /* 0 until the first sample has set z (z0_from_baro) */
     imf_vario_state_t x;
 } imf_vario_t;
 
-/* var_z: cm^2; var_acc, var_bias: (cm/s^2)^2; p_z, p_v, p_b: initial
-   variances (cm^2, (cm/s)^2, (cm/s^2)^2; P0 is diagonal); z0: cm, v0: cm/s,
-   b0: cm/s^2; z0_from_baro: nonzero to take z0 from the first sample;
-   predict: IMF_VARIO_PREDICT_*. */
-void imf_vario_init(imf_vario_t *self, imf_real var_z, imf_real var_acc, imf_real var_bias,
-                    imf_real p_z, imf_real p_v, imf_real p_b, imf_real z0, imf_real v0,
-                    imf_real b0, int z0_from_baro, int predict);
+/* The settings of imf_vario_init. Start from imf_vario_default_settings() (the seed's
+   values) and change what differs. */
+typedef struct {
+    imf_real var_z;    /* R: barometer altitude variance, cm^2; > 0 (default 300) */
+    imf_real var_acc;  /* acceleration variance, (cm/s^2)^2; >= 0 (default 200) */
+    imf_real var_bias; /* bias variance added per step, (cm/s^2)^2; >= 0 (default 1) */
+    imf_real p_z;      /* initial variance of z, cm^2; >= 0 (default 1); P0 is diagonal */
+    imf_real p_v;      /* initial variance of v, (cm/s)^2; >= 0 (default 1) */
+    imf_real p_b;      /* initial variance of b, (cm/s^2)^2; >= 0 (default 1e5) */
+    imf_real z0;       /* initial altitude, cm, used when z0_from_baro is 0 (default 0) */
+    imf_real v0;       /* initial climb rate, cm/s (default 0) */
+    imf_real b0;       /* initial accelerometer bias, cm/s^2 (default 0) */
+    int z0_from_baro;  /* nonzero: z starts at the first barometer sample (default 1) */
+    int predict;       /* IMF_VARIO_PREDICT_SEED (default) or IMF_VARIO_PREDICT_MODEL */
+} imf_vario_settings_t;
+
+/* The defaults listed with each member (those of imufuse.reference.VarioKF()). */
+void imf_vario_default_settings(imf_vario_settings_t *settings);
+/* Settings as documented above (not checked here: imufuse.reference checks them). */
+void imf_vario_init(imf_vario_t *self, const imf_vario_settings_t *settings);
 /* accel: net vertical acceleration, up positive, cm/s^2 (bias included);
    baro_alt: barometer altitude, cm; dt: time since the previous sample, s. */
 void imf_vario_update(imf_vario_t *self, imf_real accel, imf_real baro_alt, imf_real dt);

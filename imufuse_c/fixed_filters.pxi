@@ -17,8 +17,14 @@ cdef extern from "filters_1d_q.h" nogil:
         pass
     ctypedef struct imf_mahony1d_bias_q_t:
         imf_mahony1d_bias_q_state_t x
-    int imf_mahony1d_bias_q_init(imf_mahony1d_bias_q_t *self, double dt, double kp, double ki,
-                                 int integrate_first, double gyr_scale, double angle_scale)
+    ctypedef struct imf_mahony1d_bias_q_settings_t:
+        double dt
+        double kp
+        double ki
+        int integrate_first
+        double gyr_scale
+        double angle_scale
+    int imf_mahony1d_bias_q_init(imf_mahony1d_bias_q_t *self, const imf_mahony1d_bias_q_settings_t *settings)
     void imf_mahony1d_bias_q_update(imf_mahony1d_bias_q_t *self, int16_t rate, int16_t angle)
 
 cdef extern from "gravity_q.h" nogil:
@@ -33,8 +39,14 @@ cdef extern from "gravity_q.h" nogil:
         pass
     ctypedef struct imf_multiwii_q_t:
         imf_multiwii_q_state_t x
-    int imf_multiwii_q_init(imf_multiwii_q_t *self, double dt, double cmpf, int acc_lpf_shift,
-                            double acc_1g, double window, double gyr_scale)
+    ctypedef struct imf_multiwii_q_settings_t:
+        double dt
+        double cmpf
+        int acc_lpf_shift
+        double acc_1g
+        double window
+        double gyr_scale
+    int imf_multiwii_q_init(imf_multiwii_q_t *self, const imf_multiwii_q_settings_t *settings)
     void imf_multiwii_q_update(imf_multiwii_q_t *self, const int16_t *gyr, const int16_t *acc)
 
 cdef extern from "mahony_q.h" nogil:
@@ -42,8 +54,13 @@ cdef extern from "mahony_q.h" nogil:
         pass
     ctypedef struct imf_mahony_imu_q_t:
         imf_mahony_imu_q_state_t x
-    int imf_mahony_imu_q_init(imf_mahony_imu_q_t *self, double dt, double kp, double ki,
-                              double gyr_scale, int profile)
+    ctypedef struct imf_mahony_imu_q_settings_t:
+        double dt
+        double kp
+        double ki
+        double gyr_scale
+        int profile
+    int imf_mahony_imu_q_init(imf_mahony_imu_q_t *self, const imf_mahony_imu_q_settings_t *settings)
     void imf_mahony_imu_q_update(imf_mahony_imu_q_t *self, const int16_t *gyr, const int16_t *acc)
 
 cdef extern from "madgwick_q.h" nogil:
@@ -77,8 +94,8 @@ cdef class Mahony1DBiasQ(_Fixed1D):
 
     cdef int _init(self) except -1:
         a = self._kw
-        rc = imf_mahony1d_bias_q_init(&self.s, a["dt"], a["kp"], a["ki"], a["integrate_first"],
-                                      a["gyr_scale"], a["angle_scale"])
+        cdef imf_mahony1d_bias_q_settings_t st = a
+        rc = imf_mahony1d_bias_q_init(&self.s, &st)
         return self._bind(&self.s.x, sizeof(self.s.x), rc)
 
     cdef void _step(self, int16_t rate, int16_t angle) noexcept nogil:
@@ -104,8 +121,8 @@ cdef class MultiWiiQ(_FixedIMU):
 
     cdef int _init(self) except -1:
         a = self._kw
-        rc = imf_multiwii_q_init(&self.s, a["dt"], a["cmpf"], a["acc_lpf_shift"], a["acc_1g"],
-                                 a["window"], a["gyr_scale"])
+        cdef imf_multiwii_q_settings_t st = a
+        rc = imf_multiwii_q_init(&self.s, &st)
         return self._bind(&self.s.x, sizeof(self.s.x), rc)
 
     cdef void _step(self, const int16_t *gyr, const int16_t *acc) noexcept nogil:
@@ -118,7 +135,8 @@ cdef class MahonyIMUQ(_FixedIMU):
 
     cdef int _init(self) except -1:
         a = self._kw
-        rc = imf_mahony_imu_q_init(&self.s, a["dt"], a["kp"], a["ki"], a["gyr_scale"], a["profile"])
+        cdef imf_mahony_imu_q_settings_t st = a
+        rc = imf_mahony_imu_q_init(&self.s, &st)
         return self._bind(&self.s.x, sizeof(self.s.x), rc)
 
     cdef void _step(self, const int16_t *gyr, const int16_t *acc) noexcept nogil:

@@ -8,16 +8,27 @@ cdef extern from "madgwick.h" nogil:
     ctypedef struct imf_madgwick_ahrs_t:
         uint32_t skipped
         imf_madgwick_state_t x
-    void imf_madgwick_imu_init(imf_madgwick_imu_t *self, imf_real dt, imf_real beta,
-                               int delta_s, int invsqrt, imf_real acc_gate_lo,
-                               imf_real acc_gate_hi, imf_real acc_1g)
+    ctypedef struct imf_madgwick_imu_settings_t:
+        imf_real dt
+        imf_real beta
+        int delta_s
+        int invsqrt
+        imf_real acc_gate_lo
+        imf_real acc_gate_hi
+        imf_real acc_1g
+    void imf_madgwick_imu_init(imf_madgwick_imu_t *self, const imf_madgwick_imu_settings_t *settings)
     void imf_madgwick_imu_update(imf_madgwick_imu_t *self, imf_real gx, imf_real gy,
                                  imf_real gz, imf_real ax, imf_real ay, imf_real az)
     void imf_madgwick_imu_set_dt(imf_madgwick_imu_t *self, imf_real dt)
     void imf_madgwick_imu_set_attitude(imf_madgwick_imu_t *self, const imf_attitude_t *att)
-    void imf_madgwick_ahrs_init(imf_madgwick_ahrs_t *self, imf_real dt, imf_real beta,
-                                int invsqrt, imf_real acc_gate_lo, imf_real acc_gate_hi,
-                                imf_real acc_1g)
+    ctypedef struct imf_madgwick_ahrs_settings_t:
+        imf_real dt
+        imf_real beta
+        int invsqrt
+        imf_real acc_gate_lo
+        imf_real acc_gate_hi
+        imf_real acc_1g
+    void imf_madgwick_ahrs_init(imf_madgwick_ahrs_t *self, const imf_madgwick_ahrs_settings_t *settings)
     void imf_madgwick_ahrs_update(imf_madgwick_ahrs_t *self, imf_real gx, imf_real gy,
                                   imf_real gz, imf_real ax, imf_real ay, imf_real az,
                                   imf_real mx, imf_real my, imf_real mz)
@@ -31,8 +42,8 @@ cdef class MadgwickIMU(_FilterIMU):
 
     cdef int _init(self) except -1:
         a = self._kw
-        imf_madgwick_imu_init(&self.s, a["dt"], a["beta"], a["delta_s"], a["invsqrt"],
-                              a["acc_gate_lo"], a["acc_gate_hi"], a["acc_1g"])
+        cdef imf_madgwick_imu_settings_t st = a
+        imf_madgwick_imu_init(&self.s, &st)
         return self._bind(&self.s.x, sizeof(self.s.x), &self.s.skipped)
 
     cdef void _step(self, const imf_real *gyr, const imf_real *acc) noexcept nogil:
@@ -51,8 +62,8 @@ cdef class MadgwickAHRS(_FilterAHRS):
 
     cdef int _init(self) except -1:
         a = self._kw
-        imf_madgwick_ahrs_init(&self.s, a["dt"], a["beta"], a["invsqrt"], a["acc_gate_lo"],
-                               a["acc_gate_hi"], a["acc_1g"])
+        cdef imf_madgwick_ahrs_settings_t st = a
+        imf_madgwick_ahrs_init(&self.s, &st)
         return self._bind(&self.s.x, sizeof(self.s.x), &self.s.skipped)
 
     cdef void _step(self, const imf_real *gyr, const imf_real *acc,

@@ -5,8 +5,13 @@ cdef extern from "multiwii.h" nogil:
     ctypedef struct imf_multiwii_t:
         uint32_t skipped
         imf_multiwii_state_t x
-    void imf_multiwii_init(imf_multiwii_t *self, imf_real dt, imf_real cmpf, int acc_lpf_shift,
-                           imf_real acc_1g, imf_real window)
+    ctypedef struct imf_multiwii_settings_t:
+        imf_real dt
+        imf_real cmpf
+        int acc_lpf_shift
+        imf_real acc_1g
+        imf_real window
+    void imf_multiwii_init(imf_multiwii_t *self, const imf_multiwii_settings_t *settings)
     void imf_multiwii_update(imf_multiwii_t *self, imf_real gx, imf_real gy, imf_real gz,
                              imf_real ax, imf_real ay, imf_real az)
     void imf_multiwii_set_dt(imf_multiwii_t *self, imf_real dt)
@@ -20,7 +25,8 @@ cdef class MultiWii(_FilterIMU):
 
     cdef int _init(self) except -1:
         a = self._kw
-        imf_multiwii_init(&self.s, a["dt"], a["cmpf"], a["acc_lpf_shift"], a["acc_1g"], a["window"])
+        cdef imf_multiwii_settings_t st = a
+        imf_multiwii_init(&self.s, &st)
         return self._bind(&self.s.x, sizeof(self.s.x), &self.s.skipped)
 
     cdef void _step(self, const imf_real *gyr, const imf_real *acc) noexcept nogil:

@@ -8,21 +8,40 @@ cdef extern from "robust.h" nogil:
     ctypedef struct imf_robust_ahrs_t:
         uint32_t skipped
         imf_robust_state_t x
-    void imf_robust_imu_init(imf_robust_imu_t *self, imf_real dt, imf_real tau_acc,
-                             imf_real rate_ref, imf_real tau_bias, imf_real tau_bias_rest,
-                             imf_real rest_gyr, imf_real rest_acc, imf_real rest_time,
-                             imf_real tau_rest, imf_real latency)
+    ctypedef struct imf_robust_imu_settings_t:
+        imf_real dt
+        imf_real tau_acc
+        imf_real rate_ref
+        imf_real tau_bias
+        imf_real tau_bias_rest
+        imf_real rest_gyr
+        imf_real rest_acc
+        imf_real rest_time
+        imf_real tau_rest
+        imf_real latency
+    void imf_robust_imu_init(imf_robust_imu_t *self, const imf_robust_imu_settings_t *settings)
     void imf_robust_imu_update(imf_robust_imu_t *self, imf_real gx, imf_real gy, imf_real gz,
                                imf_real ax, imf_real ay, imf_real az)
     void imf_robust_imu_set_dt(imf_robust_imu_t *self, imf_real dt)
     void imf_robust_imu_set_attitude(imf_robust_imu_t *self, const imf_attitude_t *att)
-    void imf_robust_ahrs_init(imf_robust_ahrs_t *self, imf_real dt, imf_real tau_acc,
-                              imf_real rate_ref, imf_real tau_bias, imf_real tau_bias_rest,
-                              imf_real rest_gyr, imf_real rest_acc, imf_real rest_time,
-                              imf_real tau_rest, imf_real latency, imf_real tau_mag,
-                              imf_real mag_norm,
-                              imf_real mag_dip, imf_real tau_mag_ref, imf_real mag_new_time,
-                              imf_real mag_hold)
+    ctypedef struct imf_robust_ahrs_settings_t:
+        imf_real dt
+        imf_real tau_acc
+        imf_real rate_ref
+        imf_real tau_bias
+        imf_real tau_bias_rest
+        imf_real rest_gyr
+        imf_real rest_acc
+        imf_real rest_time
+        imf_real tau_rest
+        imf_real latency
+        imf_real tau_mag
+        imf_real mag_norm
+        imf_real mag_dip
+        imf_real tau_mag_ref
+        imf_real mag_new_time
+        imf_real mag_hold
+    void imf_robust_ahrs_init(imf_robust_ahrs_t *self, const imf_robust_ahrs_settings_t *settings)
     void imf_robust_ahrs_update(imf_robust_ahrs_t *self, imf_real gx, imf_real gy, imf_real gz,
                                 imf_real ax, imf_real ay, imf_real az,
                                 imf_real mx, imf_real my, imf_real mz)
@@ -36,9 +55,8 @@ cdef class RobustIMU(_FilterIMU):
 
     cdef int _init(self) except -1:
         a = self._kw
-        imf_robust_imu_init(&self.s, a["dt"], a["tau_acc"], a["rate_ref"], a["tau_bias"],
-                            a["tau_bias_rest"], a["rest_gyr"], a["rest_acc"], a["rest_time"],
-                            a["tau_rest"], a["latency"])
+        cdef imf_robust_imu_settings_t st = a
+        imf_robust_imu_init(&self.s, &st)
         return self._bind(&self.s.x, sizeof(self.s.x), &self.s.skipped)
 
     cdef void _step(self, const imf_real *gyr, const imf_real *acc) noexcept nogil:
@@ -57,10 +75,8 @@ cdef class RobustAHRS(_FilterAHRS):
 
     cdef int _init(self) except -1:
         a = self._kw
-        imf_robust_ahrs_init(&self.s, a["dt"], a["tau_acc"], a["rate_ref"], a["tau_bias"],
-                             a["tau_bias_rest"], a["rest_gyr"], a["rest_acc"], a["rest_time"],
-                             a["tau_rest"], a["latency"], a["tau_mag"], a["mag_norm"],
-                             a["mag_dip"], a["tau_mag_ref"], a["mag_new_time"], a["mag_hold"])
+        cdef imf_robust_ahrs_settings_t st = a
+        imf_robust_ahrs_init(&self.s, &st)
         return self._bind(&self.s.x, sizeof(self.s.x), &self.s.skipped)
 
     cdef void _step(self, const imf_real *gyr, const imf_real *acc,

@@ -6,9 +6,19 @@ cdef extern from "vario.h" nogil:
     ctypedef struct imf_vario_t:
         uint32_t skipped
         imf_vario_state_t x
-    void imf_vario_init(imf_vario_t *self, imf_real var_z, imf_real var_acc,
-                        imf_real var_bias, imf_real p_z, imf_real p_v, imf_real p_b,
-                        imf_real z0, imf_real v0, imf_real b0, int z0_from_baro, int predict)
+    ctypedef struct imf_vario_settings_t:
+        imf_real var_z
+        imf_real var_acc
+        imf_real var_bias
+        imf_real p_z
+        imf_real p_v
+        imf_real p_b
+        imf_real z0
+        imf_real v0
+        imf_real b0
+        int z0_from_baro
+        int predict
+    void imf_vario_init(imf_vario_t *self, const imf_vario_settings_t *settings)
     void imf_vario_update(imf_vario_t *self, imf_real accel, imf_real baro_alt, imf_real dt)
     imf_real imf_vertical_accel(imf_real q0, imf_real q1, imf_real q2, imf_real q3,
                                 imf_real ax, imf_real ay, imf_real az, imf_real sign,
@@ -45,8 +55,8 @@ cdef class VarioKF(_Filter):
 
     cdef int _init(self) except -1:
         a = self._kw
-        imf_vario_init(&self.s, a["var_z"], a["var_acc"], a["var_bias"], a["p_z"], a["p_v"],
-                       a["p_b"], a["z0"], a["v0"], a["b0"], a["z0_from_baro"], a["predict"])
+        cdef imf_vario_settings_t st = a
+        imf_vario_init(&self.s, &st)
         return self._bind(&self.s.x, sizeof(self.s.x), &self.s.skipped)
 
     def update(self, accel, baro_alt, dt):

@@ -61,11 +61,11 @@ def test_entry_matches_both_backends(e):
 def test_entry_c_prototypes_match_by_name(e):
     """The C init takes the reference's _init arguments, by name and in order
     (the Cython binding passes them by name); update takes the kind's inputs."""
-    init = cproto.find_prototype(HEADERS, e.c_name + "_init")
+    init = cproto.init_params(HEADERS, e.c_name + "_init")
     update = cproto.find_prototype(HEADERS, e.c_name + "_update")
     assert init is not None and update is not None, f"{e.c_name}_init/_update not in csrc/"
     assert f"}} {e.c_name}_t;" in HEADERS
-    c_args = tuple(p.name for p in init.params[1:])
+    c_args = tuple(p.name for p in init[1])
     want = e.init_args
     if e.fixed and "profile" not in c_args:   # profile selects the update, not an init value
         want = tuple(a for a in want if a != "profile")
@@ -104,7 +104,7 @@ def test_entry_reaches_every_harness(e):
     assert any(c.name == e.name for c in cases), "missing from tests/registry.py"
     # MCU runner and firmware harness: the prototypes they read
     cf = mcu_filters.c_library(e.c_name)
-    assert len(cf.init) == len(cproto.find_prototype(HEADERS, e.c_name + "_init").params) - 1
+    assert cf.init == cproto.init_params(HEADERS, e.c_name + "_init")[1]
     if not e.fixed:
         assert e.name in catalogue.filter_names()       # demo and CLI
         assert catalogue.resolve_params(e.name, 0.01)["dt"] == 0.01
@@ -200,7 +200,7 @@ def test_own_api_sections_reach_every_harness(e):
     assert tuple(c.state_names) == tuple(r.state_names) == e.state_names
     assert f"\nclass {e.name}(" in stubs()
     cf = mcu_filters.c_library(e.c_name)
-    assert len(cf.init) == len(cproto.find_prototype(HEADERS, e.c_name + "_init").params) - 1
+    assert cf.init == cproto.init_params(HEADERS, e.c_name + "_init")[1]
     for name in vars(e.reference):     # the compiled class has the reference's methods
         if not name.startswith("_") and inspect.isfunction(getattr(e.reference, name)):
             assert callable(getattr(c, name, None)), f"{e.name}.{name}"

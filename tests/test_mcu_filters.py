@@ -236,13 +236,16 @@ def test_fixed_init_from_double_and_from_constants(toolchains, target):
     for i, s in enumerate(specs):
         c = s.c
         v = f"imf_a{i}"
-        dbl = s.double_init_args()
+        fa, ca = mf.init_call(c.c_name + "_init", v, c.init_struct, c.init, s.double_init_args())
+        fb, cb = mf.init_call(s.init_function, v + "b", c.init_consts_struct, c.init_consts,
+                              s._init_args())
         pre.append(f'#include "{c.header.name}"\nstatic {c.c_name}_t {v}, {v}b;\n'
                    f"static int32_t imf_r{i};")
         body.append(f"memset(&{v}, 0, sizeof {v}); memset(&{v}b, 0, sizeof {v}b);\n"
-                    f"imf_r{i} = {c.c_name}_init(&{v}{''.join(', ' + a for a in dbl)}) * 4\n"
-                    f"    + {s.init_function}(&{v}b{''.join(', ' + a for a in s._init_args())}) * 2\n"
-                    f"    + (memcmp(&{v}, &{v}b, sizeof {v}) != 0);")
+                    f"{{ {fa} {fb}\n"
+                    f"imf_r{i} = {ca} * 4\n"
+                    f"    + {cb} * 2\n"
+                    f"    + (memcmp(&{v}, &{v}b, sizeof {v}) != 0); }}")
         state.append((f"imf_r{i}", "i32"))
     drv = mcu.Driver(prelude="\n".join(pre), step="\n".join(body), state=state)
     res = mcu.run(target, sources=sorted({str(s.c.source) for s in specs}),
@@ -323,14 +326,15 @@ def test_mahony1d_bias_q_gain_range(toolchains):
         with pytest.raises(ValueError, match=r"^kp[:*]" if kp * dt >= 0.9999 else r"^ki[:*]"):
             Mahony1DBiasQ(dt, kp, ki, **sc)
     good = [Mahony1DBiasQ(dt, kp, ki, **sc).c_init_args() for dt, kp, ki in ok]
-    dbl = [f"imf_mahony1d_bias_q_init(&imf_f, {dt!r}, {kp!r}, {ki!r}, 0, 1e-3, 1e-4)"
-           for dt, kp, ki in ok + bad]
+    dbl = [f"imf_mahony1d_bias_q_init(&imf_f, &(imf_mahony1d_bias_q_settings_t)"
+           f"{{{dt!r}, {kp!r}, {ki!r}, 0, 1e-3, 1e-4}})" for dt, kp, ki in ok + bad]
     kr = good[0]["kr"]
     consts = [(g["kr"], g["kp16_m"], g["kp16_j"], g["ki16_m"], g["ki16_j"]) for g in good]
     wrong = [(0, -1), (16384, -1), (0, -2), (300, 5), (255, 0), (1, 4)]
     consts += [(kr, m, j, 300, 0) for m, j in wrong] + [(kr, 300, 0, m, j) for m, j in wrong]
-    calls = dbl + [f"imf_mahony1d_bias_q_init_consts(&imf_f, (imf_qscale_t){{{k.m}, {k.s}}}, "
-                   f"{pm}u, {pj}, {im}u, {ij}, 1)" for k, pm, pj, im, ij in consts]
+    calls = dbl + [f"imf_mahony1d_bias_q_init_consts(&imf_f, &(imf_mahony1d_bias_q_consts_t)"
+                   f"{{{{{k.m}, {k.s}}}, {pm}u, {pj}, {im}u, {ij}, 1}})"
+                   for k, pm, pj, im, ij in consts]
     codes = _host_codes(calls, "imf_mahony1d_bias_q_t", "filters_1d_q")
     want = [0] * len(ok) + [-1] * len(bad) + [0] * len(good) + [-1] * (2 * len(wrong))
     assert codes == want, list(zip(calls, codes))

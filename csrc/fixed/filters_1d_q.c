@@ -49,41 +49,56 @@ void imf_complementary1d_q_update(imf_complementary1d_q_t *const self, const int
     self->x.theta = imf_add_sat32(tp, (self->ka16.j >= 0) ? imf_gain16_mul(e, self->ka16) : e);
 }
 
-int imf_mahony1d_bias_q_init_consts(imf_mahony1d_bias_q_t *const self, const imf_qscale_t kr,
-                                    const uint16_t kp16_m, const int kp16_j,
-                                    const uint16_t ki16_m, const int ki16_j,
-                                    const int integrate_first)
+void imf_mahony1d_bias_q_default_settings(imf_mahony1d_bias_q_settings_t *const settings)
+{
+    settings->dt = 0.01;
+    settings->kp = 2.0;
+    settings->ki = 0.3;
+    settings->integrate_first = 0;
+    settings->gyr_scale = 1.0642e-3;
+    settings->angle_scale = 1e-4;
+}
+
+int imf_mahony1d_bias_q_init_consts(imf_mahony1d_bias_q_t *const self,
+                                    const imf_mahony1d_bias_q_consts_t *const c)
 {
     /* kp16 = imf_gain16(Kp dt, 15, 15), ki16 = imf_gain16(Ki dt^2, 15, 23),
      * stored as given (no init-time arithmetic in an integer-initialised
      * firmware): Kp dt < 1 and Ki dt^2 < 2^-8, so both are 16-bit gains */
-    self->kr = kr;
-    self->kp16.m = kp16_m;
-    self->kp16.j = (int16_t)kp16_j;
-    self->ki16.m = ki16_m;
-    self->ki16.j = (int16_t)ki16_j;
-    self->integrate_first = (int16_t)(integrate_first != 0);
+    self->kr = c->kr;
+    self->kp16.m = c->kp16_m;
+    self->kp16.j = (int16_t)c->kp16_j;
+    self->ki16.m = c->ki16_m;
+    self->ki16.j = (int16_t)c->ki16_j;
+    self->integrate_first = (int16_t)(c->integrate_first != 0);
     self->x.theta = 0;
     self->x.j = 0;
-    if (!imf_1d_q_kr_ok(kr) || !imf_gain16_ok(kp16_m, kp16_j, 0)
-        || !imf_gain16_ok(ki16_m, ki16_j, 0)) {
+    if (!imf_1d_q_kr_ok(c->kr) || !imf_gain16_ok(c->kp16_m, c->kp16_j, 0)
+        || !imf_gain16_ok(c->ki16_m, c->ki16_j, 0)) {
         return -1;
     }
     return 0;
 }
 
-int imf_mahony1d_bias_q_init(imf_mahony1d_bias_q_t *const self, const double dt, const double kp,
-                             const double ki, const int integrate_first, const double gyr_scale,
-                             const double angle_scale)
+int imf_mahony1d_bias_q_init(imf_mahony1d_bias_q_t *const self,
+                             const imf_mahony1d_bias_q_settings_t *const s)
 {
+    const double dt = s->dt, kp = s->kp, ki = s->ki;
+    const double gyr_scale = s->gyr_scale, angle_scale = s->angle_scale;
     const imf_qscale_t kpq = imf_qscale_from_double(kp * dt);
     const imf_qscale_t kiq = imf_qscale_from_double(ki * dt * dt);
     const imf_gain16_t kp16 = imf_gain16(kpq, 15, 15);
     const imf_gain16_t ki16 = imf_gain16(kiq, 15, 23);
+    imf_mahony1d_bias_q_consts_t c;
+    int r;
+    c.kr = imf_qscale_from_double(gyr_scale * dt / angle_scale);
+    c.kp16_m = kp16.m;
+    c.kp16_j = kp16.j;
+    c.ki16_m = ki16.m;
     /* Ki = 0: the gain 0 (imf_gain16 gives j = -1 for its q-scale 0 2^-16) */
-    const int r = imf_mahony1d_bias_q_init_consts(
-        self, imf_qscale_from_double(gyr_scale * dt / angle_scale), kp16.m, kp16.j, ki16.m,
-        (kiq.m == 0) ? 0 : ki16.j, integrate_first);
+    c.ki16_j = (kiq.m == 0) ? 0 : ki16.j;
+    c.integrate_first = s->integrate_first;
+    r = imf_mahony1d_bias_q_init_consts(self, &c);
     /* Kp dt < 1, Ki dt^2 < 2^-8: q-scale s >= 15, >= 23 (Ki = 0: 0 2^-16) */
     if (!(dt > 0.0) || !(kp >= 0.0) || !(ki >= 0.0) || !(gyr_scale > 0.0) || !(angle_scale > 0.0)
         || !imf_qscale_ok(kpq, 15, 47) || !(kiq.m == 0 || imf_qscale_ok(kiq, 23, 55))) {

@@ -70,20 +70,43 @@ typedef struct {
     imf_mahony1d_bias_q_state_t x;
 } imf_mahony1d_bias_q_t;
 
-/* dt: s; kp: 1/s; ki: 1/s^2; scales as above (double: see above).  Kp dt
- * must be below 1 (a correction faster than one sample overshoots the
- * measured angle) and Ki dt^2 below 2^-8 (the I loop's natural frequency
- * sqrt(Ki) below 1/16 rad per sample): the gains the 16-bit products
- * cover.  Returns 0, or -1 for a parameter out of range. */
-int imf_mahony1d_bias_q_init(imf_mahony1d_bias_q_t *self, double dt, double kp, double ki,
-                             int integrate_first, double gyr_scale, double angle_scale);
-/* The same from the precomputed constants kr (q-scale), kp16 (m, j:
- * imf_gain16(Kp dt, 15, 15)) and ki16 (imf_gain16(Ki dt^2, 15, 23); m = j = 0
- * for Ki = 0), computed once on a host:
- * imufuse.reference.Mahony1DBiasQ(...).c_init_args().  Integer only, and it
- * only stores them.  Returns 0, or -1 if a constant is out of range. */
-int imf_mahony1d_bias_q_init_consts(imf_mahony1d_bias_q_t *self, imf_qscale_t kr, uint16_t kp16_m,
-                                    int kp16_j, uint16_t ki16_m, int ki16_j, int integrate_first);
+/* The settings of imf_mahony1d_bias_q_init (double: see above). Start from
+ * imf_mahony1d_bias_q_default_settings(), then set dt and the scales of your sensors.
+ * Kp dt must be below 1 (a correction faster than one sample overshoots the measured
+ * angle) and Ki dt^2 below 2^-8 (the I loop's natural frequency sqrt(Ki) below 1/16 rad
+ * per sample): the gains the 16-bit products cover. */
+typedef struct {
+    double dt;           /* sample period, s; > 0 (default 0.01: 100 Hz) */
+    double kp;           /* proportional gain, 1/s; >= 0, Kp dt < 1 (default 2) */
+    double ki;           /* integral gain, 1/s^2; >= 0, Ki dt^2 < 2^-8 (default 0.3) */
+    int integrate_first; /* nonzero: Eq. 3.9's order (Corollary #1); 0: Eq. 3.6 (default) */
+    double gyr_scale;    /* rad/s per gyro count; > 0 (default 1.0642e-3: 2000 deg/s
+                            on 16 bits) */
+    double angle_scale;  /* rad per angle count; > 0 (default 1e-4) */
+} imf_mahony1d_bias_q_settings_t;
+
+/* The integer constants of imf_mahony1d_bias_q_init_consts: kr (q-scale of
+ * gyr_scale dt / angle_scale), kp16 (m, j: imf_gain16(Kp dt, 15, 15)) and ki16
+ * (imf_gain16(Ki dt^2, 15, 23); m = j = 0 for Ki = 0), computed once on a host:
+ * imufuse.reference.Mahony1DBiasQ(...).c_init_args(). */
+typedef struct {
+    imf_qscale_t kr;
+    uint16_t kp16_m;
+    int kp16_j;
+    uint16_t ki16_m;
+    int ki16_j;
+    int integrate_first; /* as in the settings */
+} imf_mahony1d_bias_q_consts_t;
+
+/* The defaults listed with each member (imufuse's catalogue: a 16-bit MEMS gyro). */
+void imf_mahony1d_bias_q_default_settings(imf_mahony1d_bias_q_settings_t *settings);
+/* Returns 0, or -1 for a parameter out of range (then the filter is not usable). */
+int imf_mahony1d_bias_q_init(imf_mahony1d_bias_q_t *self,
+                             const imf_mahony1d_bias_q_settings_t *settings);
+/* The same from the precomputed constants. Integer only, and it only stores them.
+ * Returns 0, or -1 if a constant is out of range. */
+int imf_mahony1d_bias_q_init_consts(imf_mahony1d_bias_q_t *self,
+                                    const imf_mahony1d_bias_q_consts_t *consts);
 /* One sample: rate in gyro counts, angle in angle counts (int16: every input is a
  * number; sums saturate, so no input is rejected). */
 void imf_mahony1d_bias_q_update(imf_mahony1d_bias_q_t *self, int16_t rate, int16_t angle);

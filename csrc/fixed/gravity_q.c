@@ -116,10 +116,21 @@ void imf_kk_q_update(imf_kk_q_t *const self, const int16_t gyr[3], const int16_t
     t[1] = n[1];
 }
 
-int imf_multiwii_q_init_consts(imf_multiwii_q_t *const self, const imf_qscale_t kw,
-                               const imf_qscale_t kc, const int acc_lpf_shift, const uint32_t lo2,
-                               const uint32_t hi2, const int32_t acc_1g_q15)
+void imf_multiwii_q_default_settings(imf_multiwii_q_settings_t *const settings)
 {
+    settings->dt = 0.01;
+    settings->cmpf = 600.0;
+    settings->acc_lpf_shift = 4;
+    settings->acc_1g = 4096.0;
+    settings->window = 0.15;
+    settings->gyr_scale = 1.0642e-3;
+}
+
+int imf_multiwii_q_init_consts(imf_multiwii_q_t *const self, const imf_multiwii_q_consts_t *const c)
+{
+    const imf_qscale_t kw = c->kw, kc = c->kc;
+    const int acc_lpf_shift = c->acc_lpf_shift;
+    const int32_t acc_1g_q15 = c->acc_1g_q15;
     const int k = (acc_lpf_shift >= 0 && acc_lpf_shift <= 15) ? acc_lpf_shift : 0;
     int i;
     self->kw = kw;
@@ -127,8 +138,8 @@ int imf_multiwii_q_init_consts(imf_multiwii_q_t *const self, const imf_qscale_t 
     self->kw16 = imf_gain16(kw, 0, 16);
     self->kc16 = imf_gain16(kc, 15, 15);
     self->k = (int16_t)k;
-    self->lo2 = lo2;
-    self->hi2 = hi2;
+    self->lo2 = c->lo2;
+    self->hi2 = c->hi2;
     for (i = 0; i < 3; ++i) {
         self->x.d[i] = 0;
         self->x.l[i] = 0;
@@ -143,20 +154,22 @@ int imf_multiwii_q_init_consts(imf_multiwii_q_t *const self, const imf_qscale_t 
     return 0;
 }
 
-int imf_multiwii_q_init(imf_multiwii_q_t *const self, const double dt, const double cmpf,
-                        const int acc_lpf_shift, const double acc_1g, const double window,
-                        const double gyr_scale)
+int imf_multiwii_q_init(imf_multiwii_q_t *const self, const imf_multiwii_q_settings_t *const s)
 {
+    const double dt = s->dt, cmpf = s->cmpf, acc_1g = s->acc_1g, window = s->window;
     const double lo = (1.0 - window) * acc_1g, hi = (1.0 + window) * acc_1g;
     const int ok_1g = imf_param_ok(acc_1g, 0.0, 32767.0) && acc_1g > 0.0;
     const int ok_w = ok_1g && imf_param_ok(window, 0.0, 1.0); /* lo, hi finite */
-    const int r = imf_multiwii_q_init_consts(
-        self, imf_qscale_from_double(gyr_scale * dt),
-        imf_qscale_from_double(cmpf >= 0.0 ? 1.0 / (cmpf + 1.0) : 0.0), acc_lpf_shift,
-        (ok_w && lo > 0.0) ? (uint32_t)floor(lo * lo) : 0u,
-        (!ok_w || hi * hi >= 4294967295.0) ? 4294967295u : (uint32_t)ceil(hi * hi),
-        ok_1g ? (int32_t)floor(acc_1g * 32768.0 + 0.5) : 0);
-    if (!(dt > 0.0) || !(cmpf >= 0.0) || !(cmpf <= 1.0e9) || !ok_w || !(gyr_scale > 0.0)) {
+    imf_multiwii_q_consts_t c;
+    int r;
+    c.kw = imf_qscale_from_double(s->gyr_scale * dt);
+    c.kc = imf_qscale_from_double(cmpf >= 0.0 ? 1.0 / (cmpf + 1.0) : 0.0);
+    c.acc_lpf_shift = s->acc_lpf_shift;
+    c.lo2 = (ok_w && lo > 0.0) ? (uint32_t)floor(lo * lo) : 0u;
+    c.hi2 = (!ok_w || hi * hi >= 4294967295.0) ? 4294967295u : (uint32_t)ceil(hi * hi);
+    c.acc_1g_q15 = ok_1g ? (int32_t)floor(acc_1g * 32768.0 + 0.5) : 0;
+    r = imf_multiwii_q_init_consts(self, &c);
+    if (!(dt > 0.0) || !(cmpf >= 0.0) || !(cmpf <= 1.0e9) || !ok_w || !(s->gyr_scale > 0.0)) {
         return -1;
     }
     return r;

@@ -79,16 +79,37 @@ typedef struct {
     imf_multiwii_q_state_t x;
 } imf_multiwii_q_t;
 
-/* dt: s; cmpf: F >= 0; acc_lpf_shift: 0..15; acc_1g: counts of 1 g in
- * (0, 32767]; window: [0, 1]; gyr_scale: rad/s per count */
-int imf_multiwii_q_init(imf_multiwii_q_t *self, double dt, double cmpf, int acc_lpf_shift,
-                        double acc_1g, double window, double gyr_scale);
-/* From the precomputed constants (integer only, identical on every target;
- * imufuse.reference.MultiWiiQ(...).c_init_args()): kw = gyr_scale dt,
- * kc = 1/(F+1), the window lo2 < |accSmooth|^2 < hi2 in counts^2 and
- * acc_1g_q15 = acc_1g in q15 counts, in (0, 32767 * 2^15]. */
-int imf_multiwii_q_init_consts(imf_multiwii_q_t *self, imf_qscale_t kw, imf_qscale_t kc,
-                               int acc_lpf_shift, uint32_t lo2, uint32_t hi2, int32_t acc_1g_q15);
+/* The settings of imf_multiwii_q_init (double: see above). Start from
+ * imf_multiwii_q_default_settings(), then set dt and the scales of your sensors. */
+typedef struct {
+    double dt;         /* sample period, s; > 0 (default 0.01: 100 Hz) */
+    double cmpf;       /* GYR_CMPF_FACTOR F, dimensionless; 0 .. 1e9 (default 600) */
+    int acc_lpf_shift; /* ACC_LPF_FACTOR: accelerometer LPF of 2^shift samples, 0..15
+                          (default 4) */
+    double acc_1g;     /* accelerometer counts of 1 g, in (0, 32767] (default 4096: 8 g on
+                          16 bits) */
+    double window;     /* |a| window around 1 g for the correction, g; 0 .. 1 (default 0.15) */
+    double gyr_scale;  /* rad/s per gyro count; > 0 (default 1.0642e-3: 2000 deg/s on
+                          16 bits) */
+} imf_multiwii_q_settings_t;
+
+/* The integer constants of imf_multiwii_q_init_consts, identical on every target
+ * (imufuse.reference.MultiWiiQ(...).c_init_args()). */
+typedef struct {
+    imf_qscale_t kw;    /* gyr_scale dt */
+    imf_qscale_t kc;    /* 1 / (F + 1) */
+    int acc_lpf_shift;  /* as in the settings */
+    uint32_t lo2, hi2;  /* the window lo2 < |accSmooth|^2 < hi2, counts^2 */
+    int32_t acc_1g_q15; /* acc_1g in q15 counts, in (0, 32767 * 2^15] */
+} imf_multiwii_q_consts_t;
+
+/* The defaults listed with each member (imufuse's catalogue: a 16-bit MEMS IMU). */
+void imf_multiwii_q_default_settings(imf_multiwii_q_settings_t *settings);
+/* Returns 0, or -1 for a parameter out of range (then the filter is not usable). */
+int imf_multiwii_q_init(imf_multiwii_q_t *self, const imf_multiwii_q_settings_t *settings);
+/* From the precomputed constants (integer only). Returns 0, or -1 if a constant is out
+ * of range. */
+int imf_multiwii_q_init_consts(imf_multiwii_q_t *self, const imf_multiwii_q_consts_t *consts);
 /* One sample: gyr and acc in sensor counts (int16; every input is accepted, sums
  * saturate; outside the |acc| window the accelerometer gives no correction). */
 void imf_multiwii_q_update(imf_multiwii_q_t *self, const int16_t gyr[3], const int16_t acc[3]);

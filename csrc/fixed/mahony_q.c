@@ -49,9 +49,19 @@ int imf_mahony_imu_q_init_consts(imf_mahony_imu_q_t *const self, const imf_qscal
     return 0;
 }
 
-int imf_mahony_imu_q_init(imf_mahony_imu_q_t *const self, const double dt, const double kp,
-                          const double ki, const double gyr_scale, const int profile)
+void imf_mahony_imu_q_default_settings(imf_mahony_imu_q_settings_t *const settings)
 {
+    settings->dt = 0.01;
+    settings->kp = 1.0;
+    settings->ki = 0.0;
+    settings->gyr_scale = 1.0642e-3;
+    settings->profile = 32;
+}
+
+int imf_mahony_imu_q_init(imf_mahony_imu_q_t *const self, const imf_mahony_imu_q_settings_t *const s)
+{
+    const double dt = s->dt, kp = s->kp, ki = s->ki, gyr_scale = s->gyr_scale;
+    const int profile = s->profile;
     const int r = imf_mahony_imu_q_init_consts(self, imf_qscale_from_double(0.5 * gyr_scale * dt),
                                                imf_qscale_from_double(0.5 * kp * dt),
                                                imf_qscale_from_double(0.5 * ki * dt * dt), profile);

@@ -58,11 +58,22 @@ typedef struct {
     imf_mahony_imu_q_state_t x;
 } imf_mahony_imu_q_t;
 
-/* dt: s (> 0); kp: 1/s; ki: 1/s^2; gyr_scale: rad/s per count (> 0);
- * profile: 32 or 8.  Returns 0, or -1 if a constant is outside the
- * fixed-point range (then the filter is not usable). */
-int imf_mahony_imu_q_init(imf_mahony_imu_q_t *self, double dt, double kp, double ki,
-                          double gyr_scale, int profile);
+/* The settings of imf_mahony_imu_q_init. Start from imf_mahony_imu_q_default_settings(),
+ * then set dt and the gyro's scale. */
+typedef struct {
+    double dt;        /* sample period, s; > 0 (default 0.01: 100 Hz) */
+    double kp;        /* proportional gain, 1/s; >= 0 (default 1) */
+    double ki;        /* integral gain, 1/s^2; >= 0 (default 0) */
+    double gyr_scale; /* rad/s per gyro count; > 0 (default 1.0642e-3: 2000 deg/s on
+                         16 bits) */
+    int profile;      /* 32 (default) or 8: the update imf_mahony_imu_q_update calls */
+} imf_mahony_imu_q_settings_t;
+
+/* The defaults listed with each member. */
+void imf_mahony_imu_q_default_settings(imf_mahony_imu_q_settings_t *settings);
+/* Returns 0, or -1 if a constant is outside the fixed-point range (then the filter is
+ * not usable). */
+int imf_mahony_imu_q_init(imf_mahony_imu_q_t *self, const imf_mahony_imu_q_settings_t *settings);
 /* The same from the precomputed constants kg, kp, ki above (integer only,
  * identical on every target; computed once on a host by
  * imufuse.reference.MahonyIMUQ(...).c_init_args()).  init computes them in

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from typing import Optional, Tuple
 
 __all__ = ["CParam", "Prototype", "PrototypeError", "strip_comments", "parse_prototype",
-           "find_prototype"]
+           "find_prototype", "struct_members", "init_params"]
 
 _QUALIFIERS = ("const", "volatile", "restrict", "struct")
 
@@ -79,3 +79,43 @@ def find_prototype(text: str, func: str) -> Optional[Prototype]:
     m = re.search(r"(?:^|[;}\n])\s*([\w \t\*]*?\b" + re.escape(func) + r"\s*\([^)]*\)\s*;)",
                   strip_comments(text))
     return parse_prototype(m.group(1)) if m else None
+
+
+def struct_members(text: str, type_name: str) -> Optional[Tuple[CParam, ...]]:
+    """The members of `typedef struct {...} type_name;` in C source text, in order (one
+    typedef alias `typedef other_t type_name;` is followed), or None."""
+    text = strip_comments(text)
+    m = re.search(r"typedef\s+(\w+)\s+" + re.escape(type_name) + r"\s*;", text)
+    if m and m.group(1) != "struct":
+        return struct_members(text, m.group(1))
+    m = re.search(r"typedef\s+struct\s*\w*\s*\{([^{}]*)\}\s*" + re.escape(type_name) + r"\s*;",
+                  text)
+    if not m:
+        return None
+    out = []
+    for decl in m.group(1).split(";"):
+        decl = " ".join(decl.split())
+        if not decl:
+            continue
+        # "imf_real a, b" -> two members of type imf_real
+        first, *more = decl.split(",")
+        p = _param(len(out), type_name, first)
+        out.append(p)
+        for name in more:
+            out.append(_param(len(out), type_name, p.ctype + " " + name))
+    return tuple(out)
+
+
+def init_params(text: str, func: str) -> Optional[Tuple[Optional[str], Tuple[CParam, ...]]]:
+    """The values an init function `func` takes after `self`: its parameters, or, when it
+    takes one `const T *settings` (a settings or constants struct), T's members.
+    Returns (T or None, values), or None if `func` is not declared in text."""
+    proto = find_prototype(text, func)
+    if proto is None:
+        return None
+    rest = proto.params[1:]
+    if len(rest) == 1 and rest[0].pointer and rest[0].ctype.endswith("_t"):
+        members = struct_members(text, rest[0].ctype)
+        if members is not None:
+            return rest[0].ctype, members
+    return None, rest

@@ -49,16 +49,18 @@ def filter_driver_source() -> str:
     names = []
     for e in catalogue.FIXED:
         c, n = e.c_name, len(e.state_names)
-        init = cproto.find_prototype(text, c + "_init")
+        struct, init = cproto.init_params(text, c + "_init")
         update = cproto.find_prototype(text, c + "_update")
         values = [a for a in e.init_args if a != "profile"]
         args = []
-        for prm in init.params[1:]:
+        for prm in init:
             if prm.name == "profile":
                 args.append("profile")
             else:
                 v = f"p[{values.index(prm.name)}]"
                 args.append(f"({prm.ctype}){v}" if _INT_TYPES.fullmatch(prm.ctype) else v)
+        if struct is not None:   # C99 compound literal of the settings struct
+            args = [f"&({struct}){{{', '.join(args)}}}"]
         if e.kind == "1d":
             step, width = f"{c}_update(&o, (int16_t)v[0], (int16_t)v[1])", 2
         elif all(q.vector for q in update.params[1:]):

@@ -36,13 +36,29 @@ static const char *const NAMES[N_FIXED] = {"Complementary1DQ", "Mahony1DBiasQ", 
 
 static int init_fixed(const int which, const int profile, any_fixed_t *const f)
 {
+    imf_mahony1d_bias_q_settings_t mb;
+    imf_multiwii_q_settings_t mw;
+    imf_mahony_imu_q_settings_t mi;
     memset(f, 0, sizeof *f);
     switch (which) {
     case 0: return imf_complementary1d_q_init(&f->c1, 0.002, 0.995, 1e-3, 1e-4);
-    case 1: return imf_mahony1d_bias_q_init(&f->mb, 0.002, 2.0, 0.2, 0, 1e-3, 1e-4);
+    case 1:
+        imf_mahony1d_bias_q_default_settings(&mb);
+        mb.dt = 0.002;
+        mb.ki = 0.2;
+        mb.gyr_scale = 1e-3;
+        return imf_mahony1d_bias_q_init(&f->mb, &mb);
     case 2: return imf_kk_q_init(&f->kk, 0.002, 0.002, 1.0642e-3);
-    case 3: return imf_multiwii_q_init(&f->mw, 1.0 / 400, 600.0, 4, 4096.0, 0.15, 1.0642e-3);
-    case 4: return imf_mahony_imu_q_init(&f->mi, 1.0 / 512, 1.0, 0.05, 1.0642e-3, profile);
+    case 3:
+        imf_multiwii_q_default_settings(&mw);
+        mw.dt = 1.0 / 400;
+        return imf_multiwii_q_init(&f->mw, &mw);
+    case 4:
+        imf_mahony_imu_q_default_settings(&mi);
+        mi.dt = 1.0 / 512;
+        mi.ki = 0.05;
+        mi.profile = profile;
+        return imf_mahony_imu_q_init(&f->mi, &mi);
     default: return imf_madgwick_imu_q_init(&f->gi, 1.0 / 512, 0.1, 1.0642e-3, profile);
     }
 }

@@ -32,9 +32,8 @@
 #include "multiwii.h"
 
 #define N_FILTERS 16
-/* the accelerometer gate (seed 002) off, and on at 0.6 .. 1.4 g */
-#define GATE_OFF IMF_R(-1.0), IMF_R(0.0), IMF_R(1.0)
-#define GATE_ON IMF_R(0.6), IMF_R(1.4), IMF_R(1.0)
+/* the accelerometer gate (seed 002) on at 0.6 .. 1.4 g (the default settings: off) */
+#define GATE_ON(s) ((s).acc_gate_lo = IMF_R(0.6), (s).acc_gate_hi = IMF_R(1.4))
 
 typedef union {
     imf_complementary1d_t c1;
@@ -68,19 +67,48 @@ static void init_filter(const int which, any_filter_t *const f)
     case 3: imf_kalman1d_bias_init(&f->kb, IMF_R(0.01), IMF_R(0.02), IMF_R(-0.5), -1); break;
     case 4: imf_mahony1d_bias_init(&f->mb, IMF_R(0.01), IMF_R(2.0), IMF_R(0.3), 0); break;
     case 5: imf_complementary1d_bias_init(&f->cb, IMF_R(0.01), IMF_R(2.0), IMF_R(0.3)); break;
-    case 6: imf_mahony_imu_init(&f->mi, IMF_R(0.005), IMF_R(1.0), IMF_R(0.3), IMF_INVSQRT_EXACT,
-                                GATE_OFF); break;
-    case 7: imf_mahony_imu_init(&f->mi, IMF_R(0.005), IMF_R(0.5), IMF_R(0.0), IMF_INVSQRT_FAST,
-                                GATE_OFF); break;
-    case 8: imf_mahony_ahrs_init(&f->ma, IMF_R(0.01), IMF_R(2.0), IMF_R(0.5), IMF_INVSQRT_FAST,
-                                GATE_ON); break;
-    case 9: imf_madgwick_imu_init(&f->gi, IMF_R(0.01), IMF_R(0.1), IMF_MADGWICK_DS_FULL,
-                                  IMF_INVSQRT_EXACT, GATE_OFF); break;
-    case 10: imf_madgwick_imu_init(&f->gi, IMF_R(0.005), IMF_R(0.3), IMF_MADGWICK_DS_SIMPLIFIED,
-                                   IMF_INVSQRT_FAST, GATE_ON); break;
-    case 11: imf_madgwick_ahrs_init(&f->ga, IMF_R(0.01), IMF_R(0.1), IMF_INVSQRT_EXACT, GATE_OFF); break;
-    case 12: imf_multiwii_init(&f->mw, IMF_R(0.0025), IMF_R(600.0), 4, IMF_R(512.0), IMF_R(0.15));
+    case 6: case 7: case 8: {
+        imf_mahony_imu_settings_t s;
+        imf_mahony_imu_default_settings(&s);
+        s.dt = which == 8 ? IMF_R(0.01) : IMF_R(0.005);
+        s.kp = which == 6 ? IMF_R(1.0) : which == 7 ? IMF_R(0.5) : IMF_R(2.0);
+        s.ki = which == 6 ? IMF_R(0.3) : which == 7 ? IMF_R(0.0) : IMF_R(0.5);
+        s.invsqrt = which == 6 ? IMF_INVSQRT_EXACT : IMF_INVSQRT_FAST;
+        if (which == 8) {
+            GATE_ON(s);
+            imf_mahony_ahrs_init(&f->ma, &s);
+        } else {
+            imf_mahony_imu_init(&f->mi, &s);
+        }
         break;
+    }
+    case 9: case 10: {
+        imf_madgwick_imu_settings_t s;
+        imf_madgwick_imu_default_settings(&s);
+        s.dt = which == 9 ? IMF_R(0.01) : IMF_R(0.005);
+        s.beta = which == 9 ? IMF_R(0.1) : IMF_R(0.3);
+        if (which == 10) {
+            s.delta_s = IMF_MADGWICK_DS_SIMPLIFIED;
+            s.invsqrt = IMF_INVSQRT_FAST;
+            GATE_ON(s);
+        }
+        imf_madgwick_imu_init(&f->gi, &s);
+        break;
+    }
+    case 11: {
+        imf_madgwick_ahrs_settings_t s;
+        imf_madgwick_ahrs_default_settings(&s);
+        imf_madgwick_ahrs_init(&f->ga, &s);
+        break;
+    }
+    case 12: {
+        imf_multiwii_settings_t s;
+        imf_multiwii_default_settings(&s);
+        s.dt = IMF_R(0.0025);
+        s.acc_1g = IMF_R(512.0);
+        imf_multiwii_init(&f->mw, &s);
+        break;
+    }
     case 13: imf_kk_init(&f->kk, IMF_R(0.005), IMF_R(0.01)); break;
     case 14: imf_mahony2d_init(&f->m2, IMF_R(0.005), IMF_R(2.0), IMF_R(0.5), 1); break;
     default: imf_dcm_init(&f->dc, IMF_R(0.005), IMF_R(2.0), IMF_R(0.5)); break;

@@ -37,7 +37,7 @@ from .. import reference as _reference
 from .. import sim, sim_flight
 from .._checks import KINDS
 from .._resources import csrc_dir
-from ..cproto import CParam, PrototypeError, find_prototype, strip_comments
+from ..cproto import CParam, PrototypeError, find_prototype, init_params, strip_comments
 from .driver import Driver
 from .emulators import Result, run_elf
 from .programs import build
@@ -48,6 +48,7 @@ __all__ = [
     "FilterSpec",
     "GroupResult",
     "c_library",
+    "init_call",
     "run_filters",
     "INPUT_NAMES",
 ]
@@ -74,11 +75,13 @@ class CFilter:
     c_name: str
     header: Path
     source: Path
-    init: Tuple[CParam, ...]     # without self
+    init: Tuple[CParam, ...]     # the values init takes (the settings struct's members)
     init_returns: str            # "void" or an integer type (fixed point: 0 = ok)
     update: Tuple[CParam, ...]   # without self
     has_skipped: bool
     init_consts: Optional[Tuple[CParam, ...]] = None  # fixed point: <c_name>_init_consts
+    init_struct: Optional[str] = None         # init(self, const T *settings): T
+    init_consts_struct: Optional[str] = None  # init_consts(self, const T *consts): T
 
 
 def _prototype(text: str, func: str) -> Tuple[str, Tuple[CParam, ...]]:
@@ -91,6 +94,29 @@ def _prototype(text: str, func: str) -> Tuple[str, Tuple[CParam, ...]]:
     if not p.params or not p.params[0].pointer:
         raise HarnessError(f"{func}(): the first parameter must be the filter pointer")
     return p.returns, p.params[1:]
+
+
+def _init_values(text: str, func: str) -> Tuple[str, Optional[str], Tuple[CParam, ...]]:
+    """(returns, settings struct or None, the values): an init that takes a settings
+    struct takes its members."""
+    ret, _ = _prototype(text, func)
+    try:
+        got = init_params(text, func)
+    except PrototypeError as e:
+        raise HarnessError(str(e)) from None
+    assert got is not None
+    return ret, got[0], got[1]
+
+
+def init_call(func: str, var: str, struct: Optional[str], params: Sequence[CParam],
+              args: Sequence[str]) -> Tuple[str, str]:
+    """(declarations, call expression) of init ``func`` on ``&var`` with ``args``:
+    positional (no declarations), or (``struct``) through a settings struct ``<var>_set``
+    filled member by member (valid C and C++)."""
+    if struct is None:
+        return "", f"{func}(&{var}{''.join(', ' + a for a in args)})"
+    fill = "".join(f" {var}_set.{p.name} = {a};" for p, a in zip(params, args))
+    return f"{struct} {var}_set;{fill}", f"{func}(&{var}, &{var}_set)"
 
 
 def _headers(csrc: Path) -> List[Path]:
@@ -109,11 +135,11 @@ def c_library(c_name: str, csrc: Path = CSRC) -> CFilter:
         text = strip_comments(h.read_text())
         if not re.search(r"\b" + re.escape(c_name) + r"_init\s*\(", text):
             continue
-        ret, init = _prototype(text, c_name + "_init")
+        ret, init_struct, init = _init_values(text, c_name + "_init")
         _, update = _prototype(text, c_name + "_update")
-        init_consts = None
+        init_consts, consts_struct = None, None
         if re.search(r"\b" + re.escape(c_name) + r"_init_consts\s*\(", text):
-            _, init_consts = _prototype(text, c_name + "_init_consts")
+            _, consts_struct, init_consts = _init_values(text, c_name + "_init_consts")
         m = re.search(r"typedef\s+struct\s*\{((?:(?!typedef).)*?)\}\s*" + re.escape(c_name) + r"_t\s*;",
                       text, flags=re.S)
         has_skipped = bool(m and re.search(r"\bskipped\b", m.group(1)))
@@ -121,7 +147,7 @@ def c_library(c_name: str, csrc: Path = CSRC) -> CFilter:
         if not src.is_file():
             raise HarnessError(f"{c_name}: {h} has no {src.name} next to it")
         cf = CFilter(c_name, h, src, init, ret.replace("static", "").replace("inline", "").strip(),
-                     update, has_skipped, init_consts)
+                     update, has_skipped, init_consts, init_struct, consts_struct)
         _HEADER_CACHE[key] = cf
         return cf
     raise HarnessError(f"no header under {csrc} declares {c_name}_init()")
@@ -297,13 +323,19 @@ class FilterSpec:
             f"typedef char {var}_state_is_{n}_words[sizeof({var}.x) == {n}u * sizeof({ctype}) ? 1 : -1];"
         )
         if double_init:
-            call = f"{c.c_name}_init(&{var}{''.join(', ' + a for a in self.double_init_args())})"
+            fill, call = init_call(c.c_name + "_init", var, c.init_struct, c.init,
+                             self.double_init_args())
+        elif self.fixed:
+            fill, call = init_call(self.init_function, var, c.init_consts_struct, c.init_consts or (),
+                             self._init_args())
         else:
-            call = f"{self.init_function}(&{var}{''.join(', ' + a for a in self._init_args())})"
+            fill, call = init_call(self.init_function, var, c.init_struct, c.init, self._init_args())
         if c.init_returns != "void":
             init = f'if ({call} != 0) {{ imf_port_write("IMF_FAULT {self.label} init\\n"); }}'
         else:
             init = f"{call};"
+        if fill:
+            init = f"{{ {fill}\n{init} }}"
         step = f"{c.c_name}_update(&{var}{''.join(', ' + a for a in self._update_args())});"
         state = [(f"((const {ctype} *)(const void *)&{var}.x)[{k}]", kind) for k in range(n)]
         if c.has_skipped:

@@ -125,11 +125,15 @@ class FixedFilter:
         return self._consts(*self._args)  # type: ignore[attr-defined]
 
     def c_init_call(self, var: str) -> str:
-        """C statement initialising the filter variable ``var`` (an ``<c_name>_t``) from the
-        constants, e.g. for firmware: ``imf_mahony_imu_q_init_consts(&f, (imf_qscale_t){...},
-        ...);`` (integer only; returns 0 in C)."""
-        args = "".join(", " + c_literal(v) for v in self.c_init_args().values())
-        return f"{self.c_name}_init_consts(&{var}{args});"
+        """C99 statement initialising the filter variable ``var`` (an ``<c_name>_t``) from
+        the constants, e.g. for firmware: ``imf_mahony_imu_q_init_consts(&f,
+        (imf_qscale_t){...}, ...);`` (integer only; returns 0 in C). More than four constants
+        go in the filter's ``<c_name>_consts_t`` (``&(<c_name>_consts_t){...}``)."""
+        values = [c_literal(v) for v in self.c_init_args().values()]
+        if len(values) > 4:
+            return (f"{self.c_name}_init_consts(&{var}, &({self.c_name}_consts_t)"
+                    f"{{{', '.join(values)}}});")
+        return f"{self.c_name}_init_consts(&{var}{''.join(', ' + v for v in values)});"
 
     def __init__(self, *args, profile="32", **kwargs):
         self._args = self._params(*args, profile=profile, **kwargs)
