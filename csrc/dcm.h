@@ -48,7 +48,7 @@ typedef struct {
     imf_real ki;      /* integral gain Ki, 1/s^2 (kept for set_dt) */
     imf_real ki_dt;   /* Ki dt, 1/s */
     uint32_t skipped; /* samples rejected by the non-finite policy */
-    imf_dcm_state_t x;
+    imf_dcm_state_t x; /* the state (above): the estimate; write it only through the API */
 } imf_dcm_t;
 
 /* dt: s; kp: 1/s; ki: 1/s^2. State starts at R = identity, I = 0. */

@@ -40,7 +40,7 @@ typedef struct {
     imf_real alpha;           /* weight of the gyro path, 0..1 */
     imf_real one_minus_alpha; /* 1 - alpha, weight of the accelerometer */
     uint32_t skipped;         /* samples rejected by the non-finite policy */
-    imf_complementary1d_state_t x;
+    imf_complementary1d_state_t x; /* the state (above): the estimate; write it only through the API */
 } imf_complementary1d_t;
 
 /* dt: s; alpha: dimensionless, alpha = (T/dt) / (1 + T/dt) for time constant T. */
@@ -59,8 +59,8 @@ typedef struct {
     imf_real dt;            /* sample period, s */
     imf_real k0;            /* Kalman gain K0, 0..1 */
     imf_real one_minus_k0;  /* 1 - K0 */
-    uint32_t skipped;
-    imf_kalman1d_state_t x;
+    uint32_t skipped; /* samples rejected by the non-finite policy (state kept) */
+    imf_kalman1d_state_t x; /* the state (above): the estimate; write it only through the API */
 } imf_kalman1d_t;
 
 /* dt: s (> 0); k0: the constant Kalman gain K0, 0..1. theta = 0. */
@@ -78,8 +78,8 @@ typedef struct {
 typedef struct {
     imf_real dt; /* sample period, s */
     imf_real kp; /* proportional gain, 1/s */
-    uint32_t skipped;
-    imf_mahony1d_state_t x;
+    uint32_t skipped; /* samples rejected by the non-finite policy (state kept) */
+    imf_mahony1d_state_t x; /* the state (above): the estimate; write it only through the API */
 } imf_mahony1d_t;
 
 /* dt: s (> 0); kp: 1/s (kp dt < 2 for a stable loop). theta = 0. */
@@ -101,8 +101,8 @@ typedef struct {
     imf_real one_minus_k0; /* 1 - K0 */
     imf_real k1;           /* gain K1 of the bias, 1/s */
     imf_real bias_sign;    /* -1: rate - b (natural sign); +1: rate + b (Corollary #2) */
-    uint32_t skipped;
-    imf_kalman1d_bias_state_t x;
+    uint32_t skipped; /* samples rejected by the non-finite policy (state kept) */
+    imf_kalman1d_bias_state_t x; /* the state (above): the estimate; write it only through the API */
 } imf_kalman1d_bias_t;
 
 /* bias_sign: -1 or +1 */
@@ -125,8 +125,8 @@ typedef struct {
     imf_real ki;             /* integral gain Ki, 1/s^2 (kept for set_dt) */
     imf_real ki_dt;          /* Ki * dt, 1/s */
     int integrate_first;     /* 0: Eq. 3.6; 1: reversed order, Eq. 3.9 */
-    uint32_t skipped;
-    imf_mahony1d_bias_state_t x;
+    uint32_t skipped; /* samples rejected by the non-finite policy (state kept) */
+    imf_mahony1d_bias_state_t x; /* the state (above): the estimate; write it only through the API */
 } imf_mahony1d_bias_t;
 
 /* kp: 1/s; ki: 1/s^2; integrate_first: 0 or 1 */
@@ -162,8 +162,8 @@ typedef struct {
     imf_real b0a;          /* (Kp dt + Ki dt^2) / a0: weight of the angle error */
     imf_real b0w;          /* dt / a0: weight of the rate */
     imf_real ki_dt;        /* Ki dt */
-    uint32_t skipped;
-    imf_complementary1d_bias_state_t x;
+    uint32_t skipped; /* samples rejected by the non-finite policy (state kept) */
+    imf_complementary1d_bias_state_t x; /* the state (above): the estimate; write it only through the API */
 } imf_complementary1d_bias_t;
 
 /* kp: 1/s; ki: 1/s^2 (omega0 = sqrt(ki), xi = kp / (2 sqrt(ki)), Eq. 3.11) */

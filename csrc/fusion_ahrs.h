@@ -53,12 +53,12 @@ typedef struct {
 
 /* The settings converted once into what the update needs. */
 typedef struct {
-    int convention;
-    imf_real gain;
+    int convention; /* IMF_FUSION_CONVENTION_* */
+    imf_real gain; /* as set */
     imf_real gyroscope_range;        /* 0.98 * range, or the largest real */
     imf_real acceleration_rejection; /* (sin(threshold)/2)^2, or the largest real */
-    imf_real magnetic_rejection;
-    int32_t recovery_trigger_period;
+    imf_real magnetic_rejection; /* (sin(threshold)/2)^2, or the largest real */
+    int32_t recovery_trigger_period; /* samples; 0 disables rejection */
     imf_real ramped_gain_step;       /* (10 - gain) / 3 s, per second */
     int invsqrt;                     /* IMF_FUSION_INVSQRT_EXACT or _FAST */
 } imf_fusion_ahrs_config_t;
@@ -67,25 +67,25 @@ typedef struct {
 typedef struct {
     imf_real q0, q1, q2, q3;         /* quaternion w, x, y, z */
     imf_real acc_x, acc_y, acc_z;    /* last accelerometer sample, g */
-    imf_real ramped_gain;
+    imf_real ramped_gain; /* the gain during initialisation, ramped down to gain */
     imf_real half_acc_fb_x, half_acc_fb_y, half_acc_fb_z; /* last accelerometer feedback / 2 */
     imf_real half_mag_fb_x, half_mag_fb_y, half_mag_fb_z; /* last magnetometer feedback / 2 */
     int32_t initialising;            /* 0 or 1 */
     int32_t angular_rate_recovery;   /* 0 or 1 */
     int32_t accelerometer_ignored;   /* 0 or 1 */
-    int32_t acceleration_recovery_trigger;
-    int32_t acceleration_recovery_timeout;
+    int32_t acceleration_recovery_trigger; /* samples, counts up while rejected */
+    int32_t acceleration_recovery_timeout; /* samples */
     int32_t magnetometer_ignored;    /* 0 or 1 */
-    int32_t magnetic_recovery_trigger;
-    int32_t magnetic_recovery_timeout;
+    int32_t magnetic_recovery_trigger; /* samples, counts up while rejected */
+    int32_t magnetic_recovery_timeout; /* samples */
 } imf_fusion_ahrs_state_t;
 
 #define IMF_FUSION_AHRS_N_STATE 22
 
 typedef struct {
-    imf_fusion_ahrs_config_t set;
+    imf_fusion_ahrs_config_t set; /* internal: the settings as init converted them */
     uint32_t skipped; /* samples rejected by the non-finite policy */
-    imf_fusion_ahrs_state_t x;
+    imf_fusion_ahrs_state_t x; /* the state (above): the estimate; write it only through the API */
 } imf_fusion_ahrs_t;
 
 /* Outputs (FusionAhrsGet*), computed from the state; the order of

@@ -49,16 +49,16 @@ enum { IMF_FUSION_NWU = 0, IMF_FUSION_ENU = 1, IMF_FUSION_NED = 2 };
 enum { IMF_FUSION_INVSQRT_EXACT = 0, IMF_FUSION_INVSQRT_FAST = 1 };
 
 typedef struct {
-    imf_real x, y, z;
+    imf_real x, y, z; /* components */
 } imf_fusion_vec_t;
 
 typedef struct {
-    imf_real w, x, y, z;
+    imf_real w, x, y, z; /* w first */
 } imf_fusion_quat_t;
 
 /* Row-major 3x3 matrix: m[0..2] first row (xx, xy, xz), as FusionMatrix. */
 typedef struct {
-    imf_real m[9];
+    imf_real m[9]; /* row major */
 } imf_fusion_mat_t;
 
 /* |x| for the threshold comparisons (gyroscope range, rest detection): the

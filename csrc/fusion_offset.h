@@ -31,9 +31,9 @@ typedef struct {
 #define IMF_FUSION_OFFSET_N_STATE 4
 
 typedef struct {
-    imf_fusion_offset_config_t set;
-    uint32_t skipped;
-    imf_fusion_offset_state_t x;
+    imf_fusion_offset_config_t set; /* internal: the settings as init converted them */
+    uint32_t skipped; /* samples rejected by the non-finite policy (state kept) */
+    imf_fusion_offset_state_t x; /* the state (above): the estimate; write it only through the API */
 } imf_fusion_offset_t;
 
 /* sample_rate: Hz (> 0) */

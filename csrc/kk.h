@@ -37,7 +37,7 @@ typedef struct {
     imf_real dt;      /* sample period, s */
     imf_real kp;      /* P gain per sample, dimensionless, 0 <= kp < 2 */
     uint32_t skipped; /* samples rejected by the non-finite policy */
-    imf_kk_state_t x;
+    imf_kk_state_t x; /* the state (above): the estimate; write it only through the API */
 } imf_kk_t;
 
 /* dt: s; kp: dimensionless gain per sample. State starts level (0, 0). */

@@ -58,17 +58,17 @@ typedef struct {
 } imf_madgwick_consts_t;
 
 typedef struct {
-    imf_madgwick_consts_t set;
+    imf_madgwick_consts_t set; /* internal: the settings as init converted them */
     uint32_t skipped; /* samples rejected by the non-finite policy */
-    imf_madgwick_state_t x;
+    imf_madgwick_state_t x; /* the state (above): the estimate; write it only through the API */
 } imf_madgwick_imu_t;
 
 /* Same settings (delta_s always full) and state; the update falls back to
    the IMU update when the magnetometer reads all zero. */
 typedef struct {
-    imf_madgwick_consts_t set;
+    imf_madgwick_consts_t set; /* internal: the settings as init converted them */
     uint32_t skipped; /* samples rejected by the non-finite policy */
-    imf_madgwick_state_t x;
+    imf_madgwick_state_t x; /* the state (above): the estimate; write it only through the API */
 } imf_madgwick_ahrs_t;
 
 /* The settings of imf_madgwick_imu_init. Start from

@@ -63,17 +63,17 @@ typedef struct {
 } imf_mahony_consts_t;
 
 typedef struct {
-    imf_mahony_consts_t set;
+    imf_mahony_consts_t set; /* internal: the settings as init converted them */
     uint32_t skipped; /* samples rejected by the non-finite policy */
-    imf_mahony_state_t x;
+    imf_mahony_state_t x; /* the state (above): the estimate; write it only through the API */
 } imf_mahony_imu_t;
 
 /* Same settings and state; the update falls back to the IMU update when the
    magnetometer reads all zero. */
 typedef struct {
-    imf_mahony_consts_t set;
+    imf_mahony_consts_t set; /* internal: the settings as init converted them */
     uint32_t skipped; /* samples rejected by the non-finite policy */
-    imf_mahony_state_t x;
+    imf_mahony_state_t x; /* the state (above): the estimate; write it only through the API */
 } imf_mahony_ahrs_t;
 
 /* The settings of imf_mahony_imu_init and imf_mahony_ahrs_init. Start from

@@ -61,7 +61,7 @@ typedef struct {
     int exact;        /* 0: E = a - d (Eq. 4.4); 1: E = d x (a x d) (Eq. 4.3) */
     imf_real d2_max;  /* longest valid d, squared: 4 (see above) */
     uint32_t skipped; /* samples rejected by the non-finite policy */
-    imf_mahony2d_state_t x;
+    imf_mahony2d_state_t x; /* the state (above): the estimate; write it only through the API */
 } imf_mahony2d_t;
 
 /* dt: s; kp: 1/s; ki: 1/s^2; exact: 0 or 1. State starts level, I = 0. */

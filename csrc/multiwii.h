@@ -44,7 +44,7 @@ typedef struct {
     imf_real d2_max;    /* (4 acc_1g)^2: longest valid d (imf_gravity_ok), squared */
     imf_real acc_1g;    /* accelerometer reading of 1 g */
     uint32_t skipped;   /* samples rejected by the non-finite policy */
-    imf_multiwii_state_t x;
+    imf_multiwii_state_t x; /* the state (above): the estimate; write it only through the API */
 } imf_multiwii_t;
 
 /* The settings of imf_multiwii_init. Start from imf_multiwii_default_settings(), then

@@ -81,14 +81,14 @@ typedef struct {
 
 typedef struct {
     uint32_t skipped; /* samples rejected by the valid-attitude policy */
-    imf_robust_state_t x;
-    imf_robust_consts_t set;
+    imf_robust_state_t x; /* the state (above): the estimate; write it only through the API */
+    imf_robust_consts_t set; /* internal: the settings as init converted them */
 } imf_robust_imu_t;
 
 typedef struct {
     uint32_t skipped; /* samples rejected by the valid-attitude policy */
-    imf_robust_state_t x;
-    imf_robust_consts_t set;
+    imf_robust_state_t x; /* the state (above): the estimate; write it only through the API */
+    imf_robust_consts_t set; /* internal: the settings as init converted them */
 } imf_robust_ahrs_t;
 
 /* The settings of imf_robust_imu_init. Start from imf_robust_imu_default_settings(),

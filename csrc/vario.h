@@ -47,11 +47,11 @@ typedef struct {
     imf_real v;   /* climb rate, cm/s */
     imf_real b;   /* accelerometer bias, cm/s^2 */
     imf_real pzz; /* covariance P, upper triangle */
-    imf_real pzv;
-    imf_real pzb;
-    imf_real pvv;
-    imf_real pvb;
-    imf_real pbb;
+    imf_real pzv; /* cm^2/s */
+    imf_real pzb; /* cm^2/s^2 */
+    imf_real pvv; /* (cm/s)^2 */
+    imf_real pvb; /* cm^2/s^3 */
+    imf_real pbb; /* (cm/s^2)^2 */
 } imf_vario_state_t;
 
 /* Internal: the settings as init keeps them (read by the update). */
@@ -63,10 +63,10 @@ typedef struct {
 } imf_vario_consts_t;
 
 typedef struct {
-    imf_vario_consts_t set;
+    imf_vario_consts_t set; /* internal: the settings as init converted them */
     uint32_t skipped; /* samples rejected by the non-finite policy */
     int started;      /* 0 until the first sample has set z (z0_from_baro) */
-    imf_vario_state_t x;
+    imf_vario_state_t x; /* the state (above): the estimate; write it only through the API */
 } imf_vario_t;
 
 /* The settings of imf_vario_init. Start from imf_vario_default_settings() (the seed's

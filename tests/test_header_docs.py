@@ -49,3 +49,47 @@ def test_the_check_can_fail():
     assert undocumented("typedef int t;\n\nvoid imf_x_init(t *self, float dt);\n") == \
         ["line 3: imf_x_init"]
     assert undocumented("/* dt: s */\nvoid imf_x_init(t *self,\n    float dt);\n") == []
+
+
+def undocumented_members(text):
+    """Struct members in `text` with no comment on their line and no comment ending on the
+    line right above."""
+    out = []
+    lines = text.split("\n")
+    in_struct = in_comment = False
+    above = False   # the previous line ended a comment
+    for i, line in enumerate(lines):
+        s = line.strip()
+        if in_comment:
+            in_comment = "*/" not in s
+            above = not in_comment
+            continue
+        if re.match(r"(typedef\s+)?struct\b[^;]*\{\s*$", s):
+            in_struct, above = True, False
+            continue
+        if not in_struct:
+            continue
+        if s.startswith("}"):
+            in_struct = False
+            continue
+        code, _, comment = s.partition("/*")
+        if code.strip().endswith(";") and not comment and "//" not in s and not above:
+            out.append(f"line {i + 1}: {code.strip()}")
+        if comment and "*/" not in comment:
+            in_comment = True
+        above = bool(comment) and not code.strip() and "*/" in comment
+    return out
+
+
+@pytest.mark.parametrize("header", HEADERS, ids=[h.name for h in HEADERS])
+def test_every_struct_member_is_documented(header):
+    """Every member of every struct in the public headers says what it holds (its unit,
+    format or meaning), on its line or in a comment right above."""
+    assert not undocumented_members(header.read_text()), \
+        f"{header.name}: {undocumented_members(header.read_text())}"
+
+
+def test_the_member_check_can_fail():
+    text = ("typedef struct {\n    float a; /* s */\n    /* gain */\n    float b;\n"
+            "    float c;\n    float d; /* a long\n       comment; with a semicolon */\n} t;\n")
+    assert undocumented_members(text) == ["line 5: float c;"]

@@ -183,8 +183,8 @@ static inline int32_t imf_mulk32(const int32_t x, const imf_qscale_t c, const in
  * j = -2 for g = 1 exactly, else j = -1: the caller takes another path
  * (imf_gain16_mul needs j >= 0). */
 typedef struct {
-    uint16_t m;
-    int16_t j;
+    uint16_t m; /* mantissa, 0 or in [2^8, 2^16) */
+    int16_t j; /* byte shift in [0, 4]; -1, -2: see above */
 } imf_gain16_t;
 
 /* A 16-bit gain (m, j) that imf_gain16 gives for g < 1 (j in [0, 4] with

@@ -37,12 +37,12 @@ typedef struct {
 } imf_madgwick_imu_q_state_t;
 
 typedef struct {
-    imf_qscale_t kg, kb;
-    int16_t hs;
-    imf_gain8_t kg8;
-    int16_t kbf;
-    int16_t profile;
-    imf_madgwick_imu_q_state_t x;
+    imf_qscale_t kg, kb; /* 0.5 gyr_scale dt, beta dt (q-scales) */
+    int16_t hs; /* 8-bit profile: rates in q(15+hs) */
+    imf_gain8_t kg8; /* 8-bit profile: kg for int16 products */
+    int16_t kbf; /* 8-bit profile: beta dt in q15 */
+    int16_t profile; /* 32 or 8 */
+    imf_madgwick_imu_q_state_t x; /* the state (above): the estimate; write it only through the API */
 } imf_madgwick_imu_q_t;
 
 /* dt: s (> 0); beta: rad/s (>= 0); gyr_scale: rad/s per count (> 0);

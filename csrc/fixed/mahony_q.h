@@ -49,13 +49,13 @@ typedef struct {
 } imf_mahony_imu_q_state_t;
 
 typedef struct {
-    imf_qscale_t kg, kp, ki;
+    imf_qscale_t kg, kp, ki; /* 0.5 gyr_scale dt, 0.5 kp dt, 0.5 ki dt^2 (q-scales) */
     int16_t hs;      /* 8-bit profile: rates in q(15+hs) */
     imf_gain8_t kg8, kp8, ki8; /* 8-bit profile: kg, kp, ki for int16 products */
     uint16_t kpi;    /* 8-bit profile: kp for e (q15) -> q38, when fast8 */
     int16_t fast8;   /* 8-bit profile: kpi and ki8 (shift 16) usable */
     int16_t profile; /* 32 or 8 */
-    imf_mahony_imu_q_state_t x;
+    imf_mahony_imu_q_state_t x; /* the state (above): the estimate; write it only through the API */
 } imf_mahony_imu_q_t;
 
 /* The settings of imf_mahony_imu_q_init. Start from imf_mahony_imu_q_default_settings(),

@@ -90,6 +90,19 @@ def parse_prototype(text: str) -> cproto.Prototype:
         raise FirmwareError(str(e)) from None
 
 
+def _header_text(headers, include_dirs):
+    """The text of the headers that exist (as given, or under include_dirs)."""
+    out = []
+    for h in headers:
+        for d in ["", *include_dirs]:
+            path = os.path.join(d, h) if d else h
+            if os.path.isfile(path):
+                with open(path) as fh:
+                    out.append(fh.read())
+                break
+    return "\n".join(out)
+
+
 def _find_prototype(fname, headers, include_dirs):
     for h in headers:
         for d in ["", *include_dirs]:
@@ -161,6 +174,23 @@ class Firmware:
         self.self_type = first[0].ctype if first and _is_self(first[0]) else None
         if self.init and self.self_type and not (self.init.params and _is_self(self.init.params[0])):
             raise FirmwareError(f"{self.init.name}: expected the filter object as first parameter")
+        # init(self, const T *settings): the values are T's members (a settings struct)
+        self.init_struct = None
+        if self.init:
+            ps = self.init.params[1:] if self.self_type else self.init.params
+            if len(ps) == 1 and ps[0].pointer and ps[0].ctype.split()[-1] not in _FLOAT_TYPES:
+                members = cproto.struct_members(_header_text(self.headers, self.include_dirs),
+                                                ps[0].ctype)
+                if members is None:
+                    raise FirmwareError(
+                        f"{self.init.name}: takes {ps[0].ctype} *{ps[0].name}, a struct the "
+                        f"headers {list(self.headers)} do not define (typedef struct {{...}} "
+                        f"{ps[0].ctype};)")
+                for m in members:
+                    if m.vector:
+                        raise FirmwareError(f"{ps[0].ctype}.{m.name}: array and pointer "
+                                            "members cannot be set from imufuse's settings")
+                self.init_struct = (ps[0].ctype, members)
         self.set_state = (self.init is None) if set_state is None else bool(set_state)
         if state is None:
             if state_names is None:
@@ -170,9 +200,25 @@ class Firmware:
         self._lib = None
 
     # -- binding -----------------------------------------------------------
+    def _init_params(self):
+        """The values init takes: its parameters after the filter object, or the members of
+        the settings struct it takes."""
+        if self.init_struct:
+            return self.init_struct[1]
+        return self.init.params[1:] if self.self_type else self.init.params
+
+    def _init_call(self, args):
+        """C statements calling init with ``args`` (one per _init_params())."""
+        obj = ["self"] if self.self_type else []
+        if not self.init_struct:
+            return f"{self.init.name}({', '.join(obj + list(args))});"
+        st, members = self.init_struct
+        fill = " ".join(f"imf_fw_set.{m.name} = ({m.ctype})({a});" for m, a in zip(members, args))
+        return f"{{ {st} imf_fw_set; {fill} {self.init.name}({', '.join(obj + ['&imf_fw_set'])}); }}"
+
     def _init_values(self, c_args, params):
         """Values for init's parameters after the filter object."""
-        ps = self.init.params[1:] if self.self_type else self.init.params
+        ps = self._init_params()
         if not self.init_args and c_args is not None and len(ps) == len(c_args):
             return [float(v) for v in c_args]
         out = []
@@ -240,8 +286,7 @@ class Firmware:
                f"    {self.self_type} *const self = &obj;\n"
                "    memset(&obj, 0, sizeof obj);\n") if self.self_type else ""
         if self.init:
-            iargs = (["self"] if self.self_type else []) + [f"p[{i}]" for i in range(n_init)]
-            init = f"    {self.init.name}({', '.join(iargs)});\n"
+            init = f"    {self._init_call([f'p[{i}]' for i in range(n_init)])}\n"
         else:
             init = ""
         setst = "".join(f"    if (set_state) {e} = s0[{j}];\n" for j, e in enumerate(st)) \
@@ -310,7 +355,7 @@ class Firmware:
                 args.append(var)
         init = []
         if self.init:
-            ps = self.init.params[1:] if self.self_type else self.init.params
+            ps = self._init_params()
             lits = []
             for p, val in zip(ps, init_values):
                 val = float(val)
@@ -321,7 +366,7 @@ class Firmware:
                     lits.append(f"({p.ctype})({int(val)}LL)")
                 else:
                     lits.append(f"({p.ctype})({hexfloat(val)})")
-            init.append(f"{self.init.name}({', '.join((['self'] if self.self_type else []) + lits)});")
+            init.append(self._init_call(lits))
         if self.set_state and state0 is not None:
             for e, val in zip(self.state.values(), state0):
                 val = float(val)
