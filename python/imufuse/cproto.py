@@ -92,7 +92,7 @@ def struct_members(text: str, type_name: str) -> Optional[Tuple[CParam, ...]]:
                   text)
     if not m:
         return None
-    out = []
+    out: list = []
     for decl in m.group(1).split(";"):
         decl = " ".join(decl.split())
         if not decl:
