@@ -542,18 +542,20 @@ unsigned imf_fusion_ahrs_flags(const imf_fusion_ahrs_t *const self)
 imf_real imf_fusion_compass_heading(const int convention, const imf_fusion_vec_t acc,
                                     const imf_fusion_vec_t mag, const int invsqrt)
 {
-    if (convention == IMF_FUSION_NED) {
-        const imf_fusion_vec_t up = imf_fusion_vec_scale(acc, IMF_R(-1.0));
-        const imf_fusion_vec_t west = imf_fusion_vec_normalise(imf_fusion_vec_cross(up, mag), invsqrt);
-        const imf_fusion_vec_t north = imf_fusion_vec_normalise(imf_fusion_vec_cross(west, up), invsqrt);
-        return imf_fusion_rad2deg(imf_fusion_atan2(west.x, north.x));
-    } else {
-        const imf_fusion_vec_t west = imf_fusion_vec_normalise(imf_fusion_vec_cross(acc, mag), invsqrt);
-        const imf_fusion_vec_t north = imf_fusion_vec_normalise(imf_fusion_vec_cross(west, acc), invsqrt);
-        if (convention == IMF_FUSION_ENU) {
-            const imf_fusion_vec_t east = imf_fusion_vec_scale(west, IMF_R(-1.0));
-            return imf_fusion_rad2deg(imf_fusion_atan2(north.x, east.x));
-        }
-        return imf_fusion_rad2deg(imf_fusion_atan2(west.x, north.x));
+    /* NED: gravity "up" is -acc; NWU and ENU: acc */
+    const imf_fusion_vec_t up =
+        convention == IMF_FUSION_NED ? imf_fusion_vec_scale(acc, IMF_R(-1.0)) : acc;
+    const imf_fusion_vec_t w = imf_fusion_vec_cross(up, mag);
+    imf_fusion_vec_t west, north;
+    /* up x m = 0 (no accelerometer, no field, or a field along gravity): no heading */
+    if (imf_fusion_vec_norm2(w) == IMF_R(0.0)) {
+        return (imf_real)NAN;
     }
+    west = imf_fusion_vec_normalise(w, invsqrt);
+    north = imf_fusion_vec_normalise(imf_fusion_vec_cross(west, up), invsqrt);
+    if (convention == IMF_FUSION_ENU) {
+        const imf_fusion_vec_t east = imf_fusion_vec_scale(west, IMF_R(-1.0));
+        return imf_fusion_rad2deg(imf_fusion_atan2(north.x, east.x));
+    }
+    return imf_fusion_rad2deg(imf_fusion_atan2(west.x, north.x));
 }

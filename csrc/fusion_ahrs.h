@@ -150,7 +150,9 @@ unsigned imf_fusion_ahrs_flags(const imf_fusion_ahrs_t *self);
 
 /* Tilt-compensated compass heading (degrees) from an accelerometer and a
    magnetometer sample in the sensor frame, per convention
-   (FusionCompassCalculateHeading). */
+   (FusionCompassCalculateHeading). NaN where the heading is undefined: gravity x field
+   is exactly zero (a zero accelerometer or magnetometer, or a field along gravity),
+   where Fusion returns 0 (north). */
 imf_real imf_fusion_compass_heading(int convention, imf_fusion_vec_t acc, imf_fusion_vec_t mag,
                                     int invsqrt);
 

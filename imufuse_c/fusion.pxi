@@ -377,8 +377,7 @@ cdef class FusionOffset:
 
 
 def fusion_calibrate_inertial(x, M, s, b):
-    arr = np.ascontiguousarray(np.atleast_2d(np.asarray(x, dtype=DTYPE)))
-    (arr,) = _checks.as_nx3(DTYPE, x=arr)
+    (arr,) = _checks.as_nx3(DTYPE, x=np.atleast_2d(x))
     mm = _fusion.model_param("M", M, (3, 3), DTYPE)
     ss = _fusion.model_param("s", s, (3,), DTYPE)
     bb = _fusion.model_param("b", b, (3,), DTYPE)
@@ -392,7 +391,7 @@ def fusion_calibrate_inertial(x, M, s, b):
     if n:
         with nogil:
             imf_fusion_calibrate_inertial(&mv[0], &sv[0], &bv[0], &i[0, 0], &o[0, 0], n)
-    return out
+    return _checks.canonical_nan(out)
 
 
 def fusion_calibrate_magnetic(x, S, h):
@@ -408,7 +407,7 @@ def fusion_calibrate_magnetic(x, S, h):
     if n:
         with nogil:
             imf_fusion_calibrate_magnetic(&mv[0], &hv[0], &i[0, 0], &o[0, 0], n)
-    return out
+    return _checks.canonical_nan(out)
 
 
 def fusion_axes_apply(x, alignment):
@@ -442,4 +441,4 @@ def fusion_compass_heading(convention, acc, mag, invsqrt="exact"):
     if n:
         with nogil:
             imf_fusion_compass_headings(c, &a[0, 0], &m[0, 0], &o[0], n, md)
-    return out
+    return _checks.canonical_nan(out)

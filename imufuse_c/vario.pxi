@@ -102,4 +102,4 @@ def vertical_accel(q, acc, convention="nwu", one_g=1.0, scale=980.0):
         for k in range(n_samples):
             o[k] = imf_vertical_accel(qv[k, 0], qv[k, 1], qv[k, 2], qv[k, 3],
                                       av[k, 0], av[k, 1], av[k, 2], s_, g_, c_)
-    return out
+    return _checks.canonical_nan(out)

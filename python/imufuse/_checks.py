@@ -134,6 +134,17 @@ def as_state(value, n, dtype, names):
     return np.ascontiguousarray(arr)
 
 
+def canonical_nan(out):
+    """Every NaN of the float array ``out`` (in place) made the one quiet NaN of its dtype
+    (positive, no payload), and ``out`` returned. IEEE 754 leaves a NaN's sign and payload
+    to the hardware and the order of operations, so the C and the twin differ there; the
+    free functions of both backends return this one NaN."""
+    m = np.isnan(out)
+    if m.any():
+        out[m] = np.nan
+    return out
+
+
 def check_valid_state(problem):
     """Raise the ValueError of a state write that is not a valid attitude."""
     if problem is not None:

@@ -219,10 +219,15 @@ ALL_ALIGNMENTS = tuple(
 def model_param(name, value, shape, dtype):
     """A calibration-model parameter (3x3 matrix or 3-vector) as a flat contiguous
     array of dtype; ValueError naming it for a wrong shape or non-finite values."""
+    # checked before any conversion: complex, None and strings are refused, not cast
     try:
-        arr = np.asarray(value, dtype=dtype)
+        raw = np.asarray(value)
     except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected numbers, got {value!r}") from None
+        raw = np.asarray(None)
+    if isinstance(value, (str, bytes)) or raw.dtype.kind not in "biuf":
+        raise ValueError(f"{name}: expected real numbers, got {value!r}")
+    with np.errstate(over="ignore"):
+        arr = raw.astype(dtype)
     if arr.shape != shape:
         raise ValueError(f"{name}: expected shape {shape}, got {arr.shape}")
     if not np.all(np.isfinite(arr)):

@@ -795,7 +795,7 @@ def calibrate_inertial(x, M, s, b, dtype="float64"):
     with np.errstate(all="ignore"):
         for k, u in enumerate(rows):
             out[k] = mat_mul_vec(m, vec_hadamard(vec_sub(tuple(u), off), sens))
-    return out
+    return _checks.canonical_nan(out)
 
 
 def calibrate_magnetic(x, S, h, dtype="float64"):
@@ -809,7 +809,7 @@ def calibrate_magnetic(x, S, h, dtype="float64"):
     with np.errstate(all="ignore"):
         for k, u in enumerate(rows):
             out[k] = mat_mul_vec(m, vec_sub(tuple(u), hard))
-    return out
+    return _checks.canonical_nan(out)
 
 
 def axes_apply(x, alignment, dtype="float64"):
@@ -835,17 +835,19 @@ def compass_heading(convention, acc, mag, invsqrt="exact", dtype="float64"):
         for k in range(a.shape[0]):
             acc_k = tuple(R(v) for v in a[k])
             mag_k = tuple(R(v) for v in m[k])
-            if conv == NED:
-                up = vec_scale(acc_k, R(-1.0))
-                west = vec_normalise(o, vec_cross(up, mag_k), mode)
-                north = vec_normalise(o, vec_cross(west, up), mode)
-                out[k] = rad2deg(o, o.atan2(west[0], north[0]))
+            # NED: gravity "up" is -acc; NWU and ENU: acc
+            up = vec_scale(acc_k, R(-1.0)) if conv == NED else acc_k
+            w = vec_cross(up, mag_k)
+            # up x m = 0 (no accelerometer, no field, or a field along gravity): no heading
+            if vec_norm2(w) == R(0.0):
+                out[k] = R(np.nan)
+                continue
+            west = vec_normalise(o, w, mode)
+            north = vec_normalise(o, vec_cross(west, up), mode)
+            if conv == ENU:
+                east = vec_scale(west, R(-1.0))
+                out[k] = rad2deg(o, o.atan2(north[0], east[0]))
             else:
-                west = vec_normalise(o, vec_cross(acc_k, mag_k), mode)
-                north = vec_normalise(o, vec_cross(west, acc_k), mode)
-                if conv == ENU:
-                    east = vec_scale(west, R(-1.0))
-                    out[k] = rad2deg(o, o.atan2(north[0], east[0]))
-                else:
-                    out[k] = rad2deg(o, o.atan2(west[0], north[0]))
+                out[k] = rad2deg(o, o.atan2(west[0], north[0]))
+    _checks.canonical_nan(out)
     return out

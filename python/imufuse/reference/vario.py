@@ -280,4 +280,4 @@ def vertical_accel(q, acc, convention="nwu", one_g=1.0, scale=980.0, dtype="floa
     with np.errstate(all="ignore"):
         for k in range(q.shape[0]):
             out[k] = vertical_accel_step(R, *qs[k], *accs[k], s, g, c)
-    return out
+    return _checks.canonical_nan(out)
