@@ -17,7 +17,7 @@ from hypothesis import given, settings, strategies as st, HealthCheck
 
 import imufuse.reference as reference
 import imufuse_c
-from imufuse import _fusion, catalogue
+from imufuse import _fusion, catalogue, sim
 from bits import assert_same_bits
 from registry import FLOAT_CASES, FIXED_CASES, FUSION_CASES, PROFILES, DTYPES
 
@@ -544,12 +544,58 @@ def test_fixed_update_inputs_agree(case, profile):
                                          ("DCM", dict(dt=0.005, kp=2.0, ki=0.5))])
 def test_state_write_of_a_runaway_integral_term(backend, name, params):
     """I = 1e30 rad/s cannot be unwound (ki dt per sample) and makes every
-    float32 sample overflow: refused; |I| dt = 1 rad is the limit."""
-    f = getattr(imufuse_c if backend == "c" else reference, name)(**params, dtype="float32")
+    float32 sample overflow: refused; |I| dt = 1 rad is the limit. DCM cannot
+    renormalise R after a turn of 0.5 rad in one sample: from |I| dt = 0.5 every
+    sample is rejected, I never unwinds, and the one-sample trial of the write
+    refuses it (a real log then rejects all of its samples too)."""
+    cls = getattr(imufuse_c if backend == "c" else reference, name)
+    f = cls(**params, dtype="float32")
     s = f.state.copy()
     k = list(f.state_names).index("iy")
     s[k] = 1e30
     with pytest.raises(ValueError, match=r"^state: not a valid attitude \(iy = "):
         f.state = s
     s[k] = 0.99 / params["dt"]
+    if name == "DCM":
+        with pytest.raises(ValueError, match=r"^state: the filter cannot continue from it"):
+            f.state = s
+        d = sim.imu("fast", rate=1 / params["dt"], duration=1.0, seed=1)
+        ref = reference.DCM(**params, dtype="float32")
+        ref.iy = np.float32(s[k])                   # the write the trial refuses
+        ref.run(d.gyr, d.acc)
+        assert ref.skipped == len(d.gyr)            # dead: every sample rejected
+        s[k] = 0.3 / params["dt"]
     f.state = s
+    assert np.array_equal(f.state, s.astype(np.float32))
+
+
+@pytest.mark.parametrize("e", [e for e in catalogue.FLOAT], ids=lambda e: e.name)
+def test_no_state_write_leaves_a_dead_filter(e):
+    """Every state component set to a finite extreme (+-3e38, 1e20): the write is either
+    refused by both backends alike, or the filter then accepts samples of a real motion
+    (it is not dead). test_state_write_of_a_runaway_integral_term shows a refused one."""
+    d = sim.imu("fast", rate=100.0, duration=0.5, seed=3)
+    n = len(e.reference.state_names)
+    for i in range(n):
+        for v in (3e38, -3e38, 1e20):
+            outcome = []
+            for backend in ("c", "ref"):
+                f = e.make(backend, dt=0.01, **e.defaults, dtype="float32")
+                s = f.state.copy()
+                s[i] = v
+                try:
+                    with np.errstate(all="ignore"):
+                        f.state = s
+                except ValueError as err:
+                    outcome.append(str(err).split(":")[0] + ":" + str(err).split(":")[1][:20])
+                    continue
+                with np.errstate(all="ignore"):
+                    if e.kind == "1d":
+                        f.run(d.gyr[:, 0], np.zeros(len(d.gyr)))
+                    elif e.kind == "imu":
+                        f.run(d.gyr, d.acc)
+                    else:
+                        f.run(d.gyr, d.acc, d.mag)
+                assert f.skipped < len(d.gyr), (e.name, backend, f.state_names[i], v)
+                outcome.append("accepted")
+            assert outcome[0] == outcome[1], (e.name, f.state_names[i], v, outcome)

@@ -145,6 +145,21 @@ def canonical_nan(out):
     return out
 
 
+#: the sample a state write is tried with (one update, then undone): still and level, gravity
+#: and field in the sensor's units whatever they are (the filters normalise them or gate them)
+_PROBES = {"1d": (0.0, 0.0), "imu": ((0.0, 0.0, 0.0), (0.0, 0.0, 1.0)),
+           "ahrs": ((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), (0.5, 0.0, -0.8))}
+DEAD_STATE = ("state: the filter cannot continue from it: one still, level sample after the "
+              "write was rejected (the update overflows or cannot normalise from this state); "
+              "write a state the filter can continue from")
+
+
+def state_probe(kind):
+    """The update arguments a state write of a ``kind`` filter is tried with, or None (no
+    trial: the variometer, whose first sample also sets its start)."""
+    return _PROBES.get(kind)
+
+
 def check_valid_state(problem):
     """Raise the ValueError of a state write that is not a valid attitude."""
     if problem is not None:
