@@ -599,3 +599,31 @@ def test_no_state_write_leaves_a_dead_filter(e):
                 assert f.skipped < len(d.gyr), (e.name, backend, f.state_names[i], v)
                 outcome.append("accepted")
             assert outcome[0] == outcome[1], (e.name, f.state_names[i], v, outcome)
+
+
+_VANISHING = [(e, name) for e in (*catalogue.FLOAT, *catalogue.VARIO, *catalogue.FUSION)
+              for name, default in e.params.items()
+              if name != "dt" and isinstance(default, float) and not isinstance(default, bool)]
+
+
+@pytest.mark.parametrize("e,name", _VANISHING, ids=[f"{e.name}-{n}" for e, n in _VANISHING])
+def test_no_parameter_vanishes_in_float32(e, name):
+    """A real parameter that is valid in float64 but below float32's smallest normal number
+    (1e-46) would act as 0 in a float32 filter: both backends refuse it there, and accept it
+    in float64 (or refuse it there too, for a range of their own)."""
+    kw = dict(e.defaults)
+    if "dt" in e.params:
+        kw["dt"] = 0.01
+    kw[name] = 1e-46
+    for backend in ("c", "ref"):
+        with pytest.raises(ValueError, match=rf"^{name}|^p_|^p0"):
+            e.make(backend, **kw, dtype="float32")
+    outcome = []
+    for backend in ("c", "ref"):
+        try:
+            e.make(backend, **kw, dtype="float64")
+            outcome.append("ok")
+        except ValueError as err:
+            outcome.append(str(err))
+    assert outcome[0] == outcome[1]
+    assert len(_VANISHING) > 30

@@ -35,9 +35,28 @@ DEFAULTS = dict(convention="NWU", gain=0.5, gyroscope_range=0.0, acceleration_re
 
 
 def _as_real(name, value, dtype, lo=None, hi=None):
+    """A real setting checked in the filter's own precision: finite there, and (unless
+    zero) a normal number there, so it cannot vanish to 0 or turn subnormal."""
     v = _checks.check_real(name, value, lo=lo, hi=hi)
-    if dtype == "float32" and not math.isfinite(float(np.float32(v))):
-        raise ValueError(f"{name}: not representable in float32, got {value!r}")
+    with np.errstate(all="ignore"):
+        r = float(np.float32(v)) if dtype == "float32" else float(v)
+    if not math.isfinite(r):
+        raise ValueError(f"{name}: not representable in {dtype}, got {value!r}")
+    tiny = float(np.finfo(dtype).tiny)
+    if v != 0.0 and abs(r) < tiny:
+        raise ValueError(f"{name}: {value!r} is too small for {dtype} (below the smallest "
+                         f"normal number {tiny:g})")
+    return v
+
+
+def _rejection(name, value, dtype):
+    """A rejection threshold (degrees) whose derived (sin(threshold) / 2)^2 stays a normal
+    number in dtype (a threshold of 1e-20 degrees would act as 0 in float32)."""
+    v = _as_real(name, value, dtype, lo=0.0, hi=180.0)
+    x = (math.sin(math.radians(v)) * 0.5) ** 2
+    if 0.0 < v < 90.0 and x < float(np.finfo(dtype).tiny) * 2.0 ** 24:
+        raise ValueError(f"{name}: {value!r} degrees is too small for {dtype} (its threshold "
+                         f"(sin/2)^2 = {x:g} is not a normal number there)")
     return v
 
 
@@ -64,8 +83,8 @@ def ahrs_params(dtype, convention="NWU", gain=0.5, gyroscope_range=0.0,
     return (CONVENTIONS[convention.upper()],
             _as_real("gain", gain, dtype, lo=0.0, hi=1e6),
             _as_real("gyroscope_range", gyroscope_range, dtype, lo=0.0, hi=1e9),
-            _as_real("acceleration_rejection", acceleration_rejection, dtype, lo=0.0, hi=180.0),
-            _as_real("magnetic_rejection", magnetic_rejection, dtype, lo=0.0, hi=180.0),
+            _rejection("acceleration_rejection", acceleration_rejection, dtype),
+            _rejection("magnetic_rejection", magnetic_rejection, dtype),
             _as_int("recovery_trigger_period", recovery_trigger_period, 0, MAX_PERIOD),
             INVSQRT[invsqrt])
 
