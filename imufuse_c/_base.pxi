@@ -167,7 +167,8 @@ cdef class _Filter:
         self._n = len(self._ref.state_names)
         self._out = _StateOut(self._n, _NATIVE)
         self._start = _checks.check_start(self._ref.kind, self._ref.state_names, DTYPE, init,
-                                          init_window, q0, state)
+                                          init_window, q0, state,
+                                          getattr(self._ref, "own_start", None))
         # the constructor's period (filters without a dt, like VarioKF, never use it)
         self._dt0 = <imf_real><double>self._kw.get("dt", 0.0)
         self._init()

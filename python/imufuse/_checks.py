@@ -250,11 +250,15 @@ def dt_array(dt, n, dtype):
 INITS = ("identity", "first")
 
 
-def check_start(kind, names, dtype, init="identity", init_window=1, q0=None, state=None):
+def check_start(kind, names, dtype, init="identity", init_window=1, q0=None, state=None,
+                own_start=None):
     """How a filter starts: ("identity",), ("first", window), ("q", (w, x, y, z))
     or ("state", array). init, init_window and q0 are for 3-D filters; state
     (the full state vector) for every filter. At most one of init="first",
-    q0 and state."""
+    q0 and state. own_start: why the filter refuses q0 (it starts from its first sample
+    whatever q0 says), or None."""
+    if q0 is not None and own_start:
+        raise ValueError(f"q0: {own_start}")
     if kind == "1d" and (init != "identity" or init_window != 1 or q0 is not None):
         raise ValueError("init, init_window, q0: only 3-D filters have an initial orientation "
                          "(single-axis filters take state=)")

@@ -55,7 +55,8 @@ class ReferenceFilter:
         self._R = np.float32 if self.dtype == "float32" else float
         self._args = self._checked_params(self.dtype, *args, **kwargs)
         self._start = _checks.check_start(self.kind, self.state_names, self.dtype, init,
-                                          init_window, q0, state)
+                                          init_window, q0, state,
+                                          getattr(self, "own_start", None))
         self.reset()
 
     @classmethod

@@ -49,6 +49,11 @@ def _rotate(R, w, x, y, z, vx, vy, vz):
 
 
 class _Robust(ReferenceFilter):
+    #: q0 is refused: the filter takes its tilt from the first sample's gravity and (AHRS)
+    #: its heading from the first field, so a start attitude would be overwritten
+    own_start = ("this filter starts from its first sample (its tilt from gravity; RobustAHRS "
+                 "its heading from the field), which would overwrite a start attitude; leave "
+                 "q0 out, or resume a saved filter with state= (its full state)")
     state_names = ("q0", "q1", "q2", "q3",      # estimate, sensor -> earth
                    "s0", "s1", "s2", "s3",      # strapdown: sensor -> inertial frame
                    "c0", "c1", "c2", "c3",      # correction: inertial -> earth frame
