@@ -82,7 +82,9 @@ typedef struct {
     imf_real v0;       /* initial climb rate, cm/s (default 0) */
     imf_real b0;       /* initial accelerometer bias, cm/s^2 (default 0) */
     int z0_from_baro;  /* nonzero: z starts at the first barometer sample (default 1) */
-    int predict;       /* IMF_VARIO_PREDICT_SEED (default) or IMF_VARIO_PREDICT_MODEL */
+    int predict;       /* IMF_VARIO_PREDICT_SEED (default, as published) or
+                          IMF_VARIO_PREDICT_MODEL (stable for every setting; SEED diverges
+                          when var_z is small against the process noise: docs/vario.md) */
 } imf_vario_settings_t;
 
 /* The defaults listed with each member (those of imufuse.reference.VarioKF()). */

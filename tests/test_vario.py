@@ -224,7 +224,8 @@ def test_bad_parameters(mod, kwargs, name):
 
 @pytest.mark.parametrize("mod", [imufuse_c, reference], ids=["c", "ref"])
 def test_parameters_representable_in_float32(mod):
-    for kwargs, name in ((dict(var_z=1e39), "var_z"), (dict(var_z=1e-50), "var_z"),
+    # (var_z = 1e-50 with the model order: the seed's would refuse it as unstable first)
+    for kwargs, name in ((dict(var_z=1e39), "var_z"), (dict(var_z=1e-50, predict="model"), "var_z"),
                          (dict(p0=(1.0, 1e40, 1.0)), "p_v"), (dict(z0=-1e39), "z0")):
         with pytest.raises(ValueError, match=f"^{name}:.*float32"):
             mod.VarioKF(**kwargs, dtype="float32")
@@ -294,3 +295,33 @@ def test_run_refuses_what_update_refuses(backend):
         with pytest.raises(ValueError, match=msg):
             cls().run(*args)
     assert cls().run(z, z, 0.01).shape == (5, 9)
+
+
+def test_seed_order_stability_is_checked_from_the_physics():
+    """predict="seed" updates z with the new v (z += v dt + (a - b) dt^2) while its gain comes
+    from the model (dt^2 / 2). The steady-state error dynamics (model gain, seed prediction)
+    have a spectral radius above 1 where var_z is small against the process noise: the
+    estimate then diverges whatever the data (var_z = 1e-12 reached 1e308). The radius
+    predicts the twin's behaviour; such settings are refused in seed mode, and the model
+    order runs them, bounded."""
+    from imufuse.reference import vario as rv
+    args = (1e-9, 200.0, 1.0, 1.0, 1.0, 1e5, 0.0, 0.0, 0.0, 0, rv.PREDICT_SEED)
+    rng = np.random.default_rng(4)
+    n = 6000
+    acc, alt = rng.normal(0.0, 50.0, n), 100.0 + rng.normal(0.0, 30.0, n)
+    for dt, diverges in ((0.1, True), (0.001, False)):
+        assert (rv.seed_radius(1e-9, 200.0, 1.0, dt) > 1.0) == diverges
+        f = reference.VarioKF()
+        f._init(*args)                       # the seed order with these variances, unchecked
+        out = f.run(acc, alt, np.full(n, dt))
+        grew = not np.all(np.abs(out[:, :3]) < 1e12)
+        assert grew == diverges, (dt, np.nanmax(np.abs(out[:, :3])))
+    for mod in (imufuse_c, reference):
+        for vz in (1e-12, 1e-9, 1e-3):
+            with pytest.raises(ValueError, match=r"^var_z: .* too small for predict='seed'"):
+                mod.VarioKF(var_z=vz)
+        mod.VarioKF()                        # the seed's own settings are stable
+        for dtype in ("float32", "float64"):
+            f = mod.VarioKF(var_z=1e-12, predict="model", dtype=dtype)
+            out = f.run(acc, alt, np.full(n, 0.01))
+            assert f.skipped == 0 and np.all(np.abs(out[:, :3]) < 1e8)

@@ -6,6 +6,8 @@ with barometric altitude: z altitude (cm), v climb rate (cm/s), b
 accelerometer bias (cm/s^2), and the covariance P (upper triangle).
 vertical_accel() is the seed's gravity-compensated vertical acceleration.
 """
+import functools
+
 import numpy as np
 
 from .. import _checks
@@ -23,6 +25,51 @@ CONVENTIONS = {"nwu": 1.0, "enu": 1.0, "ned_seed": 1.0, "ned": -1.0}
 
 #: the seed's defaults
 VAR_Z, VAR_ACC, VAR_BIAS, P0 = 300.0, 200.0, 1.0, (1.0, 1.0, 1e5)
+
+#: barometer periods the seed-order stability check covers (1 kHz to 1 Hz), s
+SEED_DT = tuple(float(v) for v in np.logspace(-3.0, 0.0, 16))
+
+
+@functools.lru_cache(maxsize=256)
+def seed_radius(var_z, var_acc, var_bias, dt):
+    """Spectral radius of the steady-state error dynamics of predict="seed": the Kalman
+    gain K of the model (its F, Q, R, from the discrete Riccati equation, solved by the
+    structured doubling algorithm) applied to the seed's state prediction F_s, whose z uses
+    the new v (z += v dt + (a - b) dt^2, not the model's dt^2 / 2). Above 1 the estimate
+    diverges whatever the data. predict="model" uses F itself: a Kalman filter of its own
+    model, stable for every setting."""
+    f = np.array([[1.0, dt, -0.5 * dt * dt], [0.0, 1.0, -dt], [0.0, 0.0, 1.0]])
+    g = np.array([0.5 * dt * dt, dt, 0.0])
+    q = np.outer(g, g) * var_acc
+    q[2, 2] += var_bias
+    a, gm, x, eye = f.T.copy(), np.zeros((3, 3)), q.copy(), np.eye(3)
+    gm[0, 0] = 1.0 / var_z
+    for _ in range(80):
+        wi = np.linalg.inv(eye + gm @ x)
+        a, gm, x_new = a @ wi @ a, gm + a @ wi @ gm @ a.T, x + a.T @ x @ wi @ a
+        done = np.allclose(x_new, x, rtol=1e-13, atol=0.0)
+        x = x_new
+        if done:
+            break
+    k = x[:, 0] / (x[0, 0] + var_z)
+    fs = np.array([[1.0, dt, -dt * dt], [0.0, 1.0, -dt], [0.0, 0.0, 1.0]])
+    m = (eye - np.outer(k, [1.0, 0.0, 0.0])) @ fs
+    return float(np.max(np.abs(np.linalg.eigvals(m))))
+
+
+def check_seed_stable(var_z, var_acc, var_bias):
+    """predict="seed" with these variances: ValueError naming the barometer periods at
+    which it diverges (see seed_radius)."""
+    bad = [(dt, seed_radius(var_z, var_acc, var_bias, dt)) for dt in SEED_DT]
+    bad = [(dt, r) for dt, r in bad if r > 1.0 + 1e-9]
+    if bad:
+        worst = max(r for _, r in bad)
+        raise ValueError(
+            f"var_z: {var_z!r} cm^2 is too small for predict='seed' against var_acc={var_acc!r}"
+            f" and var_bias={var_bias!r}: the seed's order of prediction then diverges at "
+            f"barometer periods of {bad[0][0]:.3g} to {bad[-1][0]:.3g} s (the error grows by "
+            f"up to {worst:.4f} per sample, whatever the data); use predict='model' (stable "
+            f"for every setting) or a larger var_z")
 
 
 def inputs(dtype, accel, baro_alt, dt):
@@ -110,6 +157,8 @@ class VarioKF(ReferenceFilter):
         v0 = _checks.check_real("v0", v0)
         b0 = _checks.check_real("b0", b0)
         _checks.check_choice("predict", predict, tuple(PREDICT))
+        if predict == "seed":
+            check_seed_stable(var_z, var_acc, var_bias)
         return (var_z, var_acc, var_bias, p_z, p_v, p_b, z0, v0, b0, int(from_baro),
                 PREDICT[predict])
 
