@@ -46,6 +46,7 @@ cdef extern from "imf_attitude.h" nogil:
                                 imf_real ay, imf_real az, imf_real mx, imf_real my, imf_real mz)
 
 from imufuse import _checks
+from imufuse import estimate as _estimate
 from imufuse.reference._base import init_arguments as _init_arguments
 
 _R = np.float32 if DTYPE == "float32" else float
@@ -387,9 +388,12 @@ cdef class _Filter1D(_Filter):
             self._set_dt(self._dt0)
         return out
 
-    def run(self, rate, angle, dt=None):
+    def run(self, rate, angle, dt=None, outputs="state"):
         """All samples: rate, angle 1-D arrays, dt (optional) the (N,) sample
         periods; returns the (N, len(state)) trajectory."""
+        if outputs != "state":
+            raise ValueError(f"outputs: {type(self).__name__} has no orientation quaternion "
+                             "(a single-axis filter); use the state")
         if self._x == NULL:
             _unbound(self)
         if dt is not None:
@@ -484,9 +488,14 @@ cdef class _FilterIMU(_Filter):
             self._set_dt(self._dt0)
         return 0
 
-    def run(self, gyr, acc, dt=None):
+    def run(self, gyr, acc, dt=None, outputs="state"):
         """All samples: gyr, acc (N, 3) arrays, dt (optional) the (N,) sample
-        periods; returns the (N, len(state)) trajectory."""
+        periods; returns the (N, len(state)) trajectory, or with outputs="q" the (N, 4)
+        quaternions sensor -> earth (imufuse.estimate.run_outputs)."""
+        if outputs != "state":
+            if outputs not in _estimate.OUTPUTS:
+                _estimate.run_outputs(self, None, outputs)
+            return _estimate.run_outputs(self, self.run(gyr, acc, dt), outputs)
         if self._x == NULL:
             _unbound(self)
         if dt is not None or self._pending:
@@ -588,9 +597,14 @@ cdef class _FilterAHRS(_Filter):
             self._set_dt(self._dt0)
         return 0
 
-    def run(self, gyr, acc, mag, dt=None):
+    def run(self, gyr, acc, mag, dt=None, outputs="state"):
         """All samples: gyr, acc, mag (N, 3) arrays, dt (optional) the (N,) sample
-        periods; returns the (N, len(state)) trajectory."""
+        periods; returns the (N, len(state)) trajectory, or with outputs="q" the (N, 4)
+        quaternions sensor -> earth (imufuse.estimate.run_outputs)."""
+        if outputs != "state":
+            if outputs not in _estimate.OUTPUTS:
+                _estimate.run_outputs(self, None, outputs)
+            return _estimate.run_outputs(self, self.run(gyr, acc, mag, dt), outputs)
         if self._x == NULL:
             _unbound(self)
         if dt is not None or self._pending:

@@ -15,7 +15,7 @@ Heading is meaningful only for AHRS filters with a full attitude.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable, Dict, Optional, Sequence
+from typing import Any, Callable, Dict, Optional, Sequence
 
 import numpy as np
 
@@ -101,6 +101,42 @@ def _as_float(adapter: Adapter) -> Adapter:
 
 
 ADAPTERS: Dict[str, Adapter] = {k: _as_float(v) for k, v in _RAW.items()}
+
+#: run(..., outputs=...) of the 3-D filters
+OUTPUTS = ("state", "q")
+
+
+def detect(names: Sequence[str]) -> Optional[str]:
+    """The adapter that reads an orientation from a state named ``names`` (quaternion,
+    matrix, gravity, euler, tried in this order), or None."""
+    empty = np.zeros((0, len(names)))
+    for key in ("quaternion", "matrix", "gravity", "euler"):
+        try:
+            _RAW[key](tuple(names), "imu", empty)
+        except ValueError:
+            continue
+        return key
+    return None
+
+
+def run_outputs(filt: Any, states: Any, outputs: str) -> np.ndarray:
+    """What run(..., outputs=...) of a 3-D filter returns: "state" the (N, len(state))
+    trajectory as it is; "q" the (N, 4) float64 quaternions [w, x, y, z] sensor -> earth
+    read from it by name (a tilt-only quaternion, heading 0, for filters that estimate
+    gravity or roll and pitch only), ready for imufuse.evaluation.evaluate."""
+    if outputs == "state":
+        return states
+    names = tuple(filt.state_names)
+    if outputs != "q":
+        raise ValueError(f"outputs: must be one of {', '.join(map(repr, OUTPUTS))}, "
+                         f"got {outputs!r}")
+    key = detect(names)
+    if key is None:
+        raise ValueError(f"outputs='q': {type(filt).__name__} has no orientation in its state "
+                         f"({', '.join(names)})")
+    est = ADAPTERS[key](names, filt.kind, states)
+    assert est.q is not None
+    return np.ascontiguousarray(est.q)
 
 
 def euler_of(est: Estimate) -> np.ndarray:

@@ -61,8 +61,10 @@ def _check_frame(frame, name):
 def _quats(q, name):
     q = np.asarray(q, dtype=np.float64)
     if q.ndim != 2 or q.shape[1] != 4:
+        hint = (" (a filter's run() returns its whole state: run(..., outputs='q') returns "
+                "its (N, 4) quaternions)" if q.ndim == 2 and q.shape[1] > 4 else "")
         raise ValueError(f"{name}: expected an (N, 4) array of [w, x, y, z] quaternions, "
-                         f"got shape {q.shape}")
+                         f"got shape {q.shape}{hint}")
     return q
 
 

@@ -31,6 +31,7 @@ import copy
 import numpy as np
 
 from .. import _checks
+from .. import estimate as _estimate
 from . import attitude as _attitude
 
 U32 = 0xFFFFFFFF
@@ -160,7 +161,16 @@ class ReferenceFilter:
                 self._update(*row)
                 self._set_dt(R(self._args[0]))
 
-    def run(self, *args, dt=None):
+    def run(self, *args, dt=None, outputs="state"):
+        """All samples; returns the (N, len(state)) trajectory, or for a 3-D filter with
+        outputs="q" the (N, 4) quaternions sensor -> earth (imufuse.estimate.run_outputs)."""
+        if outputs != "state":
+            if self.kind not in ("imu", "ahrs"):
+                raise ValueError(f"outputs: {type(self).__name__} has no orientation "
+                                 "quaternion (a single-axis filter); use the state")
+            if outputs not in _estimate.OUTPUTS:
+                _estimate.run_outputs(self, None, outputs)
+            return _estimate.run_outputs(self, self.run(*args, dt=dt), outputs)
         arrays = _checks.run_inputs(self.kind, self.dtype, args)
         cols = np.column_stack([a if a.ndim == 2 else a[:, None] for a in arrays])
         n = len(self.state_names)
