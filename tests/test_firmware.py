@@ -342,3 +342,75 @@ def test_planted_normalisation_order_in_dcm(tmp_path):
     assert not v.bit_exact and v.comparison.first_sample == k
     j = int(np.flatnonzero(mistaken[k].view(np.uint32) != want[k].view(np.uint32))[0])
     assert v.comparison.first_variable == reference.DCM.state_names[j]
+
+
+_FW_SET_SRC = """#include "fw.h"
+void fw_init(fw_t *s, const fw_set_t *set)
+{
+    imf_mahony_imu_settings_t t;
+    imf_mahony_imu_default_settings(&t);
+    t.dt = set->dt; t.kp = set->kp; t.ki = set->ki;
+    imf_mahony_imu_init(&s->f, &t);
+}
+void fw_update(fw_t *s, float gx, float gy, float gz, float ax, float ay, float az)
+{
+    imf_mahony_imu_update(&s->f, gx, gy, gz, ax, ay, az);
+}
+"""
+
+
+def _settings_fw(tmp_path, struct_decl, **kw):
+    """Firmware whose init takes a settings struct declared as ``struct_decl`` (naming the
+    type fw_set_t); it wraps csrc's MahonyIMU, reading dt, kp and ki by name."""
+    d = tmp_path / "fw"
+    d.mkdir(exist_ok=True)
+    (d / "fw.h").write_text('#include "mahony.h"\n' + struct_decl + "\n"
+                            "typedef struct { imf_mahony_imu_t f; } fw_t;\n"
+                            "void fw_init(fw_t *s, const fw_set_t *set);\n"
+                            "void fw_update(fw_t *s, float gx, float gy, float gz, float ax, "
+                            "float ay, float az);\n")
+    (d / "fw.c").write_text(_FW_SET_SRC)
+    return Firmware([str(d / "fw.c"), os.path.join(CSRC, "mahony.c"),
+                     os.path.join(CSRC, "imf_attitude.c")],
+                    headers=["fw.h"], include_dirs=[str(d), CSRC], init="fw_init",
+                    update="fw_update",
+                    state={n: f"f.x.{n}" for n in ("q0", "q1", "q2", "q3", "ix", "iy", "iz")},
+                    cache_dir=str(tmp_path / "cache"), **kw)
+
+
+@pytest.mark.parametrize("decl", [
+    # the members of imf_mahony_imu_settings_t with kp and ki swapped: matched by name
+    "typedef struct { float dt; float ki; float kp; int invsqrt; float acc_gate_lo; "
+    "float acc_gate_hi; float acc_1g; } fw_set_t;",
+    "struct fw_set { float dt; float kp; float ki; }; typedef struct fw_set fw_set_t;",
+    "typedef struct { float dt; float kp; float ki; unsigned char invsqrt; } fw_set_t;",
+], ids=["swapped", "tagged", "uchar"])
+def test_settings_struct_members_are_matched_by_name(tmp_path, decl):
+    params = dict(dt=0.005, kp=2.0, ki=0.5)
+    v = validate(_settings_fw(tmp_path, decl), "MahonyIMU", params, _inputs("imu"))
+    assert v.bit_exact, v.text()
+
+
+@pytest.mark.parametrize("decl,kw,params,msg", [
+    ("typedef struct { float dt; struct { float kp; float ki; } g; } fw_set_t;", {}, {},
+     "nested struct or union member"),
+    ("typedef struct { float kp; float ki; } gains_t;\n"
+     "typedef struct { float dt; gains_t g; } fw_set_t;", {}, {}, r"fw_set_t\.g: a struct member"),
+    ("typedef struct { float dt; float kp; float ki; unsigned fast : 1; } fw_set_t;", {}, {},
+     "bit-field member"),
+    ("typedef struct { float dt; float kp; float ki; void (*hook)(void); } fw_set_t;", {}, {},
+     "function pointer member"),
+    ("typedef struct { const float dt; float kp; float ki; } fw_set_t;", {}, {},
+     "const member cannot be set"),
+    ("typedef struct { float dt; float kp; float ki; float acc_gate; } fw_set_t;", {},
+     dict(acc_gate=(0.6, 1.4)), r"member 'acc_gate' would get \(0\.6, 1\.4\).*not a number"),
+    ("typedef struct { float dt; float kp; float ki; int invsqrt; } fw_set_t;",
+     dict(init_args={"invsqrt": 0.5}), {}, "integer member 'invsqrt' would get 0.5"),
+    ("typedef struct { float dt; float kp; float ki; } fw_set_t;",
+     dict(init_args={"kP": 3}), {}, "--init-arg kP: fw_init has no member of that name"),
+], ids=["anonymous", "nested", "bitfield", "fnptr", "const", "tuple", "int", "unknown"])
+def test_settings_struct_problems_are_named(tmp_path, decl, kw, params, msg):
+    with pytest.raises(FirmwareError, match=msg):
+        fw = _settings_fw(tmp_path, decl, **kw)
+        validate(fw, "MahonyIMU", dict(dict(dt=0.005, kp=2.0, ki=0.5), **params),
+                 _inputs("imu"))

@@ -82,24 +82,60 @@ def find_prototype(text: str, func: str) -> Optional[Prototype]:
 
 
 def struct_members(text: str, type_name: str) -> Optional[Tuple[CParam, ...]]:
-    """The members of `typedef struct {...} type_name;` in C source text, in order (one
-    typedef alias `typedef other_t type_name;` is followed), or None."""
+    """The members of the struct `type_name` in C source text, in order: `typedef struct
+    [tag] {...} type_name;`, `struct tag {...}; typedef struct tag type_name;`, or one
+    typedef alias `typedef other_t type_name;` followed. None when not defined there.
+    PrototypeError for members this reader does not take as values: nested or anonymous
+    structs and unions, bit-fields, function pointers."""
     text = strip_comments(text)
-    m = re.search(r"typedef\s+(\w+)\s+" + re.escape(type_name) + r"\s*;", text)
-    if m and m.group(1) != "struct":
-        return struct_members(text, m.group(1))
-    m = re.search(r"typedef\s+struct\s*\w*\s*\{([^{}]*)\}\s*" + re.escape(type_name) + r"\s*;",
-                  text)
-    if not m:
-        return None
+    m = re.search(r"typedef\s+struct\s+(\w+)\s+" + re.escape(type_name) + r"\s*;", text)
+    if m:
+        body = re.search(r"struct\s+" + re.escape(m.group(1)) + r"\s*\{", text)
+        if body is None:
+            return None
+        start = body.end()
+    else:
+        m = re.search(r"typedef\s+(\w+)\s+" + re.escape(type_name) + r"\s*;", text)
+        if m and m.group(1) != "struct":
+            return struct_members(text, m.group(1))
+        m = re.search(r"typedef\s+struct\s*\w*\s*\{", text)
+        start = None
+        while m:
+            # the body of this typedef, braces balanced, then the name it defines
+            depth, k = 1, m.end()
+            while depth and k < len(text):
+                depth += {"{": 1, "}": -1}.get(text[k], 0)
+                k += 1
+            if re.match(r"\s*" + re.escape(type_name) + r"\s*;", text[k:]):
+                start = m.end()
+                break
+            m = re.compile(r"typedef\s+struct\s*\w*\s*\{").search(text, k)
+        if start is None:
+            return None
+    depth, k = 1, start
+    while depth and k < len(text):
+        depth += {"{": 1, "}": -1}.get(text[k], 0)
+        k += 1
+    body_text = text[start:k - 1]
+    if "{" in body_text:
+        raise PrototypeError(f"{type_name}: a nested struct or union member; only numbers can "
+                             "be set from imufuse's settings")
     out: list = []
-    for decl in m.group(1).split(";"):
+    for decl in body_text.split(";"):
         decl = " ".join(decl.split())
         if not decl:
             continue
+        if ":" in decl:
+            raise PrototypeError(f"{type_name}: bit-field member {decl!r}; only plain "
+                                 "numbers can be set from imufuse's settings")
+        if "(" in decl:
+            raise PrototypeError(f"{type_name}: function pointer member {decl!r}; only plain "
+                                 "numbers can be set from imufuse's settings")
         # "imf_real a, b" -> two members of type imf_real
         first, *more = decl.split(",")
         p = _param(len(out), type_name, first)
+        if re.search(r"\bconst\b", first.split("*")[0]):
+            raise PrototypeError(f"{type_name}.{p.name}: a const member cannot be set")
         out.append(p)
         for name in more:
             out.append(_param(len(out), type_name, p.ctype + " " + name))

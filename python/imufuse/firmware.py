@@ -48,6 +48,7 @@ import glob
 import hashlib
 import importlib.util
 import json
+import inspect
 import math
 import os
 import re
@@ -179,8 +180,17 @@ class Firmware:
         if self.init:
             ps = self.init.params[1:] if self.self_type else self.init.params
             if len(ps) == 1 and ps[0].pointer and ps[0].ctype.split()[-1] not in _FLOAT_TYPES:
-                members = cproto.struct_members(_header_text(self.headers, self.include_dirs),
-                                                ps[0].ctype)
+                text = _header_text(self.headers, self.include_dirs)
+                try:
+                    members = cproto.struct_members(text, ps[0].ctype)
+                    nested = [m for m in members or () if not m.vector
+                              and cproto.struct_members(text, m.ctype) is not None]
+                except cproto.PrototypeError as e:
+                    raise FirmwareError(f"{self.init.name}: {e}") from None
+                if nested:
+                    raise FirmwareError(f"{ps[0].ctype}.{nested[0].name}: a struct member "
+                                        f"({nested[0].ctype}); only numbers can be set from "
+                                        "imufuse's settings")
                 if members is None:
                     raise FirmwareError(
                         f"{self.init.name}: takes {ps[0].ctype} *{ps[0].name}, a struct the "
@@ -217,22 +227,50 @@ class Firmware:
         return f"{{ {st} imf_fw_set; {fill} {self.init.name}({', '.join(obj + ['&imf_fw_set'])}); }}"
 
     def _init_values(self, c_args, params):
-        """Values for init's parameters after the filter object."""
+        """Values for init's parameters after the filter object (or its settings struct's
+        members): by name (--init-arg, then the imufuse filter's C init values, then its
+        Python parameters), else by position when the counts agree."""
         ps = self._init_params()
-        if not self.init_args and c_args is not None and len(ps) == len(c_args):
-            return [float(v) for v in c_args]
-        out = []
+        what = "member" if self.init_struct else "parameter"
+        names = [p.name for p in ps]
+        unknown = [k for k in self.init_args if k not in names]
+        if unknown:
+            raise FirmwareError(f"--init-arg {unknown[0]}: {self.init.name} has no {what} of "
+                                f"that name (it takes {', '.join(names) or 'none'})")
+        named = dict(c_args) if isinstance(c_args, dict) else {}
+        values = list(named.values()) if named else list(c_args or ())
+
+        def number(p, v, source):
+            try:
+                f = float(v)
+            except (TypeError, ValueError):
+                raise FirmwareError(
+                    f"{self.init.name}: {what} {p.name!r} would get {v!r} ({source}), not a "
+                    f"number; give it with --init-arg {p.name}=VALUE") from None
+            if _is_integer_type(p.ctype) and math.isfinite(f) and f != int(f):
+                raise FirmwareError(f"{self.init.name}: integer {what} {p.name!r} would get "
+                                    f"{v!r} ({source}); give it with --init-arg {p.name}=N")
+            return f
+
+        by_name = []
         for p in ps:
             if p.name in self.init_args:
-                out.append(float(self.init_args[p.name]))
+                by_name.append(number(p, self.init_args[p.name], "--init-arg"))
+            elif p.name in named:
+                by_name.append(number(p, named[p.name], "the imufuse filter's C value"))
             elif p.name in params and params[p.name] is not None:
-                out.append(float(params[p.name]))
+                by_name.append(number(p, params[p.name], "the imufuse parameter"))
             else:
-                raise FirmwareError(
-                    f"{self.init.name}: no value for parameter {p.name!r} (the imufuse filter "
-                    f"has {len(c_args or ())} init arguments, this init {len(ps)}; map it with "
-                    f"init_args / --init-arg {p.name}=VALUE)")
-        return out
+                by_name.append(None)
+        if all(v is not None for v in by_name):
+            return by_name
+        if not self.init_args and len(ps) == len(values):
+            return [number(p, v, "by position") for p, v in zip(ps, values)]
+        p = ps[by_name.index(None)]
+        raise FirmwareError(
+            f"{self.init.name}: no value for {what} {p.name!r} (the imufuse filter "
+            f"has {len(values)} init arguments, this init {len(ps)}; map it with "
+            f"init_args / --init-arg {p.name}=VALUE)")
 
     def _update_plan(self, kind):
         """update's parameters after the filter object, each as (param, how, pos):
@@ -656,7 +694,7 @@ def validate(fw: "Firmware", name: str, params: Mapping[str, Any], inputs: Seque
     if target != "host":
         return _validate_target(fw, name, params, inputs, backend, dtype, target, timeout, explain)
     e = _filter_entry(name)
-    c_args = e.reference._params(**params)
+    c_args = _c_values(e, params)
     names = _state_names(fw, name, e)
     fw_dtype = fw.dtype(e.kind, c_args, params)
     integer = np.dtype(fw_dtype).kind in "iu"
@@ -741,10 +779,19 @@ def _confirm(causes, rerun):
             pass
 
 
+def _c_values(e, params):
+    """The imufuse filter's C init values by name, in the C init's order."""
+    args = e.reference._params(**params)
+    names = list(inspect.signature(e.reference._init).parameters)[1:]
+    if len(names) != len(args):
+        return tuple(args)
+    return dict(zip(names, args))
+
+
 def _validate_target(fw, name, params, inputs, backend, dtype, target, timeout, explain,
                      cflags=None):
     e = _filter_entry(name)
-    c_args = e.reference._params(**params)
+    c_args = _c_values(e, params)
     names = _state_names(fw, name, e)
     flags = list(cflags if cflags is not None else
                  (fw.cflags_given if fw.cflags_given is not None else ft.DEFAULT_TARGET_CFLAGS))
@@ -933,8 +980,8 @@ def validate_isolated(fw, name, params, inputs, backend="c", dtype=None, timeout
     first, in this process, where no firmware code runs."""
     if target != "host":
         return validate(fw, name, params, inputs, backend, dtype, target=target, timeout=timeout)
-    ref = _filter_entry(name).reference
-    fw.prepare(ref.kind, ref._params(**params), params)
+    e = _filter_entry(name)
+    fw.prepare(e.kind, _c_values(e, params), params)
     res = _attempt(fw, name, params, inputs, backend, dtype, None, timeout)
     if res[0] == "ok":
         return res[1]

@@ -742,6 +742,8 @@ def read_log(path, gyr_unit=None, acc_unit=None, rate=None, *, columns=None,
         warnings += notes
         default_acc = "g"
     log = Log(path, cols, list(header), sources=sources, ref_frame=ref_frame)
+    if len(log) == 0:
+        raise LogError(f"{path}: no samples (every array of the log has 0 rows)")
     try:
         log.units["gyr"] = _units(cols, sources, "gyr", GYR, gyr_unit, GYR_UNITS, "rad/s", warnings)
         log.units["acc"] = _units(cols, sources, "acc", ACC, acc_unit, ACC_UNITS, default_acc,
