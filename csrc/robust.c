@@ -348,7 +348,14 @@ static int robust_step(const imf_robust_consts_t *const set, imf_robust_state_t 
     r[2] = -ge[0];
     r[3] = IMF_R(0.0);
     if (!robust_norm4(r)) {
-        return 0;
+        /* gravity straight down (upside down, r = 0): any half turn about a horizontal
+           axis is a smallest rotation; about x. Otherwise (not finite) reject. */
+        if (!(gn > IMF_R(0.0) && gn <= IMF_REAL_MAX)) {
+            return 0;
+        }
+        r[0] = IMF_R(0.0);
+        r[1] = IMF_R(1.0);
+        r[2] = IMF_R(0.0);
     }
     c[0] = r[0] * x->c0 - r[1] * x->c1 - r[2] * x->c2;
     c[1] = r[0] * x->c1 + r[1] * x->c0 + r[2] * x->c3;

@@ -277,25 +277,12 @@ cdef class _Filter:
             _unbound(self)
         arr = _checks.as_state(value, self._n, DTYPE, self._ref.state_names)
         _checks.check_valid_state(self._ref._valid_state(self._args, _R, arr))
+        problem = _checks.dead_state(self, arr, self._ref.kind)
+        if problem:
+            raise ValueError(problem)
         cdef const imf_real[::1] v = arr
-        cdef size_t nb = self._n * sizeof(imf_real)
-        cdef bytes old = (<char *>self._x)[:nb]
-        cdef uint32_t sk = self._skipped[0]
-        cdef int pend = self._pending
-        memcpy(self._x, &v[0], nb)
+        memcpy(self._x, &v[0], self._n * sizeof(imf_real))
         self._pending = 0   # a state set by hand ends a pending init="first"
-        probe = _checks.state_probe(self._ref.kind)
-        if probe is not None:
-            # one update from the new state, then undone: a state every sample is
-            # rejected from is refused (the same trial as the twin's)
-            self.update(*probe)
-            rejected = self._skipped[0] != sk
-            memcpy(self._x, &v[0], nb)
-            self._skipped[0] = sk
-            if rejected:
-                memcpy(self._x, <const char *>old, nb)
-                self._pending = pend
-                raise ValueError(_checks.DEAD_STATE)
 
     def reset(self):
         """Back to the state after construction (init runs again)."""

@@ -219,6 +219,9 @@ cdef class FusionAHRS:
     @state.setter
     def state(self, value):
         arr = _fusion.ahrs_state(value, DTYPE, self._args[5])
+        problem = _checks.dead_state(self, arr, "fusion")
+        if problem:
+            raise ValueError(problem)
         cdef const imf_real[::1] v = arr
         imf_fusion_ahrs_set_state(&self.s, &v[0])
 

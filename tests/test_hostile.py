@@ -545,9 +545,9 @@ def test_fixed_update_inputs_agree(case, profile):
 def test_state_write_of_a_runaway_integral_term(backend, name, params):
     """I = 1e30 rad/s cannot be unwound (ki dt per sample) and makes every
     float32 sample overflow: refused; |I| dt = 1 rad is the limit. DCM cannot
-    renormalise R after a turn of 0.5 rad in one sample: from |I| dt = 0.5 every
-    sample is rejected, I never unwinds, and the one-sample trial of the write
-    refuses it (a real log then rejects all of its samples too)."""
+    renormalise R after a turn of about 0.3 rad in one sample: from there on samples
+    are rejected, I never unwinds, and the trial of the write (still samples in four
+    orientations) refuses it (a real log then rejects all of its samples too)."""
     cls = getattr(imufuse_c if backend == "c" else reference, name)
     f = cls(**params, dtype="float32")
     s = f.state.copy()
@@ -564,7 +564,7 @@ def test_state_write_of_a_runaway_integral_term(backend, name, params):
         ref.iy = np.float32(s[k])                   # the write the trial refuses
         ref.run(d.gyr, d.acc)
         assert ref.skipped == len(d.gyr)            # dead: every sample rejected
-        s[k] = 0.3 / params["dt"]
+        s[k] = 0.1 / params["dt"]
     f.state = s
     assert np.array_equal(f.state, s.astype(np.float32))
 
@@ -627,3 +627,41 @@ def test_no_parameter_vanishes_in_float32(e, name):
             outcome.append(str(err))
     assert outcome[0] == outcome[1]
     assert len(_VANISHING) > 30
+
+
+@pytest.mark.parametrize("backend", ("c", "ref"))
+def test_state_writes_a_still_trial_in_four_orientations_refuses(backend):
+    """Writes that a single still, level sample accepts but that leave the filter rejecting
+    most samples for good: DCM with |I| dt = 0.31 rad (62 % of a fast motion rejected for a
+    minute), Mahony2D with I along the vertical (|I| dt = 0.05: 99 %), FusionAHRS with a
+    non-unit quaternion, VarioKF with an overflowing covariance or a negative variance. Each
+    is refused; the same filters with a moderate value are accepted and run."""
+    mod = imufuse_c if backend == "c" else reference
+    cases = [("DCM", dict(dt=0.01, kp=2.0, ki=0.5), "ix", 31.0, 10.0),
+             ("Mahony2D", dict(dt=0.01, kp=2.0, ki=0.5), "iz", 5.0, 0.5)]
+    for name, params, member, bad, fine in cases:
+        f = getattr(mod, name)(**params, dtype="float32")
+        s = f.state.copy()
+        k = list(f.state_names).index(member)
+        s[k] = bad
+        with pytest.raises(ValueError, match=r"^state: the filter cannot continue from it"):
+            f.state = s
+        s[k] = fine
+        f.state = s
+        d = sim.imu("fast", rate=100.0, duration=2.0, seed=1)
+        f.run(d.gyr, d.acc)
+        assert f.skipped == 0, (name, f.skipped)
+    fa = mod.FusionAHRS(dtype="float32")
+    s = fa.state.copy()
+    s[0] = 2.0
+    with pytest.raises(ValueError, match=r"^state: not a valid attitude \(\|q\|\^2"):
+        fa.state = s
+    va = mod.VarioKF(dtype="float32")
+    s = va.state.copy()
+    s[va.state_names.index("pzv")] = 3e38
+    with pytest.raises(ValueError, match=r"^state: the filter cannot continue from it"):
+        va.state = s
+    s = va.state.copy()
+    s[va.state_names.index("pzz")] = -5.0
+    with pytest.raises(ValueError, match=r"^state: not a valid attitude \(pzz = -5.0"):
+        va.state = s

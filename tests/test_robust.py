@@ -15,7 +15,8 @@ import numpy as np
 import pytest
 
 import imufuse_c
-from imufuse import reference
+from imufuse import reference, rotations
+from bits import assert_same_bits
 from imufuse import sim_disturb as sd
 from broad_data import BROAD, SKIP_REASON
 
@@ -333,3 +334,27 @@ def test_broad_development_trials():
     assert len(tilt) == 7
     # documented in docs/recommended-ahrs.md: 0.60 deg tilt, 1.18 deg heading (defaults)
     assert np.mean(tilt) < 0.61 and np.mean(head) < 1.20
+
+
+@pytest.mark.parametrize("name", ["RobustIMU", "RobustAHRS"])
+def test_exactly_upside_down_from_the_first_sample(name):
+    """A unit lying exactly upside down from power-up (a quantised accelerometer reads
+    exactly (0, 0, -1 g)): gravity is antiparallel to earth z and the smallest rotation onto
+    it is a half turn about any horizontal axis (about x here). The filter starts there and
+    accepts every sample: 300 000 samples at rest, in both precisions (the compiled filter;
+    the twin bit for bit on the first 2 000). It rejected every sample before."""
+    n = 300_000
+    gyr = np.zeros((n, 3))
+    acc = np.tile([0.0, 0.0, -4096.0], (n, 1))          # counts, as an int16 sensor gives
+    mag = np.tile([300.0, 0.0, 500.0], (n, 1))
+    args = (gyr, acc) if name == "RobustIMU" else (gyr, acc, mag)
+    for dtype in ("float32", "float64"):
+        f = getattr(imufuse_c, name)(0.01, dtype=dtype)
+        q = f.run(*args, outputs="q")
+        assert f.skipped == 0
+        # the sensor's z points down: earth up seen in the sensor frame is -z
+        up = rotations.quat_rotate_inv(q[-1], [0.0, 0.0, 1.0])
+        assert np.allclose(up, [0.0, 0.0, -1.0], atol=1e-6), up
+        c = getattr(imufuse_c, name)(0.01, dtype=dtype).run(*(a[:2000] for a in args))
+        r = getattr(reference, name)(0.01, dtype=dtype).run(*(a[:2000] for a in args))
+        assert_same_bits(c, r)

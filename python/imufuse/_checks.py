@@ -3,7 +3,9 @@
 One definition of every check, so both backends accept and reject exactly the
 same parameters and inputs, with the same messages.
 """
+import copy
 import math
+import threading
 
 import numpy as np
 
@@ -145,19 +147,59 @@ def canonical_nan(out):
     return out
 
 
-#: the sample a state write is tried with (one update, then undone): still and level, gravity
-#: and field in the sensor's units whatever they are (the filters normalise them or gate them)
-_PROBES = {"1d": (0.0, 0.0), "imu": ((0.0, 0.0, 0.0), (0.0, 0.0, 1.0)),
-           "ahrs": ((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), (0.5, 0.0, -0.8))}
-DEAD_STATE = ("state: the filter cannot continue from it: one still, level sample after the "
-              "write was rejected (the update overflows or cannot normalise from this state); "
-              "write a state the filter can continue from")
+#: a state write is tried with still samples in four orientations (gravity along +z, +x,
+#: +y, -z, a field across it): a filter that rejects any of them cannot continue from it
+PROBE_SAMPLES = 100
+_GRAVITY = ((0.0, 0.0, 1.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, -1.0))
+_FIELD = ((0.5, 0.0, -0.8), (-0.8, 0.5, 0.0), (0.5, -0.8, 0.0), (0.5, 0.0, 0.8))
+DEAD_STATE = ("state: the filter cannot continue from it: {k} of {n} still samples after the "
+              "write ({g}) were rejected (the update overflows, cannot "
+              "normalise, or leaves an invalid state); write a state the filter can continue "
+              "from")
+_PROBING = threading.local()
 
 
-def state_probe(kind):
-    """The update arguments a state write of a ``kind`` filter is tried with, or None (no
-    trial: the variometer, whose first sample also sets its start)."""
-    return _PROBES.get(kind)
+def _probe_runs(style, state):
+    """(args, kwargs, what) of the run() calls a state write of a ``style`` filter is tried
+    with: "1d", "imu", "ahrs", "vario" (run(accel, baro_alt, dt)) or "fusion"."""
+    n = PROBE_SAMPLES
+    if style == "1d":
+        for angle in (0.0, 1.0):
+            yield (np.zeros(n), np.full(n, angle)), {}, f"rate 0, angle {angle:g}"
+        return
+    if style == "vario":
+        z = float(state[0])
+        yield (np.zeros(n), np.full(n, z), np.full(n, 0.01)), {}, "the barometer steady at z"
+        return
+    for g, m in zip(_GRAVITY, _FIELD):
+        args = (np.zeros((n, 3)), np.tile(g, (n, 1)))
+        if style in ("ahrs", "fusion"):
+            args += (np.tile(m, (n, 1)),)
+        yield args, ({"dt": 0.01} if style == "fusion" else {}), f"gravity along {g}"
+
+
+def dead_state(filt, state, style):
+    """None if the filter ``filt`` (either backend) can continue from ``state``, else the
+    ValueError message: the state is written on a copy and tried with still samples in four
+    orientations (_probe_runs); any rejected sample refuses it. The write on the copy does
+    not try again (no recursion)."""
+    if getattr(_PROBING, "active", False):
+        return None
+    _PROBING.active = True
+    try:
+        base = copy.copy(filt)
+        base.state = state
+        for args, kw, what in _probe_runs(style, state):
+            p = copy.copy(base)
+            before = p.skipped
+            with np.errstate(all="ignore"):
+                p.run(*args, **kw)
+            k = (p.skipped - before) & 0xFFFFFFFF
+            if k:
+                return DEAD_STATE.format(k=k, n=PROBE_SAMPLES, g=what)
+        return None
+    finally:
+        _PROBING.active = False
 
 
 def check_valid_state(problem):

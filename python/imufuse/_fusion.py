@@ -123,8 +123,10 @@ def ahrs_state(value, dtype, period):
     for i in (3, 4, 6, 7):          # triggers and timeouts
         if not 0 <= ints[i] <= period:
             raise ValueError(f"state: {AHRS_STATE_NAMES[N_REAL + i]} must be in [0, {period}]")
-    if not np.any(arr[:4]):
-        raise ValueError("state: the quaternion must not be zero")
+    n2 = float(np.dot(arr[:4].astype(np.float64), arr[:4].astype(np.float64)))
+    if not abs(n2 - 1.0) <= 0.01:
+        raise ValueError(f"state: not a valid attitude (|q|^2 = {n2!r}, must be within 1 +- "
+                         "0.01)")
     return arr
 
 

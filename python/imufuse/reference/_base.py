@@ -119,20 +119,9 @@ class ReferenceFilter:
         arr = _checks.as_state(value, len(self.state_names), self.dtype, self.state_names)
         R = self._R
         _checks.check_valid_state(self._valid_state(self._args, R, arr))
-        probe = _checks.state_probe(self.kind)
-        if probe is not None:
-            # one update from the new state, then undone: a state every sample is
-            # rejected from is refused (the same trial as imufuse_c's)
-            before = copy.deepcopy(self.__dict__)
-            for n, v in zip(self.state_names, arr):
-                setattr(self, n, R(v))
-            self._pending = None
-            self.update(*probe)
-            rejected = self.skipped != before["skipped"]
-            self.__dict__.clear()
-            self.__dict__.update(before)
-            if rejected:
-                raise ValueError(_checks.DEAD_STATE)
+        problem = _checks.dead_state(self, arr, self.kind)
+        if problem:
+            raise ValueError(problem)
         for n, v in zip(self.state_names, arr):
             setattr(self, n, R(v))
         self._pending = None   # a state set by hand ends a pending init="first"

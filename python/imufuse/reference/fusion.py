@@ -556,6 +556,9 @@ class FusionAHRS:
     @state.setter
     def state(self, value):
         arr = _fusion.ahrs_state(value, self.dtype, self.recovery_trigger_period)
+        problem = _checks.dead_state(self, arr, "fusion")
+        if problem:
+            raise ValueError(problem)
         R = self._o.R
         vals = [R(v) for v in arr[:_fusion.N_REAL]] + [int(v) for v in arr[_fusion.N_REAL:]]
         self._set_raw(vals)

@@ -21,6 +21,9 @@ from ._base import QUAT_NORM2_TOL, ReferenceFilter, isfinite
 
 FILTERS = ("RobustIMU", "RobustAHRS")
 
+#: the largest finite number of each precision (IMF_REAL_MAX)
+_REAL_MAX = {"float32": 3.4028234663852886e38, "float64": 1.7976931348623157e308}
+
 # smallest normal and largest finite value of each precision (C: FLT_MIN, ...)
 _LIMITS = {"float32": (1.1754943508222875e-38, 3.4028234663852886e+38),
            "float64": (2.2250738585072014e-308, 1.7976931348623157e+308)}
@@ -109,6 +112,7 @@ class _Robust(ReferenceFilter):
         R = self._R
         lo, hi = _LIMITS[self.dtype]
         self._min, self._max = R(lo), R(hi)
+        self._real_max = R(_REAL_MAX[self.dtype])
         self.tau_acc = R(tau_acc)
         self.tau_bias = R(tau_bias)
         self.tau_bias_rest = R(tau_bias_rest)
@@ -293,7 +297,11 @@ class _Robust(ReferenceFilter):
         gn = R(math.sqrt(gex * gex + gey * gey + gez * gez))
         r = self._norm4(gn + gez, gey, -gex, R(0.0))
         if r is None:
-            return None
+            # gravity straight down (upside down, r = 0): any half turn about a horizontal
+            # axis is a smallest rotation; about x. Otherwise (not finite) reject.
+            if not (gn > R(0.0) and gn <= self._real_max):
+                return None
+            r = (R(0.0), R(1.0), R(0.0), R(0.0))
         r0, r1, r2, _ = r
         c0, c1, c2, c3 = st["c0"], st["c1"], st["c2"], st["c3"]
         c = self._norm4(r0 * c0 - r1 * c1 - r2 * c2,

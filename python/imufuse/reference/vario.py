@@ -135,6 +135,15 @@ class VarioKF(ReferenceFilter):
     c_name = "imf_vario"
     state_names = ("z", "v", "b", "pzz", "pzv", "pzb", "pvv", "pvb", "pbb")
 
+    @classmethod
+    def _valid_state(cls, args, R, state):
+        # state writes: the covariance's diagonal holds variances, which are not negative
+        for n in ("pzz", "pvv", "pbb"):
+            v = float(state[cls.state_names.index(n)])
+            if v < 0.0:
+                return f"{n} = {v!r}, a variance, must not be negative"
+        return None
+
     def __init__(self, *args, dtype="float64", **kwargs):
         check_start(kwargs)
         super().__init__(*args, dtype=dtype, **kwargs)
