@@ -89,6 +89,7 @@ def struct_members(text: str, type_name: str) -> Optional[Tuple[CParam, ...]]:
     structs and unions, bit-fields, function pointers."""
     text = strip_comments(text)
     m = re.search(r"typedef\s+struct\s+(\w+)\s+" + re.escape(type_name) + r"\s*;", text)
+    start: Optional[int] = None
     if m:
         body = re.search(r"struct\s+" + re.escape(m.group(1)) + r"\s*\{", text)
         if body is None:
@@ -99,7 +100,6 @@ def struct_members(text: str, type_name: str) -> Optional[Tuple[CParam, ...]]:
         if m and m.group(1) != "struct":
             return struct_members(text, m.group(1))
         m = re.search(r"typedef\s+struct\s*\w*\s*\{", text)
-        start = None
         while m:
             # the body of this typedef, braces balanced, then the name it defines
             depth, k = 1, m.end()
@@ -110,8 +110,8 @@ def struct_members(text: str, type_name: str) -> Optional[Tuple[CParam, ...]]:
                 start = m.end()
                 break
             m = re.compile(r"typedef\s+struct\s*\w*\s*\{").search(text, k)
-        if start is None:
-            return None
+    if start is None:
+        return None
     depth, k = 1, start
     while depth and k < len(text):
         depth += {"{": 1, "}": -1}.get(text[k], 0)
