@@ -256,3 +256,31 @@ def test_the_c_examples_of_the_docs_compile(tmp_path):
                             str(src), "-o", str(tmp_path / f"doc{i}.o")],
                            capture_output=True, text=True)
         assert p.returncode == 0, f"docs/firmware.md C block {i + 1}:\n{b}\n{p.stderr}"
+
+
+def test_fixed_settings_outside_the_documented_ranges_are_refused(tmp_path):
+    """The ranges the fixed-point settings document are the C's: a profile other than 32 or 8
+    and a MultiWiiQ window of 0 make init return -1 (the twin refuses them too)."""
+    src = tmp_path / "ranges.c"
+    src.write_text("\n".join([
+        "#include <stdio.h>", '#include "mahony_q.h"', '#include "gravity_q.h"',
+        "int main(void)", "{",
+        "    imf_mahony_imu_q_t m; imf_mahony_imu_q_settings_t ms;",
+        "    imf_multiwii_q_t w; imf_multiwii_q_settings_t ws;",
+        "    imf_mahony_imu_q_default_settings(&ms); imf_multiwii_q_default_settings(&ws);",
+        '    printf("%d ", imf_mahony_imu_q_init(&m, &ms));',
+        '    ms.profile = 16; printf("%d ", imf_mahony_imu_q_init(&m, &ms));',
+        '    printf("%d ", imf_multiwii_q_init(&w, &ws));',
+        '    ws.window = 0.0; printf("%d\\n", imf_multiwii_q_init(&w, &ws));',
+        "    return 0;", "}", ""]))
+    exe = tmp_path / "ranges"
+    subprocess.run(["gcc", "-std=c99", "-O2", f"-I{CSRC}", f"-I{CSRC / 'fixed'}", str(src),
+                    *sorted(str(p) for p in (CSRC / "fixed").glob("*.c")), "-o", str(exe),
+                    "-lm"], check=True, capture_output=True, text=True)
+    out = subprocess.run([str(exe)], check=True, capture_output=True, text=True).stdout.split()
+    assert out == ["0", "-1", "0", "-1"], out
+    from imufuse.reference import MahonyIMUQ, MultiWiiQ
+    with pytest.raises(ValueError):
+        MahonyIMUQ(0.01, gyr_scale=1e-3, profile="16")
+    with pytest.raises(ValueError, match="window"):
+        MultiWiiQ(0.01, acc_1g=4096, window=0.0, gyr_scale=1e-3)

@@ -337,3 +337,24 @@ def test_block_estimates_equal_whole_ones():
         a, b = estimate(cls, S), cli._estimate(cls, S, chunk=997)
         x, y = (a.angle, b.angle) if a.angle is not None else (a.q, b.q)
         assert np.array_equal(x, y), n
+
+
+@pytest.mark.parametrize("cmd", ["run", "compare"])
+def test_a_log_without_samples_is_a_data_error(tmp_path, cmd):
+    """An NPZ whose arrays have 0 rows: exit 4 naming the file (compare ended in an
+    internal error, run wrote an empty output with exit 0)."""
+    p = tmp_path / "zero.npz"
+    np.savez(p, gyr=np.zeros((0, 3)), acc=np.zeros((0, 3)), rate=100.0)
+    extra = ["-f", "MadgwickIMU", "-o", str(tmp_path / "o.csv")] if cmd == "run" else []
+    r = imf(cmd, str(p), *extra)
+    assert r.returncode == 4 and "zero.npz: no samples" in r.stderr, r.stderr
+    assert not (tmp_path / "o.csv").exists()
+
+
+def test_two_columns_of_one_name_are_a_data_error(tmp_path):
+    """A header naming gyr_x twice: which one the filter reads is not the reader's guess."""
+    p = tmp_path / "dup.csv"
+    p.write_text("time,gyr_x,gyr_y,gyr_z,acc_x,acc_y,acc_z,gyr_x\n"
+                 + "".join(f"{k / 100},0,0,0,0,0,1,5\n" for k in range(5)))
+    r = imf("run", str(p), "-f", "MadgwickIMU", "-o", str(tmp_path / "o.csv"))
+    assert r.returncode == 4 and "columns 2 and 8 are both gyr_x" in r.stderr, r.stderr

@@ -221,3 +221,16 @@ def test_zero_reference_rows_are_excluded_and_counted_like_nan_rows():
     q[5] = 0.0
     e = evaluate(q, r, est_frame="NWU", ref_frame="NWU")
     assert e.n_est_nan == 1 and not e.ok
+
+
+def test_reference_rows_whose_norm_overflows_are_excluded():
+    """A reference row (1e308, 1e308, 0, 0) has no orientation (its norm overflows): it is
+    excluded and counted like a NaN row, not scored as 180 degrees."""
+    import warnings
+    q = np.tile([1.0, 0.0, 0.0, 0.0], (20, 1))
+    r = q.copy()
+    r[3] = [1e308, 1e308, 0.0, 0.0]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        e = ev.evaluate(q, r)
+    assert e.n == 19 and e.inclination == 0.0

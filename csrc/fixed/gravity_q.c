@@ -159,7 +159,8 @@ int imf_multiwii_q_init(imf_multiwii_q_t *const self, const imf_multiwii_q_setti
     const double dt = s->dt, cmpf = s->cmpf, acc_1g = s->acc_1g, window = s->window;
     const double lo = (1.0 - window) * acc_1g, hi = (1.0 + window) * acc_1g;
     const int ok_1g = imf_param_ok(acc_1g, 0.0, 32767.0) && acc_1g > 0.0;
-    const int ok_w = ok_1g && imf_param_ok(window, 0.0, 1.0); /* lo, hi finite */
+    /* 0 < window <= 1 (lo, hi finite) */
+    const int ok_w = ok_1g && imf_param_ok(window, 0.0, 1.0) && window > 0.0;
     imf_multiwii_q_consts_t c;
     int r;
     c.kw = imf_qscale_from_double(s->gyr_scale * dt);

@@ -88,7 +88,8 @@ typedef struct {
                           (default 4) */
     double acc_1g;     /* accelerometer counts of 1 g, in (0, 32767] (default 4096: 8 g on
                           16 bits) */
-    double window;     /* |a| window around 1 g for the correction, g; 0 .. 1 (default 0.15) */
+    double window;     /* |a| window around 1 g for the correction, g; 0 < window <= 1
+                          (default 0.15) */
     double gyr_scale;  /* rad/s per gyro count; > 0 (default 1.0642e-3: 2000 deg/s on
                           16 bits) */
 } imf_multiwii_q_settings_t;

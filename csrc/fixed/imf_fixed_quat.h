@@ -38,7 +38,7 @@ extern "C" {
 /* 1 if the profile given to init (8, anything else = 32) is compiled in. */
 static inline int imf_q_profile_ok(const int profile)
 {
-    return profile == 8 ? IMF_Q_HAS_P8 : IMF_Q_HAS_P32;
+    return profile == 8 ? IMF_Q_HAS_P8 : (profile == 32 && IMF_Q_HAS_P32);
 }
 
 /* On AVR, keep the rarely taken or self-contained steps out of line: the

@@ -62,11 +62,12 @@ typedef struct {
  * then set dt and the gyro's scale. */
 typedef struct {
     double dt;        /* sample period, s; > 0 (default 0.01: 100 Hz) */
-    double kp;        /* proportional gain, 1/s; >= 0 (default 1) */
+    double kp;        /* proportional gain, 1/s; >= 0, kp dt < 1 (default 1) */
     double ki;        /* integral gain, 1/s^2; >= 0 (default 0) */
     double gyr_scale; /* rad/s per gyro count; > 0 (default 1.0642e-3: 2000 deg/s on
                          16 bits) */
-    int profile;      /* 32 (default) or 8: the update imf_mahony_imu_q_update calls */
+    int profile;      /* 32 (default) or 8: the update imf_mahony_imu_q_update calls;
+                         any other value: init returns -1 */
 } imf_mahony_imu_q_settings_t;
 
 /* The defaults listed with each member. */

@@ -178,9 +178,12 @@ def evaluate(q_est, q_ref, *, est_frame="NWU", ref_frame="ENU",
         mask = m.copy()
     # a reference row is missing when it is not finite or is (near) zero: a zero row is the
     # "no tracking" marker of some systems and has no orientation; both are excluded and counted
+    # (a row whose norm overflows has no orientation either)
     with np.errstate(all="ignore"):
-        ref_ok = np.all(np.isfinite(q_ref), axis=1) & (np.einsum("ij,ij->i", q_ref, q_ref) > 1e-12)
-        est_ok = np.all(np.isfinite(q_est), axis=1) & (np.einsum("ij,ij->i", q_est, q_est) > 1e-12)
+        n2_ref = np.einsum("ij,ij->i", q_ref, q_ref)
+        n2_est = np.einsum("ij,ij->i", q_est, q_est)
+        ref_ok = np.all(np.isfinite(q_ref), axis=1) & (n2_ref > 1e-12) & np.isfinite(n2_ref)
+        est_ok = np.all(np.isfinite(q_est), axis=1) & (n2_est > 1e-12) & np.isfinite(n2_est)
     n_outside = int(np.count_nonzero(~mask))
     n_ref_nan = int(np.count_nonzero(mask & ~ref_ok))
     use = mask & ref_ok

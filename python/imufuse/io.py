@@ -236,6 +236,20 @@ def recognise(header):
     return {k: i for k, (r, i) in best.items()}
 
 
+def duplicate_columns(header):
+    """{known name: [header indices]} for names that two or more headers spell equally
+    closely (e.g. 'gyr_x' twice): recognise() cannot choose between them."""
+    seen = {}
+    for i, h in enumerate(header):
+        name, unit = split_unit(h)
+        canon = _RECOGNISE.get(_norm(name))
+        if canon is None or (canon == "time" and unit is not None and unit not in TIME_UNITS):
+            continue
+        seen.setdefault((canon, _ALIASES[canon].index(_norm(name))), []).append(i)
+    best = recognise(header)
+    return {c: idx for (c, r), idx in seen.items() if len(idx) > 1 and best.get(c) in idx}
+
+
 def parse_column_map(text):
     """'gyr_x="Gyroscope X (deg/s)",gyr_y=...' -> {name: header}."""
     out = {}
@@ -509,6 +523,11 @@ def _read_csv(path, column_map, time_unit):
     data = [ln for ln in lines[header_line:header_line + 50] if ln.strip()]
     notes = []
     found = recognise(header)
+    for canon, idx in duplicate_columns(header).items():
+        if not column_map or canon not in column_map:
+            raise LogError(f"{path}: columns {' and '.join(str(i + 1) for i in idx)} are both "
+                           f"{canon} ({', '.join(repr(header[i]) for i in idx)}); name the one "
+                           f'to use with --columns {canon}="HEADER"')
     if column_map:
         found = _apply_map(path, header, found, column_map)
     if not found:

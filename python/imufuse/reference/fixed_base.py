@@ -51,7 +51,8 @@ def qconst(name, value, smin, smax, nonzero=False):
     c = ci.qscale(value, name, smin=-64, smax=200) if value > 0 else ci.QScale(0, 16)
     if (nonzero and c.m == 0) or not smin <= c.s <= smax:
         raise ValueError(f"{name}={value!r} is outside the fixed-point range "
-                         f"(2^-{smax} .. 2^{-smin} as a scale)")
+                         f"[2^{14 - smax}, 2^{15 - smin}) = [{2.0 ** (14 - smax):.3g}, "
+                         f"{2.0 ** (15 - smin):.3g})")
     return c
 
 

@@ -38,7 +38,7 @@ class MahonyIMUQ(FixedFilter):
         ki = _checks.check_real("ki", ki, lo=0.0)
         gyr_scale = check_scale("gyr_scale", gyr_scale)
         qconst("gyr_scale*dt", 0.5 * gyr_scale * dt, 31, 61, nonzero=True)
-        qconst("kp*dt", 0.5 * kp * dt, 16, 47)
+        qconst("0.5*kp*dt", 0.5 * kp * dt, 16, 47)
         qconst("ki*dt^2", 0.5 * ki * dt * dt, 8, 54)
         return (dt, kp, ki, gyr_scale, check_profile(profile))
 

@@ -788,6 +788,7 @@ def _rows(dtype, name, x):
 
 def calibrate_inertial(x, M, s, b, dtype="float64"):
     """i_c = M ((i_u - b) .* s) for each row of x (N, 3)."""
+    dtype = _checks.check_dtype(dtype)
     R = _Ops(dtype).R
     m = [R(v) for v in _fusion.model_param("M", M, (3, 3), dtype)]
     sens = tuple(R(v) for v in _fusion.model_param("s", s, (3,), dtype))
@@ -803,6 +804,7 @@ def calibrate_inertial(x, M, s, b, dtype="float64"):
 
 def calibrate_magnetic(x, S, h, dtype="float64"):
     """m_c = S (m_u - h) for each row of x (N, 3)."""
+    dtype = _checks.check_dtype(dtype)
     R = _Ops(dtype).R
     m = [R(v) for v in _fusion.model_param("S", S, (3, 3), dtype)]
     hard = tuple(R(v) for v in _fusion.model_param("h", h, (3,), dtype))
@@ -817,6 +819,7 @@ def calibrate_magnetic(x, S, h, dtype="float64"):
 
 def axes_apply(x, alignment, dtype="float64"):
     """out_i = sign_i x_{perm_i} for each row (alignment like '+X-Z+Y')."""
+    dtype = _checks.check_dtype(dtype)
     perm, neg = _fusion.parse_alignment(alignment)
     arr = _rows(dtype, "x", x)
     out = np.empty_like(arr)
@@ -828,6 +831,7 @@ def axes_apply(x, alignment, dtype="float64"):
 
 def compass_heading(convention, acc, mag, invsqrt="exact", dtype="float64"):
     """Tilt-compensated heading (degrees) for each row of acc, mag (N, 3)."""
+    dtype = _checks.check_dtype(dtype)
     o = _Ops(dtype)
     R = o.R
     conv = _fusion.ahrs_params(dtype, convention)[0]
