@@ -358,3 +358,24 @@ def test_two_columns_of_one_name_are_a_data_error(tmp_path):
                  + "".join(f"{k / 100},0,0,0,0,0,1,5\n" for k in range(5)))
     r = imf("run", str(p), "-f", "MadgwickIMU", "-o", str(tmp_path / "o.csv"))
     assert r.returncode == 4 and "columns 2 and 8 are both gyr_x" in r.stderr, r.stderr
+
+
+def test_rejected_samples_are_reported(tmp_path):
+    """A log whose every sample is NaN: run and compare exit 4 saying every sample was
+    rejected (they printed "20 samples" and scores of 0.00 with exit 0); a log with some
+    rejected samples gets a note with their count."""
+    p = tmp_path / "nan.csv"
+    p.write_text("time,gyr_x,gyr_y,gyr_z,acc_x,acc_y,acc_z\n"
+                 + "".join(f"{k / 100},nan,0,0,0,0,1\n" for k in range(20)))
+    r = imf("run", str(p), "-f", "MadgwickIMU", "-o", str(tmp_path / "o.csv"))
+    assert r.returncode == 4 and "rejected every one of the 20 samples" in r.stderr, r.stderr
+    r = imf("compare", str(p), "-f", "MadgwickIMU")
+    assert r.returncode == 4 and "every one of the 20 samples rejected" in r.stderr, r.stderr
+    q = tmp_path / "some.csv"
+    q.write_text("time,gyr_x,gyr_y,gyr_z,acc_x,acc_y,acc_z\n"
+                 + "".join(f"{k / 100},{'nan' if k in (5, 9) else 0},0,0,0,0,1\n"
+                           for k in range(20)))
+    r = imf("run", str(q), "-f", "MadgwickIMU", "--init", "identity", "-o",
+            str(tmp_path / "o.csv"))
+    assert r.returncode == 0 and "note: 2 of 20 samples rejected by MadgwickIMU" in r.stderr, \
+        r.stderr

@@ -447,6 +447,11 @@ def _parser_demo(sub):
 # ---------------------------------------------------------------------------
 # run
 
+def _rejected(runner, log):
+    """Samples the runner's filter rejected (fixed-point filters reject none)."""
+    return min(int(getattr(runner.filter, "skipped", 0)), len(log))
+
+
 def _run(args):
     _fusion_hint(args.filter, "run")
     check_outputs(_input_files(args), [("-o", args.output), ("--plot", args.plot)])
@@ -460,6 +465,11 @@ def _run(args):
     r = Runner(args.filter, log, args, _pairs(args.param))
     inputs, src = _inputs(cls, log, args.axis)
     S = r.run(inputs)
+    rejected = _rejected(r, log)
+    if rejected == len(log):
+        raise NothingComputed(f"{log.path}: {cls.__name__} rejected every one of the "
+                              f"{len(log)} samples (non-finite values, or updates it cannot "
+                              "make): nothing was estimated")
     cols = {"time": log.t}
     for j, n in enumerate(cls.state_names):
         cols[n] = S[:, j]
@@ -489,6 +499,9 @@ def _run(args):
     _err(msg)
     for n in r.notes:
         _err(f"note: {n}")
+    if rejected:
+        _err(f"note: {rejected} of {len(log)} samples rejected by {cls.__name__} (non-finite "
+             "values, or updates it cannot make): the state was kept through them")
     ev = _evaluate(cls, est, log, args)
     if ev is not None:
         if isinstance(ev, dict):
@@ -581,9 +594,14 @@ def _compare(args):
         t0 = time.perf_counter()
         S = r.run(inputs)
         sps = len(log) / max(time.perf_counter() - t0, 1e-9)
-        est = _estimate(cls, S)
+        rejected = _rejected(r, log)
+        est = _estimate(cls, S) if rejected < len(log) else None
         del S
         note = why_no_estimate(cls) if est is None else est.source
+        if rejected == len(log):
+            note = f"every one of the {len(log)} samples rejected: nothing estimated"
+        elif rejected:
+            note += f"; {rejected} of {len(log)} samples rejected"
         if r.notes:
             note += "; " + "; ".join(r.notes)
         if est is not None:
