@@ -48,3 +48,26 @@ def test_nul_inside_the_text_is_still_an_error(tmp_path):
     p.write_bytes(b"time,gyr_x,gyr_y,gyr_z,acc_x,acc_y,acc_z\n0,0,0\0,0,0,0,1\n0.01,0,0,0,0,0,1\n")
     with pytest.raises(LogError, match="NUL"):
         read_log(str(p))
+
+
+def test_a_2_gb_preallocated_file_reads_in_bounded_memory_and_time(rows, tmp_path):
+    """The case as it happens: 10 s of rows, then a NUL-filled preallocation to 2 GB (sparse
+    here, as most file systems store it). Read in a fresh process: peak resident memory below
+    150 MB (it was 21 GB for a 2 GB file), the tail found in a few block reads, the rows all
+    there."""
+    import subprocess
+    import sys
+    p, d = rows
+    with open(p, "ab") as fh:
+        fh.truncate(2 << 30)
+    code = ("import resource, sys, time\nfrom imufuse.io import read_log\n"
+            "t = time.perf_counter()\nlog = read_log(sys.argv[1])\n"
+            "print(len(log), time.perf_counter() - t, "
+            "resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)\n")
+    r = subprocess.run([sys.executable, "-c", code, str(p)], capture_output=True, text=True,
+                       timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
+    n, seconds, rss_kb = r.stdout.split()
+    assert int(n) == len(d.t)
+    assert int(rss_kb) < 150_000, f"peak RSS {int(rss_kb) / 1e3:.0f} MB"
+    assert float(seconds) < 30.0

@@ -351,20 +351,44 @@ _DEC_COMMA = re.compile(r"^\s*[-+]?\d+,\d+(?:[eE][-+]?\d+)?\s*$")
 
 def _nul_tail_start(path, block=1 << 20):
     """Where the run of NUL bytes that ends the file starts (the file's size when it does not
-    end in NUL): SD-card loggers preallocate their files and fill them from the start. Read
-    backwards block by block: constant memory."""
+    end in NUL): SD-card loggers preallocate their files and fill them from the start. The
+    last block holding text is found by galloping back from the end, then bisecting, in
+    blocks: a few reads and constant memory whatever the tail's length (the caller only sizes
+    its buffers from this; the reader itself stops at the first NUL)."""
     size = os.path.getsize(path)
-    end = size
     with open(path, "rb") as fh:
-        while end > 0:
-            start = max(0, end - block)
-            fh.seek(start)
-            chunk = fh.read(end - start)
-            stripped = chunk.rstrip(b"\0")
-            if stripped:
-                return start + len(stripped)
-            end = start
-    return 0
+        def text_end(k):
+            """The end of the text in block k (its last non-NUL byte + 1), or 0."""
+            fh.seek(k * block)
+            return len(fh.read(block).rstrip(b"\0"))
+
+        last = (size - 1) // block if size else -1
+        if last < 0:
+            return 0
+        if text_end(last):
+            return last * block + text_end(last)
+        # gallop: blocks last - 1, last - 2, last - 4, ... until one holds text
+        hi, step = last, 1            # block hi is all NUL
+        lo = -1
+        while hi - step >= 0:
+            k = hi - step
+            if text_end(k):
+                lo = k
+                break
+            hi, step = k, step * 2
+        if lo < 0:
+            if text_end(0):
+                lo = 0
+            else:
+                return 0
+        # bisect between lo (text) and hi (all NUL)
+        while hi - lo > 1:
+            mid = (lo + hi) // 2
+            if text_end(mid):
+                lo = mid
+            else:
+                hi = mid
+        return lo * block + text_end(lo)
 
 
 def _lines_until_nul(fh, state, max_line=1 << 20):
