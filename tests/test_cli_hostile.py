@@ -379,3 +379,26 @@ def test_rejected_samples_are_reported(tmp_path):
             str(tmp_path / "o.csv"))
     assert r.returncode == 0 and "note: 2 of 20 samples rejected by MadgwickIMU" in r.stderr, \
         r.stderr
+
+
+def test_vario_and_calibrate_bad_files_are_data_errors(tmp_path):
+    """A binary file, a log of another encoding, a vario log without two usable barometer
+    samples: exit 4 naming the file (they exited 2, "bad command line", with a codec
+    message)."""
+    binary = tmp_path / "bin.csv"
+    binary.write_bytes(bytes(range(128, 256)) * 4)
+    latin = tmp_path / "latin.csv"
+    latin.write_bytes("time,gyr_x (\xb0/s),gyr_y,gyr_z\n0,1,2,3\n".encode("latin-1"))
+    for f in (binary, latin):
+        r = imf("vario", f, "-o", tmp_path / "v.csv")
+        assert r.returncode == 4 and f"{f}: not a UTF-8 text CSV log" in r.stderr, r.stderr
+        r = imf("calibrate", "gyro", f, "-o", tmp_path / "c.json")
+        assert r.returncode == 4 and f"{f}: not a UTF-8 text CSV log" in r.stderr, r.stderr
+    nobaro = tmp_path / "nobaro.csv"
+    nobaro.write_text("time,gyr_x,gyr_y,gyr_z,acc_x,acc_y,acc_z,pressure\n"
+                      + "".join(f"{k / 100},0,0,0,0,0,1,{'nan' if k else -5}\n"
+                                for k in range(50)))
+    r = imf("vario", nobaro, "-o", tmp_path / "v.csv")
+    assert r.returncode == 4 and "0 usable barometer samples in column pressure" in r.stderr, \
+        r.stderr
+    assert not (tmp_path / "v.csv").exists()

@@ -37,7 +37,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ._atomic import replacing
-from .io import LogError
+from .io import LogError, read_csv_rows
 
 __all__ = ["Calibration", "gyro_offset", "still_phases", "accel_six_position", "mag_minmax",
            "mag_ellipsoid", "save", "run_log", "describe", "SECTIONS"]
@@ -333,11 +333,7 @@ def save(path, cal):
 
 
 def _read_columns(path, names):
-    import csv
-    if not os.path.exists(path):
-        raise LogError(f"{path}: no such file", "file")
-    with open(path, newline="") as fh:
-        rows = [r for r in csv.reader(fh) if any(c.strip() for c in r)]
+    rows = read_csv_rows(path)
     if not rows:
         raise LogError(f"{path}: empty file")
     header = [h.strip() for h in rows[0]]

@@ -236,6 +236,25 @@ def recognise(header):
     return {k: i for k, (r, i) in best.items()}
 
 
+def read_csv_rows(path):
+    """The non-blank rows of a small text CSV file (calibrate, vario), as lists of cells;
+    LogError naming the file for a file that is not text (a binary file, another encoding,
+    NUL bytes) or that does not exist."""
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise LogError(f"{path}: no such file", "file")
+    try:
+        with open(path, newline="", encoding="utf-8") as fh:
+            return [r for r in csv.reader(fh) if any(c.strip() for c in r)]
+    except UnicodeDecodeError as e:
+        raise LogError(f"{path}: not a UTF-8 text CSV log (byte {e.start}: {e.reason}); "
+                       "save it as UTF-8 text") from None
+    except csv.Error as e:
+        raise LogError(f"{path}: not a CSV log ({e})") from None
+    except IsADirectoryError:
+        raise LogError(f"{path}: is a directory, not a log file", "file") from None
+
+
 def duplicate_columns(header):
     """{known name: [header indices]} for names that two or more headers spell equally
     closely (e.g. 'gyr_x' twice): recognise() cannot choose between them."""

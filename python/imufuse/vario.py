@@ -15,8 +15,6 @@ two-state Kalman filter of the seed's starting point (:func:`baro_kf`, the
 Wikipedia constant-acceleration example) and the seed's rejected
 alternative ``|a| - 1`` (:func:`norm_accel`).
 """
-import csv
-import os
 from dataclasses import dataclass
 
 import numpy as np
@@ -163,7 +161,8 @@ def run(gyr, acc, baro_alt, *, rate=None, t=None, mag=None, filter="MadgwickIMU"
             rate = 1.0 / float(np.median(np.diff(t)))
     idx = np.flatnonzero(np.isfinite(baro_alt))
     if idx.size < 2:
-        raise ValueError(f"baro_alt: need at least two barometer samples, got {idx.size}")
+        raise ValueError(f"baro_alt: need at least two barometer samples (finite "
+                         f"altitudes), got {idx.size}")
     _checks.check_choice("vertical", vertical, ("earth", "norm"))
     cls = getattr(mod, filter, None)
     if cls is None or getattr(cls, "kind", None) not in ("imu", "ahrs") \
@@ -197,6 +196,7 @@ def run(gyr, acc, baro_alt, *, rate=None, t=None, mag=None, filter="MadgwickIMU"
 # ---- logs ------------------------------------------------------------------------------
 
 from .io import LogError as _LogError  # noqa: E402
+from .io import read_csv_rows as _read_csv_rows  # noqa: E402
 
 
 class VarioLogError(_LogError):
@@ -210,10 +210,10 @@ def read_vario_log(path, gyr_unit="rad/s", acc_unit="g", p_ref=P_REF):
     arrays (gyro rad/s, acc g, baro_alt m with NaN on rows without a sample)."""
     _checks.check_choice("gyr_unit", gyr_unit, ("rad/s", "deg/s"))
     _checks.check_choice("acc_unit", acc_unit, ("g", "m/s2", "m/s^2"))
-    if not os.path.exists(path):
-        raise VarioLogError(f"{path}: no such file", "file")
-    with open(path, newline="") as fh:
-        rows = [r for r in csv.reader(fh) if any(c.strip() for c in r)]
+    try:
+        rows = _read_csv_rows(path)
+    except _LogError as e:
+        raise VarioLogError(str(e), e.kind) from None
     if len(rows) < 2:
         raise VarioLogError(f"{path}: expected a header row and data rows")
     header = [h.strip() for h in rows[0]]
@@ -260,6 +260,11 @@ def run_log(path, out_csv, *, plot=None, gyr_unit="rad/s", acc_unit="g", p_ref=P
     altitude (m), climb (m/s), bias (m/s^2) per barometer sample to out_csv,
     and a PNG plot when `plot` is a path. Returns the VarioResult."""
     log = read_vario_log(path, gyr_unit, acc_unit, p_ref)
+    n_baro = int(np.count_nonzero(np.isfinite(log["baro_alt"])))
+    if n_baro < 2:
+        raise VarioLogError(f"{path}: {n_baro} usable barometer samples in column "
+                            f"{log['baro_column']} (finite values; a pressure must be > 0); "
+                            "the vario needs at least two")
     res = run(log["gyr"], log["acc"], log["baro_alt"], t=log["t"], mag=log["mag"],
               filter=filter, filter_params=filter_params, kf_params=kf_params,
               convention=convention)
