@@ -3,6 +3,7 @@ is a one-line message with its documented exit code, never a traceback; the
 input log is never overwritten; `compare` never exits 0 having computed
 nothing; `validate` survives crashing, exiting and hanging firmware."""
 import os
+import re
 import subprocess
 import sys
 import textwrap
@@ -396,9 +397,36 @@ def test_vario_and_calibrate_bad_files_are_data_errors(tmp_path):
         assert r.returncode == 4 and f"{f}: not a UTF-8 text CSV log" in r.stderr, r.stderr
     nobaro = tmp_path / "nobaro.csv"
     nobaro.write_text("time,gyr_x,gyr_y,gyr_z,acc_x,acc_y,acc_z,pressure\n"
-                      + "".join(f"{k / 100},0,0,0,0,0,1,{'nan' if k else -5}\n"
+                      + "".join(f"{k / 100},0,0,0,0,0,1,{'' if k else 'nan'}\n"
                                 for k in range(50)))
     r = imf("vario", nobaro, "-o", tmp_path / "v.csv")
     assert r.returncode == 4 and "0 usable barometer samples in column pressure" in r.stderr, \
         r.stderr
     assert not (tmp_path / "v.csv").exists()
+
+
+@pytest.mark.parametrize("pressure,msg", [
+    ("1e308", "median 1e[+]308 Pa is not an air pressure"),
+    ("1013.25", "it looks like hPa: multiply by 100"),
+    ("-5", "median -5 Pa is not an air pressure")])
+def test_vario_absurd_pressures_are_data_errors(tmp_path, pressure, msg):
+    """Finite but absurd pressures (1e308 Pa gave an altitude of -2e62 m, exit 0) and hPa
+    logged as Pa: exit 4 naming the column and the fix."""
+    p = tmp_path / "p.csv"
+    p.write_text("time,gyr_x,gyr_y,gyr_z,acc_x,acc_y,acc_z,pressure\n"
+                 + "".join(f"{k / 100},0,0,0,0,0,1,{pressure if k % 4 == 0 else ''}\n"
+                           for k in range(200)))
+    r = imf("vario", p, "-o", tmp_path / "v.csv")
+    assert r.returncode == 4 and re.search(msg, r.stderr), r.stderr
+
+
+def test_vario_all_rejected_accelerometer_is_a_data_error(tmp_path):
+    """NaN accelerometer readings: every barometer sample rejected by the Kalman filter; it
+    reported an altitude of 0.00 m with exit 0 while the barometer said +41 m."""
+    p = tmp_path / "n.csv"
+    p.write_text("time,gyr_x,gyr_y,gyr_z,acc_x,acc_y,acc_z,pressure\n"
+                 + "".join(f"{k / 100},0,0,0,nan,nan,nan,{101325 - k if k % 4 == 0 else ''}\n"
+                           for k in range(200)))
+    r = imf("vario", p, "-o", tmp_path / "v.csv")
+    assert r.returncode == 4 and "rejected every one of the 50 barometer samples" in r.stderr, \
+        r.stderr

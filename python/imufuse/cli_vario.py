@@ -4,6 +4,7 @@ Registered by imufuse.cli.build_parser; the work is done in imufuse.vario
 and imufuse.calibrate."""
 import ast
 import os
+import sys
 
 from . import calibrate, plots, vario
 from ._atomic import check_outputs
@@ -38,6 +39,10 @@ def _vario(args):
     print(f"{len(res.t)} barometer samples -> {out}" + (f", plot {plot}" if plot else ""))
     print(f"altitude {res.altitude[-1]:.2f} m, climb {res.climb[-1]:+.2f} m/s, "
           f"accelerometer bias {res.bias[-1]:+.3f} m/s^2 at the end")
+    if res.imu_skipped or res.kf_skipped:
+        print(f"imufuse: note: rejected (non-finite input, state kept): {res.imu_skipped} IMU "
+              f"samples by {args.filter}, {res.kf_skipped} of {len(res.t)} barometer samples "
+              "by the Kalman filter", file=sys.stderr)
     return 0
 
 

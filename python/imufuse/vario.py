@@ -15,6 +15,7 @@ two-state Kalman filter of the seed's starting point (:func:`baro_kf`, the
 Wikipedia constant-acceleration example) and the seed's rejected
 alternative ``|a| - 1`` (:func:`norm_accel`).
 """
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -116,7 +117,9 @@ class VarioResult:
     (m), climb (m/s), bias (m/s^2: the accelerometer's vertical bias), vacc
     (m/s^2: the down-sampled vertical acceleration fed to the filter), and
     the IMU-rate quaternions q (N, 4) and vertical acceleration vacc_imu
-    (m/s^2); state (M, 9): the Kalman filter state in its own units."""
+    (m/s^2); state (M, 9): the Kalman filter state in its own units; imu_skipped,
+    kf_skipped: the samples the attitude filter and the Kalman filter rejected (non-finite
+    input: their state was kept through them)."""
     t: np.ndarray
     baro_alt: np.ndarray
     altitude: np.ndarray
@@ -126,6 +129,8 @@ class VarioResult:
     q: np.ndarray
     vacc_imu: np.ndarray
     state: np.ndarray
+    imu_skipped: int = 0
+    kf_skipped: int = 0
 
 
 def run(gyr, acc, baro_alt, *, rate=None, t=None, mag=None, filter="MadgwickIMU",
@@ -190,7 +195,8 @@ def run(gyr, acc, baro_alt, *, rate=None, t=None, mag=None, filter="MadgwickIMU"
     X = np.asarray(kf.run(a_b, baro_alt[idx] * 100.0, dt), dtype=float)
     return VarioResult(t=tb, baro_alt=baro_alt[idx], altitude=X[:, 0] / 100.0,
                        climb=X[:, 1] / 100.0, bias=X[:, 2] / 100.0, vacc=a_b / 100.0,
-                       q=q, vacc_imu=va / 100.0, state=X)
+                       q=q, vacc_imu=va / 100.0, state=X, imu_skipped=int(f.skipped),
+                       kf_skipped=int(kf.skipped))
 
 
 # ---- logs ------------------------------------------------------------------------------
@@ -248,6 +254,23 @@ def read_vario_log(path, gyr_unit="rad/s", acc_unit="g", p_ref=P_REF):
     if acc_unit != "g":
         acc = acc / GRAVITY
     b = out[baro[0]]
+    if baro[0] == "pressure":
+        # a barometer reads 1 to 200 kPa (the atmosphere from 30 km up to a deep mine, with
+        # margin); hPa or kPa logged as Pa would be 100 or 1000 times off
+        ok = np.isfinite(b)
+        v = b[ok]
+        med = float(np.partition(v, v.size // 2)[v.size // 2]) if v.size else math.nan
+        if ok.any() and not 1e4 <= med <= 2e5:
+            unit = (" (it looks like hPa: multiply by 100)" if 100.0 <= med <= 2000.0 else
+                    " (it looks like kPa: multiply by 1000)" if 10.0 <= med <= 200.0 else "")
+            raise VarioLogError(f"{path}: column pressure: median {med:g} Pa is not an air "
+                                f"pressure a barometer reads (10 kPa to 200 kPa); pressure "
+                                f"must be in Pa{unit}")
+        bad = np.flatnonzero(ok & ~((b >= 1e3) & (b <= 2e5)))
+        if bad.size:
+            k = int(bad[0])
+            raise VarioLogError(f"{path}:{k + 2}: column pressure: {b[k]:g} Pa is outside a "
+                                "barometer's range (1 kPa to 200 kPa)")
     alt = pressure_to_altitude(b, p_ref) if baro[0] == "pressure" else b
     mag = (np.column_stack([out[h] for h in ("mag_x", "mag_y", "mag_z")])
            if "mag_x" in out else None)
@@ -268,6 +291,11 @@ def run_log(path, out_csv, *, plot=None, gyr_unit="rad/s", acc_unit="g", p_ref=P
     res = run(log["gyr"], log["acc"], log["baro_alt"], t=log["t"], mag=log["mag"],
               filter=filter, filter_params=filter_params, kf_params=kf_params,
               convention=convention)
+    if res.kf_skipped >= len(res.t):
+        raise VarioLogError(f"{path}: the Kalman filter rejected every one of the "
+                            f"{len(res.t)} barometer samples (a non-finite vertical "
+                            "acceleration or altitude in each: check the accelerometer "
+                            "columns): nothing was estimated")
     M = np.column_stack([res.t, res.baro_alt, res.altitude, res.climb, res.bias])
     with replacing(out_csv) as tmp:
         np.savetxt(tmp, M, fmt="%.9g", delimiter=",",
