@@ -430,3 +430,17 @@ def test_vario_all_rejected_accelerometer_is_a_data_error(tmp_path):
     r = imf("vario", p, "-o", tmp_path / "v.csv")
     assert r.returncode == 4 and "rejected every one of the 50 barometer samples" in r.stderr, \
         r.stderr
+
+
+def test_a_row_with_more_values_than_the_header_is_a_data_error(tmp_path):
+    """A row of 13 values under a header of 10 columns (a shifted or damaged row): its first
+    columns would be read as gyro and accelerometer from the wrong fields; exit 4 naming the
+    line (it was read silently)."""
+    p = tmp_path / "long.csv"
+    rows = ["0.0,0.01,0.02,0.0,0.0,0.0,1.0,0.3,0.0,-0.5"] * 20
+    rows[9] = "0.09,9,9,9,0.01,0.02,0.0,0.0,0.0,1.0,0.3,0.0,-0.5"
+    p.write_text("time,gyr_x,gyr_y,gyr_z,acc_x,acc_y,acc_z,mag_x,mag_y,mag_z\n"
+                 + "".join(r.replace("0.0,", f"{k / 100},", 1) + "\n" for k, r in enumerate(rows)))
+    r = imf("run", p, "-f", "MadgwickIMU", "-o", tmp_path / "o.csv")
+    assert r.returncode == 4 and "line 11: 13 values under a header of 10 columns" in r.stderr, \
+        r.stderr

@@ -532,6 +532,21 @@ def _numbers_slow(path, enc, delim, header_line, idx, decimal_comma, loader_erro
 _BLOCK = 100_000
 
 
+def _no_extra_values(lines, delim, width, first):
+    """The lines, each checked to hold at most ``width`` values (a trailing delimiter
+    allowed): a row with more values than the header has columns is shifted or damaged, and
+    reading its first columns would give numbers from the wrong columns. ``first``: the line
+    number of the first line."""
+    for i, ln in enumerate(lines):
+        s = ln.rstrip()
+        if s.endswith(delim):
+            s = s[:-1]
+        if s.count(delim) >= width and '"' not in s and not s.lstrip().startswith("#"):
+            raise LogError(f"line {first + i}: {s.count(delim) + 1} values under a header of "
+                           f"{width} columns")
+        yield ln
+
+
 def _loadtxt_blocks(fh, delim, usecols, rows_hint):
     """numpy.loadtxt block by block into one array sized from the file
     (numpy's reader grows its own buffer: read at once, a long log would
@@ -609,7 +624,10 @@ def _read_csv(path, column_map, time_unit):
                 width = len(data[0]) + 1 if data else 64     # bytes per row, first row
                 # sized from the text, not from a NUL-filled tail of a preallocated file
                 rows = int(_nul_tail_start(path) / max(width, 8) * 1.05)
-                M = _loadtxt_blocks(_lines_until_nul(fh, nul_state), delim, usecols, rows)
+                lines_in = _lines_until_nul(fh, nul_state)
+                if delim:
+                    lines_in = _no_extra_values(lines_in, delim, len(header), header_line + 1)
+                M = _loadtxt_blocks(lines_in, delim, usecols, rows)
     except LogError as e:
         raise LogError(f"{path}: {e}") from None
     except (ValueError, IndexError) as e:
