@@ -255,3 +255,13 @@ def test_coverage_is_checked_with_numbers():
             fit(cap)
     with pytest.raises(ValueError, match="do not cover the directions"):
         cal.mag_minmax(rng.normal(size=(12, 3)) + H_TRUE)
+
+
+def test_absurd_gyro_readings_are_no_offset():
+    """Readings of 1e307 at rest (finite, absurd): refused naming the unit, instead of an
+    infinite offset blamed on the output file."""
+    g = np.full((200, 3), 1e307)
+    with pytest.raises(ValueError, match=r"^gyr: a median reading of 1e\+307 at rest is no gyro"):
+        cal.gyro_offset(g)
+    b = cal.gyro_offset(np.full((200, 3), 30000.0))["b"]     # int16 counts still fine
+    assert np.all(b == 30000.0)

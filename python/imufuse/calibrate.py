@@ -88,6 +88,11 @@ def _runs(mask):
 
 # ---- gyroscope ---------------------------------------------------------------------------
 
+#: the largest gyro offset taken, in the gyro's unit: above any MEMS gyro's whole range in
+#: rad/s (about 70) or deg/s (4000), and above any int16 count
+GYRO_OFFSET_MAX = 1e5
+
+
 def gyro_offset(gyr, threshold=0.05, restart=False, min_samples=100):
     """Gyroscope offset b: the mean of a recording at rest (M = I, s = 1).
 
@@ -100,6 +105,12 @@ def gyro_offset(gyr, threshold=0.05, restart=False, min_samples=100):
     if not (np.isfinite(threshold) and threshold > 0):
         raise ValueError(f"threshold: must be finite and > 0, got {threshold!r}")
     med = np.median(g, axis=0)
+    if not np.all(np.abs(med) <= GYRO_OFFSET_MAX):
+        raise ValueError(f"gyr: a median reading of {np.max(np.abs(med)):.3g} at rest is no "
+                         f"gyro offset (MEMS gyros read up to about 70 rad/s or 4000 deg/s; an "
+                         f"offset above {GYRO_OFFSET_MAX:g} in the gyro's unit is refused): check "
+                         "the unit "
+                         "(--gyr-unit) and the columns")
     moving = np.any(np.abs(g - med) > threshold, axis=1)
     lo, hi = 0, len(g)
     if moving.any():
