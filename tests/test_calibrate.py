@@ -263,5 +263,5 @@ def test_absurd_gyro_readings_are_no_offset():
     g = np.full((200, 3), 1e307)
     with pytest.raises(ValueError, match=r"^gyr: a median reading of 1e\+307 at rest is no gyro"):
         cal.gyro_offset(g)
-    b = cal.gyro_offset(np.full((200, 3), 30000.0)).b     # int16 counts still fine
+    b = cal.gyro_offset(np.full((200, 3), 30000.0)).params["b"]     # int16 counts still fine
     assert np.all(b == 30000.0)
