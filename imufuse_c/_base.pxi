@@ -276,7 +276,9 @@ cdef class _Filter:
         if self._x == NULL:
             _unbound(self)
         arr = _checks.as_state(value, self._n, DTYPE, self._ref.state_names)
-        _checks.check_valid_state(self._ref._valid_state(self._args, _R, arr))
+        with np.errstate(all="ignore"):     # an overflow in the check is its answer, no warning
+            problem = self._ref._valid_state(self._args, _R, arr)
+        _checks.check_valid_state(problem)
         problem = _checks.dead_state(self, arr, self._ref.kind)
         if problem:
             raise ValueError(problem)

@@ -665,3 +665,21 @@ def test_state_writes_a_still_trial_in_four_orientations_refuses(backend):
     s[va.state_names.index("pzz")] = -5.0
     with pytest.raises(ValueError, match=r"^state: not a valid attitude \(pzz = -5.0"):
         va.state = s
+
+
+@pytest.mark.parametrize("backend", ("c", "ref"))
+def test_refused_state_writes_warn_nothing(backend):
+    """An overflowing state write is refused with its ValueError only: no numpy
+    RuntimeWarning before it (under -W error that warning became the exception)."""
+    import warnings
+    mod = imufuse_c if backend == "c" else reference
+    for name in ("DCM", "MultiWii", "MahonyIMU"):
+        e = catalogue.entry(name)
+        f = e.make(backend, dt=0.01, **e.defaults, dtype="float32")
+        s = f.state.copy()
+        s[0] = 3e38
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            with pytest.raises(ValueError, match=r"^state: "):
+                f.state = s
+    assert mod is not None

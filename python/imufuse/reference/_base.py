@@ -118,7 +118,9 @@ class ReferenceFilter:
     def state(self, value):
         arr = _checks.as_state(value, len(self.state_names), self.dtype, self.state_names)
         R = self._R
-        _checks.check_valid_state(self._valid_state(self._args, R, arr))
+        with np.errstate(all="ignore"):     # an overflow in the check is its answer, no warning
+            problem = self._valid_state(self._args, R, arr)
+        _checks.check_valid_state(problem)
         problem = _checks.dead_state(self, arr, self.kind)
         if problem:
             raise ValueError(problem)
