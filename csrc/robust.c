@@ -140,32 +140,30 @@ static void robust_init(imf_robust_consts_t *const set, uint32_t *const skipped,
     x->t_cand = IMF_R(0.0); x->t_dist = IMF_R(0.0); x->t_ok = IMF_R(0.0);
 }
 
+/* The defaults of the settings both filters have (robust.h lists them): one list for the
+   two settings structs. */
+#define ROBUST_COMMON_DEFAULTS(s)                                         \
+    do {                                                                  \
+        (s)->dt = IMF_R(0.01);                                            \
+        (s)->tau_acc = IMF_R(2.5);                                        \
+        (s)->rate_ref = (imf_real)1.7453292519943295;  /* 100 deg/s */    \
+        (s)->tau_bias = IMF_R(100.0);                                     \
+        (s)->tau_bias_rest = IMF_R(3.0);                                  \
+        (s)->rest_gyr = (imf_real)0.03490658503988659; /* 2 deg/s */      \
+        (s)->rest_acc = IMF_R(0.05);                                      \
+        (s)->rest_time = IMF_R(1.5);                                      \
+        (s)->tau_rest = IMF_R(0.5);                                       \
+        (s)->latency = IMF_R(0.0);                                        \
+    } while (0)
+
 void imf_robust_imu_default_settings(imf_robust_imu_settings_t *const settings)
 {
-    settings->dt = IMF_R(0.01);
-    settings->tau_acc = IMF_R(2.5);
-    settings->rate_ref = (imf_real)1.7453292519943295;     /* 100 deg/s */
-    settings->tau_bias = IMF_R(100.0);
-    settings->tau_bias_rest = IMF_R(3.0);
-    settings->rest_gyr = (imf_real)0.03490658503988659;    /* 2 deg/s */
-    settings->rest_acc = IMF_R(0.05);
-    settings->rest_time = IMF_R(1.5);
-    settings->tau_rest = IMF_R(0.5);
-    settings->latency = IMF_R(0.0);
+    ROBUST_COMMON_DEFAULTS(settings);
 }
 
 void imf_robust_ahrs_default_settings(imf_robust_ahrs_settings_t *const settings)
 {
-    settings->dt = IMF_R(0.01);
-    settings->tau_acc = IMF_R(2.5);
-    settings->rate_ref = (imf_real)1.7453292519943295;     /* 100 deg/s */
-    settings->tau_bias = IMF_R(100.0);
-    settings->tau_bias_rest = IMF_R(3.0);
-    settings->rest_gyr = (imf_real)0.03490658503988659;    /* 2 deg/s */
-    settings->rest_acc = IMF_R(0.05);
-    settings->rest_time = IMF_R(1.5);
-    settings->tau_rest = IMF_R(0.5);
-    settings->latency = IMF_R(0.0);
+    ROBUST_COMMON_DEFAULTS(settings);
     settings->tau_mag = IMF_R(10.0);
     settings->mag_norm = IMF_R(0.1);
     settings->mag_dip = (imf_real)0.17364817766693033;     /* sin(10 deg) */
