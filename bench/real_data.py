@@ -1,7 +1,8 @@
 """The real-data table of the README: every 3D filter on the BROAD
 development trials (../shared/data/broad/*.npz), BROAD errors (imufuse.evaluation)
 averaged over the trials, with the command line's defaults (init="first",
-each trial's rate) and with the gains `imufuse tune` finds.
+each trial's rate), with the published code's gains where they differ (--preset published),
+and with the gains `imufuse tune` finds.
 
     python bench/real_data.py [DIR] [--write]   # --write: refresh the README block
 """
@@ -13,8 +14,9 @@ import subprocess
 import sys
 
 from imufuse import io
-from imufuse.catalogue import estimate, filter_names, make_filter, reference_class, resolve_params
-from imufuse.cli import effective_params
+from imufuse.catalogue import (entry, estimate, filter_names, make_filter, reference_class,
+                               resolve_params)
+from imufuse.session import effective_params
 from imufuse.evaluation import evaluate, mean_over_trials
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -25,12 +27,12 @@ TUNE = {"MadgwickIMU": ["beta=0.003:3:13"], "MadgwickAHRS": ["beta=0.003:3:13"],
         "KK": ["kp=0.0003:0.3:10"]}
 
 
-def score(name, paths, over=None):
+def score(name, paths, over=None, preset=None):
     cls = reference_class(name)
     evs = []
     for p in paths:
         log = io.read_log(p)
-        f = make_filter(name, "c", "float64", {**resolve_params(name, log.dt, over or {}),
+        f = make_filter(name, "c", "float64", {**resolve_params(name, log.dt, over or {}, preset),
                                                "init": "first"})
         ins = (log.gyr, log.acc, log.mag) if cls.kind == "ahrs" else (log.gyr, log.acc)
         evs.append(evaluate(estimate(cls, f.run(*ins)).q, log.q_ref, ref_frame="ENU",
@@ -59,6 +61,10 @@ def table(paths):
         gains = ", ".join(f"{k}={v:g}" for k, v in d.items()
                           if isinstance(v, float) and k != "dt") or "-"
         rows.append((n, cls.kind, gains, base[n]))
+        pub = entry(n).presets.get("published")
+        if pub is not None and effective_params(n, resolve_params(n, 0.01, preset="published")) != d:
+            rows.append((n, cls.kind, ", ".join(f"{k}={v:g}" for k, v in pub.items())
+                         + " (published)", score(n, paths, preset="published")))
         if n in TUNE:
             best = tuned(n, paths, metric)
             rows.append((n, cls.kind, ", ".join(f"{k}={v:.3g}" for k, v in best.items())

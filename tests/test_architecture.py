@@ -92,3 +92,42 @@ def test_direction():
         bad = {d for d in edges[m] if d in ("imufuse.catalogue", "imufuse.cli", "imufuse.demo",
                                               "imufuse.firmware") or d.startswith("imufuse.mcu")}
         assert not bad, f"{m} imports {bad}"
+
+
+def test_the_namespace_stops_at_the_cli_border():
+    """argparse lives in imufuse.cli only: below it, options are typed settings
+    (imufuse.session's dataclasses), so no module outside the command line imports argparse,
+    builds parser arguments, or reads attributes off an argparse Namespace."""
+    bad = []
+    for m, p, _ in _modules():
+        if m == "imufuse.cli" or m.startswith("imufuse.cli."):
+            continue
+        tree = ast.parse(p.read_text())
+        for node in ast.walk(tree):
+            if isinstance(node, (ast.Import, ast.ImportFrom)):
+                names = [a.name for a in node.names] + [getattr(node, "module", None) or ""]
+                if any(n.split(".")[0] == "argparse" for n in names):
+                    bad.append(f"{m}: imports argparse (line {node.lineno})")
+            if isinstance(node, ast.Attribute) and node.attr in ("add_argument",
+                                                                 "add_argument_group"):
+                bad.append(f"{m}: builds command-line options (line {node.lineno})")
+            if isinstance(node, ast.Name) and node.id == "Namespace":
+                bad.append(f"{m}: uses a Namespace (line {node.lineno})")
+    assert not bad, bad
+
+
+def test_the_commands_run_through_the_session():
+    """Every log command reads its log through imufuse.session (one way of reading, units,
+    preprocessing and scoring): no module of the command line calls the log reader, the
+    preprocessing or the evaluation itself."""
+    edges, _ = _graph()
+    for m, p, _ in _modules():
+        if m == "imufuse.cli" or m.startswith("imufuse.cli."):
+            assert "read_log(" not in p.read_text(), f"{m} reads logs itself"
+            assert "imufuse.preprocess" not in edges[m], f"{m} preprocesses itself"
+            assert not {"evaluate", "mean_over_trials"} & {
+                a.name for node in ast.walk(ast.parse(p.read_text()))
+                if isinstance(node, ast.ImportFrom) for a in node.names}, f"{m} scores itself"
+    assert "imufuse.session" in edges["imufuse.cli.common"]
+    for m in ("imufuse.session", "imufuse.tune"):
+        assert not any(d == "imufuse.cli" or d.startswith("imufuse.cli.") for d in edges[m]), m

@@ -2,6 +2,7 @@
 parameters, the parameters recovered within stated tolerances, degenerate
 data refused with a clear error, and `imufuse calibrate` end to end."""
 import json
+import re
 import os
 import subprocess
 import sys
@@ -230,7 +231,7 @@ def test_cli_calibrate(tmp_path):
     r = imf("calibrate", "gyro", tmp_path / "moved.csv", "-o", tmp_path / "x.json",
             "--gyr-unit", "deg/s", "--longest-still")
     assert r.returncode == 0, r.stderr
-    assert "rad/s from samples 150.." in r.stdout
+    assert re.search(r"rad/s \(\[[-0-9. ]+\] deg/s\) from samples 150\.\.", r.stdout), r.stdout
     # a magnetometer that never turned: refused, the existing file untouched
     _write(tmp_path / "still.csv", "mag", np.tile(H_TRUE, (200, 1)))
     before = out.read_bytes()

@@ -183,8 +183,8 @@ def test_run_ref_backend_stdout_and_units(logs):
 def test_run_long_log_reports_progress(tmp_path):
     """A long run reports progress on stderr; the chunked run is the same
     trajectory as one run(), bit for bit (the C backend does it in one go)."""
-    from imufuse import cli
-    n = cli.PROGRESS_MIN["ref"] + 5000
+    from imufuse import session
+    n = session.PROGRESS_MIN["ref"] + 5000
     d = sim.imu("static", rate=200.0, duration=n / 200.0, seed=5)
     log = tmp_path / "long.csv"
     io.write_log(log, d.t, d.gyr, d.acc)

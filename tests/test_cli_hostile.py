@@ -327,15 +327,15 @@ def test_hostile_compare_tune_validate(files, tmp_path, cmd, name, extra, code):
 def test_block_estimates_equal_whole_ones():
     """The command line derives estimates block by block (long logs stay small
     in memory): the same values as one catalogue.estimate call, every filter."""
-    from imufuse import cli
     from imufuse.catalogue import estimate, filter_names, reference_class, resolve_params
+    from imufuse.session import chunked_estimate
     d = sim.imu("slow", rate=200.0, duration=30.0, seed=3)
     for n in filter_names():
         cls = reference_class(n)
         ins = {"1d": (d.gyr[:, 0], np.arctan2(d.acc[:, 1], d.acc[:, 2])),
                "imu": (d.gyr, d.acc), "ahrs": (d.gyr, d.acc, d.mag)}[cls.kind]
         S = getattr(imufuse_c, n)(**resolve_params(n, d.dt)).run(*ins)
-        a, b = estimate(cls, S), cli._estimate(cls, S, chunk=997)
+        a, b = estimate(cls, S), chunked_estimate(cls, S, chunk=997)
         x, y = (a.angle, b.angle) if a.angle is not None else (a.q, b.q)
         assert np.array_equal(x, y), n
 
@@ -385,16 +385,20 @@ def test_rejected_samples_are_reported(tmp_path):
 def test_vario_and_calibrate_bad_files_are_data_errors(tmp_path):
     """A binary file, a log of another encoding, a vario log without two usable barometer
     samples: exit 4 naming the file (they exited 2, "bad command line", with a codec
-    message)."""
+    message); the same message as `imufuse run` gives, since every command reads logs
+    through the session."""
     binary = tmp_path / "bin.csv"
     binary.write_bytes(bytes(range(128, 256)) * 4)
     latin = tmp_path / "latin.csv"
     latin.write_bytes("time,gyr_x (\xb0/s),gyr_y,gyr_z\n0,1,2,3\n".encode("latin-1"))
     for f in (binary, latin):
+        r = imf("run", f, "-f", "MadgwickIMU", "-o", tmp_path / "r.csv")
+        said = r.stderr.strip()
+        assert r.returncode == 4 and f"{f}: not UTF-8 text at byte" in said, said
         r = imf("vario", f, "-o", tmp_path / "v.csv")
-        assert r.returncode == 4 and f"{f}: not a UTF-8 text CSV log" in r.stderr, r.stderr
+        assert r.returncode == 4 and r.stderr.strip() == said, r.stderr
         r = imf("calibrate", "gyro", f, "-o", tmp_path / "c.json")
-        assert r.returncode == 4 and f"{f}: not a UTF-8 text CSV log" in r.stderr, r.stderr
+        assert r.returncode == 4 and r.stderr.strip() == said, r.stderr
     nobaro = tmp_path / "nobaro.csv"
     nobaro.write_text("time,gyr_x,gyr_y,gyr_z,acc_x,acc_y,acc_z,pressure\n"
                       + "".join(f"{k / 100},0,0,0,0,0,1,{'' if k else 'nan'}\n"
@@ -407,7 +411,7 @@ def test_vario_and_calibrate_bad_files_are_data_errors(tmp_path):
 
 @pytest.mark.parametrize("pressure,msg", [
     ("1e308", "median 1e[+]308 Pa is not an air pressure"),
-    ("1013.25", "it looks like hPa: multiply by 100"),
+    ("1013.25", "it looks like hPa: write the header 'pressure [(]hPa[)]'"),
     ("-5", "median -5 Pa is not an air pressure")])
 def test_vario_absurd_pressures_are_data_errors(tmp_path, pressure, msg):
     """Finite but absurd pressures (1e308 Pa gave an altitude of -2e62 m, exit 0) and hPa

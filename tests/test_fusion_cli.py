@@ -37,7 +37,8 @@ def test_run_fusion_ahrs_matches_the_class(log_path, tmp_path):
     out = tmp_path / "out.csv"
     rc = cli.main(["run", str(log_path), "--filter", "FusionAHRS", "-p", "gain=0.7",
                    "-p", "convention='ENU'", "-p", "recovery_trigger_period=300",
-                   "-p", "acceleration_rejection=10", "--dtype", "float32", "-o", str(out)])
+                   "-p", "acceleration_rejection=10", "--dtype", "float32", "--frame", "ENU",
+                   "-o", str(out)])
     assert rc == 0
     header, data = _read(out)
     log = io.read_log(str(log_path))
@@ -49,8 +50,15 @@ def test_run_fusion_ahrs_matches_the_class(log_path, tmp_path):
     S = f.run(np.degrees(log.gyr), log.acc, log.mag, dt=dt)
     got = data[:, [header.index(n) for n in f.state_names]].astype(np.float32)
     assert_same_bits(got, S, f.state_names)
-    yaw = f.outputs_batch(S)["euler"][:, 2]
-    assert_same_bits(data[:, header.index("yaw_deg")].astype(np.float32), yaw, None)
+    euler = f.outputs_batch(S)["euler"]
+    for j, ax in enumerate(("roll", "pitch", "yaw")):
+        # Fusion's own Euler angles (its float32 arithmetic), bit for bit
+        assert_same_bits(data[:, header.index(f"fusion_{ax}_deg")].astype(np.float32),
+                         euler[:, j], None)
+    # the output frame's angles (--frame ENU, Fusion's convention here), computed by imufuse
+    # from the quaternion in float64: the same angles to float32's precision
+    d = (data[:, header.index("yaw_deg")] - euler[:, 2] + 180.0) % 360.0 - 180.0
+    assert np.max(np.abs(d)) < 1e-3
 
 
 @pytest.mark.parametrize("how", [["--fixed-rate"], ["--rate", "50"]])
@@ -90,7 +98,6 @@ def test_preprocessing_in_front_of_any_filter(log_path, tmp_path, filt):
 
 def test_preprocess_order_and_values(log_path):
     """calibration (sensor axes, deg/s), then alignment, then FusionOffset."""
-    from argparse import Namespace
     from imufuse import preprocess
     calib = {"gyroscope": {"M": [[1, 0.01, 0], [0, 1, 0], [0, 0, 1]], "s": [1, 1.02, 1],
                            "b": [0.009, 0, -0.009]}}
@@ -101,7 +108,7 @@ def test_preprocess_order_and_values(log_path):
         cm.save_calibration(p, calib)
         log = io.read_log(str(log_path))
         raw = log.gyr.copy()
-        notes = preprocess.apply(log, Namespace(calibration=p, align="-Z+X-Y", offset=True))
+        notes = preprocess.apply(log, calibration=p, align="-Z+X-Y", offset=True)
     assert len(notes) == 3
     c = cm.from_dict(calib)
     want = c.apply("gyroscope", raw)          # the file is in rad/s, as the log is read
@@ -155,16 +162,36 @@ def test_run_fusion_reports_errors_against_reference(tmp_path, capsys):
     assert cli.main(["run", str(path), "--filter", "FusionAHRS", "-o", str(tmp_path / "o.csv")]) == 0
     err = capsys.readouterr().err
     import re
-    m = re.search(r"tilt RMS ([0-9.]+) max ([0-9.]+) deg, heading RMS ([0-9.]+)", err)
+    # the BROAD metrics, as for every filter
+    m = re.search(r"heading ([0-9.]+), inclination ([0-9.]+) deg RMS over 4000 of 4000", err)
     assert m, err
     # gain 0.5 leaves the simulated 0.7 deg/s gyroscope bias partly in the tilt
-    assert float(m.group(1)) < 3.0 and float(m.group(3)) < 3.0
+    assert float(m.group(2)) < 3.0 and float(m.group(1)) < 3.0
 
+
+
+def test_fusion_in_compare_as_any_filter(tmp_path, capsys):
+    """compare takes FusionAHRS beside the other filters (its units applied by the session)
+    and scores it against the reference as them: on a simulated NWU log its table row
+    equals the errors of the class run by hand in Fusion's units."""
+    from imufuse import sim
+    from imufuse.evaluation import evaluate
+    d = sim.imu("slow", rate=100.0, duration=40.0, seed=2)
+    path = tmp_path / "sim.csv"
+    io.write_log(str(path), d.t, d.gyr, d.acc, d.mag, q=d.q_true)
+    assert cli.main(["compare", str(path), "-f", "FusionAHRS,MadgwickAHRS",
+                     "-p", "FusionAHRS.gain=0.7", "--fixed-rate"]) == 0
+    out = capsys.readouterr().out
+    row = next(ln for ln in out.splitlines() if ln.startswith("FusionAHRS"))
+    f = imufuse_c.FusionAHRS(gain=0.7)
+    S = f.run(np.degrees(d.gyr), d.acc, d.mag, dt=d.dt)
+    q = S[:, :4] / np.linalg.norm(S[:, :4], axis=1, keepdims=True)
+    e = evaluate(q, d.q_true, est_frame="NWU", ref_frame="NWU")
+    assert row.split()[2:5] == [f"{e.inclination:.3f}", f"{e.heading:.3f}", f"{e.total:.3f}"]
+    assert any(ln.startswith("MadgwickAHRS") for ln in out.splitlines())
 
 
 def test_fusion_names_in_other_commands(log_path, tmp_path, capsys):
-    assert cli.main(["compare", str(log_path), "--filter", "FusionAHRS"]) == 2
-    assert "imufuse run LOG --filter FusionAHRS" in capsys.readouterr().err
     assert cli.main(["run", str(log_path), "--filter", "FusionOffset",
                      "-o", str(tmp_path / "x.csv")]) == 2
     assert "--offset" in capsys.readouterr().err
@@ -174,7 +201,6 @@ def test_fusion_names_in_other_commands(log_path, tmp_path, capsys):
 def test_calibration_file_from_imufuse_calibrate(tmp_path, log_path):
     """The file imufuse.calibrate writes is the one --calibration reads, in the
     same units: a gyroscope offset estimated on a still log removes the bias."""
-    from argparse import Namespace
     from imufuse import calibrate, preprocess
     n = 3000
     g = np.random.default_rng(5)
@@ -187,5 +213,5 @@ def test_calibration_file_from_imufuse_calibrate(tmp_path, log_path):
     cal_path = tmp_path / "cal.json"
     calibrate.run_log("gyro", str(path), str(cal_path))
     log = io.read_log(str(path))
-    preprocess.apply(log, Namespace(calibration=str(cal_path)))
+    preprocess.apply(log, calibration=str(cal_path))
     assert np.abs(log.gyr.mean(axis=0)).max() < 1e-4

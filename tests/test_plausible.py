@@ -122,3 +122,63 @@ def test_tune_varies_what_acts_sorted_by_score():
     scores = [float(r.split()[1]) for r in rows]
     assert scores == sorted(scores) and rows[0].endswith("<- best")
     assert os.path.basename(example_log()) in lines[head - 1]
+
+
+def _mistake_logs(tmp_path, motion):
+    """{mistake: (log path, extra options, the fix the message names)}"""
+    t = np.arange(len(motion.gyr)) * motion.dt
+    plain = ["time", "gyr_x", "gyr_y", "gyr_z", "acc_x", "acc_y", "acc_z"]
+    return {
+        "deg/s": (_csv(tmp_path / "d.csv", plain, np.column_stack([t, np.degrees(motion.gyr),
+                                                                   motion.acc])), [],
+                  "--gyr-unit deg/s"),
+        "m/s2": (_csv(tmp_path / "a.csv", plain, np.column_stack([t, motion.gyr,
+                                                                  motion.acc * 9.80665])), [],
+                 "--acc-unit m/s2"),
+        "ms": (_csv(tmp_path / "t.csv", plain, np.column_stack([t * 1000.0, motion.gyr,
+                                                                motion.acc])), [],
+               "--time-unit ms"),
+        "rate": (example_log(), ["--rate", "100"], "leave it out to use the file's rate"),
+    }
+
+
+@pytest.mark.parametrize("mistake", ["deg/s", "m/s2", "ms", "rate"])
+@pytest.mark.parametrize("command", ["run", "compare", "vario", "calibrate"])
+def test_strict_makes_each_mistake_an_error(tmp_path, motion, mistake, command):
+    """--strict: the note becomes an error (exit 4) naming the fix, in every command that
+    reads a log; without it the command runs and says the same as a note."""
+    path, extra, fix = _mistake_logs(tmp_path, motion)[mistake]
+    if command in ("vario", "calibrate") and mistake == "rate":
+        pytest.skip("vario and calibrate take no --rate (the vario needs the time column)")
+    argv = {"run": ["run", path, "-f", "MadgwickIMU", "-o", tmp_path / "o.npz"],
+            "compare": ["compare", path, "-f", "MadgwickIMU"],
+            "vario": ["vario", path, "-o", tmp_path / "v.csv", "--no-plot"],
+            "calibrate": ["calibrate", "gyro", path, "-o",
+                          tmp_path / "c.json", "--longest-still"]}[command] + extra
+    argv = [str(a) for a in argv]
+    p = subprocess.run([sys.executable, "-m", "imufuse", *argv, "--strict"], capture_output=True,
+                       text=True)
+    assert p.returncode == 4, p.stderr
+    assert "(--strict)" in p.stderr and fix in p.stderr, p.stderr
+    assert p.stderr.count("\n") == 1, p.stderr      # one line
+    if command == "run":
+        p = subprocess.run([sys.executable, "-m", "imufuse", *argv], capture_output=True, text=True)
+        assert p.returncode == 0 and "note:" in p.stderr and fix in p.stderr, p.stderr
+
+
+@pytest.mark.parametrize("given", ["NED", "NWU"])
+def test_strict_makes_a_frame_mistake_an_error(tmp_path, given):
+    p = subprocess.run([sys.executable, "-m", "imufuse", "run", example_log(), "-f",
+                        "MadgwickAHRS", "--ref-frame", given, "--strict", "-o",
+                        str(tmp_path / "o.npz")], capture_output=True, text=True)
+    assert p.returncode == 4, p.stderr
+    assert "with --ref-frame ENU it would be" in p.stderr and "(--strict)" in p.stderr, p.stderr
+
+
+def test_strict_is_silent_on_logs_read_correctly(tmp_path, motion):
+    t = np.arange(len(motion.gyr)) * motion.dt
+    rows = np.column_stack([t, np.degrees(motion.gyr), motion.acc])
+    for path in (example_log(), _csv(tmp_path / "x.csv", XIO, rows)):
+        p = subprocess.run([sys.executable, "-m", "imufuse", "compare", str(path), "--strict"],
+                           capture_output=True, text=True)
+        assert p.returncode == 0 and "note:" not in p.stderr, p.stderr

@@ -32,12 +32,13 @@ ValueError that says what is missing. The file format (`imufuse calibrate
 """
 import json
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from ._atomic import replacing
-from .io import LogError, read_csv_rows
+from .io import LogError, require
+from .session import ReadOptions, Session
 
 __all__ = ["Calibration", "gyro_offset", "still_phases", "accel_six_position", "mag_minmax",
            "mag_ellipsoid", "save", "run_log", "describe", "SECTIONS"]
@@ -54,6 +55,7 @@ class Calibration:
     sensor: str
     params: dict
     figures: dict = field(default_factory=dict)
+    notes: tuple = ()        # run_log: what reading the log said
 
     def as_json(self):
         return {k: np.asarray(v, dtype=float).tolist() for k, v in self.params.items()}
@@ -343,33 +345,24 @@ def save(path, cal):
     return data
 
 
-def _read_columns(path, names):
-    rows = read_csv_rows(path)
-    if not rows:
-        raise LogError(f"{path}: empty file")
-    header = [h.strip() for h in rows[0]]
-    miss = [n for n in names if n not in header]
-    if miss:
-        raise LogError(f"{path}: missing column(s) {', '.join(miss)}; columns found: "
-                       f"{', '.join(header)}")
-    idx = [header.index(n) for n in names]
-    out = np.empty((len(rows) - 1, len(names)))
-    for k, r in enumerate(rows[1:]):
-        for j, i in enumerate(idx):
-            try:
-                out[k, j] = float(r[i])
-            except (ValueError, IndexError):
-                raise LogError(f"{path}:{k + 2}: column {names[j]}: not a number") from None
-    return out
-
-
-def run_log(sensor, path, output, gyr_unit="rad/s", ranges=None, threshold=None,
-            method="ellipsoid", longest_still=False):
-    """`imufuse calibrate gyro|accel|mag LOG.csv -o calib.json`."""
+def run_log(sensor, path, output, gyr_unit=None, ranges=None, threshold=None,
+            method="ellipsoid", longest_still=False, *, acc_unit=None, columns=None,
+            strict=False):
+    """`imufuse calibrate gyro|accel|mag LOG -o calib.json`. The log is read as every
+    imufuse command reads it (imufuse.session: recognised headers, units from the header or
+    gyr_unit/acc_unit, `columns` {name: header}); no time column is needed. The file holds
+    the gyroscope in rad/s and the accelerometer in g, the units imufuse reads logs in
+    (imufuse.preprocess applies it to logs read the same way); the magnetometer in the
+    log's unit."""
     if sensor not in SECTIONS:
         raise ValueError(f"sensor: must be one of {', '.join(SECTIONS)}, got {sensor!r}")
     prefix = {"gyro": "gyr", "accel": "acc", "mag": "mag"}[sensor]
-    x = _read_columns(path, [f"{prefix}_{c}" for c in "xyz"])
+    names = [f"{prefix}_{c}" for c in "xyz"]
+    s = Session(path, ReadOptions(gyr_unit=gyr_unit, acc_unit=acc_unit,
+                                  columns=dict(columns or {}), strict=strict, need_time=False))
+    require(s.log, names)
+    x = np.array(s.log.vec(names))
+    notes = list(s.notes)
     rng = None
     if sensor == "accel" and ranges:
         try:
@@ -378,8 +371,6 @@ def run_log(sensor, path, output, gyr_unit="rad/s", ranges=None, threshold=None,
             raise ValueError(f"--ranges: expected A:B,C:D,..., got {ranges!r}") from None
     try:
         if sensor == "gyro":
-            if gyr_unit == "deg/s":
-                x = np.radians(x)
             kw = {} if threshold is None else dict(threshold=threshold)
             cal = gyro_offset(x, restart=longest_still, **kw)
         elif sensor == "accel":
@@ -389,6 +380,7 @@ def run_log(sensor, path, output, gyr_unit="rad/s", ranges=None, threshold=None,
     except (ValueError, ArithmeticError, np.linalg.LinAlgError) as e:
         # the recording cannot give a calibration: bad data (exit 4), not a bad command line
         raise LogError(f"{path}: {e}") from None
+    cal = replace(cal, notes=tuple(notes))
     save(output, cal)
     return cal
 
@@ -397,7 +389,8 @@ def describe(sensor, cal):
     p, f = cal.params, cal.figures
     np.set_printoptions(precision=5, suppress=True)
     if sensor == "gyro":
-        return (f"gyroscope offset b = {np.asarray(p['b'])} rad/s from samples "
+        return (f"gyroscope offset b = {np.asarray(p['b'])} rad/s "
+                f"({np.degrees(np.asarray(p['b']))} deg/s) from samples "
                 f"{f['samples'][0]}..{f['samples'][1] - 1} (noise {np.asarray(f['noise'])} "
                 f"rad/s)")
     if sensor == "accel":

@@ -17,6 +17,9 @@ The entry itself adds what only a user of the filter needs:
                 harnesses and the benchmarks when the user gives none (dt always
                 comes from the data); required for every parameter without a
                 constructor default
+  presets       named parameter sets (resolve_params(..., preset=NAME), the command
+                line's --preset): "published" is the settings of the published code
+                the filter was ported from, where it states them
   alternatives  groups of parameters that are alternative parametrisations of
                 the same thing (Complementary1D: alpha or T): a user's choice of
                 one drops the defaults of the others
@@ -70,6 +73,7 @@ class Entry:
     estimate: Optional[str] = None
     fixed: bool = False
     recovery: Optional[_recovery.Budget] = None
+    presets: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
 
     # ---- derived from the reference class: one source for each fact
     @property
@@ -281,10 +285,15 @@ def param_names(name: str) -> List[str]:
     return [p for p in entry(name).params if p != "profile"]
 
 
-def resolve_params(name: str, dt: float, overrides: Optional[Mapping[str, Any]] = None
-                   ) -> Dict[str, Any]:
-    """dt plus the entry's defaults updated by overrides; checks the names."""
+def resolve_params(name: str, dt: float, overrides: Optional[Mapping[str, Any]] = None,
+                   preset: Optional[str] = None) -> Dict[str, Any]:
+    """dt plus the entry's defaults (or the named preset's parameters) updated by
+    overrides; checks the names."""
     e = entry(name)
+    if preset is not None and preset not in e.presets:
+        raise FilterError(f"{name}: no preset {preset!r}; "
+                          + (f"presets: {', '.join(e.presets)}" if e.presets else
+                             "it has no presets"))
     valid = param_names(name)
     overrides = dict(overrides or {})
     for k in overrides:
@@ -293,7 +302,7 @@ def resolve_params(name: str, dt: float, overrides: Optional[Mapping[str, Any]] 
         if k not in valid:
             raise FilterError(f"{name}: unknown parameter {k!r}; valid parameters: "
                               f"{', '.join(v for v in valid if v != 'dt')}")
-    params = dict(e.defaults)
+    params = dict(e.defaults if preset is None else e.presets[preset])
     # a user's alternative parametrisation replaces the default one
     for k in overrides:
         for alt in e.alternatives:

@@ -124,6 +124,7 @@ class Log:
     units: dict = field(default_factory=dict)     # "gyr"/"acc"/"mag"/"time" -> (unit, where from)
     fixed_rate: bool = True       # True: every sample at dt; False: dts (the time column)
     ref_frame: Optional[str] = None  # frame of q_w..q_z when the format says (BROAD: "ENU")
+    suspicions: list = field(default_factory=list)  # the plausibility warnings (also in warnings)
 
     def __len__(self):
         return len(next(iter(self.columns.values()))) if self.columns else 0
@@ -788,13 +789,14 @@ def _units(cols, sources, kind, names, given, table, default, warnings):
 
 
 def read_log(path, gyr_unit=None, acc_unit=None, rate=None, *, columns=None,
-             fixed_rate=False, time_unit=None):
+             fixed_rate=False, time_unit=None, need_time=True):
     """Read a log; return a Log with units converted (gyro rad/s, acc g, time s).
 
     gyr_unit, acc_unit, time_unit: None to take them from the header (else rad/s,
     g, s); rate: Hz, a fixed sample rate (the time column is then not needed);
     columns: {name: header} column map; fixed_rate: run at the median interval
-    even when the time column is there."""
+    even when the time column is there; need_time=False: a log without a time column
+    or rate is read with dt None (for calibration, which needs no time)."""
     user_rate = rate
     if gyr_unit is not None and gyr_unit not in GYR_UNITS:
         raise ValueError(f"gyr_unit: must be one of {', '.join(GYR_UNITS)}, got {gyr_unit!r}")
@@ -879,12 +881,15 @@ def read_log(path, gyr_unit=None, acc_unit=None, rate=None, *, columns=None,
             warnings.append(f"sample intervals vary from {d.min():.6g} to {d.max():.6g} s; "
                             + (f"the filters use the median {log.dt:.6g} s (--fixed-rate)"
                                if fixed_rate else "the filters use each sample's own interval"))
+    elif not need_time:
+        log.dt = None
     else:
         raise LogError(f"{path}: no time column (found {', '.join(map(repr, header[:12]))}); "
                        "give the sample rate (--rate HZ), or name the time column "
                        '(--columns time="HEADER")')
     # the usual unit and rate mistakes, named with the option that fixes them
-    warnings += check_log(log, user_rate, file_rate, time_cols)
+    log.suspicions = check_log(log, user_rate, file_rate, time_cols)
+    warnings += log.suspicions
     log.warnings = warnings
     return log
 

@@ -2,23 +2,49 @@
 
 matplotlib is optional (the `plot` extra): check `available()` first.
 
-Every filter keeps one colour in every panel of every plot (`colours`), the
-reference is drawn last, in black, on top; yaw is unwrapped; error axes are
-scaled to the errors after the start-up transient (`steady_limits`), so the
-steady state is visible. Each function returns the matplotlib Figure (already
-saved and closed: its artists can still be inspected).
+Readability rules every plot follows:
+
+- one fixed colour per filter in every panel of every plot (`colours`); lines
+  drawn wide to narrow, each with its own dash pattern (`line_styles`), so a
+  curve hidden under another one still shows at its edges; filters whose curves
+  coincide are named in the legend ("B (= A)", "C (≈ A)"); the reference is
+  drawn last, in black, dashed, on top;
+- roll and yaw are angles in (-180, 180] (`wrap_deg`), the line broken where it
+  wraps (`break_wraps`) instead of crossing the panel; `plot_euler` names the
+  earth frame of its angles (`frame`) in the labels;
+- error axes are scaled to the filters that behave, after the start-up
+  transient (the first 10% of the time, which may run off the panel):
+  `robust_limits` leaves out a filter whose steady error is far above the
+  others'; every filter going off scale after the transient is marked (legend
+  label "KK (off scale, up to 175°)" and a triangle at the panel edge at its
+  peak), never hidden silently;
+- `plot_divergence` says "bit-exact" in words when nothing differs (no empty log
+  frame) and lists the state variables that are equal;
+- constrained layout (suptitle included), legends beside the panels: no label
+  or title runs into another panel.
+
+Each function returns the matplotlib Figure (already saved and closed: its
+artists can still be inspected).
 """
 import os
+import textwrap
 
 import numpy as np
 
 from ._atomic import replacing
+from .bits import UINT
 
 from .catalogue import FILTERS, reference_class
 from .rotations import heading_error, tilt_error
 
 #: the reference line (drawn on top of the filters)
 REF_STYLE = dict(color="black", lw=1.1, ls="--", zorder=10)
+
+#: dash patterns given to the filters in turn (the first solid)
+DASHES = ("-", (0, (5, 1.5)), (0, (1.5, 1)), (0, (7, 1.5, 1.5, 1.5)), (0, (3, 1)),
+          (0, (8, 2, 1.5, 2, 1.5, 2)))
+
+_LEGEND = dict(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
 
 
 def available():
@@ -34,6 +60,11 @@ def _plt():
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     return plt
+
+
+def _figure(nrows, height, **kw):
+    return _plt().subplots(nrows, 1, figsize=(10, height), sharex=True, layout="constrained",
+                           **kw)
 
 
 def colours(names):
@@ -60,11 +91,22 @@ def colours(names):
     return out
 
 
+def line_styles(names, widest=2.2, narrowest=0.7):
+    """{name: plot keywords}: line widths decreasing from `widest` to `narrowest`
+    in the order given (drawn in that order, so each line lies on the wider ones
+    and two equal curves both stay visible), and a dash pattern each (DASHES)."""
+    n = len(names)
+    return {name: dict(lw=round(widest - (widest - narrowest) * i / max(n - 1, 1), 2),
+                       ls=DASHES[i % len(DASHES)], zorder=2 + i / max(n, 1))
+            for i, name in enumerate(names)}
+
+
 def _save(fig, path, title=""):
     if title:
-        import textwrap
         fig.suptitle("\n".join(textwrap.wrap(title, 110)), fontsize=9)
-    fig.tight_layout()
+    if fig.get_layout_engine() is None:         # a figure made elsewhere (vario)
+        fig.set_layout_engine("constrained")
+    fig.align_ylabels()
     fmt = os.path.splitext(os.fspath(path))[1].lstrip(".").lower() or "png"
     try:
         with replacing(path) as tmp:
@@ -72,6 +114,14 @@ def _save(fig, path, title=""):
     finally:
         _plt().close(fig)
     return fig
+
+
+def _ylabel(ax, text, width=26):
+    """A y label wrapped to lines of `width` characters (after a colon first), so a
+    long one does not run past its panel into the next."""
+    head, sep, tail = text.partition(": ")
+    parts = [head + sep.strip(), tail] if sep else [text]
+    ax.set_ylabel("\n".join(line for p in parts for line in textwrap.wrap(p, width)))
 
 
 def unwrap_deg(angle_rad):
@@ -82,6 +132,25 @@ def unwrap_deg(angle_rad):
     if ok.any():
         a[ok] = np.unwrap(a[ok])
     return np.degrees(a)
+
+
+def wrap_deg(angle_rad):
+    """Degrees in (-180, 180] (NaN stays NaN), whatever turn the angle is on."""
+    d = 180.0 - np.mod(180.0 - np.degrees(np.asarray(angle_rad, dtype=np.float64)), 360.0)
+    return np.where(d <= -180.0, d + 360.0, d)
+
+
+def break_wraps(t, deg, jump=180.0):
+    """(t, deg) with a NaN inserted between two samples more than `jump` degrees
+    apart (a wrap at +-180), so a plotted line is broken there instead of
+    drawing a vertical line across the panel."""
+    t = np.asarray(t, dtype=np.float64)
+    y = np.asarray(deg, dtype=np.float64)
+    with np.errstate(invalid="ignore"):
+        i = np.flatnonzero(np.abs(np.diff(y)) > jump)
+    if i.size == 0:
+        return t, y
+    return np.insert(t, i + 1, (t[i] + t[i + 1]) / 2), np.insert(y, i + 1, np.nan)
 
 
 def steady_limits(t, errors, skip=0.1, pad=1.25):
@@ -100,27 +169,122 @@ def steady_limits(t, errors, skip=0.1, pad=1.25):
     return lo - (pad - 1) * span * (lo < 0), hi + (pad - 1) * span
 
 
+def robust_limits(t, errors, skip=0.1, ratio=8.0, floor=1.0):
+    """(limits, excluded): `steady_limits` of the filters that behave, and the
+    indices of the errors left out of them: those whose steady error (95th
+    percentile of |error| after the transient) is above `ratio` times the lower
+    median of all filters' and above `floor` (degrees)."""
+    t = np.asarray(t)
+    if t.size == 0:
+        return None, set()
+    steady = t >= t[0] + skip * (t[-1] - t[0])
+    level = []
+    for e in errors:
+        v = np.abs(np.asarray(e, dtype=np.float64)[steady])
+        v = v[np.isfinite(v)]
+        level.append(np.percentile(v, 95) if v.size else np.nan)
+    known = np.sort([v for v in level if np.isfinite(v)])
+    if known.size == 0:
+        return None, set()
+    thr = max(ratio * known[(known.size - 1) // 2], floor)
+    out = {i for i, v in enumerate(level) if v > thr}
+    return steady_limits(t, [e for i, e in enumerate(errors) if i not in out], skip), out
+
+
+def _coinciding(curves, period=None, rel=0.003):
+    """{name: ["= A", "≈ B"]}: curves (dict name -> array, degrees) equal to an
+    earlier one (=) or following it within `rel` of the span of all curves (≈:
+    99th percentile of |difference|, modulo `period`), NaN in the same places."""
+    flat = {n: np.ravel(np.asarray(c, dtype=np.float64)) for n, c in curves.items()}
+    vals = np.concatenate([c[np.isfinite(c)] for c in flat.values()] or [[]])
+    if vals.size == 0:
+        return {}
+    tol = rel * max(np.ptp(np.percentile(vals, [1, 99])), 1e-9)
+    out, names = {}, list(flat)
+    for j, b in enumerate(names):
+        for a in names[:j]:
+            if not np.array_equal(np.isfinite(flat[a]), np.isfinite(flat[b])):
+                continue
+            d = flat[b] - flat[a]
+            d = d[np.isfinite(d)]
+            if period:
+                d = (d + period / 2) % period - period / 2
+            if d.size and np.percentile(np.abs(d), 99) <= tol:
+                out.setdefault(b, []).append(("= " if not d.any() else "≈ ") + a)
+    return out
+
+
+def _fmt(v):
+    return f"{v:.0f}" if abs(v) >= 10 else f"{v:.2g}"
+
+
+def _error_panel(ax, t, errors, col, sty, skip=0.1):
+    """Errors (dict name -> (N,) degrees) on `ax`, the axis scaled to the filters
+    that behave; a filter going off scale after the transient is marked with a
+    triangle at the panel edge at its peak. Returns {name: legend note}."""
+    t = np.asarray(t, dtype=np.float64)
+    names = list(errors)
+    errs = [np.asarray(errors[n], dtype=np.float64) for n in names]
+    for n, e in zip(names, errs):
+        ax.plot(t, e, color=col.get(n), label=n, **sty.get(n, {}))
+    lim, out = robust_limits(t, errs, skip)
+    if not lim:
+        return {}
+    steady = t >= t[0] + skip * (t[-1] - t[0])
+    kept = np.concatenate([e[steady] for i, e in enumerate(errs) if i not in out])
+    lo, hi, span = np.nanmin(kept), np.nanmax(kept), lim[1] - lim[0]
+    # the kept filters whole, when that widens the axis by little
+    lim = (lo - 0.03 * span if lim[0] - 0.6 * span <= lo < lim[0] else lim[0],
+           hi + 0.03 * span if lim[1] < hi <= lim[1] + 0.6 * span else lim[1])
+    ax.set_ylim(*lim)
+    notes = {}
+    for n, e in zip(names, errs):
+        s = np.where(steady & np.isfinite(e), e, np.nan)
+        if not np.any(s > lim[1]) and not np.any(s < lim[0]):
+            continue
+        k = int(np.nanargmax(np.abs(s)))
+        up = s[k] > 0
+        notes[n] = f"off scale, up to {_fmt(s[k])}°"
+        ax.plot(t[k], 1.0 if up else 0.0, "^" if up else "v", ms=9, color=col.get(n),
+                mec="black", mew=0.6, transform=ax.get_xaxis_transform(), clip_on=False,
+                zorder=20, label=f"_{n} off scale")
+    return notes
+
+
+def _legend(ax, handles, *notes, extra=()):
+    """The legend beside `ax`: one entry per handle (dict name -> line), its label
+    the name and the notes about it (dicts name -> str or list), then `extra`
+    (handle, label) pairs."""
+    labels = []
+    for n in handles:
+        said = [x for d in notes for x in ([d[n]] if isinstance(d.get(n), str) else d.get(n, []))]
+        labels.append(f"{n} ({'; '.join(said)})" if said else n)
+    ax.legend(list(handles.values()) + [h for h, _ in extra],
+              labels + [lab for _, lab in extra], **_LEGEND)
+
+
+def _prefix(word, notes):
+    return {n: f"{word} {v}" for n, v in notes.items()}
+
+
 def plot_1d(path, t, truth, estimates, measured=None, title="single-axis filters"):
     """Angle estimates (rad, dict name -> (N,)) against the truth, and their errors."""
-    plt = _plt()
-    col = colours(list(estimates))
-    fig, (a1, a2) = plt.subplots(2, 1, figsize=(10, 7), sharex=True)
+    col, sty = colours(list(estimates)), line_styles(list(estimates))
+    fig, (a1, a2) = _figure(2, 7)
+    extra, notes = [], {}
     if measured is not None:
-        a1.plot(t, np.degrees(measured), color="0.8", lw=0.6, label="accelerometer angle")
-    errs = []
-    for name, ang in estimates.items():
-        a1.plot(t, np.degrees(ang), lw=0.9, color=col[name], label=name)
-        if truth is not None:
-            e = np.degrees(ang - truth)
-            errs.append(e)
-            a2.plot(t, e, lw=0.9, color=col[name], label=name)
+        extra.append(a1.plot(t, np.degrees(measured), color="0.8", lw=0.6, zorder=1,
+                             label="accelerometer angle")[0])
+    lines = {n: a1.plot(t, np.degrees(ang), color=col[n], label=n, **sty[n])[0]
+             for n, ang in estimates.items()}
     if truth is not None:
-        a1.plot(t, np.degrees(truth), label="reference", **REF_STYLE)
-        lim = steady_limits(t, errs)
-        if lim:
-            a2.set_ylim(*lim)
+        extra.insert(0, a1.plot(t, np.degrees(truth), label="reference", **REF_STYLE)[0])
+        notes = _error_panel(a2, t, {n: np.degrees(a - truth) for n, a in estimates.items()},
+                             col, sty)
+    _legend(a1, lines, _prefix("error", notes),
+            _coinciding({n: np.degrees(a) for n, a in estimates.items()}),
+            extra=[(h, h.get_label()) for h in extra])
     a1.set_ylabel("angle (deg)")
-    a1.legend(fontsize=7, ncol=2)
     a2.set_ylabel("error (deg)")
     a2.set_xlabel("time (s)")
     return _save(fig, path, title)
@@ -128,24 +292,17 @@ def plot_1d(path, t, truth, estimates, measured=None, title="single-axis filters
 
 def plot_3d_errors(path, t, q_true, estimates, title="3D filters against ground truth"):
     """Tilt and heading errors (deg) of quaternion estimates (dict name -> Estimate)."""
-    plt = _plt()
-    col = colours(list(estimates))
-    fig, (a1, a2) = plt.subplots(2, 1, figsize=(10, 7), sharex=True)
-    tilts, heads = [], []
-    for name, est in estimates.items():
-        e = np.degrees(tilt_error(est.q, q_true))
-        tilts.append(e)
-        a1.plot(t, e, lw=0.9, color=col[name], label=name)
-        if est.heading:
-            h = np.degrees(heading_error(est.q, q_true))
-            heads.append(h)
-            a2.plot(t, h, lw=0.9, color=col[name], label=name)
-    for ax, es in ((a1, tilts), (a2, heads)):
-        lim = steady_limits(t, es)
-        if lim:
-            ax.set_ylim(*lim)
+    col, sty = colours(list(estimates)), line_styles(list(estimates))
+    fig, (a1, a2) = _figure(2, 7)
+    tilts = {n: np.degrees(tilt_error(e.q, q_true)) for n, e in estimates.items()}
+    heads = {n: np.degrees(heading_error(e.q, q_true)) for n, e in estimates.items() if e.heading}
+    notes = _error_panel(a1, t, tilts, col, sty)
+    hnotes = _error_panel(a2, t, heads, col, sty)
+    same = _coinciding({n: np.concatenate([tilts[n], heads.get(n, np.full(len(t), np.nan))])
+                        for n in estimates})
+    handles = {ln.get_label(): ln for ln in a1.get_lines() if ln.get_label() in tilts}
+    _legend(a1, handles, _prefix("tilt", notes), _prefix("heading", hnotes), same)
     a1.set_ylabel("tilt error (deg)")
-    a1.legend(fontsize=7, ncol=2)
     a2.set_ylabel("heading error (deg)")
     a2.set_xlabel("time (s)")
     if not heads:
@@ -153,40 +310,48 @@ def plot_3d_errors(path, t, q_true, estimates, title="3D filters against ground 
     return _save(fig, path, title)
 
 
-def plot_euler(path, t, series, ref=None, title="", errors=None, error_label="error (deg)"):
-    """Roll, pitch, yaw (rad, dict name -> (N, 3), NaN where unknown) and an
-    optional reference (N, 3); roll and yaw unwrapped. errors: optional dict
-    name -> (N,) degrees, drawn in a fourth panel scaled to the steady state."""
-    plt = _plt()
-    col = colours(list(series))
+def plot_euler(path, t, series, ref=None, title="", errors=None, error_label="error (deg)",
+               frame="NWU"):
+    """Roll, pitch, yaw (rad, dict name -> (N, 3), NaN where unknown, in the
+    earth frame `frame`, named in the labels) and an optional reference (N, 3);
+    roll and yaw in (-180, 180], broken where they wrap. errors: optional dict
+    name -> (N,) degrees, drawn in a fourth panel scaled to the filters that
+    behave (the others marked off scale)."""
+    col = colours(list(series) + [n for n in errors or () if n not in series])
+    sty = line_styles(list(col))
     n = 4 if errors else 3
-    fig, axes = plt.subplots(n, 1, figsize=(10, 2.6 * n + 0.5), sharex=True)
+    fig, axes = _figure(n, 2.6 * n + 0.5)
+    handles = {}
     for i, (ax, lab) in enumerate(zip(axes, ("roll", "pitch", "yaw"))):
-        conv = np.degrees if i == 1 else unwrap_deg
-        for name, e in series.items():
-            if not np.all(np.isnan(e[:, i])):
-                ax.plot(t, conv(e[:, i]), lw=0.9, color=col[name], label=name)
-        if ref is not None:
-            ax.plot(t, conv(ref[:, i]), label="reference", **REF_STYLE)
-        ax.set_ylabel(f"{lab} (deg)" + ("" if i == 1 else ", unwrapped"))
+        for name, e in list(series.items()) + ([("reference", ref)] if ref is not None else []):
+            if np.all(np.isnan(e[:, i])):
+                continue
+            x, y = (t, np.degrees(e[:, 1])) if i == 1 else break_wraps(t, wrap_deg(e[:, i]))
+            kw = REF_STYLE if name == "reference" else dict(color=col[name], **sty[name])
+            handles.setdefault(name, ax.plot(x, y, label=name, **kw)[0])
+        ax.set_ylabel(f"{lab} (deg, {frame})")
+        if i != 1:
+            ax.set_ylim(-195, 195)
+            ax.set_yticks(range(-180, 181, 90))
+    same = _coinciding({k: wrap_deg(e) for k, e in series.items()}, period=360.0)
+    notes = {}
     if errors:
-        ax = axes[3]
-        for name, e in errors.items():
-            ax.plot(t, e, lw=0.9, color=col.get(name), label=name)
-        lim = steady_limits(t, list(errors.values()))
-        if lim:
-            ax.set_ylim(*lim)
-        ax.set_ylabel(error_label)
-    axes[0].legend(fontsize=7, ncol=3)
+        notes = _error_panel(axes[3], t, errors, col, sty)
+        _ylabel(axes[3], error_label)
+        if notes:
+            _legend(axes[3], {ln.get_label(): ln for ln in axes[3].get_lines()
+                              if ln.get_label() in notes}, notes)
+    ref_line = handles.pop("reference", None)
+    _legend(axes[0], handles, _prefix("error", notes), same,
+            extra=[(ref_line, "reference")] if ref_line else [])
     axes[-1].set_xlabel("time (s)")
     return _save(fig, path, title)
 
 
 def plot_states(path, t, states, names, title=""):
     """Every state variable of one run against time."""
-    plt = _plt()
     n = len(names)
-    fig, axes = plt.subplots(n, 1, figsize=(10, min(2.0 * n + 1, 14)), sharex=True, squeeze=False)
+    fig, axes = _figure(n, min(2.0 * n + 1, 14), squeeze=False)
     for i, ax in enumerate(axes[:, 0]):
         ax.plot(t, states[:, i], lw=0.9)
         ax.set_ylabel(names[i])
@@ -194,18 +359,58 @@ def plot_states(path, t, states, names, title=""):
     return _save(fig, path, title)
 
 
+def _same_bits(g, w):
+    """Elementwise: equal bit patterns (floats of one dtype, as `bits`
+    compares them) or equal values (both NaN counting as equal)."""
+    if g.dtype == w.dtype and g.dtype in UINT:
+        return g.view(UINT[g.dtype]) == w.view(UINT[g.dtype])
+    with np.errstate(invalid="ignore"):
+        return (g == w) | (np.isnan(g.astype(np.float64)) & np.isnan(w.astype(np.float64)))
+
+
 def plot_divergence(path, t, got, want, names, first=None, title=""):
-    """|got - want| per state variable (log scale), the first divergence marked."""
-    plt = _plt()
-    fig, ax = plt.subplots(figsize=(10, 5))
-    d = np.abs(np.asarray(got, dtype=np.float64) - np.asarray(want, dtype=np.float64))
-    for i, n in enumerate(names):
-        y = np.where(d[:, i] > 0, d[:, i], np.nan)
-        ax.plot(t, y, lw=0.9, label=n)
-    if first is not None:
-        ax.axvline(t[first], color="r", ls="--", lw=1, label=f"first divergence (sample {first})")
-    ax.set_yscale("log")
+    """|got - want| per state variable (log scale), the first divergence marked;
+    the variables equal after every sample listed; a run that is bit-exact
+    throughout said so in words, on a linear axis."""
+    fig, ax = _plt().subplots(figsize=(10, 5), layout="constrained")
+    g, w = np.asarray(got), np.asarray(want)
+    if g.ndim == 1:
+        g, w = g[:, None], w[:, None]
+    x = np.arange(len(g)) if t is None else np.asarray(t)
+    same = _same_bits(g, w)
+    equal = [nm for i, nm in enumerate(names) if same[:, i].all()]
     ax.set_xlabel("time (s)" if t is not None else "sample")
     ax.set_ylabel("|firmware - imufuse|")
-    ax.legend(fontsize=7)
+    if len(equal) == len(names):
+        ax.plot(x, np.zeros(len(x)), color="tab:green", lw=2)
+        ax.set_ylim(-1, 1)
+        ax.set_yticks([0])
+        ax.text(0.5, 0.6, f"bit-exact: every state variable equal after every sample, "
+                f"{len(g)} samples", transform=ax.transAxes, ha="center", va="center",
+                fontsize=13, color="tab:green", weight="bold")
+        ax.text(0.5, 0.4, "\n".join(textwrap.wrap(f"{len(names)} variables: {', '.join(names)}",
+                                                  110)),
+                transform=ax.transAxes, ha="center", va="center", fontsize=9)
+        return _save(fig, path, title)
+    with np.errstate(all="ignore"):
+        d = np.abs(g.astype(np.float64) - w.astype(np.float64))
+    for i, nm in enumerate(names):
+        if nm in equal:
+            continue
+        odd = ~same[:, i] & ~(np.isfinite(d[:, i]) & (d[:, i] > 0))   # NaN/inf, or +-0
+        k = int(odd.sum())
+        note = f" ({k} sample{'s' * (k > 1)} differ as NaN/inf/±0: × at top)" if k else ""
+        line, = ax.plot(x, np.where(d[:, i] > 0, d[:, i], np.nan), lw=0.9, label=nm + note)
+        if k:
+            ax.plot(x[odd], np.ones(odd.sum()), "x", color=line.get_color(), clip_on=False,
+                    transform=ax.get_xaxis_transform(), label=f"_{nm} odd")
+    if first is not None:
+        ax.axvline(x[first], color="r", ls="--", lw=1, label=f"first divergence (sample {first})")
+    ax.set_yscale("log")
+    if not np.any(np.isfinite(d[~same]) & (d[~same] > 0)):
+        ax.set_ylim(1e-16, 1)
+    if equal:
+        ax.plot([], [], ls="none", label="\n".join(textwrap.wrap(
+            f"equal after every sample ({len(equal)}): {', '.join(equal)}", 60)))
+    ax.legend(**_LEGEND)
     return _save(fig, path, title)

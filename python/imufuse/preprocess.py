@@ -1,5 +1,6 @@
-"""Preprocessing of a log in front of any filter (seed 004), and the
-`imufuse run --filter FusionAHRS` path.
+"""Preprocessing of a log in front of any filter (x-io Fusion's calibration models, axis
+alignment and gyroscope offset estimator, as Longbin's "IMU Fusion Algorithm -- Madgwick"
+walks through them), applied by imufuse.session.
 
 Options (imufuse run / compare), applied in this order:
   --calibration FILE.json  the sensor models i_c = M s (i_u - b), m_c = S (m_u - h)
@@ -17,26 +18,11 @@ import numpy as np
 
 import imufuse_c
 
-from . import io, reference
+from . import io
 from ._fusion import parse_alignment
 from .calibration_models import load_calibration
-from .catalogue import FILTERS_FUSION
-from .demo import errors_3d
-from .estimate import Estimate
 from .reference import fusion
 
-
-
-def add_arguments(parser):
-    g = parser.add_argument_group("preprocessing (seed 004), in this order")
-    g.add_argument("--calibration", metavar="FILE.json",
-                   help="sensor calibration (M, s, b per inertial sensor; S, h for the "
-                        "magnetometer; see imufuse.calibration_models)")
-    g.add_argument("--align", metavar="ALIGNMENT",
-                   help="axis alignment, a signed permutation such as +X-Z+Y "
-                        "(body x = +sensor x, y = -sensor z, z = +sensor y)")
-    g.add_argument("--offset", action="store_true",
-                   help="gyroscope offset estimator (FusionOffset) at the log's rate")
 
 
 def _sensor(log, names):
@@ -48,12 +34,10 @@ def _put(log, names, arr):
         log.columns[n] = np.asarray(arr[:, j], dtype=np.float64)
 
 
-def apply(log, args, backend="c"):
-    """Apply the options in `args` (missing attributes: not requested) to the
-    log's columns in place; return notes describing what was done."""
-    cal_path = getattr(args, "calibration", None)
-    align = getattr(args, "align", None)
-    offset = getattr(args, "offset", False)
+def apply(log, *, calibration=None, align=None, offset=False, backend="c"):
+    """Apply a calibration file, an axis alignment and the gyroscope offset estimator, in
+    this order, to the log's columns in place; return notes describing what was done."""
+    cal_path = calibration
     if not (cal_path or align or offset):
         return []
     notes = []
@@ -95,70 +79,3 @@ def _backend(backend):
     if backend == "c":
         return imufuse_c
     return fusion
-
-
-def is_fusion(name):
-    """FusionAHRS: run by run_fusion (FusionOffset is the --offset option)."""
-    return name in FILTERS_FUSION and name != "FusionOffset"
-
-
-def run_fusion(args, log, params):
-    """`imufuse run --filter FusionAHRS`: Fusion's units and dt per sample from
-    the log's time column (Fusion integrates with the interval it is given),
-    or, as for every filter, the fixed period with --fixed-rate or --rate.
-    Returns (columns, summary)."""
-    mod = imufuse_c if args.backend == "c" else reference
-    f = mod.FusionAHRS(**params, dtype=args.dtype)
-    io.require(log, io.GYR + io.ACC)
-    gyr = np.degrees(log.gyr)
-    if "time" in log.columns and not log.fixed_rate:
-        dt = np.diff(log.columns["time"], prepend=log.columns["time"][0] - log.dt)
-        when = "dt per sample"
-    else:
-        dt = log.dt
-        when = f"dt={log.dt:.6g} s"
-    if log.has(*io.MAG):
-        S = f.run(gyr, log.acc, log.mag, dt=dt)
-        src = "gyr, acc, mag (update)"
-    else:
-        S = f.run(gyr, log.acc, dt=dt)
-        src = "gyr, acc (update_no_magnetometer)"
-    out = f.outputs_batch(S)
-    cols = {"time": log.t}
-    for j, n in enumerate(f.state_names):
-        cols[n] = S[:, j]
-    for j, n in enumerate(io.QUAT):
-        cols[n] = S[:, j]
-    for j, n in enumerate(("roll_deg", "pitch_deg", "yaw_deg")):
-        cols[n] = out["euler"][:, j]
-    for name in ("earth_acceleration", "linear_acceleration"):
-        for j, ax in enumerate("xyz"):
-            cols[f"{name}_{ax}"] = out[name][:, j]
-    for name in ("acceleration_error", "magnetic_error"):
-        cols[name + "_deg"] = out[name]
-    for name in ("initialising", "angular_rate_recovery", "acceleration_recovery",
-                 "magnetic_recovery"):
-        cols[name] = out[name].astype(np.float64)
-    summary = (f"FusionAHRS ({args.backend}, {args.dtype}, "
-               f"{', '.join(f'{k}={v}' for k, v in params.items()) or 'defaults'}): "
-               f"{len(log)} samples from {src}, gyroscope in deg/s, {when}")
-    if f.skipped:
-        summary += f"; {f.skipped} samples skipped (non-finite)"
-    if log.q_ref is not None and params.get("convention", "NWU").upper() == "NWU":
-        # the log's reference is imufuse's NWU body -> earth quaternion, as FusionAHRS's
-        q = np.asarray(S[:, :4], dtype=np.float64)
-        est = Estimate(q=q, heading=log.has(*io.MAG), source="q0..q3")
-        errs = errors_3d(est, log.q_ref, np.ones(len(log), dtype=bool))
-        summary += "; against the log's reference q: " + ", ".join(
-            f"{k} RMS {v[0]:.3f} max {v[1]:.3f} deg" for k, v in errs.items())
-    return cols, summary, set(f.state_names) if args.dtype == "float32" else set()
-
-
-def fusion_hint(name, command):
-    """A usage message for a Fusion-suite name a command cannot take, else None."""
-    if name == "FusionOffset":
-        return "FusionOffset is the --offset option (in front of any filter), not a filter"
-    if name == "FusionAHRS" and command != "run":
-        return (f"FusionAHRS is not available in `imufuse {command}` (Fusion's units and dt "
-                "per sample); use `imufuse run LOG --filter FusionAHRS`")
-    return None

@@ -16,7 +16,7 @@ Wikipedia constant-acceleration example) and the seed's rejected
 alternative ``|a| - 1`` (:func:`norm_accel`).
 """
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -131,6 +131,7 @@ class VarioResult:
     state: np.ndarray
     imu_skipped: int = 0
     kf_skipped: int = 0
+    notes: list = field(default_factory=list)   # run_log: what reading the log said
 
 
 def run(gyr, acc, baro_alt, *, rate=None, t=None, mag=None, filter="MadgwickIMU",
@@ -203,86 +204,129 @@ def run(gyr, acc, baro_alt, *, rate=None, t=None, mag=None, filter="MadgwickIMU"
 
 from .io import LogError as _LogError  # noqa: E402
 from .io import read_csv_rows as _read_csv_rows  # noqa: E402
+from . import io as _io  # noqa: E402
+from .session import ReadOptions, Session  # noqa: E402
 
 
 class VarioLogError(_LogError):
     """A vario log that cannot be used (kind "file" or "data", as io.LogError)."""
 
 
-def read_vario_log(path, gyr_unit="rad/s", acc_unit="g", p_ref=P_REF):
-    """Read a CSV log for the vario: time, gyr_*, acc_*, optional mag_*, and
-    a barometer column `pressure` (Pa) or `baro_alt` (m) filled on the rows
-    where the barometer sampled and empty elsewhere. Returns a dict of
-    arrays (gyro rad/s, acc g, baro_alt m with NaN on rows without a sample)."""
-    _checks.check_choice("gyr_unit", gyr_unit, ("rad/s", "deg/s"))
-    _checks.check_choice("acc_unit", acc_unit, ("g", "m/s2", "m/s^2"))
+#: the barometer columns: name -> the headers taken for it (any case; a unit in brackets)
+BARO_NAMES = {"pressure": ("pressure", "baro_pressure", "pressure_pa", "press"),
+              "baro_alt": ("baro_alt", "baro_altitude", "altitude_baro", "baro")}
+_PRESSURE_UNITS = {None: 1.0, "pa": 1.0, "hpa": 100.0, "mbar": 100.0, "kpa": 1000.0}
+
+
+def _baro_column(path, header, given):
+    """(header index, name, factor to Pa or m) of the barometer column."""
+    hits = []
+    for name, spellings in BARO_NAMES.items():
+        if name in given:
+            h = given[name]
+            if h not in header:
+                raise VarioLogError(f"{path}: --columns {name}={h!r}: no such column; columns "
+                                    f"found: {', '.join(map(repr, header))}", "usage")
+            hits.append((header.index(h), name))
+            continue
+        for i, h in enumerate(header):
+            base, _unit = _io.split_unit(h)
+            if _io._norm(base) in spellings:
+                hits.append((i, name))
+    if len(hits) != 1:
+        found = ", ".join(repr(header[i]) for i, _ in hits) or "none"
+        raise VarioLogError(f"{path}: need exactly one barometer column, pressure (Pa, hPa, kPa) "
+                            f"or baro_alt (m); found {found} (name it with --columns "
+                            'pressure="HEADER" or baro_alt="HEADER")')
+    i, name = hits[0]
+    unit = _io.split_unit(header[i])[1]
+    if name == "pressure":
+        key = None if unit is None else unit.lower()
+        if key not in _PRESSURE_UNITS:
+            raise VarioLogError(f"{path}: column {header[i]!r}: unknown pressure unit {unit!r}; "
+                                "expected Pa, hPa, mbar or kPa")
+        return i, name, _PRESSURE_UNITS[key]
+    if unit is not None and unit.lower() != "m":
+        raise VarioLogError(f"{path}: column {header[i]!r}: the barometric altitude must be in m, "
+                            f"got {unit!r}")
+    return i, name, 1.0
+
+
+def read_vario_log(path, gyr_unit=None, acc_unit=None, p_ref=P_REF, *, columns=None,
+                   time_unit=None, strict=False):
+    """Read a CSV log for the vario: time, gyr_*, acc_*, optional mag_*, read as every
+    imufuse command reads them (imufuse.session: headers such as 'Gyroscope X (deg/s)',
+    units from the header, `columns` {name: header}, plausibility notes), and a barometer
+    column `pressure` (Pa, hPa or kPa by its header) or `baro_alt` (m) filled on the rows
+    where the barometer sampled and empty elsewhere. gyr_unit, acc_unit, time_unit: None =
+    from the header, else rad/s, g, s. Returns a dict of arrays (gyro rad/s, acc g,
+    baro_alt m with NaN on rows without a sample) and notes."""
+    if gyr_unit is not None:
+        _checks.check_choice("gyr_unit", gyr_unit, ("rad/s", "deg/s"))
+    if acc_unit is not None:
+        _checks.check_choice("acc_unit", acc_unit, ("g", "m/s2", "m/s^2"))
+    given = dict(columns or {})
+    baro_given = {k: given.pop(k) for k in BARO_NAMES if k in given}
     try:
-        rows = _read_csv_rows(path)
+        s = Session(path, ReadOptions(gyr_unit=gyr_unit, acc_unit=acc_unit,
+                                      time_unit=time_unit, columns=given, strict=strict))
+        _io.require(s.log, _io.GYR + _io.ACC)
+        if "time" not in s.log.sources:
+            raise VarioLogError(f"{path}: no time column; the vario needs the time of every "
+                                'sample (name it with --columns time="HEADER")')
+        rows = [r for r in _read_csv_rows(path) if not r[0].lstrip().startswith("#")]
     except _LogError as e:
         raise VarioLogError(str(e), e.kind) from None
-    if len(rows) < 2:
-        raise VarioLogError(f"{path}: expected a header row and data rows")
+    log = s.log
     header = [h.strip() for h in rows[0]]
-    col = {h: i for i, h in enumerate(header)}
-    need = ["time", "gyr_x", "gyr_y", "gyr_z", "acc_x", "acc_y", "acc_z"]
-    miss = [h for h in need if h not in col]
-    if miss:
-        raise VarioLogError(f"{path}: missing column(s) {', '.join(miss)}; "
-                            f"columns found: {', '.join(header)}")
-    baro = [h for h in ("pressure", "baro_alt") if h in col]
-    if len(baro) != 1:
-        raise VarioLogError(f"{path}: need exactly one barometer column, pressure (Pa) or "
-                            f"baro_alt (m); found {baro or 'none'}")
-    names = need + [h for h in ("mag_x", "mag_y", "mag_z") if h in col] + baro
-    out = {h: np.empty(len(rows) - 1) for h in names}
+    col, name, factor = _baro_column(path, header, baro_given)
+    if len(rows) - 1 != len(log):
+        raise VarioLogError(f"{path}: {len(rows) - 1} rows of CSV, {len(log)} samples read; "
+                            "the vario reads comma-separated logs")
+    b = np.empty(len(log))
     for k, r in enumerate(rows[1:]):
-        for h in names:
-            s = r[col[h]].strip() if col[h] < len(r) else ""
-            if s == "" and h in baro:
-                out[h][k] = np.nan
-                continue
-            try:
-                out[h][k] = float(s)
-            except ValueError:
-                raise VarioLogError(f"{path}:{k + 2}: column {h}: not a number: {s!r}") from None
-    if not np.all(np.diff(out["time"]) > 0):
-        raise VarioLogError(f"{path}: time must increase strictly")
-    gyr = np.column_stack([out[h] for h in need[1:4]])
-    acc = np.column_stack([out[h] for h in need[4:7]])
-    if gyr_unit == "deg/s":
-        gyr = np.radians(gyr)
-    if acc_unit != "g":
-        acc = acc / GRAVITY
-    b = out[baro[0]]
-    if baro[0] == "pressure":
+        c = r[col].strip() if col < len(r) else ""
+        if c == "":
+            b[k] = np.nan
+            continue
+        try:
+            b[k] = float(c)
+        except ValueError:
+            raise VarioLogError(f"{path}:{k + 2}: column {header[col]}: not a number: "
+                                f"{c!r}") from None
+    b = b * factor
+    if name == "pressure":
         # a barometer reads 1 to 200 kPa (the atmosphere from 30 km up to a deep mine, with
         # margin); hPa or kPa logged as Pa would be 100 or 1000 times off
         ok = np.isfinite(b)
         v = b[ok]
         med = float(np.partition(v, v.size // 2)[v.size // 2]) if v.size else math.nan
         if ok.any() and not 1e4 <= med <= 2e5:
-            unit = (" (it looks like hPa: multiply by 100)" if 100.0 <= med <= 2000.0 else
-                    " (it looks like kPa: multiply by 1000)" if 10.0 <= med <= 200.0 else "")
-            raise VarioLogError(f"{path}: column pressure: median {med:g} Pa is not an air "
-                                f"pressure a barometer reads (10 kPa to 200 kPa); pressure "
-                                f"must be in Pa{unit}")
+            unit = (" (it looks like hPa: write the header 'pressure (hPa)')"
+                    if 100.0 <= med <= 2000.0 else
+                    " (it looks like kPa: write the header 'pressure (kPa)')"
+                    if 10.0 <= med <= 200.0 else "")
+            raise VarioLogError(f"{path}: column {header[col]}: median {med:g} Pa is not an air "
+                                f"pressure a barometer reads (10 kPa to 200 kPa){unit}")
         bad = np.flatnonzero(ok & ~((b >= 1e3) & (b <= 2e5)))
         if bad.size:
             k = int(bad[0])
             raise VarioLogError(f"{path}:{k + 2}: column pressure: {b[k]:g} Pa is outside a "
                                 "barometer's range (1 kPa to 200 kPa)")
-    alt = pressure_to_altitude(b, p_ref) if baro[0] == "pressure" else b
-    mag = (np.column_stack([out[h] for h in ("mag_x", "mag_y", "mag_z")])
-           if "mag_x" in out else None)
-    return dict(t=out["time"], gyr=gyr, acc=acc, mag=mag, baro_alt=alt, baro_column=baro[0])
+    alt = pressure_to_altitude(b, p_ref) if name == "pressure" else b
+    return dict(t=np.asarray(log.t), gyr=np.array(log.gyr), acc=np.array(log.acc),
+                mag=None if log.mag is None else np.array(log.mag), baro_alt=alt,
+                baro_column=header[col], notes=list(s.notes))
 
 
-def run_log(path, out_csv, *, plot=None, gyr_unit="rad/s", acc_unit="g", p_ref=P_REF,
-            filter="MadgwickIMU", filter_params=None, kf_params=None, convention="nwu"):
+def run_log(path, out_csv, *, plot=None, gyr_unit=None, acc_unit=None, p_ref=P_REF,
+            filter="MadgwickIMU", filter_params=None, kf_params=None, convention="nwu",
+            columns=None, time_unit=None, strict=False):
     """`imufuse vario`: run the pipeline over a log, write time, baro_alt,
     altitude (m), climb (m/s), bias (m/s^2) per barometer sample to out_csv,
     and a PNG plot when `plot` is a path. Returns the VarioResult."""
-    log = read_vario_log(path, gyr_unit, acc_unit, p_ref)
+    log = read_vario_log(path, gyr_unit, acc_unit, p_ref, columns=columns, time_unit=time_unit,
+                         strict=strict)
     n_baro = int(np.count_nonzero(np.isfinite(log["baro_alt"])))
     if n_baro < 2:
         raise VarioLogError(f"{path}: {n_baro} usable barometer samples in column "
@@ -302,7 +346,7 @@ def run_log(path, out_csv, *, plot=None, gyr_unit="rad/s", acc_unit="g", p_ref=P
                    header="time,baro_alt,altitude,climb,bias", comments="")
     if plot:
         plot_vario(plot, res)
-    return res
+    return replace(res, notes=log["notes"])
 
 
 def plot_vario(path, res, truth=None):

@@ -1,0 +1,265 @@
+"""What the subcommands share: exit codes, errors, option groups, and the border where the
+argparse Namespace becomes typed settings (imufuse.session's options)."""
+import argparse
+import ast
+import math
+import sys
+
+from .. import io
+from .._fusion import SETTINGS as FUSION_SETTINGS
+from ..catalogue import canonical_name, param_names
+from ..io import parse_column_map, read_column_map
+from ..session import ReadOptions, RunOptions, ScoreOptions, Session, init_value
+
+EXIT_OK, EXIT_FAIL, EXIT_USAGE, EXIT_FILE, EXIT_DATA, EXIT_FIRMWARE, EXIT_INTERNAL = range(7)
+EXIT_INTERRUPT = 130
+
+
+class UsageError(ValueError):
+    """A bad command line (exit 2)."""
+
+
+class OutputError(OSError):
+    """An output file that cannot be written (exit 3)."""
+
+
+def err(msg):
+    print(f"imufuse: {msg}", file=sys.stderr)
+
+
+def value(text):
+    """A --param value: a Python literal, true/false/none, else the text."""
+    low = text.strip().lower()
+    if low in ("true", "false"):
+        return low == "true"
+    if low in ("none", "null"):
+        return None
+    try:
+        return ast.literal_eval(text.strip())
+    except (ValueError, SyntaxError, MemoryError, RecursionError):
+        return text.strip()
+
+
+def pairs(items, what="--param"):
+    out = {}
+    for it in items or ():
+        if "=" not in it:
+            raise UsageError(f"{what} {it!r}: expected NAME=VALUE")
+        k, v = it.split("=", 1)
+        out[k.strip()] = value(v)
+    return out
+
+
+def names(items):
+    return [canonical_name(n.strip()) for f in items or () for n in f.split(",") if n.strip()]
+
+
+def scoped_params(items, filters):
+    """--param NAME=V (every filter that has NAME) or FILTER.NAME=V -> {filter: {name: v}}."""
+    out = {n: {} for n in filters}
+    for k, v in pairs(items).items():
+        if "." in k:
+            f, p = k.split(".", 1)
+            f = canonical_name(f)
+            if f not in out:
+                raise UsageError(f"--param {k}: filter {f!r} is not among {', '.join(filters)}")
+            out[f][p] = v
+        else:
+            hit = [n for n in filters if k in _param_names(n)]
+            if not hit:
+                raise UsageError(f"--param {k}: no selected filter has a parameter {k!r}; "
+                                 + "; ".join(f"{n}: {', '.join(p for p in _param_names(n) if p != 'dt')}"
+                                             for n in filters))
+            for n in hit:
+                out[n][k] = v
+    return out
+
+
+def _param_names(name):
+    if name == "FusionAHRS":
+        return [*FUSION_SETTINGS, "invsqrt"]
+    return param_names(name)
+
+
+# ---------------------------------------------------------------------------
+# the border: arguments -> typed settings
+
+def column_map(args):
+    cmap = {}
+    if getattr(args, "column_map", None):
+        cmap.update(read_column_map(args.column_map))
+    for item in getattr(args, "columns", None) or ():
+        cmap.update(parse_column_map(item))
+    return cmap
+
+
+def read_options(args, **over):
+    return ReadOptions(
+        gyr_unit=getattr(args, "gyr_unit", None), acc_unit=getattr(args, "acc_unit", None),
+        time_unit=getattr(args, "time_unit", None), columns=column_map(args),
+        rate=getattr(args, "rate", None), fixed_rate=getattr(args, "fixed_rate", False),
+        calibration=getattr(args, "calibration", None), align=getattr(args, "align", None),
+        offset=getattr(args, "offset", False), strict=getattr(args, "strict", False),
+        backend=getattr(args, "backend", "c"), **over)
+
+
+def run_options(args):
+    try:
+        init = init_value(getattr(args, "init", None))
+    except ValueError:
+        raise UsageError(f"--init {args.init!r}: expected first, identity or a quaternion "
+                         "w,x,y,z") from None
+    return RunOptions(backend=getattr(args, "backend", "c"),
+                      dtype=getattr(args, "dtype", "float64"), init=init,
+                      init_window=getattr(args, "init_window", None),
+                      axis=getattr(args, "axis", "x"), preset=getattr(args, "preset", None))
+
+
+def score_options(args):
+    return ScoreOptions(ref_frame=getattr(args, "ref_frame", None),
+                        ref_direction=getattr(args, "ref_direction", "sensor-to-earth"),
+                        skip=getattr(args, "skip", None),
+                        heading_offset=getattr(args, "heading_offset", False),
+                        frame=getattr(args, "frame", "NWU"))
+
+
+def open_session(args, path=None, **over):
+    """The session of a log command, its notes printed."""
+    s = Session(path or args.log, read_options(args, **over))
+    for note in s.notes:
+        err(f"note: {note}")
+    return s
+
+
+def progress(label, done, n):
+    err(f"{label}: {100 * done // n}% ({done}/{n} samples)")
+
+
+def input_files(args):
+    """Every file a log command reads: the log, a column map, a calibration."""
+    return [getattr(args, "log", None), getattr(args, "column_map", None),
+            getattr(args, "calibration", None)]
+
+
+def write_output(path, cols, f32=()):
+    """CSV to stdout ("-") or a file, or NPZ for OUT.npz; OutputError when it cannot be
+    written."""
+    try:
+        if path == "-":
+            io.write_csv(sys.stdout, cols, float32=f32)
+        elif path.lower().endswith(".npz"):
+            io.write_npz(path, cols)
+        else:
+            io.write_csv(path, cols, float32=f32)
+    except OSError as e:
+        if isinstance(e, BrokenPipeError):
+            raise
+        raise OutputError(f"-o {path}: cannot write: {e.strerror or e}") from None
+
+
+# ---------------------------------------------------------------------------
+# option types and groups
+
+def positive(typ, hi, lo=0):
+    def conv(text):
+        try:
+            v = typ(text)
+        except (ValueError, OverflowError):
+            raise argparse.ArgumentTypeError(f"expected a {typ.__name__}, got {text!r}") from None
+        if not (v > 0 and lo <= v <= hi) or (typ is float and not math.isfinite(v)):
+            raise argparse.ArgumentTypeError(f"must be in [{lo:g}, {hi:g}] and > 0, got {text}")
+        return v
+    conv.__name__ = typ.__name__
+    return conv
+
+
+def nonneg_int(text):
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+    if not 0 <= v <= 100:
+        raise argparse.ArgumentTypeError(f"must be 0..100, got {v}")
+    return v
+
+
+def column_options(g):
+    g.add_argument("--columns", "-c", action="append", metavar='NAME="HEADER",...',
+                   help='name the log\'s columns, e.g. gyr_x="Gyro X",acc_x="Acc X" (repeatable)')
+    g.add_argument("--column-map", metavar="FILE",
+                   help="a file of NAME = HEADER lines (or a JSON object) naming the columns")
+
+
+def strict_option(g):
+    g.add_argument("--strict", action="store_true",
+                   help="a plausibility warning (gyro in deg/s read as rad/s, acc in m/s^2 read "
+                        "as g, time in ms read as s, a --rate the time column contradicts, a "
+                        "reference frame mistake) is an error (exit 4)")
+
+
+def log_options(p):
+    g = p.add_argument_group("log")
+    g.add_argument("--gyr-unit", choices=("rad/s", "deg/s"),
+                   help="unit of gyr_x..z (default: from the header, else rad/s)")
+    g.add_argument("--acc-unit", choices=("g", "m/s2", "m/s^2"),
+                   help="unit of acc_x..z (default: from the header, else g)")
+    g.add_argument("--time-unit", choices=("s", "ms", "us", "ns"),
+                   help="unit of the time column (default: from the header, else s)")
+    column_options(g)
+    g.add_argument("--rate", type=positive(float, 1e9, 1e-3), metavar="HZ",
+                   help="fixed sample rate, Hz (default: the time column's intervals)")
+    g.add_argument("--fixed-rate", action="store_true",
+                   help="run at the median interval of the time column instead of each "
+                        "sample's own interval")
+    g.add_argument("--axis", choices=("x", "y"), default="x",
+                   help="single-axis filters without rate/angle columns: x = roll from gyr_x and "
+                        "atan2(acc_y, acc_z); y = pitch from gyr_y and atan2(-acc_x, acc_z)")
+    strict_option(g)
+
+
+def filter_options(p):
+    g = p.add_argument_group("filter")
+    g.add_argument("--param", "-p", action="append", metavar="NAME=VALUE",
+                   help="filter parameter (repeatable); dt comes from the log")
+    g.add_argument("--preset", metavar="NAME",
+                   help="a named parameter set instead of the defaults (--param still applies "
+                        "on top): 'published', the settings of the code a filter was ported "
+                        "from (Madgwick's and Mahony's C, MultiWii 2.2, x-io Fusion)")
+    g.add_argument("--init", metavar="first|identity|W,X,Y,Z",
+                   help="initial orientation of 3D filters (default first: from the first "
+                        "accelerometer [and magnetometer] sample)")
+    g.add_argument("--init-window", type=positive(int, 10**6), metavar="N",
+                   help="with --init first: average the first N samples (default 1)")
+    g.add_argument("--dtype", choices=("float32", "float64"), default="float64")
+    g.add_argument("--backend", choices=("c", "ref"), default="c",
+                   help="c: imufuse_c (compiled); ref: imufuse.reference (pure Python)")
+
+
+def eval_options(p):
+    g = p.add_argument_group("reference and output frames")
+    g.add_argument("--ref-frame", choices=("NWU", "ENU", "NED"),
+                   help="earth frame of the log's q_w..q_z (default: NWU; ENU for BROAD files)")
+    g.add_argument("--ref-direction", choices=("sensor-to-earth", "earth-to-sensor"),
+                   default="sensor-to-earth", help="what the reference quaternion rotates")
+    g.add_argument("--skip", type=positive(float, 1e9), metavar="S",
+                   help="leave the first S seconds out of the errors (the start-up), on top of "
+                        "a movement column")
+    g.add_argument("--heading-offset", action="store_true",
+                   help="remove the mean heading offset between the reference and the filter "
+                        "before the heading and total errors")
+    g.add_argument("--frame", choices=("NWU", "ENU", "NED"), default="NWU",
+                   help="earth frame of the output quaternion and Euler angles (default NWU); "
+                        "the sensor axes stay as logged (a z-up sensor in NED reads roll 180 "
+                        "deg when level: align the axes first with --align)")
+
+
+def preprocess_options(parser):
+    g = parser.add_argument_group("preprocessing, in this order (imufuse.preprocess)")
+    g.add_argument("--calibration", metavar="FILE.json",
+                   help="sensor calibration (M, s, b per inertial sensor; S, h for the "
+                        "magnetometer; see imufuse.calibration_models)")
+    g.add_argument("--align", metavar="ALIGNMENT",
+                   help="axis alignment, a signed permutation such as +X-Z+Y "
+                        "(body x = +sensor x, y = -sensor z, z = +sensor y)")
+    g.add_argument("--offset", action="store_true",
+                   help="gyroscope offset estimator (FusionOffset) at the log's rate")

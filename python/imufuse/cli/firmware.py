@@ -1,0 +1,168 @@
+"""`imufuse validate` (firmware against imufuse, bit for bit) and `imufuse export`."""
+import argparse
+import os
+
+from .. import __version__, plots, sim
+from ..arduino import export_arduino
+from .._atomic import check_outputs
+from .._resources import csrc_dir
+from ..catalogue import canonical_name, inputs_for, reference_class, resolve_params
+from ..catalogue import entry as _entry
+from ..firmware import (DEFAULT_TIMEOUT, Firmware, counts_for, csrc_firmware,
+                        validate_isolated)
+from ..firmware_target import target_names
+from ..io import LogError
+from .common import (EXIT_FAIL, EXIT_OK, OutputError, UsageError, column_options, err,
+                     open_session, pairs, positive, strict_option)
+
+
+def _headers(args):
+    out = []
+    for h in args.header or ():
+        for d in ["", *(args.include or ())]:
+            p = os.path.join(d, h) if d else h
+            if os.path.isfile(p):
+                out.append(p)
+    return out
+
+
+def _validate(args):
+    cls = reference_class(args.filter) if not _entry(args.filter).fixed else \
+        _entry(args.filter).reference
+    overrides = pairs(args.param)
+    check_outputs([args.log, *(args.sources or ()), *_headers(args)], [("--plot", args.plot)])
+    defines = {}
+    for d in args.define or ():
+        k, _, v = d.partition("=")
+        defines[k] = v if v else None
+    cflags = args.cflags.split() if args.cflags is not None else None
+    if args.csrc:
+        if not os.path.isdir(args.csrc):
+            raise LogError(f"--csrc {args.csrc}: no such directory", "file")
+        dtype = args.dtype or "float32"
+        fw = csrc_firmware(args.filter, args.csrc, dtype, cflags=cflags)
+    else:
+        if not args.sources:
+            raise UsageError("validate: give the firmware's C sources (or --csrc DIR)")
+        for s in args.sources:
+            if not os.path.isfile(s):
+                raise LogError(f"{s}: no such file", "file")
+        if not args.update:
+            raise UsageError("validate: give --update (the update function's prototype or name)")
+        state = pairs(args.state, "--state") or None
+        fw = Firmware(args.sources, init=args.init, update=args.update, state=state,
+                      state_names=cls.state_names, headers=args.header or (),
+                      include_dirs=args.include or (), defines=defines, cflags=cflags,
+                      init_args=pairs(args.init_arg, "--init-arg"))
+    if args.log:
+        s = open_session(args)
+        dt = s.log.dt
+        inputs, src = s.inputs(args.filter, args.axis)
+        t = s.log.t
+    else:
+        rate = args.rate or 200.0
+        data = (sim.axis1d("slow", rate=rate, duration=args.duration, seed=args.seed)
+                if cls.kind == "1d" else
+                sim.imu("slow", rate=rate, duration=args.duration, seed=args.seed))
+        dt, inputs, t = data.dt, inputs_for(cls.kind, data), data.t
+        src = f"simulated 'slow' motion, {rate:g} Hz, {args.duration:g} s, seed {args.seed}"
+    params = resolve_params(args.filter, dt, overrides)
+    if _entry(args.filter).fixed:
+        inputs = counts_for(cls.kind, params, inputs)
+        src += f"; int16 counts (gyr_scale {params['gyr_scale']:g} rad/s, acc 4096 per g)"
+    v = validate_isolated(fw, args.filter, params, inputs, backend=args.backend, dtype=args.dtype,
+                          timeout=args.timeout, target=args.target)
+    print(f"inputs: {src}; {args.filter} "
+          f"{', '.join(f'{k}={val}' for k, val in params.items())}")
+    print(v.text())
+    if args.plot:
+        if not plots.available():
+            err("plots unavailable: matplotlib is not installed (pip install 'imufuse[plot]')")
+        else:
+            try:
+                plots.plot_divergence(args.plot, t, v.got, v.want, v.comparison.names,
+                                      v.comparison.first_sample,
+                                      f"firmware vs imufuse {args.filter} ({v.comparison.dtype})")
+            except OSError as e:
+                raise OutputError(f"--plot {args.plot}: cannot write: {e.strerror or e}") from None
+            err(f"plot: {args.plot}")
+    return EXIT_OK if v.bit_exact else EXIT_FAIL
+
+
+def _export(args):
+    lib = export_arduino(args.dir, make_zip=args.zip)
+    print(f"Arduino library: {lib}")
+    if args.zip:
+        print(f"zip for the IDE (Sketch > Include Library > Add .ZIP Library): "
+              f"{lib.parent / f'imufuse-{__version__}.zip'}")
+    return EXIT_OK
+
+
+def add_parsers(sub):
+    v = sub.add_parser("validate", help="compile firmware C (for the host, or for an emulated "
+                       "MCU with your flags) and compare it with an imufuse filter bit for "
+                       "bit", formatter_class=argparse.RawDescriptionHelpFormatter,
+                       description="Validate firmware filter code against imufuse (see "
+                       "imufuse.firmware).\nThe firmware runs in a child process: a crash, exit() "
+                       "or hang is reported (exit 5).\n\nexample:\n  imufuse validate fw/att.c -I fw "
+                       "--header att.h --filter Kalman1D \\\n     --init 'void att_init(att_t *s, "
+                       "float dt, float k0)' \\\n     --update 'void att_update(att_t *s, float rate, "
+                       "float angle)' \\\n     --state theta=x.theta --param k0=0.01\n"
+                       "  imufuse validate --csrc --filter Kalman1D --dtype float32\n"
+                       "  imufuse validate fw/cf.c --header cf.h --filter Complementary1D "
+                       "--init cf_init \\\n     --update cf_update --state theta=theta "
+                       "--target cortex-m4f --cflags '-O2 -ffp-contract=off'")
+    v.add_argument("sources", nargs="*", metavar="SOURCE.c")
+    v.add_argument("--filter", "-f", required=True, help="the imufuse filter to compare with", type=canonical_name)
+    v.add_argument("--csrc", metavar="DIR", nargs="?", const=str(csrc_dir()),
+                   help="validate imufuse's own sources in DIR (default: the C library "
+                        "installed with imufuse)")
+    v.add_argument("-I", "--include", action="append", metavar="DIR")
+    v.add_argument("-D", "--define", action="append", metavar="NAME[=VALUE]")
+    v.add_argument("--header", action="append", metavar="FILE.h", help="header(s) to include")
+    v.add_argument("--init", metavar="PROTOTYPE|NAME")
+    v.add_argument("--update", metavar="PROTOTYPE|NAME")
+    v.add_argument("--state", action="append", metavar="NAME=EXPR",
+                   help="imufuse state variable = member path or '=C expression' "
+                        "(default x.NAME for every state variable)")
+    v.add_argument("--init-arg", action="append", metavar="NAME=VALUE")
+    v.add_argument("--target", choices=target_names(), default="host",
+                   help="where the firmware runs: host (cffi, this machine) or an emulated MCU "
+                        "built with its cross compiler and your --cflags: cortex-m4f (QEMU "
+                        "mps2-an386), cortex-m0 (QEMU microbit), atmega328p (simavr). The report "
+                        "adds the cause of a divergence and the cost per update")
+    v.add_argument("--cflags", metavar="FLAGS",
+                   help="your compiler flags (the target adds only -mcpu/-mfpu/-mfloat-abi or "
+                        "-mmcu); default '-std=c99 -O2 -ffp-contract=off' on the host, '-O2' on "
+                        "an MCU target (the compiler's default standard, as a firmware build)")
+    v.add_argument("--param", "-p", action="append", metavar="NAME=VALUE")
+    v.add_argument("--dtype", choices=("float32", "float64"),
+                   help="precision (default: the firmware's, from sizeof of its state)")
+    v.add_argument("--backend", choices=("c", "ref"), default="c")
+    v.add_argument("--timeout", type=positive(float, 1e6), default=DEFAULT_TIMEOUT, metavar="S",
+                   help=f"seconds the firmware may run (default {DEFAULT_TIMEOUT:g})")
+    v.add_argument("--log", metavar="LOG", help="inputs from a log (default: simulated)")
+    v.add_argument("--gyr-unit", choices=("rad/s", "deg/s"),
+                   help="with --log: unit of gyr_x..z (default: from the header, else rad/s)")
+    v.add_argument("--acc-unit", choices=("g", "m/s2", "m/s^2"),
+                   help="with --log: unit of acc_x..z (default: from the header, else g)")
+    v.add_argument("--time-unit", choices=("s", "ms", "us", "ns"),
+                   help="with --log: unit of the time column (default: from the header, else s)")
+    column_options(v)
+    strict_option(v)
+    v.add_argument("--axis", choices=("x", "y"), default="x")
+    v.add_argument("--rate", type=positive(float, 1e9, 1e-3), metavar="HZ")
+    v.add_argument("--duration", type=positive(float, 1e5), default=10.0)
+    v.add_argument("--seed", type=int, default=1)
+    v.add_argument("--plot", metavar="PNG", help="divergence plot")
+    v.set_defaults(func=_validate, fixed_rate=True)
+
+    e = sub.add_parser("export", help="write the C library in a form firmware projects take",
+                       description="imufuse export arduino DIR: an Arduino library in DIR/imufuse "
+                       "(library.properties, src/, keywords.txt, example sketches for an Uno and "
+                       "ARM boards); --zip also writes DIR/imufuse-VERSION.zip for the Arduino "
+                       "IDE's 'Add .ZIP Library'. See docs/firmware.md.")
+    e.add_argument("what", choices=("arduino",))
+    e.add_argument("dir", metavar="DIR")
+    e.add_argument("--zip", action="store_true", help="also write the .zip the IDE installs")
+    e.set_defaults(func=_export)

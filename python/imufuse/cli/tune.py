@@ -1,0 +1,95 @@
+"""`imufuse tune`: the printing around imufuse.tune.Tuner."""
+import argparse
+import os
+import sys
+
+from ..catalogue import canonical_name
+from ..tune import Tuner, grid_spec
+from .common import (EXIT_OK, UsageError, err, eval_options, filter_options, log_options,
+                     open_session, pairs, positive, nonneg_int, run_options, score_options)
+
+
+def _tune(args):
+    if args.filter == "FusionAHRS":
+        raise UsageError("tune: FusionAHRS is not tunable here yet; use imufuse compare with "
+                         "-p FusionAHRS.gain=... to try settings")
+    try:
+        grids = [grid_spec(g) for g in args.grid or ()]
+    except ValueError as e:
+        raise UsageError(str(e)) from None
+    try:
+        sessions = [open_session(args, p) for p in args.logs]
+        t = Tuner(sessions, args.filter, pairs(args.param), args.metric, run_options(args),
+                  score_options(args))
+        if not grids:
+            grids = t.default_grid(args.points)
+            idle = t.idle(grids)
+            if idle:
+                err(f"note: not varied (no effect with these settings): {', '.join(idle)}")
+                grids = [(k, v) for k, v in grids if k not in idle]
+                if not grids:
+                    raise UsageError(f"tune: no parameter of {args.filter} acts with these "
+                                     "settings; give --grid")
+    except ValueError as e:
+        if type(e) is ValueError:
+            raise UsageError(str(e)) from None
+        raise
+
+    def bar(done, total):
+        if not args.quiet:
+            print(f"\rtune: [{'#' * (30 * done // total):30s}] {done}/{total}", end="",
+                  file=sys.stderr, flush=True)
+            if done == total:
+                print(file=sys.stderr)
+    res = t.search(grids, refine=args.refine, jobs=args.jobs, progress=bar)
+    logs = [s.log for s in sessions]
+    metric, keys = res.metric, res.names
+    print(f"{args.filter} on {len(logs)} log{'s' if len(logs) > 1 else ''}: mean over logs of "
+          f"the {metric} RMS (deg); {len(res.results)} parameter sets, best first")
+    w = [max(len(os.path.basename(lg.path)), 8) for lg in logs]
+    kw = [max(len(k), 10) for k in keys]
+    head = "  ".join(f"{k:>{wi}s}" for k, wi in zip(keys, kw)) + f"  {metric:>11s}" + "".join(
+        f"  {os.path.basename(lg.path):>{wi}s}" for lg, wi in zip(logs, w))
+    print(head)
+    print("-" * len(head))
+    ranked = res.ranked()
+    for p in ranked if args.all else ranked[:args.top]:
+        s, evs = res.results[p]
+        print("  ".join(f"{v:{wi}.4g}" for v, wi in zip(p, kw)) + f"  {s:11.3f}" + "".join(
+            f"  {getattr(e, metric):{wi}.3f}" for e, wi in zip(evs, w))
+            + ("  <- best" if p == res.best else ""))
+    best = res.best
+    print(f"best: {', '.join(f'{k}={v:.4g}' for k, v in zip(keys, best))} "
+          f"({metric} {res.score(best):.3f} deg)")
+    return EXIT_OK
+
+
+def add_parsers(sub):
+    t = sub.add_parser("tune", help="tune a filter's parameters on logs with a reference "
+                       "orientation (grid with refinement, parallel)",
+                       formatter_class=argparse.RawDescriptionHelpFormatter,
+                       description="Grid search (then --refine rounds of a finer grid around the "
+                       "best point) of a\nfilter's parameters; the score is the mean over the logs "
+                       "of the BROAD RMS error\n(--metric). Runs in parallel threads (run() "
+                       "releases the GIL). The table is sorted\nby score, best first.\n\n"
+                       "example:\n  imufuse tune trial1.npz trial2.npz -f "
+                       "MadgwickIMU --grid beta=0.005:1:15")
+    t.add_argument("logs", nargs="+", metavar="LOG")
+    t.add_argument("--filter", "-f", required=True, type=canonical_name)
+    t.add_argument("--grid", "-g", action="append", metavar="NAME=LO:HI:N[lin]|V1,V2,..",
+                   help="values of a parameter (repeatable; log-spaced unless 'lin'); default: "
+                        "every gain that acts, /10 .. x10 around its default")
+    t.add_argument("--points", type=positive(int, 1000), default=9,
+                   help="grid points per parameter for the default grid (default 9)")
+    t.add_argument("--refine", type=nonneg_int, default=2,
+                   help="rounds of a finer grid around the best point (default 2)")
+    t.add_argument("--metric", choices=("total", "heading", "inclination"),
+                   help="default: total for AHRS, inclination for IMU filters")
+    t.add_argument("--jobs", "-j", type=positive(int, 1024), help="threads (default: cores)")
+    t.add_argument("--top", type=positive(int, 10**6), default=15, help="rows shown (default 15)")
+    t.add_argument("--all", action="store_true", help="show every parameter set")
+    t.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
+    log_options(t)
+    filter_options(t)
+    eval_options(t)
+    t.set_defaults(func=_tune)

@@ -1,0 +1,523 @@
+"""One session for a log, from the file to the score: what every command and a Python user do.
+
+    read (units, columns, time)  ->  calibration, alignment, gyro offset  ->  run a filter
+    ->  orientation estimate  ->  score against the log's reference (BROAD metrics)  ->  columns
+
+    from imufuse.session import Session, ReadOptions
+    s = Session("trial.hdf5", ReadOptions(gyr_unit="deg/s"))
+    r = s.run("MadgwickAHRS", {"beta": 0.1})
+    print(s.score(r).summary())
+
+The options are typed settings (dataclasses) with the command line's defaults; the command
+line only turns its arguments into them and prints what comes back. Every filter of the
+catalogue runs the same way, FusionAHRS included (its own units, gyroscope in deg/s and dt
+with every sample, are applied here). ``notes`` lists what a user should know (unit guesses,
+jittery time, samples rejected); with ``strict`` a plausibility warning is an error.
+"""
+from __future__ import annotations
+
+import inspect
+import math
+import time as _time
+from dataclasses import dataclass, field
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+import imufuse_c
+
+from . import io, preprocess, reference
+from .catalogue import (FilterError, estimate, make_filter, reference_class, resolve_params,
+                        why_no_estimate)
+from .estimate import Estimate
+from .evaluation import Evaluation, evaluate, from_enu, to_enu
+from .io import ACC, GYR, MAG, Log, LogError, axis_inputs, read_log, require
+from .rotations import quat_to_euler
+
+__all__ = ["ReadOptions", "RunOptions", "ScoreOptions", "Session", "Run", "NothingComputed",
+           "StrictError", "effective_params", "FUSION"]
+
+#: the filter with Fusion's own units (gyroscope deg/s, dt with every update)
+FUSION = "FusionAHRS"
+
+
+class NothingComputed(ValueError):
+    """Nothing could be computed or evaluated (the command line's exit 4)."""
+
+
+class StrictError(LogError):
+    """A plausibility warning under ``strict=True``."""
+
+
+@dataclass(frozen=True)
+class ReadOptions:
+    """How to read a log (imufuse.io.read_log) and what to do in front of every filter
+    (imufuse.preprocess): units None = from the header (else rad/s, g, s); columns: {name:
+    header}; rate: Hz, a fixed rate instead of the time column; fixed_rate: the median
+    interval instead of each sample's own; calibration (a JSON file), align (e.g. "+X-Z+Y"),
+    offset (FusionOffset): the preprocessing, by ``backend`` ("c" or "ref"); strict: a
+    plausibility warning (a unit, time or rate that only makes sense as a mistake) is an
+    error; need_time: False reads a log without time column or rate (calibration logs)."""
+    gyr_unit: Optional[str] = None
+    acc_unit: Optional[str] = None
+    time_unit: Optional[str] = None
+    columns: Mapping[str, str] = field(default_factory=dict)
+    rate: Optional[float] = None
+    fixed_rate: bool = False
+    calibration: Optional[str] = None
+    align: Optional[str] = None
+    offset: bool = False
+    strict: bool = False
+    need_time: bool = True
+    backend: str = "c"
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    """How to run a filter: backend "c" (imufuse_c) or "ref" (imufuse.reference); dtype;
+    init: None (= "first" for 3-D filters), "first", "identity" or a quaternion w, x, y, z;
+    init_window: with "first", the mean of that many samples; axis: "x" or "y", the axis of a
+    single-axis filter fed from gyr/acc columns; preset: a named parameter set of the
+    catalogue ("published": the settings of the code the filter was ported from) in place of
+    the defaults, under the parameters given."""
+    backend: str = "c"
+    dtype: str = "float64"
+    init: Union[None, str, Sequence[float]] = None
+    init_window: Optional[int] = None
+    axis: str = "x"
+    preset: Optional[str] = None
+
+
+@dataclass(frozen=True)
+class ScoreOptions:
+    """How to score: the reference's earth frame (None: the file's, else NWU) and direction;
+    skip: seconds at the start left out; heading_offset: remove a constant heading offset;
+    frame: the earth frame of the output quaternion and Euler angles."""
+    ref_frame: Optional[str] = None
+    ref_direction: str = "sensor-to-earth"
+    skip: Optional[float] = None
+    heading_offset: bool = False
+    frame: str = "NWU"
+
+
+def effective_params(name: str, params: Mapping[str, Any]) -> Dict[str, Any]:
+    """The constructor's keyword defaults updated by ``params`` (what the filter really runs
+    with), dt included."""
+    sig = inspect.signature(reference_class(name)._params)
+    out = {p.name: p.default for p in sig.parameters.values()
+           if p.default is not inspect.Parameter.empty}
+    out.update(params)
+    return out
+
+
+def format_params(name: str, params: Mapping[str, Any]) -> str:
+    if name == FUSION:
+        return ", ".join(f"{k}={v}" for k, v in params.items()) or "defaults"
+    eff = effective_params(name, params)
+    s = ", ".join(f"{k}={v:.6g}" if isinstance(v, float) else f"{k}={v}"
+                  for k, v in eff.items() if k != "dt")
+    return s or "no parameters"
+
+
+def _takes(fn: Any, name: str) -> bool:
+    try:
+        return name in inspect.signature(fn).parameters
+    except (TypeError, ValueError):
+        return False
+
+
+def supports_dt_array(name: str) -> bool:
+    """True when the filter's run() takes dt=array (per-sample periods)."""
+    return name == FUSION or _takes(reference_class(name).run, "dt")
+
+
+def supports_init(name: str) -> bool:
+    """True when the filter's constructor takes init= ("first" or a quaternion)."""
+    cls = reference_class(name)
+    return _takes(cls.__init__, "init") or _takes(cls._params, "init")
+
+
+def init_value(value: Union[None, str, Sequence[float]]) -> Union[None, str, List[float]]:
+    """None, "first", "identity" or [w, x, y, z] from a string or a sequence."""
+    if value is None or value in ("first", "identity"):
+        return value
+    try:
+        q = [float(v) for v in (value.split(",") if isinstance(value, str) else value)]
+    except (TypeError, ValueError):
+        q = []
+    if len(q) != 4 or not all(math.isfinite(v) for v in q) or not any(q):
+        raise ValueError(f"init {value!r}: expected first, identity or a quaternion w,x,y,z")
+    return q
+
+
+def chunked_estimate(cls: Any, S: np.ndarray, chunk: int = 1 << 16) -> Optional[Estimate]:
+    """catalogue.estimate(cls, S), block by block (the adapters' temporaries stay small for
+    long logs); the same values."""
+    if len(S) <= chunk:
+        return estimate(cls, S)
+    parts = [estimate(cls, S[k:k + chunk]) for k in range(0, len(S), chunk)]
+    if parts[0] is None:
+        return None
+    e = parts[0]
+    if e.angle is not None:
+        e.angle = np.concatenate([p.angle for p in parts])
+    else:
+        e.q = np.concatenate([p.q for p in parts])
+    return e
+
+
+def euler_deg(q: np.ndarray, chunk: int = 65536) -> np.ndarray:
+    """(N, 3) roll, pitch, yaw in degrees, computed in chunks (bounded memory)."""
+    out = np.empty((len(q), 3))
+    for k in range(0, len(q), chunk):
+        out[k:k + chunk] = np.degrees(quat_to_euler(q[k:k + chunk]))
+    return out
+
+
+def frame_q(q: np.ndarray, frame: str) -> np.ndarray:
+    """NWU quaternions expressed in the earth frame ``frame``."""
+    return q if frame == "NWU" else from_enu(to_enu(q, "NWU"), frame)
+
+
+#: runs at least this long (samples) report progress: the pure-Python reference runs
+#: ~10^5 samples/s, the compiled filters ~10^7
+PROGRESS_MIN = {"ref": 20_000, "c": 2_000_000}
+
+Progress = Callable[[str, int, int], None]
+
+
+def run_with_progress(f: Any, inputs: Sequence[np.ndarray], label: str, backend: str,
+                      dts: Any = None, progress: Optional[Progress] = None) -> np.ndarray:
+    """f.run(*inputs[, dt=dts]), in about 20 chunks calling progress(label, done, n) when the
+    run is long. The state carries over between run() calls: the same trajectory, bit for
+    bit."""
+    n = len(inputs[0])
+
+    def kw(a: int, b: int) -> Dict[str, Any]:
+        return {} if dts is None else {"dt": dts if np.ndim(dts) == 0 else dts[a:b]}
+    if progress is None or n < PROGRESS_MIN.get(backend, PROGRESS_MIN["c"]):
+        return f.run(*inputs, **kw(0, n))
+    step = -(-n // 20)
+    parts = []
+    for k in range(0, n, step):
+        parts.append(f.run(*[x[k:k + step] for x in inputs], **kw(k, k + step)))
+        progress(label, min(k + step, n), n)
+    return np.concatenate(parts)
+
+
+class _FusionKind:
+    """What the session needs of FusionAHRS's class (it is outside the float catalogue)."""
+
+    def __init__(self, has_mag: bool) -> None:
+        self.__name__ = FUSION
+        self.kind = "ahrs" if has_mag else "imu"
+        self.state_names = tuple(reference.FusionAHRS.state_names)
+
+
+@dataclass
+class Run:
+    """One filter run over a session's log. states: (N, len(state)); estimate: the
+    orientation (or None, see why); rejected: samples the filter rejected (state kept)."""
+    name: str
+    cls: Any
+    params: Dict[str, Any]
+    states: np.ndarray
+    estimate: Optional[Estimate]
+    rejected: int
+    seconds: float
+    time: str
+    init: Optional[str]
+    inputs: str
+    notes: List[str] = field(default_factory=list)
+    extra: Dict[str, np.ndarray] = field(default_factory=dict)
+    backend: str = "c"
+    dtype: str = "float64"
+
+    @property
+    def kind(self) -> str:
+        return self.cls.kind
+
+    def why(self) -> str:
+        """Why there is no estimate, or where it came from."""
+        if self.rejected and self.rejected >= len(self.states):
+            return f"every one of the {len(self.states)} samples rejected: nothing estimated"
+        return why_no_estimate(self.cls) if self.estimate is None else self.estimate.source
+
+    def columns(self, t: np.ndarray, frame: str = "NWU") -> Tuple[Dict[str, np.ndarray],
+                                                                   List[str]]:
+        """The output columns (time, the state, then what derives from it: angle_deg, or
+        [q_w..q_z,] roll_deg, pitch_deg[, yaw_deg] in ``frame``) and notes."""
+        cols: Dict[str, np.ndarray] = {"time": t}
+        notes = []
+        for j, n in enumerate(self.cls.state_names):
+            cols[n] = self.states[:, j]
+        est = self.estimate
+        if est is None:
+            notes.append(f"{why_no_estimate(self.cls)}; writing the state only")
+        elif est.angle is not None:
+            cols["angle_deg"] = np.degrees(est.angle)
+        else:
+            q = frame_q(est.q, frame)
+            if est.source != "q0..q3" or frame != "NWU" or self.name == FUSION:
+                for j, n in enumerate(io.QUAT):
+                    cols[n] = q[:, j]
+            e = euler_deg(q)
+            cols["roll_deg"], cols["pitch_deg"] = e[:, 0], e[:, 1]
+            if est.heading:
+                cols["yaw_deg"] = e[:, 2]
+            else:
+                notes.append(f"no heading from {self.name} ({est.source}): yaw omitted")
+        cols.update(self.extra)
+        return cols, notes
+
+    def float32_columns(self) -> set:
+        return set(self.cls.state_names) if self.dtype == "float32" else set()
+
+    def describe(self, samples: int) -> str:
+        init = f", init={self.init}" if self.init else ""
+        return (f"{self.name} ({self.backend}, {self.dtype}, {self.time}{init}; "
+                f"{format_params(self.name, self.params)}): {samples} samples from {self.inputs}")
+
+
+class Session:
+    """A log read once, with its preprocessing; run filters over it and score them.
+
+    log: a path or an imufuse.io.Log (used as it is: its columns are not preprocessed
+    again). notes: what reading and preprocessing said (one line each)."""
+
+    def __init__(self, log: Union[str, "Log", Any], read: ReadOptions = ReadOptions()) -> None:
+        self.options = read
+        self.notes: List[str] = []
+        if isinstance(log, Log):
+            self.log = log
+            return
+        self.log = read_log(log, gyr_unit=read.gyr_unit, acc_unit=read.acc_unit,
+                            rate=read.rate, columns=dict(read.columns),
+                            fixed_rate=read.fixed_rate, time_unit=read.time_unit,
+                            need_time=read.need_time)
+        if read.strict and self.log.suspicions:
+            raise StrictError(f"{self.log.path}: {self.log.suspicions[0]} (--strict)")
+        self.notes += self.log.warnings
+        # --calibration, --align, --offset, in this order
+        self.notes += preprocess.apply(self.log, calibration=read.calibration,
+                                       align=read.align, offset=read.offset,
+                                       backend=read.backend)
+
+    # ---- what the log offers
+    def inputs(self, name: str, axis: str = "x") -> Tuple[Tuple[np.ndarray, ...], str]:
+        """run() arguments of a filter from the log, and a description (LogError naming the
+        missing columns)."""
+        log = self.log
+        if name == FUSION:
+            require(log, GYR + ACC)
+            gyr = np.degrees(log.gyr)          # Fusion's unit
+            if log.has(*MAG):
+                return (gyr, log.acc, log.mag), "gyr, acc, mag (update), gyroscope in deg/s"
+            return (gyr, log.acc), "gyr, acc (update_no_magnetometer), gyroscope in deg/s"
+        cls = reference_class(name)
+        if cls.kind == "1d":
+            rate, angle, src = axis_inputs(log, axis)
+            return (rate, angle), src
+        require(log, GYR + ACC)
+        if cls.kind == "ahrs":
+            require(log, MAG, f"({cls.__name__} is an AHRS filter and needs a magnetometer; "
+                              "use an IMU filter without one)")
+            return (log.gyr, log.acc, log.mag), "gyr, acc, mag"
+        return (log.gyr, log.acc), "gyr, acc"
+
+    def filter_class(self, name: str) -> Any:
+        return _FusionKind(self.log.has(*MAG)) if name == FUSION else reference_class(name)
+
+    # ---- running
+    def make(self, name: str, params: Optional[Mapping[str, Any]] = None,
+             options: RunOptions = RunOptions()) -> Tuple[Any, Dict[str, Any], Any, Optional[str],
+                                                          List[str]]:
+        """(filter instance, its parameters, dt for run(), init description, notes)."""
+        log, notes = self.log, []
+        if name == FUSION:
+            mod = imufuse_c if options.backend == "c" else reference
+            params = dict(params or {})
+            if options.preset not in (None, "published"):
+                raise FilterError(f"{FUSION}: no preset {options.preset!r}; presets: published "
+                                  "(its defaults)")
+            try:
+                f = mod.FusionAHRS(**params, dtype=options.dtype)
+            except TypeError as e:
+                raise FilterError(f"{FUSION}: {e}") from None
+            except ValueError as e:
+                raise FilterError(f"{FUSION}: {e}") from None
+            dts = log.dts if log.dts is not None else log.dt
+            return f, params, dts, None, notes
+        cls = reference_class(name)
+        full = resolve_params(name, log.dt, params, options.preset)
+        dts = None
+        if not log.fixed_rate and log.dts is not None:
+            if supports_dt_array(name):
+                dts = log.dts
+            elif np.max(np.abs(log.dts - log.dt)) > 1e-6 * log.dt:
+                notes.append(f"fixed dt {log.dt:.6g} s (this build has no per-sample dt)")
+        init = init_value(options.init)
+        kw: Dict[str, Any] = {}
+        desc: Optional[str] = None
+        if cls.kind != "1d":
+            if init is None:
+                init = "first"          # the default for logs
+            if not supports_init(name):
+                if init != "identity":
+                    notes.append(f"init={init} unsupported by this build: started from identity")
+                init = "identity"
+            elif isinstance(init, list):
+                kw["q0"] = init
+            elif init == "first":
+                kw["init"] = "first"
+                w = options.init_window
+                if w and w > 1:
+                    kw["init_window"] = w
+                    init = f"first (mean of {w} samples)"
+            desc = ("q0=" + ",".join(f"{v:g}" for v in init) if isinstance(init, list)
+                    else str(init))
+        f = make_filter(name, options.backend, options.dtype, {**full, **kw})
+        return f, full, dts, desc, notes
+
+    def describe_time(self, dts: Any) -> str:
+        if dts is not None and np.ndim(dts):
+            d = np.asarray(dts)[1:]
+            return (f"dt per sample from the time column ({d.min():.6g}..{d.max():.6g} s)"
+                    if d.size else f"dt={self.log.dt:.6g} s")
+        return f"dt={self.log.dt:.6g} s"
+
+    def run(self, name: str, params: Optional[Mapping[str, Any]] = None,
+            options: RunOptions = RunOptions(), *, progress: Optional[Progress] = None,
+            keep_states: bool = True) -> Run:
+        """Run one filter (a catalogue name or FusionAHRS) over the log."""
+        inputs, src = self.inputs(name, options.axis)
+        f, full, dts, init, notes = self.make(name, params, options)
+        cls = self.filter_class(name)
+        t0 = _time.perf_counter()
+        S = run_with_progress(f, inputs, name, options.backend, dts, progress)
+        seconds = _time.perf_counter() - t0
+        n = len(self.log)
+        rejected = min(int(getattr(f, "skipped", 0)), n)
+        extra: Dict[str, np.ndarray] = {}
+        if name == FUSION:
+            est = None if rejected >= n else self._fusion_estimate(S, full)
+            out = f.outputs_batch(S)
+            # Fusion's own Euler angles, in its convention (roll_deg.. are in the output frame)
+            for j, ax in enumerate(("roll", "pitch", "yaw")):
+                extra[f"fusion_{ax}_deg"] = out["euler"][:, j]
+            for key in ("earth_acceleration", "linear_acceleration"):
+                for j, ax in enumerate("xyz"):
+                    extra[f"{key}_{ax}"] = out[key][:, j]
+            for key in ("acceleration_error", "magnetic_error"):
+                extra[key + "_deg"] = out[key]
+            for key in ("initialising", "angular_rate_recovery", "acceleration_recovery",
+                        "magnetic_recovery"):
+                extra[key] = out[key].astype(np.float64)
+        else:
+            est = chunked_estimate(cls, S) if rejected < n else None
+        return Run(name, cls, full, S if keep_states else S[:0], est, rejected, seconds,
+                   self.describe_time(dts), init, src, notes, extra, options.backend,
+                   options.dtype)
+
+    def _fusion_estimate(self, S: np.ndarray, params: Mapping[str, Any]) -> Estimate:
+        """FusionAHRS's quaternion (its `convention`'s earth frame) as an NWU estimate."""
+        with np.errstate(all="ignore"):
+            q = np.asarray(S[:, :4], dtype=np.float64)
+            q = q / np.linalg.norm(q, axis=1, keepdims=True)
+        conv = str(params.get("convention", "NWU")).upper()
+        if conv != "NWU":
+            q = from_enu(to_enu(q, conv), "NWU")
+        return Estimate(q=q, heading=self.log.has(*MAG), source="q0..q3")
+
+    # ---- scoring
+    def ref_frame(self, options: ScoreOptions = ScoreOptions()) -> str:
+        return options.ref_frame or self.log.ref_frame or "NWU"
+
+    def mask(self, options: ScoreOptions = ScoreOptions()) -> Optional[np.ndarray]:
+        """The samples that count for errors: the movement column and ``skip``."""
+        log = self.log
+        mask = log.movement
+        if options.skip:
+            late = log.t >= log.t[0] + options.skip
+            mask = late if mask is None else (mask & late)
+        return mask
+
+    def reference_angle(self, axis: str, options: ScoreOptions = ScoreOptions()
+                        ) -> Optional[np.ndarray]:
+        """Reference angle of the single-axis filters (roll or pitch of the reference, NWU)."""
+        q = self.log.q_ref
+        if q is None:
+            return None
+        q = from_enu(to_enu(q, self.ref_frame(options), options.ref_direction), "NWU")
+        return quat_to_euler(q)[:, 0 if axis == "x" else 1]
+
+    def reference_euler(self, options: ScoreOptions = ScoreOptions()) -> Optional[np.ndarray]:
+        """(N, 3) roll, pitch, yaw (rad) of the reference in the output frame."""
+        q = self.log.q_ref
+        if q is None:
+            return None
+        return quat_to_euler(frame_q(from_enu(to_enu(q, self.ref_frame(options),
+                                                     options.ref_direction), "NWU"),
+                                     options.frame))
+
+    def score(self, run: Run, options: ScoreOptions = ScoreOptions(), *, axis: str = "x",
+              per_sample: bool = False) -> Union[None, Evaluation, Dict[str, Any]]:
+        """The BROAD evaluation (3-D) or {'angle': (rms, max), 'n': n, 'n_ref_nan': k} (1-D)
+        against the log's reference; None without a reference or an estimate."""
+        return self.score_estimate(run.cls, run.estimate, options, axis=axis,
+                                   per_sample=per_sample)
+
+    def score_estimate(self, cls: Any, est: Optional[Estimate],
+                       options: ScoreOptions = ScoreOptions(), *, axis: str = "x",
+                       per_sample: bool = False) -> Union[None, Evaluation, Dict[str, Any]]:
+        log = self.log
+        if est is None or log.q_ref is None:
+            return None
+        mask = self.mask(options)
+        if cls.kind == "1d":
+            ref = self.reference_angle(axis, options)
+            use = np.isfinite(ref) & (mask if mask is not None else True)
+            e = np.degrees(np.abs(est.angle - ref))[use]
+            n = int(np.count_nonzero(use))
+            return {"angle": (float(np.sqrt(np.mean(e * e))) if n else math.nan,
+                              float(e.max()) if n else math.nan), "n": n,
+                    "n_ref_nan": int(np.count_nonzero(~np.isfinite(ref)))}
+        return evaluate(est.q, log.q_ref, est_frame="NWU", ref_frame=self.ref_frame(options),
+                        ref_direction=options.ref_direction, movement=mask,
+                        remove_heading_offset=options.heading_offset, per_sample=per_sample)
+
+    def frame_hint(self, run: Run, ev: Any, options: ScoreOptions = ScoreOptions()
+                   ) -> Optional[str]:
+        """A hint when the errors point at a frame or direction mistake: an inclination or
+        heading error near 90 or 180 degrees that another reference frame or direction takes
+        down by more than half (an ENU reference read as NWU gives ~90 deg of heading, read as
+        NED ~180 deg of inclination). Said also when the frame was given: the option may be
+        the mistake."""
+        if run.kind == "1d" or ev is None or isinstance(ev, dict) or not ev.n:
+            return None
+        heading = run.kind == "ahrs"
+        worst = max(ev.inclination, ev.heading if heading else 0.0)
+        if not worst > 45.0:
+            return None
+        cur = (self.ref_frame(options), options.ref_direction)
+        mask = self.mask(options)
+        best = None
+        for fr in ("NWU", "ENU", "NED"):
+            for dr in ("sensor-to-earth", "earth-to-sensor"):
+                if (fr, dr) == cur:
+                    continue
+                e = evaluate(run.estimate.q, self.log.q_ref, est_frame="NWU", ref_frame=fr,
+                             ref_direction=dr, movement=mask,
+                             remove_heading_offset=options.heading_offset, per_sample=False)
+                score = max(e.inclination, e.heading if heading else 0.0)
+                if best is None or score < best[0]:
+                    best = (score, fr, dr)
+        if best is None or not best[0] < 0.5 * worst:
+            return None
+        said = ("given" if options.ref_frame else
+                "from the file" if self.log.ref_frame else "assumed")
+        opts = (f"--ref-frame {best[1]}" +
+                (f" --ref-direction {best[2]}" if best[2] != cur[1] else ""))
+        return (f"hint: against the reference as {cur[0]} ({said}), {cur[1]}, the error "
+                f"reaches {worst:.1f} deg; with {opts} it would be {best[0]:.1f} deg: is the "
+                f"reference in {best[1]}{', ' + best[2] if best[2] != cur[1] else ''}?")

@@ -1,0 +1,194 @@
+"""Parameter search: a grid of a filter's parameters scored on logs with a reference, then
+finer grids around the best point. What `imufuse tune` runs; usable from Python:
+
+    from imufuse.session import Session
+    from imufuse.tune import Tuner
+    t = Tuner([Session("a.hdf5"), Session("b.hdf5")], "MadgwickIMU")
+    res = t.search([("beta", [0.01, 0.03, 0.1])], refine=2)
+    res.best, res.score(res.best)
+
+The score of a parameter set is the mean over the logs of a BROAD RMS error (``metric``).
+Sets are scored in parallel threads (a filter's run() releases the GIL).
+"""
+from __future__ import annotations
+
+import concurrent.futures as cf
+import itertools
+import math
+import os
+from dataclasses import dataclass, field
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
+
+import numpy as np
+
+from .catalogue import FilterError, reference_class, resolve_params
+from .evaluation import METRICS, mean_over_trials
+from .session import (NothingComputed, RunOptions, ScoreOptions, Session, chunked_estimate,
+                      effective_params)
+
+__all__ = ["Tuner", "TuneResult", "grid_spec", "Grid"]
+
+Grid = List[Tuple[str, List[float]]]
+
+
+def grid_spec(text: str) -> Tuple[str, List[float]]:
+    """'beta=0.01:1:12' (log-spaced), 'beta=0.01:1:12lin', 'beta=0.02,0.05,0.1' ->
+    (name, values); ValueError naming the mistake."""
+    if "=" not in text:
+        raise ValueError(f"--grid {text!r}: expected NAME=LO:HI:N or NAME=V1,V2,...")
+    k, v = (x.strip() for x in text.split("=", 1))
+    try:
+        if ":" in v:
+            lo, hi, n = v.split(":")
+            lin = n.endswith("lin")
+            num = int(n[:-3] if lin else n)
+            a, b = float(lo), float(hi)
+            if num < 1 or num > 10000 or not (math.isfinite(a) and math.isfinite(b)):
+                raise ValueError
+            if not lin and (a <= 0 or b <= 0):
+                raise OverflowError
+            vals = np.linspace(a, b, num) if lin else np.geomspace(a, b, num)
+        else:
+            vals = [float(x) for x in v.split(",")]
+    except OverflowError:
+        raise ValueError(f"--grid {text}: a log-spaced range needs positive ends (add 'lin' "
+                         "after N for a linear one)") from None
+    except ValueError:
+        raise ValueError(f"--grid {text!r}: expected NAME=LO:HI:N[lin] or NAME=V1,V2,...") \
+            from None
+    return k, [float(x) for x in vals]
+
+
+@dataclass
+class TuneResult:
+    """Every parameter set tried: {values: (score, [evaluation per log])}, NaN score with
+    the reason for sets the filter refused."""
+    names: List[str]
+    metric: str
+    results: Dict[Tuple[float, ...], Tuple[float, Any]] = field(default_factory=dict)
+
+    def ranked(self) -> List[Tuple[float, ...]]:
+        """The sets that could be scored, best first."""
+        good = [p for p in self.results if math.isfinite(self.results[p][0])]
+        return sorted(good, key=lambda p: self.results[p][0])
+
+    @property
+    def best(self) -> Optional[Tuple[float, ...]]:
+        r = self.ranked()
+        return r[0] if r else None
+
+    def score(self, p: Tuple[float, ...]) -> float:
+        return self.results[p][0]
+
+
+class Tuner:
+    """Score parameter sets of one 3-D filter on sessions with a reference orientation."""
+
+    def __init__(self, sessions: Sequence[Session], name: str,
+                 fixed: Optional[Mapping[str, Any]] = None, metric: Optional[str] = None,
+                 run: RunOptions = RunOptions(), score: ScoreOptions = ScoreOptions()) -> None:
+        cls = reference_class(name)
+        if cls.kind == "1d":
+            raise ValueError(f"tune: {name} is a single-axis filter; tune evaluates 3D filters "
+                             "against a reference orientation")
+        self.metric = metric or ("total" if cls.kind == "ahrs" else "inclination")
+        if self.metric not in METRICS:
+            raise ValueError(f"--metric: one of {', '.join(METRICS)}")
+        if cls.kind != "ahrs" and self.metric != "inclination":
+            raise ValueError(f"--metric {self.metric}: {name} has no heading reference; use "
+                             "inclination")
+        for s in sessions:
+            if s.log.q_ref is None:
+                raise NothingComputed(f"{s.log.path}: no reference orientation (q_w..q_z): "
+                                      "nothing to tune against")
+        self.sessions, self.name, self.cls = list(sessions), name, cls
+        self.fixed = dict(fixed or {})
+        self.run_options, self.score_options = run, score
+        self.inputs = [s.inputs(name)[0] for s in self.sessions]
+
+    def default_grid(self, points: int) -> Grid:
+        """Every positive float parameter with a default, /10 .. x10 around it, log-spaced."""
+        eff = effective_params(self.name, resolve_params(self.name, 0.01, self.fixed,
+                                                             self.run_options.preset))
+        grid = [(k, list(np.geomspace(v / 10, v * 10, points))) for k, v in eff.items()
+                if k != "dt" and k not in self.fixed and isinstance(v, float) and v > 0]
+        if not grid:
+            raise ValueError(f"tune: {self.name} has no positive float parameter to tune; "
+                             "give --grid")
+        return grid
+
+    def idle(self, grid: Grid, samples: int = 4000) -> List[str]:
+        """The parameters of ``grid`` whose x10 leaves the first log's first states unchanged
+        (acc_1g with the accelerometer gate off): varying them only costs time."""
+        head = [np.asarray(a)[:samples] for a in self.inputs[0]]
+        eff = effective_params(self.name, resolve_params(self.name, 0.01, self.fixed,
+                                                             self.run_options.preset))
+        s0 = self.sessions[0]
+
+        def states(over: Mapping[str, Any]) -> np.ndarray:
+            f, _, _, _, _ = s0.make(self.name, {**self.fixed, **over}, self.run_options)
+            return f.run(*head)
+        base = states({})
+        out = []
+        for k, _ in grid:
+            try:
+                same = np.array_equal(states({k: eff[k] * 10.0}), base, equal_nan=True)
+            except FilterError:
+                same = False
+            if same:
+                out.append(k)
+        return out
+
+    def score_set(self, names: Sequence[str], values: Sequence[float]) -> Tuple[float, list]:
+        over = {**self.fixed, **dict(zip(names, values))}
+        evs = []
+        for s, inp in zip(self.sessions, self.inputs):
+            f, _, dts, _, _ = s.make(self.name, over, self.run_options)
+            S = f.run(*inp, **({} if dts is None else {"dt": dts}))
+            evs.append(s.score_estimate(self.cls, chunked_estimate(self.cls, S),
+                                        self.score_options))
+        return mean_over_trials(evs)[self.metric], evs
+
+    def search(self, grid: Grid, refine: int = 2, jobs: Optional[int] = None,
+               progress: Optional[Callable[[int, int], None]] = None) -> TuneResult:
+        """The grid, then ``refine`` rounds of a 5-point grid per parameter between the best
+        point's neighbours."""
+        names = [k for k, _ in grid]
+        resolve_params(self.name, self.sessions[0].log.dt,
+                       {**self.fixed, **{k: v[0] for k, v in grid}},
+                       self.run_options.preset)                           # names exist
+        res = TuneResult(names, self.metric)
+        workers = max(1, jobs or os.cpu_count() or 1)
+
+        def run(points: List[Tuple[float, ...]]) -> None:
+            done = 0
+            with cf.ThreadPoolExecutor(max_workers=workers) as ex:
+                futs = {ex.submit(self.score_set, names, p): p for p in points}
+                for fu in cf.as_completed(futs):
+                    p = futs[fu]
+                    try:
+                        res.results[p] = fu.result()
+                    except FilterError as e:
+                        res.results[p] = (math.nan, str(e))
+                    done += 1
+                    if progress:
+                        progress(done, len(points))
+
+        run([tuple(p) for p in itertools.product(*[v for _, v in grid])])
+        for _ in range(refine):
+            best = res.best
+            if best is None:
+                break
+            axes = []
+            for j in range(len(grid)):
+                vs = sorted({p[j] for p in res.results})
+                i = vs.index(best[j])
+                lo, hi = vs[max(i - 1, 0)], vs[min(i + 1, len(vs) - 1)]
+                axes.append(np.geomspace(lo, hi, 5) if lo > 0 else np.linspace(lo, hi, 5))
+            new = [tuple(float(x) for x in p) for p in itertools.product(*axes)]
+            run([p for p in new if p not in res.results])
+        if res.best is None:
+            why = next((v[1] for v in res.results.values() if isinstance(v[1], str)), "")
+            raise NothingComputed(f"tune: no parameter set could be evaluated "
+                                  f"({len(res.results)} tried)" + (f"; e.g. {why}" if why else ""))
+        return res
