@@ -158,11 +158,11 @@ def chunked_estimate(cls: Any, S: np.ndarray, chunk: int = 1 << 16) -> Optional[
     parts = [estimate(cls, S[k:k + chunk]) for k in range(0, len(S), chunk)]
     if parts[0] is None:
         return None
-    e = parts[0]
+    e: Any = parts[0]
     if e.angle is not None:
-        e.angle = np.concatenate([p.angle for p in parts])
+        e.angle = np.concatenate([p.angle for p in parts])          # type: ignore[union-attr]
     else:
-        e.q = np.concatenate([p.q for p in parts])
+        e.q = np.concatenate([p.q for p in parts])                  # type: ignore[union-attr]
     return e
 
 
@@ -211,7 +211,7 @@ class _FusionKind:
     def __init__(self, has_mag: bool) -> None:
         self.__name__ = FUSION
         self.kind = "ahrs" if has_mag else "imu"
-        self.state_names = tuple(reference.FusionAHRS.state_names)
+        self.state_names = tuple(reference.FusionAHRS.state_names)  # type: ignore[attr-defined]
 
 
 @dataclass
@@ -251,7 +251,7 @@ class Run:
         notes = []
         for j, n in enumerate(self.cls.state_names):
             cols[n] = self.states[:, j]
-        est = self.estimate
+        est: Any = self.estimate
         if est is None:
             notes.append(f"{why_no_estimate(self.cls)}; writing the state only")
         elif est.angle is not None:
@@ -333,7 +333,7 @@ class Session:
              options: RunOptions = RunOptions()) -> Tuple[Any, Dict[str, Any], Any, Optional[str],
                                                           List[str]]:
         """(filter instance, its parameters, dt for run(), init description, notes)."""
-        log, notes = self.log, []
+        log, notes = self.log, []  # type: Log, List[str]
         if name == FUSION:
             mod = imufuse_c if options.backend == "c" else reference
             params = dict(params or {})
@@ -349,13 +349,13 @@ class Session:
             dts = log.dts if log.dts is not None else log.dt
             return f, params, dts, None, notes
         cls = reference_class(name)
-        full = resolve_params(name, log.dt, params, options.preset)
+        full = resolve_params(name, self.dt(), params, options.preset)
         dts = None
         if not log.fixed_rate and log.dts is not None:
             if supports_dt_array(name):
                 dts = log.dts
-            elif np.max(np.abs(log.dts - log.dt)) > 1e-6 * log.dt:
-                notes.append(f"fixed dt {log.dt:.6g} s (this build has no per-sample dt)")
+            elif np.max(np.abs(log.dts - self.dt())) > 1e-6 * self.dt():
+                notes.append(f"fixed dt {self.dt():.6g} s (this build has no per-sample dt)")
         init = init_value(options.init)
         kw: Dict[str, Any] = {}
         desc: Optional[str] = None
@@ -378,6 +378,12 @@ class Session:
                     else str(init))
         f = make_filter(name, options.backend, options.dtype, {**full, **kw})
         return f, full, dts, desc, notes
+
+    def dt(self) -> float:
+        """The log's sample period (LogError for a log read without time or rate)."""
+        if self.log.dt is None:
+            raise LogError(f"{self.log.path}: no time column and no rate: give --rate HZ")
+        return float(self.log.dt)
 
     def describe_time(self, dts: Any) -> str:
         if dts is not None and np.ndim(dts):
@@ -475,7 +481,7 @@ class Session:
             return None
         mask = self.mask(options)
         if cls.kind == "1d":
-            ref = self.reference_angle(axis, options)
+            ref: Any = self.reference_angle(axis, options)
             use = np.isfinite(ref) & (mask if mask is not None else True)
             e = np.degrees(np.abs(est.angle - ref))[use]
             n = int(np.count_nonzero(use))
@@ -502,11 +508,12 @@ class Session:
         cur = (self.ref_frame(options), options.ref_direction)
         mask = self.mask(options)
         best = None
+        q: Any = run.estimate.q if run.estimate is not None else None
         for fr in ("NWU", "ENU", "NED"):
             for dr in ("sensor-to-earth", "earth-to-sensor"):
                 if (fr, dr) == cur:
                     continue
-                e = evaluate(run.estimate.q, self.log.q_ref, est_frame="NWU", ref_frame=fr,
+                e = evaluate(q, self.log.q_ref, est_frame="NWU", ref_frame=fr,
                              ref_direction=dr, movement=mask,
                              remove_heading_offset=options.heading_offset, per_sample=False)
                 score = max(e.inclination, e.heading if heading else 0.0)

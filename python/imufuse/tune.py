@@ -47,7 +47,7 @@ def grid_spec(text: str) -> Tuple[str, List[float]]:
                 raise ValueError
             if not lin and (a <= 0 or b <= 0):
                 raise OverflowError
-            vals = np.linspace(a, b, num) if lin else np.geomspace(a, b, num)
+            vals = list(np.linspace(a, b, num) if lin else np.geomspace(a, b, num))
         else:
             vals = [float(x) for x in v.split(",")]
     except OverflowError:
@@ -154,7 +154,7 @@ class Tuner:
         """The grid, then ``refine`` rounds of a 5-point grid per parameter between the best
         point's neighbours."""
         names = [k for k, _ in grid]
-        resolve_params(self.name, self.sessions[0].log.dt,
+        resolve_params(self.name, self.sessions[0].dt(),
                        {**self.fixed, **{k: v[0] for k, v in grid}},
                        self.run_options.preset)                           # names exist
         res = TuneResult(names, self.metric)

@@ -16,6 +16,7 @@ Wikipedia constant-acceleration example) and the seed's rejected
 alternative ``|a| - 1`` (:func:`norm_accel`).
 """
 import math
+import os
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -221,7 +222,7 @@ _PRESSURE_UNITS = {None: 1.0, "pa": 1.0, "hpa": 100.0, "mbar": 100.0, "kpa": 100
 def _baro_column(path, header, given):
     """(header index, name, factor to Pa or m) of the barometer column."""
     hits = []
-    for name, spellings in BARO_NAMES.items():
+    for name in BARO_NAMES:
         if name in given:
             h = given[name]
             if h not in header:
@@ -230,8 +231,14 @@ def _baro_column(path, header, given):
             hits.append((header.index(h), name))
             continue
         for i, h in enumerate(header):
-            base, _unit = _io.split_unit(h)
-            if _io._norm(base) in spellings:
+            base, unit = _io.split_unit(h)
+            if _io._norm(base) not in {s for names in BARO_NAMES.values() for s in names}:
+                continue
+            # the unit decides where the header says one: "Baro (hPa)" is a pressure
+            kind = ("pressure" if unit is not None and unit.lower() in _PRESSURE_UNITS else
+                    "baro_alt" if unit is not None and unit.lower() == "m" else
+                    "pressure" if _io._norm(base) in BARO_NAMES["pressure"] else "baro_alt")
+            if kind == name:
                 hits.append((i, name))
     if len(hits) != 1:
         found = ", ".join(repr(header[i]) for i, _ in hits) or "none"
@@ -274,10 +281,14 @@ def read_vario_log(path, gyr_unit=None, acc_unit=None, p_ref=P_REF, *, columns=N
         if "time" not in s.log.sources:
             raise VarioLogError(f"{path}: no time column; the vario needs the time of every "
                                 'sample (name it with --columns time="HEADER")')
-        rows = [r for r in _read_csv_rows(path) if not r[0].lstrip().startswith("#")]
+        rows = ([] if os.path.splitext(str(path))[1].lower() in (".npz", ".h5", ".hdf5", ".hdf")
+                else [r for r in _read_csv_rows(path) if not r[0].lstrip().startswith("#")])
     except _LogError as e:
         raise VarioLogError(str(e), e.kind) from None
     log = s.log
+    if not rows or os.path.splitext(str(path))[1].lower() in (".npz", ".h5", ".hdf5", ".hdf"):
+        raise VarioLogError(f"{path}: no barometer: the vario reads CSV logs with a barometer "
+                            "column (pressure or baro_alt) on the rows where it sampled")
     header = [h.strip() for h in rows[0]]
     col, name, factor = _baro_column(path, header, baro_given)
     if len(rows) - 1 != len(log):
