@@ -58,8 +58,10 @@ def table(paths):
         cls = reference_class(n)
         metric = "total" if cls.kind == "ahrs" else "inclination"
         d = effective_params(n, resolve_params(n, 0.01))
-        gains = ", ".join(f"{k}={v:g}" for k, v in d.items()
-                          if isinstance(v, float) and k != "dt") or "-"
+        shown = {k: v for k, v in d.items() if isinstance(v, float) and k != "dt"
+                 and not (k == "acc_1g" and d.get("acc_gate") is None)}   # no effect then
+        gains = ("defaults" if len(shown) > 4 else
+                 ", ".join(f"{k}={v:g}" for k, v in shown.items()) or "-")
         rows.append((n, cls.kind, gains, base[n]))
         pub = entry(n).presets.get("published")
         if pub is not None and effective_params(n, resolve_params(n, 0.01, preset="published")) != d:

@@ -4,6 +4,7 @@ import os
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 import imufuse
@@ -54,3 +55,26 @@ def test_validate_without_cffi_names_the_extra(tmp_path):
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
     assert p.returncode == 5, p.stderr
     assert "pip install 'imufuse[firmware]'" in p.stderr and "internal error" not in p.stderr
+
+
+def test_preset_on_the_command_line(tmp_path):
+    """--preset published runs the published settings (the defaults' bits where they are the
+    same), --param applies on top of it, and an unknown preset is a usage error naming
+    the presets."""
+    from imufuse.io import example_log
+    log = example_log()
+
+    def run(*extra):
+        out = tmp_path / f"o{len(list(tmp_path.iterdir()))}.npz"
+        p = subprocess.run([sys.executable, "-m", "imufuse", "run", log, "-f", "MahonyAHRS",
+                            "-o", str(out), *extra], capture_output=True, text=True)
+        return p, out
+    p0, o0 = run()
+    p1, o1 = run("--preset", "published")
+    p2, o2 = run("--preset", "published", "-p", "ki=0.05")
+    assert p0.returncode == p1.returncode == p2.returncode == 0, p2.stderr
+    a, b, c = (np.load(o)["q0"] for o in (o0, o1, o2))
+    assert np.array_equal(a, b) and not np.array_equal(b, c)
+    assert "kp=0.5, ki=0.05" in p2.stderr
+    p, _ = run("--preset", "nope")
+    assert p.returncode == 2 and "no preset 'nope'; presets: published" in p.stderr, p.stderr

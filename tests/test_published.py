@@ -354,3 +354,28 @@ def test_oracle_invsqrt_is_the_fast_one(oracle):
     want = np.array([_math.invsqrt_fast(np.float32, x) for x in xs], dtype=np.float32)
     assert_same_bits(got, want)
     assert oracle.oracle_invsqrt(4.0) != 0.5
+
+
+def test_published_presets_are_the_published_settings():
+    """`preset="published"` (catalogue, --preset published) is what the published files
+    define: betaDef for Madgwick, twoKpDef / 2 and twoKiDef / 2 for Mahony, read from the
+    fetched sources (kept there as comments by the class port); the command line's
+    defaults of these filters are those settings."""
+    from imufuse.catalogue import entry, resolve_params
+    from imufuse.session import effective_params
+    with tarfile.open(_fetch_sdist()) as tar:
+        text = {n: tar.extractfile(SRC_DIR + n).read().decode() for n in SRC_FILES}
+
+    def define(name, src):
+        m = re.search(rf"#define\s+{name}\s+\(?([^/\n]*?)\)?\s*//", text[src])
+        assert m, f"{name} not found in {src}"
+        return float(eval(m.group(1).replace("f", "")))     # e.g. "2.0f * 0.5f"
+    published = {"MadgwickIMU": dict(beta=define("betaDef", "MadgwickAHRS.cpp")),
+                 "MadgwickAHRS": dict(beta=define("betaDef", "MadgwickAHRS.cpp")),
+                 "MahonyIMU": dict(kp=define("twoKpDef", "MahonyAHRS.cpp") / 2,
+                                   ki=define("twoKiDef", "MahonyAHRS.cpp") / 2)}
+    published["MahonyAHRS"] = published["MahonyIMU"]
+    for name, want in published.items():
+        assert dict(entry(name).presets["published"]) == want, name
+        assert resolve_params(name, DT, preset="published") == {"dt": DT, **want}, name
+        assert {k: effective_params(name, resolve_params(name, DT))[k] for k in want} == want, name

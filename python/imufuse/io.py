@@ -139,12 +139,20 @@ class Log:
         """make() computed once while the columns it reads (the same array objects), dt and
         fixed_rate stay as they were; read-only, since every access shares it. A column
         replaced (imufuse.preprocess) or dt changed gives a new array."""
-        cache = self.__dict__.setdefault("_cache", {})
-        token = (tuple(self.columns.get(n) for n in names), self.dt, self.fixed_rate)
+        cache = self.__dict__.get("_cache")
+        if cache is None:
+            cache = self.__dict__["_cache"] = {}
         hit = cache.get(key)
-        if hit is not None and len(hit[0][0]) == len(token[0]) and \
-                all(a is b for a, b in zip(hit[0][0], token[0])) and hit[0][1:] == token[1:]:
-            return hit[1]
+        cols = self.columns
+        if hit is not None:
+            (arrays, dt, fixed), value = hit
+            if dt == self.dt and fixed == self.fixed_rate:
+                for n, a in zip(names, arrays):
+                    if cols.get(n) is not a:
+                        break
+                else:
+                    return value
+        token = (tuple(cols.get(n) for n in names), self.dt, self.fixed_rate)
         value = make()
         if isinstance(value, np.ndarray):
             value.flags.writeable = False
