@@ -1,4 +1,4 @@
-"""Speed of seed 002's variometer (pytest-benchmark; `pytest bench/test_bench_vario.py`).
+"""Speed of Nair's variometer (pytest-benchmark; `pytest bench/test_bench_vario.py`).
 
   run        imufuse_c VarioKF.run() on 10^6 barometer samples -> ns per sample
   update     VarioKF.update() per call from Python

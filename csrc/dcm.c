@@ -25,8 +25,7 @@ static int dcm_orthonormal(const imf_dcm_state_t *const r)
            && dcm_small(xy) && dcm_small(xz) && dcm_small(yz);
 }
 
-void imf_dcm_init(imf_dcm_t *const self, const imf_real dt, const imf_real kp,
-                  const imf_real ki)
+void imf_dcm_init(imf_dcm_t *const self, const imf_real dt, const imf_real kp, const imf_real ki)
 {
     self->kp = kp;
     self->ki = ki;
@@ -65,8 +64,8 @@ void imf_dcm_set_attitude(imf_dcm_t *const self, const imf_attitude_t *const att
     self->x.r22 = att->r[8];
 }
 
-void imf_dcm_update(imf_dcm_t *const self, const imf_real gx, const imf_real gy,
-                    const imf_real gz, const imf_real ax, const imf_real ay, const imf_real az)
+void imf_dcm_update(imf_dcm_t *const self, const imf_real gx, const imf_real gy, const imf_real gz,
+                    const imf_real ax, const imf_real ay, const imf_real az)
 {
     const imf_dcm_state_t *const r = &self->x;
     imf_real n2, norm, nx, ny, nz, wx, wy, wz, hx, hy, hz;

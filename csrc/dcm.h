@@ -43,11 +43,11 @@ typedef struct {
 #define IMF_DCM_ORTHO_TOL IMF_R(0.01)
 
 typedef struct {
-    imf_real dt;      /* sample period, s */
-    imf_real kp;      /* proportional gain, 1/s */
-    imf_real ki;      /* integral gain Ki, 1/s^2 (kept for set_dt) */
-    imf_real ki_dt;   /* Ki dt, 1/s */
-    uint32_t skipped; /* samples rejected by the non-finite policy */
+    imf_real dt;       /* sample period, s */
+    imf_real kp;       /* proportional gain, 1/s */
+    imf_real ki;       /* integral gain Ki, 1/s^2 (kept for set_dt) */
+    imf_real ki_dt;    /* Ki dt, 1/s */
+    uint32_t skipped;  /* samples rejected by the non-finite policy */
     imf_dcm_state_t x; /* the state (above): the estimate; write it only through the API */
 } imf_dcm_t;
 

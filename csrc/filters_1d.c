@@ -103,8 +103,8 @@ void imf_mahony1d_update(imf_mahony1d_t *const self, const imf_real rate, const 
 }
 
 /* ---- Eq. 3.3 ----------------------------------------------------------- */
-void imf_kalman1d_bias_init(imf_kalman1d_bias_t *const self, const imf_real dt,
-                            const imf_real k0, const imf_real k1, const int bias_sign)
+void imf_kalman1d_bias_init(imf_kalman1d_bias_t *const self, const imf_real dt, const imf_real k0,
+                            const imf_real k1, const int bias_sign)
 {
     imf_kalman1d_bias_set_dt(self, dt);
     self->k0 = k0;
@@ -143,8 +143,8 @@ void imf_kalman1d_bias_update(imf_kalman1d_bias_t *const self, const imf_real ra
 }
 
 /* ---- Eq. 3.6 / 3.9 ----------------------------------------------------- */
-void imf_mahony1d_bias_init(imf_mahony1d_bias_t *const self, const imf_real dt,
-                            const imf_real kp, const imf_real ki, const int integrate_first)
+void imf_mahony1d_bias_init(imf_mahony1d_bias_t *const self, const imf_real dt, const imf_real kp,
+                            const imf_real ki, const int integrate_first)
 {
     self->kp = kp;
     self->ki = ki;

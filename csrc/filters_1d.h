@@ -40,7 +40,8 @@ typedef struct {
     imf_real alpha;           /* weight of the gyro path, 0..1 */
     imf_real one_minus_alpha; /* 1 - alpha, weight of the accelerometer */
     uint32_t skipped;         /* samples rejected by the non-finite policy */
-    imf_complementary1d_state_t x; /* the state (above): the estimate; write it only through the API */
+    imf_complementary1d_state_t
+        x; /* the state (above): the estimate; write it only through the API */
 } imf_complementary1d_t;
 
 /* dt: s; alpha: dimensionless, alpha = (T/dt) / (1 + T/dt) for time constant T. */
@@ -59,7 +60,7 @@ typedef struct {
     imf_real dt;            /* sample period, s */
     imf_real k0;            /* Kalman gain K0, 0..1 */
     imf_real one_minus_k0;  /* 1 - K0 */
-    uint32_t skipped; /* samples rejected by the non-finite policy (state kept) */
+    uint32_t skipped;       /* samples rejected by the non-finite policy (state kept) */
     imf_kalman1d_state_t x; /* the state (above): the estimate; write it only through the API */
 } imf_kalman1d_t;
 
@@ -76,9 +77,9 @@ typedef struct {
 } imf_mahony1d_state_t;
 
 typedef struct {
-    imf_real dt; /* sample period, s */
-    imf_real kp; /* proportional gain, 1/s */
-    uint32_t skipped; /* samples rejected by the non-finite policy (state kept) */
+    imf_real dt;            /* sample period, s */
+    imf_real kp;            /* proportional gain, 1/s */
+    uint32_t skipped;       /* samples rejected by the non-finite policy (state kept) */
     imf_mahony1d_state_t x; /* the state (above): the estimate; write it only through the API */
 } imf_mahony1d_t;
 
@@ -101,13 +102,14 @@ typedef struct {
     imf_real one_minus_k0; /* 1 - K0 */
     imf_real k1;           /* gain K1 of the bias, 1/s */
     imf_real bias_sign;    /* -1: rate - b (natural sign); +1: rate + b (Corollary #2) */
-    uint32_t skipped; /* samples rejected by the non-finite policy (state kept) */
-    imf_kalman1d_bias_state_t x; /* the state (above): the estimate; write it only through the API */
+    uint32_t skipped;      /* samples rejected by the non-finite policy (state kept) */
+    imf_kalman1d_bias_state_t
+        x; /* the state (above): the estimate; write it only through the API */
 } imf_kalman1d_bias_t;
 
 /* bias_sign: -1 or +1 */
-void imf_kalman1d_bias_init(imf_kalman1d_bias_t *self, imf_real dt, imf_real k0,
-                            imf_real k1, int bias_sign);
+void imf_kalman1d_bias_init(imf_kalman1d_bias_t *self, imf_real dt, imf_real k0, imf_real k1,
+                            int bias_sign);
 /* One sample: rate rad/s (gyro), angle rad (accelerometer). A non-finite input, or an update whose result is not finite, is rejected: the state keeps its value and skipped counts it. */
 void imf_kalman1d_bias_update(imf_kalman1d_bias_t *self, imf_real rate, imf_real angle);
 /* dt: s (alpha, K0 and the gains stay as given) */
@@ -120,18 +122,19 @@ typedef struct {
 } imf_mahony1d_bias_state_t;
 
 typedef struct {
-    imf_real dt;             /* sample period, s */
-    imf_real kp;             /* proportional gain, 1/s (K_p' of Eq. 3.9 if integrate_first) */
-    imf_real ki;             /* integral gain Ki, 1/s^2 (kept for set_dt) */
-    imf_real ki_dt;          /* Ki * dt, 1/s */
-    int integrate_first;     /* 0: Eq. 3.6; 1: reversed order, Eq. 3.9 */
-    uint32_t skipped; /* samples rejected by the non-finite policy (state kept) */
-    imf_mahony1d_bias_state_t x; /* the state (above): the estimate; write it only through the API */
+    imf_real dt;         /* sample period, s */
+    imf_real kp;         /* proportional gain, 1/s (K_p' of Eq. 3.9 if integrate_first) */
+    imf_real ki;         /* integral gain Ki, 1/s^2 (kept for set_dt) */
+    imf_real ki_dt;      /* Ki * dt, 1/s */
+    int integrate_first; /* 0: Eq. 3.6; 1: reversed order, Eq. 3.9 */
+    uint32_t skipped;    /* samples rejected by the non-finite policy (state kept) */
+    imf_mahony1d_bias_state_t
+        x; /* the state (above): the estimate; write it only through the API */
 } imf_mahony1d_bias_t;
 
 /* kp: 1/s; ki: 1/s^2; integrate_first: 0 or 1 */
-void imf_mahony1d_bias_init(imf_mahony1d_bias_t *self, imf_real dt, imf_real kp,
-                            imf_real ki, int integrate_first);
+void imf_mahony1d_bias_init(imf_mahony1d_bias_t *self, imf_real dt, imf_real kp, imf_real ki,
+                            int integrate_first);
 /* One sample: rate rad/s (gyro), angle rad (accelerometer). A non-finite input, or an update whose result is not finite, is rejected: the state keeps its value and skipped counts it. */
 void imf_mahony1d_bias_update(imf_mahony1d_bias_t *self, imf_real rate, imf_real angle);
 /* dt: s; recomputes the constants derived from dt */
@@ -157,18 +160,19 @@ typedef struct {
 } imf_complementary1d_bias_state_t;
 
 typedef struct {
-    imf_real dt;           /* sample period, s */
-    imf_real kp, ki;       /* the gains, 1/s and 1/s^2 (kept for set_dt) */
-    imf_real b0a;          /* (Kp dt + Ki dt^2) / a0: weight of the angle error */
-    imf_real b0w;          /* dt / a0: weight of the rate */
-    imf_real ki_dt;        /* Ki dt */
+    imf_real dt;      /* sample period, s */
+    imf_real kp, ki;  /* the gains, 1/s and 1/s^2 (kept for set_dt) */
+    imf_real b0a;     /* (Kp dt + Ki dt^2) / a0: weight of the angle error */
+    imf_real b0w;     /* dt / a0: weight of the rate */
+    imf_real ki_dt;   /* Ki dt */
     uint32_t skipped; /* samples rejected by the non-finite policy (state kept) */
-    imf_complementary1d_bias_state_t x; /* the state (above): the estimate; write it only through the API */
+    imf_complementary1d_bias_state_t
+        x; /* the state (above): the estimate; write it only through the API */
 } imf_complementary1d_bias_t;
 
 /* kp: 1/s; ki: 1/s^2 (omega0 = sqrt(ki), xi = kp / (2 sqrt(ki)), Eq. 3.11) */
-void imf_complementary1d_bias_init(imf_complementary1d_bias_t *self, imf_real dt,
-                                   imf_real kp, imf_real ki);
+void imf_complementary1d_bias_init(imf_complementary1d_bias_t *self, imf_real dt, imf_real kp,
+                                   imf_real ki);
 /* One sample: rate rad/s (gyro), angle rad (accelerometer). A non-finite input, or an update whose result is not finite, is rejected: the state keeps its value and skipped counts it. */
 void imf_complementary1d_bias_update(imf_complementary1d_bias_t *self, imf_real rate,
                                      imf_real angle);

@@ -1,7 +1,7 @@
 /*
- * FusionAHRS (seed 004, imufusion 1.2.3). See fusion_ahrs.h. The pure-Python
+ * FusionAHRS (Longbin's Fusion walkthrough, imufusion 1.2.3). See fusion_ahrs.h. The pure-Python
  * twin is python/imufuse/reference/fusion.py: the same lines in the same
- * order. Step comments name the parts of the algorithm in seed 004.
+ * order. Step comments name the parts of the algorithm in Longbin's walkthrough.
  */
 #include "fusion_ahrs.h"
 
@@ -56,7 +56,8 @@ void imf_fusion_ahrs_set_settings(imf_fusion_ahrs_t *const self,
     if (self->x.initialising == 0) {
         self->x.ramped_gain = set->gain;
     }
-    set->ramped_gain_step = (IMF_FUSION_INITIAL_GAIN - set->gain) / IMF_FUSION_INITIALISATION_PERIOD;
+    set->ramped_gain_step =
+        (IMF_FUSION_INITIAL_GAIN - set->gain) / IMF_FUSION_INITIALISATION_PERIOD;
 }
 
 void imf_fusion_ahrs_reset(imf_fusion_ahrs_t *const self)
@@ -91,8 +92,8 @@ void imf_fusion_ahrs_init(imf_fusion_ahrs_t *const self,
 {
     imf_fusion_ahrs_settings_t defaults;
     imf_fusion_ahrs_default_settings(&defaults);
-    self->set.invsqrt = invsqrt == IMF_FUSION_INVSQRT_FAST ? IMF_FUSION_INVSQRT_FAST
-                                                           : IMF_FUSION_INVSQRT_EXACT;
+    self->set.invsqrt =
+        invsqrt == IMF_FUSION_INVSQRT_FAST ? IMF_FUSION_INVSQRT_FAST : IMF_FUSION_INVSQRT_EXACT;
     self->skipped = 0;
     self->x.initialising = 1;
     imf_fusion_ahrs_set_settings(self, settings != NULL ? settings : &defaults);
@@ -101,7 +102,7 @@ void imf_fusion_ahrs_init(imf_fusion_ahrs_t *const self,
 
 static imf_fusion_quat_t get_q(const imf_fusion_ahrs_state_t *const x)
 {
-    const imf_fusion_quat_t q = {x->q0, x->q1, x->q2, x->q3};
+    const imf_fusion_quat_t q = { x->q0, x->q1, x->q2, x->q3 };
     return q;
 }
 
@@ -119,14 +120,13 @@ static imf_fusion_vec_t half_gravity(const imf_fusion_ahrs_t *const self)
 {
     const imf_fusion_ahrs_state_t *const x = &self->x;
     if (self->set.convention == IMF_FUSION_NED) {
-        const imf_fusion_vec_t g = {x->q0 * x->q2 - x->q1 * x->q3,
-                                    IMF_R(-1.0) * (x->q2 * x->q3 + x->q0 * x->q1),
-                                    IMF_R(0.5) - x->q0 * x->q0 - x->q3 * x->q3};
+        const imf_fusion_vec_t g = { x->q0 * x->q2 - x->q1 * x->q3,
+                                     IMF_R(-1.0) * (x->q2 * x->q3 + x->q0 * x->q1),
+                                     IMF_R(0.5) - x->q0 * x->q0 - x->q3 * x->q3 };
         return g;
     } else {
-        const imf_fusion_vec_t g = {x->q1 * x->q3 - x->q0 * x->q2,
-                                    x->q2 * x->q3 + x->q0 * x->q1,
-                                    x->q0 * x->q0 - IMF_R(0.5) + x->q3 * x->q3};
+        const imf_fusion_vec_t g = { x->q1 * x->q3 - x->q0 * x->q2, x->q2 * x->q3 + x->q0 * x->q1,
+                                     x->q0 * x->q0 - IMF_R(0.5) + x->q3 * x->q3 };
         return g;
     }
 }
@@ -139,19 +139,19 @@ static imf_fusion_vec_t half_magnetic(const imf_fusion_ahrs_t *const self)
 {
     const imf_fusion_ahrs_state_t *const x = &self->x;
     if (self->set.convention == IMF_FUSION_ENU) {
-        const imf_fusion_vec_t m = {IMF_R(0.5) - x->q0 * x->q0 - x->q1 * x->q1,
-                                    x->q0 * x->q3 - x->q1 * x->q2,
-                                    IMF_R(-1.0) * (x->q1 * x->q3 + x->q0 * x->q2)};
+        const imf_fusion_vec_t m = { IMF_R(0.5) - x->q0 * x->q0 - x->q1 * x->q1,
+                                     x->q0 * x->q3 - x->q1 * x->q2,
+                                     IMF_R(-1.0) * (x->q1 * x->q3 + x->q0 * x->q2) };
         return m;
     } else if (self->set.convention == IMF_FUSION_NED) {
-        const imf_fusion_vec_t m = {IMF_R(-1.0) * (x->q1 * x->q2 + x->q0 * x->q3),
-                                    IMF_R(0.5) - x->q0 * x->q0 - x->q2 * x->q2,
-                                    x->q0 * x->q1 - x->q2 * x->q3};
+        const imf_fusion_vec_t m = { IMF_R(-1.0) * (x->q1 * x->q2 + x->q0 * x->q3),
+                                     IMF_R(0.5) - x->q0 * x->q0 - x->q2 * x->q2,
+                                     x->q0 * x->q1 - x->q2 * x->q3 };
         return m;
     } else {
-        const imf_fusion_vec_t m = {x->q1 * x->q2 + x->q0 * x->q3,
-                                    x->q0 * x->q0 - IMF_R(0.5) + x->q2 * x->q2,
-                                    x->q2 * x->q3 - x->q0 * x->q1};
+        const imf_fusion_vec_t m = { x->q1 * x->q2 + x->q0 * x->q3,
+                                     x->q0 * x->q0 - IMF_R(0.5) + x->q2 * x->q2,
+                                     x->q2 * x->q3 - x->q0 * x->q1 };
         return m;
     }
 }
@@ -195,7 +195,8 @@ static void ahrs_update(imf_fusion_ahrs_t *const self, const imf_fusion_vec_t gy
     x->acc_z = acc.z;
 
     /* gyroscope overrange: start again from the current attitude */
-    if (imf_fusion_fabs(gyr.x) > set->gyroscope_range || imf_fusion_fabs(gyr.y) > set->gyroscope_range
+    if (imf_fusion_fabs(gyr.x) > set->gyroscope_range
+        || imf_fusion_fabs(gyr.y) > set->gyroscope_range
         || imf_fusion_fabs(gyr.z) > set->gyroscope_range) {
         q = get_q(x);
         imf_fusion_ahrs_reset(self);
@@ -221,7 +222,8 @@ static void ahrs_update(imf_fusion_ahrs_t *const self, const imf_fusion_vec_t gy
     half_acc_fb.z = IMF_R(0.0);
     x->accelerometer_ignored = 1;
     if (!imf_fusion_vec_is_zero(acc)) {
-        const imf_fusion_vec_t fb = feedback(imf_fusion_vec_normalise(acc, invsqrt), half_grav, invsqrt);
+        const imf_fusion_vec_t fb =
+            feedback(imf_fusion_vec_normalise(acc, invsqrt), half_grav, invsqrt);
         x->half_acc_fb_x = fb.x;
         x->half_acc_fb_y = fb.y;
         x->half_acc_fb_z = fb.z;
@@ -251,8 +253,9 @@ static void ahrs_update(imf_fusion_ahrs_t *const self, const imf_fusion_vec_t gy
     x->magnetometer_ignored = 1;
     if (!imf_fusion_vec_is_zero(mag)) {
         const imf_fusion_vec_t half_mag = half_magnetic(self);
-        const imf_fusion_vec_t fb = feedback(
-            imf_fusion_vec_normalise(imf_fusion_vec_cross(half_grav, mag), invsqrt), half_mag, invsqrt);
+        const imf_fusion_vec_t fb =
+            feedback(imf_fusion_vec_normalise(imf_fusion_vec_cross(half_grav, mag), invsqrt),
+                     half_mag, invsqrt);
         x->half_mag_fb_x = fb.x;
         x->half_mag_fb_y = fb.y;
         x->half_mag_fb_z = fb.z;
@@ -278,7 +281,8 @@ static void ahrs_update(imf_fusion_ahrs_t *const self, const imf_fusion_vec_t gy
     /* gyroscope in rad/s, halved, plus the gained feedback */
     half_gyr = imf_fusion_vec_scale(gyr, imf_fusion_deg2rad(IMF_R(0.5)));
     adjusted = imf_fusion_vec_add(
-        half_gyr, imf_fusion_vec_scale(imf_fusion_vec_add(half_acc_fb, half_mag_fb), x->ramped_gain));
+        half_gyr,
+        imf_fusion_vec_scale(imf_fusion_vec_add(half_acc_fb, half_mag_fb), x->ramped_gain));
 
     /* q <- normalise(q + q (x) (0, adjusted dt)) */
     q = get_q(x);
@@ -290,12 +294,12 @@ static void ahrs_update(imf_fusion_ahrs_t *const self, const imf_fusion_vec_t gy
 static void ahrs_set_heading(imf_fusion_ahrs_t *const self, const imf_real heading)
 {
     imf_fusion_ahrs_state_t *const x = &self->x;
-    const imf_real yaw = imf_fusion_atan2(x->q0 * x->q3 + x->q1 * x->q2,
-                                          IMF_R(0.5) - x->q2 * x->q2 - x->q3 * x->q3);
+    const imf_real yaw =
+        imf_fusion_atan2(x->q0 * x->q3 + x->q1 * x->q2, IMF_R(0.5) - x->q2 * x->q2 - x->q3 * x->q3);
     const imf_real half_yaw_minus_heading = IMF_R(0.5) * (yaw - imf_fusion_deg2rad(heading));
-    const imf_fusion_quat_t rotation = {imf_fusion_cos(half_yaw_minus_heading), IMF_R(0.0),
-                                        IMF_R(0.0),
-                                        IMF_R(-1.0) * imf_fusion_sin(half_yaw_minus_heading)};
+    const imf_fusion_quat_t rotation = { imf_fusion_cos(half_yaw_minus_heading), IMF_R(0.0),
+                                         IMF_R(0.0),
+                                         IMF_R(-1.0) * imf_fusion_sin(half_yaw_minus_heading) };
     put_q(x, imf_fusion_quat_mul(rotation, get_q(x)));
 }
 
@@ -315,7 +319,8 @@ static int inputs_ok(const imf_fusion_vec_t gyr, const imf_fusion_vec_t acc, con
            && dt >= IMF_R(0.0);
 }
 
-static void commit_or_restore(imf_fusion_ahrs_t *const self, const imf_fusion_ahrs_state_t *const saved)
+static void commit_or_restore(imf_fusion_ahrs_t *const self,
+                              const imf_fusion_ahrs_state_t *const saved)
 {
     if (!state_finite(&self->x)) {
         self->x = *saved;
@@ -328,7 +333,7 @@ void imf_fusion_ahrs_update(imf_fusion_ahrs_t *const self, const imf_real gx, co
                             const imf_real az, const imf_real mx, const imf_real my,
                             const imf_real mz, const imf_real dt)
 {
-    const imf_fusion_vec_t gyr = {gx, gy, gz}, acc = {ax, ay, az}, mag = {mx, my, mz};
+    const imf_fusion_vec_t gyr = { gx, gy, gz }, acc = { ax, ay, az }, mag = { mx, my, mz };
     const imf_fusion_ahrs_state_t saved = self->x;
     if (!inputs_ok(gyr, acc, dt) || !imf_finite3(mx, my, mz)) {
         self->skipped++;
@@ -339,12 +344,11 @@ void imf_fusion_ahrs_update(imf_fusion_ahrs_t *const self, const imf_real gx, co
 }
 
 void imf_fusion_ahrs_update_no_magnetometer(imf_fusion_ahrs_t *const self, const imf_real gx,
-                                            const imf_real gy, const imf_real gz,
-                                            const imf_real ax, const imf_real ay,
-                                            const imf_real az, const imf_real dt)
+                                            const imf_real gy, const imf_real gz, const imf_real ax,
+                                            const imf_real ay, const imf_real az, const imf_real dt)
 {
-    const imf_fusion_vec_t gyr = {gx, gy, gz}, acc = {ax, ay, az};
-    const imf_fusion_vec_t zero = {IMF_R(0.0), IMF_R(0.0), IMF_R(0.0)};
+    const imf_fusion_vec_t gyr = { gx, gy, gz }, acc = { ax, ay, az };
+    const imf_fusion_vec_t zero = { IMF_R(0.0), IMF_R(0.0), IMF_R(0.0) };
     const imf_fusion_ahrs_state_t saved = self->x;
     if (!inputs_ok(gyr, acc, dt)) {
         self->skipped++;
@@ -364,7 +368,7 @@ void imf_fusion_ahrs_update_external_heading(imf_fusion_ahrs_t *const self, cons
                                              const imf_real az, const imf_real heading,
                                              const imf_real dt)
 {
-    const imf_fusion_vec_t gyr = {gx, gy, gz}, acc = {ax, ay, az};
+    const imf_fusion_vec_t gyr = { gx, gy, gz }, acc = { ax, ay, az };
     const imf_fusion_ahrs_state_t saved = self->x;
     const imf_fusion_ahrs_state_t *const x = &self->x;
     imf_real roll, heading_rad, sin_heading;
@@ -375,7 +379,8 @@ void imf_fusion_ahrs_update_external_heading(imf_fusion_ahrs_t *const self, cons
     }
     /* a magnetometer reading pointing along the given heading, at the
        current roll */
-    roll = imf_fusion_atan2(x->q0 * x->q1 + x->q2 * x->q3, IMF_R(0.5) - x->q2 * x->q2 - x->q1 * x->q1);
+    roll =
+        imf_fusion_atan2(x->q0 * x->q1 + x->q2 * x->q3, IMF_R(0.5) - x->q2 * x->q2 - x->q1 * x->q1);
     heading_rad = imf_fusion_deg2rad(heading);
     sin_heading = imf_fusion_sin(heading_rad);
     mag.x = imf_fusion_cos(heading_rad);
@@ -453,8 +458,9 @@ void imf_fusion_ahrs_set_state(imf_fusion_ahrs_t *const self, const imf_real *co
 /* error angle (degrees) of a halved feedback: asin(2 |fb/2|) */
 static imf_real error_degrees(const imf_real fx, const imf_real fy, const imf_real fz)
 {
-    const imf_fusion_vec_t fb = {fx, fy, fz};
-    return imf_fusion_rad2deg(imf_fusion_safe_asin(IMF_R(2.0) * imf_sqrt(imf_fusion_vec_norm2(fb))));
+    const imf_fusion_vec_t fb = { fx, fy, fz };
+    return imf_fusion_rad2deg(
+        imf_fusion_safe_asin(IMF_R(2.0) * imf_sqrt(imf_fusion_vec_norm2(fb))));
 }
 
 static imf_real trigger_ratio(const int32_t trigger, const int32_t period)
@@ -506,10 +512,12 @@ void imf_fusion_ahrs_outputs(const imf_fusion_ahrs_t *const self, imf_real *cons
         imf_fusion_rad2deg(imf_fusion_safe_asin(IMF_R(2.0) * (qw * qy - qz * qx)));
     out[IMF_FUSION_OUT_EULER + 2] =
         imf_fusion_rad2deg(imf_fusion_atan2(qw * qz + qx * qy, half_minus_qyqy - qz * qz));
-    out[IMF_FUSION_OUT_ACC_ERROR] = error_degrees(x->half_acc_fb_x, x->half_acc_fb_y, x->half_acc_fb_z);
+    out[IMF_FUSION_OUT_ACC_ERROR] =
+        error_degrees(x->half_acc_fb_x, x->half_acc_fb_y, x->half_acc_fb_z);
     out[IMF_FUSION_OUT_ACC_TRIGGER] =
         trigger_ratio(x->acceleration_recovery_trigger, self->set.recovery_trigger_period);
-    out[IMF_FUSION_OUT_MAG_ERROR] = error_degrees(x->half_mag_fb_x, x->half_mag_fb_y, x->half_mag_fb_z);
+    out[IMF_FUSION_OUT_MAG_ERROR] =
+        error_degrees(x->half_mag_fb_x, x->half_mag_fb_y, x->half_mag_fb_z);
     out[IMF_FUSION_OUT_MAG_TRIGGER] =
         trigger_ratio(x->magnetic_recovery_trigger, self->set.recovery_trigger_period);
 }

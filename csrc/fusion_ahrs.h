@@ -1,5 +1,5 @@
 /*
- * FusionAHRS: the AHRS of seed 004, x-io Fusion as shipped in imufusion 1.2.3,
+ * FusionAHRS: the AHRS of Longbin's Fusion walkthrough, x-io Fusion as shipped in imufusion 1.2.3,
  * written from the algorithm; a float32 build reproduces imufusion 1.2.3
  * (built with FUSION_USE_NORMAL_SQRT) bit for bit.
  *
@@ -53,11 +53,11 @@ typedef struct {
 
 /* The settings converted once into what the update needs. */
 typedef struct {
-    int convention; /* IMF_FUSION_CONVENTION_* */
-    imf_real gain; /* as set */
+    int convention;                  /* IMF_FUSION_CONVENTION_* */
+    imf_real gain;                   /* as set */
     imf_real gyroscope_range;        /* 0.98 * range, or the largest real */
     imf_real acceleration_rejection; /* (sin(threshold)/2)^2, or the largest real */
-    imf_real magnetic_rejection; /* (sin(threshold)/2)^2, or the largest real */
+    imf_real magnetic_rejection;     /* (sin(threshold)/2)^2, or the largest real */
     int32_t recovery_trigger_period; /* samples; 0 disables rejection */
     imf_real ramped_gain_step;       /* (10 - gain) / 3 s, per second */
     int invsqrt;                     /* IMF_FUSION_INVSQRT_EXACT or _FAST */
@@ -65,40 +65,40 @@ typedef struct {
 
 /* Everything that determines the future. */
 typedef struct {
-    imf_real q0, q1, q2, q3;         /* quaternion w, x, y, z */
-    imf_real acc_x, acc_y, acc_z;    /* last accelerometer sample, g */
-    imf_real ramped_gain; /* the gain during initialisation, ramped down to gain */
+    imf_real q0, q1, q2, q3;      /* quaternion w, x, y, z */
+    imf_real acc_x, acc_y, acc_z; /* last accelerometer sample, g */
+    imf_real ramped_gain;         /* the gain during initialisation, ramped down to gain */
     imf_real half_acc_fb_x, half_acc_fb_y, half_acc_fb_z; /* last accelerometer feedback / 2 */
     imf_real half_mag_fb_x, half_mag_fb_y, half_mag_fb_z; /* last magnetometer feedback / 2 */
-    int32_t initialising;            /* 0 or 1 */
-    int32_t angular_rate_recovery;   /* 0 or 1 */
-    int32_t accelerometer_ignored;   /* 0 or 1 */
-    int32_t acceleration_recovery_trigger; /* samples, counts up while rejected */
-    int32_t acceleration_recovery_timeout; /* samples */
-    int32_t magnetometer_ignored;    /* 0 or 1 */
-    int32_t magnetic_recovery_trigger; /* samples, counts up while rejected */
-    int32_t magnetic_recovery_timeout; /* samples */
+    int32_t initialising;                                 /* 0 or 1 */
+    int32_t angular_rate_recovery;                        /* 0 or 1 */
+    int32_t accelerometer_ignored;                        /* 0 or 1 */
+    int32_t acceleration_recovery_trigger;                /* samples, counts up while rejected */
+    int32_t acceleration_recovery_timeout;                /* samples */
+    int32_t magnetometer_ignored;                         /* 0 or 1 */
+    int32_t magnetic_recovery_trigger;                    /* samples, counts up while rejected */
+    int32_t magnetic_recovery_timeout;                    /* samples */
 } imf_fusion_ahrs_state_t;
 
 #define IMF_FUSION_AHRS_N_STATE 22
 
 typedef struct {
     imf_fusion_ahrs_config_t set; /* internal: the settings as init converted them */
-    uint32_t skipped; /* samples rejected by the non-finite policy */
+    uint32_t skipped;             /* samples rejected by the non-finite policy */
     imf_fusion_ahrs_state_t x; /* the state (above): the estimate; write it only through the API */
 } imf_fusion_ahrs_t;
 
 /* Outputs (FusionAhrsGet*), computed from the state; the order of
    imf_fusion_ahrs_outputs(). */
 enum {
-    IMF_FUSION_OUT_GRAVITY = 0,             /* 3: gravity as the accelerometer reads it, g */
-    IMF_FUSION_OUT_LINEAR = 3,              /* 3: accelerometer minus gravity, sensor frame, g */
-    IMF_FUSION_OUT_EARTH = 6,               /* 3: accelerometer minus gravity, earth frame, g */
-    IMF_FUSION_OUT_EULER = 9,               /* 3: roll, pitch, yaw in degrees */
-    IMF_FUSION_OUT_ACC_ERROR = 12,          /* degrees */
-    IMF_FUSION_OUT_ACC_TRIGGER = 13,        /* trigger / period, 0..1 */
-    IMF_FUSION_OUT_MAG_ERROR = 14,          /* degrees */
-    IMF_FUSION_OUT_MAG_TRIGGER = 15,        /* trigger / period, 0..1 */
+    IMF_FUSION_OUT_GRAVITY = 0,      /* 3: gravity as the accelerometer reads it, g */
+    IMF_FUSION_OUT_LINEAR = 3,       /* 3: accelerometer minus gravity, sensor frame, g */
+    IMF_FUSION_OUT_EARTH = 6,        /* 3: accelerometer minus gravity, earth frame, g */
+    IMF_FUSION_OUT_EULER = 9,        /* 3: roll, pitch, yaw in degrees */
+    IMF_FUSION_OUT_ACC_ERROR = 12,   /* degrees */
+    IMF_FUSION_OUT_ACC_TRIGGER = 13, /* trigger / period, 0..1 */
+    IMF_FUSION_OUT_MAG_ERROR = 14,   /* degrees */
+    IMF_FUSION_OUT_MAG_TRIGGER = 15, /* trigger / period, 0..1 */
     IMF_FUSION_N_OUT = 16
 };
 /* Flag bits of imf_fusion_ahrs_flags(). */
@@ -120,13 +120,14 @@ void imf_fusion_ahrs_init(imf_fusion_ahrs_t *self, const imf_fusion_ahrs_setting
 /* Back to the initial state, keeping the settings. */
 void imf_fusion_ahrs_reset(imf_fusion_ahrs_t *self);
 /* New settings at any time (the state is kept, see FusionAhrsSetSettings). */
-void imf_fusion_ahrs_set_settings(imf_fusion_ahrs_t *self, const imf_fusion_ahrs_settings_t *settings);
+void imf_fusion_ahrs_set_settings(imf_fusion_ahrs_t *self,
+                                  const imf_fusion_ahrs_settings_t *settings);
 
 /* gx, gy, gz: degrees per second; ax, ay, az: g; mx, my, mz: any unit;
    dt: seconds. */
 void imf_fusion_ahrs_update(imf_fusion_ahrs_t *self, imf_real gx, imf_real gy, imf_real gz,
-                            imf_real ax, imf_real ay, imf_real az,
-                            imf_real mx, imf_real my, imf_real mz, imf_real dt);
+                            imf_real ax, imf_real ay, imf_real az, imf_real mx, imf_real my,
+                            imf_real mz, imf_real dt);
 /* Without magnetometer: heading held at 0 while initialising. */
 void imf_fusion_ahrs_update_no_magnetometer(imf_fusion_ahrs_t *self, imf_real gx, imf_real gy,
                                             imf_real gz, imf_real ax, imf_real ay, imf_real az,

@@ -1,5 +1,5 @@
 /*
- * Sensor models of seed 004 (x-io Fusion, imufusion 1.2.3), applied to N
+ * Sensor models of Longbin's walkthrough (x-io Fusion, imufusion 1.2.3), applied to N
  * samples at once (rows of 3, C order):
  *   inertial (gyroscope, accelerometer)  i_c = M s (i_u - b)
  *     M misalignment (3x3, row-major), s sensitivity (3), b offset (3),
@@ -30,8 +30,8 @@ void imf_fusion_calibrate_inertial(const imf_real *m, const imf_real *s, const i
 void imf_fusion_calibrate_magnetic(const imf_real *soft_iron, const imf_real *hard_iron,
                                    const imf_real *in, imf_real *out, size_t n);
 /* perm: source axis (0..2) of each output axis; negate: nonzero to negate */
-void imf_fusion_axes_apply(const int *perm, const int *negate, const imf_real *in,
-                           imf_real *out, size_t n);
+void imf_fusion_axes_apply(const int *perm, const int *negate, const imf_real *in, imf_real *out,
+                           size_t n);
 /* heading (degrees) for N accelerometer/magnetometer rows, per convention */
 void imf_fusion_compass_headings(int convention, const imf_real *acc, const imf_real *mag,
                                  imf_real *out, size_t n, int invsqrt);

@@ -1,5 +1,5 @@
 /*
- * Vector and quaternion helpers of the Fusion suite (seed 004: x-io Fusion as
+ * Vector and quaternion helpers of the Fusion suite (Longbin's walkthrough of x-io Fusion as
  * shipped in imufusion 1.2.3). Header-only, static inline, no state.
  *
  * Small value types passed by value, as Fusion does. Each helper evaluates
@@ -124,35 +124,38 @@ static inline int imf_fusion_vec_is_zero(const imf_fusion_vec_t v)
     return v.x == IMF_R(0.0) && v.y == IMF_R(0.0) && v.z == IMF_R(0.0);
 }
 
-static inline imf_fusion_vec_t imf_fusion_vec_add(const imf_fusion_vec_t a, const imf_fusion_vec_t b)
+static inline imf_fusion_vec_t imf_fusion_vec_add(const imf_fusion_vec_t a,
+                                                  const imf_fusion_vec_t b)
 {
-    const imf_fusion_vec_t r = {a.x + b.x, a.y + b.y, a.z + b.z};
+    const imf_fusion_vec_t r = { a.x + b.x, a.y + b.y, a.z + b.z };
     return r;
 }
 
-static inline imf_fusion_vec_t imf_fusion_vec_sub(const imf_fusion_vec_t a, const imf_fusion_vec_t b)
+static inline imf_fusion_vec_t imf_fusion_vec_sub(const imf_fusion_vec_t a,
+                                                  const imf_fusion_vec_t b)
 {
-    const imf_fusion_vec_t r = {a.x - b.x, a.y - b.y, a.z - b.z};
+    const imf_fusion_vec_t r = { a.x - b.x, a.y - b.y, a.z - b.z };
     return r;
 }
 
 static inline imf_fusion_vec_t imf_fusion_vec_scale(const imf_fusion_vec_t v, const imf_real s)
 {
-    const imf_fusion_vec_t r = {v.x * s, v.y * s, v.z * s};
+    const imf_fusion_vec_t r = { v.x * s, v.y * s, v.z * s };
     return r;
 }
 
 static inline imf_fusion_vec_t imf_fusion_vec_hadamard(const imf_fusion_vec_t a,
                                                        const imf_fusion_vec_t b)
 {
-    const imf_fusion_vec_t r = {a.x * b.x, a.y * b.y, a.z * b.z};
+    const imf_fusion_vec_t r = { a.x * b.x, a.y * b.y, a.z * b.z };
     return r;
 }
 
-static inline imf_fusion_vec_t imf_fusion_vec_cross(const imf_fusion_vec_t a, const imf_fusion_vec_t b)
+static inline imf_fusion_vec_t imf_fusion_vec_cross(const imf_fusion_vec_t a,
+                                                    const imf_fusion_vec_t b)
 {
-    const imf_fusion_vec_t r = {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z,
-                                a.x * b.y - a.y * b.x};
+    const imf_fusion_vec_t r = { a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z,
+                                 a.x * b.y - a.y * b.x };
     return r;
 }
 
@@ -192,7 +195,7 @@ static inline imf_fusion_vec_t imf_fusion_vec_normalise(const imf_fusion_vec_t v
 static inline imf_fusion_quat_t imf_fusion_quat_add(const imf_fusion_quat_t a,
                                                     const imf_fusion_quat_t b)
 {
-    const imf_fusion_quat_t r = {a.w + b.w, a.x + b.x, a.y + b.y, a.z + b.z};
+    const imf_fusion_quat_t r = { a.w + b.w, a.x + b.x, a.y + b.y, a.z + b.z };
     return r;
 }
 
@@ -224,7 +227,8 @@ static inline imf_fusion_quat_t imf_fusion_quat_mul_vec(const imf_fusion_quat_t 
 
 /* q / |q|; exact mode leaves a zero quaternion unchanged (the update then
    rejects it, see fusion_ahrs.h) */
-static inline imf_fusion_quat_t imf_fusion_quat_normalise(const imf_fusion_quat_t q, const int invsqrt)
+static inline imf_fusion_quat_t imf_fusion_quat_normalise(const imf_fusion_quat_t q,
+                                                          const int invsqrt)
 {
     const imf_real n2 = q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z;
     imf_real r;
@@ -237,7 +241,7 @@ static inline imf_fusion_quat_t imf_fusion_quat_normalise(const imf_fusion_quat_
         r = IMF_R(1.0) / imf_sqrt(n2);
     }
     {
-        const imf_fusion_quat_t out = {q.w * r, q.x * r, q.y * r, q.z * r};
+        const imf_fusion_quat_t out = { q.w * r, q.x * r, q.y * r, q.z * r };
         return out;
     }
 }

@@ -1,5 +1,5 @@
 /*
- * FusionOffset (seed 004, imufusion 1.2.3). See fusion_offset.h. Twin:
+ * FusionOffset (Longbin's Fusion walkthrough, imufusion 1.2.3). See fusion_offset.h. Twin:
  * python/imufuse/reference/fusion.py (FusionOffset).
  */
 #include "fusion_offset.h"
@@ -37,7 +37,8 @@ void imf_fusion_offset_update(imf_fusion_offset_t *const self, const imf_real *c
         return;
     }
     /* moving: start the rest timer again */
-    if (imf_fusion_fabs(wx) > IMF_FUSION_OFFSET_THRESHOLD || imf_fusion_fabs(wy) > IMF_FUSION_OFFSET_THRESHOLD
+    if (imf_fusion_fabs(wx) > IMF_FUSION_OFFSET_THRESHOLD
+        || imf_fusion_fabs(wy) > IMF_FUSION_OFFSET_THRESHOLD
         || imf_fusion_fabs(wz) > IMF_FUSION_OFFSET_THRESHOLD) {
         x->timer = 0;
         return;

@@ -1,5 +1,5 @@
 /*
- * FusionOffset: the gyroscope offset estimator of seed 004 (x-io Fusion,
+ * FusionOffset: the gyroscope offset estimator of Longbin's walkthrough (x-io Fusion,
  * imufusion 1.2.3). While every axis of the corrected gyroscope stays within
  * 3 degrees per second for 5 seconds, the offset follows the corrected
  * gyroscope through a first-order low-pass filter with a 0.02 Hz cutoff:
@@ -32,8 +32,9 @@ typedef struct {
 
 typedef struct {
     imf_fusion_offset_config_t set; /* internal: the settings as init converted them */
-    uint32_t skipped; /* samples rejected by the non-finite policy (state kept) */
-    imf_fusion_offset_state_t x; /* the state (above): the estimate; write it only through the API */
+    uint32_t skipped;               /* samples rejected by the non-finite policy (state kept) */
+    imf_fusion_offset_state_t
+        x; /* the state (above): the estimate; write it only through the API */
 } imf_fusion_offset_t;
 
 /* sample_rate: Hz (> 0) */

@@ -47,8 +47,7 @@ int imf_attitude_from_acc_mag(imf_attitude_t *att, imf_real ax, imf_real ay, imf
 
 /* Attitude from a quaternion (w, x, y, z), normalised here. Returns 1, or 0
    (att unchanged) when it is zero or not finite. */
-int imf_attitude_from_quat(imf_attitude_t *att, imf_real q0, imf_real q1, imf_real q2,
-                           imf_real q3);
+int imf_attitude_from_quat(imf_attitude_t *att, imf_real q0, imf_real q1, imf_real q2, imf_real q3);
 
 /* Average of the first readings: the sums of the unit directions. */
 typedef struct {
@@ -65,8 +64,8 @@ void imf_attitude_window_init(imf_attitude_window_t *w, uint32_t window);
    the average so far. Returns 1 (att set), 0 (no accelerometer reading: all
    zero; nothing changed) or -1 (rejected: a non-finite input, or directions
    that cancel; nothing changed). The window is full when n == window. */
-int imf_attitude_window_add(imf_attitude_window_t *w, imf_attitude_t *att, imf_real ax,
-                            imf_real ay, imf_real az, imf_real mx, imf_real my, imf_real mz);
+int imf_attitude_window_add(imf_attitude_window_t *w, imf_attitude_t *att, imf_real ax, imf_real ay,
+                            imf_real az, imf_real mx, imf_real my, imf_real mz);
 
 #ifdef __cplusplus
 }

@@ -1,7 +1,7 @@
 /*
- * Accelerometer-magnitude gate of seed 002 (Hari Nair): an attitude filter
+ * Accelerometer-magnitude gate of Hari Nair (2016): an attitude filter
  * uses the accelerometer for its correction only while the measured
- * magnitude is near 1 g (the seed: 0.6 g to 1.4 g); in low-g or high-g
+ * magnitude is near 1 g (Nair: 0.6 g to 1.4 g); in low-g or high-g
  * phases (turns, pulls) it integrates the gyro alone. Squared magnitudes
  * are compared, so no square root is needed. Header-only, static inline.
  */

@@ -25,8 +25,8 @@ void imf_kk_set_attitude(imf_kk_t *const self, const imf_attitude_t *const att)
     self->x.roll = att->r[7];
 }
 
-void imf_kk_update(imf_kk_t *const self, const imf_real gx, const imf_real gy,
-                   const imf_real gz, const imf_real ax, const imf_real ay, const imf_real az)
+void imf_kk_update(imf_kk_t *const self, const imf_real gx, const imf_real gy, const imf_real gz,
+                   const imf_real ax, const imf_real ay, const imf_real az)
 {
     imf_real n2, norm, pitch, roll;
     if (!(imf_finite3(gx, gy, gz) && imf_finite3(ax, ay, az))) {

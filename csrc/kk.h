@@ -44,8 +44,8 @@ typedef struct {
 void imf_kk_init(imf_kk_t *self, imf_real dt, imf_real kp);
 /* gx, gy, gz: rad/s; ax, ay, az: any unit (normalised). A zero (or
    overflowing) acceleration skips the P correction: gyro only. */
-void imf_kk_update(imf_kk_t *self, imf_real gx, imf_real gy, imf_real gz, imf_real ax,
-                   imf_real ay, imf_real az);
+void imf_kk_update(imf_kk_t *self, imf_real gx, imf_real gy, imf_real gz, imf_real ax, imf_real ay,
+                   imf_real az);
 
 /* A new sample period dt (s), set as init sets it (init calls it); kp stays a
    gain per sample. */

@@ -21,8 +21,8 @@ static void madgwick_init(imf_madgwick_consts_t *const set, uint32_t *const skip
     imf_acc_gate_set(&set->acc_gate, &set->acc_lo2, &set->acc_hi2, acc_gate_lo, acc_gate_hi,
                      acc_1g);
     set->beta = beta;
-    set->delta_s = delta_s == IMF_MADGWICK_DS_SIMPLIFIED ? IMF_MADGWICK_DS_SIMPLIFIED
-                                                         : IMF_MADGWICK_DS_FULL;
+    set->delta_s =
+        delta_s == IMF_MADGWICK_DS_SIMPLIFIED ? IMF_MADGWICK_DS_SIMPLIFIED : IMF_MADGWICK_DS_FULL;
     set->invsqrt = invsqrt == IMF_INVSQRT_FAST ? IMF_INVSQRT_FAST : IMF_INVSQRT_EXACT;
     *skipped = 0;
     x->q0 = IMF_R(1.0);
@@ -73,9 +73,8 @@ void imf_madgwick_imu_set_acc_gate(imf_madgwick_imu_t *const self, const imf_rea
                      acc_gate_hi, acc_1g);
 }
 
-void imf_madgwick_ahrs_set_acc_gate(imf_madgwick_ahrs_t *const self,
-                                    const imf_real acc_gate_lo, const imf_real acc_gate_hi,
-                                    const imf_real acc_1g)
+void imf_madgwick_ahrs_set_acc_gate(imf_madgwick_ahrs_t *const self, const imf_real acc_gate_lo,
+                                    const imf_real acc_gate_hi, const imf_real acc_1g)
 {
     imf_acc_gate_set(&self->set.acc_gate, &self->set.acc_lo2, &self->set.acc_hi2, acc_gate_lo,
                      acc_gate_hi, acc_1g);
@@ -91,8 +90,7 @@ void imf_madgwick_ahrs_set_dt(imf_madgwick_ahrs_t *const self, const imf_real dt
     madgwick_set_dt(&self->set, dt);
 }
 
-static void madgwick_set_attitude(imf_madgwick_state_t *const x,
-                                  const imf_attitude_t *const att)
+static void madgwick_set_attitude(imf_madgwick_state_t *const x, const imf_attitude_t *const att)
 {
     x->q0 = att->q[0];
     x->q1 = att->q[1];
@@ -100,8 +98,7 @@ static void madgwick_set_attitude(imf_madgwick_state_t *const x,
     x->q3 = att->q[3];
 }
 
-void imf_madgwick_imu_set_attitude(imf_madgwick_imu_t *const self,
-                                   const imf_attitude_t *const att)
+void imf_madgwick_imu_set_attitude(imf_madgwick_imu_t *const self, const imf_attitude_t *const att)
 {
     madgwick_set_attitude(&self->x, att);
 }
@@ -113,8 +110,8 @@ void imf_madgwick_ahrs_set_attitude(imf_madgwick_ahrs_t *const self,
 }
 
 /* Step 3: dq = 1/2 q (x) omega */
-static void madgwick_rate(const imf_madgwick_state_t *const x, const imf_real gx,
-                          const imf_real gy, const imf_real gz, imf_real dq[4])
+static void madgwick_rate(const imf_madgwick_state_t *const x, const imf_real gx, const imf_real gy,
+                          const imf_real gz, imf_real dq[4])
 {
     dq[0] = IMF_R(0.5) * (-x->q1 * gx - x->q2 * gy - x->q3 * gz);
     dq[1] = IMF_R(0.5) * (x->q0 * gx + x->q2 * gz - x->q3 * gy);
@@ -194,8 +191,8 @@ static void madgwick_ds_ahrs(const imf_madgwick_state_t *const x, const imf_real
     const imf_real q3q3 = q3 * q3;
     imf_real hx, hy, two_bx, two_bz, four_bx, four_bz, f1, f2, f3, f4, f5, f6;
     /* the field in the earth frame, h = R m (expanded) */
-    hx = mx * q0q0 - two_q0my * q3 + two_q0mz * q2 + mx * q1q1 + two_q1 * my * q2
-         + two_q1 * mz * q3 - mx * q2q2 - mx * q3q3;
+    hx = mx * q0q0 - two_q0my * q3 + two_q0mz * q2 + mx * q1q1 + two_q1 * my * q2 + two_q1 * mz * q3
+         - mx * q2q2 - mx * q3q3;
     hy = two_q0mx * q3 + my * q0q0 - two_q0mz * q1 + two_q1mx * q2 - my * q1q1 + my * q2q2
          + two_q2 * mz * q3 - my * q3q3;
     two_bx = imf_sqrt(hx * hx + hy * hy);
@@ -215,9 +212,8 @@ static void madgwick_ds_ahrs(const imf_madgwick_state_t *const x, const imf_real
            + two_bx * q2 * f6;
     s[1] = two_q3 * f1 + two_q0 * f2 - IMF_R(4.0) * q1 * f3 + two_bz * q3 * f4
            + (two_bx * q2 + two_bz * q0) * f5 + (two_bx * q3 - four_bz * q1) * f6;
-    s[2] = -two_q0 * f1 + two_q3 * f2 - IMF_R(4.0) * q2 * f3
-           + (-four_bx * q2 - two_bz * q0) * f4 + (two_bx * q1 + two_bz * q3) * f5
-           + (two_bx * q0 - four_bz * q2) * f6;
+    s[2] = -two_q0 * f1 + two_q3 * f2 - IMF_R(4.0) * q2 * f3 + (-four_bx * q2 - two_bz * q0) * f4
+           + (two_bx * q1 + two_bz * q3) * f5 + (two_bx * q0 - four_bz * q2) * f6;
     s[3] = two_q1 * f1 + two_q2 * f2 + (-four_bx * q3 + two_bz * q1) * f4
            + (-two_bx * q0 + two_bz * q2) * f5 + two_bx * q1 * f6;
 }
@@ -225,8 +221,7 @@ static void madgwick_ds_ahrs(const imf_madgwick_state_t *const x, const imf_real
 /* Steps 5 and 6: normalise ds, dq' = dq - beta ds. A zero (or subnormal)
    ds is the exact optimum: it has no direction and is left as it is (no
    correction). Returns 0 if ds overflowed (the sample is rejected). */
-static int madgwick_feedback(const imf_madgwick_consts_t *const set, imf_real s[4],
-                             imf_real dq[4])
+static int madgwick_feedback(const imf_madgwick_consts_t *const set, imf_real s[4], imf_real dq[4])
 {
     if (imf_normalise4(&s[0], &s[1], &s[2], &s[3], set->invsqrt) == IMF_NORM_HUGE) {
         return 0;
@@ -240,8 +235,8 @@ static int madgwick_feedback(const imf_madgwick_consts_t *const set, imf_real s[
 
 /* Steps 7 and 8: q_n = q_{n-1} + dq' dt, then normalise. Returns 0 when q
    cannot be normalised (the sample is rejected). */
-static int madgwick_integrate(const imf_madgwick_consts_t *const set,
-                               imf_madgwick_state_t *const x, const imf_real dq[4])
+static int madgwick_integrate(const imf_madgwick_consts_t *const set, imf_madgwick_state_t *const x,
+                              const imf_real dq[4])
 {
     x->q0 += dq[0] * set->dt;
     x->q1 += dq[1] * set->dt;
@@ -251,10 +246,9 @@ static int madgwick_integrate(const imf_madgwick_consts_t *const set,
 }
 
 /* One update; returns 0 if a normalisation failed (the sample is rejected). */
-static int madgwick_imu_step(const imf_madgwick_consts_t *const set,
-                              imf_madgwick_state_t *const x, const imf_real gx,
-                              const imf_real gy, const imf_real gz, imf_real ax, imf_real ay,
-                              imf_real az)
+static int madgwick_imu_step(const imf_madgwick_consts_t *const set, imf_madgwick_state_t *const x,
+                             const imf_real gx, const imf_real gy, const imf_real gz, imf_real ax,
+                             imf_real ay, imf_real az)
 {
     imf_real dq[4], s[4];
     madgwick_rate(x, gx, gy, gz, dq);
@@ -276,10 +270,9 @@ static int madgwick_imu_step(const imf_madgwick_consts_t *const set,
     return madgwick_integrate(set, x, dq);
 }
 
-static int madgwick_ahrs_step(const imf_madgwick_consts_t *const set,
-                               imf_madgwick_state_t *const x, const imf_real gx,
-                               const imf_real gy, const imf_real gz, imf_real ax, imf_real ay,
-                               imf_real az, imf_real mx, imf_real my, imf_real mz)
+static int madgwick_ahrs_step(const imf_madgwick_consts_t *const set, imf_madgwick_state_t *const x,
+                              const imf_real gx, const imf_real gy, const imf_real gz, imf_real ax,
+                              imf_real ay, imf_real az, imf_real mx, imf_real my, imf_real mz)
 {
     imf_real dq[4], s[4];
     if (imf_is_zero3(mx, my, mz)) {
@@ -313,9 +306,9 @@ static void madgwick_commit(imf_madgwick_state_t *const dst, uint32_t *const ski
     *dst = *x;
 }
 
-void imf_madgwick_imu_update(imf_madgwick_imu_t *const self, const imf_real gx,
-                             const imf_real gy, const imf_real gz, const imf_real ax,
-                             const imf_real ay, const imf_real az)
+void imf_madgwick_imu_update(imf_madgwick_imu_t *const self, const imf_real gx, const imf_real gy,
+                             const imf_real gz, const imf_real ax, const imf_real ay,
+                             const imf_real az)
 {
     imf_madgwick_state_t x;
     if (!(imf_finite3(gx, gy, gz) && imf_finite3(ax, ay, az))) {
@@ -327,10 +320,10 @@ void imf_madgwick_imu_update(imf_madgwick_imu_t *const self, const imf_real gx,
                     madgwick_imu_step(&self->set, &x, gx, gy, gz, ax, ay, az));
 }
 
-void imf_madgwick_ahrs_update(imf_madgwick_ahrs_t *const self, const imf_real gx,
-                              const imf_real gy, const imf_real gz, const imf_real ax,
-                              const imf_real ay, const imf_real az, const imf_real mx,
-                              const imf_real my, const imf_real mz)
+void imf_madgwick_ahrs_update(imf_madgwick_ahrs_t *const self, const imf_real gx, const imf_real gy,
+                              const imf_real gz, const imf_real ax, const imf_real ay,
+                              const imf_real az, const imf_real mx, const imf_real my,
+                              const imf_real mz)
 {
     imf_madgwick_state_t x;
     if (!(imf_finite3(gx, gy, gz) && imf_finite3(ax, ay, az) && imf_finite3(mx, my, mz))) {

@@ -18,7 +18,7 @@
  *                               ds = 4 (q1^2 + q2^2) q + 2 (...).
  * The AHRS update always uses the full (published) form.
  *
- * Accelerometer gate (seed 002): with acc_gate_lo >= 0 the correction runs
+ * Accelerometer gate (Nair 2016): with acc_gate_lo >= 0 the correction runs
  * only while the squared accelerometer magnitude is within
  * [(acc_gate_lo acc_1g)^2, (acc_gate_hi acc_1g)^2]; outside, the update
  * integrates the gyro only. acc_gate_lo < 0 (e.g. -1) turns it off: the
@@ -49,26 +49,26 @@ typedef struct {
 
 /* Internal: the settings as init converts them once (read by the update). */
 typedef struct {
-    imf_real dt;   /* sample period, s */
-    imf_real beta; /* gradient step gain, rad/s */
-    int delta_s;   /* IMF_MADGWICK_DS_FULL or IMF_MADGWICK_DS_SIMPLIFIED */
-    int invsqrt;   /* IMF_INVSQRT_EXACT or IMF_INVSQRT_FAST */
-    int acc_gate;  /* nonzero: correct only when acc_lo2 <= |a|^2 <= acc_hi2 */
+    imf_real dt;               /* sample period, s */
+    imf_real beta;             /* gradient step gain, rad/s */
+    int delta_s;               /* IMF_MADGWICK_DS_FULL or IMF_MADGWICK_DS_SIMPLIFIED */
+    int invsqrt;               /* IMF_INVSQRT_EXACT or IMF_INVSQRT_FAST */
+    int acc_gate;              /* nonzero: correct only when acc_lo2 <= |a|^2 <= acc_hi2 */
     imf_real acc_lo2, acc_hi2; /* squared gate bounds, accelerometer unit^2 */
 } imf_madgwick_consts_t;
 
 typedef struct {
     imf_madgwick_consts_t set; /* internal: the settings as init converted them */
-    uint32_t skipped; /* samples rejected by the non-finite policy */
-    imf_madgwick_state_t x; /* the state (above): the estimate; write it only through the API */
+    uint32_t skipped;          /* samples rejected by the non-finite policy */
+    imf_madgwick_state_t x;    /* the state (above): the estimate; write it only through the API */
 } imf_madgwick_imu_t;
 
 /* Same settings (delta_s always full) and state; the update falls back to
    the IMU update when the magnetometer reads all zero. */
 typedef struct {
     imf_madgwick_consts_t set; /* internal: the settings as init converted them */
-    uint32_t skipped; /* samples rejected by the non-finite policy */
-    imf_madgwick_state_t x; /* the state (above): the estimate; write it only through the API */
+    uint32_t skipped;          /* samples rejected by the non-finite policy */
+    imf_madgwick_state_t x;    /* the state (above): the estimate; write it only through the API */
 } imf_madgwick_ahrs_t;
 
 /* The settings of imf_madgwick_imu_init. Start from
@@ -82,7 +82,7 @@ typedef struct {
     int invsqrt;          /* IMF_INVSQRT_EXACT (default) or IMF_INVSQRT_FAST */
     imf_real acc_gate_lo; /* accelerometer gate, lower bound in units of acc_1g; < 0 turns
                              the gate off (default -1: off, the published behaviour) */
-    imf_real acc_gate_hi; /* upper bound in units of acc_1g (seed 002: 1.4; default 0) */
+    imf_real acc_gate_hi; /* upper bound in units of acc_1g (Nair 2016: 1.4; default 0) */
     imf_real acc_1g;      /* 1 g in the accelerometer's unit, > 0 (default 1) */
 } imf_madgwick_imu_settings_t;
 
@@ -113,7 +113,7 @@ void imf_madgwick_ahrs_default_settings(imf_madgwick_ahrs_settings_t *settings);
 void imf_madgwick_ahrs_init(imf_madgwick_ahrs_t *self,
                             const imf_madgwick_ahrs_settings_t *settings);
 
-/* Accelerometer gate (seed 002: 0.6, 1.4), set as init sets it (init calls
+/* Accelerometer gate (Nair 2016: 0.6, 1.4), set as init sets it (init calls
    it): lo, hi in units of acc_1g (1 g in the accelerometer's unit); lo < 0
    turns it off. */
 void imf_madgwick_imu_set_acc_gate(imf_madgwick_imu_t *self, imf_real acc_gate_lo,
@@ -131,8 +131,8 @@ void imf_madgwick_imu_set_attitude(imf_madgwick_imu_t *self, const imf_attitude_
 void imf_madgwick_ahrs_set_attitude(imf_madgwick_ahrs_t *self, const imf_attitude_t *att);
 /* gx, gy, gz: rad/s; ax, ay, az and mx, my, mz: any unit (normalised) */
 void imf_madgwick_ahrs_update(imf_madgwick_ahrs_t *self, imf_real gx, imf_real gy, imf_real gz,
-                              imf_real ax, imf_real ay, imf_real az,
-                              imf_real mx, imf_real my, imf_real mz);
+                              imf_real ax, imf_real ay, imf_real az, imf_real mx, imf_real my,
+                              imf_real mz);
 
 #ifdef __cplusplus
 }

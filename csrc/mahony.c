@@ -138,7 +138,7 @@ static void mahony_feedback(const imf_mahony_consts_t *const set, imf_mahony_sta
 /* Steps 7 and 8: q_n = q_{n-1} + 1/2 q_{n-1} (x) omega' dt, then normalise.
    Returns 0 when q cannot be normalised (the sample is rejected). */
 static int mahony_integrate(const imf_mahony_consts_t *const set, imf_mahony_state_t *const x,
-                             imf_real gx, imf_real gy, imf_real gz)
+                            imf_real gx, imf_real gy, imf_real gz)
 {
     const imf_real q0 = x->q0, q1 = x->q1, q2 = x->q2, q3 = x->q3;
     gx *= set->half_dt;
@@ -153,8 +153,8 @@ static int mahony_integrate(const imf_mahony_consts_t *const set, imf_mahony_sta
 
 /* One update; returns 0 if a normalisation failed (the sample is rejected). */
 static int mahony_imu_step(const imf_mahony_consts_t *const set, imf_mahony_state_t *const x,
-                            imf_real gx, imf_real gy, imf_real gz,
-                            imf_real ax, imf_real ay, imf_real az)
+                           imf_real gx, imf_real gy, imf_real gz, imf_real ax, imf_real ay,
+                           imf_real az)
 {
     if (!imf_is_zero3(ax, ay, az)
         && imf_acc_gate_pass(set->acc_gate, set->acc_lo2, set->acc_hi2, ax, ay, az)) {
@@ -177,9 +177,8 @@ static int mahony_imu_step(const imf_mahony_consts_t *const set, imf_mahony_stat
 }
 
 static int mahony_ahrs_step(const imf_mahony_consts_t *const set, imf_mahony_state_t *const x,
-                             imf_real gx, imf_real gy, imf_real gz,
-                             imf_real ax, imf_real ay, imf_real az,
-                             imf_real mx, imf_real my, imf_real mz)
+                            imf_real gx, imf_real gy, imf_real gz, imf_real ax, imf_real ay,
+                            imf_real az, imf_real mx, imf_real my, imf_real mz)
 {
     if (imf_is_zero3(mx, my, mz)) {
         /* no magnetometer reading: the IMU update */
@@ -206,13 +205,13 @@ static int mahony_ahrs_step(const imf_mahony_consts_t *const set, imf_mahony_sta
         q3q3 = x->q3 * x->q3;
         /* the field in the earth frame, h = R m; the reference field keeps its
            vertical part bz and puts the horizontal part bx along earth x */
-        hx = IMF_R(2.0) * (mx * (IMF_R(0.5) - q2q2 - q3q3) + my * (q1q2 - q0q3)
-                           + mz * (q1q3 + q0q2));
-        hy = IMF_R(2.0) * (mx * (q1q2 + q0q3) + my * (IMF_R(0.5) - q1q1 - q3q3)
-                           + mz * (q2q3 - q0q1));
+        hx = IMF_R(2.0)
+             * (mx * (IMF_R(0.5) - q2q2 - q3q3) + my * (q1q2 - q0q3) + mz * (q1q3 + q0q2));
+        hy = IMF_R(2.0)
+             * (mx * (q1q2 + q0q3) + my * (IMF_R(0.5) - q1q1 - q3q3) + mz * (q2q3 - q0q1));
         bx = imf_sqrt(hx * hx + hy * hy);
-        bz = IMF_R(2.0) * (mx * (q1q3 - q0q2) + my * (q2q3 + q0q1)
-                           + mz * (IMF_R(0.5) - q1q1 - q2q2));
+        bz = IMF_R(2.0)
+             * (mx * (q1q3 - q0q2) + my * (q2q3 + q0q1) + mz * (IMF_R(0.5) - q1q1 - q2q2));
         /* Step 3: d/2 and w/2, the estimated up axis and field direction seen
            in the sensor frame (halved) */
         vx = q1q3 - q0q2;

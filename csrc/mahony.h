@@ -23,7 +23,7 @@
  * published code it is only updated and applied while the accelerometer
  * reads something (not all zero), and it is held at zero while Ki = 0.
  *
- * Accelerometer gate (seed 002): with acc_gate_lo >= 0 the correction runs
+ * Accelerometer gate (Nair 2016): with acc_gate_lo >= 0 the correction runs
  * only while the squared accelerometer magnitude is within
  * [(acc_gate_lo acc_1g)^2, (acc_gate_hi acc_1g)^2]; outside, the update
  * integrates the gyro only. acc_gate_lo < 0 (e.g. -1) turns it off: the
@@ -53,27 +53,27 @@ typedef struct {
 
 /* Internal: the settings as init converts them once (read by the update). */
 typedef struct {
-    imf_real dt;      /* sample period, s */
-    imf_real half_dt; /* dt / 2, the factor of dq = 1/2 q (x) omega' dt */
-    imf_real two_kp;  /* 2 Kp, multiplies the half error vector, 1/s */
-    imf_real two_ki;  /* 2 Ki, 1/s^2 */
-    int invsqrt;      /* IMF_INVSQRT_EXACT or IMF_INVSQRT_FAST */
-    int acc_gate;     /* nonzero: correct only when acc_lo2 <= |a|^2 <= acc_hi2 */
+    imf_real dt;               /* sample period, s */
+    imf_real half_dt;          /* dt / 2, the factor of dq = 1/2 q (x) omega' dt */
+    imf_real two_kp;           /* 2 Kp, multiplies the half error vector, 1/s */
+    imf_real two_ki;           /* 2 Ki, 1/s^2 */
+    int invsqrt;               /* IMF_INVSQRT_EXACT or IMF_INVSQRT_FAST */
+    int acc_gate;              /* nonzero: correct only when acc_lo2 <= |a|^2 <= acc_hi2 */
     imf_real acc_lo2, acc_hi2; /* squared gate bounds, accelerometer unit^2 */
 } imf_mahony_consts_t;
 
 typedef struct {
     imf_mahony_consts_t set; /* internal: the settings as init converted them */
-    uint32_t skipped; /* samples rejected by the non-finite policy */
-    imf_mahony_state_t x; /* the state (above): the estimate; write it only through the API */
+    uint32_t skipped;        /* samples rejected by the non-finite policy */
+    imf_mahony_state_t x;    /* the state (above): the estimate; write it only through the API */
 } imf_mahony_imu_t;
 
 /* Same settings and state; the update falls back to the IMU update when the
    magnetometer reads all zero. */
 typedef struct {
     imf_mahony_consts_t set; /* internal: the settings as init converted them */
-    uint32_t skipped; /* samples rejected by the non-finite policy */
-    imf_mahony_state_t x; /* the state (above): the estimate; write it only through the API */
+    uint32_t skipped;        /* samples rejected by the non-finite policy */
+    imf_mahony_state_t x;    /* the state (above): the estimate; write it only through the API */
 } imf_mahony_ahrs_t;
 
 /* The settings of imf_mahony_imu_init and imf_mahony_ahrs_init. Start from
@@ -87,7 +87,7 @@ typedef struct {
     int invsqrt;          /* IMF_INVSQRT_EXACT (default) or IMF_INVSQRT_FAST */
     imf_real acc_gate_lo; /* accelerometer gate lower bound, units of acc_1g; < 0 turns the
                              gate off (default -1: off, the published behaviour) */
-    imf_real acc_gate_hi; /* upper bound, units of acc_1g (seed 002: 1.4; default 0) */
+    imf_real acc_gate_hi; /* upper bound, units of acc_1g (Nair 2016: 1.4; default 0) */
     imf_real acc_1g;      /* 1 g in the accelerometer's unit, > 0 (default 1) */
 } imf_mahony_imu_settings_t;
 /* The AHRS filter takes the same members. */
@@ -107,11 +107,11 @@ void imf_mahony_ahrs_default_settings(imf_mahony_ahrs_settings_t *settings);
 /* Settings as documented above (not checked here); q = (1, 0, 0, 0), I = 0. */
 void imf_mahony_ahrs_init(imf_mahony_ahrs_t *self, const imf_mahony_ahrs_settings_t *settings);
 
-/* Accelerometer gate (seed 002: 0.6, 1.4), set as init sets it (init calls
+/* Accelerometer gate (Nair 2016: 0.6, 1.4), set as init sets it (init calls
    it): lo, hi in units of acc_1g (1 g in the accelerometer's unit); lo < 0
    turns it off. Outside the gate: no proportional or integral feedback. */
-void imf_mahony_imu_set_acc_gate(imf_mahony_imu_t *self, imf_real acc_gate_lo,
-                                 imf_real acc_gate_hi, imf_real acc_1g);
+void imf_mahony_imu_set_acc_gate(imf_mahony_imu_t *self, imf_real acc_gate_lo, imf_real acc_gate_hi,
+                                 imf_real acc_1g);
 void imf_mahony_ahrs_set_acc_gate(imf_mahony_ahrs_t *self, imf_real acc_gate_lo,
                                   imf_real acc_gate_hi, imf_real acc_1g);
 
@@ -126,8 +126,8 @@ void imf_mahony_imu_set_attitude(imf_mahony_imu_t *self, const imf_attitude_t *a
 void imf_mahony_ahrs_set_attitude(imf_mahony_ahrs_t *self, const imf_attitude_t *att);
 /* gx, gy, gz: rad/s; ax, ay, az and mx, my, mz: any unit (normalised) */
 void imf_mahony_ahrs_update(imf_mahony_ahrs_t *self, imf_real gx, imf_real gy, imf_real gz,
-                            imf_real ax, imf_real ay, imf_real az,
-                            imf_real mx, imf_real my, imf_real mz);
+                            imf_real ax, imf_real ay, imf_real az, imf_real mx, imf_real my,
+                            imf_real mz);
 
 #ifdef __cplusplus
 }

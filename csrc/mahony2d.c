@@ -36,8 +36,7 @@ void imf_mahony2d_set_attitude(imf_mahony2d_t *const self, const imf_attitude_t 
 }
 
 void imf_mahony2d_update(imf_mahony2d_t *const self, const imf_real gx, const imf_real gy,
-                         const imf_real gz, const imf_real ax, const imf_real ay,
-                         const imf_real az)
+                         const imf_real gz, const imf_real ax, const imf_real ay, const imf_real az)
 {
     const imf_real dx = self->x.dx, dy = self->x.dy, dz = self->x.dz;
     imf_real cx, cy, cz, n2, norm, nx, ny, nz, wx, wy, wz;
@@ -102,8 +101,7 @@ void imf_mahony2d_update(imf_mahony2d_t *const self, const imf_real gx, const im
     self->x.iz = iz;
 }
 
-void imf_mahony2d_angles(const imf_mahony2d_t *const self, double *const roll,
-                         double *const pitch)
+void imf_mahony2d_angles(const imf_mahony2d_t *const self, double *const roll, double *const pitch)
 {
     imf_tilt_angles((double)self->x.dx, (double)self->x.dy, (double)self->x.dz, roll, pitch);
 }

@@ -54,13 +54,13 @@ typedef struct {
 } imf_mahony2d_state_t;
 
 typedef struct {
-    imf_real dt;      /* sample period, s */
-    imf_real kp;      /* proportional gain, 1/s */
-    imf_real ki;      /* integral gain Ki, 1/s^2 (kept for set_dt) */
-    imf_real ki_dt;   /* Ki dt, 1/s */
-    int exact;        /* 0: E = a - d (Eq. 4.4); 1: E = d x (a x d) (Eq. 4.3) */
-    imf_real d2_max;  /* longest valid d, squared: 4 (see above) */
-    uint32_t skipped; /* samples rejected by the non-finite policy */
+    imf_real dt;            /* sample period, s */
+    imf_real kp;            /* proportional gain, 1/s */
+    imf_real ki;            /* integral gain Ki, 1/s^2 (kept for set_dt) */
+    imf_real ki_dt;         /* Ki dt, 1/s */
+    int exact;              /* 0: E = a - d (Eq. 4.4); 1: E = d x (a x d) (Eq. 4.3) */
+    imf_real d2_max;        /* longest valid d, squared: 4 (see above) */
+    uint32_t skipped;       /* samples rejected by the non-finite policy */
     imf_mahony2d_state_t x; /* the state (above): the estimate; write it only through the API */
 } imf_mahony2d_t;
 
@@ -68,8 +68,8 @@ typedef struct {
 void imf_mahony2d_init(imf_mahony2d_t *self, imf_real dt, imf_real kp, imf_real ki, int exact);
 /* gx, gy, gz: rad/s; ax, ay, az: any unit (normalised). A zero (or
    overflowing) acceleration means E = 0: the gyro path and I only. */
-void imf_mahony2d_update(imf_mahony2d_t *self, imf_real gx, imf_real gy, imf_real gz,
-                         imf_real ax, imf_real ay, imf_real az);
+void imf_mahony2d_update(imf_mahony2d_t *self, imf_real gx, imf_real gy, imf_real gz, imf_real ax,
+                         imf_real ay, imf_real az);
 /* A new sample period dt (s): dt and Ki dt by the expressions of init (init
    calls it). For timestamps with jitter call it before each update. */
 void imf_mahony2d_set_dt(imf_mahony2d_t *self, imf_real dt);

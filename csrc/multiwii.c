@@ -64,8 +64,7 @@ void imf_multiwii_set_attitude(imf_multiwii_t *const self, const imf_attitude_t 
 }
 
 void imf_multiwii_update(imf_multiwii_t *const self, const imf_real gx, const imf_real gy,
-                         const imf_real gz, const imf_real ax, const imf_real ay,
-                         const imf_real az)
+                         const imf_real gz, const imf_real ax, const imf_real ay, const imf_real az)
 {
     imf_real deltax, deltay, deltaz, sx, sy, sz, mag2, dx, dy, dz;
     if (!(imf_finite3(gx, gy, gz) && imf_finite3(ax, ay, az))) {
@@ -108,8 +107,7 @@ void imf_multiwii_update(imf_multiwii_t *const self, const imf_real gx, const im
     self->x.az = sz;
 }
 
-void imf_multiwii_angles(const imf_multiwii_t *const self, double *const roll,
-                         double *const pitch)
+void imf_multiwii_angles(const imf_multiwii_t *const self, double *const roll, double *const pitch)
 {
     /* step 5, outside the state update */
     imf_tilt_angles((double)self->x.dx, (double)self->x.dy, (double)self->x.dz, roll, pitch);

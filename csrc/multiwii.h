@@ -34,16 +34,16 @@ typedef struct {
 } imf_multiwii_state_t;
 
 typedef struct {
-    imf_real dt;        /* sample period, s */
-    imf_real cmpf;      /* GYR_CMPF_FACTOR F: weight of the gyro path */
-    imf_real inv_cmpf1; /* INV_GYR_CMPF_FACTOR = 1 / (F + 1) */
-    imf_real lpf_n;     /* 2^ACC_LPF_FACTOR (the firmware's LPF length) */
-    imf_real lpf_inv;   /* 2^-ACC_LPF_FACTOR */
-    imf_real mag2_lo;   /* ((1 - window) acc_1g)^2: window on |a|^2 */
-    imf_real mag2_hi;   /* ((1 + window) acc_1g)^2 */
-    imf_real d2_max;    /* (4 acc_1g)^2: longest valid d (imf_gravity_ok), squared */
-    imf_real acc_1g;    /* accelerometer reading of 1 g */
-    uint32_t skipped;   /* samples rejected by the non-finite policy */
+    imf_real dt;            /* sample period, s */
+    imf_real cmpf;          /* GYR_CMPF_FACTOR F: weight of the gyro path */
+    imf_real inv_cmpf1;     /* INV_GYR_CMPF_FACTOR = 1 / (F + 1) */
+    imf_real lpf_n;         /* 2^ACC_LPF_FACTOR (the firmware's LPF length) */
+    imf_real lpf_inv;       /* 2^-ACC_LPF_FACTOR */
+    imf_real mag2_lo;       /* ((1 - window) acc_1g)^2: window on |a|^2 */
+    imf_real mag2_hi;       /* ((1 + window) acc_1g)^2 */
+    imf_real d2_max;        /* (4 acc_1g)^2: longest valid d (imf_gravity_ok), squared */
+    imf_real acc_1g;        /* accelerometer reading of 1 g */
+    uint32_t skipped;       /* samples rejected by the non-finite policy */
     imf_multiwii_state_t x; /* the state (above): the estimate; write it only through the API */
 } imf_multiwii_t;
 
@@ -65,8 +65,8 @@ void imf_multiwii_default_settings(imf_multiwii_settings_t *settings);
    State starts level. */
 void imf_multiwii_init(imf_multiwii_t *self, const imf_multiwii_settings_t *settings);
 /* gx, gy, gz: rad/s; ax, ay, az: accelerometer units (acc_1g per g) */
-void imf_multiwii_update(imf_multiwii_t *self, imf_real gx, imf_real gy, imf_real gz,
-                         imf_real ax, imf_real ay, imf_real az);
+void imf_multiwii_update(imf_multiwii_t *self, imf_real gx, imf_real gy, imf_real gz, imf_real ax,
+                         imf_real ay, imf_real az);
 /* A new sample period dt (s), set as init sets it (init calls it); cmpf and
    the LPF stay per sample, as in the firmware. */
 void imf_multiwii_set_dt(imf_multiwii_t *self, imf_real dt);

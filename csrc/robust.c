@@ -100,8 +100,7 @@ static void robust_init(imf_robust_consts_t *const set, uint32_t *const skipped,
     ta2 = set->tau_acc * set->tau_acc;
     set->qg0 = IMF_R(1.0) / (ta2 * ta2);
     set->pgg0 = IMF_R(1.0) / (ta2 * set->tau_acc);
-    set->inv_rate_ref2 = rate_ref > IMF_R(0.0) ? IMF_R(1.0) / (rate_ref * rate_ref)
-                                               : IMF_R(0.0);
+    set->inv_rate_ref2 = rate_ref > IMF_R(0.0) ? IMF_R(1.0) / (rate_ref * rate_ref) : IMF_R(0.0);
     set->inv_tau_bias = set->tau_bias > IMF_R(0.0) ? IMF_R(1.0) / set->tau_bias : IMF_R(0.0);
     set->rest_gyr2 = rest_gyr * rest_gyr;
     set->rest_acc2 = rest_acc * rest_acc;
@@ -125,35 +124,63 @@ static void robust_init(imf_robust_consts_t *const set, uint32_t *const skipped,
     set->t_max = tmax;
     robust_set_dt(set, s->dt);
     *skipped = 0;
-    x->q0 = IMF_R(1.0); x->q1 = IMF_R(0.0); x->q2 = IMF_R(0.0); x->q3 = IMF_R(0.0);
-    x->s0 = IMF_R(1.0); x->s1 = IMF_R(0.0); x->s2 = IMF_R(0.0); x->s3 = IMF_R(0.0);
-    x->c0 = IMF_R(1.0); x->c1 = IMF_R(0.0); x->c2 = IMF_R(0.0); x->c3 = IMF_R(0.0);
-    x->fx = IMF_R(0.0); x->fy = IMF_R(0.0); x->fz = IMF_R(0.0);
-    x->vx = IMF_R(0.0); x->vy = IMF_R(0.0); x->vz = IMF_R(0.0);
-    x->pvv = IMF_R(0.0); x->pvg = IMF_R(0.0); x->pgg = IMF_R(0.0);
-    x->bx = IMF_R(0.0); x->by = IMF_R(0.0); x->bz = IMF_R(0.0);
-    x->lwx = IMF_R(0.0); x->lwy = IMF_R(0.0); x->lwz = IMF_R(0.0);
-    x->lax = IMF_R(0.0); x->lay = IMF_R(0.0); x->laz = IMF_R(0.0);
-    x->t = IMF_R(0.0); x->t_rest = IMF_R(0.0);
-    x->rn = IMF_R(0.0); x->rh = IMF_R(0.0); x->rz = IMF_R(0.0);
-    x->cn = IMF_R(0.0); x->ch = IMF_R(0.0); x->cz = IMF_R(0.0);
-    x->t_cand = IMF_R(0.0); x->t_dist = IMF_R(0.0); x->t_ok = IMF_R(0.0);
+    x->q0 = IMF_R(1.0);
+    x->q1 = IMF_R(0.0);
+    x->q2 = IMF_R(0.0);
+    x->q3 = IMF_R(0.0);
+    x->s0 = IMF_R(1.0);
+    x->s1 = IMF_R(0.0);
+    x->s2 = IMF_R(0.0);
+    x->s3 = IMF_R(0.0);
+    x->c0 = IMF_R(1.0);
+    x->c1 = IMF_R(0.0);
+    x->c2 = IMF_R(0.0);
+    x->c3 = IMF_R(0.0);
+    x->fx = IMF_R(0.0);
+    x->fy = IMF_R(0.0);
+    x->fz = IMF_R(0.0);
+    x->vx = IMF_R(0.0);
+    x->vy = IMF_R(0.0);
+    x->vz = IMF_R(0.0);
+    x->pvv = IMF_R(0.0);
+    x->pvg = IMF_R(0.0);
+    x->pgg = IMF_R(0.0);
+    x->bx = IMF_R(0.0);
+    x->by = IMF_R(0.0);
+    x->bz = IMF_R(0.0);
+    x->lwx = IMF_R(0.0);
+    x->lwy = IMF_R(0.0);
+    x->lwz = IMF_R(0.0);
+    x->lax = IMF_R(0.0);
+    x->lay = IMF_R(0.0);
+    x->laz = IMF_R(0.0);
+    x->t = IMF_R(0.0);
+    x->t_rest = IMF_R(0.0);
+    x->rn = IMF_R(0.0);
+    x->rh = IMF_R(0.0);
+    x->rz = IMF_R(0.0);
+    x->cn = IMF_R(0.0);
+    x->ch = IMF_R(0.0);
+    x->cz = IMF_R(0.0);
+    x->t_cand = IMF_R(0.0);
+    x->t_dist = IMF_R(0.0);
+    x->t_ok = IMF_R(0.0);
 }
 
 /* The defaults of the settings both filters have (robust.h lists them): one list for the
    two settings structs. */
-#define ROBUST_COMMON_DEFAULTS(s)                                         \
-    do {                                                                  \
-        (s)->dt = IMF_R(0.01);                                            \
-        (s)->tau_acc = IMF_R(2.5);                                        \
-        (s)->rate_ref = (imf_real)1.7453292519943295;  /* 100 deg/s */    \
-        (s)->tau_bias = IMF_R(100.0);                                     \
-        (s)->tau_bias_rest = IMF_R(3.0);                                  \
-        (s)->rest_gyr = (imf_real)0.03490658503988659; /* 2 deg/s */      \
-        (s)->rest_acc = IMF_R(0.05);                                      \
-        (s)->rest_time = IMF_R(1.5);                                      \
-        (s)->tau_rest = IMF_R(0.5);                                       \
-        (s)->latency = IMF_R(0.0);                                        \
+#define ROBUST_COMMON_DEFAULTS(s) \
+    do { \
+        (s)->dt = IMF_R(0.01); \
+        (s)->tau_acc = IMF_R(2.5); \
+        (s)->rate_ref = (imf_real)1.7453292519943295; /* 100 deg/s */ \
+        (s)->tau_bias = IMF_R(100.0); \
+        (s)->tau_bias_rest = IMF_R(3.0); \
+        (s)->rest_gyr = (imf_real)0.03490658503988659; /* 2 deg/s */ \
+        (s)->rest_acc = IMF_R(0.05); \
+        (s)->rest_time = IMF_R(1.5); \
+        (s)->tau_rest = IMF_R(0.5); \
+        (s)->latency = IMF_R(0.0); \
     } while (0)
 
 void imf_robust_imu_default_settings(imf_robust_imu_settings_t *const settings)
@@ -166,7 +193,7 @@ void imf_robust_ahrs_default_settings(imf_robust_ahrs_settings_t *const settings
     ROBUST_COMMON_DEFAULTS(settings);
     settings->tau_mag = IMF_R(10.0);
     settings->mag_norm = IMF_R(0.1);
-    settings->mag_dip = (imf_real)0.17364817766693033;     /* sin(10 deg) */
+    settings->mag_dip = (imf_real)0.17364817766693033; /* sin(10 deg) */
     settings->tau_mag_ref = IMF_R(20.0);
     settings->mag_new_time = IMF_R(20.0);
     settings->mag_hold = IMF_R(0.5);
@@ -215,9 +242,18 @@ void imf_robust_ahrs_set_dt(imf_robust_ahrs_t *const self, const imf_real dt)
 /* start again from att (the next sample is the first) */
 static void robust_set_attitude(imf_robust_state_t *const x, const imf_attitude_t *const att)
 {
-    x->q0 = att->q[0]; x->q1 = att->q[1]; x->q2 = att->q[2]; x->q3 = att->q[3];
-    x->s0 = att->q[0]; x->s1 = att->q[1]; x->s2 = att->q[2]; x->s3 = att->q[3];
-    x->c0 = IMF_R(1.0); x->c1 = IMF_R(0.0); x->c2 = IMF_R(0.0); x->c3 = IMF_R(0.0);
+    x->q0 = att->q[0];
+    x->q1 = att->q[1];
+    x->q2 = att->q[2];
+    x->q3 = att->q[3];
+    x->s0 = att->q[0];
+    x->s1 = att->q[1];
+    x->s2 = att->q[2];
+    x->s3 = att->q[3];
+    x->c0 = IMF_R(1.0);
+    x->c1 = IMF_R(0.0);
+    x->c2 = IMF_R(0.0);
+    x->c3 = IMF_R(0.0);
     x->t = IMF_R(0.0);
     x->rn = IMF_R(0.0);
 }
@@ -236,8 +272,8 @@ void imf_robust_ahrs_set_attitude(imf_robust_ahrs_t *const self, const imf_attit
 
 /* Gyro + accelerometer part on the working state x; 0 rejects the sample. */
 static int robust_step(const imf_robust_consts_t *const set, imf_robust_state_t *const x,
-                       const imf_real gx, const imf_real gy, const imf_real gz,
-                       const imf_real ax, const imf_real ay, const imf_real az)
+                       const imf_real gx, const imf_real gy, const imf_real gz, const imf_real ax,
+                       const imf_real ay, const imf_real az)
 {
     const imf_real dt = set->dt;
     const int first = x->t == IMF_R(0.0);
@@ -300,14 +336,23 @@ static int robust_step(const imf_robust_consts_t *const set, imf_robust_state_t 
     if (!robust_norm4(s)) {
         return 0;
     }
-    x->s0 = s[0]; x->s1 = s[1]; x->s2 = s[2]; x->s3 = s[3];
+    x->s0 = s[0];
+    x->s1 = s[1];
+    x->s2 = s[2];
+    x->s3 = s[3];
     /* B2: the accelerometer in the inertial frame */
     robust_rotate(ai, s[0], s[1], s[2], s[3], ax, ay, az);
     if (first) {
         /* B5: gravity from the first sample */
-        x->fx = ai[0]; x->fy = ai[1]; x->fz = ai[2];
-        x->vx = IMF_R(0.0); x->vy = IMF_R(0.0); x->vz = IMF_R(0.0);
-        x->pvv = IMF_R(0.0); x->pvg = IMF_R(0.0); x->pgg = set->pgg0;
+        x->fx = ai[0];
+        x->fy = ai[1];
+        x->fz = ai[2];
+        x->vx = IMF_R(0.0);
+        x->vy = IMF_R(0.0);
+        x->vz = IMF_R(0.0);
+        x->pvv = IMF_R(0.0);
+        x->pvg = IMF_R(0.0);
+        x->pgg = set->pgg0;
     } else if (has_acc) {
         imf_real rr, qg, pvv, pvg, pgg, inv, kv, kg;
         /* predict: v' = a - g, g' = 0 (+ process noise growing with the rotation rate) */
@@ -362,12 +407,18 @@ static int robust_step(const imf_robust_consts_t *const set, imf_robust_state_t 
     if (!robust_norm4(c)) {
         return 0;
     }
-    x->c0 = c[0]; x->c1 = c[1]; x->c2 = c[2]; x->c3 = c[3];
+    x->c0 = c[0];
+    x->c1 = c[1];
+    x->c2 = c[2];
+    x->c3 = c[3];
     robust_qmul(q, c[0], c[1], c[2], c[3], s[0], s[1], s[2], s[3]);
     if (!robust_norm4(q)) {
         return 0;
     }
-    x->q0 = q[0]; x->q1 = q[1]; x->q2 = q[2]; x->q3 = q[3];
+    x->q0 = q[0];
+    x->q1 = q[1];
+    x->q2 = q[2];
+    x->q3 = q[3];
     /* B3: the correction rate seen in the sensor frame is minus the bias error
        (Eq. 3.6, I_k = I_{k-1} + Ki dt e_k, with Ki dt = 1 / tau_bias) */
     if (!rest && x->t >= set->tau_acc && set->inv_tau_bias > IMF_R(0.0)) {
@@ -400,7 +451,10 @@ static int robust_predict(const imf_robust_consts_t *const set, imf_robust_state
     if (!robust_norm4(q)) {
         return 0;
     }
-    x->q0 = q[0]; x->q1 = q[1]; x->q2 = q[2]; x->q3 = q[3];
+    x->q0 = q[0];
+    x->q1 = q[1];
+    x->q2 = q[2];
+    x->q3 = q[3];
     return 1;
 }
 
@@ -436,8 +490,12 @@ static int robust_mag(const imf_robust_consts_t *const set, imf_robust_state_t *
     zn = me[2] * inv;
     if (x->rn == IMF_R(0.0)) {
         /* first reading: it is the reference */
-        x->rn = mn; x->rh = hn; x->rz = zn;
-        x->cn = mn; x->ch = hn; x->cz = zn;
+        x->rn = mn;
+        x->rh = hn;
+        x->rz = zn;
+        x->cn = mn;
+        x->ch = hn;
+        x->cz = zn;
         x->t_ok = set->mag_hold;
     }
     match = robust_mag_test(set, mn, hn, zn, x->rn, x->rh, x->rz);
@@ -457,7 +515,9 @@ static int robust_mag(const imf_robust_consts_t *const set, imf_robust_state_t *
         x->rn = x->rn + k * (mn - x->rn);
         x->rh = x->rh + k * (hn - x->rh);
         x->rz = x->rz + k * (zn - x->rz);
-        x->cn = mn; x->ch = hn; x->cz = zn;
+        x->cn = mn;
+        x->ch = hn;
+        x->cz = zn;
         if (!(h2 >= ROBUST_MIN)) {
             return 1; /* field vertical: no heading information */
         }
@@ -492,12 +552,18 @@ static int robust_mag(const imf_robust_consts_t *const set, imf_robust_state_t *
         if (!robust_norm4(c)) {
             return 0;
         }
-        x->c0 = c[0]; x->c1 = c[1]; x->c2 = c[2]; x->c3 = c[3];
+        x->c0 = c[0];
+        x->c1 = c[1];
+        x->c2 = c[2];
+        x->c3 = c[3];
         robust_qmul(q, c[0], c[1], c[2], c[3], x->s0, x->s1, x->s2, x->s3);
         if (!robust_norm4(q)) {
             return 0;
         }
-        x->q0 = q[0]; x->q1 = q[1]; x->q2 = q[2]; x->q3 = q[3];
+        x->q0 = q[0];
+        x->q1 = q[1];
+        x->q2 = q[2];
+        x->q3 = q[3];
     } else {
         /* disturbed (or not yet matching for mag_hold): no heading correction; a new
            field that stays the same for mag_new_time of motion becomes the reference */
@@ -511,11 +577,15 @@ static int robust_mag(const imf_robust_consts_t *const set, imf_robust_state_t *
                 x->t_cand = x->t_cand + dt;
             }
             if (x->t_cand >= set->mag_new_time) {
-                x->rn = x->cn; x->rh = x->ch; x->rz = x->cz;
+                x->rn = x->cn;
+                x->rh = x->ch;
+                x->rz = x->cz;
                 x->t_cand = IMF_R(0.0);
             }
         } else {
-            x->cn = mn; x->ch = hn; x->cz = zn;
+            x->cn = mn;
+            x->ch = hn;
+            x->cz = zn;
             x->t_cand = IMF_R(0.0);
         }
     }
@@ -523,8 +593,7 @@ static int robust_mag(const imf_robust_consts_t *const set, imf_robust_state_t *
 }
 
 /* the clock of the start-up (saturating: no growth once every start is over) */
-static inline void robust_advance(const imf_robust_consts_t *const set,
-                                  imf_robust_state_t *const x)
+static inline void robust_advance(const imf_robust_consts_t *const set, imf_robust_state_t *const x)
 {
     x->t = x->t + set->dt;
     if (x->t > set->t_max) {

@@ -48,46 +48,46 @@ extern "C" {
 #endif
 
 typedef struct {
-    imf_real q0, q1, q2, q3;    /* estimate, sensor -> earth (NWU), w first */
-    imf_real s0, s1, s2, s3;    /* strapdown: sensor -> inertial frame */
-    imf_real c0, c1, c2, c3;    /* correction: inertial -> earth frame */
-    imf_real fx, fy, fz;        /* gravity (specific force) in the inertial frame, acc unit */
-    imf_real vx, vy, vz;        /* B2 velocity-like state, acc unit * s */
-    imf_real pvv, pvg, pgg;     /* B2 covariance, shared by the three axes */
-    imf_real bx, by, bz;        /* gyro bias, rad/s */
-    imf_real lwx, lwy, lwz;     /* low-passed gyro (rest detection), rad/s */
-    imf_real lax, lay, laz;     /* low-passed accelerometer (rest detection), acc unit */
-    imf_real t, t_rest;         /* time since start (saturating), time at rest, s */
-    imf_real rn, rh, rz;        /* magnetic reference: norm, cos(dip), vertical part */
-    imf_real cn, ch, cz;        /* candidate reference (a changed field) */
-    imf_real t_cand, t_dist;    /* candidate stable for, field disturbed for, s */
-    imf_real t_ok;              /* field matching the reference for (saturating), s */
+    imf_real q0, q1, q2, q3; /* estimate, sensor -> earth (NWU), w first */
+    imf_real s0, s1, s2, s3; /* strapdown: sensor -> inertial frame */
+    imf_real c0, c1, c2, c3; /* correction: inertial -> earth frame */
+    imf_real fx, fy, fz;     /* gravity (specific force) in the inertial frame, acc unit */
+    imf_real vx, vy, vz;     /* B2 velocity-like state, acc unit * s */
+    imf_real pvv, pvg, pgg;  /* B2 covariance, shared by the three axes */
+    imf_real bx, by, bz;     /* gyro bias, rad/s */
+    imf_real lwx, lwy, lwz;  /* low-passed gyro (rest detection), rad/s */
+    imf_real lax, lay, laz;  /* low-passed accelerometer (rest detection), acc unit */
+    imf_real t, t_rest;      /* time since start (saturating), time at rest, s */
+    imf_real rn, rh, rz;     /* magnetic reference: norm, cos(dip), vertical part */
+    imf_real cn, ch, cz;     /* candidate reference (a changed field) */
+    imf_real t_cand, t_dist; /* candidate stable for, field disturbed for, s */
+    imf_real t_ok;           /* field matching the reference for (saturating), s */
 } imf_robust_state_t;
 
 /* Internal: the settings as init converts them once (dt-dependent ones by set_dt). */
 typedef struct {
     imf_real dt, two_dt, dt2, r_d; /* s, 2 dt, dt^2, 1 / dt */
     imf_real tau_acc, tau_bias, tau_bias_rest, tau_rest, tau_mag, tau_mag_ref; /* s */
-    imf_real latency;              /* s, output prediction; 0: none */
-    imf_real qg0, qg_dt, pgg0;     /* 1 / tau_acc^4, qg0 dt, 1 / tau_acc^3 */
-    imf_real inv_rate_ref2;        /* 1 / rate_ref^2, (rad/s)^-2; 0: constant */
-    imf_real inv_tau_bias;         /* 1 / tau_bias, 1/s; 0: no bias in motion */
+    imf_real latency;                         /* s, output prediction; 0: none */
+    imf_real qg0, qg_dt, pgg0;                /* 1 / tau_acc^4, qg0 dt, 1 / tau_acc^3 */
+    imf_real inv_rate_ref2;                   /* 1 / rate_ref^2, (rad/s)^-2; 0: constant */
+    imf_real inv_tau_bias;                    /* 1 / tau_bias, 1/s; 0: no bias in motion */
     imf_real rest_gyr2, rest_acc2, rest_time; /* (rad/s)^2, g^2 (relative), s */
     imf_real mag_norm, mag_dip, mag_new_time, mag_hold; /* relative, sine, s, s */
-    imf_real k_rest, kb_rest, k_mag, k_ref;   /* dt / (tau + dt) */
-    imf_real c48;                  /* 1 / 48 */
-    imf_real t_max;                /* longest start-up horizon, s */
+    imf_real k_rest, kb_rest, k_mag, k_ref;             /* dt / (tau + dt) */
+    imf_real c48;                                       /* 1 / 48 */
+    imf_real t_max;                                     /* longest start-up horizon, s */
 } imf_robust_consts_t;
 
 typedef struct {
-    uint32_t skipped; /* samples rejected by the valid-attitude policy */
-    imf_robust_state_t x; /* the state (above): the estimate; write it only through the API */
+    uint32_t skipped;        /* samples rejected by the valid-attitude policy */
+    imf_robust_state_t x;    /* the state (above): the estimate; write it only through the API */
     imf_robust_consts_t set; /* internal: the settings as init converted them */
 } imf_robust_imu_t;
 
 typedef struct {
-    uint32_t skipped; /* samples rejected by the valid-attitude policy */
-    imf_robust_state_t x; /* the state (above): the estimate; write it only through the API */
+    uint32_t skipped;        /* samples rejected by the valid-attitude policy */
+    imf_robust_state_t x;    /* the state (above): the estimate; write it only through the API */
     imf_robust_consts_t set; /* internal: the settings as init converted them */
 } imf_robust_ahrs_t;
 
@@ -162,8 +162,8 @@ void imf_robust_ahrs_default_settings(imf_robust_ahrs_settings_t *settings);
 void imf_robust_ahrs_init(imf_robust_ahrs_t *self, const imf_robust_ahrs_settings_t *settings);
 /* gx, gy, gz: rad/s; ax, ay, az and mx, my, mz: any unit (mag all zero: none) */
 void imf_robust_ahrs_update(imf_robust_ahrs_t *self, imf_real gx, imf_real gy, imf_real gz,
-                            imf_real ax, imf_real ay, imf_real az,
-                            imf_real mx, imf_real my, imf_real mz);
+                            imf_real ax, imf_real ay, imf_real az, imf_real mx, imf_real my,
+                            imf_real mz);
 
 /* A new sample period dt (s): every dt-dependent constant by the expressions
    of init, so the filter equals one initialised with this dt bit for bit. */

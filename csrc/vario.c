@@ -1,7 +1,7 @@
 /*
- * Variometer of seed 002. See vario.h. The pure-Python twin is
+ * Variometer of Nair (2016). See vario.h. The pure-Python twin is
  * python/imufuse/reference/vario.py: the same lines in the same order.
- * Step numbers are those of the seed's "Prediction" and "Update" lists.
+ * Step numbers are those of Nair's "Prediction" and "Update" lists.
  */
 #include "vario.h"
 
@@ -25,8 +25,8 @@ void imf_vario_init(imf_vario_t *const self, const imf_vario_settings_t *const s
     self->set.var_z = s->var_z;
     self->set.var_acc = s->var_acc;
     self->set.var_bias = s->var_bias;
-    self->set.predict = s->predict == IMF_VARIO_PREDICT_MODEL ? IMF_VARIO_PREDICT_MODEL
-                                                           : IMF_VARIO_PREDICT_SEED;
+    self->set.predict =
+        s->predict == IMF_VARIO_PREDICT_MODEL ? IMF_VARIO_PREDICT_MODEL : IMF_VARIO_PREDICT_SEED;
     self->skipped = 0;
     self->started = s->z0_from_baro ? 0 : 1;
     self->x.z = s->z0;
@@ -63,9 +63,8 @@ static void vario_predict_covariance(const imf_vario_consts_t *const set,
 }
 
 /* Step 2: a priori state, accel_real = accel_meas - b */
-static void vario_predict_state(const imf_vario_consts_t *const set,
-                                imf_vario_state_t *const x, const imf_real accel,
-                                const imf_real dt)
+static void vario_predict_state(const imf_vario_consts_t *const set, imf_vario_state_t *const x,
+                                const imf_real accel, const imf_real dt)
 {
     const imf_real acc = accel - x->b;
     if (set->predict == IMF_VARIO_PREDICT_MODEL) {
@@ -73,7 +72,7 @@ static void vario_predict_state(const imf_vario_consts_t *const set,
         x->z = x->z + x->v * dt + IMF_R(0.5) * dt * dt * acc;
         x->v = x->v + acc * dt;
     } else {
-        /* the seed as written: v first, then z with the new v */
+        /* as Nair writes it: v first, then z with the new v */
         x->v = x->v + acc * dt;
         x->z = x->z + x->v * dt;
     }
@@ -143,7 +142,7 @@ imf_real imf_vertical_accel(const imf_real q0, const imf_real q1, const imf_real
                             const imf_real az, const imf_real sign, const imf_real one_g,
                             const imf_real scale)
 {
-    /* seed 002: the third row of the rotation matrix of q, times a */
+    /* Nair (2016): the third row of the rotation matrix of q, times a */
     const imf_real az_earth = (IMF_R(2.0) * q1 * q3 - IMF_R(2.0) * q0 * q2) * ax
                               + (IMF_R(2.0) * q2 * q3 + IMF_R(2.0) * q0 * q1) * ay
                               + (q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3) * az;

@@ -1,10 +1,10 @@
 /*
- * Variometer of seed 002 (Hari Nair, "IMU modules, AHRS and a Kalman filter
+ * Variometer of Hari Nair ("IMU modules, AHRS and a Kalman filter
  * for sensor fusion", 2016): gravity-compensated vertical acceleration from
  * an attitude quaternion, and the three-state Kalman filter that fuses it
  * with barometric altitude.
  *
- * Kalman filter states (seed's units): z altitude (cm), v climb rate (cm/s),
+ * Kalman filter states (Nair's units): z altitude (cm), v climb rate (cm/s),
  * b accelerometer bias (cm/s^2); the true vertical acceleration is the
  * measured one minus b. Per barometer sample, with dt the interval since the
  * previous one (s):
@@ -14,11 +14,11 @@
  *   H = [1 0 0],  R = sz
  *
  * sa = var_acc ((cm/s^2)^2), sb = var_bias ((cm/s^2)^2, added once per step
- * as in the seed), sz = var_z (cm^2). The covariance is symmetric and stored
+ * as in Nair (2016)), sz = var_z (cm^2). The covariance is symmetric and stored
  * as its upper triangle.
  *
- * State prediction (step 2 of the seed):
- *   IMF_VARIO_PREDICT_SEED   as the seed writes it: v += (a - b) dt, then
+ * State prediction (step 2 of Nair's lists):
+ *   IMF_VARIO_PREDICT_SEED   as Nair writes it: v += (a - b) dt, then
  *                            z += v dt with the new v;
  *   IMF_VARIO_PREDICT_MODEL  consistent with F: z += v dt + (a - b) dt^2/2,
  *                            then v += (a - b) dt.
@@ -64,12 +64,12 @@ typedef struct {
 
 typedef struct {
     imf_vario_consts_t set; /* internal: the settings as init converted them */
-    uint32_t skipped; /* samples rejected by the non-finite policy */
-    int started;      /* 0 until the first sample has set z (z0_from_baro) */
-    imf_vario_state_t x; /* the state (above): the estimate; write it only through the API */
+    uint32_t skipped;       /* samples rejected by the non-finite policy */
+    int started;            /* 0 until the first sample has set z (z0_from_baro) */
+    imf_vario_state_t x;    /* the state (above): the estimate; write it only through the API */
 } imf_vario_t;
 
-/* The settings of imf_vario_init. Start from imf_vario_default_settings() (the seed's
+/* The settings of imf_vario_init. Start from imf_vario_default_settings() (Nair's
    values) and change what differs. */
 typedef struct {
     imf_real var_z;    /* R: barometer altitude variance, cm^2; > 0 (default 300) */
@@ -96,17 +96,17 @@ void imf_vario_init(imf_vario_t *self, const imf_vario_settings_t *settings);
 void imf_vario_update(imf_vario_t *self, imf_real accel, imf_real baro_alt, imf_real dt);
 
 /*
- * Gravity-compensated vertical acceleration (seed 002): the z component of
+ * Gravity-compensated vertical acceleration (Nair 2016): the z component of
  * the accelerometer rotated into the earth frame by q (sensor -> earth),
  *
  *   az_earth = (2q1q3 - 2q0q2) ax + (2q2q3 + 2q0q1) ay + (q0^2 - q1^2 - q2^2 + q3^2) az,
  *
  * returned as (sign az_earth - one_g) scale: the net acceleration along the
  * vertical, up positive. sign = +1 when the accelerometer reads +1 g along
- * earth z at rest (imufuse's NWU and ENU, and the seed's NED board, whose
+ * earth z at rest (imufuse's NWU and ENU, and Nair's NED board, whose
  * D axis reads +1 g); sign = -1 for a NED frame with a specific-force
  * accelerometer (-1 g on D at rest). one_g: 1 g in the accelerometer's unit;
- * scale: output unit per accelerometer unit (the seed: 1 g, scale 980 for cm/s^2).
+ * scale: output unit per accelerometer unit (Nair: 1 g, scale 980 for cm/s^2).
  */
 imf_real imf_vertical_accel(imf_real q0, imf_real q1, imf_real q2, imf_real q3, imf_real ax,
                             imf_real ay, imf_real az, imf_real sign, imf_real one_g,

@@ -49,7 +49,7 @@ for _name in FILTERS:
 
 __all__ = list(FILTERS)
 
-# ---- seed 002's variometer: VarioKF (dtype dispatch) and vertical_accel
+# ---- Nair's variometer: VarioKF (dtype dispatch) and vertical_accel
 FILTERS_VARIO = _reference.FILTERS_VARIO
 for _name in FILTERS_VARIO:
     globals()[_name] = _dispatch(_name)

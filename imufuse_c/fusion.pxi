@@ -1,4 +1,4 @@
-# The Fusion suite (csrc/fusion_*.h): seed 004, x-io Fusion as in imufusion 1.2.3.
+# The Fusion suite (csrc/fusion_*.h): Longbin's Fusion walkthrough, x-io Fusion as in imufusion 1.2.3.
 # Units are Fusion's (deg/s, g, degrees); see imufuse.reference.fusion.
 from libc.stdint cimport int32_t
 

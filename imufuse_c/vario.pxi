@@ -1,4 +1,4 @@
-# Variometer of seed 002 (csrc/vario.h): the three-state Kalman filter and
+# Variometer of Nair (2016) (csrc/vario.h): the three-state Kalman filter and
 # the gravity-compensated vertical acceleration.
 cdef extern from "vario.h" nogil:
     ctypedef struct imf_vario_state_t:

@@ -1,4 +1,4 @@
-"""The Fusion oracle: imufusion 1.2.3 from PyPI (seed 004), fetched and built
+"""The Fusion oracle: imufusion 1.2.3 from PyPI (Longbin's Fusion walkthrough), fetched and built
 in the test session, never committed.
 
 - `fetch_sdist()`: `pip download --no-deps --no-binary :all: imufusion==1.2.3`,

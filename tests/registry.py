@@ -69,7 +69,7 @@ CASES_QUATERNION = [
          "simplified_fast"),
     Case("MadgwickAHRS", dict(dt=0.01, beta=0.1)),
     Case("MadgwickAHRS", dict(dt=1 / 512, beta=0.1, invsqrt="fast"), "published"),
-    # seed 002: the accelerometer-magnitude gate (gyro only outside lo..hi g)
+    # Nair (2016): the accelerometer-magnitude gate (gyro only outside lo..hi g)
     Case("MahonyIMU", dict(dt=0.005, kp=1.0, ki=0.3, acc_gate=(0.6, 1.4)), "gate"),
     Case("MahonyAHRS", dict(dt=0.005, kp=1.0, ki=0.3, acc_gate=(0.9, 1.1), acc_1g=9.81,
                             invsqrt="fast"), "gate_ms2"),
@@ -156,7 +156,7 @@ def fixed_matrix():
     return [pytest.param(c, p, id=f"{c.id}-p{p}") for c in FIXED_CASES for p in PROFILES]
 
 
-# ---- seed 002's variometer (csrc/vario.c): update(accel, baro_alt, dt) ------
+# ---- Nair's variometer (csrc/vario.c): update(accel, baro_alt, dt) ------
 # Its own input kind ("vario") and catalogue section (catalogue.VARIO), outside
 # the IMU/1-D filters, so it has its own matrix (tests/test_vario.py).
 @dataclass(frozen=True)
@@ -186,7 +186,7 @@ def vario_matrix():
     return [pytest.param(c, dt, id=f"{c.id}-{dt}") for c in CASES_VARIO for dt in DTYPES]
 
 
-# ---- the Fusion suite (seed 004): csrc/fusion_ahrs.c, fusion_offset.c ------------
+# ---- the Fusion suite (Longbin's Fusion walkthrough): csrc/fusion_ahrs.c, fusion_offset.c ------------
 # Not in FLOAT_CASES, on purpose: the generic harnesses construct a filter with
 # dt at init and call update(gyr, acc[, mag]) in rad/s. FusionAHRS is imufusion's
 # API: Fusion's units (deg/s, g), dt given with every update, three update forms;

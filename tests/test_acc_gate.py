@@ -1,4 +1,4 @@
-"""Seed 002's accelerometer-magnitude gate on MadgwickIMU/AHRS and
+"""Nair's accelerometer-magnitude gate on MadgwickIMU/AHRS and
 MahonyIMU/AHRS: outside lo..hi (units of acc_1g) the update integrates the
 gyro only; inside, and with the gate off (the default), the filter is the
 ungated one bit for bit. The C builds against the twins are in the

@@ -1,4 +1,4 @@
-"""Calibration from recordings (seed 002): raw logs simulated from known
+"""Calibration from recordings (Nair 2016): raw logs simulated from known
 parameters, the parameters recovered within stated tolerances, degenerate
 data refused with a clear error, and `imufuse calibrate` end to end."""
 import json
@@ -84,8 +84,8 @@ def six_position_log(poses=POSES, hold=400, move=200, noise=0.003, seed=0):
 def test_six_position_seed_formulas(given_ranges):
     raw, ranges = six_position_log()
     c = cal.accel_six_position(raw, ranges if given_ranges else None)
-    # per-axis sensitivity and offset (the seed's formulas): the diagonal of A,
-    # and the offset plus the cross-axis leakage (which the seed ignores)
+    # per-axis sensitivity and offset (Nair's formulas): the diagonal of A,
+    # and the offset plus the cross-axis leakage (which Nair ignores)
     np.testing.assert_allclose(c.figures["sensitivity"], np.diag(A_TRUE), rtol=2e-4)
     np.testing.assert_allclose(c.params["b"], B_TRUE, atol=3.0)
     np.testing.assert_array_equal(c.params["M"], np.eye(3))

@@ -1,4 +1,4 @@
-"""The Fusion suite (seed 004) on its own terms: C against the pure-Python
+"""The Fusion suite (Longbin's Fusion walkthrough) on its own terms: C against the pure-Python
 twin bit for bit in both precisions, bad input, the non-finite policy, long
 runs at rest, and what FusionOffset buys on a log with a gyroscope bias.
 
@@ -193,7 +193,7 @@ def test_long_run_at_rest(dtype):
 
 
 def test_offset_estimator_demonstration(capsys):
-    """Seed 004's reason for FusionOffset: a gyroscope bias, rest phases,
+    """Longbin's reason for FusionOffset: a gyroscope bias, rest phases,
     no magnetometer. Without the estimator the heading drifts at the bias
     rate; with it the drift stops once the 5 s rest timeout has passed."""
     n = 12000
@@ -252,7 +252,7 @@ def test_models_and_alignments_c_match_twin(dtype):
 
 
 def test_seed002_mapping_is_a_reflection():
-    """Seed 002's acc_N = acc_y, acc_E = acc_x, acc_D = acc_z: one of the 24
+    """Nair's acc_N = acc_y, acc_E = acc_x, acc_D = acc_z: one of the 24
     reflections, which FusionAxesSwap cannot express."""
     assert not _fusion.alignment_is_rotation("+Y+X+Z")
     out = imufuse_c.axes_apply([[1.0, 2.0, 3.0]], "+Y+X+Z")

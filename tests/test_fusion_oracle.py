@@ -1,5 +1,5 @@
 """FusionAHRS, FusionOffset, the calibration models, the alignments and the
-compass heading against imufusion 1.2.3 (seed 004), bit for bit in float32.
+compass heading against imufusion 1.2.3 (Longbin's Fusion walkthrough), bit for bit in float32.
 
 Two oracles from the one pinned sdist (see fusion_oracle.py):
 - Fusion's C compiled with cffi: every member of FusionAhrs (quaternion,
@@ -29,7 +29,7 @@ from fusion_sim import simulated_log
 
 CONVENTIONS = ("NWU", "ENU", "NED")
 SETTINGS = {
-    # seed 004's example settings at 100 Hz (recovery after 5 s)
+    # Longbin's example settings at 100 Hz (recovery after 5 s)
     "example": dict(gain=0.5, gyroscope_range=2000.0, acceleration_rejection=10.0,
                     magnetic_rejection=10.0, recovery_trigger_period=500),
     "short": dict(gain=1.0, gyroscope_range=500.0, acceleration_rejection=5.0,

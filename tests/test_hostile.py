@@ -169,7 +169,7 @@ def test_a_million_constant_samples_then_recovery(case, dtype):
         (case.id, math.degrees(_error(case, S, -TILT)))
 
 
-# ---- the Fusion suite (seed 004): FusionAHRS, FusionOffset ----------------------
+# ---- the Fusion suite (Longbin's Fusion walkthrough): FusionAHRS, FusionOffset ----------------------
 # Fusion's units (gyroscope deg/s, accelerometer g, dt with every update) and its
 # three update forms, so not in CASES. The same matrix: every FusionAHRS registry
 # configuration x update form x float32/float64 x hostile value, in every channel

@@ -259,3 +259,48 @@ def test_the_x_io_log_in_vario_with_a_barometer(inputs, tmp_path, header, need_c
     p_pa = np.round(hpa[::8], 4) * 100.0
     want = 44330.8 * (1.0 - (p_pa / 101325.0) ** 0.190263)
     assert np.allclose(v[:, 1], want, rtol=0, atol=1e-3)
+
+
+README = open(os.path.join(os.path.dirname(__file__), "..", "README.md")).read()
+SH = re.findall(r"```sh\n(.*?)```", README, re.S)
+
+
+def _bash(block, cwd):
+    """A README shell block run as written, `imufuse` and `python3` being this Python's."""
+    bin_dir = cwd / "bin"
+    bin_dir.mkdir(exist_ok=True)
+    for name, cmd in (("imufuse", f'exec "{sys.executable}" -m imufuse "$@"'),
+                      ("python3", f'exec "{sys.executable}" "$@"')):
+        (bin_dir / name).write_text(f"#!/bin/sh\n{cmd}\n")
+        (bin_dir / name).chmod(0o755)
+    env = dict(os.environ, PATH=f"{bin_dir}:{os.environ['PATH']}", MPLBACKEND="Agg")
+    return subprocess.run(["bash", "-e", "-c", block], cwd=cwd, env=env, capture_output=True,
+                          text=True, timeout=600)
+
+
+def test_readme_commands_on_the_x_io_log(inputs, tmp_path):
+    """'Your own data': the two commands as written, on an x-io-layout sensor_data.csv."""
+    block = next(b for b in SH if "sensor_data.csv" in b)
+    (tmp_path / "sensor_data.csv").write_bytes(open(inputs["xio"].path, "rb").read())
+    r = _bash(block, tmp_path)
+    assert r.returncode == 0, r.stderr
+    header = (tmp_path / "out.csv").read_text().splitlines()[0].split(",")
+    assert header[:5] == ["time", "q0", "q1", "q2", "q3"] and "yaw_deg" in header
+    rows = {ln.split()[0] for ln in r.stdout.splitlines() if ln[:1].isalpha()}
+    assert {"MadgwickAHRS", "RobustAHRS", "FusionAHRS", "MahonyIMU"} <= rows, r.stdout
+    assert (tmp_path / "cmp.png").stat().st_size > 10_000
+    assert "note:" not in r.stderr, r.stderr        # headers and units as the file says
+
+
+def test_readme_commands_on_the_shipped_example(tmp_path):
+    """The shipped example's block as written: compare with a plot, tune, latency (the
+    README's 2.06 ms, computed here from the rates)."""
+    block = next(b for b in SH if b.startswith("LOG="))
+    r = _bash(block, tmp_path)
+    assert r.returncode == 0, r.stderr
+    e = np.load(example_log())
+    d = estimate_latency(e["gyr"], e["quat_ref"], 1.0 / float(e["rate"]))
+    said = re.search(r"lags the reference by ([0-9.]+) ms", block).group(1)
+    assert f"{d * 1e3:.2f}" == said and f"by {said} ms" in r.stdout, r.stdout
+    assert re.search(r"^best: beta=[0-9.]+ \(inclination [0-9.]+ deg\)$", r.stdout, re.M)
+    assert (tmp_path / "real.png").stat().st_size > 10_000

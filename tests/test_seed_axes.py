@@ -1,14 +1,14 @@
-"""Seed 002's sensor-axis mapping as a worked example of the Fusion suite's
-axis alignment (imufuse_c.axes_apply): the seed's board (MAX21100 and
+"""Nair's sensor-axis mapping as a worked example of the Fusion suite's
+axis alignment (imufuse_c.axes_apply): Nair's board (MAX21100 and
 HMC5883L, datasheet frame with Z up) mapped to NED with
 
     gyroscope      (-y, -x, -z)   alignment "-Y-X-Z" (a rotation)
     accelerometer  ( y,  x,  z)   alignment "+Y+X+Z" (minus that rotation)
     magnetometer   (-y, -x, -z)   alignment "-Y-X-Z"
 
-gives the seed's sign conventions: pitch up, roll right and yaw clockwise
+gives Nair's sign conventions: pitch up, roll right and yaw clockwise
 positive. The accelerometer's mapping is the gyroscope's with the sign
-flipped: the seed's NED accelerometer reads +1 g on D at rest (gravity, not
+flipped: Nair's NED accelerometer reads +1 g on D at rest (gravity, not
 the specific force), which vertical_accel(convention="ned_seed") expects."""
 import math
 
@@ -50,7 +50,7 @@ def mapped(R, omega_body):
 
 
 def angles(acc, mag):
-    """The seed's angles from the mapped accelerometer and magnetometer (NED)."""
+    """Nair's angles from the mapped accelerometer and magnetometer (NED)."""
     roll = math.atan2(acc[1], acc[2])
     pitch = math.atan2(-acc[0], math.hypot(acc[1], acc[2]))
     # tilt-compensate the magnetometer, then yaw from north
@@ -70,7 +70,7 @@ def test_the_mapping_is_a_rotation_and_a_sign():
 
 def test_level_at_rest():
     g, a, m = mapped(np.eye(3), np.zeros(3))
-    np.testing.assert_allclose(a, [0.0, 0.0, 1.0], atol=1e-15)     # the seed: +1 g on D
+    np.testing.assert_allclose(a, [0.0, 0.0, 1.0], atol=1e-15)     # Nair: +1 g on D
     assert m[0] > 0 and abs(m[1]) < 1e-15                           # N points north: x max
     np.testing.assert_allclose(angles(a, m), 0.0, atol=1e-12)
 
@@ -92,7 +92,7 @@ def test_pitch_up_roll_right_yaw_clockwise_are_positive(angle):
 
 
 def test_mapped_accelerometer_gives_zero_vertical_acceleration_at_rest():
-    """With the NED attitude, the seed's vertical acceleration of the mapped
+    """With the NED attitude, Nair's vertical acceleration of the mapped
     accelerometer (convention "ned_seed") is zero at rest in any attitude."""
     from imufuse.rotations import matrix_to_quat
     rng = np.random.default_rng(1)

@@ -1,4 +1,4 @@
-"""The flight simulator of seed 002 (imufuse.sim_flight) and the standard
+"""The flight simulator of Nair (2016) (imufuse.sim_flight) and the standard
 atmosphere: the ground truth is self-consistent and the sensors have the
 stated errors."""
 import math

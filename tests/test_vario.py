@@ -1,6 +1,6 @@
-"""Seed 002's variometer Kalman filter and vertical acceleration: the C
+"""Nair's variometer Kalman filter and vertical acceleration: the C
 builds equal the pure-Python twins bit for bit (every state variable after
-every sample), the filter computes the seed's equations (against an
+every sample), the filter computes Nair's equations (against an
 independent matrix implementation), and bad input is refused by name."""
 import os
 import re
@@ -105,7 +105,7 @@ def test_is_registered_and_named():
     assert imufuse_c.VarioKF.state_names == reference.VarioKF.state_names
 
 
-# ---- the seed's equations, against an independent matrix implementation --------
+# ---- Nair's equations, against an independent matrix implementation --------
 
 def _matrix_kf(acc, alt, dt, predict, var_z=300.0, var_acc=200.0, var_bias=1.0,
                p0=(1.0, 1.0, 1e5)):
@@ -148,7 +148,7 @@ def test_equations_match_matrix_form(predict, backend):
 
 def test_predict_options_differ_as_the_seed_says():
     """One step from v0 = 0 with a constant acceleration a: the model moves z
-    by a dt^2/2, the seed's order by a dt^2 (the new v times dt)."""
+    by a dt^2/2, Nair's order by a dt^2 (the new v times dt)."""
     for predict, factor in (("seed", 1.0), ("model", 0.5)):
         f = reference.VarioKF(z0=0.0, p0=(0.0, 0.0, 0.0), var_acc=0.0, var_bias=0.0,
                               var_z=1e30, predict=predict)
@@ -193,7 +193,7 @@ def test_vertical_accel_bits(convention, dtype):
 @pytest.mark.parametrize("convention,sign", [("nwu", 1), ("enu", 1), ("ned_seed", 1),
                                              ("ned", -1)])
 def test_vertical_accel_is_earth_z(convention, sign):
-    """The seed's formula is the z row of R(q) a: compare with a quaternion
+    """Nair's formula is the z row of R(q) a: compare with a quaternion
     rotation; an accelerometer at rest gives 0, an upward push gives > 0."""
     g = np.random.default_rng(6)
     q, acc = _random_q(g, 200), g.normal(0, 1, (200, 3))
@@ -224,7 +224,7 @@ def test_bad_parameters(mod, kwargs, name):
 
 @pytest.mark.parametrize("mod", [imufuse_c, reference], ids=["c", "ref"])
 def test_parameters_representable_in_float32(mod):
-    # (var_z = 1e-50 with the model order: the seed's would refuse it as unstable first)
+    # (var_z = 1e-50 with the model order: Nair's would refuse it as unstable first)
     for kwargs, name in ((dict(var_z=1e39), "var_z"), (dict(var_z=1e-50, predict="model"), "var_z"),
                          (dict(p0=(1.0, 1e40, 1.0)), "p_v"), (dict(z0=-1e39), "z0")):
         with pytest.raises(ValueError, match=f"^{name}:.*float32"):
@@ -312,7 +312,7 @@ def test_seed_order_stability_is_checked_from_the_physics():
     for dt, diverges in ((0.1, True), (0.001, False)):
         assert (rv.seed_radius(1e-9, 200.0, 1.0, dt) > 1.0) == diverges
         f = reference.VarioKF()
-        f._init(*args)                       # the seed order with these variances, unchecked
+        f._init(*args)                       # Nair's order with these variances, unchecked
         out = f.run(acc, alt, np.full(n, dt))
         grew = not np.all(np.abs(out[:, :3]) < 1e12)
         assert grew == diverges, (dt, np.nanmax(np.abs(out[:, :3])))
@@ -320,7 +320,7 @@ def test_seed_order_stability_is_checked_from_the_physics():
         for vz in (1e-12, 1e-9, 1e-3):
             with pytest.raises(ValueError, match=r"^var_z: .* too small for predict='seed'"):
                 mod.VarioKF(var_z=vz)
-        mod.VarioKF()                        # the seed's own settings are stable
+        mod.VarioKF()                        # Nair's own settings are stable
         for dtype in ("float32", "float64"):
             f = mod.VarioKF(var_z=1e-12, predict="model", dtype=dtype)
             out = f.run(acc, alt, np.full(n, 0.01))

@@ -1,4 +1,4 @@
-"""Seed 002's claims, measured on simulated flights (imufuse.vario_study;
+"""Nair's claims, measured on simulated flights (bench/vario_study.py;
 the numbers are tabled in docs/vario.md), and `imufuse vario` end to end."""
 import math
 import os
@@ -11,7 +11,7 @@ import pytest
 import imufuse
 import imufuse_c
 from imufuse import sim_flight as sf
-from imufuse import vario_study as study
+import vario_study as study
 
 PATHS = [os.path.dirname(os.path.dirname(imufuse.__file__)),
          os.path.dirname(os.path.dirname(imufuse_c.__file__))]
@@ -25,9 +25,9 @@ def lag():
 def test_fusion_removes_the_lag(lag):
     """Thermal entry: the fused filter follows the true climb rate (90 % as
     soon as the truth, within 0.1 s); the barometer-only filter lags by more
-    than 0.35 s at every tuning, and by 2.6 s at the seed's noise settings."""
+    than 0.35 s at every tuning, and by 2.6 s at Nair's noise settings."""
     truth = lag["truth"][0]
-    fused, fused_steady, fused_rms = lag["VarioKF (seed defaults, MadgwickIMU)"]
+    fused, fused_steady, fused_rms = lag["VarioKF (Nair's defaults, MadgwickIMU)"]
     assert abs(fused - truth) <= 0.1
     baro = {k: v for k, v in lag.items() if k.startswith("barometer only")}
     assert len(baro) == 4
@@ -55,7 +55,7 @@ def test_earth_frame_beats_norm_in_turns_with_a_good_attitude(bank):
 
 
 def test_gate_in_high_g_turns():
-    """60 deg bank (2 g): the seed's gate 0.6-1.4 g cuts the attitude error
+    """60 deg bank (2 g): Nair's gate 0.6-1.4 g cuts the attitude error
     of the ungated filter; at 30 deg (1.15 g, inside the gate) it changes
     nothing of substance."""
     hi = {r[0]: r[1:] for r in study.study_turns(60.0)}

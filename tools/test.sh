@@ -34,6 +34,8 @@ export IMUFUSE_TEST_INSTALLED="$VENV"
 # lint and types of the sources (configuration in pyproject.toml)
 "$VPY" -m ruff check .
 "$VPY" -m mypy
+# the C house style (.clang-format; the formatter pinned in the test extra)
+"$VENV/bin/clang-format" --dry-run -Werror csrc/*.[ch] csrc/fixed/*.[ch]
 # keep the checkout's directory off sys.path (Python >= 3.11): its imufuse_c/
 # must not shadow the installed package
 export PYTHONSAFEPATH=1

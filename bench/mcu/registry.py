@@ -86,7 +86,7 @@ CASES: Dict[str, Case] = {
 }
 
 
-# ---- the Fusion suite (seed 004): its update takes dt and Fusion's units, so it is a
+# ---- the Fusion suite (Longbin's Fusion walkthrough): its update takes dt and Fusion's units, so it is a
 # hand-written case (tests/registry.py keeps it out of the generic matrix, see FUSION_CASES)
 
 def _fusion_inputs(n: int) -> Dict[str, np.ndarray]:

@@ -1,4 +1,4 @@
-"""Code size of seed 002's variometer (csrc/vario.c) on the MCU targets.
+"""Code size of Nair's variometer (csrc/vario.c) on the MCU targets.
 
     python bench/mcu/vario_size.py        # markdown table for docs/vario.md
 

@@ -33,7 +33,8 @@ int imf_complementary1d_q_init(imf_complementary1d_q_t *const self, const double
     const imf_gain16_t ka16 = imf_gain16(imf_qscale_from_double(1.0 - alpha), 15, 15);
     const int r = imf_complementary1d_q_init_consts(
         self, imf_qscale_from_double(gyr_scale * dt / angle_scale), ka16.m, ka16.j);
-    if (!(dt > 0.0) || !imf_param_ok(alpha, 0.0, 1.0) || !(gyr_scale > 0.0) || !(angle_scale > 0.0)) {
+    if (!(dt > 0.0) || !imf_param_ok(alpha, 0.0, 1.0) || !(gyr_scale > 0.0)
+        || !(angle_scale > 0.0)) {
         return -1;
     }
     return r;
@@ -110,21 +111,21 @@ int imf_mahony1d_bias_q_init(imf_mahony1d_bias_q_t *const self,
 /* y0 = imf_gain16_mul(x, g0); y1 = imf_gain16_mul(x, g1): on AVR one copy of
  * the product in a loop, elsewhere the two statements.  Same values. */
 #if defined(__AVR__) || defined(IMF_SCALE_SHORT)
-#define IMF_1D_Q_GAIN16_MUL_2(y0, g0, y1, g1, x)                    \
-    do {                                                            \
-        int32_t imf_y_[2];                                          \
-        int imf_i_;                                                 \
-        for (imf_i_ = 0; imf_i_ < 2; ++imf_i_) {                    \
+#define IMF_1D_Q_GAIN16_MUL_2(y0, g0, y1, g1, x) \
+    do { \
+        int32_t imf_y_[2]; \
+        int imf_i_; \
+        for (imf_i_ = 0; imf_i_ < 2; ++imf_i_) { \
             imf_y_[imf_i_] = imf_gain16_mul((x), imf_i_ ? (g1) : (g0)); \
-        }                                                           \
-        (y0) = imf_y_[0];                                           \
-        (y1) = imf_y_[1];                                           \
+        } \
+        (y0) = imf_y_[0]; \
+        (y1) = imf_y_[1]; \
     } while (0)
 #else
 #define IMF_1D_Q_GAIN16_MUL_2(y0, g0, y1, g1, x) \
-    do {                                         \
-        (y0) = imf_gain16_mul((x), (g0));        \
-        (y1) = imf_gain16_mul((x), (g1));        \
+    do { \
+        (y0) = imf_gain16_mul((x), (g0)); \
+        (y1) = imf_gain16_mul((x), (g1)); \
     } while (0)
 #endif
 
@@ -134,7 +135,7 @@ void imf_mahony1d_bias_q_update(imf_mahony1d_bias_q_t *const self, const int16_t
     imf_mahony1d_bias_q_state_t *const x = &self->x;
     /* e_k = a_k - theta_{k-1} (q15 counts) */
     const int32_t e = imf_sub_sat32(imf_i16_to_q15(angle), x->theta);
-    const int32_t w = imf_mulk16(rate, self->kr, 15);  /* w dt, q15 counts */
+    const int32_t w = imf_mulk16(rate, self->kr, 15); /* w dt, q15 counts */
     int32_t p, di;
     IMF_1D_Q_GAIN16_MUL_2(p, self->kp16, di, self->ki16, e); /* Kp dt e (q15), Ki dt^2 e (q23) */
     /* I_k = I_{k-1} + Ki dt e_k */

@@ -36,9 +36,10 @@ typedef struct {
 } imf_complementary1d_q_state_t;
 
 typedef struct {
-    imf_qscale_t kr; /* gyr_scale dt / angle_scale: rate counts -> angle counts per sample */
+    imf_qscale_t kr;   /* gyr_scale dt / angle_scale: rate counts -> angle counts per sample */
     imf_gain16_t ka16; /* ka rounded to 16 bits, byte-aligned shift (imf_gain16) */
-    imf_complementary1d_q_state_t x; /* the state (above): the estimate; write it only through the API */
+    imf_complementary1d_q_state_t
+        x; /* the state (above): the estimate; write it only through the API */
 } imf_complementary1d_q_t;
 
 /* dt: s; alpha in [0, 1]; gyr_scale: rad/s per count; angle_scale: rad per
@@ -67,7 +68,8 @@ typedef struct {
     imf_qscale_t kr; /* gyr_scale dt / angle_scale: rate counts -> angle counts per sample */
     imf_gain16_t kp16, ki16; /* kp, ki 2^8 as 16-bit gains (imf_gain16) */
     int16_t integrate_first; /* 1: Eq. 3.9 order (Corollary #1) */
-    imf_mahony1d_bias_q_state_t x; /* the state (above): the estimate; write it only through the API */
+    imf_mahony1d_bias_q_state_t
+        x; /* the state (above): the estimate; write it only through the API */
 } imf_mahony1d_bias_q_t;
 
 /* The settings of imf_mahony1d_bias_q_init (double: see above). Start from
@@ -92,8 +94,9 @@ typedef struct {
 typedef struct {
     imf_qscale_t kr; /* gyr_scale dt / angle_scale: rate counts -> angle counts per sample */
     uint16_t kp16_m; /* Kp dt as a 16-bit gain (imf_gain16(Kp dt, 15, 15)): mantissa */
-    int kp16_j; /* and byte shift */
-    uint16_t ki16_m; /* Ki dt^2 as a 16-bit gain (imf_gain16(Ki dt^2, 15, 23)): mantissa (0: Ki = 0) */
+    int kp16_j;      /* and byte shift */
+    uint16_t
+        ki16_m; /* Ki dt^2 as a 16-bit gain (imf_gain16(Ki dt^2, 15, 23)): mantissa (0: Ki = 0) */
     int ki16_j; /* and byte shift (0 for Ki = 0) */
     int integrate_first; /* as in the settings */
 } imf_mahony1d_bias_q_consts_t;

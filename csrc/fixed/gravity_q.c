@@ -24,7 +24,8 @@ int imf_kk_q_init_consts(imf_kk_q_t *const self, const imf_qscale_t kw, const ui
 int imf_kk_q_init(imf_kk_q_t *const self, const double dt, const double kp, const double gyr_scale)
 {
     const imf_gain16_t kp16 = imf_gain16(imf_qscale_from_double(kp), 15, 15);
-    const int r = imf_kk_q_init_consts(self, imf_qscale_from_double(gyr_scale * dt), kp16.m, kp16.j);
+    const int r =
+        imf_kk_q_init_consts(self, imf_qscale_from_double(gyr_scale * dt), kp16.m, kp16.j);
     if (!(dt > 0.0) || !(kp >= 0.0) || !(kp <= 1.0) || !(gyr_scale > 0.0)) {
         return -1;
     }
@@ -93,7 +94,7 @@ static inline int32_t imf_kk_q_angle(const imf_kk_q_t *const self, const int32_t
 void imf_kk_q_update(imf_kk_q_t *const self, const int16_t gyr[3], const int16_t acc[3])
 {
     int32_t *const t = self->x.t;
-    int16_t a[2] = {0, 0};
+    int16_t a[2] = { 0, 0 };
     int32_t w[3], n[2];
     int i;
     const int ok = imf_unit_xy_k(acc, a);
@@ -144,8 +145,8 @@ int imf_multiwii_q_init_consts(imf_multiwii_q_t *const self, const imf_multiwii_
         self->x.d[i] = 0;
         self->x.l[i] = 0;
     }
-    if (k != acc_lpf_shift || !(acc_1g_q15 > 0) || acc_1g_q15 > (int32_t)32767 * 32768
-        || kw.m == 0 || !imf_qscale_ok(kw, 16, 62) || !imf_qscale_ok(kc, 14, 47)) {
+    if (k != acc_lpf_shift || !(acc_1g_q15 > 0) || acc_1g_q15 > (int32_t)32767 * 32768 || kw.m == 0
+        || !imf_qscale_ok(kw, 16, 62) || !imf_qscale_ok(kc, 14, 47)) {
         return -1;
     }
     /* start level: d = accSmooth = (0, 0, acc_1g) */
@@ -181,8 +182,8 @@ int imf_multiwii_q_init(imf_multiwii_q_t *const self, const imf_multiwii_q_setti
  * inlines a static function with a single caller: 356 bytes more on the
  * Cortex-M0 than this call) */
 __attribute__((noinline)) static int32_t imf_multiwii_q_gain(const int32_t x, const imf_gain16_t g,
-                                                            const imf_qscale_t c, const int K,
-                                                            const int N)
+                                                             const imf_qscale_t c, const int K,
+                                                             const int N)
 {
     return imf_gain16_or_mulk32(x, g, c, K, N);
 }
@@ -204,7 +205,7 @@ void imf_multiwii_q_update(imf_multiwii_q_t *const self, const int16_t gyr[3], c
     for (i = 0; i < 3; ++i) {
         l[i] = imf_add_sat32(l[i], imf_rshrk(imf_sub_sat32(imf_i16_to_q15(acc[i]), l[i]), k));
         sc = imf_sat_q15(imf_rshr32(l[i], 15)); /* accSmooth, counts */
-        n2 += (uint32_t)imf_mul16(sc, sc);     /* three squares <= 2^30: no wrap */
+        n2 += (uint32_t)imf_mul16(sc, sc);      /* three squares <= 2^30: no wrap */
     }
     /* step 3: d_n = d_{n-1} + d_{n-1} x w dt; the cross product d x w first,
      * in half acc counts x gyro counts (d q15 x counts / 2^16, each component
@@ -243,7 +244,8 @@ void imf_multiwii_q_update(imf_multiwii_q_t *const self, const int16_t gyr[3], c
     if (n2 > self->lo2 && n2 < self->hi2) {
         for (i = 0; i < 3; ++i) {
             /* (d F + s)/(F + 1) = d + (s - d)/(F + 1) */
-            d[i] = imf_add_sat32(d[i], imf_multiwii_q_gain(imf_sub_sat32(l[i], d[i]), self->kc16, self->kc, 15, 15));
+            d[i] = imf_add_sat32(
+                d[i], imf_multiwii_q_gain(imf_sub_sat32(l[i], d[i]), self->kc16, self->kc, 15, 15));
         }
     }
 #endif

@@ -49,8 +49,8 @@ typedef struct {
 } imf_kk_q_state_t;
 
 typedef struct {
-    imf_qscale_t kw; /* gyr_scale dt: rate counts -> rad per sample */
-    imf_gain16_t kp16; /* kp in 16 bits (imf_gain16) */
+    imf_qscale_t kw;    /* gyr_scale dt: rate counts -> rad per sample */
+    imf_gain16_t kp16;  /* kp in 16 bits (imf_gain16) */
     imf_kk_q_state_t x; /* the state (above): the estimate; write it only through the API */
 } imf_kk_q_t;
 
@@ -72,10 +72,10 @@ typedef struct {
 } imf_multiwii_q_state_t;
 
 typedef struct {
-    imf_qscale_t kw, kc; /* gyr_scale dt (rad per sample per count), 1 / (F + 1) */
-    imf_gain16_t kw16, kc16; /* kw (rotation), kc as 16-bit gains (imf_gain16) */
-    uint32_t lo2, hi2; /* window on |accSmooth|^2, counts^2 */
-    int16_t k;         /* ACC_LPF_FACTOR, 0..15 */
+    imf_qscale_t kw, kc;      /* gyr_scale dt (rad per sample per count), 1 / (F + 1) */
+    imf_gain16_t kw16, kc16;  /* kw (rotation), kc as 16-bit gains (imf_gain16) */
+    uint32_t lo2, hi2;        /* window on |accSmooth|^2, counts^2 */
+    int16_t k;                /* ACC_LPF_FACTOR, 0..15 */
     imf_multiwii_q_state_t x; /* the state (above): the estimate; write it only through the API */
 } imf_multiwii_q_t;
 

@@ -50,7 +50,7 @@ typedef char imf_fixed_asr32_is_arithmetic[(((int32_t)-1) >> 1) == -1 ? 1 : -1];
 typedef char imf_fixed_asr16_is_arithmetic[(((int16_t)-32768) >> 15) == -1 ? 1 : -1];
 
 #define IMF_Q15_MAX ((int16_t)32767)
-#define IMF_Q15_MIN ((int16_t)-32768)
+#define IMF_Q15_MIN ((int16_t)(-32767 - 1))
 #define IMF_Q15_ONE ((int16_t)32767) /* 1.0 saturated to q15 */
 #define IMF_Q30_ONE ((int32_t)1073741824L)
 #define IMF_INT32_MAX ((int32_t)2147483647L)
@@ -100,11 +100,19 @@ static inline int imf_qscale_ok(const imf_qscale_t c, const int smin, const int 
 #if defined(__AVR__)
 #define IMF_SPLIT_SHIFT(x, n, op) \
     do { \
-        if ((n) >= 16) { (x) op 16; (n) -= 16; } \
-        if ((n) >= 8) { (x) op 8; (n) -= 8; } \
+        if ((n) >= 16) { \
+            (x) op 16; \
+            (n) -= 16; \
+        } \
+        if ((n) >= 8) { \
+            (x) op 8; \
+            (n) -= 8; \
+        } \
     } while (0)
 #else
-#define IMF_SPLIT_SHIFT(x, n, op) do { } while (0)
+#define IMF_SPLIT_SHIFT(x, n, op) \
+    do { \
+    } while (0)
 #endif
 
 /* Arithmetic shift right, n in [0, 31]: floor(x / 2^n) (checked above). */
@@ -456,9 +464,9 @@ static inline int32_t imf_mul_32x16_k(const int32_t a, const int16_t b, const in
 {
     /* 16-bit operand types let 8-bit compilers use 16x16->32 multiplies
      * (avr-gcc: __mulhisi3, __usmulhisi3) instead of 32x32 */
-    const int16_t ah = (int16_t)(a >> 16);                 /* in [-2^15, 2^15) */
-    const uint16_t al = (uint16_t)((uint32_t)a & 0xFFFFu); /* in [0, 2^16) */
-    const int32_t lo = (int32_t)al * (int32_t)b;           /* |lo| < 2^31 */
+    const int16_t ah = (int16_t)(a >> 16);                   /* in [-2^15, 2^15) */
+    const uint16_t al = (uint16_t)((uint32_t)a & 0xFFFFu);   /* in [0, 2^16) */
+    const int32_t lo = (int32_t)al * (int32_t)b;             /* |lo| < 2^31 */
     const int32_t m = (int32_t)ah * (int32_t)b + (lo >> 16); /* |m| <= 2^30 + 2^15 */
     const int32_t lol = (int32_t)((uint32_t)lo & 0xFFFFu);
     if (n > 16) {
@@ -656,8 +664,9 @@ static inline imf_invsqrt16_t imf_invsqrt_chord16(const imf_invsqrt16_t u)
         y = (uint16_t)(64635u - (uint16_t)(d + (uint16_t)((uint16_t)(d * 3u) >> 4)));
     } else {
         d = (uint16_t)(u - 32768u);
-        y = (uint16_t)(45691u - (uint16_t)((uint16_t)((d >> 6) * 27u)
-                                           + (uint16_t)((uint16_t)((d & 63u) * 27u) >> 6)));
+        y = (uint16_t)(45691u
+                       - (uint16_t)((uint16_t)((d >> 6) * 27u)
+                                    + (uint16_t)((uint16_t)((d & 63u) * 27u) >> 6)));
     }
     return y;
 #else
@@ -685,9 +694,9 @@ static inline imf_invsqrt16_t imf_invsqrt_newton16(const imf_invsqrt16_t u, cons
 {
 #if defined(__AVR__)
     const uint16_t y2 = (uint16_t)((imf_mulu16(y, y) + 32768u) >> 16); /* q14 */
-    const uint32_t t = imf_mulu16(u, y2);                   /* q30, < 3 2^30 */
+    const uint32_t t = imf_mulu16(u, y2);                              /* q30, < 3 2^30 */
     const uint16_t w = (uint16_t)((3221225472u - t) >> 16);
-    const uint32_t r = imf_mulu16(y, w) + 16384u;           /* (y w + 2^14) / 2^15 */
+    const uint32_t r = imf_mulu16(y, w) + 16384u; /* (y w + 2^14) / 2^15 */
     return (uint16_t)((uint16_t)((uint16_t)(r >> 16) << 1) | (uint16_t)(((uint16_t)r) >> 15));
 #else
     return (y * ((3221225472u - u * ((y * y + 32768u) >> 16)) >> 16) + 16384u) >> 15;
@@ -722,9 +731,11 @@ IMF_AVR_OUTLINE uint16_t imf_invsqrt_u32(uint32_t x, int *const shift)
     u = (imf_invsqrt16_t)(x >> 16); /* q16 in [2^14, 2^16) */
     /* chords through (1/4, 2), (1/2, sqrt 2) and (1/2, sqrt 2), (1, 1), q15 */
     if (u < 32768u) {
-        y = (imf_invsqrt16_t)(65535u - (((uint32_t)(u - 16384u) * 38u) >> 5)); /* slope ~ 2(2-sqrt2)4 */
+        y = (imf_invsqrt16_t)(65535u
+                              - (((uint32_t)(u - 16384u) * 38u) >> 5)); /* slope ~ 2(2-sqrt2)4 */
     } else {
-        y = (imf_invsqrt16_t)(46341u - (((uint32_t)(u - 32768u) * 27u) >> 6)); /* slope ~ (sqrt2-1)2 */
+        y = (imf_invsqrt16_t)(46341u
+                              - (((uint32_t)(u - 32768u) * 27u) >> 6)); /* slope ~ (sqrt2-1)2 */
     }
     for (i = 0; i < 3; ++i) {
         /* from these chords too, u y^2 < 3 2^30 and y < 2^16 after every
@@ -792,25 +803,25 @@ static inline int16_t imf_qn_to_q15s(const int32_t x, const int N)
         int32_t r = x;
         int16_t v;
         if (N == 31) {
-            __asm__("lsl %B[r]\n\t"             /* C = bit 15: the rounding */
+            __asm__("lsl %B[r]\n\t" /* C = bit 15: the rounding */
                     "adc %C[r], __zero_reg__\n\t"
                     "adc %D[r], __zero_reg__\n\t"
-                    "clc\n\t"                   /* overflow: positive */
+                    "clc\n\t" /* overflow: positive */
                     IMF_QN_SAT_AVR
                     : [r] "+d"(r));
         } else if (N == 30) {
-            __asm__("subi %B[r], 0xC0\n\t"      /* + 2^14 */
+            __asm__("subi %B[r], 0xC0\n\t" /* + 2^14 */
                     "sbci %C[r], 0xFF\n\t"
                     "sbci %D[r], 0xFF\n\t"
                     "clc\n\t"
-                    "brvs 2f\n\t"               /* overflow: positive */
+                    "brvs 2f\n\t" /* overflow: positive */
                     "lsl %B[r]\n\t"
                     "rol %C[r]\n\t"
-                    "rol %D[r]\n\t"             /* V = bit 31 ^ bit 30 */
+                    "rol %D[r]\n\t" /* V = bit 31 ^ bit 30 */
                     IMF_QN_SAT_AVR
                     : [r] "+d"(r));
         } else {
-            __asm__("subi %B[r], 0xE0\n\t"      /* + 2^13 */
+            __asm__("subi %B[r], 0xE0\n\t" /* + 2^13 */
                     "sbci %C[r], 0xFF\n\t"
                     "sbci %D[r], 0xFF\n\t"
                     "clc\n\t"
@@ -818,11 +829,10 @@ static inline int16_t imf_qn_to_q15s(const int32_t x, const int N)
                     "lsl %B[r]\n\t"
                     "rol %C[r]\n\t"
                     "rol %D[r]\n\t"
-                    "brvs 2f\n\t"               /* carry = bit 31 */
+                    "brvs 2f\n\t" /* carry = bit 31 */
                     "lsl %B[r]\n\t"
                     "rol %C[r]\n\t"
-                    "rol %D[r]\n\t"
-                    IMF_QN_SAT_AVR
+                    "rol %D[r]\n\t" IMF_QN_SAT_AVR
                     : [r] "+d"(r));
         }
         v = (int16_t)(r >> 16);
@@ -844,8 +854,8 @@ static inline int16_t imf_qn_to_q15s(const int32_t x, const int N)
 #if !defined(__AVR__) && defined(__GNUC__)
 /* (m 2^16 + lol) / 2^n rounded, saturated, n in [0, 16]: imf_mul_32x16_k's
  * tail (m its high part, lol in [0, 2^16) the low 16 bits) */
-static __attribute__((noinline, unused)) int32_t imf_mul_32x16_rest(const int32_t m, const int32_t lol,
-                                                                    const int n)
+static __attribute__((noinline, unused)) int32_t imf_mul_32x16_rest(const int32_t m,
+                                                                    const int32_t lol, const int n)
 {
     if (n == 16) {
         return m + (lol >> 15);

@@ -72,7 +72,7 @@ static inline int imf_q_normalise_acc(const int16_t acc[3], int16_t a[3])
 {
     /* each square <= 2^30, three of them < 2^32: no uint32 wrap */
     const uint32_t n2 = (uint32_t)((int32_t)acc[0] * acc[0]) + (uint32_t)((int32_t)acc[1] * acc[1])
-                      + (uint32_t)((int32_t)acc[2] * acc[2]);
+                        + (uint32_t)((int32_t)acc[2] * acc[2]);
     int sh, i;
     uint16_t y;
     if (n2 == 0u) {
@@ -173,8 +173,8 @@ static inline int imf_q_unit3_p8(const int16_t v[3], int16_t a[3])
     }
 #endif
     n2 = (uint32_t)imf_mul16(b[0], b[0]) + (uint32_t)imf_mul16(b[1], b[1])
-       + (uint32_t)imf_mul16(b[2], b[2]); /* [2^28, 3 2^30] */
-    y = imf_invsqrt8_u32(n2, &e);          /* 1/|b| ~= y 2^(e-31) */
+         + (uint32_t)imf_mul16(b[2], b[2]); /* [2^28, 3 2^30] */
+    y = imf_invsqrt8_u32(n2, &e);           /* 1/|b| ~= y 2^(e-31) */
     for (i = 0; i < 3; ++i) {
         /* |b| < 2^15, y < 2^16: the product fits int32 */
         const int32_t p = imf_mul16su(b[i], y);
@@ -223,10 +223,10 @@ static inline int32_t imf_q_carry_p8(const int32_t t, int32_t *const c)
     __asm__("movw %A[r], %C[t]\n\t"
             "mov %C[r], %D[t]\n\t"
             "lsl %C[r]\n\t"
-            "sbc %C[r], %C[r]\n\t"  /* sign of t */
+            "sbc %C[r], %C[r]\n\t" /* sign of t */
             "mov %D[r], %C[r]\n\t"
             "add %A[s], %A[t]\n\t"
-            "adc %B[s], %B[t]\n\t"  /* C = carry of the low words */
+            "adc %B[s], %B[t]\n\t" /* C = carry of the low words */
             "adc %A[r], __zero_reg__\n\t"
             "adc %B[r], __zero_reg__\n\t"
             "adc %C[r], __zero_reg__\n\t"
@@ -253,11 +253,11 @@ static inline int16_t imf_q_sat_q15_p8(const int32_t x)
     uint8_t t;
     __asm__("mov %[t], %B[r]\n\t"
             "lsl %[t]\n\t"
-            "sbc %[t], %[t]\n\t"       /* sign of the low word: 0 or 0xFF */
+            "sbc %[t], %[t]\n\t" /* sign of the low word: 0 or 0xFF */
             "cp %C[r], %[t]\n\t"
             "cpc %D[r], %[t]\n\t"
-            "breq 1f\n\t"               /* in range */
-            "lsl %D[r]\n\t"             /* C = sign of x */
+            "breq 1f\n\t"   /* in range */
+            "lsl %D[r]\n\t" /* C = sign of x */
             "ldi %A[r], 0xFF\n\t"
             "ldi %B[r], 0x7F\n\t"
             "adc %A[r], __zero_reg__\n\t"
@@ -274,16 +274,20 @@ static inline int16_t imf_q_sat_q15_p8(const int32_t x)
  * saturated to int16; each component's three q15 x q(15+hs) products are
  * summed (saturating) and rounded to q30 once. */
 static inline void imf_q_rate_p8(const int16_t qs[4], const int32_t h[3], const int hs,
-                               int32_t dq[4])
+                                 int32_t dq[4])
 {
     const int16_t hx = imf_q_sat_q15_p8(h[0]);
     const int16_t hy = imf_q_sat_q15_p8(h[1]);
     const int16_t hz = imf_q_sat_q15_p8(h[2]);
 #define IMF_P(a, b) imf_mul16((a), (b)) /* |.| <= 2^30 */
-    dq[0] = imf_q_rshr_hs_p8(imf_sub_sat32(-IMF_P(qs[1], hx) - IMF_P(qs[2], hy), IMF_P(qs[3], hz)), hs);
-    dq[1] = imf_q_rshr_hs_p8(imf_sub_sat32(IMF_P(qs[0], hx) + IMF_P(qs[2], hz), IMF_P(qs[3], hy)), hs);
-    dq[2] = imf_q_rshr_hs_p8(imf_add_sat32(IMF_P(qs[0], hy) - IMF_P(qs[1], hz), IMF_P(qs[3], hx)), hs);
-    dq[3] = imf_q_rshr_hs_p8(imf_sub_sat32(IMF_P(qs[0], hz) + IMF_P(qs[1], hy), IMF_P(qs[2], hx)), hs);
+    dq[0] =
+        imf_q_rshr_hs_p8(imf_sub_sat32(-IMF_P(qs[1], hx) - IMF_P(qs[2], hy), IMF_P(qs[3], hz)), hs);
+    dq[1] =
+        imf_q_rshr_hs_p8(imf_sub_sat32(IMF_P(qs[0], hx) + IMF_P(qs[2], hz), IMF_P(qs[3], hy)), hs);
+    dq[2] =
+        imf_q_rshr_hs_p8(imf_add_sat32(IMF_P(qs[0], hy) - IMF_P(qs[1], hz), IMF_P(qs[3], hx)), hs);
+    dq[3] =
+        imf_q_rshr_hs_p8(imf_sub_sat32(IMF_P(qs[0], hz) + IMF_P(qs[1], hy), IMF_P(qs[2], hx)), hs);
 #undef IMF_P
 }
 
@@ -310,8 +314,10 @@ IMF_Q_OUTLINE uint32_t imf_q_norm2(const int32_t q[4], const int16_t qs[4])
         /* the test for +-32767 on the squares: qs in [-32767, 32767], so qs
          * is +-32767 iff its square is 32767^2 = 2^30 - 2^16 + 1, the only
          * one that reaches 2^30 with 2^16 - 1 added */
-        const uint32_t p0 = (uint32_t)imf_mul16(qs[0], qs[0]), p1 = (uint32_t)imf_mul16(qs[1], qs[1]);
-        const uint32_t p2 = (uint32_t)imf_mul16(qs[2], qs[2]), p3 = (uint32_t)imf_mul16(qs[3], qs[3]);
+        const uint32_t p0 = (uint32_t)imf_mul16(qs[0], qs[0]),
+                       p1 = (uint32_t)imf_mul16(qs[1], qs[1]);
+        const uint32_t p2 = (uint32_t)imf_mul16(qs[2], qs[2]),
+                       p3 = (uint32_t)imf_mul16(qs[3], qs[3]);
         if ((((p0 + 65535u) | (p1 + 65535u) | (p2 + 65535u) | (p3 + 65535u)) >> 30) == 0u) {
             return p0 + p1 + p2 + p3;
         }
@@ -351,7 +357,7 @@ IMF_Q_OUTLINE void imf_q_normalise(int32_t q[4])
         q[1] = q[2] = q[3] = 0;
         return;
     }
-    y = imf_invsqrt_u32(n2, &sh);        /* 1/sqrt(n2) = y 2^-sh, n2 in q30 */
+    y = imf_invsqrt_u32(n2, &sh);                           /* 1/sqrt(n2) = y 2^-sh, n2 in q30 */
     y14 = (int16_t)((y >= 65535u) ? 32767 : (y + 1u) >> 1); /* y/2, q14 -> int16 */
     for (i = 0; i < 4; ++i) {
         /* q / sqrt(n2 / 2^30) = q * y14 * 2^(16 - sh); sh = 30 for |q| near 1
@@ -435,7 +441,7 @@ static inline int16_t imf_q_snapshot_norm_p8(int32_t q[4], int16_t qs[4])
 
 /* q += dq - q d / 2: q d / 2 in q30 = qs (q15) d16 (q22) / 2^8, |.| < 2^29. */
 static inline void imf_q_add_step_p8(int32_t q[4], const int32_t dq[4], const int16_t qs[4],
-                                   const int16_t d16)
+                                     const int16_t d16)
 {
     int i;
     for (i = 0; i < 4; ++i) {

@@ -81,8 +81,9 @@ IMF_SCALE_OUTLINE int32_t imf_shl_sat32_avr(int32_t x, int k)
 IMF_SCALE_OUTLINE int32_t imf_mulk_low_avr(const int32_t m, const uint16_t lol, const int n)
 {
     /* (lol + 2^(n-1)) >> n = ((lol >> (n-1)) + 1) >> 1 for n >= 1, 16-bit */
-    const int32_t r = (n == 0) ? (int32_t)lol : (int32_t)(((uint16_t)(lol >> (n - 1)) >> 1)
-                                                         + ((uint16_t)(lol >> (n - 1)) & 1u));
+    const int32_t r =
+        (n == 0) ? (int32_t)lol
+                 : (int32_t)(((uint16_t)(lol >> (n - 1)) >> 1) + ((uint16_t)(lol >> (n - 1)) & 1u));
     /* m < -2^(15+n), i.e. (m + 1) 2^(16-n) <= -2^31: below INT32_MIN whatever
      * the non-negative low part adds */
     if (imf_shl_sat32_avr(m + 1, 16 - n) == IMF_INT32_MIN) {
@@ -133,8 +134,6 @@ static inline int32_t imf_mulk32(const int32_t x, const imf_qscale_t c, const in
     return imf_mul32x16k(x, c.m, c.s + K - N);
 }
 
-
-
 #else
 
 /* rounding right shift by n in [0, 31]: imf_rshr32 */
@@ -167,8 +166,6 @@ static inline int32_t imf_mulk32(const int32_t x, const imf_qscale_t c, const in
     return imf_scale32(x, c, K, N);
 }
 
-
-
 #endif
 
 /* ---- 16-bit gains (Complementary1DQ) ----------------------------------- */
@@ -184,7 +181,7 @@ static inline int32_t imf_mulk32(const int32_t x, const imf_qscale_t c, const in
  * (imf_gain16_mul needs j >= 0). */
 typedef struct {
     uint16_t m; /* mantissa, 0 or in [2^8, 2^16) */
-    int16_t j; /* byte shift in [0, 4]; -1, -2: see above */
+    int16_t j;  /* byte shift in [0, 4]; -1, -2: see above */
 } imf_gain16_t;
 
 /* A 16-bit gain (m, j) that imf_gain16 gives for g < 1 (j in [0, 4] with
@@ -195,7 +192,6 @@ static inline int imf_gain16_ok(const uint16_t m, const int j, const int one_ok)
     return (j >= 0 && j <= 4 && (m == 0u || m >= 256u)) || (one_ok && j == -2 && m == 0u);
 }
 
-
 /* The gain c as a 16-bit multiplier m and a shift j for products with q(K) values
  * giving q(N) (init only). */
 #if defined(__AVR__) || defined(IMF_SCALE_SHORT)
@@ -203,7 +199,8 @@ IMF_SCALE_OUTLINE /* init only: one small copy */
 #else
 static inline
 #endif
-imf_gain16_t imf_gain16(const imf_qscale_t c, const int K, const int N)
+    imf_gain16_t
+    imf_gain16(const imf_qscale_t c, const int K, const int N)
 {
     imf_gain16_t g;
     const int d = c.s + K - N - 15;
@@ -288,33 +285,33 @@ static inline int32_t imf_gain16_or_mulk32(const int32_t x, const imf_gain16_t g
  * Cortex-M0 pays for a loop and for holding x0 and x1 at once).  Same values
  * either way. */
 #if defined(__AVR__) || defined(IMF_SCALE_SHORT)
-#define IMF_GAIN16_OR_MULK32_2(y0, x0, y1, x1, g, c, K, N)                    \
-    do {                                                                      \
-        int32_t imf_x_[2];                                                    \
-        int imf_i_;                                                           \
-        imf_x_[0] = (x0);                                                     \
-        imf_x_[1] = (x1);                                                     \
-        for (imf_i_ = 0; imf_i_ < 2; ++imf_i_) {                              \
+#define IMF_GAIN16_OR_MULK32_2(y0, x0, y1, x1, g, c, K, N) \
+    do { \
+        int32_t imf_x_[2]; \
+        int imf_i_; \
+        imf_x_[0] = (x0); \
+        imf_x_[1] = (x1); \
+        for (imf_i_ = 0; imf_i_ < 2; ++imf_i_) { \
             imf_x_[imf_i_] = imf_gain16_or_mulk32(imf_x_[imf_i_], g, c, K, N); \
-        }                                                                     \
-        (y0) = imf_x_[0];                                                     \
-        (y1) = imf_x_[1];                                                     \
+        } \
+        (y0) = imf_x_[0]; \
+        (y1) = imf_x_[1]; \
     } while (0)
-#define IMF_ADD_GAIN16_OR_MULK32_2(a0, x0, a1, x1, g, c, K, N)               \
-    do {                                                                      \
-        int32_t imf_y0_, imf_y1_;                                             \
-        IMF_GAIN16_OR_MULK32_2(imf_y0_, x0, imf_y1_, x1, g, c, K, N);         \
-        (a0) = imf_add_sat32((a0), imf_y0_);                                  \
-        (a1) = imf_add_sat32((a1), imf_y1_);                                  \
+#define IMF_ADD_GAIN16_OR_MULK32_2(a0, x0, a1, x1, g, c, K, N) \
+    do { \
+        int32_t imf_y0_, imf_y1_; \
+        IMF_GAIN16_OR_MULK32_2(imf_y0_, x0, imf_y1_, x1, g, c, K, N); \
+        (a0) = imf_add_sat32((a0), imf_y0_); \
+        (a1) = imf_add_sat32((a1), imf_y1_); \
     } while (0)
 #else
 #define IMF_GAIN16_OR_MULK32_2(y0, x0, y1, x1, g, c, K, N) \
-    do {                                                   \
-        (y0) = imf_gain16_or_mulk32((x0), g, c, K, N);     \
-        (y1) = imf_gain16_or_mulk32((x1), g, c, K, N);     \
+    do { \
+        (y0) = imf_gain16_or_mulk32((x0), g, c, K, N); \
+        (y1) = imf_gain16_or_mulk32((x1), g, c, K, N); \
     } while (0)
-#define IMF_ADD_GAIN16_OR_MULK32_2(a0, x0, a1, x1, g, c, K, N)          \
-    do {                                                                \
+#define IMF_ADD_GAIN16_OR_MULK32_2(a0, x0, a1, x1, g, c, K, N) \
+    do { \
         (a0) = imf_add_sat32((a0), imf_gain16_or_mulk32((x0), g, c, K, N)); \
         (a1) = imf_add_sat32((a1), imf_gain16_or_mulk32((x1), g, c, K, N)); \
     } while (0)

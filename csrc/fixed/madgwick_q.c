@@ -63,8 +63,8 @@ static int imf_bitlen32(uint32_t v)
 
 /* Appendix steps 2, 4, 5, 6: dq -= beta dt * normalised delta-s.
  * Nothing happens for a zero accelerometer vector or a zero delta-s. */
-static void imf_madgwick_imu_q_correct_p32(const imf_madgwick_imu_q_t *const self, const int16_t qs[4],
-                                       const int16_t acc[3], int32_t dq[4])
+static void imf_madgwick_imu_q_correct_p32(const imf_madgwick_imu_q_t *const self,
+                                           const int16_t qs[4], const int16_t acc[3], int32_t dq[4])
 {
     int16_t a[3], s15[4];
     int32_t s[4], w;
@@ -81,8 +81,8 @@ static void imf_madgwick_imu_q_correct_p32(const imf_madgwick_imu_q_t *const sel
      * every q15 x q15 product (q30) rounded to q28 */
     w = imf_mul_q15_q30(qs[1], qs[1]) + imf_mul_q15_q30(qs[2], qs[2]); /* < 2^31 */
     w15 = imf_qn_to_q15s(w, 30);                                       /* q1^2+q2^2, q15 */
-#define IMF_P2(a, b) imf_rshr32(imf_mul_q15_q30(a, b), 2) /* q28 */
-#define IMF_P1(a, b) imf_rshr32(imf_mul_q15_q30(a, b), 1) /* 2 a b, q28 */
+#define IMF_P2(a, b) imf_rshr32(imf_mul_q15_q30(a, b), 2)              /* q28 */
+#define IMF_P1(a, b) imf_rshr32(imf_mul_q15_q30(a, b), 1)              /* 2 a b, q28 */
     s[0] = imf_add_sat32(IMF_P1(w15, qs[0]), IMF_P2(qs[2], a[0]) - IMF_P2(qs[1], a[1]));
     s[1] = imf_add_sat32(IMF_P1(w15, qs[1]),
                          -IMF_P2(qs[3], a[0]) - IMF_P2(qs[0], a[1]) + IMF_P1(qs[1], a[2]));
@@ -123,7 +123,8 @@ static void imf_madgwick_imu_q_correct_p32(const imf_madgwick_imu_q_t *const sel
  * only) to q15 with a constant rounding shift, and the step kb * s / |s|
  * as s15 * yk / 2^kbf with yk = y kb.m rounded to int16 once per update. */
 IMF_Q_OUTLINE void imf_madgwick_imu_q_correct_p8(const imf_madgwick_imu_q_t *const self,
-                                        const int16_t qs[4], const int16_t acc[3], int32_t dq[4])
+                                                 const int16_t qs[4], const int16_t acc[3],
+                                                 int32_t dq[4])
 {
     int16_t a[3], s15[4], w15;
     int32_t s[4];
@@ -195,7 +196,7 @@ IMF_Q_OUTLINE void imf_madgwick_imu_q_correct_p8(const imf_madgwick_imu_q_t *con
 }
 
 void imf_madgwick_imu_q_update_p32(imf_madgwick_imu_q_t *const self, const int16_t gyr[3],
-                                 const int16_t acc[3])
+                                   const int16_t acc[3])
 {
     int32_t *const q = self->x.q;
     int32_t h[3], dq[4];
@@ -213,7 +214,7 @@ void imf_madgwick_imu_q_update_p32(imf_madgwick_imu_q_t *const self, const int16
 }
 
 void imf_madgwick_imu_q_update_p8(imf_madgwick_imu_q_t *const self, const int16_t gyr[3],
-                                const int16_t acc[3])
+                                  const int16_t acc[3])
 {
     int32_t *const q = self->x.q;
     int32_t *const c = self->x.c;

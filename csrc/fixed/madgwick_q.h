@@ -38,17 +38,18 @@ typedef struct {
 
 typedef struct {
     imf_qscale_t kg, kb; /* 0.5 gyr_scale dt, beta dt (q-scales) */
-    int16_t hs; /* 8-bit profile: rates in q(15+hs) */
-    imf_gain8_t kg8; /* 8-bit profile: kg for int16 products */
-    int16_t kbf; /* 8-bit profile: beta dt in q15 */
-    int16_t profile; /* 32 or 8 */
-    imf_madgwick_imu_q_state_t x; /* the state (above): the estimate; write it only through the API */
+    int16_t hs;          /* 8-bit profile: rates in q(15+hs) */
+    imf_gain8_t kg8;     /* 8-bit profile: kg for int16 products */
+    int16_t kbf;         /* 8-bit profile: beta dt in q15 */
+    int16_t profile;     /* 32 or 8 */
+    imf_madgwick_imu_q_state_t
+        x; /* the state (above): the estimate; write it only through the API */
 } imf_madgwick_imu_q_t;
 
 /* dt: s (> 0); beta: rad/s (>= 0); gyr_scale: rad/s per count (> 0);
  * profile: 32 or 8.  Returns 0, or -1 if a constant is out of range. */
-int imf_madgwick_imu_q_init(imf_madgwick_imu_q_t *self, double dt, double beta,
-                            double gyr_scale, int profile);
+int imf_madgwick_imu_q_init(imf_madgwick_imu_q_t *self, double dt, double beta, double gyr_scale,
+                            int profile);
 /* The same from the precomputed constants kg, kb (integer only, identical on
  * every target; imufuse.reference.MadgwickIMUQ(...).c_init_args()); see
  * imf_mahony_imu_q_init_consts for why firmware uses it. */
@@ -57,9 +58,9 @@ int imf_madgwick_imu_q_init_consts(imf_madgwick_imu_q_t *self, imf_qscale_t kg, 
 /* One sample, 32-bit and 8-bit profile: gyr and acc in sensor counts (int16;
  * every input is accepted; a zero accelerometer vector gives no correction). */
 void imf_madgwick_imu_q_update_p32(imf_madgwick_imu_q_t *self, const int16_t gyr[3],
-                                 const int16_t acc[3]);
+                                   const int16_t acc[3]);
 void imf_madgwick_imu_q_update_p8(imf_madgwick_imu_q_t *self, const int16_t gyr[3],
-                                const int16_t acc[3]);
+                                  const int16_t acc[3]);
 /* One sample with the update of the profile given to init. */
 void imf_madgwick_imu_q_update(imf_madgwick_imu_q_t *self, const int16_t gyr[3],
                                const int16_t acc[3]);

@@ -58,7 +58,8 @@ void imf_mahony_imu_q_default_settings(imf_mahony_imu_q_settings_t *const settin
     settings->profile = 32;
 }
 
-int imf_mahony_imu_q_init(imf_mahony_imu_q_t *const self, const imf_mahony_imu_q_settings_t *const s)
+int imf_mahony_imu_q_init(imf_mahony_imu_q_t *const self,
+                          const imf_mahony_imu_q_settings_t *const s)
 {
     const double dt = s->dt, kp = s->kp, ki = s->ki, gyr_scale = s->gyr_scale;
     const int profile = s->profile;
@@ -86,8 +87,9 @@ static inline int32_t imf_mahony_imu_q_carry_i(const int32_t t, int32_t *const c
 
 /* Appendix steps 2-6, 32-bit profile: h = 0.5 w' dt (q30).  Returns with
  * h holding the gyro term only when acc is the zero vector. */
-static IMF_AVR_NOINLINE void imf_mahony_imu_q_feedback_p32(imf_mahony_imu_q_t *const self, const int16_t qs[4],
-                                      const int16_t acc[3], int32_t h[3])
+static IMF_AVR_NOINLINE void imf_mahony_imu_q_feedback_p32(imf_mahony_imu_q_t *const self,
+                                                           const int16_t qs[4],
+                                                           const int16_t acc[3], int32_t h[3])
 {
     imf_mahony_imu_q_state_t *const x = &self->x;
     int16_t a[3], d[3];
@@ -101,8 +103,8 @@ static IMF_AVR_NOINLINE void imf_mahony_imu_q_feedback_p32(imf_mahony_imu_q_t *c
      * symmetric q15 products < 2^30, so the q30 sums cannot overflow */
     d[0] = imf_qn_to_q15s(imf_mul_q15_q30(qs[1], qs[3]) - imf_mul_q15_q30(qs[0], qs[2]), 29);
     d[1] = imf_qn_to_q15s(imf_mul_q15_q30(qs[0], qs[1]) + imf_mul_q15_q30(qs[2], qs[3]), 29);
-    d[2] = imf_qn_to_q15s(imf_mul_q15_q30(qs[0], qs[0]) + imf_mul_q15_q30(qs[3], qs[3])
-                          - 536870912L, 29);
+    d[2] = imf_qn_to_q15s(
+        imf_mul_q15_q30(qs[0], qs[0]) + imf_mul_q15_q30(qs[3], qs[3]) - 536870912L, 29);
     /* step 4: e = a x d, q30 */
     e[0] = imf_mul_q15_q30(a[1], d[2]) - imf_mul_q15_q30(a[2], d[1]);
     e[1] = imf_mul_q15_q30(a[2], d[0]) - imf_mul_q15_q30(a[0], d[2]);
@@ -112,7 +114,8 @@ static IMF_AVR_NOINLINE void imf_mahony_imu_q_feedback_p32(imf_mahony_imu_q_t *c
         if (self->ki.s >= 31) {
             /* Ki dt e in q46 (|.| < 2^31 for |e| <= 2), its 8 bits below q38
              * carried to the next sample (imf_mahony_imu_q_carry_i) */
-            ip = imf_mahony_imu_q_carry_i(imf_mul_32x16_s(e[i], self->ki.m, self->ki.s - 16), &x->c[i]);
+            ip = imf_mahony_imu_q_carry_i(imf_mul_32x16_s(e[i], self->ki.m, self->ki.s - 16),
+                                          &x->c[i]);
         } else {
             ip = imf_scale32_s(e[i], self->ki, 30, 38);
         }
@@ -129,7 +132,7 @@ static IMF_AVR_NOINLINE void imf_mahony_imu_q_feedback_p32(imf_mahony_imu_q_t *c
  * Short path (fast8): h in q(31+hs), Kp e + I summed in q38 and added to it
  * rounded once; otherwise h and Kp e in q(15+hs). */
 IMF_Q_OUTLINE void imf_mahony_imu_q_feedback_p8(imf_mahony_imu_q_t *const self, const int16_t qs[4],
-                                       const int16_t acc[3], int32_t h[3])
+                                                const int16_t acc[3], int32_t h[3])
 {
     imf_mahony_imu_q_state_t *const x = &self->x;
 #if !defined(__AVR__)
@@ -209,7 +212,7 @@ IMF_Q_OUTLINE void imf_mahony_imu_q_feedback_p8(imf_mahony_imu_q_t *const self, 
 }
 
 void imf_mahony_imu_q_update_p32(imf_mahony_imu_q_t *const self, const int16_t gyr[3],
-                               const int16_t acc[3])
+                                 const int16_t acc[3])
 {
     int32_t *const q = self->x.q;
     int32_t h[3], dq[4];
@@ -228,7 +231,7 @@ void imf_mahony_imu_q_update_p32(imf_mahony_imu_q_t *const self, const int16_t g
 }
 
 void imf_mahony_imu_q_update_p8(imf_mahony_imu_q_t *const self, const int16_t gyr[3],
-                              const int16_t acc[3])
+                                const int16_t acc[3])
 {
     int32_t *const q = self->x.q;
     int32_t *const c = self->x.c;

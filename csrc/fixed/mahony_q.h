@@ -49,12 +49,12 @@ typedef struct {
 } imf_mahony_imu_q_state_t;
 
 typedef struct {
-    imf_qscale_t kg, kp, ki; /* 0.5 gyr_scale dt, 0.5 kp dt, 0.5 ki dt^2 (q-scales) */
-    int16_t hs;      /* 8-bit profile: rates in q(15+hs) */
-    imf_gain8_t kg8, kp8, ki8; /* 8-bit profile: kg, kp, ki for int16 products */
-    uint16_t kpi;    /* 8-bit profile: kp for e (q15) -> q38, when fast8 */
-    int16_t fast8;   /* 8-bit profile: kpi and ki8 (shift 16) usable */
-    int16_t profile; /* 32 or 8 */
+    imf_qscale_t kg, kp, ki;    /* 0.5 gyr_scale dt, 0.5 kp dt, 0.5 ki dt^2 (q-scales) */
+    int16_t hs;                 /* 8-bit profile: rates in q(15+hs) */
+    imf_gain8_t kg8, kp8, ki8;  /* 8-bit profile: kg, kp, ki for int16 products */
+    uint16_t kpi;               /* 8-bit profile: kp for e (q15) -> q38, when fast8 */
+    int16_t fast8;              /* 8-bit profile: kpi and ki8 (shift 16) usable */
+    int16_t profile;            /* 32 or 8 */
     imf_mahony_imu_q_state_t x; /* the state (above): the estimate; write it only through the API */
 } imf_mahony_imu_q_t;
 
@@ -83,8 +83,10 @@ int imf_mahony_imu_q_init(imf_mahony_imu_q_t *self, const imf_mahony_imu_q_setti
 int imf_mahony_imu_q_init_consts(imf_mahony_imu_q_t *self, imf_qscale_t kg, imf_qscale_t kp,
                                  imf_qscale_t ki, int profile);
 /* gyr: counts; acc: counts (any scale, zero vector = no correction) */
-void imf_mahony_imu_q_update_p32(imf_mahony_imu_q_t *self, const int16_t gyr[3], const int16_t acc[3]);
-void imf_mahony_imu_q_update_p8(imf_mahony_imu_q_t *self, const int16_t gyr[3], const int16_t acc[3]);
+void imf_mahony_imu_q_update_p32(imf_mahony_imu_q_t *self, const int16_t gyr[3],
+                                 const int16_t acc[3]);
+void imf_mahony_imu_q_update_p8(imf_mahony_imu_q_t *self, const int16_t gyr[3],
+                                const int16_t acc[3]);
 /* calls the update of the profile given to init */
 void imf_mahony_imu_q_update(imf_mahony_imu_q_t *self, const int16_t gyr[3], const int16_t acc[3]);
 

@@ -1,22 +1,22 @@
-"""Sensor calibration from recordings (seed 002, host side, numpy).
+"""Sensor calibration from recordings (Nair 2016, host side, numpy).
 
 The results feed the calibration models of the Fusion suite:
 
     gyroscope, accelerometer:  i_c = M s (i_u - b)
     magnetometer:              m_c = S (m_u - h)
 
-- :func:`gyro_offset`: the seed's power-up procedure, the mean at rest, with
+- :func:`gyro_offset`: Nair's power-up procedure, the mean at rest, with
   its motion check: a reading farther than `threshold` from the median shows
   motion; the call refuses (ValueError naming the sample range) or, with
-  ``restart=True``, takes the longest still stretch (the seed's "wait and
+  ``restart=True``, takes the longest still stretch (Nair's "wait and
   repeat").
-- :func:`accel_six_position`: the seed's six-position procedure. Per axis,
+- :func:`accel_six_position`: Nair's six-position procedure. Per axis,
   from the mean readings with that axis pointing down (+1 g) and up (-1 g):
   sensitivity (a+ - a-)/2 and offset (a+ + a-)/2. The still phases are given
   as index ranges or found (:func:`still_phases`). With ``cross_axis=True``
   the off-axis readings of the six positions give the full matrix too (M,
   close to the identity, carries the cross-axis terms).
-- :func:`mag_minmax`: the seed's hard-iron method, offset (max + min)/2 and
+- :func:`mag_minmax`: Nair's hard-iron method, offset (max + min)/2 and
   per-axis scale (max - min)/2.
 - :func:`mag_ellipsoid`: least-squares ellipsoid fit, soft-iron S (symmetric)
   and hard-iron h, with the residual and field-strength figures.
@@ -102,7 +102,7 @@ def gyro_offset(gyr, threshold=0.05, restart=False, min_samples=100):
     axis, in the gyro's unit (default 0.05, rad/s: about 3 deg/s). Readings
     beyond it show motion: ValueError naming the sample ranges, or with
     restart=True the mean of the longest still stretch (at least min_samples;
-    the seed averages 100 samples)."""
+    Nair averages 100 samples)."""
     g = _nx3("gyr", gyr, min_samples)
     if not (np.isfinite(threshold) and threshold > 0):
         raise ValueError(f"threshold: must be finite and > 0, got {threshold!r}")
@@ -164,7 +164,7 @@ def still_phases(acc, window=50, threshold=None, min_len=None):
 
 
 def accel_six_position(acc, ranges=None, cross_axis=False, window=50, threshold=None):
-    """The seed's six-position calibration.
+    """Nair's six-position calibration.
 
     acc (N, 3) raw readings; ranges: six or more (start, stop) index ranges
     of still phases (default: :func:`still_phases`), each with one axis
@@ -261,7 +261,7 @@ def _check_coverage(u, what):
 
 
 def mag_minmax(mag, field=None):
-    """The seed's hard-iron calibration: h = (max + min)/2 per axis and a
+    """Nair's hard-iron calibration: h = (max + min)/2 per axis and a
     per-axis scale (max - min)/2; S = diag(field / scale) with field the
     mean of the three scales unless given (keeps the sensor's unit)."""
     m = _nx3("mag", mag, 10)

@@ -1,4 +1,4 @@
-"""Sensor calibration files: the models of seed 004 (x-io Fusion) in JSON.
+"""Sensor calibration files: the models of Longbin's walkthrough (x-io Fusion) in JSON.
 
 Format (every key optional; a missing sensor or parameter means "identity"):
 

@@ -207,7 +207,7 @@ FIXED: Tuple[Entry, ...] = (
     Entry("MadgwickIMUQ", dict(gyr_scale=_GYR), estimate="quaternion", fixed=True),
 )
 
-# The Fusion suite (seed 004; imufusion 1.2.3): its own API, so apart from FLOAT.
+# The Fusion suite (Longbin's Fusion walkthrough; imufusion 1.2.3): its own API, so apart from FLOAT.
 # The generic harnesses construct a filter with dt at init and feed rad/s through
 # update(gyr, acc[, mag]); FusionAHRS takes Fusion's units (deg/s, g), dt with every
 # update and three update forms, FusionOffset returns the corrected gyroscope.
@@ -223,8 +223,8 @@ FUSION: Tuple[Entry, ...] = (
 #: the Fusion suite's classes
 FILTERS_FUSION: Tuple[str, ...] = tuple(e.name for e in FUSION)
 
-# Seed 002's variometer: update(accel, baro_alt, dt), its own input kind ("vario"),
-# no attitude. tests/test_vario.py drives it (C vs twin, hostile input, the seed's
+# Nair's variometer: update(accel, baro_alt, dt), its own input kind ("vario"),
+# no attitude. tests/test_vario.py drives it (C vs twin, hostile input, Nair's
 # claims), the MCU runner runs it, bench/test_bench_vario.py times it.
 VARIO: Tuple[Entry, ...] = (
     Entry("VarioKF"),

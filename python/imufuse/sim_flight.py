@@ -1,4 +1,4 @@
-"""Seeded paraglider flights with ground truth, for the variometer of seed 002.
+"""Seeded paraglider flights with ground truth, for the variometer of Nair (2016).
 
 A flight is a list of phases (:class:`Phase`): glides in sinking air and
 thermals, each with its air-mass climb rate and the bank angle the pilot

@@ -1,4 +1,4 @@
-"""The variometer pipeline of seed 002 (Hari Nair), host side.
+"""The variometer pipeline of Hari Nair (2016), host side.
 
     IMU (200-250 Hz) -> quaternion filter (any imufuse IMU/AHRS filter, with
     the accelerometer gate) -> gravity-compensated vertical acceleration ->
@@ -7,12 +7,12 @@
 
 Barometric altitude comes from pressure by the standard atmosphere
 (:func:`pressure_to_altitude`, reference pressure configurable). The Kalman
-filter works in the seed's units (cm, cm/s, cm/s^2); results are given in
+filter works in Nair's units (cm, cm/s, cm/s^2); results are given in
 m, m/s and m/s^2.
 
 Also here, for the measurements of docs/vario.md: the barometer-only
-two-state Kalman filter of the seed's starting point (:func:`baro_kf`, the
-Wikipedia constant-acceleration example) and the seed's rejected
+two-state Kalman filter of Nair's starting point (:func:`baro_kf`, the
+Wikipedia constant-acceleration example) and Nair's rejected
 alternative ``|a| - 1`` (:func:`norm_accel`).
 """
 import math
@@ -63,14 +63,14 @@ def _modules(backend):
 
 def vertical_acceleration(q, acc, convention="nwu", one_g=1.0, scale=100.0 * GRAVITY,
                           backend="c", dtype="float64"):
-    """Seed 002's gravity-compensated vertical acceleration, up positive, of
+    """Nair's gravity-compensated vertical acceleration, up positive, of
     every sample (default: acc in g, result in cm/s^2). See
     imufuse.reference.vertical_accel for the conventions."""
     return _modules(backend).vertical_accel(q, acc, convention, one_g, scale, dtype=dtype)
 
 
 def norm_accel(acc, one_g=1.0, scale=100.0 * GRAVITY):
-    """The seed's first idea, (|a| - 1 g) scale: right only when the
+    """Nair's first idea, (|a| - 1 g) scale: right only when the
     acceleration is vertical (fails in banked turns)."""
     acc = np.asarray(acc, dtype=float)
     return (np.linalg.norm(acc, axis=1) - one_g) * scale
@@ -88,7 +88,7 @@ def decimate(x, idx):
 
 
 def baro_kf(alt, dt, var_z=300.0, var_acc=200.0, p0=(1.0, 1.0)):
-    """Barometer-only two-state Kalman filter (z, v), the seed's starting
+    """Barometer-only two-state Kalman filter (z, v), Nair's starting
     point (Wikipedia's example: F = [[1, dt], [0, 1]], Q = G G^T var_acc with
     G = (dt^2/2, dt), H = [1 0], R = var_z). alt (M,) cm, dt scalar or (M,)
     s; returns (M, 2): z (cm), v (cm/s). z0 = the first altitude."""
@@ -138,14 +138,14 @@ class VarioResult:
 def run(gyr, acc, baro_alt, *, rate=None, t=None, mag=None, filter="MadgwickIMU",
         filter_params=None, convention="nwu", acc_unit_g=1.0, kf_params=None,
         backend="c", dtype="float64", vertical="earth"):
-    """The seed's pipeline over one recording.
+    """Nair's pipeline over one recording.
 
     gyr, acc (N, 3) (rad/s; acc in units where 1 g = acc_unit_g), mag (N, 3)
     for AHRS filters; baro_alt (N,) barometer altitude in m on the rows where
     the barometer sampled and NaN elsewhere. rate (Hz) or t (N,) s.
     filter: an imufuse quaternion filter (kind imu or ahrs) constructed with
     dt = 1/rate and filter_params (e.g. {"beta": 0.1, "acc_gate": (0.6, 1.4)}).
-    kf_params: VarioKF keywords. vertical="earth" is the seed's earth-frame
+    kf_params: VarioKF keywords. vertical="earth" is Nair's earth-frame
     vertical acceleration, "norm" the |a| - 1 alternative (for comparison).
     """
     mod = _modules(backend)

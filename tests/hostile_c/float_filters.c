@@ -40,7 +40,7 @@
 
 #define N_FILTERS 20
 enum { F_ROBUST_IMU = 16, F_ROBUST_AHRS = 17, F_VARIO = 18, F_FUSION = 19 };
-/* the accelerometer gate (seed 002) on at 0.6 .. 1.4 g (the default settings: off) */
+/* the accelerometer gate (Nair 2016) on at 0.6 .. 1.4 g (the default settings: off) */
 #define GATE_ON(s) ((s).acc_gate_lo = IMF_R(0.6), (s).acc_gate_hi = IMF_R(1.4))
 
 typedef union {

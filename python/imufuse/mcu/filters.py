@@ -578,7 +578,7 @@ def float_inputs(group: str, n_motion: int = 300, seed: int = 5) -> Dict[str, np
 
 
 def _vario_inputs(n_motion, seed, tail):
-    """Seed 002's variometer: a simulated flight at the barometer rate (vertical
+    """Nair's variometer: a simulated flight at the barometer rate (vertical
     acceleration cm/s^2, barometer altitude cm, dt s), then the corners (NaN/Inf
     in each input, dt <= 0, overflow, tiny values), then the flight again."""
     fl = sim_flight.flight(duration=(n_motion + tail) / 50.0 + 1.0, seed=seed)

@@ -15,7 +15,7 @@ from .filters_1d import tuning
 FILTERS: tuple = ()          # every float filter, by class name (imufuse_c exports the same)
 FILTERS_FIXED: tuple = ()    # every fixed-point filter (int16 counts in, integer state)
 FILTERS_FUSION: tuple = ()   # the Fusion suite: Fusion's units (deg/s, g), dt per update
-FILTERS_VARIO: tuple = ()    # seed 002's variometer: update(accel, baro_alt, dt)
+FILTERS_VARIO: tuple = ()    # Nair's variometer: update(accel, baro_alt, dt)
 
 for _info in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
     if _info.name.startswith("_"):
@@ -36,7 +36,7 @@ for _info in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
 
 FILTERS_1D = tuple(n for n in FILTERS if globals()[n].kind == "1d")
 
-from .vario import vertical_accel  # noqa: E402  (seed 002)
+from .vario import vertical_accel  # noqa: E402  (Nair 2016)
 
 __all__ = ["ReferenceFilter", "FILTERS", "FILTERS_FIXED", "FILTERS_FUSION", "FILTERS_1D",
            "FILTERS_VARIO", "tuning", "vertical_accel", *FILTERS, *FILTERS_FIXED,

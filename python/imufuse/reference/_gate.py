@@ -1,4 +1,4 @@
-"""Twin of csrc/imf_gate.h: the accelerometer-magnitude gate of seed 002.
+"""Twin of csrc/imf_gate.h: the accelerometer-magnitude gate of Nair (2016).
 
 Shared by the Madgwick and Mahony references: check() validates the
 acc_gate/acc_1g keywords (one definition for both backends) and gives the C

@@ -24,7 +24,7 @@ class Complementary1D(ReferenceFilter):
     """Complementary filter, Eq. 2.2: theta_k = alpha (theta_{k-1} + w_k dt) + (1 - alpha) a_k.
 
     Complementary1D(dt, alpha) or Complementary1D(dt, T=time_constant), with
-    alpha = (T/dt) / (1 + T/dt). Example (seed 003): t = 10/11 at 60 Hz is
+    alpha = (T/dt) / (1 + T/dt). Example (the ROSE course blog, Telecom ParisTech, 2012): t = 10/11 at 60 Hz is
     Complementary1D(1/60, alpha=10/11), i.e. T = 10/60 s.
     """
     c_name = "imf_complementary1d"

@@ -1,4 +1,4 @@
-"""The Fusion suite of seed 004 (x-io Fusion as shipped in imufusion 1.2.3):
+"""The Fusion suite of Longbin's walkthrough (x-io Fusion as shipped in imufusion 1.2.3):
 pure-Python twin of csrc/fusion_math.h, fusion_ahrs.c, fusion_offset.c and
 fusion_calibration.c, line for line.
 
@@ -199,7 +199,7 @@ INITIALISATION_PERIOD = 3.0
 class FusionAHRS:
     """x-io Fusion's AHRS in FUSION'S UNITS: gyroscope deg/s (not rad/s), accelerometer g, dt per update.
 
-    Seed 004 / imufusion 1.2.3, bit-exact with it in float32. Units in full:
+    Longbin's walkthrough / imufusion 1.2.3, bit-exact with it in float32. Units in full:
     gyroscope in degrees per second, accelerometer in g, magnetometer in any
     unit, dt in seconds given with every update, angles (rejection thresholds,
     heading, Euler) in degrees.
@@ -689,7 +689,7 @@ class FusionAHRS:
 class FusionOffset:
     """x-io Fusion's gyroscope offset estimator in FUSION'S UNITS: gyroscope deg/s, sample_rate Hz.
 
-    Seed 004 / imufusion 1.2.3, bit-exact with it in float32; one update per
+    Longbin's walkthrough / imufusion 1.2.3, bit-exact with it in float32; one update per
     sample. After 5 s with every corrected axis within
     3 deg/s the offset follows the gyroscope through a 0.02 Hz low-pass.
     update(gyr) returns the corrected gyroscope; run(gyr) returns

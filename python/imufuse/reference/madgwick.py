@@ -162,7 +162,7 @@ class _Madgwick(ReferenceFilter):
     def _set_dt(self, dt):
         self.dt = dt
 
-    # imf_madgwick_*_set_acc_gate: seed 002's accelerometer gate (imf_gate.h)
+    # imf_madgwick_*_set_acc_gate: Nair's accelerometer gate (imf_gate.h)
     def _set_acc_gate(self, acc_gate_lo, acc_gate_hi, acc_1g):
         self.acc_gate = _gate.set(self._R, acc_gate_lo, acc_gate_hi, acc_1g)
 

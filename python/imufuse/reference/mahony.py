@@ -75,7 +75,7 @@ class _Mahony(ReferenceFilter):
     def _set_attitude(self, att):
         self.q0, self.q1, self.q2, self.q3 = att.q
 
-    # imf_mahony_*_set_acc_gate: seed 002's accelerometer gate (imf_gate.h)
+    # imf_mahony_*_set_acc_gate: Nair's accelerometer gate (imf_gate.h)
     def _set_acc_gate(self, acc_gate_lo, acc_gate_hi, acc_1g):
         self.acc_gate = _gate.set(self._R, acc_gate_lo, acc_gate_hi, acc_1g)
 

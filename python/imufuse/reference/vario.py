@@ -1,10 +1,10 @@
-"""Variometer of seed 002 (Hari Nair): pure-Python twin of csrc/vario.c,
+"""Variometer of Hari Nair (2016): pure-Python twin of csrc/vario.c,
 line for line.
 
 VarioKF is the three-state Kalman filter that fuses vertical acceleration
 with barometric altitude: z altitude (cm), v climb rate (cm/s), b
 accelerometer bias (cm/s^2), and the covariance P (upper triangle).
-vertical_accel() is the seed's gravity-compensated vertical acceleration.
+vertical_accel() is Nair's gravity-compensated vertical acceleration.
 """
 import functools
 
@@ -23,10 +23,10 @@ PREDICT_SEED, PREDICT_MODEL = 0, 1
 #: accelerometer reads +1 g at rest (see csrc/vario.h)
 CONVENTIONS = {"nwu": 1.0, "enu": 1.0, "ned_seed": 1.0, "ned": -1.0}
 
-#: the seed's defaults
+#: Nair's defaults
 VAR_Z, VAR_ACC, VAR_BIAS, P0 = 300.0, 200.0, 1.0, (1.0, 1.0, 1e5)
 
-#: barometer periods the seed-order stability check covers (1 kHz to 1 Hz), s
+#: barometer periods the stability check of Nair's order covers (1 kHz to 1 Hz), s
 SEED_DT = tuple(float(v) for v in np.logspace(-3.0, 0.0, 16))
 
 
@@ -34,7 +34,7 @@ SEED_DT = tuple(float(v) for v in np.logspace(-3.0, 0.0, 16))
 def seed_radius(var_z, var_acc, var_bias, dt):
     """Spectral radius of the steady-state error dynamics of predict="seed": the Kalman
     gain K of the model (its F, Q, R, from the discrete Riccati equation, solved by the
-    structured doubling algorithm) applied to the seed's state prediction F_s, whose z uses
+    structured doubling algorithm) applied to Nair's state prediction F_s, whose z uses
     the new v (z += v dt + (a - b) dt^2, not the model's dt^2 / 2). Above 1 the estimate
     diverges whatever the data. predict="model" uses F itself: a Kalman filter of its own
     model, stable for every setting."""
@@ -66,7 +66,7 @@ def check_seed_stable(var_z, var_acc, var_bias):
         worst = max(r for _, r in bad)
         raise ValueError(
             f"var_z: {var_z!r} cm^2 is too small for predict='seed' against var_acc={var_acc!r}"
-            f" and var_bias={var_bias!r}: the seed's order of prediction then diverges at "
+            f" and var_bias={var_bias!r}: Nair's order of prediction then diverges at "
             f"barometer periods of {bad[0][0]:.3g} to {bad[-1][0]:.3g} s (the error grows by "
             f"up to {worst:.4f} per sample, whatever the data); use predict='model' (stable "
             f"for every setting) or a larger var_z")
@@ -113,7 +113,7 @@ def update_inputs(accel, baro_alt, dt):
 
 
 class VarioKF(ReferenceFilter):
-    """Seed 002's variometer Kalman filter: altitude, climb rate and
+    """Nair's variometer Kalman filter: altitude, climb rate and
     accelerometer bias from vertical acceleration and barometric altitude.
 
     VarioKF(var_z=300, var_acc=200, var_bias=1, p0=(1, 1, 1e5), z0=None,
@@ -121,7 +121,7 @@ class VarioKF(ReferenceFilter):
     var_acc the acceleration variance ((cm/s^2)^2), var_bias the bias
     variance added per step ((cm/s^2)^2), p0 the initial variances of z, v, b;
     z0 (cm) None takes the first barometer altitude; v0 (cm/s), b0 (cm/s^2).
-    predict="seed" predicts the state as the seed writes it (v first, then z
+    predict="seed" predicts the state as Nair writes it (v first, then z
     with the new v), "model" as its transition matrix F does.
 
     update(accel, baro_alt, dt): accel the net vertical acceleration (up
@@ -220,7 +220,7 @@ class VarioKF(ReferenceFilter):
             x[0] = x[0] + x[1] * dt + R(0.5) * dt * dt * acc
             x[1] = x[1] + acc * dt
         else:
-            # the seed as written: v first, then z with the new v
+            # as Nair writes it: v first, then z with the new v
             x[1] = x[1] + acc * dt
             x[0] = x[0] + x[1] * dt
         return x
@@ -296,7 +296,7 @@ def convention_sign(convention):
 def vertical_accel_step(R, q0, q1, q2, q3, ax, ay, az, sign, one_g, scale):
     """Twin of imf_vertical_accel: (sign az_earth - one_g) scale with
     az_earth = (2q1q3 - 2q0q2) ax + (2q2q3 + 2q0q1) ay + (q0^2 - q1^2 - q2^2 + q3^2) az."""
-    # seed 002: the third row of the rotation matrix of q, times a
+    # Nair (2016): the third row of the rotation matrix of q, times a
     az_earth = ((R(2.0) * q1 * q3 - R(2.0) * q0 * q2) * ax
                 + (R(2.0) * q2 * q3 + R(2.0) * q0 * q1) * ay
                 + (q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3) * az)
@@ -324,8 +324,8 @@ def vertical_accel(q, acc, convention="nwu", one_g=1.0, scale=980.0, dtype="floa
     """Net vertical acceleration, up positive, for every sample: q (N, 4)
     sensor -> earth quaternions [w, x, y, z], acc (N, 3) accelerometer in the
     unit of one_g; the result is in that unit times scale (default: g in,
-    cm/s^2 out with the seed's 980). convention: "nwu" or "enu" (imufuse:
-    +1 g along earth z at rest), "ned_seed" (the seed's board: +1 g on D at
+    cm/s^2 out with Nair's 980). convention: "nwu" or "enu" (imufuse:
+    +1 g along earth z at rest), "ned_seed" (Nair's board: +1 g on D at
     rest), "ned" (specific force: -1 g on D at rest)."""
     dtype = _checks.check_dtype(dtype)
     sign, one_g, scale = vertical_params(convention, one_g, scale)

@@ -1,7 +1,7 @@
 """Oracle: how much of RobustIMU's tilt error on the BROAD development trials is the
 accelerometer's own bias (and scale) error?
 
-    python tools/acc_bias_oracle.py [--dir ../shared/data/broad]      (about 30 s)
+    python bench/broad/acc_bias_oracle.py [--dir ../shared/data/broad]      (about 30 s)
 
 Per trial a constant accelerometer correction is fitted offline against the optical
 reference (sensor -> ENU, taken 2 ms earlier: BROAD's IMU lags it), subtracted from the

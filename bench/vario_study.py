@@ -1,7 +1,7 @@
-"""Seed 002's claims, measured on simulated flights (imufuse.sim_flight).
+"""Nair's claims, measured on simulated flights (imufuse.sim_flight).
 
 Each study returns plain numbers; tests/test_vario_claims.py asserts them
-and ``python -m imufuse.vario_study`` prints the tables of docs/vario.md.
+and ``python bench/vario_study.py`` prints the tables of docs/vario.md.
 
 - lag: climb-rate response to a thermal entry (sink -1 m/s to +3 m/s over
   1 s), fused filter against the barometer-only two-state filter;
@@ -15,9 +15,9 @@ import numpy as np
 
 import imufuse_c
 
-from . import sim_flight as sf
-from . import vario as V
-from .rotations import quat_rotate, tilt_error
+from imufuse import sim_flight as sf
+from imufuse import vario as V
+from imufuse.rotations import quat_rotate, tilt_error
 
 G_CM = 100.0 * V.GRAVITY
 
@@ -53,7 +53,7 @@ def study_lag(seed=3, baro_var_acc=(200.0, 2e3, 2e4, 2e5)):
     after_start = tb > 10.0
     rows = [("truth", lag90(tb, tc, 30.0, -1.0, 3.0), 0.0, 0.0)]
     r = V.run(fl.gyr, fl.acc, fl.baro_column("baro_alt"), rate=fl.rate)
-    rows.append(("VarioKF (seed defaults, MadgwickIMU)", lag90(tb, r.climb, 30.0, -1.0, 3.0),
+    rows.append(("VarioKF (Nair's defaults, MadgwickIMU)", lag90(tb, r.climb, 30.0, -1.0, 3.0),
                  _rms((r.climb - tc)[steady]), _rms((r.climb - tc)[after_start])))
     for va in baro_var_acc:
         b = V.baro_kf(fl.baro_alt * 100.0, 1.0 / fl.baro_rate, var_acc=va)[:, 1] / 100.0
