@@ -1,2 +1,54 @@
 """Shared pytest configuration (the test helpers are on sys.path through
-pyproject.toml: [tool.pytest.ini_options] pythonpath)."""
+pyproject.toml: [tool.pytest.ini_options] pythonpath).
+
+Markers (pyproject.toml), given here by module so that a new test in one of these files is
+marked without a decorator:
+
+  emulator    runs programs on an emulated MCU (QEMU, simavr)
+  crossbuild  compiles with a cross compiler, CMake or builds the package
+  fuzz        sanitizers and fuzzers over the C
+  slow        all of the above, and the tests that take seconds each (long runs, published-code
+              and Fusion oracles, the command line end to end)
+
+The inner loop is `pytest -m "not slow"`; CI runs everything (tools/test.sh).
+"""
+import pytest
+
+EMULATOR = {"test_firmware_target", "test_mcu_filters", "test_mcu_harness", "test_fixed_core_mcu",
+            "test_arduino"}
+CROSSBUILD = {"test_cross_build", "test_cmake_package", "test_build", "test_packaging"}
+FUZZ = {"test_sanitizers"}
+SLOW = {"test_long_rest", "test_fusion_oracle", "test_published", "test_journeys", "test_cli",
+        "test_cli_hostile", "test_outputs_safe", "test_firmware", "test_plausible",
+        "test_fusion_cli", "test_cli_names", "test_csv_output", "test_tune", "test_latency",
+        "test_reallogs", "test_broad_hdf5", "test_nul_tail", "test_vario_claims",
+        "test_calibrate", "test_fixed_accuracy", "test_claims_1d", "test_sim_flight",
+        "test_style", "test_header_docs", "test_c_settings", "test_fixed_core", "test_fixed_scale",
+        "test_architecture", "test_plots"}
+# single slow tests in otherwise fast modules (seconds each: a million samples, long bursts)
+SLOW_TESTS = {"test_a_million_constant_samples_then_recovery", "test_hostile_burst",
+              "test_fusion_ahrs_hostile_burst", "test_first_c_equals_reference",
+              "test_hypothesis_sequences", "test_constructors_agree", "test_update_inputs_agree",
+              "test_gyro_1e6_rad_s_then_recovery", "test_no_state_write_leaves_a_dead_filter",
+              "test_state_held_elsewhere_keeps_its_values", "test_long_rest",
+              "test_broad_development_trials", "test_hypothesis_full_int16_range",
+              "test_hypothesis_extreme_params_and_states", "test_c_driver_equals_reference"}
+# single emulator tests in modules of their own subject
+EMULATOR_TESTS = {"test_fusion_ahrs_on_mcu"}
+
+
+def pytest_collection_modifyitems(config, items):
+    for item in items:
+        mod = item.module.__name__.rpartition(".")[2] if item.module else ""
+        name = item.originalname or item.name
+        marks = set()
+        if mod in EMULATOR or name in EMULATOR_TESTS:
+            marks.add("emulator")
+        if mod in CROSSBUILD:
+            marks.add("crossbuild")
+        if mod in FUZZ:
+            marks.add("fuzz")
+        if marks or mod in SLOW or name in SLOW_TESTS:
+            marks.add("slow")
+        for m in sorted(marks):
+            item.add_marker(getattr(pytest.mark, m))

@@ -5,6 +5,8 @@ below runs with its catalogue defaults (dt = 0.01, or 0.002 for fixed point).
 The lists here hold only the extra configurations worth testing (every option
 of every class, published defaults, edge gains).
 """
+import functools
+import inspect
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -125,6 +127,36 @@ def float_matrix():
     return [pytest.param(c, dt, id=f"{c.id}-{dt}") for c in FLOAT_CASES for dt in DTYPES]
 
 
+def case_params(cases):
+    """pytest parameters of ``cases``, one per configuration (with each_dtype)."""
+    return [pytest.param(c, id=c.id) for c in cases]
+
+
+def each(name, values):
+    """A decorator: the test of (..., name, ...) run for every value of ``name`` in one test
+    item (the same checks as one item per value, one test ID); a failure names the value."""
+    def decorate(test):
+        sig = inspect.signature(test)
+
+        @functools.wraps(test)
+        def run(*args, **kwargs):
+            for v in values:
+                try:
+                    test(*args, **{name: v}, **kwargs)
+                except AssertionError as e:
+                    raise AssertionError(f"[{name}={v!r}] {e}") from e
+        run.__signature__ = sig.replace(parameters=[p for n, p in sig.parameters.items()
+                                                    if n != name])
+        return run
+    return decorate
+
+
+#: float32 and float64 in one test item
+each_dtype = each("dtype", DTYPES)
+#: the compiled filter and its twin in one test item
+each_backend = each("backend", ("c", "ref"))
+
+
 def as_dtype(arrays, dtype):
     return tuple(np.asarray(a, dtype=dtype) for a in arrays)
 
@@ -205,3 +237,28 @@ EXTRA_FUSION_CASES = [
     Case("FusionOffset", dict(sample_rate=100)),
 ]
 FUSION_CASES = _with_defaults(EXTRA_FUSION_CASES, catalogue.FUSION, None)
+
+
+# ---- representatives: filter-independent code is tested once per code path ---------------
+
+def wrapper_base(case, fixed=False):
+    """The compiled base class a case's class inherits its wrapper code from (update(),
+    run(), state, reset: imufuse_c/_base.pxi, fixed_base.pxi), by name."""
+    import imufuse_c
+    cls = getattr(imufuse_c, case.name)
+    obj = cls(**case.params, **({"profile": "32"} if fixed else {}))
+    base = type(obj).__mro__[1]
+    return type(obj).__name__ if base is object else base.__name__     # a class of its own
+
+
+def representatives(cases, fixed=False):
+    """One case per compiled base class (the first of each, in catalogue order): the wrapper
+    paths (row reading, state snapshots) are the base class's, so one filter of each base
+    runs them; tests/test_wrapper_paths.py checks that no class overrides them."""
+    seen, out = set(), []
+    for c in cases:
+        b = wrapper_base(c, fixed)
+        if b not in seen:
+            seen.add(b)
+            out.append(c)
+    return out

@@ -9,7 +9,7 @@ import pytest
 import imufuse.reference as reference
 import imufuse_c
 from bits import assert_same_bits
-from registry import DTYPES
+from registry import DTYPES, each, each_dtype
 
 # (class, gains that make it a pure gyro integrator)
 FILTERS = [("MadgwickIMU", dict(beta=0.0)), ("MadgwickAHRS", dict(beta=0.0)),
@@ -32,8 +32,8 @@ def _make(mod, name, dtype, **kw):
 
 
 @pytest.mark.parametrize("name,gyro_only", FILTERS, ids=[f[0] for f in FILTERS])
-@pytest.mark.parametrize("dtype", DTYPES)
-@pytest.mark.parametrize("mod", [imufuse_c, reference], ids=["c", "ref"])
+@each_dtype
+@each("mod", [imufuse_c, reference])
 def test_outside_the_gate_is_gyro_only(mod, name, gyro_only, dtype):
     for norm in (0.5, 1.5, 3.0):                    # below 0.6 g, above 1.4 g
         x = _inputs(name, np.full(400, norm))
@@ -45,8 +45,8 @@ def test_outside_the_gate_is_gyro_only(mod, name, gyro_only, dtype):
 
 
 @pytest.mark.parametrize("name", [f[0] for f in FILTERS])
-@pytest.mark.parametrize("dtype", DTYPES)
-@pytest.mark.parametrize("mod", [imufuse_c, reference], ids=["c", "ref"])
+@each_dtype
+@each("mod", [imufuse_c, reference])
 def test_inside_the_gate_and_off_are_ungated(mod, name, dtype):
     x = _inputs(name, np.random.default_rng(1).uniform(0.65, 1.35, 400))
     ungated = _make(mod, name, dtype, **GAINS[name]).run(*x)
@@ -92,7 +92,7 @@ def test_bounds_are_inclusive_on_squares():
     (dict(acc_gate=1.4), r"^acc_gate:"), (dict(acc_gate=(0.6, float("inf"))), r"^acc_gate\[1\]:"),
     (dict(acc_gate=(0.6, 1.4), acc_1g=0.0), r"^acc_1g:"), (dict(acc_1g=float("nan")), r"^acc_1g:")])
 @pytest.mark.parametrize("name", [f[0] for f in FILTERS])
-@pytest.mark.parametrize("mod", [imufuse_c, reference], ids=["c", "ref"])
+@each("mod", [imufuse_c, reference])
 def test_bad_gate(mod, name, kwargs, msg):
     with pytest.raises(ValueError, match=msg):
         _make(mod, name, "float64", **kwargs)

@@ -3,7 +3,7 @@ the same way by both backends (one validation path, imufuse._checks)."""
 import numpy as np
 import pytest
 
-from registry import FLOAT_CASES, float_matrix
+from registry import (FLOAT_CASES, case_params, each, each_backend, each_dtype)
 from sequences import generate
 
 BACKENDS = ("c", "ref")
@@ -15,23 +15,23 @@ def cls(case, backend):
     return getattr(imufuse_c if backend == "c" else reference, case.name)
 
 
-@pytest.mark.parametrize("backend", BACKENDS)
 @pytest.mark.parametrize("case", [pytest.param(c, id=c.id) for c in FLOAT_CASES])
-@pytest.mark.parametrize("dt", [0.0, -0.01, float("nan"), float("inf"), "x"])
+@each("dt", [0.0, -0.01, float("nan"), float("inf"), "x"])
+@each_backend
 def test_bad_dt(case, backend, dt):
     with pytest.raises(ValueError, match=r"^dt: "):
         cls(case, backend)(**{**case.params, "dt": dt})
 
 
-@pytest.mark.parametrize("backend", BACKENDS)
 @pytest.mark.parametrize("case", [pytest.param(c, id=c.id) for c in FLOAT_CASES])
+@each_backend
 def test_bad_dtype(case, backend):
     with pytest.raises(ValueError, match=r"^dtype: "):
         cls(case, backend)(**case.params, dtype="float16")
 
 
-@pytest.mark.parametrize("backend", BACKENDS)
 @pytest.mark.parametrize("case", [pytest.param(c, id=c.id) for c in FLOAT_CASES])
+@each_backend
 def test_every_gain_rejects_nonfinite(case, backend):
     for name, value in case.params.items():
         if name == "dt" or isinstance(value, (bool, str)) or not isinstance(value, (int, float)):
@@ -67,8 +67,8 @@ OUT_OF_RANGE = [
 ]
 
 
-@pytest.mark.parametrize("backend", BACKENDS)
 @pytest.mark.parametrize("name,params,param", OUT_OF_RANGE)
+@each_backend
 def test_gain_out_of_range(name, params, param, backend):
     import imufuse.reference as reference
     import imufuse_c
@@ -76,8 +76,9 @@ def test_gain_out_of_range(name, params, param, backend):
         getattr(imufuse_c if backend == "c" else reference, name)(**params)
 
 
-@pytest.mark.parametrize("backend", BACKENDS)
-@pytest.mark.parametrize("case,dtype", float_matrix())
+@pytest.mark.parametrize("case", case_params(FLOAT_CASES))
+@each_dtype
+@each_backend
 def test_run_shapes(case, dtype, backend):
     f = case.make(backend, dtype)
     good = generate(case.kind, "random", n=10)
@@ -92,8 +93,9 @@ def test_run_shapes(case, dtype, backend):
         f.run(*good[:-1])
 
 
-@pytest.mark.parametrize("backend", BACKENDS)
-@pytest.mark.parametrize("case,dtype", float_matrix())
+@pytest.mark.parametrize("case", case_params(FLOAT_CASES))
+@each_dtype
+@each_backend
 def test_update_and_state_bad_values(case, dtype, backend):
     f = case.make(backend, dtype)
     args = [x[0] for x in generate(case.kind, "random", n=1)]
@@ -112,8 +114,9 @@ def test_update_and_state_bad_values(case, dtype, backend):
         f.state = s
 
 
-@pytest.mark.parametrize("backend", BACKENDS)
-@pytest.mark.parametrize("case,dtype", float_matrix())
+@pytest.mark.parametrize("case", case_params(FLOAT_CASES))
+@each_dtype
+@each_backend
 def test_nonfinite_samples_are_skipped_and_counted(case, dtype, backend):
     """The documented policy: a sample with any NaN/Inf input leaves the state
     unchanged and increments `skipped`; the state never becomes non-finite."""
@@ -137,7 +140,6 @@ def test_nonfinite_samples_are_skipped_and_counted(case, dtype, backend):
     assert f.skipped == 200 and (traj == init).all()
 
 
-@pytest.mark.parametrize("backend", BACKENDS)
 @pytest.mark.parametrize("name,params", [
     ("Mahony1DBias", dict(dt=0.01, kp=0.5, ki=0.0)),          # frozen integrator
     ("Mahony1DBias", dict(dt=0.01, kp=0.5, ki=0.0, integrate_first=True)),
@@ -145,6 +147,7 @@ def test_nonfinite_samples_are_skipped_and_counted(case, dtype, backend):
     ("Kalman1DBias", dict(dt=0.01, k0=0.02, k1=0.0)),
     ("Complementary1DBias", dict(dt=0.01, kp=2.0, ki=0.0)),
 ])
+@each_backend
 def test_edge_of_range_accepted(name, params, backend):
     import imufuse.reference as reference
     import imufuse_c
@@ -152,7 +155,7 @@ def test_edge_of_range_accepted(name, params, backend):
     assert np.isfinite(f.run(np.ones(100), np.ones(100))).all()
 
 
-@pytest.mark.parametrize("backend", BACKENDS)
+@each_backend
 def test_overflowing_update_is_rejected(backend):
     """Finite inputs whose update would overflow the state are rejected too."""
     import imufuse.reference as reference

@@ -6,15 +6,22 @@ import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 from bits import assert_same_bits, first_difference
-from registry import DTYPES, FLOAT_CASES, float_matrix
+from registry import (DTYPES, FLOAT_CASES, case_params, each_dtype)
 from sequences import SEQUENCES, generate
 
-MATRIX = [(c, dt, s) for c in FLOAT_CASES for dt in DTYPES for s in SEQUENCES[c.kind]]
+@pytest.mark.parametrize("case", case_params(FLOAT_CASES))
+@each_dtype
+def test_run_matches_reference(case, dtype):
+    """Every input sequence of the filter's kind (tests/sequences.py), one item per
+    configuration; a failure names the sequence."""
+    for seq in SEQUENCES[case.kind]:
+        try:
+            _run_matches_reference(case, dtype, seq)
+        except AssertionError as e:
+            raise AssertionError(f"sequence {seq!r}: {e}") from e
 
 
-@pytest.mark.parametrize("case,dtype,seq", [pytest.param(c, d, s, id=f"{c.id}-{d}-{s}")
-                                            for c, d, s in MATRIX])
-def test_run_matches_reference(case, dtype, seq):
+def _run_matches_reference(case, dtype, seq):
     inputs = generate(case.kind, seq)
     c, r = case.make("c", dtype), case.make("ref", dtype)
     got, want = c.run(*inputs), r.run(*inputs)
@@ -24,7 +31,8 @@ def test_run_matches_reference(case, dtype, seq):
     assert np.isfinite(got).all()
 
 
-@pytest.mark.parametrize("case,dtype", float_matrix())
+@pytest.mark.parametrize("case", case_params(FLOAT_CASES))
+@each_dtype
 def test_update_matches_run(case, dtype):
     """update() sample by sample gives the trajectory run() gives, on both
     backends; the sequence includes non-finite samples."""
@@ -40,7 +48,8 @@ def test_update_matches_run(case, dtype):
         assert_same_bits(np.array(steps), traj, f.state_names)
 
 
-@pytest.mark.parametrize("case,dtype", float_matrix())
+@pytest.mark.parametrize("case", case_params(FLOAT_CASES))
+@each_dtype
 def test_state_set_and_reset(case, dtype):
     inputs = generate(case.kind, "random", n=50)
     c, r = case.make("c", dtype), case.make("ref", dtype)
@@ -67,7 +76,8 @@ def _hyp_inputs(kind, width):
         lambda rows: tuple(np.array(col, dtype=float) for col in zip(*rows)))
 
 
-@pytest.mark.parametrize("case,dtype", float_matrix())
+@pytest.mark.parametrize("case", case_params(FLOAT_CASES))
+@each_dtype
 def test_hypothesis_sequences(case, dtype):
     width = 32 if dtype == "float32" else 64
 

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from imufuse import catalogue, sim
+from registry import each
 
 HOW = {"copy": copy.copy, "deepcopy": copy.deepcopy,
        "pickle": lambda f: pickle.loads(pickle.dumps(f))}
@@ -44,9 +45,9 @@ def _generic(name, backend):
 GENERIC = [n for n in catalogue.ENTRIES]
 
 
-@pytest.mark.parametrize("how", list(HOW))
-@pytest.mark.parametrize("backend", ["c", "ref"])
 @pytest.mark.parametrize("name", GENERIC)
+@each("how", list(HOW))
+@each("backend", ["c", "ref"])
 def test_generic_filters_are_values(name, backend, how):
     e, f = _generic(name, backend)
     f.run(*_inputs(e, 0, 30))

@@ -8,6 +8,7 @@ every sample; the filter returns to the static attitude within the stated
 number of samples; 1e6 constant samples (C run()) stay valid. Also: the
 constructor and input acceptance of both backends agree (hypothesis), and no
 compiled object can crash the interpreter when its __init__ never ran."""
+import itertools
 import math
 import re
 
@@ -19,7 +20,8 @@ import imufuse.reference as reference
 import imufuse_c
 from imufuse import _fusion, catalogue, sim
 from bits import assert_same_bits
-from registry import FLOAT_CASES, FIXED_CASES, FUSION_CASES, PROFILES, DTYPES
+from registry import (DTYPES, FIXED_CASES, FLOAT_CASES, FUSION_CASES, PROFILES, each_backend,
+                      each_dtype, representatives)
 
 TILT = math.radians(30.0)
 UP = np.array([0.0, math.sin(TILT), math.cos(TILT)])     # a static 30 deg roll
@@ -29,6 +31,7 @@ HOSTILE = {
     "nan": math.nan, "inf": math.inf, "-inf": -math.inf, "1e30": 1e30, "3.4e38": 3.4e38,
     "1e300": 1e300, "subnormal32": 1e-40, "subnormal64": 5e-324, "-0": -0.0,
 }
+BACKENDS = ("c", "ref")
 CASES = [c for c in FLOAT_CASES if c.name in reference.FILTERS and not c.name.startswith("Fusion")]
 
 
@@ -100,13 +103,25 @@ def _error(case, S, angle=TILT):
     return abs(float(est.angle[-1]) - angle)
 
 
-MATRIX = [pytest.param(c, d, v, id=f"{c.id}-{d}-{v}") for c in CASES for d in DTYPES
-          for v in HOSTILE]
 WHERE = ("gyr", "acc", "all", "alt")
 
 
-@pytest.mark.parametrize("case,dtype,value", MATRIX)
-def test_hostile_burst(case, dtype, value):
+def _each(fn, *loops):
+    """fn(*combination) for every combination of the loops; a failure names it."""
+    for combo in itertools.product(*loops):
+        try:
+            fn(*combo)
+        except AssertionError as e:
+            raise AssertionError(f"{combo}: {e}") from e
+
+
+@pytest.mark.parametrize("case", [pytest.param(c, id=c.id) for c in CASES])
+def test_hostile_burst(case):
+    """Every hostile value in both precisions (one test item per filter configuration)."""
+    _each(lambda d, v: _hostile_burst(case, d, v), DTYPES, list(HOSTILE))
+
+
+def _hostile_burst(case, dtype, value):
     """The value in the gyro, then in the accelerometer, then in every channel,
     then alternating +-value (BURST samples each), between sane samples."""
     c, r = case.make("c", dtype), case.make("ref", dtype)
@@ -129,8 +144,8 @@ def test_hostile_burst(case, dtype, value):
     assert _error(case, S) <= math.radians(2.0), (case.id, math.degrees(_error(case, S)))
 
 
-@pytest.mark.parametrize("case,dtype", [pytest.param(c, d, id=f"{c.id}-{d}")
-                                        for c in CASES for d in DTYPES if c.kind != "1d"])
+@pytest.mark.parametrize("case", [pytest.param(c, id=c.id) for c in CASES if c.kind != "1d"])
+@each_dtype
 def test_gyro_1e6_rad_s_then_recovery(case, dtype):
     c, r = case.make("c", dtype), case.make("ref", dtype)
     g, *rest = _static(case.kind, scale=case.params.get("acc_1g", 1.0), n=BURST)
@@ -144,8 +159,8 @@ def test_gyro_1e6_rad_s_then_recovery(case, dtype):
     assert _error(case, S) <= math.radians(2.0)
 
 
-@pytest.mark.parametrize("case,dtype", [pytest.param(c, d, id=f"{c.id}-{d}")
-                                        for c in CASES for d in DTYPES])
+@pytest.mark.parametrize("case", [pytest.param(c, id=c.id) for c in CASES])
+@each_dtype
 def test_a_million_constant_samples_then_recovery(case, dtype):
     """1e6 samples at rest (a long run: whatever an integral term or an
     unrenormalised vector can drift to, it has drifted), every one accepted,
@@ -256,12 +271,13 @@ def _nonfinite_in(dtype, value):
         return not np.isfinite(np.array(value, dtype=dtype))
 
 
-FUSION_MATRIX = [pytest.param(c, form, d, v, id=f"{c.id}-{form}-{d}-{v}")
-                 for c in FUSION_AHRS for form in FORMS for d in DTYPES for v in F_HOSTILE]
+@pytest.mark.parametrize("case,form", [pytest.param(c, form, id=f"{c.id}-{form}")
+                                       for c in FUSION_AHRS for form in FORMS])
+def test_fusion_ahrs_hostile_burst(case, form):
+    _each(lambda d, v: _fusion_ahrs_hostile_burst(case, form, d, v), DTYPES, list(F_HOSTILE))
 
 
-@pytest.mark.parametrize("case,form,dtype,value", FUSION_MATRIX)
-def test_fusion_ahrs_hostile_burst(case, form, dtype, value):
+def _fusion_ahrs_hostile_burst(case, form, dtype, value):
     """The value in each channel in turn (gyr, acc, mag or heading, dt), then
     in all of them, then alternating +-value (F_BURST samples each), between
     sane samples; then sane input for the recovery budget."""
@@ -295,9 +311,11 @@ def test_fusion_ahrs_hostile_burst(case, form, dtype, value):
 FUSION_BIAS = np.array([0.4, -0.3, 1.2])     # deg/s, a gyroscope at rest
 
 
-@pytest.mark.parametrize("dtype", DTYPES)
-@pytest.mark.parametrize("value", list(HOSTILE))
-def test_fusion_offset_hostile_burst(dtype, value):
+def test_fusion_offset_hostile_burst():
+    _each(_fusion_offset_hostile_burst, DTYPES, list(HOSTILE))
+
+
+def _fusion_offset_hostile_burst(dtype, value):
     """FusionOffset: a burst in the gyroscope (and alternating +-) at rest; C
     equals the twin (corrected output and state, every sample), non-finite
     samples are counted exactly, the offset stays finite and within the range
@@ -401,10 +419,14 @@ def test_uninitialised_object_raises(name):
                 getattr(o, meth)(*args)
 
 
-@pytest.mark.parametrize("backend", ("c", "ref"))
-@pytest.mark.parametrize("case,dtype", [pytest.param(c, d, id=f"{c.id}-{d}")
-                                        for c in CASES for d in DTYPES])
-def test_run_layouts_and_dtypes(case, dtype, backend):
+@pytest.mark.parametrize("case", [pytest.param(c, id=c.id) for c in representatives(CASES)])
+def test_run_layouts_and_dtypes(case):
+    """run()'s input conversion is the base class's (imufuse_c/_base.pxi, reference/_base.py):
+    one filter of each base, both backends and precisions."""
+    _each(lambda b, d: _run_layouts(case, d, b), ("c", "ref"), DTYPES)
+
+
+def _run_layouts(case, dtype, backend):
     """Any memory layout and real dtype gives the trajectory of the contiguous
     float64 input; complex, string and object inputs are refused."""
     f = case.make(backend, dtype)
@@ -426,8 +448,8 @@ def test_run_layouts_and_dtypes(case, dtype, backend):
             f.run(bad, *base[1:])
 
 
-@pytest.mark.parametrize("backend", ("c", "ref"))
 @pytest.mark.parametrize("case", [pytest.param(c, id=c.id) for c in CASES if c.kind != "1d"])
+@each_backend
 def test_state_writes_must_be_valid(case, backend):
     f = case.make(backend, "float64")
     s = f.state.copy()
@@ -446,11 +468,11 @@ def test_state_writes_must_be_valid(case, backend):
 
 # ---- the reproductions of the defects, as tests -----------------------------------
 
-@pytest.mark.parametrize("backend", ("c", "ref"))
 @pytest.mark.parametrize("name,dtype,huge", [
     ("MahonyIMU", "float32", 1e30), ("MahonyAHRS", "float32", 1e30),
     ("MadgwickIMU", "float32", 1e30), ("MadgwickAHRS", "float32", 1e30),
     ("MahonyIMU", "float64", 1e300), ("MadgwickIMU", "float64", 1e300)])
+@each_backend
 def test_one_huge_sample_is_rejected_not_fatal(backend, name, dtype, huge):
     mod = imufuse_c if backend == "c" else reference
     f = getattr(mod, name)(dt=0.005, dtype=dtype)
@@ -462,7 +484,6 @@ def test_one_huge_sample_is_rejected_not_fatal(backend, name, dtype, huge):
     assert f.skipped == 1 and abs(np.linalg.norm(f.state[:4]) - 1.0) < 1e-5
 
 
-@pytest.mark.parametrize("backend", ("c", "ref"))
 @pytest.mark.parametrize("name,params,dtype,word", [
     ("MultiWii", dict(dt=0.01, acc_1g=1e39), "float32", "acc_1g"),
     ("MultiWii", dict(dt=0.01, acc_1g=1e20), "float32", "acc_1g"),     # derived ((1+w) g)^2
@@ -479,6 +500,7 @@ def test_one_huge_sample_is_rejected_not_fatal(backend, name, dtype, huge):
     ("Mahony2D", dict(dt=0.01, kp=200.0, ki=0.0, error="exact"), "float64", "kp, ki"),
     ("Mahony2D", dict(dt=0.01, kp=100.0, ki=20000.0, error="exact"), "float64", "kp, ki"),
 ])
+@each_backend
 def test_parameters_in_own_precision_and_stable_range(backend, name, params, dtype, word):
     mod = imufuse_c if backend == "c" else reference
     with pytest.raises(ValueError, match=rf"^{re.escape(word)}\b"):
@@ -539,9 +561,9 @@ def test_fixed_update_inputs_agree(case, profile):
         assert fs[0].state.tolist() == fs[1].state.tolist()
 
 
-@pytest.mark.parametrize("backend", ("c", "ref"))
 @pytest.mark.parametrize("name,params", [("MahonyIMU", dict(dt=0.005, kp=1.0, ki=0.3)),
                                          ("DCM", dict(dt=0.005, kp=2.0, ki=0.5))])
+@each_backend
 def test_state_write_of_a_runaway_integral_term(backend, name, params):
     """I = 1e30 rad/s cannot be unwound (ki dt per sample) and makes every
     float32 sample overflow: refused; |I| dt = 1 rad is the limit. DCM cannot
@@ -606,8 +628,22 @@ _VANISHING = [(e, name) for e in (*catalogue.FLOAT, *catalogue.VARIO, *catalogue
               if name != "dt" and isinstance(default, float) and not isinstance(default, bool)]
 
 
-@pytest.mark.parametrize("e,name", _VANISHING, ids=[f"{e.name}-{n}" for e, n in _VANISHING])
-def test_no_parameter_vanishes_in_float32(e, name):
+_VANISHING_ENTRIES = [e for k, e in enumerate(x for x, _ in _VANISHING)
+                      if all(e is not y for y, _ in _VANISHING[:k])]
+
+
+@pytest.mark.parametrize("e", _VANISHING_ENTRIES, ids=[e.name for e in _VANISHING_ENTRIES])
+def test_no_parameter_vanishes_in_float32(e):
+    """Every real parameter of the entry (one item per filter)."""
+    for entry, name in _VANISHING:
+        if entry is e:
+            try:
+                _no_parameter_vanishes(e, name)
+            except AssertionError as err:
+                raise AssertionError(f"{name}: {err}") from err
+
+
+def _no_parameter_vanishes(e, name):
     """A real parameter that is valid in float64 but below float32's smallest normal number
     (1e-46) would act as 0 in a float32 filter: both backends refuse it there, and accept it
     in float64 (or refuse it there too, for a range of their own)."""
@@ -629,7 +665,7 @@ def test_no_parameter_vanishes_in_float32(e, name):
     assert len(_VANISHING) > 30
 
 
-@pytest.mark.parametrize("backend", ("c", "ref"))
+@each_backend
 def test_state_writes_a_still_trial_in_four_orientations_refuses(backend):
     """Writes that a single still, level sample accepts but that leave the filter rejecting
     most samples for good: DCM with |I| dt = 0.31 rad (62 % of a fast motion rejected for a
@@ -667,7 +703,7 @@ def test_state_writes_a_still_trial_in_four_orientations_refuses(backend):
         va.state = s
 
 
-@pytest.mark.parametrize("backend", ("c", "ref"))
+@each_backend
 def test_refused_state_writes_warn_nothing(backend):
     """An overflowing state write is refused with its ValueError only: no numpy
     RuntimeWarning before it (under -W error that warning became the exception)."""

@@ -40,7 +40,8 @@ import twins  # noqa: E402
 
 import imufuse.reference as reference  # noqa: E402
 from imufuse import catalogue, sim  # noqa: E402
-from registry import fixed_matrix, float_matrix  # noqa: E402
+from registry import (DTYPES, FIXED_CASES, FLOAT_CASES, PROFILES, case_params,  # noqa: E402
+                      float_matrix)
 
 imufuse_c = pytest.importorskip("imufuse_c", reason="the long runs need the compiled run()")
 
@@ -380,15 +381,17 @@ def twin_rms_bound(case, profile):
 KNOWN_DEFECTS: dict = {}
 
 
-def _known(case_id, key, name):
-    reason = KNOWN_DEFECTS.get((case_id, key, name))
-    return [pytest.mark.xfail(strict=True, reason=reason)] if reason else []
-
-
-def _float_params():
-    return [pytest.param(p.values[0], p.values[1], name, id=f"{p.id}-{name}",
-                         marks=_known(p.values[0].id, p.values[1], name))
-            for p in float_matrix() for name in SCENARIOS if has_attitude(p.values[0].name)]
+def _checked(case, key, name, check):
+    """check() for one scenario; a known defect must still fail (strict)."""
+    reason = KNOWN_DEFECTS.get((case.id, key, name))
+    if reason is None:
+        try:
+            check()
+        except AssertionError as e:
+            raise AssertionError(f"{name} ({key}): {e}") from e
+    else:
+        with pytest.raises(AssertionError):
+            check()
 
 
 def test_every_filter_with_an_attitude_runs_long():
@@ -401,14 +404,18 @@ def test_every_filter_with_an_attitude_runs_long():
     assert set(left_out) <= {"FusionOffset"}, left_out
 
 
-def _fixed_params():
-    return [pytest.param(p.values[0], p.values[1], name, id=f"{p.id}-{name}",
-                         marks=_known(p.values[0].id, p.values[1], name))
-            for p in fixed_matrix() for name in SCENARIOS]
+FLOAT_LONG = [c for c in FLOAT_CASES if has_attitude(c.name)]
 
 
-@pytest.mark.parametrize("case,dtype,name", _float_params())
-def test_float_long_run(case, dtype, name):
+@pytest.mark.parametrize("case", case_params(FLOAT_LONG))
+def test_float_long_run(case):
+    """Every scenario (SCENARIOS), both precisions, one item per configuration."""
+    for dtype in DTYPES:
+        for name in SCENARIOS:
+            _checked(case, dtype, name, lambda d=dtype, n=name: _float_long_run(case, d, n))
+
+
+def _float_long_run(case, dtype, name):
     r = measure_float(case, dtype, name)
     print(f"LONG {name} {case.id} {dtype} {r}")
     if r["norm"] is not None:
@@ -417,8 +424,14 @@ def test_float_long_run(case, dtype, name):
     assert r["truth"] <= TRUTH_BOUND[name], r
 
 
-@pytest.mark.parametrize("case,profile,name", _fixed_params())
-def test_fixed_long_run(case, profile, name):
+@pytest.mark.parametrize("case", case_params(FIXED_CASES))
+def test_fixed_long_run(case):
+    for profile in PROFILES:
+        for name in SCENARIOS:
+            _checked(case, profile, name, lambda p=profile, n=name: _fixed_long_run(case, p, n))
+
+
+def _fixed_long_run(case, profile, name):
     r = measure_fixed(case, profile, name)
     print(f"LONG {name} {case.id} p{profile} {r}")
     if r["norm"] is not None:

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from bits import assert_same_bits
-from registry import float_matrix
+from registry import (FLOAT_CASES, case_params, each_dtype, float_matrix)
 from sequences import generate
 
 OTHER = {"float32": np.float64, "float64": np.float32}
@@ -24,7 +24,8 @@ def layouts(arrays, dtype):
     yield "mixed", [same[0].astype(OTHER[dtype]), *same[1:]]
 
 
-@pytest.mark.parametrize("case,dtype", float_matrix())
+@pytest.mark.parametrize("case", case_params(FLOAT_CASES))
+@each_dtype
 def test_every_input_layout_gives_the_same_bits(case, dtype):
     arrays = [np.asarray(a) for a in generate(case.kind, "random")]
     if dtype == "float64":     # values a float32 array can hold, so every layout is exact

@@ -17,7 +17,7 @@ import pytest
 import imufuse.reference as reference
 from imufuse import catalogue, rotations
 from bits import assert_same_bits
-from registry import DTYPES, FLOAT_CASES, Case, float_matrix
+from registry import (Case, DTYPES, FLOAT_CASES, case_params, each_backend, each_dtype)
 from sequences import generate
 
 CASES_3D = [c for c in FLOAT_CASES if c.kind != "1d"]
@@ -41,19 +41,25 @@ def dt_of(case):
 
 # ---- time ------------------------------------------------------------------
 
-@pytest.mark.parametrize("backend", BACKENDS)
-@pytest.mark.parametrize("case,dtype", float_matrix())
-def test_constant_dt_array_is_the_fixed_step(case, dtype, backend):
+@pytest.mark.parametrize("case", case_params(FLOAT_CASES))
+@each_dtype
+def test_constant_dt_array_is_the_fixed_step(case, dtype):
     inputs = generate(case.kind, "random", n=300)
-    fixed = case.make(backend, dtype).run(*inputs)
-    f = case.make(backend, dtype)
-    per_sample = f.run(*inputs, dt=np.full(300, dt_of(case)))
-    assert_same_bits(per_sample, fixed, f.state_names)
+    for backend in BACKENDS:
+        fixed = case.make(backend, dtype).run(*inputs)
+        f = case.make(backend, dtype)
+        per_sample = f.run(*inputs, dt=np.full(300, dt_of(case)))
+        assert_same_bits(per_sample, fixed, f.state_names)
 
 
-@pytest.mark.parametrize("seq", ["random", "nonfinite"])
-@pytest.mark.parametrize("case,dtype", float_matrix())
-def test_jittery_dt_c_equals_reference(case, dtype, seq):
+@pytest.mark.parametrize("case", case_params(FLOAT_CASES))
+@each_dtype
+def test_jittery_dt_c_equals_reference(case, dtype):
+    for seq in ("random", "nonfinite"):
+        _jittery(case, dtype, seq)
+
+
+def _jittery(case, dtype, seq):
     inputs = generate(case.kind, seq, n=400)
     d = jitter(400, dt_of(case))
     c, r = case.make("c", dtype), case.make("ref", dtype)
@@ -69,7 +75,8 @@ def test_jittery_dt_c_equals_reference(case, dtype, seq):
     assert_same_bits(c.run(*tail), r.run(*tail), c.state_names)
 
 
-@pytest.mark.parametrize("case,dtype", float_matrix())
+@pytest.mark.parametrize("case", case_params(FLOAT_CASES))
+@each_dtype
 def test_update_dt_matches_run_dt(case, dtype):
     inputs = generate(case.kind, "nonfinite", seed=2, n=120)
     d = jitter(120, dt_of(case), seed=2)
@@ -84,11 +91,12 @@ def test_update_dt_matches_run_dt(case, dtype):
         assert_same_bits(np.array(steps), traj, f.state_names)
 
 
-@pytest.mark.parametrize("case,dtype", [p for p in float_matrix()
-                                        # Complementary1D(T=...): alpha is computed from T
-                                        # and dt by the constructor; per sample only dt
-                                        # changes (docs/time-and-init.md)
-                                        if p.values[0].id != "Complementary1D-seed003"])
+@pytest.mark.parametrize("case", case_params([c for c in FLOAT_CASES
+                                              # Complementary1D(T=...): alpha is computed
+                                              # from T and dt by the constructor; per sample
+                                              # only dt changes (docs/time-and-init.md)
+                                              if c.id != "Complementary1D-seed003"]))
+@each_dtype
 def test_one_step_equals_a_filter_built_with_that_dt(case, dtype):
     """set_dt recomputes the derived constants as init does: from the same
     state, one step with dt_k equals one step of a filter constructed with dt_k."""
@@ -111,9 +119,9 @@ BAD_DT = [
 
 
 @pytest.mark.parametrize("dtype", DTYPES)
-@pytest.mark.parametrize("backend", BACKENDS)
 @pytest.mark.parametrize("case", [pytest.param(c, id=c.id) for c in
                                   (FLOAT_CASES[0], CASES_3D[0], CASES_3D[2])])
+@each_backend
 def test_bad_dt_is_rejected_naming_the_sample(case, backend, dtype):
     inputs = generate(case.kind, "random", n=20)
     f = case.make(backend, dtype)
@@ -175,9 +183,14 @@ def tol(dtype):
     return 2e-6 if dtype == "float32" else 1e-12
 
 
-@pytest.mark.parametrize("pose", POSES, ids=lambda p: "pose%+.1f%+.1f%+.1f" % p)
-@pytest.mark.parametrize("case,dtype", MATRIX_3D)
-def test_first_is_at_the_true_attitude_from_the_first_sample(case, dtype, pose):
+@pytest.mark.parametrize("case", case_params(CASES_3D))
+@each_dtype
+def test_first_is_at_the_true_attitude_from_the_first_sample(case, dtype):
+    for pose in POSES:
+        _first_at_pose(case, dtype, pose)
+
+
+def _first_at_pose(case, dtype, pose):
     q_true, gyr, acc, mag = static_pose(200, pose)
     if case.name == "MultiWii":
         acc = acc / 9.81 * case.params.get("acc_1g", 1.0)
@@ -227,11 +240,21 @@ def test_mahony_ahrs_needs_no_heading_convergence(dtype):
         assert np.abs(e_near).max() < 1e-3
 
 
-@pytest.mark.parametrize("seq", ["random", "level", "nonfinite", "zero_acc", "zero_mag",
-                                 "all_zero", "large", "tiny", "overflow", "upside_down"])
-@pytest.mark.parametrize("window", [1, 5])
-@pytest.mark.parametrize("case,dtype", MATRIX_3D)
-def test_first_c_equals_reference(case, dtype, window, seq):
+FIRST_SEQS = ["random", "level", "nonfinite", "zero_acc", "zero_mag", "all_zero", "large", "tiny",
+              "overflow", "upside_down"]
+
+
+@pytest.mark.parametrize("case", case_params(CASES_3D))
+@each_dtype
+def test_first_c_equals_reference(case, dtype):
+    """init="first" (one sample and a window of 5) on every input sequence: C equals the
+    twin bit for bit, run() and update() alike."""
+    for window in (1, 5):
+        for seq in FIRST_SEQS:
+            _first_c_equals_reference(case, dtype, window, seq)
+
+
+def _first_c_equals_reference(case, dtype, window, seq):
     inputs = generate(case.kind, seq, n=80)
     d = jitter(80, dt_of(case), seed=4)
     c = _make(case, "c", dtype, init="first", init_window=window)
@@ -249,7 +272,8 @@ def test_first_c_equals_reference(case, dtype, window, seq):
     assert_same_bits(np.array(steps_c), np.array(steps_r), c.state_names)
 
 
-@pytest.mark.parametrize("case,dtype", MATRIX_3D)
+@pytest.mark.parametrize("case", case_params(CASES_3D))
+@each_dtype
 def test_window_then_filter(case, dtype):
     """init_window=N: the first N readings only set the attitude (from their
     average so far; the gyro is not integrated), then the filter runs; the
@@ -277,7 +301,8 @@ def test_window_then_filter(case, dtype):
         assert_same_bits(one[0], avg[0])
 
 
-@pytest.mark.parametrize("case,dtype", MATRIX_3D)
+@pytest.mark.parametrize("case", case_params(CASES_3D))
+@each_dtype
 def test_given_q0(case, dtype):
     q0 = np.array([0.5, -0.3, 0.7, 0.2]) * 3.0     # normalised by the filter
     q_unit = q0 / np.linalg.norm(q0)
@@ -308,7 +333,8 @@ def test_given_q0(case, dtype):
     assert_same_bits(c.state, start)
 
 
-@pytest.mark.parametrize("case,dtype", float_matrix())
+@pytest.mark.parametrize("case", case_params(FLOAT_CASES))
+@each_dtype
 def test_given_state(case, dtype):
     inputs = generate(case.kind, "random", n=30)
     s = case.make("c", dtype).run(*inputs)[-1]
@@ -320,7 +346,7 @@ def test_given_state(case, dtype):
         assert_same_bits(f.state, s)
 
 
-@pytest.mark.parametrize("backend", BACKENDS)
+@each_backend
 def test_reset_rearms_and_state_disarms_first(backend):
     case = Case("MadgwickAHRS", dict(dt=0.01))
     q_true, gyr, acc, mag = static_pose(10, (0.4, 0.1, -2.0))
@@ -335,7 +361,7 @@ def test_reset_rearms_and_state_disarms_first(backend):
     assert rotations.quat_angle_error(f.state, q_true) > 1.0
 
 
-@pytest.mark.parametrize("backend", BACKENDS)
+@each_backend
 def test_first_skips_nonfinite_and_waits_for_an_accelerometer(backend):
     case = Case("MahonyIMU", dict(dt=0.01, kp=1.0, ki=0.3))
     q_true, gyr, acc, mag = static_pose(6, (0.4, 0.1, 0.0))
@@ -360,7 +386,7 @@ def test_first_without_magnetometer_has_zyx_yaw_zero():
         assert q[0] >= 0
 
 
-@pytest.mark.parametrize("backend", BACKENDS)
+@each_backend
 def test_bad_start_arguments(backend):
     import imufuse_c
     mod = imufuse_c if backend == "c" else reference

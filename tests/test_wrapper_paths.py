@@ -23,12 +23,15 @@ import pytest
 import imufuse.reference as reference
 import imufuse_c
 from bits import assert_same_bits
-from registry import CASES_VARIO, DTYPES, FIXED_CASES, FLOAT_CASES, FUSION_CASES, PROFILES
+from registry import (CASES_VARIO, DTYPES, FIXED_CASES, FLOAT_CASES, FUSION_CASES, PROFILES,
+                      each_dtype, representatives)
 from sequences import generate
 
 N = 12
 read_state = operator.attrgetter("state")      # a read whose result nobody keeps
-CASES_3D = [c for c in FLOAT_CASES if c.kind in ("imu", "ahrs")]
+# the row reading is _base.pxi's (_row3): one filter of each 3-D base class runs it
+# (test_no_class_overrides_the_wrapper_paths keeps that true)
+CASES_3D = representatives([c for c in FLOAT_CASES if c.kind in ("imu", "ahrs")])
 
 
 class _Sub(np.ndarray):
@@ -81,60 +84,61 @@ def _outcome(f, args):
         return f"{type(e).__name__}: {e}"
 
 
-@pytest.mark.parametrize("form", list(ROW_FORMS))
-@pytest.mark.parametrize("case,dtype", [pytest.param(c, d, id=f"{c.id}-{d}")
-                                        for c in CASES_3D for d in DTYPES])
-def test_update_rows_of_any_form_agree(case, dtype, form):
+@pytest.mark.parametrize("case", [pytest.param(c, id=c.id) for c in CASES_3D])
+@each_dtype
+def test_update_rows_of_any_form_agree(case, dtype):
     """The same samples in every form give both backends the same outcome and
     the same state bits after every sample; the C filter given float64 rows
     (the fast path) agrees with itself given lists (the generic path)."""
     data = _rows(case.kind)
-    rows = [ROW_FORMS[form](x) for x in data]
-    c, r, generic = (case.make("c", dtype), case.make("ref", dtype), case.make("c", dtype))
-    for k in range(N):
-        args = [x[k] for x in rows]
-        out = [_outcome(c, args), _outcome(r, args)]
-        assert out[0] == out[1], (k, out)
-        # the same values as Python lists: the generic path
-        assert _outcome(generic, [np.asarray(a).tolist() for a in args]) == out[0]
-        assert_same_bits(c.state, r.state, c.state_names)
-        assert_same_bits(c.state, generic.state, c.state_names)
-        assert c.skipped == r.skipped == generic.skipped
+    for form, make_rows in ROW_FORMS.items():
+        rows = [make_rows(x) for x in data]
+        c, r, generic = (case.make("c", dtype), case.make("ref", dtype), case.make("c", dtype))
+        for k in range(N):
+            args = [x[k] for x in rows]
+            out = [_outcome(c, args), _outcome(r, args)]
+            assert out[0] == out[1], (form, k, out)
+            # the same values as Python lists: the generic path
+            assert _outcome(generic, [np.asarray(a).tolist() for a in args]) == out[0], form
+            assert_same_bits(c.state, r.state, c.state_names)
+            assert_same_bits(c.state, generic.state, c.state_names)
+            assert c.skipped == r.skipped == generic.skipped, form
 
 
-@pytest.mark.parametrize("bad", list(BAD_ROWS))
-@pytest.mark.parametrize("case,dtype", [pytest.param(c, d, id=f"{c.id}-{d}")
-                                        for c in CASES_3D for d in DTYPES])
-def test_bad_rows_rejected_alike(case, dtype, bad):
+@pytest.mark.parametrize("case", [pytest.param(c, id=c.id) for c in CASES_3D])
+@each_dtype
+def test_bad_rows_rejected_alike(case, dtype):
     """A bad row in any slot: the same error from both backends, state untouched."""
     data = _rows(case.kind)
     good = [x[0] for x in data]
-    for slot in range(len(good)):
-        args = list(good)
-        args[slot] = BAD_ROWS[bad](good[slot])
-        fs = [case.make(b, dtype) for b in ("c", "ref")]
-        out = [_outcome(f, args) for f in fs]
-        assert out[0] == out[1], (slot, out)
-        assert out[0].startswith("ValueError: update(): "), out[0]
-        assert_same_bits(fs[0].state, fs[1].state, fs[0].state_names)
-        assert fs[0].skipped == fs[1].skipped == 0
+    for bad, make_bad in BAD_ROWS.items():
+        for slot in range(len(good)):
+            args = list(good)
+            args[slot] = make_bad(good[slot])
+            fs = [case.make(b, dtype) for b in ("c", "ref")]
+            out = [_outcome(f, args) for f in fs]
+            assert out[0] == out[1], (bad, slot, out)
+            assert out[0].startswith("ValueError: update(): "), (bad, out[0])
+            assert_same_bits(fs[0].state, fs[1].state, fs[0].state_names)
+            assert fs[0].skipped == fs[1].skipped == 0, bad
 
 
 # ---- state reads ---------------------------------------------------------------
 
 def _filters():
-    """(constructor, kind) of every compiled filter class in every precision."""
-    for c in FLOAT_CASES:
+    """(constructor, kind) of one compiled filter of each base class (the state snapshots
+    are _stateout.pxi's, reached through the base class), in every precision."""
+    for c in representatives(FLOAT_CASES):
         for d in DTYPES:
             yield pytest.param(lambda c=c, d=d: c.make("c", d), c.kind, id=f"{c.id}-{d}")
     for c in CASES_VARIO[:1]:
         for d in DTYPES:
             yield pytest.param(lambda c=c, d=d: c.make("c", d), "vario", id=f"{c.id}-{d}")
-    for c in FUSION_CASES:
+    for c in representatives(FUSION_CASES):
         for d in DTYPES:
             yield pytest.param(lambda c=c, d=d: getattr(imufuse_c, c.name)(**c.params, dtype=d),
                                c.name, id=f"{c.id}-{d}")
-    for c in FIXED_CASES:
+    for c in representatives(FIXED_CASES, fixed=True):
         for p in PROFILES:
             yield pytest.param(lambda c=c, p=p: c.make_fixed("c", p), "fixed-" + c.kind,
                                id=f"{c.id}-q{p}")
@@ -215,29 +219,34 @@ def test_state_reads_are_snapshots(make, kind):
     assert [a.tobytes() for a in kept] == want
 
 
-@pytest.mark.parametrize("holder", list(_holders()))
 @pytest.mark.parametrize("make,kind", FILTERS)
-def test_state_held_elsewhere_keeps_its_values(make, kind, holder):
-    keep, show = _holders()[holder]
-    f, feed = make(), _feed(kind)
-    feed(f)
-    a = f.state
-    snapshot = a.tobytes()
-    h = keep(a)
-    del a
-    gc.collect()
-    for _ in range(5):
+def test_state_held_elsewhere_keeps_its_values(make, kind):
+    for holder, (keep, show) in _holders().items():
+        f, feed = make(), _feed(kind)
         feed(f)
-        b = f.state
-        _expect_fresh(f, b)
-        del b
-    assert np.asarray(show(h)).tobytes() == snapshot
+        a = f.state
+        snapshot = a.tobytes()
+        h = keep(a)
+        del a
+        gc.collect()
+        for _ in range(5):
+            feed(f)
+            b = f.state
+            _expect_fresh(f, b)
+            del b
+        assert np.asarray(show(h)).tobytes() == snapshot, holder
 
 
-@pytest.mark.parametrize("change", ["read-only", "reshaped", "dtype", "dtype of the same size",
-                                    "strides", "resized"])
+CHANGES = ["read-only", "reshaped", "dtype", "dtype of the same size", "strides", "resized"]
+
+
 @pytest.mark.parametrize("make,kind", FILTERS)
-def test_state_read_after_a_returned_array_was_changed(make, kind, change):
+def test_state_read_after_a_returned_array_was_changed(make, kind):
+    for change in CHANGES:
+        _changed_then_read(make, kind, change)
+
+
+def _changed_then_read(make, kind, change):
     """A caller may change the shape, dtype or flags of an array it was given and
     then drop it: the next reads are still plain (n,) arrays of the state."""
     f, feed = make(), _feed(kind)
@@ -282,3 +291,24 @@ def test_state_reads_are_the_trajectory():
             got.append(q)
         assert_same_bits(np.array(got), want, f.state_names)
         assert reference.MadgwickIMU(dt=0.01, dtype=dtype).run(g, a).tobytes() == want.tobytes()
+
+
+def test_no_class_overrides_the_wrapper_paths():
+    """The representatives above stand for every filter only while every compiled class takes
+    update(), run(), state and reset from its base class, or is a representative itself: a
+    class that defines its own must be added to the representatives (tests/registry.py)."""
+    reps = {c.name for c in CASES_3D}
+    reps |= {p.id.rsplit("-", 1)[0].split("-")[0] for p in FILTERS}
+    families = [(c, d, False) for c in FLOAT_CASES for d in DTYPES]
+    families += [(c, "float64", False) for c in FUSION_CASES + CASES_VARIO]
+    families += [(c, p, True) for c in FIXED_CASES for p in PROFILES]
+    checked = set()
+    for c, d, fixed in families:
+        f = c.make_fixed("c", d) if fixed else (
+            getattr(imufuse_c, c.name)(**c.params, dtype=d) if c in FUSION_CASES
+            else c.make("c", d))
+        cls = type(f)
+        own = [a for a in ("update", "run", "state", "reset") if a in vars(cls)]
+        assert not own or c.name in reps, f"{cls.__module__}.{cls.__name__} defines {own}"
+        checked.add(cls)
+    assert len(checked) >= 2 * 15, len(checked)

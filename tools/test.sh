@@ -35,7 +35,8 @@ export IMUFUSE_TEST_INSTALLED="$VENV"
 "$VPY" -m ruff check .
 "$VPY" -m mypy
 # the C house style (.clang-format; the formatter pinned in the test extra)
-"$VENV/bin/clang-format" --dry-run -Werror csrc/*.[ch] csrc/fixed/*.[ch]
+"$VPY" -c "import clang_format, sys; sys.argv[0] = 'clang-format'; clang_format.clang_format()" \
+    --dry-run -Werror csrc/*.[ch] csrc/fixed/*.[ch]
 # keep the checkout's directory off sys.path (Python >= 3.11): its imufuse_c/
 # must not shadow the installed package
 export PYTHONSAFEPATH=1
