@@ -36,12 +36,17 @@ def _cache(tmp_path_factory):
         os.environ["IMUFUSE_CACHE"] = old
 
 
-def _inputs(kind, n=1500, seed=3):
+def _inputs(kind, n=1500, seed=3, swing=False):
+    """Simulated fast motion; swing: the accelerometer's magnitude swung between 0.5 and
+    1.5 g (a 3 s period), so that every magnitude gate and window is crossed both ways."""
     if kind == "1d":
         d = sim.axis1d("fast", rate=200.0, duration=n / 200.0, seed=seed)
         return d.gyr, d.acc_angle
     d = sim.imu("fast", rate=200.0, duration=n / 200.0, seed=seed)
-    return (d.gyr, d.acc) if kind == "imu" else (d.gyr, d.acc, d.mag)
+    acc = d.acc
+    if swing:
+        acc = acc * (1.0 + 0.5 * np.sin(2 * np.pi * np.arange(n) / 600.0))[:, None]
+    return (d.gyr, acc) if kind == "imu" else (d.gyr, acc, d.mag)
 
 
 def _first_diff(a, b):
@@ -85,7 +90,7 @@ def _csrc_matrix():
 @pytest.mark.parametrize("case,dtype", _csrc_matrix())
 def test_csrc_is_bit_exact(case, dtype):
     fw = csrc_firmware(case.name, CSRC, dtype)
-    inputs = _inputs(case.kind)
+    inputs = _inputs(case.kind, swing=True)
     for backend in ("c", "ref"):
         v = validate(fw, case.name, case.params, inputs, backend=backend)
         assert v.comparison.dtype == dtype

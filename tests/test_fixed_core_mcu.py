@@ -31,6 +31,11 @@ def toolchains():
 
 def _edges():
     out = {I32_MIN, I32_MIN + 1, I32_MAX, I32_MAX - 1, 0, 1, -1}
+    # the largest values a rounding shift by n takes without overflow (x + 2^(n-1) <= max):
+    # the guards of the shortcuts for constant shifts (AVR: n == 8 by byte moves)
+    for n in range(1, 32):
+        for d in (-2, -1, 0, 1, 2):
+            out.add(I32_MAX - (1 << (n - 1)) + d)
     for k in range(12, 32):
         for base in (1 << k, -(1 << k)):
             for d in (-2, -1, 0, 1, 2):
@@ -71,6 +76,10 @@ OPS = [
     ("imf_qn_to_q15s(ab[0], 30)", "i16", lambda a, b, n: ci.qn_to_q15s(a, 30)),
     ("imf_qn_to_q15s(ab[0], 31)", "i16", lambda a, b, n: ci.qn_to_q15s(a, 31)),
     ("imf_rshr32(ab[0], ab[2])", "i32", lambda a, b, n: ci.rshr32(a, n)),
+    # constant shift counts: the inlined shortcuts (AVR: 8 by byte moves, 15 and 16 by words)
+    ("imf_rshr32(ab[0], 8)", "i32", lambda a, b, n: ci.rshr32(a, 8)),
+    ("imf_rshr32(ab[0], 15)", "i32", lambda a, b, n: ci.rshr32(a, 15)),
+    ("imf_rshr32(ab[0], 16)", "i32", lambda a, b, n: ci.rshr32(a, 16)),
     ("imf_shl_sat32(ab[0], ab[2])", "i32", lambda a, b, n: ci.shl_sat32(a, n)),
     ("imf_rshift_sat32(ab[0], ab[2] - 15)", "i32", lambda a, b, n: ci.rshift_sat32(a, n - 15)),
     ("imf_mul_32x16(ab[0], (int16_t)ab[3], ab[2] + 16)", "i32",

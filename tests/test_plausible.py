@@ -181,3 +181,21 @@ def test_strict_is_silent_on_logs_read_correctly(tmp_path, motion):
         p = subprocess.run([sys.executable, "-m", "imufuse", "compare", str(path), "--strict"],
                            capture_output=True, text=True)
         assert p.returncode == 0 and "note:" not in p.stderr, p.stderr
+
+
+@pytest.mark.parametrize("peak_deg_s, noticed", [(100.0, True), (1700.0, True)])
+def test_the_gyro_limit_is_that_of_mems_parts(tmp_path, peak_deg_s, noticed):
+    """A log in deg/s without a unit, its rates up to peak_deg_s (1/3 of the samples near the
+    peak): read as rad/s they pass 35 rad/s (2000 deg/s, the largest MEMS range), and the note
+    says so; the same rates in rad/s (converted) are not questioned."""
+    n = 3000
+    t = np.arange(n) / 200.0
+    w = np.zeros((n, 3))
+    w[: n // 3, 2] = peak_deg_s
+    w[n // 3:, 0] = 0.1 * peak_deg_s * np.sin(t[n // 3:])
+    acc = np.tile([0.0, 0.0, 1.0], (n, 1))
+    head = ["time", "gyr_x", "gyr_y", "gyr_z", "acc_x", "acc_y", "acc_z"]
+    deg = read_log(_csv(tmp_path / "deg.csv", head, np.column_stack([t, w, acc])))
+    assert any("--gyr-unit deg/s" in x for x in deg.warnings) == noticed, deg.warnings
+    rad = read_log(_csv(tmp_path / "rad.csv", head, np.column_stack([t, np.radians(w), acc])))
+    assert not any("--gyr-unit" in x for x in rad.warnings), rad.warnings
