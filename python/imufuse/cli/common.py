@@ -197,15 +197,22 @@ def strict_option(g):
                         "reference frame mistake) is an error (exit 4)")
 
 
+def unit_options(g, when="", time=True):
+    """--gyr-unit, --acc-unit[, --time-unit], --columns, --column-map: how every command reads
+    a log's columns (``when``: a condition said first in the help, e.g. "with --log: ")."""
+    g.add_argument("--gyr-unit", choices=("rad/s", "deg/s"),
+                   help=f"{when}unit of gyr_x..z (default: from the header, else rad/s)")
+    g.add_argument("--acc-unit", choices=("g", "m/s2", "m/s^2"),
+                   help=f"{when}unit of acc_x..z (default: from the header, else g)")
+    if time:
+        g.add_argument("--time-unit", choices=("s", "ms", "us", "ns"),
+                       help=f"{when}unit of the time column (default: from the header, else s)")
+    column_options(g)
+
+
 def log_options(p):
     g = p.add_argument_group("log")
-    g.add_argument("--gyr-unit", choices=("rad/s", "deg/s"),
-                   help="unit of gyr_x..z (default: from the header, else rad/s)")
-    g.add_argument("--acc-unit", choices=("g", "m/s2", "m/s^2"),
-                   help="unit of acc_x..z (default: from the header, else g)")
-    g.add_argument("--time-unit", choices=("s", "ms", "us", "ns"),
-                   help="unit of the time column (default: from the header, else s)")
-    column_options(g)
+    unit_options(g)
     g.add_argument("--rate", type=positive(float, 1e9, 1e-3), metavar="HZ",
                    help="fixed sample rate, Hz (default: the time column's intervals)")
     g.add_argument("--fixed-rate", action="store_true",

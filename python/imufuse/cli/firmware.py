@@ -12,8 +12,8 @@ from ..firmware import (DEFAULT_TIMEOUT, Firmware, counts_for, csrc_firmware,
                         validate_isolated)
 from ..firmware_target import target_names
 from ..io import LogError
-from .common import (EXIT_FAIL, EXIT_OK, OutputError, UsageError, column_options, err,
-                     open_session, pairs, positive, strict_option)
+from .common import (EXIT_FAIL, EXIT_OK, OutputError, UsageError, err, open_session, pairs,
+                     positive, strict_option, unit_options)
 
 
 def _headers(args):
@@ -142,13 +142,7 @@ def add_parsers(sub):
     v.add_argument("--timeout", type=positive(float, 1e6), default=DEFAULT_TIMEOUT, metavar="S",
                    help=f"seconds the firmware may run (default {DEFAULT_TIMEOUT:g})")
     v.add_argument("--log", metavar="LOG", help="inputs from a log (default: simulated)")
-    v.add_argument("--gyr-unit", choices=("rad/s", "deg/s"),
-                   help="with --log: unit of gyr_x..z (default: from the header, else rad/s)")
-    v.add_argument("--acc-unit", choices=("g", "m/s2", "m/s^2"),
-                   help="with --log: unit of acc_x..z (default: from the header, else g)")
-    v.add_argument("--time-unit", choices=("s", "ms", "us", "ns"),
-                   help="with --log: unit of the time column (default: from the header, else s)")
-    column_options(v)
+    unit_options(v, "with --log: ")
     strict_option(v)
     v.add_argument("--axis", choices=("x", "y"), default="x")
     v.add_argument("--rate", type=positive(float, 1e9, 1e-3), metavar="HZ")

@@ -5,7 +5,7 @@ import os
 
 from .. import calibrate, plots, vario
 from .._atomic import check_outputs
-from .common import (EXIT_OK, column_map, column_options, err, pairs, strict_option)
+from .common import EXIT_OK, column_map, err, pairs, strict_option, unit_options
 
 
 def _vario(args):
@@ -48,15 +48,6 @@ def _calibrate(args):
     return EXIT_OK
 
 
-def _units(p):
-    p.add_argument("--gyr-unit", choices=("rad/s", "deg/s"),
-                   help="unit of gyr_x..z (default: from the header, else rad/s)")
-    p.add_argument("--acc-unit", choices=("g", "m/s2", "m/s^2"),
-                   help="unit of acc_x..z (default: from the header, else g)")
-    column_options(p)
-    strict_option(p)
-
-
 def add_parsers(sub):
     v = sub.add_parser("vario", help="altitude, climb rate and accelerometer bias over a log "
                        "with a barometer column (the variometer) -> CSV and plot")
@@ -67,9 +58,8 @@ def add_parsers(sub):
     v.add_argument("-o", "--out", metavar="CSV", help="output (default LOG-vario.csv)")
     v.add_argument("--plot", metavar="PNG", help="plot path (default next to the output)")
     v.add_argument("--no-plot", action="store_true")
-    _units(v)
-    v.add_argument("--time-unit", choices=("s", "ms", "us", "ns"),
-                   help="unit of the time column (default: from the header, else s)")
+    unit_options(v)
+    strict_option(v)
     v.add_argument("--p-ref", type=float, default=101325.0, metavar="PA",
                    help="reference pressure of altitude 0, Pa (default 101325)")
     v.add_argument("--filter", default="MadgwickIMU",
@@ -92,7 +82,8 @@ def add_parsers(sub):
                    "command reads; no time column needed)")
     c.add_argument("-o", "--output", required=True, metavar="JSON",
                    help="calibration file (merged into it if it exists)")
-    _units(c)
+    unit_options(c, time=False)
+    strict_option(c)
     c.add_argument("--ranges", metavar="A:B,...",
                    help="accel: the six still phases as row ranges (default: found)")
     c.add_argument("--threshold", type=float, metavar="X",
