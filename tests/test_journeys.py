@@ -1,9 +1,9 @@
 """A user's journey: every subcommand on three real inputs as users have them, each result
 checked against a computation made here from the raw arrays (not through imufuse.session).
 
-  - a BROAD trial as published: HDF5 with every key and attribute of the real layout
-    (imu_gyr rad/s, imu_acc m/s^2, imu_mag uT, opt_quat ENU, opt_pos, movement, attribute
-    sampling_rate), written from the real recording (trial 09, 25 s);
+  - a BROAD trial as published: the real HDF5 file of trial 03 (../shared/data/broad/published;
+    imu_gyr rad/s, imu_acc m/s^2, imu_mag uT, opt_quat ENU, movement, attribute sampling_rate),
+    or without it one written with every key and attribute of that layout (trial 09, 60 s);
   - an x-io-layout CSV (x-io Fusion's headers and units: deg/s, g, uT, seconds) of a real
     recording (BROAD trial 11, 20 s), as a logger writes it;
   - the shipped example (45 s of BROAD trial 03, NPZ).
@@ -65,7 +65,27 @@ def _trial(name, start, seconds):
 def inputs(tmp_path_factory):
     d = tmp_path_factory.mktemp("journeys")
     out = {}
-    # BROAD as published (HDF5): rest, fast rotation, rest, rotation
+    published = os.path.join(BROAD, "published", "03_undisturbed_slow_rotation_C.hdf5")
+    if os.path.isfile(published):
+        # the real file as the dataset's authors publish it, read here with h5py
+        with h5py.File(published, "r") as f:
+            rate = float(f.attrs["sampling_rate"])
+            out["hdf5"] = Raw(published, f["imu_gyr"][()], f["imu_acc"][()] * (1.0 / G),
+                              f["imu_mag"][()], f["opt_quat"][()],
+                              f["movement"][()].astype(bool), rate=rate)
+    else:
+        out["hdf5"] = _written_hdf5(d)
+    _xio(d, out)
+    # the shipped example (NPZ, BROAD layout)
+    e = np.load(example_log())
+    out["example"] = Raw(example_log(), e["gyr"], e["acc"] * (1.0 / G), e["mag"], e["quat_ref"],
+                         e["movement"], rate=float(e["rate"]))
+    return out
+
+
+def _written_hdf5(d):
+    """Without the published file beside the checkout: one written with every key and
+    attribute of the published layout (trial 09: rest, fast rotation, rest, rotation)."""
     z, n = _trial("09_undisturbed_fast_rotation_with_breaks_B.npz", 20.0, 60.0)
     h5 = d / "09_undisturbed_fast_rotation_with_breaks_B.hdf5"
     with h5py.File(h5, "w") as f:
@@ -76,9 +96,13 @@ def inputs(tmp_path_factory):
         f["opt_pos"] = np.zeros((n, 3))
         f["movement"] = z["movement"][:n]
     # m/s^2 -> g as the reader converts: times 1/9.80665
-    out["hdf5"] = Raw(h5, z["gyr"][:n], z["acc"][:n] * (1.0 / G), z["mag"][:n],
-                      z["quat_ref"][:n], z["movement"][:n], rate=float(z["rate"]))
-    # x-io layout (deg/s, g, uT, time in s, written as a logger writes decimals)
+    return Raw(h5, z["gyr"][:n], z["acc"][:n] * (1.0 / G), z["mag"][:n],
+               z["quat_ref"][:n], z["movement"][:n], rate=float(z["rate"]))
+
+
+def _xio(d, out):
+    """An x-io-layout sensor_data.csv of a real recording (deg/s, g, uT, time in s, written as
+    a logger writes decimals)."""
     z, n = _trial("11_undisturbed_slow_translation_B.npz", 25.0, 30.0)
     t = np.round(np.arange(n) / float(z["rate"]), 6)
     gyr = np.round(np.degrees(z["gyr"][:n]), 6)
@@ -90,11 +114,6 @@ def inputs(tmp_path_factory):
         for k in range(n):
             fh.write(",".join(f"{v:.10g}" for v in (t[k], *gyr[k], *acc[k], *mag[k])) + "\n")
     out["xio"] = Raw(csv, np.radians(gyr), acc, mag, t=t)
-    # the shipped example (NPZ, BROAD layout)
-    e = np.load(example_log())
-    out["example"] = Raw(example_log(), e["gyr"], e["acc"] * (1.0 / G), e["mag"], e["quat_ref"],
-                         e["movement"], rate=float(e["rate"]))
-    return out
 
 
 KINDS = ["hdf5", "xio", "example"]
