@@ -15,6 +15,7 @@ what the reference computes in that precision.
 """
 import ast
 import glob
+import importlib.util
 import os
 
 import numpy
@@ -90,10 +91,12 @@ def units(module, sources, guard):
     return out
 
 
-# The Cython bindings of the float filters: imufuse_c/<family>.pxi binds the classes
-# that python/imufuse/reference/<family>.py declares in FILTERS, FILTERS_FUSION or
-# FILTERS_VARIO (the declarations imufuse.catalogue is checked against). _f32.pyx and
-# _f64.pyx include the generated list, so a new filter family needs no include line.
+# The Cython bindings of the float filters: the classes that
+# python/imufuse/reference/<family>.py declares in FILTERS, FILTERS_FUSION or FILTERS_VARIO.
+# tools/bindgen.py writes build/imufuse_units/<family>.pxi from that declaration and
+# csrc/<family>.h at every build; a family with a hand-written imufuse_c/<family>.pxi
+# (an API of its own, stated in the file) uses that one. _f32.pyx and _f64.pyx include the
+# generated list, so a new filter family needs no binding and no include line.
 REFERENCE = os.path.join("python", "imufuse", "reference")
 DECLARES = ("FILTERS", "FILTERS_FUSION", "FILTERS_VARIO")
 
@@ -115,9 +118,18 @@ def binding_families():
     return out
 
 
+def _bindgen():
+    spec = importlib.util.spec_from_file_location("_imufuse_bindgen",
+                                                  os.path.join("tools", "bindgen.py"))
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
 def bindings():
-    """build/imufuse_units/filters.pxi: one include per family; a declared family
-    without its imufuse_c/<family>.pxi stops the build here, naming the file."""
+    """build/imufuse_units/filters.pxi (one include per family) and the generated
+    build/imufuse_units/<family>.pxi; a declaration the generator cannot bind stops the
+    build here, naming the file to fix."""
     stale = os.path.join("imufuse_c", "filters.pxi")
     if os.path.exists(stale):   # Cython would find it before the generated one
         raise SystemExit(f"{stale}: the include list is generated now "
@@ -126,14 +138,19 @@ def bindings():
     families = binding_families()
     if not families:
         raise SystemExit(f"no filter declared in {REFERENCE}/*.py: nothing to bind")
-    for family in families:
-        pxi = os.path.join("imufuse_c", family + ".pxi")
-        if not os.path.isfile(pxi):
-            raise SystemExit(f"{REFERENCE}/{family}.py declares filters but their Cython "
-                             f"binding {pxi} does not exist")
-        lines.append(f'include "{family}.pxi"\n')
     os.makedirs(UNITS, exist_ok=True)
+    gen = _bindgen()
+    for family in families:
+        if gen.handwritten(family) is None:
+            _write_if_changed(os.path.join(UNITS, family + ".pxi"), gen.family_pxi(family))
+        else:
+            # a generated binding of an earlier build must not shadow the hand-written one
+            if os.path.exists(os.path.join(UNITS, family + ".pxi")):
+                os.remove(os.path.join(UNITS, family + ".pxi"))
+        lines.append(f'include "{family}.pxi"\n')
     _write_if_changed(os.path.join(UNITS, "filters.pxi"), "".join(lines))
+    # the fixed-point classes (FILTERS_FIXED of reference/fixed_*.py), for _fixed.pyx
+    _write_if_changed(os.path.join(UNITS, "fixed_filters.pxi"), gen.fixed_pxi())
     return UNITS
 
 

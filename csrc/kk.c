@@ -25,6 +25,12 @@ void imf_kk_set_attitude(imf_kk_t *const self, const imf_attitude_t *const att)
     self->x.roll = att->r[7];
 }
 
+void imf_kk_angles(const imf_kk_t *const self, double *const roll, double *const pitch)
+{
+    *roll = (double)self->x.roll;
+    *pitch = (double)self->x.pitch;
+}
+
 void imf_kk_update(imf_kk_t *const self, const imf_real gx, const imf_real gy, const imf_real gz,
                    const imf_real ax, const imf_real ay, const imf_real az)
 {

@@ -54,6 +54,9 @@ void imf_kk_set_dt(imf_kk_t *self, imf_real dt);
    angle terms: pitch = -up_x, roll = up_y (up = att->r[6..8]), the angles
    its accelerometer path measures at rest. */
 void imf_kk_set_attitude(imf_kk_t *self, const imf_attitude_t *att);
+/* (roll, pitch) in rad, in double: the state itself (an output, as the other filters'
+   imf_<filter>_angles). */
+void imf_kk_angles(const imf_kk_t *self, double *roll, double *pitch);
 
 #ifdef __cplusplus
 }

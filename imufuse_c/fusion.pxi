@@ -1,5 +1,7 @@
 # The Fusion suite (csrc/fusion_*.h): Longbin's Fusion walkthrough, x-io Fusion as in imufusion 1.2.3.
 # Units are Fusion's (deg/s, g, degrees); see imufuse.reference.fusion.
+# Hand-written (not tools/bindgen.py): Fusion's own API: dt with every update, three update
+# forms, FusionOffset returning the corrected gyroscope, and Fusion's flags and internal states.
 from libc.stdint cimport int32_t
 
 from imufuse import _fusion

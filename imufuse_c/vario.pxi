@@ -1,5 +1,7 @@
 # Variometer of Nair (2016) (csrc/vario.h): the three-state Kalman filter and
 # the gravity-compensated vertical acceleration.
+# Hand-written (not tools/bindgen.py): update(accel, baro_alt, dt) is an input kind of its
+# own, and vertical_accel() is a function, not a filter.
 cdef extern from "vario.h" nogil:
     ctypedef struct imf_vario_state_t:
         pass

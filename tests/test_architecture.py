@@ -2,11 +2,14 @@
 {imufuse_c, reference} -> shared helpers, without cycles, and no import of a
 project module inside a function body (the usual way to hide a cycle)."""
 import ast
+import re
 from pathlib import Path
 
 import imufuse
 
 PKG = Path(imufuse.__file__).resolve().parent
+# the Cython sources of the compiled module (a checkout, or the sdist the tests install)
+CSRC_PYX = Path(__file__).resolve().parents[1] / "imufuse_c"
 
 
 def _modules():
@@ -53,7 +56,36 @@ def _graph():
                     if isinstance(node, (ast.Import, ast.ImportFrom)) and _target(m, pkg, node):
                         inner.append(f"{m}.{fn.name}: line {node.lineno}")
         edges[m] = deps
+    edges["imufuse_c"] = _compiled_imports(set(mods))
     return edges, inner
+
+
+def _compiled_imports(mods):
+    """The project modules the compiled module imports (its .pyx and .pxi files), as one
+    node: imufuse_c -> imufuse.x is an edge of the graph like any other."""
+    deps = set()
+    for p in sorted(CSRC_PYX.glob("*.p[yx][xi]")) + [CSRC_PYX / "__init__.py"]:
+        for line in p.read_text().splitlines():
+            m = re.match(r"\s*(?:from\s+(\S+)\s+import\s+(\w+)|import\s+(\S+))", line)
+            if not m:
+                continue
+            names = [m.group(3)] if m.group(3) else [m.group(1), f"{m.group(1)}.{m.group(2)}"]
+            for t in names:
+                if t.split(".")[0] != "imufuse":
+                    continue
+                while t and t not in mods:
+                    t = t.rpartition(".")[0]
+                if t:
+                    deps.add(t)
+    return deps
+
+
+def test_the_compiled_module_is_in_the_graph():
+    """imufuse_c's own imports are read, so that a cycle through it (imufuse.x imports
+    imufuse_c, which imports imufuse.x) fails test_no_import_cycles."""
+    deps = _graph()[0]["imufuse_c"]
+    assert {"imufuse._checks", "imufuse.reference"} <= deps, deps
+    assert not {d for d in deps if d.startswith(("imufuse.catalogue", "imufuse.session", "imufuse.cli"))}
 
 
 def test_no_project_imports_in_function_bodies():

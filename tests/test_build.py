@@ -43,10 +43,15 @@ def _copy_tree(dst):
     # the generated list keeps its mtime too (a tree built before: nothing to cythonize)
     shutil.copytree(ROOT / "python" / "imufuse" / "reference", dst / "python" / "imufuse" / "reference",
                     ignore=shutil.ignore_patterns("__pycache__"))
-    generated = ROOT / "build" / "imufuse_units" / "filters.pxi"
-    if generated.is_file():
+    # the bindings are generated from the headers and the twins (tools/bindgen.py, imufuse.cproto)
+    (dst / "tools").mkdir()
+    shutil.copy2(ROOT / "tools" / "bindgen.py", dst / "tools")
+    shutil.copy2(ROOT / "python" / "imufuse" / "cproto.py", dst / "python" / "imufuse")
+    generated = sorted((ROOT / "build" / "imufuse_units").glob("*.pxi"))
+    if generated:
         (dst / "build" / "imufuse_units").mkdir(parents=True)
-        shutil.copy2(generated, dst / "build" / "imufuse_units")
+        for g in generated:
+            shutil.copy2(g, dst / "build" / "imufuse_units")
 
 
 def _build(tree, *extra):
@@ -101,16 +106,22 @@ def test_module_with_objects_of_the_other_precision_refuses_to_import(tree):
         (tree / "setup.py").write_text(setup)
 
 
-def test_a_filter_family_without_its_binding_stops_the_build(tmp_path):
-    """setup.py includes imufuse_c/<family>.pxi in _f32.pyx and _f64.pyx for every
-    reference module that declares filters (no hand-kept include list): a family
-    whose binding is missing stops the build, naming the file."""
+def test_a_filter_family_without_its_c_pair_stops_the_build(tmp_path):
+    """setup.py binds every reference module that declares filters (no hand-kept include
+    list, no hand-written binding): a family whose header is missing, or whose twin does
+    not name its C prefix, stops the build with a message naming the file to fix."""
     if shutil.which("cc") is None and shutil.which("gcc") is None:
         pytest.skip("no C compiler")
     _copy_tree(tmp_path)
-    (tmp_path / "python" / "imufuse" / "reference" / "newfamily.py").write_text(
-        'FILTERS = ("NewFilter",)\n')
-    proc = subprocess.run([sys.executable, "setup.py", "build_ext", "--inplace"], cwd=tmp_path,
-                          capture_output=True, text=True, timeout=300)
-    assert proc.returncode != 0
-    assert "binding imufuse_c/newfamily.pxi does not exist" in proc.stdout + proc.stderr, proc.stderr[-3000:]
+    new = tmp_path / "python" / "imufuse" / "reference" / "newfamily.py"
+    for twin, header, message in (
+            ('FILTERS = ("NewFilter",)\n', None, "csrc/newfamily.h does not exist"),
+            ('FILTERS = ("NewFilter",)\nclass NewFilter:\n    kind = "imu"\n', "/* */\n",
+             "class NewFilter declares no c_name")):
+        new.write_text(twin)
+        if header:
+            (tmp_path / "csrc" / "newfamily.h").write_text(header)
+        proc = subprocess.run([sys.executable, "setup.py", "build_ext", "--inplace"], cwd=tmp_path,
+                              capture_output=True, text=True, timeout=300)
+        assert proc.returncode != 0
+        assert message in proc.stdout + proc.stderr, proc.stderr[-3000:]

@@ -16,6 +16,7 @@ from imufuse._resources import csrc_dir
 from imufuse._stubs import stubs
 from imufuse.estimate import ADAPTERS
 from imufuse.mcu import filters as mcu_filters
+import bindgen
 from registry import CASES_VARIO, FIXED_CASES, FLOAT_CASES, FUSION_CASES
 
 HEADERS = "\n".join(p.read_text() for p in sorted(csrc_dir().rglob("*.h")))
@@ -162,16 +163,33 @@ def test_fusion_suite_in_the_catalogue():
 @pytest.mark.parametrize("e", EVERY)
 def test_binding_is_compiled(e):
     """setup.py generates the include list of imufuse_c/_f32.pyx and _f64.pyx from
-    the reference modules' FILTERS declarations: the entry's binding file exists,
-    defines the class, and the class is in the compiled modules."""
+    the reference modules' FILTERS declarations, and each float family's binding
+    (tools/bindgen.py) unless it is written by hand: the entry's binding defines the
+    class, and the class is in the compiled modules."""
     pxi = ROOT / e.binding
-    assert pxi.is_file(), f"{e.name}: its Cython binding {e.binding} does not exist"
-    assert re.search(rf"^cdef class {e.name}\b", pxi.read_text(), re.M), f"{e.binding} defines no class {e.name}"
+    text = pxi.read_text() if pxi.is_file() else bindgen.fixed_pxi() if e.fixed else \
+        bindgen.family_pxi(e.family)
+    assert re.search(rf"^cdef class {e.name}\b", text, re.M), f"{e.binding} defines no class {e.name}"
     if e.fixed:
         assert hasattr(imufuse_c._fixed, e.name)
     else:
         for mod in (imufuse_c._f32, imufuse_c._f64):
             assert hasattr(mod, e.name), f"{e.name} not compiled into {mod.__name__}: is {e.binding} included?"
+
+
+def test_hand_written_bindings_say_why():
+    """A float family's binding is generated unless its API is its own: each hand-written
+    imufuse_c/<family>.pxi states the reason in its first lines, and no hand-written file
+    could have been generated."""
+    for pxi in sorted((ROOT / "imufuse_c").glob("*.pxi")):
+        family = pxi.stem
+        mod = getattr(reference, family, None)
+        if not any(hasattr(mod, d) for d in ("FILTERS", "FILTERS_FUSION", "FILTERS_VARIO")):
+            continue   # shared pieces (_base.pxi, fixed_base.pxi, ...), not a family's binding
+        head = "".join(pxi.read_text().splitlines(keepends=True)[:6])
+        assert "Hand-written (not tools/bindgen.py):" in head, f"{pxi.name}: say why it is not generated"
+        with pytest.raises(SystemExit):
+            bindgen.family_pxi(family)
 
 
 @pytest.mark.parametrize("e", [*catalogue.FLOAT, *catalogue.FUSION], ids=lambda e: e.name)

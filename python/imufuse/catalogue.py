@@ -31,13 +31,14 @@ The entry itself adds what only a user of the filter needs:
                 required for every float and Fusion entry
                 (tests/test_hostile.py runs it)
 
-The Cython binding of the classes of reference/<family>.py is
-imufuse_c/<family>.pxi (Entry.binding); setup.py includes one for every
-reference module that declares FILTERS, FILTERS_FUSION or FILTERS_VARIO.
+The Cython binding of the classes of reference/<family>.py is generated at every
+build by tools/bindgen.py from csrc/<family>.h and the twin's declaration (FILTERS,
+c_name, angles()); setup.py includes one for every reference module that declares
+FILTERS, FILTERS_FUSION or FILTERS_VARIO (Entry.binding).
 
-A new float filter is its C pair, its reference module, its Cython binding and
-one Entry in FLOAT below (docs/adding-a-filter.md); tests/test_catalogue.py
-fails until every harness finds it. FUSION and VARIO hold the filters with an
+A new float filter is its C pair, its reference module and one Entry in FLOAT
+below (docs/adding-a-filter.md); tests/test_catalogue.py fails until every
+harness finds it. FUSION and VARIO hold the filters with an
 API of their own (their own harness sections, see below).
 """
 from __future__ import annotations
@@ -112,13 +113,19 @@ class Entry:
         return tuple(inspect.signature(self.reference._init).parameters)[1:]
 
     @property
+    def family(self) -> str:
+        """The module of imufuse.reference that declares the filter; a float family's C
+        pair is csrc/<family>.c and .h."""
+        return str(self.reference.__module__.rpartition(".")[2])
+
+    @property
     def binding(self) -> str:
-        """The Cython binding's file: imufuse_c/<family>.pxi for the classes of
-        reference/<family>.py (setup.py includes it), fixed_filters.pxi for the
-        fixed-point ones."""
-        if self.fixed:
-            return "imufuse_c/fixed_filters.pxi"
-        return f"imufuse_c/{self.reference.__module__.rpartition('.')[2]}.pxi"
+        """The Cython binding, by the name setup.py includes: fixed_filters.pxi for the
+        fixed-point classes and <family>.pxi for a float family, generated at every build
+        by tools/bindgen.py from the headers and the twins' declarations, or
+        imufuse_c/<family>.pxi where it is written by hand (Fusion, the variometer: APIs
+        of their own)."""
+        return f"imufuse_c/{'fixed_filters' if self.fixed else self.family}.pxi"
 
     def full_params(self, params: Mapping[str, Any]) -> Dict[str, Any]:
         """params completed with the constructor's defaults (TypeError for
