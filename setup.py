@@ -21,6 +21,7 @@ import os
 import numpy
 from Cython.Build import cythonize
 from setuptools import Extension, setup
+from setuptools.command.build_ext import build_ext
 
 # The numerical contract: C99, -O2, no contraction into FMA, never -ffast-math
 # or -march=native (see csrc/imf_config.h).
@@ -172,6 +173,19 @@ csvout = Extension("imufuse_c._csvout", ["imufuse_c/_csvout.pyx"],
                    define_macros=[("NPY_NO_DEPRECATED_API", "NPY_1_7_API_VERSION")],
                    extra_compile_args=CFLAGS)
 
+class BuildExt(build_ext):
+    """build_ext that compiles the extensions side by side, one job per core, unless -j is
+    given: each precision has its own objects (above), so parallel builds are safe
+    (tests/test_build.py builds with -j 2)."""
+
+    def finalize_options(self):
+        super().finalize_options()
+        if self.parallel is None:
+            self.parallel = os.cpu_count() or 1
+
+
 setup(ext_modules=cythonize([*(build(name) for name in BUILDS), csvout],
                             include_path=[bindings(), "imufuse_c"],
-                            compiler_directives={"language_level": 3}))
+                            nthreads=os.cpu_count() or 1,
+                            compiler_directives={"language_level": 3}),
+      cmdclass={"build_ext": BuildExt})
