@@ -157,6 +157,34 @@ static inline int imf_is_zero3(const imf_real x, const imf_real y, const imf_rea
     return x == IMF_R(0.0) && y == IMF_R(0.0) && z == IMF_R(0.0);
 }
 
+/* ---- quaternions ----------------------------------------------------------
+ * Twins in imufuse.reference._math (qmul, qrotate), the same operations in the same order. */
+
+/* The Hamilton product a (x) b into o[4]. */
+static inline void imf_qmul(imf_real *const o, const imf_real a0, const imf_real a1,
+                            const imf_real a2, const imf_real a3, const imf_real b0,
+                            const imf_real b1, const imf_real b2, const imf_real b3)
+{
+    o[0] = a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3;
+    o[1] = a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2;
+    o[2] = a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1;
+    o[3] = a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0;
+}
+
+/* The vector v rotated by the unit quaternion q = (w, x, y, z), into o[3]:
+   R(q) v = v + w t + q_v x t, t = 2 q_v x v. */
+static inline void imf_qrotate(imf_real *const o, const imf_real w, const imf_real x,
+                               const imf_real y, const imf_real z, const imf_real vx,
+                               const imf_real vy, const imf_real vz)
+{
+    const imf_real tx = IMF_R(2.0) * (y * vz - z * vy);
+    const imf_real ty = IMF_R(2.0) * (z * vx - x * vz);
+    const imf_real tz = IMF_R(2.0) * (x * vy - y * vx);
+    o[0] = vx + w * tx + (y * tz - z * ty);
+    o[1] = vy + w * ty + (z * tx - x * tz);
+    o[2] = vz + w * tz + (x * ty - y * tx);
+}
+
 /* ---- gravity-vector filters (multiwii, kk, mahony2d, dcm) ---------------
  * Outputs only, never part of a state update (docs/internals.md, numerical contract 5): roll
  * and pitch (rad, ZYX aerospace sequence as in imufuse.rotations) of the

@@ -2,43 +2,9 @@
  * imufuse's recommended AHRS. See robust.h. The pure-Python twin is
  * python/imufuse/reference/robust.py: the same lines in the same order.
  */
-#include <float.h>
-
 #include "robust.h"
 
-#ifdef IMF_DOUBLE
-#define ROBUST_MIN DBL_MIN
-#define ROBUST_MAX DBL_MAX
-#else
-#define ROBUST_MIN FLT_MIN
-#define ROBUST_MAX FLT_MAX
-#endif
-
-/* ---- quaternion helpers ------------------------------------------------- */
-
-/* Hamilton product a (x) b into o[4] */
-static inline void robust_qmul(imf_real *const o, const imf_real a0, const imf_real a1,
-                               const imf_real a2, const imf_real a3, const imf_real b0,
-                               const imf_real b1, const imf_real b2, const imf_real b3)
-{
-    o[0] = a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3;
-    o[1] = a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2;
-    o[2] = a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1;
-    o[3] = a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0;
-}
-
-/* R(q) v = v + w t + q_v x t, t = 2 q_v x v, into o[3] */
-static inline void robust_rotate(imf_real *const o, const imf_real w, const imf_real x,
-                                 const imf_real y, const imf_real z, const imf_real vx,
-                                 const imf_real vy, const imf_real vz)
-{
-    const imf_real tx = IMF_R(2.0) * (y * vz - z * vy);
-    const imf_real ty = IMF_R(2.0) * (z * vx - x * vz);
-    const imf_real tz = IMF_R(2.0) * (x * vy - y * vx);
-    o[0] = vx + w * tx + (y * tz - z * ty);
-    o[1] = vy + w * ty + (z * tx - x * tz);
-    o[2] = vz + w * tz + (x * ty - y * tx);
-}
+/* ---- helpers (quaternion product and rotation: imf_math.h) ----------------- */
 
 /* Unit quaternion in place; 0 when the normalisation fails (squared norm
    zero, subnormal, overflowed or NaN: valid-attitude policy). */
@@ -46,7 +12,7 @@ static inline int robust_norm4(imf_real *const q)
 {
     const imf_real n2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
     imf_real r;
-    if (!(n2 >= ROBUST_MIN && n2 <= ROBUST_MAX)) {
+    if (!(n2 >= IMF_REAL_MIN && n2 <= IMF_REAL_MAX)) {
         return 0;
     }
     r = IMF_R(1.0) / imf_sqrt(n2);
@@ -332,7 +298,7 @@ static int robust_step(const imf_robust_consts_t *const set, imf_robust_state_t 
     th2 = ox * ox + oy * oy + oz * oz;
     cw = IMF_R(1.0) - th2 * IMF_R(0.125);
     sv = IMF_R(0.5) - th2 * set->c48;
-    robust_qmul(s, x->s0, x->s1, x->s2, x->s3, cw, sv * ox, sv * oy, sv * oz);
+    imf_qmul(s, x->s0, x->s1, x->s2, x->s3, cw, sv * ox, sv * oy, sv * oz);
     if (!robust_norm4(s)) {
         return 0;
     }
@@ -341,7 +307,7 @@ static int robust_step(const imf_robust_consts_t *const set, imf_robust_state_t 
     x->s2 = s[2];
     x->s3 = s[3];
     /* B2: the accelerometer in the inertial frame */
-    robust_rotate(ai, s[0], s[1], s[2], s[3], ax, ay, az);
+    imf_qrotate(ai, s[0], s[1], s[2], s[3], ax, ay, az);
     if (first) {
         /* B5: gravity from the first sample */
         x->fx = ai[0];
@@ -384,7 +350,7 @@ static int robust_step(const imf_robust_consts_t *const set, imf_robust_state_t 
         x->pvv = pvv - kv * pvv;
     }
     /* inclination: the smallest rotation r that turns the gravity estimate onto earth z */
-    robust_rotate(ge, x->c0, x->c1, x->c2, x->c3, x->fx, x->fy, x->fz);
+    imf_qrotate(ge, x->c0, x->c1, x->c2, x->c3, x->fx, x->fy, x->fz);
     gn = imf_sqrt(ge[0] * ge[0] + ge[1] * ge[1] + ge[2] * ge[2]);
     r[0] = gn + ge[2];
     r[1] = ge[1];
@@ -411,7 +377,7 @@ static int robust_step(const imf_robust_consts_t *const set, imf_robust_state_t 
     x->c1 = c[1];
     x->c2 = c[2];
     x->c3 = c[3];
-    robust_qmul(q, c[0], c[1], c[2], c[3], s[0], s[1], s[2], s[3]);
+    imf_qmul(q, c[0], c[1], c[2], c[3], s[0], s[1], s[2], s[3]);
     if (!robust_norm4(q)) {
         return 0;
     }
@@ -422,8 +388,7 @@ static int robust_step(const imf_robust_consts_t *const set, imf_robust_state_t 
     /* B3: the correction rate seen in the sensor frame is minus the bias error
        (Eq. 3.6, I_k = I_{k-1} + Ki dt e_k, with Ki dt = 1 / tau_bias) */
     if (!rest && x->t >= set->tau_acc && set->inv_tau_bias > IMF_R(0.0)) {
-        robust_rotate(e, q[0], -q[1], -q[2], -q[3], IMF_R(2.0) * r[1], IMF_R(2.0) * r[2],
-                      IMF_R(0.0));
+        imf_qrotate(e, q[0], -q[1], -q[2], -q[3], IMF_R(2.0) * r[1], IMF_R(2.0) * r[2], IMF_R(0.0));
         x->bx = x->bx - e[0] * set->inv_tau_bias;
         x->by = x->by - e[1] * set->inv_tau_bias;
         x->bz = x->bz - e[2] * set->inv_tau_bias;
@@ -447,7 +412,7 @@ static int robust_predict(const imf_robust_consts_t *const set, imf_robust_state
     th2 = ox * ox + oy * oy + oz * oz;
     cw = IMF_R(1.0) - th2 * IMF_R(0.125);
     sv = IMF_R(0.5) - th2 * set->c48;
-    robust_qmul(q, x->q0, x->q1, x->q2, x->q3, cw, sv * ox, sv * oy, sv * oz);
+    imf_qmul(q, x->q0, x->q1, x->q2, x->q3, cw, sv * ox, sv * oy, sv * oz);
     if (!robust_norm4(q)) {
         return 0;
     }
@@ -477,10 +442,10 @@ static int robust_mag(const imf_robust_consts_t *const set, imf_robust_state_t *
     const imf_real dt = set->dt;
     imf_real me[3], h2, n2, mn, mh, inv, hn, zn, k;
     int match;
-    robust_rotate(me, x->q0, x->q1, x->q2, x->q3, mx, my, mz);
+    imf_qrotate(me, x->q0, x->q1, x->q2, x->q3, mx, my, mz);
     h2 = me[0] * me[0] + me[1] * me[1];
     n2 = h2 + me[2] * me[2];
-    if (!(n2 >= ROBUST_MIN && n2 <= ROBUST_MAX)) {
+    if (!(n2 >= IMF_REAL_MIN && n2 <= IMF_REAL_MAX)) {
         return 1; /* no usable reading: gyro and accelerometer only */
     }
     mn = imf_sqrt(n2);
@@ -518,7 +483,7 @@ static int robust_mag(const imf_robust_consts_t *const set, imf_robust_state_t *
         x->cn = mn;
         x->ch = hn;
         x->cz = zn;
-        if (!(h2 >= ROBUST_MIN)) {
+        if (!(h2 >= IMF_REAL_MIN)) {
             return 1; /* field vertical: no heading information */
         }
         /* heading: the rotation about earth z that turns the horizontal field onto
@@ -527,7 +492,7 @@ static int robust_mag(const imf_robust_consts_t *const set, imf_robust_state_t *
         fw = IMF_R(1.0) + me[0] * ih;
         fz = -(me[1] * ih);
         f2 = fw * fw + fz * fz;
-        if (f2 >= ROBUST_MIN) {
+        if (f2 >= IMF_REAL_MIN) {
             fr = IMF_R(1.0) / imf_sqrt(f2);
             fw = fw * fr;
             fz = fz * fr;
@@ -539,7 +504,7 @@ static int robust_mag(const imf_robust_consts_t *const set, imf_robust_state_t *
         zw = IMF_R(1.0) - k + k * fw;
         zz = k * fz;
         z2 = zw * zw + zz * zz;
-        if (!(z2 >= ROBUST_MIN)) {
+        if (!(z2 >= IMF_REAL_MIN)) {
             return 0;
         }
         zr = IMF_R(1.0) / imf_sqrt(z2);
@@ -556,7 +521,7 @@ static int robust_mag(const imf_robust_consts_t *const set, imf_robust_state_t *
         x->c1 = c[1];
         x->c2 = c[2];
         x->c3 = c[3];
-        robust_qmul(q, c[0], c[1], c[2], c[3], x->s0, x->s1, x->s2, x->s3);
+        imf_qmul(q, c[0], c[1], c[2], c[3], x->s0, x->s1, x->s2, x->s3);
         if (!robust_norm4(q)) {
             return 0;
         }

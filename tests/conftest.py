@@ -11,6 +11,11 @@ marked without a decorator:
               and Fusion oracles, the command line end to end)
 
 The inner loop is `pytest -m "not slow"`; CI runs everything (tools/test.sh).
+
+Workers (pytest-xdist, `--dist loadgroup` in tools/test.sh): the tests of a module that uses
+a module- or session-scoped fixture of its own (programs built for an MCU, a built copy of
+the package, a fetched oracle) run on one worker, so that the fixture is built once; every
+other test goes to whichever worker is free.
 """
 import pytest
 
@@ -52,3 +57,16 @@ def pytest_collection_modifyitems(config, items):
             marks.add("slow")
         for m in sorted(marks):
             item.add_marker(getattr(pytest.mark, m))
+        if _shares_a_fixture(item):
+            item.add_marker(pytest.mark.xdist_group(mod))
+
+
+def _shares_a_fixture(item):
+    """The test uses a fixture wider than one test, defined in its own module."""
+    info = getattr(item, "_fixtureinfo", None)
+    for defs in (info.name2fixturedefs.values() if info else ()):
+        for d in defs:
+            if d.scope in ("module", "session", "package") and \
+                    getattr(d, "baseid", "").endswith(".py") and item.nodeid.startswith(d.baseid):
+                return True
+    return False

@@ -3,8 +3,9 @@
 # Debian cross toolchains and emulators (MCU tests), builds the sdist, installs
 # it (not editable) with its test extras into a fresh virtual environment and
 # runs pytest there against the installed package, never the checkout.
-# Extra arguments go to pytest. The tests run in one worker per core (pytest-xdist; each
-# test module stays on one worker, so its built programs are built once).
+# Extra arguments go to pytest. The tests run in one worker per core (pytest-xdist; a module
+# with a fixture of its own wider than one test stays on one worker, so that what it builds
+# is built once: tests/conftest.py).
 #
 #   PYTHON   the interpreter to build the venv from (default python3)
 #   VENV     where to create it (default build/test-venv, recreated every run)
@@ -42,4 +43,4 @@ export IMUFUSE_TEST_INSTALLED="$VENV"
 # keep the checkout's directory off sys.path (Python >= 3.11): its imufuse_c/
 # must not shadow the installed package
 export PYTHONSAFEPATH=1
-exec "$VPY" -m pytest -n "${JOBS:-auto}" --dist loadfile "$@"
+exec "$VPY" -m pytest -n "${JOBS:-auto}" --dist loadgroup "$@"

@@ -1,4 +1,4 @@
-"""Twin of csrc/imf_math.h: inverse square root and normalisation helpers.
+"""Twin of csrc/imf_math.h: inverse square root, normalisation and quaternion helpers.
 
 R is the arithmetic type of the filter (float or numpy.float32). Functions
 return new values instead of writing through pointers.
@@ -109,3 +109,21 @@ def is_zero3(R, x, y, z):
 def sqrt(R, x):
     # imf_sqrt: sqrt / sqrtf; x >= 0 here (a sum of squares) or NaN / inf
     return R(math.sqrt(x)) if x >= 0 else R(math.nan)
+
+
+def qmul(a0, a1, a2, a3, b0, b1, b2, b3):
+    # imf_qmul: the Hamilton product a (x) b
+    return (a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
+            a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
+            a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
+            a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0)
+
+
+def qrotate(R, w, x, y, z, vx, vy, vz):
+    # imf_qrotate: R(q) v = v + w t + q_v x t, t = 2 q_v x v
+    tx = R(2.0) * (y * vz - z * vy)
+    ty = R(2.0) * (z * vx - x * vz)
+    tz = R(2.0) * (x * vy - y * vx)
+    return (vx + w * tx + (y * tz - z * ty),
+            vy + w * ty + (z * tx - x * tz),
+            vz + w * tz + (x * ty - y * tx))

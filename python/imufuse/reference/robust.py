@@ -18,6 +18,8 @@ import math
 
 from .. import _checks
 from ._base import QUAT_NORM2_TOL, ReferenceFilter, isfinite
+from ._math import qmul as _qmul
+from ._math import qrotate as _rotate
 
 FILTERS = ("RobustIMU", "RobustAHRS")
 
@@ -29,26 +31,6 @@ _LIMITS = {"float32": (1.1754943508222875e-38, 3.4028234663852886e+38),
            "float64": (2.2250738585072014e-308, 1.7976931348623157e+308)}
 
 _DEG = math.pi / 180.0
-
-
-# ---- quaternion helpers (robust.c: static inline, same order) ----------------
-
-def _qmul(a0, a1, a2, a3, b0, b1, b2, b3):
-    # Hamilton product a (x) b
-    return (a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
-            a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
-            a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
-            a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0)
-
-
-def _rotate(R, w, x, y, z, vx, vy, vz):
-    # R(q) v = v + w t + q_v x t, t = 2 q_v x v
-    tx = R(2.0) * (y * vz - z * vy)
-    ty = R(2.0) * (z * vx - x * vz)
-    tz = R(2.0) * (x * vy - y * vx)
-    return (vx + w * tx + (y * tz - z * ty),
-            vy + w * ty + (z * tx - x * tz),
-            vz + w * tz + (x * ty - y * tx))
 
 
 class _Robust(ReferenceFilter):
@@ -201,12 +183,12 @@ class _Robust(ReferenceFilter):
 
     # ---- the update ---------------------------------------------------------
 
-    def _step(self, st, gx, gy, gz, ax, ay, az):
-        """Gyro + accelerometer part. st: dict of the working state. Returns the
+    def _step(self, x, gx, gy, gz, ax, ay, az):
+        """Gyro + accelerometer part. x: the working state (_State). Returns the
         inclination correction r (for the bias) or None to reject the sample."""
         R = self._R
         dt = self.dt
-        first = st["t"] == R(0.0)
+        first = x.t == R(0.0)
         # an all-zero accelerometer is no reading: gyro only (and no start without one)
         has_acc = not (ax == R(0.0) and ay == R(0.0) and az == R(0.0))
         if first and not has_acc:
@@ -214,86 +196,86 @@ class _Robust(ReferenceFilter):
         if has_acc and not first:
             # a reading beyond 100 times the gravity estimate (100 g) is a shock or a
             # hostile value: it says nothing about gravity, and is no reading
-            f2 = st["fx"] * st["fx"] + st["fy"] * st["fy"] + st["fz"] * st["fz"]
+            f2 = x.fx * x.fx + x.fy * x.fy + x.fz * x.fz
             if not (ax * ax + ay * ay + az * az <= R(1.0e4) * f2):
                 has_acc = False
         # B1: rest detection, low-passes of gyro and accelerometer in the sensor frame
-        k = self._gain(st["t"], self.tau_rest, self.k_rest)
-        st["lwx"] = st["lwx"] + k * (gx - st["lwx"])
-        st["lwy"] = st["lwy"] + k * (gy - st["lwy"])
-        st["lwz"] = st["lwz"] + k * (gz - st["lwz"])
+        k = self._gain(x.t, self.tau_rest, self.k_rest)
+        x.lwx = x.lwx + k * (gx - x.lwx)
+        x.lwy = x.lwy + k * (gy - x.lwy)
+        x.lwz = x.lwz + k * (gz - x.lwz)
         if has_acc:
-            st["lax"] = st["lax"] + k * (ax - st["lax"])
-            st["lay"] = st["lay"] + k * (ay - st["lay"])
-            st["laz"] = st["laz"] + k * (az - st["laz"])
-        w2 = st["lwx"] * st["lwx"] + st["lwy"] * st["lwy"] + st["lwz"] * st["lwz"]
+            x.lax = x.lax + k * (ax - x.lax)
+            x.lay = x.lay + k * (ay - x.lay)
+            x.laz = x.laz + k * (az - x.laz)
+        w2 = x.lwx * x.lwx + x.lwy * x.lwy + x.lwz * x.lwz
         g2 = gx * gx + gy * gy + gz * gz
-        dx = ax - st["lax"]
-        dy = ay - st["lay"]
-        dz = az - st["laz"]
+        dx = ax - x.lax
+        dy = ay - x.lay
+        dz = az - x.laz
         d2 = dx * dx + dy * dy + dz * dz
-        a2 = st["lax"] * st["lax"] + st["lay"] * st["lay"] + st["laz"] * st["laz"]
+        a2 = x.lax * x.lax + x.lay * x.lay + x.laz * x.laz
         if has_acc and w2 < self.rest_gyr2 and g2 < self.rest_gyr2 and d2 < self.rest_acc2 * a2:
-            st["t_rest"] = st["t_rest"] + dt
-            if st["t_rest"] > self.rest_time:
-                st["t_rest"] = self.rest_time
+            x.t_rest = x.t_rest + dt
+            if x.t_rest > self.rest_time:
+                x.t_rest = self.rest_time
         else:
-            st["t_rest"] = R(0.0)
-        rest = st["t_rest"] >= self.rest_time
+            x.t_rest = R(0.0)
+        rest = x.t_rest >= self.rest_time
         if rest:
             # Eq. 3.1: b_k = b_{k-1}, observed directly at rest
-            st["bx"] = st["bx"] + self.kb_rest * (gx - st["bx"])
-            st["by"] = st["by"] + self.kb_rest * (gy - st["by"])
-            st["bz"] = st["bz"] + self.kb_rest * (gz - st["bz"])
+            x.bx = x.bx + self.kb_rest * (gx - x.bx)
+            x.by = x.by + self.kb_rest * (gy - x.by)
+            x.bz = x.bz + self.kb_rest * (gz - x.bz)
         # strapdown: s = s (x) exp(1/2 (w - b) dt), series to 4th order (no sin/cos)
-        ox = (gx - st["bx"]) * dt
-        oy = (gy - st["by"]) * dt
-        oz = (gz - st["bz"]) * dt
+        ox = (gx - x.bx) * dt
+        oy = (gy - x.by) * dt
+        oz = (gz - x.bz) * dt
         th2 = ox * ox + oy * oy + oz * oz
         cw = R(1.0) - th2 * R(0.125)
         sv = R(0.5) - th2 * self.c48
-        s = _qmul(st["s0"], st["s1"], st["s2"], st["s3"], cw, sv * ox, sv * oy, sv * oz)
+        s = _qmul(x.s0, x.s1, x.s2, x.s3, cw, sv * ox, sv * oy, sv * oz)
         s = self._norm4(*s)
         if s is None:
             return None
-        st["s0"], st["s1"], st["s2"], st["s3"] = s
+        x.s0, x.s1, x.s2, x.s3 = s
         # B2: the accelerometer in the inertial frame
         aix, aiy, aiz = _rotate(R, *s, ax, ay, az)
         if first:
             # B5: gravity from the first sample
-            st["fx"], st["fy"], st["fz"] = aix, aiy, aiz
-            st["vx"], st["vy"], st["vz"] = R(0.0), R(0.0), R(0.0)
-            st["pvv"], st["pvg"], st["pgg"] = R(0.0), R(0.0), self.pgg0
+            x.fx, x.fy, x.fz = aix, aiy, aiz
+            x.vx, x.vy, x.vz = R(0.0), R(0.0), R(0.0)
+            x.pvv, x.pvg, x.pgg = R(0.0), R(0.0), self.pgg0
         elif has_acc:
             # predict: v' = a - g, g' = 0 (+ process noise growing with the rotation rate)
-            st["vx"] = st["vx"] + dt * (aix - st["fx"])
-            st["vy"] = st["vy"] + dt * (aiy - st["fy"])
-            st["vz"] = st["vz"] + dt * (aiz - st["fz"])
+            x.vx = x.vx + dt * (aix - x.fx)
+            x.vy = x.vy + dt * (aiy - x.fy)
+            x.vz = x.vz + dt * (aiz - x.fz)
             # (w / rate_ref)^2 capped at 10^4 (100 rate_ref: beyond any gyro's range), so
             # that hostile rates cannot blow the covariance up
             rr = w2 * self.inv_rate_ref2
             if not (rr <= R(1.0e4)):
                 rr = R(1.0e4)
             qg = self.qg_dt + self.qg_dt * rr
-            pvv = st["pvv"] - self.two_dt * st["pvg"] + self.dt2 * st["pgg"]
-            pvg = st["pvg"] - dt * st["pgg"]
-            pgg = st["pgg"] + qg
+            pvv = x.pvv - self.two_dt * x.pvg + self.dt2 * x.pgg
+            pvg = x.pvg - dt * x.pgg
+            pgg = x.pgg + qg
             # update with the pseudo-measurement v = 0 (noise 1 / dt per sample)
             inv = R(1.0) / (pvv + self.r_d)
             kv = pvv * inv
             kg = pvg * inv
-            st["fx"] = st["fx"] - kg * st["vx"]
-            st["fy"] = st["fy"] - kg * st["vy"]
-            st["fz"] = st["fz"] - kg * st["vz"]
-            st["vx"] = st["vx"] - kv * st["vx"]
-            st["vy"] = st["vy"] - kv * st["vy"]
-            st["vz"] = st["vz"] - kv * st["vz"]
-            st["pgg"] = pgg - kg * pvg
-            st["pvg"] = pvg - kv * pvg
-            st["pvv"] = pvv - kv * pvv
+            x.fx = x.fx - kg * x.vx
+            x.fy = x.fy - kg * x.vy
+            x.fz = x.fz - kg * x.vz
+            x.vx = x.vx - kv * x.vx
+            x.vy = x.vy - kv * x.vy
+            x.vz = x.vz - kv * x.vz
+            x.pgg = pgg - kg * pvg
+            x.pvg = pvg - kv * pvg
+            x.pvv = pvv - kv * pvv
         # inclination: the smallest rotation r that turns the gravity estimate onto earth z
-        gex, gey, gez = _rotate(R, st["c0"], st["c1"], st["c2"], st["c3"],
-                                st["fx"], st["fy"], st["fz"])
+        gex, gey, gez = _rotate(R, x.c0, x.c1, x.c2, x.c3,
+                                x.fx, x.fy, x.fz)
         gn = R(math.sqrt(gex * gex + gey * gey + gez * gez))
         r = self._norm4(gn + gez, gey, -gex, R(0.0))
         if r is None:
@@ -303,45 +285,45 @@ class _Robust(ReferenceFilter):
                 return None
             r = (R(0.0), R(1.0), R(0.0), R(0.0))
         r0, r1, r2, _ = r
-        c0, c1, c2, c3 = st["c0"], st["c1"], st["c2"], st["c3"]
+        c0, c1, c2, c3 = x.c0, x.c1, x.c2, x.c3
         c = self._norm4(r0 * c0 - r1 * c1 - r2 * c2,
                         r0 * c1 + r1 * c0 + r2 * c3,
                         r0 * c2 - r1 * c3 + r2 * c0,
                         r0 * c3 + r1 * c2 - r2 * c1)
         if c is None:
             return None
-        st["c0"], st["c1"], st["c2"], st["c3"] = c
+        x.c0, x.c1, x.c2, x.c3 = c
         q = self._norm4(*_qmul(*c, *s))
         if q is None:
             return None
-        st["q0"], st["q1"], st["q2"], st["q3"] = q
+        x.q0, x.q1, x.q2, x.q3 = q
         # B3: the correction rate seen in the sensor frame is minus the bias error
         # (Eq. 3.6, I_k = I_{k-1} + Ki dt e_k, with Ki dt = 1 / tau_bias)
-        if not rest and st["t"] >= self.tau_acc and self.inv_tau_bias > R(0.0):
+        if not rest and x.t >= self.tau_acc and self.inv_tau_bias > R(0.0):
             ex, ey, ez = _rotate(R, q[0], -q[1], -q[2], -q[3], R(2.0) * r1, R(2.0) * r2, R(0.0))
-            st["bx"] = st["bx"] - ex * self.inv_tau_bias
-            st["by"] = st["by"] - ey * self.inv_tau_bias
-            st["bz"] = st["bz"] - ez * self.inv_tau_bias
+            x.bx = x.bx - ex * self.inv_tau_bias
+            x.by = x.by - ey * self.inv_tau_bias
+            x.bz = x.bz - ez * self.inv_tau_bias
         return True
 
-    def _predict(self, st, gx, gy, gz):
+    def _predict(self, x, gx, gy, gz):
         """The output: q = c (x) s, then predicted by the sensor's latency with the
         bias-corrected rate (q (x) exp(1/2 (w - b) latency), series as the strapdown).
         Returns False to reject the sample."""
         R = self._R
         if not (self.latency > R(0.0)):
             return True
-        ox = (gx - st["bx"]) * self.latency
-        oy = (gy - st["by"]) * self.latency
-        oz = (gz - st["bz"]) * self.latency
+        ox = (gx - x.bx) * self.latency
+        oy = (gy - x.by) * self.latency
+        oz = (gz - x.bz) * self.latency
         th2 = ox * ox + oy * oy + oz * oz
         cw = R(1.0) - th2 * R(0.125)
         sv = R(0.5) - th2 * self.c48
-        q = self._norm4(*_qmul(st["q0"], st["q1"], st["q2"], st["q3"],
+        q = self._norm4(*_qmul(x.q0, x.q1, x.q2, x.q3,
                                cw, sv * ox, sv * oy, sv * oz))
         if q is None:
             return False
-        st["q0"], st["q1"], st["q2"], st["q3"] = q
+        x.q0, x.q1, x.q2, x.q3 = q
         return True
 
     def _mag_test(self, mn, hn, zn, n, h, z):
@@ -352,11 +334,11 @@ class _Robust(ReferenceFilter):
         tn = self.mag_norm * n
         return dn < tn and -dn < tn and dd < self.mag_dip and -dd < self.mag_dip
 
-    def _mag(self, st, mx, my, mz):
+    def _mag(self, x, mx, my, mz):
         """B4: heading from the magnetometer. Returns False to reject the sample."""
         R = self._R
         dt = self.dt
-        mex, mey, mez = _rotate(R, st["q0"], st["q1"], st["q2"], st["q3"], mx, my, mz)
+        mex, mey, mez = _rotate(R, x.q0, x.q1, x.q2, x.q3, mx, my, mz)
         h2 = mex * mex + mey * mey
         n2 = h2 + mez * mez
         if not (n2 >= self._min and n2 <= self._max):
@@ -366,26 +348,26 @@ class _Robust(ReferenceFilter):
         inv = R(1.0) / mn
         hn = mh * inv
         zn = mez * inv
-        if st["rn"] == R(0.0):
+        if x.rn == R(0.0):
             # first reading: it is the reference
-            st["rn"], st["rh"], st["rz"] = mn, hn, zn
-            st["cn"], st["ch"], st["cz"] = mn, hn, zn
-            st["t_ok"] = self.mag_hold
-        match = self._mag_test(mn, hn, zn, st["rn"], st["rh"], st["rz"])
+            x.rn, x.rh, x.rz = mn, hn, zn
+            x.cn, x.ch, x.cz = mn, hn, zn
+            x.t_ok = self.mag_hold
+        match = self._mag_test(mn, hn, zn, x.rn, x.rh, x.rz)
         if match:
-            st["t_ok"] = st["t_ok"] + dt
-            if st["t_ok"] > self.mag_hold:
-                st["t_ok"] = self.mag_hold
+            x.t_ok = x.t_ok + dt
+            if x.t_ok > self.mag_hold:
+                x.t_ok = self.mag_hold
         else:
-            st["t_ok"] = R(0.0)
-        if match and st["t_ok"] >= self.mag_hold:
-            st["t_dist"] = R(0.0)
-            st["t_cand"] = R(0.0)
-            k = self._gain(st["t"], self.tau_mag_ref, self.k_ref)
-            st["rn"] = st["rn"] + k * (mn - st["rn"])
-            st["rh"] = st["rh"] + k * (hn - st["rh"])
-            st["rz"] = st["rz"] + k * (zn - st["rz"])
-            st["cn"], st["ch"], st["cz"] = mn, hn, zn
+            x.t_ok = R(0.0)
+        if match and x.t_ok >= self.mag_hold:
+            x.t_dist = R(0.0)
+            x.t_cand = R(0.0)
+            k = self._gain(x.t, self.tau_mag_ref, self.k_ref)
+            x.rn = x.rn + k * (mn - x.rn)
+            x.rh = x.rh + k * (hn - x.rh)
+            x.rz = x.rz + k * (zn - x.rz)
+            x.cn, x.ch, x.cz = mn, hn, zn
             if not (h2 >= self._min):
                 return True   # field vertical: no heading information
             # heading: the rotation about earth z that turns the horizontal field onto
@@ -401,7 +383,7 @@ class _Robust(ReferenceFilter):
             else:
                 fw = R(0.0)
                 fz = R(1.0)
-            k = self._gain(st["t"], self.tau_mag, self.k_mag)
+            k = self._gain(x.t, self.tau_mag, self.k_mag)
             zw = R(1.0) - k + k * fw
             zz = k * fz
             z2 = zw * zw + zz * zz
@@ -410,59 +392,72 @@ class _Robust(ReferenceFilter):
             zr = R(1.0) / R(math.sqrt(z2))
             zw = zw * zr
             zz = zz * zr
-            c0, c1, c2, c3 = st["c0"], st["c1"], st["c2"], st["c3"]
+            c0, c1, c2, c3 = x.c0, x.c1, x.c2, x.c3
             c = self._norm4(zw * c0 - zz * c3, zw * c1 - zz * c2,
                             zw * c2 + zz * c1, zw * c3 + zz * c0)
             if c is None:
                 return False
-            st["c0"], st["c1"], st["c2"], st["c3"] = c
-            q = self._norm4(*_qmul(*c, st["s0"], st["s1"], st["s2"], st["s3"]))
+            x.c0, x.c1, x.c2, x.c3 = c
+            q = self._norm4(*_qmul(*c, x.s0, x.s1, x.s2, x.s3))
             if q is None:
                 return False
-            st["q0"], st["q1"], st["q2"], st["q3"] = q
+            x.q0, x.q1, x.q2, x.q3 = q
         else:
             # disturbed (or not yet matching for mag_hold): no heading correction; a new
             # field that stays the same for mag_new_time of motion becomes the reference
-            st["t_dist"] = st["t_dist"] + dt
-            if self._mag_test(mn, hn, zn, st["cn"], st["ch"], st["cz"]):
-                st["cn"] = st["cn"] + self.k_rest * (mn - st["cn"])
-                st["ch"] = st["ch"] + self.k_rest * (hn - st["ch"])
-                st["cz"] = st["cz"] + self.k_rest * (zn - st["cz"])
-                if st["t_rest"] < self.rest_time:
+            x.t_dist = x.t_dist + dt
+            if self._mag_test(mn, hn, zn, x.cn, x.ch, x.cz):
+                x.cn = x.cn + self.k_rest * (mn - x.cn)
+                x.ch = x.ch + self.k_rest * (hn - x.ch)
+                x.cz = x.cz + self.k_rest * (zn - x.cz)
+                if x.t_rest < self.rest_time:
                     # only motion counts: at rest an attached magnet's field is steady too
-                    st["t_cand"] = st["t_cand"] + dt
-                if st["t_cand"] >= self.mag_new_time:
-                    st["rn"], st["rh"], st["rz"] = st["cn"], st["ch"], st["cz"]
-                    st["t_cand"] = R(0.0)
+                    x.t_cand = x.t_cand + dt
+                if x.t_cand >= self.mag_new_time:
+                    x.rn, x.rh, x.rz = x.cn, x.ch, x.cz
+                    x.t_cand = R(0.0)
             else:
-                st["cn"], st["ch"], st["cz"] = mn, hn, zn
-                st["t_cand"] = R(0.0)
+                x.cn, x.ch, x.cz = mn, hn, zn
+                x.t_cand = R(0.0)
         return True
 
-    def _finish(self, st, gx, gy, gz):
+    def _finish(self, x, gx, gy, gz):
         # the end of every update: the output prediction, then the clock
-        if not self._predict(st, gx, gy, gz):
+        if not self._predict(x, gx, gy, gz):
             return False
-        self._advance(st)
+        self._advance(x)
         return True
 
-    def _commit(self, st, ok):
+    def _commit(self, x, ok):
         # keep the new state only if every block accepted the sample and left the
         # whole state finite (valid-attitude policy)
-        if not (ok and isfinite(*st.values())):
+        if not (ok and isfinite(*x.values())):
             self._skip()
             return
         for n in self.state_names:
-            setattr(self, n, st[n])
+            setattr(self, n, getattr(x, n))
 
-    def _advance(self, st):
+    def _advance(self, x):
         # the clock of the start-up (saturating: no growth once every start is over)
-        st["t"] = st["t"] + self.dt
-        if st["t"] > self.t_max:
-            st["t"] = self.t_max
+        x.t = x.t + self.dt
+        if x.t > self.t_max:
+            x.t = self.t_max
 
     def _work(self):
-        return {n: getattr(self, n) for n in self.state_names}
+        return _State(self)
+
+
+class _State:
+    """The working copy of the state (C: imf_robust_state_t x = self->x), its members
+    named as in C: x.lwx is x->lwx."""
+    __slots__ = _Robust.state_names
+
+    def __init__(self, owner):
+        for n in self.__slots__:
+            setattr(self, n, getattr(owner, n))
+
+    def values(self):
+        return [getattr(self, n) for n in self.__slots__]
 
 
 class RobustIMU(_Robust):
@@ -501,9 +496,9 @@ class RobustIMU(_Robust):
         if not isfinite(gx, gy, gz, ax, ay, az):
             self._skip()
             return
-        st = self._work()
-        self._commit(st, self._step(st, gx, gy, gz, ax, ay, az) is not None
-                     and self._finish(st, gx, gy, gz))
+        x = self._work()
+        self._commit(x, self._step(x, gx, gy, gz, ax, ay, az) is not None
+                     and self._finish(x, gx, gy, gz))
 
 
 class RobustAHRS(_Robust):
@@ -551,6 +546,6 @@ class RobustAHRS(_Robust):
         if not isfinite(gx, gy, gz, ax, ay, az, mx, my, mz):
             self._skip()
             return
-        st = self._work()
-        self._commit(st, self._step(st, gx, gy, gz, ax, ay, az) is not None
-                     and self._mag(st, mx, my, mz) and self._finish(st, gx, gy, gz))
+        x = self._work()
+        self._commit(x, self._step(x, gx, gy, gz, ax, ay, az) is not None
+                     and self._mag(x, mx, my, mz) and self._finish(x, gx, gy, gz))
