@@ -3,7 +3,9 @@ driven with random and extreme inputs (tests/hostile_c), and a bounded
 coverage-guided fuzzing run (libFuzzer, clang) of the same drivers.
 
 The float driver checks the C-level invariants of the valid-attitude policy
-after every update (docs/robustness.md); the fixed-point driver relies on the
+after every update (docs/robustness.md) for every float configuration of the
+test registry (its table is generated: tests/hostile_c/table.py), the variometer
+and FusionAHRS; the fixed-point driver relies on the
 sanitizers (no int16 input may cause undefined behaviour). The fuzzing time
 per target is IMUFUSE_FUZZ_SECONDS (default 15 s); the number of executions
 is printed (pytest -s)."""
@@ -11,9 +13,13 @@ import os
 import re
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parent / "hostile_c"))
+import table  # noqa: E402  (tests/hostile_c/table.py: the driver's generated filter table)
 
 ROOT = Path(__file__).resolve().parents[1]
 CSRC = ROOT / "csrc"
@@ -38,8 +44,12 @@ def _compiler(*names):
 
 def _build(cc, target, out, extra):
     driver, sources, macros = TARGETS[target]
-    cmd = [cc, *BASE, *SAN, *macros, *extra, str(DRIVERS / driver), *map(str, sources), "-lm",
-           "-o", str(out)]
+    gen = out.parent / "generated"
+    gen.mkdir(exist_ok=True)
+    (gen / "hostile_table.h").write_text(table.table_header())
+    (gen / "hostile_table_q.h").write_text(table.fixed_table_header())
+    cmd = [cc, *BASE, f"-I{gen}", *SAN, *macros, *extra, str(DRIVERS / driver), *map(str, sources),
+           "-lm", "-o", str(out)]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
     if proc.returncode != 0 and "sanitizer" in proc.stderr and "cannot find" in proc.stderr:
         pytest.skip(f"{cc}: sanitizer runtime missing: {proc.stderr[-300:]}")
@@ -54,10 +64,16 @@ def test_random_and_extreme_inputs_under_sanitizers(tmp_path, target):
                           timeout=600, env=ENV)
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-4000:]
     lines = proc.stdout.splitlines()
-    assert len(lines) == (20 if target != "fixed" else 12), proc.stdout
-    if target != "fixed":   # the recommended filter, the variometer and Fusion are driven too
-        assert {"RobustAHRS-latency", "VarioKF", "FusionAHRS-rejection"} <= \
-            {ln.split(":")[0] for ln in lines}
+    if target != "fixed":
+        # every registry configuration (the recommended filter among them), the variometer
+        # and Fusion
+        want = [c.id for c in table.cases()] + ["VarioKF", "FusionAHRS-rejection"]
+        assert [ln.split(":")[0] for ln in lines] == want, proc.stdout
+        assert {"RobustAHRS-quick", "RobustIMU-defaults"} <= set(want)
+    else:   # every fixed-point registry configuration, in both profiles where they differ
+        want = [n for n, _ in table.fixed_configurations()]
+        assert [ln.split(":")[0] for ln in lines] == want, proc.stdout
+        assert {"MahonyIMUQ/q8", "MahonyIMUQ/q32", "MultiWiiQ-extreme"} <= set(want)
     print(proc.stdout)
 
 
