@@ -39,7 +39,7 @@ def _copy_tree(dst):
     # keep the generated Cython C (same mtimes): cythonize then has nothing to do
     shutil.copytree(ROOT / "imufuse_c", dst / "imufuse_c",
                     ignore=shutil.ignore_patterns("*.so", "__pycache__"))
-    # setup.py lists the Cython bindings from the reference modules' FILTERS declarations;
+    # setup.py lists the Cython bindings from the reference modules' filter classes;
     # the generated list keeps its mtime too (a tree built before: nothing to cythonize)
     shutil.copytree(ROOT / "python" / "imufuse" / "reference", dst / "python" / "imufuse" / "reference",
                     ignore=shutil.ignore_patterns("__pycache__"))
@@ -107,17 +107,18 @@ def test_module_with_objects_of_the_other_precision_refuses_to_import(tree):
 
 
 def test_a_filter_family_without_its_c_pair_stops_the_build(tmp_path):
-    """setup.py binds every reference module that declares filters (no hand-kept include
-    list, no hand-written binding): a family whose header is missing, or whose twin does
-    not name its C prefix, stops the build with a message naming the file to fix."""
+    """setup.py binds every reference module that declares filter classes (no hand-kept
+    include list, no hand-written binding): a family whose header is missing, or does not
+    define the filter's struct, stops the build with a message naming the file to fix."""
     if shutil.which("cc") is None and shutil.which("gcc") is None:
         pytest.skip("no C compiler")
     _copy_tree(tmp_path)
     new = tmp_path / "python" / "imufuse" / "reference" / "newfamily.py"
     for twin, header, message in (
-            ('FILTERS = ("NewFilter",)\n', None, "csrc/newfamily.h does not exist"),
-            ('FILTERS = ("NewFilter",)\nclass NewFilter:\n    kind = "imu"\n', "/* */\n",
-             "class NewFilter declares no c_name")):
+            ('class NewFilter:\n    kind = "imu"\n    c_name = "imf_new"\n', None,
+             "csrc/newfamily.h does not exist"),
+            ('class NewFilter:\n    kind = "imu"\n    c_name = "imf_new"\n', "/* */\n",
+             "csrc/newfamily.h: struct imf_new_t is not defined")):
         new.write_text(twin)
         if header:
             (tmp_path / "csrc" / "newfamily.h").write_text(header)

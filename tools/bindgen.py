@@ -1,7 +1,7 @@
 """The Cython bindings of the float filters, generated from what is already declared:
 
-- the twin (python/imufuse/reference/<family>.py): the class names in FILTERS and each
-  class's C prefix `c_name`;
+- the twin (python/imufuse/reference/<family>.py): its filter classes (the public classes
+  with a C prefix `c_name`, as imufuse.reference collects them) and their `angles()`;
 - the header (csrc/<family>.h): the filter and settings structs, and the prototypes of
   <c_name>_init, _update, _set_dt, _set_attitude and, if declared, _angles.
 
@@ -62,19 +62,22 @@ def _assigned(tree: ast.Module, name: str) -> Optional[object]:
     return None
 
 
-def twin(family: str, declares: str = "FILTERS") -> Tuple[Tuple[str, ...], Dict[str, str],
-                                                         Dict[str, Optional[str]]]:
-    """The twin's declaration: (FILTERS or FILTERS_FIXED, class -> c_name, class -> angles()
-    docstring)."""
+def twin(family: str) -> Tuple[Tuple[str, ...], Dict[str, str], Dict[str, Optional[str]]]:
+    """The twin's declaration, read from its source: (the filter classes, class -> c_name,
+    class -> angles() docstring or None). A filter class is a public class with a
+    non-empty C prefix `c_name` (its own or a base class's in the same module), as
+    imufuse.reference collects them."""
     path = os.path.join(REFERENCE, family + ".py")
     with open(path) as f:
         tree = ast.parse(f.read(), path)
-    names = tuple(_assigned(tree, declares) or ())
     classes = {n.name: n for n in tree.body if isinstance(n, ast.ClassDef)}
+    names: List[str] = []
     c_names, angles = {}, {}
-    for name in names:
-        cls, doc = classes.get(name), None
-        c_name = None
+    for name in classes:
+        if name.startswith("_"):
+            continue
+        cls: Optional[ast.ClassDef] = classes[name]
+        c_name, doc = None, None
         while cls is not None and (c_name is None or doc is None):
             for node in cls.body:
                 if c_name is None and isinstance(node, ast.Assign) and \
@@ -84,10 +87,21 @@ def twin(family: str, declares: str = "FILTERS") -> Tuple[Tuple[str, ...], Dict[
                     doc = ast.get_docstring(node) or "(roll, pitch) in rad, in double."
             bases = [b.id for b in cls.bases if isinstance(b, ast.Name)]
             cls = classes.get(bases[0]) if bases else None
-        if c_name is None:
-            raise BindError(f"{path}: class {name} declares no c_name (the C prefix)")
-        c_names[name], angles[name] = c_name, doc
-    return names, c_names, angles
+        if c_name:
+            names.append(name)
+            c_names[name], angles[name] = c_name, doc
+    return tuple(names), c_names, angles
+
+
+def families() -> List[str]:
+    """The float families: the public modules of imufuse.reference (fixed_* aside) that
+    declare filter classes, sorted by name."""
+    out = []
+    for p in sorted(os.listdir(REFERENCE)):
+        family, ext = os.path.splitext(p)
+        if ext == ".py" and not family.startswith(("_", "fixed_")) and twin(family)[0]:
+            out.append(family)
+    return out
 
 
 def _decl(proto_text: str) -> str:
@@ -220,16 +234,17 @@ def _bind_filter(cp, name: str, c: str, text: str, rel_h: str, fixed: bool,
     return "".join(body)
 
 
-def _bindings(families: List[str], declares: str, fixed: bool) -> str:
+def _bindings(families: List[str], fixed: bool) -> str:
     cp = _cproto()
     out: List[str] = []
     classes: List[str] = []
     for family in families:
         if not fixed and not os.path.isfile(os.path.join(CSRC, family + ".h")):
             raise BindError(f"reference/{family}.py declares filters but csrc/{family}.h does not exist")
-        names, c_names, angles = twin(family, declares)
+        names, c_names, angles = twin(family)
         if not names:
-            raise BindError(f"reference/{family}.py declares no {declares}")
+            raise BindError(f"reference/{family}.py declares no filter class (a public class "
+                            "with a c_name)")
         by_header: Dict[str, List[str]] = {}
         for name in names:
             header = os.path.join(CSRC, family + ".h") if not fixed else _header_of(c_names[name], True)
@@ -247,20 +262,20 @@ def _bindings(families: List[str], declares: str, fixed: bool) -> str:
 
 
 def family_pxi(family: str) -> str:
-    """The binding of reference/<family>.py's FILTERS against csrc/<family>.h."""
+    """The binding of reference/<family>.py's filter classes against csrc/<family>.h."""
     return (f"{MARK} from csrc/{family}.h and imufuse.reference.{family}: do not edit."
-            + _bindings([family], "FILTERS", False))
+            + _bindings([family], False))
 
 
 def fixed_pxi() -> str:
-    """The binding of every FILTERS_FIXED class of reference/fixed_*.py (one file,
+    """The binding of every fixed-point class of reference/fixed_*.py (one file,
     fixed_filters.pxi, included by _fixed.pyx), each against the csrc/fixed header that
     declares its init."""
     families = sorted(os.path.splitext(p)[0] for p in os.listdir(REFERENCE)
-                      if p.startswith("fixed_") and p.endswith(".py") and p != "fixed_base.py")
-    families = [f for f in families if twin(f, "FILTERS_FIXED")[0]]
-    return (f"{MARK} from csrc/fixed/*.h and the FILTERS_FIXED of imufuse.reference: "
-            "do not edit." + _bindings(families, "FILTERS_FIXED", True))
+                      if p.startswith("fixed_") and p.endswith(".py"))
+    families = [f for f in families if twin(f)[0]]
+    return (f"{MARK} from csrc/fixed/*.h and the fixed-point classes of imufuse.reference: "
+            "do not edit." + _bindings(families, True))
 
 
 def handwritten(family: str) -> Optional[str]:

@@ -31,15 +31,16 @@ The entry itself adds what only a user of the filter needs:
                 required for every float and Fusion entry
                 (tests/test_hostile.py runs it)
 
+A filter is declared once: its twin class (a public class with a C prefix c_name in
+a module of imufuse.reference, which collects it) and its Entry in CATALOGUE below,
+whose section (float, fixed, fusion, vario: Entry.section) follows from the class.
 The Cython binding of the classes of reference/<family>.py is generated at every
-build by tools/bindgen.py from csrc/<family>.h and the twin's declaration (FILTERS,
-c_name, angles()); setup.py includes one for every reference module that declares
-FILTERS, FILTERS_FUSION or FILTERS_VARIO (Entry.binding).
+build by tools/bindgen.py from csrc/<family>.h and the twin (Entry.binding).
 
-A new float filter is its C pair, its reference module and one Entry in FLOAT
-below (docs/adding-a-filter.md); tests/test_catalogue.py fails until every
-harness finds it. FUSION and VARIO hold the filters with an
-API of their own (their own harness sections, see below).
+A new float filter is its C pair, its reference module and one Entry in CATALOGUE
+(docs/adding-a-filter.md); tests/test_catalogue.py fails until every harness finds
+it. The sections FUSION and VARIO hold the filters with an API of their own (their
+own harnesses, see below).
 """
 from __future__ import annotations
 
@@ -55,7 +56,7 @@ from . import reference
 from ._checks import KINDS, check_dtype
 from .estimate import ADAPTERS, Estimate
 
-__all__ = ["Entry", "FilterError", "FLOAT", "FIXED", "FUSION", "FILTERS_FUSION", "VARIO", "FILTERS_VARIO",
+__all__ = ["Entry", "FilterError", "CATALOGUE", "FLOAT", "FIXED", "FUSION", "FILTERS_FUSION", "VARIO", "FILTERS_VARIO",
            "ENTRIES", "ALL_ENTRIES", "FILTERS", "FILTERS_FIXED",
            "entry", "filter_names", "reference_class", "compiled_class", "param_names",
            "resolve_params", "make_filter", "estimate", "why_no_estimate", "inputs_for", "KINDS"]
@@ -72,7 +73,6 @@ class Entry:
     defaults: Mapping[str, Any] = field(default_factory=dict)
     alternatives: Tuple[FrozenSet[str], ...] = ()
     estimate: Optional[str] = None
-    fixed: bool = False
     recovery: Optional[_recovery.Budget] = None
     presets: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
 
@@ -84,6 +84,15 @@ class Entry:
     @property
     def compiled(self) -> Any:
         return getattr(compiled, self.name)
+
+    @property
+    def section(self) -> str:
+        """"float", "fixed", "fusion" or "vario": what the class is (reference.section)."""
+        return str(reference.section(self.reference))
+
+    @property
+    def fixed(self) -> bool:
+        return self.section == "fixed"
 
     @property
     def kind(self) -> str:
@@ -168,7 +177,11 @@ _LINEAR = _recovery.linear   # the single-axis filters: linear, budget from the 
 # gyro bias but winds up during long accelerations, so it stays the user's choice.
 _MAHONY = dict(kp=0.5, ki=0.0)
 _PUBLISHED_MAHONY = {"published": _MAHONY}
-FLOAT: Tuple[Entry, ...] = (
+_GYR = 1.0642e-3   # rad/s per count: a 16-bit gyroscope at 2000 deg/s
+# Every filter, once; the sections (FLOAT, FIXED, FUSION, VARIO below) follow from each
+# class (imufuse.reference.section).
+CATALOGUE: Tuple[Entry, ...] = (
+    # ---- float filters
     # chapter 2: single axis, Eq. 2.2, 2.5, 2.8
     Entry("Complementary1D", dict(T=0.5), _alt({"alpha", "T"}), estimate="angle", recovery=_LINEAR),
     Entry("Kalman1D", dict(k0=0.01), estimate="angle", recovery=_LINEAR),
@@ -198,50 +211,46 @@ FLOAT: Tuple[Entry, ...] = (
     # imufuse's recommended AHRS (docs/recommended-ahrs.md): its defaults are its own
     Entry("RobustIMU", estimate="quaternion", recovery=_recovery.robust),
     Entry("RobustAHRS", estimate="quaternion", recovery=_recovery.robust),
-)
-
-# Fixed point (csrc/fixed): the float twin's keywords plus the sensor scales
-# and profile; the defaults are those of a 16-bit MEMS IMU (2000 deg/s, 8 g).
-_GYR = 1.0642e-3   # rad/s per count
-FIXED: Tuple[Entry, ...] = (
+    # ---- fixed point (csrc/fixed): the float twin's keywords plus the sensor scales
+    # and profile; the defaults are those of a 16-bit MEMS IMU (2000 deg/s, 8 g, _GYR below)
     Entry("Complementary1DQ", dict(T=0.5, gyr_scale=_GYR, angle_scale=1e-4),
-          _alt({"alpha", "T"}), estimate="angle", fixed=True),
+          _alt({"alpha", "T"}), estimate="angle"),
     Entry("Mahony1DBiasQ", dict(kp=2.0, ki=0.3, gyr_scale=_GYR, angle_scale=1e-4),
-          estimate="angle", fixed=True),
-    Entry("KKQ", dict(kp=0.01, gyr_scale=_GYR), estimate="euler", fixed=True),
-    Entry("MultiWiiQ", dict(acc_1g=4096, gyr_scale=_GYR), estimate="gravity", fixed=True),
-    Entry("MahonyIMUQ", dict(kp=1.0, ki=0.05, gyr_scale=_GYR), estimate="quaternion", fixed=True),
-    Entry("MadgwickIMUQ", dict(gyr_scale=_GYR), estimate="quaternion", fixed=True),
-)
-
-# The Fusion suite (Longbin's Fusion walkthrough; imufusion 1.2.3): its own API, so apart from FLOAT.
-# The generic harnesses construct a filter with dt at init and feed rad/s through
-# update(gyr, acc[, mag]); FusionAHRS takes Fusion's units (deg/s, g), dt with every
-# update and three update forms, FusionOffset returns the corrected gyroscope.
-# tests/test_fusion.py and tests/test_fusion_oracle.py drive them; the command line
-# runs FusionAHRS through imufuse.preprocess.
-FUSION: Tuple[Entry, ...] = (
+          estimate="angle"),
+    Entry("KKQ", dict(kp=0.01, gyr_scale=_GYR), estimate="euler"),
+    Entry("MultiWiiQ", dict(acc_1g=4096, gyr_scale=_GYR), estimate="gravity"),
+    Entry("MahonyIMUQ", dict(kp=1.0, ki=0.05, gyr_scale=_GYR), estimate="quaternion"),
+    Entry("MadgwickIMUQ", dict(gyr_scale=_GYR), estimate="quaternion"),
+    # ---- the Fusion suite (Longbin's Fusion walkthrough; imufusion 1.2.3): its own API.
+    # The generic harnesses construct a filter with dt at init and feed rad/s through
+    # update(gyr, acc[, mag]); FusionAHRS takes Fusion's units (deg/s, g), dt with every
+    # update and three update forms, FusionOffset returns the corrected gyroscope.
+    # tests/test_fusion.py and tests/test_fusion_oracle.py drive them; the command line
+    # runs FusionAHRS through imufuse.preprocess.
     Entry("FusionAHRS", dict(convention="NWU", gain=0.5, gyroscope_range=0.0,
                              acceleration_rejection=90.0, magnetic_rejection=90.0,
                              recovery_trigger_period=0), estimate="quaternion",
           recovery=_recovery.fusion_ahrs),
     Entry("FusionOffset", dict(sample_rate=100), recovery=_recovery.fusion_offset),
-)
-#: the Fusion suite's classes
-FILTERS_FUSION: Tuple[str, ...] = tuple(e.name for e in FUSION)
-
-# Nair's variometer: update(accel, baro_alt, dt), its own input kind ("vario"),
-# no attitude. tests/test_vario.py drives it (C vs twin, hostile input, Nair's
-# claims), the MCU runner runs it, bench/test_bench_vario.py times it.
-VARIO: Tuple[Entry, ...] = (
+    # ---- Nair's variometer: update(accel, baro_alt, dt), its own input kind ("vario"),
+    # no attitude. tests/test_vario.py drives it (C vs twin, hostile input, Nair's
+    # claims), the MCU runner runs it, bench/test_bench_vario.py times it.
     Entry("VarioKF"),
 )
+
+#: the sections: the generic float harnesses, fixed point, the Fusion suite, the variometer
+FLOAT: Tuple[Entry, ...] = tuple(e for e in CATALOGUE if e.section == "float")
+FIXED: Tuple[Entry, ...] = tuple(e for e in CATALOGUE if e.section == "fixed")
+FUSION: Tuple[Entry, ...] = tuple(e for e in CATALOGUE if e.section == "fusion")
+VARIO: Tuple[Entry, ...] = tuple(e for e in CATALOGUE if e.section == "vario")
+#: the Fusion suite's classes
+FILTERS_FUSION: Tuple[str, ...] = tuple(e.name for e in FUSION)
 #: the variometer's classes
 FILTERS_VARIO: Tuple[str, ...] = tuple(e.name for e in VARIO)
 
 ENTRIES: Dict[str, Entry] = {e.name: e for e in (*FLOAT, *FIXED)}
 #: every entry of every section (the Fusion suite and the variometer included)
-ALL_ENTRIES: Dict[str, Entry] = {e.name: e for e in (*FLOAT, *FIXED, *FUSION, *VARIO)}
+ALL_ENTRIES: Dict[str, Entry] = {e.name: e for e in CATALOGUE}
 #: every float filter, in catalogue order (imufuse_c and imufuse.reference export them)
 FILTERS: Tuple[str, ...] = tuple(e.name for e in FLOAT)
 #: every fixed-point filter

@@ -6,8 +6,6 @@ from .. import _checks
 from ._base import ReferenceFilter, integral_problem, isfinite
 from .mahony2d import _check_gains, sqrt_r, tilt_angles
 
-FILTERS = ("DCM",)
-
 _NAMES = ("r00", "r01", "r02", "r10", "r11", "r12", "r20", "r21", "r22", "ix", "iy", "iz")
 
 

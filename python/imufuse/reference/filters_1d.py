@@ -8,9 +8,6 @@ import math
 from .. import _checks
 from ._base import ReferenceFilter, isfinite
 
-FILTERS = ("Complementary1D", "Kalman1D", "Mahony1D",
-           "Kalman1DBias", "Mahony1DBias", "Complementary1DBias")
-
 
 def _stable_gain_dt(name, k, dt):
     """P gain of Eq. 2.9: alpha = 1 - k dt must satisfy |alpha| < 1 (k = 0: pure gyro)."""

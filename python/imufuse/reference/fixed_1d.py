@@ -28,8 +28,6 @@ def _kp_ki(dt, kp, ki):
         qconst("ki*dt^2", ki * dt * dt, 23, 55)
 
 
-FILTERS_FIXED = ('Complementary1DQ', 'Mahony1DBiasQ')
-
 class Complementary1DQ(FixedFilter):
     """Complementary filter, Eq. 2.2, in fixed point.
 

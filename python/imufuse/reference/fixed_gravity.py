@@ -12,8 +12,6 @@ from .kk import KK
 from .multiwii import MultiWii
 
 
-FILTERS_FIXED = ('KKQ', 'MultiWiiQ')
-
 def _q15(t):
     """imf_kk_q_q15: the state rounded to q15, imf_qn_to_q15s(t, 28)."""
     return ci.qn_to_q15s(t, 28)

@@ -23,8 +23,6 @@ def _bitlen32(v):
     return n
 
 
-FILTERS_FIXED = ('MadgwickIMUQ',)
-
 class MadgwickIMUQ(FixedFilter):
     """Madgwick's 6DOF IMU filter (appendix, simplified delta-s), fixed point.
 

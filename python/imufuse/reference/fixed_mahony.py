@@ -8,8 +8,6 @@ from . import fixed_quat as fq
 from .fixed_base import FixedFilter, check_profile, check_scale, qconst
 
 
-FILTERS_FIXED = ('MahonyIMUQ',)
-
 
 def carry_i(t, c, i):
     """imf_mahony_imu_q_carry_i: t + c[i] in q46 -> q38 (floor), the low 8 bits kept in c[i]."""

@@ -20,8 +20,6 @@ import numpy as np
 
 from .. import _checks, _fusion
 
-FILTERS_FUSION = ("FusionAHRS", "FusionOffset")
-
 NWU, ENU, NED = 0, 1, 2
 INVSQRT_EXACT, INVSQRT_FAST = 0, 1
 

@@ -6,8 +6,6 @@ from .. import _checks
 from ._base import ReferenceFilter, isfinite
 from .mahony2d import sqrt_r
 
-FILTERS = ("KK",)
-
 
 class KK(ReferenceFilter):
     """Linear small-angle filter, appendix "KK" / Eq. 4.5 with a P controller:

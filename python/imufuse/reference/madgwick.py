@@ -9,8 +9,6 @@ from .. import _checks
 from . import _gate, _math
 from ._base import QUAT_NORM2_TOL, ReferenceFilter, isfinite
 
-FILTERS = ("MadgwickIMU", "MadgwickAHRS")
-
 DELTA_S = {"full": 0, "simplified": 1}
 DS_FULL, DS_SIMPLIFIED = 0, 1
 

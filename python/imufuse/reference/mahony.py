@@ -12,8 +12,6 @@ from .. import _checks
 from . import _gate, _math
 from ._base import QUAT_NORM2_TOL, ReferenceFilter, integral_problem, isfinite
 
-FILTERS = ("MahonyIMU", "MahonyAHRS")
-
 
 def check_mahony_gains(dt, kp, ki):
     """Stable range (docs/robustness.md). Near the attitude the accelerometer

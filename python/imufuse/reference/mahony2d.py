@@ -12,8 +12,6 @@ from .. import _checks
 from . import _math
 from ._base import ReferenceFilter, isfinite
 
-FILTERS = ("Mahony2D",)
-
 
 def sqrt_r(R, x):
     """imf_sqrt on type R: sqrt (double) or sqrtf (float32; the double square

@@ -51,8 +51,6 @@ from . import _math
 from ._base import ReferenceFilter, isfinite
 from .mahony2d import tilt_angles
 
-FILTERS = ("MultiWii",)
-
 
 class MultiWii(ReferenceFilter):
     """MultiWii 2.2 gravity-vector complementary filter (article appendix).

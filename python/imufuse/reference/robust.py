@@ -21,8 +21,6 @@ from ._base import QUAT_NORM2_TOL, ReferenceFilter, isfinite
 from ._math import qmul as _qmul
 from ._math import qrotate as _rotate
 
-FILTERS = ("RobustIMU", "RobustAHRS")
-
 #: the largest finite number of each precision (IMF_REAL_MAX)
 _REAL_MAX = {"float32": 3.4028234663852886e38, "float64": 1.7976931348623157e308}
 

@@ -14,8 +14,6 @@ from .. import _checks
 from ._base import ReferenceFilter, isfinite
 
 #: its own input kind (accel, baro_alt, dt): not in FILTERS, the IMU/1-D matrix
-FILTERS_VARIO = ("VarioKF",)
-
 PREDICT = {"seed": 0, "model": 1}
 PREDICT_SEED, PREDICT_MODEL = 0, 1
 
