@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import imufuse_c
-from imufuse import sim_disturb
+from imufuse.sim import disturb as sim_disturb
 
 N = 200_000
 

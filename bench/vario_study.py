@@ -1,4 +1,4 @@
-"""Nair's claims, measured on simulated flights (imufuse.sim_flight).
+"""Nair's claims, measured on simulated flights (imufuse.sim.flight).
 
 Each study returns plain numbers; tests/test_vario_claims.py asserts them
 and ``python bench/vario_study.py`` prints the tables of docs/vario.md.
@@ -15,7 +15,7 @@ import numpy as np
 
 import imufuse_c
 
-from imufuse import sim_flight as sf
+from imufuse.sim import flight as sf
 from imufuse import vario as V
 from imufuse.rotations import quat_rotate, tilt_error
 

@@ -12,7 +12,7 @@ import pytest
 
 import imufuse
 import imufuse_c
-from imufuse import calibrate as cal
+from imufuse.calibration import fit as cal
 from imufuse import sim
 from imufuse.rotations import euler_to_quat, quat_rotate_inv
 

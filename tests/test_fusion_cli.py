@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import imufuse_c
-from imufuse import calibration_models as cm
+from imufuse.calibration import models as cm
 from imufuse import cli, io
 from imufuse import reference as ref
 
@@ -199,9 +199,10 @@ def test_fusion_names_in_other_commands(log_path, tmp_path, capsys):
 
 
 def test_calibration_file_from_imufuse_calibrate(tmp_path, log_path):
-    """The file imufuse.calibrate writes is the one --calibration reads, in the
+    """The file imufuse.calibration.log writes is the one --calibration reads, in the
     same units: a gyroscope offset estimated on a still log removes the bias."""
-    from imufuse import calibrate, preprocess
+    from imufuse import preprocess
+    from imufuse.calibration import log as calibrate
     n = 3000
     g = np.random.default_rng(5)
     bias = np.array([0.01, -0.02, 0.015])                       # rad/s

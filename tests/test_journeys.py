@@ -19,7 +19,7 @@ import pytest
 
 import imufuse_c
 from broad_data import BROAD, SKIP_REASON
-from imufuse import calibrate
+from imufuse.calibration import fit as calibrate
 from imufuse.evaluation import estimate_latency, evaluate
 from imufuse.io import example_log
 

@@ -1,7 +1,7 @@
 """imufuse.evaluation.estimate_latency and `imufuse latency`: the delay of a gyroscope behind
 a reference orientation, which RobustIMU's / RobustAHRS's `latency` compensates.
 
-The simulated sensor (imufuse.sim_disturb) integrates exactly as the filters do, so its
+The simulated sensor (imufuse.sim.disturb) integrates exactly as the filters do, so its
 delay is 0; delaying its gyro by a known amount must give that amount back. On the BROAD
 development trials (when present) the delay is the one docs/recommended-ahrs.md states."""
 import glob
@@ -13,7 +13,7 @@ import pytest
 
 import imufuse_c
 from imufuse import cli
-from imufuse import sim_disturb as sd
+from imufuse.sim import disturb as sd
 from imufuse.evaluation import estimate_latency
 from imufuse.rotations import quat_conj, quat_mul
 from broad_data import BROAD, SKIP_REASON

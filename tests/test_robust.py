@@ -4,7 +4,7 @@
    scenarios (every branch: rest, start-up, disturbance, re-learning), fixed and
    per-sample dt, both precisions.
 2. Each building block does its job on the scenario made for it, with stated bounds
-   (imufuse.sim_disturb; errors as in BROAD, degrees, over the samples after the rest).
+   (imufuse.sim.disturb; errors as in BROAD, degrees, over the samples after the rest).
 3. Long rest, hostile input, parameters.
 4. On the BROAD development trials (when present): the accuracy documented.
 """
@@ -17,7 +17,7 @@ import pytest
 import imufuse_c
 from imufuse import reference, rotations
 from bits import assert_same_bits
-from imufuse import sim_disturb as sd
+from imufuse.sim import disturb as sd
 from broad_data import BROAD, SKIP_REASON
 
 NAMES = imufuse_c.RobustAHRS(0.01).state_names

@@ -1,4 +1,4 @@
-"""The flight simulator of Nair (2016) (imufuse.sim_flight) and the standard
+"""The flight simulator of Nair (2016) (imufuse.sim.flight) and the standard
 atmosphere: the ground truth is self-consistent and the sensors have the
 stated errors."""
 import math
@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from imufuse import sim_flight as sf
+from imufuse.sim import flight as sf
 from imufuse import vario
 from imufuse.rotations import quat_from_rotvec, quat_mul, quat_rotate, quat_angle_error
 

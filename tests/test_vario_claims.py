@@ -10,7 +10,7 @@ import pytest
 
 import imufuse
 import imufuse_c
-from imufuse import sim_flight as sf
+from imufuse.sim import flight as sf
 import vario_study as study
 
 PATHS = [os.path.dirname(os.path.dirname(imufuse.__file__)),

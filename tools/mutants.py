@@ -144,7 +144,7 @@ MUTANTS: List[Mutant] = [
            "            late = log.t >= log.t[0]",
            ("tests/test_cli_hostile.py::test_skip_leaves_the_start_out_of_the_errors",),
            "session: --skip ignored"),
-    Mutant("io-acc-unit", "python/imufuse/io.py",
+    Mutant("io-acc-unit", "python/imufuse/io/log.py",
            'ACC_UNITS = {"g": 1.0, "m/s2": 1.0 / GRAVITY, "m/s^2": 1.0 / GRAVITY}',
            'ACC_UNITS = {"g": 1.0, "m/s2": 1.0 / GRAVITY, "m/s^2": 1.0}',
            ("tests/test_journeys.py", "tests/test_broad_hdf5.py", "tests/test_reallogs.py"),

@@ -4,7 +4,7 @@ walks through them), applied by imufuse.session.
 
 Options (imufuse run / compare), applied in this order:
   --calibration FILE.json  the sensor models i_c = M s (i_u - b), m_c = S (m_u - h)
-                           (imufuse.calibration_models, written by `imufuse calibrate`),
+                           (imufuse.calibration.models, written by `imufuse calibrate`),
                            in the sensor's own axes and in the units imufuse reads the
                            log in: gyroscope b in rad/s, accelerometer b in g;
   --align ALIGNMENT        signed axis permutation, e.g. "+X-Z+Y": body x = +sensor x,
@@ -20,7 +20,7 @@ import imufuse_c
 
 from . import io
 from ._fusion import parse_alignment
-from .calibration_models import load_calibration
+from .calibration.models import load_calibration
 from .reference import fusion
 
 
@@ -48,7 +48,7 @@ def apply(log, *, calibration=None, align=None, offset=False, backend="c"):
     data = {s: _sensor(log, cols[s]) for s, ok in have.items() if ok}
     if cal_path:
         # in the units imufuse reads the log in (gyroscope rad/s, accelerometer g), as
-        # imufuse.calibrate writes the file
+        # imufuse.calibration.log writes the file
         cal = load_calibration(cal_path)
         for sensor in data:
             if getattr(cal, sensor) is not None:

@@ -1,9 +1,10 @@
 """`imufuse vario` and `imufuse calibrate`: the variometer and the sensor calibrations of
 Hari Nair, "IMU modules, AHRS and a Kalman filter for sensor fusion" (2016). The work is
-done in imufuse.vario and imufuse.calibrate, which read logs through imufuse.session."""
+done in imufuse.vario and imufuse.calibration, which read logs through imufuse.session."""
 import os
 
-from .. import calibrate, plots, vario
+from .. import plots, vario
+from ..calibration import log as calibration_log
 from .._atomic import check_outputs
 from .common import EXIT_OK, column_map, err, pairs, strict_option, unit_options
 
@@ -36,14 +37,14 @@ def _vario(args):
 
 def _calibrate(args):
     check_outputs([args.log, args.column_map], [("-o", args.output)])
-    res = calibrate.run_log(args.sensor, args.log, args.output, gyr_unit=args.gyr_unit,
+    res = calibration_log.run_log(args.sensor, args.log, args.output, gyr_unit=args.gyr_unit,
                             acc_unit=args.acc_unit, ranges=args.ranges,
                             threshold=args.threshold, method=args.method,
                             longest_still=args.longest_still, columns=column_map(args),
                             strict=args.strict)
     for note in res.notes:
         err(f"note: {note}")
-    print(calibrate.describe(args.sensor, res))
+    print(calibration_log.describe(args.sensor, res))
     print(f"-> {args.output}")
     return EXIT_OK
 

@@ -34,7 +34,8 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 import numpy as np
 
 from .. import reference as _reference
-from .. import sim, sim_flight
+from .. import sim
+from ..sim import flight as sim_flight
 from .._checks import KINDS
 from .._resources import csrc_dir
 from ..cproto import CParam, PrototypeError, find_prototype, init_params, strip_comments

@@ -35,10 +35,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .rotations import euler_to_quat, matrix_to_quat, quat_conj, quat_mul, quat_rotate_inv, \
+from ..rotations import euler_to_quat, matrix_to_quat, quat_conj, quat_mul, quat_rotate_inv, \
     quat_to_rotvec
-from .sim import GRAVITY, mag_earth
-from .vario import P_REF, altitude_to_pressure, pressure_to_altitude
+from ..vario import P_REF, altitude_to_pressure, pressure_to_altitude
+from .common import GRAVITY
+from .sensors import mag_earth
 
 __all__ = ["Phase", "Flight", "flight", "random_phases", "thermal_entry", "turning_thermal"]
 

@@ -19,8 +19,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .rotations import quat_conj, quat_mul, quat_rotate, quat_rotate_inv
-from .sim import integrate
+from ..rotations import quat_conj, quat_mul, quat_rotate, quat_rotate_inv
+from .motion import integrate
 
 __all__ = ["SCENARIOS", "Scenario", "scenario", "errors", "GRAVITY_MS2", "FIELD_UT",
            "DIP_DEG"]

@@ -10,7 +10,7 @@ Inertial model  i_c = M s (i_u - b)   (M misalignment, s sensitivity, b offset)
 Magnetic model  m_c = S (m_u - h)     (S soft-iron matrix, h hard-iron offset)
 
 Units: those in which imufuse reads a log (imufuse.io, after --gyr-unit and
---acc-unit), as `imufuse calibrate` (imufuse.calibrate) writes the file:
+--acc-unit), as `imufuse calibrate` (imufuse.calibration.log) writes the file:
 gyroscope b in rad/s, accelerometer b in g, magnetometer h in the
 magnetometer's unit; M, s and S are dimensionless. (The models are linear: a
 caller working in Fusion's deg/s converts b by 180/pi.) The models are
@@ -25,7 +25,7 @@ import numpy as np
 
 import imufuse_c
 
-from .reference import fusion
+from ..reference import fusion
 
 SENSORS = {"gyroscope": ("M", "s", "b"), "accelerometer": ("M", "s", "b"),
            "magnetometer": ("S", "h")}

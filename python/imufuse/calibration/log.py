@@ -1,0 +1,105 @@
+"""`imufuse calibrate` over a log: read the log through imufuse.session (recognised
+headers, units; no time column needed), fit one sensor (imufuse.calibration.fit), merge the
+result into the calibration file (`save`) and describe it in one line (`describe`).
+
+The file format (`imufuse calibrate ... -o calib.json`, read by `imufuse run
+--calibration` through imufuse.calibration.models):
+
+    {"gyroscope": {"M": 3x3, "s": [3], "b": [3]},
+     "accelerometer": {"M": 3x3, "s": [3], "b": [3]},
+     "magnetometer": {"S": 3x3, "h": [3]}}        every key optional
+"""
+import json
+import os
+from dataclasses import replace
+
+import numpy as np
+
+from .._atomic import replacing
+from ..io import LogError, require
+from ..session import ReadOptions, Session
+from .fit import accel_six_position, gyro_offset, mag_ellipsoid, mag_minmax
+
+__all__ = ["save", "run_log", "describe", "SECTIONS"]
+
+#: JSON section of each sensor
+SECTIONS = {"gyro": "gyroscope", "accel": "accelerometer", "mag": "magnetometer"}
+
+
+def save(path, cal):
+    """Write (or merge into an existing) calibration file."""
+    data = {}
+    if os.path.exists(path):
+        with open(path) as fh:
+            try:
+                data = json.load(fh)
+            except json.JSONDecodeError as e:
+                raise ValueError(f"{path}: not a calibration file ({e})") from None
+        if not isinstance(data, dict):
+            raise ValueError(f"{path}: not a calibration file (expected a JSON object)")
+    section = cal.as_json()
+    if not all(np.all(np.isfinite(np.asarray(v, dtype=float))) for v in cal.params.values()):
+        raise ValueError(f"{path}: the {cal.sensor} calibration is not finite "
+                         f"({cal.params}); nothing written")
+    data[SECTIONS[cal.sensor]] = section
+    with replacing(path) as tmp, open(tmp, "w") as fh:
+        json.dump(data, fh, indent=2)
+        fh.write("\n")
+    return data
+
+
+def run_log(sensor, path, output, gyr_unit=None, ranges=None, threshold=None,
+            method="ellipsoid", longest_still=False, *, acc_unit=None, columns=None,
+            strict=False):
+    """`imufuse calibrate gyro|accel|mag LOG -o calib.json`. The log is read as every
+    imufuse command reads it (imufuse.session: recognised headers, units from the header or
+    gyr_unit/acc_unit, `columns` {name: header}); no time column is needed. The file holds
+    the gyroscope in rad/s and the accelerometer in g, the units imufuse reads logs in
+    (imufuse.preprocess applies it to logs read the same way); the magnetometer in the
+    log's unit."""
+    if sensor not in SECTIONS:
+        raise ValueError(f"sensor: must be one of {', '.join(SECTIONS)}, got {sensor!r}")
+    prefix = {"gyro": "gyr", "accel": "acc", "mag": "mag"}[sensor]
+    names = [f"{prefix}_{c}" for c in "xyz"]
+    s = Session(path, ReadOptions(gyr_unit=gyr_unit, acc_unit=acc_unit,
+                                  columns=dict(columns or {}), strict=strict, need_time=False))
+    require(s.log, names)
+    x = np.array(s.log.vec(names))
+    notes = list(s.notes)
+    rng = None
+    if sensor == "accel" and ranges:
+        try:
+            rng = [tuple(int(v) for v in r.split(":")) for r in ranges.split(",")]
+        except ValueError:
+            raise ValueError(f"--ranges: expected A:B,C:D,..., got {ranges!r}") from None
+    try:
+        if sensor == "gyro":
+            kw = {} if threshold is None else dict(threshold=threshold)
+            cal = gyro_offset(x, restart=longest_still, **kw)
+        elif sensor == "accel":
+            cal = accel_six_position(x, rng, threshold=threshold)
+        else:
+            cal = (mag_ellipsoid if method == "ellipsoid" else mag_minmax)(x)
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError) as e:
+        # the recording cannot give a calibration: bad data (exit 4), not a bad command line
+        raise LogError(f"{path}: {e}") from None
+    cal = replace(cal, notes=tuple(notes))
+    save(output, cal)
+    return cal
+
+
+def describe(sensor, cal):
+    p, f = cal.params, cal.figures
+    np.set_printoptions(precision=5, suppress=True)
+    if sensor == "gyro":
+        return (f"gyroscope offset b = {np.asarray(p['b'])} rad/s "
+                f"({np.degrees(np.asarray(p['b']))} deg/s) from samples "
+                f"{f['samples'][0]}..{f['samples'][1] - 1} (noise {np.asarray(f['noise'])} "
+                f"rad/s)")
+    if sensor == "accel":
+        return (f"accelerometer: offset b = {np.asarray(p['b'])} (the log's unit), sensitivity "
+                f"{np.asarray(f['sensitivity'])} per g; worst |a| error at the six "
+                f"positions {f['magnitude_error']:.2g} g")
+    return (f"magnetometer: hard iron h = {np.asarray(p['h'])} (the log's unit), soft iron S =\n"
+            f"{np.asarray(p['S'])}\nfield strength {f['field']:.5g}, residual "
+            f"{f['residual']:.3g} ({100 * f['residual'] / f['field']:.2f} % of the field)")

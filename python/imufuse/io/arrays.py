@@ -1,0 +1,103 @@
+"""Logs held as arrays: NPZ and HDF5 files in the layout of the BROAD dataset (gyr, acc,
+mag, quat_ref, movement, rate; BROAD's HDF5 names imu_gyr, imu_acc, imu_mag, opt_quat,
+sampling_rate), read into the columns of a Log (h5py is needed for HDF5)."""
+import math
+import os
+
+import numpy as np
+
+from .log import ACC, GYR, MAG, QUAT, LogError
+
+
+def _first(z, *keys):
+    for k in keys:
+        if k in z:
+            return np.asarray(z[k])
+    return None
+
+
+#: the arrays (and rate keys) a log in the BROAD layout may hold
+_ARRAY_KEYS = ("gyr", "imu_gyr", "acc", "imu_acc", "mag", "imu_mag", "quat_ref", "opt_quat",
+               "q_ref", "movement", "time", "t", "rate", "sampling_rate")
+
+
+def _read_arrays(path):
+    """NPZ or HDF5 in the BROAD layout -> (columns, header, sources, rate)."""
+    ext = os.path.splitext(path)[1].lower()
+    if ext == ".npz":
+        try:
+            z = dict(np.load(path, allow_pickle=False))
+        except Exception as e:     # a damaged archive raises many kinds of error
+            raise LogError(f"{path}: not a readable NPZ archive: {e}") from None
+    else:
+        try:
+            import h5py
+        except ImportError:
+            raise LogError(f"{path}: HDF5 logs need h5py: pip install 'imufuse[hdf5]'",
+                           "file") from None
+        try:
+            with h5py.File(path, "r") as f:
+                # only the datasets a log uses (a file may hold others, of any size), and the
+                # file's attributes: BROAD as published states its rate as `sampling_rate`
+                z = {}
+                for k in _ARRAY_KEYS:
+                    try:
+                        if k in f and isinstance(f[k], h5py.Dataset):
+                            z[k] = np.asarray(f[k])
+                    except Exception as e:  # noqa: BLE001 - a link to a missing file, a null
+                        # dataspace, a damaged dataset: h5py raises many kinds of error
+                        raise LogError(f"{path}: dataset {k!r} cannot be read: "
+                                       f"{type(e).__name__}: {e}") from None
+                for k in ("rate", "sampling_rate"):
+                    if k not in z and k in f.attrs:
+                        z[k] = np.asarray(f.attrs[k])
+                keys_in_file = sorted(f.keys())
+        except LogError:
+            raise
+        except Exception as e:  # noqa: BLE001 - not HDF5, or damaged
+            raise LogError(f"{path}: not a readable HDF5 file: {e}") from None
+        if not {"gyr", "imu_gyr"} & set(z) or not {"acc", "imu_acc"} & set(z):
+            raise LogError(f"{path}: expected arrays gyr and acc (N, 3) (BROAD layout: imu_gyr, "
+                           f"imu_acc, imu_mag, opt_quat, movement, attribute sampling_rate); "
+                           f"found {', '.join(keys_in_file) or 'none'}")
+    keys = sorted(z)
+    parts = {"gyr": _first(z, "gyr", "imu_gyr"), "acc": _first(z, "acc", "imu_acc"),
+             "mag": _first(z, "mag", "imu_mag"), "quat": _first(z, "quat_ref", "opt_quat", "q_ref"),
+             "movement": _first(z, "movement"), "time": _first(z, "time", "t"),
+             "rate": _first(z, "rate", "sampling_rate")}
+    if parts["gyr"] is None or parts["acc"] is None:
+        raise LogError(f"{path}: expected arrays gyr and acc (N, 3) (BROAD layout: gyr, acc, mag, "
+                       f"quat_ref, movement, rate); found {', '.join(keys) or 'none'}")
+    for kind, a in parts.items():
+        if a is not None and a.dtype.kind not in "biuf":
+            raise LogError(f"{path}: array {kind} holds {a.dtype} values; expected numbers")
+    if parts["gyr"].ndim != 2:
+        raise LogError(f"{path}: array gyr has shape {parts['gyr'].shape}; expected (N, 3)")
+    n = len(parts["gyr"])
+    cols, sources = {}, {}
+    for kind, names, width in (("gyr", GYR, 3), ("acc", ACC, 3), ("mag", MAG, 3),
+                               ("quat", QUAT, 4)):
+        a = parts[kind]
+        if a is None:
+            continue
+        if a.ndim != 2 or a.shape != (n, width):
+            raise LogError(f"{path}: array {kind} has shape {a.shape}; expected ({n}, {width})")
+        for j, c in enumerate(names):
+            cols[c] = np.ascontiguousarray(a[:, j], dtype=np.float64)
+            sources[c] = f"{kind} column {j}"
+    for kind in ("movement", "time"):
+        a = parts[kind]
+        if a is not None:
+            if a.shape != (n,):
+                raise LogError(f"{path}: array {kind} has shape {a.shape}; expected ({n},)")
+            cols[kind] = a.astype(np.float64)
+            sources[kind] = kind
+    rate = parts["rate"]
+    if rate is not None:
+        if rate.size != 1:
+            raise LogError(f"{path}: rate has {rate.size} values (shape {rate.shape}); expected "
+                           "one sample rate in Hz")
+        rate = float(rate.reshape(-1)[0])
+        if not (math.isfinite(rate) and rate > 0 and math.isfinite(1.0 / rate)):
+            raise LogError(f"{path}: rate is {rate!r}; expected a finite sample rate > 0 Hz")
+    return cols, keys, sources, rate
