@@ -5,9 +5,18 @@ firmware and MCU harnesses and the tests.
   ulps(a, b)                  distance in units in the last place
   compare_states(got, want)   a Comparison: bit-exact or where and by how much not
   first_difference(got, want) None, or a one-line message naming the first difference
+
+and the conversions between numbers and their bit patterns the C harnesses need:
+
+  as_bits(a), bits_as_values(bits, dtype)   float/integer arrays <-> uint32/uint64 patterns
+  words_as_values(words, size, ...)         state words a target printed -> values
+  f32_hex(v)                                the float32 bit pattern of v in hex
+  c_double_literal(v), c_float_literal(v)   exact C literals (hexadecimal floating point)
 """
 from __future__ import annotations
 
+import math
+import struct
 from dataclasses import dataclass, field
 from typing import Dict, Optional, Sequence, Tuple
 
@@ -120,3 +129,65 @@ def first_difference(got, want, names: Optional[Sequence[str]] = None) -> Option
     if got.dtype != want.dtype or got.shape != want.shape:
         return f"dtype/shape differ: {got.dtype}{got.shape} vs {want.dtype}{want.shape}"
     return compare_states(got, want, names).summary()
+
+
+# ---------------------------------------------------------------------------
+# numbers <-> bit patterns
+
+
+def as_bits(a) -> np.ndarray:
+    """The bit patterns of an array: float64 -> uint64, float32 -> uint32; signed integers
+    as 32-bit two's complement (as the MCU dumpers print them), others as uint32."""
+    a = np.asarray(a)
+    if a.dtype == np.float64:
+        return a.view(np.uint64)
+    if a.dtype == np.float32:
+        return a.view(np.uint32)
+    if a.dtype.kind == "i":
+        return a.astype(np.int64).astype(np.uint32)  # two's complement, as the dumpers print
+    return a.astype(np.uint32)
+
+
+def bits_as_values(bits: np.ndarray, state_dtype) -> np.ndarray:
+    """as_bits undone: the values of dtype `state_dtype` (float64, float32, else int32)."""
+    dt = np.dtype(state_dtype)
+    if dt == np.float64:
+        return bits.astype(np.uint64).view(np.float64)
+    if dt == np.float32:
+        return bits.astype(np.uint32).view(np.float32)
+    return bits.astype(np.uint32).view(np.int32)
+
+
+def words_as_values(words: np.ndarray, size: int, integer: bool, signed: bool) -> np.ndarray:
+    """State words (uint64 array of the patterns a target printed) of a C type of `size`
+    bytes: floats as float32/float64, integers widened to int64."""
+    vals = np.asarray(words, dtype=np.uint64)
+    if not integer:
+        return vals.astype(np.uint32).view(np.float32) if size == 4 else vals.view(np.float64)
+    if size > 4:
+        return vals.view(np.int64) if signed else vals.astype(np.int64)
+    if signed:
+        return vals.astype(np.uint32).view(np.int32).astype(np.int64)
+    return vals.astype(np.int64)
+
+
+def f32_hex(v: float) -> str:
+    """The float32 bit pattern of v, 8 hex digits (big-endian order)."""
+    return struct.pack(">f", v).hex()
+
+
+def c_double_literal(v: float) -> str:
+    """An exact C literal of a double (hexadecimal floating point; signed zeros kept).
+    ValueError for a non-finite value."""
+    if not math.isfinite(v):
+        raise ValueError(f"non-finite value {v!r}")
+    if v == 0.0:
+        return "-0.0" if math.copysign(1.0, v) < 0 else "0.0"
+    return v.hex()
+
+
+def c_float_literal(v: float) -> str:
+    """An exact C float literal of v rounded to float32 (``0x1.8p-1f``). ValueError for a
+    value that is not finite in float32."""
+    v32 = float(np.float32(v))
+    return c_double_literal(v32) + "f"

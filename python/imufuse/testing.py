@@ -32,9 +32,8 @@ import numpy as np
 
 from . import sim
 from .catalogue import entry, inputs_for, resolve_params
-from .firmware_target import harness_target
 from .mcu import missing_tools
-from .firmware import Firmware, Validation, counts_for, validate_isolated
+from .firmware import Firmware, Validation, counts_for, harness_target, validate_isolated
 
 __all__ = ["validate_firmware", "FirmwareResult", "simulated_inputs", "target_missing"]
 

@@ -8,9 +8,8 @@ from .._atomic import check_outputs
 from .._resources import csrc_dir
 from ..catalogue import canonical_name, inputs_for, reference_class, resolve_params
 from ..catalogue import entry as _entry
-from ..firmware import (DEFAULT_TIMEOUT, Firmware, counts_for, csrc_firmware,
+from ..firmware import (DEFAULT_TIMEOUT, Firmware, counts_for, csrc_firmware, target_names,
                         validate_isolated)
-from ..firmware_target import target_names
 from ..io import LogError
 from .common import (EXIT_FAIL, EXIT_OK, OutputError, UsageError, err, open_session, pairs,
                      positive, strict_option, unit_options)

@@ -12,50 +12,64 @@ the reference's ``c_init_args()`` (computed once in IEEE double, as a host's ``<
 does): avr-gcc's double is 32 bits, so constants computed on the target could differ.
 
     spec = FilterSpec.make(reference.MadgwickIMU, dict(dt=1/512, beta=0.1), "float32")
-    out = run_filters("m0", [spec], inputs_for([spec], n=300))
+    out = run_filters("m0", [spec], inputs_for("float32", "3d", 300))
     out.states[0]      # (N, len(state)) bit patterns after every sample
 
 Several filters share one program (one ELF per target and precision runs them all, every
 filter stepping on the same sample); ``run_filters`` splits the set when a program does not fit
 the target's flash. Float filters build with ``-DIMF_DOUBLE`` for float64; fixed-point filters
 (integer state, int16 inputs) take a ``profile`` keyword instead of a dtype.
+
+The prototypes are read in ``imufuse.mcu.library`` (through imufuse.cproto), the inputs made
+in ``imufuse.mcu.samples``, bit patterns converted in ``imufuse.bits``; their names are
+importable from here too.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import inspect
-import math
-import re
-import struct
+import shutil
+import tempfile
 from pathlib import Path
 from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
 from .. import reference as _reference
-from .. import sim
-from ..sim import flight as sim_flight
 from .._checks import KINDS
-from .._resources import csrc_dir
-from ..cproto import CParam, PrototypeError, find_prototype, init_params, strip_comments
+from ..bits import as_bits, bits_as_values, f32_hex
 from .driver import Driver
 from .emulators import Result, run_elf
+from .library import CSRC, CFilter, c_library, init_call, literal
 from .programs import build
+from .samples import FIXED_COUNTS, fixed_inputs, float_inputs, inputs_for
 from .toolchains import HarnessError
 
 __all__ = [
     "CSRC",
+    "CFilter",
     "FilterSpec",
     "GroupResult",
     "c_library",
     "init_call",
     "run_filters",
+    "run_fitting",
+    "reference_states",
     "INPUT_NAMES",
+    "N_MOTION_SMALL",
+    "TARGET_PRECISIONS",
+    "specs_from_cases",
+    "groups",
+    "is_fixed_class",
+    "as_bits",
+    "bits_as_values",
+    "f32_hex",
+    "FIXED_COUNTS",
+    "float_inputs",
+    "fixed_inputs",
+    "inputs_for",
 ]
-
-#: csrc/ as shipped in the package (imufuse/csrc)
-CSRC = csrc_dir()
 
 #: the update inputs of each kind, in order
 INPUT_NAMES = {**KINDS, "vario": ("accel", "baro_alt", "dt")}   # VarioKF: scalars
@@ -63,133 +77,6 @@ _SCALAR_KINDS = ("1d", "vario")
 
 _STATE_KIND = {np.dtype(np.float32): "f32", np.dtype(np.float64): "f64", np.dtype(np.int32): "i32",
                np.dtype(np.int16): "i16", np.dtype(np.uint32): "u32"}
-
-
-# --------------------------------------------------------------------------------------------
-# C headers
-
-
-@dataclasses.dataclass(frozen=True)
-class CFilter:
-    """What the headers say about one C filter."""
-
-    c_name: str
-    header: Path
-    source: Path
-    init: Tuple[CParam, ...]     # the values init takes (the settings struct's members)
-    init_returns: str            # "void" or an integer type (fixed point: 0 = ok)
-    update: Tuple[CParam, ...]   # without self
-    has_skipped: bool
-    init_consts: Optional[Tuple[CParam, ...]] = None  # fixed point: <c_name>_init_consts
-    init_struct: Optional[str] = None         # init(self, const T *settings): T
-    init_consts_struct: Optional[str] = None  # init_consts(self, const T *consts): T
-
-
-def _prototype(text: str, func: str) -> Tuple[str, Tuple[CParam, ...]]:
-    try:
-        p = find_prototype(text, func)
-    except PrototypeError as e:
-        raise HarnessError(str(e)) from None
-    if p is None:
-        raise HarnessError(f"no prototype of {func}()")
-    if not p.params or not p.params[0].pointer:
-        raise HarnessError(f"{func}(): the first parameter must be the filter pointer")
-    return p.returns, p.params[1:]
-
-
-def _init_values(text: str, func: str) -> Tuple[str, Optional[str], Tuple[CParam, ...]]:
-    """(returns, settings struct or None, the values): an init that takes a settings
-    struct takes its members."""
-    ret, _ = _prototype(text, func)
-    try:
-        got = init_params(text, func)
-    except PrototypeError as e:
-        raise HarnessError(str(e)) from None
-    assert got is not None
-    return ret, got[0], got[1]
-
-
-def init_call(func: str, var: str, struct: Optional[str], params: Sequence[CParam],
-              args: Sequence[str]) -> Tuple[str, str]:
-    """(declarations, call expression) of init ``func`` on ``&var`` with ``args``:
-    positional (no declarations), or (``struct``) through a settings struct ``<var>_set``
-    filled member by member (valid C and C++)."""
-    if struct is None:
-        return "", f"{func}(&{var}{''.join(', ' + a for a in args)})"
-    fill = "".join(f" {var}_set.{p.name} = {a};" for p, a in zip(params, args))
-    return f"{struct} {var}_set;{fill}", f"{func}(&{var}, &{var}_set)"
-
-
-def _headers(csrc: Path) -> List[Path]:
-    return sorted(csrc.glob("*.h")) + sorted((csrc / "fixed").glob("*.h"))
-
-
-_HEADER_CACHE: Dict[Tuple[str, str], CFilter] = {}
-
-
-def c_library(c_name: str, csrc: Path = CSRC) -> CFilter:
-    """Find ``<c_name>_init`` in the headers of ``csrc`` and read the filter's prototypes."""
-    key = (str(csrc), c_name)
-    if key in _HEADER_CACHE:
-        return _HEADER_CACHE[key]
-    for h in _headers(Path(csrc)):
-        text = strip_comments(h.read_text())
-        if not re.search(r"\b" + re.escape(c_name) + r"_init\s*\(", text):
-            continue
-        ret, init_struct, init = _init_values(text, c_name + "_init")
-        _, update = _prototype(text, c_name + "_update")
-        init_consts, consts_struct = None, None
-        if re.search(r"\b" + re.escape(c_name) + r"_init_consts\s*\(", text):
-            _, consts_struct, init_consts = _init_values(text, c_name + "_init_consts")
-        m = re.search(r"typedef\s+struct\s*\{((?:(?!typedef).)*?)\}\s*" + re.escape(c_name) + r"_t\s*;",
-                      text, flags=re.S)
-        has_skipped = bool(m and re.search(r"\bskipped\b", m.group(1)))
-        src = h.with_suffix(".c")
-        if not src.is_file():
-            raise HarnessError(f"{c_name}: {h} has no {src.name} next to it")
-        cf = CFilter(c_name, h, src, init, ret.replace("static", "").replace("inline", "").strip(),
-                     update, has_skipped, init_consts, init_struct, consts_struct)
-        _HEADER_CACHE[key] = cf
-        return cf
-    raise HarnessError(f"no header under {csrc} declares {c_name}_init()")
-
-
-# --------------------------------------------------------------------------------------------
-# literals
-
-
-def _hex_f32(v: float) -> str:
-    v32 = float(np.float32(v))
-    if not math.isfinite(v32):
-        raise HarnessError(f"non-finite init argument {v!r}")
-    return f"{v32.hex()}f" if v32 != 0 else ("-0.0f" if math.copysign(1, v32) < 0 else "0.0f")
-
-
-def _hex_f64(v: float) -> str:
-    if not math.isfinite(v):
-        raise HarnessError(f"non-finite init argument {v!r}")
-    return v.hex() if v != 0 else ("-0.0" if math.copysign(1, v) < 0 else "0.0")
-
-
-def _literal(param: CParam, value, real: str) -> str:
-    t = param.ctype.replace("const", "").strip()
-    if t == "imf_qscale_t":
-        m, s = (int(v) for v in (value.m, value.s))
-        return f"(imf_qscale_t){{(int16_t){m}, (int16_t)({s})}}"
-    if t == "imf_real":
-        t = real
-    if t == "float":
-        return _hex_f32(float(value))
-    if t == "double":
-        # On AVR double is float: the compiler rounds the exact double literal once, as C's
-        # conversion of a double argument would.
-        return _hex_f64(float(value))
-    if re.fullmatch(r"(unsigned\s+)?(int|long|short|char|u?int(8|16|32|64)_t)", t) or t == "unsigned":
-        iv = int(value)
-        if iv != value:
-            raise HarnessError(f"{param.name}: integer parameter got {value!r}")
-        return f"({t}){iv}" if iv >= 0 else f"({t})({iv})"
-    raise HarnessError(f"{param.name}: unsupported C parameter type {param.ctype!r}")
 
 
 # --------------------------------------------------------------------------------------------
@@ -271,7 +158,7 @@ class FilterSpec:
                 raise HarnessError(
                     f"{self.label}: C {self.init_function}({', '.join(p.name for p in cparams)}) "
                     f"does not match the reference c_init_args() ({', '.join(consts)})")
-            return [_literal(p, consts[p.name], "") for p in cparams]
+            return [literal(p, consts[p.name], "") for p in cparams]
         args = ref._params(**self.params, **({"profile": self.precision[1:]} if self.fixed else {}))
         names = list(inspect.signature(ref._init).parameters)[1:]  # drop self
         cparams = self.c.init
@@ -285,7 +172,7 @@ class FilterSpec:
                 f"{self.label}: cannot match C init ({', '.join(p.name for p in cparams)}) to the "
                 f"reference _params ({', '.join(names)})")
         real = "double" if self.precision == "float64" else "float"
-        return [_literal(p, v, real) for p, v in zip(cparams, values)]
+        return [literal(p, v, real) for p, v in zip(cparams, values)]
 
     def _update_args(self) -> List[str]:
         names = INPUT_NAMES[self.kind]
@@ -309,7 +196,7 @@ class FilterSpec:
         if not self.fixed:
             raise HarnessError(f"{self.label}: only fixed-point filters have a double init")
         p = self.ref_class._params(**self.params, profile=self.precision[1:])
-        return [_literal(cp, a, "double") for cp, a in zip(self.c.init, p)]
+        return [literal(cp, a, "double") for cp, a in zip(self.c.init, p)]
 
     def c_parts(self, var: str, double_init: bool = False) -> Tuple[str, str, str, List[Tuple[str, str]]]:
         """(prelude, init, step, state words) for a filter variable named ``var``; fixed point
@@ -410,9 +297,6 @@ def run_filters(target: str, specs: Sequence[FilterSpec], inputs: Mapping[str, n
     All filters of a program step on the same sample; the set is split in halves until each
     program fits the target (AVR flash) or has at most ``max_per_program`` filters.
     """
-    import shutil
-    import tempfile
-
     specs = list(specs)
     if not specs:
         raise ValueError("no filters")
@@ -493,138 +377,6 @@ def reference_states(spec: FilterSpec, inputs: Mapping[str, np.ndarray]) -> Tupl
     args = [np.asarray(inputs[n]) for n in INPUT_NAMES[spec.kind]]
     out = np.asarray(f.run(*args))
     return as_bits(out), int(getattr(f, "skipped", -1))
-
-
-def as_bits(a: np.ndarray) -> np.ndarray:
-    a = np.asarray(a)
-    if a.dtype == np.float64:
-        return a.view(np.uint64)
-    if a.dtype == np.float32:
-        return a.view(np.uint32)
-    if a.dtype.kind == "i":
-        return a.astype(np.int64).astype(np.uint32)  # two's complement, as the dumpers print
-    return a.astype(np.uint32)
-
-
-def bits_as_values(bits: np.ndarray, state_dtype) -> np.ndarray:
-    dt = np.dtype(state_dtype)
-    if dt == np.float64:
-        return bits.astype(np.uint64).view(np.float64)
-    if dt == np.float32:
-        return bits.astype(np.uint32).view(np.float32)
-    return bits.astype(np.uint32).view(np.int32)
-
-
-def f32_hex(v: float) -> str:
-    return struct.pack(">f", v).hex()
-
-
-# --------------------------------------------------------------------------------------------
-# inputs
-
-
-def _rows(n_rows, fill):
-    return np.tile(np.asarray(fill, dtype=np.float64), (n_rows, 1))
-
-
-def float_inputs(group: str, n_motion: int = 300, seed: int = 5) -> Dict[str, np.ndarray]:
-    """Float64 inputs of a group ("1d" or "3d"): realistic motion from imufuse.sim, then the
-    corners (zero accelerometer/magnetometer, all zero, NaN/Inf in each input, overflow,
-    tiny and subnormal values), then motion again. Cast to float32 for the float32 builds."""
-    tail = 20
-    if group == "1d":
-        d = sim.axis1d("fast", rate=100.0, duration=(n_motion + tail) / 100.0, seed=seed,
-                       disturbance=0.05)
-        rate, angle = np.asarray(d.gyr, float), np.asarray(d.acc_angle, float)
-        head_r, head_a = rate[:n_motion], angle[:n_motion]
-        tail_r, tail_a = rate[n_motion:], angle[n_motion:]
-        cr = [0.0] * 6 + [np.nan, 0.3, -np.inf, np.inf, np.nan, 0.2, 0.1, -0.1] \
-            + [3e38, -3e38, 1e30, 1.0] + [1e-40, -3e-42, 1e-30, 0.0] + [1e5, -1e5]
-        ca = [0.0] * 6 + [0.1, np.inf, 0.2, -0.3, np.nan, -np.inf, np.nan, 0.05] \
-            + [-3e38, 3e38, -1e30, 3e38] + [-1e-40, 1e-45, -1e-30, 1e-38] + [3.0, -3.0]
-        return {"rate": np.concatenate([head_r, cr, tail_r]),
-                "angle": np.concatenate([head_a, ca, tail_a])}
-    if group == "vario":
-        return _vario_inputs(n_motion, seed, tail)
-    if group != "3d":
-        raise ValueError(f"group must be '1d', 'vario' or '3d', got {group!r}")
-    d = sim.imu("fast", rate=100.0, duration=(n_motion + tail) / 100.0, seed=seed, lin_acc=1.0,
-                amplitude=3.0)
-    gyr, acc, mag = (np.asarray(a, float) for a in (d.gyr, d.acc, d.mag))
-    g0, a0, m0 = gyr[n_motion - 1], acc[n_motion - 1], mag[n_motion - 1]
-    cg, ca, cm = [], [], []
-
-    def add(k, g=None, a=None, m=None):
-        cg.append(_rows(k, g0 if g is None else g))
-        ca.append(_rows(k, a0 if a is None else a))
-        cm.append(_rows(k, m0 if m is None else m))
-
-    add(6, a=[0, 0, 0])                      # zero accelerometer: the guard
-    add(6, m=[0, 0, 0])                      # zero magnetometer
-    add(3, g=[0, 0, 0], a=[0, 0, 0], m=[0, 0, 0])
-    add(1, g=[np.nan, 0.1, 0.2])
-    add(1, a=[0.1, np.inf, 1.0])
-    add(1, m=[0.3, 0.1, -np.inf])
-    add(1, a=[np.nan, 0.0, 1.0])
-    add(1, g=[np.inf, -np.inf, 0.0], m=[np.nan, 0, 0])
-    add(2, a=[3e38, -3e38, 3e38], m=[-3e38, 3e38, 3e38])   # overflow in the norms
-    add(2, g=[1e30, -1e30, 1e30])
-    add(2, a=[1e-20, -1e-20, 1e-20], m=[1e-20, 1e-20, -1e-20])  # squares underflow
-    add(2, a=[1e-40, 0, 3e-41], m=[0, -1e-40, 0])             # subnormal components
-    add(2, g=[25.0, -30.0, 35.0])                             # fast spin
-    add(3, a=[1.0, 0.0, 1e-3])                                # nearly vertical
-    return {"gyr": np.concatenate([gyr[:n_motion], *cg, gyr[n_motion:]]),
-            "acc": np.concatenate([acc[:n_motion], *ca, acc[n_motion:]]),
-            "mag": np.concatenate([mag[:n_motion], *cm, mag[n_motion:]])}
-
-
-def _vario_inputs(n_motion, seed, tail):
-    """Nair's variometer: a simulated flight at the barometer rate (vertical
-    acceleration cm/s^2, barometer altitude cm, dt s), then the corners (NaN/Inf
-    in each input, dt <= 0, overflow, tiny values), then the flight again."""
-    fl = sim_flight.flight(duration=(n_motion + tail) / 50.0 + 1.0, seed=seed)
-    idx = fl.baro_idx[:n_motion + tail]
-    acc = np.diff(fl.climb, prepend=fl.climb[0])[idx] * fl.rate * 100.0 + 20.0
-    alt = fl.baro_alt[:n_motion + tail] * 100.0
-    dt = np.full(n_motion + tail, 0.02)
-    ca = [np.nan, 1.0, 2.0, np.inf, 0.0, 0.0, 3e38, -3e38, 1e-40, 0.0, 5.0, -5.0]
-    cz = [alt[n_motion - 1], np.nan, 1e5, 1e5, -np.inf, 1e5, 3e38, 1e5, 1e-40, 1e5, 1e5, 1e5]
-    cd = [0.02, 0.02, -np.inf, 0.02, 0.02, 0.0, 0.02, 1e30, 1e-30, -0.02, 0.5, 0.001]
-    return {"accel": np.concatenate([acc[:n_motion], ca, acc[n_motion:]]),
-            "baro_alt": np.concatenate([alt[:n_motion], cz, alt[n_motion:]]),
-            "dt": np.concatenate([dt[:n_motion], cd, dt[n_motion:]])}
-
-
-#: int16 counts per unit of the fixed-point inputs (gyro +-2000 deg/s, acc +-8 g, angle +-pi)
-FIXED_COUNTS = {"rate": 32768 / math.radians(2000.0), "gyr": 32768 / math.radians(2000.0),
-                "angle": 32768 / math.pi, "acc": 4096.0, "mag": 1000.0}
-
-
-def fixed_inputs(group: str, n_motion: int = 300, seed: int = 5) -> Dict[str, np.ndarray]:
-    """int16 counts of the same motion (scales FIXED_COUNTS), with the corners: zero vectors,
-    full-scale and minimum counts."""
-    src = float_inputs(group, n_motion, seed)
-    out = {}
-    for name, a in src.items():
-        a = a.copy()
-        a[~np.isfinite(a)] = 0.0
-        c = np.clip(np.rint(a * FIXED_COUNTS[name]), -32768, 32767)
-        out[name] = c.astype(np.int16)
-    k = n_motion
-    for name, a in out.items():          # extremes right after the float corners' place
-        ext = np.full((6,) + a.shape[1:], 32767, np.int16)
-        ext[1::2] = -32768
-        out[name] = np.concatenate([a[:k], ext, a[k:]])
-    return out
-
-
-def inputs_for(precision: str, group: str, n_motion: int = 300, seed: int = 5) -> Dict[str, np.ndarray]:
-    """The inputs of a (precision, group) in the dtype the builds take."""
-    if precision.startswith("p"):
-        return fixed_inputs(group, n_motion, seed)
-    dt = np.float32 if precision == "float32" else np.float64
-    with np.errstate(over="ignore", under="ignore"):
-        return {k: v.astype(dt) for k, v in float_inputs(group, n_motion, seed).items()}
 
 
 # --------------------------------------------------------------------------------------------

@@ -1,0 +1,160 @@
+"""The user's firmware on the host: compiled with cffi beside the generated harness, loaded
+into this process and run on a log, the state read back after every sample.
+
+``Firmware`` is a ``Declaration`` that builds (cached under $IMUFUSE_CACHE or
+~/.cache/imufuse/firmware, keyed by the generated source, the flags and the contents of the
+sources and headers) and runs; ``csrc_firmware`` declares imufuse's own C filter from a csrc
+directory.
+"""
+import glob
+import hashlib
+import importlib.util
+import json
+import os
+import re
+from typing import Any
+
+import numpy as np
+
+from .._checks import KINDS
+from ..catalogue import reference_class
+from .csource import host_source, target_source
+from .declaration import Declaration, FirmwareError
+
+__all__ = ["Firmware", "csrc_firmware"]
+
+
+class Firmware(Declaration):
+    """User C sources plus a declaration (see imufuse.firmware's doc), built and run on the
+    host; ``target_source`` gives the driver of an emulated-MCU build."""
+
+    _lib: Any = None     # ((kind, number of init values), the loaded cffi module)
+
+    def source(self, kind, n_init):
+        """The C of the host harness (imufuse.firmware.csource.host_source)."""
+        return host_source(self, kind, n_init)
+
+    def target_source(self, kind, init_values, dt, state0=None, c89=False):
+        """The driver of an emulated-MCU build (imufuse.firmware.csource.target_source)."""
+        return target_source(self, kind, init_values, dt, state0, c89)
+
+    def _build(self, kind, n_init):
+        src = self.source(kind, n_init)
+        h = hashlib.sha256()
+        h.update(src.encode())
+        h.update(json.dumps([self.cflags, sorted(self.defines.items()), self.include_dirs,
+                             self.sources]).encode())
+        files = list(self.sources)
+        for d in self.include_dirs + sorted({os.path.dirname(s) for s in self.sources}):
+            files += sorted(glob.glob(os.path.join(d, "*.h")))
+        for f in files:
+            h.update(f.encode())
+            h.update(open(f, "rb").read())
+        name = "_imufuse_fw_" + h.hexdigest()[:20]
+        outdir = os.path.join(self.cache_dir, name)
+        built = glob.glob(os.path.join(outdir, name + ".*so")) + \
+            glob.glob(os.path.join(outdir, name + ".*pyd"))
+        if not built:
+            try:
+                from cffi import FFI
+            except ImportError:
+                raise FirmwareError("validating on the host compiles the firmware with cffi, "
+                                    "which is not installed: pip install 'imufuse[firmware]' "
+                                    "(or validate on an emulated MCU with --target)") from None
+            ffi = FFI()
+            ffi.cdef("void imufuse_fw_run(const double *p, const double *s0, int set_state, "
+                     "size_t n, const double *in, double dt, double *out, int *isint);\n"
+                     "void imufuse_fw_sizes(int *sizes);")
+            defs = [(k, None if v is None else str(v)) for k, v in self.defines.items()]
+            ffi.set_source(name, src, sources=self.sources, include_dirs=self.include_dirs,
+                           define_macros=defs, extra_compile_args=self.cflags)
+            os.makedirs(outdir, exist_ok=True)
+            try:
+                path = ffi.compile(tmpdir=outdir, verbose=False)
+            except Exception as e:  # cffi.VerificationError, distutils CompileError
+                raise FirmwareError(f"compilation failed (compiler output above): {e}") from None
+        else:
+            path = built[0]
+        spec = importlib.util.spec_from_file_location(name, path)
+        try:
+            mod = importlib.util.module_from_spec(spec)
+            spec.loader.exec_module(mod)
+        except (ImportError, OSError) as e:
+            m = re.search(r"undefined symbol: (\S+)", str(e))
+            if m:
+                raise FirmwareError(f"symbol not found: {m.group(1)} (declared or called, but "
+                                    "defined in none of the sources)") from None
+            raise FirmwareError(f"the compiled firmware cannot be loaded: {e}") from None
+        return mod
+
+    def prepare(self, kind, c_args=(), params=None):
+        """Compile and load the firmware for a `kind` filter (no firmware code runs)."""
+        n_init = len(self._init_values(c_args, params or {})) if self.init else 0
+        key = (kind, n_init)
+        if self._lib is None or self._lib[0] != key:
+            self._lib = (key, self._build(kind, n_init))
+
+    def run(self, kind, inputs, dt, c_args=(), params=None, state0=None):
+        """Run the firmware on inputs (the run() arrays of a `kind` filter);
+        return the (N, n_state) trajectory in the firmware's precision."""
+        n_init = len(self._init_values(c_args, params or {})) if self.init else 0
+        key = (kind, n_init)
+        if self._lib is None or self._lib[0] != key:
+            self._lib = (key, self._build(kind, n_init))
+        mod = self._lib[1]
+        ffi, lib = mod.ffi, mod.lib
+        ns = len(self.state)
+        sizes = ffi.new("int[]", max(ns, 1))
+        lib.imufuse_fw_sizes(sizes)
+        sz = set(sizes[j] for j in range(ns))
+        cols = [np.asarray(a, dtype=np.float64) for a in inputs]
+        x = np.ascontiguousarray(np.column_stack([c if c.ndim == 2 else c[:, None] for c in cols]))
+        n = x.shape[0]
+        out = np.empty((n, ns), dtype=np.float64)
+        p = np.ascontiguousarray(self._init_values(c_args, params or {}) if self.init else [0.0],
+                                 dtype=np.float64)
+        s0 = np.zeros(max(ns, 1)) if state0 is None else np.ascontiguousarray(state0, dtype=np.float64)
+        isint = ffi.new("int[]", max(ns, 1))
+        lib.imufuse_fw_run(ffi.cast("double *", p.ctypes.data), ffi.cast("double *", s0.ctypes.data),
+                           int(self.set_state), n, ffi.cast("double *", x.ctypes.data),
+                           float(dt), ffi.cast("double *", out.ctypes.data), isint)
+        ints = {bool(isint[j]) for j in range(ns)}
+        if len(ints) > 1:
+            raise FirmwareError("state expressions mix integer and floating-point types: "
+                                + ", ".join(f"{nm} {'integer' if isint[j] else 'floating'}"
+                                            for j, nm in enumerate(self.state)))
+        if ints == {True}:
+            if sz - {1, 2, 4, 8} or len(sz) != 1:
+                raise FirmwareError(f"integer state expressions of different sizes {sorted(sz)}")
+            # integers are stored through double: exact up to 2^53
+            return out.astype({1: np.int8, 2: np.int16, 4: np.int32, 8: np.int64}[sz.pop()])
+        if sz - {4, 8} or len(sz) != 1:
+            raise FirmwareError(f"state expressions must all be float or all double; sizes {sorted(sz)}")
+        dtype = np.float32 if sz == {4} else np.float64
+        return out.astype(dtype)
+
+    def dtype(self, kind="1d", c_args=(), params=None):
+        S = self.run(kind, [np.zeros((0, 1 if kind == "1d" else 3))] * len(KINDS[kind]),
+                     1.0, c_args, params)
+        return S.dtype.name
+
+
+def csrc_firmware(name: str, csrc_dir: "str | os.PathLike[str]", dtype: str = "float32",
+                  **kwargs: Any) -> "Firmware":
+    """A Firmware for imufuse's own filter `name` from a csrc directory
+    (e.g. a copy with changes): prototypes from the headers, state x.<name>."""
+    ref = reference_class(name)
+    c = ref.c_name
+    headers = [os.path.basename(h) for h in sorted(glob.glob(os.path.join(csrc_dir, "*.h")))]
+    sources = sorted(glob.glob(os.path.join(csrc_dir, "*.c")))
+    # only the family that declares the filter (its header and source), when found
+    for h in headers:
+        stem = os.path.splitext(h)[0]
+        src = os.path.join(csrc_dir, stem + ".c")
+        if os.path.isfile(src) and re.search(r"\b" + c + r"_init\s*\(",
+                                             open(os.path.join(csrc_dir, h)).read()):
+            headers, sources = [h], [src]
+            break
+    defines = {"IMF_DOUBLE": None} if dtype == "float64" else {}
+    return Firmware(sources, headers=headers, include_dirs=[csrc_dir], defines=defines,
+                    init=f"{c}_init", update=f"{c}_update", state_names=ref.state_names, **kwargs)

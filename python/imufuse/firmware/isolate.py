@@ -1,0 +1,108 @@
+"""``validate_isolated``: validation on the host with the firmware in a child process and a
+timeout. A crash (signal), a call to exit() or a run past the timeout becomes one line naming
+the sample, found by re-running on shorter prefixes."""
+import multiprocessing
+import signal
+
+from .declaration import FirmwareError
+from .validate import _c_values, _filter_entry, validate
+
+__all__ = ["validate_isolated", "DEFAULT_TIMEOUT"]
+
+#: seconds a firmware run may take in validate_isolated (imufuse validate --timeout)
+DEFAULT_TIMEOUT = 60.0
+
+
+def _child(conn, fw, name, params, inputs, backend, dtype, n):  # host only
+    try:
+        inp = inputs if n is None else [a[:n] for a in inputs]
+        conn.send(("ok", validate(fw, name, params, inp, backend, dtype)))
+    except FirmwareError as e:
+        conn.send(("firmware", str(e)))
+    except Exception as e:  # noqa: BLE001 - reported to the parent as one line
+        conn.send(("error", f"{type(e).__name__}: {e}"))
+    finally:
+        conn.close()
+
+
+def _attempt(fw, name, params, inputs, backend, dtype, n, timeout):
+    """One run in a child: ("ok", Validation) | ("firmware"|"error", msg) |
+    ("signal", signum) | ("exit", code) | ("timeout", None)."""
+    ctx = multiprocessing.get_context("fork")
+    r, w = ctx.Pipe(duplex=False)
+    p = ctx.Process(target=_child, args=(w, fw, name, params, inputs, backend, dtype, n),
+                    daemon=True)
+    p.start()
+    w.close()
+    try:
+        msg = None
+        if r.poll(timeout):
+            try:
+                msg = r.recv()
+            except (EOFError, OSError):
+                msg = None
+        if msg is not None:
+            p.join(5)
+            return msg
+        p.join(0.5 if p.is_alive() else 5)
+        if p.is_alive():
+            p.kill()
+            p.join(5)
+            return ("timeout", None)
+        code = p.exitcode
+        return ("signal", -code) if code is not None and code < 0 else ("exit", code)
+    finally:
+        r.close()
+        if p.is_alive():
+            p.kill()
+            p.join(5)
+
+
+def _describe(res, where, timeout):
+    kind, v = res
+    if kind == "signal":
+        try:
+            sig = signal.Signals(v).name
+        except ValueError:
+            sig = f"signal {v}"
+        return f"the firmware crashed with {sig} {where}"
+    if kind == "exit":
+        return f"the firmware called exit({v}) {where}"
+    if kind == "timeout":
+        return f"the firmware gave no answer after {timeout:g} s (an endless loop in init or update?)"
+    return v
+
+
+def validate_isolated(fw, name, params, inputs, backend="c", dtype=None, timeout=DEFAULT_TIMEOUT,
+                      target="host"):
+    """validate() with the firmware in a child process and a timeout.
+
+    A crash (signal), a call to exit() or a run past `timeout` seconds raises
+    FirmwareError with one line: "crashed with SIGSEGV at sample k" (found by
+    re-running on shorter prefixes) or "during init", "called exit(3) ...",
+    "no answer after N s". Compilation and loading (a missing symbol) happen
+    first, in this process, where no firmware code runs."""
+    if target != "host":
+        return validate(fw, name, params, inputs, backend, dtype, target=target, timeout=timeout)
+    e = _filter_entry(name)
+    fw.prepare(e.kind, _c_values(e, params), params)
+    res = _attempt(fw, name, params, inputs, backend, dtype, None, timeout)
+    if res[0] == "ok":
+        return res[1]
+    if res[0] in ("firmware", "error"):
+        raise FirmwareError(res[1])
+    if res[0] == "timeout":
+        raise FirmwareError(_describe(res, "", timeout))
+    # locate the sample: the shortest prefix that fails the same way
+    first = _attempt(fw, name, params, inputs, backend, dtype, 0, timeout)
+    if first[0] not in ("ok", "firmware", "error"):
+        raise FirmwareError(_describe(first, "during init", timeout))
+    lo, hi = 0, len(inputs[0])          # run(lo) succeeds, run(hi) fails
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        r = _attempt(fw, name, params, inputs, backend, dtype, mid, timeout)
+        if r[0] in ("ok", "firmware", "error"):
+            lo = mid
+        else:
+            hi, res = mid, r
+    raise FirmwareError(_describe(res, f"at sample {hi - 1}", timeout))

@@ -1,0 +1,205 @@
+"""A built firmware program run on its emulator, sample by sample, logs of any length.
+
+Before each run the host writes the next chunk of samples (and, from the second chunk on, the
+image of the firmware's RAM as the previous chunk left it) into the linked image. A chunk that
+resumes copies the image over .data and .bss instead of calling the firmware's init, so static
+variables of the firmware carry across chunks as they would in one run.
+
+Reported with the states: per-update counts (cycles on AVR, instructions on ARM), the stack the
+update reached (painted band). A fault, exit(), a reset, a stack overflow or a timeout is a
+TargetError naming the sample.
+"""
+from __future__ import annotations
+
+import dataclasses
+import struct
+import subprocess
+import time
+from typing import List, Optional, Sequence
+
+import numpy as np
+
+from ..bits import words_as_values
+from ..mcu import toolchains as _tc
+from ..mcu.emulators import _LINE, _emulator_cmd, _simavr_text, _to_counts
+from .elf import _Elf
+from .target_build import _IN_KIND, _MAGIC, Program, StateType
+from .targets import TargetError, harness_target
+
+__all__ = ["TargetRun", "run_program"]
+
+@dataclasses.dataclass
+class TargetRun:
+    """The firmware's states after every sample and what it cost."""
+    program: Program
+    states: List[np.ndarray]        # per state word: (N,) values in the firmware's type
+    counts: np.ndarray              # (N,) cycles (AVR) or instructions (ARM) per update
+    count_unit: str
+    stack: Optional[int]            # deepest stack an update reached, bytes
+    stack_band: int                 # bytes painted below the stack pointer
+    chunks: int
+    emulator_seconds: float
+    parse_seconds: float
+
+
+def _patch(prog: Program, elf: _Elf, n: int, resume: bool, image: bytes, rows: np.ndarray) -> None:
+    kind = _IN_KIND[prog.in_dtype]
+    with open(prog.elf, "r+b") as fh:
+        fh.seek(elf.offset("imf_fw_hdr"))
+        fh.write(struct.pack("<6I", _MAGIC, n, int(resume), len(image), kind, prog.row))
+        fh.seek(elf.offset("imf_fw_in"))
+        fh.write(np.ascontiguousarray(rows, dtype=prog.in_dtype.newbyteorder("<")).tobytes())
+        if image:
+            fh.seek(elf.offset("imf_fw_ram"))
+            fh.write(image)
+
+
+def run_program(prog: Program, inputs: np.ndarray, timeout: float) -> TargetRun:
+    """Run (N, row) inputs through the program chunk by chunk. TargetError on a fault, an
+    exit, a reset, a stack overflow or a timeout, naming the sample."""
+    name = harness_target(prog.target)
+    tgt = _tc.TARGETS[name]
+    _tc._require(tgt, [tgt.emulator or "emulator"])
+    elf = _Elf.read(prog.elf)
+    inputs = np.asarray(inputs, dtype=prog.in_dtype).reshape(len(inputs), prog.row)
+    n_total = inputs.shape[0]
+    words: List[List[str]] = []
+    raw_counts: List[int] = []
+    stack = 0
+    band = 0
+    image = b""
+    t_emu = t_parse = 0.0
+    chunks = 0
+    types_seen: Optional[List[int]] = None
+    first_overhead = 0
+    start = 0
+    while start < n_total or (n_total == 0 and chunks == 0):
+        n = min(prog.chunk, n_total - start)
+        _patch(prog, elf, n, bool(image), image, inputs[start:start + n])
+        cmd = _emulator_cmd(tgt, prog.elf, True)
+        t0 = time.perf_counter()
+        timed_out = False
+        try:
+            proc = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                                  stdin=subprocess.DEVNULL, timeout=timeout)
+            out, code = proc.stdout, proc.returncode
+        except subprocess.TimeoutExpired as e:
+            out, code, timed_out = (e.stdout or b""), None, True
+        t_emu += time.perf_counter() - t0
+        t1 = time.perf_counter()
+        text = out.decode("latin-1")
+        if name == "avr":
+            text = _simavr_text(text)
+        got = 0
+        overhead = None
+        ended = False
+        fault = None
+        for line in text.splitlines():
+            line = line.strip()
+            m = _LINE.match(line)
+            if m:
+                words.append(m.group(1).split())
+                raw_counts.append(int(m.group(2), 16))
+                got += 1
+            elif line.startswith("T"):
+                t = [int(w, 16) for w in line[1:].split()]
+                if types_seen is not None and overhead is not None:
+                    fault = "reset"     # the program started again: a jump to the reset vector
+                    break
+                types_seen = t
+            elif line.startswith("K "):
+                overhead = int(line[2:], 16)
+            elif line.startswith("M "):
+                s, b, _ = (int(w, 16) for w in line[2:].split())
+                if s < b:
+                    stack = max(stack, s)
+                else:
+                    stack = -1
+                band = b
+            elif line.startswith("R "):
+                image = bytes.fromhex(line[2:])
+            elif line == "IMF_END":
+                ended = True
+            elif "IMF_FAULT" in line:
+                fault = "fault"
+            elif "IMF_RESET" in line:
+                fault = "reset"
+            elif "IMF_STACK_OVERFLOW" in line:
+                fault = "stack"
+            elif line.startswith("IMF_EXIT"):
+                fault = "exit " + str(int(np.uint32(int(line.split()[-1], 16)).view(np.int32)))
+        t_parse += time.perf_counter() - t1
+        k = start + got
+        if chunks == 0:
+            first_overhead = overhead or 0
+        msg = None
+        if fault == "fault":
+            msg = f"the firmware crashed with a hard fault at sample {k} on the {prog.target}"
+        elif fault == "stack":
+            msg = (f"stack overflow at sample {k} on the {prog.target}: the update's stack reached "
+                   "the static data (a large local array or deep recursion?)")
+        elif fault == "reset":
+            msg = (f"the {prog.target} restarted at sample {k} (a jump to address 0: a NULL "
+                   "function pointer, or a corrupted return address)")
+        elif fault and fault.startswith("exit"):
+            msg = f"the firmware called exit({fault.split()[1]}) at sample {k} on the {prog.target}"
+        elif "Lockup" in text:
+            msg = (f"the {prog.target} locked up at sample {k} (a fault while entering the fault "
+                   "handler: the stack pointer left RAM, a stack overflow)")
+        elif timed_out:
+            msg = (f"the firmware gave no answer within {timeout:g} s at sample {k} on the "
+                   f"{prog.target} (an endless loop?)")
+        elif not ended or got != n or overhead is None:
+            where = "during init" if (overhead is None or types_seen is None) and start == 0 \
+                else f"at sample {k}"
+            tail = " ".join(text.strip().splitlines()[-2:])[-200:]
+            msg = (f"the firmware stopped {where} on the {prog.target} (exit status {code}; a "
+                   f"fault, exit() or a stop: {tail!r})")
+        if msg:
+            raise TargetError(msg + _stack_hint(prog), k)
+        chunks += 1
+        start += n
+        if n_total == 0:
+            break
+    ns = len(prog.types)
+    if types_seen is not None and len(types_seen) != ns:
+        raise TargetError("the state types printed do not match the program")
+    t1 = time.perf_counter()
+    states = _decode(words, prog.types)
+    t_parse += time.perf_counter() - t1
+    counts = _to_counts(tgt, np.array(raw_counts, dtype=np.int64),
+                        first_overhead if raw_counts else 0)
+    return TargetRun(prog, states, counts, tgt.count_unit, None if stack < 0 else stack, band,
+                     chunks, t_emu, t_parse)
+
+
+def _stack_hint(prog: Program) -> str:
+    """The firmware's largest stack frame (-fstack-usage) when it exceeds the free RAM."""
+    tgt = _tc.TARGETS[harness_target(prog.target)]
+    free = tgt.ram - prog.ram_image
+    worst = (0, "")
+    for obj in prog.user_objects:
+        su = obj.with_suffix(".su")
+        if not su.is_file():
+            continue
+        for line in su.read_text(errors="replace").splitlines():
+            parts = line.split("\t")
+            if len(parts) >= 2 and parts[1].isdigit() and int(parts[1]) > worst[0]:
+                worst = (int(parts[1]), parts[0].rsplit(":", 1)[-1])
+    if worst[0] > free:
+        return (f"; {worst[1]} needs {worst[0]} B of stack (-fstack-usage) and the "
+                f"{prog.target} has {free} B of RAM left for the stack: a stack overflow")
+    return ""
+
+
+def _decode(words: List[List[str]], types: Sequence[StateType]) -> List[np.ndarray]:
+    n = len(words)
+    out = []
+    if n and any(len(w) != len(types) for w in words):
+        raise TargetError("samples differ in the number of state words")
+    cols = list(zip(*words)) if n else [()] * len(types)
+    for j, t in enumerate(types):
+        a = words_as_values(np.array([int(h, 16) for h in cols[j]], dtype=np.uint64), t.size,
+                            t.integer, t.signed)
+        out.append(a)
+    return out

@@ -1,0 +1,320 @@
+"""Running the user's firmware and the imufuse filter on the same inputs and comparing them
+(``validate``): on the host (imufuse.firmware.host) or on an emulated MCU
+(imufuse.firmware.target_build, target_run). When they differ: the largest orientation
+difference, and the build causes found (imufuse.firmware.causes), each confirmed by rebuilding
+with its fix.
+"""
+import inspect
+import os
+import shutil
+import subprocess
+import tempfile
+from pathlib import Path
+from typing import Any, List, Mapping, Optional, Sequence
+
+import numpy as np
+
+from ..bits import compare_states
+from ..catalogue import entry, make_filter
+from ..mcu import toolchains as _tc
+from .causes import Cause, angle_divergence_deg, double_promotions, find_causes
+from .declaration import FirmwareError
+from .host import Firmware
+from .results import Cost, Validation
+from .target_build import _tool_prefix, build_program
+from .target_run import run_program
+from .targets import DEFAULT_TARGET_CFLAGS, TargetError, harness_target, speed_note
+
+__all__ = ["validate", "counts_for"]
+
+
+def counts_for(kind: str, params: Mapping[str, Any], inputs: Sequence[Any]) -> List[np.ndarray]:
+    """int16 counts of float inputs for a fixed-point filter: the gyro by params' gyr_scale
+    (rad/s per count), angles by angle_scale (rad per count), the accelerometer and
+    magnetometer (any unit: they are normalised) at 4096 counts per unit."""
+    out = []
+    for k, a in enumerate(inputs):
+        a = np.asarray(a, dtype=np.float64)
+        if k == 0:
+            c = a / params["gyr_scale"]
+        elif kind == "1d":
+            c = a / params["angle_scale"]
+        else:
+            c = a * 4096.0
+        out.append(np.clip(np.rint(c), -32768, 32767).astype(np.int16))
+    return out
+
+
+def _state_names(fw, name, e):
+    """The firmware's state names, which must be the imufuse filter's."""
+    names = tuple(fw.state)
+    if set(names) != set(e.state_names):
+        raise FirmwareError(f"state mapping names {list(names)}; {name} has state "
+                            f"{list(e.state_names)}")
+    return names
+
+
+def _strip_arch(flags):
+    return [f for f in flags if not f.startswith(("-mmcu", "-mcpu", "-mfpu", "-mfloat-abi",
+                                                  "-mthumb", "-march", "-mtune"))]
+
+
+def _defs_incs(fw):
+    defs = [f"-D{k}" if v is None else f"-D{k}={v}" for k, v in fw.defines.items()]
+    return defs + [f"-I{d}" for d in fw.include_dirs] + \
+        [f"-I{d}" for d in sorted({os.path.dirname(s) for s in fw.sources})]
+
+
+def _filter_entry(name):
+    return entry(name)
+
+
+def _make(name, backend, dtype, params):
+    e = _filter_entry(name)
+    if e.fixed:
+        try:
+            return e.make(backend, **params)
+        except (TypeError, ValueError) as err:
+            raise FirmwareError(f"{name}: {err}") from None
+    return make_filter(name, backend, dtype, params)
+
+
+def _reference_run(name, params, inputs, backend, dtype):
+    """The imufuse filter's trajectory on the inputs (rounded to dtype first, as run() does);
+    returns (inputs as given to both, want, initial state)."""
+    e = _filter_entry(name)
+    if e.fixed:
+        inputs = [np.asarray(a) for a in inputs]
+        for a in inputs:
+            if a.dtype.kind not in "iu" or np.any(a < -32768) or np.any(a > 32767):
+                raise FirmwareError(f"{name} takes int16 counts; got {a.dtype} inputs")
+        inputs = [a.astype(np.int16) for a in inputs]
+    else:
+        inputs = [np.asarray(a, dtype=dtype) for a in inputs]
+    f = _make(name, backend, dtype, params)
+    state0 = np.asarray(f.state).astype(np.float64)
+    want = np.asarray(f.run(*inputs))
+    return inputs, want, state0
+
+
+def validate(fw: "Firmware", name: str, params: Mapping[str, Any], inputs: Sequence[Any],
+             backend: str = "c", dtype: Optional[str] = None, target: str = "host",
+             timeout: float = 60.0, explain: bool = True) -> "Validation":
+    """Run firmware `fw` and the imufuse filter `name` (constructor keywords
+    `params`, dt included) on the same inputs; return a Validation. dtype:
+    the imufuse precision; default the firmware's (from sizeof of its state);
+    the inputs are rounded to it first, as imufuse's run() does. A fixed-point
+    filter (`...Q`) is compared as integers, on int16 count inputs.
+
+    target: "host" (cffi, in this process) or an emulated MCU ("cortex-m4f",
+    "cortex-m0", "atmega328p"): built there with the firmware's flags (default
+    "-O2" for a cross target), run sample by sample on the emulator (logs of any
+    length), with the cost per update. explain: when not bit-exact, look for the
+    cause in what was built and confirm it by rebuilding with its fix."""
+    if target != "host":
+        return _validate_target(fw, name, params, inputs, backend, dtype, target, timeout, explain)
+    e = _filter_entry(name)
+    c_args = _c_values(e, params)
+    names = _state_names(fw, name, e)
+    fw_dtype = fw.dtype(e.kind, c_args, params)
+    integer = np.dtype(fw_dtype).kind in "iu"
+    if integer != e.fixed:
+        raise FirmwareError(
+            f"the firmware's state is {fw_dtype}; {name}'s state is "
+            f"{'integer' if e.fixed else 'floating point'}, so they cannot be equal bit for bit "
+            "(an integer state is compared as integers, with a fixed-point filter ...Q)")
+    if not integer:
+        dtype = dtype or fw_dtype
+        if dtype != fw_dtype:
+            raise FirmwareError(f"the firmware's state is {fw_dtype}, asked to compare with {dtype}")
+    inputs, want, state0 = _reference_run(name, params, inputs, backend, dtype)
+    order = [e.state_names.index(n) for n in names]
+    want = want[:, order]
+    got = fw.run(e.kind, inputs, params["dt"], c_args, params, state0[order])
+    if integer:
+        got, want = got.astype(np.int64), want.astype(np.int64)
+    v = Validation(name, backend, compare_states(got, want, names), got, want, "host",
+                   tuple(fw.cflags))
+    if not v.bit_exact:
+        v.max_angle_deg = _angle(name, params, got, want, names)
+        if explain and not integer:
+            _explain_host(v, fw, name, params, inputs, backend, dtype)
+    return v
+
+
+def _angle(name, params, got, want, names):
+    e = _filter_entry(name)
+    if tuple(names) != tuple(e.state_names):
+        order = [list(names).index(n) for n in e.state_names]
+        got, want = got[:, order], want[:, order]
+    try:
+        return angle_divergence_deg(name, dict(params), got, want, e.fixed)
+    except Exception:  # noqa: BLE001 - the angle is extra information, never a failure
+        return None
+
+
+def _explain_host(v, fw, name, params, inputs, backend, dtype):
+    """Compile the sources with the firmware's flags, look at the objects, confirm."""
+    cc = os.environ.get("CC", "cc")
+    if shutil.which(cc) is None:
+        return
+    wd = Path(tempfile.mkdtemp(prefix="imf_fw_explain_"))
+    try:
+        incs = [f"-I{d}" for d in fw.include_dirs] + \
+            [f"-I{d}" for d in sorted({os.path.dirname(s) for s in fw.sources})]
+        defs = [f"-D{k}" if val is None else f"-D{k}={val}" for k, val in fw.defines.items()]
+        cmd = [cc, *fw.cflags, *defs, *incs]
+        objs = []
+        for i, src in enumerate(fw.sources):
+            obj = wd / f"fw{i}.o"
+            if subprocess.run([*cmd, "-c", src, "-o", str(obj)], capture_output=True).returncode == 0:
+                objs.append(obj)
+        v.causes = find_causes("objdump", objs, fw.sources, fw.cflags, cmd, v.comparison.dtype,
+                               "host", False, wd)
+    finally:
+        shutil.rmtree(wd, ignore_errors=True)
+    def rerun(extra):
+        fixed = Firmware.__new__(Firmware)
+        fixed.__dict__.update(fw.__dict__)
+        fixed.cflags = [*fw.cflags, *extra]
+        fixed._lib = None
+        return validate(fixed, name, params, inputs, backend, dtype, explain=False).bit_exact
+
+    _confirm(v.causes, rerun)
+
+
+def _confirm(causes, rerun):
+    """Rebuild with each cause's fix (and with all of them when none suffices alone)."""
+    fixes = [c for c in causes if c.fix]
+    for c in fixes:
+        try:
+            c.confirmed = rerun([c.fix])
+        except FirmwareError:
+            c.confirmed = None
+    if len(fixes) > 1 and not any(c.confirmed for c in fixes):
+        flags = " ".join(c.fix for c in fixes)
+        try:
+            causes.append(Cause("together", "", flags, rerun([c.fix for c in fixes])))
+        except FirmwareError:
+            pass
+
+
+def _c_values(e, params):
+    """The imufuse filter's C init values by name, in the C init's order."""
+    args = e.reference._params(**params)
+    names = list(inspect.signature(e.reference._init).parameters)[1:]
+    if len(names) != len(args):
+        return tuple(args)
+    return dict(zip(names, args))
+
+
+def _validate_target(fw, name, params, inputs, backend, dtype, target, timeout, explain,
+                     cflags=None):
+    e = _filter_entry(name)
+    c_args = _c_values(e, params)
+    names = _state_names(fw, name, e)
+    flags = list(cflags if cflags is not None else
+                 (fw.cflags_given if fw.cflags_given is not None else DEFAULT_TARGET_CFLAGS))
+    init_values = fw._init_values(c_args, params) if fw.init else []
+    ref0 = _make(name, backend, dtype or "float32", params)
+    state0_all = np.asarray(ref0.state).astype(np.float64)
+    order = [e.state_names.index(n) for n in names]
+    c89 = any(f in ("-ansi", "-std=c89", "-std=c90", "-std=iso9899:1990", "-std=iso9899:199409")
+              for f in flags)
+    driver = fw.target_source(e.kind, init_values, params["dt"], state0_all[order], c89)
+    _, row = fw._update_plan(e.kind)
+    in_dtype = np.dtype(np.int16) if e.fixed else (np.dtype(dtype) if dtype else None)
+    try:
+        prog = build_program(fw, target, e.kind, driver, row, flags, in_dtype)
+    except (_tc.ToolchainMissing, TargetError) as err:
+        raise FirmwareError(str(err)) from None
+    types = prog.types
+    integer = {t.integer for t in types}
+    if len(integer) > 1:
+        raise FirmwareError("state expressions mix integer and floating-point types on the "
+                            f"{target}")
+    integer_state = integer == {True}
+    if integer_state != e.fixed:
+        raise FirmwareError(
+            f"the firmware's state is {'integer' if integer_state else 'floating point'} on the "
+            f"{target}; {name}'s is {'integer' if e.fixed else 'floating point'}: compare an "
+            "integer firmware with a fixed-point filter (...Q)")
+    notes = [speed_note(target)]
+    arch = [f for f in flags if f.startswith(("-mcpu", "-mfpu", "-mfloat-abi", "-mmcu", "-march"))]
+    if arch:
+        tgt_flags = " ".join(_tc.TARGETS[harness_target(target)].arch_flags)
+        notes.append(f"your --cflags set the architecture ({' '.join(arch)}) after the "
+                     f"target's ({tgt_flags}); the emulator models the {target}")
+    if not integer_state:
+        sizes = {t.size for t in types}
+        if len(sizes) > 1:
+            raise FirmwareError(f"state expressions must all be float or all double; sizes "
+                                f"{sorted(sizes)} on the {target}")
+        fw_dtype = "float32" if sizes == {4} else "float64"
+        if dtype and dtype != fw_dtype:
+            raise FirmwareError(f"the firmware's state is {fw_dtype} on the {target}, asked to "
+                                f"compare with {dtype}")
+        dtype = fw_dtype
+        if np.dtype(dtype) != prog.in_dtype:
+            shutil.rmtree(prog.workdir, ignore_errors=True)
+            try:
+                prog = build_program(fw, target, e.kind, driver, row, flags, np.dtype(dtype))
+            except TargetError as err:
+                raise FirmwareError(str(err)) from None
+        if target == "atmega328p":
+            if any(t.double for t in types):
+                notes.append("the firmware's state is declared double, which avr-gcc makes 32 "
+                             "bits: it is compared with imufuse in float32")
+            # what the host compiler (64-bit double) says about the same sources
+            host = [os.environ.get("CC", "cc"), *_strip_arch(flags), *_defs_incs(fw)]
+            promo = double_promotions(host, fw.sources, prog.workdir)
+            if promo:
+                notes.append("the firmware computes in double at " + ", ".join(promo[:4]) +
+                             (f" (+{len(promo) - 4} more)" if len(promo) > 4 else "") +
+                             ": avr-gcc's double is 32 bits, so here that is float32 arithmetic; "
+                             "built where double is 64 bits (Cortex-M4F, a PC) it rounds "
+                             "differently (-fsingle-precision-constant or float literals 0.5f)")
+    try:
+        return _finish_target(fw, name, params, inputs, backend, dtype, target, timeout, explain,
+                              flags, prog, types, integer_state, notes, order, names, row, e)
+    finally:
+        shutil.rmtree(prog.workdir, ignore_errors=True)
+
+
+def _finish_target(fw, name, params, inputs, backend, dtype, target, timeout, explain, flags,
+                   prog, types, integer_state, notes, order, names, row, e):
+    inputs, want, state0 = _reference_run(name, params, inputs, backend, dtype)
+    want = want[:, order]
+    x = np.column_stack([np.asarray(a).reshape(len(a), -1) for a in inputs]) if len(inputs[0]) \
+        else np.zeros((0, row), dtype=prog.in_dtype)
+    try:
+        run = run_program(prog, x, timeout)
+    except TargetError as err:
+        raise FirmwareError(str(err)) from None
+    if integer_state:
+        got = np.column_stack(run.states) if run.states else np.zeros((len(x), 0), np.int64)
+        want = want.astype(np.int64)
+    else:
+        got = np.column_stack(run.states).astype(dtype) if run.states else \
+            np.zeros((len(x), 0), dtype)
+    counts = run.counts
+    cost = Cost(run.count_unit, int(counts.min()) if counts.size else 0,
+                float(np.median(counts)) if counts.size else 0.0,
+                int(counts.max()) if counts.size else 0, prog.flash, prog.ram, run.stack,
+                prog.library, prog.library_flash, counts)
+    v = Validation(name, backend, compare_states(got, want, names), got, want, target,
+                   tuple(flags), notes=notes, cost=cost,
+                   timing=dict(build=prog.build_seconds, emulator=run.emulator_seconds,
+                               parse=run.parse_seconds, chunks=run.chunks,
+                               samples=float(len(x))))
+    if not v.bit_exact:
+        v.max_angle_deg = _angle(name, params, got, want, names)
+    if explain and not v.bit_exact and not integer_state:
+        tgt = _tc.TARGETS[harness_target(target)]
+        v.causes = find_causes(_tool_prefix(tgt) + "objdump", prog.user_objects, fw.sources,
+                                  flags, [tgt.cc, *tgt.arch_flags, *flags, *_defs_incs(fw)], dtype,
+                                  target, any(t.double for t in types), prog.workdir)
+        _confirm(v.causes, lambda extra: _validate_target(
+            fw, name, params, inputs, backend, dtype, target, timeout, False,
+            [*flags, *extra]).bit_exact)
+    return v
