@@ -1,6 +1,9 @@
 # Base classes of the compiled filters, included once per precision by
 # _f32.pyx / _f64.pyx (which define imf_real, DTYPE).
 #
+# Longer than 500 lines because: it is everything generic of every float binding (the
+# bindings themselves are generated), in one place so that one fix reaches every filter.
+#
 # A filter class wraps one C struct imf_<filter>_t. The base classes hold
 # everything generic: parameter validation (delegated to the reference
 # class, so both backends accept the same arguments), the state read (a

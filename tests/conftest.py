@@ -42,6 +42,7 @@ SLOW_TESTS = {"test_a_million_constant_samples_then_recovery", "test_hostile_bur
 EMULATOR_TESTS = {"test_fusion_ahrs_on_mcu"}
 
 
+@pytest.hookimpl(tryfirst=True)   # before pytest-xdist's loadgroup reads xdist_group
 def pytest_collection_modifyitems(config, items):
     for item in items:
         mod = item.module.__name__.rpartition(".")[2] if item.module else ""

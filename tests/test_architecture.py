@@ -163,3 +163,13 @@ def test_the_commands_run_through_the_session():
     assert "imufuse.session" in edges["imufuse.cli.common"]
     for m in ("imufuse.session", "imufuse.tune"):
         assert not any(d == "imufuse.cli" or d.startswith("imufuse.cli.") for d in edges[m]), m
+
+
+def test_no_module_over_500_lines_without_a_reason():
+    """A module over 500 lines says why in its first lines ("Longer than 500 lines because:"):
+    the Python package, the bindings and the tools."""
+    root = Path(__file__).resolve().parents[1]
+    files = [*PKG.rglob("*.py"), *(root / "imufuse_c").glob("*.p[yx][xi]"), *(root / "tools").glob("*.py")]
+    long = [p for p in files if len(p.read_text().splitlines()) > 500
+            and "Longer than 500 lines because:" not in "".join(p.read_text().splitlines(True)[:40])]
+    assert not long, [f"{p}: {len(p.read_text().splitlines())} lines" for p in long]

@@ -6,8 +6,9 @@ whether the test suite finds each one.
 Each mutant is one textual edit of one file, the kind of slip a change makes: an operator
 flipped, an off-by-one, a dropped normalisation, a skipped validation. For each, the script
 applies the edit in the checkout, rebuilds the compiled module when the edit is in a binding
-(.pxi), runs the tests that cover the edited code (``-x``, stopping at the first failure),
-restores the file and records whether the suite failed ("killed") or passed ("survived").
+(.pxi, or tools/bindgen.py which generates them), runs the tests that cover the edited code
+(``-x``, stopping at the first failure), restores the file and records whether the suite
+failed ("killed") or passed ("survived").
 C mutants are found by the tests that compile csrc/ themselves (validate --csrc, the fixed-point
 driver), so the compiled module is not rebuilt for them. The table goes to stdout (Markdown).
 
@@ -71,6 +72,9 @@ MUTANTS: List[Mutant] = [
     Mutant("c-kk-roll", "csrc/kk.c", "roll = roll + self->kp * (ay / norm - self->x.roll);",
            "roll = roll + self->kp * (ay / norm + self->x.roll);", C_BITEXACT,
            "KK roll correction sign"),
+    Mutant("c-qrotate-sign", "csrc/imf_math.h",
+           "o[1] = vy + w * ty + (z * tx - x * tz);", "o[1] = vy - w * ty + (z * tx - x * tz);",
+           C_BITEXACT, "the shared quaternion rotation (imf_qrotate): a sign flipped"),
     Mutant("c-robust-rest-gain", "csrc/robust.c",
            "set->k_rest = dt / (set->tau_rest + dt);", "set->k_rest = dt / set->tau_rest;",
            C_BITEXACT, "Robust: the rest low-pass gain off by its + dt"),
@@ -128,6 +132,10 @@ MUTANTS: List[Mutant] = [
            "    out[2] = _load(p, t, 2)", "    out[2] = _load(p, t, 1)",
            ("tests/test_wrapper_paths.py::test_update_rows_of_any_form_agree",),
            "binding: the fast row path reads z from y"),
+    Mutant("bindgen-1d-order", "tools/bindgen.py",
+           '2: ("_Filter1D", "imf_real rate, imf_real angle", "rate, angle"),',
+           '2: ("_Filter1D", "imf_real rate, imf_real angle", "angle, rate"),',
+           TWINS, "generated binding: a single-axis filter's update gets angle and rate swapped"),
     Mutant("pxi-skipped", "imufuse_c/_base.pxi",
            "        if not imf_finite3(g[0], g[1], g[2]):\n            self._skipped[0] += 1",
            "        if not imf_finite3(g[0], g[1], g[2]):\n            self._skipped[0] += 0",
@@ -188,7 +196,7 @@ def run(m: Mutant, timeout: float) -> Tuple[str, float, str]:
     if text.count(m.old) != 1:
         return "broken", 0.0, f"the edit's text occurs {text.count(m.old)} times"
     t0 = time.time()
-    build = m.path.endswith(".pxi")
+    build = m.path.endswith(".pxi") or m.path == "tools/bindgen.py"   # bindings: rebuilt
     try:
         open(path, "w").write(text.replace(m.old, m.new))
         if build:

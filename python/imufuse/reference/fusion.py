@@ -2,6 +2,10 @@
 pure-Python twin of csrc/fusion_math.h, fusion_ahrs.c, fusion_offset.c and
 fusion_calibration.c, line for line.
 
+Longer than 500 lines because: it is the twin of four C files that are one library
+(Fusion's), kept in one module as the C keeps them in one suite; csrc/fusion_*.c and this
+file are compared line by line.
+
 UNITS ARE FUSION'S: gyroscope in degrees per second, accelerometer in g,
 magnetometer in any unit, dt in seconds per update, angles in degrees.
 

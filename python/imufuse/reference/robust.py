@@ -1,6 +1,9 @@
 """imufuse's recommended AHRS (docs/recommended-ahrs.md): pure-Python twin of
 csrc/robust.c, line for line.
 
+Longer than 500 lines because: it is the twin of robust.c (also one file), read side by
+side with it, block by block.
+
 Building blocks (article chapters 3 and 4 applied to real sensors):
   B1 gyro bias at rest: rest detected from gyro and accelerometer statistics,
      the bias is the low-passed gyro (chapter 3: the bias as a state);
