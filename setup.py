@@ -133,7 +133,8 @@ def bindings():
                 os.remove(os.path.join(UNITS, family + ".pxi"))
         lines.append(f'include "{family}.pxi"\n')
     _write_if_changed(os.path.join(UNITS, "filters.pxi"), "".join(lines))
-    # the fixed-point classes (FILTERS_FIXED of reference/fixed_*.py), for _fixed.pyx
+    # the fixed-point classes of reference/fixed_*.py (public FixedFilter classes with a
+    # c_name), for _fixed.pyx
     _write_if_changed(os.path.join(UNITS, "fixed_filters.pxi"), gen.fixed_pxi())
     return UNITS
 

@@ -5,7 +5,7 @@ sample on Cortex-M4F (qemu), Cortex-M0 (qemu, soft float) and ATmega328P (simavr
 fixed point only: its double is 32 bits) has the same bit patterns as the host build of the same
 C and as the pure-Python reference; so do the `skipped` counters. Nothing here knows a filter by
 name: the C calls come from the reference class (c_name, kind, state_names, _params) and the
-headers (imufuse.mcu.filters).
+headers (imufuse.mcu.library).
 
 Inputs: a few hundred samples of simulated motion (imufuse.sim) and the corners (zero
 accelerometer and magnetometer, NaN/Inf, overflow, tiny and subnormal values; for fixed point

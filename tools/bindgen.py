@@ -1,4 +1,5 @@
-"""The Cython bindings of the float filters, generated from what is already declared:
+"""The Cython bindings of the float filters and of the fixed-point classes
+(fixed_filters.pxi), generated from what is already declared:
 
 - the twin (python/imufuse/reference/<family>.py): its filter classes (the public classes
   with a C prefix `c_name`, as imufuse.reference collects them) and their `angles()`;

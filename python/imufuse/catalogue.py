@@ -130,10 +130,11 @@ class Entry:
     @property
     def binding(self) -> str:
         """The Cython binding, by the name setup.py includes: fixed_filters.pxi for the
-        fixed-point classes and <family>.pxi for a float family, generated at every build
-        by tools/bindgen.py from the headers and the twins' declarations, or
-        imufuse_c/<family>.pxi where it is written by hand (Fusion, the variometer: APIs
-        of their own)."""
+        fixed-point classes and <family>.pxi for a float family. A hand-written binding
+        (Fusion, the variometer: APIs of their own) is this file in the checkout; the
+        others are generated at every build by tools/bindgen.py from the headers and the
+        twins (into build/imufuse_units/ under the same name; `python tools/bindgen.py
+        <family>` prints one)."""
         return f"imufuse_c/{'fixed_filters' if self.fixed else self.family}.pxi"
 
     def full_params(self, params: Mapping[str, Any]) -> Dict[str, Any]:
