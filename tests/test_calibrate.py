@@ -266,3 +266,26 @@ def test_absurd_gyro_readings_are_no_offset():
         cal.gyro_offset(g)
     b = cal.gyro_offset(np.full((200, 3), 30000.0)).params["b"]     # int16 counts still fine
     assert np.all(b == 30000.0)
+
+
+def test_calibrate_refuses_to_merge_into_a_malformed_file(tmp_path):
+    """-o into an existing file: a malformed section of another sensor (a file `run
+    --calibration` would refuse) is refused by name and the file is left as it was; a
+    malformed section of the sensor being calibrated is replaced."""
+    g = np.random.default_rng(1).normal(0, 0.1, (300, 3)) + np.array([0.5, -1.2, 0.3])
+    _write(tmp_path / "gyr.csv", "gyr", g)
+    out = tmp_path / "calib.json"
+    bad = '{"accelerometer": {"M": [1, 2], "s": [1, 1, 1], "b": [0, 0, 0]}}\n'
+    out.write_text(bad)
+    r = imf("calibrate", "gyro", tmp_path / "gyr.csv", "-o", out, "--gyr-unit", "deg/s")
+    # refused as an -o that is not a calibration file at all is (the command's arguments)
+    assert r.returncode == 2 and "accelerometer.M" in r.stderr and "nothing written" in r.stderr, \
+        (r.returncode, r.stderr)
+    assert out.read_text() == bad
+    out.write_text("[1, 2]\n")
+    r2 = imf("calibrate", "gyro", tmp_path / "gyr.csv", "-o", out, "--gyr-unit", "deg/s")
+    assert r2.returncode == r.returncode and "not a calibration file" in r2.stderr
+    out.write_text('{"gyroscope": {"b": "zero"}}\n')
+    r = imf("calibrate", "gyro", tmp_path / "gyr.csv", "-o", out, "--gyr-unit", "deg/s")
+    assert r.returncode == 0, r.stderr
+    assert set(json.loads(out.read_text())["gyroscope"]) == {"M", "s", "b"}

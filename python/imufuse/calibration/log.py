@@ -19,6 +19,7 @@ from .._atomic import replacing
 from ..io import LogError, require
 from ..session import ReadOptions, Session
 from .fit import accel_six_position, gyro_offset, mag_ellipsoid, mag_minmax
+from .models import CalibrationError, from_dict
 
 __all__ = ["save", "run_log", "describe", "SECTIONS"]
 
@@ -27,7 +28,9 @@ SECTIONS = {"gyro": "gyroscope", "accel": "accelerometer", "mag": "magnetometer"
 
 
 def save(path, cal):
-    """Write (or merge into an existing) calibration file."""
+    """Write (or merge into an existing) calibration file. The merged file must be one that
+    `imufuse run --calibration` reads: a malformed section of another sensor is refused
+    with its name and nothing is written (a malformed section of this sensor is replaced)."""
     data = {}
     if os.path.exists(path):
         with open(path) as fh:
@@ -42,6 +45,10 @@ def save(path, cal):
         raise ValueError(f"{path}: the {cal.sensor} calibration is not finite "
                          f"({cal.params}); nothing written")
     data[SECTIONS[cal.sensor]] = section
+    try:
+        from_dict(data)
+    except CalibrationError as e:
+        raise ValueError(f"{path}: {e}; fix or remove that section (nothing written)") from None
     with replacing(path) as tmp, open(tmp, "w") as fh:
         json.dump(data, fh, indent=2)
         fh.write("\n")
