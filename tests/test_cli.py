@@ -3,6 +3,7 @@ CSV logs the tests write, every subcommand and every error with its exit code.""
 import csv
 import io as _io
 import os
+import re
 import subprocess
 import sys
 
@@ -365,3 +366,16 @@ def test_help_lists_subcommands():
     assert r.returncode == 0
     for c in ("demo", "run", "compare", "bench", "validate"):
         assert c in r.stdout
+
+
+@pytest.mark.parametrize("name,heading", [("MadgwickIMU", False), ("MahonyIMU", False),
+                                          ("MadgwickAHRS", True)])
+def test_run_scores_heading_only_for_filters_that_estimate_it(tmp_path, name, heading):
+    """`run` against the log's reference: a 6-D filter's yaw is unobserved, so its line
+    gives the inclination only (as compare's table does), not a 'heading' of ~90 deg."""
+    r = imf("run", io.example_log(), "-f", name, "-o", tmp_path / "out.npz")
+    assert r.returncode == 0, r.stderr
+    line = next(ln for ln in r.stderr.splitlines() if "against the log's reference" in ln)
+    assert re.search(r"inclination \d", line), line
+    assert bool(re.search(r"heading \d", line)) == bool(re.search(r"total \d", line)) == heading, line
+    assert ("no heading" in line) != heading, line

@@ -120,6 +120,9 @@ class Evaluation:
     n_est_nan: int                  # counted samples whose estimate is not finite
     heading_offset: float = 0.0     # deg, removed from the heading (0 unless asked)
     per_sample: dict = field(default_factory=dict, repr=False)  # metric -> (N,) deg, NaN outside
+    #: whether the estimate has a heading (imufuse.session sets False for 6-D and gravity-vector
+    #: filters: their heading and total errors measure an unobserved yaw)
+    has_heading: bool = True
 
     def rms(self, metric):
         return getattr(self, metric)
@@ -129,9 +132,18 @@ class Evaluation:
         """Something was evaluated and every counted estimate was finite."""
         return self.n > 0 and self.n_est_nan == 0
 
-    def summary(self):
-        s = (f"total {self.total:.3f}, heading {self.heading:.3f}, inclination "
-             f"{self.inclination:.3f} deg RMS over {self.n} of {self.n_samples} samples")
+    def summary(self, heading=None):
+        """One line of the errors. Without a heading (has_heading False, or heading=False: 6-D
+        filters, gravity-vector filters) the inclination only: the heading and total errors
+        would measure the unobserved yaw."""
+        if heading is None:
+            heading = self.has_heading
+        if heading:
+            s = (f"total {self.total:.3f}, heading {self.heading:.3f}, inclination "
+                 f"{self.inclination:.3f} deg RMS over {self.n} of {self.n_samples} samples")
+        else:
+            s = (f"inclination {self.inclination:.3f} deg RMS over {self.n} of {self.n_samples} "
+                 "samples")
         excl = []
         if self.n_outside_mask:
             excl.append(f"{self.n_outside_mask} outside the movement mask")
@@ -139,10 +151,12 @@ class Evaluation:
             excl.append(f"{self.n_ref_nan} with a NaN reference")   # (or a zero one)
         if excl:
             s += f" ({', '.join(excl)} excluded)"
-        if self.heading_offset:
+        if self.heading_offset and heading:
             s += f"; heading offset {self.heading_offset:.3f} deg removed"
         if self.n_est_nan:
             s += f"; {self.n_est_nan} non-finite estimates"
+        if not heading:
+            s += "; no heading or total error: the filter estimates no heading"
         return s
 
 

@@ -491,9 +491,11 @@ class Session:
             return {"angle": (float(np.sqrt(np.mean(e * e))) if n else math.nan,
                               float(e.max()) if n else math.nan), "n": n,
                     "n_ref_nan": int(np.count_nonzero(~np.isfinite(ref)))}
-        return evaluate(est.q, log.q_ref, est_frame="NWU", ref_frame=self.ref_frame(options),
-                        ref_direction=options.ref_direction, movement=mask,
-                        remove_heading_offset=options.heading_offset, per_sample=per_sample)
+        ev = evaluate(est.q, log.q_ref, est_frame="NWU", ref_frame=self.ref_frame(options),
+                      ref_direction=options.ref_direction, movement=mask,
+                      remove_heading_offset=options.heading_offset, per_sample=per_sample)
+        ev.has_heading = bool(est.heading)
+        return ev
 
     def frame_hint(self, run: Run, ev: Any, options: ScoreOptions = ScoreOptions()
                    ) -> Optional[str]:
