@@ -21,8 +21,7 @@ import math
 
 from .. import _checks
 from ._base import QUAT_NORM2_TOL, ReferenceFilter, isfinite
-from ._math import qmul as _qmul
-from ._math import qrotate as _rotate
+from ._math import qmul, qrotate
 
 #: the largest finite number of each precision (IMF_REAL_MAX)
 _REAL_MAX = {"float32": 3.4028234663852886e38, "float64": 1.7976931348623157e308}
@@ -235,13 +234,13 @@ class _Robust(ReferenceFilter):
         th2 = ox * ox + oy * oy + oz * oz
         cw = R(1.0) - th2 * R(0.125)
         sv = R(0.5) - th2 * self.c48
-        s = _qmul(x.s0, x.s1, x.s2, x.s3, cw, sv * ox, sv * oy, sv * oz)
+        s = qmul(x.s0, x.s1, x.s2, x.s3, cw, sv * ox, sv * oy, sv * oz)
         s = self._norm4(*s)
         if s is None:
             return None
         x.s0, x.s1, x.s2, x.s3 = s
         # B2: the accelerometer in the inertial frame
-        aix, aiy, aiz = _rotate(R, *s, ax, ay, az)
+        aix, aiy, aiz = qrotate(R, *s, ax, ay, az)
         if first:
             # B5: gravity from the first sample
             x.fx, x.fy, x.fz = aix, aiy, aiz
@@ -275,7 +274,7 @@ class _Robust(ReferenceFilter):
             x.pvg = pvg - kv * pvg
             x.pvv = pvv - kv * pvv
         # inclination: the smallest rotation r that turns the gravity estimate onto earth z
-        gex, gey, gez = _rotate(R, x.c0, x.c1, x.c2, x.c3,
+        gex, gey, gez = qrotate(R, x.c0, x.c1, x.c2, x.c3,
                                 x.fx, x.fy, x.fz)
         gn = R(math.sqrt(gex * gex + gey * gey + gez * gez))
         r = self._norm4(gn + gez, gey, -gex, R(0.0))
@@ -294,14 +293,14 @@ class _Robust(ReferenceFilter):
         if c is None:
             return None
         x.c0, x.c1, x.c2, x.c3 = c
-        q = self._norm4(*_qmul(*c, *s))
+        q = self._norm4(*qmul(*c, *s))
         if q is None:
             return None
         x.q0, x.q1, x.q2, x.q3 = q
         # B3: the correction rate seen in the sensor frame is minus the bias error
         # (Eq. 3.6, I_k = I_{k-1} + Ki dt e_k, with Ki dt = 1 / tau_bias)
         if not rest and x.t >= self.tau_acc and self.inv_tau_bias > R(0.0):
-            ex, ey, ez = _rotate(R, q[0], -q[1], -q[2], -q[3], R(2.0) * r1, R(2.0) * r2, R(0.0))
+            ex, ey, ez = qrotate(R, q[0], -q[1], -q[2], -q[3], R(2.0) * r1, R(2.0) * r2, R(0.0))
             x.bx = x.bx - ex * self.inv_tau_bias
             x.by = x.by - ey * self.inv_tau_bias
             x.bz = x.bz - ez * self.inv_tau_bias
@@ -320,7 +319,7 @@ class _Robust(ReferenceFilter):
         th2 = ox * ox + oy * oy + oz * oz
         cw = R(1.0) - th2 * R(0.125)
         sv = R(0.5) - th2 * self.c48
-        q = self._norm4(*_qmul(x.q0, x.q1, x.q2, x.q3,
+        q = self._norm4(*qmul(x.q0, x.q1, x.q2, x.q3,
                                cw, sv * ox, sv * oy, sv * oz))
         if q is None:
             return False
@@ -339,7 +338,7 @@ class _Robust(ReferenceFilter):
         """B4: heading from the magnetometer. Returns False to reject the sample."""
         R = self._R
         dt = self.dt
-        mex, mey, mez = _rotate(R, x.q0, x.q1, x.q2, x.q3, mx, my, mz)
+        mex, mey, mez = qrotate(R, x.q0, x.q1, x.q2, x.q3, mx, my, mz)
         h2 = mex * mex + mey * mey
         n2 = h2 + mez * mez
         if not (n2 >= self._min and n2 <= self._max):
@@ -399,7 +398,7 @@ class _Robust(ReferenceFilter):
             if c is None:
                 return False
             x.c0, x.c1, x.c2, x.c3 = c
-            q = self._norm4(*_qmul(*c, x.s0, x.s1, x.s2, x.s3))
+            q = self._norm4(*qmul(*c, x.s0, x.s1, x.s2, x.s3))
             if q is None:
                 return False
             x.q0, x.q1, x.q2, x.q3 = q
