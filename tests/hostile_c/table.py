@@ -3,7 +3,8 @@ what the filters already declare: every float configuration of the test registry
 (tests/registry.py: each catalogue filter with its defaults and the variants the other
 tests run), plus FUZZ_CASES below, each initialised with the C init arguments its twin
 computes (`_params`, keyed by the `_init` names as imufuse_c passes them), through the
-settings struct or the positional init that the header declares (imufuse.cproto).
+settings struct or the positional init that the header declares (read by
+imufuse.mcu.library, the harnesses' one reader of the headers).
 
 A new float filter is driven, fuzzed and run under ASan/UBSan with no edit here. The
 Fusion suite and the variometer (bindings of their own, imufuse_c/fusion.pxi, vario.pxi)
@@ -24,11 +25,12 @@ from __future__ import annotations
 from pathlib import Path
 from typing import List
 
-from imufuse import catalogue, cproto
+from imufuse import catalogue
+from imufuse.mcu.library import c_library
 from imufuse.reference._base import init_arguments
 from registry import FIXED_CASES, FLOAT_CASES, Case
 
-CSRC = Path(__file__).resolve().parents[2] / "csrc"
+CSRC = Path(__file__).resolve().parents[2] / "csrc"   # this checkout's sources, as the driver
 
 # configurations the sanitizers and the fuzzer need beyond the registry's: the recommended
 # filter with a latency and short times, so that the rest, re-learning and magnetic branches
@@ -52,13 +54,6 @@ def _literal(ctype: str, value) -> str:
     raise AssertionError(f"no C literal for a {ctype} init value")
 
 
-def _header(c_name: str) -> Path:
-    for h in sorted(CSRC.glob("*.h")):
-        if cproto.find_prototype(h.read_text(), c_name + "_init") is not None:
-            return h
-    raise AssertionError(f"no header in csrc declares {c_name}_init()")
-
-
 def cases() -> List[Case]:
     return [*FLOAT_CASES, *FUZZ_CASES]
 
@@ -70,7 +65,7 @@ def table_header() -> str:
     headers, members = [], []
     for c in cs:
         cn = catalogue.entry(c.name).c_name
-        h = _header(cn).name
+        h = c_library(cn, CSRC).header.name
         if h not in headers:
             headers.append(h)
         if cn not in members:
@@ -83,8 +78,8 @@ def table_header() -> str:
     for i, c in enumerate(cs):
         e = catalogue.entry(c.name)
         cn, m = e.c_name, e.c_name[4:]
-        text = _header(cn).read_text()
-        struct, values = cproto.init_params(text, cn + "_init")
+        cf = c_library(cn, CSRC)
+        struct, values = cf.init_struct, cf.init
         kw = init_arguments(e.reference, e.reference._params(**c.params))
         missing = [v.name for v in values if v.name not in kw]
         assert not missing, f"{c.id}: {cn}_init takes {missing}, which {c.name}._init does not name"
@@ -141,8 +136,7 @@ def fixed_table_header() -> str:
     confs = fixed_configurations()
     headers, members = [], []
     for _, f in confs:
-        h = next(h.name for h in sorted((CSRC / "fixed").glob("*.h"))
-                 if cproto.find_prototype(h.read_text(), f.c_name + "_init") is not None)
+        h = c_library(f.c_name, CSRC).header.name
         if h not in headers:
             headers.append(h)
         if f.c_name not in members:
