@@ -13,6 +13,37 @@ from . import _f32, _f64
 _BUILDS = {"float32": _f32, "float64": _f64}
 
 
+def _run_many_each(make, params, inputs, threads, run_kwargs):
+    """run_many of a filter without a compiled batch path (single-axis, fixed point, Fusion,
+    the variometer): one instance per parameter set, each run() (which releases the GIL) in a
+    thread; a list of what each run() returns."""
+    import concurrent.futures as cf
+    import os
+
+    filters = []
+    for i, p in enumerate(params):
+        try:
+            filters.append(make(**dict(p)))
+        except (TypeError, ValueError) as e:
+            raise type(e)(f"parameter set {i} ({dict(p)}): {e}") from None
+    workers = max(1, min(threads or os.cpu_count() or 1, len(filters)))
+    if workers == 1:
+        return [f.run(*inputs, **run_kwargs) for f in filters]
+    with cf.ThreadPoolExecutor(max_workers=workers) as ex:
+        return list(ex.map(lambda f: f.run(*inputs, **run_kwargs), filters))
+
+
+def _run_many(cls, params, *inputs, dtype="float64", threads=None, **run_kwargs):
+    """Run one filter per parameter set of ``params`` (constructor keyword dicts) over one
+    log in one call; each set's result is bit for bit its own run()'s. 3-D float filters:
+    imufuse_c.run_filters (lanes, scores; a (P, N, len(state)) array or Evaluations); the
+    others: a list of what each run() returns (run keywords such as dt= are passed on)."""
+    impl = cls._impl[_checks.check_dtype(dtype)]
+    if hasattr(impl, "run_many") and cls.kind in ("imu", "ahrs"):
+        return impl.run_many(params, *inputs, threads=threads, **run_kwargs)
+    return _run_many_each(impl, params, inputs, threads, run_kwargs)
+
+
 class _Dispatch(type):
     def __call__(cls, *args, dtype="float64", **kwargs):
         return cls._impl[_checks.check_dtype(dtype)](*args, **kwargs)
@@ -40,6 +71,7 @@ def _dispatch(name):
         "__module__": __name__,
         "kind": ref.kind,
         "state_names": ref.state_names,
+        "run_many": classmethod(_run_many),
     })
 
 
@@ -48,6 +80,29 @@ for _name in FILTERS:
     globals()[_name] = _dispatch(_name)
 
 __all__ = list(FILTERS)
+
+
+def run_filters(filters, *inputs, **kwargs):
+    """Many filters of one 3-D float class and precision over one log in one compiled call
+    (imufuse_c._f64.run_filters: lanes, threads, scores computed while they run)."""
+    filters = list(filters)
+    if not filters:
+        raise ValueError("run_filters: no filter given")
+    return _BUILDS[filters[0].dtype].run_filters(filters, *inputs, **kwargs)
+
+
+def lane_widths(dtype="float64"):
+    """{width: instruction set} of the lane kernels this CPU runs, widest first."""
+    return _BUILDS[_checks.check_dtype(dtype)].lane_widths()
+
+
+def has_lanes(name, dtype="float64"):
+    """Whether filter ``name`` has a lane kernel (run_filters runs its sets in SIMD lanes)."""
+    b = _BUILDS[_checks.check_dtype(dtype)]
+    return b.has_lanes(getattr(b, name))
+
+
+__all__ += ["run_filters", "lane_widths", "has_lanes"]
 
 # ---- Nair's variometer: VarioKF (dtype dispatch) and vertical_accel
 FILTERS_VARIO = _reference.FILTERS_VARIO
@@ -87,6 +142,7 @@ def _dispatch_fusion(name):
         "__module__": __name__,
         "kind": ref.kind,
         "state_names": ref.state_names,
+        "run_many": classmethod(_run_many),
     })
 
 

@@ -48,6 +48,29 @@ cdef extern from "imf_attitude.h" nogil:
     int imf_attitude_window_add(imf_attitude_window_t *w, imf_attitude_t *att, imf_real ax,
                                 imf_real ay, imf_real az, imf_real mx, imf_real my, imf_real mz)
 
+cdef extern from "lanes.h" nogil:
+    ctypedef struct imf_scorer_t:
+        const unsigned char *use
+        const double *r
+        int store
+    ctypedef struct imf_score_acc_t:
+        double sq[3]
+        double n_est_nan
+        Py_ssize_t j
+        double *ew
+        double *ez
+        unsigned char *ok
+    ctypedef int (*imf_lanes_fn)(void *const *f, int p, Py_ssize_t k0, Py_ssize_t k1,
+                                 const imf_real *gyr, const imf_real *acc, const imf_real *mag,
+                                 const imf_real *dts, const imf_scorer_t *sc,
+                                 imf_score_acc_t *accs, imf_real *const *out)
+    void imf_estimate_q(int adapter, const double *s, const int *idx, double q[4])
+    void imf_score_q(const imf_scorer_t *sc, imf_score_acc_t *acc, Py_ssize_t k,
+                     const double q[4])
+    imf_lanes_fn imf_lanes_kernel(const char *c_name, int width)
+    int imf_lanes_best()
+    const char *imf_lanes_isa(int width)
+
 from imufuse import _checks
 from imufuse import estimate as _estimate
 from imufuse.reference._base import init_arguments as _init_arguments
@@ -157,6 +180,7 @@ cdef class _Filter:
     cdef int _pending
     cdef imf_attitude_window_t _win
     cdef _StateOut _out
+    cdef void *_whole
     _ref = None
     dtype = DTYPE
 
@@ -185,6 +209,10 @@ cdef class _Filter:
         pass
 
     cdef void _set_attitude(self, const imf_attitude_t *att) noexcept nogil:
+        pass
+
+    cdef void _step3(self, const imf_real *g, const imf_real *a, const imf_real *m) noexcept nogil:
+        # one sample of a 3-D filter (run_filters, _sweep.pxi): m is ignored by 6-D filters
         pass
 
     cdef int _apply_start(self) except -1:
@@ -244,10 +272,11 @@ cdef class _Filter:
         memcpy(&self._win, <const char *>win, len(win))
         return 0
 
-    cdef int _bind(self, void *x, size_t size, uint32_t *skipped) except -1:
+    cdef int _bind(self, void *x, size_t size, uint32_t *skipped, void *whole=NULL) except -1:
         if size != <size_t>self._n * sizeof(imf_real):
             raise AssertionError("state struct does not match state_names")
         self._x = <char *>x
+        self._whole = whole     # the C struct: a lane kernel reads its settings and state
         self._skipped = skipped
         return 0
 
@@ -288,6 +317,15 @@ cdef class _Filter:
         cdef const imf_real[::1] v = arr
         memcpy(self._x, &v[0], self._n * sizeof(imf_real))
         self._pending = 0   # a state set by hand ends a pending init="first"
+
+    @classmethod
+    def run_many(cls, params, *inputs, dt=None, score=None, outputs="state", lanes=None,
+                 threads=None):
+        """Run one filter per parameter set of ``params`` (a sequence of constructor keyword
+        dicts, e.g. {"beta": 0.05, "dt": 0.01, "init": "first"}) over one log in one compiled
+        call: each set's result is bit for bit its own run()'s. See run_filters for inputs,
+        dt, score, outputs, lanes and threads."""
+        return _run_many(cls, params, inputs, dt, score, outputs, lanes, threads)
 
     def reset(self):
         """Back to the state after construction (init runs again)."""
@@ -412,6 +450,9 @@ cdef class _FilterIMU(_Filter):
     cdef void _step(self, const imf_real *gyr, const imf_real *acc) noexcept nogil:
         pass
 
+    cdef void _step3(self, const imf_real *g, const imf_real *a, const imf_real *m) noexcept nogil:
+        self._step(g, a)
+
     def update(self, gyr, acc, dt=None):
         """One sample: gyr (3,) rad/s, acc (3,) any unit; dt (s): this sample's period."""
         if self._x == NULL:
@@ -524,6 +565,9 @@ cdef class _FilterAHRS(_Filter):
                     const imf_real *mag) noexcept nogil:
         pass
 
+    cdef void _step3(self, const imf_real *g, const imf_real *a, const imf_real *m) noexcept nogil:
+        self._step(g, a, m)
+
     def update(self, gyr, acc, mag, dt=None):
         """One sample: gyr (3,) rad/s, acc (3,) and mag (3,) any unit; dt (s): this
         sample's period."""
@@ -631,3 +675,6 @@ cdef class _FilterAHRS(_Filter):
                     self._step(g, a, m)
                     _copy_state(o + k * n, self._x, n)
         return out
+
+
+include "_sweep.pxi"

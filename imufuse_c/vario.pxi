@@ -59,7 +59,7 @@ cdef class VarioKF(_Filter):
         a = self._kw
         cdef imf_vario_settings_t st = a
         imf_vario_init(&self.s, &st)
-        return self._bind(&self.s.x, sizeof(self.s.x), &self.s.skipped)
+        return self._bind(&self.s.x, sizeof(self.s.x), &self.s.skipped, &self.s)
 
     def update(self, accel, baro_alt, dt):
         """One barometer sample: accel (cm/s^2, up positive), baro_alt (cm), dt (s)."""

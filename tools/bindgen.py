@@ -206,7 +206,7 @@ def _bind_filter(cp, name: str, c: str, text: str, rel_h: str, fixed: bool,
     else:
         args = ", ".join(f'a["{p.name}"]' for p in init.params[1:])
         init_body = _wrap(f"{call}{c}_init(&self.s, {args})", 8) + "\n"
-    bind = "rc" if fixed else "&self.s.skipped"
+    bind = "rc" if fixed else "&self.s.skipped, &self.s"
     body = [f"\n\ncdef class {name}({base}):\n",
             f"    _ref = _reference.{name}\n",
             f"    cdef {c}_t s\n\n",

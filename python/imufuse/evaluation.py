@@ -160,6 +160,92 @@ class Evaluation:
         return s
 
 
+def _counted(q_ref, movement):
+    """(movement mask, reference rows usable, samples outside the mask, masked-in samples
+    with an unusable reference) of an (N, 4) reference."""
+    n = len(q_ref)
+    mask = np.ones(n, dtype=bool)
+    if movement is not None:
+        m = np.asarray(movement)
+        if m.shape != (n,):
+            raise ValueError(f"movement: expected shape ({n},), got {m.shape}")
+        if m.dtype != bool:
+            if not np.all(np.isin(m, (0, 1))):
+                raise ValueError("movement: must be boolean (0/1) values")
+            m = m.astype(bool)
+        mask = m.copy()
+    # a reference row is missing when it is not finite or is (near) zero: a zero row is the
+    # "no tracking" marker of some systems and has no orientation; both are excluded and counted
+    # (a row whose norm overflows has no orientation either)
+    with np.errstate(all="ignore"):
+        n2_ref = np.einsum("ij,ij->i", q_ref, q_ref)
+        ref_ok = np.all(np.isfinite(q_ref), axis=1) & (n2_ref > 1e-12) & np.isfinite(n2_ref)
+    n_outside = int(np.count_nonzero(~mask))
+    n_ref_nan = int(np.count_nonzero(mask & ~ref_ok))
+    return mask, ref_ok, n_outside, n_ref_nan
+
+
+@dataclass
+class Reference:
+    """A log's reference prepared once for scoring many estimates in compiled code
+    (imufuse_c's run_filters / run_many with score=): use, (N,) uint8, 1 where a sample counts;
+    r, (N, 4) the reference sensor-to-ENU, unit (rows that do not count are zero). The counts
+    are evaluate()'s. Made by prepare_reference."""
+    use: np.ndarray
+    r: np.ndarray
+    n: int
+    n_samples: int
+    n_ref_nan: int
+    n_outside_mask: int
+    heading_offset: bool = False
+
+    def finish(self, sq_total, sq_heading, sq_inclination, n_est_nan, stored=None,
+               has_heading=True):
+        """The Evaluation of one estimate from the compiled scorer's sums (or, with the
+        heading offset removed, from its stored e_w, e_z, finite flags: the offset and the
+        errors are then taken here, as evaluate() takes them)."""
+        cnt, offset = self.n, 0.0
+        if stored is not None:
+            ew, ez, ok = stored
+            ok = ok.astype(bool)
+            if np.any(ok):
+                psi = 2.0 * np.arctan2(ez[ok], ew[ok])
+                offset = math.atan2(float(np.sum(np.sin(psi))), float(np.sum(np.cos(psi))))
+                c, s = math.cos(offset / 2), -math.sin(offset / 2)
+                ew, ez = c * ew - s * ez, c * ez + s * ew     # z(-offset) (x) e, w and z
+            aw, az = np.abs(ew), np.abs(ez)
+            angles = (2.0 * np.arccos(np.minimum(aw, 1.0)), 2.0 * np.arctan2(az, aw),
+                      2.0 * np.arccos(np.minimum(np.sqrt(ew ** 2 + ez ** 2), 1.0)))
+            sq_total, sq_heading, sq_inclination = (float(np.dot(np.degrees(a), np.degrees(a)))
+                                                    for a in angles)
+        rms = [math.sqrt(v / cnt) if cnt else math.nan
+               for v in (sq_total, sq_heading, sq_inclination)]
+        return Evaluation(total=rms[0], heading=rms[1], inclination=rms[2], n=cnt,
+                          n_samples=self.n_samples, n_ref_nan=self.n_ref_nan,
+                          n_outside_mask=self.n_outside_mask, n_est_nan=int(n_est_nan),
+                          heading_offset=math.degrees(offset), has_heading=has_heading)
+
+
+def prepare_reference(q_ref, *, ref_frame="ENU", ref_direction="sensor-to-earth",
+                      movement=None, remove_heading_offset=False):
+    """The Reference of evaluate(q_est, q_ref, est_frame="NWU", ...)'s other arguments, for
+    scoring estimates in compiled code."""
+    q_ref = _quats(q_ref, "q_ref")
+    _check_frame(ref_frame, "ref_frame")
+    if ref_direction not in DIRECTIONS:
+        raise ValueError(f"direction: must be one of {', '.join(DIRECTIONS)}, "
+                         f"got {ref_direction!r}")
+    mask, ref_ok, n_outside, n_ref_nan = _counted(q_ref, movement)
+    use = mask & ref_ok
+    r = np.zeros((len(q_ref), 4))
+    if np.any(use):
+        rr = to_enu(q_ref[use], ref_frame, ref_direction, "ref_frame")
+        r[use] = rr / np.linalg.norm(rr, axis=1, keepdims=True)
+    return Reference(use=use.astype(np.uint8), r=np.ascontiguousarray(r),
+                     n=int(np.count_nonzero(use)), n_samples=len(q_ref), n_ref_nan=n_ref_nan,
+                     n_outside_mask=n_outside, heading_offset=bool(remove_heading_offset))
+
+
 def evaluate(q_est, q_ref, *, est_frame="NWU", ref_frame="ENU",
              est_direction="sensor-to-earth", ref_direction="sensor-to-earth",
              movement=None, remove_heading_offset=False, per_sample=True, chunk=1 << 16):
@@ -180,26 +266,10 @@ def evaluate(q_est, q_ref, *, est_frame="NWU", ref_frame="ENU",
         if d not in DIRECTIONS:
             raise ValueError(f"direction: must be one of {', '.join(DIRECTIONS)}, got {d!r}")
     n = len(q_est)
-    mask = np.ones(n, dtype=bool)
-    if movement is not None:
-        m = np.asarray(movement)
-        if m.shape != (n,):
-            raise ValueError(f"movement: expected shape ({n},), got {m.shape}")
-        if m.dtype != bool:
-            if not np.all(np.isin(m, (0, 1))):
-                raise ValueError("movement: must be boolean (0/1) values")
-            m = m.astype(bool)
-        mask = m.copy()
-    # a reference row is missing when it is not finite or is (near) zero: a zero row is the
-    # "no tracking" marker of some systems and has no orientation; both are excluded and counted
-    # (a row whose norm overflows has no orientation either)
+    mask, ref_ok, n_outside, n_ref_nan = _counted(q_ref, movement)
     with np.errstate(all="ignore"):
-        n2_ref = np.einsum("ij,ij->i", q_ref, q_ref)
         n2_est = np.einsum("ij,ij->i", q_est, q_est)
-        ref_ok = np.all(np.isfinite(q_ref), axis=1) & (n2_ref > 1e-12) & np.isfinite(n2_ref)
         est_ok = np.all(np.isfinite(q_est), axis=1) & (n2_est > 1e-12) & np.isfinite(n2_est)
-    n_outside = int(np.count_nonzero(~mask))
-    n_ref_nan = int(np.count_nonzero(mask & ~ref_ok))
     use = mask & ref_ok
     n_est_nan = int(np.count_nonzero(use & ~est_ok))
     idx = np.flatnonzero(use)
