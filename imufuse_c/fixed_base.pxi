@@ -135,6 +135,14 @@ cdef class _FixedFilter:
         return f"<imufuse_c {type(self).__name__} profile={self.profile}>"
 
 
+    @classmethod
+    def run_many(cls, params, *inputs, threads=None):
+        """One filter per parameter set of ``params`` (constructor keyword dicts) over one
+        log, each run() (which releases the GIL) in a thread: a list of their trajectories,
+        each bit for bit its own run()'s."""
+        from imufuse_c import _run_many_each
+        return _run_many_each(cls, params, inputs, threads, {})
+
 cdef class _Fixed1D(_FixedFilter):
     cdef void _step(self, int16_t rate, int16_t angle) noexcept nogil:
         pass

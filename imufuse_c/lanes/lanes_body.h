@@ -183,7 +183,7 @@ static inline void LN(score)(const imf_scorer_t *const sc, const ptrdiff_t k, VD
     const double *const r = sc->r + 4 * k;
     const VD n2 = w * w + x * x + y * y + z * z;
     const VD n = LN(sqrt_d)(n2);
-    VD a, b, c, d, ew, ez;
+    VD a, b, c, d, m, ew, ez;
     VMD fin;
     int i;
     if (!sc->use[k]) {
@@ -200,6 +200,12 @@ static inline void LN(score)(const imf_scorer_t *const sc, const ptrdiff_t k, VD
     b = s * x - s * y;
     c = s * y + s * x;
     d = s * z + s * w;
+    /* evaluate() normalises again after the frame change (error_quaternion) */
+    m = LN(sqrt_d)(a * a + b * b + c * c + d * d);
+    a = a / m;
+    b = b / m;
+    c = c / m;
+    d = d / m;
     ew = a * r[0] + b * r[1] + c * r[2] + d * r[3];
     ez = -a * r[3] - b * r[2] + c * r[1] + d * r[0];
     if (sc->store) {

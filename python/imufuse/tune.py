@@ -8,7 +8,12 @@ finer grids around the best point. What `imufuse tune` runs; usable from Python:
     res.best, res.score(res.best)
 
 The score of a parameter set is the mean over the logs of a BROAD RMS error (``metric``).
-Sets are scored in parallel threads (a filter's run() releases the GIL).
+With the compiled float filters (the default), every parameter set of a round runs over each
+log in compiled code and is scored there while it runs (imufuse_c.run_filters: no trajectory
+is kept, the errors are imufuse.evaluation's within 1e-12); filters with a lane kernel run
+their sets side by side in SIMD lanes, and (log, group of sets) tasks run in threads. Python
+only chooses the sets. The reference backend and the fixed-point filters run and score each
+set in Python, in threads.
 """
 from __future__ import annotations
 
@@ -21,8 +26,10 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .catalogue import FilterError, reference_class, resolve_params
-from .evaluation import METRICS, mean_over_trials
+import imufuse_c
+
+from .catalogue import FLOAT, FilterError, reference_class, resolve_params
+from .evaluation import METRICS, mean_over_trials, prepare_reference
 from .session import (NothingComputed, RunOptions, ScoreOptions, Session, chunked_estimate,
                       effective_params)
 
@@ -105,6 +112,19 @@ class Tuner:
         self.fixed = dict(fixed or {})
         self.run_options, self.score_options = run, score
         self.inputs = [s.inputs(name)[0] for s in self.sessions]
+        #: compiled batches (run_filters), else each set run and scored in Python
+        self.batch = run.backend == "c" and name in {e.name for e in FLOAT}
+        self._refs: Optional[list] = None
+
+    def references(self) -> list:
+        """Each session's reference prepared for the compiled scorer (once)."""
+        if self._refs is None:
+            o = self.score_options
+            self._refs = [prepare_reference(s.log.q_ref, ref_frame=s.ref_frame(o),
+                                            ref_direction=o.ref_direction, movement=s.mask(o),
+                                            remove_heading_offset=o.heading_offset)
+                          for s in self.sessions]
+        return self._refs
 
     def default_grid(self, points: int) -> Grid:
         """Every positive float parameter with a default, /10 .. x10 around it, log-spaced."""
@@ -149,6 +169,49 @@ class Tuner:
                                         self.score_options))
         return mean_over_trials(evs)[self.metric], evs
 
+    def _run_batch(self, names: Sequence[str], points: List[Tuple[float, ...]],
+                   res: TuneResult, workers: int,
+                   progress: Optional[Callable[[int, int], None]]) -> None:
+        """Every point on every log through imufuse_c.run_filters: tasks of (log, a group of
+        sets as wide as the lanes) in ``workers`` threads."""
+        refs = self.references()
+        made: Dict[Tuple[float, ...], list] = {}
+        for p in points:
+            over = {**self.fixed, **dict(zip(names, p))}
+            try:
+                made[p] = [s.make(self.name, over, self.run_options) for s in self.sessions]
+            except FilterError as e:
+                res.results[p] = (math.nan, str(e))
+        good = list(made)
+        width = 1
+        if good:
+            f0 = made[good[0]][0][0]
+            if imufuse_c.has_lanes(self.name, f0.dtype):
+                width = max(imufuse_c.lane_widths(f0.dtype))
+        count = -(-len(good) // width) if good else 0
+        spans = [(len(good) * j // count, len(good) * (j + 1) // count) for j in range(count)]
+        evs: Dict[Tuple[float, ...], list] = {p: [None] * len(self.sessions) for p in good}
+        tasks = [(i, a, b) for i in range(len(self.sessions)) for a, b in spans]
+
+        def task(t: Tuple[int, int, int]) -> Tuple[int, int, int, list]:
+            i, a, b = t
+            filters = [made[p][i][0] for p in good[a:b]]
+            dts = made[good[a]][i][2]
+            out = imufuse_c.run_filters(filters, *self.inputs[i], dt=dts, score=refs[i],
+                                        threads=1)
+            return i, a, b, out
+        done, total, n_logs = 0, len(good) * len(self.sessions), len(self.sessions)
+        with cf.ThreadPoolExecutor(max_workers=max(1, min(workers, len(tasks) or 1))) as ex:
+            for fu in cf.as_completed([ex.submit(task, t) for t in tasks]):
+                i, a, b, out = fu.result()
+                for p, ev in zip(good[a:b], out):
+                    evs[p][i] = ev
+                done += b - a
+                if progress:
+                    progress(done // n_logs, len(good))
+        for p in good:
+            res.results[p] = (mean_over_trials(evs[p])[self.metric], evs[p])
+
     def search(self, grid: Grid, refine: int = 2, jobs: Optional[int] = None,
                progress: Optional[Callable[[int, int], None]] = None) -> TuneResult:
         """The grid, then ``refine`` rounds of a 5-point grid per parameter between the best
@@ -161,6 +224,9 @@ class Tuner:
         workers = max(1, jobs or os.cpu_count() or 1)
 
         def run(points: List[Tuple[float, ...]]) -> None:
+            if self.batch:
+                self._run_batch(names, points, res, workers, progress)
+                return
             done = 0
             with cf.ThreadPoolExecutor(max_workers=workers) as ex:
                 futs = {ex.submit(self.score_set, names, p): p for p in points}
