@@ -248,7 +248,7 @@ def test_tune_batch_equals_python_scoring(tmp_path):
         each = t.search(grid, refine=1)
         assert set(batch.results) == set(each.results)
         assert batch.best == each.best
-        for p, (s, evs) in each.results.items():
+        for p, (s, _) in each.results.items():
             if math.isnan(s):
                 assert math.isnan(batch.score(p)) and "beta" in batch.results[p][1]
                 continue

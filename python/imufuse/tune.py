@@ -200,7 +200,7 @@ class Tuner:
             out = imufuse_c.run_filters(filters, *self.inputs[i], dt=dts, score=refs[i],
                                         threads=1)
             return i, a, b, out
-        done, total, n_logs = 0, len(good) * len(self.sessions), len(self.sessions)
+        done, n_logs = 0, len(self.sessions)
         with cf.ThreadPoolExecutor(max_workers=max(1, min(workers, len(tasks) or 1))) as ex:
             for fu in cf.as_completed([ex.submit(task, t) for t in tasks]):
                 i, a, b, out = fu.result()
