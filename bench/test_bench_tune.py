@@ -1,0 +1,92 @@
+"""Parameter search at the machine's limit (issue 28): `tune` on the seven BROAD development
+trials, MadgwickAHRS float64, 20 values of beta, no refinement, 2 threads, measured side by
+side in one run (best of 3) against
+
+  - the compute-only limit: samples x sets x (ns per scalar update, from run()) / cores;
+  - scoring each set in Python (Tuner with batch=False: run() + imufuse.evaluation);
+  - the batch API without scores (run_many, trajectories) against a loop of run();
+  - the lanes against each filter's own update (run_filters, scored, lanes=0).
+
+    pytest bench/test_bench_tune.py --benchmark-only -s
+
+Prints the table that bench/RESULTS.md and the README's speed section quote."""
+import glob
+import os
+import sys
+import time
+
+import numpy as np
+import pytest
+
+import imufuse_c
+from imufuse.evaluation import prepare_reference
+from imufuse.session import Session
+from imufuse.tune import Tuner
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests"))
+from broad_data import BROAD, SKIP_REASON  # noqa: E402
+
+NAME, SETS, CORES = "MadgwickAHRS", 20, 2
+
+
+def best_of(fn, n=3):
+    out = []
+    for _ in range(n):
+        t0 = time.perf_counter()
+        fn()
+        out.append(time.perf_counter() - t0)
+    return min(out)
+
+
+@pytest.mark.skipif(BROAD is None, reason=SKIP_REASON)
+def test_tune_against_compute_limit(benchmark):
+    sessions = [Session(p) for p in sorted(glob.glob(os.path.join(BROAD, "*.npz")))]
+    samples = sum(len(s.log) for s in sessions)
+    grid = [("beta", list(np.geomspace(0.01, 1.0, SETS)))]
+    tuner = Tuner(sessions, NAME)
+    cls = imufuse_c.MadgwickAHRS
+    ins = [s.inputs(NAME)[0] for s in sessions]
+    dt = sessions[0].dt()
+
+    def scalar_runs():
+        for x in ins:
+            cls(dt=dt, beta=0.1, init="first").run(*x)
+    ns_update = best_of(scalar_runs, 5) / samples * 1e9
+    limit = samples * SETS * ns_update * 1e-9 / CORES
+
+    def tune():
+        tuner.batch = True
+        return tuner.search(grid, refine=0, jobs=CORES)
+    t_tune = best_of(tune)
+    tuner.batch = False
+    t_python = best_of(lambda: tuner.search(grid, refine=0, jobs=CORES))
+    tuner.batch = True
+
+    params = [dict(dt=dt, beta=b, init="first") for b in grid[0][1]]
+    x = ins[0]
+    t_loop = best_of(lambda: [cls(**p).run(*x) for p in params])
+    t_many = best_of(lambda: cls.run_many(params, *x, threads=1))
+    ref = prepare_reference(sessions[0].log.q_ref, ref_frame=sessions[0].ref_frame(),
+                            movement=sessions[0].mask())
+    lanes = {w: best_of(lambda w=w: cls.run_many(params, *x, score=ref, lanes=w, threads=1))
+             for w in (0, *imufuse_c.lane_widths())}
+    rows = [
+        ("samples (7 trials)", f"{samples}"),
+        ("scalar update (run()), ns per sample", f"{ns_update:.1f}"),
+        (f"compute-only limit, {SETS} sets / {CORES} cores, s", f"{limit:.3f}"),
+        ("tune (compiled batch), s", f"{t_tune:.3f}"),
+        ("**tune / limit**", f"**{t_tune / limit:.2f}**"),
+        ("tune scoring each set in Python, s", f"{t_python:.3f}"),
+        ("Python scoring / compiled batch", f"{t_python / t_tune:.1f}"),
+        (f"loop of run(), {SETS} sets, one trial, 1 thread, s", f"{t_loop:.3f}"),
+        ("run_many (trajectories) / loop of run()", f"{t_many / t_loop:.2f}"),
+    ]
+    for w, t in lanes.items():
+        what = "own update" if w == 0 else f"{w} lane{'s' if w > 1 else ''} ({imufuse_c.lane_widths()[w]})"
+        rows.append((f"scored run_many, {what}, s (ratio to own update)",
+                     f"{t:.4f} ({t / lanes[0]:.2f})"))
+    print("\n| measure | value |\n|---|---:|")
+    for k, v in rows:
+        print(f"| {k} | {v} |")
+    benchmark.extra_info.update({k: v for k, v in rows})
+    benchmark.pedantic(tune, rounds=3, iterations=1)
