@@ -6,6 +6,20 @@
 
 /* ---- helpers (quaternion product and rotation: imf_math.h) ----------------- */
 
+/* B6's fixed model (relative to the field, docs/recommended-ahrs.md): the random walk of
+   the field in the inertial frame (gyro drift turns that frame; the field changes along
+   the path) and of the offset, per s; the offset's prior variance; the innovation above
+   which the offset may have changed (a magnet attached or removed: its variance grows by
+   MAG_JUMP, up to the prior); the weight of the innovation's running mean; the standard
+   deviation below which the estimate is trusted. */
+#define ROBUST_MAG_QH IMF_R(1.0e-3)
+#define ROBUST_MAG_QO IMF_R(1.0e-7)
+#define ROBUST_MAG_P0 IMF_R(1.0)
+#define ROBUST_MAG_GATE IMF_R(25.0)
+#define ROBUST_MAG_JUMP IMF_R(0.05)
+#define ROBUST_MAG_EW IMF_R(0.02)
+#define ROBUST_MAG_TRUST IMF_R(0.01)
+
 /* Unit quaternion in place; 0 when the normalisation fails (squared norm
    zero, subnormal, overflowed or NaN: valid-attitude policy). */
 static inline int robust_norm4(imf_real *const q)
@@ -48,6 +62,31 @@ static void robust_set_dt(imf_robust_consts_t *const set, const imf_real dt)
     set->k_ref = dt / (set->tau_mag_ref + dt);
 }
 
+/* B6 at init: no offset stored, the estimator starts at the first reading */
+static void robust_offset_clear(imf_robust_state_t *const x)
+{
+    unsigned i;
+    x->hx = IMF_R(0.0);
+    x->hy = IMF_R(0.0);
+    x->hz = IMF_R(0.0);
+    x->ix = IMF_R(0.0);
+    x->iy = IMF_R(0.0);
+    x->iz = IMF_R(0.0);
+    for (i = 0; i < 21; i++) {
+        x->mp[i] = IMF_R(0.0);
+    }
+    x->ux = IMF_R(0.0);
+    x->uy = IMF_R(0.0);
+    x->uz = IMF_R(0.0);
+    x->sx = IMF_R(0.0);
+    x->sy = IMF_R(0.0);
+    x->sz = IMF_R(0.0);
+    x->m_n0 = IMF_R(0.0);
+    x->m_ew = IMF_R(0.0);
+    x->m_d2 = IMF_R(0.0);
+    x->m_std = IMF_R(1.0);
+}
+
 static void robust_init(imf_robust_consts_t *const set, uint32_t *const skipped,
                         imf_robust_state_t *const x, const imf_robust_ahrs_settings_t *const s)
 {
@@ -76,6 +115,10 @@ static void robust_init(imf_robust_consts_t *const set, uint32_t *const skipped,
     set->mag_new_time = s->mag_new_time;
     set->mag_hold = s->mag_hold;
     set->c48 = IMF_R(1.0) / IMF_R(48.0);
+    set->mag_learn = s->mag_learn;
+    set->mag_noise2 = s->mag_noise * s->mag_noise;
+    set->mag_lag2 = s->mag_lag * s->mag_lag;
+    set->mag_min2 = s->mag_offset_min * s->mag_offset_min;
     /* t saturates at the longest start-up horizon */
     tmax = set->tau_acc;
     if (set->tau_rest > tmax) {
@@ -131,6 +174,7 @@ static void robust_init(imf_robust_consts_t *const set, uint32_t *const skipped,
     x->t_cand = IMF_R(0.0);
     x->t_dist = IMF_R(0.0);
     x->t_ok = IMF_R(0.0);
+    robust_offset_clear(x);
 }
 
 /* The defaults of the settings both filters have (robust.h lists them): one list for the
@@ -163,6 +207,10 @@ void imf_robust_ahrs_default_settings(imf_robust_ahrs_settings_t *const settings
     settings->tau_mag_ref = IMF_R(20.0);
     settings->mag_new_time = IMF_R(20.0);
     settings->mag_hold = IMF_R(0.5);
+    settings->mag_learn = 1;
+    settings->mag_noise = IMF_R(0.02);
+    settings->mag_lag = IMF_R(0.003);
+    settings->mag_offset_min = IMF_R(0.1);
 }
 
 /* The IMU filter is the AHRS filter without a magnetometer: the magnetic settings are
@@ -187,6 +235,10 @@ void imf_robust_imu_init(imf_robust_imu_t *const self, const imf_robust_imu_sett
     a.tau_mag_ref = s->tau_rest;
     a.mag_new_time = IMF_R(0.0);
     a.mag_hold = IMF_R(0.0);
+    a.mag_learn = 0;
+    a.mag_noise = IMF_R(0.0);
+    a.mag_lag = IMF_R(0.0);
+    a.mag_offset_min = IMF_R(0.0);
     robust_init(&self->set, &self->skipped, &self->x, &a);
 }
 
@@ -222,6 +274,7 @@ static void robust_set_attitude(imf_robust_state_t *const x, const imf_attitude_
     x->c3 = IMF_R(0.0);
     x->t = IMF_R(0.0);
     x->rn = IMF_R(0.0);
+    x->m_n0 = IMF_R(0.0);
 }
 
 void imf_robust_imu_set_attitude(imf_robust_imu_t *const self, const imf_attitude_t *const att)
@@ -423,6 +476,159 @@ static int robust_predict(const imf_robust_consts_t *const set, imf_robust_state
     return 1;
 }
 
+/* B6: index of P[i][j] (i <= j) in the upper triangle mp[21] */
+static const unsigned char robust_pi[6][6] = {
+    { 0, 1, 2, 3, 4, 5 },     { 1, 6, 7, 8, 9, 10 },    { 2, 7, 11, 12, 13, 14 },
+    { 3, 8, 12, 15, 16, 17 }, { 4, 9, 13, 16, 18, 19 }, { 5, 10, 14, 17, 19, 20 }
+};
+
+/* B6: the estimator starts from this reading (field unit n0 = |m - u|): the field in the
+   inertial frame is R(s) (m - u), the offset u; both with the prior variance */
+static void robust_offset_start(imf_robust_state_t *const x, const imf_real mx, const imf_real my,
+                                const imf_real mz, const imf_real n0)
+{
+    const imf_real inv = IMF_R(1.0) / n0;
+    imf_real h[3];
+    unsigned i;
+    imf_qrotate(h, x->s0, x->s1, x->s2, x->s3, (mx - x->ux) * inv, (my - x->uy) * inv,
+                (mz - x->uz) * inv);
+    x->hx = h[0];
+    x->hy = h[1];
+    x->hz = h[2];
+    x->ix = x->ux * inv;
+    x->iy = x->uy * inv;
+    x->iz = x->uz * inv;
+    for (i = 0; i < 21; i++) {
+        x->mp[i] = IMF_R(0.0);
+    }
+    for (i = 0; i < 6; i++) {
+        x->mp[robust_pi[i][i]] = ROBUST_MAG_P0;
+    }
+    x->m_n0 = n0;
+    x->m_ew = IMF_R(3.0);
+    x->m_d2 = IMF_R(0.0);
+}
+
+/* B6: one reading (m, not all zero) into the estimator of (h, o), m = R(s)^T h + o in
+   units of m_n0; then the offset in use u. g2: |w|^2 of this sample, (rad/s)^2. */
+static void robust_offset(const imf_robust_consts_t *const set, imf_robust_state_t *const x,
+                          const imf_real mx, const imf_real my, const imf_real mz,
+                          const imf_real g2)
+{
+    imf_real inv, y[3], xs[6], rm[9], rr, d2, pb, o2, dx, dy, dz;
+    unsigned i, j, k;
+    if (!set->mag_learn) {
+        return;
+    }
+    if (x->m_n0 == IMF_R(0.0)) {
+        const imf_real ex = mx - x->ux, ey = my - x->uy, ez = mz - x->uz;
+        const imf_real n2 = ex * ex + ey * ey + ez * ez;
+        if (n2 >= IMF_REAL_MIN && n2 <= IMF_REAL_MAX) {
+            robust_offset_start(x, mx, my, mz, imf_sqrt(n2));
+        }
+        return;
+    }
+    /* predict: the field and the offset walk; after an innovation beyond the gate the
+       offset may have jumped (a magnet attached or removed) */
+    for (i = 0; i < 3; i++) {
+        x->mp[robust_pi[i][i]] = x->mp[robust_pi[i][i]] + ROBUST_MAG_QH * set->dt;
+    }
+    for (i = 3; i < 6; i++) {
+        pb = x->mp[robust_pi[i][i]] + ROBUST_MAG_QO * set->dt;
+        if (x->m_d2 > ROBUST_MAG_GATE && pb < ROBUST_MAG_P0) {
+            pb = pb + ROBUST_MAG_JUMP;
+        }
+        x->mp[robust_pi[i][i]] = pb;
+    }
+    /* the measurement, relative; its noise grows with the rate (timing mismatch) */
+    inv = IMF_R(1.0) / x->m_n0;
+    y[0] = mx * inv;
+    y[1] = my * inv;
+    y[2] = mz * inv;
+    rr = g2 * set->mag_lag2;
+    if (!(rr <= IMF_R(1.0))) {
+        rr = IMF_R(1.0);
+    }
+    rr = set->mag_noise2 + rr;
+    /* R(s), rows: m = R^T h + o, so the row of axis i is column i of R */
+    rm[0] = IMF_R(1.0) - IMF_R(2.0) * (x->s2 * x->s2 + x->s3 * x->s3);
+    rm[1] = IMF_R(2.0) * (x->s1 * x->s2 - x->s0 * x->s3);
+    rm[2] = IMF_R(2.0) * (x->s1 * x->s3 + x->s0 * x->s2);
+    rm[3] = IMF_R(2.0) * (x->s1 * x->s2 + x->s0 * x->s3);
+    rm[4] = IMF_R(1.0) - IMF_R(2.0) * (x->s1 * x->s1 + x->s3 * x->s3);
+    rm[5] = IMF_R(2.0) * (x->s2 * x->s3 - x->s0 * x->s1);
+    rm[6] = IMF_R(2.0) * (x->s1 * x->s3 - x->s0 * x->s2);
+    rm[7] = IMF_R(2.0) * (x->s2 * x->s3 + x->s0 * x->s1);
+    rm[8] = IMF_R(1.0) - IMF_R(2.0) * (x->s1 * x->s1 + x->s2 * x->s2);
+    xs[0] = x->hx;
+    xs[1] = x->hy;
+    xs[2] = x->hz;
+    xs[3] = x->ix;
+    xs[4] = x->iy;
+    xs[5] = x->iz;
+    /* the three axes one after the other (independent noise: the same as all at once) */
+    d2 = IMF_R(0.0);
+    for (i = 0; i < 3; i++) {
+        const imf_real h0 = rm[i], h1 = rm[3 + i], h2 = rm[6 + i];
+        imf_real ph[6], kk[6], sv, nu, ri;
+        for (j = 0; j < 6; j++) {
+            ph[j] = x->mp[robust_pi[j][0]] * h0 + x->mp[robust_pi[j][1]] * h1
+                    + x->mp[robust_pi[j][2]] * h2 + x->mp[robust_pi[j][3 + i]];
+        }
+        sv = h0 * ph[0] + h1 * ph[1] + h2 * ph[2] + ph[3 + i] + rr;
+        nu = y[i] - (h0 * xs[0] + h1 * xs[1] + h2 * xs[2] + xs[3 + i]);
+        ri = IMF_R(1.0) / sv;
+        d2 = d2 + nu * nu * ri;
+        for (j = 0; j < 6; j++) {
+            kk[j] = ph[j] * ri;
+            xs[j] = xs[j] + kk[j] * nu;
+        }
+        for (j = 0; j < 6; j++) {
+            for (k = j; k < 6; k++) {
+                x->mp[robust_pi[j][k]] = x->mp[robust_pi[j][k]] - ph[j] * kk[k];
+            }
+        }
+    }
+    x->hx = xs[0];
+    x->hy = xs[1];
+    x->hz = xs[2];
+    x->ix = xs[3];
+    x->iy = xs[4];
+    x->iz = xs[5];
+    x->m_d2 = d2;
+    x->m_ew = x->m_ew + ROBUST_MAG_EW * (d2 - x->m_ew);
+    /* the offset's standard deviation: its largest variance (rounding cannot make it
+       negative here: never below 0) */
+    pb = x->mp[robust_pi[3][3]];
+    if (x->mp[robust_pi[4][4]] > pb) {
+        pb = x->mp[robust_pi[4][4]];
+    }
+    if (x->mp[robust_pi[5][5]] > pb) {
+        pb = x->mp[robust_pi[5][5]];
+    }
+    if (!(pb > IMF_R(0.0))) {
+        pb = IMF_R(0.0);
+    }
+    x->m_std = imf_sqrt(pb);
+    /* trusted and consistent: the stored offset while the estimate agrees with it within
+       mag_offset_min, else the estimate */
+    if (x->m_std < ROBUST_MAG_TRUST && x->m_ew < ROBUST_MAG_GATE) {
+        dx = x->ix - x->sx * inv;
+        dy = x->iy - x->sy * inv;
+        dz = x->iz - x->sz * inv;
+        o2 = dx * dx + dy * dy + dz * dz;
+        if (o2 < set->mag_min2) {
+            x->ux = x->sx;
+            x->uy = x->sy;
+            x->uz = x->sz;
+        } else {
+            x->ux = x->ix * x->m_n0;
+            x->uy = x->iy * x->m_n0;
+            x->uz = x->iz * x->m_n0;
+        }
+    }
+}
+
 /* the field (mn, hn, zn) matches the reference (n, h, z): norm within mag_norm n
    and dip within mag_dip (sine of the dip difference = zn h - hn z) */
 static inline int robust_mag_test(const imf_robust_consts_t *const set, const imf_real mn,
@@ -437,12 +643,17 @@ static inline int robust_mag_test(const imf_robust_consts_t *const set, const im
 
 /* B4: heading from the magnetometer; 0 rejects the sample. */
 static int robust_mag(const imf_robust_consts_t *const set, imf_robust_state_t *const x,
-                      const imf_real mx, const imf_real my, const imf_real mz)
+                      const imf_real mx, const imf_real my, const imf_real mz, const imf_real g2)
 {
     const imf_real dt = set->dt;
     imf_real me[3], h2, n2, mn, mh, inv, hn, zn, k;
     int match;
-    imf_qrotate(me, x->q0, x->q1, x->q2, x->q3, mx, my, mz);
+    if (mx == IMF_R(0.0) && my == IMF_R(0.0) && mz == IMF_R(0.0)) {
+        return 1; /* no reading: gyro and accelerometer only */
+    }
+    /* B6, then the reading less the offset in use */
+    robust_offset(set, x, mx, my, mz, g2);
+    imf_qrotate(me, x->q0, x->q1, x->q2, x->q3, mx - x->ux, my - x->uy, mz - x->uz);
     h2 = me[0] * me[0] + me[1] * me[1];
     n2 = h2 + me[2] * me[2];
     if (!(n2 >= IMF_REAL_MIN && n2 <= IMF_REAL_MAX)) {
@@ -557,6 +768,26 @@ static int robust_mag(const imf_robust_consts_t *const set, imf_robust_state_t *
     return 1;
 }
 
+imf_real imf_robust_ahrs_get_mag_offset(const imf_robust_ahrs_t *const self, imf_real offset[3])
+{
+    offset[0] = self->x.ux;
+    offset[1] = self->x.uy;
+    offset[2] = self->x.uz;
+    return self->x.m_std;
+}
+
+void imf_robust_ahrs_set_mag_offset(imf_robust_ahrs_t *const self, const imf_real offset[3])
+{
+    self->x.sx = offset[0];
+    self->x.sy = offset[1];
+    self->x.sz = offset[2];
+    self->x.ux = offset[0];
+    self->x.uy = offset[1];
+    self->x.uz = offset[2];
+    self->x.m_n0 = IMF_R(0.0);
+    self->x.m_std = IMF_R(1.0);
+}
+
 /* the clock of the start-up (saturating: no growth once every start is over) */
 static inline void robust_advance(const imf_robust_consts_t *const set, imf_robust_state_t *const x)
 {
@@ -632,6 +863,6 @@ void imf_robust_ahrs_update(imf_robust_ahrs_t *const self, const imf_real gx, co
     x = self->x;
     robust_commit(&self->x, &self->skipped, &x,
                   robust_step(&self->set, &x, gx, gy, gz, ax, ay, az)
-                      && robust_mag(&self->set, &x, mx, my, mz)
+                      && robust_mag(&self->set, &x, mx, my, mz, gx * gx + gy * gy + gz * gz)
                       && robust_finish(&self->set, &x, gx, gy, gz));
 }

@@ -27,6 +27,14 @@
  *      same for mag_new_time becomes the reference.
  *   B5 start from the first samples: every low-pass is a running mean until
  *      its time constant has passed.
+ *   B6 magnetometer offset (hard iron) learnt while the sensor turns: a Kalman
+ *      filter of the field h in the inertial frame and the offset b in the
+ *      sensor frame, m = R(s)^T h + b (relative to the first field's norm). An
+ *      offset is constant in the sensor frame, a field (also a disturbance near
+ *      the path) is fixed in the earth frame: turning tells them apart; a sensor
+ *      that never turns leaves b unobservable (its variance stays at the prior).
+ *      B4 reads m - u; u, the offset in use, is the stored offset until the
+ *      estimate is trusted and differs from it by more than mag_offset_min.
  *   Output: q = c (x) s, predicted forward by the sensor chain's latency (the
  *      group delay of the gyroscope's internal filter) with the current rate.
  *
@@ -62,6 +70,16 @@ typedef struct {
     imf_real cn, ch, cz;     /* candidate reference (a changed field) */
     imf_real t_cand, t_dist; /* candidate stable for, field disturbed for, s */
     imf_real t_ok;           /* field matching the reference for (saturating), s */
+    /* B6 (relative: field unit / m_n0) */
+    imf_real hx, hy, hz; /* field in the inertial frame, relative */
+    imf_real ix, iy, iz; /* offset (hard iron) estimate in the sensor frame, relative */
+    imf_real mp[21];     /* its 6x6 covariance (h, o), upper triangle by rows */
+    imf_real ux, uy, uz; /* offset in use, field unit (B4 reads m - u) */
+    imf_real sx, sy, sz; /* stored offset (set_mag_offset), field unit */
+    imf_real m_n0;       /* field unit of the estimator (0: starts at the next reading) */
+    imf_real m_ew;       /* mean normalised innovation (about 3 when consistent) */
+    imf_real m_d2;       /* last normalised innovation */
+    imf_real m_std;      /* standard deviation of the offset estimate, relative */
 } imf_robust_state_t;
 
 /* Internal: the settings as init converts them once (dt-dependent ones by set_dt). */
@@ -76,6 +94,8 @@ typedef struct {
     imf_real mag_norm, mag_dip, mag_new_time, mag_hold; /* relative, sine, s, s */
     imf_real k_rest, kb_rest, k_mag, k_ref;             /* dt / (tau + dt) */
     imf_real c48;                                       /* 1 / 48 */
+    int mag_learn;                                      /* B6 on */
+    imf_real mag_noise2, mag_lag2, mag_min2;            /* B6: squares */
     imf_real t_max;                                     /* longest start-up horizon, s */
 } imf_robust_consts_t;
 
@@ -117,35 +137,43 @@ typedef struct {
 
 /* The settings of imf_robust_ahrs_init: those of the IMU filter and the magnetometer's. */
 typedef struct {
-    imf_real dt;            /* sample period, s; > 0 (default 0.01: 100 Hz) */
-    imf_real tau_acc;       /* B2: tilt correction time constant, s; > 0 (default 2.5) */
-    imf_real rate_ref;      /* B2: the turn rate at which gravity's process noise doubles,
+    imf_real dt;             /* sample period, s; > 0 (default 0.01: 100 Hz) */
+    imf_real tau_acc;        /* B2: tilt correction time constant, s; > 0 (default 2.5) */
+    imf_real rate_ref;       /* B2: the turn rate at which gravity's process noise doubles,
                                rad/s; >= 0, 0: constant (default 100 deg/s = 1.745 rad/s) */
-    imf_real tau_bias;      /* B3: gyro-bias time constant in motion, s; 0 (off) or
+    imf_real tau_bias;       /* B3: gyro-bias time constant in motion, s; 0 (off) or
                                >= 4 tau_acc (default 100) */
-    imf_real tau_bias_rest; /* B3: gyro-bias time constant at rest, s; > 0 (default 3) */
-    imf_real rest_gyr;      /* B1: rest threshold on the low-passed rate, rad/s; >= 0
+    imf_real tau_bias_rest;  /* B3: gyro-bias time constant at rest, s; > 0 (default 3) */
+    imf_real rest_gyr;       /* B1: rest threshold on the low-passed rate, rad/s; >= 0
                                (default 2 deg/s = 0.0349 rad/s) */
-    imf_real rest_acc;      /* B1: rest threshold on |a| - 1 g, relative to 1 g; >= 0
+    imf_real rest_acc;       /* B1: rest threshold on |a| - 1 g, relative to 1 g; >= 0
                                (default 0.05) */
-    imf_real rest_time;     /* B1: time below both thresholds before rest, s; >= 0
+    imf_real rest_time;      /* B1: time below both thresholds before rest, s; >= 0
                                (default 1.5) */
-    imf_real tau_rest;      /* B1: low-pass time constant of the rest detector, s; > 0
+    imf_real tau_rest;       /* B1: low-pass time constant of the rest detector, s; > 0
                                (default 0.5) */
-    imf_real latency;       /* B5: the sensor chain's delay, compensated in the output q by
+    imf_real latency;        /* B5: the sensor chain's delay, compensated in the output q by
                                predicting it forward with the current rate, s;
                                0 .. 0.1, 0: none (default 0) */
-    imf_real tau_mag;       /* B4: heading correction time constant, s; > 0 (default 10) */
-    imf_real mag_norm;      /* B4: disturbance threshold on |m| against the reference's,
+    imf_real tau_mag;        /* B4: heading correction time constant, s; > 0 (default 10) */
+    imf_real mag_norm;       /* B4: disturbance threshold on |m| against the reference's,
                                relative; >= 0 (default 0.1) */
-    imf_real mag_dip;       /* B4: disturbance threshold on the dip angle, as its sine;
+    imf_real mag_dip;        /* B4: disturbance threshold on the dip angle, as its sine;
                                > 1: no dip test (default sin(10 deg) = 0.1736) */
-    imf_real tau_mag_ref;   /* B4: time constant of the learned reference field, s; > 0
+    imf_real tau_mag_ref;    /* B4: time constant of the learned reference field, s; > 0
                                (default 20) */
-    imf_real mag_new_time;  /* B4: a changed field steady this long becomes the reference,
+    imf_real mag_new_time;   /* B4: a changed field steady this long becomes the reference,
                                s; >= 0 (default 20) */
-    imf_real mag_hold;      /* B4: after a disturbance the field must match the reference
+    imf_real mag_hold;       /* B4: after a disturbance the field must match the reference
                                this long before it is used, s; >= 0 (default 0.5) */
+    int mag_learn;           /* B6: learn the magnetometer's offset while turning; 0: use
+                               the stored offset only (default 1) */
+    imf_real mag_noise;      /* B6: magnetometer noise, relative to the field; > 0
+                               (default 0.02) */
+    imf_real mag_lag;        /* B6: magnetometer-to-gyro timing mismatch, s: the noise grows
+                               by |w| mag_lag; >= 0 (default 0.003) */
+    imf_real mag_offset_min; /* B6: a trusted estimate replaces the stored offset when they
+                                differ by more than this, relative; >= 0 (default 0.1) */
 } imf_robust_ahrs_settings_t;
 
 /* The defaults listed with each member (those of imufuse.reference.RobustIMU(0.01)). */
@@ -174,6 +202,14 @@ void imf_robust_ahrs_set_dt(imf_robust_ahrs_t *self, imf_real dt);
    (gravity, tilt and magnetic reference from it; the bias is kept). */
 void imf_robust_imu_set_attitude(imf_robust_imu_t *self, const imf_attitude_t *att);
 void imf_robust_ahrs_set_attitude(imf_robust_ahrs_t *self, const imf_attitude_t *att);
+
+/* B6: the offset in use (field unit, sensor frame) into offset[3]; returns the standard
+   deviation of the learnt estimate relative to the field (about 1 until the sensor has
+   turned: the offset is not observable without turning). Store it at power-down ... */
+imf_real imf_robust_ahrs_get_mag_offset(const imf_robust_ahrs_t *self, imf_real offset[3]);
+/* ... and give it back at power-up: the stored offset, used until a trusted estimate
+   differs from it by more than mag_offset_min; the estimator starts from it. */
+void imf_robust_ahrs_set_mag_offset(imf_robust_ahrs_t *self, const imf_real offset[3]);
 
 #ifdef __cplusplus
 }

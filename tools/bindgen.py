@@ -181,7 +181,9 @@ def _bind_filter(cp, name: str, c: str, text: str, rel_h: str, fixed: bool,
         out.append(f"    ctypedef struct {settings}:\n")
         out.extend(f"        {m.ctype} {m.name}\n" for m in values)
     funcs = (("update", True),) if fixed else (("update", True), ("set_dt", True),
-                                               ("set_attitude", False), ("angles", False))
+                                               ("set_attitude", False), ("angles", False),
+                                               ("get_mag_offset", False),
+                                               ("set_mag_offset", False))
     out.append(_wrap(_decl(init_text)) + "\n")
     for func, required in funcs:
         t = proto(f"{c}_{func}", required)
@@ -232,6 +234,19 @@ def _bind_filter(cp, name: str, c: str, text: str, rel_h: str, fixed: bool,
                  "        return roll, pitch\n"]
     elif angles_doc is not None:
         raise BindError(f"the twin {name} has angles(): declare {c}_angles() in {rel_h}")
+    if not fixed and proto(f"{c}_get_mag_offset", False):
+        if proto(f"{c}_set_mag_offset", False) is None:
+            raise BindError(f"{rel_h} declares {c}_get_mag_offset() without _set_mag_offset()")
+        body += ["\n    def get_mag_offset(self):\n",
+                 f'        """As imufuse.reference.{name}.get_mag_offset."""\n',
+                 "        cdef imf_real o[3]\n",
+                 f"        cdef imf_real sd = {c}_get_mag_offset(&self.s, o)\n",
+                 "        return (float(o[0]), float(o[1]), float(o[2])), float(sd)\n",
+                 "\n    def set_mag_offset(self, offset):\n",
+                 f'        """As imufuse.reference.{name}.set_mag_offset."""\n',
+                 "        cdef imf_real o[3]\n",
+                 f"        o[0], o[1], o[2] = _reference.{name}._offset3(offset)\n",
+                 f"        {c}_set_mag_offset(&self.s, o)\n"]
     return "".join(body)
 
 

@@ -15,7 +15,9 @@ Building blocks (article chapters 3 and 4 applied to real sensors):
      3.2/4.1: the I term of Mahony's PI), with tau_bias >= 4 tau_acc (Eq. 3.12);
   B4 magnetometer confined to heading, with a disturbance detector (field
      norm and dip against learned references) that rejects, then re-learns;
-  B5 start from the first samples: every low-pass starts as a running mean.
+  B5 start from the first samples: every low-pass starts as a running mean;
+  B6 the magnetometer's offset (hard iron) learnt while the sensor turns: a Kalman
+     filter of the field in the inertial frame and the offset in the sensor frame.
 """
 import math
 
@@ -31,6 +33,16 @@ _LIMITS = {"float32": (1.1754943508222875e-38, 3.4028234663852886e+38),
            "float64": (2.2250738585072014e-308, 1.7976931348623157e+308)}
 
 _DEG = math.pi / 180.0
+
+#: B6's covariance, the upper triangle of the 6x6 (h, o) by rows (C: mp[21])
+_PNAMES = tuple(f"p{i}{j}" for i in range(6) for j in range(i, 6))
+#: index of P[i][j] in that triangle (C: robust_pi)
+_PI = [[_PNAMES.index(f"p{min(i, j)}{max(i, j)}") for j in range(6)] for i in range(6)]
+# B6's fixed model (C: ROBUST_MAG_*): walks of the field and of the offset per s, the
+# offset's prior variance, the innovation gate, the offset's jump, the weight of the
+# innovation's running mean, the trusted standard deviation
+_MAG_QH, _MAG_QO, _MAG_P0, _MAG_GATE, _MAG_JUMP, _MAG_EW, _MAG_TRUST = (
+    1.0e-3, 1.0e-7, 1.0, 25.0, 0.05, 0.02, 0.01)
 
 
 class _Robust(ReferenceFilter):
@@ -51,8 +63,16 @@ class _Robust(ReferenceFilter):
                    "t", "t_rest",               # time since start (saturating), at rest, s
                    "rn", "rh", "rz",            # magnetic reference: norm, cos dip, -sin dip
                    "cn", "ch", "cz",            # candidate reference (a changed field)
-                   "t_cand", "t_dist", "t_ok")  # candidate stable for, disturbed for,
+                   "t_cand", "t_dist", "t_ok",  # candidate stable for, disturbed for,
                                                 #   field matching the reference for, s
+                   "hx", "hy", "hz",            # B6: field in the inertial frame, relative
+                   "ix", "iy", "iz",            # offset estimate in the sensor frame, relative
+                   *_PNAMES,                    # their covariance, upper triangle by rows
+                   "ux", "uy", "uz",            # offset in use, field unit (B4 reads m - u)
+                   "sx", "sy", "sz",            # stored offset (set_mag_offset), field unit
+                   "m_n0",                      # the estimator's field unit (0: not started)
+                   "m_ew", "m_d2",              # mean and last normalised innovation
+                   "m_std")                     # the offset estimate's standard deviation
 
     @staticmethod
     def _imu_params(tau_acc=2.5, rate_ref=100.0, tau_bias=100.0, tau_bias_rest=3.0,
@@ -82,7 +102,8 @@ class _Robust(ReferenceFilter):
             if not abs(n2 - 1.0) <= QUAT_NORM2_TOL:
                 return (f"|{names[k][0]}|^2 = {n2!r}, must be within 1 +- "
                         f"{QUAT_NORM2_TOL}")
-        for n in ("pvv", "pgg", "t", "t_rest", "rn", "cn", "t_cand", "t_dist", "t_ok"):
+        for n in ("pvv", "pgg", "t", "t_rest", "rn", "cn", "t_cand", "t_dist", "t_ok",
+                  "p00", "p11", "p22", "p33", "p44", "p55", "m_n0", "m_ew", "m_d2", "m_std"):
             if float(state[names.index(n)]) < 0.0:
                 return f"{n} = {float(state[names.index(n)])!r}, must not be negative"
         return None
@@ -90,7 +111,7 @@ class _Robust(ReferenceFilter):
     # imf_robust_init (shared settings of both filters)
     def _init_common(self, dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
                      rest_time, tau_rest, latency, tau_mag, mag_norm, mag_dip, tau_mag_ref,
-                     mag_new_time, mag_hold):
+                     mag_new_time, mag_hold, mag_learn, mag_noise, mag_lag, mag_offset_min):
         R = self._R
         lo, hi = _LIMITS[self.dtype]
         self._min, self._max = R(lo), R(hi)
@@ -121,6 +142,10 @@ class _Robust(ReferenceFilter):
         self.mag_new_time = R(mag_new_time)
         self.mag_hold = R(mag_hold)
         self.c48 = R(1.0) / R(48.0)
+        self.mag_learn = int(mag_learn)
+        self.mag_noise2 = R(mag_noise) * R(mag_noise)
+        self.mag_lag2 = R(mag_lag) * R(mag_lag)
+        self.mag_offset_min2 = R(mag_offset_min) * R(mag_offset_min)
         # t saturates at the longest start-up horizon
         tmax = self.tau_acc
         for v in (self.tau_rest, self.tau_mag, self.tau_mag_ref):
@@ -141,6 +166,22 @@ class _Robust(ReferenceFilter):
         self.rn, self.rh, self.rz = R(0.0), R(0.0), R(0.0)
         self.cn, self.ch, self.cz = R(0.0), R(0.0), R(0.0)
         self.t_cand, self.t_dist, self.t_ok = R(0.0), R(0.0), R(0.0)
+        self._offset_clear()
+
+    # B6 at init (robust_offset_clear): no offset stored, the estimator starts at the
+    # first reading
+    def _offset_clear(self):
+        R = self._R
+        self.hx, self.hy, self.hz = R(0.0), R(0.0), R(0.0)
+        self.ix, self.iy, self.iz = R(0.0), R(0.0), R(0.0)
+        for n in _PNAMES:
+            setattr(self, n, R(0.0))
+        self.ux, self.uy, self.uz = R(0.0), R(0.0), R(0.0)
+        self.sx, self.sy, self.sz = R(0.0), R(0.0), R(0.0)
+        self.m_n0 = R(0.0)
+        self.m_ew = R(0.0)
+        self.m_d2 = R(0.0)
+        self.m_std = R(1.0)
 
     # imf_robust_*_set_dt: every dt-dependent constant, as init computes it
     def _set_dt(self, dt):
@@ -163,6 +204,7 @@ class _Robust(ReferenceFilter):
         self.c0, self.c1, self.c2, self.c3 = R(1.0), R(0.0), R(0.0), R(0.0)
         self.t = R(0.0)
         self.rn = R(0.0)
+        self.m_n0 = R(0.0)
 
     # ---- helpers ------------------------------------------------------------
 
@@ -334,11 +376,115 @@ class _Robust(ReferenceFilter):
         tn = self.mag_norm * n
         return dn < tn and -dn < tn and dd < self.mag_dip and -dd < self.mag_dip
 
-    def _mag(self, x, mx, my, mz):
+    def _offset_start(self, x, mx, my, mz, n0):
+        # B6: the estimator starts from this reading (field unit n0 = |m - u|): the field
+        # in the inertial frame is R(s) (m - u), the offset u; both with the prior variance
+        R = self._R
+        inv = R(1.0) / n0
+        x.hx, x.hy, x.hz = qrotate(R, x.s0, x.s1, x.s2, x.s3, (mx - x.ux) * inv,
+                                   (my - x.uy) * inv, (mz - x.uz) * inv)
+        x.ix = x.ux * inv
+        x.iy = x.uy * inv
+        x.iz = x.uz * inv
+        for n in _PNAMES:
+            setattr(x, n, R(_MAG_P0) if n[1] == n[2] else R(0.0))
+        x.m_n0 = n0
+        x.m_ew = R(3.0)
+        x.m_d2 = R(0.0)
+
+    def _offset(self, x, mx, my, mz, g2):
+        """B6: one reading (m, not all zero) into the estimator of (h, o), m = R(s)^T h + o
+        in units of m_n0; then the offset in use u. g2: |w|^2 of this sample."""
+        R = self._R
+        if not self.mag_learn:
+            return
+        if x.m_n0 == R(0.0):
+            ex, ey, ez = mx - x.ux, my - x.uy, mz - x.uz
+            n2 = ex * ex + ey * ey + ez * ez
+            if n2 >= self._min and n2 <= self._max:
+                self._offset_start(x, mx, my, mz, R(math.sqrt(n2)))
+            return
+        mp = [getattr(x, n) for n in _PNAMES]
+        # predict: the field and the offset walk; after an innovation beyond the gate the
+        # offset may have jumped (a magnet attached or removed)
+        for i in range(3):
+            mp[_PI[i][i]] = mp[_PI[i][i]] + R(_MAG_QH) * self.dt
+        for i in range(3, 6):
+            pb = mp[_PI[i][i]] + R(_MAG_QO) * self.dt
+            if x.m_d2 > R(_MAG_GATE) and pb < R(_MAG_P0):
+                pb = pb + R(_MAG_JUMP)
+            mp[_PI[i][i]] = pb
+        # the measurement, relative; its noise grows with the rate (timing mismatch)
+        inv = R(1.0) / x.m_n0
+        y = (mx * inv, my * inv, mz * inv)
+        rr = g2 * self.mag_lag2
+        if not (rr <= R(1.0)):
+            rr = R(1.0)
+        rr = self.mag_noise2 + rr
+        # R(s), rows: m = R^T h + o, so the row of axis i is column i of R
+        s0, s1, s2, s3 = x.s0, x.s1, x.s2, x.s3
+        two, one = R(2.0), R(1.0)
+        rm = (one - two * (s2 * s2 + s3 * s3), two * (s1 * s2 - s0 * s3),
+              two * (s1 * s3 + s0 * s2),
+              two * (s1 * s2 + s0 * s3), one - two * (s1 * s1 + s3 * s3),
+              two * (s2 * s3 - s0 * s1),
+              two * (s1 * s3 - s0 * s2), two * (s2 * s3 + s0 * s1),
+              one - two * (s1 * s1 + s2 * s2))
+        xs = [x.hx, x.hy, x.hz, x.ix, x.iy, x.iz]
+        # the three axes one after the other (independent noise: the same as all at once)
+        d2 = R(0.0)
+        for i in range(3):
+            h0, h1, h2 = rm[i], rm[3 + i], rm[6 + i]
+            ph = [mp[_PI[j][0]] * h0 + mp[_PI[j][1]] * h1 + mp[_PI[j][2]] * h2
+                  + mp[_PI[j][3 + i]] for j in range(6)]
+            sv = h0 * ph[0] + h1 * ph[1] + h2 * ph[2] + ph[3 + i] + rr
+            nu = y[i] - (h0 * xs[0] + h1 * xs[1] + h2 * xs[2] + xs[3 + i])
+            ri = R(1.0) / sv
+            d2 = d2 + nu * nu * ri
+            kk = [R(0.0)] * 6
+            for j in range(6):
+                kk[j] = ph[j] * ri
+                xs[j] = xs[j] + kk[j] * nu
+            for j in range(6):
+                for k in range(j, 6):
+                    mp[_PI[j][k]] = mp[_PI[j][k]] - ph[j] * kk[k]
+        x.hx, x.hy, x.hz, x.ix, x.iy, x.iz = xs
+        for n, v in zip(_PNAMES, mp):
+            setattr(x, n, v)
+        x.m_d2 = d2
+        x.m_ew = x.m_ew + R(_MAG_EW) * (d2 - x.m_ew)
+        # the offset's standard deviation: its largest variance (never below 0)
+        pb = mp[_PI[3][3]]
+        if mp[_PI[4][4]] > pb:
+            pb = mp[_PI[4][4]]
+        if mp[_PI[5][5]] > pb:
+            pb = mp[_PI[5][5]]
+        if not (pb > R(0.0)):
+            pb = R(0.0)
+        x.m_std = R(math.sqrt(pb))
+        # trusted and consistent: the stored offset while the estimate agrees with it
+        # within mag_offset_min, else the estimate
+        if x.m_std < R(_MAG_TRUST) and x.m_ew < R(_MAG_GATE):
+            dx = x.ix - x.sx * inv
+            dy = x.iy - x.sy * inv
+            dz = x.iz - x.sz * inv
+            o2 = dx * dx + dy * dy + dz * dz
+            if o2 < self.mag_offset_min2:
+                x.ux, x.uy, x.uz = x.sx, x.sy, x.sz
+            else:
+                x.ux = x.ix * x.m_n0
+                x.uy = x.iy * x.m_n0
+                x.uz = x.iz * x.m_n0
+
+    def _mag(self, x, mx, my, mz, g2):
         """B4: heading from the magnetometer. Returns False to reject the sample."""
         R = self._R
         dt = self.dt
-        mex, mey, mez = qrotate(R, x.q0, x.q1, x.q2, x.q3, mx, my, mz)
+        if mx == R(0.0) and my == R(0.0) and mz == R(0.0):
+            return True   # no reading: gyro and accelerometer only
+        # B6, then the reading less the offset in use
+        self._offset(x, mx, my, mz, g2)
+        mex, mey, mez = qrotate(R, x.q0, x.q1, x.q2, x.q3, mx - x.ux, my - x.uy, mz - x.uz)
         h2 = mex * mex + mey * mey
         n2 = h2 + mez * mez
         if not (n2 >= self._min and n2 <= self._max):
@@ -490,7 +636,8 @@ class RobustIMU(_Robust):
     def _init(self, dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
               rest_time, tau_rest, latency):
         self._init_common(dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
-                          rest_time, tau_rest, latency, tau_rest, 0.0, 0.0, tau_rest, 0.0, 0.0)
+                          rest_time, tau_rest, latency, tau_rest, 0.0, 0.0, tau_rest, 0.0, 0.0,
+                          0, 0.0, 0.0, 0.0)
 
     def _update(self, gx, gy, gz, ax, ay, az):
         if not isfinite(gx, gy, gz, ax, ay, az):
@@ -511,7 +658,12 @@ class RobustAHRS(_Robust):
     thresholds against the learned reference field, learnt with tau_mag_ref (s); a
     changed field that stays the same for mag_new_time (s) becomes the reference; after a
     disturbance the field must match the reference for mag_hold (s) before it is used.
-    Magnetometer in any unit; an all-zero reading means none.
+    B6: mag_learn learns the magnetometer's offset (hard iron) while the sensor turns
+    (False: the stored offset only, set_mag_offset); mag_noise (relative to the field) the
+    magnetometer's noise, growing by |w| mag_lag (s, the timing mismatch of magnetometer
+    and gyro); a trusted estimate is used once it differs from the stored offset by more
+    than mag_offset_min (relative). Magnetometer in any unit; an all-zero reading means
+    none.
     """
     kind = "ahrs"
     c_name = "imf_robust_ahrs"
@@ -520,7 +672,8 @@ class RobustAHRS(_Robust):
     def _params(dt, tau_acc=2.5, rate_ref=100.0, tau_bias=100.0, tau_bias_rest=3.0,
                 rest_gyr=2.0, rest_acc=0.05, rest_time=1.5, tau_rest=0.5, latency=0.0,
                 tau_mag=10.0, mag_norm=0.1, mag_dip=10.0, tau_mag_ref=20.0, mag_new_time=20.0,
-                mag_hold=0.5):
+                mag_hold=0.5, mag_learn=True, mag_noise=0.02, mag_lag=0.003,
+                mag_offset_min=0.1):
         dt = _checks.check_dt(dt)
         imu = _Robust._imu_params(tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr,
                                   rest_acc, rest_time, tau_rest, latency)
@@ -533,14 +686,48 @@ class RobustAHRS(_Robust):
         # the dip test compares sines: sin(mag_dip), in double, for both backends;
         # 90 deg or more: no dip test
         dip = math.sin(mag_dip * _DEG) if mag_dip < 90.0 else 2.0
-        return (dt,) + imu + (tau_mag, mag_norm, dip, tau_mag_ref, mag_new_time, mag_hold)
+        mag_learn = _checks.check_choice("mag_learn", mag_learn, (True, False))
+        mag_noise = _checks.check_real("mag_noise", mag_noise, lo=0.0, lo_open=True, hi=1.0)
+        mag_lag = _checks.check_real("mag_lag", mag_lag, lo=0.0, hi=0.1)
+        mag_offset_min = _checks.check_real("mag_offset_min", mag_offset_min, lo=0.0)
+        return (dt,) + imu + (tau_mag, mag_norm, dip, tau_mag_ref, mag_new_time, mag_hold,
+                              int(mag_learn), mag_noise, mag_lag, mag_offset_min)
 
     def _init(self, dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
               rest_time, tau_rest, latency, tau_mag, mag_norm, mag_dip, tau_mag_ref,
-              mag_new_time, mag_hold):
+              mag_new_time, mag_hold, mag_learn, mag_noise, mag_lag, mag_offset_min):
         self._init_common(dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
                           rest_time, tau_rest, latency, tau_mag, mag_norm, mag_dip, tau_mag_ref,
-                          mag_new_time, mag_hold)
+                          mag_new_time, mag_hold, mag_learn, mag_noise, mag_lag, mag_offset_min)
+
+    # imf_robust_ahrs_get_mag_offset / _set_mag_offset
+    def get_mag_offset(self):
+        """B6: ((x, y, z) the offset in use, magnetometer unit, sensor frame; the learnt
+        estimate's standard deviation relative to the field, about 1 until the sensor has
+        turned). Store it at power-down and give it back with set_mag_offset."""
+        return (float(self.ux), float(self.uy), float(self.uz)), float(self.m_std)
+
+    @staticmethod
+    def _offset3(offset):
+        # (x, y, z) finite numbers, or ValueError naming the component
+        try:
+            values = tuple(offset)
+        except TypeError:
+            raise ValueError(f"mag offset: expected (x, y, z), got {offset!r}") from None
+        if len(values) != 3:
+            raise ValueError(f"mag offset: expected 3 values (x, y, z), got {len(values)}")
+        return tuple(_checks.check_real(f"mag offset {n}", v) for n, v in zip("xyz", values))
+
+    def set_mag_offset(self, offset):
+        """B6: the stored offset (x, y, z; magnetometer unit, sensor frame, e.g. the "h"
+        of a calibration file): used until a trusted estimate differs from it by more
+        than mag_offset_min; the estimator starts again from it."""
+        R = self._R
+        ox, oy, oz = (R(v) for v in self._offset3(offset))
+        self.sx, self.sy, self.sz = ox, oy, oz
+        self.ux, self.uy, self.uz = ox, oy, oz
+        self.m_n0 = R(0.0)
+        self.m_std = R(1.0)
 
     def _update(self, gx, gy, gz, ax, ay, az, mx, my, mz):
         if not isfinite(gx, gy, gz, ax, ay, az, mx, my, mz):
@@ -548,4 +735,5 @@ class RobustAHRS(_Robust):
             return
         x = self._work()
         self._commit(x, self._step(x, gx, gy, gz, ax, ay, az) is not None
-                     and self._mag(x, mx, my, mz) and self._finish(x, gx, gy, gz))
+                     and self._mag(x, mx, my, mz, gx * gx + gy * gy + gz * gz)
+                     and self._finish(x, gx, gy, gz))
