@@ -187,14 +187,18 @@ def test_b4_magnet_passing(scen):
 
 
 def test_b4_magnet_attached(scen):
-    # a magnet fixed to the sensor (half the earth field) for the last 2/3: rejected
-    # throughout, heading from the gyro alone: within 4 deg, against 20+ without
+    # a magnet fixed to the sensor (half the earth field) for the last 2/3. Without B6:
+    # rejected throughout, heading from the gyro alone: within 4 deg, against 20+ without
+    # rejection. With B6 (the default) the offset is learnt and the field is used again:
+    # flagged only until then (tests/test_mag_offset.py bounds that part)
     s = scen("magnet_attached", duration=60.0)
-    _, S = run("RobustAHRS", s)
+    _, S = run("RobustAHRS", s, mag_learn=False)
+    _, L = run("RobustAHRS", s)
     _, N = run("RobustAHRS", s, **_no_rejection())
-    h, hn = (sd.errors(X[:, :4], s.q_true)[1][s.moving] for X in (S, N))
-    assert h.max() < 4.0 and hn.max() > 20.0
+    h, hl, hn = (sd.errors(X[:, :4], s.q_true)[1][s.moving] for X in (S, L, N))
+    assert h.max() < 4.0 and hl.max() < 4.0 and hn.max() > 20.0
     assert (col(S, "t_dist") > 0)[s.disturbed].mean() > 0.9
+    assert (col(L, "t_dist") > 0)[s.disturbed].mean() < 0.3
 
 
 def test_b4_changed_field_is_relearnt():
