@@ -104,6 +104,9 @@ ABLATION = [
     ("B1 and B3 off: no bias estimation", dict(rest_gyr=0.0, tau_bias=0.0)),
     ("B4 no rejection (mag_norm=1e6, mag_dip=90)", dict(mag_norm=1e6, mag_dip=90.0)),
     ("B4 no hold after a disturbance (mag_hold=0)", dict(mag_hold=0.0)),
+    ("B6 off: no offset learnt (mag_learn=False)", dict(mag_learn=False)),
+    ("B6 estimate always used once trusted (mag_offset_min=0)", dict(mag_offset_min=0.0)),
+    ("B6 without the rate term of its noise (mag_lag=0)", dict(mag_lag=0.0)),
 ]
 
 

@@ -62,19 +62,86 @@ static void robust_set_dt(imf_robust_consts_t *const set, const imf_real dt)
     set->k_ref = dt / (set->tau_mag_ref + dt);
 }
 
+/* B4 and B6 out of line: one copy of B6's scalar update (three calls per sample), and on
+   the ATmega328P optimised for size (every soft-float operation is a call, and the
+   inlined blocks did not fit its 32 KB of flash beside a driver); results are the same
+   IEEE operations in any case */
+#if defined(__AVR__)
+#define ROBUST_NOINLINE __attribute__((noinline, optimize("Os")))
+#elif defined(__GNUC__)
+#define ROBUST_NOINLINE __attribute__((noinline))
+#else
+#define ROBUST_NOINLINE
+#endif
+
+/* B6: index of P[i][j] in mp[21], the covariance's upper triangle by rows */
+static const unsigned char robust_pi[6][6] = {
+    { 0, 1, 2, 3, 4, 5 },     { 1, 6, 7, 8, 9, 10 },    { 2, 7, 11, 12, 13, 14 },
+    { 3, 8, 12, 15, 16, 17 }, { 4, 9, 13, 16, 18, 19 }, { 5, 10, 14, 17, 19, 20 }
+};
+
+/* B6: the covariance's members p00 .. p55 into mp[21] and back */
+static void robust_p_get(const imf_robust_state_t *const x, imf_real mp[21])
+{
+    mp[0] = x->p00;
+    mp[1] = x->p01;
+    mp[2] = x->p02;
+    mp[3] = x->p03;
+    mp[4] = x->p04;
+    mp[5] = x->p05;
+    mp[6] = x->p11;
+    mp[7] = x->p12;
+    mp[8] = x->p13;
+    mp[9] = x->p14;
+    mp[10] = x->p15;
+    mp[11] = x->p22;
+    mp[12] = x->p23;
+    mp[13] = x->p24;
+    mp[14] = x->p25;
+    mp[15] = x->p33;
+    mp[16] = x->p34;
+    mp[17] = x->p35;
+    mp[18] = x->p44;
+    mp[19] = x->p45;
+    mp[20] = x->p55;
+}
+
+static void robust_p_put(imf_robust_state_t *const x, const imf_real mp[21])
+{
+    x->p00 = mp[0];
+    x->p01 = mp[1];
+    x->p02 = mp[2];
+    x->p03 = mp[3];
+    x->p04 = mp[4];
+    x->p05 = mp[5];
+    x->p11 = mp[6];
+    x->p12 = mp[7];
+    x->p13 = mp[8];
+    x->p14 = mp[9];
+    x->p15 = mp[10];
+    x->p22 = mp[11];
+    x->p23 = mp[12];
+    x->p24 = mp[13];
+    x->p25 = mp[14];
+    x->p33 = mp[15];
+    x->p34 = mp[16];
+    x->p35 = mp[17];
+    x->p44 = mp[18];
+    x->p45 = mp[19];
+    x->p55 = mp[20];
+}
+
 /* B6 at init: no offset stored, the estimator starts at the first reading */
 static void robust_offset_clear(imf_robust_state_t *const x)
 {
-    unsigned i;
+    static const imf_real zero[21] = { IMF_R(0.0) };
     x->hx = IMF_R(0.0);
     x->hy = IMF_R(0.0);
     x->hz = IMF_R(0.0);
     x->ix = IMF_R(0.0);
     x->iy = IMF_R(0.0);
     x->iz = IMF_R(0.0);
-    for (i = 0; i < 21; i++) {
-        x->mp[i] = IMF_R(0.0);
-    }
+    robust_p_put(x, zero);
     x->ux = IMF_R(0.0);
     x->uy = IMF_R(0.0);
     x->uz = IMF_R(0.0);
@@ -476,118 +543,114 @@ static int robust_predict(const imf_robust_consts_t *const set, imf_robust_state
     return 1;
 }
 
-/* B6: index of P[i][j] (i <= j) in the upper triangle mp[21] */
-static const unsigned char robust_pi[6][6] = {
-    { 0, 1, 2, 3, 4, 5 },     { 1, 6, 7, 8, 9, 10 },    { 2, 7, 11, 12, 13, 14 },
-    { 3, 8, 12, 15, 16, 17 }, { 4, 9, 13, 16, 18, 19 }, { 5, 10, 14, 17, 19, 20 }
-};
-
-/* B6: the estimator starts from this reading (field unit n0 = |m - u|): the field in the
-   inertial frame is R(s) (m - u), the offset u; both with the prior variance */
-static void robust_offset_start(imf_robust_state_t *const x, const imf_real mx, const imf_real my,
-                                const imf_real mz, const imf_real n0)
+/* B6: the scalar update of axis i, measurement y with noise rr, H = (h0, h1, h2, e_i):
+   state xs[6], covariance mp[21]; returns the normalised innovation nu^2 / s */
+static ROBUST_NOINLINE imf_real robust_offset_axis(imf_real mp[21], imf_real xs[6],
+                                                   const unsigned i, const imf_real h0,
+                                                   const imf_real h1, const imf_real h2,
+                                                   const imf_real y, const imf_real rr)
 {
-    const imf_real inv = IMF_R(1.0) / n0;
-    imf_real h[3];
-    unsigned i;
-    imf_qrotate(h, x->s0, x->s1, x->s2, x->s3, (mx - x->ux) * inv, (my - x->uy) * inv,
-                (mz - x->uz) * inv);
-    x->hx = h[0];
-    x->hy = h[1];
-    x->hz = h[2];
-    x->ix = x->ux * inv;
-    x->iy = x->uy * inv;
-    x->iz = x->uz * inv;
-    for (i = 0; i < 21; i++) {
-        x->mp[i] = IMF_R(0.0);
+    imf_real ph[6], kk[6], sv, nu, ri;
+    unsigned j, k;
+    for (j = 0; j < 6; j++) {
+        ph[j] = mp[robust_pi[j][0]] * h0 + mp[robust_pi[j][1]] * h1 + mp[robust_pi[j][2]] * h2
+                + mp[robust_pi[j][3 + i]];
     }
-    for (i = 0; i < 6; i++) {
-        x->mp[robust_pi[i][i]] = ROBUST_MAG_P0;
+    sv = h0 * ph[0] + h1 * ph[1] + h2 * ph[2] + ph[3 + i] + rr;
+    nu = y - (h0 * xs[0] + h1 * xs[1] + h2 * xs[2] + xs[3 + i]);
+    ri = IMF_R(1.0) / sv;
+    for (j = 0; j < 6; j++) {
+        kk[j] = ph[j] * ri;
+        xs[j] = xs[j] + kk[j] * nu;
     }
-    x->m_n0 = n0;
-    x->m_ew = IMF_R(3.0);
-    x->m_d2 = IMF_R(0.0);
+    for (j = 0; j < 6; j++) {
+        for (k = j; k < 6; k++) {
+            mp[robust_pi[j][k]] = mp[robust_pi[j][k]] - ph[j] * kk[k];
+        }
+    }
+    return nu * nu * ri;
 }
 
 /* B6: one reading (m, not all zero) into the estimator of (h, o), m = R(s)^T h + o in
-   units of m_n0; then the offset in use u. g2: |w|^2 of this sample, (rad/s)^2. */
-static void robust_offset(const imf_robust_consts_t *const set, imf_robust_state_t *const x,
-                          const imf_real mx, const imf_real my, const imf_real mz,
-                          const imf_real g2)
+   units of m_n0; then the offset in use u. g2: |w|^2 of this sample, (rad/s)^2. Written
+   with arrays and loops: on a soft-float target every operation is a call. */
+static ROBUST_NOINLINE void robust_offset(const imf_robust_consts_t *const set,
+                                          imf_robust_state_t *const x, const imf_real mx,
+                                          const imf_real my, const imf_real mz, const imf_real g2)
 {
-    imf_real inv, y[3], xs[6], rm[9], rr, d2, pb, o2, dx, dy, dz;
-    unsigned i, j, k;
+    const imf_real m[3] = { mx, my, mz };
+    imf_real u[3], st[3], e[3], y[3], xs[6], rm[9], mp[21], inv, rr, d2, pb, o2;
+    unsigned i, k;
     if (!set->mag_learn) {
         return;
     }
+    u[0] = x->ux;
+    u[1] = x->uy;
+    u[2] = x->uz;
+    /* R(s) by columns: rm[3 c + r] = (R e_c)_r, and column i is the row of axis i in
+       m = R^T h + o */
+    for (i = 0; i < 3; i++) {
+        imf_qrotate(&rm[3 * i], x->s0, x->s1, x->s2, x->s3, i == 0 ? IMF_R(1.0) : IMF_R(0.0),
+                    i == 1 ? IMF_R(1.0) : IMF_R(0.0), i == 2 ? IMF_R(1.0) : IMF_R(0.0));
+    }
     if (x->m_n0 == IMF_R(0.0)) {
-        const imf_real ex = mx - x->ux, ey = my - x->uy, ez = mz - x->uz;
-        const imf_real n2 = ex * ex + ey * ey + ez * ez;
-        if (n2 >= IMF_REAL_MIN && n2 <= IMF_REAL_MAX) {
-            robust_offset_start(x, mx, my, mz, imf_sqrt(n2));
+        /* the start (field unit n0 = |m - u|): h = R(s) (m - u) / n0, o = u / n0, both
+           with the prior variance */
+        o2 = IMF_R(0.0);
+        for (i = 0; i < 3; i++) {
+            e[i] = m[i] - u[i];
+            o2 = o2 + e[i] * e[i];
         }
-        return;
-    }
-    /* predict: the field and the offset walk; after an innovation beyond the gate the
-       offset may have jumped (a magnet attached or removed) */
-    for (i = 0; i < 3; i++) {
-        x->mp[robust_pi[i][i]] = x->mp[robust_pi[i][i]] + ROBUST_MAG_QH * set->dt;
-    }
-    for (i = 3; i < 6; i++) {
-        pb = x->mp[robust_pi[i][i]] + ROBUST_MAG_QO * set->dt;
-        if (x->m_d2 > ROBUST_MAG_GATE && pb < ROBUST_MAG_P0) {
-            pb = pb + ROBUST_MAG_JUMP;
+        if (!(o2 >= IMF_REAL_MIN && o2 <= IMF_REAL_MAX)) {
+            return;
         }
-        x->mp[robust_pi[i][i]] = pb;
-    }
-    /* the measurement, relative; its noise grows with the rate (timing mismatch) */
-    inv = IMF_R(1.0) / x->m_n0;
-    y[0] = mx * inv;
-    y[1] = my * inv;
-    y[2] = mz * inv;
-    rr = g2 * set->mag_lag2;
-    if (!(rr <= IMF_R(1.0))) {
-        rr = IMF_R(1.0);
-    }
-    rr = set->mag_noise2 + rr;
-    /* R(s), rows: m = R^T h + o, so the row of axis i is column i of R */
-    rm[0] = IMF_R(1.0) - IMF_R(2.0) * (x->s2 * x->s2 + x->s3 * x->s3);
-    rm[1] = IMF_R(2.0) * (x->s1 * x->s2 - x->s0 * x->s3);
-    rm[2] = IMF_R(2.0) * (x->s1 * x->s3 + x->s0 * x->s2);
-    rm[3] = IMF_R(2.0) * (x->s1 * x->s2 + x->s0 * x->s3);
-    rm[4] = IMF_R(1.0) - IMF_R(2.0) * (x->s1 * x->s1 + x->s3 * x->s3);
-    rm[5] = IMF_R(2.0) * (x->s2 * x->s3 - x->s0 * x->s1);
-    rm[6] = IMF_R(2.0) * (x->s1 * x->s3 - x->s0 * x->s2);
-    rm[7] = IMF_R(2.0) * (x->s2 * x->s3 + x->s0 * x->s1);
-    rm[8] = IMF_R(1.0) - IMF_R(2.0) * (x->s1 * x->s1 + x->s2 * x->s2);
-    xs[0] = x->hx;
-    xs[1] = x->hy;
-    xs[2] = x->hz;
-    xs[3] = x->ix;
-    xs[4] = x->iy;
-    xs[5] = x->iz;
-    /* the three axes one after the other (independent noise: the same as all at once) */
-    d2 = IMF_R(0.0);
-    for (i = 0; i < 3; i++) {
-        const imf_real h0 = rm[i], h1 = rm[3 + i], h2 = rm[6 + i];
-        imf_real ph[6], kk[6], sv, nu, ri;
-        for (j = 0; j < 6; j++) {
-            ph[j] = x->mp[robust_pi[j][0]] * h0 + x->mp[robust_pi[j][1]] * h1
-                    + x->mp[robust_pi[j][2]] * h2 + x->mp[robust_pi[j][3 + i]];
+        x->m_n0 = imf_sqrt(o2);
+        inv = IMF_R(1.0) / x->m_n0;
+        for (i = 0; i < 3; i++) {
+            xs[i] = (rm[i] * e[0] + rm[3 + i] * e[1] + rm[6 + i] * e[2]) * inv;
+            xs[3 + i] = u[i] * inv;
         }
-        sv = h0 * ph[0] + h1 * ph[1] + h2 * ph[2] + ph[3 + i] + rr;
-        nu = y[i] - (h0 * xs[0] + h1 * xs[1] + h2 * xs[2] + xs[3 + i]);
-        ri = IMF_R(1.0) / sv;
-        d2 = d2 + nu * nu * ri;
-        for (j = 0; j < 6; j++) {
-            kk[j] = ph[j] * ri;
-            xs[j] = xs[j] + kk[j] * nu;
+        for (i = 0; i < 21; i++) {
+            mp[i] = IMF_R(0.0);
         }
-        for (j = 0; j < 6; j++) {
-            for (k = j; k < 6; k++) {
-                x->mp[robust_pi[j][k]] = x->mp[robust_pi[j][k]] - ph[j] * kk[k];
+        for (i = 0; i < 6; i++) {
+            mp[robust_pi[i][i]] = ROBUST_MAG_P0;
+        }
+        x->m_ew = IMF_R(3.0);
+        x->m_d2 = IMF_R(0.0);
+    } else {
+        xs[0] = x->hx;
+        xs[1] = x->hy;
+        xs[2] = x->hz;
+        xs[3] = x->ix;
+        xs[4] = x->iy;
+        xs[5] = x->iz;
+        robust_p_get(x, mp);
+        /* predict: the field and the offset walk; after an innovation beyond the gate the
+           offset may have jumped (a magnet attached or removed) */
+        for (i = 0; i < 6; i++) {
+            pb = mp[robust_pi[i][i]] + (i < 3 ? ROBUST_MAG_QH : ROBUST_MAG_QO) * set->dt;
+            if (i >= 3 && x->m_d2 > ROBUST_MAG_GATE && pb < ROBUST_MAG_P0) {
+                pb = pb + ROBUST_MAG_JUMP;
             }
+            mp[robust_pi[i][i]] = pb;
         }
+        /* the measurement, relative; its noise grows with the rate (timing mismatch) */
+        inv = IMF_R(1.0) / x->m_n0;
+        rr = g2 * set->mag_lag2;
+        if (!(rr <= IMF_R(1.0))) {
+            rr = IMF_R(1.0);
+        }
+        rr = set->mag_noise2 + rr;
+        /* the three axes one after the other (independent noise: the same as all at once) */
+        d2 = IMF_R(0.0);
+        for (i = 0; i < 3; i++) {
+            y[i] = m[i] * inv;
+            d2 = d2
+                 + robust_offset_axis(mp, xs, i, rm[3 * i], rm[3 * i + 1], rm[3 * i + 2], y[i], rr);
+        }
+        x->m_d2 = d2;
+        x->m_ew = x->m_ew + ROBUST_MAG_EW * (d2 - x->m_ew);
     }
     x->hx = xs[0];
     x->hy = xs[1];
@@ -595,37 +658,35 @@ static void robust_offset(const imf_robust_consts_t *const set, imf_robust_state
     x->ix = xs[3];
     x->iy = xs[4];
     x->iz = xs[5];
-    x->m_d2 = d2;
-    x->m_ew = x->m_ew + ROBUST_MAG_EW * (d2 - x->m_ew);
-    /* the offset's standard deviation: its largest variance (rounding cannot make it
-       negative here: never below 0) */
-    pb = x->mp[robust_pi[3][3]];
-    if (x->mp[robust_pi[4][4]] > pb) {
-        pb = x->mp[robust_pi[4][4]];
-    }
-    if (x->mp[robust_pi[5][5]] > pb) {
-        pb = x->mp[robust_pi[5][5]];
-    }
-    if (!(pb > IMF_R(0.0))) {
-        pb = IMF_R(0.0);
+    robust_p_put(x, mp);
+    /* the offset's standard deviation: its largest variance (never below 0) */
+    pb = IMF_R(0.0);
+    for (i = 3; i < 6; i++) {
+        if (mp[robust_pi[i][i]] > pb) {
+            pb = mp[robust_pi[i][i]];
+        }
     }
     x->m_std = imf_sqrt(pb);
     /* trusted and consistent: the stored offset while the estimate agrees with it within
        mag_offset_min, else the estimate */
     if (x->m_std < ROBUST_MAG_TRUST && x->m_ew < ROBUST_MAG_GATE) {
-        dx = x->ix - x->sx * inv;
-        dy = x->iy - x->sy * inv;
-        dz = x->iz - x->sz * inv;
-        o2 = dx * dx + dy * dy + dz * dz;
-        if (o2 < set->mag_min2) {
-            x->ux = x->sx;
-            x->uy = x->sy;
-            x->uz = x->sz;
-        } else {
-            x->ux = x->ix * x->m_n0;
-            x->uy = x->iy * x->m_n0;
-            x->uz = x->iz * x->m_n0;
+        st[0] = x->sx;
+        st[1] = x->sy;
+        st[2] = x->sz;
+        o2 = IMF_R(0.0);
+        for (k = 0; k < 3; k++) {
+            e[k] = xs[3 + k] - st[k] * inv;
+            o2 = o2 + e[k] * e[k];
+            u[k] = xs[3 + k] * x->m_n0;
         }
+        if (o2 < set->mag_min2) {
+            u[0] = st[0];
+            u[1] = st[1];
+            u[2] = st[2];
+        }
+        x->ux = u[0];
+        x->uy = u[1];
+        x->uz = u[2];
     }
 }
 
@@ -642,8 +703,9 @@ static inline int robust_mag_test(const imf_robust_consts_t *const set, const im
 }
 
 /* B4: heading from the magnetometer; 0 rejects the sample. */
-static int robust_mag(const imf_robust_consts_t *const set, imf_robust_state_t *const x,
-                      const imf_real mx, const imf_real my, const imf_real mz, const imf_real g2)
+static ROBUST_NOINLINE int robust_mag(const imf_robust_consts_t *const set,
+                                      imf_robust_state_t *const x, const imf_real mx,
+                                      const imf_real my, const imf_real mz, const imf_real g2)
 {
     const imf_real dt = set->dt;
     imf_real me[3], h2, n2, mn, mh, inv, hn, zn, k;

@@ -73,7 +73,12 @@ typedef struct {
     /* B6 (relative: field unit / m_n0) */
     imf_real hx, hy, hz; /* field in the inertial frame, relative */
     imf_real ix, iy, iz; /* offset (hard iron) estimate in the sensor frame, relative */
-    imf_real mp[21];     /* its 6x6 covariance (h, o), upper triangle by rows */
+    imf_real p00, p01, p02, p03, p04, p05; /* its 6x6 covariance (h, o), upper */
+    imf_real p11, p12, p13, p14, p15;      /* triangle: p<i><j> = P[i][j] */
+    imf_real p22, p23, p24, p25;
+    imf_real p33, p34, p35;
+    imf_real p44, p45;
+    imf_real p55;
     imf_real ux, uy, uz; /* offset in use, field unit (B4 reads m - u) */
     imf_real sx, sy, sz; /* stored offset (set_mag_offset), field unit */
     imf_real m_n0;       /* field unit of the estimator (0: starts at the next reading) */

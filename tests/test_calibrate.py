@@ -235,7 +235,7 @@ def test_cli_calibrate(tmp_path):
     # a magnetometer that never turned: refused, the existing file untouched
     _write(tmp_path / "still.csv", "mag", np.tile(H_TRUE, (200, 1)))
     before = out.read_bytes()
-    for method in ("minmax", "ellipsoid"):
+    for method in ("minmax", "ellipsoid", "sphere"):
         r = imf("calibrate", "mag", tmp_path / "still.csv", "-o", out, "--method", method)
         assert r.returncode == 4 and "never turned" in r.stderr, r.stderr
         assert out.read_bytes() == before

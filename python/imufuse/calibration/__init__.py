@@ -8,21 +8,25 @@ The models of Longbin's walkthrough (x-io Fusion), with the parameters of Nair (
 The modules, by subject:
   imufuse.calibration.models   the calibration file (JSON): Calibration (the parameters per
                                sensor), CalibrationError, from_dict, load_calibration,
-                               save_calibration, is_identity; applied to logs by
+                               save_calibration, is_identity, mag_offset (the offset
+                               RobustAHRS holds); applied to logs by
                                imufuse.preprocess (`imufuse run --calibration`)
   imufuse.calibration.fit      the fits from arrays: gyro_offset, still_phases,
-                               accel_six_position, mag_minmax, mag_ellipsoid; each returns a
+                               accel_six_position, mag_minmax, mag_ellipsoid, mag_sphere
+                               (hard iron only); each returns a
                                fit.Calibration (sensor, params, figures), not the file's
   imufuse.calibration.log      `imufuse calibrate` over a log: run_log, save (merge into the
-                               file), describe. Not imported here: it reads logs through
-                               imufuse.session, whose preprocessing imports the models.
+                               file), save_mag_offset (a filter's learnt offset), describe.
+                               Not imported here: it reads logs through imufuse.session,
+                               whose preprocessing imports the models.
 
 Here: the models' public names and the fits.
 """
-from .fit import accel_six_position, gyro_offset, mag_ellipsoid, mag_minmax, still_phases
+from .fit import (accel_six_position, gyro_offset, mag_ellipsoid, mag_minmax, mag_sphere,
+                  still_phases)
 from .models import (Calibration, CalibrationError, from_dict, is_identity, load_calibration,
-                     save_calibration)
+                     mag_offset, save_calibration)
 
 __all__ = ["Calibration", "CalibrationError", "from_dict", "load_calibration",
-           "save_calibration", "is_identity", "gyro_offset", "still_phases",
-           "accel_six_position", "mag_minmax", "mag_ellipsoid"]
+           "save_calibration", "is_identity", "mag_offset", "gyro_offset", "still_phases",
+           "accel_six_position", "mag_minmax", "mag_ellipsoid", "mag_sphere"]

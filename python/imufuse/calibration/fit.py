@@ -267,6 +267,34 @@ def mag_minmax(mag, field=None):
                                                field_spread=float(r.std())))
 
 
+def mag_sphere(mag):
+    """Hard iron only: the least-squares sphere |m - h| = r, written as
+    |m|^2 = 2 m.h + (r^2 - |h|^2), linear in (h, r^2 - |h|^2). S is the identity (the
+    log's unit kept): the offset that RobustAHRS holds and learns (set_mag_offset;
+    imufuse.calibration.mag_offset reads it from the file). Figures: field (r),
+    residual (RMS of |m - h| - r), field_spread (std of |m - h|)."""
+    m = _nx3("mag", mag, 10)
+    lo, hi = m.min(axis=0), m.max(axis=0)
+    _check_turned(m, lo, hi)
+    _check_spread(m, (hi + lo) / 2.0)
+    c0 = m.mean(axis=0)
+    sc = float(np.abs(m - c0).max())
+    x = (m - c0) / sc
+    A = np.column_stack([2.0 * x, np.ones(len(x))])
+    v, *_ = np.linalg.lstsq(A, np.einsum("ij,ij->i", x, x), rcond=None)
+    r2 = v[3] + v[:3] @ v[:3]
+    if not r2 > 0.0:
+        raise ValueError("mag: the readings do not determine a sphere (the fit's radius^2 is "
+                         f"{r2:.3g}); record while turning the unit about all three axes")
+    h = c0 + sc * v[:3]
+    f = sc * float(np.sqrt(r2))
+    cal = Calibration("mag", dict(S=np.eye(3), h=h))
+    _check_coverage(cal.apply(m) / f, "sphere")
+    r = np.linalg.norm(m - h, axis=1)
+    return Calibration("mag", cal.params, dict(field=f, residual=float(np.sqrt(np.mean((r - f) ** 2))),
+                                               field_spread=float(r.std())))
+
+
 def mag_ellipsoid(mag, field=None):
     """Least-squares ellipsoid fit: m_u lies on (m - h)^T Q (m - h) = 1. h is
     the hard iron, S = field Q^(1/2) (symmetric) the soft iron, so that

@@ -18,10 +18,10 @@ import numpy as np
 from .._atomic import replacing
 from ..io import LogError, require
 from ..session import ReadOptions, Session
-from .fit import accel_six_position, gyro_offset, mag_ellipsoid, mag_minmax
+from .fit import Calibration, accel_six_position, gyro_offset, mag_ellipsoid, mag_minmax, mag_sphere
 from .models import CalibrationError, from_dict
 
-__all__ = ["save", "run_log", "describe", "SECTIONS"]
+__all__ = ["save", "save_mag_offset", "run_log", "describe", "SECTIONS"]
 
 #: JSON section of each sensor
 SECTIONS = {"gyro": "gyroscope", "accel": "accelerometer", "mag": "magnetometer"}
@@ -55,6 +55,17 @@ def save(path, cal):
     return data
 
 
+def save_mag_offset(path, offset):
+    """Write (or merge into an existing) calibration file the magnetometer offset of a
+    filter (RobustAHRS.get_mag_offset()[0], the log's unit) as {"S": identity, "h": offset}:
+    the file that `imufuse calibrate mag --method sphere` writes and that
+    imufuse.calibration.mag_offset reads back at the next start."""
+    h = np.asarray(offset, dtype=float)
+    if h.shape != (3,):
+        raise ValueError(f"offset: expected (x, y, z), got shape {h.shape}")
+    return save(path, Calibration("mag", dict(S=np.eye(3), h=h)))
+
+
 def run_log(sensor, path, output, gyr_unit=None, ranges=None, threshold=None,
             method="ellipsoid", longest_still=False, *, acc_unit=None, columns=None,
             strict=False):
@@ -86,7 +97,7 @@ def run_log(sensor, path, output, gyr_unit=None, ranges=None, threshold=None,
         elif sensor == "accel":
             cal = accel_six_position(x, rng, threshold=threshold)
         else:
-            cal = (mag_ellipsoid if method == "ellipsoid" else mag_minmax)(x)
+            cal = {"ellipsoid": mag_ellipsoid, "minmax": mag_minmax, "sphere": mag_sphere}[method](x)
     except (ValueError, ArithmeticError, np.linalg.LinAlgError) as e:
         # the recording cannot give a calibration: bad data (exit 4), not a bad command line
         raise LogError(f"{path}: {e}") from None

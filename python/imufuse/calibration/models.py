@@ -133,6 +133,28 @@ def save_calibration(path, calibration):
     return path
 
 
+def mag_offset(calibration):
+    """The magnetometer offset h (3 floats, the log's unit) of a calibration (a Calibration
+    or a file) that is an offset only, S the identity: what RobustAHRS.set_mag_offset
+    takes (`imufuse calibrate mag --method sphere` writes it; the learnt offset goes back
+    with imufuse.calibration.log.save_mag_offset). A soft-iron matrix cannot be given to the
+    filter: CalibrationError saying so (apply such a file to the readings instead,
+    `imufuse run --calibration`)."""
+    cal = calibration if isinstance(calibration, Calibration) else load_calibration(calibration)
+    where = cal.source or "calibration"
+    if cal.magnetometer is None:
+        raise CalibrationError(f"{where}: no magnetometer section")
+    p = cal.params("magnetometer")
+    S = np.asarray(p["S"], dtype=float)
+    if not np.allclose(S, np.eye(3), rtol=0.0, atol=1e-12):
+        raise CalibrationError(
+            f"{where}: magnetometer.S is not the identity ({S.tolist()}): a soft-iron "
+            "calibration, which the filter's offset cannot hold; apply it to the readings "
+            "(imufuse run --calibration) or fit an offset only (imufuse calibrate mag "
+            "--method sphere)")
+    return tuple(float(v) for v in np.asarray(p["h"], dtype=float))
+
+
 def is_identity(cal):
     return all(getattr(cal, s) is None or all(
         np.array_equal(v, IDENTITY[k]) for k, v in getattr(cal, s).items()) for s in SENSORS)

@@ -92,7 +92,8 @@ def add_parsers(sub):
                         "stillness threshold")
     c.add_argument("--longest-still", action="store_true",
                    help="gyro: use the longest still stretch of a recording that moved")
-    c.add_argument("--method", choices=("ellipsoid", "minmax"), default="ellipsoid",
-                   help="mag: least-squares ellipsoid (soft and hard iron) or min/max "
-                   "(hard iron and per-axis scale)")
+    c.add_argument("--method", choices=("ellipsoid", "minmax", "sphere"), default="ellipsoid",
+                   help="mag: least-squares ellipsoid (soft and hard iron), min/max "
+                   "(hard iron and per-axis scale) or sphere (hard iron only: the offset "
+                   "RobustAHRS holds, imufuse.calibration.mag_offset)")
     c.set_defaults(func=_calibrate)

@@ -376,105 +376,103 @@ class _Robust(ReferenceFilter):
         tn = self.mag_norm * n
         return dn < tn and -dn < tn and dd < self.mag_dip and -dd < self.mag_dip
 
-    def _offset_start(self, x, mx, my, mz, n0):
-        # B6: the estimator starts from this reading (field unit n0 = |m - u|): the field
-        # in the inertial frame is R(s) (m - u), the offset u; both with the prior variance
+    def _offset_axis(self, mp, xs, i, h0, h1, h2, y, rr):
+        """B6: the scalar update of axis i, measurement y with noise rr, H = (h0, h1, h2,
+        e_i): state xs[6], covariance mp[21] (both updated); returns nu^2 / s."""
         R = self._R
-        inv = R(1.0) / n0
-        x.hx, x.hy, x.hz = qrotate(R, x.s0, x.s1, x.s2, x.s3, (mx - x.ux) * inv,
-                                   (my - x.uy) * inv, (mz - x.uz) * inv)
-        x.ix = x.ux * inv
-        x.iy = x.uy * inv
-        x.iz = x.uz * inv
-        for n in _PNAMES:
-            setattr(x, n, R(_MAG_P0) if n[1] == n[2] else R(0.0))
-        x.m_n0 = n0
-        x.m_ew = R(3.0)
-        x.m_d2 = R(0.0)
+        ph = [mp[_PI[j][0]] * h0 + mp[_PI[j][1]] * h1 + mp[_PI[j][2]] * h2
+              + mp[_PI[j][3 + i]] for j in range(6)]
+        sv = h0 * ph[0] + h1 * ph[1] + h2 * ph[2] + ph[3 + i] + rr
+        nu = y - (h0 * xs[0] + h1 * xs[1] + h2 * xs[2] + xs[3 + i])
+        ri = R(1.0) / sv
+        kk = [R(0.0)] * 6
+        for j in range(6):
+            kk[j] = ph[j] * ri
+            xs[j] = xs[j] + kk[j] * nu
+        for j in range(6):
+            for k in range(j, 6):
+                mp[_PI[j][k]] = mp[_PI[j][k]] - ph[j] * kk[k]
+        return nu * nu * ri
 
     def _offset(self, x, mx, my, mz, g2):
         """B6: one reading (m, not all zero) into the estimator of (h, o), m = R(s)^T h + o
         in units of m_n0; then the offset in use u. g2: |w|^2 of this sample."""
         R = self._R
+        m = (mx, my, mz)
         if not self.mag_learn:
             return
+        u = [x.ux, x.uy, x.uz]
+        # R(s) by columns: rm[3 c + r] = (R e_c)_r, and column i is the row of axis i in
+        # m = R^T h + o
+        rm = []
+        for i in range(3):
+            rm += qrotate(R, x.s0, x.s1, x.s2, x.s3, R(1.0) if i == 0 else R(0.0),
+                          R(1.0) if i == 1 else R(0.0), R(1.0) if i == 2 else R(0.0))
+        e = [R(0.0)] * 3
         if x.m_n0 == R(0.0):
-            ex, ey, ez = mx - x.ux, my - x.uy, mz - x.uz
-            n2 = ex * ex + ey * ey + ez * ez
-            if n2 >= self._min and n2 <= self._max:
-                self._offset_start(x, mx, my, mz, R(math.sqrt(n2)))
-            return
-        mp = [getattr(x, n) for n in _PNAMES]
-        # predict: the field and the offset walk; after an innovation beyond the gate the
-        # offset may have jumped (a magnet attached or removed)
-        for i in range(3):
-            mp[_PI[i][i]] = mp[_PI[i][i]] + R(_MAG_QH) * self.dt
-        for i in range(3, 6):
-            pb = mp[_PI[i][i]] + R(_MAG_QO) * self.dt
-            if x.m_d2 > R(_MAG_GATE) and pb < R(_MAG_P0):
-                pb = pb + R(_MAG_JUMP)
-            mp[_PI[i][i]] = pb
-        # the measurement, relative; its noise grows with the rate (timing mismatch)
-        inv = R(1.0) / x.m_n0
-        y = (mx * inv, my * inv, mz * inv)
-        rr = g2 * self.mag_lag2
-        if not (rr <= R(1.0)):
-            rr = R(1.0)
-        rr = self.mag_noise2 + rr
-        # R(s), rows: m = R^T h + o, so the row of axis i is column i of R
-        s0, s1, s2, s3 = x.s0, x.s1, x.s2, x.s3
-        two, one = R(2.0), R(1.0)
-        rm = (one - two * (s2 * s2 + s3 * s3), two * (s1 * s2 - s0 * s3),
-              two * (s1 * s3 + s0 * s2),
-              two * (s1 * s2 + s0 * s3), one - two * (s1 * s1 + s3 * s3),
-              two * (s2 * s3 - s0 * s1),
-              two * (s1 * s3 - s0 * s2), two * (s2 * s3 + s0 * s1),
-              one - two * (s1 * s1 + s2 * s2))
-        xs = [x.hx, x.hy, x.hz, x.ix, x.iy, x.iz]
-        # the three axes one after the other (independent noise: the same as all at once)
-        d2 = R(0.0)
-        for i in range(3):
-            h0, h1, h2 = rm[i], rm[3 + i], rm[6 + i]
-            ph = [mp[_PI[j][0]] * h0 + mp[_PI[j][1]] * h1 + mp[_PI[j][2]] * h2
-                  + mp[_PI[j][3 + i]] for j in range(6)]
-            sv = h0 * ph[0] + h1 * ph[1] + h2 * ph[2] + ph[3 + i] + rr
-            nu = y[i] - (h0 * xs[0] + h1 * xs[1] + h2 * xs[2] + xs[3 + i])
-            ri = R(1.0) / sv
-            d2 = d2 + nu * nu * ri
-            kk = [R(0.0)] * 6
-            for j in range(6):
-                kk[j] = ph[j] * ri
-                xs[j] = xs[j] + kk[j] * nu
-            for j in range(6):
-                for k in range(j, 6):
-                    mp[_PI[j][k]] = mp[_PI[j][k]] - ph[j] * kk[k]
+            # the start (field unit n0 = |m - u|): h = R(s) (m - u) / n0, o = u / n0, both
+            # with the prior variance
+            o2 = R(0.0)
+            for i in range(3):
+                e[i] = m[i] - u[i]
+                o2 = o2 + e[i] * e[i]
+            if not (o2 >= self._min and o2 <= self._max):
+                return
+            x.m_n0 = R(math.sqrt(o2))
+            inv = R(1.0) / x.m_n0
+            xs = [R(0.0)] * 6
+            for i in range(3):
+                xs[i] = (rm[i] * e[0] + rm[3 + i] * e[1] + rm[6 + i] * e[2]) * inv
+                xs[3 + i] = u[i] * inv
+            mp = [R(_MAG_P0) if n[1] == n[2] else R(0.0) for n in _PNAMES]
+            x.m_ew = R(3.0)
+            x.m_d2 = R(0.0)
+        else:
+            xs = [x.hx, x.hy, x.hz, x.ix, x.iy, x.iz]
+            mp = [getattr(x, n) for n in _PNAMES]
+            # predict: the field and the offset walk; after an innovation beyond the gate
+            # the offset may have jumped (a magnet attached or removed)
+            for i in range(6):
+                pb = mp[_PI[i][i]] + R(_MAG_QH if i < 3 else _MAG_QO) * self.dt
+                if i >= 3 and x.m_d2 > R(_MAG_GATE) and pb < R(_MAG_P0):
+                    pb = pb + R(_MAG_JUMP)
+                mp[_PI[i][i]] = pb
+            # the measurement, relative; its noise grows with the rate (timing mismatch)
+            inv = R(1.0) / x.m_n0
+            rr = g2 * self.mag_lag2
+            if not (rr <= R(1.0)):
+                rr = R(1.0)
+            rr = self.mag_noise2 + rr
+            # the three axes one after the other (independent noise: the same as all at
+            # once)
+            d2 = R(0.0)
+            for i in range(3):
+                y = m[i] * inv
+                d2 = d2 + self._offset_axis(mp, xs, i, rm[3 * i], rm[3 * i + 1],
+                                            rm[3 * i + 2], y, rr)
+            x.m_d2 = d2
+            x.m_ew = x.m_ew + R(_MAG_EW) * (d2 - x.m_ew)
         x.hx, x.hy, x.hz, x.ix, x.iy, x.iz = xs
         for n, v in zip(_PNAMES, mp):
             setattr(x, n, v)
-        x.m_d2 = d2
-        x.m_ew = x.m_ew + R(_MAG_EW) * (d2 - x.m_ew)
         # the offset's standard deviation: its largest variance (never below 0)
-        pb = mp[_PI[3][3]]
-        if mp[_PI[4][4]] > pb:
-            pb = mp[_PI[4][4]]
-        if mp[_PI[5][5]] > pb:
-            pb = mp[_PI[5][5]]
-        if not (pb > R(0.0)):
-            pb = R(0.0)
+        pb = R(0.0)
+        for i in range(3, 6):
+            if mp[_PI[i][i]] > pb:
+                pb = mp[_PI[i][i]]
         x.m_std = R(math.sqrt(pb))
         # trusted and consistent: the stored offset while the estimate agrees with it
         # within mag_offset_min, else the estimate
         if x.m_std < R(_MAG_TRUST) and x.m_ew < R(_MAG_GATE):
-            dx = x.ix - x.sx * inv
-            dy = x.iy - x.sy * inv
-            dz = x.iz - x.sz * inv
-            o2 = dx * dx + dy * dy + dz * dz
+            st = (x.sx, x.sy, x.sz)
+            o2 = R(0.0)
+            for k in range(3):
+                e[k] = xs[3 + k] - st[k] * inv
+                o2 = o2 + e[k] * e[k]
+                u[k] = xs[3 + k] * x.m_n0
             if o2 < self.mag_offset_min2:
-                x.ux, x.uy, x.uz = x.sx, x.sy, x.sz
-            else:
-                x.ux = x.ix * x.m_n0
-                x.uy = x.iy * x.m_n0
-                x.uz = x.iz * x.m_n0
+                u = list(st)
+            x.ux, x.uy, x.uz = u
 
     def _mag(self, x, mx, my, mz, g2):
         """B4: heading from the magnetometer. Returns False to reject the sample."""
