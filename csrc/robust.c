@@ -8,14 +8,17 @@
 
 /* B6's fixed model (relative to the field, docs/recommended-ahrs.md): the random walk of
    the field in the inertial frame (gyro drift turns that frame; the field changes along
-   the path) and of the offset, per s; the offset's prior variance; the innovation above
-   which the offset may have changed (a magnet attached or removed: its variance grows by
-   MAG_JUMP, up to the prior); the weight of the innovation's running mean; the standard
-   deviation below which the estimate is trusted. */
+   the path) and of the offset, per s; the offset's prior variance; the normalised
+   innovation of one axis above which the offset may have changed (a magnet attached or
+   removed: chi-square of one degree of freedom, odds 1.3e-5; its variance grows by
+   MAG_JUMP, up to the prior); the weight of the innovation's running mean and the mean
+   (about 1 when the model holds) below which the estimate is consistent; the standard
+   deviation below which it is trusted. */
 #define ROBUST_MAG_QH IMF_R(1.0e-3)
 #define ROBUST_MAG_QO IMF_R(1.0e-7)
 #define ROBUST_MAG_P0 IMF_R(1.0)
-#define ROBUST_MAG_GATE IMF_R(25.0)
+#define ROBUST_MAG_GATE IMF_R(19.0)
+#define ROBUST_MAG_MEAN IMF_R(8.0)
 #define ROBUST_MAG_JUMP IMF_R(0.05)
 #define ROBUST_MAG_EW IMF_R(0.02)
 #define ROBUST_MAG_TRUST IMF_R(0.01)
@@ -152,6 +155,7 @@ static void robust_offset_clear(imf_robust_state_t *const x)
     x->m_ew = IMF_R(0.0);
     x->m_d2 = IMF_R(0.0);
     x->m_std = IMF_R(1.0);
+    x->m_axis = IMF_R(0.0);
 }
 
 static void robust_init(imf_robust_consts_t *const set, uint32_t *const skipped,
@@ -572,51 +576,56 @@ static ROBUST_NOINLINE imf_real robust_offset_axis(imf_real mp[21], imf_real xs[
 }
 
 /* B6: one reading (m, not all zero) into the estimator of (h, o), m = R(s)^T h + o in
-   units of m_n0; then the offset in use u. g2: |w|^2 of this sample, (rad/s)^2. Written
-   with arrays and loops: on a soft-float target every operation is a call. */
+   units of m_n0, one axis per sample in turn (x, y, z: a third of the work, the same
+   information every three samples); then the offset in use u. g2: |w|^2 of this sample,
+   (rad/s)^2. Written with arrays and loops: on a soft-float target every operation is a
+   call. */
 static ROBUST_NOINLINE void robust_offset(const imf_robust_consts_t *const set,
                                           imf_robust_state_t *const x, const imf_real mx,
                                           const imf_real my, const imf_real mz, const imf_real g2)
 {
     const imf_real m[3] = { mx, my, mz };
-    imf_real u[3], st[3], e[3], y[3], xs[6], rm[9], mp[21], inv, rr, d2, pb, o2;
-    unsigned i, k;
+    const unsigned i = x->m_axis == IMF_R(1.0) ? 1u : x->m_axis == IMF_R(2.0) ? 2u : 0u;
+    const int start = x->m_n0 == IMF_R(0.0);
+    imf_real u[3], st[3], e[3], c[3], xs[6], mp[21], inv, rr, pb, o2;
+    unsigned k;
     if (!set->mag_learn) {
         return;
     }
     u[0] = x->ux;
     u[1] = x->uy;
     u[2] = x->uz;
-    /* R(s) by columns: rm[3 c + r] = (R e_c)_r, and column i is the row of axis i in
-       m = R^T h + o */
-    for (i = 0; i < 3; i++) {
-        imf_qrotate(&rm[3 * i], x->s0, x->s1, x->s2, x->s3, i == 0 ? IMF_R(1.0) : IMF_R(0.0),
-                    i == 1 ? IMF_R(1.0) : IMF_R(0.0), i == 2 ? IMF_R(1.0) : IMF_R(0.0));
+    o2 = IMF_R(0.0);
+    for (k = 0; k < 3; k++) {
+        if (start) {
+            e[k] = m[k] - u[k];
+            o2 = o2 + e[k] * e[k];
+        } else {
+            e[k] = k == i ? IMF_R(1.0) : IMF_R(0.0);
+        }
     }
-    if (x->m_n0 == IMF_R(0.0)) {
-        /* the start (field unit n0 = |m - u|): h = R(s) (m - u) / n0, o = u / n0, both
-           with the prior variance */
-        o2 = IMF_R(0.0);
-        for (i = 0; i < 3; i++) {
-            e[i] = m[i] - u[i];
-            o2 = o2 + e[i] * e[i];
-        }
-        if (!(o2 >= IMF_REAL_MIN && o2 <= IMF_REAL_MAX)) {
-            return;
-        }
+    if (start && !(o2 >= IMF_REAL_MIN && o2 <= IMF_REAL_MAX)) {
+        return;
+    }
+    /* start: the field in I, R(s) (m - u); else column i of R(s), the row of axis i in
+       m = R^T h + o */
+    imf_qrotate(c, x->s0, x->s1, x->s2, x->s3, e[0], e[1], e[2]);
+    if (start) {
+        /* field unit n0 = |m - u|: h = R(s) (m - u) / n0, o = u / n0, both with the prior
+           variance */
         x->m_n0 = imf_sqrt(o2);
         inv = IMF_R(1.0) / x->m_n0;
-        for (i = 0; i < 3; i++) {
-            xs[i] = (rm[i] * e[0] + rm[3 + i] * e[1] + rm[6 + i] * e[2]) * inv;
-            xs[3 + i] = u[i] * inv;
+        for (k = 0; k < 3; k++) {
+            xs[k] = c[k] * inv;
+            xs[3 + k] = u[k] * inv;
         }
-        for (i = 0; i < 21; i++) {
-            mp[i] = IMF_R(0.0);
+        for (k = 0; k < 21; k++) {
+            mp[k] = IMF_R(0.0);
         }
-        for (i = 0; i < 6; i++) {
-            mp[robust_pi[i][i]] = ROBUST_MAG_P0;
+        for (k = 0; k < 6; k++) {
+            mp[robust_pi[k][k]] = ROBUST_MAG_P0;
         }
-        x->m_ew = IMF_R(3.0);
+        x->m_ew = IMF_R(1.0);
         x->m_d2 = IMF_R(0.0);
     } else {
         xs[0] = x->hx;
@@ -628,29 +637,24 @@ static ROBUST_NOINLINE void robust_offset(const imf_robust_consts_t *const set,
         robust_p_get(x, mp);
         /* predict: the field and the offset walk; after an innovation beyond the gate the
            offset may have jumped (a magnet attached or removed) */
-        for (i = 0; i < 6; i++) {
-            pb = mp[robust_pi[i][i]] + (i < 3 ? ROBUST_MAG_QH : ROBUST_MAG_QO) * set->dt;
-            if (i >= 3 && x->m_d2 > ROBUST_MAG_GATE && pb < ROBUST_MAG_P0) {
+        for (k = 0; k < 6; k++) {
+            pb = mp[robust_pi[k][k]] + (k < 3 ? ROBUST_MAG_QH : ROBUST_MAG_QO) * set->dt;
+            if (k >= 3 && x->m_d2 > ROBUST_MAG_GATE && pb < ROBUST_MAG_P0) {
                 pb = pb + ROBUST_MAG_JUMP;
             }
-            mp[robust_pi[i][i]] = pb;
+            mp[robust_pi[k][k]] = pb;
         }
-        /* the measurement, relative; its noise grows with the rate (timing mismatch) */
+        /* the measurement of axis i, relative; its noise grows with the rate (timing
+           mismatch) */
         inv = IMF_R(1.0) / x->m_n0;
         rr = g2 * set->mag_lag2;
         if (!(rr <= IMF_R(1.0))) {
             rr = IMF_R(1.0);
         }
         rr = set->mag_noise2 + rr;
-        /* the three axes one after the other (independent noise: the same as all at once) */
-        d2 = IMF_R(0.0);
-        for (i = 0; i < 3; i++) {
-            y[i] = m[i] * inv;
-            d2 = d2
-                 + robust_offset_axis(mp, xs, i, rm[3 * i], rm[3 * i + 1], rm[3 * i + 2], y[i], rr);
-        }
-        x->m_d2 = d2;
-        x->m_ew = x->m_ew + ROBUST_MAG_EW * (d2 - x->m_ew);
+        x->m_d2 = robust_offset_axis(mp, xs, i, c[0], c[1], c[2], m[i] * inv, rr);
+        x->m_ew = x->m_ew + ROBUST_MAG_EW * (x->m_d2 - x->m_ew);
+        x->m_axis = i == 2u ? IMF_R(0.0) : x->m_axis + IMF_R(1.0);
     }
     x->hx = xs[0];
     x->hy = xs[1];
@@ -661,15 +665,15 @@ static ROBUST_NOINLINE void robust_offset(const imf_robust_consts_t *const set,
     robust_p_put(x, mp);
     /* the offset's standard deviation: its largest variance (never below 0) */
     pb = IMF_R(0.0);
-    for (i = 3; i < 6; i++) {
-        if (mp[robust_pi[i][i]] > pb) {
-            pb = mp[robust_pi[i][i]];
+    for (k = 3; k < 6; k++) {
+        if (mp[robust_pi[k][k]] > pb) {
+            pb = mp[robust_pi[k][k]];
         }
     }
     x->m_std = imf_sqrt(pb);
     /* trusted and consistent: the stored offset while the estimate agrees with it within
        mag_offset_min, else the estimate */
-    if (x->m_std < ROBUST_MAG_TRUST && x->m_ew < ROBUST_MAG_GATE) {
+    if (x->m_std < ROBUST_MAG_TRUST && x->m_ew < ROBUST_MAG_MEAN) {
         st[0] = x->sx;
         st[1] = x->sy;
         st[2] = x->sz;

@@ -82,9 +82,10 @@ typedef struct {
     imf_real ux, uy, uz; /* offset in use, field unit (B4 reads m - u) */
     imf_real sx, sy, sz; /* stored offset (set_mag_offset), field unit */
     imf_real m_n0;       /* field unit of the estimator (0: starts at the next reading) */
-    imf_real m_ew;       /* mean normalised innovation (about 3 when consistent) */
+    imf_real m_ew;       /* mean normalised innovation (about 1 when consistent) */
     imf_real m_d2;       /* last normalised innovation */
     imf_real m_std;      /* standard deviation of the offset estimate, relative */
+    imf_real m_axis;     /* the axis the next reading updates: 0, 1, 2 */
 } imf_robust_state_t;
 
 /* Internal: the settings as init converts them once (dt-dependent ones by set_dt). */

@@ -174,7 +174,7 @@ def test_calibration_file_round_trip(tmp_path):
     with open(log, "w") as fh:
         fh.write("time,mag_x,mag_y,mag_z\n")
         for k, row in enumerate(s.mag):
-            fh.write(f"{k * s.dt!r},{row[0]!r},{row[1]!r},{row[2]!r}\n")
+            fh.write(f"{k * s.dt!r},{float(row[0])!r},{float(row[1])!r},{float(row[2])!r}\n")
     out = tmp_path / "calib.json"
     out.write_text(json.dumps({"gyroscope": {"b": [0.01, 0.0, 0.0]}}))
     r = imf("calibrate", "mag", log, "-o", out, "--method", "sphere")

@@ -151,12 +151,17 @@ def _empty_driver(spec, drv):
     scalar = spec.kind in ("1d", "vario")     # scalar inputs (VarioKF: accel, baro_alt, dt)
     reads = [f"imf_sink = {n};" if scalar else f"imf_sink = {n}[{j}];"
              for n in names for j in (range(1) if scalar else range(3))]
-    kinds = sorted({k for _, k in drv.state})
+    # one array per kind, read in the order of the filter's state words: a run of words the
+    # filter's driver dumps in a loop is a loop here too (mcu.driver)
+    count: dict = {}
+    state = []
+    for _, k in drv.state:
+        state.append((f"imf_dummy_{k}[{count.get(k, 0)}]", k))
+        count[k] = count.get(k, 0) + 1
     ctypes = {"f32": "float", "f64": "double", "i32": "int32_t", "u32": "uint32_t", "i16": "int16_t"}
     prelude = f"static volatile {ctype} imf_sink;\n" + "\n".join(
-        f"static volatile {ctypes[k]} imf_dummy_{k};" for k in kinds)
-    return mcu.Driver(prelude=prelude, step="\n".join(reads),
-                      state=[(f"imf_dummy_{k}", k) for _, k in drv.state])
+        f"static volatile {ctypes[k]} imf_dummy_{k}[{n}];" for k, n in sorted(count.items()))
+    return mcu.Driver(prelude=prelude, step="\n".join(reads), state=state)
 
 
 def linked_size(spec, target, inputs, elf, wd: Path) -> int:

@@ -87,7 +87,7 @@ def _dump_lines(state: Sequence[Tuple[str, str]]) -> List[str]:
             while k + n < len(state) and state[k + n] == (f"{m.group(1)}[{int(m.group(2)) + n}]",
                                                          kind):
                 n += 1
-        if n < 4:
+        if m is None or n < 4:
             out += [f"    {_KINDS[kd][0]}({e});" for e, kd in state[k:k + n]]
         else:
             out.append(f"    {{ unsigned imf_i; for (imf_i = 0; imf_i < {n}u; imf_i++) "

@@ -39,10 +39,10 @@ _PNAMES = tuple(f"p{i}{j}" for i in range(6) for j in range(i, 6))
 #: index of P[i][j] in that triangle (C: robust_pi)
 _PI = [[_PNAMES.index(f"p{min(i, j)}{max(i, j)}") for j in range(6)] for i in range(6)]
 # B6's fixed model (C: ROBUST_MAG_*): walks of the field and of the offset per s, the
-# offset's prior variance, the innovation gate, the offset's jump, the weight of the
-# innovation's running mean, the trusted standard deviation
-_MAG_QH, _MAG_QO, _MAG_P0, _MAG_GATE, _MAG_JUMP, _MAG_EW, _MAG_TRUST = (
-    1.0e-3, 1.0e-7, 1.0, 25.0, 0.05, 0.02, 0.01)
+# offset's prior variance, the one-axis innovation gate, the offset's jump, the weight of
+# the innovation's running mean and its consistent bound, the trusted standard deviation
+_MAG_QH, _MAG_QO, _MAG_P0, _MAG_GATE, _MAG_JUMP, _MAG_EW, _MAG_MEAN, _MAG_TRUST = (
+    1.0e-3, 1.0e-7, 1.0, 19.0, 0.05, 0.02, 8.0, 0.01)
 
 
 class _Robust(ReferenceFilter):
@@ -72,7 +72,8 @@ class _Robust(ReferenceFilter):
                    "sx", "sy", "sz",            # stored offset (set_mag_offset), field unit
                    "m_n0",                      # the estimator's field unit (0: not started)
                    "m_ew", "m_d2",              # mean and last normalised innovation
-                   "m_std")                     # the offset estimate's standard deviation
+                   "m_std",                     # the offset estimate's standard deviation
+                   "m_axis")                    # the axis the next reading updates: 0, 1, 2
 
     @staticmethod
     def _imu_params(tau_acc=2.5, rate_ref=100.0, tau_bias=100.0, tau_bias_rest=3.0,
@@ -106,6 +107,8 @@ class _Robust(ReferenceFilter):
                   "p00", "p11", "p22", "p33", "p44", "p55", "m_n0", "m_ew", "m_d2", "m_std"):
             if float(state[names.index(n)]) < 0.0:
                 return f"{n} = {float(state[names.index(n)])!r}, must not be negative"
+        if float(state[names.index("m_axis")]) not in (0.0, 1.0, 2.0):
+            return f"m_axis = {float(state[names.index('m_axis')])!r}, must be 0, 1 or 2"
         return None
 
     # imf_robust_init (shared settings of both filters)
@@ -182,6 +185,7 @@ class _Robust(ReferenceFilter):
         self.m_ew = R(0.0)
         self.m_d2 = R(0.0)
         self.m_std = R(1.0)
+        self.m_axis = R(0.0)
 
     # imf_robust_*_set_dt: every dt-dependent constant, as init computes it
     def _set_dt(self, dt):
@@ -396,62 +400,60 @@ class _Robust(ReferenceFilter):
 
     def _offset(self, x, mx, my, mz, g2):
         """B6: one reading (m, not all zero) into the estimator of (h, o), m = R(s)^T h + o
-        in units of m_n0; then the offset in use u. g2: |w|^2 of this sample."""
+        in units of m_n0, one axis per sample in turn; then the offset in use u. g2: |w|^2
+        of this sample."""
         R = self._R
         m = (mx, my, mz)
+        i = 1 if x.m_axis == R(1.0) else 2 if x.m_axis == R(2.0) else 0
+        start = x.m_n0 == R(0.0)
         if not self.mag_learn:
             return
         u = [x.ux, x.uy, x.uz]
-        # R(s) by columns: rm[3 c + r] = (R e_c)_r, and column i is the row of axis i in
-        # m = R^T h + o
-        rm = []
-        for i in range(3):
-            rm += qrotate(R, x.s0, x.s1, x.s2, x.s3, R(1.0) if i == 0 else R(0.0),
-                          R(1.0) if i == 1 else R(0.0), R(1.0) if i == 2 else R(0.0))
         e = [R(0.0)] * 3
-        if x.m_n0 == R(0.0):
-            # the start (field unit n0 = |m - u|): h = R(s) (m - u) / n0, o = u / n0, both
-            # with the prior variance
-            o2 = R(0.0)
-            for i in range(3):
-                e[i] = m[i] - u[i]
-                o2 = o2 + e[i] * e[i]
-            if not (o2 >= self._min and o2 <= self._max):
-                return
+        o2 = R(0.0)
+        for k in range(3):
+            if start:
+                e[k] = m[k] - u[k]
+                o2 = o2 + e[k] * e[k]
+            else:
+                e[k] = R(1.0) if k == i else R(0.0)
+        if start and not (o2 >= self._min and o2 <= self._max):
+            return
+        # start: the field in I, R(s) (m - u); else column i of R(s), the row of axis i in
+        # m = R^T h + o
+        c = qrotate(R, x.s0, x.s1, x.s2, x.s3, e[0], e[1], e[2])
+        if start:
+            # field unit n0 = |m - u|: h = R(s) (m - u) / n0, o = u / n0, both with the
+            # prior variance
             x.m_n0 = R(math.sqrt(o2))
             inv = R(1.0) / x.m_n0
             xs = [R(0.0)] * 6
-            for i in range(3):
-                xs[i] = (rm[i] * e[0] + rm[3 + i] * e[1] + rm[6 + i] * e[2]) * inv
-                xs[3 + i] = u[i] * inv
+            for k in range(3):
+                xs[k] = c[k] * inv
+                xs[3 + k] = u[k] * inv
             mp = [R(_MAG_P0) if n[1] == n[2] else R(0.0) for n in _PNAMES]
-            x.m_ew = R(3.0)
+            x.m_ew = R(1.0)
             x.m_d2 = R(0.0)
         else:
             xs = [x.hx, x.hy, x.hz, x.ix, x.iy, x.iz]
             mp = [getattr(x, n) for n in _PNAMES]
             # predict: the field and the offset walk; after an innovation beyond the gate
             # the offset may have jumped (a magnet attached or removed)
-            for i in range(6):
-                pb = mp[_PI[i][i]] + R(_MAG_QH if i < 3 else _MAG_QO) * self.dt
-                if i >= 3 and x.m_d2 > R(_MAG_GATE) and pb < R(_MAG_P0):
+            for k in range(6):
+                pb = mp[_PI[k][k]] + R(_MAG_QH if k < 3 else _MAG_QO) * self.dt
+                if k >= 3 and x.m_d2 > R(_MAG_GATE) and pb < R(_MAG_P0):
                     pb = pb + R(_MAG_JUMP)
-                mp[_PI[i][i]] = pb
-            # the measurement, relative; its noise grows with the rate (timing mismatch)
+                mp[_PI[k][k]] = pb
+            # the measurement of axis i, relative; its noise grows with the rate (timing
+            # mismatch)
             inv = R(1.0) / x.m_n0
             rr = g2 * self.mag_lag2
             if not (rr <= R(1.0)):
                 rr = R(1.0)
             rr = self.mag_noise2 + rr
-            # the three axes one after the other (independent noise: the same as all at
-            # once)
-            d2 = R(0.0)
-            for i in range(3):
-                y = m[i] * inv
-                d2 = d2 + self._offset_axis(mp, xs, i, rm[3 * i], rm[3 * i + 1],
-                                            rm[3 * i + 2], y, rr)
-            x.m_d2 = d2
-            x.m_ew = x.m_ew + R(_MAG_EW) * (d2 - x.m_ew)
+            x.m_d2 = self._offset_axis(mp, xs, i, c[0], c[1], c[2], m[i] * inv, rr)
+            x.m_ew = x.m_ew + R(_MAG_EW) * (x.m_d2 - x.m_ew)
+            x.m_axis = R(0.0) if i == 2 else x.m_axis + R(1.0)
         x.hx, x.hy, x.hz, x.ix, x.iy, x.iz = xs
         for n, v in zip(_PNAMES, mp):
             setattr(x, n, v)
@@ -463,7 +465,7 @@ class _Robust(ReferenceFilter):
         x.m_std = R(math.sqrt(pb))
         # trusted and consistent: the stored offset while the estimate agrees with it
         # within mag_offset_min, else the estimate
-        if x.m_std < R(_MAG_TRUST) and x.m_ew < R(_MAG_GATE):
+        if x.m_std < R(_MAG_TRUST) and x.m_ew < R(_MAG_MEAN):
             st = (x.sx, x.sy, x.sz)
             o2 = R(0.0)
             for k in range(3):
