@@ -102,7 +102,13 @@ CASES_GRAVITY = [
     Case("DCM", dict(dt=0.01, kp=0.5, ki=0.0), "p"),
 ]
 
-EXTRA_FLOAT_CASES = [*CASES_1D, *CASES_QUATERNION, *CASES_GRAVITY]
+# ---- the recommended AHRS: csrc/robust.c (its defaults run as every class's below)
+CASES_ROBUST = [
+    # B6 off: the configuration for an 8-bit MCU (docs/firmware.md), the stored offset only
+    Case("RobustAHRS", dict(dt=0.01, mag_learn=False), "nolearn"),
+]
+
+EXTRA_FLOAT_CASES = [*CASES_1D, *CASES_QUATERNION, *CASES_GRAVITY, *CASES_ROBUST]
 
 
 def _with_defaults(extra, entries, dt, case=None):
