@@ -4,6 +4,9 @@
  */
 #include "robust.h"
 
+#include <stddef.h>
+#include <string.h>
+
 /* ---- helpers (quaternion product and rotation: imf_math.h) ----------------- */
 
 /* B6's fixed model (relative to the field, docs/recommended-ahrs.md): the random walk of
@@ -875,11 +878,17 @@ static int robust_finish(const imf_robust_consts_t *const set, imf_robust_state_
     return 1;
 }
 
-/* valid-attitude policy: the whole new state must be finite */
-static int robust_finite(const imf_robust_state_t *const x)
+/* The bytes of the state an update can change: all of it for the AHRS; the IMU (and the
+   AHRS with B6 off) never changes B6's members (from hx on), so its update checks and
+   keeps only those before them (the IMU copies only those too: B4 reads u). */
+#define ROBUST_AHRS_BYTES sizeof(imf_robust_state_t)
+#define ROBUST_IMU_BYTES offsetof(imf_robust_state_t, hx)
+
+/* valid-attitude policy: the new state (its first `bytes`) must be finite */
+static int robust_finite(const imf_robust_state_t *const x, const size_t bytes)
 {
     const imf_real *const v = (const imf_real *)x;
-    const unsigned n = (unsigned)(sizeof *x / sizeof(imf_real));
+    const unsigned n = (unsigned)(bytes / sizeof(imf_real));
     unsigned i;
     for (i = 0; i < n; i++) {
         if (!isfinite(v[i])) {
@@ -889,16 +898,16 @@ static int robust_finite(const imf_robust_state_t *const x)
     return 1;
 }
 
-/* Keep the new state only if every block accepted the sample and left the
-   whole state finite (valid-attitude policy, imf_math.h). */
+/* Keep the new state (its first `bytes`) only if every block accepted the sample and
+   left it finite (valid-attitude policy, imf_math.h). */
 static void robust_commit(imf_robust_state_t *const dst, uint32_t *const skipped,
-                          const imf_robust_state_t *const x, const int ok)
+                          const imf_robust_state_t *const x, const int ok, const size_t bytes)
 {
-    if (!(ok && robust_finite(x))) {
+    if (!(ok && robust_finite(x, bytes))) {
         (*skipped)++;
         return;
     }
-    *dst = *x;
+    memcpy(dst, x, bytes);
 }
 
 void imf_robust_imu_update(imf_robust_imu_t *const self, const imf_real gx, const imf_real gy,
@@ -910,10 +919,11 @@ void imf_robust_imu_update(imf_robust_imu_t *const self, const imf_real gx, cons
         self->skipped++;
         return;
     }
-    x = self->x;
+    memcpy(&x, &self->x, ROBUST_IMU_BYTES);
     robust_commit(&self->x, &self->skipped, &x,
                   robust_step(&self->set, &x, gx, gy, gz, ax, ay, az)
-                      && robust_finish(&self->set, &x, gx, gy, gz));
+                      && robust_finish(&self->set, &x, gx, gy, gz),
+                  ROBUST_IMU_BYTES);
 }
 
 void imf_robust_ahrs_update(imf_robust_ahrs_t *const self, const imf_real gx, const imf_real gy,
@@ -930,5 +940,6 @@ void imf_robust_ahrs_update(imf_robust_ahrs_t *const self, const imf_real gx, co
     robust_commit(&self->x, &self->skipped, &x,
                   robust_step(&self->set, &x, gx, gy, gz, ax, ay, az)
                       && robust_mag(&self->set, &x, mx, my, mz, gx * gx + gy * gy + gz * gz)
-                      && robust_finish(&self->set, &x, gx, gy, gz));
+                      && robust_finish(&self->set, &x, gx, gy, gz),
+                  self->set.mag_learn ? ROBUST_AHRS_BYTES : ROBUST_IMU_BYTES);
 }

@@ -104,6 +104,7 @@ CASES_GRAVITY = [
 
 # ---- the recommended AHRS: csrc/robust.c (its defaults run as every class's below)
 CASES_ROBUST = [
+    Case("RobustAHRS", dict(dt=0.01), "defaults"),
     # B6 off: the configuration for an 8-bit MCU (docs/firmware.md), the stored offset only
     Case("RobustAHRS", dict(dt=0.01, mag_learn=False), "nolearn"),
 ]

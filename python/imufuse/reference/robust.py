@@ -574,13 +574,15 @@ class _Robust(ReferenceFilter):
         self._advance(x)
         return True
 
-    def _commit(self, x, ok):
-        # keep the new state only if every block accepted the sample and left the
-        # whole state finite (valid-attitude policy)
-        if not (ok and isfinite(*x.values())):
+    def _commit(self, x, ok, words):
+        # keep the new state (its first `words`) only if every block accepted the sample
+        # and left it finite (valid-attitude policy); the IMU, and the AHRS with B6 off,
+        # never change B6's members (C: ROBUST_IMU_BYTES): only those before them
+        names = self.state_names[:words]
+        if not (ok and isfinite(*(getattr(x, n) for n in names))):
             self._skip()
             return
-        for n in self.state_names:
+        for n in names:
             setattr(self, n, getattr(x, n))
 
     def _advance(self, x):
@@ -601,9 +603,6 @@ class _State:
     def __init__(self, owner):
         for n in self.__slots__:
             setattr(self, n, getattr(owner, n))
-
-    def values(self):
-        return [getattr(self, n) for n in self.__slots__]
 
 
 class RobustIMU(_Robust):
@@ -645,7 +644,7 @@ class RobustIMU(_Robust):
             return
         x = self._work()
         self._commit(x, self._step(x, gx, gy, gz, ax, ay, az) is not None
-                     and self._finish(x, gx, gy, gz))
+                     and self._finish(x, gx, gy, gz), self.state_names.index("hx"))
 
 
 class RobustAHRS(_Robust):
@@ -736,4 +735,5 @@ class RobustAHRS(_Robust):
         x = self._work()
         self._commit(x, self._step(x, gx, gy, gz, ax, ay, az) is not None
                      and self._mag(x, mx, my, mz, gx * gx + gy * gy + gz * gz)
-                     and self._finish(x, gx, gy, gz))
+                     and self._finish(x, gx, gy, gz),
+                     len(self.state_names) if self.mag_learn else self.state_names.index("hx"))
