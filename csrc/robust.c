@@ -25,6 +25,11 @@
 #define ROBUST_MAG_JUMP IMF_R(0.05)
 #define ROBUST_MAG_EW IMF_R(0.02)
 #define ROBUST_MAG_TRUST IMF_R(0.01)
+/* B6: a reading whose norm is beyond 8 times the field unit, or below 1/8 of it, is no
+   reading of this field (a hostile value, a magnet on the sensor): not used; after
+   ROBUST_MAG_RESTART s of them the estimator starts again from the next reading */
+#define ROBUST_MAG_RANGE2 IMF_R(64.0)
+#define ROBUST_MAG_RESTART IMF_R(1.0)
 
 /* Unit quaternion in place; 0 when the normalisation fails (squared norm
    zero, subnormal, overflowed or NaN: valid-attitude policy). */
@@ -159,6 +164,7 @@ static void robust_offset_clear(imf_robust_state_t *const x)
     x->m_d2 = IMF_R(0.0);
     x->m_std = IMF_R(1.0);
     x->m_axis = IMF_R(0.0);
+    x->m_bad = IMF_R(0.0);
 }
 
 static void robust_init(imf_robust_consts_t *const set, uint32_t *const skipped,
@@ -595,6 +601,24 @@ static ROBUST_NOINLINE void robust_offset(const imf_robust_consts_t *const set,
     if (!set->mag_learn) {
         return;
     }
+    inv = IMF_R(0.0);
+    if (!start) {
+        /* the reading against the field unit: absurd readings are not used */
+        inv = IMF_R(1.0) / x->m_n0;
+        o2 = IMF_R(0.0);
+        for (k = 0; k < 3; k++) {
+            o2 = o2 + (m[k] * inv) * (m[k] * inv);
+        }
+        if (!(o2 <= ROBUST_MAG_RANGE2 && o2 * ROBUST_MAG_RANGE2 >= IMF_R(1.0))) {
+            x->m_bad = x->m_bad + set->dt;
+            if (x->m_bad >= ROBUST_MAG_RESTART) {
+                x->m_n0 = IMF_R(0.0);
+                x->m_bad = IMF_R(0.0);
+            }
+            return;
+        }
+        x->m_bad = IMF_R(0.0);
+    }
     u[0] = x->ux;
     u[1] = x->uy;
     u[2] = x->uz;
@@ -649,7 +673,6 @@ static ROBUST_NOINLINE void robust_offset(const imf_robust_consts_t *const set,
         }
         /* the measurement of axis i, relative; its noise grows with the rate (timing
            mismatch) */
-        inv = IMF_R(1.0) / x->m_n0;
         rr = g2 * set->mag_lag2;
         if (!(rr <= IMF_R(1.0))) {
             rr = IMF_R(1.0);

@@ -86,6 +86,7 @@ typedef struct {
     imf_real m_d2;       /* last normalised innovation */
     imf_real m_std;      /* standard deviation of the offset estimate, relative */
     imf_real m_axis;     /* the axis the next reading updates: 0, 1, 2 */
+    imf_real m_bad;      /* absurd readings for (s): the estimator restarts after 1 s */
 } imf_robust_state_t;
 
 /* Internal: the settings as init converts them once (dt-dependent ones by set_dt). */

@@ -262,3 +262,31 @@ def test_long_run_with_a_magnet_on_board(dtype):
     u2 = col(R2, "ux", "uy", "uz").astype(np.float64)
     assert f.skipped == 0 and np.isfinite(R2).all()
     assert np.abs(u2 - u[-1]).max() < 0.1
+
+
+@pytest.mark.parametrize("bad", [1e30, 1e6, -1e20, 3e38, 1e-3])
+def test_absurd_readings_leave_the_estimate_alone(bad):
+    """Finite but absurd magnetometer values (a norm beyond 8 times the field, or below an
+    eighth of it): a burst of 50 in the middle of a magnet-on-board run is not used by B6
+    (the estimate stays learnt, within 1 uT at the end, and trusted); the same values as the
+    very first readings (the field unit taken from an absurd value) make the estimator
+    start again after 1 s of plausible readings, and it learns the magnet as usual."""
+    s = attach(sd.scenario("rotation", duration=120.0, rest=10.0, seed=3), MAGNET)
+    n = len(s.gyr)
+    m = s.mag.copy()
+    m[n // 2:n // 2 + 50] = bad
+    f = imufuse_c.RobustAHRS(s.dt, latency=0.0)
+    S = f.run(s.gyr, s.acc, m)
+    u = col(S, "ux", "uy", "uz")
+    assert f.skipped == 0 and np.isfinite(S).all()
+    assert np.linalg.norm(u[-1] - MAGNET) < 1.0 and col(S, "m_std")[-1, 0] < 0.01
+    assert np.all(np.linalg.norm(u[n // 2:] - MAGNET, axis=1) < 1.0)
+    m = s.mag.copy()
+    m[:20] = bad
+    f = imufuse_c.RobustAHRS(s.dt, latency=0.0)
+    S = f.run(s.gyr, s.acc, m)
+    n0 = col(S, "m_n0")[:, 0]
+    restart = int(np.argmax(np.abs(n0 - n0[-1]) < 0.1 * n0[-1]))
+    print(f"\n{bad:g}: field unit {n0[0]:.3g} at the start, {n0[-1]:.3g} from sample {restart}")
+    assert restart * s.dt <= 1.1 + 20 * s.dt
+    assert np.linalg.norm(col(S, "ux", "uy", "uz")[-1] - MAGNET) < 1.0

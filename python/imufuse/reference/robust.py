@@ -43,6 +43,9 @@ _PI = [[_PNAMES.index(f"p{min(i, j)}{max(i, j)}") for j in range(6)] for i in ra
 # the innovation's running mean and its consistent bound, the trusted standard deviation
 _MAG_QH, _MAG_QO, _MAG_P0, _MAG_GATE, _MAG_JUMP, _MAG_EW, _MAG_MEAN, _MAG_TRUST = (
     1.0e-3, 1.0e-7, 1.0, 19.0, 0.05, 0.02, 8.0, 0.01)
+# a reading beyond 8 times the field unit or below 1/8 of it is not used; after 1 s of them
+# the estimator starts again (C: ROBUST_MAG_RANGE2, ROBUST_MAG_RESTART)
+_MAG_RANGE2, _MAG_RESTART = 64.0, 1.0
 
 
 class _Robust(ReferenceFilter):
@@ -73,7 +76,8 @@ class _Robust(ReferenceFilter):
                    "m_n0",                      # the estimator's field unit (0: not started)
                    "m_ew", "m_d2",              # mean and last normalised innovation
                    "m_std",                     # the offset estimate's standard deviation
-                   "m_axis")                    # the axis the next reading updates: 0, 1, 2
+                   "m_axis",                    # the axis the next reading updates: 0, 1, 2
+                   "m_bad")                     # absurd readings for, s (restart after 1 s)
 
     @staticmethod
     def _imu_params(tau_acc=2.5, rate_ref=100.0, tau_bias=100.0, tau_bias_rest=3.0,
@@ -104,7 +108,8 @@ class _Robust(ReferenceFilter):
                 return (f"|{names[k][0]}|^2 = {n2!r}, must be within 1 +- "
                         f"{QUAT_NORM2_TOL}")
         for n in ("pvv", "pgg", "t", "t_rest", "rn", "cn", "t_cand", "t_dist", "t_ok",
-                  "p00", "p11", "p22", "p33", "p44", "p55", "m_n0", "m_ew", "m_d2", "m_std"):
+                  "p00", "p11", "p22", "p33", "p44", "p55", "m_n0", "m_ew", "m_d2", "m_std",
+                  "m_bad"):
             if float(state[names.index(n)]) < 0.0:
                 return f"{n} = {float(state[names.index(n)])!r}, must not be negative"
         if float(state[names.index("m_axis")]) not in (0.0, 1.0, 2.0):
@@ -186,6 +191,7 @@ class _Robust(ReferenceFilter):
         self.m_d2 = R(0.0)
         self.m_std = R(1.0)
         self.m_axis = R(0.0)
+        self.m_bad = R(0.0)
 
     # imf_robust_*_set_dt: every dt-dependent constant, as init computes it
     def _set_dt(self, dt):
@@ -408,6 +414,20 @@ class _Robust(ReferenceFilter):
         start = x.m_n0 == R(0.0)
         if not self.mag_learn:
             return
+        inv = R(0.0)
+        if not start:
+            # the reading against the field unit: absurd readings are not used
+            inv = R(1.0) / x.m_n0
+            o2 = R(0.0)
+            for k in range(3):
+                o2 = o2 + (m[k] * inv) * (m[k] * inv)
+            if not (o2 <= R(_MAG_RANGE2) and o2 * R(_MAG_RANGE2) >= R(1.0)):
+                x.m_bad = x.m_bad + self.dt
+                if x.m_bad >= R(_MAG_RESTART):
+                    x.m_n0 = R(0.0)
+                    x.m_bad = R(0.0)
+                return
+            x.m_bad = R(0.0)
         u = [x.ux, x.uy, x.uz]
         e = [R(0.0)] * 3
         o2 = R(0.0)
@@ -446,7 +466,6 @@ class _Robust(ReferenceFilter):
                 mp[_PI[k][k]] = pb
             # the measurement of axis i, relative; its noise grows with the rate (timing
             # mismatch)
-            inv = R(1.0) / x.m_n0
             rr = g2 * self.mag_lag2
             if not (rr <= R(1.0)):
                 rr = R(1.0)
