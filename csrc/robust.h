@@ -73,20 +73,20 @@ typedef struct {
     /* B6 (relative: field unit / m_n0) */
     imf_real hx, hy, hz; /* field in the inertial frame, relative */
     imf_real ix, iy, iz; /* offset (hard iron) estimate in the sensor frame, relative */
-    imf_real p00, p01, p02, p03, p04, p05; /* its 6x6 covariance (h, o), upper */
-    imf_real p11, p12, p13, p14, p15;      /* triangle: p<i><j> = P[i][j] */
-    imf_real p22, p23, p24, p25;
-    imf_real p33, p34, p35;
-    imf_real p44, p45;
-    imf_real p55;
-    imf_real ux, uy, uz; /* offset in use, field unit (B4 reads m - u) */
-    imf_real sx, sy, sz; /* stored offset (set_mag_offset), field unit */
-    imf_real m_n0;       /* field unit of the estimator (0: starts at the next reading) */
-    imf_real m_ew;       /* mean normalised innovation (about 1 when consistent) */
-    imf_real m_d2;       /* last normalised innovation */
-    imf_real m_std;      /* standard deviation of the offset estimate, relative */
-    imf_real m_axis;     /* the axis the next reading updates: 0, 1, 2 */
-    imf_real m_bad;      /* absurd readings for (s): the estimator restarts after 1 s */
+    imf_real p00, p01, p02, p03, p04, p05; /* covariance of (h, o), upper triangle, */
+    imf_real p11, p12, p13, p14, p15;      /* p<i><j> = P[i][j] (i, j: hx hy hz ix iy iz): */
+    imf_real p22, p23, p24, p25;           /* row 2 (hz) */
+    imf_real p33, p34, p35;                /* row 3 (ix) */
+    imf_real p44, p45;                     /* row 4 (iy) */
+    imf_real p55;                          /* row 5 (iz) */
+    imf_real ux, uy, uz;                   /* offset in use, field unit (B4 reads m - u) */
+    imf_real sx, sy, sz;                   /* stored offset (set_mag_offset), field unit */
+    imf_real m_n0;   /* field unit of the estimator (0: starts at the next reading) */
+    imf_real m_ew;   /* mean normalised innovation (about 1 when consistent) */
+    imf_real m_d2;   /* last normalised innovation */
+    imf_real m_std;  /* standard deviation of the offset estimate, relative */
+    imf_real m_axis; /* the axis the next reading updates: 0, 1, 2 */
+    imf_real m_bad;  /* absurd readings for (s): the estimator restarts after 1 s */
 } imf_robust_state_t;
 
 /* Internal: the settings as init converts them once (dt-dependent ones by set_dt). */

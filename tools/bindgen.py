@@ -4,7 +4,9 @@
 - the twin (python/imufuse/reference/<family>.py): its filter classes (the public classes
   with a C prefix `c_name`, as imufuse.reference collects them) and their `angles()`;
 - the header (csrc/<family>.h): the filter and settings structs, and the prototypes of
-  <c_name>_init, _update, _set_dt, _set_attitude and, if declared, _angles.
+  <c_name>_init, _update, _set_dt, _set_attitude and, if declared, _angles and the pair
+  _get_mag_offset / _set_mag_offset (RobustAHRS's B6: bound as get_mag_offset() and
+  set_mag_offset(), the twin validating the offset).
 
 From these, `family_pxi(family)` writes the extern block and one class per filter: _init
 (a settings struct filled from the validated keywords, or the init's own arguments by
