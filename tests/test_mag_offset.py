@@ -139,6 +139,9 @@ def test_set_mag_offset_c_and_twin_bit_for_bit(dtype):
     bits = np.uint32 if dtype == "float32" else np.uint64
     assert np.array_equal(out[0][0].view(bits), out[1][0].view(bits))
     assert out[0][1] == out[1][1]
+    # the run went through B6's every branch: learnt, trusted, the estimate in use
+    (offset, std) = out[0][1]
+    assert std < 0.01 and np.linalg.norm(np.subtract(offset, MAGNET)) < 1.0
 
 
 @pytest.mark.parametrize("backend", [imufuse_c, reference], ids=["c", "twin"])

@@ -247,6 +247,30 @@ def _check_coverage(u, what):
                     "turn the unit about all three axes (a figure of 8 in three dimensions)")
 
 
+def _turned(mag, min_rows):
+    """The readings as (N, 3), refused unless the unit turned in three dimensions (above),
+    with their mean c0 and largest deviation sc: the least-squares fits work on
+    (m - c0) / sc, centred and scaled for conditioning."""
+    m = _nx3("mag", mag, min_rows)
+    lo, hi = m.min(axis=0), m.max(axis=0)
+    _check_turned(m, lo, hi)
+    _check_spread(m, (hi + lo) / 2.0)
+    c0 = m.mean(axis=0)
+    return m, c0, float(np.abs(m - c0).max())
+
+
+def _mag_result(cal, m, f, what, u=None, **figures):
+    """The fit's calibration after the coverage check (u: the readings it checks, in units of
+    the field; default the calibrated readings / f), with its figures: field f, residual
+    (RMS of |m_c| - f), field_spread (std of |m_c|) and the fit's own."""
+    mc = cal.apply(m)
+    _check_coverage(mc / f if u is None else u, what)
+    r = np.linalg.norm(mc, axis=1)
+    return Calibration("mag", cal.params, dict(field=f, **figures,
+                                               residual=float(np.sqrt(np.mean((r - f) ** 2))),
+                                               field_spread=float(r.std())))
+
+
 def mag_minmax(mag, field=None):
     """Nair's hard-iron calibration: h = (max + min)/2 per axis and a
     per-axis scale (max - min)/2; S = diag(field / scale) with field the
@@ -259,12 +283,8 @@ def mag_minmax(mag, field=None):
     scale = (hi - lo) / 2.0
     f = float(scale.mean()) if field is None else float(field)
     S = np.diag(f / scale)
-    cal = Calibration("mag", dict(S=S, h=h))
-    _check_coverage((m - h) / scale, "min/max")
-    r = np.linalg.norm(cal.apply(m), axis=1)
-    return Calibration("mag", cal.params, dict(field=f, scale=scale.tolist(),
-                                               residual=float(np.sqrt(np.mean((r - f) ** 2))),
-                                               field_spread=float(r.std())))
+    return _mag_result(Calibration("mag", dict(S=S, h=h)), m, f, "min/max",
+                       u=(m - h) / scale, scale=scale.tolist())
 
 
 def mag_sphere(mag):
@@ -273,12 +293,7 @@ def mag_sphere(mag):
     log's unit kept): the offset that RobustAHRS holds and learns (set_mag_offset;
     imufuse.calibration.mag_offset reads it from the file). Figures: field (r),
     residual (RMS of |m - h| - r), field_spread (std of |m - h|)."""
-    m = _nx3("mag", mag, 10)
-    lo, hi = m.min(axis=0), m.max(axis=0)
-    _check_turned(m, lo, hi)
-    _check_spread(m, (hi + lo) / 2.0)
-    c0 = m.mean(axis=0)
-    sc = float(np.abs(m - c0).max())
+    m, c0, sc = _turned(mag, 10)
     x = (m - c0) / sc
     A = np.column_stack([2.0 * x, np.ones(len(x))])
     v, *_ = np.linalg.lstsq(A, np.einsum("ij,ij->i", x, x), rcond=None)
@@ -287,12 +302,8 @@ def mag_sphere(mag):
         raise ValueError("mag: the readings do not determine a sphere (the fit's radius^2 is "
                          f"{r2:.3g}); record while turning the unit about all three axes")
     h = c0 + sc * v[:3]
-    f = sc * float(np.sqrt(r2))
-    cal = Calibration("mag", dict(S=np.eye(3), h=h))
-    _check_coverage(cal.apply(m) / f, "sphere")
-    r = np.linalg.norm(m - h, axis=1)
-    return Calibration("mag", cal.params, dict(field=f, residual=float(np.sqrt(np.mean((r - f) ** 2))),
-                                               field_spread=float(r.std())))
+    return _mag_result(Calibration("mag", dict(S=np.eye(3), h=h)), m, sc * float(np.sqrt(r2)),
+                       "sphere")
 
 
 def mag_ellipsoid(mag, field=None):
@@ -301,13 +312,7 @@ def mag_ellipsoid(mag, field=None):
     |S (m_u - h)| = field. field: default the geometric mean radius of the
     ellipsoid (keeps the sensor's unit). Figures: field, the ellipsoid's
     radii, residual (RMS of |m_c| - field), field_spread (std of |m_c|)."""
-    m = _nx3("mag", mag, 20)
-    lo, hi = m.min(axis=0), m.max(axis=0)
-    _check_turned(m, lo, hi)
-    _check_spread(m, (hi + lo) / 2.0)
-    # centre and scale for conditioning
-    c0 = m.mean(axis=0)
-    sc = float(np.abs(m - c0).max())
+    m, c0, sc = _turned(mag, 20)
     x, y, z = ((m - c0) / sc).T
     D = np.column_stack([x * x, y * y, z * z, 2 * y * z, 2 * x * z, 2 * x * y,
                          2 * x, 2 * y, 2 * z])
@@ -328,12 +333,8 @@ def mag_ellipsoid(mag, field=None):
     h = c0 + sc * center
     f = float(np.prod(radii) ** (1.0 / 3.0)) if field is None else float(field)
     S = f / sc * (V @ np.diag(np.sqrt(w)) @ V.T)
-    cal = Calibration("mag", dict(S=S, h=h))
-    _check_coverage(cal.apply(m) / f, "ellipsoid")
-    r = np.linalg.norm(cal.apply(m), axis=1)
-    figures = dict(field=f, radii=sorted(radii.tolist()),
-                   residual=float(np.sqrt(np.mean((r - f) ** 2))), field_spread=float(r.std()))
-    return Calibration("mag", cal.params, figures)
+    return _mag_result(Calibration("mag", dict(S=S, h=h)), m, f, "ellipsoid",
+                       radii=sorted(radii.tolist()))
 
 
 # ---- files and the command line ----------------------------------------------------------
