@@ -9,6 +9,7 @@ imufuse.sim.disturb, BROAD's noise figures; heading errors in degrees after the 
 - the learnt offset stored and given back (get/set_mag_offset), C and twin bit for bit.
 """
 import math
+import re
 
 import numpy as np
 import pytest
@@ -293,3 +294,24 @@ def test_absurd_readings_leave_the_estimate_alone(bad):
     print(f"\n{bad:g}: field unit {n0[0]:.3g} at the start, {n0[-1]:.3g} from sample {restart}")
     assert restart * s.dt <= 1.1 + 20 * s.dt
     assert np.linalg.norm(col(S, "ux", "uy", "uz")[-1] - MAGNET) < 1.0
+
+
+@pytest.mark.skipif(BROAD is None, reason=SKIP_REASON)
+def test_sphere_calibration_of_the_published_file(tmp_path):
+    """`imufuse calibrate mag --method sphere` on BROAD trial 03 exactly as published (HDF5):
+    its magnetometer comes calibrated, so the fitted offset is within 2 uT of zero and the
+    field is the 44 uT of the recording; the file is the one the filter reads."""
+    import os
+
+    from imufuse.calibration import mag_offset
+    from test_calibrate import imf
+    path = os.path.join(BROAD, "published", "03_undisturbed_slow_rotation_C.hdf5")
+    out = tmp_path / "calib.json"
+    r = imf("calibrate", "mag", path, "-o", out, "--method", "sphere")
+    assert r.returncode == 0, r.stderr
+    h = mag_offset(out)
+    assert np.linalg.norm(h) < 2.0
+    assert re.search(r"field strength 4[3-5]\.", r.stdout), r.stdout
+    f = imufuse_c.RobustAHRS(0.0035)
+    f.set_mag_offset(h)
+    assert f.get_mag_offset() == (h, 1.0)
