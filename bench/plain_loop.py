@@ -9,7 +9,7 @@ import tempfile
 
 from cffi import FFI
 
-from imufuse import catalogue
+from imufuse import catalogue, cproto
 from imufuse._checks import KINDS
 from imufuse._resources import csrc_dir
 
@@ -30,35 +30,42 @@ def _loop_source(ref_cls):
             "{\n"
             f"    {c}_t s;\n"
             "    size_t k;\n"
-            f"    {c}_init(&s, INIT_ARGS_{c});\n"
+            f"{_init_source(ref_cls)}"
             "    for (k = 0; k < n; ++k) {\n"
             f"        {call}\n"
             "        memcpy(out + k * (sizeof s.x / sizeof(imf_real)), &s.x, sizeof s.x);\n"
             "    }\n"
             "    (void)np;\n"
-            "}\n"), f"void plain_{c}(size_t n, {decl}, imf_real *out, const double *p, size_t np);", \
-        f"#define INIT_ARGS_{c} " + ", ".join(f"p[{i}]" for i in range(n_args(ref_cls)))
+            "}\n"), f"void plain_{c}(size_t n, {decl}, imf_real *out, const double *p, size_t np);"
 
 
-def n_args(ref_cls):
-    """The number of C init arguments (the catalogue's init_args)."""
-    return len(catalogue.entry(ref_cls.__name__).init_args)
+def _init_source(ref_cls):
+    """The init call from p, the values of the twin's _params in the catalogue's init_args
+    order: the arguments themselves, or the members of the settings struct the init takes
+    (filled by name, as the generated bindings fill it)."""
+    e = catalogue.entry(ref_cls.__name__)
+    c = ref_cls.c_name
+    with open(os.path.join(CSRC, e.family + ".h")) as f:
+        settings, _ = cproto.init_params(f.read(), f"{c}_init")
+    if settings is None:
+        return f"    {c}_init(&s, " + ", ".join(f"p[{i}]" for i in range(len(e.init_args))) + ");\n"
+    fill = "".join(f"    st.{n} = p[{i}];\n" for i, n in enumerate(e.init_args))
+    return f"    {{\n    {settings} st;\n{fill}    {c}_init(&s, &st);\n    }}\n"
 
 
 def build(dtype, ref_classes):
     """Compile plain loops for ref_classes in one precision; return (ffi, lib)."""
     ffi = FFI()
     real = "float" if dtype == "float32" else "double"
-    bodies, decls, macros = [], [], []
+    bodies, decls = [], []
     for r in ref_classes:
-        body, decl, macro = _loop_source(r)
+        body, decl = _loop_source(r)
         bodies.append(body)
         decls.append(decl)
-        macros.append(macro)
     ffi.cdef(f"typedef {real} imf_real;\n" + "\n".join(decls))
     headers = sorted(os.path.basename(h) for h in glob.glob(os.path.join(CSRC, "*.h")))
     src = ("#include <string.h>\n" + "".join(f'#include "{h}"\n' for h in headers)
-           + "\n".join(macros) + "\n" + "\n".join(bodies))
+           + "\n".join(bodies))
     sources = sorted(glob.glob(os.path.join(CSRC, "*.c")))
     macros_def = [] if dtype == "float32" else [("IMF_DOUBLE", None)]
     name = f"_imf_plain_{dtype}"

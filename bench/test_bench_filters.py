@@ -11,13 +11,13 @@ N x len(state) values, as run() returns). run and plain are timed side by side, 
 several repeats each), so their ratio is robust on a shared, noisy machine;
 it is stored in the benchmark's extra_info and printed by bench/report.py.
 """
-import time
 
 import numpy as np
 import pytest
 
 import imufuse.reference as reference
 from plain_loop import build
+from timing import best_of
 from registry import DTYPES, FLOAT_CASES
 from sequences import generate
 
@@ -57,15 +57,6 @@ def plain_runner(case, dtype, inputs):
         fn(shape[0], *args, ffi.cast(ctype, ffi.from_buffer(out)), pp, len(p))
         return out
     return call
-
-
-def best_of(fn, repeats=5):
-    t = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        t.append(time.perf_counter() - t0)
-    return min(t)
 
 
 @pytest.mark.parametrize("dtype", DTYPES)

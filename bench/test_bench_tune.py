@@ -13,7 +13,6 @@ Prints the table that bench/RESULTS.md and the README's speed section quote."""
 import glob
 import os
 import sys
-import time
 
 import numpy as np
 import pytest
@@ -25,17 +24,9 @@ from imufuse.tune import Tuner
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests"))
 from broad_data import BROAD, SKIP_REASON  # noqa: E402
+from timing import best_of  # noqa: E402
 
 NAME, SETS, CORES = "MadgwickAHRS", 20, 2
-
-
-def best_of(fn, n=3):
-    out = []
-    for _ in range(n):
-        t0 = time.perf_counter()
-        fn()
-        out.append(time.perf_counter() - t0)
-    return min(out)
 
 
 @pytest.mark.skipif(BROAD is None, reason=SKIP_REASON)
