@@ -1,0 +1,454 @@
+/* Fixed-point RobustIMU; see robust_q.h for the Q formats and ranges.
+ * Mirrored line for line by python/imufuse/reference/fixed_robust.py; the blocks and
+ * their order are those of csrc/robust.c. */
+#include "robust_q.h"
+#include "imf_fixed_init.h"
+#include "imf_fixed_quat.h"
+
+/* ---- helpers ------------------------------------------------------------------- */
+
+/* 2^N / x as a q-scale for x > 0: 1 / x = y^2 2^-2sh (imf_invsqrt_u32, relative error
+ * below 2e-4), the square rounded to 15 bits. */
+IMF_Q_OUTLINE imf_qscale_t robust_q_recip(const uint32_t x, const int N)
+{
+    imf_qscale_t r;
+    int sh, s;
+    const uint16_t y = imf_invsqrt_u32(x, &sh);
+    const uint32_t p = imf_mulu16(y, y); /* in [2^30, 2^32) */
+    uint32_t m;
+    if (p >= 2147483648u) {
+        m = (p + 65536u) >> 17;
+        s = 2 * sh - N - 17;
+    } else {
+        m = (p + 32768u) >> 16;
+        s = 2 * sh - N - 16;
+    }
+    if (m >= 32768u) {
+        /* the rounding reached 2^15 */
+        m = 16384u;
+        s--;
+    }
+    r.m = (int16_t)m;
+    r.s = (int16_t)s;
+    return r;
+}
+
+/* |x| 2^-N (x in qN) as a q-scale and its sign (1, or -1): the 15 leading bits of |x|,
+ * rounded. x = 0 gives m 0 (its s is N). */
+IMF_Q_OUTLINE imf_qscale_t robust_q_scale_of(const int32_t x, const int N, int *const sign)
+{
+    imf_qscale_t r;
+    uint32_t u = x < 0 ? 0u - (uint32_t)x : (uint32_t)x;
+    int e = 0;
+    *sign = x < 0 ? -1 : 1;
+    while (e < 17 && (u >> e) >= 32768u) {
+        e++;
+    }
+    if (e > 0) {
+        u = (u + ((uint32_t)1 << (e - 1))) >> e;
+        if (u >= 32768u) {
+            u >>= 1;
+            e++;
+        }
+    }
+    while (u != 0u && u < 16384u) {
+        u <<= 1;
+        e--;
+    }
+    r.m = (int16_t)u;
+    r.s = (int16_t)(N - e);
+    return r;
+}
+
+/* x times a signed q-scale (sign, c) from qK to qN: x c 2^(N-K), rounded, saturated */
+static inline int32_t robust_q_mul_signed(const int32_t x, const imf_qscale_t c, const int sign,
+                                          const int K, const int N)
+{
+    const int32_t p = imf_scale32_s(x, c, K, N);
+    return sign < 0 ? imf_sub_sat32(0, p) : p;
+}
+
+/* The rotation matrix of a q15 snapshot qs (sensor -> earth), q15, by rows:
+ * diagonal 2 (w^2 + a^2) - 1, the others 2 (a b -+ w c), in q29 -> q15 */
+IMF_Q_OUTLINE void robust_q_matrix(const int16_t qs[4], int16_t r[9])
+{
+    const int32_t ww = imf_mul16(qs[0], qs[0]);
+    r[0] = imf_qn_to_q15s(ww + imf_mul16(qs[1], qs[1]) - 536870912L, 29);
+    r[4] = imf_qn_to_q15s(ww + imf_mul16(qs[2], qs[2]) - 536870912L, 29);
+    r[8] = imf_qn_to_q15s(ww + imf_mul16(qs[3], qs[3]) - 536870912L, 29);
+    r[1] = imf_qn_to_q15s(imf_mul16(qs[1], qs[2]) - imf_mul16(qs[0], qs[3]), 29);
+    r[3] = imf_qn_to_q15s(imf_mul16(qs[1], qs[2]) + imf_mul16(qs[0], qs[3]), 29);
+    r[2] = imf_qn_to_q15s(imf_mul16(qs[1], qs[3]) + imf_mul16(qs[0], qs[2]), 29);
+    r[6] = imf_qn_to_q15s(imf_mul16(qs[1], qs[3]) - imf_mul16(qs[0], qs[2]), 29);
+    r[5] = imf_qn_to_q15s(imf_mul16(qs[2], qs[3]) - imf_mul16(qs[0], qs[1]), 29);
+    r[7] = imf_qn_to_q15s(imf_mul16(qs[2], qs[3]) + imf_mul16(qs[0], qs[1]), 29);
+}
+
+/* out = R v (t = 0) or R^T v (t = 1) for int32 v in any format (the same format out),
+ * products rounded, sums saturated */
+IMF_Q_OUTLINE void robust_q_rotate(const int16_t r[9], const int t, const int32_t v[3],
+                                   int32_t out[3])
+{
+    int i, j;
+    for (i = 0; i < 3; ++i) {
+        int32_t a = 0;
+        for (j = 0; j < 3; ++j) {
+            a = imf_add_sat32(a, imf_q_mul_hq_p32(v[j], r[t ? 3 * j + i : 3 * i + j]));
+        }
+        out[i] = a;
+    }
+}
+
+/* out = a (x) b, a a q15 snapshot, b q30: products rounded, sums saturated */
+IMF_Q_OUTLINE void robust_q_mul(const int16_t a[4], const int32_t b[4], int32_t out[4])
+{
+    int32_t t;
+    t = imf_sub_sat32(imf_q_mul_hq_p32(b[0], a[0]), imf_q_mul_hq_p32(b[1], a[1]));
+    out[0] = imf_sub_sat32(imf_sub_sat32(t, imf_q_mul_hq_p32(b[2], a[2])),
+                           imf_q_mul_hq_p32(b[3], a[3]));
+    t = imf_add_sat32(imf_q_mul_hq_p32(b[1], a[0]), imf_q_mul_hq_p32(b[0], a[1]));
+    out[1] = imf_sub_sat32(imf_add_sat32(t, imf_q_mul_hq_p32(b[3], a[2])),
+                           imf_q_mul_hq_p32(b[2], a[3]));
+    t = imf_sub_sat32(imf_q_mul_hq_p32(b[2], a[0]), imf_q_mul_hq_p32(b[3], a[1]));
+    out[2] = imf_add_sat32(imf_add_sat32(t, imf_q_mul_hq_p32(b[0], a[2])),
+                           imf_q_mul_hq_p32(b[1], a[3]));
+    t = imf_add_sat32(imf_q_mul_hq_p32(b[3], a[0]), imf_q_mul_hq_p32(b[2], a[1]));
+    out[3] = imf_add_sat32(imf_sub_sat32(t, imf_q_mul_hq_p32(b[1], a[2])),
+                           imf_q_mul_hq_p32(b[0], a[3]));
+}
+
+/* q = q (x) exp(h), h the half angle (q30): the series of csrc/robust.c,
+ * (1 - |h|^2 / 2, h (1 - |h|^2 / 6)), then normalised */
+IMF_Q_OUTLINE void robust_q_exp(int32_t q[4], const int32_t h[3])
+{
+    int16_t qs[4], hs[3];
+    int32_t hv[3], dq[4], n6;
+    uint32_t n2 = 0u;
+    int i;
+    for (i = 0; i < 3; ++i) {
+        hs[i] = imf_qn_to_q15s(h[i], 30);
+        n2 += (uint32_t)imf_mul16(hs[i], hs[i]); /* three squares < 2^32 */
+    }
+    if (n2 > 1073741824u) {
+        n2 = 1073741824u; /* |h|^2 <= 1, q30 */
+    }
+    n6 = imf_q_mul_hq_p32((int32_t)n2, 5461); /* |h|^2 / 6 */
+    for (i = 0; i < 3; ++i) {
+        hv[i] = imf_sub_sat32(h[i], imf_q_mul_hq_p32(n6, hs[i]));
+    }
+    imf_q_snapshot(q, qs);
+    imf_q_rate_p32(qs, hv, dq);
+    for (i = 0; i < 4; ++i) {
+        dq[i] = imf_sub_sat32(dq[i], imf_q_mul_hq_p32((int32_t)(n2 >> 1), qs[i]));
+    }
+    imf_q_add_normalise(q, dq);
+}
+
+/* B5: a running mean until n reaches n_tau, then the low-pass gain k */
+static inline imf_qscale_t robust_q_gain(const int32_t n, const int32_t n_tau, const imf_qscale_t k)
+{
+    if (n < n_tau) {
+        return robust_q_recip((uint32_t)n + 1u, 0);
+    }
+    return k;
+}
+
+/* x += k (u 2^15 - x) for a counts u and x in q15 counts */
+static inline int32_t robust_q_lowpass(const int32_t x, const int16_t u, const imf_qscale_t k)
+{
+    return imf_add_sat32(x, imf_scale32_s(imf_sub_sat32((int32_t)u * 32768L, x), k, 15, 15));
+}
+
+/* q15 counts -> counts, rounded, saturated symmetric to +-32767 */
+static inline int32_t robust_q_counts(const int32_t x)
+{
+    return imf_qn_to_q15s(x, 30);
+}
+
+/* sum of the squares of three int32 values each within +-32767 (< 2^32) */
+static inline uint32_t robust_q_norm2(const int32_t a, const int32_t b, const int32_t c)
+{
+    return (uint32_t)(a * a) + (uint32_t)(b * b) + (uint32_t)(c * c);
+}
+
+/* the unit vector of v (any format), symmetric q15; 0 for the zero vector */
+IMF_Q_OUTLINE int robust_q_unit(const int32_t v[3], int16_t u[3])
+{
+    uint32_t m = 0u;
+    int16_t w[3];
+    int k = 0, i;
+    for (i = 0; i < 3; ++i) {
+        const uint32_t a = v[i] < 0 ? 0u - (uint32_t)v[i] : (uint32_t)v[i];
+        m = a > m ? a : m;
+    }
+    while ((m >> k) > 32767u) {
+        k++;
+    }
+    for (i = 0; i < 3; ++i) {
+        w[i] = imf_sat_q15s(imf_rshr32(v[i], k));
+    }
+    return imf_q_normalise_acc(w, u);
+}
+
+/* ---- init ----------------------------------------------------------------------- */
+
+/* a q-scale constant: 0, or its shift within [smin, smax] */
+static int robust_q_ok(const imf_qscale_t c, const int smin, const int smax)
+{
+    return c.m == 0 || imf_qscale_ok(c, smin, smax);
+}
+
+void imf_robust_imu_q_default_settings(imf_robust_imu_q_settings_t *const s)
+{
+    s->dt = 0.002;
+    s->tau_acc = 2.5;
+    s->rate_ref = 1.7453292519943295; /* 100 deg/s */
+    s->tau_bias = 100.0;
+    s->tau_bias_rest = 3.0;
+    s->rest_gyr = 0.03490658503988659; /* 2 deg/s */
+    s->rest_acc = 0.05;
+    s->rest_time = 1.5;
+    s->tau_rest = 0.5;
+    s->latency = 0.0;
+    s->gyr_scale = 1.0642e-3;
+    s->profile = 32;
+}
+
+int imf_robust_imu_q_init_consts(imf_robust_imu_q_t *const self,
+                                 const imf_robust_imu_q_consts_t *const k)
+{
+    imf_robust_imu_q_state_t *const x = &self->x;
+    int i;
+    /* shifts of imf_scale32_s in range: kg (gyr_scale dt < 2^-16), klat, eps (e in
+     * [1/8192, 1/200]), kq, the low-pass gains, kbias, kacc2 */
+    if (k->kg.m == 0 || !imf_qscale_ok(k->kg, 32, 62) || !robust_q_ok(k->klat, 32, 62)
+        || k->eps.m == 0 || !imf_qscale_ok(k->eps, 22, 27) || !robust_q_ok(k->kq, 30, 62)
+        || k->k_rest.m == 0 || !imf_qscale_ok(k->k_rest, 0, 47) || k->kb_rest.m == 0
+        || !imf_qscale_ok(k->kb_rest, 0, 47) || !robust_q_ok(k->kbias, -15, 32)
+        || !robust_q_ok(k->kacc2, 14, 47) || k->qg0 < 16 || k->qcap < k->qg0 || k->pg0 <= 0
+        || k->n_tau < 0 || k->n_acc < 0 || k->n_rest < 0 || k->n_max < k->n_tau
+        || k->n_max < k->n_acc || k->n_max > 1073741824L) {
+        return -1;
+    }
+    self->k = *k;
+    for (i = 0; i < 4; ++i) {
+        x->q[i] = x->s[i] = x->c[i] = i == 0 ? IMF_Q30_ONE : 0;
+    }
+    for (i = 0; i < 3; ++i) {
+        x->f[i] = x->v[i] = x->p[i] = x->b[i] = x->lw[i] = x->la[i] = 0;
+    }
+    x->n = x->n_rest = 0;
+    return 0;
+}
+
+/* ceil(v) for v in [0, 2^30] (else -1: refused) */
+static int32_t robust_q_ceil(const double v)
+{
+    const double c = ceil(v);
+    return (c >= 0.0 && c <= 1073741824.0) ? (int32_t)c : -1;
+}
+
+int imf_robust_imu_q_init(imf_robust_imu_q_t *const self,
+                          const imf_robust_imu_q_settings_t *const s)
+{
+    imf_robust_imu_q_consts_t k;
+    const double dt = s->dt, gs = s->gyr_scale, e = s->dt / s->tau_acc;
+    const double g2 = s->rest_gyr / gs;
+    if (!(dt > 0.0) || !(gs > 0.0) || !(s->tau_acc >= 200.0 * dt && s->tau_acc <= 8192.0 * dt)
+        || !(s->rate_ref >= 0.0) || !(s->tau_bias == 0.0 || s->tau_bias >= 4.0 * s->tau_acc)
+        || !(s->tau_bias_rest > 0.0) || !imf_param_ok(s->rest_gyr, 0.0, 1e30)
+        || !imf_param_ok(s->rest_acc, 0.0, 1.0) || !imf_param_ok(s->rest_time, 0.0, 1e30)
+        || !(s->tau_rest > 0.0) || !imf_param_ok(s->latency, 0.0, 0.1) || s->profile != 32) {
+        return -1;
+    }
+    k.kg = imf_qscale_from_double(0.5 * gs * dt);
+    k.klat = imf_qscale_from_double(0.5 * gs * s->latency);
+    k.eps = imf_qscale_from_double(e);
+    k.kq = imf_qscale_from_double(s->rate_ref > 0.0 ? 4.0 * e * e * (gs / s->rate_ref)
+                                                          * (gs / s->rate_ref)
+                                                    : 0.0);
+    k.k_rest = imf_qscale_from_double(dt / (s->tau_rest + dt));
+    k.kb_rest = imf_qscale_from_double(dt / (s->tau_bias_rest + dt));
+    k.kbias = imf_qscale_from_double(s->tau_bias > 0.0 ? 1.0 / (s->tau_bias * gs) : 0.0);
+    k.kacc2 = imf_qscale_from_double(s->rest_acc * s->rest_acc);
+    k.qg0 = (int32_t)floor(e * e * 1073741824.0 + 0.5);
+    k.qcap = (int32_t)floor(1e4 * e * e * 1073741824.0 + 0.5);
+    k.pg0 = (int32_t)floor(e * 1073741824.0 + 0.5);
+    k.rest_g2 = g2 * g2 >= 4294967295.0 ? 4294967295u : (uint32_t)ceil(g2 * g2);
+    k.n_tau = robust_q_ceil(s->tau_rest / dt);
+    k.n_acc = robust_q_ceil(s->tau_acc / dt);
+    k.n_rest = robust_q_ceil(s->rest_time / dt);
+    k.n_max = k.n_tau > k.n_acc ? k.n_tau : k.n_acc;
+    return imf_robust_imu_q_init_consts(self, &k);
+}
+
+/* ---- the update ----------------------------------------------------------------- */
+
+void imf_robust_imu_q_update(imf_robust_imu_q_t *const self, const int16_t gyr[3],
+                             const int16_t acc[3])
+{
+    const imf_robust_imu_q_consts_t *const k = &self->k;
+    imf_robust_imu_q_state_t *const x = &self->x;
+    const int first = x->n == 0;
+    /* an all-zero accelerometer is no reading: gyro only (and no start without one) */
+    int has_acc = !(acc[0] == 0 && acc[1] == 0 && acc[2] == 0);
+    int16_t ss[4], rm[9], u[3], r[4];
+    int32_t a32[3], ai[3], ge[3], w[3], h[3], t[4], e[3];
+    uint32_t w2, g2, d2, a2;
+    imf_qscale_t kk;
+    int rest, i;
+    if (first && !has_acc) {
+        return;
+    }
+    for (i = 0; i < 3; ++i) {
+        a32[i] = (int32_t)acc[i] * 32768L; /* q15 counts */
+    }
+    if (has_acc && !first) {
+        /* a reading beyond 100 times the gravity estimate (100 g) is a shock or a
+           hostile value: no reading */
+        const uint32_t f2 = robust_q_norm2(robust_q_counts(x->f[0]), robust_q_counts(x->f[1]),
+                                           robust_q_counts(x->f[2]));
+        const uint32_t an2 = robust_q_norm2(acc[0], acc[1], acc[2]);
+        if (f2 < 429497u && an2 > f2 * 10000u) {
+            has_acc = 0;
+        }
+    }
+    /* B1: rest detection, low-passes of gyro and accelerometer in the sensor frame */
+    kk = robust_q_gain(x->n, k->n_tau, k->k_rest);
+    for (i = 0; i < 3; ++i) {
+        x->lw[i] = robust_q_lowpass(x->lw[i], gyr[i], kk);
+        if (has_acc) {
+            x->la[i] = robust_q_lowpass(x->la[i], acc[i], kk);
+        }
+    }
+    w2 = robust_q_norm2(robust_q_counts(x->lw[0]), robust_q_counts(x->lw[1]),
+                        robust_q_counts(x->lw[2]));
+    g2 = robust_q_norm2(gyr[0], gyr[1], gyr[2]);
+    for (i = 0; i < 3; ++i) {
+        /* the accelerometer's difference from its low-pass, counts, within +-32767 */
+        e[i] = imf_sat_q15s(imf_sub_sat32(acc[i], robust_q_counts(x->la[i])));
+    }
+    d2 = robust_q_norm2(e[0], e[1], e[2]);
+    a2 = robust_q_norm2(robust_q_counts(x->la[0]), robust_q_counts(x->la[1]),
+                        robust_q_counts(x->la[2]));
+    if (has_acc && w2 < k->rest_g2 && g2 < k->rest_g2
+        && (int32_t)(d2 >> 2) < imf_scale32_s((int32_t)(a2 >> 2), k->kacc2, 0, 0)) {
+        if (x->n_rest < k->n_rest) {
+            x->n_rest++;
+        }
+    } else {
+        x->n_rest = 0;
+    }
+    rest = x->n_rest >= k->n_rest;
+    if (rest) {
+        /* Eq. 3.1: b_k = b_{k-1}, observed directly at rest */
+        for (i = 0; i < 3; ++i) {
+            x->b[i] = robust_q_lowpass(x->b[i], gyr[i], k->kb_rest);
+        }
+    }
+    /* strapdown: s = s (x) exp(1/2 (w - b) dt), series as the float filter */
+    for (i = 0; i < 3; ++i) {
+        w[i] = imf_sub_sat32((int32_t)gyr[i] * 32768L, x->b[i]);
+        h[i] = imf_scale32_s(w[i], k->kg, 15, 30);
+    }
+    robust_q_exp(x->s, h);
+    /* B2: the accelerometer in the inertial frame */
+    imf_q_snapshot(x->s, ss);
+    robust_q_matrix(ss, rm);
+    robust_q_rotate(rm, 0, a32, ai);
+    if (first) {
+        /* B5: gravity from the first sample */
+        for (i = 0; i < 3; ++i) {
+            x->f[i] = ai[i];
+            x->v[i] = 0;
+        }
+        x->p[0] = x->p[1] = 0;
+        x->p[2] = k->pg0;
+    } else if (has_acc) {
+        int32_t qg, pvv, pvg, pgg, kv, kg;
+        imf_qscale_t inv, kvs, kgs;
+        int sv, sg;
+        /* predict: v' = (a - g) / tau_acc, g' = 0 (+ process noise growing with the rate) */
+        for (i = 0; i < 3; ++i) {
+            x->v[i] = imf_add_sat32(x->v[i],
+                                    imf_scale32_s(imf_sub_sat32(ai[i], x->f[i]), k->eps, 15, 15));
+        }
+        /* e^2 (1 + |w|^2 / rate_ref^2), the rate term capped at 1e4 e^2 */
+        qg = imf_scale32_s((int32_t)(w2 >> 2), k->kq, 0, 30);
+        if (qg > k->qcap) {
+            qg = k->qcap;
+        }
+        qg = k->qg0 + qg;
+        pvv = imf_add_sat32(imf_sub_sat32(x->p[0], imf_scale32_s(x->p[1], k->eps, 29, 30)),
+                            imf_scale32_s(imf_scale32_s(x->p[2], k->eps, 30, 30), k->eps, 30, 30));
+        pvg = imf_sub_sat32(x->p[1], imf_scale32_s(x->p[2], k->eps, 30, 30));
+        pgg = imf_add_sat32(x->p[2], qg);
+        /* update with the pseudo-measurement v = 0 (noise 1): gains P / (pvv + 1) */
+        inv = robust_q_recip((uint32_t)(pvv < 0 ? 0 : pvv >> 1) + 536870912u, 29);
+        kv = imf_scale32_s(pvv, inv, 30, 30);
+        kg = imf_scale32_s(pvg, inv, 30, 30);
+        kvs = robust_q_scale_of(kv, 30, &sv);
+        kgs = robust_q_scale_of(kg, 30, &sg);
+        for (i = 0; i < 3; ++i) {
+            x->f[i] = imf_sub_sat32(x->f[i], robust_q_mul_signed(x->v[i], kgs, sg, 15, 15));
+            x->v[i] = imf_sub_sat32(x->v[i], robust_q_mul_signed(x->v[i], kvs, sv, 15, 15));
+        }
+        x->p[2] = imf_sub_sat32(pgg, robust_q_mul_signed(pvg, kgs, sg, 30, 30));
+        x->p[1] = imf_sub_sat32(pvg, robust_q_mul_signed(pvg, kvs, sv, 30, 30));
+        x->p[0] = imf_sub_sat32(pvv, robust_q_mul_signed(pvv, kvs, sv, 30, 30));
+    }
+    /* inclination: the smallest rotation r that turns the gravity estimate onto earth z,
+       (1 + u_z, u_y, -u_x, 0) normalised for the unit gravity u in the earth frame */
+    imf_q_snapshot(x->c, ss);
+    robust_q_matrix(ss, rm);
+    robust_q_rotate(rm, 0, x->f, ge);
+    if (robust_q_unit(ge, u)) {
+        const uint32_t rw = (uint32_t)(32768L + u[2]); /* [1, 65535] */
+        const uint32_t n2 = ((rw * rw) >> 2) + ((uint32_t)imf_mul16(u[1], u[1]) >> 2)
+                            + ((uint32_t)imf_mul16(u[0], u[0]) >> 2); /* q28 */
+        int sh;
+        const uint16_t y = imf_invsqrt_u32(n2, &sh); /* 1/|r| = y 2^(14 - sh) */
+        const uint32_t r0 = (rw * y + ((uint32_t)1 << (sh - 15))) >> (sh - 14);
+        r[0] = (int16_t)(r0 > 32767u ? 32767u : r0);
+        r[1] = imf_sat_q15s(imf_rshr32((int32_t)u[1] * (int32_t)y, sh - 14));
+        r[2] = imf_sat_q15s(imf_rshr32(-(int32_t)u[0] * (int32_t)y, sh - 14));
+    } else {
+        /* no gravity estimate (a zero vector): no correction */
+        r[0] = 32767;
+        r[1] = r[2] = 0;
+    }
+    r[3] = 0;
+    robust_q_mul(r, x->c, t);
+    for (i = 0; i < 4; ++i) {
+        x->c[i] = t[i];
+    }
+    imf_q_normalise(x->c);
+    imf_q_snapshot(x->c, ss);
+    robust_q_mul(ss, x->s, x->q);
+    imf_q_normalise(x->q);
+    /* B3: the correction rate seen in the sensor frame is minus the bias error
+       (Eq. 3.6, with Ki dt = 1 / tau_bias): b -= R(q)^T (2 r1, 2 r2, 0) / tau_bias */
+    if (!rest && x->n >= k->n_acc && k->kbias.m != 0) {
+        imf_q_snapshot(x->q, ss);
+        robust_q_matrix(ss, rm);
+        t[0] = (int32_t)r[1] * 65536L; /* 2 r in q30 */
+        t[1] = (int32_t)r[2] * 65536L;
+        t[2] = 0;
+        robust_q_rotate(rm, 1, t, e);
+        for (i = 0; i < 3; ++i) {
+            x->b[i] = imf_sub_sat32(x->b[i], imf_scale32_s(e[i], k->kbias, 30, 15));
+        }
+    }
+    /* the output predicted by the latency with the bias-corrected rate */
+    if (k->klat.m != 0) {
+        for (i = 0; i < 3; ++i) {
+            h[i] = imf_scale32_s(imf_sub_sat32((int32_t)gyr[i] * 32768L, x->b[i]), k->klat, 15,
+                                 30);
+        }
+        robust_q_exp(x->q, h);
+    }
+    /* the clock of the start-up (saturating) */
+    if (x->n < k->n_max) {
+        x->n++;
+    }
+}

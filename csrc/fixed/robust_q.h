@@ -1,0 +1,128 @@
+/*
+ * Fixed-point RobustIMU (csrc/robust.h, docs/recommended-ahrs.md) for MCUs without an
+ * FPU: the blocks B1 (rest), B2 (gravity in the inertial frame, a Kalman filter), B3
+ * (gyro bias in motion), B5 (start from the first samples) and the output latency, in
+ * int32 with 16x16->32 multiplies only (no int64, no division: reciprocals and
+ * square roots by imf_invsqrt_u32).  Mirrored line for line by
+ * python/imufuse/reference/fixed_robust.py.
+ *
+ * One arithmetic, the 32-bit profile: q30 quaternions, products of a q30 value and
+ * a q15 snapshot (imf_q_mul_hq_p32).  It runs on every target, the ATmega328P
+ * included; an 8-bit profile (int16 narrowing) is not built (init refuses 8).
+ *
+ * Inputs are int16 counts: gyr in counts of gyr_scale rad/s, acc in any unit (the
+ * filter is relative to its own low-passed magnitude, as the float filter).
+ *
+ * State x (int32, in this order):
+ *   q[4]    estimate, sensor -> earth (NWU), q30
+ *   s[4]    strapdown quaternion, sensor -> inertial frame, q30
+ *   c[4]    correction, inertial -> earth frame, q30
+ *   f[3]    gravity (specific force) in the inertial frame, q15 acc counts
+ *   v[3]    B2's velocity-like state divided by tau_acc, q15 acc counts
+ *   p[3]    B2's covariance (pvv, pvg, pgg) times dt, tau_acc dt, tau_acc^2 dt, q30 (the
+ *           same filter as the float's with the measurement noise 1 and
+ *           e = dt / tau_acc: P' = P - e (2 pvg, pgg, 0) + e^2 (pgg, 0, 0) + (0, 0, Q),
+ *           Q = e^2 (1 + |w|^2 / rate_ref^2))
+ *   b[3]    gyro bias, q15 gyro counts
+ *   lw[3]   low-passed gyro (B1), q15 gyro counts
+ *   la[3]   low-passed accelerometer (B1), q15 acc counts
+ *   n       samples since the start (saturating at the longest start-up horizon)
+ *   n_rest  samples at rest (saturating at rest_time)
+ * Times are sample counts: t < tau is n < ceil(tau / dt).
+ *
+ * Ranges (refused at init otherwise, in the filter's own arithmetic):
+ *   rate      |w| dt / 2 < 1/4 rad at the gyro's full scale (gyr_scale dt < 2^-16)
+ *   dt        tau_acc / dt in [200, 8192]: e = dt / tau_acc in q30 keeps B2's
+ *             covariance below 2 at 1e4 (rate_ref)^2 and its process noise above 16 LSB
+ *   tau       tau_rest, tau_bias_rest, rest_time: up to 2^30 samples; tau_bias 0 or
+ *             >= 4 tau_acc with 1 / (tau_bias gyr_scale) below 2^15;
+ *             latency 0 .. 0.1 s; rest_acc in [0, 1]
+ */
+#ifndef IMF_ROBUST_Q_H
+#define IMF_ROBUST_Q_H
+
+#include <stdint.h>
+#include "imf_fixed.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct {
+    int32_t q[4];   /* estimate, sensor -> earth, q30 */
+    int32_t s[4];   /* strapdown, sensor -> inertial frame, q30 */
+    int32_t c[4];   /* correction, inertial -> earth frame, q30 */
+    int32_t f[3];   /* gravity in the inertial frame, q15 acc counts */
+    int32_t v[3];   /* B2 velocity-like state / tau_acc, q15 acc counts */
+    int32_t p[3];   /* B2 covariance pvv, pvg, pgg (scaled, see above), q30 */
+    int32_t b[3];   /* gyro bias, q15 gyro counts */
+    int32_t lw[3];  /* low-passed gyro, q15 gyro counts */
+    int32_t la[3];  /* low-passed accelerometer, q15 acc counts */
+    int32_t n;      /* samples since the start (saturating) */
+    int32_t n_rest; /* samples at rest (saturating) */
+} imf_robust_imu_q_state_t;
+
+/* The integer constants of imf_robust_imu_q_init_consts, identical on every target
+ * (imufuse.reference.RobustIMUQ(...).c_init_args()). */
+typedef struct {
+    imf_qscale_t kg;      /* 0.5 gyr_scale dt: gyro counts -> half angle per sample */
+    imf_qscale_t klat;    /* 0.5 gyr_scale latency (m 0: no prediction) */
+    imf_qscale_t eps;     /* dt / tau_acc */
+    imf_qscale_t kq;      /* 4 e^2 gyr_scale^2 / rate_ref^2 (m 0: rate_ref 0) */
+    imf_qscale_t k_rest;  /* dt / (tau_rest + dt) */
+    imf_qscale_t kb_rest; /* dt / (tau_bias_rest + dt) */
+    imf_qscale_t kbias;   /* 1 / (tau_bias gyr_scale) (m 0: no bias in motion) */
+    imf_qscale_t kacc2;   /* rest_acc^2 */
+    int32_t qg0;          /* e^2, q30 */
+    int32_t qcap;         /* 1e4 e^2, q30: the largest rate term */
+    int32_t pg0;          /* e, q30: pgg at the first sample */
+    uint32_t rest_g2;     /* ceil((rest_gyr / gyr_scale)^2), counts^2 */
+    int32_t n_tau;        /* ceil(tau_rest / dt): B1's start-up */
+    int32_t n_acc;        /* ceil(tau_acc / dt): B3 from then on */
+    int32_t n_rest;       /* ceil(rest_time / dt) */
+    int32_t n_max;        /* max(n_tau, n_acc): n saturates there */
+} imf_robust_imu_q_consts_t;
+
+typedef struct {
+    imf_robust_imu_q_consts_t k; /* the constants (above) */
+    imf_robust_imu_q_state_t x;  /* the state (above): the estimate; write it only through the API */
+} imf_robust_imu_q_t;
+
+/* The settings of imf_robust_imu_q_init (those of imf_robust_imu_settings_t in double,
+ * rad/s, and the gyro's scale). Start from imf_robust_imu_q_default_settings(), then set
+ * dt and gyr_scale. */
+typedef struct {
+    double dt;            /* sample period, s; tau_acc / dt in [200, 8192] (default 0.002) */
+    double tau_acc;       /* B2: tilt correction time constant, s (default 2.5) */
+    double rate_ref;      /* B2: rate at which gravity's process noise doubles, rad/s;
+                             >= 0, 0: constant (default 1.745: 100 deg/s) */
+    double tau_bias;      /* B3: 0 (off) or >= 4 tau_acc, s (default 100) */
+    double tau_bias_rest; /* B3 at rest, s; > 0 (default 3) */
+    double rest_gyr;      /* B1: rest threshold, rad/s; >= 0 (default 0.0349: 2 deg/s) */
+    double rest_acc;      /* B1: rest threshold on |a| - |a|_lowpass, relative; 0 .. 1
+                             (default 0.05) */
+    double rest_time;     /* B1: s; >= 0 (default 1.5) */
+    double tau_rest;      /* B1: low-pass time constant, s; > 0 (default 0.5) */
+    double latency;       /* output prediction, s; 0 .. 0.1 (default 0) */
+    double gyr_scale;     /* rad/s per gyro count; > 0 (default 1.0642e-3: 2000 deg/s on
+                             16 bits) */
+    int profile;          /* 32 (the only one built); any other value: init returns -1 */
+} imf_robust_imu_q_settings_t;
+
+/* The defaults listed with each member. */
+void imf_robust_imu_q_default_settings(imf_robust_imu_q_settings_t *settings);
+/* Returns 0, or -1 for a parameter out of range (then the filter is not usable). */
+int imf_robust_imu_q_init(imf_robust_imu_q_t *self, const imf_robust_imu_q_settings_t *settings);
+/* From the precomputed constants (integer only, identical on every target: init computes
+ * them in double, which is 32 bits wide on avr-gcc). Returns 0, or -1 if a constant is
+ * out of range. */
+int imf_robust_imu_q_init_consts(imf_robust_imu_q_t *self, const imf_robust_imu_q_consts_t *consts);
+/* One sample: gyr and acc in counts (every int16 is accepted; sums saturate; a zero
+ * accelerometer is no reading, and no start without one). */
+void imf_robust_imu_q_update(imf_robust_imu_q_t *self, const int16_t gyr[3], const int16_t acc[3]);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* IMF_ROBUST_Q_H */

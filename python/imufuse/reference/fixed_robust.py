@@ -1,0 +1,364 @@
+"""Fixed-point RobustIMU: pure-Python twin of csrc/fixed/robust_q.c, line for line (Q
+formats and ranges in robust_q.h)."""
+from __future__ import annotations
+
+import math
+
+from . import _cint as ci
+from . import fixed_quat as fq
+from .fixed_base import FixedFilter, check_scale, qconst
+from .robust import RobustIMU
+
+Q29_ONE = 1 << 29
+
+
+# ---- helpers -------------------------------------------------------------------------
+
+def recip(x, N):
+    """robust_q_recip: 2^N / x as a q-scale for x > 0 (imf_invsqrt_u32 squared)."""
+    y, sh = ci.invsqrt_u32(x)
+    p = y * y
+    if p >= 2147483648:
+        m = (p + 65536) >> 17
+        s = 2 * sh - N - 17
+    else:
+        m = (p + 32768) >> 16
+        s = 2 * sh - N - 16
+    if m >= 32768:
+        # the rounding reached 2^15
+        m = 16384
+        s -= 1
+    return ci.QScale(m, s)
+
+
+def scale_of(x, N):
+    """robust_q_scale_of: |x| 2^-N as a q-scale (15 leading bits, rounded) and its sign."""
+    u = -x if x < 0 else x
+    e = 0
+    sign = -1 if x < 0 else 1
+    while e < 17 and (u >> e) >= 32768:
+        e += 1
+    if e > 0:
+        u = (u + (1 << (e - 1))) >> e
+        if u >= 32768:
+            u >>= 1
+            e += 1
+    while u != 0 and u < 16384:
+        u <<= 1
+        e -= 1
+    return ci.QScale(u, N - e), sign
+
+
+def mul_signed(x, c, sign, K, N):
+    """robust_q_mul_signed: x times the signed q-scale (sign, c), qK -> qN."""
+    p = ci.scale32_s(x, c, K, N)
+    return ci.sub_sat32(0, p) if sign < 0 else p
+
+
+def matrix(qs):
+    """robust_q_matrix: the rotation matrix of a q15 snapshot, q15, by rows."""
+    ww = qs[0] * qs[0]
+    r = [0] * 9
+    r[0] = ci.qn_to_q15s(ww + qs[1] * qs[1] - 536870912, 29)
+    r[4] = ci.qn_to_q15s(ww + qs[2] * qs[2] - 536870912, 29)
+    r[8] = ci.qn_to_q15s(ww + qs[3] * qs[3] - 536870912, 29)
+    r[1] = ci.qn_to_q15s(qs[1] * qs[2] - qs[0] * qs[3], 29)
+    r[3] = ci.qn_to_q15s(qs[1] * qs[2] + qs[0] * qs[3], 29)
+    r[2] = ci.qn_to_q15s(qs[1] * qs[3] + qs[0] * qs[2], 29)
+    r[6] = ci.qn_to_q15s(qs[1] * qs[3] - qs[0] * qs[2], 29)
+    r[5] = ci.qn_to_q15s(qs[2] * qs[3] - qs[0] * qs[1], 29)
+    r[7] = ci.qn_to_q15s(qs[2] * qs[3] + qs[0] * qs[1], 29)
+    return r
+
+
+def rotate(r, t, v):
+    """robust_q_rotate: R v (t = 0) or R^T v (t = 1), products rounded, sums saturated."""
+    out = []
+    for i in range(3):
+        a = 0
+        for j in range(3):
+            a = ci.add_sat32(a, fq.mul_hq_p32(v[j], r[3 * j + i if t else 3 * i + j]))
+        out.append(a)
+    return out
+
+
+def qmul(a, b):
+    """robust_q_mul: a (x) b, a a q15 snapshot, b q30."""
+    m, sub, add = fq.mul_hq_p32, ci.sub_sat32, ci.add_sat32
+    t = sub(m(b[0], a[0]), m(b[1], a[1]))
+    o0 = sub(sub(t, m(b[2], a[2])), m(b[3], a[3]))
+    t = add(m(b[1], a[0]), m(b[0], a[1]))
+    o1 = sub(add(t, m(b[3], a[2])), m(b[2], a[3]))
+    t = sub(m(b[2], a[0]), m(b[3], a[1]))
+    o2 = add(add(t, m(b[0], a[2])), m(b[1], a[3]))
+    t = add(m(b[3], a[0]), m(b[2], a[1]))
+    o3 = add(sub(t, m(b[1], a[2])), m(b[0], a[3]))
+    return [o0, o1, o2, o3]
+
+
+def qexp(q, h):
+    """robust_q_exp: q (x) exp(h), the series of the float filter, normalised (in place)."""
+    hs = [ci.qn_to_q15s(v, 30) for v in h]
+    n2 = sum(v * v for v in hs)
+    if n2 > 1073741824:
+        n2 = 1073741824                                    # |h|^2 <= 1, q30
+    n6 = fq.mul_hq_p32(n2, 5461)                           # |h|^2 / 6
+    hv = [ci.sub_sat32(h[i], fq.mul_hq_p32(n6, hs[i])) for i in range(3)]
+    qs = fq.snapshot(q)
+    dq = fq.rate_p32(qs, hv)
+    dq = [ci.sub_sat32(dq[i], fq.mul_hq_p32(n2 >> 1, qs[i])) for i in range(4)]
+    q[:] = fq.add_normalise(q, dq)
+
+
+def gain(n, n_tau, k):
+    """robust_q_gain: B5, a running mean until n reaches n_tau, then k."""
+    if n < n_tau:
+        return recip(n + 1, 0)
+    return k
+
+
+def lowpass(x, u, k):
+    """robust_q_lowpass: x += k (u 2^15 - x), counts u, q15 counts x."""
+    return ci.add_sat32(x, ci.scale32_s(ci.sub_sat32(u * 32768, x), k, 15, 15))
+
+
+def counts(x):
+    """robust_q_counts: q15 counts -> counts, rounded, saturated to +-32767."""
+    return ci.qn_to_q15s(x, 30)
+
+
+def norm2(a, b, c):
+    return a * a + b * b + c * c
+
+
+def unit(v):
+    """robust_q_unit: the unit vector of v, symmetric q15, or None for the zero vector."""
+    m = max(abs(a) for a in v)
+    k = 0
+    while (m >> k) > 32767:
+        k += 1
+    w = [ci.sat_q15s(ci.rshr32(a, k)) for a in v]
+    return fq.normalise_acc(w)
+
+
+def _ceil(v):
+    c = math.ceil(v)
+    return int(c) if 0.0 <= c <= 1073741824.0 else -1
+
+
+class RobustIMUQ(FixedFilter):
+    """imufuse's recommended attitude filter (RobustIMU, docs/recommended-ahrs.md) in
+    fixed point: B1, B2, B3, B5 and the output latency, int32 with 16x16 multiplies.
+
+    RobustIMUQ(dt, <RobustIMU's keywords, the same units>, gyr_scale=rad/s per count,
+    profile="32"). One arithmetic (profile "32"; it runs on the 8-bit targets too).
+    State: q, s, c (q30), gravity f and B2's v (q15 acc counts), B2's scaled covariance
+    (q30), bias b, low-passes lw, la (q15 counts), the sample counters n, n_rest;
+    state_float gives the quaternions, f and la in counts, b and lw in rad/s.
+    """
+    kind = "imu"
+    c_name = "imf_robust_imu_q"
+    profiles = ("32",)
+    state_names = ("q0", "q1", "q2", "q3", "s0", "s1", "s2", "s3", "c0", "c1", "c2", "c3",
+                   "fx", "fy", "fz", "vx", "vy", "vz", "pvv", "pvg", "pgg",
+                   "bx", "by", "bz", "lwx", "lwy", "lwz", "lax", "lay", "laz", "n", "n_rest")
+
+    @staticmethod
+    def _params(dt, tau_acc=2.5, rate_ref=100.0, tau_bias=100.0, tau_bias_rest=3.0,
+                rest_gyr=2.0, rest_acc=0.05, rest_time=1.5, tau_rest=0.5, latency=0.0, *,
+                gyr_scale, profile="32"):
+        args = RobustIMU._params(dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr,
+                                 rest_acc, rest_time, tau_rest, latency)
+        dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc, rest_time, \
+            tau_rest, latency = args
+        if str(profile) != "32":
+            raise ValueError(f"profile: RobustIMUQ has one arithmetic, profile '32' (it runs "
+                             f"on 8-bit targets too), got {profile!r}")
+        gyr_scale = check_scale("gyr_scale", gyr_scale)
+        if not 200.0 * dt <= tau_acc <= 8192.0 * dt:
+            raise ValueError(f"tau_acc: must be within [200 dt, 8192 dt] = [{200.0 * dt:.4g}, "
+                             f"{8192.0 * dt:.4g}] s in fixed point (B2's covariance in q30), "
+                             f"got {tau_acc!r}")
+        if rest_acc > 1.0:
+            raise ValueError(f"rest_acc: must be <= 1 in fixed point, got {rest_acc!r}")
+        qconst("gyr_scale*dt", 0.5 * gyr_scale * dt, 32, 62, nonzero=True)
+        if latency > 0.0:
+            qconst("gyr_scale*latency", 0.5 * gyr_scale * latency, 32, 62)
+        if tau_bias > 0.0:
+            qconst("1/(tau_bias*gyr_scale)", 1.0 / (tau_bias * gyr_scale), -15, 32)
+        for name, v in (("rest_time", rest_time), ("tau_rest", tau_rest)):
+            if _ceil(v / dt) < 0:
+                raise ValueError(f"{name}: must be at most 2^30 samples, got {v!r}")
+        qconst("dt/(tau_rest+dt)", dt / (tau_rest + dt), 0, 47, nonzero=True)
+        qconst("dt/(tau_bias_rest+dt)", dt / (tau_bias_rest + dt), 0, 47, nonzero=True)
+        return args + (gyr_scale, 32)
+
+    @staticmethod
+    def _consts(dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc, rest_time,
+                tau_rest, latency, gyr_scale, profile):
+        # imf_robust_imu_q_init: the constants from the double parameters
+        gs = gyr_scale
+        e = dt / tau_acc
+        g2 = rest_gyr / gs
+        n_tau, n_acc = _ceil(tau_rest / dt), _ceil(tau_acc / dt)
+        return dict(kg=ci.qscale(0.5 * gs * dt), klat=ci.qscale(0.5 * gs * latency),
+                    eps=ci.qscale(e),
+                    kq=ci.qscale(4.0 * e * e * (gs / rate_ref) * (gs / rate_ref)
+                                 if rate_ref > 0.0 else 0.0),
+                    k_rest=ci.qscale(dt / (tau_rest + dt)),
+                    kb_rest=ci.qscale(dt / (tau_bias_rest + dt)),
+                    kbias=ci.qscale(1.0 / (tau_bias * gs) if tau_bias > 0.0 else 0.0),
+                    kacc2=ci.qscale(rest_acc * rest_acc),
+                    qg0=math.floor(e * e * 1073741824.0 + 0.5),
+                    qcap=math.floor(1e4 * e * e * 1073741824.0 + 0.5),
+                    pg0=math.floor(e * 1073741824.0 + 0.5),
+                    rest_g2=0xFFFFFFFF if g2 * g2 >= 4294967295.0 else math.ceil(g2 * g2),
+                    n_tau=n_tau, n_acc=n_acc, n_rest=_ceil(rest_time / dt),
+                    n_max=max(n_tau, n_acc))
+
+    def _init(self, dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
+              rest_time, tau_rest, latency, gyr_scale, profile):
+        self.dt = dt
+        self.gyr_scale = gyr_scale
+        self.tau_acc = tau_acc
+        self._init_consts(**self._consts(dt, tau_acc, rate_ref, tau_bias, tau_bias_rest,
+                                         rest_gyr, rest_acc, rest_time, tau_rest, latency,
+                                         gyr_scale, profile))
+
+    def _init_consts(self, **k):
+        # imf_robust_imu_q_init_consts (the ranges were checked by _params)
+        self.k = k
+        self.q = [fq.Q30_ONE, 0, 0, 0]
+        self.s = [fq.Q30_ONE, 0, 0, 0]
+        self.c = [fq.Q30_ONE, 0, 0, 0]
+        self.f, self.v, self.p = [0, 0, 0], [0, 0, 0], [0, 0, 0]
+        self.b, self.lw, self.la = [0, 0, 0], [0, 0, 0], [0, 0, 0]
+        self.n = self.n_rest = 0
+
+    def _get_state(self):
+        return (self.q + self.s + self.c + self.f + self.v + self.p + self.b + self.lw
+                + self.la + [self.n, self.n_rest])
+
+    def _set_state(self, v):
+        v = list(v)
+        self.q, self.s, self.c = v[0:4], v[4:8], v[8:12]
+        self.f, self.v, self.p = v[12:15], v[15:18], v[18:21]
+        self.b, self.lw, self.la = v[21:24], v[24:27], v[27:30]
+        self.n, self.n_rest = v[30], v[31]
+
+    def _state_float(self, s):
+        q30, q15 = 2.0 ** -30, 2.0 ** -15
+        w = self.gyr_scale * q15
+        return ([v * q30 for v in s[:12]] + [v * q15 for v in s[12:15]]
+                + [v * q15 * self.tau_acc for v in s[15:18]] + [v * q30 for v in s[18:21]]
+                + [v * w for v in s[21:27]] + [v * q15 for v in s[27:30]] + list(s[30:]))
+
+    def _update(self, gyr, acc):
+        k = self.k
+        first = self.n == 0
+        # an all-zero accelerometer is no reading: gyro only (and no start without one)
+        has_acc = not (acc[0] == 0 and acc[1] == 0 and acc[2] == 0)
+        if first and not has_acc:
+            return
+        a32 = [a * 32768 for a in acc]                     # q15 counts
+        if has_acc and not first:
+            # a reading beyond 100 times the gravity estimate (100 g): no reading
+            f2 = norm2(counts(self.f[0]), counts(self.f[1]), counts(self.f[2]))
+            an2 = norm2(acc[0], acc[1], acc[2])
+            if f2 < 429497 and an2 > f2 * 10000:
+                has_acc = False
+        # B1: rest detection, low-passes of gyro and accelerometer in the sensor frame
+        kk = gain(self.n, k["n_tau"], k["k_rest"])
+        for i in range(3):
+            self.lw[i] = lowpass(self.lw[i], gyr[i], kk)
+            if has_acc:
+                self.la[i] = lowpass(self.la[i], acc[i], kk)
+        w2 = norm2(counts(self.lw[0]), counts(self.lw[1]), counts(self.lw[2]))
+        g2 = norm2(gyr[0], gyr[1], gyr[2])
+        # the accelerometer's difference from its low-pass, counts, within +-32767
+        e = [ci.sat_q15s(ci.sub_sat32(acc[i], counts(self.la[i]))) for i in range(3)]
+        d2 = norm2(e[0], e[1], e[2])
+        a2 = norm2(counts(self.la[0]), counts(self.la[1]), counts(self.la[2]))
+        if (has_acc and w2 < k["rest_g2"] and g2 < k["rest_g2"]
+                and (d2 >> 2) < ci.scale32_s(a2 >> 2, k["kacc2"], 0, 0)):
+            if self.n_rest < k["n_rest"]:
+                self.n_rest += 1
+        else:
+            self.n_rest = 0
+        rest = self.n_rest >= k["n_rest"]
+        if rest:
+            # Eq. 3.1: b_k = b_{k-1}, observed directly at rest
+            self.b = [lowpass(self.b[i], gyr[i], k["kb_rest"]) for i in range(3)]
+        # strapdown: s = s (x) exp(1/2 (w - b) dt), series as the float filter
+        w = [ci.sub_sat32(gyr[i] * 32768, self.b[i]) for i in range(3)]
+        h = [ci.scale32_s(w[i], k["kg"], 15, 30) for i in range(3)]
+        qexp(self.s, h)
+        # B2: the accelerometer in the inertial frame
+        rm = matrix(fq.snapshot(self.s))
+        ai = rotate(rm, 0, a32)
+        if first:
+            # B5: gravity from the first sample
+            self.f = list(ai)
+            self.v = [0, 0, 0]
+            self.p = [0, 0, k["pg0"]]
+        elif has_acc:
+            eps = k["eps"]
+            # predict: v' = (a - g) / tau_acc, g' = 0 (+ process noise growing with the rate)
+            self.v = [ci.add_sat32(self.v[i], ci.scale32_s(ci.sub_sat32(ai[i], self.f[i]),
+                                                           eps, 15, 15)) for i in range(3)]
+            # e^2 (1 + |w|^2 / rate_ref^2), the rate term capped at 1e4 e^2
+            qg = ci.scale32_s(w2 >> 2, k["kq"], 0, 30)
+            if qg > k["qcap"]:
+                qg = k["qcap"]
+            qg = k["qg0"] + qg
+            p = self.p
+            pvv = ci.add_sat32(ci.sub_sat32(p[0], ci.scale32_s(p[1], eps, 29, 30)),
+                               ci.scale32_s(ci.scale32_s(p[2], eps, 30, 30), eps, 30, 30))
+            pvg = ci.sub_sat32(p[1], ci.scale32_s(p[2], eps, 30, 30))
+            pgg = ci.add_sat32(p[2], qg)
+            # update with the pseudo-measurement v = 0 (noise 1): gains P / (pvv + 1)
+            inv = recip((0 if pvv < 0 else pvv >> 1) + Q29_ONE, 29)
+            kv = ci.scale32_s(pvv, inv, 30, 30)
+            kg = ci.scale32_s(pvg, inv, 30, 30)
+            kvs, sv = scale_of(kv, 30)
+            kgs, sg = scale_of(kg, 30)
+            for i in range(3):
+                self.f[i] = ci.sub_sat32(self.f[i], mul_signed(self.v[i], kgs, sg, 15, 15))
+                self.v[i] = ci.sub_sat32(self.v[i], mul_signed(self.v[i], kvs, sv, 15, 15))
+            self.p = [ci.sub_sat32(pvv, mul_signed(pvv, kvs, sv, 30, 30)),
+                      ci.sub_sat32(pvg, mul_signed(pvg, kvs, sv, 30, 30)),
+                      ci.sub_sat32(pgg, mul_signed(pvg, kgs, sg, 30, 30))]
+        # inclination: the smallest rotation r that turns the gravity estimate onto earth
+        # z, (1 + u_z, u_y, -u_x, 0) normalised for the unit gravity u in the earth frame
+        rm = matrix(fq.snapshot(self.c))
+        ge = rotate(rm, 0, self.f)
+        u = unit(ge)
+        if u is not None:
+            rw = 32768 + u[2]                                  # [1, 65535]
+            n2 = ((rw * rw) >> 2) + ((u[1] * u[1]) >> 2) + ((u[0] * u[0]) >> 2)   # q28
+            y, sh = ci.invsqrt_u32(n2)                         # 1/|r| = y 2^(14 - sh)
+            r0 = (rw * y + (1 << (sh - 15))) >> (sh - 14)
+            r = [min(r0, 32767),
+                 ci.sat_q15s(ci.rshr32(ci.check32(u[1] * y), sh - 14)),
+                 ci.sat_q15s(ci.rshr32(ci.check32(-u[0] * y), sh - 14))]
+        else:
+            # no gravity estimate (a zero vector): no correction
+            r = [32767, 0, 0]
+        r.append(0)
+        self.c = fq.normalise(qmul(r, self.c))
+        self.q = fq.normalise(qmul(fq.snapshot(self.c), self.s))
+        # B3: the correction rate seen in the sensor frame is minus the bias error
+        # (Eq. 3.6, with Ki dt = 1 / tau_bias): b -= R(q)^T (2 r1, 2 r2, 0) / tau_bias
+        if not rest and self.n >= k["n_acc"] and k["kbias"].m != 0:
+            rm = matrix(fq.snapshot(self.q))
+            e = rotate(rm, 1, [r[1] * 65536, r[2] * 65536, 0])     # 2 r in q30
+            self.b = [ci.sub_sat32(self.b[i], ci.scale32_s(e[i], k["kbias"], 30, 15))
+                      for i in range(3)]
+        # the output predicted by the latency with the bias-corrected rate
+        if k["klat"].m != 0:
+            h = [ci.scale32_s(ci.sub_sat32(gyr[i] * 32768, self.b[i]), k["klat"], 15, 30)
+                 for i in range(3)]
+            qexp(self.q, h)
+        # the clock of the start-up (saturating)
+        if self.n < k["n_max"]:
+            self.n += 1
