@@ -34,6 +34,12 @@ class Case:
     def make(self, backend, dtype):
         return catalogue.entry(self.name).make(backend, **self.params, dtype=dtype)
 
+    @property
+    def profiles(self):
+        """The fixed-point profiles the class is built in (RobustIMUQ: one, "32")."""
+        from imufuse import reference
+        return getattr(reference, self.name).profiles
+
     def make_fixed(self, backend, profile):
         return catalogue.entry(self.name).make(backend, **self.params, profile=profile)
 
@@ -192,7 +198,7 @@ FIXED_CASES = _with_defaults(EXTRA_FIXED_CASES, catalogue.FIXED, 0.002)
 
 def fixed_matrix():
     """(case, profile) pairs for every fixed-point filter configuration."""
-    return [pytest.param(c, p, id=f"{c.id}-p{p}") for c in FIXED_CASES for p in PROFILES]
+    return [pytest.param(c, p, id=f"{c.id}-p{p}") for c in FIXED_CASES for p in c.profiles]
 
 
 # ---- Nair's variometer (csrc/vario.c): update(accel, baro_alt, dt) ------

@@ -12,7 +12,7 @@ import cbuild  # noqa: E402
 
 import imufuse.reference as reference  # noqa: E402
 from imufuse import catalogue  # noqa: E402
-from registry import FIXED_CASES, PROFILES, fixed_matrix  # noqa: E402
+from registry import FIXED_CASES, fixed_matrix  # noqa: E402
 
 N = 600
 
@@ -197,6 +197,13 @@ PARAM_SPACE = {
     "MahonyIMUQ": dict(dt=_logu(1e-5, 0.1), kp=_logu(1e-4, 1e3), ki=_logu(1e-5, 1e3),
                        gyr_scale=_logu(1e-7, 1e-2)),
     "MadgwickIMUQ": dict(dt=_logu(1e-5, 0.1), beta=_logu(1e-4, 1e3), gyr_scale=_logu(1e-7, 1e-2)),
+    "RobustIMUQ": dict(dt=_logu(1e-3, 1e-2), tau_acc=_logu(2.0, 8.0),
+                       rate_ref=st.one_of(st.just(0.0), _logu(1.0, 1e4)),
+                       tau_bias=st.one_of(st.just(0.0), _logu(80.0, 1e4)),
+                       tau_bias_rest=_logu(1e-3, 1e3), rest_gyr=_logu(1e-3, 1e3),
+                       rest_acc=st.floats(0.0, 1.0), rest_time=st.floats(0.0, 5.0),
+                       tau_rest=_logu(1e-3, 10.0), latency=st.floats(0.0, 0.1),
+                       gyr_scale=_logu(1e-6, 1e-3)),
 }
 STATE_SIZE = {e.name: len(e.state_names) for e in catalogue.FIXED}
 
@@ -211,8 +218,8 @@ I32 = st.one_of(st.integers(-2**31, 2**31 - 1), st.sampled_from([-2**31, -2**31 
 
 
 @needs_gcc
-@pytest.mark.parametrize("profile", PROFILES)
-@pytest.mark.parametrize("name", list(PARAM_SPACE))
+@pytest.mark.parametrize("name,profile", [pytest.param(n, p, id=f"{n}-{p}") for n in PARAM_SPACE
+                                          for p in getattr(reference, n).profiles])
 def test_hypothesis_extreme_params_and_states(name, profile):
     """Parameters across their accepted range (rejected ones must raise
     ValueError), any int32 initial state, any int16 inputs: the C driver

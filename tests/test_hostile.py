@@ -20,7 +20,7 @@ import imufuse.reference as reference
 import imufuse_c
 from imufuse import _fusion, catalogue, sim
 from bits import assert_same_bits
-from registry import (DTYPES, FIXED_CASES, FLOAT_CASES, FUSION_CASES, PROFILES, each_backend,
+from registry import (DTYPES, FIXED_CASES, fixed_matrix, FLOAT_CASES, FUSION_CASES, PROFILES, each_backend,
                       each_dtype, representatives)
 
 TILT = math.radians(30.0)
@@ -544,8 +544,7 @@ def test_edge_of_stable_range_converges(dtype, name, params, tol_deg):
 
 # ---- fixed point (profiles 32 and 8): extreme counts, API-level agreement ------------
 
-@pytest.mark.parametrize("profile", PROFILES)
-@pytest.mark.parametrize("case", [pytest.param(c, id=c.id) for c in FIXED_CASES])
+@pytest.mark.parametrize("case,profile", fixed_matrix())
 def test_fixed_extreme_counts_bit_exact(case, profile):
     """Full-scale int16 counts (-32768, 32767), alternating extremes and long
     constant stretches: C equals the reference bit for bit."""
@@ -561,8 +560,7 @@ def test_fixed_extreme_counts_bit_exact(case, profile):
     assert_same_bits(c.run(*args), r.run(*args))
 
 
-@pytest.mark.parametrize("profile", PROFILES)
-@pytest.mark.parametrize("case", [pytest.param(c, id=c.id) for c in FIXED_CASES])
+@pytest.mark.parametrize("case,profile", fixed_matrix())
 def test_fixed_update_inputs_agree(case, profile):
     for bad in (40000, -40000, 1.5, "1", math.nan, None, 10 ** 400, 1 + 1j, {1, 2, 3}):
         fs = [case.make_fixed(b, profile) for b in ("c", "ref")]

@@ -40,7 +40,7 @@ import twins  # noqa: E402
 
 import imufuse.reference as reference  # noqa: E402
 from imufuse import catalogue, sim  # noqa: E402
-from registry import (DTYPES, FIXED_CASES, FLOAT_CASES, PROFILES, case_params,  # noqa: E402
+from registry import (DTYPES, FIXED_CASES, FLOAT_CASES, case_params,  # noqa: E402
                       float_matrix)
 
 imufuse_c = pytest.importorskip("imufuse_c", reason="the long runs need the compiled run()")
@@ -418,7 +418,7 @@ def test_float_long_run(case):
 
 @pytest.mark.parametrize("case", case_params(FIXED_CASES))
 def test_fixed_long_run(case):
-    for profile in PROFILES:
+    for profile in case.profiles:
         for name in SCENARIOS:
             _checked(case, profile, name,
                      lambda p=profile, n=name: _long_run(measure_fixed, case, p, n, f"p{p}"))

@@ -23,8 +23,7 @@ import pytest
 import imufuse.reference as reference
 import imufuse_c
 from bits import assert_same_bits
-from registry import (CASES_VARIO, DTYPES, FIXED_CASES, FLOAT_CASES, FUSION_CASES, PROFILES,
-                      each_dtype, representatives)
+from registry import (CASES_VARIO, DTYPES, FIXED_CASES, FLOAT_CASES, FUSION_CASES, each_dtype, representatives)
 from sequences import generate
 
 N = 12
@@ -139,7 +138,7 @@ def _filters():
             yield pytest.param(lambda c=c, d=d: getattr(imufuse_c, c.name)(**c.params, dtype=d),
                                c.name, id=f"{c.id}-{d}")
     for c in representatives(FIXED_CASES, fixed=True):
-        for p in PROFILES:
+        for p in c.profiles:
             yield pytest.param(lambda c=c, p=p: c.make_fixed("c", p), "fixed-" + c.kind,
                                id=f"{c.id}-q{p}")
 
@@ -301,7 +300,7 @@ def test_no_class_overrides_the_wrapper_paths():
     reps |= {p.id.rsplit("-", 1)[0].split("-")[0] for p in FILTERS}
     families = [(c, d, False) for c in FLOAT_CASES for d in DTYPES]
     families += [(c, "float64", False) for c in FUSION_CASES + CASES_VARIO]
-    families += [(c, p, True) for c in FIXED_CASES for p in PROFILES]
+    families += [(c, p, True) for c in FIXED_CASES for p in c.profiles]
     checked = set()
     for c, d, fixed in families:
         f = c.make_fixed("c", d) if fixed else (

@@ -144,11 +144,12 @@ IMF_Q_OUTLINE void robust_q_exp(int32_t q[4], const int32_t h[3])
     imf_q_add_normalise(q, dq);
 }
 
-/* B5: a running mean until n reaches n_tau, then the low-pass gain k */
+/* B5: a running mean until n reaches n_tau, then the low-pass gain k (a negative n,
+ * possible only from a state written by hand, counts as 0) */
 static inline imf_qscale_t robust_q_gain(const int32_t n, const int32_t n_tau, const imf_qscale_t k)
 {
     if (n < n_tau) {
-        return robust_q_recip((uint32_t)n + 1u, 0);
+        return robust_q_recip((uint32_t)(n < 0 ? 0 : n) + 1u, 0);
     }
     return k;
 }
@@ -219,13 +220,13 @@ int imf_robust_imu_q_init_consts(imf_robust_imu_q_t *const self,
 {
     imf_robust_imu_q_state_t *const x = &self->x;
     int i;
-    /* shifts of imf_scale32_s in range: kg (gyr_scale dt < 2^-16), klat, eps (e in
+    /* shifts of imf_scale32_s in range: kg (gyr_scale dt < 2^-15), klat, eps (e in
      * [1/8192, 1/200]), kq, the low-pass gains, kbias, kacc2 */
-    if (k->kg.m == 0 || !imf_qscale_ok(k->kg, 32, 62) || !robust_q_ok(k->klat, 32, 62)
+    if (k->kg.m == 0 || !imf_qscale_ok(k->kg, 31, 62) || !robust_q_ok(k->klat, 15, 62)
         || k->eps.m == 0 || !imf_qscale_ok(k->eps, 22, 27) || !robust_q_ok(k->kq, 30, 62)
         || k->k_rest.m == 0 || !imf_qscale_ok(k->k_rest, 0, 47) || k->kb_rest.m == 0
         || !imf_qscale_ok(k->kb_rest, 0, 47) || !robust_q_ok(k->kbias, -15, 32)
-        || !robust_q_ok(k->kacc2, 14, 47) || k->qg0 < 16 || k->qcap < k->qg0 || k->pg0 <= 0
+        || !imf_qscale_ok(k->kacc2, 14, 47) || k->qg0 < 16 || k->qcap < k->qg0 || k->pg0 <= 0
         || k->n_tau < 0 || k->n_acc < 0 || k->n_rest < 0 || k->n_max < k->n_tau
         || k->n_max < k->n_acc || k->n_max > 1073741824L) {
         return -1;
@@ -279,6 +280,11 @@ int imf_robust_imu_q_init(imf_robust_imu_q_t *const self,
     k.n_acc = robust_q_ceil(s->tau_acc / dt);
     k.n_rest = robust_q_ceil(s->rest_time / dt);
     k.n_max = k.n_tau > k.n_acc ? k.n_tau : k.n_acc;
+    /* a constant of a block that is on must not underflow to 0 (off) */
+    if ((s->rate_ref > 0.0 && k.kq.m == 0) || (s->tau_bias > 0.0 && k.kbias.m == 0)
+        || (s->latency > 0.0 && k.klat.m == 0) || (s->rest_acc > 0.0 && k.kacc2.m == 0)) {
+        return -1;
+    }
     return imf_robust_imu_q_init_consts(self, &k);
 }
 
@@ -374,7 +380,7 @@ void imf_robust_imu_q_update(imf_robust_imu_q_t *const self, const int16_t gyr[3
                                     imf_scale32_s(imf_sub_sat32(ai[i], x->f[i]), k->eps, 15, 15));
         }
         /* e^2 (1 + |w|^2 / rate_ref^2), the rate term capped at 1e4 e^2 */
-        qg = imf_scale32_s((int32_t)(w2 >> 2), k->kq, 0, 30);
+        qg = k->kq.m != 0 ? imf_scale32_s((int32_t)(w2 >> 2), k->kq, 0, 30) : 0;
         if (qg > k->qcap) {
             qg = k->qcap;
         }

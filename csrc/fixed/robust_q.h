@@ -31,12 +31,13 @@
  * Times are sample counts: t < tau is n < ceil(tau / dt).
  *
  * Ranges (refused at init otherwise, in the filter's own arithmetic):
- *   rate      |w| dt / 2 < 1/4 rad at the gyro's full scale (gyr_scale dt < 2^-16)
+ *   rate      |w| dt / 2 < 1/2 rad at the gyro's full scale (gyr_scale dt < 2^-15:
+ *             2000 deg/s on 16 bits up to dt = 28 ms)
  *   dt        tau_acc / dt in [200, 8192]: e = dt / tau_acc in q30 keeps B2's
  *             covariance below 2 at 1e4 (rate_ref)^2 and its process noise above 16 LSB
  *   tau       tau_rest, tau_bias_rest, rest_time: up to 2^30 samples; tau_bias 0 or
  *             >= 4 tau_acc with 1 / (tau_bias gyr_scale) below 2^15;
- *             latency 0 .. 0.1 s; rest_acc in [0, 1]
+ *             latency 0 .. 0.1 s; rest_acc 0 or in [1.1e-5, 1]
  */
 #ifndef IMF_ROBUST_Q_H
 #define IMF_ROBUST_Q_H

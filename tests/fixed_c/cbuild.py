@@ -83,12 +83,16 @@ def filter_driver_source() -> str:
                    "a[i] = (int16_t)v[3 + i]; }"]),
                 f"        {step};", "        memcpy(s, &o.x, sizeof s);", f"        put(s, {n});",
                 "    }", "    return 0;", "}", ""]
-    out += ["int main(void)", "{", "    char name[64], tok[64];", "    double p[8];",
-            "    int32_t st[16];", "    int profile, np = 0, ns = 0, rc = 2;",
+    # room for the longest parameter list and state of the catalogue
+    # (+1: the reading loops stop at ";" or when full, so full must be unreachable)
+    mp = max(len(e.init_args) for e in catalogue.FIXED) + 1
+    ms = max(len(e.state_names) for e in catalogue.FIXED) + 1
+    out += ["int main(void)", "{", "    char name[64], tok[64];", f"    double p[{mp}];",
+            f"    int32_t st[{ms}];", "    int profile, np = 0, ns = 0, rc = 2;",
             '    if (scanf("%63s %d", name, &profile) != 2) return 2;',
-            '    while (np < 8 && scanf("%63s", tok) == 1 && strcmp(tok, ";") != 0) '
+            f'    while (np < {mp} && scanf("%63s", tok) == 1 && strcmp(tok, ";") != 0) '
             "p[np++] = strtod(tok, NULL);",
-            '    while (ns < 16 && scanf("%63s", tok) == 1 && strcmp(tok, ";") != 0) '
+            f'    while (ns < {ms} && scanf("%63s", tok) == 1 && strcmp(tok, ";") != 0) '
             "st[ns++] = (int32_t)strtol(tok, NULL, 10);",
             *(f'    {"else " if i else ""}if (!strcmp(name, "{nm}")) rc = {fn}(profile, p, st, ns);'
               for i, (nm, fn) in enumerate(names)),

@@ -400,7 +400,7 @@ def is_fixed_class(ref_class) -> bool:
 def specs_from_cases(cases, reference=None, csrc: Path = CSRC) -> List[FilterSpec]:
     """FilterSpecs of registry cases (objects with ``name``, ``params`` and ``id``): float
     classes in float32 and float64, fixed-point classes in their ``profile`` if the case gives
-    one, else in both profiles."""
+    one, else in every profile the class is built in (its ``profiles``)."""
     if reference is None:
         reference = _reference
     out = []
@@ -408,7 +408,8 @@ def specs_from_cases(cases, reference=None, csrc: Path = CSRC) -> List[FilterSpe
         cls = getattr(reference, case.name)
         params = dict(case.params)
         if is_fixed_class(cls):
-            profiles = [str(params.pop("profile"))] if "profile" in params else ["32", "8"]
+            profiles = ([str(params.pop("profile"))] if "profile" in params
+                        else list(getattr(cls, "profiles", ("32", "8"))))
             precisions = ["p" + p for p in profiles]
         else:
             precisions = ["float32", "float64"]

@@ -112,6 +112,8 @@ def fixed_update_inputs(kind, args):
 class FixedFilter:
     kind = "1d"
     c_name = ""
+    #: the profiles the class is built in (a class with one arithmetic refuses the other)
+    profiles: tuple = PROFILES
     state_names: tuple = ()
     dtype = "int32"
 

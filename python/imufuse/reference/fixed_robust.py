@@ -111,9 +111,10 @@ def qexp(q, h):
 
 
 def gain(n, n_tau, k):
-    """robust_q_gain: B5, a running mean until n reaches n_tau, then k."""
+    """robust_q_gain: B5, a running mean until n reaches n_tau, then k (a negative n,
+    possible only from a state written by hand, counts as 0)."""
     if n < n_tau:
-        return recip(n + 1, 0)
+        return recip(max(n, 0) + 1, 0)
     return k
 
 
@@ -181,11 +182,18 @@ class RobustIMUQ(FixedFilter):
                              f"got {tau_acc!r}")
         if rest_acc > 1.0:
             raise ValueError(f"rest_acc: must be <= 1 in fixed point, got {rest_acc!r}")
-        qconst("gyr_scale*dt", 0.5 * gyr_scale * dt, 32, 62, nonzero=True)
+        if rest_acc > 0.0:
+            qconst("rest_acc^2", rest_acc * rest_acc, 14, 47, nonzero=True)
+        qconst("gyr_scale*dt", 0.5 * gyr_scale * dt, 31, 62, nonzero=True)
         if latency > 0.0:
-            qconst("gyr_scale*latency", 0.5 * gyr_scale * latency, 32, 62)
+            qconst("gyr_scale*latency", 0.5 * gyr_scale * latency, 15, 62, nonzero=True)
+        if rate_ref > 0.0:
+            e = dt / tau_acc
+            qconst("(dt/tau_acc)^2 (gyr_scale/rate_ref)^2",
+                   4.0 * e * e * (gyr_scale / rate_ref) * (gyr_scale / rate_ref), 30, 62,
+                   nonzero=True)
         if tau_bias > 0.0:
-            qconst("1/(tau_bias*gyr_scale)", 1.0 / (tau_bias * gyr_scale), -15, 32)
+            qconst("1/(tau_bias*gyr_scale)", 1.0 / (tau_bias * gyr_scale), -15, 32, nonzero=True)
         for name, v in (("rest_time", rest_time), ("tau_rest", tau_rest)):
             if _ceil(v / dt) < 0:
                 raise ValueError(f"{name}: must be at most 2^30 samples, got {v!r}")
@@ -307,7 +315,7 @@ class RobustIMUQ(FixedFilter):
             self.v = [ci.add_sat32(self.v[i], ci.scale32_s(ci.sub_sat32(ai[i], self.f[i]),
                                                            eps, 15, 15)) for i in range(3)]
             # e^2 (1 + |w|^2 / rate_ref^2), the rate term capped at 1e4 e^2
-            qg = ci.scale32_s(w2 >> 2, k["kq"], 0, 30)
+            qg = ci.scale32_s(w2 >> 2, k["kq"], 0, 30) if k["kq"].m != 0 else 0
             if qg > k["qcap"]:
                 qg = k["qcap"]
             qg = k["qg0"] + qg
