@@ -218,7 +218,8 @@ def state_float(f, S):
 
 
 TWINS = {"Complementary1DQ": "Complementary1D", "Mahony1DBiasQ": "Mahony1DBias", "KKQ": "KK",
-         "MultiWiiQ": "MultiWii", "MahonyIMUQ": "MahonyIMU", "MadgwickIMUQ": "MadgwickIMU"}
+         "MultiWiiQ": "MultiWii", "MahonyIMUQ": "MahonyIMU", "MadgwickIMUQ": "MadgwickIMU",
+         "RobustIMUQ": "RobustIMU"}
 
 
 def effective_gyr_scale(case, profile):
@@ -227,7 +228,7 @@ def effective_gyr_scale(case, profile):
     profile's gain8 mantissa in q(15+hs).  The quaternion filters' yaw is not observed,
     so it integrates this rounding (<= 2^-16 relative); their twin is given the same."""
     ref = getattr(reference, case.name)(**{**case.params, "dt": DT}, profile=profile)
-    if case.name not in ("MahonyIMUQ", "MadgwickIMUQ"):
+    if case.name not in ("MahonyIMUQ", "MadgwickIMUQ", "RobustIMUQ"):
         return case.params["gyr_scale"]
     if profile == "32":
         return 2.0 * ref.kg.value / DT

@@ -238,13 +238,16 @@ def test_fixed_init_from_double_and_from_constants(toolchains, target):
         fa, ca = mf.init_call(c.c_name + "_init", v, c.init_struct, c.init, s.double_init_args())
         fb, cb = mf.init_call(s.init_function, v + "b", c.init_consts_struct, c.init_consts,
                               s._init_args())
-        pre.append(f'#include "{c.header.name}"\nstatic {c.c_name}_t {v}, {v}b;\n'
-                   f"static int32_t imf_r{i};")
-        body.append(f"memset(&{v}, 0, sizeof {v}); memset(&{v}b, 0, sizeof {v}b);\n"
+        # the pair of filters on the stack, in a block of its own: the compiler reuses the
+        # space for the next pair (statics for every filter would not fit the ATmega328P's
+        # 2 KB of RAM)
+        pre.append(f'#include "{c.header.name}"\nstatic int32_t imf_r{i};')
+        body.append(f"{{ {c.c_name}_t {v}, {v}b;\n"
+                    f"memset(&{v}, 0, sizeof {v}); memset(&{v}b, 0, sizeof {v}b);\n"
                     f"{{ {fa} {fb}\n"
                     f"imf_r{i} = {ca} * 4\n"
                     f"    + {cb} * 2\n"
-                    f"    + (memcmp(&{v}, &{v}b, sizeof {v}) != 0); }}")
+                    f"    + (memcmp(&{v}, &{v}b, sizeof {v}) != 0); }} }}")
         state.append((f"imf_r{i}", "i32"))
     drv = mcu.Driver(prelude="\n".join(pre), step="\n".join(body), state=state)
     res = mcu.run(target, sources=sorted({str(s.c.source) for s in specs}),

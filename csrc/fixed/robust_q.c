@@ -104,17 +104,17 @@ IMF_Q_OUTLINE void robust_q_mul(const int16_t a[4], const int32_t b[4], int32_t 
 {
     int32_t t;
     t = imf_sub_sat32(imf_q_mul_hq_p32(b[0], a[0]), imf_q_mul_hq_p32(b[1], a[1]));
-    out[0] = imf_sub_sat32(imf_sub_sat32(t, imf_q_mul_hq_p32(b[2], a[2])),
-                           imf_q_mul_hq_p32(b[3], a[3]));
+    out[0] =
+        imf_sub_sat32(imf_sub_sat32(t, imf_q_mul_hq_p32(b[2], a[2])), imf_q_mul_hq_p32(b[3], a[3]));
     t = imf_add_sat32(imf_q_mul_hq_p32(b[1], a[0]), imf_q_mul_hq_p32(b[0], a[1]));
-    out[1] = imf_sub_sat32(imf_add_sat32(t, imf_q_mul_hq_p32(b[3], a[2])),
-                           imf_q_mul_hq_p32(b[2], a[3]));
+    out[1] =
+        imf_sub_sat32(imf_add_sat32(t, imf_q_mul_hq_p32(b[3], a[2])), imf_q_mul_hq_p32(b[2], a[3]));
     t = imf_sub_sat32(imf_q_mul_hq_p32(b[2], a[0]), imf_q_mul_hq_p32(b[3], a[1]));
-    out[2] = imf_add_sat32(imf_add_sat32(t, imf_q_mul_hq_p32(b[0], a[2])),
-                           imf_q_mul_hq_p32(b[1], a[3]));
+    out[2] =
+        imf_add_sat32(imf_add_sat32(t, imf_q_mul_hq_p32(b[0], a[2])), imf_q_mul_hq_p32(b[1], a[3]));
     t = imf_add_sat32(imf_q_mul_hq_p32(b[3], a[0]), imf_q_mul_hq_p32(b[2], a[1]));
-    out[3] = imf_add_sat32(imf_sub_sat32(t, imf_q_mul_hq_p32(b[1], a[2])),
-                           imf_q_mul_hq_p32(b[0], a[3]));
+    out[3] =
+        imf_add_sat32(imf_sub_sat32(t, imf_q_mul_hq_p32(b[1], a[2])), imf_q_mul_hq_p32(b[0], a[3]));
 }
 
 /* q = q (x) exp(h), h the half angle (q30): the series of csrc/robust.c,
@@ -201,7 +201,7 @@ static int robust_q_ok(const imf_qscale_t c, const int smin, const int smax)
 
 void imf_robust_imu_q_default_settings(imf_robust_imu_q_settings_t *const s)
 {
-    s->dt = 0.002;
+    s->dt = 0.01;
     s->tau_acc = 2.5;
     s->rate_ref = 1.7453292519943295; /* 100 deg/s */
     s->tau_bias = 100.0;
@@ -265,9 +265,8 @@ int imf_robust_imu_q_init(imf_robust_imu_q_t *const self,
     k.kg = imf_qscale_from_double(0.5 * gs * dt);
     k.klat = imf_qscale_from_double(0.5 * gs * s->latency);
     k.eps = imf_qscale_from_double(e);
-    k.kq = imf_qscale_from_double(s->rate_ref > 0.0 ? 4.0 * e * e * (gs / s->rate_ref)
-                                                          * (gs / s->rate_ref)
-                                                    : 0.0);
+    k.kq = imf_qscale_from_double(
+        s->rate_ref > 0.0 ? 4.0 * e * e * (gs / s->rate_ref) * (gs / s->rate_ref) : 0.0);
     k.k_rest = imf_qscale_from_double(dt / (s->tau_rest + dt));
     k.kb_rest = imf_qscale_from_double(dt / (s->tau_bias_rest + dt));
     k.kbias = imf_qscale_from_double(s->tau_bias > 0.0 ? 1.0 / (s->tau_bias * gs) : 0.0);
@@ -412,12 +411,20 @@ void imf_robust_imu_q_update(imf_robust_imu_q_t *const self, const int16_t gyr[3
         const uint32_t rw = (uint32_t)(32768L + u[2]); /* [1, 65535] */
         const uint32_t n2 = ((rw * rw) >> 2) + ((uint32_t)imf_mul16(u[1], u[1]) >> 2)
                             + ((uint32_t)imf_mul16(u[0], u[0]) >> 2); /* q28 */
-        int sh;
-        const uint16_t y = imf_invsqrt_u32(n2, &sh); /* 1/|r| = y 2^(14 - sh) */
-        const uint32_t r0 = (rw * y + ((uint32_t)1 << (sh - 15))) >> (sh - 14);
-        r[0] = (int16_t)(r0 > 32767u ? 32767u : r0);
-        r[1] = imf_sat_q15s(imf_rshr32((int32_t)u[1] * (int32_t)y, sh - 14));
-        r[2] = imf_sat_q15s(imf_rshr32(-(int32_t)u[0] * (int32_t)y, sh - 14));
+        if (n2 != 0u) {
+            int sh;
+            const uint16_t y = imf_invsqrt_u32(n2, &sh); /* 1/|r| = y 2^(14 - sh) */
+            const uint32_t r0 = (rw * y + ((uint32_t)1 << (sh - 15))) >> (sh - 14);
+            r[0] = (int16_t)(r0 > 32767u ? 32767u : r0);
+            r[1] = imf_sat_q15s(imf_rshr32((int32_t)u[1] * (int32_t)y, sh - 14));
+            r[2] = imf_sat_q15s(imf_rshr32(-(int32_t)u[0] * (int32_t)y, sh - 14));
+        } else {
+            /* gravity straight down (upside down, r = 0): any half turn about a horizontal
+               axis is a smallest rotation; about x */
+            r[0] = 0;
+            r[1] = 32767;
+            r[2] = 0;
+        }
     } else {
         /* no gravity estimate (a zero vector): no correction */
         r[0] = 32767;
@@ -448,8 +455,7 @@ void imf_robust_imu_q_update(imf_robust_imu_q_t *const self, const int16_t gyr[3
     /* the output predicted by the latency with the bias-corrected rate */
     if (k->klat.m != 0) {
         for (i = 0; i < 3; ++i) {
-            h[i] = imf_scale32_s(imf_sub_sat32((int32_t)gyr[i] * 32768L, x->b[i]), k->klat, 15,
-                                 30);
+            h[i] = imf_scale32_s(imf_sub_sat32((int32_t)gyr[i] * 32768L, x->b[i]), k->klat, 15, 30);
         }
         robust_q_exp(x->q, h);
     }

@@ -86,14 +86,14 @@ typedef struct {
 
 typedef struct {
     imf_robust_imu_q_consts_t k; /* the constants (above) */
-    imf_robust_imu_q_state_t x;  /* the state (above): the estimate; write it only through the API */
+    imf_robust_imu_q_state_t x; /* the state (above): the estimate; write it only through the API */
 } imf_robust_imu_q_t;
 
 /* The settings of imf_robust_imu_q_init (those of imf_robust_imu_settings_t in double,
  * rad/s, and the gyro's scale). Start from imf_robust_imu_q_default_settings(), then set
  * dt and gyr_scale. */
 typedef struct {
-    double dt;            /* sample period, s; tau_acc / dt in [200, 8192] (default 0.002) */
+    double dt;            /* sample period, s; tau_acc / dt in [200, 8192] (default 0.01) */
     double tau_acc;       /* B2: tilt correction time constant, s (default 2.5) */
     double rate_ref;      /* B2: rate at which gravity's process noise doubles, rad/s;
                              >= 0, 0: constant (default 1.745: 100 deg/s) */
@@ -107,7 +107,8 @@ typedef struct {
     double latency;       /* output prediction, s; 0 .. 0.1 (default 0) */
     double gyr_scale;     /* rad/s per gyro count; > 0 (default 1.0642e-3: 2000 deg/s on
                              16 bits) */
-    int profile;          /* 32 (the only one built); any other value: init returns -1 */
+    int profile;          /* 32 (default; the only one built); any other value: init
+                             returns -1 */
 } imf_robust_imu_q_settings_t;
 
 /* The defaults listed with each member. */

@@ -236,6 +236,7 @@ class RobustIMUQ(FixedFilter):
     def _init_consts(self, **k):
         # imf_robust_imu_q_init_consts (the ranges were checked by _params)
         self.k = k
+        self.kg = k["kg"]                                  # the rate scale integrated
         self.q = [fq.Q30_ONE, 0, 0, 0]
         self.s = [fq.Q30_ONE, 0, 0, 0]
         self.c = [fq.Q30_ONE, 0, 0, 0]
@@ -344,11 +345,16 @@ class RobustIMUQ(FixedFilter):
         if u is not None:
             rw = 32768 + u[2]                                  # [1, 65535]
             n2 = ((rw * rw) >> 2) + ((u[1] * u[1]) >> 2) + ((u[0] * u[0]) >> 2)   # q28
-            y, sh = ci.invsqrt_u32(n2)                         # 1/|r| = y 2^(14 - sh)
-            r0 = (rw * y + (1 << (sh - 15))) >> (sh - 14)
-            r = [min(r0, 32767),
-                 ci.sat_q15s(ci.rshr32(ci.check32(u[1] * y), sh - 14)),
-                 ci.sat_q15s(ci.rshr32(ci.check32(-u[0] * y), sh - 14))]
+            if n2 != 0:
+                y, sh = ci.invsqrt_u32(n2)                     # 1/|r| = y 2^(14 - sh)
+                r0 = (rw * y + (1 << (sh - 15))) >> (sh - 14)
+                r = [min(r0, 32767),
+                     ci.sat_q15s(ci.rshr32(ci.check32(u[1] * y), sh - 14)),
+                     ci.sat_q15s(ci.rshr32(ci.check32(-u[0] * y), sh - 14))]
+            else:
+                # gravity straight down (upside down, r = 0): any half turn about a
+                # horizontal axis is a smallest rotation; about x
+                r = [0, 32767, 0]
         else:
             # no gravity estimate (a zero vector): no correction
             r = [32767, 0, 0]
