@@ -190,6 +190,11 @@ EXTRA_FIXED_CASES = [
                            gyr_scale=6.1e-5, acc_1g=16384), "extreme"),
     Case("MahonyIMUQ", dict(dt=1 / 512, kp=1.0, ki=0.05, gyr_scale=1.0642e-3)),
     Case("MadgwickIMUQ", dict(dt=1 / 512, beta=0.1, gyr_scale=1.0642e-3)),
+    Case("RobustIMUQ", dict(dt=1 / 512, gyr_scale=1.0642e-3), "defaults"),
+    # every option off or on against the defaults: the output latency, a constant process
+    # noise (rate_ref 0), no bias in motion (tau_bias 0), a short rest
+    Case("RobustIMUQ", dict(dt=1 / 512, latency=0.004, rate_ref=0.0, tau_bias=0.0,
+                            rest_time=0.2, gyr_scale=1.0642e-3), "options"),
 ]
 
 

@@ -6,10 +6,12 @@
 #include "imf_fixed_quat.h"
 
 /* ---- helpers ------------------------------------------------------------------- */
+/* The helpers called more than once are out of line on every target (IMF_Q_NOINLINE):
+ * their inlined copies made the Cortex-M0 build larger than the float filter's. */
 
 /* 2^N / x as a q-scale for x > 0: 1 / x = y^2 2^-2sh (imf_invsqrt_u32, relative error
  * below 2e-4), the square rounded to 15 bits. */
-IMF_Q_OUTLINE imf_qscale_t robust_q_recip(const uint32_t x, const int N)
+static IMF_Q_NOINLINE imf_qscale_t robust_q_recip(const uint32_t x, const int N)
 {
     imf_qscale_t r;
     int sh, s;
@@ -35,7 +37,7 @@ IMF_Q_OUTLINE imf_qscale_t robust_q_recip(const uint32_t x, const int N)
 
 /* |x| 2^-N (x in qN) as a q-scale and its sign (1, or -1): the 15 leading bits of |x|,
  * rounded. x = 0 gives m 0 (its s is N). */
-IMF_Q_OUTLINE imf_qscale_t robust_q_scale_of(const int32_t x, const int N, int *const sign)
+static IMF_Q_NOINLINE imf_qscale_t robust_q_scale_of(const int32_t x, const int N, int *const sign)
 {
     imf_qscale_t r;
     uint32_t u = x < 0 ? 0u - (uint32_t)x : (uint32_t)x;
@@ -70,7 +72,7 @@ static inline int32_t robust_q_mul_signed(const int32_t x, const imf_qscale_t c,
 
 /* The rotation matrix of a q15 snapshot qs (sensor -> earth), q15, by rows:
  * diagonal 2 (w^2 + a^2) - 1, the others 2 (a b -+ w c), in q29 -> q15 */
-IMF_Q_OUTLINE void robust_q_matrix(const int16_t qs[4], int16_t r[9])
+static IMF_Q_NOINLINE void robust_q_matrix(const int16_t qs[4], int16_t r[9])
 {
     const int32_t ww = imf_mul16(qs[0], qs[0]);
     r[0] = imf_qn_to_q15s(ww + imf_mul16(qs[1], qs[1]) - 536870912L, 29);
@@ -86,8 +88,8 @@ IMF_Q_OUTLINE void robust_q_matrix(const int16_t qs[4], int16_t r[9])
 
 /* out = R v (t = 0) or R^T v (t = 1) for int32 v in any format (the same format out),
  * products rounded, sums saturated */
-IMF_Q_OUTLINE void robust_q_rotate(const int16_t r[9], const int t, const int32_t v[3],
-                                   int32_t out[3])
+static IMF_Q_NOINLINE void robust_q_rotate(const int16_t r[9], const int t, const int32_t v[3],
+                                           int32_t out[3])
 {
     int i, j;
     for (i = 0; i < 3; ++i) {
@@ -99,8 +101,44 @@ IMF_Q_OUTLINE void robust_q_rotate(const int16_t r[9], const int t, const int32_
     }
 }
 
+/* out = R v (t = 0) or R^T v (t = 1) for an int16 v: one 16x16 product per term (q15 R
+ * times v, in v's format times 2^15), sums saturated */
+static IMF_Q_NOINLINE void robust_q_rotate16(const int16_t r[9], const int t, const int16_t v[3],
+                                             int32_t out[3])
+{
+    int i, j;
+    for (i = 0; i < 3; ++i) {
+        int32_t a = 0;
+        for (j = 0; j < 3; ++j) {
+            a = imf_add_sat32(a, imf_mul16(v[j], r[t ? 3 * j + i : 3 * i + j]));
+        }
+        out[i] = a;
+    }
+}
+
+/* q /= |q|: while |q|^2 - 1 is small (every ordinary update: q is a product or a series
+ * step of unit quaternions), the first-order q (1 - d / 2), d = |q|^2 - 1 from
+ * imf_q_norm2, one product per component; else the full imf_q_normalise */
+static IMF_Q_NOINLINE void robust_q_renorm(int32_t q[4])
+{
+    int16_t qs[4];
+    uint32_t n2;
+    int i;
+    imf_q_snapshot(q, qs);
+    n2 = imf_q_norm2(q, qs);
+    if (n2 > 1072693248u && n2 < 1074790400u) {
+        /* |d| < 2^-10 (q30: 2^20) */
+        const int32_t d = (int32_t)n2 - 1073741824L;
+        for (i = 0; i < 4; ++i) {
+            q[i] = imf_sub_sat32(q[i], imf_q_mul_hq_p32(imf_rshr32(d, 1), qs[i]));
+        }
+        return;
+    }
+    imf_q_normalise(q);
+}
+
 /* out = a (x) b, a a q15 snapshot, b q30: products rounded, sums saturated */
-IMF_Q_OUTLINE void robust_q_mul(const int16_t a[4], const int32_t b[4], int32_t out[4])
+static IMF_Q_NOINLINE void robust_q_mul(const int16_t a[4], const int32_t b[4], int32_t out[4])
 {
     int32_t t;
     t = imf_sub_sat32(imf_q_mul_hq_p32(b[0], a[0]), imf_q_mul_hq_p32(b[1], a[1]));
@@ -119,7 +157,7 @@ IMF_Q_OUTLINE void robust_q_mul(const int16_t a[4], const int32_t b[4], int32_t 
 
 /* q = q (x) exp(h), h the half angle (q30): the series of csrc/robust.c,
  * (1 - |h|^2 / 2, h (1 - |h|^2 / 6)), then normalised */
-IMF_Q_OUTLINE void robust_q_exp(int32_t q[4], const int32_t h[3])
+static IMF_Q_NOINLINE void robust_q_exp(int32_t q[4], const int32_t h[3])
 {
     int16_t qs[4], hs[3];
     int32_t hv[3], dq[4], n6;
@@ -141,7 +179,10 @@ IMF_Q_OUTLINE void robust_q_exp(int32_t q[4], const int32_t h[3])
     for (i = 0; i < 4; ++i) {
         dq[i] = imf_sub_sat32(dq[i], imf_q_mul_hq_p32((int32_t)(n2 >> 1), qs[i]));
     }
-    imf_q_add_normalise(q, dq);
+    for (i = 0; i < 4; ++i) {
+        q[i] = imf_add_sat32(q[i], dq[i]);
+    }
+    robust_q_renorm(q);
 }
 
 /* B5: a running mean until n reaches n_tau, then the low-pass gain k (a negative n,
@@ -173,7 +214,7 @@ static inline uint32_t robust_q_norm2(const int32_t a, const int32_t b, const in
 }
 
 /* the unit vector of v (any format), symmetric q15; 0 for the zero vector */
-IMF_Q_OUTLINE int robust_q_unit(const int32_t v[3], int16_t u[3])
+static IMF_Q_NOINLINE int robust_q_unit(const int32_t v[3], int16_t u[3])
 {
     uint32_t m = 0u;
     int16_t w[3];
@@ -298,15 +339,12 @@ void imf_robust_imu_q_update(imf_robust_imu_q_t *const self, const int16_t gyr[3
     /* an all-zero accelerometer is no reading: gyro only (and no start without one) */
     int has_acc = !(acc[0] == 0 && acc[1] == 0 && acc[2] == 0);
     int16_t ss[4], rm[9], u[3], r[4];
-    int32_t a32[3], ai[3], ge[3], w[3], h[3], t[4], e[3];
+    int32_t ai[3], ge[3], w[3], h[3], t[4], e[3];
     uint32_t w2, g2, d2, a2;
     imf_qscale_t kk;
     int rest, i;
     if (first && !has_acc) {
         return;
-    }
-    for (i = 0; i < 3; ++i) {
-        a32[i] = (int32_t)acc[i] * 32768L; /* q15 counts */
     }
     if (has_acc && !first) {
         /* a reading beyond 100 times the gravity estimate (100 g) is a shock or a
@@ -360,7 +398,7 @@ void imf_robust_imu_q_update(imf_robust_imu_q_t *const self, const int16_t gyr[3
     /* B2: the accelerometer in the inertial frame */
     imf_q_snapshot(x->s, ss);
     robust_q_matrix(ss, rm);
-    robust_q_rotate(rm, 0, a32, ai);
+    robust_q_rotate16(rm, 0, acc, ai); /* q15 counts */
     if (first) {
         /* B5: gravity from the first sample */
         for (i = 0; i < 3; ++i) {
@@ -435,21 +473,22 @@ void imf_robust_imu_q_update(imf_robust_imu_q_t *const self, const int16_t gyr[3
     for (i = 0; i < 4; ++i) {
         x->c[i] = t[i];
     }
-    imf_q_normalise(x->c);
+    robust_q_renorm(x->c);
     imf_q_snapshot(x->c, ss);
     robust_q_mul(ss, x->s, x->q);
-    imf_q_normalise(x->q);
+    robust_q_renorm(x->q);
     /* B3: the correction rate seen in the sensor frame is minus the bias error
        (Eq. 3.6, with Ki dt = 1 / tau_bias): b -= R(q)^T (2 r1, 2 r2, 0) / tau_bias */
     if (!rest && x->n >= k->n_acc && k->kbias.m != 0) {
         imf_q_snapshot(x->q, ss);
         robust_q_matrix(ss, rm);
-        t[0] = (int32_t)r[1] * 65536L; /* 2 r in q30 */
-        t[1] = (int32_t)r[2] * 65536L;
-        t[2] = 0;
-        robust_q_rotate(rm, 1, t, e);
+        u[0] = r[1];
+        u[1] = r[2];
+        u[2] = 0;
+        robust_q_rotate16(rm, 1, u, e); /* R^T r in q30; the error is twice that */
         for (i = 0; i < 3; ++i) {
-            x->b[i] = imf_sub_sat32(x->b[i], imf_scale32_s(e[i], k->kbias, 30, 15));
+            x->b[i] =
+                imf_sub_sat32(x->b[i], imf_scale32_s(imf_add_sat32(e[i], e[i]), k->kbias, 30, 15));
         }
     }
     /* the output predicted by the latency with the bias-corrected rate */

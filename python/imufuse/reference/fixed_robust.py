@@ -82,6 +82,29 @@ def rotate(r, t, v):
     return out
 
 
+def rotate16(r, t, v):
+    """robust_q_rotate16: R v or R^T v for an int16 v, one 16x16 product per term."""
+    out = []
+    for i in range(3):
+        a = 0
+        for j in range(3):
+            a = ci.add_sat32(a, v[j] * r[3 * j + i if t else 3 * i + j])
+        out.append(a)
+    return out
+
+
+def renorm(q):
+    """robust_q_renorm: q (1 - d / 2) while |d| = ||q|^2 - 1| < 2^-10, else the full
+    normalisation; returns the new q."""
+    qs = fq.snapshot(q)
+    n2 = fq.norm2(q, qs)
+    if 1072693248 < n2 < 1074790400:
+        # |d| < 2^-10 (q30: 2^20)
+        d = n2 - 1073741824
+        return [ci.sub_sat32(q[i], fq.mul_hq_p32(ci.rshr32(d, 1), qs[i])) for i in range(4)]
+    return fq.normalise(q)
+
+
 def qmul(a, b):
     """robust_q_mul: a (x) b, a a q15 snapshot, b q30."""
     m, sub, add = fq.mul_hq_p32, ci.sub_sat32, ci.add_sat32
@@ -107,7 +130,7 @@ def qexp(q, h):
     qs = fq.snapshot(q)
     dq = fq.rate_p32(qs, hv)
     dq = [ci.sub_sat32(dq[i], fq.mul_hq_p32(n2 >> 1, qs[i])) for i in range(4)]
-    q[:] = fq.add_normalise(q, dq)
+    q[:] = renorm([ci.add_sat32(q[i], dq[i]) for i in range(4)])
 
 
 def gain(n, n_tau, k):
@@ -269,7 +292,6 @@ class RobustIMUQ(FixedFilter):
         has_acc = not (acc[0] == 0 and acc[1] == 0 and acc[2] == 0)
         if first and not has_acc:
             return
-        a32 = [a * 32768 for a in acc]                     # q15 counts
         if has_acc and not first:
             # a reading beyond 100 times the gravity estimate (100 g): no reading
             f2 = norm2(counts(self.f[0]), counts(self.f[1]), counts(self.f[2]))
@@ -304,7 +326,7 @@ class RobustIMUQ(FixedFilter):
         qexp(self.s, h)
         # B2: the accelerometer in the inertial frame
         rm = matrix(fq.snapshot(self.s))
-        ai = rotate(rm, 0, a32)
+        ai = rotate16(rm, 0, acc)                         # q15 counts
         if first:
             # B5: gravity from the first sample
             self.f = list(ai)
@@ -359,14 +381,15 @@ class RobustIMUQ(FixedFilter):
             # no gravity estimate (a zero vector): no correction
             r = [32767, 0, 0]
         r.append(0)
-        self.c = fq.normalise(qmul(r, self.c))
-        self.q = fq.normalise(qmul(fq.snapshot(self.c), self.s))
+        self.c = renorm(qmul(r, self.c))
+        self.q = renorm(qmul(fq.snapshot(self.c), self.s))
         # B3: the correction rate seen in the sensor frame is minus the bias error
         # (Eq. 3.6, with Ki dt = 1 / tau_bias): b -= R(q)^T (2 r1, 2 r2, 0) / tau_bias
         if not rest and self.n >= k["n_acc"] and k["kbias"].m != 0:
             rm = matrix(fq.snapshot(self.q))
-            e = rotate(rm, 1, [r[1] * 65536, r[2] * 65536, 0])     # 2 r in q30
-            self.b = [ci.sub_sat32(self.b[i], ci.scale32_s(e[i], k["kbias"], 30, 15))
+            e = rotate16(rm, 1, [r[1], r[2], 0])   # R^T r in q30; the error is twice that
+            self.b = [ci.sub_sat32(self.b[i], ci.scale32_s(ci.add_sat32(e[i], e[i]),
+                                                           k["kbias"], 30, 15))
                       for i in range(3)]
         # the output predicted by the latency with the bias-corrected rate
         if k["klat"].m != 0:
