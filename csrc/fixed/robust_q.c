@@ -137,22 +137,25 @@ static IMF_Q_NOINLINE void robust_q_renorm(int32_t q[4])
     imf_q_normalise(q);
 }
 
-/* out = a (x) b, a a q15 snapshot, b q30: products rounded, sums saturated */
+/* out = a (x) b, a a q15 snapshot, b q30: out_i = sum_j +-a_j b_{robust_q_bi[i][j]}, the
+ * minus signs in robust_q_neg[i] (bit j); products rounded, sums saturated in j's order. A
+ * loop: one inlined product (flash on the Cortex-M0) */
+static const unsigned char robust_q_bi[4][4] = {
+    { 0, 1, 2, 3 }, { 1, 0, 3, 2 }, { 2, 3, 0, 1 }, { 3, 2, 1, 0 }
+};
+static const unsigned char robust_q_neg[4] = { 14u, 8u, 2u, 4u };
+
 static IMF_Q_NOINLINE void robust_q_mul(const int16_t a[4], const int32_t b[4], int32_t out[4])
 {
-    int32_t t;
-    t = imf_sub_sat32(imf_q_mul_hq_p32(b[0], a[0]), imf_q_mul_hq_p32(b[1], a[1]));
-    out[0] =
-        imf_sub_sat32(imf_sub_sat32(t, imf_q_mul_hq_p32(b[2], a[2])), imf_q_mul_hq_p32(b[3], a[3]));
-    t = imf_add_sat32(imf_q_mul_hq_p32(b[1], a[0]), imf_q_mul_hq_p32(b[0], a[1]));
-    out[1] =
-        imf_sub_sat32(imf_add_sat32(t, imf_q_mul_hq_p32(b[3], a[2])), imf_q_mul_hq_p32(b[2], a[3]));
-    t = imf_sub_sat32(imf_q_mul_hq_p32(b[2], a[0]), imf_q_mul_hq_p32(b[3], a[1]));
-    out[2] =
-        imf_add_sat32(imf_add_sat32(t, imf_q_mul_hq_p32(b[0], a[2])), imf_q_mul_hq_p32(b[1], a[3]));
-    t = imf_add_sat32(imf_q_mul_hq_p32(b[3], a[0]), imf_q_mul_hq_p32(b[2], a[1]));
-    out[3] =
-        imf_add_sat32(imf_sub_sat32(t, imf_q_mul_hq_p32(b[1], a[2])), imf_q_mul_hq_p32(b[0], a[3]));
+    int i, j;
+    for (i = 0; i < 4; ++i) {
+        int32_t t = 0;
+        for (j = 0; j < 4; ++j) {
+            const int32_t p = imf_q_mul_hq_p32(b[robust_q_bi[i][j]], a[j]);
+            t = (robust_q_neg[i] >> j) & 1u ? imf_sub_sat32(t, p) : imf_add_sat32(t, p);
+        }
+        out[i] = t;
+    }
 }
 
 /* q = q (x) exp(h), h the half angle (q30): the series of csrc/robust.c,
@@ -160,7 +163,7 @@ static IMF_Q_NOINLINE void robust_q_mul(const int16_t a[4], const int32_t b[4], 
 static IMF_Q_NOINLINE void robust_q_exp(int32_t q[4], const int32_t h[3])
 {
     int16_t qs[4], hs[3];
-    int32_t hv[3], dq[4], n6;
+    int32_t hv[4], dq[4], n6;
     uint32_t n2 = 0u;
     int i;
     for (i = 0; i < 3; ++i) {
@@ -171,11 +174,18 @@ static IMF_Q_NOINLINE void robust_q_exp(int32_t q[4], const int32_t h[3])
         n2 = 1073741824u; /* |h|^2 <= 1, q30 */
     }
     n6 = imf_q_mul_hq_p32((int32_t)n2, 5461); /* |h|^2 / 6 */
+    hv[0] = 0;
     for (i = 0; i < 3; ++i) {
-        hv[i] = imf_sub_sat32(h[i], imf_q_mul_hq_p32(n6, hs[i]));
+        hv[i + 1] = imf_sub_sat32(h[i], imf_q_mul_hq_p32(n6, hs[i]));
     }
     imf_q_snapshot(q, qs);
-    imf_q_rate_p32(qs, hv, dq);
+    /* q (x) (0, h (1 - |h|^2 / 6)): the same values either way; on AVR without the four
+       products by zero (cycles), elsewhere through robust_q_mul's loop (flash) */
+#if defined(__AVR__)
+    imf_q_rate_p32(qs, hv + 1, dq);
+#else
+    robust_q_mul(qs, hv, dq);
+#endif
     for (i = 0; i < 4; ++i) {
         dq[i] = imf_sub_sat32(dq[i], imf_q_mul_hq_p32((int32_t)(n2 >> 1), qs[i]));
     }
@@ -196,7 +206,8 @@ static inline imf_qscale_t robust_q_gain(const int32_t n, const int32_t n_tau, c
 }
 
 /* x += k (u 2^15 - x) for a counts u and x in q15 counts */
-static inline int32_t robust_q_lowpass(const int32_t x, const int16_t u, const imf_qscale_t k)
+static IMF_Q_NOINLINE int32_t robust_q_lowpass(const int32_t x, const int16_t u,
+                                               const imf_qscale_t k)
 {
     return imf_add_sat32(x, imf_scale32_s(imf_sub_sat32((int32_t)u * 32768L, x), k, 15, 15));
 }
@@ -211,6 +222,12 @@ static inline int32_t robust_q_counts(const int32_t x)
 static inline uint32_t robust_q_norm2(const int32_t a, const int32_t b, const int32_t c)
 {
     return (uint32_t)(a * a) + (uint32_t)(b * b) + (uint32_t)(c * c);
+}
+
+/* |v|^2 in counts^2 of a vector in q15 counts, each component rounded to counts first */
+static IMF_Q_NOINLINE uint32_t robust_q_norm2_counts(const int32_t v[3])
+{
+    return robust_q_norm2(robust_q_counts(v[0]), robust_q_counts(v[1]), robust_q_counts(v[2]));
 }
 
 /* the unit vector of v (any format), symmetric q15; 0 for the zero vector */
@@ -349,8 +366,7 @@ void imf_robust_imu_q_update(imf_robust_imu_q_t *const self, const int16_t gyr[3
     if (has_acc && !first) {
         /* a reading beyond 100 times the gravity estimate (100 g) is a shock or a
            hostile value: no reading */
-        const uint32_t f2 = robust_q_norm2(robust_q_counts(x->f[0]), robust_q_counts(x->f[1]),
-                                           robust_q_counts(x->f[2]));
+        const uint32_t f2 = robust_q_norm2_counts(x->f);
         const uint32_t an2 = robust_q_norm2(acc[0], acc[1], acc[2]);
         if (f2 < 429497u && an2 > f2 * 10000u) {
             has_acc = 0;
@@ -364,16 +380,14 @@ void imf_robust_imu_q_update(imf_robust_imu_q_t *const self, const int16_t gyr[3
             x->la[i] = robust_q_lowpass(x->la[i], acc[i], kk);
         }
     }
-    w2 = robust_q_norm2(robust_q_counts(x->lw[0]), robust_q_counts(x->lw[1]),
-                        robust_q_counts(x->lw[2]));
+    w2 = robust_q_norm2_counts(x->lw);
     g2 = robust_q_norm2(gyr[0], gyr[1], gyr[2]);
     for (i = 0; i < 3; ++i) {
         /* the accelerometer's difference from its low-pass, counts, within +-32767 */
         e[i] = imf_sat_q15s(imf_sub_sat32(acc[i], robust_q_counts(x->la[i])));
     }
     d2 = robust_q_norm2(e[0], e[1], e[2]);
-    a2 = robust_q_norm2(robust_q_counts(x->la[0]), robust_q_counts(x->la[1]),
-                        robust_q_counts(x->la[2]));
+    a2 = robust_q_norm2_counts(x->la);
     if (has_acc && w2 < k->rest_g2 && g2 < k->rest_g2
         && (int32_t)(d2 >> 2) < imf_scale32_s((int32_t)(a2 >> 2), k->kacc2, 0, 0)) {
         if (x->n_rest < k->n_rest) {

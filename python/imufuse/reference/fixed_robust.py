@@ -105,18 +105,21 @@ def renorm(q):
     return fq.normalise(q)
 
 
+#: robust_q_mul's tables: out_i = sum_j +-a_j b_{BI[i][j]}, minus where bit j of NEG[i]
+BI = ((0, 1, 2, 3), (1, 0, 3, 2), (2, 3, 0, 1), (3, 2, 1, 0))
+NEG = (14, 8, 2, 4)
+
+
 def qmul(a, b):
-    """robust_q_mul: a (x) b, a a q15 snapshot, b q30."""
-    m, sub, add = fq.mul_hq_p32, ci.sub_sat32, ci.add_sat32
-    t = sub(m(b[0], a[0]), m(b[1], a[1]))
-    o0 = sub(sub(t, m(b[2], a[2])), m(b[3], a[3]))
-    t = add(m(b[1], a[0]), m(b[0], a[1]))
-    o1 = sub(add(t, m(b[3], a[2])), m(b[2], a[3]))
-    t = sub(m(b[2], a[0]), m(b[3], a[1]))
-    o2 = add(add(t, m(b[0], a[2])), m(b[1], a[3]))
-    t = add(m(b[3], a[0]), m(b[2], a[1]))
-    o3 = add(sub(t, m(b[1], a[2])), m(b[0], a[3]))
-    return [o0, o1, o2, o3]
+    """robust_q_mul: a (x) b, a a q15 snapshot, b q30, sums saturated in j's order."""
+    out = []
+    for i in range(4):
+        t = 0
+        for j in range(4):
+            p = fq.mul_hq_p32(b[BI[i][j]], a[j])
+            t = ci.sub_sat32(t, p) if (NEG[i] >> j) & 1 else ci.add_sat32(t, p)
+        out.append(t)
+    return out
 
 
 def qexp(q, h):
@@ -126,9 +129,9 @@ def qexp(q, h):
     if n2 > 1073741824:
         n2 = 1073741824                                    # |h|^2 <= 1, q30
     n6 = fq.mul_hq_p32(n2, 5461)                           # |h|^2 / 6
-    hv = [ci.sub_sat32(h[i], fq.mul_hq_p32(n6, hs[i])) for i in range(3)]
+    hv = [0] + [ci.sub_sat32(h[i], fq.mul_hq_p32(n6, hs[i])) for i in range(3)]
     qs = fq.snapshot(q)
-    dq = fq.rate_p32(qs, hv)
+    dq = qmul(qs, hv)                                      # q (x) (0, h (1 - |h|^2 / 6))
     dq = [ci.sub_sat32(dq[i], fq.mul_hq_p32(n2 >> 1, qs[i])) for i in range(4)]
     q[:] = renorm([ci.add_sat32(q[i], dq[i]) for i in range(4)])
 
@@ -153,6 +156,11 @@ def counts(x):
 
 def norm2(a, b, c):
     return a * a + b * b + c * c
+
+
+def norm2_counts(v):
+    """robust_q_norm2_counts: |v|^2 in counts^2, each q15-counts component rounded first."""
+    return norm2(counts(v[0]), counts(v[1]), counts(v[2]))
 
 
 def unit(v):
@@ -294,7 +302,7 @@ class RobustIMUQ(FixedFilter):
             return
         if has_acc and not first:
             # a reading beyond 100 times the gravity estimate (100 g): no reading
-            f2 = norm2(counts(self.f[0]), counts(self.f[1]), counts(self.f[2]))
+            f2 = norm2_counts(self.f)
             an2 = norm2(acc[0], acc[1], acc[2])
             if f2 < 429497 and an2 > f2 * 10000:
                 has_acc = False
@@ -304,12 +312,12 @@ class RobustIMUQ(FixedFilter):
             self.lw[i] = lowpass(self.lw[i], gyr[i], kk)
             if has_acc:
                 self.la[i] = lowpass(self.la[i], acc[i], kk)
-        w2 = norm2(counts(self.lw[0]), counts(self.lw[1]), counts(self.lw[2]))
+        w2 = norm2_counts(self.lw)
         g2 = norm2(gyr[0], gyr[1], gyr[2])
         # the accelerometer's difference from its low-pass, counts, within +-32767
         e = [ci.sat_q15s(ci.sub_sat32(acc[i], counts(self.la[i]))) for i in range(3)]
         d2 = norm2(e[0], e[1], e[2])
-        a2 = norm2(counts(self.la[0]), counts(self.la[1]), counts(self.la[2]))
+        a2 = norm2_counts(self.la)
         if (has_acc and w2 < k["rest_g2"] and g2 < k["rest_g2"]
                 and (d2 >> 2) < ci.scale32_s(a2 >> 2, k["kacc2"], 0, 0)):
             if self.n_rest < k["n_rest"]:
