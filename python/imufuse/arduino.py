@@ -51,6 +51,9 @@ EXAMPLES: Dict[str, Tuple[str, str, int, str]] = {
     "MahonyIMUQ_Uno": ("MahonyIMUQ", "p32", 96,
                        "Mahony's IMU filter in fixed point (int16 sensor counts, no float "
                        "arithmetic in the update): for an Uno"),
+    "RobustIMUQ_Uno": ("RobustIMUQ", "p32", 96,
+                       "imufuse's recommended filter (gyro and accelerometer) in fixed point "
+                       "(int16 sensor counts): for an Uno"),
 }
 #: where the examples' samples start in the shipped log (a stretch with rotation)
 FIRST_SAMPLE = 3000
