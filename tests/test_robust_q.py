@@ -151,3 +151,16 @@ def test_bias_learnt_at_rest_in_counts():
     names = f.state_names
     b = np.array([S[names.index(k)] for k in ("bx", "by", "bz")]) / 1.0642e-3
     assert np.allclose(b, [37, -21, 12], atol=0.05), b
+
+
+@pytest.mark.parametrize("mod", [imufuse_c, reference], ids=["c", "ref"])
+def test_ordinary_mistakes_are_named(mod):
+    """The mistakes users make with a fixed-point filter, each refused with what to do: the
+    gyro scale in deg/s per count, dt in milliseconds, physical units where counts belong."""
+    with pytest.raises(ValueError, match="rad/s per count.*57 times"):
+        mod.RobustIMUQ(0.01, gyr_scale=0.061)                 # deg/s per count
+    with pytest.raises(ValueError, match="looks like milliseconds"):
+        mod.RobustIMUQ(10, gyr_scale=1.0642e-3)               # dt in ms
+    f = mod.RobustIMUQ(0.01, gyr_scale=1.0642e-3)
+    with pytest.raises(ValueError, match="integer sensor counts"):
+        f.run(np.full((5, 3), 0.1), np.tile([0.0, 0.0, 1.0], (5, 1)))   # rad/s and g

@@ -208,9 +208,17 @@ class RobustIMUQ(FixedFilter):
                              f"on 8-bit targets too), got {profile!r}")
         gyr_scale = check_scale("gyr_scale", gyr_scale)
         if not 200.0 * dt <= tau_acc <= 8192.0 * dt:
+            hint = (f"; dt is in seconds (dt={dt!r} looks like milliseconds)" if dt >= 1.0
+                    else "")
             raise ValueError(f"tau_acc: must be within [200 dt, 8192 dt] = [{200.0 * dt:.4g}, "
                              f"{8192.0 * dt:.4g}] s in fixed point (B2's covariance in q30), "
-                             f"got {tau_acc!r}")
+                             f"got {tau_acc!r}{hint}")
+        if not gyr_scale * dt < 2.0 ** -15:
+            raise ValueError(f"gyr_scale: {gyr_scale!r} rad/s per count turns the gyro's full "
+                             f"scale by more than half a radian per sample at dt={dt!r} s "
+                             f"(gyr_scale dt must be below 2^-15 = {2.0 ** -15:.4g}); gyr_scale "
+                             "is in rad/s per count (2000 deg/s on 16 bits: 1.0642e-3; a deg/s "
+                             "scale is 57 times larger)")
         if rest_acc > 1.0:
             raise ValueError(f"rest_acc: must be <= 1 in fixed point, got {rest_acc!r}")
         if rest_acc > 0.0:
