@@ -40,10 +40,11 @@ static IMF_Q_NOINLINE imf_qscale_t robust_q_recip(const uint32_t x, const int N)
 static IMF_Q_NOINLINE imf_qscale_t robust_q_scale_of(const int32_t x, const int N, int *const sign)
 {
     imf_qscale_t r;
-    uint32_t u = x < 0 ? 0u - (uint32_t)x : (uint32_t)x;
+    uint32_t u = x < 0 ? 0u - (uint32_t)x : (uint32_t)x, t = u;
     int e = 0;
     *sign = x < 0 ? -1 : 1;
-    while (e < 17 && (u >> e) >= 32768u) {
+    while (t >= 32768u) { /* e: the shift that brings u below 2^15 (at most 17) */
+        t >>= 1;
         e++;
     }
     if (e > 0) {
@@ -240,7 +241,8 @@ static IMF_Q_NOINLINE int robust_q_unit(const int32_t v[3], int16_t u[3])
         const uint32_t a = v[i] < 0 ? 0u - (uint32_t)v[i] : (uint32_t)v[i];
         m = a > m ? a : m;
     }
-    while ((m >> k) > 32767u) {
+    while (m > 32767u) { /* k: the shift that brings the largest below 2^15 */
+        m >>= 1;
         k++;
     }
     for (i = 0; i < 3; ++i) {

@@ -34,9 +34,11 @@ def recip(x, N):
 def scale_of(x, N):
     """robust_q_scale_of: |x| 2^-N as a q-scale (15 leading bits, rounded) and its sign."""
     u = -x if x < 0 else x
+    t = u
     e = 0
     sign = -1 if x < 0 else 1
-    while e < 17 and (u >> e) >= 32768:
+    while t >= 32768:                    # e: the shift that brings u below 2^15 (at most 17)
+        t >>= 1
         e += 1
     if e > 0:
         u = (u + (1 << (e - 1))) >> e
@@ -167,7 +169,8 @@ def unit(v):
     """robust_q_unit: the unit vector of v, symmetric q15, or None for the zero vector."""
     m = max(abs(a) for a in v)
     k = 0
-    while (m >> k) > 32767:
+    while m > 32767:                     # k: the shift that brings the largest below 2^15
+        m >>= 1
         k += 1
     w = [ci.sat_q15s(ci.rshr32(a, k)) for a in v]
     return fq.normalise_acc(w)
