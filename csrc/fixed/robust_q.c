@@ -152,7 +152,11 @@ static IMF_Q_NOINLINE void robust_q_mul(const int16_t a[4], const int32_t b[4], 
     for (i = 0; i < 4; ++i) {
         int32_t t = 0;
         for (j = 0; j < 4; ++j) {
-            const int32_t p = imf_q_mul_hq_p32(b[robust_q_bi[i][j]], a[j]);
+            int32_t p;
+            if (a[j] == 0) {
+                continue; /* a zero term (r's last component): the same sum */
+            }
+            p = imf_q_mul_hq_p32(b[robust_q_bi[i][j]], a[j]);
             t = (robust_q_neg[i] >> j) & 1u ? imf_sub_sat32(t, p) : imf_add_sat32(t, p);
         }
         out[i] = t;

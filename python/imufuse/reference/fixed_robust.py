@@ -118,6 +118,8 @@ def qmul(a, b):
     for i in range(4):
         t = 0
         for j in range(4):
+            if a[j] == 0:
+                continue                         # a zero term (r's last component): the same sum
             p = fq.mul_hq_p32(b[BI[i][j]], a[j])
             t = ci.sub_sat32(t, p) if (NEG[i] >> j) & 1 else ci.add_sat32(t, p)
         out.append(t)
