@@ -202,3 +202,40 @@ cdef class _FixedIMU(_FixedFilter):
                 self._step(&g[k, 0], &a[k, 0])
                 memcpy(&o[k, 0], self._x, n * sizeof(int32_t))
         return out
+
+
+cdef class _FixedAHRS(_FixedFilter):
+    cdef void _step(self, const int16_t *gyr, const int16_t *acc, const int16_t *mag) noexcept nogil:
+        pass
+
+    def update(self, gyr, acc, mag):
+        """One sample: gyr (3,), acc (3,), mag (3,) in counts (int16)."""
+        if self._x == NULL:
+            _unbound(self)
+        cdef int16_t g[3]
+        cdef int16_t a[3]
+        cdef int16_t m[3]
+        gl, al, ml = _fb.fixed_update_inputs("ahrs", (gyr, acc, mag))
+        for i in range(3):
+            g[i] = <int16_t>gl[i]
+            a[i] = <int16_t>al[i]
+            m[i] = <int16_t>ml[i]
+        self._step(g, a, m)
+
+    def run(self, gyr, acc, mag):
+        """All samples: gyr, acc, mag (N, 3) int16 counts; returns the (N, len(state)) int32
+        trajectory."""
+        if self._x == NULL:
+            _unbound(self)
+        gyr_a, acc_a, mag_a = _fb.fixed_run_inputs("ahrs", (gyr, acc, mag))
+        cdef Py_ssize_t n_samples = gyr_a.shape[0], n = self._n, k
+        out = np.empty((n_samples, n), dtype=np.int32)
+        cdef const int16_t[:, ::1] g = gyr_a
+        cdef const int16_t[:, ::1] a = acc_a
+        cdef const int16_t[:, ::1] m = mag_a
+        cdef int32_t[:, ::1] o = out
+        with nogil:
+            for k in range(n_samples):
+                self._step(&g[k, 0], &a[k, 0], &m[k, 0])
+                memcpy(&o[k, 0], self._x, n * sizeof(int32_t))
+        return out

@@ -191,10 +191,15 @@ EXTRA_FIXED_CASES = [
     Case("MahonyIMUQ", dict(dt=1 / 512, kp=1.0, ki=0.05, gyr_scale=1.0642e-3)),
     Case("MadgwickIMUQ", dict(dt=1 / 512, beta=0.1, gyr_scale=1.0642e-3)),
     Case("RobustIMUQ", dict(dt=1 / 512, gyr_scale=1.0642e-3), "defaults"),
-    # every option off or on against the defaults: the output latency, a constant process
-    # noise (rate_ref 0), no bias in motion (tau_bias 0), a short rest
-    Case("RobustIMUQ", dict(dt=1 / 512, latency=0.004, rate_ref=0.0, tau_bias=0.0,
-                            rest_time=0.2, gyr_scale=1.0642e-3), "options"),
+    Case("RobustAHRSQ", dict(dt=1 / 512, gyr_scale=1.0642e-3), "defaults"),
+    # every option off or on against the defaults (the IMU's blocks are the same code in
+    # both classes): the output latency, a constant process noise (rate_ref 0), no bias in
+    # motion (tau_bias 0), a short rest; B4 with short horizons (hold, new field,
+    # reference), no dip test, a narrow norm test
+    Case("RobustAHRSQ", dict(dt=1 / 512, latency=0.004, rate_ref=0.0, tau_bias=0.0,
+                             rest_time=0.2, mag_hold=0.02, mag_new_time=0.3, tau_mag_ref=0.5,
+                             tau_mag=1.0, mag_dip=90.0, mag_norm=0.02, gyr_scale=1.0642e-3),
+         "options"),
 ]
 
 

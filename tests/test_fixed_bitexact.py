@@ -13,6 +13,7 @@ import cbuild  # noqa: E402
 import imufuse.reference as reference  # noqa: E402
 from imufuse import catalogue  # noqa: E402
 from registry import FIXED_CASES, fixed_matrix  # noqa: E402
+from imufuse._checks import KINDS  # noqa: E402
 
 N = 600
 
@@ -44,12 +45,32 @@ def inputs(kind, seq, n=N, seed=0):
         # +-2 counts of noise: the normalisation must hold |q| at 1 (issue 10)
         "rest": (np.zeros((n, 3), int), np.tile([0, 0, 4096], (n, 1))),
         "rest_noise": (g.integers(-2, 3, (n, 3)), g.integers(-2, 3, (n, 3)) + [0, 2896, 2896]),
+        "zero_mag": (g.integers(-2000, 2000, (n, 3)), g.integers(-3000, 3000, (n, 3))),
+        # B4's branches: a steady field, a magnet attached (a new field, steady: it becomes
+        # the reference), removed again, and a field straight down (no heading)
+        "mag_steps": (g.integers(-40, 40, (n, 3)), g.integers(-20, 20, (n, 3)) + [0, 0, 4096]),
     }[seq]
+    if kind == "ahrs":
+        field = np.array([1200, 300, -2000])
+        s = s + ({
+            "random": g.integers(-900, 900, (n, 3)) + field,
+            "full": g.integers(lo, hi + 1, (n, 3)),
+            "extreme": np.where((t + np.arange(3)) % 5, hi, lo) * np.ones((n, 3), int),
+            "sine": (2400 * np.cos(t / 70 + np.arange(3) * 2)).astype(int),
+            "zero_acc": g.integers(-3, 4, (n, 3)) + field,
+            "rest": np.tile(field, (n, 1)),
+            "rest_noise": g.integers(-3, 4, (n, 3)) + field,
+            "zero_mag": np.zeros((n, 3), int),
+            "mag_steps": g.integers(-3, 4, (n, 3)) + np.select(
+                [t < n // 4, t < n // 2, t < 3 * n // 4], [field, field + [2500, -900, 400],
+                                                            field], [[0, 0, -1500]]),
+        }[seq],)
     return tuple(np.asarray(a, dtype=np.int16) for a in s)
 
 
 SEQS = ("random", "full", "extreme", "sine")
 SEQS_KIND = {"1d": SEQS + ("zero",), "imu": SEQS + ("zero_acc", "rest", "rest_noise")}
+SEQS_KIND["ahrs"] = SEQS_KIND["imu"] + ("zero_mag", "mag_steps")
 
 
 def c_driver_run(case, profile, arrays, state=None, params=None):
@@ -98,7 +119,7 @@ def _compiled():
 
 
 @needs_gcc
-@pytest.mark.parametrize("case,profile", [p for p in fixed_matrix() if p.values[0].kind == "imu"])
+@pytest.mark.parametrize("case,profile", [p for p in fixed_matrix() if p.values[0].kind != "1d"])
 def test_c_driver_exact_axis_readings(case, profile):
     """A still sensor whose quantised accelerometer reads exactly +-1 g along one axis (a
     board lying flat, on its side, upside down: the readings real MEMS parts give), each axis
@@ -116,6 +137,11 @@ def test_c_driver_exact_axis_readings(case, profile):
     # from power-up with the board upside down, then every axis in turn
     order = np.r_[np.arange(180, 225), np.arange(len(rows))]
     arrays = (g[order], a[order])
+    if case.kind == "ahrs":
+        # a constant field, exactly along an axis too: vertical (no heading) while upside
+        # down, then horizontal
+        m = np.where(np.arange(len(order))[:, None] < 45, [0, 0, 2000], [2000, 0, 0])
+        arrays += (m.astype(np.int16),)
     want = case.make_fixed("ref", profile).run(*arrays)
     np.testing.assert_array_equal(c_driver_run(case, profile, arrays), want)
 
@@ -160,7 +186,7 @@ def _hyp(kind):
         return st.lists(st.tuples(c, c), min_size=1, max_size=80).map(
             lambda rows: tuple(np.array(col, dtype=np.int16) for col in zip(*rows)))
     v = st.tuples(c, c, c)
-    return st.lists(st.tuples(v, v), min_size=1, max_size=60).map(
+    return st.lists(st.tuples(*[v] * len(KINDS[kind])), min_size=1, max_size=60).map(
         lambda rows: tuple(np.array(col, dtype=np.int16) for col in zip(*rows)))
 
 
@@ -228,6 +254,10 @@ PARAM_SPACE = {
                        tau_rest=_logu(1e-3, 10.0), latency=st.floats(0.0, 0.1),
                        gyr_scale=_logu(1e-6, 1e-3)),
 }
+PARAM_SPACE["RobustAHRSQ"] = dict(
+    PARAM_SPACE["RobustIMUQ"], tau_mag=_logu(1e-3, 1e3), mag_norm=st.floats(0.0, 1.0),
+    mag_dip=st.floats(0.0, 180.0), tau_mag_ref=_logu(1e-3, 1e3),
+    mag_new_time=st.floats(0.0, 50.0), mag_hold=st.floats(0.0, 5.0))
 STATE_SIZE = {e.name: len(e.state_names) for e in catalogue.FIXED}
 
 

@@ -51,6 +51,7 @@ N = 300_000
 SETTLE = 60.0           # s a filter is given to converge after each motion
 GYR_SCALE = 1.0642e-3   # rad/s per count (+-2000 deg/s) for the 3-D fixed filters
 ACC_1G = 4096           # counts per g
+MAG_1 = 333             # magnetometer counts per unit field: 50 uT at 0.15 uT per count
 
 
 def _q_roll(deg):
@@ -203,7 +204,10 @@ def fixed_inputs(case, name):
     gs = case.params["gyr_scale"]
     if case.kind == "1d":
         return counts(d.gyr[:, 0], gs), counts(_acc_angle(d.acc), case.params["angle_scale"])
-    return counts(d.gyr, gs), counts(d.acc, 1.0 / case.params.get("acc_1g", ACC_1G))
+    out = counts(d.gyr, gs), counts(d.acc, 1.0 / case.params.get("acc_1g", ACC_1G))
+    if case.kind == "ahrs":
+        out += (counts(d.mag, 1.0 / MAG_1),)
+    return out
 
 
 def state_float(f, S):
@@ -244,11 +248,16 @@ def run_twin(case, profile, inputs, dtype="float64"):
     p["dt"] = DT
     if case.name == "MadgwickIMUQ":
         p["delta_s"] = "simplified"
+    if case.kind == "ahrs":
+        p["mag_learn"] = False     # the fixed-point AHRS has no B6: the float without it
     f = getattr(imufuse_c, twin_name(case))(**p, dtype=dtype)
     gs = effective_gyr_scale(case, profile)
     if case.kind == "1d":
         r, a = inputs
         return f.run((r * gs).astype(dtype), (a * case.params["angle_scale"]).astype(dtype))
+    if case.kind == "ahrs":
+        g, a, m = inputs
+        return f.run((g * gs).astype(dtype), a.astype(dtype), m.astype(dtype))
     g, a = inputs
     return f.run((g * gs).astype(dtype), a.astype(dtype))
 

@@ -132,6 +132,9 @@ def _wrap(line: str, indent: int = 4) -> str:
 _STEP_FIXED = {
     ("int16_t", "int16_t"): ("_Fixed1D", "int16_t rate, int16_t angle", "rate, angle"),
     ("int16_t*", "int16_t*"): ("_FixedIMU", "const int16_t *gyr, const int16_t *acc", "gyr, acc"),
+    ("int16_t*", "int16_t*", "int16_t*"): (
+        "_FixedAHRS", "const int16_t *gyr, const int16_t *acc, const int16_t *mag",
+        "gyr, acc, mag"),
 }
 
 
@@ -182,7 +185,7 @@ def _bind_filter(cp, name: str, c: str, text: str, rel_h: str, fixed: bool,
     if settings is not None:
         out.append(f"    ctypedef struct {settings}:\n")
         out.extend(f"        {m.ctype} {m.name}\n" for m in values)
-    funcs = (("update", True),) if fixed else (("update", True), ("set_dt", True),
+    funcs = (("update", True), ("set_mag_offset", False)) if fixed else (("update", True), ("set_dt", True),
                                                ("set_attitude", False), ("angles", False),
                                                ("get_mag_offset", False),
                                                ("set_mag_offset", False))
@@ -196,7 +199,8 @@ def _bind_filter(cp, name: str, c: str, text: str, rel_h: str, fixed: bool,
         key = tuple(p.ctype + ("*" if p.vector else "") for p in update)
         if key not in _STEP_FIXED:
             raise BindError(f"{rel_h}: {c}_update() takes {key}; a generated binding takes "
-                            "(int16_t rate, int16_t angle) or (const int16_t *gyr, const int16_t *acc)")
+                            "(int16_t rate, int16_t angle), (const int16_t *gyr, const int16_t "
+                            "*acc) or (const int16_t *gyr, const int16_t *acc, const int16_t *mag)")
         base, step_sig, step_call = _STEP_FIXED[key]
     else:
         if len(update) not in _STEP:
@@ -236,6 +240,14 @@ def _bind_filter(cp, name: str, c: str, text: str, rel_h: str, fixed: bool,
                  "        return roll, pitch\n"]
     elif angles_doc is not None:
         raise BindError(f"the twin {name} has angles(): declare {c}_angles() in {rel_h}")
+    if fixed and proto(f"{c}_set_mag_offset", False):
+        body += ["\n    def set_mag_offset(self, offset):\n",
+                 f'        """As imufuse.reference.{name}.set_mag_offset."""\n',
+                 "        if self._x == NULL:\n",
+                 "            _unbound(self)\n",
+                 "        cdef int16_t o[3]\n",
+                 f"        o[0], o[1], o[2] = _reference.{name}._offset_counts(offset)\n",
+                 f"        {c}_set_mag_offset(&self.s, o)\n"]
     if not fixed and proto(f"{c}_get_mag_offset", False):
         if proto(f"{c}_set_mag_offset", False) is None:
             raise BindError(f"{rel_h} declares {c}_get_mag_offset() without _set_mag_offset()")

@@ -255,6 +255,44 @@ static IMF_Q_NOINLINE int robust_q_unit(const int32_t v[3], int16_t u[3])
     return imf_q_normalise_acc(w, u);
 }
 
+/* (1 + c, a, b) normalised, symmetric q15, for a unit (c, a, b) in q15: the rotation
+ * half way to the one that turns the direction (c, .) onto the axis. Where it is 0
+ * (c = -1: turned over), (0, 1, 0): any half turn is a smallest rotation; this one. */
+static IMF_Q_NOINLINE void robust_q_half(const int16_t c, const int16_t a, const int16_t b,
+                                         int16_t r[3])
+{
+    const uint32_t rw = (uint32_t)(32768L + c); /* [1, 65535] */
+    const uint32_t n2 = ((rw * rw) >> 2) + ((uint32_t)imf_mul16(a, a) >> 2)
+                        + ((uint32_t)imf_mul16(b, b) >> 2); /* q28 */
+    if (n2 != 0u) {
+        int sh;
+        const uint16_t y = imf_invsqrt_u32(n2, &sh); /* 1/|r| = y 2^(14 - sh) */
+        const uint32_t r0 = (rw * y + ((uint32_t)1 << (sh - 15))) >> (sh - 14);
+        r[0] = (int16_t)(r0 > 32767u ? 32767u : r0);
+        r[1] = imf_sat_q15s(imf_rshr32((int32_t)a * (int32_t)y, sh - 14));
+        r[2] = imf_sat_q15s(imf_rshr32((int32_t)b * (int32_t)y, sh - 14));
+    } else {
+        r[0] = 0;
+        r[1] = 32767;
+        r[2] = 0;
+    }
+}
+
+/* q = (1 + dw, 0, 0, dz) (x) q, a turn about earth z (dw, dz q30, small but any), then
+ * normalised: q_i + dw q_i + dz (-q3, -q2, q1, q0)_i, products of q's q15 snapshot */
+static IMF_Q_NOINLINE void robust_q_turn_z(int32_t q[4], const int32_t dw, const int32_t dz)
+{
+    int16_t qs[4];
+    int i;
+    imf_q_snapshot(q, qs);
+    for (i = 0; i < 4; ++i) {
+        const int16_t o = qs[3 - i];
+        q[i] = imf_add_sat32(imf_add_sat32(q[i], imf_q_mul_hq_p32(dw, qs[i])),
+                             imf_q_mul_hq_p32(dz, i < 2 ? (int16_t)-o : o));
+    }
+    robust_q_renorm(q);
+}
+
 /* ---- init ----------------------------------------------------------------------- */
 
 /* a q-scale constant: 0, or its shift within [smin, smax] */
@@ -279,23 +317,23 @@ void imf_robust_imu_q_default_settings(imf_robust_imu_q_settings_t *const s)
     s->profile = 32;
 }
 
-int imf_robust_imu_q_init_consts(imf_robust_imu_q_t *const self,
-                                 const imf_robust_imu_q_consts_t *const k)
+/* the IMU constants in range (shifts of imf_scale32_s: kg (gyr_scale dt < 2^-15), klat,
+ * eps (e in [1/8192, 1/200]), kq, the low-pass gains, kbias, kacc2) */
+static int robust_q_consts_ok(const imf_robust_imu_q_consts_t *const k)
 {
-    imf_robust_imu_q_state_t *const x = &self->x;
+    return !(k->kg.m == 0 || !imf_qscale_ok(k->kg, 31, 62) || !robust_q_ok(k->klat, 15, 62)
+             || k->eps.m == 0 || !imf_qscale_ok(k->eps, 22, 27) || !robust_q_ok(k->kq, 30, 62)
+             || k->k_rest.m == 0 || !imf_qscale_ok(k->k_rest, 0, 47) || k->kb_rest.m == 0
+             || !imf_qscale_ok(k->kb_rest, 0, 47) || !robust_q_ok(k->kbias, -15, 32)
+             || !imf_qscale_ok(k->kacc2, 14, 47) || k->qg0 < 16 || k->qcap < k->qg0 || k->pg0 <= 0
+             || k->n_tau < 0 || k->n_acc < 0 || k->n_rest < 0 || k->n_max < k->n_tau
+             || k->n_max < k->n_acc || k->n_max > 1073741824L);
+}
+
+/* the IMU state at power-up */
+static void robust_q_clear(imf_robust_imu_q_state_t *const x)
+{
     int i;
-    /* shifts of imf_scale32_s in range: kg (gyr_scale dt < 2^-15), klat, eps (e in
-     * [1/8192, 1/200]), kq, the low-pass gains, kbias, kacc2 */
-    if (k->kg.m == 0 || !imf_qscale_ok(k->kg, 31, 62) || !robust_q_ok(k->klat, 15, 62)
-        || k->eps.m == 0 || !imf_qscale_ok(k->eps, 22, 27) || !robust_q_ok(k->kq, 30, 62)
-        || k->k_rest.m == 0 || !imf_qscale_ok(k->k_rest, 0, 47) || k->kb_rest.m == 0
-        || !imf_qscale_ok(k->kb_rest, 0, 47) || !robust_q_ok(k->kbias, -15, 32)
-        || !imf_qscale_ok(k->kacc2, 14, 47) || k->qg0 < 16 || k->qcap < k->qg0 || k->pg0 <= 0
-        || k->n_tau < 0 || k->n_acc < 0 || k->n_rest < 0 || k->n_max < k->n_tau
-        || k->n_max < k->n_acc || k->n_max > 1073741824L) {
-        return -1;
-    }
-    self->k = *k;
     for (i = 0; i < 4; ++i) {
         x->q[i] = x->s[i] = x->c[i] = i == 0 ? IMF_Q30_ONE : 0;
     }
@@ -303,6 +341,16 @@ int imf_robust_imu_q_init_consts(imf_robust_imu_q_t *const self,
         x->f[i] = x->v[i] = x->p[i] = x->b[i] = x->lw[i] = x->la[i] = 0;
     }
     x->n = x->n_rest = 0;
+}
+
+int imf_robust_imu_q_init_consts(imf_robust_imu_q_t *const self,
+                                 const imf_robust_imu_q_consts_t *const k)
+{
+    if (!robust_q_consts_ok(k)) {
+        return -1;
+    }
+    self->k = *k;
+    robust_q_clear(&self->x);
     return 0;
 }
 
@@ -313,8 +361,9 @@ static int32_t robust_q_ceil(const double v)
     return (c >= 0.0 && c <= 1073741824.0) ? (int32_t)c : -1;
 }
 
-int imf_robust_imu_q_init(imf_robust_imu_q_t *const self,
-                          const imf_robust_imu_q_settings_t *const s)
+/* the IMU constants from the settings: 0, or -1 for a parameter out of range */
+static int robust_q_consts(const imf_robust_imu_q_settings_t *const s,
+                           imf_robust_imu_q_consts_t *const kp)
 {
     imf_robust_imu_q_consts_t k;
     const double dt = s->dt, gs = s->gyr_scale, e = s->dt / s->tau_acc;
@@ -348,16 +397,28 @@ int imf_robust_imu_q_init(imf_robust_imu_q_t *const self,
         || (s->latency > 0.0 && k.klat.m == 0) || (s->rest_acc > 0.0 && k.kacc2.m == 0)) {
         return -1;
     }
+    *kp = k;
+    return 0;
+}
+
+int imf_robust_imu_q_init(imf_robust_imu_q_t *const self,
+                          const imf_robust_imu_q_settings_t *const s)
+{
+    imf_robust_imu_q_consts_t k;
+    if (robust_q_consts(s, &k) != 0) {
+        return -1;
+    }
     return imf_robust_imu_q_init_consts(self, &k);
 }
 
 /* ---- the update ----------------------------------------------------------------- */
 
-void imf_robust_imu_q_update(imf_robust_imu_q_t *const self, const int16_t gyr[3],
-                             const int16_t acc[3])
+/* B1, B2, B3 and B5 of one sample; returns 0 when the sample is not taken (no start
+ * without an accelerometer reading), then nothing else runs */
+static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
+                         imf_robust_imu_q_state_t *const x, const int16_t gyr[3],
+                         const int16_t acc[3])
 {
-    const imf_robust_imu_q_consts_t *const k = &self->k;
-    imf_robust_imu_q_state_t *const x = &self->x;
     const int first = x->n == 0;
     /* an all-zero accelerometer is no reading: gyro only (and no start without one) */
     int has_acc = !(acc[0] == 0 && acc[1] == 0 && acc[2] == 0);
@@ -367,7 +428,7 @@ void imf_robust_imu_q_update(imf_robust_imu_q_t *const self, const int16_t gyr[3
     imf_qscale_t kk;
     int rest, i;
     if (first && !has_acc) {
-        return;
+        return 0;
     }
     if (has_acc && !first) {
         /* a reading beyond 100 times the gravity estimate (100 g) is a shock or a
@@ -466,23 +527,8 @@ void imf_robust_imu_q_update(imf_robust_imu_q_t *const self, const int16_t gyr[3
     robust_q_matrix(ss, rm);
     robust_q_rotate(rm, 0, x->f, ge);
     if (robust_q_unit(ge, u)) {
-        const uint32_t rw = (uint32_t)(32768L + u[2]); /* [1, 65535] */
-        const uint32_t n2 = ((rw * rw) >> 2) + ((uint32_t)imf_mul16(u[1], u[1]) >> 2)
-                            + ((uint32_t)imf_mul16(u[0], u[0]) >> 2); /* q28 */
-        if (n2 != 0u) {
-            int sh;
-            const uint16_t y = imf_invsqrt_u32(n2, &sh); /* 1/|r| = y 2^(14 - sh) */
-            const uint32_t r0 = (rw * y + ((uint32_t)1 << (sh - 15))) >> (sh - 14);
-            r[0] = (int16_t)(r0 > 32767u ? 32767u : r0);
-            r[1] = imf_sat_q15s(imf_rshr32((int32_t)u[1] * (int32_t)y, sh - 14));
-            r[2] = imf_sat_q15s(imf_rshr32(-(int32_t)u[0] * (int32_t)y, sh - 14));
-        } else {
-            /* gravity straight down (upside down, r = 0): any half turn about a horizontal
-               axis is a smallest rotation; about x */
-            r[0] = 0;
-            r[1] = 32767;
-            r[2] = 0;
-        }
+        /* gravity straight down (upside down): the half turn about x */
+        robust_q_half(u[2], u[1], (int16_t)-u[0], r);
     } else {
         /* no gravity estimate (a zero vector): no correction */
         r[0] = 32767;
@@ -511,15 +557,246 @@ void imf_robust_imu_q_update(imf_robust_imu_q_t *const self, const int16_t gyr[3
                 imf_sub_sat32(x->b[i], imf_scale32_s(imf_add_sat32(e[i], e[i]), k->kbias, 30, 15));
         }
     }
-    /* the output predicted by the latency with the bias-corrected rate */
+    return 1;
+}
+
+/* the end of every update: the output predicted by the latency with the bias-corrected
+ * rate, then the clock of the start-up (saturating) */
+static void robust_q_finish(const imf_robust_imu_q_consts_t *const k,
+                            imf_robust_imu_q_state_t *const x, const int16_t gyr[3])
+{
+    int32_t h[3];
+    int i;
     if (k->klat.m != 0) {
         for (i = 0; i < 3; ++i) {
             h[i] = imf_scale32_s(imf_sub_sat32((int32_t)gyr[i] * 32768L, x->b[i]), k->klat, 15, 30);
         }
         robust_q_exp(x->q, h);
     }
-    /* the clock of the start-up (saturating) */
     if (x->n < k->n_max) {
         x->n++;
+    }
+}
+
+void imf_robust_imu_q_update(imf_robust_imu_q_t *const self, const int16_t gyr[3],
+                             const int16_t acc[3])
+{
+    if (robust_q_step(&self->k, &self->x, gyr, acc)) {
+        robust_q_finish(&self->k, &self->x, gyr);
+    }
+}
+
+/* ---- RobustAHRSQ: B4, the magnetometer confined to heading ------------------------ */
+
+void imf_robust_ahrs_q_default_settings(imf_robust_ahrs_q_settings_t *const s)
+{
+    imf_robust_imu_q_settings_t m;
+    imf_robust_imu_q_default_settings(&m);
+    s->dt = m.dt;
+    s->tau_acc = m.tau_acc;
+    s->rate_ref = m.rate_ref;
+    s->tau_bias = m.tau_bias;
+    s->tau_bias_rest = m.tau_bias_rest;
+    s->rest_gyr = m.rest_gyr;
+    s->rest_acc = m.rest_acc;
+    s->rest_time = m.rest_time;
+    s->tau_rest = m.tau_rest;
+    s->latency = m.latency;
+    s->tau_mag = 10.0;
+    s->mag_norm = 0.1;
+    s->mag_dip = 0.17364817766693033; /* sin 10 deg */
+    s->tau_mag_ref = 20.0;
+    s->mag_new_time = 20.0;
+    s->mag_hold = 0.5;
+    s->mag_learn = 0;
+    s->gyr_scale = m.gyr_scale;
+    s->profile = m.profile;
+}
+
+int imf_robust_ahrs_q_init_consts(imf_robust_ahrs_q_t *const self,
+                                  const imf_robust_ahrs_q_consts_t *const k)
+{
+    imf_robust_ahrs_q_state_t *const x = &self->x;
+    int i;
+    /* the IMU's; mag_norm <= 1; B4's horizons within n_max */
+    if (!robust_q_consts_ok(&k->imu) || k->k_mag.m == 0 || !imf_qscale_ok(k->k_mag, 0, 47)
+        || k->k_ref.m == 0 || !imf_qscale_ok(k->k_ref, 0, 47) || !robust_q_ok(k->knorm, 14, 47)
+        || k->kdip < 0 || k->n_mag < 0 || k->n_ref < 0 || k->n_hold < 0 || k->n_new < 0
+        || k->imu.n_max < k->n_mag || k->imu.n_max < k->n_ref) {
+        return -1;
+    }
+    self->k = *k;
+    robust_q_clear(&x->imu);
+    for (i = 0; i < 3; ++i) {
+        x->u[i] = 0;
+    }
+    x->rn = x->rh = x->rz = x->cn = x->ch = x->cz = 0;
+    x->n_ok = x->n_dist = x->n_cand = 0;
+    return 0;
+}
+
+int imf_robust_ahrs_q_init(imf_robust_ahrs_q_t *const self,
+                           const imf_robust_ahrs_q_settings_t *const s)
+{
+    imf_robust_ahrs_q_consts_t k;
+    imf_robust_imu_q_settings_t m;
+    const double dt = s->dt;
+    m.dt = dt;
+    m.tau_acc = s->tau_acc;
+    m.rate_ref = s->rate_ref;
+    m.tau_bias = s->tau_bias;
+    m.tau_bias_rest = s->tau_bias_rest;
+    m.rest_gyr = s->rest_gyr;
+    m.rest_acc = s->rest_acc;
+    m.rest_time = s->rest_time;
+    m.tau_rest = s->tau_rest;
+    m.latency = s->latency;
+    m.gyr_scale = s->gyr_scale;
+    m.profile = s->profile;
+    if (robust_q_consts(&m, &k.imu) != 0 || !(s->tau_mag > 0.0) || !(s->tau_mag_ref > 0.0)
+        || !imf_param_ok(s->mag_norm, 0.0, 1.0) || !imf_param_ok(s->mag_dip, 0.0, 1e30)
+        || !imf_param_ok(s->mag_new_time, 0.0, 1e30) || !imf_param_ok(s->mag_hold, 0.0, 1e30)
+        || s->mag_learn != 0) {
+        return -1;
+    }
+    k.k_mag = imf_qscale_from_double(dt / (s->tau_mag + dt));
+    k.k_ref = imf_qscale_from_double(dt / (s->tau_mag_ref + dt));
+    k.knorm = imf_qscale_from_double(s->mag_norm);
+    k.kdip = s->mag_dip >= 2.0 ? 2147483647L : (int32_t)floor(s->mag_dip * 1073741824.0 + 0.5);
+    k.n_mag = robust_q_ceil(s->tau_mag / dt);
+    k.n_ref = robust_q_ceil(s->tau_mag_ref / dt);
+    k.n_hold = robust_q_ceil(s->mag_hold / dt);
+    k.n_new = robust_q_ceil(s->mag_new_time / dt);
+    k.imu.n_max = k.imu.n_max > k.n_mag ? k.imu.n_max : k.n_mag;
+    k.imu.n_max = k.imu.n_max > k.n_ref ? k.imu.n_max : k.n_ref;
+    if (s->mag_norm > 0.0 && k.knorm.m == 0) {
+        return -1;
+    }
+    return imf_robust_ahrs_q_init_consts(self, &k);
+}
+
+void imf_robust_ahrs_q_set_mag_offset(imf_robust_ahrs_q_t *const self, const int16_t offset[3])
+{
+    int i;
+    for (i = 0; i < 3; ++i) {
+        self->x.u[i] = offset[i];
+    }
+}
+
+/* the field matches the reference (n, h, z): norm within mag_norm n and dip within
+ * mag_dip (the sine of the dip difference: zn h - hn z, q30) */
+static IMF_Q_NOINLINE int robust_q_mag_test(const imf_robust_ahrs_q_consts_t *const k,
+                                            const int32_t mn, const int16_t hn, const int16_t zn,
+                                            const int32_t n, const int32_t h, const int32_t z)
+{
+    const int32_t dn = imf_sub_sat32(mn, n);
+    const int32_t tn = imf_scale32_s(n, k->knorm, 15, 15);
+    const int32_t dd = imf_mul16(zn, imf_qn_to_q15s(h, 30)) - imf_mul16(hn, imf_qn_to_q15s(z, 30));
+    return dn < tn && imf_sub_sat32(0, dn) < tn && dd < k->kdip && -dd < k->kdip;
+}
+
+/* B4: heading from the magnetometer (counts, less the stored offset) */
+static void robust_q_mag(const imf_robust_ahrs_q_consts_t *const k,
+                         imf_robust_ahrs_q_state_t *const xm, const int16_t mag[3])
+{
+    imf_robust_imu_q_state_t *const x = &xm->imu;
+    int16_t qs[4], rm[9], m[3], u[3], ch[3], f[3], hn;
+    int32_t me[3], mn = 0;
+    imf_qscale_t kk;
+    int horiz, match, i;
+    if (mag[0] == 0 && mag[1] == 0 && mag[2] == 0) {
+        return; /* no reading: gyro and accelerometer only */
+    }
+    /* the reading less the offset in use, counts within +-32767, in the earth frame */
+    for (i = 0; i < 3; ++i) {
+        m[i] = imf_sat_q15s(imf_sub_sat32(mag[i], xm->u[i]));
+    }
+    imf_q_snapshot(x->q, qs);
+    robust_q_matrix(qs, rm);
+    robust_q_rotate16(rm, 0, m, me); /* q15 counts */
+    if (!robust_q_unit(me, u)) {
+        return; /* no usable reading: gyro and accelerometer only */
+    }
+    /* the norm |m| = m . u (q15 counts); the horizontal direction ch; the dip's cosine
+       hn = u . ch and sine u[2] */
+    for (i = 0; i < 3; ++i) {
+        mn = imf_add_sat32(mn, imf_q_mul_hq_p32(me[i], u[i]));
+    }
+    me[2] = 0;
+    horiz = robust_q_unit(me, ch);
+    hn = horiz ? imf_qn_to_q15s(imf_mul16(u[0], ch[0]) + imf_mul16(u[1], ch[1]), 30) : 0;
+    if (xm->rn == 0) {
+        /* first reading: it is the reference */
+        xm->rn = xm->cn = mn;
+        xm->rh = xm->ch = (int32_t)hn * 32768L;
+        xm->rz = xm->cz = (int32_t)u[2] * 32768L;
+        xm->n_ok = k->n_hold;
+    }
+    match = robust_q_mag_test(k, mn, hn, u[2], xm->rn, xm->rh, xm->rz);
+    if (!match) {
+        xm->n_ok = 0;
+    } else if (xm->n_ok < k->n_hold) {
+        xm->n_ok++;
+    }
+    if (match && xm->n_ok >= k->n_hold) {
+        xm->n_dist = 0;
+        xm->n_cand = 0;
+        kk = robust_q_gain(x->n, k->n_ref, k->k_ref);
+        xm->rn = imf_add_sat32(xm->rn, imf_scale32_s(imf_sub_sat32(mn, xm->rn), kk, 15, 15));
+        xm->rh = robust_q_lowpass(xm->rh, hn, kk);
+        xm->rz = robust_q_lowpass(xm->rz, u[2], kk);
+        xm->cn = mn;
+        xm->ch = (int32_t)hn * 32768L;
+        xm->cz = (int32_t)u[2] * 32768L;
+        if (!horiz) {
+            return; /* field vertical: no heading information */
+        }
+        /* heading: the rotation about earth z that turns the horizontal field onto north
+           (+x), (1 + cos, 0, 0, -sin) normalised, taken by the fraction k:
+           (1 + k (f_w - 1), k f_z), normalised with c and q */
+        robust_q_half(ch[0], (int16_t)-ch[1], 0, f);
+        kk = robust_q_gain(x->n, k->n_mag, k->k_mag);
+        {
+            const int32_t dw = imf_scale32_s((int32_t)f[0] - 32768L, kk, 15, 30);
+            const int32_t dz = imf_scale32_s(f[1], kk, 15, 30);
+            robust_q_turn_z(x->c, dw, dz);
+            robust_q_turn_z(x->q, dw, dz);
+        }
+    } else {
+        /* disturbed (or not yet matching for mag_hold): no heading correction; a new field
+           that stays the same for mag_new_time of motion becomes the reference */
+        if (xm->n_dist < 1073741824L) {
+            xm->n_dist++;
+        }
+        if (robust_q_mag_test(k, mn, hn, u[2], xm->cn, xm->ch, xm->cz)) {
+            const imf_qscale_t kr = k->imu.k_rest;
+            xm->cn = imf_add_sat32(xm->cn, imf_scale32_s(imf_sub_sat32(mn, xm->cn), kr, 15, 15));
+            xm->ch = robust_q_lowpass(xm->ch, hn, kr);
+            xm->cz = robust_q_lowpass(xm->cz, u[2], kr);
+            if (x->n_rest < k->imu.n_rest && xm->n_cand < k->n_new) {
+                /* only motion counts: at rest an attached magnet's field is steady too */
+                xm->n_cand++;
+            }
+            if (xm->n_cand >= k->n_new) {
+                xm->rn = xm->cn;
+                xm->rh = xm->ch;
+                xm->rz = xm->cz;
+                xm->n_cand = 0;
+            }
+        } else {
+            xm->cn = mn;
+            xm->ch = (int32_t)hn * 32768L;
+            xm->cz = (int32_t)u[2] * 32768L;
+            xm->n_cand = 0;
+        }
+    }
+}
+
+void imf_robust_ahrs_q_update(imf_robust_ahrs_q_t *const self, const int16_t gyr[3],
+                              const int16_t acc[3], const int16_t mag[3])
+{
+    if (robust_q_step(&self->k.imu, &self->x.imu, gyr, acc)) {
+        robust_q_mag(&self->k, &self->x, mag);
+        robust_q_finish(&self->k.imu, &self->x.imu, gyr);
     }
 }

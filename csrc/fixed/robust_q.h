@@ -123,6 +123,89 @@ int imf_robust_imu_q_init_consts(imf_robust_imu_q_t *self, const imf_robust_imu_
  * accelerometer is no reading, and no start without one). */
 void imf_robust_imu_q_update(imf_robust_imu_q_t *self, const int16_t gyr[3], const int16_t acc[3]);
 
+/* ---- RobustAHRSQ: RobustIMUQ and B4, the magnetometer confined to heading --------
+ *
+ * The magnetometer in counts, any unit (B4 is relative to its own learned reference).
+ * B6 (the offset learnt while turning) is not built: mag_learn must be 0, and the
+ * offset is the stored one (imf_robust_ahrs_q_set_mag_offset, counts).
+ *
+ * State x: RobustIMUQ's, then
+ *   u[3]     the offset in use, counts
+ *   rn       reference field norm, q15 counts; rh, rz its horizontal and vertical
+ *            parts relative to the norm (cos and sin of the dip), q30
+ *   cn, ch, cz  the candidate reference, the same formats
+ *   n_ok     samples the field has matched the reference (saturating at mag_hold)
+ *   n_dist   samples since the field was last used (saturating at 2^30)
+ *   n_cand   samples of motion the candidate has stayed the same
+ *
+ * Ranges: RobustIMUQ's; tau_mag, tau_mag_ref, mag_new_time, mag_hold up to 2^30
+ * samples; mag_norm 0 .. 1; mag_dip (a sine) >= 0.
+ */
+typedef struct {
+    imf_robust_imu_q_state_t imu; /* RobustIMUQ's state (above) */
+    int32_t u[3];                 /* offset in use, counts */
+    int32_t rn, rh, rz;           /* reference: norm q15 counts; cos, sin of the dip q30 */
+    int32_t cn, ch, cz;           /* candidate reference, the same */
+    int32_t n_ok, n_dist, n_cand; /* sample counters */
+} imf_robust_ahrs_q_state_t;
+
+typedef struct {
+    imf_robust_imu_q_consts_t imu; /* RobustIMUQ's constants (n_max covers B4's horizons) */
+    imf_qscale_t k_mag;            /* dt / (tau_mag + dt) */
+    imf_qscale_t k_ref;            /* dt / (tau_mag_ref + dt) */
+    imf_qscale_t knorm;            /* mag_norm (m 0: the field never matches) */
+    int32_t kdip;                  /* mag_dip (a sine), q30, 2^31 - 1 for >= 2 (no test) */
+    int32_t n_mag;                 /* ceil(tau_mag / dt): the heading's start-up */
+    int32_t n_ref;                 /* ceil(tau_mag_ref / dt): the reference's */
+    int32_t n_hold;                /* ceil(mag_hold / dt) */
+    int32_t n_new;                 /* ceil(mag_new_time / dt) */
+} imf_robust_ahrs_q_consts_t;
+
+typedef struct {
+    imf_robust_ahrs_q_consts_t k; /* the constants (above) */
+    imf_robust_ahrs_q_state_t x;  /* the state (above); write it only through the API */
+} imf_robust_ahrs_q_t;
+
+/* The settings of imf_robust_ahrs_q_init: RobustIMUQ's and B4's (those of
+ * imf_robust_ahrs_settings_t, in double). */
+typedef struct {
+    double dt;       /* as imf_robust_imu_q_settings_t */
+    double tau_acc;  /* ... */
+    double rate_ref; /* rad/s */
+    double tau_bias;
+    double tau_bias_rest;
+    double rest_gyr; /* rad/s */
+    double rest_acc;
+    double rest_time;
+    double tau_rest;
+    double latency;
+    double tau_mag;      /* B4: heading correction time constant, s; > 0 (default 10) */
+    double mag_norm;     /* B4: disturbance threshold on |m|, relative; 0 .. 1 (default 0.1) */
+    double mag_dip;      /* B4: disturbance threshold on the dip, its sine; >= 0, 2: none
+                            (default 0.1736: 10 deg) */
+    double tau_mag_ref;  /* B4: the learned reference's time constant, s; > 0 (default 20) */
+    double mag_new_time; /* B4: a changed field steady this long in motion becomes the
+                            reference, s; >= 0 (default 20) */
+    double mag_hold;     /* B4: the field must match this long after a disturbance, s;
+                            >= 0 (default 0.5) */
+    int mag_learn;       /* B6: must be 0 (not built in fixed point; default 0) */
+    double gyr_scale;    /* rad/s per gyro count; > 0 (default 1.0642e-3) */
+    int profile;         /* 32 (default; the only one built) */
+} imf_robust_ahrs_q_settings_t;
+
+void imf_robust_ahrs_q_default_settings(imf_robust_ahrs_q_settings_t *settings);
+/* Returns 0, or -1 for a parameter out of range (then the filter is not usable). */
+int imf_robust_ahrs_q_init(imf_robust_ahrs_q_t *self, const imf_robust_ahrs_q_settings_t *settings);
+/* From the precomputed constants; 0, or -1 if a constant is out of range. */
+int imf_robust_ahrs_q_init_consts(imf_robust_ahrs_q_t *self,
+                                  const imf_robust_ahrs_q_consts_t *consts);
+/* The stored offset (hard iron), magnetometer counts in the sensor frame, used from the
+ * next sample. */
+void imf_robust_ahrs_q_set_mag_offset(imf_robust_ahrs_q_t *self, const int16_t offset[3]);
+/* One sample: gyr, acc and mag in counts (an all-zero mag is no reading). */
+void imf_robust_ahrs_q_update(imf_robust_ahrs_q_t *self, const int16_t gyr[3], const int16_t acc[3],
+                              const int16_t mag[3]);
+
 #ifdef __cplusplus
 }
 #endif

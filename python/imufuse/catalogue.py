@@ -223,6 +223,7 @@ CATALOGUE: Tuple[Entry, ...] = (
     Entry("MahonyIMUQ", dict(kp=1.0, ki=0.05, gyr_scale=_GYR), estimate="quaternion"),
     Entry("MadgwickIMUQ", dict(gyr_scale=_GYR), estimate="quaternion"),
     Entry("RobustIMUQ", dict(gyr_scale=_GYR), estimate="quaternion"),
+    Entry("RobustAHRSQ", dict(gyr_scale=_GYR), estimate="quaternion"),
     # ---- the Fusion suite (Longbin's Fusion walkthrough; imufusion 1.2.3): its own API.
     # The generic harnesses construct a filter with dt at init and feed rad/s through
     # update(gyr, acc[, mag]); FusionAHRS takes Fusion's units (deg/s, g), dt with every

@@ -35,7 +35,7 @@ def filter_driver_source() -> str:
     name. Protocol: first line "name profile p1 p2 ... ; s1 s2 ... ;" (the
     init values after dt... in the order of the reference _init, C99 hex
     floats; then an optional initial state), then one sample per line (rate
-    angle, or gx gy gz ax ay az); prints the int32 state after every sample."""
+    angle, gx gy gz ax ay az, or gx gy gz ax ay az mx my mz); prints the int32 state after every sample."""
     from imufuse import catalogue, cproto
 
     headers = sorted(FIXED.glob("*_q.h"))
@@ -63,6 +63,8 @@ def filter_driver_source() -> str:
             args = [f"&({struct}){{{', '.join(args)}}}"]
         if e.kind == "1d":
             step, width = f"{c}_update(&o, (int16_t)v[0], (int16_t)v[1])", 2
+        elif all(q.vector for q in update.params[1:]) and e.kind == "ahrs":
+            step, width = f"{c}_update(&o, g, a, m)", 9
         elif all(q.vector for q in update.params[1:]):
             step, width = f"{c}_update(&o, g, a)", 6
         else:
@@ -71,8 +73,9 @@ def filter_driver_source() -> str:
         vs = ", ".join(f"&v[{i}]" for i in range(width))
         names.append((e.name, f"run_{c}"))
         out += [f"static int run_{c}(int profile, const double *p, const int32_t *st, int ns)",
-                "{", f"    {c}_t o;", f"    int32_t s[{n}];", "    long v[6];",
-                "    int16_t g[3], a[3];", "    int i;", "    (void)profile; (void)g; (void)a; (void)i;",
+                "{", f"    {c}_t o;", f"    int32_t s[{n}];", "    long v[9];",
+                "    int16_t g[3], a[3], m[3];", "    int i;",
+                "    (void)profile; (void)g; (void)a; (void)m; (void)i;",
                 "    if (sizeof o.x != sizeof s) return 4;",
                 f"    if ({c}_init(&o, {', '.join(args)}) != 0) return 3;",
                 f"    if (ns == {n}) memcpy(&o.x, st, sizeof s);",
@@ -80,7 +83,7 @@ def filter_driver_source() -> str:
                 f'    while (scanf("{fmt}", {vs}) == {width}) {{',
                 *([] if e.kind == "1d" else
                   ["        for (i = 0; i < 3; ++i) { g[i] = (int16_t)v[i]; "
-                   "a[i] = (int16_t)v[3 + i]; }"]),
+                   "a[i] = (int16_t)v[3 + i]; m[i] = (int16_t)v[6 + i]; }"]),
                 f"        {step};", "        memcpy(s, &o.x, sizeof s);", f"        put(s, {n});",
                 "    }", "    return 0;", "}", ""]
     # room for the longest parameter list and state of the catalogue

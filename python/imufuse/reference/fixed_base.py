@@ -61,6 +61,9 @@ def c_literal(value) -> str:
     integer (with a type that holds it on 16-bit-int targets) otherwise."""
     if isinstance(value, ci.QScale):
         return f"(imf_qscale_t){{{value.m}, {value.s}}}"
+    if isinstance(value, dict):
+        # a nested constants struct (RobustAHRSQ's RobustIMUQ part): its initializer list
+        return "{" + ", ".join(c_literal(v) for v in value.values()) + "}"
     v = int(value)
     if not -32768 <= v <= 32767:
         return f"{v}L" if -(1 << 31) <= v < (1 << 31) else f"{v}UL"

@@ -7,7 +7,7 @@ import math
 from . import _cint as ci
 from . import fixed_quat as fq
 from .fixed_base import FixedFilter, check_scale, qconst
-from .robust import RobustIMU
+from .robust import RobustAHRS, RobustIMU
 
 Q29_ONE = 1 << 29
 
@@ -140,6 +140,30 @@ def qexp(q, h):
     q[:] = renorm([ci.add_sat32(q[i], dq[i]) for i in range(4)])
 
 
+def half(c, a, b):
+    """robust_q_half: (1 + c, a, b) normalised, symmetric q15, for a unit (c, a, b) in
+    q15; (0, 1, 0) where it is 0 (c = -1: any half turn is a smallest rotation)."""
+    rw = 32768 + c                                         # [1, 65535]
+    n2 = ((rw * rw) >> 2) + ((a * a) >> 2) + ((b * b) >> 2)   # q28
+    if n2 != 0:
+        y, sh = ci.invsqrt_u32(n2)                         # 1/|r| = y 2^(14 - sh)
+        r0 = (rw * y + (1 << (sh - 15))) >> (sh - 14)
+        return [min(r0, 32767), ci.sat_q15s(ci.rshr32(ci.check32(a * y), sh - 14)),
+                ci.sat_q15s(ci.rshr32(ci.check32(b * y), sh - 14))]
+    return [0, 32767, 0]
+
+
+def turn_z(q, dw, dz):
+    """robust_q_turn_z: (1 + dw, 0, 0, dz) (x) q (dw, dz q30), normalised; the new q."""
+    qs = fq.snapshot(q)
+    out = []
+    for i in range(4):
+        o = qs[3 - i]
+        out.append(ci.add_sat32(ci.add_sat32(q[i], fq.mul_hq_p32(dw, qs[i])),
+                                fq.mul_hq_p32(dz, -o if i < 2 else o)))
+    return renorm(out)
+
+
 def gain(n, n_tau, k):
     """robust_q_gain: B5, a running mean until n reaches n_tau, then k (a negative n,
     possible only from a state written by hand, counts as 0)."""
@@ -196,7 +220,7 @@ class RobustIMUQ(FixedFilter):
     kind = "imu"
     c_name = "imf_robust_imu_q"
     profiles = ("32",)
-    state_names = ("q0", "q1", "q2", "q3", "s0", "s1", "s2", "s3", "c0", "c1", "c2", "c3",
+    state_names: tuple = ("q0", "q1", "q2", "q3", "s0", "s1", "s2", "s3", "c0", "c1", "c2", "c3",
                    "fx", "fy", "fz", "vx", "vy", "vz", "pvv", "pvg", "pgg",
                    "bx", "by", "bz", "lwx", "lwy", "lwz", "lax", "lay", "laz", "n", "n_rest")
 
@@ -307,12 +331,18 @@ class RobustIMUQ(FixedFilter):
                 + [v * w for v in s[21:27]] + [v * q15 for v in s[27:30]] + list(s[30:]))
 
     def _update(self, gyr, acc):
+        if self._step(gyr, acc):
+            self._finish(gyr)
+
+    def _step(self, gyr, acc):
+        # robust_q_step: B1, B2, B3 and B5 of one sample; False when the sample is not
+        # taken (no start without an accelerometer reading), then nothing else runs
         k = self.k
         first = self.n == 0
         # an all-zero accelerometer is no reading: gyro only (and no start without one)
         has_acc = not (acc[0] == 0 and acc[1] == 0 and acc[2] == 0)
         if first and not has_acc:
-            return
+            return False
         if has_acc and not first:
             # a reading beyond 100 times the gravity estimate (100 g): no reading
             f2 = norm2_counts(self.f)
@@ -386,18 +416,8 @@ class RobustIMUQ(FixedFilter):
         ge = rotate(rm, 0, self.f)
         u = unit(ge)
         if u is not None:
-            rw = 32768 + u[2]                                  # [1, 65535]
-            n2 = ((rw * rw) >> 2) + ((u[1] * u[1]) >> 2) + ((u[0] * u[0]) >> 2)   # q28
-            if n2 != 0:
-                y, sh = ci.invsqrt_u32(n2)                     # 1/|r| = y 2^(14 - sh)
-                r0 = (rw * y + (1 << (sh - 15))) >> (sh - 14)
-                r = [min(r0, 32767),
-                     ci.sat_q15s(ci.rshr32(ci.check32(u[1] * y), sh - 14)),
-                     ci.sat_q15s(ci.rshr32(ci.check32(-u[0] * y), sh - 14))]
-            else:
-                # gravity straight down (upside down, r = 0): any half turn about a
-                # horizontal axis is a smallest rotation; about x
-                r = [0, 32767, 0]
+            # gravity straight down (upside down): the half turn about x
+            r = half(u[2], u[1], -u[0])
         else:
             # no gravity estimate (a zero vector): no correction
             r = [32767, 0, 0]
@@ -412,11 +432,228 @@ class RobustIMUQ(FixedFilter):
             self.b = [ci.sub_sat32(self.b[i], ci.scale32_s(ci.add_sat32(e[i], e[i]),
                                                            k["kbias"], 30, 15))
                       for i in range(3)]
-        # the output predicted by the latency with the bias-corrected rate
+        return True
+
+    def _finish(self, gyr):
+        # robust_q_finish: the end of every update, the output predicted by the latency
+        # with the bias-corrected rate, then the clock of the start-up (saturating)
+        k = self.k
         if k["klat"].m != 0:
             h = [ci.scale32_s(ci.sub_sat32(gyr[i] * 32768, self.b[i]), k["klat"], 15, 30)
                  for i in range(3)]
             qexp(self.q, h)
-        # the clock of the start-up (saturating)
         if self.n < k["n_max"]:
             self.n += 1
+
+
+def _mag_test(k, mn, hn, zn, n, h, z):
+    """robust_q_mag_test: the field matches the reference (n, h, z): norm within mag_norm
+    n and dip within mag_dip (the sine of the dip difference: zn h - hn z, q30)."""
+    dn = ci.sub_sat32(mn, n)
+    tn = ci.scale32_s(n, k["knorm"], 15, 15)
+    dd = zn * ci.qn_to_q15s(h, 30) - hn * ci.qn_to_q15s(z, 30)
+    return dn < tn and ci.sub_sat32(0, dn) < tn and dd < k["kdip"] and -dd < k["kdip"]
+
+
+class RobustAHRSQ(RobustIMUQ):
+    """imufuse's recommended attitude filter with a magnetometer (RobustAHRS,
+    docs/recommended-ahrs.md) in fixed point: RobustIMUQ's blocks and B4, the magnetometer
+    confined to heading with its disturbance detector.
+
+    RobustAHRSQ(dt, <RobustAHRS's keywords up to mag_hold, the same units>,
+    mag_learn=False, gyr_scale=rad/s per count, profile="32"). The magnetometer in counts,
+    any unit (B4 is relative to its learned reference). B6, the offset learnt while
+    turning, is not built: mag_learn=True is refused; the stored offset (counts) is given
+    with set_mag_offset. State: RobustIMUQ's, then the offset in use u, the reference
+    (rn q15 counts, rh, rz q30) and the candidate (cn, ch, cz), the sample counters n_ok,
+    n_dist, n_cand.
+    """
+    kind = "ahrs"
+    c_name = "imf_robust_ahrs_q"
+    state_names = RobustIMUQ.state_names + ("ux", "uy", "uz", "rn", "rh", "rz", "cn", "ch",
+                                            "cz", "n_ok", "n_dist", "n_cand")
+
+    @staticmethod
+    def _params(dt, tau_acc=2.5, rate_ref=100.0, tau_bias=100.0, tau_bias_rest=3.0,
+                rest_gyr=2.0, rest_acc=0.05, rest_time=1.5, tau_rest=0.5, latency=0.0,
+                tau_mag=10.0, mag_norm=0.1, mag_dip=10.0, tau_mag_ref=20.0, mag_new_time=20.0,
+                mag_hold=0.5, mag_learn=False, *, gyr_scale, profile="32"):
+        if mag_learn is not False and mag_learn != 0:
+            raise ValueError("mag_learn: B6 (the magnetometer offset learnt while turning) is "
+                             "not built in fixed point; give the stored offset in counts with "
+                             "set_mag_offset (e.g. from RobustAHRS's get_mag_offset on the "
+                             "host), and leave mag_learn False")
+        imu = RobustIMUQ._params(dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr,
+                                 rest_acc, rest_time, tau_rest, latency, gyr_scale=gyr_scale,
+                                 profile=profile)
+        mag = RobustAHRS._params(dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr,
+                                 rest_acc, rest_time, tau_rest, latency, tau_mag, mag_norm,
+                                 mag_dip, tau_mag_ref, mag_new_time, mag_hold, False)[10:16]
+        dt = imu[0]
+        tau_mag, mag_norm, dip, tau_mag_ref, mag_new_time, mag_hold = mag
+        if mag_norm > 1.0:
+            raise ValueError(f"mag_norm: must be <= 1 in fixed point, got {mag_norm!r}")
+        if mag_norm > 0.0:
+            qconst("mag_norm", mag_norm, 14, 47, nonzero=True)
+        for name, v in (("tau_mag", tau_mag), ("tau_mag_ref", tau_mag_ref),
+                        ("mag_new_time", mag_new_time), ("mag_hold", mag_hold)):
+            if _ceil(v / dt) < 0:
+                raise ValueError(f"{name}: must be at most 2^30 samples, got {v!r}")
+        qconst("dt/(tau_mag+dt)", dt / (tau_mag + dt), 0, 47, nonzero=True)
+        qconst("dt/(tau_mag_ref+dt)", dt / (tau_mag_ref + dt), 0, 47, nonzero=True)
+        return imu[:10] + mag + (0,) + imu[10:]
+
+    @staticmethod
+    def _consts(dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc, rest_time,
+                tau_rest, latency, tau_mag, mag_norm, mag_dip, tau_mag_ref, mag_new_time,
+                mag_hold, mag_learn, gyr_scale, profile):
+        # imf_robust_ahrs_q_init: RobustIMUQ's constants and B4's
+        imu = RobustIMUQ._consts(dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr,
+                                 rest_acc, rest_time, tau_rest, latency, gyr_scale, profile)
+        n_mag, n_ref = _ceil(tau_mag / dt), _ceil(tau_mag_ref / dt)
+        imu["n_max"] = max(imu["n_max"], n_mag, n_ref)
+        return dict(imu=imu, k_mag=ci.qscale(dt / (tau_mag + dt)),
+                    k_ref=ci.qscale(dt / (tau_mag_ref + dt)), knorm=ci.qscale(mag_norm),
+                    kdip=0x7FFFFFFF if mag_dip >= 2.0 else math.floor(mag_dip * 1073741824.0
+                                                                       + 0.5),
+                    n_mag=n_mag, n_ref=n_ref, n_hold=_ceil(mag_hold / dt),
+                    n_new=_ceil(mag_new_time / dt))
+
+    def _init(self, dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
+              rest_time, tau_rest, latency, tau_mag, mag_norm, mag_dip, tau_mag_ref,
+              mag_new_time, mag_hold, mag_learn, gyr_scale, profile):
+        self.dt = dt
+        self.gyr_scale = gyr_scale
+        self.tau_acc = tau_acc
+        self._init_consts(**self._consts(dt, tau_acc, rate_ref, tau_bias, tau_bias_rest,
+                                         rest_gyr, rest_acc, rest_time, tau_rest, latency,
+                                         tau_mag, mag_norm, mag_dip, tau_mag_ref,
+                                         mag_new_time, mag_hold, mag_learn, gyr_scale,
+                                         profile))
+
+    def _init_consts(self, imu, **k):
+        # imf_robust_ahrs_q_init_consts (the ranges were checked by _params)
+        RobustIMUQ._init_consts(self, **imu)
+        self.km = k
+        self.u = [0, 0, 0]
+        self.rn = self.rh = self.rz = self.cn = self.ch = self.cz = 0
+        self.n_ok = self.n_dist = self.n_cand = 0
+
+    @staticmethod
+    def _offset_counts(offset):
+        # (x, y, z) int16 counts, or ValueError naming the component
+        try:
+            values = tuple(offset)
+        except TypeError:
+            raise ValueError(f"mag offset: expected (x, y, z) in counts, got {offset!r}") from None
+        if len(values) != 3:
+            raise ValueError(f"mag offset: expected 3 values (x, y, z), got {len(values)}")
+        out = []
+        for n, v in zip("xyz", values):
+            if isinstance(v, bool) or not float(v).is_integer() or not -32768 <= v <= 32767:
+                raise ValueError(f"mag offset {n}: expected an int16 count (the offset in the "
+                                 f"magnetometer's counts, as its readings), got {v!r}")
+            out.append(int(v))
+        return tuple(out)
+
+    def set_mag_offset(self, offset):
+        """imf_robust_ahrs_q_set_mag_offset: the stored offset (hard iron), magnetometer
+        counts (x, y, z) in the sensor frame, used from the next sample."""
+        self.u = list(self._offset_counts(offset))
+
+    def _get_state(self):
+        return (super()._get_state() + self.u
+                + [self.rn, self.rh, self.rz, self.cn, self.ch, self.cz,
+                   self.n_ok, self.n_dist, self.n_cand])
+
+    def _set_state(self, v):
+        v = list(v)
+        super()._set_state(v[:32])
+        self.u = v[32:35]
+        self.rn, self.rh, self.rz, self.cn, self.ch, self.cz = v[35:41]
+        self.n_ok, self.n_dist, self.n_cand = v[41:44]
+
+    def _state_float(self, s):
+        q30, q15 = 2.0 ** -30, 2.0 ** -15
+        return (super()._state_float(s[:32]) + list(s[32:35])
+                + [s[35] * q15, s[36] * q30, s[37] * q30, s[38] * q15, s[39] * q30,
+                   s[40] * q30] + list(s[41:]))
+
+    def _update(self, gyr, acc, mag):
+        if self._step(gyr, acc):
+            self._mag(mag)
+            self._finish(gyr)
+
+    def _mag(self, mag):
+        # robust_q_mag: B4, heading from the magnetometer (counts, less the stored offset)
+        k = self.km
+        if mag[0] == 0 and mag[1] == 0 and mag[2] == 0:
+            return                           # no reading: gyro and accelerometer only
+        # the reading less the offset in use, counts within +-32767, in the earth frame
+        m = [ci.sat_q15s(ci.sub_sat32(mag[i], self.u[i])) for i in range(3)]
+        me = rotate16(matrix(fq.snapshot(self.q)), 0, m)    # q15 counts
+        u = unit(me)
+        if u is None:
+            return                           # no usable reading: gyro and accelerometer only
+        # the norm |m| = m . u (q15 counts); the horizontal direction ch; the dip's cosine
+        # hn = u . ch and sine u[2]
+        mn = 0
+        for i in range(3):
+            mn = ci.add_sat32(mn, fq.mul_hq_p32(me[i], u[i]))
+        ch = unit([me[0], me[1], 0])
+        hn = ci.qn_to_q15s(u[0] * ch[0] + u[1] * ch[1], 30) if ch is not None else 0
+        zn = u[2]
+        if self.rn == 0:
+            # first reading: it is the reference
+            self.rn = self.cn = mn
+            self.rh = self.ch = hn * 32768
+            self.rz = self.cz = zn * 32768
+            self.n_ok = k["n_hold"]
+        match = _mag_test(k, mn, hn, zn, self.rn, self.rh, self.rz)
+        if not match:
+            self.n_ok = 0
+        elif self.n_ok < k["n_hold"]:
+            self.n_ok += 1
+        if match and self.n_ok >= k["n_hold"]:
+            self.n_dist = 0
+            self.n_cand = 0
+            kk = gain(self.n, k["n_ref"], k["k_ref"])
+            self.rn = ci.add_sat32(self.rn, ci.scale32_s(ci.sub_sat32(mn, self.rn), kk, 15, 15))
+            self.rh = lowpass(self.rh, hn, kk)
+            self.rz = lowpass(self.rz, zn, kk)
+            self.cn = mn
+            self.ch = hn * 32768
+            self.cz = zn * 32768
+            if ch is None:
+                return                       # field vertical: no heading information
+            # heading: the rotation about earth z that turns the horizontal field onto
+            # north (+x), (1 + cos, 0, 0, -sin) normalised, taken by the fraction k:
+            # (1 + k (f_w - 1), k f_z), normalised with c and q
+            f = half(ch[0], -ch[1], 0)
+            kk = gain(self.n, k["n_mag"], k["k_mag"])
+            dw = ci.scale32_s(f[0] - 32768, kk, 15, 30)
+            dz = ci.scale32_s(f[1], kk, 15, 30)
+            self.c = turn_z(self.c, dw, dz)
+            self.q = turn_z(self.q, dw, dz)
+        else:
+            # disturbed (or not yet matching for mag_hold): no heading correction; a new
+            # field that stays the same for mag_new_time of motion becomes the reference
+            if self.n_dist < 1073741824:
+                self.n_dist += 1
+            if _mag_test(k, mn, hn, zn, self.cn, self.ch, self.cz):
+                kr = self.k["k_rest"]
+                self.cn = ci.add_sat32(self.cn, ci.scale32_s(ci.sub_sat32(mn, self.cn), kr,
+                                                             15, 15))
+                self.ch = lowpass(self.ch, hn, kr)
+                self.cz = lowpass(self.cz, zn, kr)
+                if self.n_rest < self.k["n_rest"] and self.n_cand < k["n_new"]:
+                    # only motion counts: at rest an attached magnet's field is steady too
+                    self.n_cand += 1
+                if self.n_cand >= k["n_new"]:
+                    self.rn, self.rh, self.rz = self.cn, self.ch, self.cz
+                    self.n_cand = 0
+            else:
+                self.cn = mn
+                self.ch = hn * 32768
+                self.cz = zn * 32768
+                self.n_cand = 0
