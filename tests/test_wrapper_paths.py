@@ -158,6 +158,10 @@ def _feed(kind):
         return lambda f: f.update(float(rng.normal()), float(rng.normal(100, 1)), 0.01)
     if kind == "fixed-1d":
         return lambda f: f.update(*(int(v) for v in rng.integers(-300, 300, 2)))
+    if kind == "fixed-ahrs":
+        return lambda f: f.update(rng.integers(-300, 300, 3),
+                                  rng.integers(-300, 300, 3) + [0, 0, 1000],
+                                  rng.integers(-30, 30, 3) + [300, 0, -500])
     if kind.startswith("fixed-"):
         return lambda f: f.update(rng.integers(-300, 300, 3),
                                   rng.integers(-300, 300, 3) + [0, 0, 1000])

@@ -352,14 +352,14 @@ def summary(rows, targets) -> str:
 QUATERNION_Q = tuple(e.name for e in catalogue.FIXED if e.estimate == "quaternion")
 #: the recommended filter's goal (issue "RobustIMU and RobustAHRS in fixed point"): <= 1/3 on
 #: both targets, without margin
-ROBUST_Q = {"RobustIMUQ": 1 / 3}
+ROBUST_Q = {e.name: 1 / 3 for e in catalogue.FIXED if e.name.startswith("Robust")}
 FIXED_TARGETS = {"avr": ("p8", {**dict.fromkeys(QUATERNION_Q, 0.3), **ROBUST_Q}, 1 / 2),
                  "m0": ("p32", {**dict.fromkeys(QUATERNION_Q, 1 / 2), **ROBUST_Q}, None)}
 
 
 def _measured_profile(cls: str, target: str) -> str:
-    """The profile FIXED_TARGETS measures on `target`, or the class's only one (RobustIMUQ
-    has one arithmetic, "32", which runs on AVR too)."""
+    """The profile FIXED_TARGETS measures on `target`, or the class's only one (RobustIMUQ and
+    RobustAHRSQ have one arithmetic, "32", which runs on AVR too)."""
     from imufuse import reference
     want = FIXED_TARGETS[target][0]
     have = ["p" + p for p in getattr(getattr(reference, cls, None), "profiles", ())]
@@ -490,7 +490,7 @@ def write_results(rows, targets, checks, seconds, md: Path, js: Path) -> None:
         "## Fixed point against float32 (soft float on Cortex-M0 and ATmega328P)",
         "",
         "Median cost per update of each fixed-point configuration (8-bit profile on AVR, 32-bit",
-        "profile on Cortex-M0; a class built in one profile, RobustIMUQ, in that one) against the",
+        "profile on Cortex-M0; a class built in one profile, as the Robust ones, in that one) against the",
         "cheapest float32 configuration of its float twin (class name without the Q) on the same",
         "target. Targets: on AVR every Q filter <= 1/2, and the quaternion filters",
         f"({' and '.join(q for q in QUATERNION_Q if q not in ROBUST_Q)}) <= 0.30 (1/3 with a 10 %",

@@ -169,28 +169,30 @@ typedef struct {
 /* The settings of imf_robust_ahrs_q_init: RobustIMUQ's and B4's (those of
  * imf_robust_ahrs_settings_t, in double). */
 typedef struct {
-    double dt;       /* as imf_robust_imu_q_settings_t */
-    double tau_acc;  /* ... */
-    double rate_ref; /* rad/s */
-    double tau_bias;
-    double tau_bias_rest;
-    double rest_gyr; /* rad/s */
-    double rest_acc;
-    double rest_time;
-    double tau_rest;
-    double latency;
-    double tau_mag;      /* B4: heading correction time constant, s; > 0 (default 10) */
-    double mag_norm;     /* B4: disturbance threshold on |m|, relative; 0 .. 1 (default 0.1) */
-    double mag_dip;      /* B4: disturbance threshold on the dip, its sine; >= 0, 2: none
+    double dt;            /* sample period, s; tau_acc / dt in [200, 8192] (default 0.01) */
+    double tau_acc;       /* B2: tilt correction time constant, s (default 2.5) */
+    double rate_ref;      /* B2: rate at which gravity's process noise doubles, rad/s;
+                             >= 0, 0: constant (default 1.745: 100 deg/s) */
+    double tau_bias;      /* B3: 0 (off) or >= 4 tau_acc, s (default 100) */
+    double tau_bias_rest; /* B3 at rest, s; > 0 (default 3) */
+    double rest_gyr;      /* B1: rest threshold, rad/s; >= 0 (default 0.0349: 2 deg/s) */
+    double rest_acc;      /* B1: rest threshold on |a| - |a|_lowpass, relative; 0 .. 1
+                             (default 0.05) */
+    double rest_time;     /* B1: s; >= 0 (default 1.5) */
+    double tau_rest;      /* B1: low-pass time constant, s; > 0 (default 0.5) */
+    double latency;       /* output prediction, s; 0 .. 0.1 (default 0) */
+    double tau_mag;       /* B4: heading correction time constant, s; > 0 (default 10) */
+    double mag_norm;      /* B4: disturbance threshold on |m|, relative; 0 .. 1 (default 0.1) */
+    double mag_dip;       /* B4: disturbance threshold on the dip, its sine; >= 0, 2: none
                             (default 0.1736: 10 deg) */
-    double tau_mag_ref;  /* B4: the learned reference's time constant, s; > 0 (default 20) */
-    double mag_new_time; /* B4: a changed field steady this long in motion becomes the
+    double tau_mag_ref;   /* B4: the learned reference's time constant, s; > 0 (default 20) */
+    double mag_new_time;  /* B4: a changed field steady this long in motion becomes the
                             reference, s; >= 0 (default 20) */
-    double mag_hold;     /* B4: the field must match this long after a disturbance, s;
+    double mag_hold;      /* B4: the field must match this long after a disturbance, s;
                             >= 0 (default 0.5) */
-    int mag_learn;       /* B6: must be 0 (not built in fixed point; default 0) */
-    double gyr_scale;    /* rad/s per gyro count; > 0 (default 1.0642e-3) */
-    int profile;         /* 32 (default; the only one built) */
+    int mag_learn;        /* B6: must be 0 (not built in fixed point; default 0) */
+    double gyr_scale;     /* rad/s per gyro count; > 0 (default 1.0642e-3) */
+    int profile;          /* 32 (default; the only one built) */
 } imf_robust_ahrs_q_settings_t;
 
 void imf_robust_ahrs_q_default_settings(imf_robust_ahrs_q_settings_t *settings);

@@ -27,22 +27,24 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
     gen_fixed_t f;
-    int16_t v[6];
+    int16_t v[9];
+    size_t bytes;
     int which;
     if (size < 1) {
         return 0;
     }
     which = data[0] % GEN_FIXED_N;
+    bytes = (size_t)GEN_FIXED_INPUTS[which] * sizeof v[0]; /* one sample's inputs */
     if (gen_fixed_init(which, &f) != 0) {
         abort();
     }
     data++;
     size--;
-    while (size >= sizeof v) {
-        memcpy(v, data, sizeof v);
+    while (size >= bytes) {
+        memcpy(v, data, bytes);
         gen_fixed_update(which, &f, v);
-        data += sizeof v;
-        size -= sizeof v;
+        data += bytes;
+        size -= bytes;
     }
     return 0;
 }
@@ -65,7 +67,8 @@ int main(int argc, char **argv)
     rng_state = argc > 2 ? (uint64_t)atoll(argv[2]) | 1u : 88172645463325252u;
     for (which = 0; which < GEN_FIXED_N; which++) {
         gen_fixed_t f;
-        int16_t v[6];
+        int16_t v[9];
+        const int w = GEN_FIXED_INPUTS[which]; /* inputs per sample */
         long k;
         int mode = 0, i;
         if (gen_fixed_init(which, &f) != 0) {
@@ -75,11 +78,11 @@ int main(int argc, char **argv)
         for (k = 0; k < n; k++) {
             if (k % 500 == 0) {
                 mode = (int)(rng() % 3); /* random, extremes, one constant extreme */
-                for (i = 0; i < 6; i++) {
+                for (i = 0; i < w; i++) {
                     v[i] = extremes[rng() % 6];
                 }
             }
-            for (i = 0; i < 6 && mode != 2; i++) {
+            for (i = 0; i < w && mode != 2; i++) {
                 const uint64_t r = rng();
                 v[i] = mode == 0 ? (int16_t)(int32_t)(r % 65536u - 32768) : extremes[r % 6];
             }

@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import List
 
 from imufuse import catalogue
+from imufuse._checks import KINDS
 from imufuse.mcu.library import c_library
 from imufuse.reference._base import init_arguments
 from registry import FIXED_CASES, FLOAT_CASES, Case
@@ -152,12 +153,16 @@ def fixed_table_header() -> str:
     out.append("} gen_fixed_t;\n\n")
     names = ", ".join(f'"{n}"' for n, _ in confs)
     out.append(f"static const char *const GEN_FIXED_NAMES[GEN_FIXED_N] = {{{names}}};\n\n")
+    out.append("static const int GEN_FIXED_INPUTS[GEN_FIXED_N] = {"
+               + ", ".join("2" if f.kind == "1d" else str(3 * len(KINDS[f.kind]))
+                           for _, f in confs) + "};\n\n")
     inits, updates = [], []
     for i, (n, f) in enumerate(confs):
         m = f.c_name[4:]
         call = f.c_init_call(f"f->{m}").rstrip(";")
         inits.append(f"    case {i}: /* {n} */\n        return {call};\n")
-        args = "v[0], v[1]" if f.kind == "1d" else "v, v + 3"
+        args = ("v[0], v[1]" if f.kind == "1d"
+                else ", ".join(f"v + {3 * j}" if j else "v" for j in range(len(KINDS[f.kind]))))
         updates.append(f"    case {i}: {f.c_name}_update(&f->{m}, {args}); break;\n")
     out.append("static int gen_fixed_init(const int which, gen_fixed_t *const f)\n{\n"
                "    memset(f, 0, sizeof *f);\n    switch (which) {\n" + "".join(inits)

@@ -127,7 +127,15 @@ def c_library(c_name: str, csrc: Path = CSRC) -> CFilter:
 def literal(param: CParam, value, real: str) -> str:
     """An exact C literal of ``value`` for ``param``'s type; ``imf_real`` is ``real``
     ("float" or "double")."""
-    t = param.ctype.replace("const", "").strip()
+    t = re.sub(r"\bconst\b", "", param.ctype).strip()
+    if isinstance(value, dict):
+        # a nested constants struct (RobustAHRSQ's RobustIMUQ part), by its members in
+        # declaration order: q-scales, and int32 or uint32 integers
+        def member(k, v):
+            ct = ("imf_qscale_t" if hasattr(v, "m") else
+                  "int32_t" if -(1 << 31) <= int(v) < (1 << 31) else "uint32_t")
+            return literal(CParam(k, ct, False), v, real)
+        return f"({t}){{" + ", ".join(member(k, v) for k, v in value.items()) + "}"
     if t == "imf_qscale_t":
         m, s = (int(v) for v in (value.m, value.s))
         return f"(imf_qscale_t){{(int16_t){m}, (int16_t)({s})}}"
