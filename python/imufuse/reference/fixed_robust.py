@@ -550,7 +550,12 @@ class RobustAHRSQ(RobustIMUQ):
             raise ValueError(f"mag offset: expected 3 values (x, y, z), got {len(values)}")
         out = []
         for n, v in zip("xyz", values):
-            if isinstance(v, bool) or not float(v).is_integer() or not -32768 <= v <= 32767:
+            try:
+                ok = (not isinstance(v, (bool, str)) and float(v).is_integer()
+                      and -32768 <= v <= 32767)
+            except (TypeError, ValueError):
+                ok = False
+            if not ok:
                 raise ValueError(f"mag offset {n}: expected an int16 count (the offset in the "
                                  f"magnetometer's counts, as its readings), got {v!r}")
             out.append(int(v))
