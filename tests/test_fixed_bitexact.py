@@ -58,7 +58,8 @@ def inputs(kind, seq, n=N, seed=0):
             "extreme": np.where((t + np.arange(3)) % 5, hi, lo) * np.ones((n, 3), int),
             "sine": (2400 * np.cos(t / 70 + np.arange(3) * 2)).astype(int),
             "zero_acc": g.integers(-3, 4, (n, 3)) + field,
-            "rest": np.tile(field, (n, 1)),
+            # still, then a magnet attached: rejected, and at rest never the new reference
+            "rest": np.where(t < n // 3, field, field + [0, 2500, -800]),
             "rest_noise": g.integers(-3, 4, (n, 3)) + field,
             "zero_mag": np.zeros((n, 3), int),
             "mag_steps": g.integers(-3, 4, (n, 3)) + np.select(
