@@ -54,12 +54,16 @@ EXAMPLES: Dict[str, Tuple[str, str, int, str]] = {
     "RobustIMUQ_Uno": ("RobustIMUQ", "p32", 96,
                        "imufuse's recommended filter (gyro and accelerometer) in fixed point "
                        "(int16 sensor counts): for an Uno"),
+    "RobustAHRSQ_Uno": ("RobustAHRSQ", "p32", 96,
+                        "imufuse's recommended filter with a magnetometer in fixed point "
+                        "(int16 sensor counts, heading from the field): for an Uno"),
 }
 #: where the examples' samples start in the shipped log (a stretch with rotation)
 FIRST_SAMPLE = 3000
 #: the sensor scales of the fixed-point example (a 16-bit MEMS IMU at 2000 deg/s, 8 g)
 GYR_SCALE = 1.0642e-3    # rad/s per count
 ACC_COUNTS = 4096.0      # counts per g
+MAG_COUNTS = 1 / 0.15    # magnetometer counts per uT (0.15 uT per count)
 
 
 def example_inputs(name: str) -> Tuple[float, Dict[str, np.ndarray]]:
@@ -72,7 +76,10 @@ def example_inputs(name: str) -> Tuple[float, Dict[str, np.ndarray]]:
     if precision.startswith("p"):
         g = np.clip(np.rint(log.gyr[sl] / GYR_SCALE), -32768, 32767).astype(np.int16)
         a = np.clip(np.rint(log.acc[sl] * ACC_COUNTS), -32768, 32767).astype(np.int16)
-        return dt, {"gyr": g, "acc": a}
+        out = {"gyr": g, "acc": a}
+        if entry(filt).kind == "ahrs":
+            out["mag"] = np.clip(np.rint(log.mag[sl] * MAG_COUNTS), -32768, 32767).astype(np.int16)
+        return dt, out
     ins = {"gyr": log.gyr[sl].astype(np.float32), "acc": log.acc[sl].astype(np.float32)}
     if entry(filt).kind == "ahrs":
         ins["mag"] = log.mag[sl].astype(np.float32)
@@ -207,6 +214,8 @@ void loop()
         g = ins["gyr"].astype(np.float64) * GYR_SCALE
         a = ins["acc"].astype(np.float64) / ACC_COUNTS
         cols = {"gyr": g, "acc": a}
+        if "mag" in ins:
+            cols["mag"] = ins["mag"].astype(np.float64) / MAG_COUNTS
     else:
         cols = {k: v.astype(np.float64) for k, v in ins.items()}
     head = ["time"] + [f"{k}_{ax}" for k in cols for ax in "xyz"]
