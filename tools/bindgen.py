@@ -6,12 +6,14 @@
 - the header (csrc/<family>.h): the filter and settings structs, and the prototypes of
   <c_name>_init, _update, _set_dt, _set_attitude and, if declared, _angles and the pair
   _get_mag_offset / _set_mag_offset (RobustAHRS's B6: bound as get_mag_offset() and
-  set_mag_offset(), the twin validating the offset).
+  set_mag_offset(), the twin validating the offset); fixed point: _init, _update and, if
+  declared, _set_mag_offset (RobustAHRSQ's stored offset in counts).
 
 From these, `family_pxi(family)` writes the extern block and one class per filter: _init
 (a settings struct filled from the validated keywords, or the init's own arguments by
 name), _step (the update's arguments: 2 for a single-axis filter, 6 for an IMU, 9 for an
-AHRS; the base class follows from them), _set_dt, _set_attitude and angles(). setup.py
+AHRS; fixed point: two int16 values, or two or three int16 vectors; the base class follows
+from them), _set_dt, _set_attitude and angles(). setup.py
 calls it at every build, so a generated binding is never stale; a family with a
 hand-written imufuse_c/<family>.pxi uses that file, whose first lines say why
 (Fusion's and the variometer's own APIs).
