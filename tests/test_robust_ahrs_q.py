@@ -225,3 +225,47 @@ def test_published_file_through_the_reader():
                               movement=log.movement) for q in (qq, qf)]
     assert abs(ev[0].inclination - ev[1].inclination) < 0.02
     assert abs(ev[0].heading - ev[1].heading) < 0.05, (ev[0].heading, ev[1].heading)
+
+
+@pytest.mark.skipif(PUBLISHED is None or not os.path.isfile(PUBLISHED),
+                    reason="the published BROAD trial 03 (HDF5) is not beside the checkout")
+def test_users_firmware_validated_on_a_published_log(tmp_path):
+    """The user path of issue 26: a user's firmware around csrc/fixed/robust_q.c (its own API,
+    settings in double at init, built with -Os) validated by imufuse.firmware on BROAD trial
+    03 as published, the magnetometer in uT brought to counts by counts_for (4096 per uT
+    would saturate every reading: the scale halves until the largest is below 2^14 counts),
+    on the host and the Cortex-M0."""
+    from imufuse._resources import csrc_dir
+    from imufuse.firmware import Firmware, counts_for, mag_counts_scale, validate
+    from imufuse.io import read_log
+    log = read_log(PUBLISHED)
+    n = 1500
+    params = dict(dt=float(log.dt), gyr_scale=GS)
+    ins = counts_for("ahrs", params, (log.gyr[:n], log.acc[:n], log.mag[:n]))
+    assert 8192 <= np.abs(ins[2]).max() < 16384 and mag_counts_scale(log.mag[:n]) == 256.0
+    (tmp_path / "att.h").write_text(
+        '#include <stdint.h>\n#include "robust_q.h"\nextern imf_robust_ahrs_q_t att;\n'
+        "void att_init(void);\n"
+        "void att_update(const int16_t *g, const int16_t *a, const int16_t *m);\n")
+    (tmp_path / "att.c").write_text(
+        '#include "att.h"\n#include "robust_q.h"\nimf_robust_ahrs_q_t att;\n'
+        "void att_init(void)\n{\n    imf_robust_ahrs_q_settings_t s;\n"
+        "    imf_robust_ahrs_q_default_settings(&s);\n"
+        f"    s.dt = {float(params['dt'])!r};\n    s.gyr_scale = {float(GS)!r};\n"
+        "    (void)imf_robust_ahrs_q_init(&att, &s);\n}\n"
+        "void att_update(const int16_t *g, const int16_t *a, const int16_t *m)\n{\n"
+        "    imf_robust_ahrs_q_update(&att, g, a, m);\n}\n")
+    names = reference.RobustAHRSQ.state_names
+    arrays = {"q": 4, "s": 4, "c": 4, "f": 3, "v": 3, "p": 3, "b": 3, "lw": 3, "la": 3}
+    exprs = [f"=att.x.imu.{k}[{i}]" for k, m in arrays.items() for i in range(m)]
+    exprs += ["=att.x.imu.n", "=att.x.imu.n_rest"] + [f"=att.x.u[{i}]" for i in range(3)]
+    exprs += [f"=att.x.{k}" for k in names[35:]]
+    fx = str(csrc_dir() / "fixed")
+    want = reference.RobustAHRSQ(**params).run(*ins)
+    for target in ("host", "cortex-m0"):
+        fw = Firmware([str(tmp_path / "att.c"), os.path.join(fx, "robust_q.c")],
+                      headers=["att.h"], include_dirs=[str(tmp_path), fx], init="att_init",
+                      update="att_update", state=dict(zip(names, exprs)), cflags=["-Os"])
+        v = validate(fw, "RobustAHRSQ", params, ins, target=target)
+        assert v.bit_exact, v.text()
+        assert np.array_equal(v.got, want.astype(np.int64))

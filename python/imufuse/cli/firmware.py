@@ -8,8 +8,8 @@ from .._atomic import check_outputs
 from .._resources import csrc_dir
 from ..catalogue import canonical_name, inputs_for, reference_class, resolve_params
 from ..catalogue import entry as _entry
-from ..firmware import (DEFAULT_TIMEOUT, Firmware, counts_for, csrc_firmware, target_names,
-                        validate_isolated)
+from ..firmware import (DEFAULT_TIMEOUT, Firmware, counts_for, csrc_firmware, mag_counts_scale,
+                        target_names, validate_isolated)
 from ..io import LogError
 from .common import (EXIT_FAIL, EXIT_OK, OutputError, UsageError, err, open_session, pairs,
                      positive, strict_option, unit_options)
@@ -67,8 +67,9 @@ def _validate(args):
         src = f"simulated 'slow' motion, {rate:g} Hz, {args.duration:g} s, seed {args.seed}"
     params = resolve_params(args.filter, dt, overrides)
     if _entry(args.filter).fixed:
+        mag = (f", mag {mag_counts_scale(inputs[2]):g} per unit" if cls.kind == "ahrs" else "")
         inputs = counts_for(cls.kind, params, inputs)
-        src += f"; int16 counts (gyr_scale {params['gyr_scale']:g} rad/s, acc 4096 per g)"
+        src += f"; int16 counts (gyr_scale {params['gyr_scale']:g} rad/s, acc 4096 per g{mag})"
     v = validate_isolated(fw, args.filter, params, inputs, backend=args.backend, dtype=args.dtype,
                           timeout=args.timeout, target=args.target)
     print(f"inputs: {src}; {args.filter} "

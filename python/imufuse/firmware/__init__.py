@@ -68,11 +68,11 @@ from .target_build import MAX_CHUNK, Program, StateType, build_program
 from .target_run import TargetRun, run_program
 from .targets import (DEFAULT_TARGET_CFLAGS, DESCRIPTION, TARGETS, TargetError, harness_target,
                       speed_note, target_names)
-from .validate import counts_for, validate
+from .validate import counts_for, mag_counts_scale, validate
 
 __all__ = ["Firmware", "FirmwareError", "Validation", "validate", "csrc_firmware",
            "parse_prototype", "Comparison", "compare_states", "ulps", "DEFAULT_CFLAGS",
-           "DEFAULT_TIMEOUT", "validate_isolated", "counts_for", "Cost", "Declaration",
+           "DEFAULT_TIMEOUT", "validate_isolated", "counts_for", "mag_counts_scale", "Cost", "Declaration",
            # the emulated-MCU targets
            "TARGETS", "DESCRIPTION", "DEFAULT_TARGET_CFLAGS", "TargetError", "target_names",
            "harness_target", "speed_note", "MAX_CHUNK", "StateType", "Program", "build_program",

@@ -25,13 +25,26 @@ from .target_build import _tool_prefix, build_program
 from .target_run import run_program
 from .targets import DEFAULT_TARGET_CFLAGS, TargetError, harness_target, speed_note
 
-__all__ = ["validate", "counts_for"]
+__all__ = ["validate", "counts_for", "mag_counts_scale"]
+
+
+def mag_counts_scale(mag: Any) -> float:
+    """Counts per unit of a magnetometer log for a fixed-point filter (any unit: B4 compares
+    the field with its own reference): 4096, halved until the largest finite reading is below
+    2^14 counts (a log in uT, 25-65 uT, would saturate int16 at 4096 per unit)."""
+    a = np.abs(np.asarray(mag, dtype=np.float64))
+    peak = float(a[np.isfinite(a)].max()) if np.isfinite(a).any() else 0.0
+    scale = 4096.0
+    while peak * scale >= 16384.0 and scale > 2.0 ** -40:
+        scale /= 2.0
+    return scale
 
 
 def counts_for(kind: str, params: Mapping[str, Any], inputs: Sequence[Any]) -> List[np.ndarray]:
     """int16 counts of float inputs for a fixed-point filter: the gyro by params' gyr_scale
-    (rad/s per count), angles by angle_scale (rad per count), the accelerometer and
-    magnetometer (any unit: they are normalised) at 4096 counts per unit."""
+    (rad/s per count), angles by angle_scale (rad per count), the accelerometer (any unit:
+    it is normalised; g in logs) at 4096 counts per unit, the magnetometer by
+    mag_counts_scale."""
     out = []
     for k, a in enumerate(inputs):
         a = np.asarray(a, dtype=np.float64)
@@ -39,6 +52,8 @@ def counts_for(kind: str, params: Mapping[str, Any], inputs: Sequence[Any]) -> L
             c = a / params["gyr_scale"]
         elif kind == "1d":
             c = a / params["angle_scale"]
+        elif k == 2:
+            c = a * mag_counts_scale(a)
         else:
             c = a * 4096.0
         out.append(np.clip(np.rint(c), -32768, 32767).astype(np.int16))
