@@ -1,4 +1,5 @@
-/* Fixed-point RobustIMU; see robust_q.h for the Q formats and ranges.
+/* Fixed-point RobustIMU and RobustAHRS (B4; not B6); see robust_q.h for the Q formats and
+ * ranges.
  * Mirrored line for line by python/imufuse/reference/fixed_robust.py; the blocks and
  * their order are those of csrc/robust.c. */
 #include "robust_q.h"

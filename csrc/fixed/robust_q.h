@@ -1,7 +1,8 @@
 /*
  * Fixed-point RobustIMU (csrc/robust.h, docs/recommended-ahrs.md) for MCUs without an
  * FPU: the blocks B1 (rest), B2 (gravity in the inertial frame, a Kalman filter), B3
- * (gyro bias in motion), B5 (start from the first samples) and the output latency, in
+ * (gyro bias in motion), B5 (start from the first samples) and the output latency, and
+ * RobustAHRS without B6 (RobustAHRSQ: B4, the magnetometer confined to heading; below), in
  * int32 with 16x16->32 multiplies only (no int64, no division: reciprocals and
  * square roots by imf_invsqrt_u32).  Mirrored line for line by
  * python/imufuse/reference/fixed_robust.py.
@@ -195,6 +196,7 @@ typedef struct {
     int profile;          /* 32 (default; the only one built) */
 } imf_robust_ahrs_q_settings_t;
 
+/* The defaults listed with each member. */
 void imf_robust_ahrs_q_default_settings(imf_robust_ahrs_q_settings_t *settings);
 /* Returns 0, or -1 for a parameter out of range (then the filter is not usable). */
 int imf_robust_ahrs_q_init(imf_robust_ahrs_q_t *self, const imf_robust_ahrs_q_settings_t *settings);

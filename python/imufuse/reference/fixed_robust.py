@@ -1,5 +1,9 @@
-"""Fixed-point RobustIMU: pure-Python twin of csrc/fixed/robust_q.c, line for line (Q
-formats and ranges in robust_q.h)."""
+"""Fixed-point RobustIMU and RobustAHRS (without B6): pure-Python twin of
+csrc/fixed/robust_q.c, line for line (Q formats and ranges in robust_q.h).
+
+Longer than 500 lines because: it is the twin of robust_q.c (also one file, the AHRS's B4
+sharing the IMU's helpers and update), read side by side with it, block by block.
+"""
 from __future__ import annotations
 
 import math
