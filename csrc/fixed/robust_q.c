@@ -93,6 +93,17 @@ static IMF_Q_NOINLINE void robust_q_matrix(const int16_t qs[4], int16_t r[9])
 static IMF_Q_NOINLINE void robust_q_rotate(const int16_t r[9], const int t, const int32_t v[3],
                                            int32_t out[3])
 {
+#if defined(__AVR__)
+    /* AVR: the same sums unrolled over the rows of R or R^T */
+    const int d = t ? 3 : 1; /* R^T's row i is R's column i */
+    int i;
+    for (i = 0; i < 3; ++i) {
+        const int16_t *const m = r + (t ? i : 3 * i);
+        out[i] =
+            imf_add_sat32(imf_add_sat32(imf_q_mul_hq_p32(v[0], m[0]), imf_q_mul_hq_p32(v[1], m[d])),
+                          imf_q_mul_hq_p32(v[2], m[2 * d]));
+    }
+#else
     int i, j;
     for (i = 0; i < 3; ++i) {
         int32_t a = 0;
@@ -101,6 +112,7 @@ static IMF_Q_NOINLINE void robust_q_rotate(const int16_t r[9], const int t, cons
         }
         out[i] = a;
     }
+#endif
 }
 
 /* out = R v (t = 0) or R^T v (t = 1) for an int16 v: one 16x16 product per term (q15 R
@@ -108,6 +120,16 @@ static IMF_Q_NOINLINE void robust_q_rotate(const int16_t r[9], const int t, cons
 static IMF_Q_NOINLINE void robust_q_rotate16(const int16_t r[9], const int t, const int16_t v[3],
                                              int32_t out[3])
 {
+#if defined(__AVR__)
+    /* AVR: the same sums unrolled over the rows of R or R^T */
+    const int d = t ? 3 : 1; /* R^T's row i is R's column i */
+    int i;
+    for (i = 0; i < 3; ++i) {
+        const int16_t *const m = r + (t ? i : 3 * i);
+        out[i] = imf_add_sat32(imf_add_sat32(imf_mul16(v[0], m[0]), imf_mul16(v[1], m[d])),
+                               imf_mul16(v[2], m[2 * d]));
+    }
+#else
     int i, j;
     for (i = 0; i < 3; ++i) {
         int32_t a = 0;
@@ -116,6 +138,7 @@ static IMF_Q_NOINLINE void robust_q_rotate16(const int16_t r[9], const int t, co
         }
         out[i] = a;
     }
+#endif
 }
 
 /* q /= |q|: while |q|^2 - 1 is small (every ordinary update: q is a product or a series
@@ -142,13 +165,33 @@ static IMF_Q_NOINLINE void robust_q_renorm(int32_t q[4])
 /* out = a (x) b, a a q15 snapshot, b q30: out_i = sum_j +-a_j b_{robust_q_bi[i][j]}, the
  * minus signs in robust_q_neg[i] (bit j); products rounded, sums saturated in j's order. A
  * loop: one inlined product (flash on the Cortex-M0) */
+#if !defined(__AVR__)
 static const unsigned char robust_q_bi[4][4] = {
     { 0, 1, 2, 3 }, { 1, 0, 3, 2 }, { 2, 3, 0, 1 }, { 3, 2, 1, 0 }
 };
 static const unsigned char robust_q_neg[4] = { 14u, 8u, 2u, 4u };
+#endif
 
 static IMF_Q_NOINLINE void robust_q_mul(const int16_t a[4], const int32_t b[4], int32_t out[4])
 {
+#if defined(__AVR__)
+/* AVR: the same sums unrolled (the loop's indexing and tests cost a third of its cycles);
+ * a zero term of a is skipped as in the loop (its product is 0: the same value) */
+#define ROBUST_Q_P(x, y) (a[y] != 0 ? imf_q_mul_hq_p32(b[x], a[y]) : 0)
+    out[0] = imf_sub_sat32(
+        imf_sub_sat32(imf_sub_sat32(ROBUST_Q_P(0, 0), ROBUST_Q_P(1, 1)), ROBUST_Q_P(2, 2)),
+        ROBUST_Q_P(3, 3));
+    out[1] = imf_sub_sat32(
+        imf_add_sat32(imf_add_sat32(ROBUST_Q_P(1, 0), ROBUST_Q_P(0, 1)), ROBUST_Q_P(3, 2)),
+        ROBUST_Q_P(2, 3));
+    out[2] = imf_add_sat32(
+        imf_add_sat32(imf_sub_sat32(ROBUST_Q_P(2, 0), ROBUST_Q_P(3, 1)), ROBUST_Q_P(0, 2)),
+        ROBUST_Q_P(1, 3));
+    out[3] = imf_add_sat32(
+        imf_sub_sat32(imf_add_sat32(ROBUST_Q_P(3, 0), ROBUST_Q_P(2, 1)), ROBUST_Q_P(1, 2)),
+        ROBUST_Q_P(0, 3));
+#undef ROBUST_Q_P
+#else
     int i, j;
     for (i = 0; i < 4; ++i) {
         int32_t t = 0;
@@ -162,6 +205,7 @@ static IMF_Q_NOINLINE void robust_q_mul(const int16_t a[4], const int32_t b[4], 
         }
         out[i] = t;
     }
+#endif
 }
 
 /* q = q (x) exp(h), h the half angle (q30): the series of csrc/robust.c,
