@@ -191,9 +191,21 @@ def double_init_flash(spec, target, inputs, elf, wd: Path) -> int:
     if f"{c.c_name}_init" in _elf_symbols(target, elf):
         raise SystemExit(f"{spec.label} on {target}: the init_consts firmware links {c.c_name}_init")
     drv, _ = mf._driver([spec], double_init=True)
-    e = mcu.build(target, sources=[str(c.source)], include_dirs=[spec.csrc, spec.csrc / "fixed"],
-                  defines=spec.defines, driver=drv, inputs=mf._inputs_of([spec], inputs),
-                  workdir=wd / "dbl")
+
+    def build(ins):
+        return mcu.build(target, sources=[str(c.source)],
+                         include_dirs=[spec.csrc, spec.csrc / "fixed"], defines=spec.defines,
+                         driver=drv, inputs=mf._inputs_of([spec], ins), workdir=wd / "dbl")
+    try:
+        e = build(inputs)
+    except mcu.HarnessError as err:
+        # the double init's soft float and the stored samples do not fit together: the rule
+        # of run_fitting (fewer samples); the figure is a difference against the same driver
+        # without the filter, with the same samples, so it does not depend on their number
+        if "does not fit" not in str(err):
+            raise
+        inputs = mf.inputs_for(spec.precision, spec.group[1], mf.N_MOTION_SMALL)
+        e = build(inputs)
     if f"{c.c_name}_init" not in _elf_symbols(target, e):
         raise SystemExit(f"{spec.label} on {target}: the double-init firmware lacks {c.c_name}_init")
     return linked_size(spec, target, inputs, e, wd)
