@@ -204,7 +204,7 @@ int imf_robust_ahrs_q_init(imf_robust_ahrs_q_t *self, const imf_robust_ahrs_q_se
 int imf_robust_ahrs_q_init_consts(imf_robust_ahrs_q_t *self,
                                   const imf_robust_ahrs_q_consts_t *consts);
 /* The stored offset (hard iron), magnetometer counts in the sensor frame, used from the
- * next sample. */
+ * next sample. init and init_consts clear it: set it after them. */
 void imf_robust_ahrs_q_set_mag_offset(imf_robust_ahrs_q_t *self, const int16_t offset[3]);
 /* One sample: gyr, acc and mag in counts (an all-zero mag is no reading). */
 void imf_robust_ahrs_q_update(imf_robust_ahrs_q_t *self, const int16_t gyr[3], const int16_t acc[3],

@@ -47,7 +47,7 @@ EXAMPLES: Dict[str, Tuple[str, str, int, str]] = {
                      "Madgwick's AHRS (gyro, accelerometer, magnetometer), float32"),
     "RobustAHRS": ("RobustAHRS", "float32", 64,
                    "imufuse's recommended AHRS, float32: for ARM boards (on an Uno it fits, "
-                   "but takes about 5 ms per update)"),
+                   "but takes about 7 ms per update)"),
     "MahonyIMUQ_Uno": ("MahonyIMUQ", "p32", 96,
                        "Mahony's IMU filter in fixed point (int16 sensor counts, no float "
                        "arithmetic in the update): for an Uno"),

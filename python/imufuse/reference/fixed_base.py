@@ -76,7 +76,9 @@ def as_int16(name, a, ndim):
         if arr.dtype.kind == "f" and np.all(np.isfinite(arr)) and np.all(arr == np.round(arr)):
             pass
         else:
-            raise ValueError(f"{name}: expected integer sensor counts, got dtype {arr.dtype}")
+            raise ValueError(f"{name}: expected integer sensor counts, got dtype {arr.dtype} (give the "
+                             "int16 readings of the sensor, or round physical values to them: "
+                             "np.round(x / unit_per_count).astype(np.int16))")
     if arr.size and (arr.min() < -32768 or arr.max() > 32767):
         raise ValueError(f"{name}: counts must be within int16 [-32768, 32767]")
     if arr.ndim != ndim:

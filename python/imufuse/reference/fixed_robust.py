@@ -237,7 +237,7 @@ class RobustIMUQ(FixedFilter):
         dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc, rest_time, \
             tau_rest, latency = args
         if str(profile) != "32":
-            raise ValueError(f"profile: RobustIMUQ has one arithmetic, profile '32' (it runs "
+            raise ValueError(f"profile: the Robust fixed-point filters have one arithmetic, profile '32' (it runs "
                              f"on 8-bit targets too), got {profile!r}")
         gyr_scale = check_scale("gyr_scale", gyr_scale)
         if not 200.0 * dt <= tau_acc <= 8192.0 * dt:
@@ -245,7 +245,8 @@ class RobustIMUQ(FixedFilter):
                     else "")
             raise ValueError(f"tau_acc: must be within [200 dt, 8192 dt] = [{200.0 * dt:.4g}, "
                              f"{8192.0 * dt:.4g}] s in fixed point (B2's covariance in q30), "
-                             f"got {tau_acc!r}{hint}")
+                             f"got {tau_acc!r}{hint}; give tau_acc in that range, or sample "
+                             f"{'faster' if tau_acc < 200.0 * dt else 'slower'}")
         if not gyr_scale * dt < 2.0 ** -15:
             raise ValueError(f"gyr_scale: {gyr_scale!r} rad/s per count turns the gyro's full "
                              f"scale by more than half a radian per sample at dt={dt!r} s "
@@ -567,7 +568,8 @@ class RobustAHRSQ(RobustIMUQ):
 
     def set_mag_offset(self, offset):
         """imf_robust_ahrs_q_set_mag_offset: the stored offset (hard iron), magnetometer
-        counts (x, y, z) in the sensor frame, used from the next sample."""
+        counts (x, y, z) in the sensor frame, used from the next sample. reset() clears it
+        (as the C init does): set it again after a reset."""
         self.u = list(self._offset_counts(offset))
 
     def _get_state(self):
