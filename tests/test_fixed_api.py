@@ -122,3 +122,14 @@ def test_profiles_differ_only_where_designed(mod):
             assert (s32 != s8).any()
         else:
             np.testing.assert_array_equal(s32, s8)
+
+
+def test_compiled_classes_carry_their_twins_docstring():
+    """help(imufuse_c.RobustAHRSQ) says what the class is: the binding generator copies the
+    twin's docstring into each fixed-point class (the float classes get theirs from the
+    dtype dispatch)."""
+    import inspect
+    import imufuse_c
+    for name in imufuse_c.FILTERS_FIXED:
+        doc = getattr(imufuse_c, name).__doc__
+        assert doc and inspect.cleandoc(doc) == inspect.cleandoc(getattr(reference, name).__doc__), name

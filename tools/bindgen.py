@@ -98,6 +98,15 @@ def twin(family: str) -> Tuple[Tuple[str, ...], Dict[str, str], Dict[str, Option
     return tuple(names), c_names, angles
 
 
+def class_docs(family: str) -> Dict[str, str]:
+    """The docstrings of reference/<family>.py's public classes (a fixed-point class's
+    binding carries its twin's: the float classes get theirs from imufuse_c's dispatch)."""
+    path = os.path.join(REFERENCE, family + ".py")
+    with open(path) as f:
+        tree = ast.parse(f.read(), path)
+    return {n.name: ast.get_docstring(n) or "" for n in tree.body if isinstance(n, ast.ClassDef)}
+
+
 def families() -> List[str]:
     """The float families: the public modules of imufuse.reference (fixed_* aside) that
     declare filter classes, sorted by name."""
@@ -158,7 +167,7 @@ def _header_of(c_name: str, fixed: bool) -> str:
 
 
 def _bind_filter(cp, name: str, c: str, text: str, rel_h: str, fixed: bool,
-                 angles_doc: Optional[str], out: List[str], states: set) -> str:
+                 angles_doc: Optional[str], out: List[str], states: set, doc: str = "") -> str:
     """Declare one filter's C API in `out` (the extern block) and return its class."""
     plain = cp.strip_comments(text)
 
@@ -218,6 +227,7 @@ def _bind_filter(cp, name: str, c: str, text: str, rel_h: str, fixed: bool,
         init_body = _wrap(f"{call}{c}_init(&self.s, {args})", 8) + "\n"
     bind = "rc" if fixed else "&self.s.skipped, &self.s"
     body = [f"\n\ncdef class {name}({base}):\n",
+            *([f"    {doc!r}\n"] if fixed and doc else []),
             f"    _ref = _reference.{name}\n",
             f"    cdef {c}_t s\n\n",
             "    cdef int _init(self) except -1:\n",
@@ -274,6 +284,7 @@ def _bindings(families: List[str], fixed: bool) -> str:
         if not fixed and not os.path.isfile(os.path.join(CSRC, family + ".h")):
             raise BindError(f"reference/{family}.py declares filters but csrc/{family}.h does not exist")
         names, c_names, angles = twin(family)
+        docs = class_docs(family)
         if not names:
             raise BindError(f"reference/{family}.py declares no filter class (a public class "
                             "with a c_name)")
@@ -289,7 +300,7 @@ def _bindings(families: List[str], fixed: bool) -> str:
             states: set = set()
             for name in members:
                 classes.append(_bind_filter(cp, name, c_names[name], text, rel_h, fixed,
-                                            angles[name], out, states))
+                                            angles[name], out, states, docs.get(name, "")))
     return "".join(out) + "".join(classes)
 
 
