@@ -87,19 +87,26 @@ def test_inputs_must_be_int16_counts(mod, profile):
         f.run(np.zeros((3, 3), np.int16), np.zeros((4, 3), np.int16))
     with pytest.raises(ValueError, match="3-vector|shape"):
         f.update([1, 2], [0, 0, 1])
-    # three inputs: the magnetometer is checked as the others
-    h = mod.RobustAHRSQ(0.01, gyr_scale=1e-3)
-    with pytest.raises(ValueError, match="int16"):
-        h.update([0, 0, 0], [0, 0, 4096], [40000, 0, 0])
-    with pytest.raises(ValueError, match="shapes"):
-        h.run(np.zeros((3, 3), np.int16), np.zeros((3, 3), np.int16), np.zeros((4, 3), np.int16))
-    with pytest.raises((TypeError, ValueError)):   # the twin names the missing input
-        h.update([0, 0, 0], [0, 0, 4096])
     g = mod.Complementary1DQ(0.01, 0.9, gyr_scale=1e-3, angle_scale=1e-4, profile=profile)
     with pytest.raises(ValueError):
         g.update(1.5, 0)
     with pytest.raises(ValueError, match="state"):
         g.state = [1, 2]
+
+
+@pytest.mark.parametrize("mod", BACKENDS)
+def test_three_inputs_are_checked_as_two(mod):
+    """A fixed-point AHRS (RobustAHRSQ, one profile): the magnetometer is checked as the
+    gyro and the accelerometer."""
+    h = mod.RobustAHRSQ(0.01, gyr_scale=1e-3)
+    with pytest.raises(ValueError, match="int16"):
+        h.update([0, 0, 0], [0, 0, 4096], [40000, 0, 0])
+    with pytest.raises(ValueError, match="integer sensor counts"):
+        h.run(np.zeros((3, 3), np.int16), np.zeros((3, 3), np.int16), np.full((3, 3), 0.5))
+    with pytest.raises(ValueError, match="shapes"):
+        h.run(np.zeros((3, 3), np.int16), np.zeros((3, 3), np.int16), np.zeros((4, 3), np.int16))
+    with pytest.raises((TypeError, ValueError)):   # the twin names the missing input
+        h.update([0, 0, 0], [0, 0, 4096])
 
 
 @pytest.mark.parametrize("mod", BACKENDS)

@@ -13,11 +13,10 @@ import numpy as np
 import pytest
 
 import imufuse_c
-from imufuse import evaluation, mcu, reference, rotations
-from imufuse.mcu import filters as mf
+from imufuse import evaluation, reference, rotations
 from bits import assert_same_bits
 from broad_data import BROAD, SKIP_REASON
-from test_robust_q import AS, GS, counts
+from test_robust_q import AS, GS, c_init_returns, counts
 
 MS = 1 / 0.15               # magnetometer counts per uT (0.15 uT per LSB)
 
@@ -186,20 +185,8 @@ def test_what_is_refused(mod):
 def test_c_init_refuses_what_the_twin_refuses():
     """The C init returns -1 for mag_learn 1, mag_norm above 1 and a bad IMU range (host
     build); 0 for the defaults."""
-    sets = [dict(mag_learn=1), dict(mag_norm=1.5), dict(tau_acc=1.0), {}]
-    calls = []
-    for i, s in enumerate(sets):
-        fields = " ".join(f"st.{k} = {v!r};" for k, v in s.items())
-        calls.append(f"imf_robust_ahrs_q_default_settings(&st); {fields} "
-                     f"imf_r{i} = imf_robust_ahrs_q_init(&imf_f, &st);")
-    pre = ('#include "robust_q.h"\nstatic imf_robust_ahrs_q_t imf_f;\n'
-           'static imf_robust_ahrs_q_settings_t st;\n'
-           + "".join(f"static int32_t imf_r{i};\n" for i in range(len(sets))))
-    drv = mcu.Driver(prelude=pre, step="\n".join(calls),
-                     state=[(f"imf_r{i}", "i32") for i in range(len(sets))])
-    res = mcu.run("host", sources=[str(mf.CSRC / "fixed" / "robust_q.c")],
-                  include_dirs=[mf.CSRC / "fixed"], driver=drv, inputs={"k": np.zeros(1, np.int16)})
-    rc = [int(np.int32(col[0])) for col in res.values()]
+    rc = c_init_returns("imf_robust_ahrs_q",
+                        [dict(mag_learn=1), dict(mag_norm=1.5), dict(tau_acc=1.0), {}])
     assert rc == [-1, -1, -1, 0], rc
 
 

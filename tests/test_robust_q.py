@@ -122,21 +122,25 @@ def test_ranges_refused_by_twin_and_c(what):
         reference.RobustIMUQ(**p)
     edge = dict(dt=0.01, tau_acc=2.0, gyr_scale=1.0642e-3)
     reference.RobustIMUQ(**edge)
-    sets = [p, edge, dict(dt=0.001, tau_acc=8.192, gyr_scale=1.0642e-3)]
+    rc = c_init_returns("imf_robust_imu_q", [p, edge, dict(dt=0.001, tau_acc=8.192, gyr_scale=1.0642e-3)])
+    assert rc == [-1, 0, 0], rc
+
+
+def c_init_returns(c_name, sets):
+    """What <c_name>_init returns (0 or -1) for each settings dict, from its defaults with
+    the dict's members set: one host build of csrc/fixed/robust_q.c."""
     calls = []
     for i, s in enumerate(sets):
-        fields = " ".join(f"st.{k} = {float(v)!r};" for k, v in s.items())
-        calls.append(f"imf_robust_imu_q_default_settings(&st); {fields} "
-                     f"imf_r{i} = imf_robust_imu_q_init(&imf_f, &st);")
-    pre = ('#include "robust_q.h"\nstatic imf_robust_imu_q_t imf_f;\n'
-           'static imf_robust_imu_q_settings_t st;\n'
+        fields = " ".join(f"st.{k} = {v!r};" for k, v in s.items())
+        calls.append(f"{c_name}_default_settings(&st); {fields} "
+                     f"imf_r{i} = {c_name}_init(&imf_f, &st);")
+    pre = (f'#include "robust_q.h"\nstatic {c_name}_t imf_f;\nstatic {c_name}_settings_t st;\n'
            + "".join(f"static int32_t imf_r{i};\n" for i in range(len(sets))))
     drv = mcu.Driver(prelude=pre, step="\n".join(calls),
                      state=[(f"imf_r{i}", "i32") for i in range(len(sets))])
     res = mcu.run("host", sources=[str(mf.CSRC / "fixed" / "robust_q.c")],
                   include_dirs=[mf.CSRC / "fixed"], driver=drv, inputs={"k": np.zeros(1, np.int16)})
-    rc = [int(np.int32(col[0])) for col in res.values()]
-    assert rc == [-1, 0, 0], rc
+    return [int(np.int32(col[0])) for col in res.values()]
 
 
 def test_bias_learnt_at_rest_in_counts():
