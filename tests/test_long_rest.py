@@ -230,13 +230,13 @@ def twin_name(case):
 
 def effective_gyr_scale(case, profile):
     """The rad/s per count the fixed filter integrates: gyr_scale with 0.5 gyr_scale dt
-    rounded to the q-scale's 15 significant bits (32-bit profile), or to the 8-bit
-    profile's gain8 mantissa in q(15+hs).  The quaternion filters' yaw is not observed,
+    rounded to the q-scale's 15 significant bits (32-bit profile, and both profiles of the
+    Robust filters), or to the 8-bit profile's gain8 mantissa in q(15+hs).  The quaternion filters' yaw is not observed,
     so it integrates this rounding (<= 2^-16 relative); their twin is given the same."""
     ref = getattr(reference, case.name)(**{**case.params, "dt": DT}, profile=profile)
     if not hasattr(ref, "kg"):     # no half-angle rate scale: gyr_scale as given
         return case.params["gyr_scale"]
-    if profile == "32":
+    if profile == "32" or not hasattr(ref, "kg8"):   # Robust: the same kg in both profiles
         return 2.0 * ref.kg.value / DT
     m, n = ref.kg8
     return 2.0 * m * 2.0 ** -(n + 15 + ref.hs) / DT

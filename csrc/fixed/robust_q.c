@@ -338,6 +338,125 @@ static IMF_Q_NOINLINE void robust_q_turn_z(int32_t q[4], const int32_t dw, const
     robust_q_renorm(q);
 }
 
+/* ---- the 8-bit profile's helpers ------------------------------------------------
+ * The same blocks with int16 operands: every quaternion product and rotation one 16x16
+ * product a term (no 32x16 product), a value that is not int16 narrowed first with one
+ * exponent for the whole vector (its 15 leading bits), the normalisation first order in
+ * 16-bit products. */
+
+#if IMF_Q_HAS_P8
+/* q /= |q| as robust_q_renorm, in 16-bit products: while |d| = ||q|^2 - 1| < 2^-8,
+ * q - q d / 2 with d in q22 (int16) times q's q15 snapshot (imf_q_add_step_p8's
+ * step); else imf_q_normalise_p8 */
+static IMF_Q_NOINLINE void robust_q_renorm_p8(int32_t q[4])
+{
+    int16_t qs[4], d16;
+    uint32_t n2;
+    int i;
+    imf_q_snapshot(q, qs);
+    n2 = imf_q_norm2(q, qs);
+    if (n2 <= 1069547520u || n2 >= 1077936128u) { /* 2^30 -+ 2^22 */
+        imf_q_normalise_p8(q);
+        return;
+    }
+    d16 = (int16_t)imf_rshr32((int32_t)n2 - IMF_Q30_ONE, 8); /* q22, |d| < 2^14 */
+    for (i = 0; i < 4; ++i) {
+        /* q d / 2 in q30 = qs (q15) d16 (q22) / 2^8 */
+        q[i] = imf_sub_sat32(q[i], imf_rshr32(imf_mul16(qs[i], d16), 8));
+    }
+}
+
+/* the exponent that narrows v to int16: the smallest e >= 0 with |v_i| 2^-e < 2^15 for
+ * every i (n components) */
+static IMF_Q_NOINLINE int robust_q_exponent_p8(const int32_t *const v, const int n)
+{
+    uint32_t m = 0u;
+    int e = 0, i;
+    for (i = 0; i < n; ++i) {
+        m |= v[i] < 0 ? 0u - (uint32_t)v[i] : (uint32_t)v[i]; /* the top bit of the largest */
+    }
+    while (m >= 32768u) {
+        m >>= 1;
+        e++;
+    }
+    return e;
+}
+
+/* v 2^-e rounded, symmetric int16 (the rounding can reach 2^15: saturated) */
+static IMF_Q_NOINLINE void robust_q_narrow_p8(const int32_t *const v, const int n, const int e,
+                                              int16_t *const out)
+{
+    int i;
+    for (i = 0; i < n; ++i) {
+        out[i] = imf_sat_q15s(imf_rshr32(v[i], e));
+    }
+}
+
+/* out = a (x) b for q15 a and b, q30: 16x16 products, each component's four summed with
+ * saturation in robust_q_mul's order */
+static IMF_Q_NOINLINE void robust_q_mul_p8(const int16_t a[4], const int16_t b[4], int32_t out[4])
+{
+#define ROBUST_Q_P(x, y) imf_mul16(b[x], a[y]) /* |.| <= 2^30 */
+    out[0] = imf_sub_sat32(imf_sub_sat32(ROBUST_Q_P(0, 0) - ROBUST_Q_P(1, 1), ROBUST_Q_P(2, 2)),
+                           ROBUST_Q_P(3, 3));
+    out[1] = imf_sub_sat32(imf_add_sat32(ROBUST_Q_P(1, 0) + ROBUST_Q_P(0, 1), ROBUST_Q_P(3, 2)),
+                           ROBUST_Q_P(2, 3));
+    out[2] = imf_add_sat32(imf_add_sat32(ROBUST_Q_P(2, 0) - ROBUST_Q_P(3, 1), ROBUST_Q_P(0, 2)),
+                           ROBUST_Q_P(1, 3));
+    out[3] = imf_add_sat32(imf_sub_sat32(ROBUST_Q_P(3, 0) + ROBUST_Q_P(2, 1), ROBUST_Q_P(1, 2)),
+                           ROBUST_Q_P(0, 3));
+#undef ROBUST_Q_P
+}
+
+/* q = q (x) exp(h) as robust_q_exp, in 16-bit products, its normalisation folded in
+ * (one snapshot): d = |q|^2 - 1 from q's q15 snapshot at the start (imf_q_normalise_p8
+ * first if |d| >= 2^-8); h (q30) narrowed to q(30 - e); |h|^2 / 2 and |h|^2 / 6 in q15
+ * (0 while the largest |h_i| < 2^22: below their q15 LSB); then
+ * q += q (x) (0, h (1 - |h|^2 / 6)) (imf_q_rate_p8, hs = 15 - e) - q (|h|^2 + d) / 2,
+ * so q is normalised to first order from the update before (|q|^2 - 1 stays of the
+ * order of |h|^4 and the rounding) */
+static IMF_Q_NOINLINE void robust_q_exp_p8(int32_t q[4], const int32_t h[3])
+{
+    int16_t qs[4], hn[3], n2h = 0, n6 = 0, d16 = 0;
+    int32_t hv[3], dq[4];
+    uint32_t n2;
+    int e = robust_q_exponent_p8(h, 3), i;
+    imf_q_snapshot(q, qs);
+    n2 = imf_q_norm2(q, qs);
+    if (n2 <= 1069547520u || n2 >= 1077936128u) { /* 2^30 -+ 2^22 */
+        imf_q_normalise_p8(q);
+        imf_q_snapshot(q, qs);
+    } else {
+        d16 = (int16_t)imf_rshr32((int32_t)n2 - IMF_Q30_ONE, 8); /* q22, |d| < 2^14 */
+    }
+    if (e > 15) {
+        e = 15; /* |h| >= 1 rad (the latency's step only): saturated */
+    }
+    robust_q_narrow_p8(h, 3, e, hn);
+    if (e >= 8) {
+        /* |h|^2 / 2 in q15: the three squares (q(60 - 2e), < 2^32) halved, then
+           shifted by 45 - 2e in [15, 29]; capped at 1/2 (|h| <= 1) */
+        uint32_t sq = 0u;
+        int32_t h2;
+        for (i = 0; i < 3; ++i) {
+            sq += (uint32_t)imf_mul16(hn[i], hn[i]);
+        }
+        h2 = imf_rshr32((int32_t)(sq >> 1), 45 - 2 * e);
+        n2h = (int16_t)(h2 > 16384 ? 16384 : h2);
+        n6 = (int16_t)imf_rshr32(imf_mul16(n2h, 10923), 15); /* |h|^2 / 6 = (|h|^2 / 2) / 3 */
+    }
+    for (i = 0; i < 3; ++i) {
+        hv[i] = hn[i] - imf_rshr32(imf_mul16(hn[i], n6), 15); /* q(30 - e), |.| < 2^15 */
+    }
+    imf_q_rate_p8(qs, hv, 15 - e, dq);
+    for (i = 0; i < 4; ++i) {
+        /* q (|h|^2 / 2) in q30 from q15 x q15; q d / 2 = qs (q15) d16 (q22) / 2^8 */
+        q[i] = imf_add_sat32(q[i], imf_sub_sat32(imf_sub_sat32(dq[i], imf_mul16(n2h, qs[i])),
+                                                 imf_rshr32(imf_mul16(qs[i], d16), 8)));
+    }
+}
+#endif
+
 /* ---- init ----------------------------------------------------------------------- */
 
 /* a q-scale constant: 0, or its shift within [smin, smax] */
@@ -372,7 +491,7 @@ static int robust_q_consts_ok(const imf_robust_imu_q_consts_t *const k)
              || !imf_qscale_ok(k->kb_rest, 0, 47) || !robust_q_ok(k->kbias, -15, 32)
              || !imf_qscale_ok(k->kacc2, 14, 47) || k->qg0 < 16 || k->qcap < k->qg0 || k->pg0 <= 0
              || k->n_tau < 0 || k->n_acc < 0 || k->n_rest < 0 || k->n_max < k->n_tau
-             || k->n_max < k->n_acc || k->n_max > 1073741824L);
+             || k->n_max < k->n_acc || k->n_max > 1073741824L || !imf_q_profile_ok(k->profile));
 }
 
 /* the IMU state at power-up */
@@ -417,7 +536,8 @@ static int robust_q_consts(const imf_robust_imu_q_settings_t *const s,
         || !(s->rate_ref >= 0.0) || !(s->tau_bias == 0.0 || s->tau_bias >= 4.0 * s->tau_acc)
         || !(s->tau_bias_rest > 0.0) || !imf_param_ok(s->rest_gyr, 0.0, 1e30)
         || !imf_param_ok(s->rest_acc, 0.0, 1.0) || !imf_param_ok(s->rest_time, 0.0, 1e30)
-        || !(s->tau_rest > 0.0) || !imf_param_ok(s->latency, 0.0, 0.1) || s->profile != 32) {
+        || !(s->tau_rest > 0.0) || !imf_param_ok(s->latency, 0.0, 0.1)
+        || !imf_q_profile_ok(s->profile)) {
         return -1;
     }
     k.kg = imf_qscale_from_double(0.5 * gs * dt);
@@ -437,6 +557,7 @@ static int robust_q_consts(const imf_robust_imu_q_settings_t *const s,
     k.n_acc = robust_q_ceil(s->tau_acc / dt);
     k.n_rest = robust_q_ceil(s->rest_time / dt);
     k.n_max = k.n_tau > k.n_acc ? k.n_tau : k.n_acc;
+    k.profile = s->profile;
     /* a constant of a block that is on must not underflow to 0 (off) */
     if ((s->rate_ref > 0.0 && k.kq.m == 0) || (s->tau_bias > 0.0 && k.kbias.m == 0)
         || (s->latency > 0.0 && k.klat.m == 0) || (s->rest_acc > 0.0 && k.kacc2.m == 0)) {
@@ -458,6 +579,17 @@ int imf_robust_imu_q_init(imf_robust_imu_q_t *const self,
 
 /* ---- the update ----------------------------------------------------------------- */
 
+/* the profile given to init: 1 for the 8-bit profile (a constant when one profile is
+ * compiled, IMF_FIXED_PROFILE) */
+#define ROBUST_Q_IS_P8(k) (IMF_Q_HAS_P8 && (!IMF_Q_HAS_P32 || (k)->profile == 8))
+#if IMF_Q_HAS_P8 && IMF_Q_HAS_P32
+#define ROBUST_Q_EXP(p8, q, h) ((p8) ? robust_q_exp_p8((q), (h)) : robust_q_exp((q), (h)))
+#elif IMF_Q_HAS_P8
+#define ROBUST_Q_EXP(p8, q, h) robust_q_exp_p8((q), (h))
+#else
+#define ROBUST_Q_EXP(p8, q, h) robust_q_exp((q), (h))
+#endif
+
 /* B1, B2, B3 and B5 of one sample; returns 0 when the sample is not taken (no start
  * without an accelerometer reading), then nothing else runs */
 static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
@@ -472,6 +604,7 @@ static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
     uint32_t w2, g2, d2, a2;
     imf_qscale_t kk;
     int rest, i;
+    const int p8 = ROBUST_Q_IS_P8(k);
     if (first && !has_acc) {
         return 0;
     }
@@ -520,7 +653,7 @@ static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
         w[i] = imf_sub_sat32((int32_t)gyr[i] * 32768L, x->b[i]);
         h[i] = imf_scale32_s(w[i], k->kg, 15, 30);
     }
-    robust_q_exp(x->s, h);
+    ROBUST_Q_EXP(p8, x->s, h);
     /* B2: the accelerometer in the inertial frame */
     imf_q_snapshot(x->s, ss);
     robust_q_matrix(ss, rm);
@@ -570,24 +703,75 @@ static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
        (1 + u_z, u_y, -u_x, 0) normalised for the unit gravity u in the earth frame */
     imf_q_snapshot(x->c, ss);
     robust_q_matrix(ss, rm);
-    robust_q_rotate(rm, 0, x->f, ge);
-    if (robust_q_unit(ge, u)) {
-        /* gravity straight down (upside down): the half turn about x */
-        robust_q_half(u[2], u[1], (int16_t)-u[0], r);
-    } else {
-        /* no gravity estimate (a zero vector): no correction */
-        r[0] = 32767;
+#if IMF_Q_HAS_P8
+    if (p8) {
+        /* 8-bit profile: f narrowed to int16 (its largest below 2^14), rotated, the unit
+           vector of its 15 leading bits (imf_q_unit3_p8); c += d (x) c with d = r - 1 in
+           16-bit products. For u_z >= 0, r = (1 + u_z, u_y, -u_x) / 2, not normalised (the
+           normalisation of c takes it: the same direction); below (turned over), r from
+           robust_q_half.
+           B3 takes 2 (r1, r2): (u_y, -u_x) for the first, the doubled r for the second. */
+        int16_t f16[3], d[4];
+        int half = 0;
+        robust_q_narrow_p8(x->f, 3, robust_q_exponent_p8(x->f, 3) + 1, f16);
+        robust_q_rotate16(rm, 0, f16, ge); /* |ge| < 2^30 */
+        for (i = 0; i < 3; ++i) {
+            f16[i] = imf_sat_q15s(imf_rshr32(ge[i], 15));
+        }
+        d[0] = d[1] = d[2] = d[3] = 0;
         r[1] = r[2] = 0;
+        if (imf_q_unit3_p8(f16, u)) {
+            if (u[2] >= 0) {
+                d[0] = (int16_t)(u[2] - 32768L); /* [-32768, -1] */
+                d[1] = r[1] = u[1];
+                d[2] = r[2] = (int16_t)-u[0];
+                half = 1; /* d is twice r - 1 */
+            } else {
+                /* turned over (the first samples only: c takes the whole r): u to
+                   imf_q_normalise_acc's precision first, as the 32-bit profile (1 + u_z
+                   is a difference of nearly equal numbers) */
+                (void)robust_q_unit(ge, u);
+                robust_q_half(u[2], u[1], (int16_t)-u[0], r);
+                d[0] = (int16_t)(r[0] - 32768L); /* [-32768, -1] */
+                d[1] = r[1];
+                d[2] = r[2];
+                r[1] = imf_sat_q15s(2L * r[1]);
+                r[2] = imf_sat_q15s(2L * r[2]);
+            }
+        }
+        robust_q_mul_p8(d, ss, t);
+        for (i = 0; i < 4; ++i) {
+            x->c[i] = imf_add_sat32(x->c[i], imf_rshr32(t[i], half));
+        }
+        robust_q_renorm_p8(x->c);
+        imf_q_snapshot(x->c, ss);
+        imf_q_snapshot(x->s, d);
+        robust_q_mul_p8(ss, d, x->q);
+        robust_q_renorm_p8(x->q);
     }
-    r[3] = 0;
-    robust_q_mul(r, x->c, t);
-    for (i = 0; i < 4; ++i) {
-        x->c[i] = t[i];
+#endif
+#if IMF_Q_HAS_P32
+    if (!p8) {
+        robust_q_rotate(rm, 0, x->f, ge);
+        if (robust_q_unit(ge, u)) {
+            /* gravity straight down (upside down): the half turn about x */
+            robust_q_half(u[2], u[1], (int16_t)-u[0], r);
+        } else {
+            /* no gravity estimate (a zero vector): no correction */
+            r[0] = 32767;
+            r[1] = r[2] = 0;
+        }
+        r[3] = 0;
+        robust_q_mul(r, x->c, t);
+        for (i = 0; i < 4; ++i) {
+            x->c[i] = t[i];
+        }
+        robust_q_renorm(x->c);
+        imf_q_snapshot(x->c, ss);
+        robust_q_mul(ss, x->s, x->q);
+        robust_q_renorm(x->q);
     }
-    robust_q_renorm(x->c);
-    imf_q_snapshot(x->c, ss);
-    robust_q_mul(ss, x->s, x->q);
-    robust_q_renorm(x->q);
+#endif
     /* B3: the correction rate seen in the sensor frame is minus the bias error
        (Eq. 3.6, with Ki dt = 1 / tau_bias): b -= R(q)^T (2 r1, 2 r2, 0) / tau_bias */
     if (!rest && x->n >= k->n_acc && k->kbias.m != 0) {
@@ -598,6 +782,14 @@ static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
         u[2] = 0;
         robust_q_rotate16(rm, 1, u, e); /* R^T r in q30; the error is twice that */
         for (i = 0; i < 3; ++i) {
+#if IMF_Q_HAS_P8
+            if (p8) {
+                /* 8-bit profile: R^T 2 r in q15 (2 r is q15) times kbias, one 16x16 product */
+                x->b[i] = imf_sub_sat32(
+                    x->b[i], imf_scale16(imf_sat_q15s(imf_rshr32(e[i], 15)), k->kbias, 0));
+                continue;
+            }
+#endif
             x->b[i] =
                 imf_sub_sat32(x->b[i], imf_scale32_s(imf_add_sat32(e[i], e[i]), k->kbias, 30, 15));
         }
@@ -616,7 +808,7 @@ static void robust_q_finish(const imf_robust_imu_q_consts_t *const k,
         for (i = 0; i < 3; ++i) {
             h[i] = imf_scale32_s(imf_sub_sat32((int32_t)gyr[i] * 32768L, x->b[i]), k->klat, 15, 30);
         }
-        robust_q_exp(x->q, h);
+        ROBUST_Q_EXP(ROBUST_Q_IS_P8(k), x->q, h);
     }
     if (x->n < k->n_max) {
         x->n++;

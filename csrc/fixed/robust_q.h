@@ -83,6 +83,7 @@ typedef struct {
     int32_t n_acc;        /* ceil(tau_acc / dt): B3 from then on */
     int32_t n_rest;       /* ceil(rest_time / dt) */
     int32_t n_max;        /* max(n_tau, n_acc): n saturates there */
+    int32_t profile;      /* 32 or 8: the update's arithmetic (a profile compiled in) */
 } imf_robust_imu_q_consts_t;
 
 typedef struct {

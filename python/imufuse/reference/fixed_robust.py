@@ -10,7 +10,7 @@ import math
 
 from . import _cint as ci
 from . import fixed_quat as fq
-from .fixed_base import FixedFilter, check_scale, qconst
+from .fixed_base import FixedFilter, check_profile, check_scale, qconst
 from .robust import RobustAHRS, RobustIMU
 
 Q29_ONE = 1 << 29
@@ -144,6 +144,79 @@ def qexp(q, h):
     q[:] = renorm([ci.add_sat32(q[i], dq[i]) for i in range(4)])
 
 
+# ---- the 8-bit profile's helpers -------------------------------------------------------
+# The same blocks with int16 operands: every quaternion product and rotation one 16x16
+# product a term, a value that is not int16 narrowed first with one exponent for the whole
+# vector (its 15 leading bits), the normalisation first order in 16-bit products.
+
+def renorm_p8(q):
+    """robust_q_renorm_p8: q - q d / 2 with d = |q|^2 - 1 in q22 while |d| < 2^-8, else
+    normalise_p8; the new q."""
+    qs = fq.snapshot(q)
+    n2 = fq.norm2(q, qs)
+    if n2 <= 1069547520 or n2 >= 1077936128:             # 2^30 -+ 2^22
+        return fq.normalise_p8(q)
+    d16 = ci.rshr32(n2 - fq.Q30_ONE, 8)                  # q22, |d| < 2^14
+    # q d / 2 in q30 = qs (q15) d16 (q22) / 2^8
+    return [ci.sub_sat32(q[i], ci.rshr32(qs[i] * d16, 8)) for i in range(4)]
+
+
+def exponent_p8(v):
+    """robust_q_exponent_p8: the smallest e >= 0 with |v_i| 2^-e < 2^15 for every i."""
+    m = 0
+    for a in v:
+        m |= abs(a)                                      # the top bit of the largest
+    e = 0
+    while m >= 32768:
+        m >>= 1
+        e += 1
+    return e
+
+
+def narrow_p8(v, e):
+    """robust_q_narrow_p8: v 2^-e rounded, symmetric int16."""
+    return [ci.sat_q15s(ci.rshr32(a, e)) for a in v]
+
+
+def qmul_p8(a, b):
+    """robust_q_mul_p8: a (x) b for q15 a and b, q30, sums saturated in qmul's order."""
+    def p(x, y):
+        return b[x] * a[y]
+    sub, add = ci.sub_sat32, ci.add_sat32
+    return [sub(sub(p(0, 0) - p(1, 1), p(2, 2)), p(3, 3)),
+            sub(add(p(1, 0) + p(0, 1), p(3, 2)), p(2, 3)),
+            add(add(p(2, 0) - p(3, 1), p(0, 2)), p(1, 3)),
+            add(sub(p(3, 0) + p(2, 1), p(1, 2)), p(0, 3))]
+
+
+def qexp_p8(q, h):
+    """robust_q_exp_p8: qexp in 16-bit products, its normalisation folded in (in place):
+    d = |q|^2 - 1 from q's snapshot at the start (normalise_p8 first if |d| >= 2^-8), h
+    narrowed to q(30 - e), |h|^2 / 2 and / 6 in q15 (0 while every |h_i| < 2^22), then
+    q += q (x) (0, h (1 - |h|^2 / 6)) - q (|h|^2 + d) / 2."""
+    e = exponent_p8(h)
+    qs = fq.snapshot(q)
+    n2 = fq.norm2(q, qs)
+    d16 = 0
+    if n2 <= 1069547520 or n2 >= 1077936128:             # 2^30 -+ 2^22
+        q[:] = fq.normalise_p8(q)
+        qs = fq.snapshot(q)
+    else:
+        d16 = ci.rshr32(n2 - fq.Q30_ONE, 8)              # q22, |d| < 2^14
+    e = min(e, 15)                     # |h| >= 1 rad (the latency's step only): saturated
+    hn = narrow_p8(h, e)
+    n2h = n6 = 0
+    if e >= 8:
+        # |h|^2 / 2 in q15: the squares (q(60 - 2e)) halved, shifted by 45 - 2e
+        sq = sum(v * v for v in hn)
+        n2h = min(ci.rshr32(sq >> 1, 45 - 2 * e), 16384)
+        n6 = ci.rshr32(n2h * 10923, 15)                  # |h|^2 / 6
+    hv = [v - ci.rshr32(v * n6, 15) for v in hn]         # q(30 - e)
+    dq = fq.rate_p8(qs, hv, 15 - e)
+    sub = ci.sub_sat32
+    q[:] = [ci.add_sat32(q[i], sub(sub(dq[i], n2h * qs[i]), ci.rshr32(qs[i] * d16, 8)))
+            for i in range(4)]
+
 def half(c, a, b):
     """robust_q_half: (1 + c, a, b) normalised, symmetric q15, for a unit (c, a, b) in
     q15; (0, 1, 0) where it is 0 (c = -1: any half turn is a smallest rotation)."""
@@ -223,7 +296,6 @@ class RobustIMUQ(FixedFilter):
     """
     kind = "imu"
     c_name = "imf_robust_imu_q"
-    profiles = ("32",)
     state_names: tuple = ("q0", "q1", "q2", "q3", "s0", "s1", "s2", "s3", "c0", "c1", "c2", "c3",
                    "fx", "fy", "fz", "vx", "vy", "vz", "pvv", "pvg", "pgg",
                    "bx", "by", "bz", "lwx", "lwy", "lwz", "lax", "lay", "laz", "n", "n_rest")
@@ -236,9 +308,7 @@ class RobustIMUQ(FixedFilter):
                                  rest_acc, rest_time, tau_rest, latency)
         dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc, rest_time, \
             tau_rest, latency = args
-        if str(profile) != "32":
-            raise ValueError(f"profile: the Robust fixed-point filters have one arithmetic, profile '32' (it runs "
-                             f"on 8-bit targets too), got {profile!r}")
+        profile = check_profile(profile)
         gyr_scale = check_scale("gyr_scale", gyr_scale)
         if not 200.0 * dt <= tau_acc <= 8192.0 * dt:
             hint = (f"; dt is in seconds (dt={dt!r} looks like milliseconds)" if dt >= 1.0
@@ -272,7 +342,7 @@ class RobustIMUQ(FixedFilter):
                 raise ValueError(f"{name}: must be at most 2^30 samples, got {v!r}")
         qconst("dt/(tau_rest+dt)", dt / (tau_rest + dt), 0, 47, nonzero=True)
         qconst("dt/(tau_bias_rest+dt)", dt / (tau_bias_rest + dt), 0, 47, nonzero=True)
-        return args + (gyr_scale, 32)
+        return args + (gyr_scale, profile)
 
     @staticmethod
     def _consts(dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc, rest_time,
@@ -295,7 +365,7 @@ class RobustIMUQ(FixedFilter):
                     pg0=math.floor(e * 1073741824.0 + 0.5),
                     rest_g2=0xFFFFFFFF if g2 * g2 >= 4294967295.0 else math.ceil(g2 * g2),
                     n_tau=n_tau, n_acc=n_acc, n_rest=_ceil(rest_time / dt),
-                    n_max=max(n_tau, n_acc))
+                    n_max=max(n_tau, n_acc), profile=int(profile))
 
     def _init(self, dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
               rest_time, tau_rest, latency, gyr_scale, profile):
@@ -343,6 +413,7 @@ class RobustIMUQ(FixedFilter):
         # robust_q_step: B1, B2, B3 and B5 of one sample; False when the sample is not
         # taken (no start without an accelerometer reading), then nothing else runs
         k = self.k
+        p8 = k["profile"] == 8
         first = self.n == 0
         # an all-zero accelerometer is no reading: gyro only (and no start without one)
         has_acc = not (acc[0] == 0 and acc[1] == 0 and acc[2] == 0)
@@ -379,7 +450,7 @@ class RobustIMUQ(FixedFilter):
         # strapdown: s = s (x) exp(1/2 (w - b) dt), series as the float filter
         w = [ci.sub_sat32(gyr[i] * 32768, self.b[i]) for i in range(3)]
         h = [ci.scale32_s(w[i], k["kg"], 15, 30) for i in range(3)]
-        qexp(self.s, h)
+        (qexp_p8 if p8 else qexp)(self.s, h)
         # B2: the accelerometer in the inertial frame
         rm = matrix(fq.snapshot(self.s))
         ai = rotate16(rm, 0, acc)                         # q15 counts
@@ -417,26 +488,62 @@ class RobustIMUQ(FixedFilter):
                       ci.sub_sat32(pgg, mul_signed(pvg, kgs, sg, 30, 30))]
         # inclination: the smallest rotation r that turns the gravity estimate onto earth
         # z, (1 + u_z, u_y, -u_x, 0) normalised for the unit gravity u in the earth frame
-        rm = matrix(fq.snapshot(self.c))
-        ge = rotate(rm, 0, self.f)
-        u = unit(ge)
-        if u is not None:
-            # gravity straight down (upside down): the half turn about x
-            r = half(u[2], u[1], -u[0])
+        ss = fq.snapshot(self.c)
+        rm = matrix(ss)
+        if p8:
+            # 8-bit profile: f narrowed to int16 (its largest below 2^14), rotated, the unit
+            # vector of its 15 leading bits (unit3_p8); c += d (x) c with d = r - 1 in 16-bit
+            # products. For u_z >= 0, r = (1 + u_z, u_y, -u_x) / 2, not normalised (the
+            # normalisation of c takes it: the same direction); below (turned over), r from
+            # half(). B3 takes 2 (r1, r2): (u_y, -u_x) for the first, the doubled r for the
+            # second.
+            f16 = narrow_p8(self.f, exponent_p8(self.f) + 1)
+            ge = rotate16(rm, 0, f16)                    # |ge| < 2^30
+            u = fq.unit3_p8([ci.sat_q15s(ci.rshr32(v, 15)) for v in ge])
+            d = [0, 0, 0, 0]
+            r = [0, 0, 0]
+            hs = 0
+            if u is not None:
+                if u[2] >= 0:
+                    d = [u[2] - 32768, u[1], -u[0], 0]   # [-32768, -1] first
+                    r = [0, u[1], -u[0]]
+                    hs = 1                               # d is twice r - 1
+                else:
+                    # turned over (the first samples only: c takes the whole r): u to
+                    # normalise_acc's precision first, as the 32-bit profile
+                    u = unit(ge)
+                    r = half(u[2], u[1], -u[0])
+                    d = [r[0] - 32768, r[1], r[2], 0]
+                    r = [r[0], ci.sat_q15s(2 * r[1]), ci.sat_q15s(2 * r[2])]
+            t = qmul_p8(d, ss)
+            self.c = renorm_p8([ci.add_sat32(self.c[i], ci.rshr32(t[i], hs)) for i in range(4)])
+            self.q = renorm_p8(qmul_p8(fq.snapshot(self.c), fq.snapshot(self.s)))
         else:
-            # no gravity estimate (a zero vector): no correction
-            r = [32767, 0, 0]
-        r.append(0)
-        self.c = renorm(qmul(r, self.c))
-        self.q = renorm(qmul(fq.snapshot(self.c), self.s))
+            ge = rotate(rm, 0, self.f)
+            u = unit(ge)
+            if u is not None:
+                # gravity straight down (upside down): the half turn about x
+                r = half(u[2], u[1], -u[0])
+            else:
+                # no gravity estimate (a zero vector): no correction
+                r = [32767, 0, 0]
+            r.append(0)
+            self.c = renorm(qmul(r, self.c))
+            self.q = renorm(qmul(fq.snapshot(self.c), self.s))
         # B3: the correction rate seen in the sensor frame is minus the bias error
         # (Eq. 3.6, with Ki dt = 1 / tau_bias): b -= R(q)^T (2 r1, 2 r2, 0) / tau_bias
         if not rest and self.n >= k["n_acc"] and k["kbias"].m != 0:
             rm = matrix(fq.snapshot(self.q))
             e = rotate16(rm, 1, [r[1], r[2], 0])   # R^T r in q30; the error is twice that
-            self.b = [ci.sub_sat32(self.b[i], ci.scale32_s(ci.add_sat32(e[i], e[i]),
-                                                           k["kbias"], 30, 15))
-                      for i in range(3)]
+            if p8:
+                # 8-bit profile: R^T 2 r in q15 (2 r is q15) times kbias, one 16x16 product
+                self.b = [ci.sub_sat32(self.b[i],
+                                       ci.scale16(ci.sat_q15s(ci.rshr32(e[i], 15)), k["kbias"], 0))
+                          for i in range(3)]
+            else:
+                self.b = [ci.sub_sat32(self.b[i], ci.scale32_s(ci.add_sat32(e[i], e[i]),
+                                                               k["kbias"], 30, 15))
+                          for i in range(3)]
         return True
 
     def _finish(self, gyr):
@@ -446,7 +553,7 @@ class RobustIMUQ(FixedFilter):
         if k["klat"].m != 0:
             h = [ci.scale32_s(ci.sub_sat32(gyr[i] * 32768, self.b[i]), k["klat"], 15, 30)
                  for i in range(3)]
-            qexp(self.q, h)
+            (qexp_p8 if k["profile"] == 8 else qexp)(self.q, h)
         if self.n < k["n_max"]:
             self.n += 1
 
