@@ -204,8 +204,15 @@ def double_init_flash(spec, target, inputs, elf, wd: Path) -> int:
         # without the filter, with the same samples, so it does not depend on their number
         if "does not fit" not in str(err):
             raise
-        inputs = mf.inputs_for(spec.precision, spec.group[1], mf.N_MOTION_SMALL)
-        e = build(inputs)
+        e = None
+        for n in (mf.N_MOTION_SMALL, 8, 1):
+            inputs = mf.inputs_for(spec.precision, spec.group[1], n)
+            try:
+                e = build(inputs)
+                break
+            except mcu.HarnessError as err2:
+                if "does not fit" not in str(err2) or n == 1:
+                    raise
     if f"{c.c_name}_init" not in _elf_symbols(target, e):
         raise SystemExit(f"{spec.label} on {target}: the double-init firmware lacks {c.c_name}_init")
     return linked_size(spec, target, inputs, e, wd)

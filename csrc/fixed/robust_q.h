@@ -7,9 +7,15 @@
  * square roots by imf_invsqrt_u32).  Mirrored line for line by
  * python/imufuse/reference/fixed_robust.py.
  *
- * One arithmetic, the 32-bit profile: q30 quaternions, products of a q30 value and
- * a q15 snapshot (imf_q_mul_hq_p32).  It runs on every target, the ATmega328P
- * included; an 8-bit profile (int16 narrowing) is not built (init refuses 8).
+ * Two profiles (the constants' profile, given to init; IMF_FIXED_PROFILE 32 or 8 compiles
+ * one only), the same state and blocks:
+ *   32  q30 quaternions, products of a q30 value and a q15 snapshot (imf_q_mul_hq_p32)
+ *   8   the same q30 state, every quaternion product and rotation one 16x16 product a
+ *       term (both operands q15 snapshots, or a q15 snapshot and a difference narrowed
+ *       to int16 with one exponent for the vector), the normalisation first order in
+ *       16-bit products, the strapdown's folded into its step (robust_q.c, "the 8-bit
+ *       profile's helpers"); B1, B2 and B4 as the 32-bit profile
+ * Both run on every target.
  *
  * Inputs are int16 counts: gyr in counts of gyr_scale rad/s, acc in any unit (the
  * filter is relative to its own low-passed magnitude, as the float filter).
@@ -109,8 +115,8 @@ typedef struct {
     double latency;       /* output prediction, s; 0 .. 0.1 (default 0) */
     double gyr_scale;     /* rad/s per gyro count; > 0 (default 1.0642e-3: 2000 deg/s on
                              16 bits) */
-    int profile;          /* 32 (default; the only one built); any other value: init
-                             returns -1 */
+    int profile;          /* 32 (default) or 8, a profile compiled in; any other value:
+                             init returns -1 */
 } imf_robust_imu_q_settings_t;
 
 /* The defaults listed with each member. */
@@ -194,7 +200,7 @@ typedef struct {
                             >= 0 (default 0.5) */
     int mag_learn;        /* B6: must be 0 (not built in fixed point; default 0) */
     double gyr_scale;     /* rad/s per gyro count; > 0 (default 1.0642e-3) */
-    int profile;          /* 32 (default; the only one built) */
+    int profile;          /* 32 (default) or 8 */
 } imf_robust_ahrs_q_settings_t;
 
 /* The defaults listed with each member. */

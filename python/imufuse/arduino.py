@@ -51,10 +51,10 @@ EXAMPLES: Dict[str, Tuple[str, str, int, str]] = {
     "MahonyIMUQ_Uno": ("MahonyIMUQ", "p32", 96,
                        "Mahony's IMU filter in fixed point (int16 sensor counts, no float "
                        "arithmetic in the update): for an Uno"),
-    "RobustIMUQ_Uno": ("RobustIMUQ", "p32", 96,
+    "RobustIMUQ_Uno": ("RobustIMUQ", "p8", 96,
                        "imufuse's recommended filter (gyro and accelerometer) in fixed point "
                        "(int16 sensor counts): for an Uno"),
-    "RobustAHRSQ_Uno": ("RobustAHRSQ", "p32", 96,
+    "RobustAHRSQ_Uno": ("RobustAHRSQ", "p8", 96,
                         "imufuse's recommended filter with a magnetometer in fixed point "
                         "(int16 sensor counts, heading from the field): for an Uno"),
 }

@@ -289,7 +289,8 @@ class RobustIMUQ(FixedFilter):
     fixed point: B1, B2, B3, B5 and the output latency, int32 with 16x16 multiplies.
 
     RobustIMUQ(dt, <RobustIMU's keywords, the same units>, gyr_scale=rad/s per count,
-    profile="32"). One arithmetic (profile "32"; it runs on the 8-bit targets too).
+    profile="32"). Two profiles: "32" (q30 times q15 products) and "8" (the same state
+    and blocks, every quaternion product and rotation in 16x16 products: for 8-bit MCUs).
     State: q, s, c (q30), gravity f and B2's v (q15 acc counts), B2's scaled covariance
     (q30), bias b, low-passes lw, la (q15 counts), the sample counters n, n_rest;
     state_float gives the quaternions, f and la in counts, b and lw in rad/s.
