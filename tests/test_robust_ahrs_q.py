@@ -94,9 +94,11 @@ def _still(n, field, acc=(0, 0, 4096)):
 
 
 def _yaw(S):
+    """The yaw of the quaternions in S's first four columns (q30), in a form that holds for
+    any norm (the 8-bit profile's output is normalised to 2e-4 only)."""
     q = S[:, :4] * 2.0 ** -30
     return np.degrees(np.arctan2(2 * (q[:, 0] * q[:, 3] + q[:, 1] * q[:, 2]),
-                                 1 - 2 * (q[:, 2] ** 2 + q[:, 3] ** 2)))
+                                 q[:, 0] ** 2 + q[:, 1] ** 2 - q[:, 2] ** 2 - q[:, 3] ** 2))
 
 
 @pytest.mark.parametrize("profile", PROFILES)

@@ -526,10 +526,114 @@ static inline int32_t imf_mul_32x16_k(const int32_t a, const int16_t b, const in
                          imf_asr32(lol + (int32_t)(imf_lsl32(1u, n) >> 1), n));
 }
 
+#if defined(__AVR__) && defined(__AVR_HAVE_MUL__)
+/* AVR, n in [17, 47] (every q-scale product of a gain below 1/2): imf_mul_32x16_k's value,
+ * floor((m + 2^(n-17)) / 2^(n-16)) with m = floor(a b / 2^16) = ah b + floor(al b / 2^16),
+ * in one block of eight 8x8 products on call-clobbered registers (the C function saved ten
+ * call-saved registers on every call): L = al b (its bytes 1 to 3), m = ah b + (L >> 16),
+ * then m shifted right by n - 17 (bytes, then bits) and once more, the bit shifted out
+ * added back (imf_rshr32_v's rounding). */
+static __attribute__((noinline, unused)) int32_t imf_mul_32x16_hi(const int32_t a, const int16_t b,
+                                                                  const int n)
+{
+    register int32_t x __asm__("r22") = a;
+    register int16_t y __asm__("r20") = b;
+    register uint8_t k __asm__("r30") = (uint8_t)(n - 17);
+    __asm__("movw r18, r24\n\t" /* ah: r19:r18 (MULSU takes r16..r23) */
+            "clr r24\n\t"       /* zero */
+            "mul r22, r20\n\t"  /* L = al b: bytes 1..3 in r26, r27, r31 */
+            "mov r26, r1\n\t"
+            "clr r27\n\t"
+            "clr r31\n\t"
+            "mul r23, r20\n\t"
+            "add r26, r0\n\t"
+            "adc r27, r1\n\t"
+            "adc r31, r24\n\t"
+            "mulsu r21, r22\n\t"
+            "sbc r31, r24\n\t"
+            "add r26, r0\n\t"
+            "adc r27, r1\n\t"
+            "adc r31, r24\n\t"
+            "mulsu r21, r23\n\t"
+            "add r27, r0\n\t"
+            "adc r31, r1\n\t"
+            "muls r19, r21\n\t" /* m = ah b: r25..r22 */
+            "movw r24, r0\n\t"
+            "mul r18, r20\n\t"
+            "movw r22, r0\n\t"
+            "clr r26\n\t" /* zero */
+            "mulsu r19, r20\n\t"
+            "sbc r25, r26\n\t"
+            "add r23, r0\n\t"
+            "adc r24, r1\n\t"
+            "adc r25, r26\n\t"
+            "mulsu r21, r18\n\t"
+            "sbc r25, r26\n\t"
+            "add r23, r0\n\t"
+            "adc r24, r1\n\t"
+            "adc r25, r26\n\t"
+            "mov r0, r31\n\t" /* m += L >> 16, sign-extended */
+            "lsl r0\n\t"
+            "sbc r0, r0\n\t"
+            "add r22, r27\n\t"
+            "adc r23, r31\n\t"
+            "adc r24, r0\n\t"
+            "adc r25, r0\n"
+            "1:\n\t" /* m >>= n - 17: bytes */
+            "cpi r30, 8\n\t"
+            "brlo 2f\n\t"
+            "mov r22, r23\n\t"
+            "mov r23, r24\n\t"
+            "mov r24, r25\n\t"
+            "lsl r25\n\t"
+            "sbc r25, r25\n\t"
+            "subi r30, 8\n\t"
+            "rjmp 1b\n"
+            "2:\n\t" /* bits */
+            "tst r30\n\t"
+            "breq 4f\n"
+            "3:\n\t"
+            "asr r25\n\t"
+            "ror r24\n\t"
+            "ror r23\n\t"
+            "ror r22\n\t"
+            "dec r30\n\t"
+            "brne 3b\n"
+            "4:\n\t" /* once more, the bit shifted out added back */
+            "asr r25\n\t"
+            "ror r24\n\t"
+            "ror r23\n\t"
+            "ror r22\n\t"
+            "adc r22, r26\n\t"
+            "adc r23, r26\n\t"
+            "adc r24, r26\n\t"
+            "adc r25, r26\n\t"
+            "clr r1"
+            : "+r"(x), "+d"(k)
+            : "r"(y)
+            : "r0", "r18", "r19", "r26", "r27", "r31");
+    return x;
+}
+
+static __attribute__((noinline, unused)) int32_t imf_mul_32x16_lo(const int32_t a, const int16_t b,
+                                                                  const int n)
+{
+    return imf_mul_32x16_k(a, b, n);
+}
+
+IMF_AVR_OUTLINE int32_t imf_mul_32x16_v(const int32_t a, const int16_t b, const int n)
+{
+    if (n > 16 && n <= 47) {
+        return imf_mul_32x16_hi(a, b, n);
+    }
+    return imf_mul_32x16_lo(a, b, n);
+}
+#else
 IMF_AVR_OUTLINE int32_t imf_mul_32x16_v(const int32_t a, const int16_t b, const int n)
 {
     return imf_mul_32x16_k(a, b, n);
 }
+#endif
 
 static inline int32_t imf_mul_32x16(const int32_t a, const int16_t b, const int n)
 {

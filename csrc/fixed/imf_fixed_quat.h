@@ -71,8 +71,8 @@ static inline void imf_q_snapshot(const int32_t q[4], int16_t qs[4])
 static inline int imf_q_normalise_acc(const int16_t acc[3], int16_t a[3])
 {
     /* each square <= 2^30, three of them < 2^32: no uint32 wrap */
-    const uint32_t n2 = (uint32_t)((int32_t)acc[0] * acc[0]) + (uint32_t)((int32_t)acc[1] * acc[1])
-                        + (uint32_t)((int32_t)acc[2] * acc[2]);
+    const uint32_t n2 = (uint32_t)imf_mul16(acc[0], acc[0]) + (uint32_t)imf_mul16(acc[1], acc[1])
+                        + (uint32_t)imf_mul16(acc[2], acc[2]);
     int sh, i;
     uint16_t y;
     if (n2 == 0u) {
@@ -81,7 +81,7 @@ static inline int imf_q_normalise_acc(const int16_t acc[3], int16_t a[3])
     y = imf_invsqrt_u32(n2, &sh); /* 1/|acc| = y 2^-sh, sh >= 16 */
     for (i = 0; i < 3; ++i) {
         /* |acc| <= 2^15, y < 2^16: the product fits int32 (> -2^31) */
-        a[i] = imf_sat_q15s(imf_rshr32((int32_t)acc[i] * (int32_t)y, sh - 15));
+        a[i] = imf_sat_q15s(imf_rshr32(imf_mul16su(acc[i], y), sh - 15));
     }
     return 1;
 }

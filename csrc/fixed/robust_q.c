@@ -73,19 +73,22 @@ static inline int32_t robust_q_mul_signed(const int32_t x, const imf_qscale_t c,
 }
 
 /* The rotation matrix of a q15 snapshot qs (sensor -> earth), q15, by rows:
- * diagonal 2 (w^2 + a^2) - 1, the others 2 (a b -+ w c), in q29 -> q15 */
-static IMF_Q_NOINLINE void robust_q_matrix(const int16_t qs[4], int16_t r[9])
+ * diagonal 2 (w^2 + a^2) - 1, the others 2 (a b -+ w c), in q29 -> q15; its first two rows
+ * only for rows = 2 (B3's R^T (x, y, 0)) */
+static IMF_Q_NOINLINE void robust_q_matrix(const int16_t qs[4], int16_t r[9], const int rows)
 {
     const int32_t ww = imf_mul16(qs[0], qs[0]);
     r[0] = imf_qn_to_q15s(ww + imf_mul16(qs[1], qs[1]) - 536870912L, 29);
     r[4] = imf_qn_to_q15s(ww + imf_mul16(qs[2], qs[2]) - 536870912L, 29);
-    r[8] = imf_qn_to_q15s(ww + imf_mul16(qs[3], qs[3]) - 536870912L, 29);
     r[1] = imf_qn_to_q15s(imf_mul16(qs[1], qs[2]) - imf_mul16(qs[0], qs[3]), 29);
     r[3] = imf_qn_to_q15s(imf_mul16(qs[1], qs[2]) + imf_mul16(qs[0], qs[3]), 29);
     r[2] = imf_qn_to_q15s(imf_mul16(qs[1], qs[3]) + imf_mul16(qs[0], qs[2]), 29);
-    r[6] = imf_qn_to_q15s(imf_mul16(qs[1], qs[3]) - imf_mul16(qs[0], qs[2]), 29);
     r[5] = imf_qn_to_q15s(imf_mul16(qs[2], qs[3]) - imf_mul16(qs[0], qs[1]), 29);
-    r[7] = imf_qn_to_q15s(imf_mul16(qs[2], qs[3]) + imf_mul16(qs[0], qs[1]), 29);
+    if (rows == 3) {
+        r[6] = imf_qn_to_q15s(imf_mul16(qs[1], qs[3]) - imf_mul16(qs[0], qs[2]), 29);
+        r[7] = imf_qn_to_q15s(imf_mul16(qs[2], qs[3]) + imf_mul16(qs[0], qs[1]), 29);
+        r[8] = imf_qn_to_q15s(ww + imf_mul16(qs[3], qs[3]) - 536870912L, 29);
+    }
 }
 
 /* out = R v (t = 0) or R^T v (t = 1) for int32 v in any format (the same format out),
@@ -262,6 +265,16 @@ static IMF_Q_NOINLINE int32_t robust_q_lowpass(const int32_t x, const int16_t u,
     return imf_add_sat32(x, imf_scale32_s(imf_sub_sat32((int32_t)u * 32768L, x), k, 15, 15));
 }
 
+/* robust_q_lowpass for the three components of x and u */
+static IMF_Q_NOINLINE void robust_q_lowpass3(int32_t x[3], const int16_t u[3], const imf_qscale_t k)
+{
+    int i;
+    for (i = 0; i < 3; ++i) {
+        x[i] = imf_add_sat32(x[i],
+                             imf_scale32_s(imf_sub_sat32((int32_t)u[i] * 32768L, x[i]), k, 15, 15));
+    }
+}
+
 /* q15 counts -> counts, rounded, saturated symmetric to +-32767 */
 static inline int32_t robust_q_counts(const int32_t x)
 {
@@ -269,15 +282,16 @@ static inline int32_t robust_q_counts(const int32_t x)
 }
 
 /* sum of the squares of three int32 values each within +-32767 (< 2^32) */
-static inline uint32_t robust_q_norm2(const int32_t a, const int32_t b, const int32_t c)
+static inline uint32_t robust_q_norm2(const int16_t a, const int16_t b, const int16_t c)
 {
-    return (uint32_t)(a * a) + (uint32_t)(b * b) + (uint32_t)(c * c);
+    return (uint32_t)imf_mul16(a, a) + (uint32_t)imf_mul16(b, b) + (uint32_t)imf_mul16(c, c);
 }
 
 /* |v|^2 in counts^2 of a vector in q15 counts, each component rounded to counts first */
 static IMF_Q_NOINLINE uint32_t robust_q_norm2_counts(const int32_t v[3])
 {
-    return robust_q_norm2(robust_q_counts(v[0]), robust_q_counts(v[1]), robust_q_counts(v[2]));
+    return robust_q_norm2((int16_t)robust_q_counts(v[0]), (int16_t)robust_q_counts(v[1]),
+                          (int16_t)robust_q_counts(v[2]));
 }
 
 /* the unit vector of v (any format), symmetric q15; 0 for the zero vector */
@@ -307,15 +321,16 @@ static IMF_Q_NOINLINE void robust_q_half(const int16_t c, const int16_t a, const
                                          int16_t r[3])
 {
     const uint32_t rw = (uint32_t)(32768L + c); /* [1, 65535] */
-    const uint32_t n2 = ((rw * rw) >> 2) + ((uint32_t)imf_mul16(a, a) >> 2)
+    const uint32_t n2 = (imf_mulu16((uint16_t)rw, (uint16_t)rw) >> 2)
+                        + ((uint32_t)imf_mul16(a, a) >> 2)
                         + ((uint32_t)imf_mul16(b, b) >> 2); /* q28 */
     if (n2 != 0u) {
         int sh;
         const uint16_t y = imf_invsqrt_u32(n2, &sh); /* 1/|r| = y 2^(14 - sh) */
-        const uint32_t r0 = (rw * y + ((uint32_t)1 << (sh - 15))) >> (sh - 14);
+        const uint32_t r0 = (imf_mulu16((uint16_t)rw, y) + ((uint32_t)1 << (sh - 15))) >> (sh - 14);
         r[0] = (int16_t)(r0 > 32767u ? 32767u : r0);
-        r[1] = imf_sat_q15s(imf_rshr32((int32_t)a * (int32_t)y, sh - 14));
-        r[2] = imf_sat_q15s(imf_rshr32((int32_t)b * (int32_t)y, sh - 14));
+        r[1] = imf_sat_q15s(imf_rshr32(imf_mul16su(a, y), sh - 14));
+        r[2] = imf_sat_q15s(imf_rshr32(imf_mul16su(b, y), sh - 14));
     } else {
         r[0] = 0;
         r[1] = 32767;
@@ -453,6 +468,22 @@ static IMF_Q_NOINLINE void robust_q_exp_p8(int32_t q[4], const int32_t h[3])
         /* q (|h|^2 / 2) in q30 from q15 x q15; q d / 2 = qs (q15) d16 (q22) / 2^8 */
         q[i] = imf_add_sat32(q[i], imf_sub_sat32(imf_sub_sat32(dq[i], imf_mul16(n2h, qs[i])),
                                                  imf_rshr32(imf_mul16(qs[i], d16), 8)));
+    }
+}
+
+/* robust_q_turn_z in 16-bit products and not normalised (the next update normalises c):
+ * (dw, dz) = z 2^-n (int16 z, n = 15 - e, any sign), q_i + (qs_i dw + (-q3, -q2, q1,
+ * q0)_i dz) from q's q15 snapshot */
+static IMF_Q_NOINLINE void robust_q_turn_z_p8(int32_t q[4], const int16_t z[2], const int n)
+{
+    int16_t qs[4];
+    int i;
+    imf_q_snapshot(q, qs);
+    for (i = 0; i < 4; ++i) {
+        const int16_t o = qs[3 - i];
+        const int32_t p = imf_mul16(qs[i], z[0]); /* |.| < 2^30: the sum fits */
+        q[i] = imf_add_sat32(
+            q[i], imf_rshift_sat32(i < 2 ? p - imf_mul16(o, z[1]) : p + imf_mul16(o, z[1]), n));
     }
 }
 #endif
@@ -619,11 +650,9 @@ static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
     }
     /* B1: rest detection, low-passes of gyro and accelerometer in the sensor frame */
     kk = robust_q_gain(x->n, k->n_tau, k->k_rest);
-    for (i = 0; i < 3; ++i) {
-        x->lw[i] = robust_q_lowpass(x->lw[i], gyr[i], kk);
-        if (has_acc) {
-            x->la[i] = robust_q_lowpass(x->la[i], acc[i], kk);
-        }
+    robust_q_lowpass3(x->lw, gyr, kk);
+    if (has_acc) {
+        robust_q_lowpass3(x->la, acc, kk);
     }
     w2 = robust_q_norm2_counts(x->lw);
     g2 = robust_q_norm2(gyr[0], gyr[1], gyr[2]);
@@ -631,7 +660,7 @@ static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
         /* the accelerometer's difference from its low-pass, counts, within +-32767 */
         e[i] = imf_sat_q15s(imf_sub_sat32(acc[i], robust_q_counts(x->la[i])));
     }
-    d2 = robust_q_norm2(e[0], e[1], e[2]);
+    d2 = robust_q_norm2((int16_t)e[0], (int16_t)e[1], (int16_t)e[2]);
     a2 = robust_q_norm2_counts(x->la);
     if (has_acc && w2 < k->rest_g2 && g2 < k->rest_g2
         && (int32_t)(d2 >> 2) < imf_scale32_s((int32_t)(a2 >> 2), k->kacc2, 0, 0)) {
@@ -644,9 +673,7 @@ static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
     rest = x->n_rest >= k->n_rest;
     if (rest) {
         /* Eq. 3.1: b_k = b_{k-1}, observed directly at rest */
-        for (i = 0; i < 3; ++i) {
-            x->b[i] = robust_q_lowpass(x->b[i], gyr[i], k->kb_rest);
-        }
+        robust_q_lowpass3(x->b, gyr, k->kb_rest);
     }
     /* strapdown: s = s (x) exp(1/2 (w - b) dt), series as the float filter */
     for (i = 0; i < 3; ++i) {
@@ -656,7 +683,7 @@ static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
     ROBUST_Q_EXP(p8, x->s, h);
     /* B2: the accelerometer in the inertial frame */
     imf_q_snapshot(x->s, ss);
-    robust_q_matrix(ss, rm);
+    robust_q_matrix(ss, rm, 3);
     robust_q_rotate16(rm, 0, acc, ai); /* q15 counts */
     if (first) {
         /* B5: gravity from the first sample */
@@ -667,7 +694,7 @@ static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
         x->p[0] = x->p[1] = 0;
         x->p[2] = k->pg0;
     } else if (has_acc) {
-        int32_t qg, pvv, pvg, pgg, kv, kg;
+        int32_t qg, pe, pvv, pvg, pgg, kv, kg;
         imf_qscale_t inv, kvs, kgs;
         int sv, sg;
         /* predict: v' = (a - g) / tau_acc, g' = 0 (+ process noise growing with the rate) */
@@ -681,9 +708,10 @@ static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
             qg = k->qcap;
         }
         qg = k->qg0 + qg;
+        pe = imf_scale32_s(x->p[2], k->eps, 30, 30); /* e pgg */
         pvv = imf_add_sat32(imf_sub_sat32(x->p[0], imf_scale32_s(x->p[1], k->eps, 29, 30)),
-                            imf_scale32_s(imf_scale32_s(x->p[2], k->eps, 30, 30), k->eps, 30, 30));
-        pvg = imf_sub_sat32(x->p[1], imf_scale32_s(x->p[2], k->eps, 30, 30));
+                            imf_scale32_s(pe, k->eps, 30, 30));
+        pvg = imf_sub_sat32(x->p[1], pe);
         pgg = imf_add_sat32(x->p[2], qg);
         /* update with the pseudo-measurement v = 0 (noise 1): gains P / (pvv + 1) */
         inv = robust_q_recip((uint32_t)(pvv < 0 ? 0 : pvv >> 1) + 536870912u, 29);
@@ -702,7 +730,7 @@ static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
     /* inclination: the smallest rotation r that turns the gravity estimate onto earth z,
        (1 + u_z, u_y, -u_x, 0) normalised for the unit gravity u in the earth frame */
     imf_q_snapshot(x->c, ss);
-    robust_q_matrix(ss, rm);
+    robust_q_matrix(ss, rm, 3);
 #if IMF_Q_HAS_P8
     if (p8) {
         /* 8-bit profile: f narrowed to int16 (its largest below 2^14), rotated, the unit
@@ -746,8 +774,7 @@ static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
         robust_q_renorm_p8(x->c);
         imf_q_snapshot(x->c, ss);
         imf_q_snapshot(x->s, d);
-        robust_q_mul_p8(ss, d, x->q);
-        robust_q_renorm_p8(x->q);
+        robust_q_mul_p8(ss, d, x->q); /* |q|^2 - 1: the snapshots' rounding, < 2e-4 */
     }
 #endif
 #if IMF_Q_HAS_P32
@@ -776,11 +803,11 @@ static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
        (Eq. 3.6, with Ki dt = 1 / tau_bias): b -= R(q)^T (2 r1, 2 r2, 0) / tau_bias */
     if (!rest && x->n >= k->n_acc && k->kbias.m != 0) {
         imf_q_snapshot(x->q, ss);
-        robust_q_matrix(ss, rm);
-        u[0] = r[1];
-        u[1] = r[2];
-        u[2] = 0;
-        robust_q_rotate16(rm, 1, u, e); /* R^T r in q30; the error is twice that */
+        robust_q_matrix(ss, rm, 2);
+        for (i = 0; i < 3; ++i) {
+            /* R^T (r1, r2, 0) in q30 (the error is twice that): R's first two rows */
+            e[i] = imf_mul16(rm[i], r[1]) + imf_mul16(rm[3 + i], r[2]);
+        }
         for (i = 0; i < 3; ++i) {
 #if IMF_Q_HAS_P8
             if (p8) {
@@ -940,7 +967,8 @@ static void robust_q_mag(const imf_robust_ahrs_q_consts_t *const k,
     int16_t qs[4], rm[9], m[3], u[3], ch[3], f[3], hn;
     int32_t me[3], mn = 0;
     imf_qscale_t kk;
-    int horiz, match, i;
+    int horiz = 0, match, i;
+    const int p8 = ROBUST_Q_IS_P8(&k->imu);
     if (mag[0] == 0 && mag[1] == 0 && mag[2] == 0) {
         return; /* no reading: gyro and accelerometer only */
     }
@@ -949,7 +977,7 @@ static void robust_q_mag(const imf_robust_ahrs_q_consts_t *const k,
         m[i] = imf_sat_q15s(imf_sub_sat32(mag[i], xm->u[i]));
     }
     imf_q_snapshot(x->q, qs);
-    robust_q_matrix(qs, rm);
+    robust_q_matrix(qs, rm, 3);
     robust_q_rotate16(rm, 0, m, me); /* q15 counts */
     if (!robust_q_unit(me, u)) {
         return; /* no usable reading: gyro and accelerometer only */
@@ -959,8 +987,21 @@ static void robust_q_mag(const imf_robust_ahrs_q_consts_t *const k,
     for (i = 0; i < 3; ++i) {
         mn = imf_add_sat32(mn, imf_q_mul_hq_p32(me[i], u[i]));
     }
-    me[2] = 0;
-    horiz = robust_q_unit(me, ch);
+#if IMF_Q_HAS_P8
+    if (p8) {
+        /* 8-bit profile: the horizontal direction of its 15 leading bits (imf_q_unit3_p8) */
+        int16_t w[3];
+        robust_q_narrow_p8(me, 2, robust_q_exponent_p8(me, 2), w);
+        w[2] = 0;
+        horiz = imf_q_unit3_p8(w, ch);
+    }
+#endif
+#if IMF_Q_HAS_P32
+    if (!p8) {
+        me[2] = 0;
+        horiz = robust_q_unit(me, ch);
+    }
+#endif
     hn = horiz ? imf_qn_to_q15s(imf_mul16(u[0], ch[0]) + imf_mul16(u[1], ch[1]), 30) : 0;
     if (xm->rn == 0) {
         /* first reading: it is the reference */
@@ -991,13 +1032,32 @@ static void robust_q_mag(const imf_robust_ahrs_q_consts_t *const k,
         /* heading: the rotation about earth z that turns the horizontal field onto north
            (+x), (1 + cos, 0, 0, -sin) normalised, taken by the fraction k:
            (1 + k (f_w - 1), k f_z), normalised with c and q */
-        robust_q_half(ch[0], (int16_t)-ch[1], 0, f);
         kk = robust_q_gain(x->n, k->n_mag, k->k_mag);
         {
-            const int32_t dw = imf_scale32_s((int32_t)f[0] - 32768L, kk, 15, 30);
-            const int32_t dz = imf_scale32_s(f[1], kk, 15, 30);
-            robust_q_turn_z(x->c, dw, dz);
-            robust_q_turn_z(x->q, dw, dz);
+            int32_t dz[2];
+            robust_q_half(ch[0], (int16_t)-ch[1], 0, f);
+            dz[0] = imf_scale32_s((int32_t)f[0] - 32768L, kk, 15, 30);
+            dz[1] = imf_scale32_s(f[1], kk, 15, 30);
+#if IMF_Q_HAS_P8
+            if (p8) {
+                /* 8-bit profile: (dw, dz) narrowed to int16 with one exponent; c turned, then
+                   q = c (x) s again (neither normalised here: the next update normalises c,
+                   q is the snapshots' product) */
+                int16_t z16[2], ss[4];
+                const int e = robust_q_exponent_p8(dz, 2);
+                robust_q_narrow_p8(dz, 2, e, z16);
+                robust_q_turn_z_p8(x->c, z16, 15 - e);
+                imf_q_snapshot(x->c, qs);
+                imf_q_snapshot(x->s, ss);
+                robust_q_mul_p8(qs, ss, x->q);
+            }
+#endif
+#if IMF_Q_HAS_P32
+            if (!p8) {
+                robust_q_turn_z(x->c, dz[0], dz[1]);
+                robust_q_turn_z(x->q, dz[0], dz[1]);
+            }
+#endif
         }
     } else {
         /* disturbed (or not yet matching for mag_hold): no heading correction; a new field

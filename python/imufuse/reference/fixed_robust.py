@@ -62,7 +62,8 @@ def mul_signed(x, c, sign, K, N):
 
 
 def matrix(qs):
-    """robust_q_matrix: the rotation matrix of a q15 snapshot, q15, by rows."""
+    """robust_q_matrix: the rotation matrix of a q15 snapshot, q15, by rows (the C computes
+    the first two rows only where only those are used)."""
     ww = qs[0] * qs[0]
     r = [0] * 9
     r[0] = ci.qn_to_q15s(ww + qs[1] * qs[1] - 536870912, 29)
@@ -217,6 +218,19 @@ def qexp_p8(q, h):
     q[:] = [ci.add_sat32(q[i], sub(sub(dq[i], n2h * qs[i]), ci.rshr32(qs[i] * d16, 8)))
             for i in range(4)]
 
+
+def turn_z_p8(q, z, n):
+    """robust_q_turn_z_p8: turn_z in 16-bit products, (dw, dz) = z 2^-n, not normalised (the
+    next update normalises c); the new q."""
+    qs = fq.snapshot(q)
+    out = []
+    for i in range(4):
+        o = qs[3 - i]
+        p = qs[i] * z[0]
+        out.append(ci.add_sat32(q[i], ci.rshift_sat32(p - o * z[1] if i < 2 else p + o * z[1], n)))
+    return out
+
+
 def half(c, a, b):
     """robust_q_half: (1 + c, a, b) normalised, symmetric q15, for a unit (c, a, b) in
     q15; (0, 1, 0) where it is 0 (c = -1: any half turn is a smallest rotation)."""
@@ -252,6 +266,12 @@ def gain(n, n_tau, k):
 def lowpass(x, u, k):
     """robust_q_lowpass: x += k (u 2^15 - x), counts u, q15 counts x."""
     return ci.add_sat32(x, ci.scale32_s(ci.sub_sat32(u * 32768, x), k, 15, 15))
+
+
+def lowpass3(x, u, k):
+    """robust_q_lowpass3: lowpass for the three components of x and u (in place)."""
+    for i in range(3):
+        x[i] = lowpass(x[i], u[i], k)
 
 
 def counts(x):
@@ -428,10 +448,9 @@ class RobustIMUQ(FixedFilter):
                 has_acc = False
         # B1: rest detection, low-passes of gyro and accelerometer in the sensor frame
         kk = gain(self.n, k["n_tau"], k["k_rest"])
-        for i in range(3):
-            self.lw[i] = lowpass(self.lw[i], gyr[i], kk)
-            if has_acc:
-                self.la[i] = lowpass(self.la[i], acc[i], kk)
+        lowpass3(self.lw, gyr, kk)
+        if has_acc:
+            lowpass3(self.la, acc, kk)
         w2 = norm2_counts(self.lw)
         g2 = norm2(gyr[0], gyr[1], gyr[2])
         # the accelerometer's difference from its low-pass, counts, within +-32767
@@ -447,7 +466,7 @@ class RobustIMUQ(FixedFilter):
         rest = self.n_rest >= k["n_rest"]
         if rest:
             # Eq. 3.1: b_k = b_{k-1}, observed directly at rest
-            self.b = [lowpass(self.b[i], gyr[i], k["kb_rest"]) for i in range(3)]
+            lowpass3(self.b, gyr, k["kb_rest"])
         # strapdown: s = s (x) exp(1/2 (w - b) dt), series as the float filter
         w = [ci.sub_sat32(gyr[i] * 32768, self.b[i]) for i in range(3)]
         h = [ci.scale32_s(w[i], k["kg"], 15, 30) for i in range(3)]
@@ -471,9 +490,10 @@ class RobustIMUQ(FixedFilter):
                 qg = k["qcap"]
             qg = k["qg0"] + qg
             p = self.p
+            pe = ci.scale32_s(p[2], eps, 30, 30)                # e pgg
             pvv = ci.add_sat32(ci.sub_sat32(p[0], ci.scale32_s(p[1], eps, 29, 30)),
-                               ci.scale32_s(ci.scale32_s(p[2], eps, 30, 30), eps, 30, 30))
-            pvg = ci.sub_sat32(p[1], ci.scale32_s(p[2], eps, 30, 30))
+                               ci.scale32_s(pe, eps, 30, 30))
+            pvg = ci.sub_sat32(p[1], pe)
             pgg = ci.add_sat32(p[2], qg)
             # update with the pseudo-measurement v = 0 (noise 1): gains P / (pvv + 1)
             inv = recip((0 if pvv < 0 else pvv >> 1) + Q29_ONE, 29)
@@ -518,7 +538,8 @@ class RobustIMUQ(FixedFilter):
                     r = [r[0], ci.sat_q15s(2 * r[1]), ci.sat_q15s(2 * r[2])]
             t = qmul_p8(d, ss)
             self.c = renorm_p8([ci.add_sat32(self.c[i], ci.rshr32(t[i], hs)) for i in range(4)])
-            self.q = renorm_p8(qmul_p8(fq.snapshot(self.c), fq.snapshot(self.s)))
+            # |q|^2 - 1: the snapshots' rounding, < 2e-4
+            self.q = qmul_p8(fq.snapshot(self.c), fq.snapshot(self.s))
         else:
             ge = rotate(rm, 0, self.f)
             u = unit(ge)
@@ -534,8 +555,9 @@ class RobustIMUQ(FixedFilter):
         # B3: the correction rate seen in the sensor frame is minus the bias error
         # (Eq. 3.6, with Ki dt = 1 / tau_bias): b -= R(q)^T (2 r1, 2 r2, 0) / tau_bias
         if not rest and self.n >= k["n_acc"] and k["kbias"].m != 0:
-            rm = matrix(fq.snapshot(self.q))
-            e = rotate16(rm, 1, [r[1], r[2], 0])   # R^T r in q30; the error is twice that
+            rm = matrix(fq.snapshot(self.q))   # its first two rows (the C computes only those)
+            # R^T (r1, r2, 0) in q30 (the error is twice that): R's first two rows
+            e = [rm[i] * r[1] + rm[3 + i] * r[2] for i in range(3)]
             if p8:
                 # 8-bit profile: R^T 2 r in q15 (2 r is q15) times kbias, one 16x16 product
                 self.b = [ci.sub_sat32(self.b[i],
@@ -711,6 +733,7 @@ class RobustAHRSQ(RobustIMUQ):
         # the reading less the offset in use, counts within +-32767, in the earth frame
         m = [ci.sat_q15s(ci.sub_sat32(mag[i], self.u[i])) for i in range(3)]
         me = rotate16(matrix(fq.snapshot(self.q)), 0, m)    # q15 counts
+        p8 = self.k["profile"] == 8
         u = unit(me)
         if u is None:
             return                           # no usable reading: gyro and accelerometer only
@@ -719,7 +742,11 @@ class RobustAHRSQ(RobustIMUQ):
         mn = 0
         for i in range(3):
             mn = ci.add_sat32(mn, fq.mul_hq_p32(me[i], u[i]))
-        ch = unit([me[0], me[1], 0])
+        if p8:
+            # 8-bit profile: the horizontal direction of its 15 leading bits (unit3_p8)
+            ch = fq.unit3_p8(narrow_p8(me[:2], exponent_p8(me[:2])) + [0])
+        else:
+            ch = unit([me[0], me[1], 0])
         hn = ci.qn_to_q15s(u[0] * ch[0] + u[1] * ch[1], 30) if ch is not None else 0
         zn = u[2]
         if self.rn == 0:
@@ -748,12 +775,20 @@ class RobustAHRSQ(RobustIMUQ):
             # heading: the rotation about earth z that turns the horizontal field onto
             # north (+x), (1 + cos, 0, 0, -sin) normalised, taken by the fraction k:
             # (1 + k (f_w - 1), k f_z), normalised with c and q
-            f = half(ch[0], -ch[1], 0)
             kk = gain(self.n, k["n_mag"], k["k_mag"])
-            dw = ci.scale32_s(f[0] - 32768, kk, 15, 30)
-            dz = ci.scale32_s(f[1], kk, 15, 30)
-            self.c = turn_z(self.c, dw, dz)
-            self.q = turn_z(self.q, dw, dz)
+            f = half(ch[0], -ch[1], 0)
+            dz = [ci.scale32_s(f[0] - 32768, kk, 15, 30), ci.scale32_s(f[1], kk, 15, 30)]
+            if p8:
+                # 8-bit profile: (dw, dz) narrowed to int16 with one exponent; c turned, then
+                # q = c (x) s again (neither normalised here: the next update normalises c,
+                # q is the snapshots' product)
+                e = exponent_p8(dz)
+                z16 = narrow_p8(dz, e)
+                self.c = turn_z_p8(self.c, z16, 15 - e)
+                self.q = qmul_p8(fq.snapshot(self.c), fq.snapshot(self.s))
+            else:
+                self.c = turn_z(self.c, dz[0], dz[1])
+                self.q = turn_z(self.q, dz[0], dz[1])
         else:
             # disturbed (or not yet matching for mag_hold): no heading correction; a new
             # field that stays the same for mag_new_time of motion becomes the reference
