@@ -2,6 +2,7 @@
  * ranges.
  * Mirrored line for line by python/imufuse/reference/fixed_robust.py; the blocks and
  * their order are those of csrc/robust.c. */
+#include <stddef.h>
 #include "robust_q.h"
 #include "imf_fixed_init.h"
 #include "imf_fixed_quat.h"
@@ -73,8 +74,8 @@ static inline int32_t robust_q_mul_signed(const int32_t x, const imf_qscale_t c,
 }
 
 /* The rotation matrix of a q15 snapshot qs (sensor -> earth), q15, by rows:
- * diagonal 2 (w^2 + a^2) - 1, the others 2 (a b -+ w c), in q29 -> q15; its first two rows
- * only for rows = 2 (B3's R^T (x, y, 0)) */
+ * diagonal 2 (w^2 + a^2) - 1, the others 2 (a b -+ w c), in q29 -> q15; for rows = 2 its
+ * first two rows only, the third 0 (B3's R^T (x, y, 0): the same values) */
 static IMF_Q_NOINLINE void robust_q_matrix(const int16_t qs[4], int16_t r[9], const int rows)
 {
     const int32_t ww = imf_mul16(qs[0], qs[0]);
@@ -88,6 +89,8 @@ static IMF_Q_NOINLINE void robust_q_matrix(const int16_t qs[4], int16_t r[9], co
         r[6] = imf_qn_to_q15s(imf_mul16(qs[1], qs[3]) - imf_mul16(qs[0], qs[2]), 29);
         r[7] = imf_qn_to_q15s(imf_mul16(qs[2], qs[3]) + imf_mul16(qs[0], qs[1]), 29);
         r[8] = imf_qn_to_q15s(ww + imf_mul16(qs[3], qs[3]) - 536870912L, 29);
+    } else {
+        r[6] = r[7] = r[8] = 0;
     }
 }
 
@@ -282,7 +285,7 @@ static inline int32_t robust_q_counts(const int32_t x)
 }
 
 /* sum of the squares of three int32 values each within +-32767 (< 2^32) */
-static inline uint32_t robust_q_norm2(const int16_t a, const int16_t b, const int16_t c)
+static IMF_Q_NOINLINE uint32_t robust_q_norm2(const int16_t a, const int16_t b, const int16_t c)
 {
     return (uint32_t)imf_mul16(a, a) + (uint32_t)imf_mul16(b, b) + (uint32_t)imf_mul16(c, c);
 }
@@ -405,6 +408,28 @@ static IMF_Q_NOINLINE void robust_q_narrow_p8(const int32_t *const v, const int 
     for (i = 0; i < n; ++i) {
         out[i] = imf_sat_q15s(imf_rshr32(v[i], e));
     }
+}
+
+/* the unit vector of v (any int32 vector) as robust_q_unit, in 16-bit operations: from
+ * its 15 leading bits by imf_q_unit3_p8 (|u| within 1.2e-3 of 1), then one Newton step
+ * on the norm, u + u (1 - |u|^2) / 2 (1 - |u|^2 in q23); 0 for the zero vector */
+static IMF_Q_NOINLINE int robust_q_unit_p8(const int32_t v[3], int16_t u[3])
+{
+    int16_t w[3], d;
+    int32_t n2 = 0;
+    int i;
+    robust_q_narrow_p8(v, 3, robust_q_exponent_p8(v, 3), w);
+    if (!imf_q_unit3_p8(w, u)) {
+        return 0;
+    }
+    for (i = 0; i < 3; ++i) {
+        n2 += imf_mul16(u[i], u[i]); /* q30, < 3 2^30 / 2: no overflow */
+    }
+    d = imf_sat_q15s(imf_rshr32(IMF_Q30_ONE - n2, 7)); /* q23 */
+    for (i = 0; i < 3; ++i) {
+        u[i] = imf_sat_q15s(u[i] + imf_rshr32(imf_mul16(u[i], d), 24));
+    }
+    return 1;
 }
 
 /* out = a (x) b for q15 a and b, q30: 16x16 products, each component's four summed with
@@ -615,17 +640,21 @@ int imf_robust_imu_q_init(imf_robust_imu_q_t *const self,
 #define ROBUST_Q_IS_P8(k) (IMF_Q_HAS_P8 && (!IMF_Q_HAS_P32 || (k)->profile == 8))
 #if IMF_Q_HAS_P8 && IMF_Q_HAS_P32
 #define ROBUST_Q_EXP(p8, q, h) ((p8) ? robust_q_exp_p8((q), (h)) : robust_q_exp((q), (h)))
+#define ROBUST_Q_UNIT(p8, v, u) ((p8) ? robust_q_unit_p8((v), (u)) : robust_q_unit((v), (u)))
 #elif IMF_Q_HAS_P8
 #define ROBUST_Q_EXP(p8, q, h) robust_q_exp_p8((q), (h))
+#define ROBUST_Q_UNIT(p8, v, u) robust_q_unit_p8((v), (u))
 #else
 #define ROBUST_Q_EXP(p8, q, h) robust_q_exp((q), (h))
+#define ROBUST_Q_UNIT(p8, v, u) robust_q_unit((v), (u))
 #endif
 
 /* B1, B2, B3 and B5 of one sample; returns 0 when the sample is not taken (no start
- * without an accelerometer reading), then nothing else runs */
+ * without an accelerometer reading), then nothing else runs. rq: NULL, or where the
+ * rotation matrix of the new q is written (all three rows, for B4; B3 uses it too) */
 static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
                          imf_robust_imu_q_state_t *const x, const int16_t gyr[3],
-                         const int16_t acc[3])
+                         const int16_t acc[3], int16_t *const rq)
 {
     const int first = x->n == 0;
     /* an all-zero accelerometer is no reading: gyro only (and no start without one) */
@@ -634,7 +663,7 @@ static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
     int32_t ai[3], ge[3], w[3], h[3], t[4], e[3];
     uint32_t w2, g2, d2, a2;
     imf_qscale_t kk;
-    int rest, i;
+    int rest, b3, i;
     const int p8 = ROBUST_Q_IS_P8(k);
     if (first && !has_acc) {
         return 0;
@@ -801,12 +830,24 @@ static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
 #endif
     /* B3: the correction rate seen in the sensor frame is minus the bias error
        (Eq. 3.6, with Ki dt = 1 / tau_bias): b -= R(q)^T (2 r1, 2 r2, 0) / tau_bias */
-    if (!rest && x->n >= k->n_acc && k->kbias.m != 0) {
+    b3 = !rest && x->n >= k->n_acc && k->kbias.m != 0;
+    if (b3 || rq != NULL) {
         imf_q_snapshot(x->q, ss);
-        robust_q_matrix(ss, rm, 2);
-        for (i = 0; i < 3; ++i) {
-            /* R^T (r1, r2, 0) in q30 (the error is twice that): R's first two rows */
-            e[i] = imf_mul16(rm[i], r[1]) + imf_mul16(rm[3 + i], r[2]);
+        robust_q_matrix(ss, rq != NULL ? rq : rm, rq != NULL ? 3 : 2);
+    }
+    if (b3) {
+        /* R^T (r1, r2, 0) in q30 (the error is twice that); the 8-bit profile's six products
+           inline (the same sums: cycles), the 32-bit profile's by robust_q_rotate16 (flash) */
+        const int16_t *const m = rq != NULL ? rq : rm;
+        if (p8) {
+            for (i = 0; i < 3; ++i) {
+                e[i] = imf_mul16(m[i], r[1]) + imf_mul16(m[3 + i], r[2]); /* < 2^31 */
+            }
+        } else {
+            u[0] = r[1];
+            u[1] = r[2];
+            u[2] = 0;
+            robust_q_rotate16(m, 1, u, e);
         }
         for (i = 0; i < 3; ++i) {
 #if IMF_Q_HAS_P8
@@ -845,7 +886,7 @@ static void robust_q_finish(const imf_robust_imu_q_consts_t *const k,
 void imf_robust_imu_q_update(imf_robust_imu_q_t *const self, const int16_t gyr[3],
                              const int16_t acc[3])
 {
-    if (robust_q_step(&self->k, &self->x, gyr, acc)) {
+    if (robust_q_step(&self->k, &self->x, gyr, acc, NULL)) {
         robust_q_finish(&self->k, &self->x, gyr);
     }
 }
@@ -959,12 +1000,13 @@ static IMF_Q_NOINLINE int robust_q_mag_test(const imf_robust_ahrs_q_consts_t *co
     return dn < tn && imf_sub_sat32(0, dn) < tn && dd < k->kdip && -dd < k->kdip;
 }
 
-/* B4: heading from the magnetometer (counts, less the stored offset) */
+/* B4: heading from the magnetometer (counts, less the stored offset); rm: R(q), q15 */
 static void robust_q_mag(const imf_robust_ahrs_q_consts_t *const k,
-                         imf_robust_ahrs_q_state_t *const xm, const int16_t mag[3])
+                         imf_robust_ahrs_q_state_t *const xm, const int16_t mag[3],
+                         const int16_t rm[9])
 {
     imf_robust_imu_q_state_t *const x = &xm->imu;
-    int16_t qs[4], rm[9], m[3], u[3], ch[3], f[3], hn;
+    int16_t m[3], u[3], ch[3], f[3], hn;
     int32_t me[3], mn = 0;
     imf_qscale_t kk;
     int horiz = 0, match, i;
@@ -976,10 +1018,8 @@ static void robust_q_mag(const imf_robust_ahrs_q_consts_t *const k,
     for (i = 0; i < 3; ++i) {
         m[i] = imf_sat_q15s(imf_sub_sat32(mag[i], xm->u[i]));
     }
-    imf_q_snapshot(x->q, qs);
-    robust_q_matrix(qs, rm, 3);
-    robust_q_rotate16(rm, 0, m, me); /* q15 counts */
-    if (!robust_q_unit(me, u)) {
+    robust_q_rotate16(rm, 0, m, me); /* q15 counts, rm: R(q) from robust_q_step */
+    if (!ROBUST_Q_UNIT(p8, me, u)) {
         return; /* no usable reading: gyro and accelerometer only */
     }
     /* the norm |m| = m . u (q15 counts); the horizontal direction ch; the dip's cosine
@@ -989,9 +1029,10 @@ static void robust_q_mag(const imf_robust_ahrs_q_consts_t *const k,
     }
 #if IMF_Q_HAS_P8
     if (p8) {
-        /* 8-bit profile: the horizontal direction of its 15 leading bits (imf_q_unit3_p8) */
+        /* 8-bit profile: the horizontal direction from u's (imf_q_unit3_p8) */
         int16_t w[3];
-        robust_q_narrow_p8(me, 2, robust_q_exponent_p8(me, 2), w);
+        w[0] = u[0];
+        w[1] = u[1];
         w[2] = 0;
         horiz = imf_q_unit3_p8(w, ch);
     }
@@ -1035,7 +1076,25 @@ static void robust_q_mag(const imf_robust_ahrs_q_consts_t *const k,
         kk = robust_q_gain(x->n, k->n_mag, k->k_mag);
         {
             int32_t dz[2];
-            robust_q_half(ch[0], (int16_t)-ch[1], 0, f);
+#if IMF_Q_HAS_P8
+            if (p8) {
+                /* 8-bit profile: (1 + cos, -sin) / 2 normalised by imf_q_unit3_p8 (within
+                   1.2e-3: the turn's gain); (0, 1) where it is 0, as robust_q_half */
+                int16_t w[3];
+                w[0] = (int16_t)((32768L + ch[0]) >> 1);
+                w[1] = (int16_t)(-(int32_t)ch[1] >> 1);
+                w[2] = 0;
+                if (!imf_q_unit3_p8(w, f)) {
+                    f[0] = 0;
+                    f[1] = 32767;
+                }
+            }
+#endif
+#if IMF_Q_HAS_P32
+            if (!p8) {
+                robust_q_half(ch[0], (int16_t)-ch[1], 0, f);
+            }
+#endif
             dz[0] = imf_scale32_s((int32_t)f[0] - 32768L, kk, 15, 30);
             dz[1] = imf_scale32_s(f[1], kk, 15, 30);
 #if IMF_Q_HAS_P8
@@ -1043,7 +1102,7 @@ static void robust_q_mag(const imf_robust_ahrs_q_consts_t *const k,
                 /* 8-bit profile: (dw, dz) narrowed to int16 with one exponent; c turned, then
                    q = c (x) s again (neither normalised here: the next update normalises c,
                    q is the snapshots' product) */
-                int16_t z16[2], ss[4];
+                int16_t z16[2], qs[4], ss[4];
                 const int e = robust_q_exponent_p8(dz, 2);
                 robust_q_narrow_p8(dz, 2, e, z16);
                 robust_q_turn_z_p8(x->c, z16, 15 - e);
@@ -1092,8 +1151,9 @@ static void robust_q_mag(const imf_robust_ahrs_q_consts_t *const k,
 void imf_robust_ahrs_q_update(imf_robust_ahrs_q_t *const self, const int16_t gyr[3],
                               const int16_t acc[3], const int16_t mag[3])
 {
-    if (robust_q_step(&self->k.imu, &self->x.imu, gyr, acc)) {
-        robust_q_mag(&self->k, &self->x, mag);
+    int16_t rq[9];
+    if (robust_q_step(&self->k.imu, &self->x.imu, gyr, acc, rq)) {
+        robust_q_mag(&self->k, &self->x, mag, rq);
         robust_q_finish(&self->k.imu, &self->x.imu, gyr);
     }
 }

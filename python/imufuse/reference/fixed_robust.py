@@ -179,6 +179,17 @@ def narrow_p8(v, e):
     return [ci.sat_q15s(ci.rshr32(a, e)) for a in v]
 
 
+def unit_p8(v):
+    """robust_q_unit_p8: unit() from v's 15 leading bits (unit3_p8), then one Newton step
+    on the norm, u + u (1 - |u|^2) / 2; None for the zero vector."""
+    u = fq.unit3_p8(narrow_p8(v, exponent_p8(v)))
+    if u is None:
+        return None
+    n2 = sum(a * a for a in u)                           # q30
+    d = ci.sat_q15s(ci.rshr32(fq.Q30_ONE - n2, 7))       # q23
+    return [ci.sat_q15s(a + ci.rshr32(a * d, 24)) for a in u]
+
+
 def qmul_p8(a, b):
     """robust_q_mul_p8: a (x) b for q15 a and b, q30, sums saturated in qmul's order."""
     def p(x, y):
@@ -556,8 +567,7 @@ class RobustIMUQ(FixedFilter):
         # (Eq. 3.6, with Ki dt = 1 / tau_bias): b -= R(q)^T (2 r1, 2 r2, 0) / tau_bias
         if not rest and self.n >= k["n_acc"] and k["kbias"].m != 0:
             rm = matrix(fq.snapshot(self.q))   # its first two rows (the C computes only those)
-            # R^T (r1, r2, 0) in q30 (the error is twice that): R's first two rows
-            e = [rm[i] * r[1] + rm[3 + i] * r[2] for i in range(3)]
+            e = rotate16(rm, 1, [r[1], r[2], 0])   # R^T r in q30; the error is twice that
             if p8:
                 # 8-bit profile: R^T 2 r in q15 (2 r is q15) times kbias, one 16x16 product
                 self.b = [ci.sub_sat32(self.b[i],
@@ -734,7 +744,7 @@ class RobustAHRSQ(RobustIMUQ):
         m = [ci.sat_q15s(ci.sub_sat32(mag[i], self.u[i])) for i in range(3)]
         me = rotate16(matrix(fq.snapshot(self.q)), 0, m)    # q15 counts
         p8 = self.k["profile"] == 8
-        u = unit(me)
+        u = unit_p8(me) if p8 else unit(me)
         if u is None:
             return                           # no usable reading: gyro and accelerometer only
         # the norm |m| = m . u (q15 counts); the horizontal direction ch; the dip's cosine
@@ -743,8 +753,8 @@ class RobustAHRSQ(RobustIMUQ):
         for i in range(3):
             mn = ci.add_sat32(mn, fq.mul_hq_p32(me[i], u[i]))
         if p8:
-            # 8-bit profile: the horizontal direction of its 15 leading bits (unit3_p8)
-            ch = fq.unit3_p8(narrow_p8(me[:2], exponent_p8(me[:2])) + [0])
+            # 8-bit profile: the horizontal direction from u's (unit3_p8)
+            ch = fq.unit3_p8([u[0], u[1], 0])
         else:
             ch = unit([me[0], me[1], 0])
         hn = ci.qn_to_q15s(u[0] * ch[0] + u[1] * ch[1], 30) if ch is not None else 0
@@ -776,7 +786,12 @@ class RobustAHRSQ(RobustIMUQ):
             # north (+x), (1 + cos, 0, 0, -sin) normalised, taken by the fraction k:
             # (1 + k (f_w - 1), k f_z), normalised with c and q
             kk = gain(self.n, k["n_mag"], k["k_mag"])
-            f = half(ch[0], -ch[1], 0)
+            if p8:
+                # 8-bit profile: (1 + cos, -sin) / 2 normalised by unit3_p8 (within 1.2e-3:
+                # the turn's gain); (0, 1) where it is 0, as half()
+                f = fq.unit3_p8([(32768 + ch[0]) >> 1, -ch[1] >> 1, 0]) or [0, 32767]
+            else:
+                f = half(ch[0], -ch[1], 0)
             dz = [ci.scale32_s(f[0] - 32768, kk, 15, 30), ci.scale32_s(f[1], kk, 15, 30)]
             if p8:
                 # 8-bit profile: (dw, dz) narrowed to int16 with one exponent; c turned, then
