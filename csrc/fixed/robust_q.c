@@ -410,15 +410,14 @@ static IMF_Q_NOINLINE void robust_q_narrow_p8(const int32_t *const v, const int 
     }
 }
 
-/* the unit vector of v (any int32 vector) as robust_q_unit, in 16-bit operations: from
- * its 15 leading bits by imf_q_unit3_p8 (|u| within 1.2e-3 of 1), then one Newton step
- * on the norm, u + u (1 - |u|^2) / 2 (1 - |u|^2 in q23); 0 for the zero vector */
-static IMF_Q_NOINLINE int robust_q_unit_p8(const int32_t v[3], int16_t u[3])
+/* the unit vector of an int16 vector w as robust_q_unit: imf_q_unit3_p8 (|u| within
+ * 1.2e-3 of 1), then one Newton step on the norm, u + u (1 - |u|^2) / 2 (1 - |u|^2 in
+ * q23); 0 for the zero vector */
+static IMF_Q_NOINLINE int robust_q_unit16_p8(const int16_t w[3], int16_t u[3])
 {
-    int16_t w[3], d;
+    int16_t d;
     int32_t n2 = 0;
     int i;
-    robust_q_narrow_p8(v, 3, robust_q_exponent_p8(v, 3), w);
     if (!imf_q_unit3_p8(w, u)) {
         return 0;
     }
@@ -430,6 +429,15 @@ static IMF_Q_NOINLINE int robust_q_unit_p8(const int32_t v[3], int16_t u[3])
         u[i] = imf_sat_q15s(u[i] + imf_rshr32(imf_mul16(u[i], d), 24));
     }
     return 1;
+}
+
+/* the unit vector of v (any int32 vector) as robust_q_unit: robust_q_unit16_p8 of its 15
+ * leading bits; 0 for the zero vector */
+static IMF_Q_NOINLINE int robust_q_unit_p8(const int32_t v[3], int16_t u[3])
+{
+    int16_t w[3];
+    robust_q_narrow_p8(v, 3, robust_q_exponent_p8(v, 3), w);
+    return robust_q_unit16_p8(w, u);
 }
 
 /* out = a (x) b for q15 a and b, q30: 16x16 products, each component's four summed with
@@ -1029,12 +1037,13 @@ static void robust_q_mag(const imf_robust_ahrs_q_consts_t *const k,
     }
 #if IMF_Q_HAS_P8
     if (p8) {
-        /* 8-bit profile: the horizontal direction from u's (imf_q_unit3_p8) */
+        /* 8-bit profile: the horizontal direction from u's (robust_q_unit16_p8: the half
+           angle of the heading below needs the norm of the 32-bit profile's too) */
         int16_t w[3];
         w[0] = u[0];
         w[1] = u[1];
         w[2] = 0;
-        horiz = imf_q_unit3_p8(w, ch);
+        horiz = robust_q_unit16_p8(w, ch);
     }
 #endif
 #if IMF_Q_HAS_P32

@@ -8,13 +8,15 @@
  * python/imufuse/reference/fixed_robust.py.
  *
  * Two profiles (the constants' profile, given to init; IMF_FIXED_PROFILE 32 or 8 compiles
- * one only), the same state and blocks:
+ * one only), the same state, constants and blocks:
  *   32  q30 quaternions, products of a q30 value and a q15 snapshot (imf_q_mul_hq_p32)
- *   8   the same q30 state, every quaternion product and rotation one 16x16 product a
- *       term (both operands q15 snapshots, or a q15 snapshot and a difference narrowed
- *       to int16 with one exponent for the vector), the normalisation first order in
- *       16-bit products, the strapdown's folded into its step (robust_q.c, "the 8-bit
- *       profile's helpers"); B1, B2 and B4 as the 32-bit profile
+ *   8   the same q30 state; every quaternion product and rotation one 16x16 product a
+ *       term (q15 snapshots, or a snapshot and a vector narrowed to int16 with one
+ *       exponent); normalisation first order in 16-bit products, the strapdown's folded
+ *       into its step; unit vectors from 15 leading bits (imf_q_unit3_p8; B4's field
+ *       direction with one Newton step); the output q the product of c's and s's q15
+ *       snapshots (|q|^2 - 1 < 2e-4); B1 and B2 as the 32-bit profile (robust_q.c, "the
+ *       8-bit profile's helpers")
  * Both run on every target.
  *
  * Inputs are int16 counts: gyr in counts of gyr_scale rad/s, acc in any unit (the

@@ -180,9 +180,14 @@ def narrow_p8(v, e):
 
 
 def unit_p8(v):
-    """robust_q_unit_p8: unit() from v's 15 leading bits (unit3_p8), then one Newton step
-    on the norm, u + u (1 - |u|^2) / 2; None for the zero vector."""
-    u = fq.unit3_p8(narrow_p8(v, exponent_p8(v)))
+    """robust_q_unit_p8: unit16_p8 of v's 15 leading bits; None for the zero vector."""
+    return unit16_p8(narrow_p8(v, exponent_p8(v)))
+
+
+def unit16_p8(w):
+    """robust_q_unit16_p8: unit3_p8, then one Newton step on the norm,
+    u + u (1 - |u|^2) / 2; None for the zero vector."""
+    u = fq.unit3_p8(w)
     if u is None:
         return None
     n2 = sum(a * a for a in u)                           # q30
@@ -753,8 +758,9 @@ class RobustAHRSQ(RobustIMUQ):
         for i in range(3):
             mn = ci.add_sat32(mn, fq.mul_hq_p32(me[i], u[i]))
         if p8:
-            # 8-bit profile: the horizontal direction from u's (unit3_p8)
-            ch = fq.unit3_p8([u[0], u[1], 0])
+            # 8-bit profile: the horizontal direction from u's (unit16_p8: the half angle of
+            # the heading below needs the norm of the 32-bit profile's too)
+            ch = unit16_p8([u[0], u[1], 0])
         else:
             ch = unit([me[0], me[1], 0])
         hn = ci.qn_to_q15s(u[0] * ch[0] + u[1] * ch[1], 30) if ch is not None else 0
