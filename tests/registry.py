@@ -36,7 +36,7 @@ class Case:
 
     @property
     def profiles(self):
-        """The fixed-point profiles the class is built in (RobustIMUQ: one, "32")."""
+        """The fixed-point profiles the class is built in ("32" and "8" for every class today)."""
         from imufuse import reference
         return getattr(reference, self.name).profiles
 

@@ -111,21 +111,25 @@ def test_three_inputs_are_checked_as_two(mod):
 
 @pytest.mark.parametrize("mod", BACKENDS)
 def test_profiles_differ_only_where_designed(mod):
-    """MahonyIMUQ/MadgwickIMUQ have distinct 8-bit updates; the others share one."""
+    """MahonyIMUQ, MadgwickIMUQ, RobustIMUQ and RobustAHRSQ have distinct 8-bit updates; the
+    others share one."""
     rng = np.random.default_rng(0)
     g = rng.integers(-3000, 3000, (300, 3)).astype(np.int16)
     a = (rng.integers(-500, 500, (300, 3)) + [0, 0, 4096]).astype(np.int16)
+    m = (rng.integers(-20, 20, (300, 3)) + [200, 0, -300]).astype(np.int16)
     for case in FIXED_CASES:
         if "8" not in case.profiles:
             # one arithmetic: the other profile is refused, saying so
             with pytest.raises(ValueError, match="profile"):
                 getattr(mod, case.name)(**case.params, profile="8")
             continue
-        if getattr(reference, case.name).kind != "imu":
+        kind = getattr(reference, case.name).kind
+        if kind not in ("imu", "ahrs"):
             continue
-        s32 = getattr(mod, case.name)(**case.params, profile="32").run(g, a)
-        s8 = getattr(mod, case.name)(**case.params, profile="8").run(g, a)
-        if case.name in ("MahonyIMUQ", "MadgwickIMUQ"):
+        ins = (g, a) if kind == "imu" else (g, a, m)
+        s32 = getattr(mod, case.name)(**case.params, profile="32").run(*ins)
+        s8 = getattr(mod, case.name)(**case.params, profile="8").run(*ins)
+        if case.name in ("MahonyIMUQ", "MadgwickIMUQ", "RobustIMUQ", "RobustAHRSQ"):
             assert (s32 != s8).any()
         else:
             np.testing.assert_array_equal(s32, s8)

@@ -382,8 +382,8 @@ FIXED_TARGETS = {"avr": ("p8", {**dict.fromkeys(QUATERNION_Q, 0.3), **ROBUST_Q},
 
 
 def _measured_profile(cls: str, target: str) -> str:
-    """The profile FIXED_TARGETS measures on `target`, or the class's only one (RobustIMUQ and
-    RobustAHRSQ have one arithmetic, "32", which runs on AVR too)."""
+    """The profile FIXED_TARGETS measures on `target`, or the class's only one if it is built in
+    one profile."""
     from imufuse import reference
     want = FIXED_TARGETS[target][0]
     have = ["p" + p for p in getattr(getattr(reference, cls, None), "profiles", ())]
@@ -514,7 +514,7 @@ def write_results(rows, targets, checks, seconds, md: Path, js: Path) -> None:
         "## Fixed point against float32 (soft float on Cortex-M0 and ATmega328P)",
         "",
         "Median cost per update of each fixed-point configuration (8-bit profile on AVR, 32-bit",
-        "profile on Cortex-M0; a class built in one profile, as the Robust ones, in that one) against the",
+        "profile on Cortex-M0; a class built in one profile only, in that one) against the",
         "cheapest float32 configuration of its float twin (class name without the Q) on the same",
         "target. Targets: on AVR every Q filter <= 1/2, and the quaternion filters",
         f"({' and '.join(q for q in QUATERNION_Q if q not in ROBUST_Q)}) <= 0.30 (1/3 with a 10 %",
