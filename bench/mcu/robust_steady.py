@@ -6,7 +6,7 @@ measure.py's median covers the stored samples from power-up: for the Robust filt
 dt = 1/512 that is their start-up (B5's running means, each a reciprocal, until tau_rest), and
 never B3 (from tau_acc on) nor the bias at rest (after rest_time). Here the filter takes its
 first sample as usual, then its start-up clock is set to its end (n = n_max in fixed point,
-t = t_max in float), and the median is taken over 40 samples more:
+t = t_max in float); of the 40 samples, the median of the last 37:
   motion  gyro within +-400 counts (+-24 deg/s), accelerometer 1 g +-300 counts: B3 on;
   rest    within +-3 counts, the rest clock at rest_time: B1's bias at rest on.
 Float32 (RobustIMU, RobustAHRS without B6) and both fixed-point profiles, side by side in one

@@ -35,7 +35,7 @@ extern "C" {
 #define IMF_Q_HAS_P8 1
 #endif
 
-/* 1 if the profile given to init (8, anything else = 32) is compiled in. */
+/* 1 if the profile given to init (32 or 8; any other value: 0) is compiled in. */
 static inline int imf_q_profile_ok(const int profile)
 {
     return profile == 8 ? IMF_Q_HAS_P8 : (profile == 32 && IMF_Q_HAS_P32);

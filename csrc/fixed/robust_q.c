@@ -811,7 +811,7 @@ static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
         robust_q_renorm_p8(x->c);
         imf_q_snapshot(x->c, ss);
         imf_q_snapshot(x->s, d);
-        robust_q_mul_p8(ss, d, x->q); /* |q|^2 - 1: the snapshots' rounding, < 2e-4 */
+        robust_q_mul_p8(ss, d, x->q); /* |q|^2 - 1: c's and the snapshots' rounding */
     }
 #endif
 #if IMF_Q_HAS_P32

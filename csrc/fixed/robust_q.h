@@ -14,8 +14,9 @@
  *       term (q15 snapshots, or a snapshot and a vector narrowed to int16 with one
  *       exponent); normalisation first order in 16-bit products, the strapdown's folded
  *       into its step; unit vectors from 15 leading bits (imf_q_unit3_p8; B4's field
- *       direction with one Newton step); the output q the product of c's and s's q15
- *       snapshots (|q|^2 - 1 < 2e-4); B1 and B2 as the 32-bit profile (robust_q.c, "the
+ *       and horizontal directions with one Newton step); the output q the product of c's
+ *       and s's q15 snapshots (|q|^2 - 1 < 2e-4, up to 2.5e-3 after a full normalisation:
+ *       the first sample, a turned-over start); B1 and B2 as the 32-bit profile (robust_q.c, "the
  *       8-bit profile's helpers")
  * Both run on every target.
  *
@@ -202,7 +203,8 @@ typedef struct {
                             >= 0 (default 0.5) */
     int mag_learn;        /* B6: must be 0 (not built in fixed point; default 0) */
     double gyr_scale;     /* rad/s per gyro count; > 0 (default 1.0642e-3) */
-    int profile;          /* 32 (default) or 8 */
+    int profile;          /* 32 (default) or 8, a profile compiled in; any other value:
+                             init returns -1 */
 } imf_robust_ahrs_q_settings_t;
 
 /* The defaults listed with each member. */

@@ -554,7 +554,7 @@ class RobustIMUQ(FixedFilter):
                     r = [r[0], ci.sat_q15s(2 * r[1]), ci.sat_q15s(2 * r[2])]
             t = qmul_p8(d, ss)
             self.c = renorm_p8([ci.add_sat32(self.c[i], ci.rshr32(t[i], hs)) for i in range(4)])
-            # |q|^2 - 1: the snapshots' rounding, < 2e-4
+            # |q|^2 - 1: c's and the snapshots' rounding
             self.q = qmul_p8(fq.snapshot(self.c), fq.snapshot(self.s))
         else:
             ge = rotate(rm, 0, self.f)
