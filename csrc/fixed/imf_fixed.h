@@ -478,6 +478,13 @@ static inline int16_t imf_mul_q15(const int16_t a, const int16_t b)
     return imf_sat_q15(imf_rshr32((int32_t)a * (int32_t)b, 15));
 }
 
+/* x 2^15 for an int16 x, exact (|x 2^15| <= 2^30): x 2^16 (byte moves on AVR), then one
+ * shift right (avr-gcc compiles (int32_t)x * 32768 to a loop of fifteen one-bit shifts) */
+static inline int32_t imf_x32768(const int16_t x)
+{
+    return imf_asr32((int32_t)x * 65536L, 1);
+}
+
 /* q15 * q15 -> q30, exact (|a*b| <= 2^30 cannot overflow). */
 static inline int32_t imf_mul_q15_q30(const int16_t a, const int16_t b)
 {
@@ -835,6 +842,19 @@ IMF_AVR_OUTLINE uint16_t imf_invsqrt_u32(uint32_t x, int *const shift)
     }
     u = (imf_invsqrt16_t)(x >> 16); /* q16 in [2^14, 2^16) */
     /* chords through (1/4, 2), (1/2, sqrt 2) and (1/2, sqrt 2), (1, 1), q15 */
+#if defined(__AVR__)
+    /* the same values in 16-bit operations (imf_invsqrt_chord16's identities; the 32-bit
+       shifts were loops of one-bit steps) */
+    if (u < 32768u) {
+        const uint16_t d = (uint16_t)(u - 16384u);
+        y = (imf_invsqrt16_t)(65535u - (uint16_t)(d + (uint16_t)((uint16_t)(d * 3u) >> 4)));
+    } else {
+        const uint16_t d = (uint16_t)(u - 32768u);
+        y = (imf_invsqrt16_t)(46341u
+                              - (uint16_t)((uint16_t)((d >> 6) * 27u)
+                                           + (uint16_t)((uint16_t)((d & 63u) * 27u) >> 6)));
+    }
+#else
     if (u < 32768u) {
         y = (imf_invsqrt16_t)(65535u
                               - (((uint32_t)(u - 16384u) * 38u) >> 5)); /* slope ~ 2(2-sqrt2)4 */
@@ -842,6 +862,7 @@ IMF_AVR_OUTLINE uint16_t imf_invsqrt_u32(uint32_t x, int *const shift)
         y = (imf_invsqrt16_t)(46341u
                               - (((uint32_t)(u - 32768u) * 27u) >> 6)); /* slope ~ (sqrt2-1)2 */
     }
+#endif
     for (i = 0; i < 3; ++i) {
         /* from these chords too, u y^2 < 3 2^30 and y < 2^16 after every
          * step for every u (tests/test_fixed_core.py: the twin raises) */

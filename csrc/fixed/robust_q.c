@@ -21,7 +21,7 @@ static IMF_Q_NOINLINE imf_qscale_t robust_q_recip(const uint32_t x, const int N)
     const uint32_t p = imf_mulu16(y, y); /* in [2^30, 2^32) */
     uint32_t m;
     if (p >= 2147483648u) {
-        m = (p + 65536u) >> 17;
+        m = (uint32_t)((uint16_t)((p + 65536u) >> 16) >> 1); /* no carry out: p < 2^32 - 2^17 */
         s = 2 * sh - N - 17;
     } else {
         m = (p + 32768u) >> 16;
@@ -43,24 +43,30 @@ static IMF_Q_NOINLINE imf_qscale_t robust_q_scale_of(const int32_t x, const int 
 {
     imf_qscale_t r;
     uint32_t u = x < 0 ? 0u - (uint32_t)x : (uint32_t)x, t = u;
+    uint16_t v;
     int e = 0;
     *sign = x < 0 ? -1 : 1;
-    while (t >= 32768u) { /* e: the shift that brings u below 2^15 (at most 17) */
+    while (t >= 8388608u) { /* e: the shift that brings u below 2^15 (at most 17); */
+        t >>= 8;            /* a byte at a time first (byte moves on AVR) */
+        e += 8;
+    }
+    while (t >= 32768u) {
         t >>= 1;
         e++;
     }
     if (e > 0) {
-        u = (u + ((uint32_t)1 << (e - 1))) >> e;
+        u = imf_lsr32(u + imf_lsl32(1u, e - 1), e); /* u + 2^(e-1) <= 2^31 + 2^16 */
         if (u >= 32768u) {
             u >>= 1;
             e++;
         }
     }
-    while (u != 0u && u < 16384u) {
-        u <<= 1;
+    v = (uint16_t)u; /* < 2^15 */
+    while (v != 0u && v < 16384u) {
+        v = (uint16_t)(v << 1);
         e--;
     }
-    r.m = (int16_t)u;
+    r.m = (int16_t)v;
     r.s = (int16_t)(N - e);
     return r;
 }
@@ -265,7 +271,7 @@ static inline imf_qscale_t robust_q_gain(const int32_t n, const int32_t n_tau, c
 static IMF_Q_NOINLINE int32_t robust_q_lowpass(const int32_t x, const int16_t u,
                                                const imf_qscale_t k)
 {
-    return imf_add_sat32(x, imf_scale32_s(imf_sub_sat32((int32_t)u * 32768L, x), k, 15, 15));
+    return imf_add_sat32(x, imf_scale32_s(imf_sub_sat32(imf_x32768(u), x), k, 15, 15));
 }
 
 /* robust_q_lowpass for the three components of x and u */
@@ -273,8 +279,7 @@ static IMF_Q_NOINLINE void robust_q_lowpass3(int32_t x[3], const int16_t u[3], c
 {
     int i;
     for (i = 0; i < 3; ++i) {
-        x[i] = imf_add_sat32(x[i],
-                             imf_scale32_s(imf_sub_sat32((int32_t)u[i] * 32768L, x[i]), k, 15, 15));
+        x[i] = imf_add_sat32(x[i], imf_scale32_s(imf_sub_sat32(imf_x32768(u[i]), x[i]), k, 15, 15));
     }
 }
 
@@ -393,6 +398,10 @@ static IMF_Q_NOINLINE int robust_q_exponent_p8(const int32_t *const v, const int
     for (i = 0; i < n; ++i) {
         m |= v[i] < 0 ? 0u - (uint32_t)v[i] : (uint32_t)v[i]; /* the top bit of the largest */
     }
+    while (m >= 8388608u) { /* 2^23: a byte at a time (byte moves on AVR) */
+        m >>= 8;
+        e += 8;
+    }
     while (m >= 32768u) {
         m >>= 1;
         e++;
@@ -431,13 +440,23 @@ static IMF_Q_NOINLINE int robust_q_unit16_p8(const int16_t w[3], int16_t u[3])
     return 1;
 }
 
-/* the unit vector of v (any int32 vector) as robust_q_unit: robust_q_unit16_p8 of its 15
- * leading bits; 0 for the zero vector */
-static IMF_Q_NOINLINE int robust_q_unit_p8(const int32_t v[3], int16_t u[3])
+/* out = R(q) v for a q15 snapshot qs (w, x, y, z) and an int16 v with |v_i| <= 2^14, in v's
+ * format, by the quaternion: t = q_v x v (rounded, |t| <= |v| < 2^15), then
+ * v + 2 (w t + q_v x t) (each sum of products below 2^30, doubled below 2^31, rounded;
+ * |out_i| <= |v| plus the snapshot's error and the rounding, below 2^15) */
+static IMF_Q_NOINLINE void robust_q_rotate_q_p8(const int16_t qs[4], const int16_t v[3],
+                                                int16_t out[3])
 {
-    int16_t w[3];
-    robust_q_narrow_p8(v, 3, robust_q_exponent_p8(v, 3), w);
-    return robust_q_unit16_p8(w, u);
+    const int16_t w = qs[0], x = qs[1], y = qs[2], z = qs[3];
+    const int16_t tx = (int16_t)imf_rshr32(imf_mul16(y, v[2]) - imf_mul16(z, v[1]), 15);
+    const int16_t ty = (int16_t)imf_rshr32(imf_mul16(z, v[0]) - imf_mul16(x, v[2]), 15);
+    const int16_t tz = (int16_t)imf_rshr32(imf_mul16(x, v[1]) - imf_mul16(y, v[0]), 15);
+    out[0] = (int16_t)(v[0]
+                       + imf_rshr32(2 * (imf_mul16(w, tx) + imf_mul16(y, tz) - imf_mul16(z, ty)), 15));
+    out[1] = (int16_t)(v[1]
+                       + imf_rshr32(2 * (imf_mul16(w, ty) + imf_mul16(z, tx) - imf_mul16(x, tz)), 15));
+    out[2] = (int16_t)(v[2]
+                       + imf_rshr32(2 * (imf_mul16(w, tz) + imf_mul16(x, ty) - imf_mul16(y, tx)), 15));
 }
 
 /* out = a (x) b for q15 a and b, q30: 16x16 products, each component's four summed with
@@ -456,19 +475,47 @@ static IMF_Q_NOINLINE void robust_q_mul_p8(const int16_t a[4], const int16_t b[4
 #undef ROBUST_Q_P
 }
 
+/* The half angle h = k (g 2^15 - b) of robust_q_exp_p8 (q30; k the q-scale kg or klat,
+ * g counts, b q15 counts) as int16 hn and its exponent e, h = hn 2^e: w = g 2^15 - b
+ * narrowed to its 15 leading bits wn (exponent ew), hn = wn k.m 2^-15 rounded, e = ew + 30
+ * - k.s. e > 15 (|h| >= 1 rad, the latency's step only) is saturated to 15; e < -16 (|h|
+ * below a quarter of q30's LSB) gives h = 0 */
+static IMF_Q_NOINLINE int robust_q_angle_p8(const int16_t g[3], const int32_t b[3],
+                                            const imf_qscale_t k, int16_t hn[3])
+{
+    int32_t w[3];
+    int e, i;
+    for (i = 0; i < 3; ++i) {
+        w[i] = imf_sub_sat32(imf_x32768(g[i]), b[i]);
+    }
+    e = robust_q_exponent_p8(w, 3);
+    robust_q_narrow_p8(w, 3, e, hn);
+    e += 30 - k.s;
+    for (i = 0; i < 3; ++i) {
+        /* |hn k.m| < 2^30: |hn| stays below 2^15 */
+        hn[i] = (int16_t)imf_rshr32(imf_mul16(hn[i], k.m), 15);
+        if (e > 15) {
+            hn[i] = imf_sat_q15s(imf_shl_sat32(hn[i], e - 15));
+        } else if (e < -16) {
+            hn[i] = 0;
+        }
+    }
+    return e > 15 ? 15 : e < -16 ? 0 : e;
+}
+
 /* q = q (x) exp(h) as robust_q_exp, in 16-bit products, its normalisation folded in
  * (one snapshot): d = |q|^2 - 1 from q's q15 snapshot at the start (imf_q_normalise_p8
- * first if |d| >= 2^-8); h (q30) narrowed to q(30 - e); |h|^2 / 2 and |h|^2 / 6 in q15
- * (0 while the largest |h_i| < 2^22: below their q15 LSB); then
+ * first if |d| >= 2^-8); h = hn 2^e in q30 (robust_q_angle_p8, e in [-16, 15]); |h|^2 / 2
+ * and |h|^2 / 6 in q15 (0 for e < 8: below their q15 LSB); then
  * q += q (x) (0, h (1 - |h|^2 / 6)) (imf_q_rate_p8, hs = 15 - e) - q (|h|^2 + d) / 2,
  * so q is normalised to first order from the update before (|q|^2 - 1 stays of the
  * order of |h|^4 and the rounding) */
-static IMF_Q_NOINLINE void robust_q_exp_p8(int32_t q[4], const int32_t h[3])
+static IMF_Q_NOINLINE void robust_q_exp_p8(int32_t q[4], const int16_t hn[3], const int e)
 {
-    int16_t qs[4], hn[3], n2h = 0, n6 = 0, d16 = 0;
+    int16_t qs[4], n2h = 0, n6 = 0, d16 = 0;
     int32_t hv[3], dq[4];
     uint32_t n2;
-    int e = robust_q_exponent_p8(h, 3), i;
+    int i;
     imf_q_snapshot(q, qs);
     n2 = imf_q_norm2(q, qs);
     if (n2 <= 1069547520u || n2 >= 1077936128u) { /* 2^30 -+ 2^22 */
@@ -477,10 +524,6 @@ static IMF_Q_NOINLINE void robust_q_exp_p8(int32_t q[4], const int32_t h[3])
     } else {
         d16 = (int16_t)imf_rshr32((int32_t)n2 - IMF_Q30_ONE, 8); /* q22, |d| < 2^14 */
     }
-    if (e > 15) {
-        e = 15; /* |h| >= 1 rad (the latency's step only): saturated */
-    }
-    robust_q_narrow_p8(h, 3, e, hn);
     if (e >= 8) {
         /* |h|^2 / 2 in q15: the three squares (q(60 - 2e), < 2^32) halved, then
            shifted by 45 - 2e in [15, 29]; capped at 1/2 (|h| <= 1) */
@@ -494,18 +537,24 @@ static IMF_Q_NOINLINE void robust_q_exp_p8(int32_t q[4], const int32_t h[3])
         n6 = (int16_t)imf_rshr32(imf_mul16(n2h, 10923), 15); /* |h|^2 / 6 = (|h|^2 / 2) / 3 */
     }
     for (i = 0; i < 3; ++i) {
-        hv[i] = hn[i] - imf_rshr32(imf_mul16(hn[i], n6), 15); /* q(30 - e), |.| < 2^15 */
+        hv[i] = hn[i]; /* q(30 - e), |.| < 2^15 */
+        if (n6 != 0) {
+            hv[i] -= imf_rshr32(imf_mul16(hn[i], n6), 15); /* (0 for n6 = 0) */
+        }
     }
     imf_q_rate_p8(qs, hv, 15 - e, dq);
     for (i = 0; i < 4; ++i) {
-        /* q (|h|^2 / 2) in q30 from q15 x q15; q d / 2 = qs (q15) d16 (q22) / 2^8 */
-        q[i] = imf_add_sat32(q[i], imf_sub_sat32(imf_sub_sat32(dq[i], imf_mul16(n2h, qs[i])),
-                                                 imf_rshr32(imf_mul16(qs[i], d16), 8)));
+        /* q (|h|^2 / 2) in q30 from q15 x q15 (0 for n2h = 0: the same sum without the
+           product); q d / 2 = qs (q15) d16 (q22) / 2^8 */
+        if (n2h != 0) {
+            dq[i] = imf_sub_sat32(dq[i], imf_mul16(n2h, qs[i]));
+        }
+        q[i] = imf_add_sat32(q[i], imf_sub_sat32(dq[i], imf_rshr32(imf_mul16(qs[i], d16), 8)));
     }
 }
 
 /* robust_q_turn_z in 16-bit products and not normalised (the next update normalises c):
- * (dw, dz) = z 2^-n (int16 z, n = 15 - e, any sign), q_i + (qs_i dw + (-q3, -q2, q1,
+ * (dw, dz) = z 2^-n in q30 (int16 z, n in [-1, 32]), q_i + (qs_i dw + (-q3, -q2, q1,
  * q0)_i dz) from q's q15 snapshot */
 static IMF_Q_NOINLINE void robust_q_turn_z_p8(int32_t q[4], const int16_t z[2], const int n)
 {
@@ -520,6 +569,7 @@ static IMF_Q_NOINLINE void robust_q_turn_z_p8(int32_t q[4], const int16_t z[2], 
     }
 }
 #endif
+
 
 /* ---- init ----------------------------------------------------------------------- */
 
@@ -646,16 +696,32 @@ int imf_robust_imu_q_init(imf_robust_imu_q_t *const self,
 /* the profile given to init: 1 for the 8-bit profile (a constant when one profile is
  * compiled, IMF_FIXED_PROFILE) */
 #define ROBUST_Q_IS_P8(k) (IMF_Q_HAS_P8 && (!IMF_Q_HAS_P32 || (k)->profile == 8))
-#if IMF_Q_HAS_P8 && IMF_Q_HAS_P32
-#define ROBUST_Q_EXP(p8, q, h) ((p8) ? robust_q_exp_p8((q), (h)) : robust_q_exp((q), (h)))
-#define ROBUST_Q_UNIT(p8, v, u) ((p8) ? robust_q_unit_p8((v), (u)) : robust_q_unit((v), (u)))
-#elif IMF_Q_HAS_P8
-#define ROBUST_Q_EXP(p8, q, h) robust_q_exp_p8((q), (h))
-#define ROBUST_Q_UNIT(p8, v, u) robust_q_unit_p8((v), (u))
-#else
-#define ROBUST_Q_EXP(p8, q, h) robust_q_exp((q), (h))
-#define ROBUST_Q_UNIT(p8, v, u) robust_q_unit((v), (u))
+
+/* q = q (x) exp(h), h = k (g 2^15 - b) in q30 (k the q-scale kg or klat, g counts, b q15
+ * counts): the strapdown and the latency's prediction, each profile's */
+static void robust_q_integrate(const int p8, int32_t q[4], const int16_t g[3], const int32_t b[3],
+                               const imf_qscale_t k)
+{
+#if IMF_Q_HAS_P8
+    if (p8) {
+        int16_t hn[3];
+        const int e = robust_q_angle_p8(g, b, k, hn);
+        robust_q_exp_p8(q, hn, e);
+        return;
+    }
 #endif
+#if IMF_Q_HAS_P32
+    {
+        int32_t h[3];
+        int i;
+        for (i = 0; i < 3; ++i) {
+            h[i] = imf_scale32_s(imf_sub_sat32(imf_x32768(g[i]), b[i]), k, 15, 30);
+        }
+        robust_q_exp(q, h);
+    }
+#endif
+    (void)p8;
+}
 
 /* B1, B2, B3 and B5 of one sample; returns 0 when the sample is not taken (no start
  * without an accelerometer reading), then nothing else runs. rq: NULL, or where the
@@ -667,11 +733,11 @@ static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
     const int first = x->n == 0;
     /* an all-zero accelerometer is no reading: gyro only (and no start without one) */
     int has_acc = !(acc[0] == 0 && acc[1] == 0 && acc[2] == 0);
-    int16_t ss[4], rm[9], u[3], r[4];
-    int32_t ai[3], ge[3], w[3], h[3], t[4], e[3];
-    uint32_t w2, g2, d2, a2;
+    int16_t ss[4], sn[4], rm[9], u[3], r[4];
+    int32_t ai[3], ge[3], t[4], e[3];
+    uint32_t w2;
     imf_qscale_t kk;
-    int rest, b3, i;
+    int still, rest, b3, i;
     const int p8 = ROBUST_Q_IS_P8(k);
     if (first && !has_acc) {
         return 0;
@@ -692,15 +758,20 @@ static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
         robust_q_lowpass3(x->la, acc, kk);
     }
     w2 = robust_q_norm2_counts(x->lw);
-    g2 = robust_q_norm2(gyr[0], gyr[1], gyr[2]);
-    for (i = 0; i < 3; ++i) {
-        /* the accelerometer's difference from its low-pass, counts, within +-32767 */
-        e[i] = imf_sat_q15s(imf_sub_sat32(acc[i], robust_q_counts(x->la[i])));
+    /* at rest: the low-passed and the raw gyro below rest_gyr, the accelerometer within
+       rest_acc of its low-pass (each test only where the ones before hold) */
+    still = has_acc && w2 < k->rest_g2 && robust_q_norm2(gyr[0], gyr[1], gyr[2]) < k->rest_g2;
+    if (still) {
+        int16_t lc[3], de[3];
+        for (i = 0; i < 3; ++i) {
+            /* the accelerometer's difference from its low-pass, counts, within +-32767 */
+            lc[i] = (int16_t)robust_q_counts(x->la[i]);
+            de[i] = imf_sat_q15s((int32_t)acc[i] - lc[i]);
+        }
+        still = (int32_t)(robust_q_norm2(de[0], de[1], de[2]) >> 2)
+                < imf_scale32_s((int32_t)(robust_q_norm2(lc[0], lc[1], lc[2]) >> 2), k->kacc2, 0, 0);
     }
-    d2 = robust_q_norm2((int16_t)e[0], (int16_t)e[1], (int16_t)e[2]);
-    a2 = robust_q_norm2_counts(x->la);
-    if (has_acc && w2 < k->rest_g2 && g2 < k->rest_g2
-        && (int32_t)(d2 >> 2) < imf_scale32_s((int32_t)(a2 >> 2), k->kacc2, 0, 0)) {
+    if (still) {
         if (x->n_rest < k->n_rest) {
             x->n_rest++;
         }
@@ -713,14 +784,10 @@ static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
         robust_q_lowpass3(x->b, gyr, k->kb_rest);
     }
     /* strapdown: s = s (x) exp(1/2 (w - b) dt), series as the float filter */
-    for (i = 0; i < 3; ++i) {
-        w[i] = imf_sub_sat32((int32_t)gyr[i] * 32768L, x->b[i]);
-        h[i] = imf_scale32_s(w[i], k->kg, 15, 30);
-    }
-    ROBUST_Q_EXP(p8, x->s, h);
+    robust_q_integrate(p8, x->s, gyr, x->b, k->kg);
     /* B2: the accelerometer in the inertial frame */
-    imf_q_snapshot(x->s, ss);
-    robust_q_matrix(ss, rm, 3);
+    imf_q_snapshot(x->s, sn); /* s's snapshot (s is not changed again in the update) */
+    robust_q_matrix(sn, rm, 3);
     robust_q_rotate16(rm, 0, acc, ai); /* q15 counts */
     if (first) {
         /* B5: gravity from the first sample */
@@ -752,10 +819,15 @@ static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
         pgg = imf_add_sat32(x->p[2], qg);
         /* update with the pseudo-measurement v = 0 (noise 1): gains P / (pvv + 1) */
         inv = robust_q_recip((uint32_t)(pvv < 0 ? 0 : pvv >> 1) + 536870912u, 29);
-        kv = imf_scale32_s(pvv, inv, 30, 30);
-        kg = imf_scale32_s(pvg, inv, 30, 30);
-        kvs = robust_q_scale_of(kv, 30, &sv);
-        kgs = robust_q_scale_of(kg, 30, &sg);
+        {
+            /* the 8-bit profile's in q27: a shift of inv.s + 3 >= 17 (imf_mul_32x16's
+               fast path on AVR); kvs and kgs keep their 15 leading bits */
+            const int ng = p8 ? 27 : 30;
+            kv = imf_scale32_s(pvv, inv, 30, ng);
+            kg = imf_scale32_s(pvg, inv, 30, ng);
+            kvs = robust_q_scale_of(kv, ng, &sv);
+            kgs = robust_q_scale_of(kg, ng, &sg);
+        }
         for (i = 0; i < 3; ++i) {
             x->f[i] = imf_sub_sat32(x->f[i], robust_q_mul_signed(x->v[i], kgs, sg, 15, 15));
             x->v[i] = imf_sub_sat32(x->v[i], robust_q_mul_signed(x->v[i], kvs, sv, 15, 15));
@@ -767,25 +839,22 @@ static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
     /* inclination: the smallest rotation r that turns the gravity estimate onto earth z,
        (1 + u_z, u_y, -u_x, 0) normalised for the unit gravity u in the earth frame */
     imf_q_snapshot(x->c, ss);
-    robust_q_matrix(ss, rm, 3);
 #if IMF_Q_HAS_P8
     if (p8) {
-        /* 8-bit profile: f narrowed to int16 (its largest below 2^14), rotated, the unit
-           vector of its 15 leading bits (imf_q_unit3_p8); c += d (x) c with d = r - 1 in
+        /* 8-bit profile: f narrowed to int16 (its largest at most 2^14), rotated by c's
+           snapshot (robust_q_rotate_q_p8), the unit vector of its 15 leading bits
+           (imf_q_unit3_p8); c += d (x) c with d = r - 1 in
            16-bit products. For u_z >= 0, r = (1 + u_z, u_y, -u_x) / 2, not normalised (the
            normalisation of c takes it: the same direction); below (turned over), r from
            robust_q_half.
            B3 takes 2 (r1, r2): (u_y, -u_x) for the first, the doubled r for the second. */
-        int16_t f16[3], d[4];
+        int16_t f16[3], g16[3], d[4];
         int half = 0;
         robust_q_narrow_p8(x->f, 3, robust_q_exponent_p8(x->f, 3) + 1, f16);
-        robust_q_rotate16(rm, 0, f16, ge); /* |ge| < 2^30 */
-        for (i = 0; i < 3; ++i) {
-            f16[i] = imf_sat_q15s(imf_rshr32(ge[i], 15));
-        }
+        robust_q_rotate_q_p8(ss, f16, g16);
         d[0] = d[1] = d[2] = d[3] = 0;
         r[1] = r[2] = 0;
-        if (imf_q_unit3_p8(f16, u)) {
+        if (imf_q_unit3_p8(g16, u)) {
             if (u[2] >= 0) {
                 d[0] = (int16_t)(u[2] - 32768L); /* [-32768, -1] */
                 d[1] = r[1] = u[1];
@@ -795,6 +864,9 @@ static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
                 /* turned over (the first samples only: c takes the whole r): u to
                    imf_q_normalise_acc's precision first, as the 32-bit profile (1 + u_z
                    is a difference of nearly equal numbers) */
+                for (i = 0; i < 3; ++i) {
+                    ge[i] = g16[i];
+                }
                 (void)robust_q_unit(ge, u);
                 robust_q_half(u[2], u[1], (int16_t)-u[0], r);
                 d[0] = (int16_t)(r[0] - 32768L); /* [-32768, -1] */
@@ -810,12 +882,12 @@ static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
         }
         robust_q_renorm_p8(x->c);
         imf_q_snapshot(x->c, ss);
-        imf_q_snapshot(x->s, d);
-        robust_q_mul_p8(ss, d, x->q); /* |q|^2 - 1: c's and the snapshots' rounding */
+        robust_q_mul_p8(ss, sn, x->q); /* |q|^2 - 1: c's and the snapshots' rounding */
     }
 #endif
 #if IMF_Q_HAS_P32
     if (!p8) {
+        robust_q_matrix(ss, rm, 3);
         robust_q_rotate(rm, 0, x->f, ge);
         if (robust_q_unit(ge, u)) {
             /* gravity straight down (upside down): the half turn about x */
@@ -878,13 +950,8 @@ static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
 static void robust_q_finish(const imf_robust_imu_q_consts_t *const k,
                             imf_robust_imu_q_state_t *const x, const int16_t gyr[3])
 {
-    int32_t h[3];
-    int i;
     if (k->klat.m != 0) {
-        for (i = 0; i < 3; ++i) {
-            h[i] = imf_scale32_s(imf_sub_sat32((int32_t)gyr[i] * 32768L, x->b[i]), k->klat, 15, 30);
-        }
-        ROBUST_Q_EXP(ROBUST_Q_IS_P8(k), x->q, h);
+        robust_q_integrate(ROBUST_Q_IS_P8(k), x->q, gyr, x->b, k->klat);
     }
     if (x->n < k->n_max) {
         x->n++;
@@ -1027,19 +1094,22 @@ static void robust_q_mag(const imf_robust_ahrs_q_consts_t *const k,
         m[i] = imf_sat_q15s(imf_sub_sat32(mag[i], xm->u[i]));
     }
     robust_q_rotate16(rm, 0, m, me); /* q15 counts, rm: R(q) from robust_q_step */
-    if (!ROBUST_Q_UNIT(p8, me, u)) {
-        return; /* no usable reading: gyro and accelerometer only */
-    }
-    /* the norm |m| = m . u (q15 counts); the horizontal direction ch; the dip's cosine
-       hn = u . ch and sine u[2] */
-    for (i = 0; i < 3; ++i) {
-        mn = imf_add_sat32(mn, imf_q_mul_hq_p32(me[i], u[i]));
-    }
+    /* the unit vector u; the norm |m| = m . u (q15 counts); the horizontal direction ch; the
+       dip's cosine hn = u . ch and sine u[2] */
 #if IMF_Q_HAS_P8
     if (p8) {
-        /* 8-bit profile: the horizontal direction from u's (robust_q_unit16_p8: the half
-           angle of the heading below needs the norm of the 32-bit profile's too) */
+        /* 8-bit profile: u from me's 15 leading bits w (exponent e; robust_q_unit16_p8),
+           |m| = w . u 2^(e - 15) (|w . u| <= |w| < 2^31); the horizontal direction from
+           u's (robust_q_unit16_p8: the half angle of the heading below needs the norm of
+           the 32-bit profile's too) */
         int16_t w[3];
+        const int e = robust_q_exponent_p8(me, 3);
+        robust_q_narrow_p8(me, 3, e, w);
+        if (!robust_q_unit16_p8(w, u)) {
+            return; /* no usable reading: gyro and accelerometer only */
+        }
+        mn = imf_rshift_sat32(imf_mul16(w[0], u[0]) + imf_mul16(w[1], u[1]) + imf_mul16(w[2], u[2]),
+                              15 - e);
         w[0] = u[0];
         w[1] = u[1];
         w[2] = 0;
@@ -1048,6 +1118,12 @@ static void robust_q_mag(const imf_robust_ahrs_q_consts_t *const k,
 #endif
 #if IMF_Q_HAS_P32
     if (!p8) {
+        if (!robust_q_unit(me, u)) {
+            return; /* no usable reading: gyro and accelerometer only */
+        }
+        for (i = 0; i < 3; ++i) {
+            mn = imf_add_sat32(mn, imf_q_mul_hq_p32(me[i], u[i]));
+        }
         me[2] = 0;
         horiz = robust_q_unit(me, ch);
     }
@@ -1056,8 +1132,8 @@ static void robust_q_mag(const imf_robust_ahrs_q_consts_t *const k,
     if (xm->rn == 0) {
         /* first reading: it is the reference */
         xm->rn = xm->cn = mn;
-        xm->rh = xm->ch = (int32_t)hn * 32768L;
-        xm->rz = xm->cz = (int32_t)u[2] * 32768L;
+        xm->rh = xm->ch = imf_x32768(hn);
+        xm->rz = xm->cz = imf_x32768(u[2]);
         xm->n_ok = k->n_hold;
     }
     match = robust_q_mag_test(k, mn, hn, u[2], xm->rn, xm->rh, xm->rz);
@@ -1074,8 +1150,8 @@ static void robust_q_mag(const imf_robust_ahrs_q_consts_t *const k,
         xm->rh = robust_q_lowpass(xm->rh, hn, kk);
         xm->rz = robust_q_lowpass(xm->rz, u[2], kk);
         xm->cn = mn;
-        xm->ch = (int32_t)hn * 32768L;
-        xm->cz = (int32_t)u[2] * 32768L;
+        xm->ch = imf_x32768(hn);
+        xm->cz = imf_x32768(u[2]);
         if (!horiz) {
             return; /* field vertical: no heading information */
         }
@@ -1084,7 +1160,6 @@ static void robust_q_mag(const imf_robust_ahrs_q_consts_t *const k,
            (1 + k (f_w - 1), k f_z), normalised with c and q */
         kk = robust_q_gain(x->n, k->n_mag, k->k_mag);
         {
-            int32_t dz[2];
 #if IMF_Q_HAS_P8
             if (p8) {
                 /* 8-bit profile: (1 + cos, -sin) / 2 normalised by imf_q_unit3_p8 (within
@@ -1104,24 +1179,23 @@ static void robust_q_mag(const imf_robust_ahrs_q_consts_t *const k,
                 robust_q_half(ch[0], (int16_t)-ch[1], 0, f);
             }
 #endif
-            dz[0] = imf_scale32_s((int32_t)f[0] - 32768L, kk, 15, 30);
-            dz[1] = imf_scale32_s(f[1], kk, 15, 30);
 #if IMF_Q_HAS_P8
             if (p8) {
-                /* 8-bit profile: (dw, dz) narrowed to int16 with one exponent; c turned, then
-                   q = c (x) s again (neither normalised here: the next update normalises c,
-                   q is the snapshots' product) */
-                int16_t z16[2], qs[4], ss[4];
-                const int e = robust_q_exponent_p8(dz, 2);
-                robust_q_narrow_p8(dz, 2, e, z16);
-                robust_q_turn_z_p8(x->c, z16, 15 - e);
-                imf_q_snapshot(x->c, qs);
-                imf_q_snapshot(x->s, ss);
-                robust_q_mul_p8(qs, ss, x->q);
+                /* 8-bit profile: (dw, dz) = z 2^(15 - kk.s) in q30, z = kk.m (f_w - 1, f_z)
+                   2^-15 rounded (|z| < 2^15); c and q turned, neither normalised here (the
+                   next update normalises c and takes q = c (x) s again) */
+                int16_t z16[2];
+                z16[0] = (int16_t)imf_rshr32(imf_mul16((int16_t)(f[0] - 32768L), kk.m), 15);
+                z16[1] = (int16_t)imf_rshr32(imf_mul16(f[1], kk.m), 15);
+                robust_q_turn_z_p8(x->c, z16, kk.s - 15);
+                robust_q_turn_z_p8(x->q, z16, kk.s - 15);
             }
 #endif
 #if IMF_Q_HAS_P32
             if (!p8) {
+                int32_t dz[2];
+                dz[0] = imf_scale32_s((int32_t)f[0] - 32768L, kk, 15, 30);
+                dz[1] = imf_scale32_s(f[1], kk, 15, 30);
                 robust_q_turn_z(x->c, dz[0], dz[1]);
                 robust_q_turn_z(x->q, dz[0], dz[1]);
             }
@@ -1150,8 +1224,8 @@ static void robust_q_mag(const imf_robust_ahrs_q_consts_t *const k,
             }
         } else {
             xm->cn = mn;
-            xm->ch = (int32_t)hn * 32768L;
-            xm->cz = (int32_t)u[2] * 32768L;
+            xm->ch = imf_x32768(hn);
+            xm->cz = imf_x32768(u[2]);
             xm->n_cand = 0;
         }
     }

@@ -41,7 +41,10 @@ def scale_of(x, N):
     t = u
     e = 0
     sign = -1 if x < 0 else 1
-    while t >= 32768:                    # e: the shift that brings u below 2^15 (at most 17)
+    while t >= 8388608:                  # e: the shift that brings u below 2^15 (at most 17),
+        t >>= 8                          # a byte at a time first
+        e += 8
+    while t >= 32768:
         t >>= 1
         e += 1
     if e > 0:
@@ -168,6 +171,9 @@ def exponent_p8(v):
     for a in v:
         m |= abs(a)                                      # the top bit of the largest
     e = 0
+    while m >= 8388608:                                  # 2^23: a byte at a time
+        m >>= 8
+        e += 8
     while m >= 32768:
         m >>= 1
         e += 1
@@ -177,11 +183,6 @@ def exponent_p8(v):
 def narrow_p8(v, e):
     """robust_q_narrow_p8: v 2^-e rounded, symmetric int16."""
     return [ci.sat_q15s(ci.rshr32(a, e)) for a in v]
-
-
-def unit_p8(v):
-    """robust_q_unit_p8: unit16_p8 of v's 15 leading bits; None for the zero vector."""
-    return unit16_p8(narrow_p8(v, exponent_p8(v)))
 
 
 def unit16_p8(w):
@@ -206,12 +207,27 @@ def qmul_p8(a, b):
             add(sub(p(3, 0) + p(2, 1), p(1, 2)), p(0, 3))]
 
 
-def qexp_p8(q, h):
+def angle_p8(g, b, k):
+    """robust_q_angle_p8: the half angle h = k (g 2^15 - b) (q30) as int16 hn and its
+    exponent e, h = hn 2^e: w's 15 leading bits (exponent ew) times k.m 2^-15, e = ew + 30
+    - k.s; e > 15 saturated to 15, e < -16 gives h = 0."""
+    w = [ci.sub_sat32(g[i] * 32768, b[i]) for i in range(3)]
+    e = exponent_p8(w)
+    hn = narrow_p8(w, e)
+    e += 30 - k.s
+    hn = [ci.rshr32(v * k.m, 15) for v in hn]            # |hn k.m| < 2^30
+    if e > 15:
+        return [ci.sat_q15s(ci.shl_sat32(v, e - 15)) for v in hn], 15
+    if e < -16:
+        return [0, 0, 0], 0
+    return hn, e
+
+
+def qexp_p8(q, hn, e):
     """robust_q_exp_p8: qexp in 16-bit products, its normalisation folded in (in place):
-    d = |q|^2 - 1 from q's snapshot at the start (normalise_p8 first if |d| >= 2^-8), h
-    narrowed to q(30 - e), |h|^2 / 2 and / 6 in q15 (0 while every |h_i| < 2^22), then
+    d = |q|^2 - 1 from q's snapshot at the start (normalise_p8 first if |d| >= 2^-8), h =
+    hn 2^e in q30 (angle_p8), |h|^2 / 2 and / 6 in q15 (0 for e < 8), then
     q += q (x) (0, h (1 - |h|^2 / 6)) - q (|h|^2 + d) / 2."""
-    e = exponent_p8(h)
     qs = fq.snapshot(q)
     n2 = fq.norm2(q, qs)
     d16 = 0
@@ -220,19 +236,28 @@ def qexp_p8(q, h):
         qs = fq.snapshot(q)
     else:
         d16 = ci.rshr32(n2 - fq.Q30_ONE, 8)              # q22, |d| < 2^14
-    e = min(e, 15)                     # |h| >= 1 rad (the latency's step only): saturated
-    hn = narrow_p8(h, e)
     n2h = n6 = 0
     if e >= 8:
         # |h|^2 / 2 in q15: the squares (q(60 - 2e)) halved, shifted by 45 - 2e
         sq = sum(v * v for v in hn)
         n2h = min(ci.rshr32(sq >> 1, 45 - 2 * e), 16384)
         n6 = ci.rshr32(n2h * 10923, 15)                  # |h|^2 / 6
-    hv = [v - ci.rshr32(v * n6, 15) for v in hn]         # q(30 - e)
+    hv = [v - ci.rshr32(v * n6, 15) for v in hn] if n6 != 0 else list(hn)   # q(30 - e)
     dq = fq.rate_p8(qs, hv, 15 - e)
     sub = ci.sub_sat32
-    q[:] = [ci.add_sat32(q[i], sub(sub(dq[i], n2h * qs[i]), ci.rshr32(qs[i] * d16, 8)))
-            for i in range(4)]
+    if n2h != 0:
+        # q (|h|^2 / 2) in q30 (0 for n2h = 0: the same sum without the product)
+        dq = [sub(dq[i], n2h * qs[i]) for i in range(4)]
+    q[:] = [ci.add_sat32(q[i], sub(dq[i], ci.rshr32(qs[i] * d16, 8))) for i in range(4)]
+
+
+def integrate(p8, q, g, b, k):
+    """robust_q_integrate: q = q (x) exp(k (g 2^15 - b)) in place (the strapdown, the
+    latency's prediction), each profile's."""
+    if p8:
+        qexp_p8(q, *angle_p8(g, b, k))
+    else:
+        qexp(q, [ci.scale32_s(ci.sub_sat32(g[i] * 32768, b[i]), k, 15, 30) for i in range(3)])
 
 
 def turn_z_p8(q, z, n):
@@ -288,6 +313,19 @@ def lowpass3(x, u, k):
     """robust_q_lowpass3: lowpass for the three components of x and u (in place)."""
     for i in range(3):
         x[i] = lowpass(x[i], u[i], k)
+
+
+def rotate_q_p8(qs, v):
+    """robust_q_rotate_q_p8: R(q) v for a q15 snapshot (w, x, y, z) and |v_i| <= 2^14, in
+    v's format: t = q_v x v rounded, then v + 2 (w t + q_v x t) rounded."""
+    w, x, y, z = qs
+    c = ci.check32
+    tx = ci.rshr32(c(y * v[2] - z * v[1]), 15)
+    ty = ci.rshr32(c(z * v[0] - x * v[2]), 15)
+    tz = ci.rshr32(c(x * v[1] - y * v[0]), 15)
+    return [ci.check16(v[0] + ci.rshr32(c(2 * c(c(w * tx + y * tz) - z * ty)), 15)),
+            ci.check16(v[1] + ci.rshr32(c(2 * c(c(w * ty + z * tx) - x * tz)), 15)),
+            ci.check16(v[2] + ci.rshr32(c(2 * c(c(w * tz + x * ty) - y * tx)), 15))]
 
 
 def counts(x):
@@ -468,13 +506,16 @@ class RobustIMUQ(FixedFilter):
         if has_acc:
             lowpass3(self.la, acc, kk)
         w2 = norm2_counts(self.lw)
-        g2 = norm2(gyr[0], gyr[1], gyr[2])
-        # the accelerometer's difference from its low-pass, counts, within +-32767
-        e = [ci.sat_q15s(ci.sub_sat32(acc[i], counts(self.la[i]))) for i in range(3)]
-        d2 = norm2(e[0], e[1], e[2])
-        a2 = norm2_counts(self.la)
-        if (has_acc and w2 < k["rest_g2"] and g2 < k["rest_g2"]
-                and (d2 >> 2) < ci.scale32_s(a2 >> 2, k["kacc2"], 0, 0)):
+        # at rest: the low-passed and the raw gyro below rest_gyr, the accelerometer within
+        # rest_acc of its low-pass (each test only where the ones before hold)
+        still = has_acc and w2 < k["rest_g2"] and norm2(gyr[0], gyr[1], gyr[2]) < k["rest_g2"]
+        if still:
+            # the accelerometer's difference from its low-pass, counts, within +-32767
+            lc = [counts(v) for v in self.la]
+            de = [ci.sat_q15s(acc[i] - lc[i]) for i in range(3)]
+            still = ((norm2(de[0], de[1], de[2]) >> 2)
+                     < ci.scale32_s(norm2(lc[0], lc[1], lc[2]) >> 2, k["kacc2"], 0, 0))
+        if still:
             if self.n_rest < k["n_rest"]:
                 self.n_rest += 1
         else:
@@ -484,11 +525,10 @@ class RobustIMUQ(FixedFilter):
             # Eq. 3.1: b_k = b_{k-1}, observed directly at rest
             lowpass3(self.b, gyr, k["kb_rest"])
         # strapdown: s = s (x) exp(1/2 (w - b) dt), series as the float filter
-        w = [ci.sub_sat32(gyr[i] * 32768, self.b[i]) for i in range(3)]
-        h = [ci.scale32_s(w[i], k["kg"], 15, 30) for i in range(3)]
-        (qexp_p8 if p8 else qexp)(self.s, h)
+        integrate(p8, self.s, gyr, self.b, k["kg"])
         # B2: the accelerometer in the inertial frame
-        rm = matrix(fq.snapshot(self.s))
+        sn = fq.snapshot(self.s)            # s is not changed again in the update
+        rm = matrix(sn)
         ai = rotate16(rm, 0, acc)                         # q15 counts
         if first:
             # B5: gravity from the first sample
@@ -513,10 +553,13 @@ class RobustIMUQ(FixedFilter):
             pgg = ci.add_sat32(p[2], qg)
             # update with the pseudo-measurement v = 0 (noise 1): gains P / (pvv + 1)
             inv = recip((0 if pvv < 0 else pvv >> 1) + Q29_ONE, 29)
-            kv = ci.scale32_s(pvv, inv, 30, 30)
-            kg = ci.scale32_s(pvg, inv, 30, 30)
-            kvs, sv = scale_of(kv, 30)
-            kgs, sg = scale_of(kg, 30)
+            # the 8-bit profile's in q27: a shift of inv.s + 3 >= 17 (imf_mul_32x16's fast
+            # path on AVR); kvs and kgs keep their 15 leading bits
+            ng = 27 if p8 else 30
+            kv = ci.scale32_s(pvv, inv, 30, ng)
+            kg = ci.scale32_s(pvg, inv, 30, ng)
+            kvs, sv = scale_of(kv, ng)
+            kgs, sg = scale_of(kg, ng)
             for i in range(3):
                 self.f[i] = ci.sub_sat32(self.f[i], mul_signed(self.v[i], kgs, sg, 15, 15))
                 self.v[i] = ci.sub_sat32(self.v[i], mul_signed(self.v[i], kvs, sv, 15, 15))
@@ -526,17 +569,17 @@ class RobustIMUQ(FixedFilter):
         # inclination: the smallest rotation r that turns the gravity estimate onto earth
         # z, (1 + u_z, u_y, -u_x, 0) normalised for the unit gravity u in the earth frame
         ss = fq.snapshot(self.c)
-        rm = matrix(ss)
         if p8:
-            # 8-bit profile: f narrowed to int16 (its largest below 2^14), rotated, the unit
-            # vector of its 15 leading bits (unit3_p8); c += d (x) c with d = r - 1 in 16-bit
+            # 8-bit profile: f narrowed to int16 (its largest at most 2^14), rotated by c's
+            # snapshot (rotate_q_p8), the unit vector of its 15 leading bits (unit3_p8);
+            # c += d (x) c with d = r - 1 in 16-bit
             # products. For u_z >= 0, r = (1 + u_z, u_y, -u_x) / 2, not normalised (the
             # normalisation of c takes it: the same direction); below (turned over), r from
             # half(). B3 takes 2 (r1, r2): (u_y, -u_x) for the first, the doubled r for the
             # second.
             f16 = narrow_p8(self.f, exponent_p8(self.f) + 1)
-            ge = rotate16(rm, 0, f16)                    # |ge| < 2^30
-            u = fq.unit3_p8([ci.sat_q15s(ci.rshr32(v, 15)) for v in ge])
+            g16 = rotate_q_p8(ss, f16)
+            u = fq.unit3_p8(g16)
             d = [0, 0, 0, 0]
             r = [0, 0, 0]
             hs = 0
@@ -548,16 +591,16 @@ class RobustIMUQ(FixedFilter):
                 else:
                     # turned over (the first samples only: c takes the whole r): u to
                     # normalise_acc's precision first, as the 32-bit profile
-                    u = unit(ge)
+                    u = unit(g16)
                     r = half(u[2], u[1], -u[0])
                     d = [r[0] - 32768, r[1], r[2], 0]
                     r = [r[0], ci.sat_q15s(2 * r[1]), ci.sat_q15s(2 * r[2])]
             t = qmul_p8(d, ss)
             self.c = renorm_p8([ci.add_sat32(self.c[i], ci.rshr32(t[i], hs)) for i in range(4)])
             # |q|^2 - 1: c's and the snapshots' rounding
-            self.q = qmul_p8(fq.snapshot(self.c), fq.snapshot(self.s))
+            self.q = qmul_p8(fq.snapshot(self.c), sn)
         else:
-            ge = rotate(rm, 0, self.f)
+            ge = rotate(matrix(ss), 0, self.f)
             u = unit(ge)
             if u is not None:
                 # gravity straight down (upside down): the half turn about x
@@ -589,9 +632,7 @@ class RobustIMUQ(FixedFilter):
         # with the bias-corrected rate, then the clock of the start-up (saturating)
         k = self.k
         if k["klat"].m != 0:
-            h = [ci.scale32_s(ci.sub_sat32(gyr[i] * 32768, self.b[i]), k["klat"], 15, 30)
-                 for i in range(3)]
-            (qexp_p8 if k["profile"] == 8 else qexp)(self.q, h)
+            integrate(k["profile"] == 8, self.q, gyr, self.b, k["klat"])
         if self.n < k["n_max"]:
             self.n += 1
 
@@ -749,19 +790,26 @@ class RobustAHRSQ(RobustIMUQ):
         m = [ci.sat_q15s(ci.sub_sat32(mag[i], self.u[i])) for i in range(3)]
         me = rotate16(matrix(fq.snapshot(self.q)), 0, m)    # q15 counts
         p8 = self.k["profile"] == 8
-        u = unit_p8(me) if p8 else unit(me)
-        if u is None:
-            return                           # no usable reading: gyro and accelerometer only
-        # the norm |m| = m . u (q15 counts); the horizontal direction ch; the dip's cosine
-        # hn = u . ch and sine u[2]
-        mn = 0
-        for i in range(3):
-            mn = ci.add_sat32(mn, fq.mul_hq_p32(me[i], u[i]))
+        # the unit vector u; the norm |m| = m . u (q15 counts); the horizontal direction ch;
+        # the dip's cosine hn = u . ch and sine u[2]
         if p8:
-            # 8-bit profile: the horizontal direction from u's (unit16_p8: the half angle of
-            # the heading below needs the norm of the 32-bit profile's too)
+            # 8-bit profile: u from me's 15 leading bits w (exponent e; unit16_p8),
+            # |m| = w . u 2^(e - 15); the horizontal direction from u's (unit16_p8: the half
+            # angle of the heading below needs the norm of the 32-bit profile's too)
+            e = exponent_p8(me)
+            w = narrow_p8(me, e)
+            u = unit16_p8(w)
+            if u is None:
+                return                       # no usable reading: gyro and accelerometer only
+            mn = ci.rshift_sat32(ci.check32(w[0] * u[0] + w[1] * u[1] + w[2] * u[2]), 15 - e)
             ch = unit16_p8([u[0], u[1], 0])
         else:
+            u = unit(me)
+            if u is None:
+                return                       # no usable reading: gyro and accelerometer only
+            mn = 0
+            for i in range(3):
+                mn = ci.add_sat32(mn, fq.mul_hq_p32(me[i], u[i]))
             ch = unit([me[0], me[1], 0])
         hn = ci.qn_to_q15s(u[0] * ch[0] + u[1] * ch[1], 30) if ch is not None else 0
         zn = u[2]
@@ -798,16 +846,15 @@ class RobustAHRSQ(RobustIMUQ):
                 f = fq.unit3_p8([(32768 + ch[0]) >> 1, -ch[1] >> 1, 0]) or [0, 32767]
             else:
                 f = half(ch[0], -ch[1], 0)
-            dz = [ci.scale32_s(f[0] - 32768, kk, 15, 30), ci.scale32_s(f[1], kk, 15, 30)]
             if p8:
-                # 8-bit profile: (dw, dz) narrowed to int16 with one exponent; c turned, then
-                # q = c (x) s again (neither normalised here: the next update normalises c,
-                # q is the snapshots' product)
-                e = exponent_p8(dz)
-                z16 = narrow_p8(dz, e)
-                self.c = turn_z_p8(self.c, z16, 15 - e)
-                self.q = qmul_p8(fq.snapshot(self.c), fq.snapshot(self.s))
+                # 8-bit profile: (dw, dz) = z 2^(15 - kk.s) in q30, z = kk.m (f_w - 1, f_z)
+                # 2^-15 rounded; c and q turned, neither normalised here (the next update
+                # normalises c and takes q = c (x) s again)
+                z16 = [ci.rshr32((f[0] - 32768) * kk.m, 15), ci.rshr32(f[1] * kk.m, 15)]
+                self.c = turn_z_p8(self.c, z16, kk.s - 15)
+                self.q = turn_z_p8(self.q, z16, kk.s - 15)
             else:
+                dz = [ci.scale32_s(f[0] - 32768, kk, 15, 30), ci.scale32_s(f[1], kk, 15, 30)]
                 self.c = turn_z(self.c, dz[0], dz[1])
                 self.q = turn_z(self.q, dz[0], dz[1])
         else:
