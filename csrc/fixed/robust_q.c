@@ -37,6 +37,47 @@ static IMF_Q_NOINLINE imf_qscale_t robust_q_recip(const uint32_t x, const int N)
     return r;
 }
 
+#if IMF_Q_HAS_P8
+/* robust_q_recip in the 8-bit profile: a, x's 16 leading bits (x 2^sh in [2^31, 2^32),
+ * truncated), z ~= 2^31 / a from a chord (relative error below 1/17) and two Newton steps
+ * z <- z (2 - a z 2^-31) in unsigned 16x16 products, z <= 65535 (relative error below
+ * 1e-4 with the truncations: tests/test_robust_q.py runs every a); 2^N / x = z 2^(N + sh -
+ * 47) */
+static IMF_Q_NOINLINE imf_qscale_t robust_q_recip_p8(uint32_t x, const int N)
+{
+    imf_qscale_t r;
+    uint16_t a, z, m;
+    int sh = 0, i;
+    while (x < 8388608u) { /* below 2^23: a byte at a time */
+        x <<= 8;
+        sh += 8;
+    }
+    while (x < 2147483648u) {
+        x <<= 1;
+        sh++;
+    }
+    a = (uint16_t)(x >> 16);
+    z = (uint16_t)(92521u - (imf_mulu16(a, 61681u) >> 16)); /* 2^15 (48 - 32 a 2^-16) / 17 */
+    for (i = 0; i < 2; ++i) {
+        const uint32_t w = 0u - imf_mulu16(a, z);              /* 2^32 - a z, a z in (0, 2^32) */
+        const uint32_t p = imf_mulu16(z, (uint16_t)(w >> 16)); /* z w 2^-16 */
+        z = p >= 2147483648u ? 65535u
+                             : (uint16_t)((uint16_t)((uint16_t)(p >> 16) << 1) | ((uint16_t)p >> 15));
+    }
+    m = (uint16_t)((uint16_t)(z >> 1) + (z & 1u)); /* z / 2 rounded, in [2^14, 2^15] */
+    r.s = (int16_t)(46 - N - sh);
+    if (m >= 32768u) {
+        m = 16384u;
+        r.s--;
+    }
+    r.m = (int16_t)m;
+    return r;
+}
+#define ROBUST_Q_RECIP(p8, x, N) ((p8) ? robust_q_recip_p8((x), (N)) : robust_q_recip((x), (N)))
+#else
+#define ROBUST_Q_RECIP(p8, x, N) robust_q_recip((x), (N))
+#endif
+
 /* |x| 2^-N (x in qN) as a q-scale and its sign (1, or -1): the 15 leading bits of |x|,
  * rounded. x = 0 gives m 0 (its s is N). */
 static IMF_Q_NOINLINE imf_qscale_t robust_q_scale_of(const int32_t x, const int N, int *const sign)
@@ -259,11 +300,13 @@ static IMF_Q_NOINLINE void robust_q_exp(int32_t q[4], const int32_t h[3])
 
 /* B5: a running mean until n reaches n_tau, then the low-pass gain k (a negative n,
  * possible only from a state written by hand, counts as 0) */
-static inline imf_qscale_t robust_q_gain(const int32_t n, const int32_t n_tau, const imf_qscale_t k)
+static inline imf_qscale_t robust_q_gain(const int p8, const int32_t n, const int32_t n_tau,
+                                         const imf_qscale_t k)
 {
     if (n < n_tau) {
-        return robust_q_recip((uint32_t)(n < 0 ? 0 : n) + 1u, 0);
+        return ROBUST_Q_RECIP(p8, (uint32_t)(n < 0 ? 0 : n) + 1u, 0);
     }
+    (void)p8;
     return k;
 }
 
@@ -752,7 +795,7 @@ static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
         }
     }
     /* B1: rest detection, low-passes of gyro and accelerometer in the sensor frame */
-    kk = robust_q_gain(x->n, k->n_tau, k->k_rest);
+    kk = robust_q_gain(p8, x->n, k->n_tau, k->k_rest);
     robust_q_lowpass3(x->lw, gyr, kk);
     if (has_acc) {
         robust_q_lowpass3(x->la, acc, kk);
@@ -818,7 +861,7 @@ static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
         pvg = imf_sub_sat32(x->p[1], pe);
         pgg = imf_add_sat32(x->p[2], qg);
         /* update with the pseudo-measurement v = 0 (noise 1): gains P / (pvv + 1) */
-        inv = robust_q_recip((uint32_t)(pvv < 0 ? 0 : pvv >> 1) + 536870912u, 29);
+        inv = ROBUST_Q_RECIP(p8, (uint32_t)(pvv < 0 ? 0 : pvv >> 1) + 536870912u, 29);
         {
             /* the 8-bit profile's in q27: a shift of inv.s + 3 >= 17 (imf_mul_32x16's
                fast path on AVR); kvs and kgs keep their 15 leading bits */
@@ -1145,7 +1188,7 @@ static void robust_q_mag(const imf_robust_ahrs_q_consts_t *const k,
     if (match && xm->n_ok >= k->n_hold) {
         xm->n_dist = 0;
         xm->n_cand = 0;
-        kk = robust_q_gain(x->n, k->n_ref, k->k_ref);
+        kk = robust_q_gain(p8, x->n, k->n_ref, k->k_ref);
         xm->rn = imf_add_sat32(xm->rn, imf_scale32_s(imf_sub_sat32(mn, xm->rn), kk, 15, 15));
         xm->rh = robust_q_lowpass(xm->rh, hn, kk);
         xm->rz = robust_q_lowpass(xm->rz, u[2], kk);
@@ -1158,7 +1201,7 @@ static void robust_q_mag(const imf_robust_ahrs_q_consts_t *const k,
         /* heading: the rotation about earth z that turns the horizontal field onto north
            (+x), (1 + cos, 0, 0, -sin) normalised, taken by the fraction k:
            (1 + k (f_w - 1), k f_z), normalised with c and q */
-        kk = robust_q_gain(x->n, k->n_mag, k->k_mag);
+        kk = robust_q_gain(p8, x->n, k->n_mag, k->k_mag);
         {
 #if IMF_Q_HAS_P8
             if (p8) {

@@ -35,6 +35,31 @@ def recip(x, N):
     return ci.QScale(m, s)
 
 
+def recip_p8(x, N):
+    """robust_q_recip_p8: 2^N / x as a q-scale for x > 0 in the 8-bit profile: a, x's 16
+    leading bits (x 2^sh in [2^31, 2^32)), z ~= 2^31 / a from a chord and two Newton steps
+    z <- z (2 - a z 2^-31) in 16x16 products, z <= 65535; 2^N / x = z 2^(N + sh - 47)."""
+    sh = 0
+    while x < 8388608:                                   # below 2^23: a byte at a time
+        x <<= 8
+        sh += 8
+    while x < 2147483648:
+        x <<= 1
+        sh += 1
+    a = x >> 16
+    z = 92521 - ((a * 61681) >> 16)                      # 2^15 (48 - 32 a 2^-16) / 17
+    for _ in range(2):
+        w = ci.checku32((1 << 32) - ci.checku32(a * z))  # 2^32 - a z, a z in (0, 2^32)
+        p = z * (w >> 16)                                # z w 2^-16
+        z = 65535 if p >= 2147483648 else p >> 15
+    m = (z >> 1) + (z & 1)                               # z / 2 rounded, in [2^14, 2^15]
+    s = 46 - N - sh
+    if m >= 32768:
+        m = 16384
+        s -= 1
+    return ci.QScale(m, s)
+
+
 def scale_of(x, N):
     """robust_q_scale_of: |x| 2^-N as a q-scale (15 leading bits, rounded) and its sign."""
     u = -x if x < 0 else x
@@ -296,11 +321,12 @@ def turn_z(q, dw, dz):
     return renorm(out)
 
 
-def gain(n, n_tau, k):
+def gain(p8, n, n_tau, k):
     """robust_q_gain: B5, a running mean until n reaches n_tau, then k (a negative n,
-    possible only from a state written by hand, counts as 0)."""
+    possible only from a state written by hand, counts as 0); recip_p8 in the 8-bit
+    profile."""
     if n < n_tau:
-        return recip(max(n, 0) + 1, 0)
+        return (recip_p8 if p8 else recip)(max(n, 0) + 1, 0)
     return k
 
 
@@ -501,7 +527,7 @@ class RobustIMUQ(FixedFilter):
             if f2 < 429497 and an2 > f2 * 10000:
                 has_acc = False
         # B1: rest detection, low-passes of gyro and accelerometer in the sensor frame
-        kk = gain(self.n, k["n_tau"], k["k_rest"])
+        kk = gain(p8, self.n, k["n_tau"], k["k_rest"])
         lowpass3(self.lw, gyr, kk)
         if has_acc:
             lowpass3(self.la, acc, kk)
@@ -552,7 +578,7 @@ class RobustIMUQ(FixedFilter):
             pvg = ci.sub_sat32(p[1], pe)
             pgg = ci.add_sat32(p[2], qg)
             # update with the pseudo-measurement v = 0 (noise 1): gains P / (pvv + 1)
-            inv = recip((0 if pvv < 0 else pvv >> 1) + Q29_ONE, 29)
+            inv = (recip_p8 if p8 else recip)((0 if pvv < 0 else pvv >> 1) + Q29_ONE, 29)
             # the 8-bit profile's in q27: a shift of inv.s + 3 >= 17 (imf_mul_32x16's fast
             # path on AVR); kvs and kgs keep their 15 leading bits
             ng = 27 if p8 else 30
@@ -827,7 +853,7 @@ class RobustAHRSQ(RobustIMUQ):
         if match and self.n_ok >= k["n_hold"]:
             self.n_dist = 0
             self.n_cand = 0
-            kk = gain(self.n, k["n_ref"], k["k_ref"])
+            kk = gain(p8, self.n, k["n_ref"], k["k_ref"])
             self.rn = ci.add_sat32(self.rn, ci.scale32_s(ci.sub_sat32(mn, self.rn), kk, 15, 15))
             self.rh = lowpass(self.rh, hn, kk)
             self.rz = lowpass(self.rz, zn, kk)
@@ -839,7 +865,7 @@ class RobustAHRSQ(RobustIMUQ):
             # heading: the rotation about earth z that turns the horizontal field onto
             # north (+x), (1 + cos, 0, 0, -sin) normalised, taken by the fraction k:
             # (1 + k (f_w - 1), k f_z), normalised with c and q
-            kk = gain(self.n, k["n_mag"], k["k_mag"])
+            kk = gain(p8, self.n, k["n_mag"], k["k_mag"])
             if p8:
                 # 8-bit profile: (1 + cos, -sin) / 2 normalised by unit3_p8 (within 1.2e-3:
                 # the turn's gain); (0, 1) where it is 0, as half()
