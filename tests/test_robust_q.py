@@ -118,6 +118,35 @@ def test_two_profiles(mod):
         mod.RobustIMUQ(0.01, gyr_scale=1e-3, profile="16")
 
 
+def test_reciprocals_on_every_mantissa():
+    """B5's running means and B2's gains divide by reciprocals: robust_q_recip (32-bit
+    profile, the square of imf_invsqrt_u32) and robust_q_recip_p8 (Newton's z (2 - a z)).
+    Each depends on x's 16 leading bits (and the rest of x through the truncation): every
+    one of the 32 768, and then x with every low bit set, against 2^N / x in float64; the
+    twins raise where an int32 or uint32 bound fails. Relative error (measured 1.16e-4 and
+    7.05e-5; with x's low bits set, 1.00e-4 and 5.5e-5): below 1.2e-4 and 7.1e-5; the
+    q-scale's mantissa within [2^14, 2^15)."""
+    from imufuse.reference import fixed_robust as fr
+    a = np.arange(32768, 65536)
+    for fn, bound, bound_low in ((fr.recip, 1.2e-4, 1.2e-4), (fr.recip_p8, 7.1e-5, 7.1e-5)):
+        worst = worst_low = 0.0
+        for v in a.tolist():
+            for x, n in ((v << 16, 47), ((v << 16) | 0xFFFF, 47), (v, 31)):
+                r = fn(x, n)
+                assert 16384 <= r.m < 32768, (fn.__name__, x, r)
+                err = abs(r.m * 2.0 ** -r.s * x / 2.0 ** n - 1.0)   # against 2^N / x
+                if x & 0xFFFF == 0xFFFF:
+                    worst_low = max(worst_low, err)
+                else:
+                    worst = max(worst, err)
+        assert worst < bound, (fn.__name__, worst)
+        assert worst_low < bound_low, (fn.__name__, worst_low)
+    # the start-up's 1 / (n + 1) for every n of a 10 s start-up at 1 kHz
+    for n in range(1, 10_001):
+        r = fr.recip_p8(n, 0)
+        assert abs(r.m * 2.0 ** -r.s * n - 1.0) < 7.1e-5, n
+
+
 #: settings the fixed point refuses (the float filter takes them): each with its reason
 REFUSED = {
     "tau_acc below 200 dt": dict(dt=0.01, tau_acc=1.99),

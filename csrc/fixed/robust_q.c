@@ -41,8 +41,8 @@ static IMF_Q_NOINLINE imf_qscale_t robust_q_recip(const uint32_t x, const int N)
 /* robust_q_recip in the 8-bit profile: a, x's 16 leading bits (x 2^sh in [2^31, 2^32),
  * truncated), z ~= 2^31 / a from a chord (relative error below 1/17) and two Newton steps
  * z <- z (2 - a z 2^-31) in unsigned 16x16 products, z <= 65535 (relative error below
- * 1e-4 with the truncations: tests/test_robust_q.py runs every a); 2^N / x = z 2^(N + sh -
- * 47) */
+ * 7.1e-5 with the truncations, robust_q_recip's 1.2e-4: tests/test_robust_q.py runs every
+ * a); 2^N / x = z 2^(N + sh - 47) */
 static IMF_Q_NOINLINE imf_qscale_t robust_q_recip_p8(uint32_t x, const int N)
 {
     imf_qscale_t r;
@@ -61,8 +61,9 @@ static IMF_Q_NOINLINE imf_qscale_t robust_q_recip_p8(uint32_t x, const int N)
     for (i = 0; i < 2; ++i) {
         const uint32_t w = 0u - imf_mulu16(a, z);              /* 2^32 - a z, a z in (0, 2^32) */
         const uint32_t p = imf_mulu16(z, (uint16_t)(w >> 16)); /* z w 2^-16 */
-        z = p >= 2147483648u ? 65535u
-                             : (uint16_t)((uint16_t)((uint16_t)(p >> 16) << 1) | ((uint16_t)p >> 15));
+        z = p >= 2147483648u
+                ? 65535u
+                : (uint16_t)((uint16_t)((uint16_t)(p >> 16) << 1) | ((uint16_t)p >> 15));
     }
     m = (uint16_t)((uint16_t)(z >> 1) + (z & 1u)); /* z / 2 rounded, in [2^14, 2^15] */
     r.s = (int16_t)(46 - N - sh);
@@ -494,12 +495,15 @@ static IMF_Q_NOINLINE void robust_q_rotate_q_p8(const int16_t qs[4], const int16
     const int16_t tx = (int16_t)imf_rshr32(imf_mul16(y, v[2]) - imf_mul16(z, v[1]), 15);
     const int16_t ty = (int16_t)imf_rshr32(imf_mul16(z, v[0]) - imf_mul16(x, v[2]), 15);
     const int16_t tz = (int16_t)imf_rshr32(imf_mul16(x, v[1]) - imf_mul16(y, v[0]), 15);
-    out[0] = (int16_t)(v[0]
-                       + imf_rshr32(2 * (imf_mul16(w, tx) + imf_mul16(y, tz) - imf_mul16(z, ty)), 15));
-    out[1] = (int16_t)(v[1]
-                       + imf_rshr32(2 * (imf_mul16(w, ty) + imf_mul16(z, tx) - imf_mul16(x, tz)), 15));
-    out[2] = (int16_t)(v[2]
-                       + imf_rshr32(2 * (imf_mul16(w, tz) + imf_mul16(x, ty) - imf_mul16(y, tx)), 15));
+    out[0] =
+        (int16_t)(v[0]
+                  + imf_rshr32(2 * (imf_mul16(w, tx) + imf_mul16(y, tz) - imf_mul16(z, ty)), 15));
+    out[1] =
+        (int16_t)(v[1]
+                  + imf_rshr32(2 * (imf_mul16(w, ty) + imf_mul16(z, tx) - imf_mul16(x, tz)), 15));
+    out[2] =
+        (int16_t)(v[2]
+                  + imf_rshr32(2 * (imf_mul16(w, tz) + imf_mul16(x, ty) - imf_mul16(y, tx)), 15));
 }
 
 /* out = a (x) b for q15 a and b, q30: 16x16 products, each component's four summed with
@@ -612,7 +616,6 @@ static IMF_Q_NOINLINE void robust_q_turn_z_p8(int32_t q[4], const int16_t z[2], 
     }
 }
 #endif
-
 
 /* ---- init ----------------------------------------------------------------------- */
 
@@ -811,8 +814,8 @@ static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
             lc[i] = (int16_t)robust_q_counts(x->la[i]);
             de[i] = imf_sat_q15s((int32_t)acc[i] - lc[i]);
         }
-        still = (int32_t)(robust_q_norm2(de[0], de[1], de[2]) >> 2)
-                < imf_scale32_s((int32_t)(robust_q_norm2(lc[0], lc[1], lc[2]) >> 2), k->kacc2, 0, 0);
+        still = (int32_t)(robust_q_norm2(de[0], de[1], de[2]) >> 2) < imf_scale32_s(
+                    (int32_t)(robust_q_norm2(lc[0], lc[1], lc[2]) >> 2), k->kacc2, 0, 0);
     }
     if (still) {
         if (x->n_rest < k->n_rest) {
