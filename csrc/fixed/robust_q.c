@@ -61,9 +61,11 @@ static IMF_Q_NOINLINE imf_qscale_t robust_q_recip_p8(uint32_t x, const int N)
     for (i = 0; i < 2; ++i) {
         const uint32_t w = 0u - imf_mulu16(a, z);              /* 2^32 - a z, a z in (0, 2^32) */
         const uint32_t p = imf_mulu16(z, (uint16_t)(w >> 16)); /* z w 2^-16 */
-        z = p >= 2147483648u
-                ? 65535u
-                : (uint16_t)((uint16_t)((uint16_t)(p >> 16) << 1) | ((uint16_t)p >> 15));
+        if (p >= 2147483648u) {
+            z = 65535u;
+        } else {
+            z = (uint16_t)((uint16_t)((uint16_t)(p >> 16) << 1) | (uint16_t)((uint16_t)p >> 15));
+        }
     }
     m = (uint16_t)((uint16_t)(z >> 1) + (z & 1u)); /* z / 2 rounded, in [2^14, 2^15] */
     r.s = (int16_t)(46 - N - sh);
@@ -485,9 +487,18 @@ static IMF_Q_NOINLINE int robust_q_unit16_p8(const int16_t w[3], int16_t u[3])
 }
 
 /* out = R(q) v for a q15 snapshot qs (w, x, y, z) and an int16 v with |v_i| <= 2^14, in v's
- * format, by the quaternion: t = q_v x v (rounded, |t| <= |v| < 2^15), then
- * v + 2 (w t + q_v x t) (each sum of products below 2^30, doubled below 2^31, rounded;
- * |out_i| <= |v| plus the snapshot's error and the rounding, below 2^15) */
+ * format, by the quaternion: t = q_v x v (rounded; |t_i| <= 2 2^15 2^14 2^-15 < 2^15 for any
+ * snapshot), then v + 2 (w t + q_v x t): q_v x t's two products differ by less than 2^31,
+ * w t is added and the sum doubled with saturation, rounded by 15 and v added, saturated
+ * to int16 (for a unit snapshot |s| < 2^30 and |out_i| <= |v|: nothing saturates) */
+static inline int16_t robust_q_rotate_q_p8_1(const int16_t w, const int16_t t0, const int16_t a,
+                                             const int16_t ta, const int16_t b, const int16_t tb,
+                                             const int16_t v)
+{
+    const int32_t s = imf_add_sat32(imf_mul16(w, t0), imf_mul16(a, ta) - imf_mul16(b, tb));
+    return imf_sat_q15s(v + imf_rshr32(imf_add_sat32(s, s), 15));
+}
+
 static IMF_Q_NOINLINE void robust_q_rotate_q_p8(const int16_t qs[4], const int16_t v[3],
                                                 int16_t out[3])
 {
@@ -495,15 +506,9 @@ static IMF_Q_NOINLINE void robust_q_rotate_q_p8(const int16_t qs[4], const int16
     const int16_t tx = (int16_t)imf_rshr32(imf_mul16(y, v[2]) - imf_mul16(z, v[1]), 15);
     const int16_t ty = (int16_t)imf_rshr32(imf_mul16(z, v[0]) - imf_mul16(x, v[2]), 15);
     const int16_t tz = (int16_t)imf_rshr32(imf_mul16(x, v[1]) - imf_mul16(y, v[0]), 15);
-    out[0] =
-        (int16_t)(v[0]
-                  + imf_rshr32(2 * (imf_mul16(w, tx) + imf_mul16(y, tz) - imf_mul16(z, ty)), 15));
-    out[1] =
-        (int16_t)(v[1]
-                  + imf_rshr32(2 * (imf_mul16(w, ty) + imf_mul16(z, tx) - imf_mul16(x, tz)), 15));
-    out[2] =
-        (int16_t)(v[2]
-                  + imf_rshr32(2 * (imf_mul16(w, tz) + imf_mul16(x, ty) - imf_mul16(y, tx)), 15));
+    out[0] = robust_q_rotate_q_p8_1(w, tx, y, tz, z, ty, v[0]);
+    out[1] = robust_q_rotate_q_p8_1(w, ty, z, tx, x, tz, v[1]);
+    out[2] = robust_q_rotate_q_p8_1(w, tz, x, ty, y, tx, v[2]);
 }
 
 /* out = a (x) b for q15 a and b, q30: 16x16 products, each component's four summed with

@@ -343,15 +343,19 @@ def lowpass3(x, u, k):
 
 def rotate_q_p8(qs, v):
     """robust_q_rotate_q_p8: R(q) v for a q15 snapshot (w, x, y, z) and |v_i| <= 2^14, in
-    v's format: t = q_v x v rounded, then v + 2 (w t + q_v x t) rounded."""
+    v's format: t = q_v x v rounded, then v + 2 (w t + q_v x t), w t added and the sum
+    doubled with saturation, rounded, saturated to int16."""
     w, x, y, z = qs
     c = ci.check32
-    tx = ci.rshr32(c(y * v[2] - z * v[1]), 15)
-    ty = ci.rshr32(c(z * v[0] - x * v[2]), 15)
-    tz = ci.rshr32(c(x * v[1] - y * v[0]), 15)
-    return [ci.check16(v[0] + ci.rshr32(c(2 * c(c(w * tx + y * tz) - z * ty)), 15)),
-            ci.check16(v[1] + ci.rshr32(c(2 * c(c(w * ty + z * tx) - x * tz)), 15)),
-            ci.check16(v[2] + ci.rshr32(c(2 * c(c(w * tz + x * ty) - y * tx)), 15))]
+    tx = ci.check16(ci.rshr32(c(y * v[2] - z * v[1]), 15))
+    ty = ci.check16(ci.rshr32(c(z * v[0] - x * v[2]), 15))
+    tz = ci.check16(ci.rshr32(c(x * v[1] - y * v[0]), 15))
+
+    def one(t0, a, ta, b, tb, vi):
+        # robust_q_rotate_q_p8_1
+        s = ci.add_sat32(w * t0, c(a * ta - b * tb))
+        return ci.sat_q15s(vi + ci.rshr32(ci.add_sat32(s, s), 15))
+    return [one(tx, y, tz, z, ty, v[0]), one(ty, z, tx, x, tz, v[1]), one(tz, x, ty, y, tx, v[2])]
 
 
 def counts(x):
