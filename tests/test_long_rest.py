@@ -17,8 +17,9 @@ Checks, at every sample (numpy over the whole run):
   (MultiWii, Mahony2D), the DCM's orthonormality max |R R^T - I|, within NORM_BOUND;
 - fixed point against its float64 twin (the same counts; the twin is given the constants the
   fixed filter actually uses, so that the comparison measures the arithmetic, not the
-  15-bit rounding of gyr_scale dt): attitude difference (quaternion filters: tilt and full
-  rotation angle) RMS <= 0.01 deg (profile "32") / 0.1 deg ("8"), max <= 0.5 deg;
+  15-bit rounding of gyr_scale dt): tilt difference RMS <= 0.01 deg (profile "32") / 0.1 deg
+  ("8"); quaternion filters, the full rotation angle RMS <= 0.1 deg (either profile: the
+  unobserved yaw of an IMU filter); max <= 0.5 deg;
 - against the true attitude: once a scenario has been still for SETTLE seconds, the error
   stays within TRUTH_BOUND at every sample to the end (converges, and stays).
 
@@ -374,6 +375,10 @@ TRUTH_BOUND = {"level": 0.05, "tilt45": 0.3, "tilt90": 0.5, "upside_down": 0.5,
                "noisy": 2.0, "yaw_spin": 0.5, "rest_tilt_rest": 0.3}   # deg
 TWIN_RMS = {"32": 0.01, "8": 0.1}   # deg, fixed point against its float64 twin
 TWIN_MAX = 0.5
+# deg, the whole rotation against the twin, either profile: an IMU filter's yaw is not
+# observed, so it integrates what differs in the rate (RobustIMUQ p32 in the yaw spin:
+# 0.042; a tilt-error bias fed to B3 gave p8 0.83 here, a defect this bound catches)
+FULL_RMS = 0.1
 
 
 def twin_rms_bound(case, profile):
@@ -445,3 +450,8 @@ def _long_run(measure, case, variant, name, label):
         assert r["norm"] <= norm_bound(case, variant), r
     assert r.get("peak", 1.0) <= GRAVITY_PEAK, r
     assert r["truth"] <= TRUTH_BOUND[name], r
+    if "twin_rms" in r:
+        # fixed point against its float64 twin: tilt, and the whole rotation (quaternions)
+        bound = twin_rms_bound(case, variant)
+        assert r["twin_rms"] <= bound and r["twin_max"] <= TWIN_MAX, r
+        assert r.get("full_rms", 0.0) <= FULL_RMS and r.get("full_max", 0.0) <= TWIN_MAX, r

@@ -128,16 +128,20 @@ static inline int32_t robust_q_mul_signed(const int32_t x, const imf_qscale_t c,
  * first two rows only, the third 0 (B3's R^T (x, y, 0): the same values) */
 static IMF_Q_NOINLINE void robust_q_matrix(const int16_t qs[4], int16_t r[9], const int rows)
 {
-    const int32_t ww = imf_mul16(qs[0], qs[0]);
+    /* each product once (avr-gcc does not merge the repeated inline ones) */
+    const int32_t ww = imf_mul16(qs[0], qs[0]), ab = imf_mul16(qs[1], qs[2]);
+    const int32_t wc = imf_mul16(qs[0], qs[3]), ac = imf_mul16(qs[1], qs[3]);
+    const int32_t wb = imf_mul16(qs[0], qs[2]), bc = imf_mul16(qs[2], qs[3]);
+    const int32_t wa = imf_mul16(qs[0], qs[1]);
     r[0] = imf_qn_to_q15s(ww + imf_mul16(qs[1], qs[1]) - 536870912L, 29);
     r[4] = imf_qn_to_q15s(ww + imf_mul16(qs[2], qs[2]) - 536870912L, 29);
-    r[1] = imf_qn_to_q15s(imf_mul16(qs[1], qs[2]) - imf_mul16(qs[0], qs[3]), 29);
-    r[3] = imf_qn_to_q15s(imf_mul16(qs[1], qs[2]) + imf_mul16(qs[0], qs[3]), 29);
-    r[2] = imf_qn_to_q15s(imf_mul16(qs[1], qs[3]) + imf_mul16(qs[0], qs[2]), 29);
-    r[5] = imf_qn_to_q15s(imf_mul16(qs[2], qs[3]) - imf_mul16(qs[0], qs[1]), 29);
+    r[1] = imf_qn_to_q15s(ab - wc, 29);
+    r[3] = imf_qn_to_q15s(ab + wc, 29);
+    r[2] = imf_qn_to_q15s(ac + wb, 29);
+    r[5] = imf_qn_to_q15s(bc - wa, 29);
     if (rows == 3) {
-        r[6] = imf_qn_to_q15s(imf_mul16(qs[1], qs[3]) - imf_mul16(qs[0], qs[2]), 29);
-        r[7] = imf_qn_to_q15s(imf_mul16(qs[2], qs[3]) + imf_mul16(qs[0], qs[1]), 29);
+        r[6] = imf_qn_to_q15s(ac - wb, 29);
+        r[7] = imf_qn_to_q15s(bc + wa, 29);
         r[8] = imf_qn_to_q15s(ww + imf_mul16(qs[3], qs[3]) - 536870912L, 29);
     } else {
         r[6] = r[7] = r[8] = 0;
@@ -414,24 +418,25 @@ static IMF_Q_NOINLINE void robust_q_turn_z(int32_t q[4], const int32_t dw, const
  * 16-bit products. */
 
 #if IMF_Q_HAS_P8
-/* q /= |q| as robust_q_renorm, in 16-bit products: while |d| = ||q|^2 - 1| < 2^-8,
+/* q /= |q| as robust_q_renorm, in 16-bit products; qs: q's snapshot, then the new q's: while |d| = ||q|^2 - 1| < 2^-8,
  * q - q d / 2 with d in q22 (int16) times q's q15 snapshot (imf_q_add_step_p8's
  * step); else imf_q_normalise_p8 */
-static IMF_Q_NOINLINE void robust_q_renorm_p8(int32_t q[4])
+static IMF_Q_NOINLINE void robust_q_renorm_p8(int32_t q[4], int16_t qs[4])
 {
-    int16_t qs[4], d16;
+    int16_t d16;
     uint32_t n2;
     int i;
-    imf_q_snapshot(q, qs);
     n2 = imf_q_norm2(q, qs);
     if (n2 <= 1069547520u || n2 >= 1077936128u) { /* 2^30 -+ 2^22 */
         imf_q_normalise_p8(q);
+        imf_q_snapshot(q, qs);
         return;
     }
     d16 = (int16_t)imf_rshr32((int32_t)n2 - IMF_Q30_ONE, 8); /* q22, |d| < 2^14 */
     for (i = 0; i < 4; ++i) {
         /* q d / 2 in q30 = qs (q15) d16 (q22) / 2^8 */
         q[i] = imf_sub_sat32(q[i], imf_rshr32(imf_mul16(qs[i], d16), 8));
+        qs[i] = imf_qn_to_q15s(q[i], 30);
     }
 }
 
@@ -486,31 +491,6 @@ static IMF_Q_NOINLINE int robust_q_unit16_p8(const int16_t w[3], int16_t u[3])
     return 1;
 }
 
-/* out = R(q) v for a q15 snapshot qs (w, x, y, z) and an int16 v with |v_i| <= 2^14, in v's
- * format, by the quaternion: t = q_v x v (rounded; |t_i| <= 2 2^15 2^14 2^-15 < 2^15 for any
- * snapshot), then v + 2 (w t + q_v x t): q_v x t's two products differ by less than 2^31,
- * w t is added and the sum doubled with saturation, rounded by 15 and v added, saturated
- * to int16 (for a unit snapshot |s| < 2^30 and |out_i| <= |v|: nothing saturates) */
-static inline int16_t robust_q_rotate_q_p8_1(const int16_t w, const int16_t t0, const int16_t a,
-                                             const int16_t ta, const int16_t b, const int16_t tb,
-                                             const int16_t v)
-{
-    const int32_t s = imf_add_sat32(imf_mul16(w, t0), imf_mul16(a, ta) - imf_mul16(b, tb));
-    return imf_sat_q15s(v + imf_rshr32(imf_add_sat32(s, s), 15));
-}
-
-static IMF_Q_NOINLINE void robust_q_rotate_q_p8(const int16_t qs[4], const int16_t v[3],
-                                                int16_t out[3])
-{
-    const int16_t w = qs[0], x = qs[1], y = qs[2], z = qs[3];
-    const int16_t tx = (int16_t)imf_rshr32(imf_mul16(y, v[2]) - imf_mul16(z, v[1]), 15);
-    const int16_t ty = (int16_t)imf_rshr32(imf_mul16(z, v[0]) - imf_mul16(x, v[2]), 15);
-    const int16_t tz = (int16_t)imf_rshr32(imf_mul16(x, v[1]) - imf_mul16(y, v[0]), 15);
-    out[0] = robust_q_rotate_q_p8_1(w, tx, y, tz, z, ty, v[0]);
-    out[1] = robust_q_rotate_q_p8_1(w, ty, z, tx, x, tz, v[1]);
-    out[2] = robust_q_rotate_q_p8_1(w, tz, x, ty, y, tx, v[2]);
-}
-
 /* out = a (x) b for q15 a and b, q30: 16x16 products, each component's four summed with
  * saturation in robust_q_mul's order */
 static IMF_Q_NOINLINE void robust_q_mul_p8(const int16_t a[4], const int16_t b[4], int32_t out[4])
@@ -546,13 +526,18 @@ static IMF_Q_NOINLINE int robust_q_angle_p8(const int16_t g[3], const int32_t b[
     for (i = 0; i < 3; ++i) {
         /* |hn k.m| < 2^30: |hn| stays below 2^15 */
         hn[i] = (int16_t)imf_rshr32(imf_mul16(hn[i], k.m), 15);
-        if (e > 15) {
-            hn[i] = imf_sat_q15s(imf_shl_sat32(hn[i], e - 15));
-        } else if (e < -16) {
-            hn[i] = 0;
-        }
     }
-    return e > 15 ? 15 : e < -16 ? 0 : e;
+    if (e > 15) {
+        for (i = 0; i < 3; ++i) {
+            hn[i] = imf_sat_q15s(imf_shl_sat32(hn[i], e - 15));
+        }
+        return 15;
+    }
+    if (e < -16) {
+        hn[0] = hn[1] = hn[2] = 0;
+        return 0;
+    }
+    return e;
 }
 
 /* q = q (x) exp(h) as robust_q_exp, in 16-bit products, its normalisation folded in
@@ -561,8 +546,9 @@ static IMF_Q_NOINLINE int robust_q_angle_p8(const int16_t g[3], const int32_t b[
  * and |h|^2 / 6 in q15 (0 for e < 8: below their q15 LSB); then
  * q += q (x) (0, h (1 - |h|^2 / 6)) (imf_q_rate_p8, hs = 15 - e) - q (|h|^2 + d) / 2,
  * so q is normalised to first order from the update before (|q|^2 - 1 stays of the
- * order of |h|^4 and the rounding) */
-static IMF_Q_NOINLINE void robust_q_exp_p8(int32_t q[4], const int16_t hn[3], const int e)
+ * order of |h|^4 and the rounding); qs_out: the new q's snapshot */
+static IMF_Q_NOINLINE void robust_q_exp_p8(int32_t q[4], const int16_t hn[3], const int e,
+                                           int16_t qs_out[4])
 {
     int16_t qs[4], n2h = 0, n6 = 0, d16 = 0;
     int32_t hv[3], dq[4];
@@ -602,6 +588,7 @@ static IMF_Q_NOINLINE void robust_q_exp_p8(int32_t q[4], const int16_t hn[3], co
             dq[i] = imf_sub_sat32(dq[i], imf_mul16(n2h, qs[i]));
         }
         q[i] = imf_add_sat32(q[i], imf_sub_sat32(dq[i], imf_rshr32(imf_mul16(qs[i], d16), 8)));
+        qs_out[i] = imf_qn_to_q15s(q[i], 30);
     }
 }
 
@@ -749,15 +736,16 @@ int imf_robust_imu_q_init(imf_robust_imu_q_t *const self,
 #define ROBUST_Q_IS_P8(k) (IMF_Q_HAS_P8 && (!IMF_Q_HAS_P32 || (k)->profile == 8))
 
 /* q = q (x) exp(h), h = k (g 2^15 - b) in q30 (k the q-scale kg or klat, g counts, b q15
- * counts): the strapdown and the latency's prediction, each profile's */
+ * counts): the strapdown and the latency's prediction, each profile's; qs: the new q's
+ * snapshot */
 static void robust_q_integrate(const int p8, int32_t q[4], const int16_t g[3], const int32_t b[3],
-                               const imf_qscale_t k)
+                               const imf_qscale_t k, int16_t qs[4])
 {
 #if IMF_Q_HAS_P8
     if (p8) {
         int16_t hn[3];
         const int e = robust_q_angle_p8(g, b, k, hn);
-        robust_q_exp_p8(q, hn, e);
+        robust_q_exp_p8(q, hn, e, qs);
         return;
     }
 #endif
@@ -769,6 +757,7 @@ static void robust_q_integrate(const int p8, int32_t q[4], const int16_t g[3], c
             h[i] = imf_scale32_s(imf_sub_sat32(imf_x32768(g[i]), b[i]), k, 15, 30);
         }
         robust_q_exp(q, h);
+        imf_q_snapshot(q, qs);
     }
 #endif
     (void)p8;
@@ -835,9 +824,9 @@ static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
         robust_q_lowpass3(x->b, gyr, k->kb_rest);
     }
     /* strapdown: s = s (x) exp(1/2 (w - b) dt), series as the float filter */
-    robust_q_integrate(p8, x->s, gyr, x->b, k->kg);
+    robust_q_integrate(p8, x->s, gyr, x->b, k->kg, sn); /* and s's snapshot: s is not changed
+                                                          again in the update */
     /* B2: the accelerometer in the inertial frame */
-    imf_q_snapshot(x->s, sn); /* s's snapshot (s is not changed again in the update) */
     robust_q_matrix(sn, rm, 3);
     robust_q_rotate16(rm, 0, acc, ai); /* q15 counts */
     if (first) {
@@ -892,8 +881,8 @@ static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
     imf_q_snapshot(x->c, ss);
 #if IMF_Q_HAS_P8
     if (p8) {
-        /* 8-bit profile: f narrowed to int16 (its largest at most 2^14), rotated by c's
-           snapshot (robust_q_rotate_q_p8), the unit vector of its 15 leading bits
+        /* 8-bit profile: f narrowed to int16 (its largest at most 2^14), rotated by R(c)
+           and rounded to f's format, the unit vector of its 15 leading bits
            (imf_q_unit3_p8); c += d (x) c with d = r - 1 in
            16-bit products. For u_z >= 0, r = (1 + u_z, u_y, -u_x) / 2, not normalised (the
            normalisation of c takes it: the same direction); below (turned over), r from
@@ -902,7 +891,11 @@ static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
         int16_t f16[3], g16[3], d[4];
         int half = 0;
         robust_q_narrow_p8(x->f, 3, robust_q_exponent_p8(x->f, 3) + 1, f16);
-        robust_q_rotate_q_p8(ss, f16, g16);
+        robust_q_matrix(ss, rm, 3);
+        robust_q_rotate16(rm, 0, f16, ge); /* |ge| < 2^30 */
+        g16[0] = imf_sat_q15s(imf_rshr32(ge[0], 15));
+        g16[1] = imf_sat_q15s(imf_rshr32(ge[1], 15));
+        g16[2] = imf_sat_q15s(imf_rshr32(ge[2], 15));
         d[0] = d[1] = d[2] = d[3] = 0;
         r[1] = r[2] = 0;
         if (imf_q_unit3_p8(g16, u)) {
@@ -930,9 +923,9 @@ static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
         robust_q_mul_p8(d, ss, t);
         for (i = 0; i < 4; ++i) {
             x->c[i] = imf_add_sat32(x->c[i], imf_rshr32(t[i], half));
+            ss[i] = imf_qn_to_q15s(x->c[i], 30);
         }
-        robust_q_renorm_p8(x->c);
-        imf_q_snapshot(x->c, ss);
+        robust_q_renorm_p8(x->c, ss);  /* c's snapshot, then its new one */
         robust_q_mul_p8(ss, sn, x->q); /* |q|^2 - 1: c's and the snapshots' rounding */
     }
 #endif
@@ -1002,7 +995,8 @@ static void robust_q_finish(const imf_robust_imu_q_consts_t *const k,
                             imf_robust_imu_q_state_t *const x, const int16_t gyr[3])
 {
     if (k->klat.m != 0) {
-        robust_q_integrate(ROBUST_Q_IS_P8(k), x->q, gyr, x->b, k->klat);
+        int16_t qs[4];
+        robust_q_integrate(ROBUST_Q_IS_P8(k), x->q, gyr, x->b, k->klat, qs);
     }
     if (x->n < k->n_max) {
         x->n++;

@@ -58,13 +58,6 @@ def check32(x: int) -> int:
     return x
 
 
-def check16(x: int) -> int:
-    """Assert that a value cast to int16 in C is within int16 (the cast would change it)."""
-    if not INT16_MIN <= x <= INT16_MAX:
-        raise OverflowError(f"int16 cast out of range in C expression: {x}")
-    return x
-
-
 def checku32(x: int) -> int:
     if not 0 <= x <= 0xFFFFFFFF:
         raise OverflowError(f"uint32 out of range: {x}")

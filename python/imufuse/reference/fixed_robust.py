@@ -341,23 +341,6 @@ def lowpass3(x, u, k):
         x[i] = lowpass(x[i], u[i], k)
 
 
-def rotate_q_p8(qs, v):
-    """robust_q_rotate_q_p8: R(q) v for a q15 snapshot (w, x, y, z) and |v_i| <= 2^14, in
-    v's format: t = q_v x v rounded, then v + 2 (w t + q_v x t), w t added and the sum
-    doubled with saturation, rounded, saturated to int16."""
-    w, x, y, z = qs
-    c = ci.check32
-    tx = ci.check16(ci.rshr32(c(y * v[2] - z * v[1]), 15))
-    ty = ci.check16(ci.rshr32(c(z * v[0] - x * v[2]), 15))
-    tz = ci.check16(ci.rshr32(c(x * v[1] - y * v[0]), 15))
-
-    def one(t0, a, ta, b, tb, vi):
-        # robust_q_rotate_q_p8_1
-        s = ci.add_sat32(w * t0, c(a * ta - b * tb))
-        return ci.sat_q15s(vi + ci.rshr32(ci.add_sat32(s, s), 15))
-    return [one(tx, y, tz, z, ty, v[0]), one(ty, z, tx, x, tz, v[1]), one(tz, x, ty, y, tx, v[2])]
-
-
 def counts(x):
     """robust_q_counts: q15 counts -> counts, rounded, saturated to +-32767."""
     return ci.qn_to_q15s(x, 30)
@@ -600,15 +583,15 @@ class RobustIMUQ(FixedFilter):
         # z, (1 + u_z, u_y, -u_x, 0) normalised for the unit gravity u in the earth frame
         ss = fq.snapshot(self.c)
         if p8:
-            # 8-bit profile: f narrowed to int16 (its largest at most 2^14), rotated by c's
-            # snapshot (rotate_q_p8), the unit vector of its 15 leading bits (unit3_p8);
+            # 8-bit profile: f narrowed to int16 (its largest at most 2^14), rotated by R(c)
+            # and rounded to f's format, the unit vector of its 15 leading bits (unit3_p8);
             # c += d (x) c with d = r - 1 in 16-bit
             # products. For u_z >= 0, r = (1 + u_z, u_y, -u_x) / 2, not normalised (the
             # normalisation of c takes it: the same direction); below (turned over), r from
             # half(). B3 takes 2 (r1, r2): (u_y, -u_x) for the first, the doubled r for the
             # second.
             f16 = narrow_p8(self.f, exponent_p8(self.f) + 1)
-            g16 = rotate_q_p8(ss, f16)
+            g16 = [ci.sat_q15s(ci.rshr32(v, 15)) for v in rotate16(matrix(ss), 0, f16)]
             u = fq.unit3_p8(g16)
             d = [0, 0, 0, 0]
             r = [0, 0, 0]
