@@ -16,8 +16,9 @@
  *       into its step; unit vectors from 15 leading bits (imf_q_unit3_p8; B4's field
  *       and horizontal directions with one Newton step); the output q the product of c's
  *       and s's q15 snapshots (|q|^2 - 1 < 2e-4, up to 2.5e-3 after a full normalisation:
- *       the first sample, a turned-over start); B1 and B2 as the 32-bit profile (robust_q.c, "the
- *       8-bit profile's helpers")
+ *       the first sample, a turned-over start); reciprocals by Newton's z (2 - a z) in
+ *       16x16 products, B2's gains in q27; B1, B3's matrix and the rest of B2 as the 32-bit
+ *       profile (robust_q.c, "the 8-bit profile's helpers")
  * Both run on every target.
  *
  * Inputs are int16 counts: gyr in counts of gyr_scale rad/s, acc in any unit (the
