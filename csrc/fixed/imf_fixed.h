@@ -478,11 +478,15 @@ static inline int16_t imf_mul_q15(const int16_t a, const int16_t b)
     return imf_sat_q15(imf_rshr32((int32_t)a * (int32_t)b, 15));
 }
 
-/* x 2^15 for an int16 x, exact (|x 2^15| <= 2^30): x 2^16 (byte moves on AVR), then one
+/* x 2^15 for an int16 x, exact (|x 2^15| <= 2^30); on AVR x 2^16 (byte moves), then one
  * shift right (avr-gcc compiles (int32_t)x * 32768 to a loop of fifteen one-bit shifts) */
 static inline int32_t imf_x32768(const int16_t x)
 {
+#if defined(__AVR__)
     return imf_asr32((int32_t)x * 65536L, 1);
+#else
+    return (int32_t)x * 32768L;
+#endif
 }
 
 /* q15 * q15 -> q30, exact (|a*b| <= 2^30 cannot overflow). */

@@ -48,10 +48,12 @@ static IMF_Q_NOINLINE imf_qscale_t robust_q_recip_p8(uint32_t x, const int N)
     imf_qscale_t r;
     uint16_t a, z, m;
     int sh = 0, i;
-    while (x < 8388608u) { /* below 2^23: a byte at a time */
+#if defined(__AVR__)
+    while (x < 8388608u) { /* below 2^23: a byte at a time (byte moves; the same sh) */
         x <<= 8;
         sh += 8;
     }
+#endif
     while (x < 2147483648u) {
         x <<= 1;
         sh++;
@@ -90,10 +92,14 @@ static IMF_Q_NOINLINE imf_qscale_t robust_q_scale_of(const int32_t x, const int 
     uint16_t v;
     int e = 0;
     *sign = x < 0 ? -1 : 1;
-    while (t >= 8388608u) { /* e: the shift that brings u below 2^15 (at most 17); */
-        t >>= 8;            /* a byte at a time first (byte moves on AVR) */
+    /* e: the shift that brings u below 2^15 (at most 17); on AVR a byte at a time first
+       (byte moves; the same e) */
+#if defined(__AVR__)
+    while (t >= 8388608u) {
+        t >>= 8;
         e += 8;
     }
+#endif
     while (t >= 32768u) {
         t >>= 1;
         e++;
@@ -352,6 +358,7 @@ static IMF_Q_NOINLINE uint32_t robust_q_norm2_counts(const int32_t v[3])
                           (int16_t)robust_q_counts(v[2]));
 }
 
+#if IMF_Q_HAS_P32
 /* the unit vector of v (any format), symmetric q15; 0 for the zero vector */
 static IMF_Q_NOINLINE int robust_q_unit(const int32_t v[3], int16_t u[3])
 {
@@ -395,6 +402,7 @@ static IMF_Q_NOINLINE void robust_q_half(const int16_t c, const int16_t a, const
         r[2] = 0;
     }
 }
+#endif
 
 /* q = (1 + dw, 0, 0, dz) (x) q, a turn about earth z (dw, dz q30, small but any), then
  * normalised: q_i + dw q_i + dz (-q3, -q2, q1, q0)_i, products of q's q15 snapshot */
@@ -449,10 +457,12 @@ static IMF_Q_NOINLINE int robust_q_exponent_p8(const int32_t *const v, const int
     for (i = 0; i < n; ++i) {
         m |= v[i] < 0 ? 0u - (uint32_t)v[i] : (uint32_t)v[i]; /* the top bit of the largest */
     }
-    while (m >= 8388608u) { /* 2^23: a byte at a time (byte moves on AVR) */
+#if defined(__AVR__)
+    while (m >= 8388608u) { /* 2^23: a byte at a time (byte moves; the same e) */
         m >>= 8;
         e += 8;
     }
+#endif
     while (m >= 32768u) {
         m >>= 1;
         e++;
@@ -905,14 +915,24 @@ static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
                 d[2] = r[2] = (int16_t)-u[0];
                 half = 1; /* d is twice r - 1 */
             } else {
-                /* turned over (the first samples only: c takes the whole r): u to
-                   imf_q_normalise_acc's precision first, as the 32-bit profile (1 + u_z
-                   is a difference of nearly equal numbers) */
-                for (i = 0; i < 3; ++i) {
-                    ge[i] = g16[i];
+                /* turned over (the first samples only: c takes the whole r): r = (1 +
+                   u_z, u_y, -u_x) normalised, 1 + u_z as (u_x^2 + u_y^2) / (1 - u_z) (no
+                   difference of nearly equal numbers; u's norm error scales it by 6e-4 at
+                   most), by robust_q_recip_p8; (0, 1, 0) where it is 0 (exactly upside down:
+                   the half turn about x, as robust_q_half) */
+                const uint32_t n2 =
+                    (uint32_t)imf_mul16(u[0], u[0]) + (uint32_t)imf_mul16(u[1], u[1]);
+                const imf_qscale_t rd = robust_q_recip_p8((uint32_t)(32768L - u[2]), 15);
+                const uint32_t w0 = imf_lsr32(
+                    imf_mulu16((uint16_t)imf_sat_q15s((int32_t)(n2 >> 15)), (uint16_t)rd.m), rd.s);
+                r[0] = (int16_t)(w0 > 32767u ? 32767u : w0);
+                r[1] = u[1];
+                r[2] = (int16_t)-u[0];
+                if (!imf_q_unit3_p8(r, r)) {
+                    r[0] = 0;
+                    r[1] = 32767;
+                    r[2] = 0;
                 }
-                (void)robust_q_unit(ge, u);
-                robust_q_half(u[2], u[1], (int16_t)-u[0], r);
                 d[0] = (int16_t)(r[0] - 32768L); /* [-32768, -1] */
                 d[1] = r[1];
                 d[2] = r[2];

@@ -40,7 +40,7 @@ def recip_p8(x, N):
     leading bits (x 2^sh in [2^31, 2^32)), z ~= 2^31 / a from a chord and two Newton steps
     z <- z (2 - a z 2^-31) in 16x16 products, z <= 65535; 2^N / x = z 2^(N + sh - 47)."""
     sh = 0
-    while x < 8388608:                                   # below 2^23: a byte at a time
+    while x < 8388608:                 # below 2^23: a byte at a time (the C on AVR only)
         x <<= 8
         sh += 8
     while x < 2147483648:
@@ -67,7 +67,7 @@ def scale_of(x, N):
     e = 0
     sign = -1 if x < 0 else 1
     while t >= 8388608:                  # e: the shift that brings u below 2^15 (at most 17),
-        t >>= 8                          # a byte at a time first
+        t >>= 8                          # a byte at a time first (the C on AVR only)
         e += 8
     while t >= 32768:
         t >>= 1
@@ -196,7 +196,7 @@ def exponent_p8(v):
     for a in v:
         m |= abs(a)                                      # the top bit of the largest
     e = 0
-    while m >= 8388608:                                  # 2^23: a byte at a time
+    while m >= 8388608:                # 2^23: a byte at a time (the C on AVR only)
         m >>= 8
         e += 8
     while m >= 32768:
@@ -602,10 +602,13 @@ class RobustIMUQ(FixedFilter):
                     r = [0, u[1], -u[0]]
                     hs = 1                               # d is twice r - 1
                 else:
-                    # turned over (the first samples only: c takes the whole r): u to
-                    # normalise_acc's precision first, as the 32-bit profile
-                    u = unit(g16)
-                    r = half(u[2], u[1], -u[0])
+                    # turned over (the first samples only: c takes the whole r): r = (1 + u_z,
+                    # u_y, -u_x) normalised, 1 + u_z as (u_x^2 + u_y^2) / (1 - u_z), by
+                    # recip_p8; (0, 1, 0) where it is 0 (exactly upside down)
+                    n2 = u[0] * u[0] + u[1] * u[1]
+                    rd = recip_p8(32768 - u[2], 15)
+                    w0 = (ci.sat_q15s(n2 >> 15) * rd.m) >> rd.s
+                    r = fq.unit3_p8([min(w0, 32767), u[1], -u[0]]) or [0, 32767, 0]
                     d = [r[0] - 32768, r[1], r[2], 0]
                     r = [r[0], ci.sat_q15s(2 * r[1]), ci.sat_q15s(2 * r[2])]
             t = qmul_p8(d, ss)
