@@ -895,8 +895,8 @@ static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
            and rounded to f's format, the unit vector of its 15 leading bits
            (imf_q_unit3_p8); c += d (x) c with d = r - 1 in
            16-bit products. For u_z >= 0, r = (1 + u_z, u_y, -u_x) / 2, not normalised (the
-           normalisation of c takes it: the same direction); below (turned over), r from
-           robust_q_half.
+           normalisation of c takes it: the same direction); below (turned over), r
+           normalised with 1 + u_z from its product with 1 - u_z (below).
            B3 takes 2 (r1, r2): (u_y, -u_x) for the first, the doubled r for the second. */
         int16_t f16[3], g16[3], d[4];
         int half = 0;

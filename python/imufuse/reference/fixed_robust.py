@@ -587,9 +587,9 @@ class RobustIMUQ(FixedFilter):
             # and rounded to f's format, the unit vector of its 15 leading bits (unit3_p8);
             # c += d (x) c with d = r - 1 in 16-bit
             # products. For u_z >= 0, r = (1 + u_z, u_y, -u_x) / 2, not normalised (the
-            # normalisation of c takes it: the same direction); below (turned over), r from
-            # half(). B3 takes 2 (r1, r2): (u_y, -u_x) for the first, the doubled r for the
-            # second.
+            # normalisation of c takes it: the same direction); below (turned over), r
+            # normalised with 1 + u_z from its product with 1 - u_z (below). B3 takes 2 (r1,
+            # r2): (u_y, -u_x) for the first, the doubled r for the second.
             f16 = narrow_p8(self.f, exponent_p8(self.f) + 1)
             g16 = [ci.sat_q15s(ci.rshr32(v, 15)) for v in rotate16(matrix(ss), 0, f16)]
             u = fq.unit3_p8(g16)
