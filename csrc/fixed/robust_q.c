@@ -83,6 +83,20 @@ static IMF_Q_NOINLINE imf_qscale_t robust_q_recip_p8(uint32_t x, const int N)
 #define ROBUST_Q_RECIP(p8, x, N) robust_q_recip((x), (N))
 #endif
 
+/* 1 + c in q15 for a unit (c, a, b) in q15 with c < 0, as (a^2 + b^2) / (1 - c) (no
+ * difference of nearly equal numbers near c = -1; (a, b)'s norm error scales it by at most
+ * half of it), saturated to 32767; the reciprocal each profile's */
+static IMF_Q_NOINLINE uint16_t robust_q_one_plus(const int p8, const int16_t c, const int16_t a,
+                                                 const int16_t b)
+{
+    const uint32_t n2 = (uint32_t)imf_mul16(a, a) + (uint32_t)imf_mul16(b, b); /* q30 */
+    const imf_qscale_t rd = ROBUST_Q_RECIP(p8, (uint32_t)(32768L - c), 15);    /* 1 / (1 - c) */
+    const uint32_t w =
+        imf_lsr32(imf_mulu16((uint16_t)imf_sat_q15s((int32_t)(n2 >> 15)), (uint16_t)rd.m), rd.s);
+    (void)p8;
+    return (uint16_t)(w > 32767u ? 32767u : w);
+}
+
 /* |x| 2^-N (x in qN) as a q-scale and its sign (1, or -1): the 15 leading bits of |x|,
  * rounded. x = 0 gives m 0 (its s is N). */
 static IMF_Q_NOINLINE imf_qscale_t robust_q_scale_of(const int32_t x, const int N, int *const sign)
@@ -385,7 +399,8 @@ static IMF_Q_NOINLINE int robust_q_unit(const int32_t v[3], int16_t u[3])
 static IMF_Q_NOINLINE void robust_q_half(const int16_t c, const int16_t a, const int16_t b,
                                          int16_t r[3])
 {
-    const uint32_t rw = (uint32_t)(32768L + c); /* [1, 65535] */
+    /* 1 + c in [0, 65535]; below c = 0 from (a^2 + b^2) / (1 - c) (robust_q_one_plus) */
+    const uint32_t rw = c < 0 ? robust_q_one_plus(0, c, a, b) : (uint32_t)(32768L + c);
     const uint32_t n2 = (imf_mulu16((uint16_t)rw, (uint16_t)rw) >> 2)
                         + ((uint32_t)imf_mul16(a, a) >> 2)
                         + ((uint32_t)imf_mul16(b, b) >> 2); /* q28 */
@@ -920,12 +935,7 @@ static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
                    difference of nearly equal numbers; u's norm error scales it by 6e-4 at
                    most), by robust_q_recip_p8; (0, 1, 0) where it is 0 (exactly upside down:
                    the half turn about x, as robust_q_half) */
-                const uint32_t n2 =
-                    (uint32_t)imf_mul16(u[0], u[0]) + (uint32_t)imf_mul16(u[1], u[1]);
-                const imf_qscale_t rd = robust_q_recip_p8((uint32_t)(32768L - u[2]), 15);
-                const uint32_t w0 = imf_lsr32(
-                    imf_mulu16((uint16_t)imf_sat_q15s((int32_t)(n2 >> 15)), (uint16_t)rd.m), rd.s);
-                r[0] = (int16_t)(w0 > 32767u ? 32767u : w0);
+                r[0] = (int16_t)robust_q_one_plus(1, u[2], u[0], u[1]);
                 r[1] = u[1];
                 r[2] = (int16_t)-u[0];
                 if (!imf_q_unit3_p8(r, r)) {

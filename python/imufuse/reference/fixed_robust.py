@@ -60,6 +60,13 @@ def recip_p8(x, N):
     return ci.QScale(m, s)
 
 
+def one_plus(p8, c, a, b):
+    """robust_q_one_plus: 1 + c in q15 for a unit (c, a, b) with c < 0, as
+    (a^2 + b^2) / (1 - c), saturated to 32767; recip_p8 in the 8-bit profile."""
+    rd = (recip_p8 if p8 else recip)(32768 - c, 15)        # 1 / (1 - c)
+    return min((ci.sat_q15s((a * a + b * b) >> 15) * rd.m) >> rd.s, 32767)
+
+
 def scale_of(x, N):
     """robust_q_scale_of: |x| 2^-N as a q-scale (15 leading bits, rounded) and its sign."""
     u = -x if x < 0 else x
@@ -300,7 +307,7 @@ def turn_z_p8(q, z, n):
 def half(c, a, b):
     """robust_q_half: (1 + c, a, b) normalised, symmetric q15, for a unit (c, a, b) in
     q15; (0, 1, 0) where it is 0 (c = -1: any half turn is a smallest rotation)."""
-    rw = 32768 + c                                         # [1, 65535]
+    rw = one_plus(False, c, a, b) if c < 0 else 32768 + c  # [0, 65535]
     n2 = ((rw * rw) >> 2) + ((a * a) >> 2) + ((b * b) >> 2)   # q28
     if n2 != 0:
         y, sh = ci.invsqrt_u32(n2)                         # 1/|r| = y 2^(14 - sh)
@@ -605,10 +612,7 @@ class RobustIMUQ(FixedFilter):
                     # turned over (the first samples only: c takes the whole r): r = (1 + u_z,
                     # u_y, -u_x) normalised, 1 + u_z as (u_x^2 + u_y^2) / (1 - u_z), by
                     # recip_p8; (0, 1, 0) where it is 0 (exactly upside down)
-                    n2 = u[0] * u[0] + u[1] * u[1]
-                    rd = recip_p8(32768 - u[2], 15)
-                    w0 = (ci.sat_q15s(n2 >> 15) * rd.m) >> rd.s
-                    r = fq.unit3_p8([min(w0, 32767), u[1], -u[0]]) or [0, 32767, 0]
+                    r = fq.unit3_p8([one_plus(True, u[2], u[0], u[1]), u[1], -u[0]]) or [0, 32767, 0]
                     d = [r[0] - 32768, r[1], r[2], 0]
                     r = [r[0], ci.sat_q15s(2 * r[1]), ci.sat_q15s(2 * r[2])]
             t = qmul_p8(d, ss)
