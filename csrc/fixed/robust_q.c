@@ -3,6 +3,7 @@
  * Mirrored line for line by python/imufuse/reference/fixed_robust.py; the blocks and
  * their order are those of csrc/robust.c. */
 #include <stddef.h>
+#include <string.h>
 #include "robust_q.h"
 #include "imf_fixed_init.h"
 #include "imf_fixed_quat.h"
@@ -82,20 +83,6 @@ static IMF_Q_NOINLINE imf_qscale_t robust_q_recip_p8(uint32_t x, const int N)
 #else
 #define ROBUST_Q_RECIP(p8, x, N) robust_q_recip((x), (N))
 #endif
-
-/* 1 + c in q15 for a unit (c, a, b) in q15 with c < 0, as (a^2 + b^2) / (1 - c) (no
- * difference of nearly equal numbers near c = -1; (a, b)'s norm error scales it by at most
- * half of it), saturated to 32767; the reciprocal each profile's */
-static IMF_Q_NOINLINE uint16_t robust_q_one_plus(const int p8, const int16_t c, const int16_t a,
-                                                 const int16_t b)
-{
-    const uint32_t n2 = (uint32_t)imf_mul16(a, a) + (uint32_t)imf_mul16(b, b); /* q30 */
-    const imf_qscale_t rd = ROBUST_Q_RECIP(p8, (uint32_t)(32768L - c), 15);    /* 1 / (1 - c) */
-    const uint32_t w =
-        imf_lsr32(imf_mulu16((uint16_t)imf_sat_q15s((int32_t)(n2 >> 15)), (uint16_t)rd.m), rd.s);
-    (void)p8;
-    return (uint16_t)(w > 32767u ? 32767u : w);
-}
 
 /* |x| 2^-N (x in qN) as a q-scale and its sign (1, or -1): the 15 leading bits of |x|,
  * rounded. x = 0 gives m 0 (its s is N). */
@@ -393,6 +380,18 @@ static IMF_Q_NOINLINE int robust_q_unit(const int32_t v[3], int16_t u[3])
     return imf_q_normalise_acc(w, u);
 }
 
+/* 1 + c in q15 for a unit (c, a, b) in q15 with c < 0, as (a^2 + b^2) / (1 - c) (no
+ * difference of nearly equal numbers near c = -1; (a, b)'s norm error scales it by at most
+ * half of it), saturated to 32767 */
+static IMF_Q_NOINLINE uint16_t robust_q_one_plus(const int16_t c, const int16_t a, const int16_t b)
+{
+    const uint32_t n2 = (uint32_t)imf_mul16(a, a) + (uint32_t)imf_mul16(b, b); /* q30 */
+    const imf_qscale_t rd = robust_q_recip((uint32_t)(32768L - c), 15);        /* 1 / (1 - c) */
+    const uint32_t w =
+        imf_lsr32(imf_mulu16((uint16_t)imf_sat_q15s((int32_t)(n2 >> 15)), (uint16_t)rd.m), rd.s);
+    return (uint16_t)(w > 32767u ? 32767u : w);
+}
+
 /* (1 + c, a, b) normalised, symmetric q15, for a unit (c, a, b) in q15: the rotation
  * half way to the one that turns the direction (c, .) onto the axis. Where it is 0
  * (c = -1: turned over), (0, 1, 0): any half turn is a smallest rotation; this one. */
@@ -400,7 +399,7 @@ static IMF_Q_NOINLINE void robust_q_half(const int16_t c, const int16_t a, const
                                          int16_t r[3])
 {
     /* 1 + c in [0, 65535]; below c = 0 from (a^2 + b^2) / (1 - c) (robust_q_one_plus) */
-    const uint32_t rw = c < 0 ? robust_q_one_plus(0, c, a, b) : (uint32_t)(32768L + c);
+    const uint32_t rw = c < 0 ? robust_q_one_plus(c, a, b) : (uint32_t)(32768L + c);
     const uint32_t n2 = (imf_mulu16((uint16_t)rw, (uint16_t)rw) >> 2)
                         + ((uint32_t)imf_mul16(a, a) >> 2)
                         + ((uint32_t)imf_mul16(b, b) >> 2); /* q28 */
@@ -441,28 +440,6 @@ static IMF_Q_NOINLINE void robust_q_turn_z(int32_t q[4], const int32_t dw, const
  * 16-bit products. */
 
 #if IMF_Q_HAS_P8
-/* q /= |q| as robust_q_renorm, in 16-bit products; qs: q's snapshot, then the new q's: while |d| = ||q|^2 - 1| < 2^-8,
- * q - q d / 2 with d in q22 (int16) times q's q15 snapshot (imf_q_add_step_p8's
- * step); else imf_q_normalise_p8 */
-static IMF_Q_NOINLINE void robust_q_renorm_p8(int32_t q[4], int16_t qs[4])
-{
-    int16_t d16;
-    uint32_t n2;
-    int i;
-    n2 = imf_q_norm2(q, qs);
-    if (n2 <= 1069547520u || n2 >= 1077936128u) { /* 2^30 -+ 2^22 */
-        imf_q_normalise_p8(q);
-        imf_q_snapshot(q, qs);
-        return;
-    }
-    d16 = (int16_t)imf_rshr32((int32_t)n2 - IMF_Q30_ONE, 8); /* q22, |d| < 2^14 */
-    for (i = 0; i < 4; ++i) {
-        /* q d / 2 in q30 = qs (q15) d16 (q22) / 2^8 */
-        q[i] = imf_sub_sat32(q[i], imf_rshr32(imf_mul16(qs[i], d16), 8));
-        qs[i] = imf_qn_to_q15s(q[i], 30);
-    }
-}
-
 /* the exponent that narrows v to int16: the smallest e >= 0 with |v_i| 2^-e < 2^15 for
  * every i (n components) */
 static IMF_Q_NOINLINE int robust_q_exponent_p8(const int32_t *const v, const int n)
@@ -492,6 +469,73 @@ static IMF_Q_NOINLINE void robust_q_narrow_p8(const int32_t *const v, const int 
     int i;
     for (i = 0; i < n; ++i) {
         out[i] = imf_sat_q15s(imf_rshr32(v[i], e));
+    }
+}
+
+/* x 2^k saturated, k >= 0 (imf_shl_sat32's value) as k saturating doublings: one compact
+ * copy for the 8-bit profile's rare left shifts (the start-up's gains, the latency's
+ * large angles, extreme parameters) */
+static IMF_Q_NOINLINE int32_t robust_q_shl_p8(int32_t x, int k)
+{
+    while (k-- > 0) {
+        x = imf_add_sat32(x, x);
+    }
+    return x;
+}
+
+/* imf_rshift_sat32 (x 2^-n rounded, saturated) with robust_q_shl_p8's left shifts */
+static inline int32_t robust_q_shift_p8(const int32_t x, const int n)
+{
+    return n >= 0 ? imf_rshr32(x, n) : robust_q_shl_p8(x, -n);
+}
+
+/* the 8-bit profile's full normalisation, for |q|^2 - 1 beyond the first-order band (a
+ * state set by hand, hostile rates): steps q - qs d / 2, d = |q|^2 - 1 in q15 saturated to
+ * [-1, 1) (Newton's for 1 / |q|; |q|^2 = 1 + d in [1/2, 2) goes to 1 + d^3 / 4 - 3 d^2 / 4,
+ * within [1/2, 1]; from outside, the step brings |q|^2 into that range), until |d| <
+ * 2^-8, at most ROBUST_Q_NORM_STEPS steps; q keeps its 30 bits, qs is its snapshot. A q
+ * whose snapshot is zero (set by hand) becomes the identity. In the blocks' own
+ * operations: no second normalisation (imf_q_normalise_p8) linked. */
+#define ROBUST_Q_NORM_STEPS 40
+static IMF_Q_NOINLINE void robust_q_normalise_p8(int32_t q[4], int16_t qs[4])
+{
+    uint32_t n2 = imf_q_norm2(q, qs);
+    int i, j;
+    for (j = 0; j < ROBUST_Q_NORM_STEPS && (n2 <= 1069547520u || n2 >= 1077936128u); ++j) {
+        /* 2^30 -+ 2^22: d in q15, saturated */
+        const int16_t d =
+            n2 >= 2147483648u ? 32767 : imf_sat_q15(((int32_t)n2 - IMF_Q30_ONE) >> 15);
+        if (n2 == 0u) {
+            q[0] = IMF_Q30_ONE;
+            q[1] = q[2] = q[3] = 0;
+        }
+        for (i = 0; i < 4; ++i) {
+            /* |qs d / 2| <= 2^29 (the identity: qs 0 but for its q0, from which d is 0) */
+            q[i] -= imf_rshr32(imf_mul16(qs[i], d), 1);
+            qs[i] = imf_qn_to_q15s(q[i], 30);
+        }
+        n2 = imf_q_norm2(q, qs);
+    }
+}
+
+/* q /= |q| as robust_q_renorm, in 16-bit products; qs: q's snapshot, then the new q's: while |d| = ||q|^2 - 1| < 2^-8,
+ * q - q d / 2 with d in q22 (int16) times q's q15 snapshot (imf_q_add_step_p8's
+ * step); else robust_q_normalise_p8 */
+static IMF_Q_NOINLINE void robust_q_renorm_p8(int32_t q[4], int16_t qs[4])
+{
+    int16_t d16;
+    uint32_t n2;
+    int i;
+    n2 = imf_q_norm2(q, qs);
+    if (n2 <= 1069547520u || n2 >= 1077936128u) { /* 2^30 -+ 2^22 */
+        robust_q_normalise_p8(q, qs);
+        return;
+    }
+    d16 = (int16_t)imf_rshr32((int32_t)n2 - IMF_Q30_ONE, 8); /* q22, |d| < 2^14 */
+    for (i = 0; i < 4; ++i) {
+        /* q d / 2 in q30 = qs (q15) d16 (q22) / 2^8 */
+        q[i] = imf_sub_sat32(q[i], imf_rshr32(imf_mul16(qs[i], d16), 8));
+        qs[i] = imf_qn_to_q15s(q[i], 30);
     }
 }
 
@@ -554,7 +598,7 @@ static IMF_Q_NOINLINE int robust_q_angle_p8(const int16_t g[3], const int32_t b[
     }
     if (e > 15) {
         for (i = 0; i < 3; ++i) {
-            hn[i] = imf_sat_q15s(imf_shl_sat32(hn[i], e - 15));
+            hn[i] = imf_sat_q15s(robust_q_shl_p8(hn[i], e - 15));
         }
         return 15;
     }
@@ -582,8 +626,7 @@ static IMF_Q_NOINLINE void robust_q_exp_p8(int32_t q[4], const int16_t hn[3], co
     imf_q_snapshot(q, qs);
     n2 = imf_q_norm2(q, qs);
     if (n2 <= 1069547520u || n2 >= 1077936128u) { /* 2^30 -+ 2^22 */
-        imf_q_normalise_p8(q);
-        imf_q_snapshot(q, qs);
+        robust_q_normalise_p8(q, qs);
     } else {
         d16 = (int16_t)imf_rshr32((int32_t)n2 - IMF_Q30_ONE, 8); /* q22, |d| < 2^14 */
     }
@@ -629,7 +672,7 @@ static IMF_Q_NOINLINE void robust_q_turn_z_p8(int32_t q[4], const int16_t z[2], 
         const int16_t o = qs[3 - i];
         const int32_t p = imf_mul16(qs[i], z[0]); /* |.| < 2^30: the sum fits */
         q[i] = imf_add_sat32(
-            q[i], imf_rshift_sat32(i < 2 ? p - imf_mul16(o, z[1]) : p + imf_mul16(o, z[1]), n));
+            q[i], robust_q_shift_p8(i < 2 ? p - imf_mul16(o, z[1]) : p + imf_mul16(o, z[1]), n));
     }
 }
 #endif
@@ -671,17 +714,12 @@ static int robust_q_consts_ok(const imf_robust_imu_q_consts_t *const k)
              || k->n_max < k->n_acc || k->n_max > 1073741824L || !imf_q_profile_ok(k->profile));
 }
 
-/* the IMU state at power-up */
+/* the IMU state at power-up: zero, but the three quaternions the identity (one memset:
+ * the stores one by one were 250 bytes of AVR flash) */
 static void robust_q_clear(imf_robust_imu_q_state_t *const x)
 {
-    int i;
-    for (i = 0; i < 4; ++i) {
-        x->q[i] = x->s[i] = x->c[i] = i == 0 ? IMF_Q30_ONE : 0;
-    }
-    for (i = 0; i < 3; ++i) {
-        x->f[i] = x->v[i] = x->p[i] = x->b[i] = x->lw[i] = x->la[i] = 0;
-    }
-    x->n = x->n_rest = 0;
+    memset(x, 0, sizeof *x);
+    x->q[0] = x->s[0] = x->c[0] = IMF_Q30_ONE;
 }
 
 int imf_robust_imu_q_init_consts(imf_robust_imu_q_t *const self,
@@ -931,13 +969,16 @@ static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
                 half = 1; /* d is twice r - 1 */
             } else {
                 /* turned over (the first samples only: c takes the whole r): r = (1 +
-                   u_z, u_y, -u_x) normalised, 1 + u_z as (u_x^2 + u_y^2) / (1 - u_z) (no
-                   difference of nearly equal numbers; u's norm error scales it by 6e-4 at
-                   most), by robust_q_recip_p8; (0, 1, 0) where it is 0 (exactly upside down:
-                   the half turn about x, as robust_q_half) */
-                r[0] = (int16_t)robust_q_one_plus(1, u[2], u[0], u[1]);
-                r[1] = u[1];
-                r[2] = (int16_t)-u[0];
+                   u_z, u_y, -u_x) normalised, as the direction of its product with 1 - u_z,
+                   (u_x^2 + u_y^2, u_y (1 - u_z), -u_x (1 - u_z)) in q30 (no difference of
+                   nearly equal numbers; u's norm error scales the first by 1.2e-3 at most),
+                   narrowed to its 15 leading bits; (0, 1, 0) where it is 0 (exactly upside
+                   down: the half turn about x, as robust_q_half) */
+                const uint16_t w = (uint16_t)(32768L - u[2]);          /* 1 - u_z, (2^15, 2^16) */
+                ge[0] = imf_mul16(u[0], u[0]) + imf_mul16(u[1], u[1]); /* < 2^31 */
+                ge[1] = imf_mul16su(u[1], w);                          /* |.| < 2^31 */
+                ge[2] = -imf_mul16su(u[0], w);
+                robust_q_narrow_p8(ge, 3, robust_q_exponent_p8(ge, 3), r);
                 if (!imf_q_unit3_p8(r, r)) {
                     r[0] = 0;
                     r[1] = 32767;
@@ -1008,7 +1049,9 @@ static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
             if (p8) {
                 /* 8-bit profile: R^T 2 r in q15 (2 r is q15) times kbias, one 16x16 product */
                 x->b[i] = imf_sub_sat32(
-                    x->b[i], imf_scale16(imf_sat_q15s(imf_rshr32(e[i], 15)), k->kbias, 0));
+                    x->b[i],
+                    robust_q_shift_p8(imf_mul16(imf_sat_q15s(imf_rshr32(e[i], 15)), k->kbias.m),
+                                      k->kbias.s)); /* imf_scale16's value */
                 continue;
             }
 #endif
@@ -1072,7 +1115,6 @@ int imf_robust_ahrs_q_init_consts(imf_robust_ahrs_q_t *const self,
                                   const imf_robust_ahrs_q_consts_t *const k)
 {
     imf_robust_ahrs_q_state_t *const x = &self->x;
-    int i;
     /* the IMU's; mag_norm <= 1; B4's horizons within n_max */
     if (!robust_q_consts_ok(&k->imu) || k->k_mag.m == 0 || !imf_qscale_ok(k->k_mag, 0, 47)
         || k->k_ref.m == 0 || !imf_qscale_ok(k->k_ref, 0, 47) || !robust_q_ok(k->knorm, 14, 47)
@@ -1081,12 +1123,8 @@ int imf_robust_ahrs_q_init_consts(imf_robust_ahrs_q_t *const self,
         return -1;
     }
     self->k = *k;
+    memset(x, 0, sizeof *x);
     robust_q_clear(&x->imu);
-    for (i = 0; i < 3; ++i) {
-        x->u[i] = 0;
-    }
-    x->rn = x->rh = x->rz = x->cn = x->ch = x->cz = 0;
-    x->n_ok = x->n_dist = x->n_cand = 0;
     return 0;
 }
 
@@ -1183,8 +1221,8 @@ static void robust_q_mag(const imf_robust_ahrs_q_consts_t *const k,
         if (!robust_q_unit16_p8(w, u)) {
             return; /* no usable reading: gyro and accelerometer only */
         }
-        mn = imf_rshift_sat32(imf_mul16(w[0], u[0]) + imf_mul16(w[1], u[1]) + imf_mul16(w[2], u[2]),
-                              15 - e);
+        mn = robust_q_shift_p8(
+            imf_mul16(w[0], u[0]) + imf_mul16(w[1], u[1]) + imf_mul16(w[2], u[2]), 15 - e);
         w[0] = u[0];
         w[1] = u[1];
         w[2] = 0;

@@ -60,10 +60,10 @@ def recip_p8(x, N):
     return ci.QScale(m, s)
 
 
-def one_plus(p8, c, a, b):
+def one_plus(c, a, b):
     """robust_q_one_plus: 1 + c in q15 for a unit (c, a, b) with c < 0, as
-    (a^2 + b^2) / (1 - c), saturated to 32767; recip_p8 in the 8-bit profile."""
-    rd = (recip_p8 if p8 else recip)(32768 - c, 15)        # 1 / (1 - c)
+    (a^2 + b^2) / (1 - c), saturated to 32767."""
+    rd = recip(32768 - c, 15)                              # 1 / (1 - c)
     return min((ci.sat_q15s((a * a + b * b) >> 15) * rd.m) >> rd.s, 32767)
 
 
@@ -185,13 +185,37 @@ def qexp(q, h):
 # product a term, a value that is not int16 narrowed first with one exponent for the whole
 # vector (its 15 leading bits), the normalisation first order in 16-bit products.
 
+NORM_STEPS = 40
+
+
+def normalise_p8(q):
+    """robust_q_normalise_p8: beyond the first-order band, steps q - qs d / 2 with d =
+    |q|^2 - 1 in q15 saturated to [-1, 1) (Newton's for 1 / |q|) until |d| < 2^-8, at most
+    NORM_STEPS; the identity for a q whose snapshot is zero. The new q."""
+    q = list(q)
+    qs = fq.snapshot(q)
+    n2 = fq.norm2(q, qs)
+    j = 0
+    while j < NORM_STEPS and (n2 <= 1069547520 or n2 >= 1077936128):   # 2^30 -+ 2^22
+        # d in q15, saturated
+        d = 32767 if n2 >= 2147483648 else ci.sat_q15((n2 - fq.Q30_ONE) >> 15)
+        if n2 == 0:
+            q = [fq.Q30_ONE, 0, 0, 0]
+        for i in range(4):
+            q[i] -= ci.rshr32(qs[i] * d, 1)
+            qs[i] = ci.qn_to_q15s(q[i], 30)
+        n2 = fq.norm2(q, qs)
+        j += 1
+    return q
+
+
 def renorm_p8(q):
     """robust_q_renorm_p8: q - q d / 2 with d = |q|^2 - 1 in q22 while |d| < 2^-8, else
     normalise_p8; the new q."""
     qs = fq.snapshot(q)
     n2 = fq.norm2(q, qs)
     if n2 <= 1069547520 or n2 >= 1077936128:             # 2^30 -+ 2^22
-        return fq.normalise_p8(q)
+        return normalise_p8(q)
     d16 = ci.rshr32(n2 - fq.Q30_ONE, 8)                  # q22, |d| < 2^14
     # q d / 2 in q30 = qs (q15) d16 (q22) / 2^8
     return [ci.sub_sat32(q[i], ci.rshr32(qs[i] * d16, 8)) for i in range(4)]
@@ -264,7 +288,7 @@ def qexp_p8(q, hn, e):
     n2 = fq.norm2(q, qs)
     d16 = 0
     if n2 <= 1069547520 or n2 >= 1077936128:             # 2^30 -+ 2^22
-        q[:] = fq.normalise_p8(q)
+        q[:] = normalise_p8(q)
         qs = fq.snapshot(q)
     else:
         d16 = ci.rshr32(n2 - fq.Q30_ONE, 8)              # q22, |d| < 2^14
@@ -307,7 +331,7 @@ def turn_z_p8(q, z, n):
 def half(c, a, b):
     """robust_q_half: (1 + c, a, b) normalised, symmetric q15, for a unit (c, a, b) in
     q15; (0, 1, 0) where it is 0 (c = -1: any half turn is a smallest rotation)."""
-    rw = one_plus(False, c, a, b) if c < 0 else 32768 + c  # [0, 65535]
+    rw = one_plus(c, a, b) if c < 0 else 32768 + c  # [0, 65535]
     n2 = ((rw * rw) >> 2) + ((a * a) >> 2) + ((b * b) >> 2)   # q28
     if n2 != 0:
         y, sh = ci.invsqrt_u32(n2)                         # 1/|r| = y 2^(14 - sh)
@@ -610,9 +634,12 @@ class RobustIMUQ(FixedFilter):
                     hs = 1                               # d is twice r - 1
                 else:
                     # turned over (the first samples only: c takes the whole r): r = (1 + u_z,
-                    # u_y, -u_x) normalised, 1 + u_z as (u_x^2 + u_y^2) / (1 - u_z), by
-                    # recip_p8; (0, 1, 0) where it is 0 (exactly upside down)
-                    r = fq.unit3_p8([one_plus(True, u[2], u[0], u[1]), u[1], -u[0]]) or [0, 32767, 0]
+                    # u_y, -u_x) normalised, as the direction of its product with 1 - u_z,
+                    # (u_x^2 + u_y^2, u_y (1 - u_z), -u_x (1 - u_z)) in q30, narrowed to its
+                    # 15 leading bits; (0, 1, 0) where it is 0 (exactly upside down)
+                    w = 32768 - u[2]                     # 1 - u_z, (2^15, 2^16)
+                    ge = [u[0] * u[0] + u[1] * u[1], u[1] * w, -(u[0] * w)]
+                    r = fq.unit3_p8(narrow_p8(ge, exponent_p8(ge))) or [0, 32767, 0]
                     d = [r[0] - 32768, r[1], r[2], 0]
                     r = [r[0], ci.sat_q15s(2 * r[1]), ci.sat_q15s(2 * r[2])]
             t = qmul_p8(d, ss)
