@@ -168,6 +168,58 @@ def test_reciprocals_on_every_mantissa():
         assert abs(r.m * 2.0 ** -r.s * n - 1.0) < 7.1e-5, n
 
 
+#: quaternions far from unit length (q30): zero, below the snapshot's LSB, the smallest
+#: nonzero snapshot (the slowest to grow: 29 steps), saturated, mixed signs, three random
+FAR_QUATERNIONS = [[0, 0, 0, 0], [16383, -9000, 0, 5], [16384, 0, 0, 0],
+                   [2**31 - 1] * 4, [-2**31] * 4, [2**31 - 1, -2**31, 123456789, -5],
+                   [1 << 29, 0, 0, 0], [3 << 29, 1 << 20, -(1 << 25), 7],
+                   [1070000000, -2**31, 999, 0]]
+
+
+def test_full_normalisation_from_any_state():
+    """The 8-bit profile's full normalisation (robust_q_normalise_p8, Newton steps from |q|^2
+    - 1 in q15 saturated): from every FAR_QUATERNIONS state of s and c, one update by the C
+    equals the twin's, every state word, and leaves |q|^2, |s|^2 and |c|^2 within 2^-8 of 1
+    (the first-order band) with their directions kept (s's to 1e-4, once the update's small
+    rate is undone). The step bound holds with room: the slowest start needs 29 of the 40
+    steps (with 28 it is left outside the band)."""
+    from imufuse.reference import fixed_robust as fr
+    names = reference.RobustIMUQ.state_names
+    g = np.array([[3, -2, 1]], np.int16)
+    a = np.array([[300, -200, 4000]], np.int16)
+    for far in FAR_QUATERNIONS:
+        fs = []
+        for mod in (imufuse_c, reference):
+            f = mod.RobustIMUQ(0.01, gyr_scale=1e-3, profile="8")
+            f.update(g[0], a[0])
+            st = np.array(f.state)
+            st[4:8] = far
+            st[8:12] = far[::-1]
+            f.state = st
+            f.update(g[0], a[0])
+            fs.append(np.array(f.state))
+        assert_same_bits(fs[0][None], fs[1][None])
+        for k in (0, 4, 8):
+            v = fs[0][k:k + 4] * 2.0 ** -30
+            assert abs(v @ v - 1.0) < 2.0 ** -8, (far, names[k], v @ v)
+        if any(far):
+            want = np.array(far, float) / np.linalg.norm(far)
+            got = fs[0][4:8] / np.linalg.norm(fs[0][4:8])
+            assert abs(abs(want @ got) - 1.0) < 1e-4 or np.abs(np.array(far)).max() < 32768, far
+    # the slowest start: the smallest nonzero snapshot, growing by 3/2 a step
+    def band(q):
+        qs = fq_snapshot(q)
+        return 1069547520 < fr.fq.norm2(q, qs) < 1077936128
+    fq_snapshot = fr.fq.snapshot
+    assert fr.NORM_STEPS == 40
+    assert band(fr.normalise_p8([16384, 0, 0, 0]))
+    try:
+        fr.NORM_STEPS = 28
+        assert not band(fr.normalise_p8([16384, 0, 0, 0]))
+    finally:
+        fr.NORM_STEPS = 40
+
+
 #: settings the fixed point refuses (the float filter takes them): each with its reason
 REFUSED = {
     "tau_acc below 200 dt": dict(dt=0.01, tau_acc=1.99),

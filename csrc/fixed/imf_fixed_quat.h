@@ -36,7 +36,7 @@ extern "C" {
 #endif
 
 /* 1 if the profile given to init (32 or 8; any other value: 0) is compiled in. */
-static inline int imf_q_profile_ok(const int profile)
+static inline int imf_q_profile_ok(const int32_t profile)
 {
     return profile == 8 ? IMF_Q_HAS_P8 : (profile == 32 && IMF_Q_HAS_P32);
 }

@@ -490,11 +490,12 @@ static inline int32_t robust_q_shift_p8(const int32_t x, const int n)
 }
 
 /* the 8-bit profile's full normalisation, for |q|^2 - 1 beyond the first-order band (a
- * state set by hand, hostile rates): steps q - qs d / 2, d = |q|^2 - 1 in q15 saturated to
- * [-1, 1) (Newton's for 1 / |q|; |q|^2 = 1 + d in [1/2, 2) goes to 1 + d^3 / 4 - 3 d^2 / 4,
- * within [1/2, 1]; from outside, the step brings |q|^2 into that range), until |d| <
- * 2^-8, at most ROBUST_Q_NORM_STEPS steps; q keeps its 30 bits, qs is its snapshot. A q
- * whose snapshot is zero (set by hand) becomes the identity. In the blocks' own
+ * state set by hand, hostile rates): above it q is halved (rounded: its direction kept);
+ * below it, steps q - qs d / 2 with d = |q|^2 - 1 in [-1, 0) in q15 (Newton's for 1 / |q|:
+ * 1 + d goes to 1 + d^3 / 4 - 3 d^2 / 4, below 1 and growing by up to 3/2 a step), every
+ * component below 1 (its snapshot q's rounding); until |d| < 2^-8: at most 29 steps from
+ * any q (the smallest nonzero snapshot), bounded by ROBUST_Q_NORM_STEPS. qs: the new
+ * snapshot. A q whose snapshot is zero (set by hand) becomes the identity. The blocks' own
  * operations: no second normalisation (imf_q_normalise_p8) linked. */
 #define ROBUST_Q_NORM_STEPS 40
 static IMF_Q_NOINLINE void robust_q_normalise_p8(int32_t q[4], int16_t qs[4])
@@ -502,16 +503,16 @@ static IMF_Q_NOINLINE void robust_q_normalise_p8(int32_t q[4], int16_t qs[4])
     uint32_t n2 = imf_q_norm2(q, qs);
     int i, j;
     for (j = 0; j < ROBUST_Q_NORM_STEPS && (n2 <= 1069547520u || n2 >= 1077936128u); ++j) {
-        /* 2^30 -+ 2^22: d in q15, saturated */
-        const int16_t d =
-            n2 >= 2147483648u ? 32767 : imf_sat_q15(((int32_t)n2 - IMF_Q30_ONE) >> 15);
+        /* 2^30 -+ 2^22; below: d in q15, saturated to -1 */
+        const int16_t d = imf_sat_q15(((int32_t)(n2 >> 1) - (int32_t)536870912) >> 14);
         if (n2 == 0u) {
             q[0] = IMF_Q30_ONE;
             q[1] = q[2] = q[3] = 0;
         }
         for (i = 0; i < 4; ++i) {
             /* |qs d / 2| <= 2^29 (the identity: qs 0 but for its q0, from which d is 0) */
-            q[i] -= imf_rshr32(imf_mul16(qs[i], d), 1);
+            q[i] =
+                n2 >= 1077936128u ? imf_rshr32(q[i], 1) : q[i] - imf_rshr32(imf_mul16(qs[i], d), 1);
             qs[i] = imf_qn_to_q15s(q[i], 30);
         }
         n2 = imf_q_norm2(q, qs);
@@ -610,17 +611,18 @@ static IMF_Q_NOINLINE int robust_q_angle_p8(const int16_t g[3], const int32_t b[
 }
 
 /* q = q (x) exp(h) as robust_q_exp, in 16-bit products, its normalisation folded in
- * (one snapshot): d = |q|^2 - 1 from q's q15 snapshot at the start (imf_q_normalise_p8
+ * (one snapshot): d = |q|^2 - 1 from q's q15 snapshot at the start (robust_q_normalise_p8
  * first if |d| >= 2^-8); h = hn 2^e in q30 (robust_q_angle_p8, e in [-16, 15]); |h|^2 / 2
  * and |h|^2 / 6 in q15 (0 for e < 8: below their q15 LSB); then
- * q += q (x) (0, h (1 - |h|^2 / 6)) (imf_q_rate_p8, hs = 15 - e) - q (|h|^2 + d) / 2,
+ * q += q (x) (0, h (1 - |h|^2 / 6)) (robust_q_mul_p8, rounded by hs = 15 - e) - q (|h|^2 +
+ * d) / 2,
  * so q is normalised to first order from the update before (|q|^2 - 1 stays of the
  * order of |h|^4 and the rounding); qs_out: the new q's snapshot */
 static IMF_Q_NOINLINE void robust_q_exp_p8(int32_t q[4], const int16_t hn[3], const int e,
                                            int16_t qs_out[4])
 {
-    int16_t qs[4], n2h = 0, n6 = 0, d16 = 0;
-    int32_t hv[3], dq[4];
+    int16_t qs[4], hv[4], n2h = 0, n6 = 0, d16 = 0;
+    int32_t dq[4];
     uint32_t n2;
     int i;
     imf_q_snapshot(q, qs);
@@ -642,14 +644,20 @@ static IMF_Q_NOINLINE void robust_q_exp_p8(int32_t q[4], const int16_t hn[3], co
         n2h = (int16_t)(h2 > 16384 ? 16384 : h2);
         n6 = (int16_t)imf_rshr32(imf_mul16(n2h, 10923), 15); /* |h|^2 / 6 = (|h|^2 / 2) / 3 */
     }
+    hv[0] = 0;
     for (i = 0; i < 3; ++i) {
-        hv[i] = hn[i]; /* q(30 - e), |.| < 2^15 */
+        /* q(30 - e), |.| < 2^15 (the correction 0 for n6 = 0) */
+        hv[i + 1] = hn[i];
         if (n6 != 0) {
-            hv[i] -= imf_rshr32(imf_mul16(hn[i], n6), 15); /* (0 for n6 = 0) */
+            hv[i + 1] = (int16_t)(hn[i] - imf_rshr32(imf_mul16(hn[i], n6), 15));
         }
     }
-    imf_q_rate_p8(qs, hv, 15 - e, dq);
+    /* q (x) (0, h) by robust_q_mul_p8, rounded to q30: imf_q_rate_p8's value (the h_0 = 0
+       terms add 0 to sums that cannot saturate before them) without its twelve inlined
+       products (1 KB of AVR flash, for 60 cycles) */
+    robust_q_mul_p8(qs, hv, dq);
     for (i = 0; i < 4; ++i) {
+        dq[i] = imf_q_rshr_hs_p8(dq[i], 15 - e);
         /* q (|h|^2 / 2) in q30 from q15 x q15 (0 for n2h = 0: the same sum without the
            product); q d / 2 = qs (q15) d16 (q22) / 2^8 */
         if (n2h != 0) {

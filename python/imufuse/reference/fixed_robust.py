@@ -189,20 +189,20 @@ NORM_STEPS = 40
 
 
 def normalise_p8(q):
-    """robust_q_normalise_p8: beyond the first-order band, steps q - qs d / 2 with d =
-    |q|^2 - 1 in q15 saturated to [-1, 1) (Newton's for 1 / |q|) until |d| < 2^-8, at most
-    NORM_STEPS; the identity for a q whose snapshot is zero. The new q."""
+    """robust_q_normalise_p8: beyond the first-order band, q halved above it, steps
+    q - qs d / 2 with d = |q|^2 - 1 in [-1, 0) (q15, Newton's for 1 / |q|) below it, until
+    |d| < 2^-8, at most NORM_STEPS; the identity for a q whose snapshot is zero. The new q."""
     q = list(q)
     qs = fq.snapshot(q)
     n2 = fq.norm2(q, qs)
     j = 0
     while j < NORM_STEPS and (n2 <= 1069547520 or n2 >= 1077936128):   # 2^30 -+ 2^22
-        # d in q15, saturated
-        d = 32767 if n2 >= 2147483648 else ci.sat_q15((n2 - fq.Q30_ONE) >> 15)
+        # below: d in q15, saturated to -1
+        d = ci.sat_q15(((n2 >> 1) - 536870912) >> 14)
         if n2 == 0:
             q = [fq.Q30_ONE, 0, 0, 0]
         for i in range(4):
-            q[i] -= ci.rshr32(qs[i] * d, 1)
+            q[i] = ci.rshr32(q[i], 1) if n2 >= 1077936128 else q[i] - ci.rshr32(qs[i] * d, 1)
             qs[i] = ci.qn_to_q15s(q[i], 30)
         n2 = fq.norm2(q, qs)
         j += 1
