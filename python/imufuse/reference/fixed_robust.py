@@ -263,6 +263,20 @@ def qmul_p8(a, b):
             add(sub(p(3, 0) + p(2, 1), p(1, 2)), p(0, 3))]
 
 
+def shl_p8(x, k):
+    """robust_q_shl_p8: x 2^k saturated, k >= 0, as k saturating doublings (ci.shl_sat32's
+    value)."""
+    for _ in range(k):
+        x = ci.add_sat32(x, x)
+    return x
+
+
+def shift_p8(x, n):
+    """robust_q_shift_p8: x 2^-n rounded, saturated (ci.rshift_sat32's value), its left
+    shifts by shl_p8."""
+    return ci.rshr32(x, n) if n >= 0 else shl_p8(x, -n)
+
+
 def angle_p8(g, b, k):
     """robust_q_angle_p8: the half angle h = k (g 2^15 - b) (q30) as int16 hn and its
     exponent e, h = hn 2^e: w's 15 leading bits (exponent ew) times k.m 2^-15, e = ew + 30
@@ -273,7 +287,7 @@ def angle_p8(g, b, k):
     e += 30 - k.s
     hn = [ci.rshr32(v * k.m, 15) for v in hn]            # |hn k.m| < 2^30
     if e > 15:
-        return [ci.sat_q15s(ci.shl_sat32(v, e - 15)) for v in hn], 15
+        return [ci.sat_q15s(shl_p8(v, e - 15)) for v in hn], 15
     if e < -16:
         return [0, 0, 0], 0
     return hn, e
@@ -298,8 +312,10 @@ def qexp_p8(q, hn, e):
         sq = sum(v * v for v in hn)
         n2h = min(ci.rshr32(sq >> 1, 45 - 2 * e), 16384)
         n6 = ci.rshr32(n2h * 10923, 15)                  # |h|^2 / 6
-    hv = [v - ci.rshr32(v * n6, 15) for v in hn] if n6 != 0 else list(hn)   # q(30 - e)
-    dq = fq.rate_p8(qs, hv, 15 - e)
+    # q(30 - e), |.| < 2^15 (the correction 0 for n6 = 0)
+    hv = [0] + ([v - ci.rshr32(v * n6, 15) for v in hn] if n6 != 0 else list(hn))
+    # q (x) (0, h) by qmul_p8, rounded to q30: fq.rate_p8's value
+    dq = [fq.rshr_hs_p8(v, 15 - e) for v in qmul_p8(qs, hv)]
     sub = ci.sub_sat32
     if n2h != 0:
         # q (|h|^2 / 2) in q30 (0 for n2h = 0: the same sum without the product)
@@ -324,7 +340,7 @@ def turn_z_p8(q, z, n):
     for i in range(4):
         o = qs[3 - i]
         p = qs[i] * z[0]
-        out.append(ci.add_sat32(q[i], ci.rshift_sat32(p - o * z[1] if i < 2 else p + o * z[1], n)))
+        out.append(ci.add_sat32(q[i], shift_p8(p - o * z[1] if i < 2 else p + o * z[1], n)))
     return out
 
 
@@ -665,9 +681,10 @@ class RobustIMUQ(FixedFilter):
             e = rotate16(rm, 1, [r[1], r[2], 0])   # R^T r in q30; the error is twice that
             if p8:
                 # 8-bit profile: R^T 2 r in q15 (2 r is q15) times kbias, one 16x16 product
+                kb = k["kbias"]
                 self.b = [ci.sub_sat32(self.b[i],
-                                       ci.scale16(ci.sat_q15s(ci.rshr32(e[i], 15)), k["kbias"], 0))
-                          for i in range(3)]
+                                       shift_p8(ci.sat_q15s(ci.rshr32(e[i], 15)) * kb.m, kb.s))
+                          for i in range(3)]          # ci.scale16's value
             else:
                 self.b = [ci.sub_sat32(self.b[i], ci.scale32_s(ci.add_sat32(e[i], e[i]),
                                                                k["kbias"], 30, 15))
@@ -848,7 +865,7 @@ class RobustAHRSQ(RobustIMUQ):
             u = unit16_p8(w)
             if u is None:
                 return                       # no usable reading: gyro and accelerometer only
-            mn = ci.rshift_sat32(ci.check32(w[0] * u[0] + w[1] * u[1] + w[2] * u[2]), 15 - e)
+            mn = shift_p8(ci.check32(w[0] * u[0] + w[1] * u[1] + w[2] * u[2]), 15 - e)
             ch = unit16_p8([u[0], u[1], 0])
         else:
             u = unit(me)
