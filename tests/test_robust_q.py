@@ -220,6 +220,49 @@ def test_full_normalisation_from_any_state():
         fr.NORM_STEPS = 40
 
 
+@pytest.mark.parametrize("target", ["m0", "avr"])
+def test_full_normalisation_from_any_state_on_the_mcu(target):
+    """test_full_normalisation_from_any_state on the Cortex-M0 and the ATmega328P (int 16
+    bits wide): from every FAR_QUATERNIONS state of s and c, the state after one update
+    equals the twin's, every word."""
+    missing = mcu.ensure_toolchains([target])
+    if missing:
+        pytest.skip(f"toolchain for {target} unavailable: {missing[target]}")
+    g, a = [3, -2, 1], [300, -200, 4000]
+    ref = reference.RobustIMUQ(0.01, gyr_scale=1e-3, profile="8")
+    fields = [("q", 4), ("s", 4), ("c", 4), ("f", 3), ("v", 3), ("p", 3), ("b", 3), ("lw", 3),
+              ("la", 3)]
+    words = [f"imf_f.x.{n}[{i}]" for n, m in fields for i in range(m)]
+    words += ["imf_f.x.n", "imf_f.x.n_rest"]
+    assert len(words) == len(reference.RobustIMUQ.state_names)
+    table = ",\n".join("{" + ", ".join(f"(int32_t){v}L" if v != -2**31 else "INT32_MIN"
+                                          for v in far) + "}" for far in FAR_QUATERNIONS)
+    pre = ('#include <stdint.h>\n#include "robust_q.h"\nstatic imf_robust_imu_q_t imf_f;\n'
+           f"static const int16_t imf_g[3] = {{{g[0]}, {g[1]}, {g[2]}}};\n"
+           f"static const int16_t imf_a[3] = {{{a[0]}, {a[1]}, {a[2]}}};\n"
+           f"static const int32_t imf_far[][4] = {{\n{table}}};\n")
+    step = (f"{ref.c_init_call('imf_f')}\nimf_robust_imu_q_update(&imf_f, imf_g, imf_a);\n"
+            "{ int i; for (i = 0; i < 4; ++i) { imf_f.x.s[i] = imf_far[k][i]; "
+            "imf_f.x.c[i] = imf_far[k][3 - i]; } }\n"
+            "imf_robust_imu_q_update(&imf_f, imf_g, imf_a);")
+    drv = mcu.Driver(prelude=pre, step=step, state=[(w, "i32") for w in words])
+    res = mcu.run(target, sources=[str(mf.CSRC / "fixed" / "robust_q.c")],
+                  include_dirs=[mf.CSRC / "fixed"], driver=drv,
+                  inputs={"k": np.arange(len(FAR_QUATERNIONS), dtype=np.int16)})
+    got = np.column_stack([np.asarray(col, np.int64) for col in res.values()]).astype(np.int32)
+    want = []
+    for far in FAR_QUATERNIONS:
+        f = reference.RobustIMUQ(0.01, gyr_scale=1e-3, profile="8")
+        f.update(np.array(g, np.int16), np.array(a, np.int16))
+        st = np.array(f.state)
+        st[4:8] = far
+        st[8:12] = far[::-1]
+        f.state = st
+        f.update(np.array(g, np.int16), np.array(a, np.int16))
+        want.append(np.array(f.state))
+    assert_same_bits(got, np.array(want))
+
+
 #: settings the fixed point refuses (the float filter takes them): each with its reason
 REFUSED = {
     "tau_acc below 200 dt": dict(dt=0.01, tau_acc=1.99),
