@@ -176,6 +176,23 @@ FAR_QUATERNIONS = [[0, 0, 0, 0], [16383, -9000, 0, 5], [16384, 0, 0, 0],
                    [1070000000, -2**31, 999, 0]]
 
 
+FAR_G, FAR_A = [3, -2, 1], [300, -200, 4000]
+
+
+def far_state(mod, far):
+    """The state of mod's RobustIMUQ p8 after one update from s = far, c = far reversed (set
+    after a first update at power-up)."""
+    g, a = np.array(FAR_G, np.int16), np.array(FAR_A, np.int16)
+    f = mod.RobustIMUQ(0.01, gyr_scale=1e-3, profile="8")
+    f.update(g, a)
+    st = np.array(f.state)
+    st[4:8] = far
+    st[8:12] = far[::-1]
+    f.state = st
+    f.update(g, a)
+    return np.array(f.state)
+
+
 def test_full_normalisation_from_any_state():
     """The 8-bit profile's full normalisation (robust_q_normalise_p8, Newton steps from |q|^2
     - 1 in q15 saturated): from every FAR_QUATERNIONS state of s and c, one update by the C
@@ -185,19 +202,8 @@ def test_full_normalisation_from_any_state():
     steps (with 28 it is left outside the band)."""
     from imufuse.reference import fixed_robust as fr
     names = reference.RobustIMUQ.state_names
-    g = np.array([[3, -2, 1]], np.int16)
-    a = np.array([[300, -200, 4000]], np.int16)
     for far in FAR_QUATERNIONS:
-        fs = []
-        for mod in (imufuse_c, reference):
-            f = mod.RobustIMUQ(0.01, gyr_scale=1e-3, profile="8")
-            f.update(g[0], a[0])
-            st = np.array(f.state)
-            st[4:8] = far
-            st[8:12] = far[::-1]
-            f.state = st
-            f.update(g[0], a[0])
-            fs.append(np.array(f.state))
+        fs = [far_state(mod, far) for mod in (imufuse_c, reference)]
         assert_same_bits(fs[0][None], fs[1][None])
         for k in (0, 4, 8):
             v = fs[0][k:k + 4] * 2.0 ** -30
@@ -228,7 +234,7 @@ def test_full_normalisation_from_any_state_on_the_mcu(target):
     missing = mcu.ensure_toolchains([target])
     if missing:
         pytest.skip(f"toolchain for {target} unavailable: {missing[target]}")
-    g, a = [3, -2, 1], [300, -200, 4000]
+    g, a = FAR_G, FAR_A
     ref = reference.RobustIMUQ(0.01, gyr_scale=1e-3, profile="8")
     fields = [("q", 4), ("s", 4), ("c", 4), ("f", 3), ("v", 3), ("p", 3), ("b", 3), ("lw", 3),
               ("la", 3)]
@@ -250,17 +256,7 @@ def test_full_normalisation_from_any_state_on_the_mcu(target):
                   include_dirs=[mf.CSRC / "fixed"], driver=drv,
                   inputs={"k": np.arange(len(FAR_QUATERNIONS), dtype=np.int16)})
     got = np.column_stack([np.asarray(col, np.int64) for col in res.values()]).astype(np.int32)
-    want = []
-    for far in FAR_QUATERNIONS:
-        f = reference.RobustIMUQ(0.01, gyr_scale=1e-3, profile="8")
-        f.update(np.array(g, np.int16), np.array(a, np.int16))
-        st = np.array(f.state)
-        st[4:8] = far
-        st[8:12] = far[::-1]
-        f.state = st
-        f.update(np.array(g, np.int16), np.array(a, np.int16))
-        want.append(np.array(f.state))
-    assert_same_bits(got, np.array(want))
+    assert_same_bits(got, np.array([far_state(reference, far) for far in FAR_QUATERNIONS]))
 
 
 #: settings the fixed point refuses (the float filter takes them): each with its reason

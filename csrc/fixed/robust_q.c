@@ -614,10 +614,10 @@ static IMF_Q_NOINLINE int robust_q_angle_p8(const int16_t g[3], const int32_t b[
  * (one snapshot): d = |q|^2 - 1 from q's q15 snapshot at the start (robust_q_normalise_p8
  * first if |d| >= 2^-8); h = hn 2^e in q30 (robust_q_angle_p8, e in [-16, 15]); |h|^2 / 2
  * and |h|^2 / 6 in q15 (0 for e < 8: below their q15 LSB); then
- * q += q (x) (0, h (1 - |h|^2 / 6)) (robust_q_mul_p8, rounded by hs = 15 - e) - q (|h|^2 +
- * d) / 2,
- * so q is normalised to first order from the update before (|q|^2 - 1 stays of the
- * order of |h|^4 and the rounding); qs_out: the new q's snapshot */
+ *     q += q (x) (0, h (1 - |h|^2 / 6)) - q (|h|^2 + d) / 2,
+ * the product by robust_q_mul_p8 rounded by hs = 15 - e, so q is normalised to first
+ * order from the update before (|q|^2 - 1 stays of the order of |h|^4 and the rounding);
+ * qs_out: the new q's snapshot */
 static IMF_Q_NOINLINE void robust_q_exp_p8(int32_t q[4], const int16_t hn[3], const int e,
                                            int16_t qs_out[4])
 {
