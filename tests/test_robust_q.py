@@ -259,6 +259,32 @@ def test_full_normalisation_from_any_state_on_the_mcu(target):
     assert_same_bits(got, np.array([far_state(reference, far) for far in FAR_QUATERNIONS]))
 
 
+def test_p8_helpers_keep_the_shared_values():
+    """The 8-bit profile's own compact helpers give the values of the shared ones they
+    replace (their comments say so): shl_p8 / shift_p8 those of ci.shl_sat32 /
+    ci.rshift_sat32 at the int32 bounds and in between, and the strapdown's qmul_p8 with
+    h_0 = 0 rounded by rshr_hs_p8 that of fq.rate_p8, over random and extreme snapshots."""
+    from imufuse.reference import fixed_robust as fr
+    ci, fq = fr.ci, fr.fq
+    rng = np.random.default_rng(26)
+    xs = [0, 1, -1, 2**30 - 1, 2**30, -2**30, -2**30 - 1, 2**31 - 1, -2**31, 12345, -98765]
+    xs += rng.integers(-2**31, 2**31, 200).tolist()
+    for x in xs:
+        for k in range(32):
+            assert fr.shl_p8(x, k) == ci.shl_sat32(x, k), (x, k)
+        for n in range(-20, 32):
+            assert fr.shift_p8(x, n) == ci.rshift_sat32(x, n), (x, n)
+    ext = [32767, -32767, -32768, 0, 1, -1]
+    for _ in range(3000):
+        qs = [int(v) for v in rng.choice(ext, 4)] if rng.random() < 0.3 else \
+            rng.integers(-32768, 32768, 4).tolist()
+        h = [int(v) for v in rng.choice(ext, 3)] if rng.random() < 0.3 else \
+            rng.integers(-32768, 32768, 3).tolist()
+        hs = int(rng.integers(0, 16))
+        got = [fq.rshr_hs_p8(v, hs) for v in fr.qmul_p8(qs, [0] + h)]
+        assert got == fq.rate_p8(qs, h, hs), (qs, h, hs)
+
+
 #: settings the fixed point refuses (the float filter takes them): each with its reason
 REFUSED = {
     "tau_acc below 200 dt": dict(dt=0.01, tau_acc=1.99),
