@@ -33,12 +33,30 @@ def _run_many_each(make, params, inputs, threads, run_kwargs):
         return list(ex.map(lambda f: f.run(*inputs, **run_kwargs), filters))
 
 
+def _check_param_sets(params):
+    """run_many's parameter sets: mappings of constructor keywords; the precision is
+    run_many's own dtype=, never a set's."""
+    if isinstance(params, (str, bytes)) or not hasattr(params, "__iter__"):
+        raise TypeError(f"run_many: params must be a sequence of parameter dicts, got "
+                        f"{type(params).__name__}")
+    params = list(params)
+    for i, p in enumerate(params):
+        if not hasattr(p, "keys"):
+            raise TypeError(f"run_many: parameter set {i} must be a dict of constructor "
+                            f"keywords, got {type(p).__name__} {p!r}")
+        if "dtype" in p:
+            raise TypeError(f"run_many: parameter set {i} gives dtype={p['dtype']!r}: the "
+                            "precision of every set is run_many's own dtype= argument")
+    return params
+
+
 def _run_many(cls, params, *inputs, dtype="float64", threads=None, **run_kwargs):
     """Run one filter per parameter set of ``params`` (constructor keyword dicts) over one
     log in one call; each set's result is bit for bit its own run()'s. 3-D float filters:
     imufuse_c.run_filters (lanes, scores; a (P, N, len(state)) array or Evaluations); the
     others: a list of what each run() returns (run keywords such as dt= are passed on)."""
     impl = cls._impl[_checks.check_dtype(dtype)]
+    params = _check_param_sets(params)
     if hasattr(impl, "run_many") and cls.kind in ("imu", "ahrs"):
         return impl.run_many(params, *inputs, threads=threads, **run_kwargs)
     return _run_many_each(impl, params, inputs, threads, run_kwargs)
@@ -82,13 +100,38 @@ for _name in FILTERS:
 __all__ = list(FILTERS)
 
 
+def _batch_build(i, f):
+    """The compiled build (_f32 or _f64) a run_filters entry belongs to; TypeError naming
+    the entry and what it is when it has no compiled batch path."""
+    for b in _BUILDS.values():
+        if isinstance(f, b._Filter):
+            return b
+    t = type(f)
+    what = f"{t.__module__}.{t.__qualname__}"
+    if t.__module__.startswith("imufuse.reference"):
+        why = "a pure-Python reference filter; make it with imufuse_c (same arguments)"
+    elif getattr(f, "profile", None) is not None or t.__name__ in FILTERS_FIXED:
+        why = "a fixed-point filter, which has no batch path; run it with its own run()"
+    else:
+        why = "not a compiled float filter"
+    raise TypeError(f"run_filters: filters[{i}] is {what}: {why}")
+
+
 def run_filters(filters, *inputs, **kwargs):
     """Many filters of one 3-D float class and precision over one log in one compiled call
     (imufuse_c._f64.run_filters: lanes, threads, scores computed while they run)."""
+    if isinstance(filters, (str, bytes)) or not hasattr(filters, "__iter__"):
+        raise TypeError(f"run_filters: filters must be a sequence of filters, got "
+                        f"{type(filters).__name__}")
     filters = list(filters)
     if not filters:
         raise ValueError("run_filters: no filter given")
-    return _BUILDS[filters[0].dtype].run_filters(filters, *inputs, **kwargs)
+    builds = [_batch_build(i, f) for i, f in enumerate(filters)]
+    if any(b is not builds[0] for b in builds):
+        i = next(i for i, b in enumerate(builds) if b is not builds[0])
+        raise TypeError(f"run_filters: filters[0] is {filters[0].dtype} and filters[{i}] "
+                        f"{filters[i].dtype}: every filter must be of one class and precision")
+    return builds[0].run_filters(filters, *inputs, **kwargs)
 
 
 def lane_widths(dtype="float64"):

@@ -225,6 +225,37 @@ def _groups(int p, int width):
     return out
 
 
+def _check_distinct(filters):
+    """Every entry its own object: one C state updated by two lanes or two threads at once
+    is a data race, and each entry is left as its own run() leaves it."""
+    seen = {}
+    for i, f in enumerate(filters):
+        j = seen.setdefault(id(f), i)
+        if j != i:
+            raise ValueError(f"run_filters: filters[{j}] and filters[{i}] are the same object; "
+                             "each entry runs from its own state and is left as its own run() "
+                             "leaves it: give distinct filters ([copy.copy(f) for _ in "
+                             "range(n)])")
+
+
+def _check_threads(threads):
+    if threads is None:
+        return None
+    if type(threads) is not int or threads < 1:
+        raise TypeError(f"threads: a positive int or None (one per core), got {threads!r}")
+    return threads
+
+
+def _sealed_reference(score, Py_ssize_t N):
+    """The score= argument checked whole before C reads it: an imufuse.evaluation.Reference
+    (made by prepare_reference) of this log's N samples, its arrays of the types, shapes
+    and contents the scorer reads (anything else is refused by type or by name)."""
+    if not isinstance(score, _evaluation.Reference):
+        raise TypeError(f"score: an imufuse.evaluation.Reference (prepare_reference), got "
+                        f"{type(score).__name__}")
+    return score.sealed(N)
+
+
 def run_filters(filters, *inputs, dt=None, score=None, outputs="state", lanes=None,
                 threads=None):
     """Run ``filters`` (instances of one 3-D filter class of this precision, each as it
@@ -244,9 +275,18 @@ def run_filters(filters, *inputs, dt=None, score=None, outputs="state", lanes=No
     filters = list(filters)
     if not filters:
         return [] if score is not None else np.empty((0, 0, 0), dtype=DTYPE)
+    for i, f in enumerate(filters):
+        if not isinstance(f, _Filter):
+            raise TypeError(f"run_filters: filters[{i}] is {type(f).__module__}."
+                            f"{type(f).__qualname__}, not a compiled {DTYPE} filter")
     cls = type(filters[0])
     if any(type(f) is not cls for f in filters):
-        raise TypeError("run_filters: every filter must be of one class and precision")
+        i = next(i for i, f in enumerate(filters) if type(f) is not cls)
+        raise TypeError(f"run_filters: filters[0] is {cls.__name__} and filters[{i}] "
+                        f"{type(filters[i]).__name__}: every filter must be of one class and "
+                        "precision")
+    _check_distinct(filters)
+    threads = _check_threads(threads)
     if cls._ref.kind not in ("imu", "ahrs"):
         raise TypeError(f"run_filters: {cls.__name__} is not a 3-D filter")
     if outputs not in _estimate.OUTPUTS:
@@ -259,14 +299,13 @@ def run_filters(filters, *inputs, dt=None, score=None, outputs="state", lanes=No
     if lanes is None:
         width = best if has_lanes(cls) else 0
     else:
-        if lanes not in (0, 1, 2, 4, 8) or lanes > best:
+        if type(lanes) is not int or lanes not in (0, 1, 2, 4, 8) or lanes > best:
             raise ValueError(f"lanes: one of 0 (each filter's own update) or "
                              f"{', '.join(map(str, lane_widths()))} on this CPU, got {lanes!r}")
         width = lanes
     heading = None
     if score is not None:
-        if len(score.use) != N:
-            raise ValueError(f"score: a reference of {len(score.use)} samples for a log of {N}")
+        score = _sealed_reference(score, N)
         _, _, heading = _adapter(cls)
     P = len(filters)
     traj = None

@@ -271,7 +271,7 @@ def _bind_filter(cp, name: str, c: str, text: str, rel_h: str, fixed: bool,
                  "\n    def set_mag_offset(self, offset):\n",
                  f'        """As imufuse.reference.{name}.set_mag_offset."""\n',
                  "        cdef imf_real o[3]\n",
-                 f"        o[0], o[1], o[2] = _reference.{name}._offset3(offset)\n",
+                 f"        o[0], o[1], o[2] = _reference.{name}._offset3(offset, DTYPE)\n",
                  f"        {c}_set_mag_offset(&self.s, o)\n"]
     return "".join(body)
 

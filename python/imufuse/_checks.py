@@ -60,6 +60,19 @@ def check_real(name, value, lo=None, hi=None, lo_open=False, hi_open=False, why=
     return v
 
 
+def check_real_in(name, value, dtype):
+    """check_real, then the value finite in ``dtype`` too (a float64 beyond float32's range
+    would become inf in a float32 filter's state)."""
+    v = check_real(name, value)
+    if check_dtype(dtype) == "float32":
+        with np.errstate(over="ignore"):
+            ok = bool(np.isfinite(np.float32(v)))
+        if not ok:
+            raise ValueError(f"{name}: must be finite in float32 (|{name}| <= "
+                             f"{float(np.finfo(np.float32).max):.8g}), got {value!r}")
+    return v
+
+
 def check_dt(dt):
     return check_real("dt", dt, lo=0.0, lo_open=True)
 

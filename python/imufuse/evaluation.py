@@ -199,6 +199,53 @@ class Reference:
     n_outside_mask: int
     heading_offset: bool = False
 
+    def sealed(self, n_log):
+        """A private, read-only copy checked whole for a log of ``n_log`` samples: what the
+        compiled scorer reads (run_filters(score=...)). ValueError/TypeError naming the
+        field that does not hold: use (n_log,) of 0/1, r (n_log, 4) finite with unit rows
+        (within 1e-6) where use is 1, n the number of 1s in use, n_samples == n_log."""
+        use, r = self.use, self.r
+        if not isinstance(use, np.ndarray) or not isinstance(r, np.ndarray):
+            bad = "use" if not isinstance(use, np.ndarray) else "r"
+            raise TypeError(f"score: Reference.{bad} must be a numpy array (prepare_reference "
+                            f"makes it), got {type(getattr(self, bad)).__name__}")
+        if use.ndim == 1 and len(use) != n_log:
+            raise ValueError(f"score: a reference of {len(use)} samples for a log of {n_log}")
+        if use.shape != (n_log,) or use.dtype.kind not in "biu":
+            raise ValueError(f"score: Reference.use must be ({n_log},) of 0/1 for a log of "
+                             f"{n_log} samples, got {use.dtype} {use.shape}")
+        if r.shape != (n_log, 4) or r.dtype.kind != "f":
+            raise ValueError(f"score: Reference.r must be ({n_log}, 4) floats for a log of "
+                             f"{n_log} samples, got {r.dtype} {r.shape}")
+        if not np.all((use == 0) | (use == 1)):
+            raise ValueError("score: Reference.use must hold 0 or 1 only")
+        u = np.array(use, dtype=np.uint8, order="C")
+        rr = np.array(r, dtype=np.float64, order="C")
+        on = u.astype(bool)
+        count = int(np.count_nonzero(on))
+        with np.errstate(all="ignore"):
+            norm = np.sqrt(np.einsum("ij,ij->i", rr[on], rr[on]))
+        if not (np.all(np.isfinite(rr)) and np.all(np.abs(norm - 1.0) <= 1e-6)):
+            raise ValueError("score: Reference.r must be finite, with unit rows where use is 1 "
+                             "(prepare_reference makes it)")
+        for field_, v in (("n", self.n), ("n_samples", self.n_samples),
+                          ("n_ref_nan", self.n_ref_nan), ("n_outside_mask", self.n_outside_mask)):
+            if type(v) is not int:
+                raise TypeError(f"score: Reference.{field_} must be an int, got {v!r}")
+            if v < 0:
+                raise ValueError(f"score: Reference.{field_} must be >= 0, got {v}")
+        if self.n != count:
+            raise ValueError(f"score: Reference.n is {self.n} but use counts {count} samples "
+                             "(a Reference changed after prepare_reference?)")
+        if self.n_samples != n_log:
+            raise ValueError(f"score: a reference of {self.n_samples} samples for a log of "
+                             f"{n_log}")
+        u.flags.writeable = False
+        rr.flags.writeable = False
+        return Reference(use=u, r=rr, n=count, n_samples=n_log, n_ref_nan=self.n_ref_nan,
+                         n_outside_mask=self.n_outside_mask,
+                         heading_offset=bool(self.heading_offset))
+
     def finish(self, sq_total, sq_heading, sq_inclination, n_est_nan, stored=None,
                has_heading=True):
         """The Evaluation of one estimate from the compiled scorer's sums (or, with the

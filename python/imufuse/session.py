@@ -188,6 +188,9 @@ PROGRESS_MIN = {"ref": 20_000, "c": 2_000_000}
 
 Progress = Callable[[str, int, int], None]
 
+#: samples per block when a run keeps only its estimate (Session.run(keep_states=False))
+STREAM_BLOCK = 1 << 16
+
 
 def run_with_progress(f: Any, inputs: Sequence[np.ndarray], label: str, backend: str,
                       dts: Any = None, progress: Optional[Progress] = None) -> np.ndarray:
@@ -235,15 +238,22 @@ class Run:
     extra: Dict[str, np.ndarray] = field(default_factory=dict)
     backend: str = "c"
     dtype: str = "float64"
+    samples: int = -1        # samples run (-1: len(states))
 
     @property
     def kind(self) -> str:
         return self.cls.kind
 
+    @property
+    def n(self) -> int:
+        """The number of samples the filter ran over (states may be empty: run(...,
+        keep_states=False))."""
+        return len(self.states) if self.samples < 0 else self.samples
+
     def why(self) -> str:
         """Why there is no estimate, or where it came from."""
-        if self.rejected and self.rejected >= len(self.states):
-            return f"every one of the {len(self.states)} samples rejected: nothing estimated"
+        if self.rejected and self.rejected >= self.n:
+            return f"every one of the {self.n} samples rejected: nothing estimated"
         return why_no_estimate(self.cls) if self.estimate is None else self.estimate.source
 
     def columns(self, t: np.ndarray, frame: str = "NWU") -> Tuple[Dict[str, np.ndarray],
@@ -398,16 +408,28 @@ class Session:
     def run(self, name: str, params: Optional[Mapping[str, Any]] = None,
             options: RunOptions = RunOptions(), *, progress: Optional[Progress] = None,
             keep_states: bool = True) -> Run:
-        """Run one filter (a catalogue name or FusionAHRS) over the log."""
+        """Run one filter (a catalogue name or FusionAHRS) over the log. keep_states=False:
+        the filter runs block by block and only its estimate is kept (Run.states is empty;
+        memory is the estimate's, never the trajectory's)."""
         inputs, src = self.inputs(name, options.axis)
         f, full, dts, init, notes = self.make(name, params, options)
         cls = self.filter_class(name)
+        n = len(self.log)
+        extra: Dict[str, np.ndarray] = {}
+        if not keep_states:
+            t0 = _time.perf_counter()
+            est = self.streamed_estimate(f, cls, name, full, inputs, options.backend, dts,
+                                          progress)
+            seconds = _time.perf_counter() - t0
+            rejected = min(int(getattr(f, "skipped", 0)), n)
+            S0 = np.empty((0, len(cls.state_names)))
+            return Run(name, cls, full, S0, est if rejected < n else None, rejected, seconds,
+                       self.describe_time(dts), init, src, notes, extra, options.backend,
+                       options.dtype, samples=n)
         t0 = _time.perf_counter()
         S = run_with_progress(f, inputs, name, options.backend, dts, progress)
         seconds = _time.perf_counter() - t0
-        n = len(self.log)
         rejected = min(int(getattr(f, "skipped", 0)), n)
-        extra: Dict[str, np.ndarray] = {}
         if name == FUSION:
             est = None if rejected >= n else self._fusion_estimate(S, full)
             out = f.outputs_batch(S)
@@ -424,9 +446,45 @@ class Session:
                 extra[key] = out[key].astype(np.float64)
         else:
             est = chunked_estimate(cls, S) if rejected < n else None
-        return Run(name, cls, full, S if keep_states else S[:0], est, rejected, seconds,
-                   self.describe_time(dts), init, src, notes, extra, options.backend,
-                   options.dtype)
+        return Run(name, cls, full, S, est, rejected, seconds, self.describe_time(dts), init,
+                   src, notes, extra, options.backend, options.dtype, samples=n)
+
+    def streamed_estimate(self, f: Any, cls: Any, name: str, params: Mapping[str, Any],
+                           inputs: Sequence[np.ndarray], backend: str, dts: Any,
+                           progress: Optional[Progress], block: int = STREAM_BLOCK
+                           ) -> Optional[Estimate]:
+        """f over the log in blocks of ``block`` samples (the state carries over: the same
+        trajectory, bit for bit), each block's estimate written into one array: memory is
+        the estimate's (32 bytes a sample) and one block's states."""
+        n = len(inputs[0])
+        first: Any = None
+        out: Optional[np.ndarray] = None
+        report = progress is not None and n >= PROGRESS_MIN.get(backend, PROGRESS_MIN["c"])
+        every = max(block, -(-n // 20))
+        next_report = every
+        for k in range(0, max(n, 1), block):
+            kw = {} if dts is None else {"dt": dts if np.ndim(dts) == 0 else dts[k:k + block]}
+            part = f.run(*[x[k:k + block] for x in inputs], **kw)
+            e = self._fusion_estimate(part, params) if name == FUSION else estimate(cls, part)
+            if e is None:
+                continue            # no orientation in this filter's state: run on for skipped
+            if first is None:
+                first = e
+                shape = (n,) if e.angle is not None else (n, 4)
+                out = np.empty(shape)
+            assert out is not None
+            out[k:k + len(part)] = e.angle if e.angle is not None else e.q
+            if report and progress is not None and (k + len(part) >= next_report
+                                                    or k + len(part) == n):
+                progress(name, k + len(part), n)
+                next_report += every
+        if first is None:
+            return None
+        if first.angle is not None:
+            first.angle = out
+        else:
+            first.q = out
+        return first
 
     def _fusion_estimate(self, S: np.ndarray, params: Mapping[str, Any]) -> Estimate:
         """FusionAHRS's quaternion (its `convention`'s earth frame) as an NWU estimate."""

@@ -30,7 +30,7 @@ import imufuse_c
 
 from .catalogue import FLOAT, FilterError, reference_class, resolve_params
 from .evaluation import METRICS, mean_over_trials, prepare_reference
-from .session import (NothingComputed, RunOptions, ScoreOptions, Session, chunked_estimate,
+from .session import (NothingComputed, RunOptions, ScoreOptions, Session,
                       effective_params)
 
 __all__ = ["Tuner", "TuneResult", "grid_spec", "Grid"]
@@ -163,10 +163,10 @@ class Tuner:
         over = {**self.fixed, **dict(zip(names, values))}
         evs = []
         for s, inp in zip(self.sessions, self.inputs):
-            f, _, dts, _, _ = s.make(self.name, over, self.run_options)
-            S = f.run(*inp, **({} if dts is None else {"dt": dts}))
-            evs.append(s.score_estimate(self.cls, chunked_estimate(self.cls, S),
-                                        self.score_options))
+            f, full, dts, _, _ = s.make(self.name, over, self.run_options)
+            est = s.streamed_estimate(f, self.cls, self.name, full, inp,
+                                      self.run_options.backend, dts, None)
+            evs.append(s.score_estimate(self.cls, est, self.score_options))
         return mean_over_trials(evs)[self.metric], evs
 
     def _run_batch(self, names: Sequence[str], points: List[Tuple[float, ...]],

@@ -94,7 +94,8 @@ def compare(args):
     for n in chosen:
         kind = s.filter_class(n).kind
         try:
-            r = s.run(n, per[n], ro, progress=progress)
+            # only the estimate is kept: memory is bounded by the log, not the trajectory
+            r = s.run(n, per[n], ro, progress=progress, keep_states=False)
         except LogError as e:
             if isinstance(e, StrictError):
                 raise
@@ -122,8 +123,7 @@ def compare(args):
                     final[2] = np.nan
         ev = s.score(r, sc, axis=ro.axis)
         hint = hint or _hint(s, r, ev, sc, args.strict)
-        if est is not None and args.plot:      # kept for the plot only: long logs stay small
-            r.states = r.states[:0]
+        if est is not None and args.plot:      # the estimates are kept for the plot only
             runs[n] = r
         rows.append((n, kind, ev, final, sps, note))
     if not computed:

@@ -42,7 +42,9 @@ The precision of the firmware is read from sizeof of the state expressions.
 Compilation: `cflags` default DEFAULT_CFLAGS (the numerical contract of
 docs/internals.md); give a list to replace them. `defines` {NAME: value or None}.
 Builds are cached under $IMUFUSE_CACHE or ~/.cache/imufuse/firmware, keyed by
-the generated source, the flags and the contents of the sources and headers.
+the generated source, the flags, the compiler's identity and the contents of
+every file the compiler reads (its -M dependency output: headers in any
+directory, included files of any extension).
 
 The modules, by subject:
   declaration   the user's declaration: prototypes (imufuse.cproto), the filter object,

@@ -1,10 +1,12 @@
 """The user's firmware on the host: compiled with cffi beside the generated harness, loaded
-into this process and run on a log, the state read back after every sample.
+and run on a log, the state read back after every sample.
 
 ``Firmware`` is a ``Declaration`` that builds (cached under $IMUFUSE_CACHE or
-~/.cache/imufuse/firmware, keyed by the generated source, the flags and the contents of the
-sources and headers) and runs; ``csrc_firmware`` declares imufuse's own C filter from a csrc
-directory.
+~/.cache/imufuse/firmware, keyed by the generated source, the flags, the compiler's identity
+and the contents of every file the compiler reads, from its -M dependency output) and runs;
+``csrc_firmware`` declares imufuse's own C filter from a csrc directory. ``prepare`` only
+compiles; the firmware is loaded (its C constructors run) by ``load`` or ``run``, which
+validate_isolated calls in its child process only.
 """
 import glob
 import hashlib
@@ -12,7 +14,11 @@ import importlib.util
 import json
 import os
 import re
-from typing import Any
+import shlex
+import subprocess
+import sysconfig
+import tempfile
+from typing import Any, List, Tuple
 
 import numpy as np
 
@@ -21,7 +27,44 @@ from ..catalogue import reference_class
 from .csource import host_source, target_source
 from .declaration import Declaration, FirmwareError
 
-__all__ = ["Firmware", "csrc_firmware"]
+__all__ = ["Firmware", "csrc_firmware", "compiler_command", "compiler_identity"]
+
+_IDENTITY: dict = {}
+
+
+def _make_deps(text: str) -> List[str]:
+    """The prerequisites of a make rule written by the compiler's -M (one target; lines
+    continued with a backslash; spaces in names escaped as '\\ ', '$' as '$$')."""
+    body = text.replace("\\\n", " ").split(":", 1)[1]
+    return [t.replace("\\ ", " ").replace("$$", "$")
+            for t in re.findall(r"(?:\\ |[^\s])+", body)]
+
+
+def compiler_command() -> List[str]:
+    """The C compiler cffi builds with ($CC, else Python's own CC), as a command list."""
+    return shlex.split(os.environ.get("CC") or sysconfig.get_config_var("CC") or "cc")
+
+
+def compiler_identity() -> Tuple[str, ...]:
+    """The compiler's command, resolved path and version text: part of the build key, so a
+    different or upgraded compiler never reuses a build."""
+    cc = compiler_command()
+    key = tuple(cc)
+    if key not in _IDENTITY:
+        import shutil
+        path = shutil.which(cc[0]) or cc[0]
+        try:
+            proc = subprocess.run([*cc, "--version"], capture_output=True, text=True, timeout=30)
+            version = proc.stdout.strip()
+        except (OSError, subprocess.SubprocessError):
+            version = "unknown"
+        try:
+            st = os.stat(path)
+            stamp = f"{st.st_size}:{st.st_mtime_ns}"
+        except OSError:
+            stamp = ""
+        _IDENTITY[key] = (*cc, os.path.realpath(path), stamp, version)
+    return _IDENTITY[key]
 
 
 class Firmware(Declaration):
@@ -38,43 +81,85 @@ class Firmware(Declaration):
         """The driver of an emulated-MCU build (imufuse.firmware.csource.target_source)."""
         return target_source(self, kind, init_values, dt, state0, c89)
 
-    def _build(self, kind, n_init):
-        src = self.source(kind, n_init)
+    def _deps(self, src):
+        """Every file the compiler reads for this build (its -M dependency output over the
+        harness and each source, system headers included), sorted; FirmwareError naming the
+        compiler's message when the sources cannot even be preprocessed."""
+        cc = compiler_command()
+        flags = [f for f in self.cflags if not f.startswith(("-M", "-o"))]
+        defs = [f"-D{k}" if v is None else f"-D{k}={v}" for k, v in self.defines.items()]
+        incs = [f"-I{d}" for d in self.include_dirs]
+        deps = set()
+        with tempfile.TemporaryDirectory(prefix="imufuse-deps-") as tmp:
+            harness = os.path.join(tmp, "harness.c")
+            with open(harness, "w") as fh:
+                fh.write(src)
+            for f in [harness, *self.sources]:
+                proc = subprocess.run([*cc, *flags, *defs, *incs, "-M", "-MT", "x", f],
+                                      capture_output=True, text=True)
+                if proc.returncode != 0:
+                    # the compilation proper reports it with the compiler's whole output
+                    return None
+                deps.update(p for p in (os.path.realpath(d) for d in _make_deps(proc.stdout))
+                            if p != os.path.realpath(harness))
+        return sorted(deps)
+
+    def _key(self, src):
+        """The build's name: a hash of the generated harness, the declaration's build
+        settings, the compiler's identity and the contents of every file the compiler reads
+        (sources, headers in any directory, included files of any extension)."""
         h = hashlib.sha256()
         h.update(src.encode())
         h.update(json.dumps([self.cflags, sorted(self.defines.items()), self.include_dirs,
-                             self.sources]).encode())
-        files = list(self.sources)
-        for d in self.include_dirs + sorted({os.path.dirname(s) for s in self.sources}):
-            files += sorted(glob.glob(os.path.join(d, "*.h")))
+                             self.sources, compiler_identity()]).encode())
+        deps = self._deps(src)
+        files = list(self.sources) if deps is None else deps
         for f in files:
             h.update(f.encode())
-            h.update(open(f, "rb").read())
-        name = "_imufuse_fw_" + h.hexdigest()[:20]
+            try:
+                with open(f, "rb") as fh:
+                    h.update(hashlib.sha256(fh.read()).digest())
+            except OSError:
+                h.update(b"\0missing")
+        if deps is None:
+            # not preprocessable: never a cached build (the compiler will say why)
+            h.update(os.urandom(16))
+        return "_imufuse_fw_" + h.hexdigest()[:24]
+
+    def _compiled(self, kind, n_init):
+        """The path of the compiled harness and firmware (built now unless a build of the
+        same key is cached). No firmware code runs here."""
+        src = self.source(kind, n_init)
+        name = self._key(src)
         outdir = os.path.join(self.cache_dir, name)
         built = glob.glob(os.path.join(outdir, name + ".*so")) + \
             glob.glob(os.path.join(outdir, name + ".*pyd"))
-        if not built:
-            try:
-                from cffi import FFI
-            except ImportError:
-                raise FirmwareError("validating on the host compiles the firmware with cffi, "
-                                    "which is not installed: pip install 'imufuse[firmware]' "
-                                    "(or validate on an emulated MCU with --target)") from None
-            ffi = FFI()
-            ffi.cdef("void imufuse_fw_run(const double *p, const double *s0, int set_state, "
-                     "size_t n, const double *in, double dt, double *out, int *isint);\n"
-                     "void imufuse_fw_sizes(int *sizes);")
-            defs = [(k, None if v is None else str(v)) for k, v in self.defines.items()]
-            ffi.set_source(name, src, sources=self.sources, include_dirs=self.include_dirs,
-                           define_macros=defs, extra_compile_args=self.cflags)
-            os.makedirs(outdir, exist_ok=True)
-            try:
-                path = ffi.compile(tmpdir=outdir, verbose=False)
-            except Exception as e:  # cffi.VerificationError, distutils CompileError
-                raise FirmwareError(f"compilation failed (compiler output above): {e}") from None
-        else:
-            path = built[0]
+        if built:
+            return name, built[0]
+        try:
+            from cffi import FFI
+        except ImportError:
+            raise FirmwareError("validating on the host compiles the firmware with cffi, "
+                                "which is not installed: pip install 'imufuse[firmware]' "
+                                "(or validate on an emulated MCU with --target)") from None
+        ffi = FFI()
+        ffi.cdef("void imufuse_fw_run(const double *p, const double *s0, int set_state, "
+                 "size_t n, const double *in, double dt, double *out, int *isint);\n"
+                 "void imufuse_fw_sizes(int *sizes);")
+        defs = [(k, None if v is None else str(v)) for k, v in self.defines.items()]
+        ffi.set_source(name, src, sources=self.sources, include_dirs=self.include_dirs,
+                       define_macros=defs, extra_compile_args=self.cflags)
+        os.makedirs(outdir, exist_ok=True)
+        try:
+            path = ffi.compile(tmpdir=outdir, verbose=False)
+        except Exception as e:  # cffi.VerificationError, distutils CompileError
+            raise FirmwareError(f"compilation failed (compiler output above): {e}") from None
+        return name, path
+
+    @staticmethod
+    def _load(name, path):
+        """Load a compiled build into this process: its C constructors run here, so
+        validate_isolated loads it only in the child."""
         spec = importlib.util.spec_from_file_location(name, path)
         try:
             mod = importlib.util.module_from_spec(spec)
@@ -87,8 +172,17 @@ class Firmware(Declaration):
             raise FirmwareError(f"the compiled firmware cannot be loaded: {e}") from None
         return mod
 
+    def _build(self, kind, n_init):
+        return self._load(*self._compiled(kind, n_init))
+
     def prepare(self, kind, c_args=(), params=None):
-        """Compile and load the firmware for a `kind` filter (no firmware code runs)."""
+        """Compile the firmware for a `kind` filter, without loading it: no firmware code
+        (not even a C constructor) runs in this process."""
+        n_init = len(self._init_values(c_args, params or {})) if self.init else 0
+        self._compiled(kind, n_init)
+
+    def load(self, kind, c_args=(), params=None):
+        """Compile and load the firmware (its C constructors run in this process)."""
         n_init = len(self._init_values(c_args, params or {})) if self.init else 0
         key = (kind, n_init)
         if self._lib is None or self._lib[0] != key:

@@ -12,9 +12,18 @@ __all__ = ["validate_isolated", "DEFAULT_TIMEOUT"]
 #: seconds a firmware run may take in validate_isolated (imufuse validate --timeout)
 DEFAULT_TIMEOUT = 60.0
 
+#: _attempt's n for "load the firmware and stop" (its constructors only)
+LOAD_ONLY = -1
+
 
 def _child(conn, fw, name, params, inputs, backend, dtype, n):  # host only
     try:
+        if n == LOAD_ONLY:
+            # the firmware's C constructors run when it is loaded, before init
+            e = _filter_entry(name)
+            fw.load(e.kind, _c_values(e, params), params)
+            conn.send(("ok", None))
+            return
         inp = inputs if n is None else [a[:n] for a in inputs]
         conn.send(("ok", validate(fw, name, params, inp, backend, dtype)))
     except FirmwareError as e:
@@ -69,6 +78,8 @@ def _describe(res, where, timeout):
     if kind == "exit":
         return f"the firmware called exit({v}) {where}"
     if kind == "timeout":
+        if where:
+            return f"the firmware gave no answer after {timeout:g} s {where}"
         return f"the firmware gave no answer after {timeout:g} s (an endless loop in init or update?)"
     return v
 
@@ -79,9 +90,10 @@ def validate_isolated(fw, name, params, inputs, backend="c", dtype=None, timeout
 
     A crash (signal), a call to exit() or a run past `timeout` seconds raises
     FirmwareError with one line: "crashed with SIGSEGV at sample k" (found by
-    re-running on shorter prefixes) or "during init", "called exit(3) ...",
-    "no answer after N s". Compilation and loading (a missing symbol) happen
-    first, in this process, where no firmware code runs."""
+    re-running on shorter prefixes) or "during init", "while being loaded" (a C
+    constructor), "called exit(3) ...", "no answer after N s". Compilation happens first,
+    in this process; the firmware is loaded only in the child, so no firmware code (not
+    even a C constructor) runs here."""
     if target != "host":
         return validate(fw, name, params, inputs, backend, dtype, target=target, timeout=timeout)
     e = _filter_entry(name)
@@ -91,6 +103,13 @@ def validate_isolated(fw, name, params, inputs, backend="c", dtype=None, timeout
         return res[1]
     if res[0] in ("firmware", "error"):
         raise FirmwareError(res[1])
+    # the firmware's own code failed: first its C constructors (run when it is loaded)
+    loaded = _attempt(fw, name, params, inputs, backend, dtype, LOAD_ONLY, timeout)
+    if loaded[0] in ("firmware", "error"):
+        raise FirmwareError(loaded[1])
+    if loaded[0] != "ok":
+        raise FirmwareError(_describe(loaded, "while being loaded, before init (a C "
+                                      "constructor or a static C++ object)", timeout))
     if res[0] == "timeout":
         raise FirmwareError(_describe(res, "", timeout))
     # locate the sample: the shortest prefix that fails the same way

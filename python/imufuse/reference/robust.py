@@ -726,22 +726,24 @@ class RobustAHRS(_Robust):
         return (float(self.ux), float(self.uy), float(self.uz)), float(self.m_std)
 
     @staticmethod
-    def _offset3(offset):
-        # (x, y, z) finite numbers, or ValueError naming the component
+    def _offset3(offset, dtype):
+        # (x, y, z) numbers finite in the filter's precision, or ValueError naming the
+        # component
         try:
             values = tuple(offset)
         except TypeError:
             raise ValueError(f"mag offset: expected (x, y, z), got {offset!r}") from None
         if len(values) != 3:
             raise ValueError(f"mag offset: expected 3 values (x, y, z), got {len(values)}")
-        return tuple(_checks.check_real(f"mag offset {n}", v) for n, v in zip("xyz", values))
+        return tuple(_checks.check_real_in(f"mag offset {n}", v, dtype)
+                     for n, v in zip("xyz", values))
 
     def set_mag_offset(self, offset):
         """B6: the stored offset (x, y, z; magnetometer unit, sensor frame, e.g. the "h"
         of a calibration file): used until a trusted estimate differs from it by more
         than mag_offset_min; the estimator starts again from it."""
         R = self._R
-        ox, oy, oz = (R(v) for v in self._offset3(offset))
+        ox, oy, oz = (R(v) for v in self._offset3(offset, self.dtype))
         self.sx, self.sy, self.sz = ox, oy, oz
         self.ux, self.uy, self.uz = ox, oy, oz
         self.m_n0 = R(0.0)
