@@ -278,8 +278,8 @@ def test_calibrate_refuses_to_merge_into_a_malformed_file(tmp_path):
     bad = '{"accelerometer": {"M": [1, 2], "s": [1, 1, 1], "b": [0, 0, 0]}}\n'
     out.write_text(bad)
     r = imf("calibrate", "gyro", tmp_path / "gyr.csv", "-o", out, "--gyr-unit", "deg/s")
-    # refused as an -o that is not a calibration file at all is (the command's arguments)
-    assert r.returncode == 2 and "accelerometer.M" in r.stderr and "nothing written" in r.stderr, \
+    # refused as an -o that is not a calibration file at all is: bad file contents (exit 4)
+    assert r.returncode == 4 and "accelerometer.M" in r.stderr and "nothing written" in r.stderr, \
         (r.returncode, r.stderr)
     assert out.read_text() == bad
     out.write_text("[1, 2]\n")

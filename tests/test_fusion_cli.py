@@ -144,8 +144,9 @@ def test_calibration_file_roundtrip_and_cli_errors(tmp_path, log_path):
     (tmp_path / "broken.json").write_text("{")
     with pytest.raises(cm.CalibrationError, match="not valid JSON"):
         cm.load_calibration(tmp_path / "broken.json")
+    # a calibration file that is not JSON: bad file contents (exit 4), not a bad command line
     assert cli.main(["run", str(log_path), "--filter", "FusionAHRS", "--calibration",
-                     str(tmp_path / "broken.json"), "-o", str(tmp_path / "x.csv")]) == 2
+                     str(tmp_path / "broken.json"), "-o", str(tmp_path / "x.csv")]) == 4
     assert cli.main(["run", str(log_path), "--filter", "FusionAHRS", "-p", "gain=-1",
                      "-o", str(tmp_path / "x.csv")]) == 2
     assert cli.main(["run", str(log_path), "--filter", "FusionAHRS", "--align", "+X+X+Z",

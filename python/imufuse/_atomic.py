@@ -2,16 +2,26 @@
 temporary name and renamed over it only once complete, so a write that fails (a full disk, a
 file-size limit, an error half way) leaves the previous file as it was and no truncated one.
 A destination that is a symbolic link is replaced at the file it points to; one that is not a
-regular file (a device, a pipe) is written in place, never replaced."""
+regular file (a device, a pipe) is written in place, never replaced.
+
+A read-merge-write (a calibration file that `imufuse calibrate` merges a section into) holds
+`locked(path)` around the whole of it, so that two processes writing different sections of
+one file both keep theirs."""
 from __future__ import annotations
 
 import contextlib
 import os
 import stat
+import sys
 import tempfile
 from typing import Iterator
 
-__all__ = ["replacing"]
+if sys.platform == "win32":
+    import msvcrt
+else:
+    import fcntl
+
+__all__ = ["replacing", "locked"]
 
 
 def _mode_for(path: str) -> int:
@@ -53,6 +63,56 @@ def replacing(path: "str | os.PathLike[str]") -> Iterator[str]:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
         raise
+
+
+def _lock(fd: int) -> None:
+    if sys.platform == "win32":
+        while True:
+            try:
+                msvcrt.locking(fd, msvcrt.LK_LOCK, 1)   # gives up after 10 s: wait again
+                return
+            except OSError:
+                continue
+    else:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+
+
+def _unlock(fd: int) -> None:
+    if sys.platform == "win32":
+        os.lseek(fd, 0, os.SEEK_SET)
+        msvcrt.locking(fd, msvcrt.LK_UNLCK, 1)
+    else:
+        fcntl.flock(fd, fcntl.LOCK_UN)
+
+
+@contextlib.contextmanager
+def locked(path: "str | os.PathLike[str]") -> Iterator[None]:
+    """Hold an exclusive lock for a read-merge-write of `path` (waiting for another holder):
+    on the file `.<name>.lock` beside it, created if needed and left there (the data file
+    itself is replaced by `replacing`'s rename, so a lock on it would guard nothing).
+    fcntl.flock on POSIX, msvcrt.locking on Windows. A destination that is not a regular
+    file, a directory where the lock file cannot be made (`replacing` then writes in place)
+    or a file system without locks is written unlocked."""
+    dest = os.path.realpath(os.fspath(path))
+    fd = -1
+    if os.path.isfile(dest) or not os.path.exists(dest):
+        d, base = os.path.split(dest)
+        with contextlib.suppress(OSError):
+            fd = os.open(os.path.join(d, f".{base}.lock"), os.O_RDWR | os.O_CREAT, 0o666)
+    if fd >= 0:
+        try:
+            _lock(fd)
+        except OSError:
+            # a file system without locks (ENOLCK): written as before, unlocked
+            os.close(fd)
+            fd = -1
+    try:
+        yield
+    finally:
+        if fd >= 0:
+            with contextlib.suppress(OSError):
+                _unlock(fd)
+            os.close(fd)
 
 
 class OutputConflict(ValueError):

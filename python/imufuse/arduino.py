@@ -34,6 +34,7 @@ from typing import Dict, List, Sequence, Tuple
 import numpy as np
 
 from . import __version__
+from ._atomic import replacing
 from ._resources import csrc_dir
 from .catalogue import entry, resolve_params
 from .io import example_log, read_log
@@ -270,11 +271,14 @@ def _keywords(headers: Sequence[Path]) -> str:
 
 def export_arduino(dest: "str | os.PathLike[str]", make_zip: bool = False) -> Path:
     """Write the Arduino library into dest/imufuse (and dest/imufuse-<version>.zip); returns
-    the library directory. dest/imufuse must not exist yet."""
+    the library directory. Neither may exist yet (FileExistsError before anything is
+    written); the zip is written whole or not at all."""
     dest = Path(dest)
     lib = dest / "imufuse"
-    if lib.exists():
-        raise FileExistsError(f"{lib} exists: give a new directory")
+    z = dest / f"imufuse-{__version__}.zip"
+    for p in (lib, z) if make_zip else (lib,):
+        if os.path.lexists(p):
+            raise FileExistsError(f"{p} exists: give a new directory")
     src = lib / "src"
     csrc = Path(csrc_dir())
     (src / "fixed").mkdir(parents=True)
@@ -303,8 +307,7 @@ def export_arduino(dest: "str | os.PathLike[str]", make_zip: bool = False) -> Pa
         (d / "example_data.h").write_text(data)
         (d / "input.csv").write_text(csv)
     if make_zip:
-        z = dest / f"imufuse-{__version__}.zip"
-        with zipfile.ZipFile(z, "w", zipfile.ZIP_DEFLATED) as zf:
+        with replacing(z) as tmp, zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zf:
             for p in sorted(lib.rglob("*")):
                 if p.is_file():
                     zf.write(p, p.relative_to(dest).as_posix())

@@ -8,6 +8,9 @@ The file format (`imufuse calibrate ... -o calib.json`, read by `imufuse run
     {"gyroscope": {"M": 3x3, "s": [3], "b": [3]},
      "accelerometer": {"M": 3x3, "s": [3], "b": [3]},
      "magnetometer": {"S": 3x3, "h": [3]}}        every key optional
+
+`save` reads, merges and writes the file under an exclusive lock (imufuse._atomic.locked):
+two processes saving different sections of one file both keep theirs.
 """
 import json
 import os
@@ -15,11 +18,11 @@ from dataclasses import replace
 
 import numpy as np
 
-from .._atomic import replacing
+from .._atomic import locked, replacing
 from ..io import LogError, require
 from ..session import ReadOptions, Session
 from .fit import Calibration, accel_six_position, gyro_offset, mag_ellipsoid, mag_minmax, mag_sphere
-from .models import CalibrationError, from_dict
+from .models import CalibrationError, from_dict, read_json
 
 __all__ = ["save", "save_mag_offset", "run_log", "describe", "SECTIONS"]
 
@@ -28,30 +31,32 @@ SECTIONS = {"gyro": "gyroscope", "accel": "accelerometer", "mag": "magnetometer"
 
 
 def save(path, cal):
-    """Write (or merge into an existing) calibration file. The merged file must be one that
-    `imufuse run --calibration` reads: a malformed section of another sensor is refused
-    with its name and nothing is written (a malformed section of this sensor is replaced)."""
-    data = {}
-    if os.path.exists(path):
-        with open(path) as fh:
-            try:
-                data = json.load(fh)
-            except json.JSONDecodeError as e:
-                raise ValueError(f"{path}: not a calibration file ({e})") from None
-        if not isinstance(data, dict):
-            raise ValueError(f"{path}: not a calibration file (expected a JSON object)")
+    """Write (or merge into an existing) calibration file, holding its lock from the read to
+    the rename. The merged file must be one that `imufuse run --calibration` reads: an
+    existing file that is not one, or a malformed section of another sensor, is refused
+    (CalibrationError naming the file) and nothing is written (a malformed section of this
+    sensor is replaced)."""
     section = cal.as_json()
     if not all(np.all(np.isfinite(np.asarray(v, dtype=float))) for v in cal.params.values()):
         raise ValueError(f"{path}: the {cal.sensor} calibration is not finite "
                          f"({cal.params}); nothing written")
-    data[SECTIONS[cal.sensor]] = section
-    try:
-        from_dict(data)
-    except CalibrationError as e:
-        raise ValueError(f"{path}: {e}; fix or remove that section (nothing written)") from None
-    with replacing(path) as tmp, open(tmp, "w") as fh:
-        json.dump(data, fh, indent=2)
-        fh.write("\n")
+    with locked(path):
+        data = {}
+        if os.path.exists(path):
+            try:
+                data = read_json(path)
+            except CalibrationError as e:
+                raise CalibrationError(f"{e} (not a calibration file; nothing written)",
+                                       e.kind) from None
+        data[SECTIONS[cal.sensor]] = section
+        try:
+            from_dict(data)
+        except CalibrationError as e:
+            raise CalibrationError(f"{path}: {e}; fix or remove that section (nothing "
+                                   "written)") from None
+        with replacing(path) as tmp, open(tmp, "w") as fh:
+            json.dump(data, fh, indent=2)
+            fh.write("\n")
     return data
 
 

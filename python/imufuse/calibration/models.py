@@ -16,6 +16,10 @@ magnetometer's unit; M, s and S are dimensionless. (The models are linear: a
 caller working in Fusion's deg/s converts b by 180/pi.) The models are
 evaluated by imufuse_c.calibrate_inertial / calibrate_magnetic (C, in
 Fusion's operation order; pure-Python twin in imufuse.reference.fusion).
+
+A file is read by imufuse._jsonfile (UTF-8, at most 1 MiB, nesting and repeated keys
+bounded) and written whole (imufuse._atomic.replacing) under the lock of a
+read-merge-write (imufuse._atomic.locked).
 """
 import json
 from dataclasses import dataclass, field
@@ -25,6 +29,8 @@ import numpy as np
 
 import imufuse_c
 
+from .._atomic import locked, replacing
+from .._jsonfile import FileContentError, read_object
 from ..reference import fusion
 
 SENSORS = {"gyroscope": ("M", "s", "b"), "accelerometer": ("M", "s", "b"),
@@ -34,7 +40,12 @@ IDENTITY = {"M": np.eye(3), "S": np.eye(3), "s": np.ones(3), "b": np.zeros(3), "
 
 
 class CalibrationError(ValueError):
-    """A calibration file or dict that does not follow the format."""
+    """A calibration file or dict that does not follow the format; `kind` is "file" (a file
+    missing or unreadable: exit 3 on the command line) or "data" (its contents: exit 4)."""
+
+    def __init__(self, message, kind="data"):
+        super().__init__(message)
+        self.kind = kind
 
 
 @dataclass
@@ -99,7 +110,7 @@ def from_dict(data, source=""):
         for k, v in entry.items():
             try:
                 arr = np.asarray(v, dtype=np.float64)
-            except (TypeError, ValueError):
+            except (TypeError, ValueError, OverflowError):
                 raise CalibrationError(_where(source, f"{sensor}.{k}: expected numbers, got {v!r}")) \
                     from None
             if arr.shape != SHAPES[k]:
@@ -112,22 +123,25 @@ def from_dict(data, source=""):
     return cal
 
 
+def read_json(path):
+    """The JSON object of a calibration file, unvalidated; CalibrationError naming the file
+    and the fault (not UTF-8, over 1 MiB, not JSON, nested too deep, a key given twice)."""
+    try:
+        return read_object(path, "calibration file")
+    except FileContentError as e:
+        raise CalibrationError(str(e), e.kind) from None
+
+
 def load_calibration(path):
     """Read and validate a calibration JSON file."""
-    try:
-        with open(path, encoding="utf-8") as fh:
-            data = json.load(fh)
-    except OSError as e:
-        raise CalibrationError(f"{path}: cannot read ({e.strerror or e})") from None
-    except json.JSONDecodeError as e:
-        raise CalibrationError(f"{path}: not valid JSON ({e.msg}, line {e.lineno})") from None
-    return from_dict(data, source=str(path))
+    return from_dict(read_json(path), source=str(path))
 
 
 def save_calibration(path, calibration):
-    """Write a Calibration (or a dict in the format) as JSON, validated first."""
+    """Write a Calibration (or a dict in the format) as JSON, validated first; whole or not
+    at all, and under the lock that `imufuse calibrate`'s merge holds."""
     cal = calibration if isinstance(calibration, Calibration) else from_dict(calibration)
-    with open(path, "w", encoding="utf-8") as fh:
+    with locked(path), replacing(path) as tmp, open(tmp, "w", encoding="utf-8") as fh:
         json.dump(cal.to_dict(), fh, indent=2)
         fh.write("\n")
     return path
@@ -160,5 +174,5 @@ def is_identity(cal):
         np.array_equal(v, IDENTITY[k]) for k, v in getattr(cal, s).items()) for s in SENSORS)
 
 
-__all__ = ["Calibration", "CalibrationError", "from_dict", "load_calibration",
-           "save_calibration", "is_identity"]
+__all__ = ["Calibration", "CalibrationError", "from_dict", "read_json", "load_calibration",
+           "save_calibration", "is_identity", "mag_offset"]

@@ -5,10 +5,13 @@ Exit codes (every failure is one line on stderr, "imufuse: error: ..."):
   0  success
   1  a bit-exact check or a validation failed (the firmware differs)
   2  bad command line (unknown filter or parameter, bad option value, an
-     output that would overwrite the input)
+     option's name or value given twice, an output that would overwrite the
+     input)
   3  a file not found, unreadable, or an output that cannot be written
-  4  bad log contents (columns, values, time), a plausibility warning under
-     --strict, or nothing could be computed or evaluated
+  4  bad file contents: a log's (columns, values, time), a calibration file's or
+     a column map's (not UTF-8, over 1 MiB, not JSON, nested too deep, not the
+     format); a plausibility warning under --strict, or nothing could be
+     computed or evaluated
   5  firmware that cannot be compiled, bound or run (a crash, exit(), a
      hang past --timeout, a missing symbol)
   6  an unexpected internal error (a bug; IMUFUSE_DEBUG=1 shows the traceback)
@@ -19,6 +22,7 @@ import os
 import sys
 
 from .. import __version__
+from ..calibration import CalibrationError
 from ..catalogue import FilterError
 from ..firmware import FirmwareError
 from ..io import LogError
@@ -77,6 +81,9 @@ def main(argv=None):
     except LogError as e:
         err(f"error: {e}")
         return {"file": EXIT_FILE, "usage": EXIT_USAGE}.get(e.kind, EXIT_DATA)
+    except CalibrationError as e:
+        err(f"error: {e}")
+        return EXIT_FILE if e.kind == "file" else EXIT_DATA
     except NothingComputed as e:
         err(f"error: {e}")
         return EXIT_DATA

@@ -8,7 +8,7 @@ import sys
 from .. import io
 from .._fusion import SETTINGS as FUSION_SETTINGS
 from ..catalogue import canonical_name, param_names
-from ..io import parse_column_map, read_column_map
+from ..io import LogError, parse_column_map, read_column_map
 from ..session import ReadOptions, RunOptions, ScoreOptions, Session, init_value
 
 EXIT_OK, EXIT_FAIL, EXIT_USAGE, EXIT_FILE, EXIT_DATA, EXIT_FIRMWARE, EXIT_INTERNAL = range(7)
@@ -41,29 +41,57 @@ def value(text):
 
 
 def pairs(items, what="--param"):
-    out = {}
+    """NAME=VALUE items of a repeatable option -> {name: value}; a name given twice is a
+    UsageError naming the option and the name."""
+    out, given = {}, {}
     for it in items or ():
         if "=" not in it:
             raise UsageError(f"{what} {it!r}: expected NAME=VALUE")
         k, v = it.split("=", 1)
-        out[k.strip()] = value(v)
+        k = k.strip()
+        if k in out:
+            raise UsageError(f"{what} {k}: given twice ({what} {given[k]}, {what} {it.strip()}); "
+                             "give it once")
+        out[k], given[k] = value(v), it.strip()
     return out
 
 
-def names(items):
-    return [canonical_name(n.strip()) for f in items or () for n in f.split(",") if n.strip()]
+def once(items, what):
+    """The values of a repeatable option, in order; a value given twice is a UsageError naming
+    the option and the value."""
+    out = []
+    for it in items or ():
+        if it in out:
+            raise UsageError(f"{what} {it}: given twice; give it once")
+        out.append(it)
+    return out
+
+
+def names(items, what="--filter"):
+    """Filter names of a repeatable option (each NAME[,NAME]) in the catalogue's spelling; a
+    filter named twice is a UsageError naming it."""
+    return once([canonical_name(n.strip()) for f in items or () for n in f.split(",")
+                 if n.strip()], what)
 
 
 def scoped_params(items, filters):
-    """--param NAME=V (every filter that has NAME) or FILTER.NAME=V -> {filter: {name: v}}."""
+    """--param NAME=V (every filter that has NAME) or FILTER.NAME=V -> {filter: {name: v}};
+    one filter's parameter given twice (also as NAME and FILTER.NAME) is a UsageError."""
     out = {n: {} for n in filters}
+    src = {n: {} for n in filters}
+
+    def put(f, p, v, k):
+        if p in out[f]:
+            raise UsageError(f"--param {k}: {p} of {f} is also given by --param {src[f][p]}; "
+                             "give it once")
+        out[f][p], src[f][p] = v, k
     for k, v in pairs(items).items():
         if "." in k:
             f, p = k.split(".", 1)
             f = canonical_name(f)
             if f not in out:
                 raise UsageError(f"--param {k}: filter {f!r} is not among {', '.join(filters)}")
-            out[f][p] = v
+            put(f, p, v, k)
         else:
             hit = [n for n in filters if k in _param_names(n)]
             if not hit:
@@ -71,7 +99,7 @@ def scoped_params(items, filters):
                                  + "; ".join(f"{n}: {', '.join(p for p in _param_names(n) if p != 'dt')}"
                                              for n in filters))
             for n in hit:
-                out[n][k] = v
+                put(n, k, v, k)
     return out
 
 
@@ -85,11 +113,27 @@ def _param_names(name):
 # the border: arguments -> typed settings
 
 def column_map(args):
-    cmap = {}
+    """{name: header} from --column-map and --columns; a column named twice (in one of them
+    or in both) is a UsageError naming the option and the column."""
+    cmap, where = {}, {}
     if getattr(args, "column_map", None):
-        cmap.update(read_column_map(args.column_map))
+        try:
+            cmap = read_column_map(args.column_map)
+        except LogError as e:
+            if e.kind == "usage":
+                raise UsageError(f"--column-map {e}") from None
+            raise
+        where = dict.fromkeys(cmap, f"--column-map {args.column_map}")
     for item in getattr(args, "columns", None) or ():
-        cmap.update(parse_column_map(item))
+        try:
+            m = parse_column_map(item, "--columns")
+        except LogError as e:
+            raise UsageError(str(e)) from None
+        for k, h in m.items():
+            if k in cmap:
+                raise UsageError(f"--columns {k}={h!r}: {k!r} is also named by {where[k]}; "
+                                 "name each column once")
+            cmap[k], where[k] = h, f"--columns {k}={h!r}"
     return cmap
 
 

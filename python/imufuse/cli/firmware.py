@@ -11,8 +11,8 @@ from ..catalogue import entry as _entry
 from ..firmware import (DEFAULT_TIMEOUT, Firmware, counts_for, csrc_firmware, mag_counts_scale,
                         target_names, validate_isolated)
 from ..io import LogError
-from .common import (EXIT_FAIL, EXIT_OK, OutputError, UsageError, err, open_session, pairs,
-                     positive, strict_option, unit_options)
+from .common import (EXIT_FAIL, EXIT_OK, OutputError, UsageError, err, once, open_session,
+                     pairs, positive, strict_option, unit_options)
 
 
 def _headers(args):
@@ -29,10 +29,14 @@ def _validate(args):
     cls = reference_class(args.filter) if not _entry(args.filter).fixed else \
         _entry(args.filter).reference
     overrides = pairs(args.param)
+    once(args.header, "--header")
+    once(args.include, "-I")
     check_outputs([args.log, *(args.sources or ()), *_headers(args)], [("--plot", args.plot)])
     defines = {}
     for d in args.define or ():
         k, _, v = d.partition("=")
+        if k in defines:
+            raise UsageError(f"-D {k}: given twice; define it once")
         defines[k] = v if v else None
     cflags = args.cflags.split() if args.cflags is not None else None
     if args.csrc:

@@ -13,13 +13,23 @@ def _tune(args):
     if args.filter == "FusionAHRS":
         raise UsageError("tune: FusionAHRS is not tunable here yet; use imufuse compare with "
                          "-p FusionAHRS.gain=... to try settings")
-    try:
-        grids = [grid_spec(g) for g in args.grid or ()]
-    except ValueError as e:
-        raise UsageError(str(e)) from None
+    grids, given = [], {}
+    fixed = pairs(args.param)
+    for g in args.grid or ():
+        try:
+            k, vals = grid_spec(g)
+        except ValueError as e:
+            raise UsageError(str(e)) from None
+        if k in given:
+            raise UsageError(f"--grid {k}: given twice (--grid {given[k]}, --grid {g}); give "
+                             f"every value in one --grid {k}=V1,V2,...")
+        if k in fixed:
+            raise UsageError(f"--grid {k}: {k} is also fixed by --param; give it once")
+        grids.append((k, vals))
+        given[k] = g
     try:
         sessions = [open_session(args, p) for p in args.logs]
-        t = Tuner(sessions, args.filter, pairs(args.param), args.metric, run_options(args),
+        t = Tuner(sessions, args.filter, fixed, args.metric, run_options(args),
                   score_options(args))
         if not grids:
             grids = t.default_grid(args.points)

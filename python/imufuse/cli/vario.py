@@ -6,13 +6,16 @@ import os
 from .. import plots, vario
 from ..calibration import log as calibration_log
 from .._atomic import check_outputs
-from .common import EXIT_OK, column_map, err, pairs, strict_option, unit_options
+from .common import EXIT_OK, UsageError, column_map, err, pairs, strict_option, unit_options
 
 
 def _vario(args):
     params = pairs(args.param, "--param")
     kf = pairs(args.kf, "--kf")
     if args.acc_gate:
+        if "acc_gate" in params:
+            raise UsageError("--acc-gate: the gate is also given by --param acc_gate; give it "
+                             "once")
         params["acc_gate"] = tuple(args.acc_gate)
     out = args.out or os.path.splitext(args.log)[0] + "-vario.csv"
     plot = None if args.no_plot or not plots.available() else (

@@ -1,12 +1,13 @@
 """Column headers: recognition of imufuse's names and common spellings (`recognise`),
 units in headers ("Gyroscope X (deg/s)": `split_unit`, and the unit each quantity is read
 in, `_units`), column maps ({name: header}: `parse_column_map`, `read_column_map`), and the
-errors that name a missing column with its close matches (`require`)."""
+errors that name a missing column with its close matches (`require`). A column named twice
+in a map is refused by name (LogError of kind "usage")."""
 import csv
 import difflib
-import json
 import re
 
+from .._jsonfile import FileContentError, parse_object, read_text
 from .log import KNOWN, TIME_UNITS, LogError
 
 #: how unit spellings in headers are read
@@ -92,37 +93,42 @@ def duplicate_columns(header):
     return {c: idx for (c, r), idx in seen.items() if len(idx) > 1 and best.get(c) in idx}
 
 
-def parse_column_map(text):
-    """'gyr_x="Gyroscope X (deg/s)",gyr_y=...' -> {name: header}."""
+def parse_column_map(text, what="column map"):
+    """'gyr_x="Gyroscope X (deg/s)",gyr_y=...' -> {name: header}; a name given twice is a
+    LogError ("usage") naming it (`what`: the option, in the messages)."""
     out = {}
     for item in next(csv.reader([text], skipinitialspace=True)) if text.strip() else ():
         if not item.strip():
             continue
         if "=" not in item:
-            raise LogError(f"column map {item!r}: expected NAME=HEADER (e.g. "
+            raise LogError(f"{what} {item!r}: expected NAME=HEADER (e.g. "
                            'gyr_x="Gyroscope X (deg/s)")', "usage")
         k, v = item.split("=", 1)
-        out[k.strip()] = v.strip().strip('"').strip("'")
+        k = k.strip()
+        if k in out:
+            raise LogError(f"{what} {text!r}: {k!r} named twice; name each column once", "usage")
+        out[k] = v.strip().strip('"').strip("'")
     return out
 
 
 def read_column_map(path):
     """A mapping file: a JSON object {name: header}, or lines NAME = HEADER
-    ('#' starts a comment)."""
+    ('#' starts a comment). Read by imufuse._jsonfile (UTF-8, at most 1 MiB; a JSON map
+    nested too deep or not an object is a data error); a name given twice is a LogError
+    ("usage") naming it and its lines."""
     try:
-        with open(path, encoding="utf-8-sig") as fh:
-            text = fh.read()
-    except (OSError, UnicodeDecodeError) as e:
-        raise LogError(f"{path}: cannot read the column map: {e}", "file") from None
-    if text.lstrip().startswith("{"):
-        try:
-            m = json.loads(text)
-        except ValueError as e:
-            raise LogError(f"{path}: not a JSON column map: {e}") from None
-        if not isinstance(m, dict) or not all(isinstance(v, str) for v in m.values()):
+        text = read_text(path, "column map")
+        if text.lstrip().startswith("{"):
+            m = parse_object(text, path, "column map", repeated="usage")
+        else:
+            m = None
+    except FileContentError as e:
+        raise LogError(str(e), e.kind) from None
+    if m is not None:
+        if not all(isinstance(v, str) for v in m.values()):
             raise LogError(f"{path}: the JSON column map must be an object of name: header strings")
         return dict(m)
-    out = {}
+    out, lines = {}, {}
     for ln, line in enumerate(text.splitlines(), 1):
         line = line.split("#", 1)[0].strip()
         if not line:
@@ -130,7 +136,11 @@ def read_column_map(path):
         if "=" not in line:
             raise LogError(f"{path}:{ln}: expected NAME = HEADER, got {line!r}")
         k, v = line.split("=", 1)
-        out[k.strip()] = v.strip().strip('"').strip("'")
+        k = k.strip()
+        if k in out:
+            raise LogError(f"{path}:{ln}: {k!r} named twice (also on line {lines[k]}); name each "
+                           "column once", "usage")
+        out[k], lines[k] = v.strip().strip('"').strip("'"), ln
     return out
 
 
