@@ -98,7 +98,7 @@ def _mutants(log):
     out.append((r, ValueError, "Reference.n is"))
     r = _ref(log)
     r.n = -1
-    out.append((r, ValueError, "Reference.n must be >= 0"))
+    out.append((r, ValueError, "Reference.n must be an int >= 0"))
     r = _ref(log)
     r.n = float(r.n)
     out.append((r, TypeError, "Reference.n must be an int"))

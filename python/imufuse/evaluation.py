@@ -228,20 +228,18 @@ class Reference:
         if not (np.all(np.isfinite(rr)) and np.all(np.abs(norm - 1.0) <= 1e-6)):
             raise ValueError("score: Reference.r must be finite, with unit rows where use is 1 "
                              "(prepare_reference makes it)")
-        for field_, v in (("n", self.n), ("n_samples", self.n_samples),
-                          ("n_ref_nan", self.n_ref_nan), ("n_outside_mask", self.n_outside_mask)):
-            if type(v) is not int:
-                raise TypeError(f"score: Reference.{field_} must be an int, got {v!r}")
-            if v < 0:
-                raise ValueError(f"score: Reference.{field_} must be >= 0, got {v}")
+        for field_ in ("n", "n_samples", "n_ref_nan", "n_outside_mask"):
+            v = getattr(self, field_)
+            if type(v) is not int or v < 0:
+                raise (TypeError if type(v) is not int else ValueError)(
+                    f"score: Reference.{field_} must be an int >= 0, got {v!r}")
         if self.n != count:
             raise ValueError(f"score: Reference.n is {self.n} but use counts {count} samples "
                              "(a Reference changed after prepare_reference?)")
         if self.n_samples != n_log:
             raise ValueError(f"score: a reference of {self.n_samples} samples for a log of "
                              f"{n_log}")
-        u.flags.writeable = False
-        rr.flags.writeable = False
+        u.flags.writeable = rr.flags.writeable = False
         return Reference(use=u, r=rr, n=count, n_samples=n_log, n_ref_nan=self.n_ref_nan,
                          n_outside_mask=self.n_outside_mask,
                          heading_offset=bool(self.heading_offset))

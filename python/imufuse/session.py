@@ -189,7 +189,7 @@ PROGRESS_MIN = {"ref": 20_000, "c": 2_000_000}
 Progress = Callable[[str, int, int], None]
 
 #: samples per block when a run keeps only its estimate (Session.run(keep_states=False))
-STREAM_BLOCK = 1 << 16
+STREAM_BLOCK = 1 << 14
 
 
 def run_with_progress(f: Any, inputs: Sequence[np.ndarray], label: str, backend: str,
@@ -290,6 +290,24 @@ class Run:
         init = f", init={self.init}" if self.init else ""
         return (f"{self.name} ({self.backend}, {self.dtype}, {self.time}{init}; "
                 f"{format_params(self.name, self.params)}): {samples} samples from {self.inputs}")
+
+
+def _fusion_extra(f: Any, S: np.ndarray) -> Dict[str, np.ndarray]:
+    """FusionAHRS's outputs of states S as output columns."""
+    extra: Dict[str, np.ndarray] = {}
+    out = f.outputs_batch(S)
+    # Fusion's own Euler angles, in its convention (roll_deg.. are in the output frame)
+    for j, ax in enumerate(("roll", "pitch", "yaw")):
+        extra[f"fusion_{ax}_deg"] = out["euler"][:, j]
+    for key in ("earth_acceleration", "linear_acceleration"):
+        for j, ax in enumerate("xyz"):
+            extra[f"{key}_{ax}"] = out[key][:, j]
+    for key in ("acceleration_error", "magnetic_error"):
+        extra[key + "_deg"] = out[key]
+    for key in ("initialising", "angular_rate_recovery", "acceleration_recovery",
+                "magnetic_recovery"):
+        extra[key] = out[key].astype(np.float64)
+    return extra
 
 
 class Session:
@@ -407,10 +425,12 @@ class Session:
 
     def run(self, name: str, params: Optional[Mapping[str, Any]] = None,
             options: RunOptions = RunOptions(), *, progress: Optional[Progress] = None,
-            keep_states: bool = True) -> Run:
+            keep_states: bool = True, on_block: Optional[Callable[..., None]] = None) -> Run:
         """Run one filter (a catalogue name or FusionAHRS) over the log. keep_states=False:
         the filter runs block by block and only its estimate is kept (Run.states is empty;
-        memory is the estimate's, never the trajectory's)."""
+        memory is the estimate's, never the trajectory's); on_block(Run of the block, first
+        sample) is called with each block's states, estimate and Fusion outputs (what `imufuse
+        run` writes out block by block)."""
         inputs, src = self.inputs(name, options.axis)
         f, full, dts, init, notes = self.make(name, params, options)
         cls = self.filter_class(name)
@@ -419,7 +439,7 @@ class Session:
         if not keep_states:
             t0 = _time.perf_counter()
             est = self.streamed_estimate(f, cls, name, full, inputs, options.backend, dts,
-                                          progress)
+                                          progress, on_block=on_block)
             seconds = _time.perf_counter() - t0
             rejected = min(int(getattr(f, "skipped", 0)), n)
             S0 = np.empty((0, len(cls.state_names)))
@@ -432,18 +452,7 @@ class Session:
         rejected = min(int(getattr(f, "skipped", 0)), n)
         if name == FUSION:
             est = None if rejected >= n else self._fusion_estimate(S, full)
-            out = f.outputs_batch(S)
-            # Fusion's own Euler angles, in its convention (roll_deg.. are in the output frame)
-            for j, ax in enumerate(("roll", "pitch", "yaw")):
-                extra[f"fusion_{ax}_deg"] = out["euler"][:, j]
-            for key in ("earth_acceleration", "linear_acceleration"):
-                for j, ax in enumerate("xyz"):
-                    extra[f"{key}_{ax}"] = out[key][:, j]
-            for key in ("acceleration_error", "magnetic_error"):
-                extra[key + "_deg"] = out[key]
-            for key in ("initialising", "angular_rate_recovery", "acceleration_recovery",
-                        "magnetic_recovery"):
-                extra[key] = out[key].astype(np.float64)
+            extra = _fusion_extra(f, S)
         else:
             est = chunked_estimate(cls, S) if rejected < n else None
         return Run(name, cls, full, S, est, rejected, seconds, self.describe_time(dts), init,
@@ -451,21 +460,27 @@ class Session:
 
     def streamed_estimate(self, f: Any, cls: Any, name: str, params: Mapping[str, Any],
                            inputs: Sequence[np.ndarray], backend: str, dts: Any,
-                           progress: Optional[Progress], block: int = STREAM_BLOCK
+                           progress: Optional[Progress], block: int = STREAM_BLOCK,
+                           on_block: Optional[Callable[..., None]] = None
                            ) -> Optional[Estimate]:
         """f over the log in blocks of ``block`` samples (the state carries over: the same
         trajectory, bit for bit), each block's estimate written into one array: memory is
-        the estimate's (32 bytes a sample) and one block's states."""
+        the estimate's (32 bytes a sample) and one block's states. on_block: see run()."""
         n = len(inputs[0])
         first: Any = None
         out: Optional[np.ndarray] = None
         report = progress is not None and n >= PROGRESS_MIN.get(backend, PROGRESS_MIN["c"])
+        if report:
+            block = min(block, -(-n // 20))         # about 20 reports
         every = max(block, -(-n // 20))
         next_report = every
         for k in range(0, max(n, 1), block):
             kw = {} if dts is None else {"dt": dts if np.ndim(dts) == 0 else dts[k:k + block]}
             part = f.run(*[x[k:k + block] for x in inputs], **kw)
             e = self._fusion_estimate(part, params) if name == FUSION else estimate(cls, part)
+            if on_block is not None:
+                on_block(Run(name, cls, dict(params), part, e, 0, 0.0, "", None, "", [],
+                             _fusion_extra(f, part) if name == FUSION else {}), k)
             if e is None:
                 continue            # no orientation in this filter's state: run on for skipped
             if first is None:

@@ -2,10 +2,11 @@
 import argparse
 import math
 import os
+import sys
 
 import numpy as np
 
-from .. import plots
+from .. import io, plots
 from .._atomic import check_outputs
 from ..catalogue import (FILTERS_FUSION, FilterError, canonical_name, filter_names,
                          reference_class)
@@ -38,14 +39,14 @@ def _run(args):
     check_outputs(input_files(args), [("-o", args.output), ("--plot", args.plot)])
     s = open_session(args)
     ro, sc = run_options(args), score_options(args)
-    r = s.run(args.filter, pairs(args.param), ro, progress=progress)
     n = len(s.log)
-    if r.rejected == n:
-        raise NothingComputed(f"{s.log.path}: {args.filter} rejected every one of the {n} "
-                              "samples (non-finite values, or updates it cannot make): nothing "
-                              "was estimated")
-    cols, notes = r.columns(s.log.t, sc.frame)
-    write_output(args.output, cols, r.float32_columns())
+    if args.plot or args.output.lower().endswith(".npz"):
+        r = s.run(args.filter, pairs(args.param), ro, progress=progress)
+        _all_rejected(s, args, r)
+        cols, notes = r.columns(s.log.t, sc.frame)
+        write_output(args.output, cols, r.float32_columns())
+    else:
+        r, notes = _run_streamed(s, args, ro, sc)
     for note in notes:
         err(f"note: {note}")
     err(r.describe(n) + (f" -> {args.output}" if args.output != "-" else ""))
@@ -68,6 +69,38 @@ def _run(args):
         _plots(args.plot, s, {args.filter: r}, args,
                f"{args.filter} ({format_params(args.filter, r.params)})")
     return EXIT_OK
+
+
+def _all_rejected(s, args, r):
+    if r.rejected == len(s.log):
+        raise NothingComputed(f"{s.log.path}: {args.filter} rejected every one of the "
+                              f"{len(s.log)} samples (non-finite values, or updates it cannot "
+                              "make): nothing was estimated")
+
+
+def _run_streamed(s, args, ro, sc):
+    """`imufuse run` to CSV, block by block: the rows of each block written as it is run,
+    only the estimate kept (for the errors): memory does not grow with the trajectory. The
+    file is written whole or not at all (nothing when every sample was rejected)."""
+    notes = []
+    t = s.log.t
+    path = sys.stdout if args.output == "-" else args.output
+    f32 = set(s.filter_class(args.filter).state_names) if ro.dtype == "float32" else set()
+    try:
+        with io.CsvBlocks(path, f32) as out:
+            def block(part, k):
+                cols, said = part.columns(t[k:k + len(part.states)], sc.frame)
+                if not notes:
+                    notes.extend(said)
+                out.add(cols)
+            r = s.run(args.filter, pairs(args.param), ro, progress=progress, keep_states=False,
+                      on_block=block)
+            _all_rejected(s, args, r)
+    except OSError as e:
+        if isinstance(e, BrokenPipeError):
+            raise
+        raise OutputError(f"-o {args.output}: cannot write: {e.strerror or e}") from None
+    return r, notes
 
 
 def _default_filters(log):

@@ -58,10 +58,10 @@ from .columns import (_norm, duplicate_columns, parse_column_map, read_column_ma
 from .log import ACC, ACC_UNITS, GRAVITY, GYR, GYR_UNITS, KNOWN, MAG, QUAT, TIME_UNITS, Log, LogError
 from .read import axis_inputs, describe, read_log
 from .text import read_csv_rows
-from .write import (EXAMPLE, EXAMPLE_ATTRIBUTION, example_log, npz_to_csv, write_csv, write_log,
-                    write_npz)
+from .write import (EXAMPLE, EXAMPLE_ATTRIBUTION, CsvBlocks, example_log, npz_to_csv, write_csv,
+                    write_log, write_npz)
 
-__all__ = ["ACC", "ACC_UNITS", "EXAMPLE", "EXAMPLE_ATTRIBUTION", "GRAVITY", "GYR", "GYR_UNITS",
+__all__ = ["ACC", "ACC_UNITS", "CsvBlocks", "EXAMPLE", "EXAMPLE_ATTRIBUTION", "GRAVITY", "GYR", "GYR_UNITS",
            "KNOWN", "MAG", "QUAT", "TIME_UNITS", "Log", "LogError", "axis_inputs", "describe",
            "duplicate_columns", "example_log", "npz_to_csv", "parse_column_map", "read_column_map",
            "read_csv_rows", "read_log", "recognise", "require", "split_unit", "write_csv",

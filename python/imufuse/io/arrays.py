@@ -21,12 +21,36 @@ _ARRAY_KEYS = ("gyr", "imu_gyr", "acc", "imu_acc", "mag", "imu_mag", "quat_ref",
                "q_ref", "movement", "time", "t", "rate", "sampling_rate")
 
 
+class _LazyNpz:
+    """The members of an open NpzFile as a mapping read on access (a damaged member raises
+    LogError naming the archive and the member)."""
+
+    def __init__(self, npz, path):
+        self._npz, self._path = npz, path
+        self._keys = list(npz.keys())
+
+    def __contains__(self, key):
+        return key in self._keys
+
+    def __iter__(self):
+        return iter(self._keys)
+
+    def __getitem__(self, key):
+        try:
+            return self._npz[key]
+        except Exception as e:  # noqa: BLE001 - a damaged member raises many kinds of error
+            raise LogError(f"{self._path}: not a readable NPZ archive: array {key!r}: "
+                           f"{type(e).__name__}: {e}") from None
+
+
 def _read_arrays(path):
     """NPZ or HDF5 in the BROAD layout -> (columns, header, sources, rate)."""
     ext = os.path.splitext(path)[1].lower()
     if ext == ".npz":
         try:
-            z = dict(np.load(path, allow_pickle=False))
+            # only the arrays a log uses, each read when it is converted (a lazy mapping:
+            # the archive's other members, of any size, are never read)
+            z = _LazyNpz(np.load(path, allow_pickle=False), path)
         except Exception as e:     # a damaged archive raises many kinds of error
             raise LogError(f"{path}: not a readable NPZ archive: {e}") from None
     else:
@@ -61,37 +85,47 @@ def _read_arrays(path):
                            f"imu_acc, imu_mag, opt_quat, movement, attribute sampling_rate); "
                            f"found {', '.join(keys_in_file) or 'none'}")
     keys = sorted(z)
-    parts = {"gyr": _first(z, "gyr", "imu_gyr"), "acc": _first(z, "acc", "imu_acc"),
-             "mag": _first(z, "mag", "imu_mag"), "quat": _first(z, "quat_ref", "opt_quat", "q_ref"),
-             "movement": _first(z, "movement"), "time": _first(z, "time", "t"),
-             "rate": _first(z, "rate", "sampling_rate")}
-    if parts["gyr"] is None or parts["acc"] is None:
+    # which member holds each part; each is read (and converted) one at a time
+    names = {"gyr": ("gyr", "imu_gyr"), "acc": ("acc", "imu_acc"), "mag": ("mag", "imu_mag"),
+             "quat": ("quat_ref", "opt_quat", "q_ref"), "movement": ("movement",),
+             "time": ("time", "t"), "rate": ("rate", "sampling_rate")}
+    member = {kind: next((k for k in ks if k in z), None) for kind, ks in names.items()}
+    if member["gyr"] is None or member["acc"] is None:
         raise LogError(f"{path}: expected arrays gyr and acc (N, 3) (BROAD layout: gyr, acc, mag, "
                        f"quat_ref, movement, rate); found {', '.join(keys) or 'none'}")
-    for kind, a in parts.items():
-        if a is not None and a.dtype.kind not in "biuf":
+
+    def part(kind):
+        if member[kind] is None:
+            return None
+        a = np.asarray(z[member[kind]])
+        if a.dtype.kind not in "biuf":
             raise LogError(f"{path}: array {kind} holds {a.dtype} values; expected numbers")
-    if parts["gyr"].ndim != 2:
-        raise LogError(f"{path}: array gyr has shape {parts['gyr'].shape}; expected (N, 3)")
-    n = len(parts["gyr"])
+        return a
+    gyr = part("gyr")
+    if gyr.ndim != 2:
+        raise LogError(f"{path}: array gyr has shape {gyr.shape}; expected (N, 3)")
+    n = len(gyr)
     cols, sources = {}, {}
-    for kind, names, width in (("gyr", GYR, 3), ("acc", ACC, 3), ("mag", MAG, 3),
-                               ("quat", QUAT, 4)):
-        a = parts[kind]
+    for kind, cnames, width in (("gyr", GYR, 3), ("acc", ACC, 3), ("mag", MAG, 3),
+                                ("quat", QUAT, 4)):
+        a = gyr if kind == "gyr" else part(kind)
         if a is None:
             continue
         if a.ndim != 2 or a.shape != (n, width):
             raise LogError(f"{path}: array {kind} has shape {a.shape}; expected ({n}, {width})")
-        for j, c in enumerate(names):
+        for j, c in enumerate(cnames):
             cols[c] = np.ascontiguousarray(a[:, j], dtype=np.float64)
             sources[c] = f"{kind} column {j}"
+        del a
+        gyr = None
     for kind in ("movement", "time"):
-        a = parts[kind]
+        a = part(kind)
         if a is not None:
             if a.shape != (n,):
                 raise LogError(f"{path}: array {kind} has shape {a.shape}; expected ({n},)")
             cols[kind] = a.astype(np.float64)
             sources[kind] = kind
+    parts = {"rate": part("rate")}
     rate = parts["rate"]
     if rate is not None:
         if rate.size != 1:

@@ -72,6 +72,53 @@ def write_csv(path, columns, float32=()):
         path.write(block.decode("ascii"))
 
 
+class CsvBlocks:
+    """write_csv for a table made block by block: ``add(columns)`` appends a block of rows
+    (the header from the first block; every block the same names), and the file is written
+    whole or not at all (the atomic writer) when the ``with`` block ends without an error.
+    path: a file name or an open text stream. Memory is one block's."""
+
+    def __init__(self, path, float32=()):
+        self.path, self.float32, self.names = path, set(float32), None
+        self._cm = None
+        self._fh = None
+
+    def __enter__(self):
+        if hasattr(self.path, "write"):
+            self._fh = self.path
+        else:
+            self._cm = replacing(self.path)
+            tmp = self._cm.__enter__()
+            self._fh = open(tmp, "wb")
+        return self
+
+    def add(self, columns):
+        names = list(columns)
+        if self.names is None:
+            self.names = names
+            self._put(",".join(names).encode("utf-8") + b"\n")
+        elif names != self.names:
+            raise ValueError(f"CsvBlocks: columns {names} after {self.names}")
+        precisions = [9 if n in self.float32 else 17 for n in names]
+        for block in _csv_blocks([columns[n] for n in names], precisions):
+            self._put(block)
+
+    def _put(self, data):
+        if self._cm is None:
+            self._fh.write(data.decode("utf-8"))
+        else:
+            self._fh.write(data)
+
+    def __exit__(self, *exc):
+        if self._cm is None:
+            return False
+        try:
+            self._fh.close()
+        finally:
+            self._cm.__exit__(*exc)
+        return False
+
+
 def write_npz(path, columns):
     """Write {name: (N,) array} as an uncompressed NPZ (fast for long logs)."""
     with replacing(path) as tmp, open(tmp, "wb") as fh:
