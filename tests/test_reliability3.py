@@ -398,3 +398,64 @@ def test_streamed_estimate_is_the_whole_runs(tmp_path, name, block):
     assert len(lean.states) == 0 and lean.n == len(d.t)
     c = lean.estimate.angle if lean.estimate.angle is not None else lean.estimate.q
     assert _bits(a).tobytes() == _bits(c).tobytes()
+
+
+CONCURRENT = textwrap.dedent("""
+    import sys
+    sys.path[:0] = [{tests!r}]
+    from test_reliability3 import _att_firmware
+    from pathlib import Path
+    from imufuse import sim
+    from imufuse.firmware import Firmware, validate_isolated
+    d = Path(sys.argv[1])
+    fw = Firmware([str(d / "att.c")], headers=["att.h"], include_dirs=[str(d)], init="att_begin",
+                  update="att_step", state={{"theta": "att_theta"}}, cache_dir=str(d / "cache"))
+    s = sim.axis1d("fast", rate=200.0, duration=1.0, seed=3)
+    v = validate_isolated(fw, "Kalman1D", dict(dt=0.005, k0=0.02), [s.gyr, s.acc_angle])
+    print("bit-exact" if v.bit_exact else "differs")
+""")
+
+
+def test_concurrent_builds_of_one_key(tmp_path):
+    """Two validate processes building the same firmware into one cache at once (a CI
+    matrix, pytest-xdist): each builds in a directory of its own and renames it into place,
+    so neither loads a half-written module; both are bit-exact and nothing is left behind.
+    A directory of an interrupted earlier build (no module in it) is replaced."""
+    pytest.importorskip("cffi")
+    fw = _att_firmware(tmp_path)
+    key = fw._key(fw.source("1d", 1))
+    stale = tmp_path / "cache" / key
+    stale.mkdir(parents=True)
+    (stale / "half.o").write_bytes(b"\0" * 100)
+    code = CONCURRENT.format(tests=os.path.dirname(os.path.abspath(__file__)))
+    procs = [subprocess.Popen([sys.executable, "-c", code, str(tmp_path)], stdout=subprocess.PIPE,
+                              stderr=subprocess.PIPE, text=True) for _ in range(4)]
+    outs = [p.communicate(timeout=300) for p in procs]
+    for p, (out, errs) in zip(procs, outs):
+        assert p.returncode == 0 and out.strip() == "bit-exact", errs[-2000:]
+    left = sorted(os.listdir(tmp_path / "cache"))
+    assert left == [key], left
+    assert not (stale / "half.o").exists()
+
+
+@pytest.mark.parametrize("name", ["RobustAHRS", "FusionAHRS", "Kalman1D"])
+def test_run_csv_block_by_block_is_the_whole_run(tmp_path, name):
+    """`imufuse run -o OUT.csv` writes block by block (keeping only the estimate); its rows are
+    those of the whole run written at once (`-o OUT.npz`), every column, over several
+    blocks."""
+    from imufuse import io
+    from imufuse.cli import main
+    d = sim.imu("fast", rate=200.0, duration=200.0, seed=4)          # 40 000 samples
+    log = tmp_path / "log.csv"
+    io.write_log(log, d.t, d.gyr, d.acc, d.mag)
+    assert main(["run", str(log), "-f", name, "-o", str(tmp_path / "a.csv")]) == 0
+    assert main(["run", str(log), "-f", name, "-o", str(tmp_path / "b.npz")]) == 0
+    import csv
+    with open(tmp_path / "a.csv") as fh:
+        rows = list(csv.reader(fh))
+    head, body = rows[0], np.array(rows[1:], dtype=np.float64)
+    b = np.load(tmp_path / "b.npz")
+    assert sorted(head) == sorted(b.files)
+    assert len(body) == len(d.t) > 2 * (1 << 14)
+    for j, col in enumerate(head):
+        assert _bits(body[:, j]).tobytes() == _bits(b[col].astype(np.float64)).tobytes(), col

@@ -15,6 +15,7 @@ import json
 import os
 import re
 import shlex
+import shutil
 import subprocess
 import sysconfig
 import tempfile
@@ -51,7 +52,6 @@ def compiler_identity() -> Tuple[str, ...]:
     cc = compiler_command()
     key = tuple(cc)
     if key not in _IDENTITY:
-        import shutil
         path = shutil.which(cc[0]) or cc[0]
         try:
             proc = subprocess.run([*cc, "--version"], capture_output=True, text=True, timeout=30)
@@ -149,12 +149,34 @@ class Firmware(Declaration):
         defs = [(k, None if v is None else str(v)) for k, v in self.defines.items()]
         ffi.set_source(name, src, sources=self.sources, include_dirs=self.include_dirs,
                        define_macros=defs, extra_compile_args=self.cflags)
-        os.makedirs(outdir, exist_ok=True)
+        # built in a directory of its own and renamed into place when complete: a build
+        # interrupted half way leaves nothing that looks built, and two processes building
+        # the same key at once never load each other's half-written module
+        os.makedirs(self.cache_dir, exist_ok=True)
+        tmp = tempfile.mkdtemp(prefix=f"{name}.part-", dir=self.cache_dir)
         try:
-            path = ffi.compile(tmpdir=outdir, verbose=False)
-        except Exception as e:  # cffi.VerificationError, distutils CompileError
-            raise FirmwareError(f"compilation failed (compiler output above): {e}") from None
-        return name, path
+            try:
+                path = ffi.compile(tmpdir=tmp, verbose=False)
+            except Exception as e:  # cffi.VerificationError, distutils CompileError
+                raise FirmwareError(f"compilation failed (compiler output above): {e}") from None
+            for _ in range(2):
+                try:
+                    os.rename(tmp, outdir)
+                    break
+                except OSError:
+                    # another process finished the same build first: use the one in place;
+                    # a directory without the module (an interrupted build of an earlier
+                    # version) is replaced
+                    built = glob.glob(os.path.join(outdir, os.path.basename(path)))
+                    if built:
+                        return name, built[0]
+                    shutil.rmtree(outdir, ignore_errors=True)
+            else:
+                raise FirmwareError(f"cannot store the build in {outdir}")
+            return name, os.path.join(outdir, os.path.relpath(path, tmp))
+        finally:
+            if os.path.isdir(tmp):
+                shutil.rmtree(tmp, ignore_errors=True)
 
     @staticmethod
     def _load(name, path):
