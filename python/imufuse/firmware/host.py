@@ -81,6 +81,11 @@ class Firmware(Declaration):
         """The driver of an emulated-MCU build (imufuse.firmware.csource.target_source)."""
         return target_source(self, kind, init_values, dt, state0, c89)
 
+    def _harness_extension(self):
+        """.cpp when the firmware is C++ (the harness is then C++ too, built and linked by
+        the C++ compiler), else .c."""
+        return ".cpp" if getattr(self, "language", "c") == "c++" else ".c"
+
     def _deps(self, src):
         """Every file the compiler reads for this build (its -M dependency output over the
         harness and each source, system headers included), sorted; FirmwareError naming the
@@ -91,7 +96,7 @@ class Firmware(Declaration):
         incs = [f"-I{d}" for d in self.include_dirs]
         deps = set()
         with tempfile.TemporaryDirectory(prefix="imufuse-deps-") as tmp:
-            harness = os.path.join(tmp, "harness.c")
+            harness = os.path.join(tmp, "harness" + self._harness_extension())
             with open(harness, "w") as fh:
                 fh.write(src)
             for f in [harness, *self.sources]:
@@ -147,7 +152,8 @@ class Firmware(Declaration):
                  "size_t n, const double *in, double dt, double *out, int *isint);\n"
                  "void imufuse_fw_sizes(int *sizes);")
         defs = [(k, None if v is None else str(v)) for k, v in self.defines.items()]
-        ffi.set_source(name, src, sources=self.sources, include_dirs=self.include_dirs,
+        ffi.set_source(name, src, source_extension=self._harness_extension(),
+                       sources=self.sources, include_dirs=self.include_dirs,
                        define_macros=defs, extra_compile_args=self.cflags)
         # built in a directory of its own and renamed into place when complete: a build
         # interrupted half way leaves nothing that looks built, and two processes building

@@ -63,6 +63,8 @@ def counts_for(kind: str, params: Mapping[str, Any], inputs: Sequence[Any]) -> L
 def _state_names(fw, name, e):
     """The firmware's state names, which must be the imufuse filter's."""
     names = tuple(fw.state)
+    if getattr(fw, "partial_state", False) and names and set(names) <= set(e.state_names):
+        return names            # a declared API may expose part of the state
     if set(names) != set(e.state_names):
         raise FirmwareError(f"state mapping names {list(names)}; {name} has state "
                             f"{list(e.state_names)}")
@@ -189,7 +191,7 @@ def _explain_host(v, fw, name, params, inputs, backend, dtype):
     finally:
         shutil.rmtree(wd, ignore_errors=True)
     def rerun(extra):
-        fixed = Firmware.__new__(Firmware)
+        fixed = type(fw).__new__(type(fw))
         fixed.__dict__.update(fw.__dict__)
         fixed.cflags = [*fw.cflags, *extra]
         fixed._lib = None

@@ -1,0 +1,386 @@
+"""A filter's API declared in a small file, not written as a shim: ``DeclaredFirmware``.
+
+The firmware people carry is mostly not a C function pair: a C++ class with ``begin(rate)``
+and ``update(gx, ..., mz)`` in deg/s and private members, x-io Fusion's structs passed by
+value, a settings struct and setters. A declaration file (TOML) says how to create and
+initialise the filter, how to call its update with each sample, how to read its state, and
+which imufuse filter to compare it with; imufuse generates the harness around it (C or C++,
+from the sources' extensions) and validates it as any firmware, with no user-written code::
+
+    [firmware]
+    sources = ["MadgwickAHRS.cpp"]        # relative to this file (or to source_dir)
+    headers = ["MadgwickAHRS.h"]
+    include = ["."]                       # optional; cflags, defines, language also
+
+    [filter]                              # the imufuse filter to compare with
+    name = "MadgwickAHRS"
+    params = { beta = 0.1 }               # its parameters (dt from the log)
+
+    [object]                              # one object `fw` of this type (optional: globals)
+    type = "Madgwick"
+    init = ["fw.begin(${rate})"]          # statements, once before the first sample
+
+    [update]                              # one sample
+    call = "fw.update(${gx:deg/s}, ${gy:deg/s}, ${gz:deg/s}, ${ax}, ${ay}, ${az}, ${mx}, ${my}, ${mz})"
+
+    [state]                               # imufuse state name = expression (private members too)
+    q0 = "fw.q0"
+
+Placeholders, replaced by C literals or expressions:
+
+- in ``init`` and the constructor's ``args``: ``${NAME}`` any C init value or parameter of the
+  imufuse filter (``${beta}``, ``${dt}``), ``${rate}`` (1/dt), as exact double literals;
+- in ``call``: the inputs ``${gx} ${gy} ${gz} ${ax} ... ${mz}`` (1-D filters: ``${rate}`` and
+  ``${angle}``; fixed point: the int16 counts) and ``${dt}``; with a unit ``${gx:deg/s}``
+  (gyroscope: rad/s, deg/s; accelerometer: g, m/s^2), or a factor ``${mx*0.01}``; a whole
+  vector as a local array ``${gyr[float]}`` (``${acc[double]:m/s^2}``).
+
+Values are doubles converted by the compiler to the parameter's type, as any call converts
+them. A C++ source makes the harness C++, compiled with ``-fno-access-control`` so that
+private members can be read and written without editing the user's code.
+"""
+from __future__ import annotations
+
+import math
+import os
+import re
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
+
+from .._checks import KINDS
+from ..bits import c_double_literal
+from ..catalogue import entry, reference_class
+from .declaration import FirmwareError
+from .host import Firmware
+
+__all__ = ["DeclaredFirmware", "load_declaration", "Declared", "CXX_EXTENSIONS",
+           "DEFAULT_CXXFLAGS"]
+
+CXX_EXTENSIONS = (".cpp", ".cc", ".cxx", ".C", ".c++")
+#: the host flags of a C++ firmware: the numerical contract, and private members readable
+DEFAULT_CXXFLAGS = ("-O2", "-ffp-contract=off", "-fno-access-control")
+_UNITS = {"rad/s": 1.0, "deg/s": 180.0 / math.pi, "g": 1.0, "m/s^2": 9.80665, "m/s2": 9.80665}
+_UNIT_OF = {"g": ("rad/s", "deg/s"), "a": ("g", "m/s^2", "m/s2"), "m": ()}
+_PLACE = re.compile(r"\$\{([^}]*)\}")
+_INPUT = re.compile(r"^(?P<name>[A-Za-z_]\w*)(?:\[(?P<vtype>[A-Za-z_][\w ]*)\])?"
+                    r"(?::(?P<unit>[^*]+)|\*(?P<factor>[-+0-9.eE]+))?$")
+_IDENT = re.compile(r"[A-Za-z_]\w*$")
+
+
+def _inputs_of(kind: str) -> Dict[str, Tuple[int, int]]:
+    """{placeholder: (first column, width)} of a kind's inputs: gx.. or gyr (width 3)."""
+    if kind == "1d":
+        return {"rate": (0, 1), "angle": (1, 1)}
+    out = {}
+    for j, vec in enumerate(KINDS[kind]):
+        out[vec] = (3 * j, 3)
+        for a, axis in enumerate("xyz"):
+            out[vec[0] + axis] = (3 * j + a, 1)
+    return out
+
+
+class DeclaredFirmware(Firmware):
+    """Firmware whose init, update and state come from a declaration's templates (see the
+    module's doc). ``values`` are the literals init's placeholders take (set by
+    ``bind``); the state may name a subset of the imufuse filter's state."""
+
+    partial_state = True
+
+    def __init__(self, sources: Sequence[str], *, update: str, state: Mapping[str, str],
+                 object_type: Optional[str] = None, object_name: str = "fw",
+                 object_args: Optional[str] = None, init: Sequence[str] = (),
+                 headers: Sequence[str] = (), include_dirs: Sequence[str] = (),
+                 defines: Optional[Mapping[str, Any]] = None,
+                 cflags: Optional[Sequence[str]] = None, language: Optional[str] = None,
+                 cache_dir: Optional[str] = None) -> None:
+        self.sources = [os.path.abspath(s) for s in sources]
+        for s in self.sources:
+            if not os.path.isfile(s):
+                raise FirmwareError(f"source file not found: {s}")
+        if language is None:
+            language = "c++" if any(s.endswith(CXX_EXTENSIONS) for s in self.sources) else "c"
+        if language not in ("c", "c++"):
+            raise FirmwareError(f"language: 'c' or 'c++', got {language!r}")
+        self.language = language
+        self.include_dirs = [os.path.abspath(d) for d in include_dirs]
+        self.headers = list(headers)
+        self.defines = dict(defines or {})
+        from .declaration import DEFAULT_CFLAGS
+        default = DEFAULT_CXXFLAGS if language == "c++" else DEFAULT_CFLAGS
+        self.cflags_given = None if cflags is None else list(cflags)
+        self.cflags = list(default if cflags is None else cflags)
+        self.cache_dir = cache_dir or os.environ.get("IMUFUSE_CACHE") or os.path.join(
+            os.path.expanduser("~"), ".cache", "imufuse", "firmware")
+        if object_type is not None and not _IDENT.match(object_name):
+            raise FirmwareError(f"object name {object_name!r}: give a C identifier")
+        self.object_type, self.object_name, self.object_args = object_type, object_name, \
+            object_args
+        self.init_statements = [str(s) for s in init]
+        self.update_template = str(update)
+        if not state:
+            raise FirmwareError("state: map at least one imufuse state name to an expression")
+        self.state = {str(k): str(v).strip() for k, v in state.items()}
+        self.values: Dict[str, float] = {}
+        # what Firmware's run() and the prototype-based code paths look at
+        self.init = None
+        self.update = None
+        self.self_type = None
+        self.set_state = False
+        self.init_args: Dict[str, Any] = {}
+        self.init_struct = None
+
+    # -- binding ---------------------------------------------------------
+    def bind(self, c_values: Any, params: Mapping[str, Any]) -> None:
+        """The values of init's placeholders: the imufuse filter's C init values by name,
+        its parameters, and rate = 1/dt."""
+        vals: Dict[str, float] = {}
+        for k, v in {**dict(params), **(c_values if isinstance(c_values, dict) else {})}.items():
+            try:
+                vals[k] = float(v)
+            except (TypeError, ValueError):
+                continue
+        if vals.get("dt"):
+            vals["rate"] = 1.0 / vals["dt"]
+        if vals != self.values:
+            self._lib = None           # the init literals are in the harness
+        self.values = vals
+
+    def _fill_init(self, text: str, where: str) -> str:
+        def rep(m: "re.Match[str]") -> str:
+            name = m.group(1).strip()
+            if name not in self.values:
+                raise FirmwareError(f"{where}: ${{{name}}} is neither a parameter of the imufuse "
+                                    f"filter nor rate/dt (it has {', '.join(sorted(self.values))})")
+            return f"({c_double_literal(self.values[name])})"
+        return _PLACE.sub(rep, text)
+
+    def _fill_update(self, kind: str) -> Tuple[List[str], str, int]:
+        """(local declarations, the update statement, inputs a sample has)."""
+        cols = _inputs_of(kind)
+        total = 2 if kind == "1d" else 3 * len(KINDS[kind])
+        decls: List[str] = []
+
+        def rep(m: "re.Match[str]") -> str:
+            text = m.group(1).replace(" ", "") if "[" not in m.group(1) else m.group(1).strip()
+            p = _INPUT.match(text)
+            if p is None:
+                raise FirmwareError(f"update: ${{{m.group(1)}}}: expected ${{gx}}, ${{gx:deg/s}}, "
+                                    "${gx*0.01}, ${gyr[float]} or ${dt}")
+            name, vtype, unit, factor = p.group("name", "vtype", "unit", "factor")
+            if name == "dt":
+                return "(dt)"
+            if name not in cols:
+                raise FirmwareError(f"update: ${{{m.group(1)}}}: {name!r} is not an input of a "
+                                    f"{kind} filter ({', '.join(cols)}, dt)")
+            col, width = cols[name]
+            scale = 1.0
+            if unit is not None:
+                unit = unit.strip()
+                ok = _UNIT_OF.get(name[0], ()) if kind != "1d" else ("rad/s", "deg/s")
+                if unit not in _UNITS or unit not in ok:
+                    raise FirmwareError(f"update: ${{{m.group(1)}}}: unit {unit!r} for {name} "
+                                        f"(known: {', '.join(ok) or 'none; give a factor *K'})")
+                scale = _UNITS[unit]
+            elif factor is not None:
+                try:
+                    scale = float(factor)
+                except ValueError:
+                    raise FirmwareError(f"update: ${{{m.group(1)}}}: factor {factor!r}") from None
+            lit = "" if scale == 1.0 else f" * {c_double_literal(scale)}"
+            if width == 3:
+                if vtype is None:
+                    raise FirmwareError(f"update: ${{{m.group(1)}}}: a whole vector needs its "
+                                        f"element type, e.g. ${{{name}[float]}}")
+                var = f"imf_v{len(decls)}_{name}"
+                decls.append(f"{vtype} {var}[3] = {{ ({vtype})(x[{col}]{lit}), "
+                             f"({vtype})(x[{col + 1}]{lit}), ({vtype})(x[{col + 2}]{lit}) }};")
+                return var
+            if vtype is not None:
+                raise FirmwareError(f"update: ${{{m.group(1)}}}: {name} is one value")
+            return f"(x[{col}]{lit})"
+        call = _PLACE.sub(rep, self.update_template).strip()
+        if not call.endswith((";", "}")):
+            call += ";"
+        return decls, call, total
+
+    def prepare(self, kind, c_args=(), params=None):
+        self.bind(c_args, params or {})
+        super().prepare(kind, c_args, params)
+
+    def load(self, kind, c_args=(), params=None):
+        self.bind(c_args, params or {})
+        super().load(kind, c_args, params)
+
+    def run(self, kind, inputs, dt, c_args=(), params=None, state0=None):
+        self.bind(c_args, params or {})
+        return super().run(kind, inputs, dt, c_args, params, state0)
+
+    def dtype(self, kind="1d", c_args=(), params=None):
+        self.bind(c_args, params or {})
+        return super().dtype(kind, c_args, params)
+
+    # -- the generated C / C++ ---------------------------------------------
+    def _object_code(self) -> Tuple[str, str, str]:
+        """(file-scope declarations, the start of a run, the end of a run)."""
+        t, n = self.object_type, self.object_name
+        if t is None:
+            return "", "", ""
+        args = "" if self.object_args is None else self._fill_init(self.object_args, "args")
+        if self.language == "c++":
+            top = (f"alignas({t}) static unsigned char imf_fw_store[sizeof({t})];\n"
+                   f"#define {n} (*reinterpret_cast<{t} *>(imf_fw_store))\n")
+            start = f"    new (imf_fw_store) {t}{'(' + args + ')' if args else '()'};\n"
+            end = f"    {n}.~{t.split('::')[-1].split('<')[0]}();\n"
+            return top, start, end
+        top = f"static {t} {n};\n"
+        return top, f"    memset(&{n}, 0, sizeof {n});\n", ""
+
+    def source(self, kind: str, n_init: int) -> str:
+        """The host harness: imufuse_fw_run and imufuse_fw_sizes, as Firmware's."""
+        decls, call, n_in = self._fill_update(kind)
+        top, start, end = self._object_code()
+        init = "".join(f"    {{ {self._fill_init(s, 'init').strip().rstrip(';')}; }}\n"
+                       for s in self.init_statements)
+        st = list(self.state.values())
+        heads = "".join(f'#include "{h}"\n' for h in self.headers)
+        cxx = self.language == "c++"
+        store = "".join(f"        out[k * {len(st)} + {j}] = (double)({e});\n"
+                        for j, e in enumerate(st))
+        sizes = "".join(f"    sizes[{j}] = (int)sizeof({e});\n" for j, e in enumerate(st))
+        isint = "".join(f"    isint[{j}] = ((({e}) * 0 + 1) / 2 == 0);\n" for j, e in enumerate(st))
+        return (
+            "#include <string.h>\n#include <stddef.h>\n" + ("#include <new>\n" if cxx else "")
+            + heads + top +
+            "void imufuse_fw_run(const double *p, const double *s0, int set_state, size_t n,\n"
+            "                    const double *in, double dt, double *out, int *isint)\n{\n"
+            "    size_t k;\n" + start + init + isint +
+            "    (void)p; (void)s0; (void)set_state; (void)dt;\n"
+            "    for (k = 0; k < n; ++k) {\n"
+            f"        const double *x = in + k * {n_in};\n"
+            + "".join(f"        {d}\n" for d in decls) +
+            f"        {call}\n" + store + "    }\n" + end + "}\n"
+            "void imufuse_fw_sizes(int *sizes)\n{\n" + sizes + "}\n")
+
+    def _update_plan(self, kind: str):
+        """Firmware's: no parameter plan; the number of input values a sample has."""
+        return [], (2 if kind == "1d" else 3 * len(KINDS[kind]))
+
+    def target_source(self, kind, init_values, dt, state0=None, c89=False):
+        raise FirmwareError("a declared firmware API validates on the host only so far "
+                            "(--target needs a prototype declaration)")
+
+
+class Declared:
+    """A loaded declaration file: the firmware, the imufuse filter and its parameters."""
+
+    def __init__(self, firmware: DeclaredFirmware, filter: str, params: Dict[str, Any],
+                 path: str) -> None:
+        self.firmware, self.filter, self.params, self.path = firmware, filter, params, path
+
+
+def _table(data: Mapping[str, Any], key: str, path: str, required: bool = True) -> Dict[str, Any]:
+    v = data.get(key)
+    if v is None:
+        if required:
+            raise FirmwareError(f"{path}: no [{key}] table")
+        return {}
+    if not isinstance(v, dict):
+        raise FirmwareError(f"{path}: {key} must be a table ([{key}])")
+    return v
+
+
+def _strings(v: Any, what: str, path: str) -> List[str]:
+    if isinstance(v, str):
+        return [v]
+    if not isinstance(v, list) or not all(isinstance(x, str) for x in v):
+        raise FirmwareError(f"{path}: {what} must be a string or a list of strings")
+    return list(v)
+
+
+_KNOWN = {"firmware": {"sources", "headers", "include", "cflags", "defines", "language"},
+          "filter": {"name", "params"}, "object": {"type", "name", "args", "init"},
+          "update": {"call"}, "state": None}
+
+
+def load_declaration(path: "str | os.PathLike[str]", source_dir: Optional[str] = None,
+                     cache_dir: Optional[str] = None) -> Declared:
+    """Read a declaration file (TOML, see the module's doc). Relative paths are relative to
+    ``source_dir`` (default: the file's directory). FirmwareError naming the file and the
+    key for anything it cannot use."""
+    path = os.fspath(path)
+    try:
+        import tomllib as toml
+    except ImportError:                       # Python < 3.11
+        try:
+            import tomli as toml  # type: ignore[no-redef]
+        except ImportError:
+            raise FirmwareError(f"{path}: reading a declaration needs Python 3.11 or "
+                                "`pip install tomli`") from None
+    try:
+        with open(path, "rb") as fh:
+            raw = fh.read(1 << 20 + 1)
+        if len(raw) > 1 << 20:
+            raise FirmwareError(f"{path}: larger than 1 MiB; not a declaration")
+        data = toml.loads(raw.decode("utf-8"))
+    except OSError as e:
+        raise FirmwareError(f"{path}: cannot read: {e.strerror or e}") from None
+    except UnicodeDecodeError as e:
+        raise FirmwareError(f"{path}: not UTF-8 (byte {e.start})") from None
+    except toml.TOMLDecodeError as e:
+        raise FirmwareError(f"{path}: not TOML: {e}") from None
+    for key in data:
+        if key not in _KNOWN:
+            raise FirmwareError(f"{path}: unknown table [{key}] (known: {', '.join(_KNOWN)})")
+    for key, allowed in _KNOWN.items():
+        t = data.get(key)
+        if isinstance(t, dict) and allowed is not None:
+            bad = sorted(set(t) - allowed)
+            if bad:
+                raise FirmwareError(f"{path}: [{key}] {bad[0]}: unknown key (known: "
+                                    f"{', '.join(sorted(allowed))})")
+    base = source_dir or os.path.dirname(os.path.abspath(path))
+
+    def here(p: str) -> str:
+        return p if os.path.isabs(p) else os.path.join(base, p)
+    fwt = _table(data, "firmware", path)
+    flt = _table(data, "filter", path)
+    obj = _table(data, "object", path, required=False)
+    upd = _table(data, "update", path)
+    state = _table(data, "state", path)
+    name = flt.get("name")
+    if not isinstance(name, str):
+        raise FirmwareError(f"{path}: [filter] name: the imufuse filter to compare with")
+    try:
+        entry(name)
+        reference_class(name) if not entry(name).fixed else None
+    except Exception as e:  # noqa: BLE001 - the catalogue's message names the filter
+        raise FirmwareError(f"{path}: [filter] name: {e}") from None
+    params = flt.get("params", {})
+    if not isinstance(params, dict):
+        raise FirmwareError(f"{path}: [filter] params must be a table")
+    if "call" not in upd or not isinstance(upd["call"], str):
+        raise FirmwareError(f"{path}: [update] call: the update statement (a string)")
+    for k, v in state.items():
+        if not isinstance(v, str):
+            raise FirmwareError(f"{path}: [state] {k}: an expression (a string)")
+    defines = fwt.get("defines", {})
+    if not isinstance(defines, dict):
+        raise FirmwareError(f"{path}: [firmware] defines must be a table")
+    fw = DeclaredFirmware(
+        [here(s) for s in _strings(fwt.get("sources", []), "[firmware] sources", path)],
+        update=upd["call"], state=state, object_type=obj.get("type"),
+        object_name=obj.get("name", "fw"), object_args=obj.get("args"),
+        init=_strings(obj.get("init", []), "[object] init", path),
+        headers=_strings(fwt.get("headers", []), "[firmware] headers", path),
+        include_dirs=[here(d) for d in _strings(fwt.get("include", ["."]),
+                                                "[firmware] include", path)],
+        defines={k: (None if v is True else str(v)) for k, v in defines.items()},
+        cflags=(_strings(fwt["cflags"], "[firmware] cflags", path) if "cflags" in fwt
+                else None),
+        language=fwt.get("language"), cache_dir=cache_dir)
+    if not fw.sources:
+        raise FirmwareError(f"{path}: [firmware] sources: give the firmware's sources")
+    unknown = [k for k in fw.state if k not in entry(name).state_names]
+    if unknown:
+        raise FirmwareError(f"{path}: [state] {unknown[0]}: {name} has no state variable of "
+                            f"that name (it has {', '.join(entry(name).state_names)})")
+    return Declared(fw, name, dict(params), path)
