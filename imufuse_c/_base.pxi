@@ -28,6 +28,7 @@ import numpy as np
 cnp.import_array()
 
 include "_stateout.pxi"
+include "_guard.pxi"
 
 # the numpy type of imf_real
 cdef int _NATIVE = cnp.NPY_DOUBLE if sizeof(imf_real) == 8 else cnp.NPY_FLOAT
@@ -181,6 +182,7 @@ cdef class _Filter:
     cdef imf_attitude_window_t _win
     cdef _StateOut _out
     cdef void *_whole
+    cdef int _busy          # run() in progress in some thread (_guard.pxi)
     _ref = None
     dtype = DTYPE
 
@@ -188,15 +190,17 @@ cdef class _Filter:
         start = {k: v for k, v, d in (("init", init, "identity"), ("init_window", init_window, 1),
                                       ("q0", q0, None), ("state", state, None))
                  if not (v is d or (isinstance(v, (str, int)) and v == d))}
-        self._ctor = (args, dict(kwargs, **start))
-        self._args = self._ref._checked_params(DTYPE, *args, **kwargs)
+        ctor = (args, dict(kwargs, **start))
+        checked = self._ref._checked_params(DTYPE, *args, **kwargs)
         # the C init arguments by name (the reference _init's = the C init's names)
-        self._kw = _init_arguments(self._ref, self._args)
-        self._n = len(self._ref.state_names)
-        self._out = _StateOut(self._n, _NATIVE)
-        self._start = _checks.check_start(self._ref.kind, self._ref.state_names, DTYPE, init,
-                                          init_window, q0, state,
-                                          getattr(self._ref, "own_start", None))
+        kw = _init_arguments(self._ref, checked)
+        n = len(self._ref.state_names)
+        out = _StateOut(n, _NATIVE)
+        how = _checks.check_start(self._ref.kind, self._ref.state_names, DTYPE, init,
+                                  init_window, q0, state, getattr(self._ref, "own_start", None))
+        _idle(self._busy, self)     # everything checked: no Python code until the C init
+        self._ctor, self._args, self._kw, self._n, self._out, self._start = \
+            ctor, checked, kw, n, out, how
         # the constructor's period (filters without a dt, like VarioKF, never use it)
         self._dt0 = <imf_real><double>self._kw.get("dt", 0.0)
         self._init()
@@ -252,9 +256,11 @@ cdef class _Filter:
     def __reduce__(self):
         if self._x == NULL:
             _unbound(self)
-        return (_rebuild, (type(self), self._ctor,
-                           (<char *>self._x)[:self._n * sizeof(imf_real)], self._skipped[0],
-                           self._pending, (<char *>&self._win)[:sizeof(self._win)]))
+        _idle(self._busy, self)
+        x = (<char *>self._x)[:self._n * sizeof(imf_real)]
+        skipped, pending = self._skipped[0], self._pending
+        win = (<char *>&self._win)[:sizeof(self._win)]
+        return (_rebuild, (type(self), self._ctor, x, skipped, pending, win))
 
     def __copy__(self):
         fn, args = self.__reduce__()
@@ -293,6 +299,7 @@ cdef class _Filter:
         """Samples rejected by the non-finite policy since construction or reset."""
         if self._skipped == NULL:
             _unbound(self)
+        _idle(self._busy, self)
         return self._skipped[0]
 
     @property
@@ -300,6 +307,7 @@ cdef class _Filter:
         if self._x == NULL:
             _unbound(self)
         out = self._out.take()          # a new copy for every read (_stateout.pxi)
+        _idle(self._busy, self)
         memcpy(cnp.PyArray_DATA(<cnp.ndarray>out), self._x, self._n * sizeof(imf_real))
         return out
 
@@ -315,6 +323,7 @@ cdef class _Filter:
         if problem:
             raise ValueError(problem)
         cdef const imf_real[::1] v = arr
+        _idle(self._busy, self)         # checked above: no Python code from here
         memcpy(self._x, &v[0], self._n * sizeof(imf_real))
         self._pending = 0   # a state set by hand ends a pending init="first"
 
@@ -331,6 +340,7 @@ cdef class _Filter:
         """Back to the state after construction (init runs again)."""
         if self._x == NULL:
             _unbound(self)
+        _idle(self._busy, self)
         self._init()
         self._apply_start()
 
@@ -394,14 +404,18 @@ cdef class _Filter1D(_Filter):
             a = angle
         else:
             w, a = _checks.update_inputs("1d", (rate, angle))
+        cdef imf_real d
         if dt is None:
+            _idle(self._busy, self)
             self._step(<imf_real>w, <imf_real>a)
         else:
-            self._set_dt(_dt_step(dt))
+            d = _dt_step(dt)
+            _idle(self._busy, self)
+            self._set_dt(d)
             self._step(<imf_real>w, <imf_real>a)
             self._set_dt(self._dt0)
 
-    def _run_dt(self, rate, angle, dt):
+    cdef object _run_dt(self, rate, angle, dt):
         rate_a, angle_a = _checks.run_inputs("1d", DTYPE, (rate, angle))
         cdef Py_ssize_t n_samples = rate_a.shape[0], n = self._n, k
         dt_a = _checks.dt_array(dt, n_samples, DTYPE)
@@ -426,8 +440,16 @@ cdef class _Filter1D(_Filter):
                              "(a single-axis filter); use the state")
         if self._x == NULL:
             _unbound(self)
-        if dt is not None:
-            return self._run_dt(rate, angle, dt)
+        _claim(&self._busy, self)
+        try:
+            if dt is not None:
+                return self._run_dt(rate, angle, dt)
+            return self._run(rate, angle)
+        finally:
+            self._busy = 0
+
+    cdef object _run(self, rate, angle):
+        # run() at the constructor's dt: arrays read in place where they can be
         cdef Py_ssize_t n_samples = -1, n = self._n, k
         cdef int tw = _in_place(rate, 1, &n_samples)
         cdef int ta = _in_place(angle, 1, &n_samples) if tw >= 0 else -1
@@ -466,12 +488,16 @@ cdef class _FilterIMU(_Filter):
             except (TypeError, ValueError):
                 _checks.update_inputs("imu", (gyr, acc))
                 raise
+        cdef imf_real d = 0
+        if dt is not None:
+            d = _dt_step(dt)
+        _idle(self._busy, self)
         if dt is None and not self._pending:
             self._step(g, a)
         else:
-            self._update_general(g, a, dt)
+            self._update_general(g, a, dt is not None, d)
 
-    def _run_general(self, gyr, acc, dt):
+    cdef object _run_general(self, gyr, acc, dt):
         # run() with per-sample dt and/or a pending init="first"
         gyr_a, acc_a = _checks.run_inputs("imu", DTYPE, (gyr, acc))
         cdef Py_ssize_t n_samples = gyr_a.shape[0], n = self._n, k = 0, k0
@@ -504,22 +530,20 @@ cdef class _FilterIMU(_Filter):
                     _copy_state(&o[k, 0], self._x, n)
         return out
 
-    cdef int _update_general(self, const imf_real *g, const imf_real *a, object dt) except -1:
-        # update() with a dt and/or a pending init="first"
+    cdef void _update_general(self, const imf_real *g, const imf_real *a, bint use_dt,
+                              imf_real dt) noexcept:
+        # update() with a dt (use_dt: dt, checked) and/or a pending init="first"
         cdef imf_real z[3]
-        cdef imf_real step_dt = self._dt0
+        cdef imf_real step_dt = dt if use_dt else self._dt0
         z[0] = 0
         z[1] = 0
         z[2] = 0
-        if dt is not None:
-            step_dt = _dt_step(dt)
         if self._pending:
             self._first(g, a, z)
         else:
             self._set_dt(step_dt)
             self._step(g, a)
             self._set_dt(self._dt0)
-        return 0
 
     def run(self, gyr, acc, dt=None, outputs="state"):
         """All samples: gyr, acc (N, 3) arrays, dt (optional) the (N,) sample
@@ -531,8 +555,16 @@ cdef class _FilterIMU(_Filter):
             return _estimate.run_outputs(self, self.run(gyr, acc, dt), outputs)
         if self._x == NULL:
             _unbound(self)
-        if dt is not None or self._pending:
-            return self._run_general(gyr, acc, dt)
+        _claim(&self._busy, self)
+        try:
+            if dt is not None or self._pending:
+                return self._run_general(gyr, acc, dt)
+            return self._run(gyr, acc)
+        finally:
+            self._busy = 0
+
+    cdef object _run(self, gyr, acc):
+        # run() at the constructor's dt: arrays read in place where they can be
         cdef Py_ssize_t n_samples = -1, n = self._n, k
         cdef int tg = _in_place(gyr, 2, &n_samples)
         cdef int ta = _in_place(acc, 2, &n_samples) if tg >= 0 else -1
@@ -584,12 +616,16 @@ cdef class _FilterAHRS(_Filter):
             except (TypeError, ValueError):
                 _checks.update_inputs("ahrs", (gyr, acc, mag))
                 raise
+        cdef imf_real d = 0
+        if dt is not None:
+            d = _dt_step(dt)
+        _idle(self._busy, self)
         if dt is None and not self._pending:
             self._step(g, a, m)
         else:
-            self._update_general(g, a, m, dt)
+            self._update_general(g, a, m, dt is not None, d)
 
-    def _run_general(self, gyr, acc, mag, dt):
+    cdef object _run_general(self, gyr, acc, mag, dt):
         # run() with per-sample dt and/or a pending init="first"
         gyr_a, acc_a, mag_a = _checks.run_inputs("ahrs", DTYPE, (gyr, acc, mag))
         cdef Py_ssize_t n_samples = gyr_a.shape[0], n = self._n, k = 0, k0
@@ -619,19 +655,16 @@ cdef class _FilterAHRS(_Filter):
                     _copy_state(&o[k, 0], self._x, n)
         return out
 
-    cdef int _update_general(self, const imf_real *g, const imf_real *a, const imf_real *m,
-                             object dt) except -1:
-        # update() with a dt and/or a pending init="first"
-        cdef imf_real step_dt = self._dt0
-        if dt is not None:
-            step_dt = _dt_step(dt)
+    cdef void _update_general(self, const imf_real *g, const imf_real *a, const imf_real *m,
+                              bint use_dt, imf_real dt) noexcept:
+        # update() with a dt (use_dt: dt, checked) and/or a pending init="first"
+        cdef imf_real step_dt = dt if use_dt else self._dt0
         if self._pending:
             self._first(g, a, m)
         else:
             self._set_dt(step_dt)
             self._step(g, a, m)
             self._set_dt(self._dt0)
-        return 0
 
     def run(self, gyr, acc, mag, dt=None, outputs="state"):
         """All samples: gyr, acc, mag (N, 3) arrays, dt (optional) the (N,) sample
@@ -643,8 +676,16 @@ cdef class _FilterAHRS(_Filter):
             return _estimate.run_outputs(self, self.run(gyr, acc, mag, dt), outputs)
         if self._x == NULL:
             _unbound(self)
-        if dt is not None or self._pending:
-            return self._run_general(gyr, acc, mag, dt)
+        _claim(&self._busy, self)
+        try:
+            if dt is not None or self._pending:
+                return self._run_general(gyr, acc, mag, dt)
+            return self._run(gyr, acc, mag)
+        finally:
+            self._busy = 0
+
+    cdef object _run(self, gyr, acc, mag):
+        # run() at the constructor's dt: arrays read in place where they can be
         cdef Py_ssize_t n_samples = -1, n = self._n, k
         cdef int tg = _in_place(gyr, 2, &n_samples)
         cdef int ta = _in_place(acc, 2, &n_samples) if tg >= 0 else -1

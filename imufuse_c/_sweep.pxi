@@ -103,10 +103,11 @@ def _adapter(cls):
     return _ADAPTER[key], np.asarray(idx, dtype=np.intc), heading
 
 
-def _run_group(list filters, tuple inputs, object dts, object ref, object traj, int width):
+cdef tuple _run_group(list filters, tuple inputs, object dts, object ref, object traj,
+                      int width):
     """One group of filters of one class over native (N, 3) inputs: trajectories into
     traj[i] (or None), scores against ref (an evaluation.Reference, or None). Returns the
-    per-filter score sums (or Nones)."""
+    per-filter score sums (or Nones). Only run_filters calls it, its filters claimed."""
     cdef int p = len(filters), i, ran = 0
     cdef _Filter f0 = filters[0], f
     cdef Py_ssize_t N = cnp.PyArray_DIM(<cnp.ndarray>inputs[0], 0), kmax = 0, k
@@ -238,6 +239,22 @@ def _check_distinct(filters):
                              "range(n)])")
 
 
+cdef int _claim_all(list filters) except -1:
+    """Claim every filter (_guard.pxi) before any work starts: if one is in use by another
+    thread, those already claimed are released and the RuntimeError raised."""
+    cdef Py_ssize_t i, j
+    cdef _Filter f
+    for i in range(len(filters)):
+        f = filters[i]
+        try:
+            _claim(&f._busy, f)
+        except RuntimeError:
+            for j in range(i):
+                (<_Filter>filters[j])._busy = 0
+            raise
+    return 0
+
+
 def _check_threads(threads):
     if threads is None:
         return None
@@ -292,40 +309,47 @@ def run_filters(filters, *inputs, dt=None, score=None, outputs="state", lanes=No
     if outputs not in _estimate.OUTPUTS:
         raise ValueError(f"outputs: must be one of {', '.join(map(repr, _estimate.OUTPUTS))}, "
                          f"got {outputs!r}")
-    arrays = tuple(_checks.run_inputs(cls._ref.kind, DTYPE, inputs))
-    N = arrays[0].shape[0]
-    dts = None if dt is None else _checks.dt_array(dt, N, DTYPE)
-    best = imf_lanes_best()
-    if lanes is None:
-        width = best if has_lanes(cls) else 0
-    else:
-        if type(lanes) is not int or lanes not in (0, 1, 2, 4, 8) or lanes > best:
-            raise ValueError(f"lanes: one of 0 (each filter's own update) or "
-                             f"{', '.join(map(str, lane_widths()))} on this CPU, got {lanes!r}")
-        width = lanes
-    heading = None
-    if score is not None:
-        score = _sealed_reference(score, N)
-        _, _, heading = _adapter(cls)
-    P = len(filters)
-    traj = None
-    if score is None:
-        traj = np.empty((P, N, len(cls._ref.state_names)), dtype=DTYPE)
-    groups = _groups(P, width if width > 0 and has_lanes(cls) else 1)
+    _claim_all(filters)     # one state, one thread: released when the call returns
+    try:
+        arrays = tuple(_checks.run_inputs(cls._ref.kind, DTYPE, inputs))
+        N = arrays[0].shape[0]
+        dts = None if dt is None else _checks.dt_array(dt, N, DTYPE)
+        best = imf_lanes_best()
+        if lanes is None:
+            width = best if has_lanes(cls) else 0
+        else:
+            if type(lanes) is not int or lanes not in (0, 1, 2, 4, 8) or lanes > best:
+                raise ValueError(f"lanes: one of 0 (each filter's own update) or "
+                                 f"{', '.join(map(str, lane_widths()))} on this CPU, "
+                                 f"got {lanes!r}")
+            width = lanes
+        heading = None
+        if score is not None:
+            score = _sealed_reference(score, N)
+            _, _, heading = _adapter(cls)
+        P = len(filters)
+        traj = None
+        if score is None:
+            traj = np.empty((P, N, len(cls._ref.state_names)), dtype=DTYPE)
+        groups = _groups(P, width if width > 0 and has_lanes(cls) else 1)
 
-    def one(span):
-        i, j = span
-        return _run_group(filters[i:j], arrays, dts, score, None if traj is None else traj[i:j],
-                          width)[0]
-    workers = max(1, min(threads or _os.cpu_count() or 1, len(groups)))
-    if workers == 1:
-        res = [one(s) for s in groups]
-    else:
-        with _cf.ThreadPoolExecutor(max_workers=workers) as ex:
-            res = list(ex.map(one, groups))
-    sums = [r for part in res for r in part]
-    if score is None:
-        if outputs == "q":
-            return np.stack([_estimate.run_outputs(f, t, "q") for f, t in zip(filters, traj)])
-        return traj
-    return [score.finish(*s, has_heading=heading) for s in sums]
+        def one(span):
+            i, j = span
+            return _run_group(filters[i:j], arrays, dts, score,
+                              None if traj is None else traj[i:j], width)[0]
+        workers = max(1, min(threads or _os.cpu_count() or 1, len(groups)))
+        if workers == 1:
+            res = [one(s) for s in groups]
+        else:
+            with _cf.ThreadPoolExecutor(max_workers=workers) as ex:
+                res = list(ex.map(one, groups))
+        sums = [r for part in res for r in part]
+        if score is None:
+            if outputs == "q":
+                return np.stack([_estimate.run_outputs(f, t, "q")
+                                 for f, t in zip(filters, traj)])
+            return traj
+        return [score.finish(*s, has_heading=heading) for s in sums]
+    finally:
+        for f in filters:
+            (<_Filter>f)._busy = 0

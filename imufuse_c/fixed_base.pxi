@@ -10,6 +10,7 @@ from libc.stdint cimport int16_t, int32_t
 import numpy as np
 
 include "_stateout.pxi"
+include "_guard.pxi"
 
 from imufuse.reference import fixed_base as _fb
 from imufuse.reference._base import init_arguments as _init_arguments
@@ -36,18 +37,21 @@ cdef class _FixedFilter:
     cdef dict _kw
     cdef object _conv
     cdef _StateOut _out
+    cdef int _busy          # run() in progress in some thread (_guard.pxi)
     _ref = None
     dtype = "int32"
 
     def __init__(self, *args, profile="32", **kwargs):
-        self._ctor = (args, dict(kwargs, profile=profile))
+        ctor = (args, dict(kwargs, profile=profile))
         # the reference instance validates the arguments and converts states
-        self._conv = self._ref(*args, profile=profile, **kwargs)
-        self._args = self._conv._args
+        conv = self._ref(*args, profile=profile, **kwargs)
         # the C init arguments by name (the reference _init's = the C init's names)
-        self._kw = _init_arguments(self._ref, self._args)
-        self._n = len(self._ref.state_names)
-        self._out = _StateOut(self._n, cnp.NPY_INT32)
+        kw = _init_arguments(self._ref, conv._args)
+        n = len(self._ref.state_names)
+        out = _StateOut(n, cnp.NPY_INT32)
+        _idle(self._busy, self)     # everything checked: no Python code until the C init
+        self._ctor, self._conv, self._args, self._kw, self._n, self._out = \
+            ctor, conv, conv._args, kw, n, out
         self._init()
 
     cdef int _init(self) except -1:
@@ -56,8 +60,9 @@ cdef class _FixedFilter:
     def __reduce__(self):
         if self._x == NULL:
             raise TypeError(f"{type(self).__name__}: object not initialised")
-        return (_rebuild_fixed, (type(self), self._ctor,
-                                 (<char *>self._x)[:self._n * sizeof(int32_t)]))
+        _idle(self._busy, self)
+        x = (<char *>self._x)[:self._n * sizeof(int32_t)]
+        return (_rebuild_fixed, (type(self), self._ctor, x))
 
     def __copy__(self):
         fn, args = self.__reduce__()
@@ -99,6 +104,7 @@ cdef class _FixedFilter:
         if self._x == NULL:
             _unbound(self)
         out = self._out.take()          # a new copy for every read (_stateout.pxi)
+        _idle(self._busy, self)
         memcpy(cnp.PyArray_DATA(<cnp.ndarray>out), self._x, self._n * sizeof(int32_t))
         return out
 
@@ -109,6 +115,7 @@ cdef class _FixedFilter:
         self._conv.state = value          # same validation as the reference
         arr = np.ascontiguousarray(self._conv.state, dtype=np.int32)
         cdef const int32_t[::1] v = arr
+        _idle(self._busy, self)
         memcpy(self._x, &v[0], self._n * sizeof(int32_t))
 
     @property
@@ -127,6 +134,7 @@ cdef class _FixedFilter:
         """Back to the state after construction (init runs again)."""
         if self._x == NULL:
             _unbound(self)
+        _idle(self._busy, self)
         self._init()
 
     def __repr__(self):
@@ -152,12 +160,20 @@ cdef class _Fixed1D(_FixedFilter):
         if self._x == NULL:
             _unbound(self)
         w, a = _fb.fixed_update_inputs("1d", (rate, angle))
+        _idle(self._busy, self)
         self._step(<int16_t>w, <int16_t>a)
 
     def run(self, rate, angle):
         """All samples: rate, angle 1-D int16 counts; returns the (N, len(state)) int32 trajectory."""
         if self._x == NULL:
             _unbound(self)
+        _claim(&self._busy, self)
+        try:
+            return self._run(rate, angle)
+        finally:
+            self._busy = 0
+
+    cdef object _run(self, rate, angle):
         rate_a, angle_a = _fb.fixed_run_inputs("1d", (rate, angle))
         cdef Py_ssize_t n_samples = rate_a.shape[0], n = self._n, k
         out = np.empty((n_samples, n), dtype=np.int32)
@@ -185,12 +201,20 @@ cdef class _FixedIMU(_FixedFilter):
         for i in range(3):
             g[i] = <int16_t>gl[i]
             a[i] = <int16_t>al[i]
+        _idle(self._busy, self)
         self._step(g, a)
 
     def run(self, gyr, acc):
         """All samples: gyr, acc (N, 3) int16 counts; returns the (N, len(state)) int32 trajectory."""
         if self._x == NULL:
             _unbound(self)
+        _claim(&self._busy, self)
+        try:
+            return self._run(gyr, acc)
+        finally:
+            self._busy = 0
+
+    cdef object _run(self, gyr, acc):
         gyr_a, acc_a = _fb.fixed_run_inputs("imu", (gyr, acc))
         cdef Py_ssize_t n_samples = gyr_a.shape[0], n = self._n, k
         out = np.empty((n_samples, n), dtype=np.int32)
@@ -220,6 +244,7 @@ cdef class _FixedAHRS(_FixedFilter):
             g[i] = <int16_t>gl[i]
             a[i] = <int16_t>al[i]
             m[i] = <int16_t>ml[i]
+        _idle(self._busy, self)
         self._step(g, a, m)
 
     def run(self, gyr, acc, mag):
@@ -227,6 +252,13 @@ cdef class _FixedAHRS(_FixedFilter):
         trajectory."""
         if self._x == NULL:
             _unbound(self)
+        _claim(&self._busy, self)
+        try:
+            return self._run(gyr, acc, mag)
+        finally:
+            self._busy = 0
+
+    cdef object _run(self, gyr, acc, mag):
         gyr_a, acc_a, mag_a = _fb.fixed_run_inputs("ahrs", (gyr, acc, mag))
         cdef Py_ssize_t n_samples = gyr_a.shape[0], n = self._n, k
         out = np.empty((n_samples, n), dtype=np.int32)

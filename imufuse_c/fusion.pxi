@@ -99,6 +99,7 @@ cdef class FusionAHRS:
     cdef imf_fusion_ahrs_t s
     cdef tuple _args
     cdef _StateOut _out
+    cdef int _busy          # run() in progress in some thread (_guard.pxi)
     _ref = _reference.FusionAHRS
     dtype = DTYPE
     kind = "fusion"
@@ -109,7 +110,9 @@ cdef class FusionAHRS:
         self._out = _StateOut(IMF_FUSION_AHRS_N_STATE, _NATIVE)
 
     def __init__(self, *args, **kwargs):
-        self._args = _reference.FusionAHRS._params(*args, dtype=DTYPE, **kwargs)
+        a = _reference.FusionAHRS._params(*args, dtype=DTYPE, **kwargs)
+        _idle(self._busy, self)
+        self._args = a
         self._init()
 
     cdef _init(self):
@@ -119,16 +122,20 @@ cdef class FusionAHRS:
 
     def reset(self):
         """Back to the initial state, keeping the settings (FusionAhrsReset)."""
+        _idle(self._busy, self)
         imf_fusion_ahrs_reset(&self.s)
 
     # a value: the whole C struct (settings and state, no pointers) is copied as it is
     def __reduce__(self):
-        return (_empty, (type(self),), (self._args, (<char *>&self.s)[:sizeof(self.s)]))
+        _idle(self._busy, self)
+        raw = (<char *>&self.s)[:sizeof(self.s)]
+        return (_empty, (type(self),), (self._args, raw))
 
     def __setstate__(self, st):
         args, raw = st
         if len(raw) != sizeof(self.s):
             raise ValueError("FusionAHRS: pickled state of another build")
+        _idle(self._busy, self)
         self._args = args
         memcpy(&self.s, <const char *>raw, sizeof(self.s))
 
@@ -151,13 +158,16 @@ cdef class FusionAHRS:
                                *a[1:6])))
         cur.update(settings)
         inv = [k for k, v in _fusion.INVSQRT.items() if v == a[6]][0]
-        self._args = _reference.FusionAHRS._params(**cur, invsqrt=inv, dtype=DTYPE)
+        new = _reference.FusionAHRS._params(**cur, invsqrt=inv, dtype=DTYPE)
         cdef imf_fusion_ahrs_settings_t st
-        _settings_from(self._args, &st)
+        _settings_from(new, &st)
+        _idle(self._busy, self)
+        self._args = new
         imf_fusion_ahrs_set_settings(&self.s, &st)
 
     @property
     def skipped(self):
+        _idle(self._busy, self)
         return self.s.skipped
 
     def update(self, gyr, acc, mag, dt):
@@ -174,6 +184,7 @@ cdef class FusionAHRS:
                 _checks.as_vec3(name, v)
             raise
         cdef imf_real d = <imf_real>_dt_value(dt)
+        _idle(self._busy, self)
         imf_fusion_ahrs_update(&self.s, g[0], g[1], g[2], a[0], a[1], a[2], m[0], m[1], m[2], d)
 
     def update_no_magnetometer(self, gyr, acc, dt):
@@ -188,6 +199,7 @@ cdef class FusionAHRS:
                 _checks.as_vec3(name, v)
             raise
         cdef imf_real d = <imf_real>_dt_value(dt)
+        _idle(self._busy, self)
         imf_fusion_ahrs_update_no_magnetometer(&self.s, g[0], g[1], g[2], a[0], a[1], a[2], d)
 
     def update_external_heading(self, gyr, acc, heading, dt):
@@ -203,6 +215,7 @@ cdef class FusionAHRS:
             raise
         cdef imf_real h = <imf_real>_fusion.check_scalar("heading", heading)
         cdef imf_real d = <imf_real>_dt_value(dt)
+        _idle(self._busy, self)
         imf_fusion_ahrs_update_external_heading(&self.s, g[0], g[1], g[2], a[0], a[1], a[2], h, d)
 
     def set_heading(self, heading):
@@ -210,11 +223,13 @@ cdef class FusionAHRS:
         h = _fusion.check_scalar("heading", heading)
         if not np.isfinite(h):
             raise ValueError(f"heading: must be finite, got {heading!r}")
+        _idle(self._busy, self)
         imf_fusion_ahrs_set_heading(&self.s, <imf_real>h)
 
     @property
     def state(self):
         out = self._out.take()          # a new copy for every read (_stateout.pxi)
+        _idle(self._busy, self)
         imf_fusion_ahrs_get_state(&self.s, <imf_real *>cnp.PyArray_DATA(<cnp.ndarray>out))
         return out
 
@@ -225,6 +240,7 @@ cdef class FusionAHRS:
         if problem:
             raise ValueError(problem)
         cdef const imf_real[::1] v = arr
+        _idle(self._busy, self)
         imf_fusion_ahrs_set_state(&self.s, &v[0])
 
     @property
@@ -237,12 +253,14 @@ cdef class FusionAHRS:
         st = self.state
         st[:4] = q
         cdef const imf_real[::1] v = st
+        _idle(self._busy, self)
         imf_fusion_ahrs_set_state(&self.s, &v[0])
 
     def outputs(self):
         """The outputs now (see imufuse.reference.FusionAHRS.outputs)."""
         out = np.empty(IMF_FUSION_N_OUT, dtype=DTYPE)
         cdef imf_real[::1] o = out
+        _idle(self._busy, self)
         imf_fusion_ahrs_outputs(&self.s, &o[0])
         return _fusion.pack_one(out, imf_fusion_ahrs_flags(&self.s))
 
@@ -255,6 +273,7 @@ cdef class FusionAHRS:
         cdef const imf_real[:, ::1] st = arr
         cdef imf_real[:, ::1] o = out
         cdef uint32_t[::1] fl = flags
+        _idle(self._busy, self)         # the settings are copied from the filter
         cdef imf_fusion_ahrs_t tmp = self.s
         with nogil:
             for k in range(n):
@@ -265,6 +284,13 @@ cdef class FusionAHRS:
 
     def run(self, gyr, acc, mag=None, *, dt, heading=None):
         """All samples (see imufuse.reference.FusionAHRS.run); (N, 22) states."""
+        _claim(&self._busy, self)
+        try:
+            return self._run(gyr, acc, mag, dt, heading)
+        finally:
+            self._busy = 0
+
+    cdef object _run(self, gyr, acc, mag, dt, heading):
         g_a, a_a, m_a, h_a, d_a = _fusion.run_arrays(DTYPE, gyr, acc, mag, heading, dt)
         cdef Py_ssize_t n = g_a.shape[0], k
         cdef int mode = 0 if m_a is not None else (1 if h_a is not None else 2)
@@ -297,6 +323,7 @@ cdef class FusionOffset:
     cdef imf_fusion_offset_t s
     cdef tuple _args
     cdef _StateOut _out
+    cdef int _busy          # run() in progress in some thread (_guard.pxi)
     _ref = _reference.FusionOffset
     dtype = DTYPE
     kind = "fusion_offset"
@@ -307,19 +334,25 @@ cdef class FusionOffset:
         self._out = _StateOut(4, _NATIVE)
 
     def __init__(self, sample_rate):
-        self._args = _reference.FusionOffset._params(sample_rate)
+        a = _reference.FusionOffset._params(sample_rate)
+        _idle(self._busy, self)
+        self._args = a
         imf_fusion_offset_init(&self.s, self._args[0])
 
     def reset(self):
+        _idle(self._busy, self)
         imf_fusion_offset_init(&self.s, self._args[0])
 
     def __reduce__(self):
-        return (_empty, (type(self),), (self._args, (<char *>&self.s)[:sizeof(self.s)]))
+        _idle(self._busy, self)
+        raw = (<char *>&self.s)[:sizeof(self.s)]
+        return (_empty, (type(self),), (self._args, raw))
 
     def __setstate__(self, st):
         args, raw = st
         if len(raw) != sizeof(self.s):
             raise ValueError("FusionOffset: pickled state of another build")
+        _idle(self._busy, self)
         self._args = args
         memcpy(&self.s, <const char *>raw, sizeof(self.s))
 
@@ -334,6 +367,7 @@ cdef class FusionOffset:
 
     @property
     def skipped(self):
+        _idle(self._busy, self)
         return self.s.skipped
 
     def update(self, gyr):
@@ -345,10 +379,18 @@ cdef class FusionOffset:
             raise
         out = np.empty(3, dtype=DTYPE)
         cdef imf_real[::1] o = out
+        _idle(self._busy, self)
         imf_fusion_offset_update(&self.s, g, &o[0])
         return out
 
     def run(self, gyr):
+        _claim(&self._busy, self)
+        try:
+            return self._run(gyr)
+        finally:
+            self._busy = 0
+
+    cdef object _run(self, gyr):
         (g_a,) = _checks.as_nx3(DTYPE, gyr=gyr)
         cdef Py_ssize_t n = g_a.shape[0], k
         out = np.empty((n, 3), dtype=DTYPE)
@@ -365,6 +407,7 @@ cdef class FusionOffset:
     @property
     def state(self):
         out = self._out.take()          # a new copy for every read (_stateout.pxi)
+        _idle(self._busy, self)
         imf_fusion_offset_get_state(&self.s, <imf_real *>cnp.PyArray_DATA(<cnp.ndarray>out))
         return out
 
@@ -375,6 +418,7 @@ cdef class FusionOffset:
         if arr[3] != int(arr[3]) or not 0 <= arr[3] <= timeout:
             raise ValueError(f"state: timer must be an integer in [0, {timeout}]")
         cdef const imf_real[::1] v = arr
+        _idle(self._busy, self)
         imf_fusion_offset_set_state(&self.s, &v[0])
 
     def __repr__(self):

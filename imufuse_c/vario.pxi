@@ -43,7 +43,9 @@ cdef class VarioKF(_Filter):
     cdef imf_vario_t s
 
     def __reduce__(self):
-        return (_rebuild_vario, (type(self), self._ctor, (<char *>&self.s)[:sizeof(self.s)]))
+        _idle(self._busy, self)
+        raw = (<char *>&self.s)[:sizeof(self.s)]
+        return (_rebuild_vario, (type(self), self._ctor, raw))
 
     cdef int _restore_raw(self, bytes raw) except -1:
         if len(raw) != sizeof(self.s):
@@ -71,11 +73,19 @@ cdef class VarioKF(_Filter):
         except TypeError:
             _vario_ref.update_inputs(accel, baro_alt, dt)
             raise
+        _idle(self._busy, self)
         imf_vario_update(&self.s, <imf_real>a, <imf_real>m, <imf_real>d)
 
     def run(self, accel, baro_alt, dt):
         """All samples: accel, baro_alt 1-D arrays, dt scalar or array; returns
         the (N, 9) trajectory of the state."""
+        _claim(&self._busy, self)
+        try:
+            return self._run(accel, baro_alt, dt)
+        finally:
+            self._busy = 0
+
+    cdef object _run(self, accel, baro_alt, dt):
         acc_a, alt_a, dt_a = _vario_ref.inputs(DTYPE, accel, baro_alt, dt)
         cdef Py_ssize_t n_samples = acc_a.shape[0], n = self._n, k
         out = np.empty((n_samples, n), dtype=DTYPE)

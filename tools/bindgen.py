@@ -13,8 +13,9 @@ From these, `family_pxi(family)` writes the extern block and one class per filte
 (a settings struct filled from the validated keywords, or the init's own arguments by
 name), _step (the update's arguments: 2 for a single-axis filter, 6 for an IMU, 9 for an
 AHRS; fixed point: two int16 values, or two or three int16 vectors; the base class follows
-from them), _set_dt, _set_attitude and angles(). setup.py
-calls it at every build, so a generated binding is never stale; a family with a
+from them), _set_dt, _set_attitude and angles(); angles() and the magnetometer offset's
+methods first check that no other thread's run() holds the filter (imufuse_c/_guard.pxi).
+setup.py calls it at every build, so a generated binding is never stale; a family with a
 hand-written imufuse_c/<family>.pxi uses that file, whose first lines say why
 (Fusion's and the variometer's own APIs).
 
@@ -248,6 +249,7 @@ def _bind_filter(cp, name: str, c: str, text: str, rel_h: str, fixed: bool,
         body += ["\n    def angles(self):\n",
                  f'        """{angles_doc}"""\n',
                  "        cdef double roll, pitch\n",
+                 "        _idle(self._busy, self)\n",
                  f"        {c}_angles(&self.s, &roll, &pitch)\n",
                  "        return roll, pitch\n"]
     elif angles_doc is not None:
@@ -259,6 +261,7 @@ def _bind_filter(cp, name: str, c: str, text: str, rel_h: str, fixed: bool,
                  "            _unbound(self)\n",
                  "        cdef int16_t o[3]\n",
                  f"        o[0], o[1], o[2] = _reference.{name}._offset_counts(offset)\n",
+                 "        _idle(self._busy, self)\n",
                  f"        {c}_set_mag_offset(&self.s, o)\n"]
     if not fixed and proto(f"{c}_get_mag_offset", False):
         if proto(f"{c}_set_mag_offset", False) is None:
@@ -266,12 +269,14 @@ def _bind_filter(cp, name: str, c: str, text: str, rel_h: str, fixed: bool,
         body += ["\n    def get_mag_offset(self):\n",
                  f'        """As imufuse.reference.{name}.get_mag_offset."""\n',
                  "        cdef imf_real o[3]\n",
+                 "        _idle(self._busy, self)\n",
                  f"        cdef imf_real sd = {c}_get_mag_offset(&self.s, o)\n",
                  "        return (float(o[0]), float(o[1]), float(o[2])), float(sd)\n",
                  "\n    def set_mag_offset(self, offset):\n",
                  f'        """As imufuse.reference.{name}.set_mag_offset."""\n',
                  "        cdef imf_real o[3]\n",
                  f"        o[0], o[1], o[2] = _reference.{name}._offset3(offset, DTYPE)\n",
+                 "        _idle(self._busy, self)\n",
                  f"        {c}_set_mag_offset(&self.s, o)\n"]
     return "".join(body)
 
