@@ -10,7 +10,7 @@
 set -eu
 
 # clang + libclang-rt-14-dev: the sanitizer and libFuzzer runs of tests/test_sanitizers.py
-PACKAGES="make g++ pkg-config arduino-builder arduino-core-avr gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm gcc-avr avr-libc binutils-avr simavr valgrind clang libclang-rt-14-dev"
+PACKAGES="make g++ pkg-config arduino-builder arduino-core-avr gcc-arm-none-eabi libnewlib-arm-none-eabi libstdc++-arm-none-eabi-newlib qemu-system-arm gcc-avr avr-libc binutils-avr simavr valgrind clang libclang-rt-14-dev"
 
 missing=""
 for p in $PACKAGES; do

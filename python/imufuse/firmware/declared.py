@@ -91,7 +91,7 @@ class DeclaredFirmware(Firmware):
                  headers: Sequence[str] = (), include_dirs: Sequence[str] = (),
                  defines: Optional[Mapping[str, Any]] = None,
                  cflags: Optional[Sequence[str]] = None, language: Optional[str] = None,
-                 cache_dir: Optional[str] = None) -> None:
+                 cache_dir: Optional[str] = None, value_type: str = "float") -> None:
         self.sources = [os.path.abspath(s) for s in sources]
         for s in self.sources:
             if not os.path.isfile(s):
@@ -114,6 +114,9 @@ class DeclaredFirmware(Firmware):
             raise FirmwareError(f"object name {object_name!r}: give a C identifier")
         self.object_type, self.object_name, self.object_args = object_type, object_name, \
             object_args
+        if not re.fullmatch(r"[A-Za-z_][\w ]*", value_type):
+            raise FirmwareError(f"value_type {value_type!r}: a C type name (float, double)")
+        self.value_type = value_type
         self.init_statements = [str(s) for s in init]
         self.update_template = str(update)
         if not state:
@@ -153,11 +156,17 @@ class DeclaredFirmware(Firmware):
             return f"({c_double_literal(self.values[name])})"
         return _PLACE.sub(rep, text)
 
-    def _fill_update(self, kind: str) -> Tuple[List[str], str, int]:
-        """(local declarations, the update statement, inputs a sample has)."""
+    def _fill_update(self, kind: str, stored: bool = False
+                     ) -> Tuple[List[str], str, int, List[str]]:
+        """(declarations, the update statement, inputs a sample has, loads). Each value is
+        converted to value_type (a vector to its element type) once; stored: into
+        file-scope variables by the loads (the MCU driver, where the update is measured
+        alone), else into locals before the call (the host harness)."""
         cols = _inputs_of(kind)
         total = 2 if kind == "1d" else 3 * len(KINDS[kind])
         decls: List[str] = []
+        loads: List[str] = []
+        vt = self.value_type
 
         def rep(m: "re.Match[str]") -> str:
             text = m.group(1).replace(" ", "") if "[" not in m.group(1) else m.group(1).strip()
@@ -167,7 +176,12 @@ class DeclaredFirmware(Firmware):
                                     "${gx*0.01}, ${gyr[float]} or ${dt}")
             name, vtype, unit, factor = p.group("name", "vtype", "unit", "factor")
             if name == "dt":
-                return "(dt)"
+                if not stored:
+                    return "(dt)"
+                var = f"imf_a{len(decls)}_dt"
+                decls.append(f"static {vt} {var};")
+                loads.append(f"{var} = ({vt})(imf_fw_dt);")
+                return var
             if name not in cols:
                 raise FirmwareError(f"update: ${{{m.group(1)}}}: {name!r} is not an input of a "
                                     f"{kind} filter ({', '.join(cols)}, dt)")
@@ -191,16 +205,26 @@ class DeclaredFirmware(Firmware):
                     raise FirmwareError(f"update: ${{{m.group(1)}}}: a whole vector needs its "
                                         f"element type, e.g. ${{{name}[float]}}")
                 var = f"imf_v{len(decls)}_{name}"
-                decls.append(f"{vtype} {var}[3] = {{ ({vtype})(x[{col}]{lit}), "
-                             f"({vtype})(x[{col + 1}]{lit}), ({vtype})(x[{col + 2}]{lit}) }};")
+                vals = [f"({vtype})(x[{col + j}]{lit})" for j in range(3)]
+                if stored:
+                    decls.append(f"static {vtype} {var}[3];")
+                    loads.extend(f"{var}[{j}] = {v};" for j, v in enumerate(vals))
+                else:
+                    decls.append(f"{vtype} {var}[3] = {{ {', '.join(vals)} }};")
                 return var
             if vtype is not None:
                 raise FirmwareError(f"update: ${{{m.group(1)}}}: {name} is one value")
-            return f"(x[{col}]{lit})"
+            var = f"imf_a{len(decls)}_{name}"
+            if stored:
+                decls.append(f"static {vt} {var};")
+                loads.append(f"{var} = ({vt})(x[{col}]{lit});")
+            else:
+                decls.append(f"const {vt} {var} = ({vt})(x[{col}]{lit});")
+            return var
         call = _PLACE.sub(rep, self.update_template).strip()
         if not call.endswith((";", "}")):
             call += ";"
-        return decls, call, total
+        return decls, call, total, loads
 
     def prepare(self, kind, c_args=(), params=None):
         self.bind(c_args, params or {})
@@ -236,7 +260,7 @@ class DeclaredFirmware(Firmware):
 
     def source(self, kind: str, n_init: int) -> str:
         """The host harness: imufuse_fw_run and imufuse_fw_sizes, as Firmware's."""
-        decls, call, n_in = self._fill_update(kind)
+        decls, call, n_in, _ = self._fill_update(kind)
         top, start, end = self._object_code()
         init = "".join(f"    {{ {self._fill_init(s, 'init').strip().rstrip(';')}; }}\n"
                        for s in self.init_statements)
@@ -265,8 +289,130 @@ class DeclaredFirmware(Firmware):
         return [], (2 if kind == "1d" else 3 * len(KINDS[kind]))
 
     def target_source(self, kind, init_values, dt, state0=None, c89=False):
-        raise FirmwareError("a declared firmware API validates on the host only so far "
-                            "(--target needs a prototype declaration)")
+        """The driver of an emulated-MCU build (mcu/data/imf_fw_main.c includes it): C
+        firmware directly; C++ firmware through the adapter unit (target_adapter), which
+        the driver calls and whose state words it prints through their addresses."""
+        decls, call, total, loads = self._fill_update(kind, stored=True)
+        n = len(self.state)
+        dt_lit = c_double_literal(float(dt)) if not c89 or dt == 0 else f"{float(dt):.17g}"
+        out = ["/* Generated by imufuse.firmware.declared: the firmware under validation. */"]
+        if self.language == "c++":
+            out += [f"#define IMF_FW_ROW {total}",
+                    "void imf_cxx_init(void);", "void imf_cxx_load(const double *x);",
+                    "void imf_cxx_step(void);", "const void *imf_cxx_word(int j);",
+                    f"extern const uint32_t imf_fw_types[{max(n, 1)}] IMF_FLASH;",
+                    "static void imf_user_init(void) { imf_cxx_init(); }",
+                    "static void imf_user_load(const double *x) { imf_cxx_load(x); }",
+                    "static void imf_user_step(void) { imf_cxx_step(); }",
+                    _DUMP_WORD,
+                    "static void imf_user_dump(void)\n{\n    int j;\n"
+                    f"    for (j = 0; j < {n}; ++j) {{\n"
+                    "        imf_fw_dump_word(imf_cxx_word(j), IMF_RD32(&imf_fw_types[j]));\n"
+                    "    }\n}"]
+            return "\n".join(out) + "\n"
+        top, start, _ = self._object_code()
+        init = "".join(f"    {{ {self._fill_init(s, 'init').strip().rstrip(';')}; }}\n"
+                       for s in self.init_statements)
+        st = list(self.state.values())
+        out += ["".join(f'#include "{h}"\n' for h in self.headers), f"#define IMF_FW_ROW {total}",
+                top, f"static const double imf_fw_dt = {dt_lit};", *decls]
+        out.append("static void imf_user_init(void)\n{\n" + start + init + "}")
+        out.append("static void imf_user_load(const double *x)\n{\n" +
+                   "".join(f"    {ld}\n" for ld in loads) + "    (void)x;\n}")
+        out.append(f"static void imf_user_step(void)\n{{\n    {call}\n}}")
+        out.append("static void imf_user_dump(void)\n{\n" +
+                   "".join(f"    IMF_FW_DUMP({e});\n" for e in st) + "}")
+        types = ", ".join(f"IMF_FW_TYPE({e})" for e in st) or "0u"
+        out.append(f"const uint32_t imf_fw_types[] IMF_FLASH = {{ {types} }};")
+        return "\n".join(out) + "\n"
+
+    def target_adapter(self, kind, dt):
+        """(file name, C++ text) of the adapter unit of a C++ firmware on an MCU target, or
+        None for C: the object, init, the loads, the update call and the state words' types
+        and addresses, with C linkage for the driver. Built with the firmware's flags."""
+        if self.language != "c++":
+            return None
+        decls, call, total, loads = self._fill_update(kind, stored=True)
+        top, start, end = self._object_code()
+        init = "".join(f"    {{ {self._fill_init(s, 'init').strip().rstrip(';')}; }}\n"
+                       for s in self.init_statements)
+        st = list(self.state.values())
+        words = "".join(
+            f"    case {j}: {{\n        static typename imf_rcv<__typeof__({e})>::t w;\n"
+            f"        w = ({e});\n        return &w;\n    }}\n" for j, e in enumerate(st))
+        types = ", ".join(f"imf_type<typename imf_rcv<__typeof__({e})>::t>::v" for e in st) or "0u"
+        return "imf_fw_adapter.cpp", (
+            "/* Generated by imufuse.firmware.declared: a C++ firmware's calls, for the C "
+            "driver. */\n#include <stdint.h>\n#include <string.h>\n"
+            "#if defined(__AVR__)\n#include <avr/pgmspace.h>\n#define IMF_FLASH PROGMEM\n"
+            "#include <stddef.h>\ninline void *operator new(size_t, void *p) throw() "
+            "{ return p; }\n#else\n#define IMF_FLASH\n#include <new>\n#endif\n"
+            + "".join(f'#include "{h}"\n' for h in self.headers) + _CXX_TRAITS
+            + top.replace("alignas(" + str(self.object_type) + ") static unsigned char",
+                          f"static unsigned char __attribute__((aligned(__alignof__("
+                          f"{self.object_type}))))") +
+            f"static const double imf_fw_dt = {c_double_literal(float(dt))};\n"
+            + "".join(f"{d}\n" for d in decls) +
+            'extern "C" {\n'
+            f"extern const uint32_t imf_fw_types[{max(len(st), 1)}] IMF_FLASH = {{ {types} }};\n"
+            "void imf_cxx_init(void)\n{\n" + start + init + "}\n"
+            "void imf_cxx_load(const double *x)\n{\n" + "".join(f"    {ld}\n" for ld in loads)
+            + "    (void)x;\n}\n"
+            f"void imf_cxx_step(void)\n{{\n    {call}\n}}\n"
+            "const void *imf_cxx_word(int j)\n{\n    switch (j) {\n" + words +
+            "    default:\n        return 0;\n    }\n}\n}\n")
+
+
+# the driver's dump of one state word of a C++ firmware, from its address and type word
+# (imf_fw_main.c's IMF_FW_DUMP, for a word whose C type the C driver does not know)
+_DUMP_WORD = """static void imf_fw_dump_word(const void *p, uint32_t type)
+{
+    uint32_t size = type & 0xFFu;
+    if ((type & 0x100u) != 0u) {
+        if (size == 1u) {
+            if ((type & 0x200u) != 0u) { imf_out_i32(*(const int8_t *)p); }
+            else { imf_out_u32(*(const uint8_t *)p); }
+        } else if (size == 2u) {
+            if ((type & 0x200u) != 0u) { imf_out_i32(*(const int16_t *)p); }
+            else { imf_out_u32(*(const uint16_t *)p); }
+        } else if (size == 4u) {
+            if ((type & 0x200u) != 0u) { imf_out_i32(*(const int32_t *)p); }
+            else { imf_out_u32(*(const uint32_t *)p); }
+        } else {
+            unsigned long long v = 0u;
+            memcpy(&v, p, 8u);
+            imf_fw_out_u64(v);
+        }
+    } else if (size == 4u) {
+        float f;
+        memcpy(&f, p, 4u);
+        imf_out_f32(f);
+    } else {
+        double d;
+        memcpy(&d, p, sizeof d);
+        imf_fw_out_double(d);
+    }
+}"""
+
+# the type word of imf_fw_main.c's IMF_FW_TYPE, in C++ (no library headers: avr-g++ has none)
+_CXX_TRAITS = """template <class T> struct imf_rcv { typedef T t; };
+template <class T> struct imf_rcv<const T> { typedef T t; };
+template <class T> struct imf_rcv<volatile T> { typedef T t; };
+template <class T> struct imf_rcv<const volatile T> { typedef T t; };
+template <class T> struct imf_rcv<T &> { typedef typename imf_rcv<T>::t t; };
+template <class T> struct imf_fl { enum { v = 0 }; };
+template <> struct imf_fl<float> { enum { v = 1 }; };
+template <> struct imf_fl<double> { enum { v = 2 }; };
+template <> struct imf_fl<long double> { enum { v = 2 }; };
+template <class T, int F> struct imf_sg { enum { v = ((T)-1 < (T)0) }; };
+template <class T> struct imf_sg<T, 1> { enum { v = 0 }; };
+template <class T> struct imf_sg<T, 2> { enum { v = 0 }; };
+template <class T> struct imf_type {
+    static const uint32_t v = (uint32_t)sizeof(T) | (imf_fl<T>::v ? 0u : 0x100u)
+                              | (imf_sg<T, imf_fl<T>::v>::v ? 0x200u : 0u)
+                              | (imf_fl<T>::v == 2 && sizeof(T) == sizeof(double) ? 0x400u : 0u);
+};
+"""
 
 
 class Declared:
@@ -298,7 +444,7 @@ def _strings(v: Any, what: str, path: str) -> List[str]:
 
 _KNOWN = {"firmware": {"sources", "headers", "include", "cflags", "defines", "language"},
           "filter": {"name", "params"}, "object": {"type", "name", "args", "init"},
-          "update": {"call"}, "state": None}
+          "update": {"call", "value_type"}, "state": None}
 
 
 def load_declaration(path: "str | os.PathLike[str]", source_dir: Optional[str] = None,
@@ -376,7 +522,8 @@ def load_declaration(path: "str | os.PathLike[str]", source_dir: Optional[str] =
         defines={k: (None if v is True else str(v)) for k, v in defines.items()},
         cflags=(_strings(fwt["cflags"], "[firmware] cflags", path) if "cflags" in fwt
                 else None),
-        language=fwt.get("language"), cache_dir=cache_dir)
+        language=fwt.get("language"), cache_dir=cache_dir,
+        value_type=str(upd.get("value_type", "float")))
     if not fw.sources:
         raise FirmwareError(f"{path}: [firmware] sources: give the firmware's sources")
     unknown = [k for k in fw.state if k not in entry(name).state_names]

@@ -27,7 +27,8 @@ from ..mcu import toolchains as _tc
 from .elf import _Elf, _Map
 from .targets import TargetError, harness_target
 
-__all__ = ["StateType", "Program", "build_program", "MAX_CHUNK"]
+__all__ = ["StateType", "Program", "build_program", "MAX_CHUNK", "CXX_TARGET_FLAGS", "is_cxx",
+           "cxx_flags"]
 
 #: samples per chunk at most (bounds one emulator run's output)
 MAX_CHUNK = 50_000
@@ -80,6 +81,38 @@ def _strip_warnings(flags: Sequence[str]) -> List[str]:
     """The user's flags for the harness's own files: warnings are theirs, not the driver's."""
     return [f for f in flags if not (f.startswith("-W") and not f.startswith(("-Wl,", "-Wa,")))
             and not f.startswith("-pedantic")]
+
+
+#: what a C++ firmware is built with on an MCU target unless the flags say otherwise: the
+#: embedded C++ toolchains' usual no exceptions, no RTTI, no thread-safe static guards (which
+#: a bare-metal build cannot link)
+CXX_TARGET_FLAGS = ("-fno-exceptions", "-fno-rtti", "-fno-threadsafe-statics")
+CXX_EXTENSIONS = (".cpp", ".cc", ".cxx", ".C", ".c++")
+
+
+def is_cxx(src: str) -> bool:
+    return str(src).endswith(CXX_EXTENSIONS)
+
+
+def _cxx(cc: str) -> str:
+    """The C++ compiler beside a C compiler (arm-none-eabi-gcc -> arm-none-eabi-g++)."""
+    if cc.endswith("gcc"):
+        return cc[:-3] + "g++"
+    if cc.endswith("clang"):
+        return cc + "++"
+    return "c++" if cc == "cc" else cc
+
+
+def cxx_flags(flags: Sequence[str]) -> List[str]:
+    """The flags for a C++ unit: the user's, less the C-only ones (-std=c99, which the C++
+    compiler refuses), plus CXX_TARGET_FLAGS unless the user asks for exceptions, RTTI or
+    thread-safe statics."""
+    out = [f for f in flags if not (f.startswith("-std=") and "++" not in f)]
+    for f in CXX_TARGET_FLAGS:
+        positive = "-f" + f[len("-fno-"):]
+        if positive not in out and f not in out:
+            out.append(f)
+    return out
 
 
 def _run(cmd: Sequence[str], cwd: Path, what: str) -> subprocess.CompletedProcess:
@@ -153,7 +186,7 @@ def build_program(fw: Any, target: str, kind: str, driver: str, row: int, cflags
     wd = Path(workdir) if workdir else Path(tempfile.mkdtemp(prefix=f"imf_fw_{name}_"))
     wd.mkdir(parents=True, exist_ok=True)
     try:
-        return _build_in(fw, target, name, tgt, driver, row, cflags, in_dtype, wd, t0)
+        return _build_in(fw, target, name, tgt, driver, row, cflags, in_dtype, wd, t0, kind)
     except BaseException:
         if not workdir:
             shutil.rmtree(wd, ignore_errors=True)
@@ -161,7 +194,8 @@ def build_program(fw: Any, target: str, kind: str, driver: str, row: int, cflags
 
 
 def _build_in(fw: Any, target: str, name: str, tgt: "_tc.Target", driver: str, row: int,
-              cflags: Sequence[str], in_dtype: Optional[np.dtype], wd: Path, t0: float) -> Program:
+              cflags: Sequence[str], in_dtype: Optional[np.dtype], wd: Path, t0: float,
+              kind: str = "1d") -> Program:
     (wd / "imf_driver.h").write_text(driver)
     data = _tc.DATA_DIR
     defs = [f"-D{k}" if v is None else f"-D{k}={v}" for k, v in fw.defines.items()]
@@ -173,10 +207,21 @@ def _build_in(fw: Any, target: str, name: str, tgt: "_tc.Target", driver: str, r
     arch = list(tgt.arch_flags) + [f for f in user if f.startswith(
         ("-mcpu", "-mfpu", "-mfloat-abi", "-march", "-mthumb", "-marm", "-mmcu"))]
     objs: List[Path] = []
+    cxx = _cxx(tgt.cc)
+    adapter = fw.target_adapter(kind, getattr(fw, "values", {}).get("dt", 0.0)) \
+        if hasattr(fw, "target_adapter") else None
+    sources = list(fw.sources)
+    if adapter is not None:
+        (wd / adapter[0]).write_text(adapter[1])
+        sources.append(str(wd / adapter[0]))
+    any_cxx = any(is_cxx(src) for src in sources)
     try:
-        for i, src in enumerate(fw.sources):
+        for i, src in enumerate(sources):
             obj = wd / f"fw{i}_{Path(src).stem}.o"
-            _run([tgt.cc, *arch, *user, *defs, *incs, "-fstack-usage", "-c", src, "-o", str(obj)],
+            cc, flags = (cxx, cxx_flags(user)) if is_cxx(src) else (tgt.cc, user)
+            if adapter is not None and src == sources[-1]:
+                flags = [*flags, "-fno-access-control"]   # reads private members
+            _run([cc, *arch, *flags, *defs, *incs, "-fstack-usage", "-c", src, "-o", str(obj)],
                  wd, f"compiling {src} for {target}")
             objs.append(obj)
         port = wd / "imf_port.o"
@@ -198,7 +243,10 @@ def _build_in(fw: Any, target: str, name: str, tgt: "_tc.Target", driver: str, r
         _run([tgt.cc, *arch, *_tc.BASE_FLAGS, "-c", str(wd / "imf_fw_block.c"), "-o", str(blk)],
              wd, "compiling the input block")
         elf = wd / f"imf_fw_{name}.elf"
-        cmd = [tgt.cc, *arch, *user, *tgt.link_flags]
+        # C++ objects link through the C++ driver (its runtime: the unwinder's tables are
+        # placed by the linker script, static constructors run by the start-up code)
+        cmd = [cxx if any_cxx else tgt.cc, *arch, *(cxx_flags(user) if any_cxx else user),
+               *tgt.link_flags]
         if tgt.machine is not None:
             ld = wd / "imf.ld"
             ld.write_text((data / "arm.ld.in").read_text().replace("@FLASH_LEN@", str(tgt.flash))

@@ -19,8 +19,10 @@ from ..catalogue import entry, make_filter
 from ..mcu import toolchains as _tc
 from .causes import Cause, angle_divergence_deg, double_promotions, find_causes
 from .declaration import FirmwareError
+from .diagnostics import explain_source
 from .host import Firmware
 from .results import Cost, Validation
+from .sanitize import RunInputs
 from .target_build import _tool_prefix, build_program
 from .target_run import run_program
 from .targets import DEFAULT_TARGET_CFLAGS, TargetError, harness_target, speed_note
@@ -171,7 +173,9 @@ def _angle(name, params, got, want, names):
 
 
 def _explain_host(v, fw, name, params, inputs, backend, dtype):
-    """Compile the sources with the firmware's flags, look at the objects, confirm."""
+    """Compile the sources with the firmware's flags, look at the objects, confirm; then what
+    the source and its runs say (imufuse.firmware.diagnostics: the code run up to the
+    divergence, undefined behaviour, the data model, a changed constant, the warnings)."""
     cc = os.environ.get("CC", "cc")
     if shutil.which(cc) is None:
         return
@@ -188,16 +192,29 @@ def _explain_host(v, fw, name, params, inputs, backend, dtype):
                 objs.append(obj)
         v.causes = find_causes("objdump", objs, fw.sources, fw.cflags, cmd, v.comparison.dtype,
                                "host", False, wd)
+
+        def rerun(extra, sources=None, include_dirs=()):
+            fixed = type(fw).__new__(type(fw))
+            fixed.__dict__.update(fw.__dict__)
+            fixed.cflags = [*fw.cflags, *extra]
+            if sources is not None:
+                fixed.sources = list(sources)
+                fixed.include_dirs = list(include_dirs)
+            fixed._lib = None
+            return validate(fixed, name, params, inputs, backend, dtype, explain=False).bit_exact
+
+        _confirm(v.causes, rerun)
+        e = _filter_entry(name)
+        s0 = np.asarray(_make(name, backend, dtype, params).state, dtype=np.float64)
+        run = RunInputs.of(fw, e.kind, _c_values(e, params), params,
+                           s0[[e.state_names.index(n) for n in fw.state]], inputs)
+        try:
+            explain_source(v, fw, params, run, cmd, wd,
+                           lambda srcs, dirs: rerun([], srcs, dirs))
+        except (OSError, subprocess.SubprocessError, ValueError) as err:
+            v.notes.append(f"the source's diagnostics failed: {type(err).__name__}: {err}")
     finally:
         shutil.rmtree(wd, ignore_errors=True)
-    def rerun(extra):
-        fixed = type(fw).__new__(type(fw))
-        fixed.__dict__.update(fw.__dict__)
-        fixed.cflags = [*fw.cflags, *extra]
-        fixed._lib = None
-        return validate(fixed, name, params, inputs, backend, dtype, explain=False).bit_exact
-
-    _confirm(v.causes, rerun)
 
 
 def _confirm(causes, rerun):
@@ -233,6 +250,8 @@ def _validate_target(fw, name, params, inputs, backend, dtype, target, timeout, 
     flags = list(cflags if cflags is not None else
                  (fw.cflags_given if fw.cflags_given is not None else DEFAULT_TARGET_CFLAGS))
     init_values = fw._init_values(c_args, params) if fw.init else []
+    if hasattr(fw, "bind"):            # a declared API: its init literals
+        fw.bind(c_args, params)
     ref0 = _make(name, backend, dtype or "float32", params)
     state0_all = np.asarray(ref0.state).astype(np.float64)
     order = [e.state_names.index(n) for n in names]

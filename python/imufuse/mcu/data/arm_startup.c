@@ -7,6 +7,10 @@
 
 extern uint32_t __data_load[], __data_start[], __data_end[];
 extern uint32_t __bss_start[], __bss_end[];
+/* constructors (C++ static objects, C __attribute__((constructor))): the linker script's
+ * .init_array, run after .data and .bss are set up and before main */
+typedef void (*imf_init_t)(void);
+extern imf_init_t __init_array_start[], __init_array_end[];
 extern int main(void);
 
 typedef void (*imf_vector_t)(void);
@@ -89,6 +93,12 @@ void imf_reset_handler(void)
     *(volatile uint32_t *)0xE000ED88u |= 0xFu << 20;
     __asm__ volatile("dsb\n\tisb" ::: "memory");
 #endif
+    {
+        imf_init_t *f;
+        for (f = __init_array_start; f < __init_array_end; ++f) {
+            (*f)();
+        }
+    }
     imf_port_exit(main());
 }
 
