@@ -4,6 +4,9 @@
 the -Wdouble-promotion warnings of the sources) for what changes float results: fused
 multiply-add, double arithmetic in a float32 build, fast-math, AVR's 32-bit double; each
 ``Cause`` names its fix, which imufuse.firmware.validate confirms by rebuilding.
+On the host validate also looks at the source (imufuse.firmware.diagnostics,
+imufuse.firmware.sanitize): undefined behaviour, the data model, a changed constant, the
+compiler's warnings; ``ordered`` puts the causes in the report's order.
 ``angle_divergence_deg`` is the largest orientation difference over the run.
 """
 from __future__ import annotations
@@ -21,25 +24,49 @@ import numpy as np
 from ..catalogue import entry
 from ..estimate import ADAPTERS
 
-__all__ = ["Cause", "find_causes", "double_promotions", "angle_divergence_deg"]
+__all__ = ["Cause", "find_causes", "double_promotions", "angle_divergence_deg", "ordered",
+           "BUILD"]
+
+#: the causes found in what was built, confirmed by rebuilding with a flag
+BUILD = ("fma", "double", "fast-math", "avr-double", "together")
+_NAMES = {"fma": "fused multiply-add (a*b+c contracted into one rounding)",
+          "double": "double-precision arithmetic in a float32 build",
+          "fast-math": "fast-math optimisation (reassociation, reciprocals)",
+          "avr-double": "double is 32 bits on the ATmega328P",
+          "undefined behaviour": "undefined behaviour",
+          "data model": "data model (type sizes differ between host and targets)",
+          "constant": "a constant differs from the filter's parameter"}
+
 
 @dataclasses.dataclass
 class Cause:
-    """A likely cause of a divergence found in what was built."""
-    what: str                 # "fma", "double", "fast-math", "avr-double", "together"
-    evidence: str             # what was seen (instructions, calls, flags, warnings)
-    fix: Optional[str]        # the flag that removes it
+    """A likely cause of a divergence found in what was built or in the source.
+
+    what: "fma", "double", "fast-math", "avr-double", "together" (found in the build; fix is
+    the flag that removes it, confirmed by rebuilding with it); "undefined behaviour" (a
+    UBSan/ASan report), "data model" (the source depends on the width of long, int or
+    double), "constant" (a literal near a parameter's value), "warning" (a compiler warning).
+    For these `advice` is the change to make in the source, and `fix` is set to it only when
+    the cause is established (confirmed by the sanitizer run or by rebuilding the changed
+    source, at or before the first divergent sample)."""
+    what: str
+    evidence: str             # what was seen (instructions, calls, flags, warnings, reports)
+    fix: Optional[str]        # the flag that removes it (see above for the source causes)
     confirmed: Optional[bool] = None   # rebuilt with the fix: bit-exact (True) or not (False)
+    where: Optional[str] = None        # file:line[:col] in the user's source
+    sample: Optional[int] = None       # the sample it happened at (None: init, or not known)
+    advice: Optional[str] = None       # the change to make in the source
+    detail: Optional[str] = None       # a sub-kind: the sanitizer's check, the warning's flag
 
     def text(self) -> str:
         if self.what == "together":
             return (f"together: rebuilt with {self.fix}, the firmware is bit-exact" if self.confirmed
                     else f"together: rebuilt with {self.fix}, still not bit-exact")
-        name = {"fma": "fused multiply-add (a*b+c contracted into one rounding)",
-                "double": "double-precision arithmetic in a float32 build",
-                "fast-math": "fast-math optimisation (reassociation, reciprocals)",
-                "avr-double": "double is 32 bits on the ATmega328P"}[self.what]
-        s = f"cause: {name}: {self.evidence}"
+        if self.what == "warning":
+            return f"compiler warning {self.where}: {self.evidence} [{self.detail}]"
+        if self.what not in BUILD:
+            return self._source_text()
+        s = f"cause: {_NAMES[self.what]}: {self.evidence}"
         if self.fix:
             s += f"\n  fix: add {self.fix}"
             if self.confirmed is True:
@@ -47,6 +74,32 @@ class Cause:
             elif self.confirmed is False:
                 s += f" (rebuilt with {self.fix}: still not bit-exact, so not the only cause)"
         return s
+
+    def _source_text(self) -> str:
+        name = _NAMES.get(self.what, self.what)
+        if self.what == "undefined behaviour" and self.detail:
+            name += f" ({self.detail})"
+        at = f" at {self.where}" if self.where else ""
+        if self.what == "undefined behaviour":
+            at += f", sample {self.sample}" if self.sample is not None else ", during init"
+        s = f"cause: {name}{at}: {self.evidence}"
+        if self.advice:
+            s += f"\n  fix: {self.advice}"
+        return s
+
+
+def ordered(causes: Sequence[Cause]) -> List[Cause]:
+    """The report's order: causes confirmed by rebuilding first, then undefined behaviour,
+    the data model, a changed constant, the build causes not confirmed, compiler warnings."""
+    together = any(c.what == "together" and c.confirmed for c in causes)
+
+    def rank(c: Cause) -> int:
+        if c.what in BUILD or c.what == "constant":
+            if c.confirmed or (together and c.what in BUILD and c.fix):
+                return 0
+            return 3 if c.what == "constant" else 4
+        return {"undefined behaviour": 1, "data model": 2}.get(c.what, 5)
+    return sorted(causes, key=rank)
 
 
 _FAST = ("-ffast-math", "-Ofast", "-freciprocal-math", "-funsafe-math-optimizations",
