@@ -24,7 +24,7 @@ import pytest
 from imufuse import sim
 from imufuse.catalogue import inputs_for, resolve_params
 from imufuse.firmware import FirmwareError, counts_for, validate_isolated
-from imufuse.firmware.declared import load_declaration
+from imufuse.firmware.declfile import load_declaration
 
 pytest.importorskip("cffi")
 

@@ -59,12 +59,17 @@ The modules, by subject:
   results       Validation and Cost
   validate      validate(): the firmware and imufuse on the same inputs, compared
   isolate       validate_isolated(): the same in a child process with a timeout
+  declared      DeclaredFirmware: any API (a C++ class, structs by value, settings, units)
+                declared in a file instead of prototypes; the harness generated around it
+  declfile      load_declaration(): that file (TOML) read and checked
 """
 from ..bits import Comparison, c_double_literal as hexfloat, compare_states, ulps
 from .causes import Cause, angle_divergence_deg, double_promotions, find_causes
 from .declaration import DEFAULT_CFLAGS, Declaration, FirmwareError, parse_prototype
 from .host import Firmware, csrc_firmware
 from .isolate import DEFAULT_TIMEOUT, validate_isolated
+from .declared import DeclaredFirmware
+from .declfile import Declared, load_declaration
 from .results import Cost, Validation
 from .target_build import MAX_CHUNK, Program, StateType, build_program
 from .target_run import TargetRun, run_program
@@ -74,7 +79,8 @@ from .validate import counts_for, mag_counts_scale, validate
 
 __all__ = ["Firmware", "FirmwareError", "Validation", "validate", "csrc_firmware",
            "parse_prototype", "Comparison", "compare_states", "ulps", "DEFAULT_CFLAGS",
-           "DEFAULT_TIMEOUT", "validate_isolated", "counts_for", "mag_counts_scale", "Cost", "Declaration",
+           "DEFAULT_TIMEOUT", "validate_isolated", "DeclaredFirmware", "Declared",
+           "load_declaration", "counts_for", "mag_counts_scale", "Cost", "Declaration",
            # the emulated-MCU targets
            "TARGETS", "DESCRIPTION", "DEFAULT_TARGET_CFLAGS", "TargetError", "target_names",
            "harness_target", "speed_note", "MAX_CHUNK", "StateType", "Program", "build_program",
