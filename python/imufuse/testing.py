@@ -10,13 +10,18 @@
         r.assert_bit_exact()             # every state variable after every sample
         r.assert_cost(max_per_update=400, max_stack=256)
 
+    def test_gnu_defaults_within_a_tolerance():   # a variant not meant to be bit-exact
+        r = validate_firmware(..., target="cortex-m4f", cflags="-O2", within=1e-3)
+        r.assert_passed()                # bit-exact, or every sample within 1e-3 deg
+
 `validate_firmware` builds the sources (for the host with cffi, or with the target's cross
 compiler and your flags for "cortex-m4f", "cortex-m0", "atmega328p"), runs them and the imufuse
 filter on the same inputs (simulated motion by default, or `inputs=`), and returns a
 `FirmwareResult`. Its assertions fail with the whole report: the first divergent sample and
-variable, the largest orientation difference in degrees, the likely cause and the flag that
-removes it. A firmware that crashes, calls exit(), overflows its stack or hangs past `timeout`
-raises `imufuse.firmware.FirmwareError` naming the sample.
+variable, the largest orientation difference in degrees, rounding or formula
+(imufuse.firmware.report.classify), the likely cause and the flag that removes it. A
+firmware that crashes, calls exit(), overflows its stack or hangs past `timeout` raises
+`imufuse.firmware.FirmwareError` naming the sample.
 
 `target_missing(target)` says why a target cannot run here (its cross compiler or emulator is
 not installed: Debian gcc-arm-none-eabi, libnewlib-arm-none-eabi, qemu-system-arm, gcc-avr,
@@ -34,6 +39,7 @@ from . import sim
 from .catalogue import entry, inputs_for, resolve_params
 from .mcu import missing_tools
 from .firmware import Firmware, Validation, counts_for, harness_target, validate_isolated
+from .firmware.report import Classification, Tolerance, tolerance
 
 __all__ = ["validate_firmware", "FirmwareResult", "simulated_inputs", "target_missing"]
 
@@ -43,10 +49,26 @@ class FirmwareResult:
     """A validation with assertions for tests; `.validation` has the arrays."""
     validation: Validation
     params: Mapping[str, Any]
+    tolerance: Optional[Tolerance] = None     # validate_firmware(within=DEG)
 
     @property
     def report(self) -> str:
-        return self.validation.text()
+        t = self.tolerance
+        return self.validation.text() + (f"\n{t.text()}" if t is not None and not self.bit_exact
+                                         else "")
+
+    @property
+    def verdict(self) -> str:
+        """"bit-exact", "within" (not bit-exact, within the tolerance of within=) or
+        "differs" (imufuse validate's exit 0, 7, 1)."""
+        if self.bit_exact:
+            return "bit-exact"
+        return "within" if self.tolerance is not None and self.tolerance.passed else "differs"
+
+    @property
+    def classification(self) -> Optional[Classification]:
+        """Rounding or formula, and the error's growth (None when bit-exact)."""
+        return self.validation.classification
 
     @property
     def bit_exact(self) -> bool:
@@ -77,6 +99,13 @@ class FirmwareResult:
         if not a <= deg:
             raise AssertionError(f"firmware orientation differs by up to {a:.4g} deg "
                                  f"(allowed {deg:g} deg)\n" + self.report)
+
+    def assert_passed(self) -> None:
+        """Bit-exact, or (validate_firmware(within=DEG)) within the tolerance."""
+        if self.verdict == "differs":
+            raise AssertionError("firmware is not bit-exact with imufuse" +
+                                 ("" if self.tolerance is None else " nor within the tolerance")
+                                 + "\n" + self.report)
 
     def assert_cost(self, max_per_update: Optional[float] = None, max_stack: Optional[int] = None,
                     max_flash: Optional[int] = None, max_ram: Optional[int] = None) -> None:
@@ -132,12 +161,15 @@ def validate_firmware(sources: Sequence[str], *, filter: str, update: str,
                       params: Optional[Mapping[str, Any]] = None, inputs: Optional[Sequence] = None,
                       dt: Optional[float] = None, rate: float = 200.0, duration: float = 20.0,
                       seed: int = 1, dtype: Optional[str] = None, timeout: float = 60.0,
-                      init_args: Optional[Mapping[str, float]] = None) -> FirmwareResult:
+                      init_args: Optional[Mapping[str, float]] = None,
+                      within: Optional[float] = None) -> FirmwareResult:
     """Build and validate firmware against imufuse filter `filter`; see the module doc.
 
     params: the filter's parameters beyond dt (defaults: the catalogue's); inputs: the
     run() arrays (then give dt too), else simulated motion at `rate` Hz for `duration` s;
-    cflags: a string or a list (default: the contract's flags on the host, -O2 on an MCU)."""
+    cflags: a string or a list (default: the contract's flags on the host, -O2 on an MCU);
+    within: a tolerance in degrees for a variant not meant to be bit-exact (the result's
+    `tolerance` and `verdict`, `assert_passed`)."""
     flags = shlex.split(cflags) if isinstance(cflags, str) else cflags
     fw = Firmware(list(sources), init=init, update=update, state=state,
                   state_names=None if state else entry(filter).state_names, headers=headers,
@@ -149,4 +181,5 @@ def validate_firmware(sources: Sequence[str], *, filter: str, update: str,
     full = resolve_params(filter, float(dt), params)
     inputs = [np.asarray(a) for a in inputs]
     v = validate_isolated(fw, filter, full, inputs, dtype=dtype, timeout=timeout, target=target)
-    return FirmwareResult(v, full)
+    v.params = dict(full)
+    return FirmwareResult(v, full, None if within is None else tolerance(v, within))

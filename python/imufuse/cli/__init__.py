@@ -15,6 +15,8 @@ Exit codes (every failure is one line on stderr, "imufuse: error: ..."):
   5  firmware that cannot be compiled, bound or run (a crash, exit(), a
      hang past --timeout, a missing symbol)
   6  an unexpected internal error (a bug; IMUFUSE_DEBUG=1 shows the traceback)
+  7  validate --within: the firmware is not bit-exact, and its orientation is
+     within the --within tolerance (bit-exact is 0, beyond the tolerance 1)
 130  interrupted (Ctrl-C)
 """
 import argparse

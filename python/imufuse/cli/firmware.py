@@ -1,6 +1,7 @@
 """`imufuse validate` (firmware against imufuse, bit for bit) and `imufuse export`."""
 import argparse
 import os
+import time
 
 from .. import __version__, plots, sim
 from ..arduino import export_arduino
@@ -8,11 +9,15 @@ from .._atomic import check_outputs
 from .._resources import csrc_dir
 from ..catalogue import canonical_name, inputs_for, reference_class, resolve_params
 from ..catalogue import entry as _entry
-from ..firmware import (DEFAULT_TIMEOUT, Firmware, counts_for, csrc_firmware, mag_counts_scale,
-                        target_names, validate_isolated)
+from ..firmware import (DEFAULT_TIMEOUT, Firmware, FirmwareError, counts_for, csrc_firmware,
+                        mag_counts_scale, target_names, validate_isolated)
+from ..firmware.report import build_info, error_dict, report_dict, tolerance, write_reports
 from ..io import LogError
 from .common import (EXIT_FAIL, EXIT_OK, OutputError, UsageError, err, once, open_session,
                      pairs, positive, strict_option, unit_options)
+
+#: imufuse validate --within: not bit-exact, within the tolerance (imufuse.cli's exit codes)
+EXIT_WITHIN = 7
 
 
 def _headers(args):
@@ -31,7 +36,11 @@ def _validate(args):
     overrides = pairs(args.param)
     once(args.header, "--header")
     once(args.include, "-I")
-    check_outputs([args.log, *(args.sources or ()), *_headers(args)], [("--plot", args.plot)])
+    check_outputs([args.log, *(args.sources or ()), *_headers(args)],
+                  [("--plot", args.plot), ("--json", args.json), ("--junit", args.junit)])
+    if args.within is not None and _entry(args.filter).estimate is None:
+        raise UsageError(f"--within: {args.filter} has no orientation estimate to compare in "
+                         "degrees")
     defines = {}
     for d in args.define or ():
         k, _, v = d.partition("=")
@@ -74,11 +83,20 @@ def _validate(args):
         mag = (f", mag {mag_counts_scale(inputs[2]):g} per unit" if cls.kind == "ahrs" else "")
         inputs = counts_for(cls.kind, params, inputs)
         src += f"; int16 counts (gyr_scale {params['gyr_scale']:g} rad/s, acc 4096 per g{mag})"
+    args.report_context = (fw, params, src)      # for the reports of an error (_reported)
     v = validate_isolated(fw, args.filter, params, inputs, backend=args.backend, dtype=args.dtype,
                           timeout=args.timeout, target=args.target)
+    v.params = dict(params)
     print(f"inputs: {src}; {args.filter} "
           f"{', '.join(f'{k}={val}' for k, val in params.items())}")
     print(v.text())
+    tol = tolerance(v, args.within) if args.within is not None else None
+    if tol is not None and not v.bit_exact:
+        print(tol.text())
+    if args.json or args.junit:
+        write_reports(report_dict(v, tol, build_info(fw, args.filter, params, args.target, v.cflags),
+                                  src, {"total": time.perf_counter() - args.started}, args.within),
+                      args.json, args.junit)
     if args.plot:
         if not plots.available():
             err("plots unavailable: matplotlib is not installed (pip install 'imufuse[plot]')")
@@ -90,7 +108,24 @@ def _validate(args):
             except OSError as e:
                 raise OutputError(f"--plot {args.plot}: cannot write: {e.strerror or e}") from None
             err(f"plot: {args.plot}")
-    return EXIT_OK if v.bit_exact else EXIT_FAIL
+    return EXIT_OK if v.bit_exact else (EXIT_WITHIN if tol is not None and tol.passed else
+                                        EXIT_FAIL)
+
+
+def _reported(args):
+    """_validate; with --json/--junit, a firmware that cannot be built, bound or run (exit 5)
+    still writes both reports, verdict "error" with the message."""
+    args.started = time.perf_counter()
+    try:
+        return _validate(args)
+    except FirmwareError as e:
+        if args.json or args.junit:
+            fw, params, src = getattr(args, "report_context", (None, None, None))
+            build = build_info(fw, args.filter, params, args.target) if fw else None
+            write_reports(error_dict(str(e), args.filter, args.target, build, src, params,
+                                     args.within, {"total": time.perf_counter() - args.started}),
+                          args.json, args.junit)
+        raise
 
 
 def _export(args):
@@ -108,7 +143,8 @@ def add_parsers(sub):
                        "bit", formatter_class=argparse.RawDescriptionHelpFormatter,
                        description="Validate firmware filter code against imufuse (see "
                        "imufuse.firmware).\nThe firmware runs in a child process: a crash, exit() "
-                       "or hang is reported (exit 5).\n\nexample:\n  imufuse validate fw/att.c -I fw "
+                       "or hang is reported (exit 5).\nWith --within DEG: exit 7 when not bit-exact "
+                       "but within the tolerance.\n\nexample:\n  imufuse validate fw/att.c -I fw "
                        "--header att.h --filter Kalman1D \\\n     --init 'void att_init(att_t *s, "
                        "float dt, float k0)' \\\n     --update 'void att_update(att_t *s, float rate, "
                        "float angle)' \\\n     --state theta=x.theta --param k0=0.01\n"
@@ -153,7 +189,15 @@ def add_parsers(sub):
     v.add_argument("--duration", type=positive(float, 1e5), default=10.0)
     v.add_argument("--seed", type=int, default=1)
     v.add_argument("--plot", metavar="PNG", help="divergence plot")
-    v.set_defaults(func=_validate, fixed_rate=True)
+    v.add_argument("--within", type=positive(float, 180.0), metavar="DEG",
+                   help="a variant not meant to be bit-exact: pass (exit 7) when the orientation "
+                        "differs by at most DEG degrees over the run (max and RMS printed)")
+    v.add_argument("--json", metavar="FILE", help="write the report as JSON: verdict, first "
+                   "divergence (bit patterns), rounding or formula, causes, cost, timing, the "
+                   "build (compiler version, flags, sha256 of every file read)")
+    v.add_argument("--junit", metavar="FILE", help="write the checks (build, bit-exact or "
+                   "within, causes) as JUnit XML for CI")
+    v.set_defaults(func=_reported, fixed_rate=True)
 
     e = sub.add_parser("export", help="write the C library in a form firmware projects take",
                        description="imufuse export arduino DIR: an Arduino library in DIR/imufuse "

@@ -7,9 +7,9 @@ from __future__ import annotations
 import os
 from typing import Any, Dict, List, Mapping, Optional
 
-from ..catalogue import entry, reference_class
 from .declaration import FirmwareError
 from .declared import DeclaredFirmware
+from .validate import _filter_entry
 
 __all__ = ["Declared", "load_declaration"]
 
@@ -95,8 +95,7 @@ def load_declaration(path: "str | os.PathLike[str]", source_dir: Optional[str] =
     if not isinstance(name, str):
         raise FirmwareError(f"{path}: [filter] name: the imufuse filter to compare with")
     try:
-        entry(name)
-        reference_class(name) if not entry(name).fixed else None
+        known = _filter_entry(name)
     except Exception as e:  # noqa: BLE001 - the catalogue's message names the filter
         raise FirmwareError(f"{path}: [filter] name: {e}") from None
     params = flt.get("params", {})
@@ -125,8 +124,8 @@ def load_declaration(path: "str | os.PathLike[str]", source_dir: Optional[str] =
         value_type=str(upd.get("value_type", "float")))
     if not fw.sources:
         raise FirmwareError(f"{path}: [firmware] sources: give the firmware's sources")
-    unknown = [k for k in fw.state if k not in entry(name).state_names]
+    unknown = [k for k in fw.state if k not in known.state_names]
     if unknown:
         raise FirmwareError(f"{path}: [state] {unknown[0]}: {name} has no state variable of "
-                            f"that name (it has {', '.join(entry(name).state_names)})")
+                            f"that name (it has {', '.join(known.state_names)})")
     return Declared(fw, name, dict(params), path)

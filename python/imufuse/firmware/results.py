@@ -1,11 +1,13 @@
 """What a validation reports: the comparison with imufuse bit for bit (imufuse.bits), the
-causes found, notes, and on an MCU target the cost of one update."""
+class of a divergence (rounding or formula, imufuse.firmware.report), the causes found,
+notes, and on an MCU target the cost of one update."""
 from dataclasses import dataclass, field
 from typing import Any, Dict, List, Optional, Tuple
 
 import numpy as np
 
 from ..bits import Comparison
+from .report import Classification, classify
 
 __all__ = ["Cost", "Validation"]
 
@@ -50,10 +52,25 @@ class Validation:
     max_angle_deg: Optional[float] = None
     cost: Optional[Cost] = None
     timing: Dict[str, float] = field(default_factory=dict)
+    # the imufuse filter's parameters, set by the callers that know them (imufuse validate,
+    # imufuse.testing): the orientation of a fixed-point single-axis filter needs its scale
+    params: Optional[Dict[str, Any]] = None
+    _classification: Optional[Classification] = field(default=None, init=False, repr=False,
+                                                      compare=False)
 
     @property
     def bit_exact(self):
         return self.comparison.bit_exact
+
+    @property
+    def classification(self) -> Optional[Classification]:
+        """Rounding or formula, with the error's growth (imufuse.firmware.report.classify);
+        None when bit-exact."""
+        if self.bit_exact:
+            return None
+        if self._classification is None:
+            self._classification = classify(self)
+        return self._classification
 
     def text(self):
         flags = " ".join(self.cflags) if self.cflags else "(none)"
@@ -61,6 +78,8 @@ class Validation:
                  f"({self.backend}, {self.comparison.dtype}):", self.comparison.text()]
         if not self.bit_exact and self.max_angle_deg is not None:
             lines.append(f"largest orientation difference over the run: {self.max_angle_deg:.3g} deg")
+        if self.classification is not None:
+            lines.append(self.classification.text())
         for c in self.causes:
             lines.append(c.text())
         if not self.bit_exact and not any(c.fix for c in self.causes):

@@ -14,6 +14,9 @@ from typing import Any, List, Mapping, Optional, Sequence
 
 import numpy as np
 
+import imufuse_c
+
+from .. import reference
 from ..bits import compare_states
 from ..catalogue import entry, make_filter
 from ..mcu import toolchains as _tc
@@ -84,12 +87,63 @@ def _defs_incs(fw):
         [f"-I{d}" for d in sorted({os.path.dirname(s) for s in fw.sources})]
 
 
+class _FusionEntry:
+    """FusionAHRS for validate (it is outside the float catalogue): Fusion's units (the
+    gyroscope in deg/s, as Fusion's C takes it), dt with every update (params' dt), every
+    setting a C init value by name; the orientation from q0..q3."""
+    name = "FusionAHRS"
+    kind = "ahrs"
+    fixed = False
+
+    def __init__(self):
+        self.reference = reference.FusionAHRS
+        self.state_names = tuple(reference.FusionAHRS.state_names)
+
+    @staticmethod
+    def settings(params):
+        return {k: v for k, v in params.items() if k != "dt"}
+
+    def make(self, backend, dtype, params):
+        mod = imufuse_c if backend == "c" else reference
+        try:
+            return mod.FusionAHRS(**self.settings(params), dtype=dtype)
+        except (TypeError, ValueError) as err:
+            raise FirmwareError(f"FusionAHRS: {err}") from None
+
+
+_FUSION = None
+
+
 def _filter_entry(name):
+    global _FUSION
+    if name == "FusionAHRS":
+        if _FUSION is None:
+            _FUSION = _FusionEntry()
+        return _FUSION
     return entry(name)
+
+
+class _FusionRun:
+    """A FusionAHRS whose run() takes dt from params, as the generic filters do."""
+
+    def __init__(self, f, dt):
+        self.f, self.dt = f, dt
+
+    @property
+    def state(self):
+        return self.f.state
+
+    def run(self, *inputs):
+        return self.f.run(*inputs, dt=self.dt)
 
 
 def _make(name, backend, dtype, params):
     e = _filter_entry(name)
+    if isinstance(e, _FusionEntry):
+        if "dt" not in params:
+            raise FirmwareError("FusionAHRS: give dt (the sample period; Fusion takes it with "
+                                "every update)")
+        return _FusionRun(e.make(backend, dtype, params), params["dt"])
     if e.fixed:
         try:
             return e.make(backend, **params)
@@ -166,6 +220,8 @@ def _angle(name, params, got, want, names):
     if tuple(names) != tuple(e.state_names):
         order = [list(names).index(n) for n in e.state_names]
         got, want = got[:, order], want[:, order]
+    if isinstance(e, _FusionEntry):
+        return _quat_angle_deg(got[:, :4], want[:, :4])
     try:
         return angle_divergence_deg(name, dict(params), got, want, e.fixed)
     except Exception:  # noqa: BLE001 - the angle is extra information, never a failure
@@ -211,7 +267,7 @@ def _explain_host(v, fw, name, params, inputs, backend, dtype):
         try:
             explain_source(v, fw, params, run, cmd, wd,
                            lambda srcs, dirs: rerun([], srcs, dirs))
-        except (OSError, subprocess.SubprocessError, ValueError) as err:
+        except Exception as err:  # noqa: BLE001 - the diagnostics add to the report, never fail it
             v.notes.append(f"the source's diagnostics failed: {type(err).__name__}: {err}")
     finally:
         shutil.rmtree(wd, ignore_errors=True)
@@ -233,8 +289,20 @@ def _confirm(causes, rerun):
             pass
 
 
+def _quat_angle_deg(a, b):
+    """The largest angle between two runs' unit quaternions (w, x, y, z), degrees."""
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    with np.errstate(all="ignore"):
+        d = np.abs(np.sum(a * b, axis=1)) / (np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1))
+        ang = 2.0 * np.degrees(np.arccos(np.minimum(d, 1.0)))
+    ang = ang[np.isfinite(ang)]
+    return float(ang.max()) if ang.size else None
+
+
 def _c_values(e, params):
     """The imufuse filter's C init values by name, in the C init's order."""
+    if isinstance(e, _FusionEntry):
+        return e.settings(params)
     args = e.reference._params(**params)
     names = list(inspect.signature(e.reference._init).parameters)[1:]
     if len(names) != len(args):
