@@ -12,6 +12,7 @@ built by the target's g++ with its default flags, linked with the harness, run s
   and it is a close variant of MadgwickAHRS (within 0.01 deg).
 """
 import os
+import sys
 import textwrap
 
 import pytest
@@ -23,6 +24,7 @@ from imufuse.firmware.declfile import load_declaration
 from imufuse.mcu import ensure_toolchains
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)          # tests/fusion_oracle.py
 DECLARED = os.path.join(HERE, "declared")
 TARGETS = ("cortex-m4f", "cortex-m0", "atmega328p")
 
@@ -144,3 +146,51 @@ def test_arduino_style_class_with_default_flags(target):
                   kind="ahrs")
     assert v.max_angle_deg is not None and v.max_angle_deg < 0.01, v.text()
     assert "-fno-exceptions" in " ".join(v.cflags) or v.cflags == ("-O2",), v.cflags
+
+
+# ---------------------------------------------------------------------------
+# x-io Fusion's C as published (the imufusion 1.2.3 sdist, pinned and hash-checked by
+# tests/fusion_oracle.py), through examples/declarations/fusion-1.2.3.toml, unmodified
+
+FUSION_DECLARATION = os.path.join(os.path.dirname(HERE), "examples", "declarations",
+                                  "fusion-1.2.3.toml")
+
+
+@pytest.fixture(scope="module")
+def fusion_dir(tmp_path_factory):
+    import tarfile
+
+    import fusion_oracle
+    sdist = fusion_oracle.fetch_sdist()
+    d = tmp_path_factory.mktemp("fusion")
+    with tarfile.open(sdist) as tar:
+        for m in tar.getmembers():
+            if m.name.startswith(f"imufusion-{fusion_oracle.VERSION}/Fusion/") and m.isfile():
+                (d / os.path.basename(m.name)).write_bytes(tar.extractfile(m).read())
+    return str(d)
+
+
+def _fusion(fusion_dir, target, flags=None, seconds=3.0):
+    import numpy as np
+    d = load_declaration(FUSION_DECLARATION, source_dir=fusion_dir)
+    if flags is not None:
+        d.firmware.cflags = d.firmware.cflags_given = list(flags)
+    s = sim.imu("fast", rate=200.0, duration=seconds, seed=3)
+    g, a, m = inputs_for("ahrs", s)
+    return validate_isolated(d.firmware, d.filter, dict(d.params, dt=s.dt),
+                             [np.degrees(g), a, m], target=target)
+
+
+@pytest.mark.parametrize("target,flags", [("host", None),
+                                          ("cortex-m4f", ["-O2", "-ffp-contract=off"]),
+                                          ("cortex-m0", None), ("atmega328p", None)])
+def test_fusion_as_published_is_bit_exact(fusion_dir, target, flags):
+    v = _fusion(fusion_dir, target, flags)
+    assert v.bit_exact, v.text()
+    assert len(v.comparison.names) == 22
+
+
+def test_fusion_fma_is_named_on_the_m4f(fusion_dir):
+    v = _fusion(fusion_dir, "cortex-m4f", seconds=2.0)
+    assert not v.bit_exact
+    assert any(c.what == "fma" and c.confirmed for c in v.causes), v.text()
