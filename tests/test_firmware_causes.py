@@ -24,7 +24,7 @@ from imufuse import sim
 from imufuse.catalogue import inputs_for, resolve_params
 from imufuse.firmware import Firmware, validate
 from imufuse.firmware.causes import Cause, ordered
-from imufuse.firmware.diagnostics import constants
+from imufuse.firmware.diagnostics import _preprocessed, constants, data_model
 from imufuse.firmware.sanitize import RunInputs, parse_report, sanitize
 
 pytest.importorskip("cffi")
@@ -190,7 +190,7 @@ def test_fast_inverse_square_root_through_long(tmp_path, inputs):
 def test_arduino_madgwick_invsqrt_is_named(tmp_path):
     """The classic Arduino MadgwickAHRS class (tests/declared, C++): the same pun, found in
     the C++ harness's program."""
-    from imufuse.firmware.declared import load_declaration
+    from imufuse.firmware.declfile import load_declaration
     d = load_declaration(os.path.join(HERE, "declared", "madgwick_arduino.toml"))
     s = sim.imu("fast", rate=200.0, duration=0.5, seed=3)
     p = resolve_params(d.filter, s.dt, d.params)
@@ -339,3 +339,17 @@ def test_report_order():
          Cause("fma", "f", "-ffp-contract=off", True)]
     assert [x.what for x in ordered(c)] == ["fma", "undefined behaviour", "data model", "double",
                                             "warning"]
+
+
+def test_data_model_findings(tmp_path):
+    """From the preprocessed source (a macro's expansion is seen at its use), user files only."""
+    src = tmp_path / "dm.c"
+    src.write_text("#include <string.h>\n#define BITS(f) (*(long *)&(f))\n"
+                   "long bits(float y) { return BITS(y); }\n"
+                   "int words(void) { return (int)sizeof(long); }\n"
+                   "int big = 40000;\nint small = 30000;\nunsigned mask = 0xFFFF;\n"
+                   "long fine = 40000;\ndouble acc;\n")
+    pre = [_preprocessed(["cc", "-std=c99"], str(src), tmp_path)]
+    found = [(c.where, c.detail) for c in data_model(pre, [str(src)])]
+    assert found == [("dm.c:3", "long"), ("dm.c:4", "long"), ("dm.c:5", "int"), ("dm.c:7", "int"),
+                     ("dm.c:9", "double")]

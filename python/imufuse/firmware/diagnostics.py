@@ -188,7 +188,7 @@ _LONG = r"(?:unsigned\s+|signed\s+)?long(?:\s+int)?(?!\s+long)"
 _LONG_PTR = re.compile(r"\(\s*(?:const\s+|volatile\s+)*" + _LONG + r"\s*(?:const\s*)?\*\s*\)")
 _SIZEOF_LONG = re.compile(r"sizeof\s*\(\s*" + _LONG + r"\s*\)")
 _MAGIC = re.compile(r"0x5f3759df|0x5f375a86|0x5F3759DF", re.I)
-_INT_DECL = re.compile(r"\b(?:unsigned\s+|signed\s+)?(?:int|short)\b(?![\s\w]*\blong\b)")
+_INT_DECL = re.compile(r"\b(?:(?:unsigned\s+|signed\s+)?(?:int|short)|unsigned(?!\s+(?:long|char)))\b")
 _INT_LIT = re.compile(r"(?<![\w.])(0[xX][0-9a-fA-F]+|\d+)([uU]?)(?![\w.])")
 _DOUBLE_DECL = re.compile(r"\bdouble\s+\**\s*[A-Za-z_]\w*\s*[=;,\[)]")
 
@@ -219,7 +219,7 @@ def data_model(preprocessed: Sequence[Sequence[Tuple[str, int, str]]],
     doubles: Dict[str, List[int]] = {}
     for pre in preprocessed:
         for n, (path, line, text) in enumerate(pre):
-            if path not in users or (path, line) in seen:
+            if path not in users or not text.strip() or (path, line) in seen:
                 continue
             seen.add((path, line))
             where = f"{os.path.basename(path)}:{line}"

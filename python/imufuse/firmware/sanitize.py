@@ -134,8 +134,8 @@ def _harness(fw: Any, kind: str, n_init: int) -> str:
     firmware's) with the sample counter set at the top of its loop."""
     src = fw.source(kind, n_init)
     if src.count(_LOOP) != 1:
-        raise AssertionError("imufuse.firmware.sanitize: the harness's loop is not where "
-                             "expected (csource.host_source changed)")
+        raise RuntimeError("the harness's loop is not where imufuse.firmware.sanitize expects "
+                           "it (csource.host_source changed)")
     return ("extern volatile long imf_san_k;\n" +
             src.replace(_LOOP, _LOOP + "        imf_san_k = (long)k;\n"))
 
@@ -175,7 +175,10 @@ def build_program(fw: Any, run: RunInputs, wd: Path, flags: Sequence[str], name:
     wd.mkdir(parents=True, exist_ok=True)
     ext = ".cpp" if _cxx(fw) else ".c"
     harness, main = wd / f"{name}_harness{ext}", wd / f"{name}_main{ext}"
-    harness.write_text(_harness(fw, run.kind, run.n_init))
+    try:
+        harness.write_text(_harness(fw, run.kind, run.n_init))
+    except RuntimeError as e:
+        return None, str(e)
     main.write_text(_MAIN)
     exe = wd / name
     cmd = [*compiler(_cxx(fw)), *user_flags(fw.cflags), *flags, *_defs_incs(fw), str(harness),
@@ -323,7 +326,7 @@ def _wrapv_note(f: Finding) -> str:
     return ""
 
 
-def sanitize(fw: Any, run: RunInputs, wd: Path, first: Optional[int], timeout: float = 60.0,
+def sanitize(fw: Any, run: RunInputs, wd: Path, first: Optional[int], timeout: float = 30.0,
              max_samples: int = 1_000_000) -> Tuple[Optional[Cause], List[str]]:
     """Build the firmware under UBSan and ASan and run it on the inputs: the first report as a
     Cause ("undefined behaviour", fix set when it happens at or before the first divergent
