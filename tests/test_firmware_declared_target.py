@@ -194,3 +194,20 @@ def test_fusion_fma_is_named_on_the_m4f(fusion_dir):
     v = _fusion(fusion_dir, "cortex-m4f", seconds=2.0)
     assert not v.bit_exact
     assert any(c.what == "fma" and c.confirmed for c in v.causes), v.text()
+
+
+def test_fusion_from_the_command_line(fusion_dir, tmp_path):
+    """`imufuse validate --declaration fusion-1.2.3.toml --source-dir DIR`: the inputs in
+    Fusion's units (deg/s), bit-exact; without a declaration FusionAHRS is refused with the
+    way to declare it."""
+    import subprocess
+    env = {**os.environ, "IMUFUSE_CACHE": str(tmp_path / "cache")}
+    r = subprocess.run([sys.executable, "-m", "imufuse", "validate", "--declaration",
+                        FUSION_DECLARATION, "--source-dir", fusion_dir, "--duration", "3"],
+                       capture_output=True, text=True, env=env, timeout=600)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "deg/s" in r.stdout and "bit-exact: 600 samples x 22" in r.stdout, r.stdout
+    r = subprocess.run([sys.executable, "-m", "imufuse", "validate", "-f", "FusionAHRS",
+                        os.path.join(fusion_dir, "FusionAhrs.c")], capture_output=True,
+                       text=True, env=env, timeout=600)
+    assert r.returncode == 2 and "--declaration" in r.stderr, r.stderr

@@ -1,6 +1,8 @@
 """`imufuse validate` (firmware against imufuse, bit for bit) and `imufuse export`."""
 import argparse
 import os
+
+import numpy as np
 import time
 
 from .. import __version__, plots, sim
@@ -12,6 +14,9 @@ from ..catalogue import entry as _entry
 from ..firmware import (DEFAULT_TIMEOUT, Firmware, FirmwareError, counts_for, csrc_firmware,
                         mag_counts_scale, target_names, validate_isolated)
 from ..firmware.report import build_info, error_dict, report_dict, tolerance, write_reports
+from ..firmware.declfile import load_declaration
+from ..firmware.validate import _filter_entry
+from ..session import FUSION
 from ..io import LogError
 from .common import (EXIT_FAIL, EXIT_OK, OutputError, UsageError, err, once, open_session,
                      pairs, positive, strict_option, unit_options)
@@ -30,15 +35,50 @@ def _headers(args):
     return out
 
 
+def _fusion_kind():
+    """What validate needs of FusionAHRS's class: its kind (AHRS) and state."""
+    return _filter_entry(FUSION)
+
+
+def _declared(args):
+    """--declaration FILE: the firmware, its imufuse filter and parameters from the file;
+    the command line's --param and --cflags apply on top."""
+    if args.sources or args.csrc or args.init or args.update or args.state or args.header:
+        raise UsageError("--declaration: the firmware's sources, init, update, state and "
+                         "headers come from the file; give no SOURCE, --csrc, --init, "
+                         "--update, --state or --header with it")
+    d = load_declaration(args.declaration, source_dir=args.source_dir)
+    if args.filter and args.filter != d.filter:
+        raise UsageError(f"--filter {args.filter}: the declaration compares with {d.filter}")
+    args.filter = d.filter
+    if args.cflags is not None:
+        d.firmware.cflags = args.cflags.split()
+        d.firmware.cflags_given = list(d.firmware.cflags)
+    return d
+
+
 def _validate(args):
-    cls = reference_class(args.filter) if not _entry(args.filter).fixed else \
-        _entry(args.filter).reference
-    overrides = pairs(args.param)
+    declared = None
+    if args.declaration:
+        declared = _declared(args)
+    elif args.source_dir:
+        raise UsageError("--source-dir: with --declaration only")
+    elif not args.filter:
+        raise UsageError("validate: give --filter (the imufuse filter to compare with), or "
+                         "--declaration FILE")
+    fusion = args.filter == FUSION
+    if fusion and declared is None:
+        raise UsageError("validate: FusionAHRS has an API of its own: declare it in a file "
+                         "(--declaration; examples/declarations/fusion-1.2.3.toml)")
+    cls = _fusion_kind() if fusion else reference_class(args.filter) \
+        if not _entry(args.filter).fixed else _entry(args.filter).reference
+    overrides = {**(declared.params if declared else {}), **pairs(args.param)}
     once(args.header, "--header")
     once(args.include, "-I")
-    check_outputs([args.log, *(args.sources or ()), *_headers(args)],
+    check_outputs([args.log, *(args.sources or ()), *_headers(args),
+                   *(declared.firmware.sources if declared else ()), args.declaration],
                   [("--plot", args.plot), ("--json", args.json), ("--junit", args.junit)])
-    if args.within is not None and _entry(args.filter).estimate is None:
+    if args.within is not None and not fusion and _entry(args.filter).estimate is None:
         raise UsageError(f"--within: {args.filter} has no orientation estimate to compare in "
                          "degrees")
     defines = {}
@@ -48,7 +88,9 @@ def _validate(args):
             raise UsageError(f"-D {k}: given twice; define it once")
         defines[k] = v if v else None
     cflags = args.cflags.split() if args.cflags is not None else None
-    if args.csrc:
+    if declared is not None:
+        fw = declared.firmware
+    elif args.csrc:
         if not os.path.isdir(args.csrc):
             raise LogError(f"--csrc {args.csrc}: no such directory", "file")
         dtype = args.dtype or "float32"
@@ -78,8 +120,15 @@ def _validate(args):
                 sim.imu("slow", rate=rate, duration=args.duration, seed=args.seed))
         dt, inputs, t = data.dt, inputs_for(cls.kind, data), data.t
         src = f"simulated 'slow' motion, {rate:g} Hz, {args.duration:g} s, seed {args.seed}"
-    params = resolve_params(args.filter, dt, overrides)
-    if _entry(args.filter).fixed:
+    if fusion:
+        # Fusion's units: the gyroscope in deg/s (Fusion's C and FusionAHRS take it), dt
+        # with every update
+        params = {**overrides, "dt": dt}
+        inputs = [np.degrees(np.asarray(inputs[0], dtype=np.float64)), *inputs[1:]]
+        src += "; gyroscope in deg/s (Fusion's unit)"
+    else:
+        params = resolve_params(args.filter, dt, overrides)
+    if not fusion and _entry(args.filter).fixed:
         mag = (f", mag {mag_counts_scale(inputs[2]):g} per unit" if cls.kind == "ahrs" else "")
         inputs = counts_for(cls.kind, params, inputs)
         src += f"; int16 counts (gyr_scale {params['gyr_scale']:g} rad/s, acc 4096 per g{mag})"
@@ -151,9 +200,19 @@ def add_parsers(sub):
                        "  imufuse validate --csrc --filter Kalman1D --dtype float32\n"
                        "  imufuse validate fw/cf.c --header cf.h --filter Complementary1D "
                        "--init cf_init \\\n     --update cf_update --state theta=theta "
-                       "--target cortex-m4f --cflags '-O2 -ffp-contract=off'")
+                       "--target cortex-m4f --cflags '-O2 -ffp-contract=off'\n"
+                       "  imufuse validate --declaration madgwick_arduino.toml   # any API, C++")
     v.add_argument("sources", nargs="*", metavar="SOURCE.c")
-    v.add_argument("--filter", "-f", required=True, help="the imufuse filter to compare with", type=canonical_name)
+    v.add_argument("--filter", "-f", help="the imufuse filter to compare with (with "
+                   "--declaration: from the file)", type=canonical_name)
+    v.add_argument("--declaration", metavar="FILE.toml",
+                   help="the firmware's API declared in a file: sources, how to create, "
+                        "initialise and update the filter (a C++ class, a C struct, any "
+                        "signature and units), how to read its state, which imufuse filter "
+                        "to compare with (imufuse.firmware.declared; docs/firmware.md)")
+    v.add_argument("--source-dir", metavar="DIR",
+                   help="with --declaration: the directory its relative paths start from "
+                        "(default: the file's)")
     v.add_argument("--csrc", metavar="DIR", nargs="?", const=str(csrc_dir()),
                    help="validate imufuse's own sources in DIR (default: the C library "
                         "installed with imufuse)")

@@ -62,6 +62,10 @@ The modules, by subject:
   declared      DeclaredFirmware: any API (a C++ class, structs by value, settings, units)
                 declared in a file instead of prototypes; the harness generated around it
   declfile      load_declaration(): that file (TOML) read and checked
+  diagnostics   the source's causes: compiler warnings on the code run up to the divergence
+                (gcov), the data model (long, int, double widths), a changed constant
+  sanitize      the firmware built for the host under UBSan and ASan: the first report
+  report        rounding or formula, the --within verdict, the JSON and JUnit reports
 """
 from ..bits import Comparison, c_double_literal as hexfloat, compare_states, ulps
 from .causes import Cause, angle_divergence_deg, double_promotions, find_causes

@@ -209,3 +209,13 @@ def angle_divergence_deg(name: str, params: Dict[str, Any], got: np.ndarray, wan
             return None
     ang = np.where(np.isnan(ang), 180.0, ang)
     return float(ang.max()) if ang.size else 0.0
+
+
+def quaternion_angles_deg(a: Any, b: Any) -> np.ndarray:
+    """The angle between two runs' quaternions (w, x, y, z; each normalised) after every
+    sample, degrees; 180 where either is not a number."""
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    with np.errstate(all="ignore"):
+        d = np.abs(np.sum(a * b, axis=1)) / (np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1))
+        ang = 2.0 * np.degrees(np.arccos(np.clip(d, 0.0, 1.0)))
+    return np.where(np.isnan(ang), 180.0, ang)

@@ -56,7 +56,7 @@ def load_declaration(path: "str | os.PathLike[str]", source_dir: Optional[str] =
         import tomllib as toml
     except ImportError:                       # Python < 3.11
         try:
-            import tomli as toml  # type: ignore[no-redef]
+            import tomli as toml
         except ImportError:
             raise FirmwareError(f"{path}: reading a declaration needs Python 3.11 or "
                                 "`pip install tomli`") from None

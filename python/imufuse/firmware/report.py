@@ -1,14 +1,13 @@
 """What a validation says beyond bit-exact or not, and the files a CI reads.
 
-``classify``: rounding (the same computation rounded differently: a few ulps at the first
-differing sample, growing without a step) or formula (a different computation: large from
-the first differing sample, or a step later), with the error's growth per decade of samples.
-``tolerance``: the verdict of a variant not meant to be bit-exact, its orientation difference
-over the run in degrees against a bound (`imufuse validate --within`). ``report_dict``: a
-validation as JSON (verdict, first divergence as bit patterns, class, causes, cost, timing,
-the build as it was: compiler, flags, the sha256 of every file the compiler read);
-``error_dict`` the same for a firmware that could not be built or run; ``junit_xml`` either
-as JUnit test cases; ``write_reports`` writes them whole or not at all.
+``classify``: rounding (the same computation rounded differently: a few ulps at the first differing
+sample, growing without a step) or formula (a different computation: large from the first differing
+sample, or a step later), with the error's growth per decade of samples. ``tolerance``: the verdict
+of a variant not meant to be bit-exact, its orientation difference over the run in degrees against a
+bound (`imufuse validate --within`). ``report_dict``: a validation as JSON (verdict, first divergence
+as bit patterns, class, causes, cost, timing, the build as it was: compiler, flags, the sha256 of
+every file the compiler read); ``error_dict`` the same for a firmware that could not be built or
+run; ``junit_xml`` either as JUnit test cases; ``write_reports`` writes them whole or not at all.
 """
 from __future__ import annotations
 
@@ -31,8 +30,9 @@ import numpy as np
 from .. import __version__
 from .._atomic import replacing
 from ..bits import as_bits
-from ..catalogue import entry
+from ..catalogue import FILTERS as FILTER_NAMES, entry
 from ..estimate import ADAPTERS
+from .causes import quaternion_angles_deg
 from ..mcu import toolchains as _tc
 from .host import _make_deps, compiler_command, compiler_identity
 from .targets import DEFAULT_TARGET_CFLAGS, harness_target
@@ -111,8 +111,7 @@ class Classification:
 
 
 def _n(x: float, unit: str) -> str:
-    n = f"{x:.0f}" if x < 1e4 else f"{x:.2g}"
-    return f"{n} {unit[:-1] if n == '1' else unit}"
+    return f"{(n := f'{x:.0f}' if x < 1e4 else f'{x:.2g}')} {unit[:-1] if n == '1' else unit}"
 
 
 def orientation_difference_deg(name: str, params: Optional[Mapping[str, Any]], got: np.ndarray,
@@ -120,7 +119,11 @@ def orientation_difference_deg(name: str, params: Optional[Mapping[str, Any]], g
     """The orientation difference after every sample, degrees (a NaN counts as 180), from
     the filter's estimate as imufuse.firmware.causes.angle_divergence_deg takes it; None when
     the filter has none (or the state given does not make one). params: needed for a
-    fixed-point single-axis filter only (its angle_scale)."""
+    fixed-point single-axis filter only (its angle_scale). FusionAHRS: from q0..q3."""
+    names = tuple(names)
+    if name not in FILTER_NAMES:                                  # FusionAHRS
+        cols = [names.index(f"q{i}") for i in range(4) if f"q{i}" in names]
+        return quaternion_angles_deg(got[:, cols], want[:, cols]) if len(cols) == 4 else None
     e = entry(name)
     if e.estimate is None:
         return None

@@ -20,7 +20,8 @@ from .. import reference
 from ..bits import compare_states
 from ..catalogue import entry, make_filter
 from ..mcu import toolchains as _tc
-from .causes import Cause, angle_divergence_deg, double_promotions, find_causes
+from .causes import (Cause, angle_divergence_deg, double_promotions, find_causes,
+                     quaternion_angles_deg)
 from .declaration import FirmwareError
 from .diagnostics import explain_source
 from .host import Firmware
@@ -221,7 +222,7 @@ def _angle(name, params, got, want, names):
         order = [list(names).index(n) for n in e.state_names]
         got, want = got[:, order], want[:, order]
     if isinstance(e, _FusionEntry):
-        return _quat_angle_deg(got[:, :4], want[:, :4])
+        return float(np.max(quaternion_angles_deg(got[:, :4], want[:, :4]), initial=0.0))
     try:
         return angle_divergence_deg(name, dict(params), got, want, e.fixed)
     except Exception:  # noqa: BLE001 - the angle is extra information, never a failure
@@ -287,16 +288,6 @@ def _confirm(causes, rerun):
             causes.append(Cause("together", "", flags, rerun([c.fix for c in fixes])))
         except FirmwareError:
             pass
-
-
-def _quat_angle_deg(a, b):
-    """The largest angle between two runs' unit quaternions (w, x, y, z), degrees."""
-    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
-    with np.errstate(all="ignore"):
-        d = np.abs(np.sum(a * b, axis=1)) / (np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1))
-        ang = 2.0 * np.degrees(np.arccos(np.minimum(d, 1.0)))
-    ang = ang[np.isfinite(ang)]
-    return float(ang.max()) if ang.size else None
 
 
 def _c_values(e, params):
