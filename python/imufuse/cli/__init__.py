@@ -61,9 +61,9 @@ def _join_flag_values(argv):
     option, and compiler flags always start with one."""
     out, it = [], iter(argv)
     for a in it:
-        if a == "--cflags":
+        if a in ("--cflags", "--against-cflags"):
             nxt = next(it, None)
-            out.append(a if nxt is None else f"--cflags={nxt}")
+            out.append(a if nxt is None else f"{a}={nxt}")
         else:
             out.append(a)
     return out

@@ -1,5 +1,6 @@
 """`imufuse validate` (firmware against imufuse, bit for bit) and `imufuse export`."""
 import argparse
+import copy
 import os
 
 import numpy as np
@@ -15,6 +16,7 @@ from ..firmware import (DEFAULT_TIMEOUT, Firmware, FirmwareError, counts_for, cs
                         mag_counts_scale, target_names, validate_isolated)
 from ..firmware.report import build_info, error_dict, report_dict, tolerance, write_reports
 from ..firmware.declfile import load_declaration
+from ..firmware.versus import compare_firmware
 from ..firmware.validate import _filter_entry
 from ..session import FUSION
 from ..io import LogError
@@ -33,6 +35,56 @@ def _headers(args):
             if os.path.isfile(p):
                 out.append(p)
     return out
+
+
+def _side_inputs(name, kind, overrides, dt, raw, src):
+    """(params, inputs, description) of the imufuse filter `name` on the raw inputs (rad/s,
+    g): FusionAHRS in its units (the gyroscope in deg/s, dt with every update), a
+    fixed-point filter on int16 counts."""
+    if name == FUSION:
+        return ({**overrides, "dt": dt},
+                [np.degrees(np.asarray(raw[0], dtype=np.float64)), *raw[1:]],
+                src + "; gyroscope in deg/s (Fusion's unit)")
+    params = resolve_params(name, dt, overrides)
+    if _entry(name).fixed:
+        mag = f", mag {mag_counts_scale(raw[2]):g} per unit" if kind == "ahrs" else ""
+        return (params, counts_for(kind, params, raw),
+                src + f"; int16 counts (gyr_scale {params['gyr_scale']:g} rad/s, acc 4096 per "
+                      f"g{mag})")
+    return params, raw, src
+
+
+def _against(args, b, fw_b, kind, dt, raw, src):
+    """--against / --against-target / --against-cflags: firmware B (the one given) against
+    firmware A (--against FILE, else the same firmware) on the same samples, A built for
+    --against-target (default: B's target) with --against-cflags (default: A's flags)."""
+    if args.against:
+        d = load_declaration(args.against)      # its paths: relative to its own file
+        fw_a, name_a, over_a = d.firmware, d.filter, dict(d.params)
+    else:
+        fw_a, name_a = copy.copy(fw_b), args.filter
+        over_a = {**(fw_b_declared_params(args)), **pairs(args.param)}
+    kind_a = _fusion_kind().kind if name_a == FUSION else _entry(name_a).kind
+    if kind_a != kind:
+        raise UsageError(f"--against: firmware A compares with {name_a} ({kind_a}), firmware B "
+                         f"with {args.filter} ({kind}): give two filters of one kind")
+    if args.against_cflags is not None:
+        fw_a.cflags = args.against_cflags.split()
+        fw_a.cflags_given = list(fw_a.cflags)
+        fw_a._lib = None
+    params_a, inputs_a, _ = _side_inputs(name_a, kind, over_a, dt, raw, src)
+    a = validate_isolated(fw_a, name_a, params_a, inputs_a, backend=args.backend,
+                          dtype=args.dtype if name_a == args.filter else None,
+                          timeout=args.timeout, target=args.against_target or args.target,
+                          explain=False)
+    a.params = dict(params_a)
+    return compare_firmware(a, b, "A", "B")
+
+
+def fw_b_declared_params(args):
+    """The declaration's parameters of the firmware given (none without --declaration)."""
+    return load_declaration(args.declaration, source_dir=args.source_dir).params \
+        if args.declaration else {}
 
 
 def _fusion_kind():
@@ -120,22 +172,15 @@ def _validate(args):
                 sim.imu("slow", rate=rate, duration=args.duration, seed=args.seed))
         dt, inputs, t = data.dt, inputs_for(cls.kind, data), data.t
         src = f"simulated 'slow' motion, {rate:g} Hz, {args.duration:g} s, seed {args.seed}"
-    if fusion:
-        # Fusion's units: the gyroscope in deg/s (Fusion's C and FusionAHRS take it), dt
-        # with every update
-        params = {**overrides, "dt": dt}
-        inputs = [np.degrees(np.asarray(inputs[0], dtype=np.float64)), *inputs[1:]]
-        src += "; gyroscope in deg/s (Fusion's unit)"
-    else:
-        params = resolve_params(args.filter, dt, overrides)
-    if not fusion and _entry(args.filter).fixed:
-        mag = (f", mag {mag_counts_scale(inputs[2]):g} per unit" if cls.kind == "ahrs" else "")
-        inputs = counts_for(cls.kind, params, inputs)
-        src += f"; int16 counts (gyr_scale {params['gyr_scale']:g} rad/s, acc 4096 per g{mag})"
+    raw = inputs
+    params, inputs, src = _side_inputs(args.filter, cls.kind, overrides, dt, raw, src)
     args.report_context = (fw, params, src)      # for the reports of an error (_reported)
+    pair = args.against or args.against_target or args.against_cflags is not None
     v = validate_isolated(fw, args.filter, params, inputs, backend=args.backend, dtype=args.dtype,
-                          timeout=args.timeout, target=args.target)
+                          timeout=args.timeout, target=args.target, explain=not pair)
     v.params = dict(params)
+    if pair:
+        v = _against(args, v, fw, cls.kind, dt, raw, src)
     print(f"inputs: {src}; {args.filter} "
           f"{', '.join(f'{k}={val}' for k, val in params.items())}")
     print(v.text())
@@ -210,6 +255,15 @@ def add_parsers(sub):
                         "initialise and update the filter (a C++ class, a C struct, any "
                         "signature and units), how to read its state, which imufuse filter "
                         "to compare with (imufuse.firmware.declared; docs/firmware.md)")
+    v.add_argument("--against", metavar="FILE.toml",
+                   help="firmware against firmware, no imufuse reference: the firmware given "
+                        "(B) against the one declared in FILE (A): old and new versions, a "
+                        "float filter and its fixed-point port (compared as orientations)")
+    v.add_argument("--against-target", choices=target_names(), metavar="TARGET",
+                   help="firmware against firmware: A (--against, else the same firmware) "
+                        "built for TARGET (host against target)")
+    v.add_argument("--against-cflags", metavar="FLAGS",
+                   help="firmware against firmware: A built with FLAGS (-O0 against -O2)")
     v.add_argument("--source-dir", metavar="DIR",
                    help="with --declaration: the directory its relative paths start from "
                         "(default: the file's)")

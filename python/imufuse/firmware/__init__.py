@@ -66,6 +66,7 @@ The modules, by subject:
                 (gcov), the data model (long, int, double widths), a changed constant
   sanitize      the firmware built for the host under UBSan and ASan: the first report
   report        rounding or formula, the --within verdict, the JSON and JUnit reports
+  versus        compare_firmware(): firmware against firmware, no imufuse reference
 """
 from ..bits import Comparison, c_double_literal as hexfloat, compare_states, ulps
 from .causes import Cause, angle_divergence_deg, double_promotions, find_causes
@@ -74,6 +75,7 @@ from .host import Firmware, csrc_firmware
 from .isolate import DEFAULT_TIMEOUT, validate_isolated
 from .declared import DeclaredFirmware
 from .declfile import Declared, load_declaration
+from .versus import compare_firmware
 from .results import Cost, Validation
 from .target_build import MAX_CHUNK, Program, StateType, build_program
 from .target_run import TargetRun, run_program
@@ -84,7 +86,7 @@ from .validate import counts_for, mag_counts_scale, validate
 __all__ = ["Firmware", "FirmwareError", "Validation", "validate", "csrc_firmware",
            "parse_prototype", "Comparison", "compare_states", "ulps", "DEFAULT_CFLAGS",
            "DEFAULT_TIMEOUT", "validate_isolated", "DeclaredFirmware", "Declared",
-           "load_declaration", "counts_for", "mag_counts_scale", "Cost", "Declaration",
+           "load_declaration", "compare_firmware", "counts_for", "mag_counts_scale", "Cost", "Declaration",
            # the emulated-MCU targets
            "TARGETS", "DESCRIPTION", "DEFAULT_TARGET_CFLAGS", "TargetError", "target_names",
            "harness_target", "speed_note", "MAX_CHUNK", "StateType", "Program", "build_program",

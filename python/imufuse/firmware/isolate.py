@@ -16,7 +16,7 @@ DEFAULT_TIMEOUT = 60.0
 LOAD_ONLY = -1
 
 
-def _child(conn, fw, name, params, inputs, backend, dtype, n):  # host only
+def _child(conn, fw, name, params, inputs, backend, dtype, n, explain=True):  # host only
     try:
         if n == LOAD_ONLY:
             # the firmware's C constructors run when it is loaded, before init
@@ -25,7 +25,7 @@ def _child(conn, fw, name, params, inputs, backend, dtype, n):  # host only
             conn.send(("ok", None))
             return
         inp = inputs if n is None else [a[:n] for a in inputs]
-        conn.send(("ok", validate(fw, name, params, inp, backend, dtype)))
+        conn.send(("ok", validate(fw, name, params, inp, backend, dtype, explain=explain)))
     except FirmwareError as e:
         conn.send(("firmware", str(e)))
     except Exception as e:  # noqa: BLE001 - reported to the parent as one line
@@ -34,12 +34,12 @@ def _child(conn, fw, name, params, inputs, backend, dtype, n):  # host only
         conn.close()
 
 
-def _attempt(fw, name, params, inputs, backend, dtype, n, timeout):
+def _attempt(fw, name, params, inputs, backend, dtype, n, timeout, explain=True):
     """One run in a child: ("ok", Validation) | ("firmware"|"error", msg) |
     ("signal", signum) | ("exit", code) | ("timeout", None)."""
     ctx = multiprocessing.get_context("fork")
     r, w = ctx.Pipe(duplex=False)
-    p = ctx.Process(target=_child, args=(w, fw, name, params, inputs, backend, dtype, n),
+    p = ctx.Process(target=_child, args=(w, fw, name, params, inputs, backend, dtype, n, explain),
                     daemon=True)
     p.start()
     w.close()
@@ -85,7 +85,7 @@ def _describe(res, where, timeout):
 
 
 def validate_isolated(fw, name, params, inputs, backend="c", dtype=None, timeout=DEFAULT_TIMEOUT,
-                      target="host"):
+                      target="host", explain=True):
     """validate() with the firmware in a child process and a timeout.
 
     A crash (signal), a call to exit() or a run past `timeout` seconds raises
@@ -95,10 +95,11 @@ def validate_isolated(fw, name, params, inputs, backend="c", dtype=None, timeout
     in this process; the firmware is loaded only in the child, so no firmware code (not
     even a C constructor) runs here."""
     if target != "host":
-        return validate(fw, name, params, inputs, backend, dtype, target=target, timeout=timeout)
+        return validate(fw, name, params, inputs, backend, dtype, target=target, timeout=timeout,
+                        explain=explain)
     e = _filter_entry(name)
     fw.prepare(e.kind, _c_values(e, params), params)
-    res = _attempt(fw, name, params, inputs, backend, dtype, None, timeout)
+    res = _attempt(fw, name, params, inputs, backend, dtype, None, timeout, explain)
     if res[0] == "ok":
         return res[1]
     if res[0] in ("firmware", "error"):

@@ -55,6 +55,9 @@ class Validation:
     # the imufuse filter's parameters, set by the callers that know them (imufuse validate,
     # imufuse.testing): the orientation of a fixed-point single-axis filter needs its scale
     params: Optional[Dict[str, Any]] = None
+    # the first line of text() when the comparison is not firmware against imufuse
+    # (imufuse.firmware.versus: firmware against firmware)
+    title: Optional[str] = None
     _classification: Optional[Classification] = field(default=None, init=False, repr=False,
                                                       compare=False)
 
@@ -74,15 +77,16 @@ class Validation:
 
     def text(self):
         flags = " ".join(self.cflags) if self.cflags else "(none)"
-        lines = [f"firmware on {self.target} (flags {flags}) vs imufuse {self.filter} "
-                 f"({self.backend}, {self.comparison.dtype}):", self.comparison.text()]
+        head = self.title or (f"firmware on {self.target} (flags {flags}) vs imufuse "
+                              f"{self.filter} ({self.backend}, {self.comparison.dtype}):")
+        lines = [head, self.comparison.text()]
         if not self.bit_exact and self.max_angle_deg is not None:
             lines.append(f"largest orientation difference over the run: {self.max_angle_deg:.3g} deg")
         if self.classification is not None:
             lines.append(self.classification.text())
         for c in self.causes:
             lines.append(c.text())
-        if not self.bit_exact and not any(c.fix for c in self.causes):
+        if not self.bit_exact and self.title is None and not any(c.fix for c in self.causes):
             lines.append("cause: none of the known build causes (fused multiply-add, double "
                          "arithmetic, fast-math) was found in the objects: the firmware computes "
                          "something else (an operation, its order, or a constant)")
