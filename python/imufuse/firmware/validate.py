@@ -261,17 +261,26 @@ def _explain_host(v, fw, name, params, inputs, backend, dtype):
             return validate(fixed, name, params, inputs, backend, dtype, explain=False).bit_exact
 
         _confirm(v.causes, rerun)
-        e = _filter_entry(name)
-        s0 = np.asarray(_make(name, backend, dtype, params).state, dtype=np.float64)
-        run = RunInputs.of(fw, e.kind, _c_values(e, params), params,
-                           s0[[e.state_names.index(n) for n in fw.state]], inputs)
-        try:
-            explain_source(v, fw, params, run, cmd, wd,
-                           lambda srcs, dirs: rerun([], srcs, dirs))
-        except Exception as err:  # noqa: BLE001 - the diagnostics add to the report, never fail it
-            v.notes.append(f"the source's diagnostics failed: {type(err).__name__}: {err}")
+        _explain_source(v, fw, name, params, inputs, backend, dtype, cmd, wd,
+                        lambda srcs, dirs: rerun([], srcs, dirs))
     finally:
         shutil.rmtree(wd, ignore_errors=True)
+
+
+def _explain_source(v, fw, name, params, inputs, backend, dtype, cmd, wd, rerun_sources):
+    """What the source and its runs on the host say (imufuse.firmware.diagnostics): source
+    causes, the same wherever the firmware ran (undefined behaviour is undefined on every
+    target; the data model names what differs between them). cmd: the host compiler with
+    the firmware's flags; rerun_sources(sources, include_dirs): the validation where it ran,
+    rebuilt from other sources (bit-exact or not)."""
+    e = _filter_entry(name)
+    s0 = np.asarray(_make(name, backend, dtype, params).state, dtype=np.float64)
+    run = RunInputs.of(fw, e.kind, _c_values(e, params), params,
+                       s0[[e.state_names.index(n) for n in fw.state]], inputs)
+    try:
+        explain_source(v, fw, params, run, cmd, wd, rerun_sources)
+    except Exception as err:  # noqa: BLE001 - the diagnostics add to the report, never fail it
+        v.notes.append(f"the source's diagnostics failed: {type(err).__name__}: {err}")
 
 
 def _confirm(causes, rerun):
@@ -412,4 +421,18 @@ def _finish_target(fw, name, params, inputs, backend, dtype, target, timeout, ex
         _confirm(v.causes, lambda extra: _validate_target(
             fw, name, params, inputs, backend, dtype, target, timeout, False,
             [*flags, *extra]).bit_exact)
+        cc = os.environ.get("CC", "cc")
+        if shutil.which(cc) is not None:
+            def rerun_sources(srcs, dirs):
+                fixed = type(fw).__new__(type(fw))
+                fixed.__dict__.update(fw.__dict__)
+                fixed.sources, fixed.include_dirs, fixed._lib = list(srcs), list(dirs), None
+                return _validate_target(fixed, name, params, inputs, backend, dtype, target,
+                                        timeout, False, flags).bit_exact
+            wd = Path(tempfile.mkdtemp(prefix="imf_fw_explain_"))
+            try:
+                _explain_source(v, fw, name, params, inputs, backend, dtype,
+                                [cc, *_strip_arch(flags), *_defs_incs(fw)], wd, rerun_sources)
+            finally:
+                shutil.rmtree(wd, ignore_errors=True)
     return v
