@@ -155,3 +155,25 @@ def test_runs_of_different_lengths_or_without_a_quaternion_are_refused():
 def test_declarations_load_with_paths_relative_to_their_file():
     d = load_declaration(os.path.join(DECLARED, "madgwick_imu_fixed.toml"))
     assert all(os.path.isfile(s) for s in d.firmware.sources)
+
+
+def test_the_testing_api(tmp_path):
+    """imufuse.testing: validate_declared (a C++ class from its declaration; a float and a
+    fixed-point port) and against (firmware against firmware, within a tolerance)."""
+    from imufuse.testing import against, validate_declared
+    old = _version(tmp_path / "old")
+    new = _version(tmp_path / "new", CLASS_CPP.replace("k0_ * acc_angle", "(k0_ * 1.01f) * acc_angle"))
+    a, b = validate_declared(str(old), duration=2.0), validate_declared(str(new), duration=2.0)
+    a.assert_bit_exact()
+    with pytest.raises(AssertionError, match="not bit-exact"):
+        b.assert_bit_exact()
+    with pytest.raises(AssertionError):
+        against(a, b).assert_bit_exact()
+    against(a, a).assert_bit_exact()
+    flt = validate_declared(os.path.join(DECLARED, "madgwick_imu_float.toml"), duration=5.0)
+    fix = validate_declared(os.path.join(DECLARED, "madgwick_imu_fixed.toml"), duration=5.0)
+    r = against(flt, fix, within=0.5)
+    assert r.verdict == "within" and 0 < r.max_angle_deg < 0.5
+    r.assert_passed()
+    with pytest.raises(AssertionError):
+        against(flt, fix, within=1e-4).assert_passed()

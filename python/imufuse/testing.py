@@ -23,6 +23,18 @@ variable, the largest orientation difference in degrees, rounding or formula
 firmware that crashes, calls exit(), overflows its stack or hangs past `timeout` raises
 `imufuse.firmware.FirmwareError` naming the sample.
 
+Firmware of any shape, declared in a file (imufuse.firmware.declared: a C++ class, structs
+passed by value, units), and firmware against firmware (no imufuse reference):
+
+    def test_our_madgwick_class_on_the_m0():
+        r = validate_declared("fw/madgwick.toml", target="cortex-m0", within=0.01)
+        r.assert_passed()
+
+    def test_new_version_against_old():
+        old = validate_declared("fw_v1/attitude.toml")
+        new = validate_declared("fw_v2/attitude.toml")
+        against(old, new).assert_bit_exact()        # or within=DEG for an intended change
+
 `target_missing(target)` says why a target cannot run here (its cross compiler or emulator is
 not installed: Debian gcc-arm-none-eabi, libnewlib-arm-none-eabi, qemu-system-arm, gcc-avr,
 avr-libc, simavr), or None.
@@ -38,10 +50,12 @@ import numpy as np
 from . import sim
 from .catalogue import entry, inputs_for, resolve_params
 from .mcu import missing_tools
-from .firmware import Firmware, Validation, counts_for, harness_target, validate_isolated
+from .firmware import (Firmware, Validation, compare_firmware, counts_for, harness_target,
+                       load_declaration, validate_isolated)
 from .firmware.report import Classification, Tolerance, tolerance
 
-__all__ = ["validate_firmware", "FirmwareResult", "simulated_inputs", "target_missing"]
+__all__ = ["validate_firmware", "validate_declared", "against", "FirmwareResult",
+           "simulated_inputs", "target_missing"]
 
 
 @dataclass
@@ -128,16 +142,16 @@ class FirmwareResult:
 
 
 def simulated_inputs(filter: str, rate: float = 200.0, duration: float = 20.0, seed: int = 1,
-                     motion: str = "slow"):
+                     motion: str = "slow", params: Optional[Mapping[str, Any]] = None):
     """(dt, inputs) of imufuse.sim motion for `filter`: (rate, angle) for single-axis
-    filters, (gyr, acc[, mag]) for the others; int16 counts for a fixed-point filter (see
-    imufuse validate)."""
+    filters, (gyr, acc[, mag]) for the others; int16 counts for a fixed-point filter, in the
+    scale of its `params` (gyr_scale; see imufuse validate)."""
     e = entry(filter)
     data = (sim.axis1d(motion, rate=rate, duration=duration, seed=seed) if e.kind == "1d" else
             sim.imu(motion, rate=rate, duration=duration, seed=seed))
     ins = inputs_for(e.kind, data)
     if e.fixed:
-        ins = tuple(counts_for(e.kind, resolve_params(filter, data.dt), ins))
+        ins = tuple(counts_for(e.kind, resolve_params(filter, data.dt, params), ins))
     return data.dt, ins
 
 
@@ -175,7 +189,7 @@ def validate_firmware(sources: Sequence[str], *, filter: str, update: str,
                   state_names=None if state else entry(filter).state_names, headers=headers,
                   include_dirs=include_dirs, defines=defines, cflags=flags, init_args=init_args)
     if inputs is None:
-        dt, inputs = simulated_inputs(filter, rate, duration, seed)
+        dt, inputs = simulated_inputs(filter, rate, duration, seed, params=params)
     elif dt is None:
         raise ValueError("inputs given: give dt (s) too")
     full = resolve_params(filter, float(dt), params)
@@ -183,3 +197,47 @@ def validate_firmware(sources: Sequence[str], *, filter: str, update: str,
     v = validate_isolated(fw, filter, full, inputs, dtype=dtype, timeout=timeout, target=target)
     v.params = dict(full)
     return FirmwareResult(v, full, None if within is None else tolerance(v, within))
+
+
+def validate_declared(path: str, *, source_dir: Optional[str] = None, target: str = "host",
+                      cflags: Union[str, Sequence[str], None] = None,
+                      params: Optional[Mapping[str, Any]] = None,
+                      inputs: Optional[Sequence] = None, dt: Optional[float] = None,
+                      rate: float = 200.0, duration: float = 20.0, seed: int = 1,
+                      dtype: Optional[str] = None, timeout: float = 60.0,
+                      within: Optional[float] = None) -> FirmwareResult:
+    """validate_firmware for a firmware declared in a file (imufuse validate --declaration):
+    its sources, API and imufuse filter from the file; params on top of the file's.
+    FusionAHRS takes its inputs in Fusion's units (the gyroscope in deg/s)."""
+    d = load_declaration(path, source_dir=source_dir)
+    fw = d.firmware
+    if cflags is not None:
+        fw.cflags = fw.cflags_given = shlex.split(cflags) if isinstance(cflags, str) \
+            else list(cflags)
+    fusion = d.filter == "FusionAHRS"
+    over = {**d.params, **dict(params or {})}
+    if inputs is None:
+        kind = "ahrs" if fusion else entry(d.filter).kind
+        data = (sim.axis1d("slow", rate=rate, duration=duration, seed=seed) if kind == "1d" else
+                sim.imu("slow", rate=rate, duration=duration, seed=seed))
+        dt, inputs = data.dt, list(inputs_for(kind, data))
+        if fusion:
+            inputs[0] = np.degrees(inputs[0])
+        elif entry(d.filter).fixed:           # counts in the declared filter's own scale
+            inputs = counts_for(kind, resolve_params(d.filter, data.dt, over), inputs)
+    elif dt is None:
+        raise ValueError("inputs given: give dt (s) too")
+    full = {**over, "dt": float(dt)} if fusion else resolve_params(d.filter, float(dt), over)
+    inputs = [np.asarray(a) for a in inputs]
+    v = validate_isolated(fw, d.filter, full, inputs, dtype=dtype, timeout=timeout,
+                          target=target)
+    v.params = dict(full)
+    return FirmwareResult(v, full, None if within is None else tolerance(v, within))
+
+
+def against(a: FirmwareResult, b: FirmwareResult, within: Optional[float] = None
+            ) -> FirmwareResult:
+    """Firmware B's run against firmware A's, no imufuse reference
+    (imufuse.firmware.compare_firmware): both validated on the same inputs."""
+    v = compare_firmware(a.validation, b.validation)
+    return FirmwareResult(v, a.params, None if within is None else tolerance(v, within))
