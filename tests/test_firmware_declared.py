@@ -149,7 +149,9 @@ def test_arduino_style_class_as_published_runs_and_diverges(tmp_path, cache):
 def test_arduino_style_class_with_the_pun_fixed_is_a_close_variant(tmp_path, cache):
     v = _run(_arduino_copy(tmp_path, fix_pun=True), cache, "ahrs", seconds=10.0)
     assert not v.bit_exact                  # a different computation ...
+    assert v.classification is not None and v.classification.kind == "formula", v.text()
     assert v.max_angle_deg is not None and v.max_angle_deg < 0.1, v.text()   # ... close
+    assert not [c for c in v.causes if c.what in ("undefined behaviour", "data model")], v.text()
 
 
 def test_cli_declaration(tmp_path):
