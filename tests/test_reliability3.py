@@ -459,3 +459,25 @@ def test_run_csv_block_by_block_is_the_whole_run(tmp_path, name):
     assert len(body) == len(d.t) > 2 * (1 << 14)
     for j, col in enumerate(head):
         assert _bits(body[:, j]).tobytes() == _bits(b[col].astype(np.float64)).tobytes(), col
+
+
+@pytest.mark.parametrize("offset", [(1e39, 0.0, 0.0), (0.0, -4e38, 0.0), (0.0, 0.0, 1e300)])
+def test_mag_offset_files_hold_float32_values(tmp_path, offset):
+    """save_mag_offset and mag_offset() passed a value beyond float32 through to the file and
+    back, for a float32 filter to refuse (or, before, to hold as inf): the file serves filters
+    of either precision, so both refuse it, naming the file and the axis."""
+    from imufuse.calibration import CalibrationError, mag_offset
+    from imufuse.calibration.log import save_mag_offset
+    path = tmp_path / "cal.json"
+    with pytest.raises(ValueError, match=r"cal.json: mag offset [xyz]: must be finite in float32"):
+        save_mag_offset(str(path), offset)
+    assert not path.exists()
+    # a file written by hand (or by an older imufuse) is refused when read
+    import json
+    path.write_text(json.dumps({"magnetometer": {"S": np.eye(3).tolist(), "h": list(offset)}}))
+    with pytest.raises(CalibrationError, match=r"cal.json: magnetometer.h [xyz]: must be finite"):
+        mag_offset(str(path))
+    # the largest float32 value is a value a float32 filter holds
+    big = float(np.finfo(np.float32).max)
+    save_mag_offset(str(path), (big, 0.0, -big))
+    assert mag_offset(str(path)) == (big, 0.0, -big)

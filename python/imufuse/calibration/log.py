@@ -18,6 +18,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from .._checks import check_real_in
 from .._atomic import locked, replacing
 from ..io import LogError, require
 from ..session import ReadOptions, Session
@@ -68,6 +69,9 @@ def save_mag_offset(path, offset):
     h = np.asarray(offset, dtype=float)
     if h.shape != (3,):
         raise ValueError(f"offset: expected (x, y, z), got shape {h.shape}")
+    # the file serves filters of either precision (the C library on an MCU is float32)
+    for axis, v in zip("xyz", h):
+        check_real_in(f"{path}: mag offset {axis}", float(v), "float32")
     return save(path, Calibration("mag", dict(S=np.eye(3), h=h)))
 
 

@@ -30,6 +30,7 @@ import numpy as np
 import imufuse_c
 
 from .._atomic import locked, replacing
+from .._checks import check_real_in
 from .._jsonfile import FileContentError, read_object
 from ..reference import fusion
 
@@ -166,7 +167,14 @@ def mag_offset(calibration):
             "calibration, which the filter's offset cannot hold; apply it to the readings "
             "(imufuse run --calibration) or fit an offset only (imufuse calibrate mag "
             "--method sphere)")
-    return tuple(float(v) for v in np.asarray(p["h"], dtype=float))
+    h = tuple(float(v) for v in np.asarray(p["h"], dtype=float))
+    for axis, v in zip("xyz", h):
+        try:
+            check_real_in(f"magnetometer.h {axis}", v, "float32")
+        except ValueError as e:
+            # the offset goes into a filter of either precision (float32 on an MCU)
+            raise CalibrationError(f"{where}: {e}") from None
+    return h
 
 
 def is_identity(cal):
