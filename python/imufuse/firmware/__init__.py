@@ -62,6 +62,8 @@ The modules, by subject:
   declared      DeclaredFirmware: any API (a C++ class, structs by value, settings, units)
                 declared in a file instead of prototypes; the harness generated around it
   declfile      load_declaration(): that file (TOML) read and checked
+  ctemplate     a declaration's templates checked as C; the heap and system calls a
+                declared firmware gets on bare metal
   diagnostics   the source's causes: compiler warnings on the code run up to the divergence
                 (gcov), the data model (long, int, double widths), a changed constant
   sanitize      the firmware built for the host under UBSan and ASan: the first report

@@ -35,9 +35,16 @@ Placeholders, replaced by C literals or expressions:
   (gyroscope: rad/s, deg/s; accelerometer: g, m/s^2), or a factor ``${mx*0.01}``; a whole
   vector as a local array ``${gyr[float]}`` (``${acc[double]:m/s^2}``).
 
-Values are doubles converted by the compiler to the parameter's type, as any call converts
-them. A C++ source makes the harness C++, compiled with ``-fno-access-control`` so that
-private members can be read and written without editing the user's code.
+Values are converted to ``value_type`` (``${dt}`` too; ``${dt*1000}``, ``${dt:ms}``), a
+vector to its element type. A C++ source makes the harness C++, compiled with
+``-fno-access-control`` so that private members can be read and written without editing
+the user's code. ``$$`` is a literal ``$``.
+
+The templates are checked before anything is generated (FirmwareError naming the key):
+brackets balanced, literals and comments closed, no placeholder inside a literal, no ``#``
+directive, no ``return``/``goto``/``break``/``continue`` (they would leave the harness's
+code); a state expression is one expression without assignment, ``++``/``--``, ``;`` or
+braces; the object's name is no keyword and no harness name (``imf_``/``imufuse_``).
 """
 from __future__ import annotations
 
@@ -48,6 +55,7 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 
 from .._checks import KINDS
 from ..bits import c_double_literal
+from . import ctemplate
 from .declaration import DEFAULT_CFLAGS, FirmwareError
 from .host import Firmware
 
@@ -56,9 +64,11 @@ __all__ = ["DeclaredFirmware", "CXX_EXTENSIONS", "DEFAULT_CXXFLAGS"]
 CXX_EXTENSIONS = (".cpp", ".cc", ".cxx", ".C", ".c++")
 #: the host flags of a C++ firmware: the numerical contract, and private members readable
 DEFAULT_CXXFLAGS = ("-O2", "-ffp-contract=off", "-fno-access-control")
-_UNITS = {"rad/s": 1.0, "deg/s": 180.0 / math.pi, "g": 1.0, "m/s^2": 9.80665, "m/s2": 9.80665}
-_UNIT_OF = {"g": ("rad/s", "deg/s"), "a": ("g", "m/s^2", "m/s2"), "m": ()}
-_PLACE = re.compile(r"\$\{([^}]*)\}")
+_UNITS = {"rad/s": 1.0, "deg/s": 180.0 / math.pi, "g": 1.0, "m/s^2": 9.80665, "m/s2": 9.80665,
+          "rad": 1.0, "deg": 180.0 / math.pi, "s": 1.0, "ms": 1e3, "us": 1e6}
+_UNIT_OF = {"g": ("rad/s", "deg/s"), "a": ("g", "m/s^2", "m/s2"), "m": (), "rate": ("rad/s", "deg/s"),
+            "angle": ("rad", "deg"), "dt": ("s", "ms", "us")}
+_PLACE = re.compile(r"\$\$|\$\{([^}]*)\}")
 _INPUT = re.compile(r"^(?P<name>[A-Za-z_]\w*)(?:\[(?P<vtype>[A-Za-z_][\w ]*)\])?"
                     r"(?::(?P<unit>[^*]+)|\*(?P<factor>[-+0-9.eE]+))?$")
 _IDENT = re.compile(r"[A-Za-z_]\w*$")
@@ -79,7 +89,8 @@ def _inputs_of(kind: str) -> Dict[str, Tuple[int, int]]:
 class DeclaredFirmware(Firmware):
     """Firmware whose init, update and state come from a declaration's templates (see the
     module's doc). ``values`` are the literals init's placeholders take (set by
-    ``bind``); the state may name a subset of the imufuse filter's state."""
+    ``bind``); the state may name a subset of the imufuse filter's state. Every template is
+    checked here (imufuse.firmware.ctemplate): FirmwareError naming the key."""
 
     partial_state = True
 
@@ -90,16 +101,22 @@ class DeclaredFirmware(Firmware):
                  defines: Optional[Mapping[str, Any]] = None,
                  cflags: Optional[Sequence[str]] = None, language: Optional[str] = None,
                  cache_dir: Optional[str] = None, value_type: str = "float") -> None:
+        if isinstance(sources, str) or not all(isinstance(x, str) and x for x in sources):
+            raise FirmwareError("[firmware] sources: a list of file names")
         self.sources = [os.path.abspath(s) for s in sources]
         for s in self.sources:
             if not os.path.isfile(s):
-                raise FirmwareError(f"source file not found: {s}")
+                raise FirmwareError(f"source file not found: {s}" if not os.path.exists(s)
+                                    else f"[firmware] sources: {s}: not a regular file")
         if language is None:
             language = "c++" if any(s.endswith(CXX_EXTENSIONS) for s in self.sources) else "c"
         if language not in ("c", "c++"):
-            raise FirmwareError(f"language: 'c' or 'c++', got {language!r}")
+            raise FirmwareError(f"[firmware] language: 'c' or 'c++', got {language!r}")
         self.language = language
         self.include_dirs = [os.path.abspath(d) for d in include_dirs]
+        for h in headers:
+            if not isinstance(h, str) or not re.fullmatch(r"<[^<>\"\n\0]+>|[^<>\"\n\0]+", h):
+                raise FirmwareError(f"[firmware] headers: {h!r}: a file name (or <name>)")
         self.headers = list(headers)
         self.defines = dict(defines or {})
         default = DEFAULT_CXXFLAGS if language == "c++" else DEFAULT_CFLAGS
@@ -107,18 +124,41 @@ class DeclaredFirmware(Firmware):
         self.cflags = list(default if cflags is None else cflags)
         self.cache_dir = cache_dir or os.environ.get("IMUFUSE_CACHE") or os.path.join(
             os.path.expanduser("~"), ".cache", "imufuse", "firmware")
-        if object_type is not None and not _IDENT.match(object_name):
-            raise FirmwareError(f"object name {object_name!r}: give a C identifier")
-        self.object_type, self.object_name, self.object_args = object_type, object_name, \
-            object_args
-        if not re.fullmatch(r"[A-Za-z_][\w ]*", value_type):
-            raise FirmwareError(f"value_type {value_type!r}: a C type name (float, double)")
-        self.value_type = value_type
-        self.init_statements = [str(s) for s in init]
-        self.update_template = str(update)
+        if object_type is not None:
+            if not isinstance(object_type, str) or not ctemplate.TYPE.match(object_type.strip()):
+                raise FirmwareError(f"[object] type: {object_type!r}: a struct or class type "
+                                    "(Madgwick, ns::Filter<float>, struct s), not a pointer "
+                                    "or an array")
+            ctemplate.scan(object_type, "[object] type", "args")
+            object_type = object_type.strip()
+            last = (re.sub(r"<.*", "", object_type).split("::")[-1].split() or [""])[-1]
+            if not isinstance(object_name, str) or not _IDENT.match(object_name) \
+                    or object_name in ctemplate.KEYWORDS or object_name == last \
+                    or object_name.startswith(("imf_", "imufuse_")):
+                raise FirmwareError(f"[object] name {object_name!r}: a C identifier, not a "
+                                    "keyword, the type's name or a harness name (imf_..., "
+                                    "imufuse_...)")
+            if object_args is not None and not isinstance(object_args, str):
+                raise FirmwareError("[object] args: the constructor's arguments (a string)")
+        self.object_type, self.object_name = object_type, object_name
+        self.object_args = None if object_args is None else \
+            ctemplate.scan(object_args, "[object] args", "args")
+        self.value_type = ctemplate.value_type(value_type, "[update] value_type")
+        if isinstance(init, str) or not all(isinstance(x, str) for x in init):
+            raise FirmwareError("[object] init: statements (strings)")
+        self.init_statements = [ctemplate.scan(x, "[object] init" + (f"[{j}]" if len(init) > 1
+                                                                      else ""), "stmt")
+                                for j, x in enumerate(init)]
+        if not isinstance(update, str) or not update.strip().strip(";"):
+            raise FirmwareError("[update] call: the update statement (a string, not empty)")
+        self.update_template = ctemplate.scan(update, "[update] call", "stmt")
         if not state:
             raise FirmwareError("state: map at least one imufuse state name to an expression")
-        self.state = {str(k): str(v).strip() for k, v in state.items()}
+        self.state = {}
+        for k, v in state.items():
+            if not isinstance(v, str) or not v.strip():
+                raise FirmwareError(f"[state] {k}: an expression (a string)")
+            self.state[str(k)] = ctemplate.scan(v, f"[state] {k}", "expr").strip()
         self.values: Dict[str, float] = {}
         # what Firmware's run() and the prototype-based code paths look at
         self.init = None
@@ -144,8 +184,17 @@ class DeclaredFirmware(Firmware):
             self._lib = None           # the init literals are in the harness
         self.values = vals
 
+    def placeholders(self) -> List[Tuple[str, str]]:
+        """(key, name) of every placeholder of init and the constructor's arguments."""
+        texts = [("[object] args", self.object_args or "")] + \
+            [("[object] init", t) for t in self.init_statements]
+        return [(w, m.group(1).strip()) for w, t in texts for m in _PLACE.finditer(t)
+                if m.group(1) is not None]
+
     def _fill_init(self, text: str, where: str) -> str:
         def rep(m: "re.Match[str]") -> str:
+            if m.group(1) is None:
+                return "$"
             name = m.group(1).strip()
             if name not in self.values:
                 raise FirmwareError(f"{where}: ${{{name}}} is neither a parameter of the imufuse "
@@ -153,75 +202,99 @@ class DeclaredFirmware(Firmware):
             return f"({c_double_literal(self.values[name])})"
         return _PLACE.sub(rep, text)
 
+    def _init_code(self) -> str:
+        return "".join(f"    {{ {self._fill_init(s, '[object] init').strip().rstrip(';')}; }}\n"
+                       for s in self.init_statements)
+
     def _fill_update(self, kind: str, stored: bool = False
                      ) -> Tuple[List[str], str, int, List[str]]:
         """(declarations, the update statement, inputs a sample has, loads). Each value is
         converted to value_type (a vector to its element type) once; stored: into
         file-scope variables by the loads (the MCU driver, where the update is measured
-        alone), else into locals before the call (the host harness)."""
+        alone, from the sample imf_fw_sample), else into locals before the call (the host
+        harness, from imf_fw_x)."""
         cols = _inputs_of(kind)
         total = 2 if kind == "1d" else 3 * len(KINDS[kind])
         decls: List[str] = []
         loads: List[str] = []
+        used: List[str] = []
         vt = self.value_type
+        row = "imf_fw_sample" if stored else "imf_fw_x"
 
         def rep(m: "re.Match[str]") -> str:
+            if m.group(1) is None:
+                return "$"
             text = m.group(1).replace(" ", "") if "[" not in m.group(1) else m.group(1).strip()
             p = _INPUT.match(text)
+            where = f"[update] call: ${{{m.group(1)}}}"
             if p is None:
-                raise FirmwareError(f"update: ${{{m.group(1)}}}: expected ${{gx}}, ${{gx:deg/s}}, "
-                                    "${gx*0.01}, ${gyr[float]} or ${dt}")
+                raise FirmwareError(f"{where}: expected ${{gx}}, ${{gx:deg/s}}, ${{gx*0.01}}, "
+                                    "${gyr[float]} or ${dt}")
             name, vtype, unit, factor = p.group("name", "vtype", "unit", "factor")
-            if name == "dt":
-                if not stored:
-                    return "(dt)"
-                var = f"imf_a{len(decls)}_dt"
-                decls.append(f"static {vt} {var};")
-                loads.append(f"{var} = ({vt})(imf_fw_dt);")
-                return var
-            if name not in cols:
-                raise FirmwareError(f"update: ${{{m.group(1)}}}: {name!r} is not an input of a "
-                                    f"{kind} filter ({', '.join(cols)}, dt)")
-            col, width = cols[name]
+            if name not in cols and name != "dt":
+                raise FirmwareError(f"{where}: {name!r} is not an input of a {kind} filter "
+                                    f"({', '.join(cols)}, dt)")
+            col, width = cols.get(name, (-1, 1))
             scale = 1.0
             if unit is not None:
                 unit = unit.strip()
-                ok = _UNIT_OF.get(name[0], ()) if kind != "1d" else ("rad/s", "deg/s")
+                ok = _UNIT_OF.get(name if kind == "1d" or name == "dt" else name[0], ())
                 if unit not in _UNITS or unit not in ok:
-                    raise FirmwareError(f"update: ${{{m.group(1)}}}: unit {unit!r} for {name} "
+                    raise FirmwareError(f"{where}: unit {unit!r} for {name} "
                                         f"(known: {', '.join(ok) or 'none; give a factor *K'})")
                 scale = _UNITS[unit]
             elif factor is not None:
                 try:
                     scale = float(factor)
                 except ValueError:
-                    raise FirmwareError(f"update: ${{{m.group(1)}}}: factor {factor!r}") from None
+                    raise FirmwareError(f"{where}: factor {factor!r}") from None
+                if not math.isfinite(scale) or abs(scale) < 2.2250738585072014e-308:
+                    raise FirmwareError(f"{where}: factor {factor!r}: a finite, non-zero, "
+                                        "normal number")
             lit = "" if scale == 1.0 else f" * {c_double_literal(scale)}"
+            if vtype is not None:
+                vtype = ctemplate.value_type(vtype, where)
             if width == 3:
                 if vtype is None:
-                    raise FirmwareError(f"update: ${{{m.group(1)}}}: a whole vector needs its "
-                                        f"element type, e.g. ${{{name}[float]}}")
+                    raise FirmwareError(f"{where}: a whole vector needs its element type, e.g. "
+                                        f"${{{name}[float]}}")
                 var = f"imf_v{len(decls)}_{name}"
-                vals = [f"({vtype})(x[{col + j}]{lit})" for j in range(3)]
+                vals = [f"({vtype})({row}[{col + j}]{lit})" for j in range(3)]
                 if stored:
                     decls.append(f"static {vtype} {var}[3];")
                     loads.extend(f"{var}[{j}] = {v};" for j, v in enumerate(vals))
                 else:
                     decls.append(f"{vtype} {var}[3] = {{ {', '.join(vals)} }};")
+                used.append(name)
                 return var
             if vtype is not None:
-                raise FirmwareError(f"update: ${{{m.group(1)}}}: {name} is one value")
+                raise FirmwareError(f"{where}: {name} is one value")
             var = f"imf_a{len(decls)}_{name}"
+            value = f"imf_fw_dt{lit}" if name == "dt" else f"{row}[{col}]{lit}"
             if stored:
                 decls.append(f"static {vt} {var};")
-                loads.append(f"{var} = ({vt})(x[{col}]{lit});")
+                loads.append(f"{var} = ({vt})({value});")
             else:
-                decls.append(f"const {vt} {var} = ({vt})(x[{col}]{lit});")
+                decls.append(f"const {vt} {var} = ({vt})({value});")
+            used.append(name)
             return var
         call = _PLACE.sub(rep, self.update_template).strip()
+        if not [u for u in used if u != "dt"]:
+            raise FirmwareError(f"[update] call: takes none of the inputs ({', '.join(cols)}): "
+                                "a sample reaches the firmware only through them")
         if not call.endswith((";", "}")):
             call += ";"
-        return decls, call, total, loads
+        return decls, "{ " + call + " }", total, loads
+
+    def check(self, kind: str, names: Sequence[str]) -> None:
+        """Every placeholder against a `kind` filter whose init values and parameters are
+        `names` (FirmwareError naming the key), before anything is built."""
+        self._fill_update(kind)
+        known = {*names, "dt", "rate"}
+        for where, name in self.placeholders():
+            if name not in known:
+                raise FirmwareError(f"{where}: ${{{name}}} is neither a parameter of the imufuse "
+                                    f"filter nor rate/dt (it has {', '.join(sorted(known))})")
 
     def prepare(self, kind, c_args=(), params=None):
         self.bind(c_args, params or {})
@@ -241,45 +314,56 @@ class DeclaredFirmware(Firmware):
 
     # -- the generated C / C++ ---------------------------------------------
     def _object_code(self) -> Tuple[str, str, str]:
-        """(file-scope declarations, the start of a run, the end of a run)."""
+        """(file-scope declarations, the start of a run, the end of a run). C++: the object
+        in static storage, made by the global placement new (a class's own operator new,
+        deleted or not, is not called) and destroyed through a template (any type name)."""
         t, n = self.object_type, self.object_name
         if t is None:
             return "", "", ""
-        args = "" if self.object_args is None else self._fill_init(self.object_args, "args")
+        args = "" if self.object_args is None else self._fill_init(self.object_args,
+                                                                   "[object] args")
         if self.language == "c++":
             top = (f"alignas({t}) static unsigned char imf_fw_store[sizeof({t})];\n"
-                   f"#define {n} (*reinterpret_cast<{t} *>(imf_fw_store))\n")
-            start = f"    new (imf_fw_store) {t}{'(' + args + ')' if args else '()'};\n"
-            end = f"    {n}.~{t.split('::')[-1].split('<')[0]}();\n"
-            return top, start, end
+                   f"static {t} &{n} = *reinterpret_cast<{t} *>(imf_fw_store);\n"
+                   "template <class T> static void imf_fw_destroy(T &o) { o.~T(); }\n")
+            start = f"    ::new (static_cast<void *>(imf_fw_store)) {t}({args.strip()});\n"
+            return top, start, f"    imf_fw_destroy({n});\n"
         top = f"static {t} {n};\n"
         return top, f"    memset(&{n}, 0, sizeof {n});\n", ""
 
+    def _includes(self) -> str:
+        return "".join(f"#include {h}\n" if h.startswith("<") else f'#include "{h}"\n'
+                       for h in self.headers)
+
     def source(self, kind: str, n_init: int) -> str:
-        """The host harness: imufuse_fw_run and imufuse_fw_sizes, as Firmware's."""
+        """The host harness: imufuse_fw_run and imufuse_fw_sizes, as Firmware's (its loop's
+        line as imufuse.firmware.sanitize finds it). The declared code is in functions of
+        its own whose names are all imf_fw_..., so no name of the firmware's is shadowed."""
         decls, call, n_in, _ = self._fill_update(kind)
         top, start, end = self._object_code()
-        init = "".join(f"    {{ {self._fill_init(s, 'init').strip().rstrip(';')}; }}\n"
-                       for s in self.init_statements)
         st = list(self.state.values())
-        heads = "".join(f'#include "{h}"\n' for h in self.headers)
         cxx = self.language == "c++"
-        store = "".join(f"        out[k * {len(st)} + {j}] = (double)({e});\n"
+        store = "".join(f"    imf_fw_out[{j}] = (double)({e});\n" for j, e in enumerate(st))
+        sizes = "".join(f"    imf_fw_sz[{j}] = (int)sizeof({e});\n" for j, e in enumerate(st))
+        isint = "".join(f"    imf_fw_isint[{j}] = ((({e}) * 0 + 1) / 2 == 0);\n"
                         for j, e in enumerate(st))
-        sizes = "".join(f"    sizes[{j}] = (int)sizeof({e});\n" for j, e in enumerate(st))
-        isint = "".join(f"    isint[{j}] = ((({e}) * 0 + 1) / 2 == 0);\n" for j, e in enumerate(st))
         return (
             "#include <string.h>\n#include <stddef.h>\n" + ("#include <new>\n" if cxx else "")
-            + heads + top +
+            + self._includes() + top +
+            "static void imf_fw_begin(int *imf_fw_isint)\n{\n" + start + self._init_code()
+            + isint + "}\n"
+            "static void imf_fw_sample(const double *imf_fw_x, double imf_fw_dt, "
+            "double *imf_fw_out)\n{\n" + "".join(f"    {d}\n" for d in decls) +
+            f"    {call}\n" + store + "    (void)imf_fw_x; (void)imf_fw_dt;\n}\n"
+            "static void imf_fw_end(void)\n{\n" + end + "}\n"
             "void imufuse_fw_run(const double *p, const double *s0, int set_state, size_t n,\n"
             "                    const double *in, double dt, double *out, int *isint)\n{\n"
-            "    size_t k;\n" + start + init + isint +
-            "    (void)p; (void)s0; (void)set_state; (void)dt;\n"
+            "    size_t k;\n    (void)p; (void)s0; (void)set_state;\n"
+            "    imf_fw_begin(isint);\n"
             "    for (k = 0; k < n; ++k) {\n"
-            f"        const double *x = in + k * {n_in};\n"
-            + "".join(f"        {d}\n" for d in decls) +
-            f"        {call}\n" + store + "    }\n" + end + "}\n"
-            "void imufuse_fw_sizes(int *sizes)\n{\n" + sizes + "}\n")
+            f"        imf_fw_sample(in + k * {n_in}, dt, out + k * {len(st)});\n"
+            "    }\n    imf_fw_end();\n}\n"
+            "void imufuse_fw_sizes(int *imf_fw_sz)\n{\n" + sizes + "}\n")
 
     def _update_plan(self, kind: str):
         """Firmware's: no parameter plan; the number of input values a sample has."""
@@ -308,14 +392,12 @@ class DeclaredFirmware(Firmware):
                     "    }\n}"]
             return "\n".join(out) + "\n"
         top, start, _ = self._object_code()
-        init = "".join(f"    {{ {self._fill_init(s, 'init').strip().rstrip(';')}; }}\n"
-                       for s in self.init_statements)
         st = list(self.state.values())
-        out += ["".join(f'#include "{h}"\n' for h in self.headers), f"#define IMF_FW_ROW {total}",
+        out += [self._includes(), f"#define IMF_FW_ROW {total}", ctemplate.BARE_METAL,
                 top, f"static const double imf_fw_dt = {dt_lit};", *decls]
-        out.append("static void imf_user_init(void)\n{\n" + start + init + "}")
-        out.append("static void imf_user_load(const double *x)\n{\n" +
-                   "".join(f"    {ld}\n" for ld in loads) + "    (void)x;\n}")
+        out.append("static void imf_user_init(void)\n{\n" + start + self._init_code() + "}")
+        out.append("static void imf_user_load(const double *imf_fw_sample)\n{\n" +
+                   "".join(f"    {ld}\n" for ld in loads) + "    (void)imf_fw_sample;\n}")
         out.append(f"static void imf_user_step(void)\n{{\n    {call}\n}}")
         out.append("static void imf_user_dump(void)\n{\n" +
                    "".join(f"    IMF_FW_DUMP({e});\n" for e in st) + "}")
@@ -331,8 +413,6 @@ class DeclaredFirmware(Firmware):
             return None
         decls, call, total, loads = self._fill_update(kind, stored=True)
         top, start, end = self._object_code()
-        init = "".join(f"    {{ {self._fill_init(s, 'init').strip().rstrip(';')}; }}\n"
-                       for s in self.init_statements)
         st = list(self.state.values())
         words = "".join(
             f"    case {j}: {{\n        static typename imf_rcv<__typeof__({e})>::t w;\n"
@@ -344,7 +424,8 @@ class DeclaredFirmware(Firmware):
             "#if defined(__AVR__)\n#include <avr/pgmspace.h>\n#define IMF_FLASH PROGMEM\n"
             "#include <stddef.h>\ninline void *operator new(size_t, void *p) throw() "
             "{ return p; }\n#else\n#define IMF_FLASH\n#include <new>\n#endif\n"
-            + "".join(f'#include "{h}"\n' for h in self.headers) + _CXX_TRAITS
+            + self._includes() + _CXX_TRAITS + ctemplate.BARE_METAL_CXX
+            + 'extern "C" {\n' + ctemplate.BARE_METAL + "}\n"
             + top.replace("alignas(" + str(self.object_type) + ") static unsigned char",
                           f"static unsigned char __attribute__((aligned(__alignof__("
                           f"{self.object_type}))))") +
@@ -352,12 +433,12 @@ class DeclaredFirmware(Firmware):
             + "".join(f"{d}\n" for d in decls) +
             'extern "C" {\n'
             f"extern const uint32_t imf_fw_types[{max(len(st), 1)}] IMF_FLASH;\n"
-            "void imf_cxx_init(void);\nvoid imf_cxx_load(const double *x);\n"
+            "void imf_cxx_init(void);\nvoid imf_cxx_load(const double *imf_fw_sample);\n"
             "void imf_cxx_step(void);\nconst void *imf_cxx_word(int j);\n}\n"
             f"const uint32_t imf_fw_types[{max(len(st), 1)}] IMF_FLASH = {{ {types} }};\n"
-            "void imf_cxx_init(void)\n{\n" + start + init + "}\n"
-            "void imf_cxx_load(const double *x)\n{\n" + "".join(f"    {ld}\n" for ld in loads)
-            + "    (void)x;\n}\n"
+            "void imf_cxx_init(void)\n{\n" + start + self._init_code() + "}\n"
+            "void imf_cxx_load(const double *imf_fw_sample)\n{\n"
+            + "".join(f"    {ld}\n" for ld in loads) + "    (void)imf_fw_sample;\n}\n"
             f"void imf_cxx_step(void)\n{{\n    {call}\n}}\n"
             "const void *imf_cxx_word(int j)\n{\n    switch (j) {\n" + words +
             "    default:\n        return 0;\n    }\n}\n")
