@@ -481,3 +481,16 @@ def test_mag_offset_files_hold_float32_values(tmp_path, offset):
     big = float(np.finfo(np.float32).max)
     save_mag_offset(str(path), (big, 0.0, -big))
     assert mag_offset(str(path)) == (big, 0.0, -big)
+
+
+def test_a_source_that_is_not_c_is_one_line(tmp_path):
+    """A source the compiler reads as no C at all (a text file given by mistake): its -M
+    output holds no rule; validate says the compilation failed, in one line, exit 5."""
+    src = tmp_path / "notes.txt"
+    src.write_text("root:x:0:0:root:/root:/bin/bash\n")
+    env = {**os.environ, "IMUFUSE_CACHE": str(tmp_path / "cache")}
+    r = subprocess.run([sys.executable, "-m", "imufuse", "validate", str(src), "-f", "Kalman1D",
+                        "--update", "void att_step(float a, float b)", "--state", "theta=x"],
+                       capture_output=True, text=True, env=env, timeout=300)
+    assert r.returncode == 5, r.stderr
+    assert "Traceback" not in r.stderr and r.stderr.count("imufuse: error:") == 1, r.stderr

@@ -36,7 +36,10 @@ _IDENTITY: dict = {}
 def _make_deps(text: str) -> List[str]:
     """The prerequisites of a make rule written by the compiler's -M (one target; lines
     continued with a backslash; spaces in names escaped as '\\ ', '$' as '$$')."""
-    body = text.replace("\\\n", " ").split(":", 1)[1]
+    parts = text.replace("\\\n", " ").split(":", 1)
+    if len(parts) < 2:
+        return []                     # no rule: the compiler read no source (not C)
+    body = parts[1]
     return [t.replace("\\ ", " ").replace("$$", "$")
             for t in re.findall(r"(?:\\ |[^\s])+", body)]
 
