@@ -9,7 +9,7 @@ import os
 import sys
 import time
 from dataclasses import dataclass, field
-from typing import Any, Optional, Sequence, TextIO
+from typing import Any, Callable, Optional, Sequence, TextIO
 
 import numpy as np
 
@@ -83,10 +83,14 @@ def _fmt_err(e):
 
 def run_demo(out_dir: str = "imufuse-demo", rate: float = 200.0, duration: float = 20.0,
              seed: int = 1, plot: bool = True, stream: Optional[TextIO] = None,
-             names: Optional[Sequence[str]] = None) -> int:
-    """Run the demo; return the process exit code (1 when a bit-exact check fails)."""
+             names: Optional[Sequence[str]] = None,
+             say: Optional[Callable[[str], None]] = None) -> int:
+    """Run the demo; return the process exit code (1 when a bit-exact check fails). The
+    tables go to ``stream``; the messages about the plots ("plot: PATH", plots unavailable)
+    to say(message) (the command line's "imufuse: " lines), else to ``stream`` too."""
     stream = stream or sys.stdout
     pr = lambda *a: print(*a, file=stream)  # noqa: E731
+    say = say or pr
     t0 = time.perf_counter()
     names = filter_names() if names is None else names
     kinds = {reference_class(n).kind for n in names}
@@ -149,7 +153,7 @@ def run_demo(out_dir: str = "imufuse-demo", rate: float = 200.0, duration: float
     pr("")
     if plot:
         if not plots.available():
-            pr("plots unavailable: matplotlib is not installed (pip install 'imufuse[plot]')")
+            say("plots unavailable: matplotlib is not installed (pip install 'imufuse[plot]')")
         else:
             os.makedirs(out_dir, exist_ok=True)
             ests = {r.name: r.estimate for r in rows if r.estimate is not None}
@@ -159,7 +163,7 @@ def run_demo(out_dir: str = "imufuse-demo", rate: float = 200.0, duration: float
                 plots.plot_1d(p, d1.t, d1.angle, e1, d1.acc_angle,
                               title=f"single-axis filters (default gains) on simulated 'slow' "
                                     f"motion, {rate:g} Hz, {duration:g} s, seed {seed}")
-                pr(f"plot: {p}")
+                say(f"plot: {p}")
             e3 = {n: e for n, e in ests.items() if e.q is not None}
             if e3 and d3 is not None:
                 p = os.path.join(out_dir, "demo_3d.png")
@@ -167,7 +171,7 @@ def run_demo(out_dir: str = "imufuse-demo", rate: float = 200.0, duration: float
                                      title=f"3D filters (default gains) against ground truth: "
                                            f"simulated 'slow' motion, {rate:g} Hz, "
                                            f"{len(d3) / rate:g} s, seed {seed}")
-                pr(f"plot: {p}")
+                say(f"plot: {p}")
     n_bad = sum(1 for r in rows for c in r.checks.values() if c is not None)
     pr(f"{'FAILED' if failed else 'ok'}: {n_bad} of {sum(len(r.checks) for r in rows)} "
        f"bit-exact checks failed ({time.perf_counter() - t0:.1f} s)")

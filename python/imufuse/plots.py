@@ -20,6 +20,10 @@ Readability rules every plot follows:
   peak), never hidden silently;
 - `plot_divergence` says "bit-exact" in words when nothing differs (no empty log
   frame) and lists the state variables that are equal;
+- `plot_recordings` (compare over several recordings) gives each filter its bar
+  in its colour in every recording's group, the mean over the recordings last,
+  behind a dotted line; a metric a filter has not (an IMU filter's heading) has
+  no bar;
 - constrained layout (suptitle included), legends beside the panels: no label
   or title runs into another panel.
 
@@ -413,4 +417,34 @@ def plot_divergence(path, t, got, want, names, first=None, title=""):
         ax.plot([], [], ls="none", label="\n".join(textwrap.wrap(
             f"equal after every sample ({len(equal)}): {', '.join(equal)}", 60)))
     ax.legend(**_LEGEND)
+    return _save(fig, path, title)
+
+
+def plot_recordings(path, recordings, errors, means=None, title=""):
+    """Each recording's RMS errors as bars, one group per recording (and one for the mean
+    over them), one bar per filter in its colour: errors {metric: {filter: [deg per
+    recording]}} (a panel per metric, in the order given; NaN: no bar, the filter has no such
+    error there), means {metric: {filter: deg}}."""
+    metrics = [m for m in errors if errors[m]]
+    names = list(dict.fromkeys(n for m in metrics for n in errors[m]))
+    col = colours(names)
+    labels = [os.path.basename(os.fspath(r)) for r in recordings] + (["mean"] if means else [])
+    fig, axes = _figure(max(len(metrics), 1), 2.6 * max(len(metrics), 1) + 1.0, squeeze=False)
+    x = np.arange(len(labels))
+    width = 0.8 / max(len(names), 1)
+    for ax, m in zip(axes[:, 0], metrics):
+        for i, n in enumerate(names):
+            if n not in errors[m]:
+                continue
+            v = list(errors[m][n]) + ([means.get(m, {}).get(n, np.nan)] if means else [])
+            ax.bar(x - 0.4 + width * (i + 0.5), np.asarray(v, dtype=np.float64), width,
+                   color=col[n], label=n)
+        if means:
+            ax.axvline(len(recordings) - 0.5, color="0.6", lw=0.8, ls=":")
+        _ylabel(ax, f"{m} RMS (deg)")
+        ax.grid(axis="y", lw=0.4, alpha=0.5)
+    axes[0, 0].legend(**_LEGEND)
+    axes[-1, 0].set_xticks(x)
+    axes[-1, 0].set_xticklabels(labels, rotation=30 if len(labels) > 6 else 0, ha="right"
+                                if len(labels) > 6 else "center", fontsize=8)
     return _save(fig, path, title)

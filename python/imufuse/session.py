@@ -13,6 +13,8 @@ line only turns its arguments into them and prints what comes back. Every filter
 catalogue runs the same way, FusionAHRS included (its own units, gyroscope in deg/s and dt
 with every sample, are applied here). ``notes`` lists what a user should know (unit guesses,
 jittery time, samples rejected); with ``strict`` a plausibility warning is an error.
+Several filters on many logs, one log at a time, and the mean over them as BROAD reports
+it: imufuse.comparison.compare_logs.
 
 Longer than 500 lines because: the options, the session and the run are one path from a
 file to a score, and each step is short; splitting them would scatter that path.

@@ -137,9 +137,11 @@ class Tuner:
                              "give --grid")
         return grid
 
-    def idle(self, grid: Grid, samples: int = 4000) -> List[str]:
+    def idle(self, grid: Grid, samples: int = 4000, *, own_values: bool = False) -> List[str]:
         """The parameters of ``grid`` whose x10 leaves the first log's first states unchanged
-        (acc_1g with the accelerometer gate off): varying them only costs time."""
+        (acc_1g with the accelerometer gate off): varying them only costs time. own_values:
+        those whose first and last values of the grid give the same states (a grid given by
+        the user; a single value is never idle)."""
         head = [np.asarray(a)[:samples] for a in self.inputs[0]]
         eff = effective_params(self.name, resolve_params(self.name, 0.01, self.fixed,
                                                              self.run_options.preset))
@@ -150,10 +152,15 @@ class Tuner:
             return f.run(*head)
         base = states({})
         out = []
-        for k, _ in grid:
+        for k, vals in grid:
             try:
-                same = np.array_equal(states({k: eff[k] * 10.0}), base, equal_nan=True)
-            except FilterError:
+                if own_values:
+                    same = len(vals) > 1 and np.array_equal(states({k: vals[0]}),
+                                                            states({k: vals[-1]}),
+                                                            equal_nan=True)
+                else:
+                    same = np.array_equal(states({k: eff[k] * 10.0}), base, equal_nan=True)
+            except (FilterError, KeyError, TypeError):
                 same = False
             if same:
                 out.append(k)

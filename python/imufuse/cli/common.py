@@ -5,7 +5,7 @@ import ast
 import math
 import sys
 
-from .. import io
+from .. import io, plots
 from .._fusion import SETTINGS as FUSION_SETTINGS
 from ..catalogue import canonical_name, param_names
 from ..io import LogError, parse_column_map, read_column_map
@@ -175,8 +175,31 @@ def open_session(args, path=None, **over):
     return s
 
 
+#: the last tenth of each run's progress printed (plain lines, stderr not a terminal)
+_PROGRESS: dict = {}
+
+
 def progress(label, done, n):
-    err(f"{label}: {100 * done // n}% ({done}/{n} samples)")
+    """A long run's progress on stderr: on a terminal one line rewritten in place; else (a
+    file, a pipe) a plain line at each tenth of the run, never a carriage return."""
+    pct = f"imufuse: {label}: {100 * done // n}% ({done}/{n} samples)"
+    if sys.stderr.isatty():
+        print(f"\r{pct}", end="\n" if done >= n else "", file=sys.stderr, flush=True)
+        return
+    last_done, last_tenth = _PROGRESS.get(label, (0, 0))
+    if done <= last_done:                        # a new run of the same filter
+        last_tenth = 0
+    tenth = 10 * done // n
+    _PROGRESS[label] = (done, max(tenth, last_tenth))
+    if tenth > last_tenth:
+        print(pct, file=sys.stderr, flush=True)
+
+
+def plot_available(path):
+    """OutputError (exit 3) for a --plot that cannot be written: matplotlib is missing."""
+    if path and not plots.available():
+        raise OutputError(f"--plot {path}: cannot write: matplotlib is not installed (pip "
+                          "install 'imufuse[plot]')")
 
 
 def input_files(args):

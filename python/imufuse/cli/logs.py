@@ -1,5 +1,6 @@
 """`imufuse run` and `imufuse compare`: filters over a log, through imufuse.session."""
 import argparse
+import difflib
 import math
 import os
 import sys
@@ -8,23 +9,47 @@ import numpy as np
 
 from .. import io, plots
 from .._atomic import check_outputs
-from ..catalogue import (FILTERS_FUSION, FilterError, canonical_name, filter_names,
-                         reference_class)
-from ..io import ACC, GYR, MAG, LogError, axis_inputs
+from ..catalogue import FILTERS, FILTERS_FIXED, FILTERS_FUSION, canonical_name
+from ..comparison import compare_logs, default_filters, log_paths
+from ..io import axis_inputs
 from ..rotations import quat_to_euler
 from ..session import FUSION, NothingComputed, StrictError, format_params, frame_q
 from .common import (EXIT_OK, OutputError, UsageError, err, eval_options, filter_options,
-                     input_files, log_options, names, open_session, pairs,
+                     input_files, log_options, names, open_session, pairs, plot_available,
                      preprocess_options, progress,
                      run_options, score_options, scoped_params, write_output)
 
+#: the filters run and compare take: the float filters and FusionAHRS
+VALID = (*FILTERS, FUSION)
+
+
+def suggestions(name, valid=VALID):
+    """The valid names a mistyped one may mean: those it begins (any case: 'fusion' ->
+    FusionAHRS, 'madgwick' -> MadgwickIMU, MadgwickAHRS), then the close ones."""
+    low = str(name).lower()
+    lower = {n.lower(): n for n in valid}
+    pre = [n for n in valid if len(low) >= 3 and n.lower().startswith(low)]
+    close = [lower[c] for c in difflib.get_close_matches(low, lower, n=3, cutoff=0.5)]
+    return list(dict.fromkeys(pre + close))[:4]
+
 
 def _check_name(name):
+    """UsageError for a name run and compare do not take, naming the valid ones (FusionAHRS
+    included) and the ones it may mean."""
+    if name in VALID:
+        return
+    valid = f"valid filters: {', '.join(VALID)}"
     if name == "FusionOffset":
         raise UsageError("FusionOffset is the --offset option (in front of any filter), not a "
                          "filter")
-    if name != FUSION and name in FILTERS_FUSION:
-        raise UsageError(f"{name}: not a filter of imufuse run/compare")
+    if name in FILTERS_FUSION:
+        raise UsageError(f"{name}: not a filter of imufuse run/compare; {valid}")
+    if name in FILTERS_FIXED:
+        raise UsageError(f"{name}: a fixed-point filter (run and compare take the float "
+                         f"filters); {valid}")
+    close = suggestions(name)
+    raise UsageError(f"unknown filter {name!r}"
+                     + (f" (did you mean {', '.join(close)}?)" if close else "") + f"; {valid}")
 
 
 def _hint(session, run, ev, sc, strict):
@@ -37,6 +62,7 @@ def _hint(session, run, ev, sc, strict):
 def _run(args):
     _check_name(args.filter)
     check_outputs(input_files(args), [("-o", args.output), ("--plot", args.plot)])
+    plot_available(args.plot)
     s = open_session(args)
     ro, sc = run_options(args), score_options(args)
     n = len(s.log)
@@ -103,88 +129,66 @@ def _run_streamed(s, args, ro, sc):
     return r, notes
 
 
-def _default_filters(log):
-    """3D filters the log can feed (AHRS ones only with a magnetometer) and FusionAHRS, else
-    the 1D ones."""
-    if log.has(*GYR, *ACC):
-        return filter_names({"imu", "ahrs"} if log.has(*MAG) else {"imu"}) + [FUSION]
-    return filter_names({"1d"})
-
-
 def compare(args):
+    """`imufuse compare LOG...`: every log's table (one log at a time, each filter keeping
+    only its estimate), then the mean over the logs when there are several."""
     chosen = names(args.filters)
     for n in chosen:
         _check_name(n)
-        if n != FUSION:
-            reference_class(n)
-    check_outputs(input_files(args), [("--plot", args.plot)])
-    s = open_session(args)
-    log = s.log
-    chosen = chosen or _default_filters(log)
-    per = scoped_params(args.param, chosen)
+    paths = log_paths(args.logs)
+    check_outputs([*paths, args.column_map, args.calibration], [("--plot", args.plot)])
+    plot_available(args.plot)
     ro, sc = run_options(args), score_options(args)
-    rows, runs, timing, hint, computed = [], {}, None, None, 0
-    for n in chosen:
-        kind = s.filter_class(n).kind
-        try:
-            # only the estimate is kept: memory is bounded by the log, not the trajectory
-            r = s.run(n, per[n], ro, progress=progress, keep_states=False)
-        except LogError as e:
-            if isinstance(e, StrictError):
-                raise
-            rows.append((n, kind, None, None, None, f"skipped: {str(e).split(': ', 1)[-1]}"))
-            continue
-        except FilterError as e:
-            rows.append((n, kind, None, None, None, f"skipped: {e}"))
-            continue
-        timing = timing or r.time
-        sps = len(log) / max(r.seconds, 1e-9)
-        note = r.why()
-        if 0 < r.rejected < len(log):
-            note += f"; {r.rejected} of {len(log)} samples rejected"
-        if r.notes:
-            note += "; " + "; ".join(r.notes)
-        est = r.estimate
-        final = None
-        if est is not None:
-            computed += 1
-            if est.angle is not None:
-                final = np.array([np.degrees(est.angle[-1]), np.nan, np.nan])
-            else:
-                final = np.degrees(quat_to_euler(frame_q(est.q[-1:], sc.frame))[0])
-                if not est.heading:
-                    final[2] = np.nan
-        ev = s.score(r, sc, axis=ro.axis)
-        hint = hint or _hint(s, r, ev, sc, args.strict)
-        if est is not None and args.plot:      # the estimates are kept for the plot only
-            runs[n] = r
-        rows.append((n, kind, ev, final, sps, note))
-    if not computed:
-        for n, _kind, _, _, _, note in rows:
-            err(f"{n}: {note}")
-        raise NothingComputed(f"{log.path}: no filter could run on this log ({len(log)} samples; "
-                              f"columns found: {', '.join(map(repr, log.header))})")
-    has_ref = log.q_ref is not None
-    print(f"{log.path}: {len(log)} samples, {timing}, {ro.backend} {ro.dtype}; "
-          + (f"errors against the log's q_w..q_z ({s.ref_frame(sc)}, {sc.ref_direction}), "
-             "degrees RMS (BROAD definitions: e = q (x) r^-1 in the earth frame)" if has_ref
-             else f"no reference orientation in the log (q_w..q_z): final attitude shown "
-                  f"({sc.frame})"))
-    evaluated = _table(rows, has_ref, args.heading_offset)
-    if hint:
-        err(hint)
-    if args.plot:
-        given = ", ".join(args.param) if args.param else "default gains"
-        _plots(args.plot, s, runs, args, f"{', '.join(runs)} ({given}; {timing}, init "
-                                         f"{getattr(args, 'init', None) or 'first'})")
-    if has_ref and not evaluated:
-        raise NothingComputed(f"{log.path}: nothing could be evaluated: no sample has a finite "
-                              "reference inside the movement mask")
+    many = len(paths) > 1
+    first = [open_session(args, paths[0])]
+    chosen = chosen or default_filters(first[0].log)
+    per = scoped_params(args.param, chosen)
+
+    def sessions():
+        yield first.pop()                    # the first log is let go when the second is read
+        for p in paths[1:]:
+            yield open_session(args, p)
+
+    shown = []
+
+    def show(res):
+        if shown:
+            print()
+        shown.append(res.path)
+        _show_log(res, ro, sc)
+        if args.plot and not many and res.computed:
+            runs = {n: r.run for n, r in res.results.items() if r.run is not None}
+            given = ", ".join(args.param) if args.param else "default gains"
+            _plots(args.plot, res.session, runs, args,
+                   f"{', '.join(runs)} ({given}; {res.time}, init "
+                   f"{getattr(args, 'init', None) or 'first'})")
+
+    c = compare_logs(sessions(), chosen, per, run=ro, score=sc, progress=progress,
+                     on_log=show, keep_runs=bool(args.plot) and not many)
+    if many:
+        _means(c, args)
     return EXIT_OK
 
 
-def _table(rows, has_ref, heading_offset):
-    """Print compare's table; the number of filters evaluated."""
+def _show_log(res, ro, sc):
+    """One log's lines: its table (or why no filter ran) and a frame hint."""
+    if not res.computed:
+        for n, r in res.results.items():
+            err(f"{n}: {r.note}")
+        return
+    print(f"{res.path}: {res.samples} samples, {res.time}, {ro.backend} {ro.dtype}; "
+          + (f"errors against the log's q_w..q_z ({res.ref_frame}, {sc.ref_direction}), "
+             "degrees RMS (BROAD definitions: e = q (x) r^-1 in the earth frame)"
+             if res.has_reference
+             else f"no reference orientation in the log (q_w..q_z): final attitude shown "
+                  f"({sc.frame})"))
+    _table(res.results.values(), res.has_reference)
+    if res.hint:
+        err(res.hint)
+
+
+def _table(results, has_ref):
+    """Print compare's table of one log."""
     if has_ref:
         head = (f"{'filter':22s} {'kind':4s} {'incl/angle':>10s} {'heading':>9s} {'total':>9s} "
                 f"{'samples':>8s} {'samples/s':>10s}  estimate from")
@@ -193,44 +197,92 @@ def _table(rows, has_ref, heading_offset):
                 f"{'samples/s':>10s}  estimate from")
     print(head)
     print("-" * len(head))
-    evaluated, excluded = 0, None
-
-    def f(v, w):
-        return f"{'-':>{w}s}" if math.isnan(v) else f"{v:{w}.3f}"
-    for n, kind, ev, final, sps, note in rows:
-        sp = f"{sps:10.3g}" if sps else f"{'-':>10s}"
+    excluded = None
+    for r in results:
+        n, kind, ev, note = r.name, r.kind, r.evaluation, r.note
+        sp = f"{r.samples_per_second:10.3g}" if r.samples_per_second else f"{'-':>10s}"
         if not has_ref:
-            fs = "-" if final is None else "  ".join(
-                f"{'-':>7s}" if np.isnan(v) else f"{v:7.2f}" for v in final)
+            fs = "-" if r.final is None else "  ".join(
+                f"{'-':>7s}" if np.isnan(v) else f"{v:7.2f}" for v in r.final)
             print(f"{n:22s} {kind:4s} {fs:>31s} {sp}  {note}")
             continue
         if ev is None:
             print(f"{n:22s} {kind:4s} {'-':>10s} {'-':>9s} {'-':>9s} {'-':>8s} {sp}  {note}")
             continue
-        if isinstance(ev, dict):
-            m, h, t, cnt = ev["angle"][0], math.nan, math.nan, ev["n"]
-        else:
-            m, h, t, cnt = ev.inclination, ev.heading, ev.total, ev.n
+        m, h, t = _errors(kind, ev)
+        if not isinstance(ev, dict):
             excluded = ev
-            if kind != "ahrs":          # 6-DOF: inclination only
-                h = t = math.nan
-            if ev.n_est_nan:
-                note += f"; {ev.n_est_nan} non-finite estimates"
-            if heading_offset and kind == "ahrs":
-                note += f"; heading offset {ev.heading_offset:.2f} deg removed"
-        evaluated += cnt > 0
-        print(f"{n:22s} {kind:4s} {f(m, 10)} {f(h, 9)} {f(t, 9)} {cnt:8d} {sp}  {note}")
+        print(f"{n:22s} {kind:4s} {_num(m, 10)} {_num(h, 9)} {_num(t, 9)} {r.counted():8d} "
+              f"{sp}  {note}")
     if excluded is not None and (excluded.n_ref_nan or excluded.n_outside_mask):
         print(f"excluded: {excluded.n_outside_mask} samples outside the movement mask, "
               f"{excluded.n_ref_nan} with a NaN reference")
-    return evaluated
+
+
+def _num(v, w):
+    return f"{'-':>{w}s}" if math.isnan(v) else f"{v:{w}.3f}"
+
+
+def _errors(kind, ev):
+    """(inclination or angle, heading, total) as the table shows them: a 6-DOF filter's
+    inclination only."""
+    if isinstance(ev, dict):
+        return ev["angle"][0], math.nan, math.nan
+    if kind != "ahrs":
+        return ev.inclination, math.nan, math.nan
+    return ev.inclination, ev.heading, ev.total
+
+
+def _means(c, args):
+    """The mean over the logs of each filter's RMS errors (BROAD's mean over trials), and
+    the bar chart of every log's errors (--plot)."""
+    means = c.means()
+    n = len(c.logs)
+    print(f"\nmean over {n} logs of each log's RMS error (as BROAD reports its trials), "
+          "degrees")
+    head = (f"{'filter':22s} {'kind':4s} {'incl/angle':>10s} {'heading':>9s} {'total':>9s} "
+            f"{'logs':>5s}")
+    print(head)
+    print("-" * len(head))
+    for name, m in means.items():
+        kind = c.kind(name)
+        if "angle" in m:
+            row = (m["angle"], math.nan, math.nan)
+        elif kind != "ahrs":
+            row = (m["inclination"], math.nan, math.nan)
+        else:
+            row = (m["inclination"], m["heading"], m["total"])
+        k = c.counted(name)
+        print(f"{name:22s} {kind:4s} {_num(row[0], 10)} {_num(row[1], 9)} {_num(row[2], 9)} "
+              f"{k:5d}" + (f"  ({n - k} of {n} logs without errors: left out)" if k < n else ""))
+    if args.plot:
+        _bars(args.plot, c, means)
+
+
+def _bars(path, c, means):
+    """Every log's RMS errors as bars, the mean last (matplotlib)."""
+    errors = {"inclination / angle": {}, "total": {}}
+    mean = {"inclination / angle": {}, "total": {}}
+    for name, m in means.items():
+        kind = c.kind(name)
+        rows = [lg.results.get(name) for lg in c.logs]
+        vals = [_errors(kind, r.evaluation) if r is not None and r.counted() else
+                (math.nan,) * 3 for r in rows]
+        errors["inclination / angle"][name] = [v[0] for v in vals]
+        mean["inclination / angle"][name] = m.get("angle", m.get("inclination"))
+        if kind == "ahrs":
+            errors["total"][name] = [v[2] for v in vals]
+            mean["total"][name] = m["total"]
+    try:
+        plots.plot_recordings(path, [lg.path for lg in c.logs], errors, mean,
+                              title=f"RMS errors on {len(c.logs)} logs and their mean")
+    except OSError as e:
+        raise OutputError(f"--plot {path}: cannot write: {e.strerror or e}") from None
+    err(f"plot: {path}")
 
 
 def _plots(path, s, runs, args, what):
     """Estimates and errors against the reference, in the output frame (--frame)."""
-    if not plots.available():
-        err("plots unavailable: matplotlib is not installed (pip install 'imufuse[plot]')")
-        return
     sc, axis = score_options(args), getattr(args, "axis", "x")
     log = s.log
     one = {n: r.estimate.angle for n, r in runs.items() if r.estimate.angle is not None}
@@ -283,14 +335,20 @@ def add_parsers(sub):
     preprocess_options(r)
     r.set_defaults(func=_run)
 
-    c = sub.add_parser("compare", help="several filters on one log: error table (BROAD metrics "
-                       "when the log has a reference orientation) and plot")
-    c.add_argument("log", metavar="LOG")
+    c = sub.add_parser("compare", help="several filters on one log or many: error table (BROAD "
+                       "metrics when the log has a reference orientation; the mean over the "
+                       "logs) and plot")
+    c.add_argument("logs", nargs="+", metavar="LOG",
+                   help="a log, or several (files, folders of logs, glob patterns): each "
+                        "log's table, then the mean over the logs of each filter's RMS errors")
     c.add_argument("--filter", "-f", dest="filters", action="append", metavar="NAME[,NAME]",
-                   help="filters to compare (default: every 3D filter the log can feed, "
-                        "FusionAHRS included, or the single-axis ones when there are none); "
+                   help="filters to compare (default: every 3D filter the (first) log can "
+                        "feed, FusionAHRS included, or the single-axis ones when there are "
+                        "none); "
                         "--param FILTER.NAME=V sets one filter's parameter")
-    c.add_argument("--plot", metavar="PNG")
+    c.add_argument("--plot", metavar="PNG",
+                   help="one log: estimates and errors over time; several: every log's RMS "
+                        "errors as bars (matplotlib)")
     log_options(c)
     filter_options(c)
     eval_options(c)

@@ -6,7 +6,7 @@ import time
 
 import numpy as np
 
-from .. import sim
+from .. import plots, sim
 from ..catalogue import FilterError, filter_names, inputs_for, make_filter, reference_class
 from ..catalogue import resolve_params
 from ..demo import run_demo
@@ -14,7 +14,7 @@ from ..evaluation import estimate_latency
 from ..io import EXAMPLE_ATTRIBUTION, GYR, example_log, require
 from ..session import NothingComputed
 from . import logs
-from .common import EXIT_OK, OutputError, log_options, names, open_session, positive
+from .common import EXIT_OK, OutputError, err, log_options, names, open_session, positive
 
 
 def _demo(args):
@@ -26,7 +26,7 @@ def _demo(args):
     if args.out and os.path.exists(args.out) and not os.path.isdir(args.out):
         raise OutputError(f"--out {args.out}: exists and is not a directory")
     rc = run_demo(out_dir=args.out, rate=args.rate, duration=args.duration, seed=args.seed,
-                  plot=not args.no_plot, names=chosen)
+                  plot=not args.no_plot, names=chosen, say=err)
     if args.no_real:
         return rc
     three = [n for n in (chosen or []) if reference_class(n).kind != "1d"]
@@ -34,7 +34,7 @@ def _demo(args):
         return rc
     print(f"\nreal data: every 3D filter against optical truth ({EXAMPLE_ATTRIBUTION})")
     argv = ["compare", example_log()] + [a for n in three for a in ("-f", n)]
-    if not args.no_plot:
+    if not args.no_plot and plots.available():      # unavailable: said once, above
         os.makedirs(args.out, exist_ok=True)
         argv += ["--plot", os.path.join(args.out, "demo_real.png")]
     sys.stdout.flush()

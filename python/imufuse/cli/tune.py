@@ -32,23 +32,30 @@ def _tune(args):
         t = Tuner(sessions, args.filter, fixed, args.metric, run_options(args),
                   score_options(args))
         if not grids:
+            # the default grid leaves out what does nothing with these settings (acc_1g with
+            # the gate off) without a word: nobody asked for it
             grids = t.default_grid(args.points)
             idle = t.idle(grids)
+            grids = [(k, v) for k, v in grids if k not in idle]
+            if not grids:
+                raise UsageError(f"tune: no parameter of {args.filter} acts with these "
+                                 f"settings ({', '.join(idle)} do nothing); give --grid")
+        else:
+            idle = t.idle(grids, own_values=True)
             if idle:
-                err(f"note: not varied (no effect with these settings): {', '.join(idle)}")
-                grids = [(k, v) for k, v in grids if k not in idle]
-                if not grids:
-                    raise UsageError(f"tune: no parameter of {args.filter} acts with these "
-                                     "settings; give --grid")
+                err(f"note: --grid {', '.join(idle)}: no effect with these settings (every "
+                    "value gives the same result)")
     except ValueError as e:
         if type(e) is ValueError:
             raise UsageError(str(e)) from None
         raise
 
     def bar(done, total):
-        if not args.quiet:
-            print(f"\rtune: [{'#' * (30 * done // total):30s}] {done}/{total}", end="",
-                  file=sys.stderr, flush=True)
+        # a bar redrawn with carriage returns: on a terminal only (a file or a pipe would
+        # keep every redraw)
+        if not args.quiet and sys.stderr.isatty():
+            print(f"\rimufuse: tune: [{'#' * (30 * done // total):30s}] {done}/{total}",
+                  end="", file=sys.stderr, flush=True)
             if done == total:
                 print(file=sys.stderr)
     res = t.search(grids, refine=args.refine, jobs=args.jobs, progress=bar)
@@ -98,7 +105,8 @@ def add_parsers(sub):
     t.add_argument("--jobs", "-j", type=positive(int, 1024), help="threads (default: cores)")
     t.add_argument("--top", type=positive(int, 10**6), default=15, help="rows shown (default 15)")
     t.add_argument("--all", action="store_true", help="show every parameter set")
-    t.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
+    t.add_argument("--quiet", "-q", action="store_true",
+                   help="no progress bar (there is none when stderr is not a terminal)")
     log_options(t)
     filter_options(t)
     eval_options(t)

@@ -6,7 +6,8 @@ import os
 from .. import plots, vario
 from ..calibration import log as calibration_log
 from .._atomic import check_outputs
-from .common import EXIT_OK, UsageError, column_map, err, pairs, strict_option, unit_options
+from .common import (EXIT_OK, UsageError, column_map, err, pairs, plot_available, strict_option,
+                     unit_options)
 
 
 def _vario(args):
@@ -18,6 +19,9 @@ def _vario(args):
                              "once")
         params["acc_gate"] = tuple(args.acc_gate)
     out = args.out or os.path.splitext(args.log)[0] + "-vario.csv"
+    if args.plot and args.no_plot:
+        raise UsageError("--plot and --no-plot: give one")
+    plot_available(args.plot)          # a --plot asked for is written, or exit 3
     plot = None if args.no_plot or not plots.available() else (
         args.plot or os.path.splitext(out)[0] + ".png")
     check_outputs([args.log, args.column_map], [("-o", out), ("--plot", plot)])

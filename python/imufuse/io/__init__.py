@@ -12,7 +12,11 @@ A CSV log has a header row; columns by name, any order, extra columns ignored:
 Headers are recognised (`recognise`): imufuse's names, and common spellings,
 starting with x-io's ("Time (s)", "Gyroscope X (deg/s)", "Accelerometer X (g)",
 "Magnetometer X (uT)"), also gx/gyro_x/accel_x/ax/qw/quat_w ..., in any case.
-A unit in parentheses or brackets after the name is read ("(deg/s)", "[m/s^2]").
+A unit in parentheses or brackets after the name is read ("(deg/s)", "[m/s^2]"), or after
+an underscore ("AccX_g"). A sensor's word after other words is recognised ("IMU Gyroscope
+X", "Vicon Orientation W"). Headers over two or three rows, as motion-capture and logging
+tools export them (a group row spanning empty cells, an axis row, a unit row), are combined
+into one name per column (imufuse.io.headers).
 A column map ({name: header}) names columns explicitly; it wins over recognition.
 
 Units: an explicit gyr_unit / acc_unit (the command line's --gyr-unit,
@@ -48,6 +52,7 @@ The modules, by subject:
   imufuse.io.log       the column names, the units logs are read in, Log, LogError
   imufuse.io.columns   header recognition, units in headers, column maps, `require`
   imufuse.io.text      CSV text: encodings, NUL-filled tails, the delimiter, the numbers
+  imufuse.io.headers   headers over two or three rows (group, axis, unit) as tools export them
   imufuse.io.arrays    NPZ and HDF5 logs (BROAD layout)
   imufuse.io.read      `read_log`, `describe`, `axis_inputs`
   imufuse.io.write     the writers (CSV, NPZ, the log format) and the shipped example log

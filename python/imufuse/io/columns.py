@@ -1,8 +1,10 @@
-"""Column headers: recognition of imufuse's names and common spellings (`recognise`),
-units in headers ("Gyroscope X (deg/s)": `split_unit`, and the unit each quantity is read
-in, `_units`), column maps ({name: header}: `parse_column_map`, `read_column_map`), and the
-errors that name a missing column with its close matches (`require`). A column named twice
-in a map is refused by name (LogError of kind "usage")."""
+"""Column headers: recognition of imufuse's names and common spellings (`recognise`; also
+a sensor's word after other words, "IMU Gyroscope X", "Vicon Orientation W", as tools export
+them), units in headers ("Gyroscope X (deg/s)", "AccX_g": `split_unit`, and the unit each
+quantity is read in, `_units`), column maps ({name: header}: `parse_column_map`,
+`read_column_map`), and the errors that name a missing column with its close matches of the
+same axis (`require`). A column named twice in a map is refused by name (LogError of kind
+"usage")."""
 import csv
 import difflib
 import re
@@ -42,16 +44,69 @@ for _c in "wxyz":
                            f"quat{_c}", f"ref_q_{_c}", f"q_ref_{_c}", f"quat_ref_{_c}"]
 _RECOGNISE = {a: canon for canon, names in _ALIASES.items() for a in names}
 
+#: a sensor's words in a longer header, after any other words and before the axis ("IMU
+#: Gyroscope X", "Vicon Orientation W", "AccelX"): recognised after every spelling above
+_SENSOR_WORDS = {
+    "gyr": ("gyroscope", "angular_velocity", "angular_rate", "rate_of_turn", "gyro", "gyr"),
+    "acc": ("accelerometer", "acceleration", "accel", "acc"),
+    "mag": ("magnetometer", "magnetic_field", "magnetic", "magn", "mag"),
+    "q": ("orientation", "quaternion", "quat", "attitude"),
+}
+_SENSOR_RE = {k: re.compile(r"^(?:(.*?)_)?(?:" + "|".join(w) + r")_?([xyzw])$")
+              for k, w in _SENSOR_WORDS.items()}
+#: words before a sensor's word that make it something else than the sensor's reading
+#: (x-io's "Earth Acceleration X", a "Linear Acceleration", an estimated bias)
+_NOT_THE_SENSOR = {"free", "freeacc", "linear", "lin", "earth", "global", "world", "gravity",
+                   "delta", "bias", "offset", "error", "std", "var", "variance", "sigma", "cov",
+                   "noise"}
+#: the rank of a header recognised by its sensor's word (after every alias)
+_WORD_RANK = 100
+
+#: units written after the name with an underscore ("AccX_g", "gyro_x_dps", "t_ms"), as
+#: normalised names end
+_SUFFIX_UNITS = {"g": "g", "dps": "deg/s", "degs": "deg/s", "deg_s": "deg/s",
+                 "rads": "rad/s", "rad_s": "rad/s", "mps2": "m/s^2", "ms2": "m/s^2",
+                 "m_s2": "m/s^2", "m_s^2": "m/s^2", "ut": "uT", "s": "s", "sec": "s",
+                 "ms": "ms", "us": "us", "ns": "ns"}
+
 
 _UNIT_RE = re.compile(r"^(.*?)\s*[\(\[]\s*([^\)\]]*?)\s*[\)\]]\s*$")
 
 
+def _by_word(n):
+    """(known name, prefix) of a normalised name by its sensor's word, or None; a quaternion
+    component is only one with its three others (checked by `_matches`)."""
+    for kind, rx in _SENSOR_RE.items():
+        m = rx.match(n)
+        if not m:
+            continue
+        pre, axis = m.group(1) or "", m.group(2)
+        if set(pre.split("_")) & _NOT_THE_SENSOR or (kind != "q" and axis == "w"):
+            return None
+        return f"{kind}_{axis}", (pre, n[len(pre):].lstrip("_")[:-1].rstrip("_"))
+    return None
+
+
+def _known(n):
+    return n in _RECOGNISE or _by_word(n) is not None
+
+
 def split_unit(header):
-    """'Gyroscope X (deg/s)' -> ('Gyroscope X', 'deg/s'); no unit -> (header, None).
-    The unit is given in its canonical spelling when known, else as written."""
+    """'Gyroscope X (deg/s)' -> ('Gyroscope X', 'deg/s'); 'AccX_g' -> ('AccX', 'g') (a unit
+    after an underscore, when the rest is a name imufuse recognises); no unit -> (header,
+    None). The unit is given in its canonical spelling when known, else as written."""
     m = _UNIT_RE.match(header.strip())
     if not m:
-        return header.strip(), None
+        name = header.strip()
+        n = _norm(name)
+        if n and not _known(n):
+            for suf in sorted(_SUFFIX_UNITS, key=len, reverse=True):
+                if n.endswith("_" + suf) and _known(n[:-len(suf) - 1]):
+                    pat = r"[\s\-\.:/_]+".join(re.escape(p) for p in suf.split("_"))
+                    cut = re.match(r"^(.*?)[\s\-\.:/_]+" + pat + r"$", name, re.I)
+                    if cut:
+                        return cut.group(1), _SUFFIX_UNITS[suf]
+        return name, None
     name, unit = m.group(1), m.group(2)
     return name, _UNIT_SPELLINGS.get(unit.lower().replace(" ", ""), unit)
 
@@ -60,20 +115,41 @@ def _norm(name):
     return re.sub(r"[\s\-\.:/]+", "_", name.strip().lower()).strip("_")
 
 
+def _matches(header):
+    """[(known name, rank, header index)] of every header imufuse recognises: by a spelling
+    of _ALIASES (its rank: its place in the list), else by its sensor's word (a quaternion
+    only with all four of w, x, y, z under the same words); a header whose unit belongs to
+    another quantity ("T (degC)") is not taken for time."""
+    out, quats = [], {}
+    for i, h in enumerate(header):
+        name, unit = split_unit(h)
+        n = _norm(name)
+        canon = _RECOGNISE.get(n)
+        if canon is not None:
+            if canon == "time" and unit is not None and unit not in TIME_UNITS:
+                continue
+            out.append((canon, _ALIASES[canon].index(n), i))
+            continue
+        word = _by_word(n)
+        if word is None:
+            continue
+        if word[0].startswith("q_"):
+            quats.setdefault(word[1], {})[word[0]] = i
+        else:
+            out.append((word[0], _WORD_RANK, i))
+    for parts in quats.values():
+        if len(parts) == 4:
+            out += [(c, _WORD_RANK, i) for c, i in parts.items()]
+    return out
+
+
 def recognise(header):
     """{known name: header index} for the headers imufuse recognises. When
     several headers could be one column, the closer spelling wins (`time`
-    before `t`); a header whose unit belongs to another quantity ("T (degC)")
-    is not taken for time."""
+    before `t`, `acc_x` before 'IMU Acceleration X'); a header whose unit belongs to another
+    quantity ("T (degC)") is not taken for time."""
     best = {}
-    for i, h in enumerate(header):
-        name, unit = split_unit(h)
-        canon = _RECOGNISE.get(_norm(name))
-        if canon is None:
-            continue
-        if canon == "time" and unit is not None and unit not in TIME_UNITS:
-            continue
-        rank = _ALIASES[canon].index(_norm(name))
+    for canon, rank, i in _matches(header):
         if canon not in best or rank < best[canon][0]:
             best[canon] = (rank, i)
     return {k: i for k, (r, i) in best.items()}
@@ -81,14 +157,11 @@ def recognise(header):
 
 def duplicate_columns(header):
     """{known name: [header indices]} for names that two or more headers spell equally
-    closely (e.g. 'gyr_x' twice): recognise() cannot choose between them."""
+    closely (e.g. 'gyr_x' twice, or 'IMU1 Gyroscope X' and 'IMU2 Gyroscope X'): recognise()
+    cannot choose between them."""
     seen = {}
-    for i, h in enumerate(header):
-        name, unit = split_unit(h)
-        canon = _RECOGNISE.get(_norm(name))
-        if canon is None or (canon == "time" and unit is not None and unit not in TIME_UNITS):
-            continue
-        seen.setdefault((canon, _ALIASES[canon].index(_norm(name))), []).append(i)
+    for canon, rank, i in _matches(header):
+        seen.setdefault((canon, rank), []).append(i)
     best = recognise(header)
     return {c: idx for (c, r), idx in seen.items() if len(idx) > 1 and best.get(c) in idx}
 
@@ -168,14 +241,34 @@ def _apply_map(path, header, found, column_map):
     return found
 
 
+def _guess(header):
+    """(sensor, axis) a header seems to hold ('AccX_raw' -> ('acc', 'x'), 'Gyr-X raw' ->
+    ('gyr', 'x')); either None when not seen."""
+    n = _norm(split_unit(header)[0])
+    for kind, words in _SENSOR_WORDS.items():
+        m = re.search(r"(?:^|_)(?:" + "|".join(words) + r")(?:_?([xyzw]))?(?=_|$)", n)
+        if m:
+            return kind, m.group(1)
+    m = re.search(r"(?:^|_)([xyzw])(?=_|$)", n)
+    return None, m.group(1) if m else None
+
+
 def _missing(names, header, used=()):
     msgs = []
     unknown = [h for h in header if h not in used]
     for n in names:
+        kind, _, axis = n.partition("_")
+        if not axis:
+            kind = axis = ""
         lower = [h for h in unknown if h.strip().lower() == n]
-        close = lower or _close(n, unknown) or _close(n, [_norm(split_unit(h)[0]) for h in unknown])
+        same = [h for h in unknown if kind and _guess(h) == (kind, axis)]
+        close = lower or same or _close(n, unknown) or _close(
+            n, [_norm(split_unit(h)[0]) for h in unknown])
         if close and close[0] not in header:          # matched on a normalised name
             close = [h for h in unknown if _norm(split_unit(h)[0]) in close]
+        if axis and not lower:                        # never a column of another axis
+            close = [h for h in close if _guess(h)[1] in (None, axis)]
+        close = close[:2]
         msgs.append(f"{n}" + (f" (did you mean {' or '.join(repr(c) for c in close)}?)"
                               if close else ""))
     return msgs

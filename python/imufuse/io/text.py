@@ -1,5 +1,6 @@
 """Reading CSV text: opening a file as text (byte-order marks, encodings, the NUL-filled
-tail of a preallocated file), sniffing the delimiter, and parsing the numbers (numpy's C
+tail of a preallocated file), sniffing the delimiter, the header (one row, or the rows
+tools export: imufuse.io.headers), and parsing the numbers (numpy's C
 parser block by block, a failed row located again line by line so that errors name the
 line); also `read_csv_rows`, the plain rows of a small CSV file."""
 import codecs
@@ -10,6 +11,7 @@ import re
 import numpy as np
 
 from .columns import _apply_map, duplicate_columns, recognise
+from .headers import header_rows
 from .log import LogError
 
 
@@ -248,6 +250,9 @@ def _read_csv(path, column_map, time_unit):
                        "e.g. time,gyr_x,gyr_y,gyr_z,acc_x,acc_y,acc_z)")
     header_line = next(i for i, ln in enumerate(lines) if ln.strip()) + 1
     delim, header = _sniff(lines)
+    # a header over two or three rows (a group row, an axis or unit row), as tools export it
+    header, more = header_rows(header, lines[header_line:], delim)
+    header_line += more
     header = [h.strip() for h in header]
     data = [ln for ln in lines[header_line:header_line + 50] if ln.strip()]
     notes = []
