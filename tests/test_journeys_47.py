@@ -384,6 +384,7 @@ HIDE_MPL = "import sys; sys.modules['matplotlib'] = None; from imufuse.cli impor
     ["compare", "LOG", "-f", "MadgwickIMU", "--plot", "OUT/p.png"],
     ["compare", "LOG", "LOG2", "-f", "MadgwickIMU", "--plot", "OUT/p.png"],
     ["vario", "VARIO", "-o", "OUT/v.csv", "--plot", "OUT/p.png"],
+    ["validate", "--csrc", "-f", "Kalman1D", "--duration", "1", "--plot", "OUT/p.png"],
 ])
 def test_a_plot_without_matplotlib_is_exit_3(tmp_path, trials, command):
     """Today: a message, exit 0 and no file."""

@@ -21,7 +21,7 @@ from ..firmware.validate import _filter_entry
 from ..session import FUSION
 from ..io import LogError
 from .common import (EXIT_FAIL, EXIT_OK, OutputError, UsageError, err, once, open_session,
-                     pairs, positive, strict_option, unit_options)
+                     pairs, plot_available, positive, strict_option, unit_options)
 
 #: imufuse validate --within: not bit-exact, within the tolerance (imufuse.cli's exit codes)
 EXIT_WITHIN = 7
@@ -130,6 +130,7 @@ def _validate(args):
     check_outputs([args.log, *(args.sources or ()), *_headers(args),
                    *(declared.firmware.sources if declared else ()), args.declaration],
                   [("--plot", args.plot), ("--json", args.json), ("--junit", args.junit)])
+    plot_available(args.plot)           # exit 3 before any work, not a run without its plot
     if args.within is not None and not fusion and _entry(args.filter).estimate is None:
         raise UsageError(f"--within: {args.filter} has no orientation estimate to compare in "
                          "degrees")
@@ -192,16 +193,13 @@ def _validate(args):
                                   src, {"total": time.perf_counter() - args.started}, args.within),
                       args.json, args.junit)
     if args.plot:
-        if not plots.available():
-            err("plots unavailable: matplotlib is not installed (pip install 'imufuse[plot]')")
-        else:
-            try:
-                plots.plot_divergence(args.plot, t, v.got, v.want, v.comparison.names,
-                                      v.comparison.first_sample,
-                                      f"firmware vs imufuse {args.filter} ({v.comparison.dtype})")
-            except OSError as e:
-                raise OutputError(f"--plot {args.plot}: cannot write: {e.strerror or e}") from None
-            err(f"plot: {args.plot}")
+        try:
+            plots.plot_divergence(args.plot, t, v.got, v.want, v.comparison.names,
+                                  v.comparison.first_sample,
+                                  f"firmware vs imufuse {args.filter} ({v.comparison.dtype})")
+        except OSError as e:
+            raise OutputError(f"--plot {args.plot}: cannot write: {e.strerror or e}") from None
+        err(f"plot: {args.plot}")
     return EXIT_OK if v.bit_exact else (EXIT_WITHIN if tol is not None and tol.passed else
                                         EXIT_FAIL)
 
