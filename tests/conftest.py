@@ -29,7 +29,7 @@ SLOW = {"test_long_rest", "test_fusion_oracle", "test_published", "test_journeys
         "test_reallogs", "test_broad_hdf5", "test_nul_tail", "test_vario_claims",
         "test_calibrate", "test_fixed_accuracy", "test_claims_1d", "test_sim_flight",
         "test_style", "test_header_docs", "test_c_settings", "test_fixed_core", "test_fixed_scale",
-        "test_architecture", "test_plots"}
+        "test_architecture", "test_plots", "test_wheel"}
 # single slow tests in otherwise fast modules (seconds each: a million samples, long bursts)
 SLOW_TESTS = {"test_a_million_constant_samples_then_recovery", "test_hostile_burst",
               "test_fusion_ahrs_hostile_burst", "test_first_c_equals_reference",

@@ -8,7 +8,8 @@ example's input.csv). The flash and RAM the Arduino build reports are the docs' 
 Debian 12's arduino-core-avr (1.8.7+dfsg-1~deb12u1) does not compile its own
 cores/arduino/WString.cpp with Debian's avr-gcc 5.4 (DECIMAL_DIG is undeclared, and two array
 bounds that depend on it are not constant). The tests build a copy of /usr/share/arduino/hardware
-with DECIMAL_DIG replaced by 17 and the two bounds by 64, and never touch the system's files.
+with DECIMAL_DIG replaced by 17 and the two bounds by 64, and never touch the system's files
+(docs/firmware.md describes this patch for users of Debian's arduino-builder).
 """
 import re
 import shutil
@@ -54,6 +55,15 @@ def sketchbook(tmp_path_factory):
         assert {n.split("/")[0] for n in z.namelist()} == {"imufuse"}
         z.extractall(libs)
     return base, hw, libs
+
+
+def test_docs_describe_the_core_patch():
+    """The patch of the fixture above, as docs/firmware.md's Arduino section tells users."""
+    text = DOCS.read_text()
+    section = text[text.index("## The C library in an Arduino sketch"):]
+    for words in ("WString.cpp", "`DECIMAL_DIG` by 17", "`char buf[64]`", "char buf[FLOAT_BUF_SIZE]",
+                  "char buf[DOUBLE_BUF_SIZE]", "-hardware"):
+        assert words in section, words
 
 
 def _build(sketchbook, name):

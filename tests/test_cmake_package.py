@@ -2,6 +2,8 @@
 file and imufuse.pc; clean consumer projects find it (find_package for the host and, through a
 toolchain file, for the Cortex-M4F; pkg-config with a plain compiler) and their programs print
 the Python reference's states bit for bit. The C version macros equal the package's version.
+imufuse.pc is relocatable: installed with `cmake --install build --prefix P` (another prefix than
+the configured one), or moved, it names the headers and library where they are.
 
 The consumer program is examples/firmware/main.c (Mahony1DBias on recorded samples, the state
 after every sample as bit patterns); the expected lines come from imufuse.reference
@@ -136,3 +138,57 @@ def test_pkg_config(cmake, tmp_path):
     _run(["cc", "-std=c99", "-O2", *cflags, f"-I{EXAMPLE}", EXAMPLE / "main.c",
           EXAMPLE / "board_host.c", "-o", exe, *libs])
     assert _run([exe]).stdout.splitlines() == _reference_lines()
+
+
+def _pkg_config(pkg, pcdir, *args):
+    p = subprocess.run([pkg, *args, "imufuse"], capture_output=True, text=True,
+                       env={"PKG_CONFIG_PATH": str(pcdir), "PATH": "/usr/bin:/bin"})
+    assert p.returncode == 0, p.stderr
+    return p.stdout.split()
+
+
+def test_pkg_config_after_install_with_another_prefix(cmake, tmp_path):
+    """Configured for one prefix, installed with `cmake --install build --prefix P` as the README
+    and csrc/CMakeLists.txt say: `pkg-config --cflags --libs imufuse` names P's headers and
+    library (the prefix comes from the .pc file's own place, ${pcfiledir}), a consumer compiles,
+    links and prints the reference's states; the installed tree moved elsewhere still works; a
+    deeper library directory (Debian's lib/<multiarch>) climbs back to the prefix as well."""
+    pkg = shutil.which("pkg-config")
+    assert pkg, "pkg-config is installed by tools/install-toolchains.sh"
+    configured = tmp_path / "configured-prefix"      # never installed to
+    build = tmp_path / "build-reloc"
+    _run([cmake, "-S", CSRC, "-B", build, f"-DCMAKE_INSTALL_PREFIX={configured}"])
+    _run([cmake, "--build", build])
+    prefix = tmp_path / "P"
+    _run([cmake, "--install", build, "--prefix", prefix])
+    (pc,) = prefix.rglob("imufuse.pc")
+    assert pc.parent == prefix / "lib" / "pkgconfig"
+    assert str(configured) not in pc.read_text()
+    assert not configured.exists()
+    moved = tmp_path / "moved"
+    for root in (prefix, moved):
+        if root == moved:
+            prefix.rename(moved)
+        pcdir = root / "lib" / "pkgconfig"
+        cflags = _pkg_config(pkg, pcdir, "--cflags")
+        libs = _pkg_config(pkg, pcdir, "--libs")
+        incs = [Path(f[2:]) for f in cflags if f.startswith("-I")]
+        assert [i.resolve() for i in incs] == [(root / "include" / "imufuse").resolve()], cflags
+        assert (incs[0] / "imf_config.h").is_file()
+        (libdir,) = [Path(f[2:]) for f in libs if f.startswith("-L")]
+        assert (libdir / "libimufuse.a").is_file(), libs
+        exe = tmp_path / f"pc-consumer-{root.name}"
+        _run(["cc", "-std=c99", "-O2", *cflags, f"-I{EXAMPLE}", EXAMPLE / "main.c",
+              EXAMPLE / "board_host.c", "-o", exe, *libs])
+        assert _run([exe]).stdout.splitlines() == _reference_lines()
+    # Debian's multiarch library directory: three levels between the .pc file and the prefix
+    _run([cmake, "-S", CSRC, "-B", build, "-DCMAKE_INSTALL_LIBDIR=lib/x86_64-linux-gnu"])
+    _run([cmake, "--build", build])
+    deep = tmp_path / "deep"
+    _run([cmake, "--install", build, "--prefix", deep])
+    pcdir = deep / "lib" / "x86_64-linux-gnu" / "pkgconfig"
+    assert (pcdir / "imufuse.pc").is_file()
+    (inc,) = [Path(f[2:]) for f in _pkg_config(pkg, pcdir, "--cflags") if f.startswith("-I")]
+    (libdir,) = [Path(f[2:]) for f in _pkg_config(pkg, pcdir, "--libs") if f.startswith("-L")]
+    assert (inc / "imf_config.h").is_file() and (libdir / "libimufuse.a").is_file()
+    assert libdir.resolve() == (deep / "lib" / "x86_64-linux-gnu").resolve()

@@ -37,7 +37,7 @@ passed by value, units), and firmware against firmware (no imufuse reference):
 
 `target_missing(target)` says why a target cannot run here (its cross compiler or emulator is
 not installed: Debian gcc-arm-none-eabi, libnewlib-arm-none-eabi, qemu-system-arm, gcc-avr,
-avr-libc, simavr), or None.
+avr-libc, simavr; for "host", cffi or the C compiler), or None.
 """
 from __future__ import annotations
 
@@ -52,6 +52,7 @@ from .catalogue import entry, inputs_for, resolve_params
 from .mcu import missing_tools
 from .firmware import (Firmware, Validation, compare_firmware, counts_for, harness_target,
                        load_declaration, validate_isolated)
+from .firmware.host import compiler_missing
 from .firmware.report import Classification, Tolerance, tolerance
 
 __all__ = ["validate_firmware", "validate_declared", "against", "FirmwareResult",
@@ -162,7 +163,7 @@ def target_missing(target: str) -> Optional[str]:
             import cffi  # noqa: F401
         except ImportError:
             return "cffi is not installed (pip install 'imufuse[firmware]')"
-        return None
+        return compiler_missing()
     miss = missing_tools(harness_target(target))
     return f"{target} needs {' '.join(miss)} (run tools/install-toolchains.sh)" if miss else None
 

@@ -19,7 +19,7 @@ import shutil
 import subprocess
 import sysconfig
 import tempfile
-from typing import Any, List, Tuple
+from typing import Any, List, Optional, Tuple
 
 import numpy as np
 
@@ -28,7 +28,8 @@ from ..catalogue import reference_class
 from .csource import host_source, target_source
 from .declaration import Declaration, FirmwareError
 
-__all__ = ["Firmware", "csrc_firmware", "compiler_command", "compiler_identity"]
+__all__ = ["Firmware", "csrc_firmware", "compiler_command", "compiler_identity",
+           "compiler_missing"]
 
 _IDENTITY: dict = {}
 
@@ -47,6 +48,29 @@ def _make_deps(text: str) -> List[str]:
 def compiler_command() -> List[str]:
     """The C compiler cffi builds with ($CC, else Python's own CC), as a command list."""
     return shlex.split(os.environ.get("CC") or sysconfig.get_config_var("CC") or "cc")
+
+
+def _compiler_absent() -> Optional[str]:
+    """None when the C compiler of host builds is on PATH, else which one is not and how to
+    get one."""
+    cc = compiler_command()
+    if cc and shutil.which(cc[0]):
+        return None
+    name = cc[0] if cc else "cc"
+    which = "$CC" if os.environ.get("CC") else "the compiler Python was built with"
+    where = "" if os.sep in name else " on PATH"
+    return (f"{name!r} ({which}) is not found{where}: install one (Debian/Ubuntu: apt install gcc; "
+            "Fedora: dnf install gcc; macOS: xcode-select --install) or name yours in CC "
+            "(e.g. CC=clang)")
+
+
+def compiler_missing() -> Optional[str]:
+    """None when the C compiler of host builds (compiler_command) is on PATH, else one line
+    naming it and how to get one: a wheel of imufuse installs and runs without a compiler,
+    validating firmware on the host needs one."""
+    absent = _compiler_absent()
+    return None if absent is None else ("validating on the host compiles the firmware with a C "
+                                        f"compiler, and there is none: {absent}")
 
 
 def compiler_identity() -> Tuple[str, ...]:
@@ -137,6 +161,22 @@ class Firmware(Declaration):
     def _compiled(self, kind, n_init):
         """The path of the compiled harness and firmware (built now unless a build of the
         same key is cached). No firmware code runs here."""
+        # the build key runs the compiler (-M): a missing cffi or compiler is named first, in
+        # one line (exit 5 from the command line), never as a failed subprocess
+        try:
+            from cffi import FFI
+        except ImportError:
+            absent = _compiler_absent()
+            if absent:
+                raise FirmwareError("validating on the host compiles the firmware with cffi and "
+                                    "a C compiler, and neither is here: pip install "
+                                    f"'imufuse[firmware]' for cffi; {absent}") from None
+            raise FirmwareError("validating on the host compiles the firmware with cffi, "
+                                "which is not installed: pip install 'imufuse[firmware]' "
+                                "(or validate on an emulated MCU with --target)") from None
+        no_cc = compiler_missing()
+        if no_cc:
+            raise FirmwareError(no_cc)
         src = self.source(kind, n_init)
         name = self._key(src)
         outdir = os.path.join(self.cache_dir, name)
@@ -144,12 +184,6 @@ class Firmware(Declaration):
             glob.glob(os.path.join(outdir, name + ".*pyd"))
         if built:
             return name, built[0]
-        try:
-            from cffi import FFI
-        except ImportError:
-            raise FirmwareError("validating on the host compiles the firmware with cffi, "
-                                "which is not installed: pip install 'imufuse[firmware]' "
-                                "(or validate on an emulated MCU with --target)") from None
         ffi = FFI()
         ffi.cdef("void imufuse_fw_run(const double *p, const double *s0, int set_state, "
                  "size_t n, const double *in, double dt, double *out, int *isint);\n"
