@@ -13,6 +13,7 @@ import pytest
 from broad_data import BROAD, SKIP_REASON
 from imufuse import sim
 from imufuse.io import example_log, read_log
+from imufuse.plausible import gyro_scale
 
 XIO = ["Time (s)", "Gyroscope X (deg/s)", "Gyroscope Y (deg/s)", "Gyroscope Z (deg/s)",
        "Accelerometer X (g)", "Accelerometer Y (g)", "Accelerometer Z (g)"]
@@ -200,3 +201,43 @@ def test_the_gyro_limit_is_that_of_mems_parts(tmp_path, peak_deg_s, noticed):
     assert any("--gyr-unit deg/s" in x for x in deg.warnings) == noticed, deg.warnings
     rad = read_log(_csv(tmp_path / "rad.csv", head, np.column_stack([t, np.radians(w), acc])))
     assert not any("--gyr-unit" in x for x in rad.warnings), rad.warnings
+
+
+@pytest.mark.parametrize("with_mag", [True, False])
+def test_deg_per_s_on_a_slow_log(tmp_path, with_mag):
+    """Slow motion in deg/s without a unit never passes 35 rad/s; the gyroscope turning the
+    accelerometer's (and magnetometer's) direction 57 times too far names it; the same log in
+    rad/s is not questioned (imufuse.plausible.gyro_scale)."""
+    m = sim.imu("slow", rate=100.0, duration=10.0, seed=4, amplitude=0.2)  # up to 20 deg/s
+    head = ["time", "gyr_x", "gyr_y", "gyr_z", "acc_x", "acc_y", "acc_z"]
+    cols = [m.t, np.degrees(m.gyr), m.acc]
+    if with_mag:
+        head += ["mag_x", "mag_y", "mag_z"]
+        cols.append(m.mag)
+    log = read_log(_csv(tmp_path / "slow.csv", head, np.column_stack(cols)))
+    assert np.max(np.abs(log.gyr)) < 35.0
+    (note,) = log.suspicions
+    assert "--gyr-unit deg/s" in note and "57.3 times" in note, note
+    assert ("magnetometer's" in note) == with_mag, note
+    g = gyro_scale(log.gyr, log.acc, log.mag, dt=log.dt)
+    assert 45 < g.ratio < 70, g
+    assert read_log(str(tmp_path / "slow.csv"), gyr_unit="deg/s").suspicions == []
+
+
+def test_gyro_scale_on_a_long_log_reads_stretches(tmp_path):
+    """Past 200 000 samples, 40 stretches of 5000 spread over the log: the same verdict, from
+    gyro_scale and from read_log (which stacks only the stretches)."""
+    m = sim.imu("slow", rate=100.0, duration=60.0, seed=5, amplitude=0.2)
+    reps = 42
+    gyr, acc = np.tile(m.gyr, (reps, 1)), np.tile(m.acc, (reps, 1))
+    assert len(gyr) > 200_000
+    for scale in (1.0, np.degrees(1.0)):
+        g = gyro_scale(gyr * scale, acc, None, dt=m.dt)
+        assert g.windows <= 40 * 5000 // 5, g
+        # rates up to 20 deg/s: read right, few windows turn far enough for a verdict
+        assert (45.0 < g.ratio < 70.0) if scale != 1.0 else not g.ratio > 10.0, g
+        np.savez(tmp_path / "long.npz", gyr=gyr * scale, acc=acc * 9.80665,
+                 rate=np.array(1 / m.dt))
+        notes = read_log(str(tmp_path / "long.npz")).suspicions
+        assert len(notes) == (scale != 1.0) and all("--gyr-unit deg/s" in n for n in notes)
+    assert np.isnan(gyro_scale(gyr, acc, dt=None).ratio)

@@ -5,6 +5,9 @@ option that fixes them (one line each; imufuse.io.read_log adds them to Log.warn
                  a median near 0.1 read as m/s^2 is g (--acc-unit g)
   gyroscope      no MEMS gyro measures beyond 2000 deg/s = 35 rad/s: rates read as rad/s whose
                  99th percentile passes 35 rad/s are deg/s (--gyr-unit deg/s)
+  gyro vs. acc   the rotation the gyroscope gives over windows of 0.2 s against the turn of the
+                 accelerometer's (and magnetometer's) direction over the same windows: deg/s
+                 read as rad/s turns 57.3 times too far, on slow logs too (gyro_scale)
   time           a time column whose median interval is 1 to 100 "s" (10 mHz to 1 Hz) is
                  milliseconds (--time-unit ms); 100 s and beyond, microseconds (--time-unit us)
   rate           a --rate that disagrees with the time column by more than 1 %
@@ -16,14 +19,24 @@ tests check the shipped example and logs in those layouts).
 """
 from __future__ import annotations
 
-from typing import List, Optional
+import math
+from dataclasses import dataclass, field
+from typing import Dict, List, Optional, Tuple
 
 import numpy as np
 
-__all__ = ["check_log"]
+__all__ = ["check_log", "gyro_scale", "GyroScale"]
 
 G = 9.80665
 MAX_GYRO_RAD_S = 35.0          # 2000 deg/s, the largest range of common MEMS gyros
+
+# the gyroscope against the directions of gravity and the magnetic field (gyro_scale)
+TURN_WINDOW = 0.2              # s: each window's length
+TURN_MIN = 0.05                # rad (2.9 deg): the turn the gyro gives a direction, to count
+TURN_MIN_WINDOWS = 8           # windows that count, per sensor, for a verdict
+TURN_RATIO = 10.0              # a ratio beyond this is deg/s read as rad/s (57.3)
+TURN_AGREE = 0.5               # median cosine between the turns given and measured
+TURN_MAX_SAMPLES = 200_000     # a longer log: 40 stretches of 5000 samples spread over it
 
 
 def _median_norm(a: np.ndarray) -> float:
@@ -31,6 +44,118 @@ def _median_norm(a: np.ndarray) -> float:
         n = np.linalg.norm(a, axis=1)
     n = n[np.isfinite(n)]
     return float(np.median(n)) if n.size else float("nan")
+
+
+@dataclass(frozen=True)
+class GyroScale:
+    """What gyro_scale found: ratio, the rotation the gyroscope gives over the turn the
+    directions measured (about 1 with the right unit, 57.3 for deg/s read as rad/s; NaN
+    when no sensor gives a verdict); windows, how many windows it is the median of;
+    sensors, {"acc" / "mag": (windows, median ratio, median cosine)} for each sensor with
+    enough windows, and used, the sensors the ratio comes from."""
+    ratio: float
+    windows: int
+    sensors: Dict[str, Tuple[int, float, float]] = field(default_factory=dict)
+    used: Tuple[str, ...] = ()
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    with np.errstate(all="ignore"):
+        return v / np.linalg.norm(v, axis=1, keepdims=True)
+
+
+def _turns(gyr, vec, dts, ok, w, step, h):
+    """(given, measured, cosine) per window: the change of the direction of vec that the
+    gyro's rates give (the sum of u x w dt over the window: exact to first order, so a
+    scaled gyro scales it without wrapping at 180 deg), and the change measured (the
+    direction averaged over 2h+1 samples at each end), for the windows whose samples (and
+    ends) are all valid."""
+    n = len(vec)
+    u = _unit(vec)
+    ok = ok & np.isfinite(u).all(axis=1)
+    u = np.where(ok[:, None], u, 0.0)
+    c = np.cross(u, np.where(ok[:, None], gyr, 0.0)) * np.where(ok, dts, 0.0)[:, None]
+    zero = np.zeros((1, 3))
+    csum = np.concatenate([zero, np.cumsum(c, axis=0)])
+    usum = np.concatenate([zero, np.cumsum(u, axis=0)])
+    bad = np.concatenate([[0], np.cumsum(~ok)])
+    i = np.arange(h, n - w - h, step)
+    if i.size == 0:
+        return np.empty(0), np.empty(0), np.empty(0)
+    j = i + w
+    clean = bad[j + h + 1] == bad[i - h]
+    i, j = i[clean], j[clean]
+    given = csum[j + 1] - csum[i + 1]
+    measured = _unit(usum[j + h + 1] - usum[j - h]) - _unit(usum[i + h + 1] - usum[i - h])
+    p = np.linalg.norm(given, axis=1)
+    m = np.linalg.norm(measured, axis=1)
+    with np.errstate(all="ignore"):
+        cos = np.einsum("ij,ij->i", given, measured) / (p * m)
+    return p, m, np.nan_to_num(cos)
+
+
+def _stretches(n: int, block: int = 5000) -> Tuple[np.ndarray, np.ndarray]:
+    """(the samples taken, where each stretch starts among them): TURN_MAX_SAMPLES // block
+    stretches of `block` samples spread over n."""
+    first = np.linspace(0, n - block, TURN_MAX_SAMPLES // block).astype(np.int64)
+    return (first[:, None] + np.arange(block)).ravel(), np.arange(len(first)) * block
+
+
+def gyro_scale(gyr: np.ndarray, acc: np.ndarray, mag: Optional[np.ndarray] = None,
+               dts=None, dt: Optional[float] = None,
+               breaks: Optional[np.ndarray] = None) -> GyroScale:
+    """How far the gyroscope (rad/s, (N, 3)) turns the directions of the accelerometer and
+    the magnetometer (when given), against how far they turn: over windows of TURN_WINDOW
+    s where the gyro turns a direction by TURN_MIN or more, the median ratio of the turn
+    it gives over the turn measured. With the right unit it is about 1 (0.5 to 1.2 on the
+    BROAD trials: the accelerometer's direction also turns with linear acceleration);
+    deg/s read as rad/s gives 57.3 (the gyro is 57.3 times too fast). A sensor whose turns
+    point elsewhere than the gyro's (median cosine below TURN_AGREE: strong linear
+    acceleration, a coordinated turn where the accelerometer keeps its direction, axes that
+    do not match) gives no verdict; the ratio is the smallest over the sensors whose turns
+    agree with the gyro's, NaN when none does. dts: each sample's interval (N,), else dt.
+    A log of more than TURN_MAX_SAMPLES samples is judged on 40 stretches of 5000 samples
+    spread over it (a tenth of a second for 10^6 samples); breaks: the samples where such
+    stretches, taken by the caller, begin (no window across one)."""
+    n = len(gyr)
+    if dts is None:
+        if dt is None or not dt > 0:
+            return GyroScale(math.nan, 0)
+        dts = np.full(n, float(dt))
+    starts = None
+    if n > TURN_MAX_SAMPLES:
+        take, starts = _stretches(n)
+        acc = np.asarray(acc)[take]
+        mag = None if mag is None else np.asarray(mag)[take]
+        gyr, dts = np.asarray(gyr)[take], np.asarray(dts)[take]
+    gyr, dts = np.asarray(gyr, float), np.asarray(dts, float)
+    n = len(gyr)
+    with np.errstate(all="ignore"):
+        med = float(np.median(dts[np.isfinite(dts) & (dts > 0)])) if n else math.nan
+    if not (med > 0 and math.isfinite(med)) or n < 8:
+        return GyroScale(math.nan, 0)
+    w = max(2, int(round(TURN_WINDOW / med)))
+    h = max(1, int(round(0.01 / med)))
+    ok = np.isfinite(gyr).all(axis=1) & np.isfinite(dts) & (dts > 0) & (dts <= 3.0 * med)
+    for b in (starts, breaks):
+        if b is not None:
+            ok[np.asarray(b, dtype=np.int64)] = False    # no window across two stretches
+    sensors: Dict[str, Tuple[int, float, float]] = {}
+    for name, vec in (("acc", acc), ("mag", mag)):
+        if vec is None:
+            continue
+        p, m, cos = _turns(gyr, np.asarray(vec, float), dts, ok, w, max(1, w // 4), h)
+        sel = p >= TURN_MIN
+        if int(sel.sum()) >= TURN_MIN_WINDOWS:
+            with np.errstate(all="ignore"):
+                r = p[sel] / m[sel]
+            sensors[name] = (int(sel.sum()), float(np.median(r)), float(np.median(cos[sel])))
+    # a sensor that turns elsewhere than the gyro says nothing about its scale
+    used = tuple(k for k, (_, _, c) in sensors.items() if c >= TURN_AGREE)
+    if not used:
+        return GyroScale(math.nan, 0, sensors)
+    best = min(used, key=lambda k: sensors[k][1])
+    return GyroScale(sensors[best][1], sensors[best][0], sensors, used)
 
 
 def check_log(log, rate: Optional[float] = None, file_rate: Optional[float] = None,
@@ -61,6 +186,8 @@ def check_log(log, rate: Optional[float] = None, file_rate: Optional[float] = No
                        f"MEMS range) in over 1 % of the samples, read as rad/s "
                        f"({'unit from the ' + gyr_from if gyr_from != 'default' else 'assumed'})"
                        ": these look like deg/s; give --gyr-unit deg/s")
+        else:
+            out += _gyro_against_directions(log, gyr_unit, gyr_from, rate, file_time)
     t = file_time
     if t is not None and len(t) > 1 and rate is None:
         med = float(np.median(np.diff(t)))
@@ -80,3 +207,38 @@ def check_log(log, rate: Optional[float] = None, file_rate: Optional[float] = No
         out.append(f"--rate {rate:g} Hz, but the file says {file_rate:g} Hz: the filters use "
                    "--rate; leave it out to use the file's rate")
     return out
+
+
+def _gyro_against_directions(log, unit, source, rate, file_time) -> List[str]:
+    """The note of gyro_scale on a gyroscope read as rad/s (none when the time column looks
+    like milliseconds: the intervals would be wrong, and that note comes first)."""
+    cols = log.columns
+    if unit not in (None, "rad/s") or not all(n in cols for n in
+                                              ("acc_x", "acc_y", "acc_z")):
+        return []
+    dts = None
+    if rate is None and file_time is not None and len(file_time) > 1:
+        d = np.diff(np.asarray(file_time, float))
+        if float(np.median(d)) >= 1.0:
+            return []
+        dts = np.concatenate([[float(np.median(d))], d])
+    elif log.dt is not None:
+        dts = np.full(len(log), float(log.dt))
+    # a long log: only its stretches stacked (memory: the log's columns, not three copies)
+    take, breaks = _stretches(len(log)) if len(log) > TURN_MAX_SAMPLES else (slice(None), None)
+
+    def sensor(k):
+        return np.column_stack([cols[f"{k}_{a}"][take] for a in "xyz"])
+    mag = sensor("mag") if all(f"mag_{a}" in cols for a in "xyz") else None
+    res = gyro_scale(sensor("gyr"), sensor("acc"), mag, dts=None if dts is None else dts[take],
+                     breaks=breaks)
+    if not res.ratio > TURN_RATIO:
+        return []
+    what = " and ".join({"acc": "the accelerometer's", "mag": "the magnetometer's"}[k]
+                        for k in res.used)
+    what += " direction turns" if len(res.used) == 1 else " directions turn"
+    return [f"the gyroscope, read as rad/s ("
+            f"{'unit from the ' + source if source not in (None, 'default') else 'assumed'}), "
+            f"turns {res.ratio:.3g} times as far as {what} (the median over {res.windows} "
+            f"windows of {TURN_WINDOW:g} s): deg/s read as rad/s is 57.3 times; these look "
+            "like deg/s; give --gyr-unit deg/s"]

@@ -7,17 +7,26 @@ Readability rules every plot follows:
 - one fixed colour per filter in every panel of every plot (`colours`); lines
   drawn wide to narrow, each with its own dash pattern (`line_styles`), so a
   curve hidden under another one still shows at its edges; filters whose curves
-  coincide are named in the legend ("B (= A)", "C (≈ A)"); the reference is
-  drawn last, in black, dashed, on top;
+  coincide are named in the legend ("B (= A)", "C (≈ A)"), per panel when they
+  coincide in some panels only ("RobustIMU (tilt ≈ RobustAHRS)": an IMU filter
+  has no heading to compare); the reference is drawn last, in black, dashed, on
+  top;
 - roll and yaw are angles in (-180, 180] (`wrap_deg`), the line broken where it
-  wraps (`break_wraps`) instead of crossing the panel; `plot_euler` names the
-  earth frame of its angles (`frame`) in the labels;
-- error axes are scaled to the filters that behave, after the start-up
-  transient (the first 10% of the time, which may run off the panel):
-  `robust_limits` leaves out a filter whose steady error is far above the
-  others'; every filter going off scale after the transient is marked (legend
-  label "KK (off scale, up to 175°)" and a triangle at the panel edge at its
-  peak), never hidden silently;
+  wraps (`break_wraps`) instead of crossing the panel; every angle axis is
+  scaled to its data (a roll within +-15° fills its panel), the full +-180°
+  only when an angle wraps there, said in the panel ("wraps at ±180°") and
+  marked at both ends of each break (◆); `plot_euler` names the earth frame of
+  its angles (`frame`) in the labels and draws each filter from its own start
+  (`starts`: FusionAHRS after its start-up from the identity, said in the
+  legend), never a jump from an identity it was not started at;
+- one error quantity per panel: `plot_euler`'s errors are one panel per
+  quantity (inclination for every filter, heading and total for the AHRS
+  filters), never two quantities on one axis;
+- error axes hold every sample of the filters that behave (start-up transient
+  included: nothing clipped); `robust_limits` leaves out a filter whose steady
+  error (after the first 10% of the time) is far above the others'; such a
+  filter is marked (legend label "KK (off scale, up to 175°)" and a triangle at
+  the panel edge at its peak), never hidden silently;
 - `plot_divergence` says "bit-exact" in words when nothing differs (no empty log
   frame) and lists the state variables that are equal;
 - `plot_recordings` (compare over several recordings) gives each filter its bar
@@ -28,7 +37,8 @@ Readability rules every plot follows:
   or title runs into another panel.
 
 Each function returns the matplotlib Figure (already saved and closed: its
-artists can still be inspected).
+artists can still be inspected: tests read the panels' labels, limits, texts and
+legends).
 """
 import os
 import textwrap
@@ -36,8 +46,10 @@ import textwrap
 import numpy as np
 
 from ._atomic import replacing
+# the axes' helpers, unwrap_deg and steady_limits re-exported as imufuse.plots' own
+from ._plotaxes import (_angle_axis, _coinciding, _coinciding_in, _fmt, break_wraps,  # noqa: F401
+                        robust_limits, steady_limits, unwrap_deg, wrap_deg, wrap_marks)
 from .bits import UINT
-
 from .catalogue import FILTERS, reference_class
 from .rotations import heading_error, tilt_error
 
@@ -128,103 +140,9 @@ def _ylabel(ax, text, width=26):
     ax.set_ylabel("\n".join(line for p in parts for line in textwrap.wrap(p, width)))
 
 
-def unwrap_deg(angle_rad):
-    """Degrees, unwrapped (no +-180 jumps) over the finite stretches; the first
-    finite value stays in [-180, 180]."""
-    a = np.asarray(angle_rad, dtype=np.float64).copy()
-    ok = np.isfinite(a)
-    if ok.any():
-        a[ok] = np.unwrap(a[ok])
-    return np.degrees(a)
-
-
-def wrap_deg(angle_rad):
-    """Degrees in (-180, 180] (NaN stays NaN), whatever turn the angle is on."""
-    d = 180.0 - np.mod(180.0 - np.degrees(np.asarray(angle_rad, dtype=np.float64)), 360.0)
-    return np.where(d <= -180.0, d + 360.0, d)
-
-
-def break_wraps(t, deg, jump=180.0):
-    """(t, deg) with a NaN inserted between two samples more than `jump` degrees
-    apart (a wrap at +-180), so a plotted line is broken there instead of
-    drawing a vertical line across the panel."""
-    t = np.asarray(t, dtype=np.float64)
-    y = np.asarray(deg, dtype=np.float64)
-    with np.errstate(invalid="ignore"):
-        i = np.flatnonzero(np.abs(np.diff(y)) > jump)
-    if i.size == 0:
-        return t, y
-    return np.insert(t, i + 1, (t[i] + t[i + 1]) / 2), np.insert(y, i + 1, np.nan)
-
-
-def steady_limits(t, errors, skip=0.1, pad=1.25):
-    """(lo, hi) y-limits showing the errors after the first `skip` fraction of
-    the time (the start-up transient), from their 0.5 and 99.5 percentiles."""
-    t = np.asarray(t)
-    if t.size == 0:
-        return None
-    t0 = t[0] + skip * (t[-1] - t[0])
-    vals = np.concatenate([np.asarray(e)[(t >= t0) & np.isfinite(e)] for e in errors] or [[]])
-    if vals.size == 0:
-        return None
-    lo, hi = np.percentile(vals, [0.5, 99.5])
-    lo, hi = min(lo, 0.0), max(hi, 0.0)
-    span = max(hi - lo, 1e-6)
-    return lo - (pad - 1) * span * (lo < 0), hi + (pad - 1) * span
-
-
-def robust_limits(t, errors, skip=0.1, ratio=8.0, floor=1.0):
-    """(limits, excluded): `steady_limits` of the filters that behave, and the
-    indices of the errors left out of them: those whose steady error (95th
-    percentile of |error| after the transient) is above `ratio` times the lower
-    median of all filters' and above `floor` (degrees)."""
-    t = np.asarray(t)
-    if t.size == 0:
-        return None, set()
-    steady = t >= t[0] + skip * (t[-1] - t[0])
-    level = []
-    for e in errors:
-        v = np.abs(np.asarray(e, dtype=np.float64)[steady])
-        v = v[np.isfinite(v)]
-        level.append(np.percentile(v, 95) if v.size else np.nan)
-    known = np.sort([v for v in level if np.isfinite(v)])
-    if known.size == 0:
-        return None, set()
-    thr = max(ratio * known[(known.size - 1) // 2], floor)
-    out = {i for i, v in enumerate(level) if v > thr}
-    return steady_limits(t, [e for i, e in enumerate(errors) if i not in out], skip), out
-
-
-def _coinciding(curves, period=None, rel=0.003):
-    """{name: ["= A", "≈ B"]}: curves (dict name -> array, degrees) equal to an
-    earlier one (=) or following it within `rel` of the span of all curves (≈:
-    99th percentile of |difference|, modulo `period`), NaN in the same places."""
-    flat = {n: np.ravel(np.asarray(c, dtype=np.float64)) for n, c in curves.items()}
-    vals = np.concatenate([c[np.isfinite(c)] for c in flat.values()] or [[]])
-    if vals.size == 0:
-        return {}
-    tol = rel * max(np.ptp(np.percentile(vals, [1, 99])), 1e-9)
-    out, names = {}, list(flat)
-    for j, b in enumerate(names):
-        for a in names[:j]:
-            if not np.array_equal(np.isfinite(flat[a]), np.isfinite(flat[b])):
-                continue
-            d = flat[b] - flat[a]
-            d = d[np.isfinite(d)]
-            if period:
-                d = (d + period / 2) % period - period / 2
-            if d.size and np.percentile(np.abs(d), 99) <= tol:
-                out.setdefault(b, []).append(("= " if not d.any() else "≈ ") + a)
-    return out
-
-
-def _fmt(v):
-    return f"{v:.0f}" if abs(v) >= 10 else f"{v:.2g}"
-
-
 def _error_panel(ax, t, errors, col, sty, skip=0.1):
-    """Errors (dict name -> (N,) degrees) on `ax`, the axis scaled to the filters
-    that behave; a filter going off scale after the transient is marked with a
+    """Errors (dict name -> (N,) degrees) on `ax`, the axis holding every sample of
+    the filters that behave (`robust_limits`); a filter left out is marked with a
     triangle at the panel edge at its peak. Returns {name: legend note}."""
     t = np.asarray(t, dtype=np.float64)
     names = list(errors)
@@ -234,16 +152,15 @@ def _error_panel(ax, t, errors, col, sty, skip=0.1):
     lim, out = robust_limits(t, errs, skip)
     if not lim:
         return {}
-    steady = t >= t[0] + skip * (t[-1] - t[0])
-    kept = np.concatenate([e[steady] for i, e in enumerate(errs) if i not in out])
-    lo, hi, span = np.nanmin(kept), np.nanmax(kept), lim[1] - lim[0]
-    # the kept filters whole, when that widens the axis by little
-    lim = (lo - 0.03 * span if lim[0] - 0.6 * span <= lo < lim[0] else lim[0],
-           hi + 0.03 * span if lim[1] < hi <= lim[1] + 0.6 * span else lim[1])
+    # every sample of the filters that behave, their start-up included: nothing clipped
+    kept = np.concatenate([e[np.isfinite(e)] for i, e in enumerate(errs) if i not in out])
+    lo, hi = min(float(np.min(kept)), 0.0), max(float(np.max(kept)), 0.0)
+    span = max(hi - lo, 1e-6)
+    lim = (lo - 0.05 * span if lo < 0 else 0.0, hi + 0.05 * span)
     ax.set_ylim(*lim)
     notes = {}
     for n, e in zip(names, errs):
-        s = np.where(steady & np.isfinite(e), e, np.nan)
+        s = np.where(np.isfinite(e), e, np.nan)
         if not np.any(s > lim[1]) and not np.any(s < lim[0]):
             continue
         k = int(np.nanargmax(np.abs(s)))
@@ -302,8 +219,7 @@ def plot_3d_errors(path, t, q_true, estimates, title="3D filters against ground 
     heads = {n: np.degrees(heading_error(e.q, q_true)) for n, e in estimates.items() if e.heading}
     notes = _error_panel(a1, t, tilts, col, sty)
     hnotes = _error_panel(a2, t, heads, col, sty)
-    same = _coinciding({n: np.concatenate([tilts[n], heads.get(n, np.full(len(t), np.nan))])
-                        for n in estimates})
+    same = _coinciding_in({"tilt": tilts, "heading": heads})
     handles = {ln.get_label(): ln for ln in a1.get_lines() if ln.get_label() in tilts}
     _legend(a1, handles, _prefix("tilt", notes), _prefix("heading", hnotes), same)
     a1.set_ylabel("tilt error (deg)")
@@ -314,39 +230,74 @@ def plot_3d_errors(path, t, q_true, estimates, title="3D filters against ground 
     return _save(fig, path, title)
 
 
+def _from(e, k):
+    e = np.array(e, dtype=np.float64)
+    e[:k] = np.nan
+    return e
+
+
 def plot_euler(path, t, series, ref=None, title="", errors=None, error_label="error (deg)",
-               frame="NWU"):
+               frame="NWU", starts=None):
     """Roll, pitch, yaw (rad, dict name -> (N, 3), NaN where unknown, in the
     earth frame `frame`, named in the labels) and an optional reference (N, 3);
-    roll and yaw in (-180, 180], broken where they wrap. errors: optional dict
-    name -> (N,) degrees, drawn in a fourth panel scaled to the filters that
-    behave (the others marked off scale)."""
-    col = colours(list(series) + [n for n in errors or () if n not in series])
+    roll and yaw in (-180, 180], broken where they wrap; each angle panel scaled to
+    its data. starts: {name: first sample, or (first sample, what comes before it)} of
+    filters drawn from their own start (FusionAHRS after its start-up from the identity;
+    said in the legend: "from 3 s: its start-up not drawn"). errors: optional, either
+    {quantity: {name: (N,) degrees}} (a panel per quantity, "inclination error (deg)",
+    ...: one quantity on each axis) or {name: (N,) degrees} (one panel, error_label);
+    each scaled to the filters that behave (the others marked off scale)."""
+    errors = errors or {}
+    if errors and not all(isinstance(v, dict) for v in errors.values()):
+        errors = {None: errors}
+    errors = {q: e for q, e in errors.items() if e}
+    in_errors = [n for e in errors.values() for n in e if n not in series]
+    col = colours(list(series) + list(dict.fromkeys(in_errors)))
     sty = line_styles(list(col))
-    n = 4 if errors else 3
-    fig, axes = _figure(n, 2.6 * n + 0.5)
+    starts = {n: v if isinstance(v, tuple) else (v, "its start-up")
+              for n, v in (starts or {}).items()}
+    starts = {n: (int(k), why) for n, (k, why) in starts.items() if n in series and k > 0}
+    shown = {n: _from(e, starts.get(n, (0,))[0]) for n, e in series.items()}
+    n = 3 + len(errors)
+    fig, axes = _figure(n, (2.6 if n <= 4 else 2.3) * n + 0.5)
     handles = {}
     for i, (ax, lab) in enumerate(zip(axes, ("roll", "pitch", "yaw"))):
-        for name, e in list(series.items()) + ([("reference", ref)] if ref is not None else []):
+        drawn, wrapped = [], []
+        for name, e in list(shown.items()) + ([("reference", ref)] if ref is not None else []):
             if np.all(np.isnan(e[:, i])):
                 continue
-            x, y = (t, np.degrees(e[:, 1])) if i == 1 else break_wraps(t, wrap_deg(e[:, i]))
+            y = np.degrees(e[:, 1]) if i == 1 else wrap_deg(e[:, i])
             kw = REF_STYLE if name == "reference" else dict(color=col[name], **sty[name])
-            handles.setdefault(name, ax.plot(x, y, label=name, **kw)[0])
+            handles.setdefault(name, ax.plot(*break_wraps(t, y) if i != 1 else (t, y),
+                                             label=name, **kw)[0])
+            drawn.append(y)
+            marks = wrap_marks(t, y) if i != 1 else ((), ())
+            if len(marks[0]):
+                wrapped.append((*marks, kw["color"]))
         ax.set_ylabel(f"{lab} (deg, {frame})")
-        if i != 1:
-            ax.set_ylim(-195, 195)
-            ax.set_yticks(range(-180, 181, 90))
-    same = _coinciding({k: wrap_deg(e) for k, e in series.items()}, period=360.0)
+        _angle_axis(ax, drawn, wrapped)
+        if not drawn:
+            ax.set_yticks([])
+            ax.text(0.5, 0.5, f"no filter with a {'heading' if i == 2 else lab}",
+                    transform=ax.transAxes, ha="center")
+    same = _coinciding_in({lab: {k: wrap_deg(e[:, i]) for k, e in shown.items()
+                                 if not np.all(np.isnan(e[:, i]))}
+                           for i, lab in enumerate(("roll", "pitch", "yaw"))}, period=360.0)
+    begun = {nm: f"from {t[min(k, len(t) - 1)] - t[0]:.3g} s: {why} not drawn"
+             for nm, (k, why) in starts.items()}
+    for nm in begun:             # a start-up as long as the log: in the legend all the same
+        handles.setdefault(nm, axes[0].plot([], [], color=col[nm], label=nm, **sty[nm])[0])
     notes = {}
-    if errors:
-        notes = _error_panel(axes[3], t, errors, col, sty)
-        _ylabel(axes[3], error_label)
-        if notes:
-            _legend(axes[3], {ln.get_label(): ln for ln in axes[3].get_lines()
-                              if ln.get_label() in notes}, notes)
+    for ax, (quantity, errs) in zip(axes[3:], errors.items()):
+        said = _error_panel(ax, t, errs, col, sty)
+        _ylabel(ax, error_label if quantity is None else f"{quantity} error (deg)")
+        if said:
+            _legend(ax, {ln.get_label(): ln for ln in ax.get_lines()
+                         if ln.get_label() in said}, said)
+        for nm, v in _prefix(quantity or "error", said).items():
+            notes.setdefault(nm, []).append(v)
     ref_line = handles.pop("reference", None)
-    _legend(axes[0], handles, _prefix("error", notes), same,
+    _legend(axes[0], handles, begun, notes, same,
             extra=[(ref_line, "reference")] if ref_line else [])
     axes[-1].set_xlabel("time (s)")
     return _save(fig, path, title)

@@ -281,6 +281,23 @@ def _bars(path, c, means):
     err(f"plot: {path}")
 
 
+def _own_start(log, r):
+    """The first sample a plot draws of a filter's angles: FusionAHRS takes no init, starts
+    from the identity and turns to the sensor's attitude while `initialising` (its gain
+    ramped down from 10 over 3 s of dt; none with gain 0): from the sample that clears it
+    (its state, or 3 s of dt when compare kept only the estimate); the others from 0."""
+    if r.name != FUSION:
+        return 0
+    names = list(r.cls.state_names)
+    if len(r.states) and "initialising" in names:
+        done = np.flatnonzero(r.states[:, names.index("initialising")] == 0)
+        return int(done[0]) if done.size else len(log)
+    if float(r.params.get("gain", 0.5)) == 0.0:
+        return 0
+    dts = log.dts if log.dts is not None else np.full(len(log), log.dt)
+    return int(np.searchsorted(np.cumsum(dts), 3.0, side="right"))
+
+
 def _plots(path, s, runs, args, what):
     """Estimates and errors against the reference, in the output frame (--frame)."""
     sc, axis = score_options(args), getattr(args, "axis", "x")
@@ -296,12 +313,16 @@ def _plots(path, s, runs, args, what):
                           axis_inputs(log, axis)[1], title=title)
             err(f"plot: {p1}")
         if three:
-            errors = None
+            # one quantity per panel: inclination for every filter, heading and total for
+            # the AHRS filters
+            errors = {}
             if log.q_ref is not None:
-                errors = {}
+                errors = {"inclination": {}, "heading": {}, "total": {}}
                 for n, r in three.items():
                     ev = s.score(r, sc, per_sample=True)
-                    errors[n] = ev.per_sample["total" if r.estimate.heading else "inclination"]
+                    for m in ("inclination", "heading", "total") if r.estimate.heading \
+                            else ("inclination",):
+                        errors[m][n] = ev.per_sample[m]
             series = {}
             for n, r in three.items():
                 e = quat_to_euler(frame_q(r.estimate.q, sc.frame))
@@ -310,7 +331,8 @@ def _plots(path, s, runs, args, what):
                 series[n] = e
             plots.plot_euler(p3, log.t, series, s.reference_euler(sc), title=title,
                              errors=errors, frame=sc.frame,
-                             error_label="error (deg): total (AHRS), inclination (IMU)")
+                             starts={n: (_own_start(log, r), "its start-up from the identity")
+                                     for n, r in three.items()})
             err(f"plot: {p3}")
     except OSError as e:
         raise OutputError(f"--plot {path}: cannot write: {e.strerror or e}") from None
