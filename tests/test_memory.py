@@ -46,7 +46,9 @@ def _log(path, n, rate=200.0):
     del c, s
     q = np.zeros((n, 4))
     q[:, 0], q[:, 3] = np.cos(th / 2), np.sin(th / 2)
-    np.savez(path, gyr=gyr, acc=acc, mag=mag, quat_ref=q, rate=np.array(rate))
+    # float32 in the file (half the bytes to write); the reader's columns are float64 all the same
+    np.savez(path, gyr=gyr.astype(np.float32), acc=acc.astype(np.float32),
+             mag=mag.astype(np.float32), quat_ref=q.astype(np.float32), rate=np.array(rate))
 
 
 def _peak(*cmd):

@@ -351,7 +351,7 @@ FW = textwrap.dedent("""
     ("_exit(0)", "called exit(0) while being loaded"),
     ("exit(7)", "called exit(7) while being loaded"),
     ("abort()", "crashed with SIGABRT while being loaded"),
-    ("for (;;) {}", "no answer after 3 s while being loaded"),
+    ("for (;;) {}", "no answer after 1.5 s while being loaded"),
 ])
 def test_a_constructor_runs_only_in_the_child(tmp_path, ctor, word):
     """The firmware's C constructors ran in validate's own process: exit(0) made validate
@@ -366,7 +366,7 @@ def test_a_constructor_runs_only_in_the_child(tmp_path, ctor, word):
                         str(tmp_path), "--header", "fw.h", "-f", "Kalman1D", "--init",
                         "void fw_init(fw_t *s, float dt, float k0)", "--update",
                         "void fw_update(fw_t *s, float rate, float angle)", "--duration", "1",
-                        "--timeout", "3"], capture_output=True, text=True, env=env, timeout=120)
+                        "--timeout", "1.5"], capture_output=True, text=True, env=env, timeout=120)
     assert r.returncode == 5, (r.returncode, r.stdout, r.stderr)
     lines = [ln for ln in r.stderr.splitlines() if ln.startswith("imufuse:")]
     assert len(lines) == 1 and word in lines[0], r.stderr
