@@ -31,6 +31,8 @@ import textwrap
 import numpy as np
 import pytest
 
+import declared_class
+
 from imufuse import sim
 from imufuse.catalogue import resolve_params
 from imufuse.firmware import FirmwareError, validate_isolated
@@ -50,55 +52,11 @@ def _cache_env(cache, monkeypatch):
     monkeypatch.setenv("IMUFUSE_CACHE", cache)
 
 
-H = textwrap.dedent("""
-    class Attitude {
-    public:
-        void begin(float k0) { k0_ = k0; omk0_ = 1.0f - k0; theta_ = 0.0f; }
-        void step(float gyro, float acc_angle, float dt);
-    private:
-        float theta_, k0_, omk0_;
-    };
-""")
-CPP = textwrap.dedent("""
-    #include "att.hpp"
-    void Attitude::step(float gyro, float acc_angle, float dt)
-    {
-        if (!__builtin_isfinite(gyro) || !__builtin_isfinite(acc_angle)) return;
-        float pred = theta_ + gyro * dt;
-        float th = omk0_ * pred + k0_ * acc_angle;
-        if (__builtin_isfinite(th)) theta_ = th;
-    }
-""")
-TOML = textwrap.dedent("""
-    [firmware]
-    sources = ["att.cpp"]
-    headers = ["att.hpp"]
-
-    [filter]
-    name = "Kalman1D"
-    params = { k0 = 0.02 }
-
-    [object]
-    type = "Attitude"
-    init = ["fw.begin(${k0})"]
-
-    [update]
-    call = "fw.step(${rate}, ${angle}, ${dt})"
-
-    [state]
-    theta = "fw.theta_"
-""")
+H, CPP, TOML = declared_class.H, declared_class.CPP, declared_class.TOML
 
 
 def _files(tmp_path, toml=TOML, h=H, cpp=CPP, edits=()):
-    for old, new in edits:
-        assert old in toml, old
-        toml = toml.replace(old, new)
-    (tmp_path / "att.hpp").write_text(h)
-    (tmp_path / "att.cpp").write_text(cpp)
-    p = tmp_path / "att.toml"
-    p.write_bytes(toml if isinstance(toml, bytes) else toml.encode())
-    return p
+    return declared_class.write(tmp_path, toml=toml, h=h, cpp=cpp, edits=edits)
 
 
 def _validate(path, target="host", seconds=1.0):

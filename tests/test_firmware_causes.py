@@ -80,6 +80,38 @@ def _plant(tmp_path, edits, base=BASE):
     return fw, text
 
 
+# the planted causes (also run on a target: tests/test_firmware_causes_target.py)
+# a nanosecond clock in an int: it overflows at sample 429 and skips the prediction there
+OVERFLOW = [
+    ("static float att_k0, att_omk0;", "static float att_k0, att_omk0;\nstatic int att_t_ns;"),
+    ("    pred = att_theta + gyro * dt;\n",
+     "    att_t_ns += (int)(dt * 1e9f);\n    pred = att_theta + gyro * dt;\n"
+     "    if (att_t_ns < 0) pred = att_theta;   /* the clock went backwards */\n")]
+
+# the angle quantised to Q12 and shifted left: undefined from the first negative angle
+NEG_SHIFT = [("    th = att_omk0 * pred + att_k0 * acc_angle;\n",
+              "    {\n        int q = (int)(acc_angle * 4096.0f);\n"
+              "        int q4 = q << 4;\n"
+              "        th = att_omk0 * pred + att_k0 * ((float)q4 / 65536.0f);\n"
+              "    }\n")]
+
+# a gain table indexed by |gyro| clamped to 4 instead of 3
+OUT_OF_BOUNDS = [
+    ("static float att_k0, att_omk0;",
+     "static float att_k0, att_omk0;\nstatic struct { float gain[4]; float offset; } att_cal;"),
+    ("att_theta = 0.0f; }", "att_theta = 0.0f;\n    for (int j = 0; j < 4; ++j) "
+                            "att_cal.gain[j] = 1.0f;\n    att_cal.offset = 0.0f; }"),
+    ("    pred = att_theta + gyro * dt;\n",
+     "    {\n        int idx = (int)fabsf(gyro);\n        if (idx > 4) idx = 4;\n"
+     "        pred = att_theta + gyro * dt * att_cal.gain[idx] + att_cal.offset;\n    }\n")]
+
+# a double literal in a float expression
+DOUBLE_LITERAL = [
+    ("static float att_k0, att_omk0;", "static float att_k0, att_omk0, att_k2;"),
+    ("att_omk0 = 1.0f - k0;", "att_omk0 = 1.0f - k0; att_k2 = 2.0f * k0;"),
+    ("att_k0 * acc_angle;", "0.5 * att_k2 * acc_angle;")]
+
+
 def _line(text, marker):
     """The 1-based line of the source holding marker."""
     return next(i + 1 for i, ln in enumerate(text.splitlines()) if marker in ln)
@@ -94,11 +126,7 @@ def _only(v, what):
 def test_signed_overflow_is_named_at_its_sample(tmp_path, inputs):
     """A nanosecond clock in an int overflows at sample 429; the wrapped (negative) time
     skips the prediction there: UBSan names the line and that sample."""
-    fw, text = _plant(tmp_path, [
-        ("static float att_k0, att_omk0;", "static float att_k0, att_omk0;\nstatic int att_t_ns;"),
-        ("    pred = att_theta + gyro * dt;\n",
-         "    att_t_ns += (int)(dt * 1e9f);\n    pred = att_theta + gyro * dt;\n"
-         "    if (att_t_ns < 0) pred = att_theta;   /* the clock went backwards */\n")])
+    fw, text = _plant(tmp_path, OVERFLOW)
     v = validate(fw, "Kalman1D", PARAMS, inputs)
     k = int(2 ** 31 // 5_000_000)                     # 429: the sum passes 2^31 - 1 there
     assert not v.bit_exact and v.comparison.first_sample == k
@@ -116,11 +144,7 @@ def test_signed_overflow_is_named_at_its_sample(tmp_path, inputs):
 def test_shift_of_a_negative_value_is_named_with_its_sample(tmp_path, inputs):
     """The angle quantised to Q12 and shifted: it diverges from sample 0 (the quantisation),
     the shift is undefined from the first negative angle on: named, but not as the cause."""
-    fw, text = _plant(tmp_path, [("    th = att_omk0 * pred + att_k0 * acc_angle;\n",
-                                  "    {\n        int q = (int)(acc_angle * 4096.0f);\n"
-                                  "        int q4 = q << 4;\n"
-                                  "        th = att_omk0 * pred + att_k0 * ((float)q4 / 65536.0f);\n"
-                                  "    }\n")])
+    fw, text = _plant(tmp_path, NEG_SHIFT)
     v = validate(fw, "Kalman1D", PARAMS, inputs)
     q = np.trunc(F32(inputs[1]).astype(np.float32) * F32(4096.0))
     k = int(np.flatnonzero(q < 0)[0])
@@ -134,14 +158,7 @@ def test_shift_of_a_negative_value_is_named_with_its_sample(tmp_path, inputs):
 
 def test_out_of_bounds_read_of_a_table_is_named(tmp_path, inputs):
     """A gain table indexed by |gyro| clamped to 4 instead of 3 reads the offset behind it."""
-    fw, text = _plant(tmp_path, [
-        ("static float att_k0, att_omk0;",
-         "static float att_k0, att_omk0;\nstatic struct { float gain[4]; float offset; } att_cal;"),
-        ("att_theta = 0.0f; }", "att_theta = 0.0f;\n    for (int j = 0; j < 4; ++j) "
-                                "att_cal.gain[j] = 1.0f;\n    att_cal.offset = 0.0f; }"),
-        ("    pred = att_theta + gyro * dt;\n",
-         "    {\n        int idx = (int)fabsf(gyro);\n        if (idx > 4) idx = 4;\n"
-         "        pred = att_theta + gyro * dt * att_cal.gain[idx] + att_cal.offset;\n    }\n")])
+    fw, text = _plant(tmp_path, OUT_OF_BOUNDS)
     v = validate(fw, "Kalman1D", PARAMS, inputs)
     k = int(np.flatnonzero(np.abs(F32(inputs[0]).astype(np.float32)) >= 4)[0])
     assert v.comparison.first_sample == k
@@ -204,10 +221,7 @@ def test_arduino_madgwick_invsqrt_is_named(tmp_path):
 
 
 def test_double_literal_is_still_the_confirmed_cause(tmp_path, inputs):
-    fw, text = _plant(tmp_path, [
-        ("static float att_k0, att_omk0;", "static float att_k0, att_omk0, att_k2;"),
-        ("att_omk0 = 1.0f - k0;", "att_omk0 = 1.0f - k0; att_k2 = 2.0f * k0;"),
-        ("att_k0 * acc_angle;", "0.5 * att_k2 * acc_angle;")])
+    fw, text = _plant(tmp_path, DOUBLE_LITERAL)
     v = validate(fw, "Kalman1D", PARAMS, inputs)
     line = _line(text, "0.5 * att_k2")
     assert v.causes[0].what == "double" and v.causes[0].confirmed, v.text()

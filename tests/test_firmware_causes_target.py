@@ -20,7 +20,8 @@ import pytest
 
 from imufuse.firmware import Firmware, validate
 from imufuse.mcu import ensure_toolchains
-from test_firmware_causes import INVSQRT, PARAMS, REASSOC, _line, _only, _plant
+from test_firmware_causes import (DOUBLE_LITERAL, INVSQRT, NEG_SHIFT, OUT_OF_BOUNDS, OVERFLOW,
+                                  PARAMS, REASSOC, _line, _only, _plant)
 
 TARGET = "cortex-m0"
 
@@ -46,11 +47,7 @@ def _v(fw, inputs, name="Kalman1D", params=PARAMS):
 
 
 def test_signed_overflow_on_the_target(tmp_path, inputs):
-    fw, text = _plant(tmp_path, [
-        ("static float att_k0, att_omk0;", "static float att_k0, att_omk0;\nstatic int att_t_ns;"),
-        ("    pred = att_theta + gyro * dt;\n",
-         "    att_t_ns += (int)(dt * 1e9f);\n    pred = att_theta + gyro * dt;\n"
-         "    if (att_t_ns < 0) pred = att_theta;\n")])
+    fw, text = _plant(tmp_path, OVERFLOW)
     v = _v(fw, inputs)
     k = int(2 ** 31 // 5_000_000)
     assert not v.bit_exact and v.comparison.first_sample == k
@@ -59,11 +56,7 @@ def test_signed_overflow_on_the_target(tmp_path, inputs):
 
 
 def test_negative_shift_on_the_target(tmp_path, inputs):
-    fw, text = _plant(tmp_path, [("    th = att_omk0 * pred + att_k0 * acc_angle;\n",
-                                  "    {\n        int q = (int)(acc_angle * 4096.0f);\n"
-                                  "        int q4 = q << 4;\n"
-                                  "        th = att_omk0 * pred + att_k0 * ((float)q4 / 65536.0f);\n"
-                                  "    }\n")])
+    fw, text = _plant(tmp_path, NEG_SHIFT)
     v = _v(fw, inputs)
     ub = _only(v, "undefined behaviour")
     assert re.fullmatch(rf"att\.c:{_line(text, 'q << 4')}:\d+", ub.where)
@@ -71,14 +64,7 @@ def test_negative_shift_on_the_target(tmp_path, inputs):
 
 
 def test_out_of_bounds_on_the_target(tmp_path, inputs):
-    fw, text = _plant(tmp_path, [
-        ("static float att_k0, att_omk0;",
-         "static float att_k0, att_omk0;\nstatic struct { float gain[4]; float offset; } att_cal;"),
-        ("att_theta = 0.0f; }", "att_theta = 0.0f;\n    for (int j = 0; j < 4; ++j) "
-                                "att_cal.gain[j] = 1.0f;\n    att_cal.offset = 0.0f; }"),
-        ("    pred = att_theta + gyro * dt;\n",
-         "    {\n        int idx = (int)fabsf(gyro);\n        if (idx > 4) idx = 4;\n"
-         "        pred = att_theta + gyro * dt * att_cal.gain[idx] + att_cal.offset;\n    }\n")])
+    fw, text = _plant(tmp_path, OUT_OF_BOUNDS)
     v = _v(fw, inputs)
     k = int(np.flatnonzero(np.abs(np.float32(inputs[0])) >= 4)[0])
     ub = _only(v, "undefined behaviour")
@@ -100,10 +86,7 @@ def test_long_width_on_the_target(tmp_path, inputs):
 
 
 def test_double_literal_on_the_target(tmp_path, inputs):
-    fw, text = _plant(tmp_path, [
-        ("static float att_k0, att_omk0;", "static float att_k0, att_omk0, att_k2;"),
-        ("att_omk0 = 1.0f - k0;", "att_omk0 = 1.0f - k0; att_k2 = 2.0f * k0;"),
-        ("att_k0 * acc_angle;", "0.5 * att_k2 * acc_angle;")])
+    fw, text = _plant(tmp_path, DOUBLE_LITERAL)
     v = _v(fw, inputs)
     assert any(c.what == "double" and c.confirmed for c in v.causes), v.text()
 

@@ -16,10 +16,11 @@ import os
 import shutil
 import subprocess
 import sys
-import textwrap
 
 import numpy as np
 import pytest
+
+import declared_class
 
 from imufuse import sim
 from imufuse.catalogue import inputs_for, resolve_params
@@ -50,52 +51,11 @@ def _run(path, cache, kind, seconds=3.0, source_dir=None, counts=False):
     return validate_isolated(d.firmware, d.filter, p, inputs)
 
 
-CLASS_H = textwrap.dedent("""
-    class Attitude {
-    public:
-        void begin(float k0) { k0_ = k0; omk0_ = 1.0f - k0; theta_ = 0.0f; }
-        void step(float gyro, float acc_angle, float dt);
-    private:
-        float theta_, k0_, omk0_;
-    };
-""")
-CLASS_CPP = textwrap.dedent("""
-    #include <cmath>
-    #include "att.hpp"
-    void Attitude::step(float gyro, float acc_angle, float dt)
-    {
-        if (!std::isfinite(gyro) || !std::isfinite(acc_angle)) return;
-        float pred = theta_ + gyro * dt;
-        float th = omk0_ * pred + k0_ * acc_angle;
-        if (std::isfinite(th)) theta_ = th;
-    }
-""")
-CLASS_TOML = textwrap.dedent("""
-    [firmware]
-    sources = ["att.cpp"]
-    headers = ["att.hpp"]
-
-    [filter]
-    name = "Kalman1D"
-    params = { k0 = 0.02 }
-
-    [object]
-    type = "Attitude"
-    init = ["fw.begin(${k0})"]
-
-    [update]
-    call = "fw.step(${rate}, ${angle}, ${dt})"
-
-    [state]
-    theta = "fw.theta_"
-""")
+CLASS_CPP, CLASS_TOML = declared_class.CPP, declared_class.TOML
 
 
 def _class(tmp_path, toml=CLASS_TOML, cpp=CLASS_CPP):
-    (tmp_path / "att.hpp").write_text(CLASS_H)
-    (tmp_path / "att.cpp").write_text(cpp)
-    (tmp_path / "att.toml").write_text(toml)
-    return tmp_path / "att.toml"
+    return declared_class.write(tmp_path, toml=toml, cpp=cpp)
 
 
 def test_cpp_class_with_private_state_is_bit_exact(tmp_path, cache):

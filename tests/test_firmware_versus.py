@@ -19,6 +19,8 @@ import sys
 
 import pytest
 
+import declared_class
+
 from imufuse import sim
 from imufuse.firmware import FirmwareError, Firmware, validate_isolated
 from imufuse.firmware.declfile import load_declaration
@@ -42,43 +44,11 @@ def _imf(env, *args):
                           capture_output=True, text=True, env=env, timeout=900)
 
 
-CLASS_H = """class Attitude {
-public:
-    void begin(float k0) { k0_ = k0; omk0_ = 1.0f - k0; theta_ = 0.0f; }
-    void step(float gyro, float acc_angle, float dt);
-private:
-    float theta_, k0_, omk0_;
-};
-"""
-CLASS_CPP = """#include "att.hpp"
-void Attitude::step(float gyro, float acc_angle, float dt)
-{
-    float pred = theta_ + gyro * dt;
-    theta_ = omk0_ * pred + k0_ * acc_angle;
-}
-"""
-TOML = """[firmware]
-sources = ["att.cpp"]
-headers = ["att.hpp"]
-[filter]
-name = "Kalman1D"
-params = { k0 = 0.02 }
-[object]
-type = "Attitude"
-init = ["fw.begin(${k0})"]
-[update]
-call = "fw.step(${rate}, ${angle}, ${dt})"
-[state]
-theta = "fw.theta_"
-"""
+CLASS_CPP = declared_class.CPP
 
 
 def _version(d, cpp=CLASS_CPP):
-    d.mkdir()
-    (d / "att.hpp").write_text(CLASS_H)
-    (d / "att.cpp").write_text(cpp)
-    (d / "att.toml").write_text(TOML)
-    return d / "att.toml"
+    return declared_class.write(d, cpp=cpp)
 
 
 def test_old_against_new(tmp_path, env):

@@ -139,14 +139,12 @@ def orientation_difference_deg(name: str, params: Optional[Mapping[str, Any]], g
         eg, ew = (ADAPTERS[e.estimate](names, e.kind, a) for a in (g, w))
     except Exception:  # noqa: BLE001 - degrees are extra information, never a failure
         return None
+    if eg.q is not None and ew.q is not None:
+        return quaternion_angles_deg(eg.q, ew.q)
+    if eg.angle is None or ew.angle is None:
+        return None
     with np.errstate(all="ignore"):
-        if eg.q is not None and ew.q is not None:
-            d = np.abs(np.sum(eg.q * ew.q, axis=1))
-            ang = 2.0 * np.degrees(np.arccos(np.clip(d, 0.0, 1.0)))
-        elif eg.angle is not None and ew.angle is not None:
-            ang = np.degrees(np.abs(eg.angle - ew.angle))
-        else:
-            return None
+        ang = np.degrees(np.abs(eg.angle - ew.angle))
     return np.where(np.isnan(ang), 180.0, ang)
 
 
