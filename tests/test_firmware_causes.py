@@ -252,16 +252,24 @@ void mb_step(float rate, float angle)
 """
 
 
-def test_reassociated_sum_is_not_blamed_on_a_compiler_cause(tmp_path, inputs):
-    """(kp*e + i) + rate written kp*e + (i + rate): another computation. No FMA, no double,
-    no undefined behaviour; the report says no known build cause and where the code ran."""
+MB_PARAMS = dict(dt=0.005, kp=2.0, ki=0.3)
+
+
+def reassociated(tmp_path):
+    """REASSOC as firmware (mb.c, mb.h), declared against Mahony1DBias (MB_PARAMS)."""
     (tmp_path / "mb.c").write_text(REASSOC)
     (tmp_path / "mb.h").write_text("extern float mb_theta, mb_i;\n"
                                    "void mb_begin(float dt, float kp, float ki);\n"
                                    "void mb_step(float rate, float angle);\n")
-    fw = Firmware([str(tmp_path / "mb.c")], headers=["mb.h"], include_dirs=[str(tmp_path)],
-                  init="mb_begin", update="mb_step", state={"theta": "mb_theta", "i": "mb_i"})
-    v = validate(fw, "Mahony1DBias", dict(dt=0.005, kp=2.0, ki=0.3), inputs)
+    return Firmware([str(tmp_path / "mb.c")], headers=["mb.h"], include_dirs=[str(tmp_path)],
+                    init="mb_begin", update="mb_step", state={"theta": "mb_theta", "i": "mb_i"})
+
+
+def test_reassociated_sum_is_not_blamed_on_a_compiler_cause(tmp_path, inputs):
+    """(kp*e + i) + rate written kp*e + (i + rate): another computation. No FMA, no double,
+    no undefined behaviour; the report says no known build cause and where the code ran."""
+    fw = reassociated(tmp_path)
+    v = validate(fw, "Mahony1DBias", MB_PARAMS, inputs)
     assert not v.bit_exact and v.comparison.first_sample > 0
     assert [c for c in v.causes if c.what != "warning"] == [], v.text()
     t = v.text()

@@ -18,10 +18,10 @@ import re
 import numpy as np
 import pytest
 
-from imufuse.firmware import Firmware, validate
+from imufuse.firmware import validate
 from imufuse.mcu import ensure_toolchains
 from test_firmware_causes import (DOUBLE_LITERAL, INVSQRT, NEG_SHIFT, OUT_OF_BOUNDS, OVERFLOW,
-                                  PARAMS, REASSOC, _line, _only, _plant)
+                                  MB_PARAMS, PARAMS, _line, _only, _plant, reassociated)
 
 TARGET = "cortex-m0"
 
@@ -92,13 +92,7 @@ def test_double_literal_on_the_target(tmp_path, inputs):
 
 
 def test_reassociated_sum_on_the_target(tmp_path, inputs):
-    (tmp_path / "mb.c").write_text(REASSOC)
-    (tmp_path / "mb.h").write_text("extern float mb_theta, mb_i;\n"
-                                   "void mb_begin(float dt, float kp, float ki);\n"
-                                   "void mb_step(float rate, float angle);\n")
-    fw = Firmware([str(tmp_path / "mb.c")], headers=["mb.h"], include_dirs=[str(tmp_path)],
-                  init="mb_begin", update="mb_step", state={"theta": "mb_theta", "i": "mb_i"})
-    v = _v(fw, inputs, "Mahony1DBias", dict(dt=0.005, kp=2.0, ki=0.3))
+    v = _v(reassociated(tmp_path), inputs, "Mahony1DBias", MB_PARAMS)
     assert not v.bit_exact
     assert not [c for c in v.causes if c.what not in ("warning",)], v.text()
     assert "none of the known build causes" in v.text()

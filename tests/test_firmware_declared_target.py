@@ -145,7 +145,7 @@ def test_arduino_style_class_with_default_flags(target):
     v = _validate(os.path.join(DECLARED, "madgwick_arduino.toml"), target, seconds=1.5,
                   kind="ahrs")
     assert v.max_angle_deg is not None and v.max_angle_deg < 0.01, v.text()
-    assert "-fno-exceptions" in " ".join(v.cflags) or v.cflags == ("-O2",), v.cflags
+    assert v.cflags == ("-O2",), v.cflags         # the target's default flags, as given
 
 
 # ---------------------------------------------------------------------------
