@@ -279,9 +279,10 @@ def add_parsers(sub):
     v.add_argument("--init-arg", action="append", metavar="NAME=VALUE")
     v.add_argument("--target", choices=target_names(), default="host",
                    help="where the firmware runs: host (cffi, this machine) or an emulated MCU "
-                        "built with its cross compiler and your --cflags: cortex-m4f (QEMU "
-                        "mps2-an386), cortex-m0 (QEMU microbit), atmega328p (simavr). The report "
-                        "adds the cause of a divergence and the cost per update")
+                        "built with its cross compiler and your --cflags: cortex-m0/m3/m4f/m7/"
+                        "m33/m55 (QEMU mps2/mps3 machines, microbit), rv32imac/rv32imafc (QEMU "
+                        "riscv32 virt), atmega328p (simavr). The report adds the cause of a "
+                        "divergence and the cost per update")
     v.add_argument("--cflags", metavar="FLAGS",
                    help="your compiler flags (the target adds only -mcpu/-mfpu/-mfloat-abi or "
                         "-mmcu); default '-std=c99 -O2 -ffp-contract=off' on the host, '-O2' on "

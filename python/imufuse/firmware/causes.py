@@ -106,6 +106,7 @@ _FAST = ("-ffast-math", "-Ofast", "-freciprocal-math", "-funsafe-math-optimizati
          "-fassociative-math")
 _FMA_ARM = re.compile(r"\bv?fn?m[as]\.f(?:32|64)\b|\bvfnm[as]\b")
 _FMA_X86 = re.compile(r"\bv?fn?m(?:add|sub)\d{3}[sp][sd]\b")
+_FMA_RISCV = re.compile(r"\bfn?m(?:add|sub)\.[sdh]\b")
 _DOUBLE_CALLS = re.compile(r"\b(__aeabi_d\w+|__aeabi_f2d|__\w+df\d?|__extendsfdf2|__truncdfsf2)\b")
 
 
@@ -118,7 +119,7 @@ def find_causes(objdump: str, objects: Sequence[Path], sources: Sequence[str], c
     if shutil.which(objdump):
         asm = subprocess.run([objdump, "-dr", *map(str, objects)], cwd=cwd, capture_output=True,
                              text=True).stdout
-    fma = sorted(set(_FMA_ARM.findall(asm) + _FMA_X86.findall(asm)))
+    fma = sorted(set(_FMA_ARM.findall(asm) + _FMA_X86.findall(asm) + _FMA_RISCV.findall(asm)))
     fma_calls = sorted(set(re.findall(r"\b(fmaf?|fmal)\b", " ".join(
         ln for ln in asm.splitlines() if "R_" in ln))))
     if fma or fma_calls:

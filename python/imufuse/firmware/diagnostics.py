@@ -248,9 +248,10 @@ def data_model(preprocessed: Sequence[Sequence[Tuple[str, int, str]]],
                 doubles.setdefault(path, []).append(line)
     for path, lines in doubles.items():
         more = f" (and {len(lines) - 1} more line(s))" if len(lines) > 1 else ""
-        out.append(Cause("data model", f"double variables{more}: double is 64 bits here and on "
-                         "the Cortex-M (in software there: the M4F's FPU is single precision), "
-                         "32 bits on the ATmega328P (avr-gcc)", None,
+        out.append(Cause("data model", f"double variables{more}: double is 64 bits here, on "
+                         "the Cortex-M and on RISC-V (in hardware on the M7 and M55, in software "
+                         "on the others: the M4F's, M33's and RV32F's FPUs are single "
+                         "precision), 32 bits on the ATmega328P (avr-gcc)", None,
                          where=f"{os.path.basename(path)}:{lines[0]}", detail="double",
                          advice="use float where float32 is meant; where double is meant, "
                                 "validate on each target"))

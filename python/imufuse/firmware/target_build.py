@@ -35,7 +35,6 @@ MAX_CHUNK = 50_000
 _MAGIC = 0x494D4601
 _IN_KIND = {np.dtype(np.float32): 1, np.dtype(np.float64): 2, np.dtype(np.int16): 3,
             np.dtype(np.int32): 4}
-_RAM_BASE = {"m4f": 0x20000000, "m0": 0x20000000, "avr": 0x800000}
 
 
 @dataclasses.dataclass
@@ -121,7 +120,9 @@ def _run(cmd: Sequence[str], cwd: Path, what: str) -> subprocess.CompletedProces
     except FileNotFoundError:
         raise _tc.ToolchainMissing(f"{cmd[0]} not found; run tools/install-toolchains.sh "
                                    "(Debian: gcc-arm-none-eabi, libnewlib-arm-none-eabi, "
-                                   "qemu-system-arm, gcc-avr, avr-libc, simavr)") from None
+                                   "qemu-system-arm, gcc-avr, avr-libc, simavr, "
+                                   "gcc-riscv64-unknown-elf, picolibc-riscv64-unknown-elf, "
+                                   "qemu-system-misc)") from None
     if proc.returncode != 0:
         raise _BuildFailed(f"{what} failed:\n  {' '.join(map(str, cmd))}\n"
                            f"{(proc.stdout + proc.stderr).strip()[-3000:]}")
@@ -205,7 +206,7 @@ def _build_in(fw: Any, target: str, name: str, tgt: "_tc.Target", driver: str, r
     # the target's architecture, then any the user's flags set (an ABI the harness's own
     # objects must share: -mfloat-abi=softfp, -mcpu=...)
     arch = list(tgt.arch_flags) + [f for f in user if f.startswith(
-        ("-mcpu", "-mfpu", "-mfloat-abi", "-march", "-mthumb", "-marm", "-mmcu"))]
+        ("-mcpu", "-mfpu", "-mfloat-abi", "-march", "-mabi", "-mthumb", "-marm", "-mmcu"))]
     objs: List[Path] = []
     cxx = _cxx(tgt.cc)
     adapter = fw.target_adapter(kind, getattr(fw, "values", {}).get("dt", 0.0)) \
@@ -247,10 +248,10 @@ def _build_in(fw: Any, target: str, name: str, tgt: "_tc.Target", driver: str, r
         # placed by the linker script, static constructors run by the start-up code)
         cmd = [cxx if any_cxx else tgt.cc, *arch, *(cxx_flags(user) if any_cxx else user),
                *tgt.link_flags]
-        if tgt.machine is not None:
+        script = _tc.linker_script(tgt)
+        if script is not None:
             ld = wd / "imf.ld"
-            ld.write_text((data / "arm.ld.in").read_text().replace("@FLASH_LEN@", str(tgt.flash))
-                          .replace("@RAM_LEN@", str(tgt.ram)))
+            ld.write_text(script)
             cmd.append(f"-T{ld}")
         cmd += [str(o) for o in (*objs, main, port, blk)]
         cmd += ["-o", str(elf), "-lm", f"-Wl,-Map={wd / 'imf_fw.map'}"]
@@ -275,7 +276,7 @@ def _build_in(fw: Any, target: str, name: str, tgt: "_tc.Target", driver: str, r
         in_dtype = np.dtype(np.float64 if fl and fl[0].size == 8 else np.float32)
     in_dtype = np.dtype(in_dtype)
     row_bytes = row * in_dtype.itemsize
-    free = tgt.flash - probe.flash_used(_RAM_BASE[name]) - ram_image - 512
+    free = tgt.flash - probe.flash_used(tgt.ram_origin) - ram_image - 512
     chunk = min(MAX_CHUNK, free // max(row_bytes, 1))
     if chunk < 1:
         raise TargetError(f"the firmware leaves no flash for inputs on the {target} "
@@ -292,7 +293,7 @@ def _build_in(fw: Any, target: str, name: str, tgt: "_tc.Target", driver: str, r
         for sym in _defined(_tool_prefix(tgt), objs, wd):
             if sym in elf.symbols:
                 addr, size, _ = elf.symbols[sym]
-                if addr >= _RAM_BASE[name]:
+                if addr >= tgt.ram_origin:
                     ram += size
                 else:
                     flash += size

@@ -111,6 +111,14 @@ def _emulator_cmd(tgt: Target, elf: Path, count: bool) -> List[str]:
         if count:
             cmd += ["-icount", f"shift={ICOUNT_SHIFT},align=off,sleep=off"]
         return cmd
+    if tgt.emulator == "qemu-system-riscv32":
+        cmd = [
+            "qemu-system-riscv32", "-M", str(tgt.machine), "-bios", "none", "-nographic",
+            "-monitor", "none", "-serial", "stdio", "-kernel", str(elf),
+        ]
+        if count:
+            cmd += ["-icount", f"shift={ICOUNT_SHIFT},align=off,sleep=off"]
+        return cmd
     if tgt.emulator == "simavr":
         return ["simavr", "-m", "atmega328p", "-f", "16000000", str(elf)]
     raise AssertionError(tgt.emulator)
@@ -141,6 +149,10 @@ def _to_counts(tgt: Target, raw: np.ndarray, overhead: int) -> np.ndarray:
             c = np.asarray(c, dtype=np.int64)
             return c - (c >> 16) * AVR_OVF_ISR_CYCLES
         return fix(raw) - int(fix(overhead))
+    if tgt.count_method == "csr":
+        # mcycle under -icount reads qemu's virtual clock: 2**shift ns per instruction
+        ins = np.asarray(raw, dtype=np.int64) >> ICOUNT_SHIFT
+        return ins - (int(overhead) >> ICOUNT_SHIFT)
     if tgt.machine is not None:
         ticks_per_insn = (2 ** ICOUNT_SHIFT) * 1e-9 * tgt.systick_hz
         ins = np.rint(raw / ticks_per_insn).astype(np.int64)

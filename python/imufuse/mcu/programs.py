@@ -11,7 +11,8 @@ import numpy as np
 
 from .driver import Driver
 from .inputs import _inputs_header
-from .toolchains import DATA_DIR, HarnessError, Target, ToolchainMissing, _SECTION_FLAGS, _require, _target, cflags
+from .toolchains import (DATA_DIR, HarnessError, Target, ToolchainMissing, _SECTION_FLAGS, _require,
+                         _target, cflags, linker_script)
 
 def _run_cmd(cmd: Sequence[str], cwd: Optional[Path] = None, timeout: float = 300) -> subprocess.CompletedProcess:
     try:
@@ -93,14 +94,10 @@ def build(
 
     elf = wd / f"imf_{target}.elf"
     cmd = [tgt.cc, *tgt.arch_flags, *tgt.link_flags]
-    if tgt.machine is not None:
+    script = linker_script(tgt)
+    if script is not None:
         ld = wd / "imf.ld"
-        ld.write_text(
-            (DATA_DIR / "arm.ld.in")
-            .read_text()
-            .replace("@FLASH_LEN@", str(tgt.flash))
-            .replace("@RAM_LEN@", str(tgt.ram))
-        )
+        ld.write_text(script)
         cmd += [f"-T{ld}"]
     cmd += [str(o) for o in objs] + ["-o", str(elf), "-lm"]
     try:

@@ -48,7 +48,13 @@ class Target:
     flash: int = 0  # bytes
     ram: int = 0
     count_unit: str = ""  # what run(count=True) measures
-    systick_hz: float = 0.0  # SysTick (processor) clock under qemu
+    systick_hz: float = 0.0  # SysTick (processor) clock under qemu; 0: a counter CSR
+    flash_origin: int = 0x00000000
+    ram_origin: int = 0x20000000
+    ldscript: str = "arm.ld.in"  # linker script template in DATA_DIR
+    # how run(count=True) counts: "systick" (SysTick under qemu -icount), "csr" (RISC-V
+    # mcycle under qemu -icount: the virtual clock), "timer1" (AVR cycles), "" (none)
+    count_method: str = ""
 
     @property
     def tools(self) -> Tuple[str, ...]:
@@ -59,36 +65,47 @@ class Target:
 
 
 _ARM_LINK = ("-nostartfiles", "-Wl,--gc-sections", "--specs=nano.specs")
+_RV_LINK = ("-nostartfiles", "-Wl,--gc-sections")
+
+
+def _arm(name: str, cpu_flags: Tuple[str, ...], machine: str, flash: int, ram: int,
+         systick_hz: float, flash_origin: int = 0, ram_origin: int = 0x20000000) -> Target:
+    return Target(name=name, cc="arm-none-eabi-gcc",
+                  arch_flags=(cpu_flags[0], "-mthumb", *cpu_flags[1:]),
+                  size_tool="arm-none-eabi-size", emulator="qemu-system-arm",
+                  sources=("arm_startup.c",), link_flags=_ARM_LINK, machine=machine,
+                  flash=flash, ram=ram, count_unit="instructions", systick_hz=systick_hz,
+                  flash_origin=flash_origin, ram_origin=ram_origin, count_method="systick")
+
+
+def _rv(name: str, march: str, mabi: str) -> Target:
+    # qemu's virt board: everything in its RAM at 0x80000000, the first 4 MB standing for flash
+    return Target(name=name, cc="riscv64-unknown-elf-gcc",
+                  arch_flags=(f"-march={march}", f"-mabi={mabi}", "-mcmodel=medany",
+                              "--specs=picolibc.specs"),
+                  size_tool="riscv64-unknown-elf-size", emulator="qemu-system-riscv32",
+                  sources=("riscv_port.c",), link_flags=_RV_LINK, machine="virt",
+                  flash=4 << 20, ram=4 << 20, count_unit="instructions",
+                  flash_origin=0x80000000, ram_origin=0x80400000, ldscript="riscv.ld.in",
+                  count_method="csr")
 
 TARGETS: Dict[str, Target] = {
-    "m4f": Target(
-        name="m4f",
-        cc="arm-none-eabi-gcc",
-        arch_flags=("-mcpu=cortex-m4", "-mthumb", "-mfpu=fpv4-sp-d16", "-mfloat-abi=hard"),
-        size_tool="arm-none-eabi-size",
-        emulator="qemu-system-arm",
-        sources=("arm_startup.c",),
-        link_flags=_ARM_LINK,
-        machine="mps2-an386",
-        flash=4 << 20,
-        ram=4 << 20,
-        count_unit="instructions",
-        systick_hz=25e6,
-    ),
-    "m0": Target(
-        name="m0",
-        cc="arm-none-eabi-gcc",
-        arch_flags=("-mcpu=cortex-m0", "-mthumb", "-mfloat-abi=soft"),
-        size_tool="arm-none-eabi-size",
-        emulator="qemu-system-arm",
-        sources=("arm_startup.c",),
-        link_flags=_ARM_LINK,
-        machine="microbit",
-        flash=256 << 10,
-        ram=16 << 10,
-        count_unit="instructions",
-        systick_hz=16e6,
-    ),
+    "m4f": _arm("m4f", ("-mcpu=cortex-m4", "-mfpu=fpv4-sp-d16", "-mfloat-abi=hard"),
+                "mps2-an386", 4 << 20, 4 << 20, 25e6),
+    "m0": _arm("m0", ("-mcpu=cortex-m0", "-mfloat-abi=soft"), "microbit", 256 << 10, 16 << 10,
+               16e6),
+    "m3": _arm("m3", ("-mcpu=cortex-m3", "-mfloat-abi=soft"), "mps2-an385", 4 << 20, 4 << 20,
+               25e6),
+    "m7": _arm("m7", ("-mcpu=cortex-m7", "-mfpu=fpv5-d16", "-mfloat-abi=hard"), "mps2-an500",
+               4 << 20, 4 << 20, 25e6),
+    # Armv8-M with the Security Extension: it starts in the Secure state, so the image and
+    # its RAM live at the Secure aliases of the SSRAMs
+    "m33": _arm("m33", ("-mcpu=cortex-m33", "-mfpu=fpv5-sp-d16", "-mfloat-abi=hard"),
+                "mps2-an505", 4 << 20, 4 << 20, 25e6, 0x10000000, 0x38000000),
+    "m55": _arm("m55", ("-mcpu=cortex-m55", "-mfloat-abi=hard"), "mps3-an547", 512 << 10,
+                512 << 10, 32e6, 0x10000000, 0x30000000),
+    "rv32imac": _rv("rv32imac", "rv32imac", "ilp32"),
+    "rv32imafc": _rv("rv32imafc", "rv32imafc", "ilp32f"),
     "avr": Target(
         name="avr",
         cc="avr-gcc",
@@ -100,6 +117,10 @@ TARGETS: Dict[str, Target] = {
         flash=32 << 10,
         ram=2 << 10,
         count_unit="cycles",
+        flash_origin=0,
+        ram_origin=0x800000,
+        ldscript="",
+        count_method="timer1",
     ),
     "host": Target(
         name="host",
@@ -110,6 +131,7 @@ TARGETS: Dict[str, Target] = {
         sources=("host_port.c",),
         link_flags=(),
         count_unit="",
+        ldscript="",
     ),
 }
 
@@ -157,6 +179,16 @@ def _require(tgt: Target, tools: Sequence[str]) -> None:
         raise ToolchainMissing(
             f"target {tgt.name!r} needs {' '.join(miss)}; run tools/install-toolchains.sh"
         )
+
+
+def linker_script(tgt: Target) -> Optional[str]:
+    """The target's linker script (its memory map filled in), or None (avr, host)."""
+    if not tgt.ldscript:
+        return None
+    return ((DATA_DIR / tgt.ldscript).read_text()
+            .replace("@FLASH_ORIGIN@", f"0x{tgt.flash_origin:08x}")
+            .replace("@RAM_ORIGIN@", f"0x{tgt.ram_origin:08x}")
+            .replace("@FLASH_LEN@", str(tgt.flash)).replace("@RAM_LEN@", str(tgt.ram)))
 
 
 def cflags(target: str, warnings: bool = True) -> List[str]:

@@ -39,7 +39,7 @@ static IMF_NOINLINE void imf_step_empty(void)
  * pattern; after it, the lowest changed byte gives the depth the call reached. The port
  * reports the current stack pointer and the lowest usable address (__heap_start: the end of
  * .bss on both ARM and AVR). IMF_STACK_WINDOW bounds the painted band. */
-#if defined(__AVR__) || defined(__arm__)
+#if defined(__AVR__) || defined(__arm__) || defined(__riscv)
 #define IMF_HAVE_STACK 1
 #ifndef IMF_STACK_WINDOW
 #if defined(__AVR__)
@@ -55,6 +55,10 @@ static inline uintptr_t imf_sp(void)
 {
 #if defined(__AVR__)
     return (uintptr_t)SP;
+#elif defined(__riscv)
+    uintptr_t sp;
+    __asm__ volatile("mv %0, sp" : "=r"(sp));
+    return sp;
 #else
     uintptr_t sp;
     __asm__ volatile("mov %0, sp" : "=r"(sp));

@@ -105,9 +105,9 @@ static IMF_NOINLINE void imf_step_empty(void)
     __asm__ volatile("" ::: "memory");
 }
 
-/* exit() of the firmware, named in the output, then the emulation ends: newlib's exit() calls
+/* exit() of the firmware, named in the output, then the emulation ends: newlib's and picolibc's exit() call
  * _exit (ARM); avr-libc's would end in a loop with interrupts off, so exit itself is replaced. */
-#if defined(__arm__) || defined(__AVR__)
+#if defined(__arm__) || defined(__riscv) || defined(__AVR__)
 static void imf_fw_exit(int status)
 {
     imf_port_write("\nIMF_EXIT ");
@@ -119,7 +119,7 @@ static void imf_fw_exit(int status)
     }
 }
 #endif
-#if defined(__arm__)
+#if defined(__arm__) || defined(__riscv)
 void _exit(int status);
 void _exit(int status)
 {
@@ -189,6 +189,10 @@ static __inline__ uintptr_t imf_fw_sp(void)
 {
 #if defined(__AVR__)
     return (uintptr_t)SP;
+#elif defined(__riscv)
+    uintptr_t sp;
+    __asm__ volatile("mv %0, sp" : "=r"(sp));
+    return sp;
 #else
     uintptr_t sp;
     __asm__ volatile("mov %0, sp" : "=r"(sp));

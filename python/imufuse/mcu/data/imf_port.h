@@ -1,6 +1,6 @@
 /* Port layer of the imufuse MCU harness: what the generated driver needs from a target.
- * Implementations: arm_startup.c (qemu, semihosting), avr_port.c (simavr, UART0),
- * host_port.c (a normal process). */
+ * Implementations: arm_startup.c (qemu Cortex-M machines, semihosting), riscv_port.c (qemu
+ * virt RV32, NS16550 UART), avr_port.c (simavr, UART0), host_port.c (a normal process). */
 #ifndef IMF_PORT_H
 #define IMF_PORT_H
 
@@ -18,7 +18,8 @@ void imf_port_exit(int status);
 
 /* Elapsed-count measurement around one call, in target units:
  *   avr : CPU cycles (Timer1 at clk/1 plus an overflow count)
- *   m4f, m0 : instructions (SysTick under qemu -icount; 0 without -icount)
+ *   Cortex-M : instructions (SysTick under qemu -icount; 0 without -icount)
+ *   RV32 : instructions (mcycle under qemu -icount: the virtual clock, 2**shift per instruction)
  *   host : 0 (use callgrind instead)
  * imf_port_count_begin() returns an opaque start value for imf_port_count_end(). */
 uint32_t imf_port_count_begin(void);
