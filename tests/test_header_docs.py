@@ -7,7 +7,8 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-HEADERS = sorted((ROOT / "csrc").glob("*.h")) + sorted((ROOT / "csrc" / "fixed").glob("*.h"))
+HEADERS = (sorted((ROOT / "csrc").glob("*.h")) + sorted((ROOT / "csrc" / "fixed").glob("*.h"))
+           + sorted((ROOT / "csrc" / "hil").glob("*.h")))
 _DECL = re.compile(r"^(?:const\s+)?[A-Za-z_]\w*(?:\s+\w+)*\s+\**(imf_\w+)\s*\(")
 
 

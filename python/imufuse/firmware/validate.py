@@ -24,6 +24,7 @@ from .causes import (Cause, angle_divergence_deg, double_promotions, find_causes
                      quaternion_angles_deg)
 from .declaration import FirmwareError
 from .diagnostics import explain_source
+from .hil import DEFAULT_BAUD, BoardCost, Link
 from .host import Firmware
 from .results import Cost, Validation
 from .sanitize import RunInputs
@@ -173,7 +174,8 @@ def _reference_run(name, params, inputs, backend, dtype):
 
 def validate(fw: "Firmware", name: str, params: Mapping[str, Any], inputs: Sequence[Any],
              backend: str = "c", dtype: Optional[str] = None, target: str = "host",
-             timeout: float = 60.0, explain: bool = True) -> "Validation":
+             timeout: float = 60.0, explain: bool = True, port: Optional[str] = None,
+             baud: int = DEFAULT_BAUD) -> "Validation":
     """Run firmware `fw` and the imufuse filter `name` (constructor keywords
     `params`, dt included) on the same inputs; return a Validation. dtype:
     the imufuse precision; default the firmware's (from sizeof of its state);
@@ -184,7 +186,14 @@ def validate(fw: "Firmware", name: str, params: Mapping[str, Any], inputs: Seque
     "cortex-m0", "atmega328p"): built there with the firmware's flags (default
     "-O2" for a cross target), run sample by sample on the emulator (logs of any
     length), with the cost per update. explain: when not bit-exact, look for the
-    cause in what was built and confirm it by rebuilding with its fix."""
+    cause in what was built and confirm it by rebuilding with its fix.
+
+    port: a serial port of a board whose firmware runs the HIL runner (csrc/hil/imf_hil.h) at
+    `baud`: the states and counts come from the board (imufuse.firmware.hil); the causes of a
+    divergence from the same sources built for `target` (when not "host") with the flags."""
+    if port is not None:
+        return _validate_port(fw, name, params, inputs, backend, dtype, target, timeout,
+                              explain, port, baud)
     if target != "host":
         return _validate_target(fw, name, params, inputs, backend, dtype, target, timeout, explain)
     e = _filter_entry(name)
@@ -435,4 +444,57 @@ def _finish_target(fw, name, params, inputs, backend, dtype, target, timeout, ex
                                 [cc, *_strip_arch(flags), *_defs_incs(fw)], wd, rerun_sources)
             finally:
                 shutil.rmtree(wd, ignore_errors=True)
+    return v
+
+
+def _validate_port(fw, name, params, inputs, backend, dtype, target, timeout, explain, port,
+                   baud):
+    """validate() on a board over a serial port (imufuse.firmware.hil.Link)."""
+    e = _filter_entry(name)
+    names = _state_names(fw, name, e)
+    _, row = fw._update_plan(e.kind)
+    flags = tuple(fw.cflags_given if fw.cflags_given is not None else DEFAULT_TARGET_CFLAGS)
+    try:
+        with Link(port, baud, timeout) as link:
+            h = link.hello()
+            ints, sizes = {bool(t & 0x100) for t in h.types}, {t & 0xFF for t in h.types}
+            if (h.in_dtype is None or h.n_in != row or len(h.types) != len(names)
+                    or ints != {e.fixed} or (not e.fixed and len(sizes) != 1)):
+                raise FirmwareError(
+                    f"the board on {port} runs {h.name!r} ({h.layout()}); the firmware "
+                    f"declared for {name} has {row} inputs and {len(names)} state words")
+            if not e.fixed:
+                fw_dtype = "float32" if sizes == {4} else "float64"
+                if dtype and dtype != fw_dtype:
+                    raise FirmwareError(f"the board's state is {fw_dtype}, asked to compare "
+                                        f"with {dtype}")
+                dtype = fw_dtype
+            inputs, want, _ = _reference_run(name, params, inputs, backend, dtype)
+            x = np.column_stack([np.asarray(a).reshape(len(a), -1) for a in inputs])
+            run = link.run(x.astype(h.in_dtype))
+    except TargetError as err:
+        raise FirmwareError(str(err)) from None
+    want = want[:, [e.state_names.index(n) for n in names]]
+    got = np.column_stack(run.states) if run.states else np.zeros((len(x), 0))
+    got, want = (got.astype(np.int64), want.astype(np.int64)) if e.fixed else \
+        (got.astype(dtype), want)
+    notes = [f"board {h.name!r} on {port} at {baud} baud", *(f"link: {ev}" for ev in link.events)]
+    c = run.counts
+    cost = BoardCost(h.count_unit, int(c.min()), float(np.median(c)), int(c.max()), None, 0,
+                     run.stack, counts=c) if c is not None and c.size else None
+    if c is None:
+        notes.append("the board's runner has no counter: no cost per update")
+    v = Validation(name, backend, compare_states(got, want, names), got, want,
+                   f"{target} board" if target != "host" else "board", flags,
+                   notes=notes, cost=cost,
+                   timing=dict(board=run.seconds, samples=float(len(x)), repeats=run.repeats))
+    v.max_angle_deg = None if v.bit_exact else _angle(name, params, got, want, names)
+    if explain and not v.bit_exact and target != "host":
+        tv = _validate_target(fw, name, params, inputs, backend, dtype, target, timeout, True)
+        v.causes = tv.causes
+        same = not tv.bit_exact and np.array_equal(tv.got.view(np.uint8), got.view(np.uint8))
+        v.notes.append(f"the same sources built with {' '.join(flags)} for the emulated {target} "
+                       + ("are bit-exact: the board's build differs (compiler, flags or "
+                          "library)" if tv.bit_exact else "give the same states bit for bit"
+                          if same else "diverge differently") + "; the causes are that build's")
     return v

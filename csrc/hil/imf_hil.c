@@ -1,0 +1,291 @@
+/* imufuse hardware-in-the-loop runner (see imf_hil.h for the protocol). */
+#include "imf_hil.h"
+
+#include <stddef.h>
+#include <string.h>
+
+#if defined(__GNUC__)
+#define IMF_HIL_NOINLINE __attribute__((noinline))
+#else
+#define IMF_HIL_NOINLINE
+#endif
+
+/* The stack pointer, where the compiler lets us read it; elsewhere no stack figure. */
+#if defined(__GNUC__) && IMF_HIL_STACK_BAND > 0u &&                                        \
+    (defined(__arm__) || defined(__AVR__) || defined(__riscv))
+#define IMF_HIL_HAVE_SP 1
+#if defined(__AVR__)
+#include <avr/io.h>
+#define IMF_HIL_READ_SP(v) ((v) = (uintptr_t)SP)
+#elif defined(__riscv)
+#define IMF_HIL_READ_SP(v) __asm__ volatile("mv %0, sp" : "=r"(v))
+#else
+#define IMF_HIL_READ_SP(v) __asm__ volatile("mov %0, sp" : "=r"(v))
+#endif
+#else
+#define IMF_HIL_HAVE_SP 0
+#endif
+
+#define IMF_HIL_PAINT 0xA5u
+#define IMF_HIL_NO_STACK 0xFFFFu
+
+enum {
+    IMF_HIL_NAK_CORRUPT = 1,
+    IMF_HIL_NAK_ORDER = 2,
+    IMF_HIL_NAK_IDLE = 3
+};
+
+uint16_t imf_hil_crc16(uint16_t crc, const uint8_t *data, uint16_t n)
+{
+    uint16_t i;
+    for (i = 0u; i < n; ++i) {
+        uint8_t bit;
+        crc = (uint16_t)(crc ^ (uint16_t)((uint16_t)data[i] << 8));
+        for (bit = 0u; bit < 8u; ++bit) {
+            crc = (crc & 0x8000u) != 0u ? (uint16_t)((uint16_t)(crc << 1) ^ 0x1021u)
+                                         : (uint16_t)(crc << 1);
+        }
+    }
+    return crc;
+}
+
+/* COBS: every zero of the frame replaced by the distance to the next one; frames are
+ * shorter than 254 bytes, so a block never needs a code of 0xFF. */
+static void imf_hil_send(const imf_hil_t *const self, const uint8_t *frame, uint8_t n)
+{
+    uint8_t start = 0u;
+    self->app->put_byte(0u);
+    while (start <= n) {
+        uint8_t end = start;
+        while (end < n && frame[end] != 0u) {
+            ++end;
+        }
+        self->app->put_byte((uint8_t)(end - start + 1u));
+        while (start < end) {
+            self->app->put_byte(frame[start++]);
+        }
+        start = (uint8_t)(end + 1u);
+    }
+    self->app->put_byte(0u);
+}
+
+/* type, sequence number, body already in frame[3..3+body); appends the CRC and sends. */
+static uint8_t imf_hil_seal(uint8_t *frame, uint8_t type, uint16_t seq, uint8_t body)
+{
+    uint16_t crc;
+    frame[0] = type;
+    frame[1] = (uint8_t)seq;
+    frame[2] = (uint8_t)(seq >> 8);
+    crc = imf_hil_crc16(0xFFFFu, frame, (uint16_t)(3u + body));
+    frame[3u + body] = (uint8_t)crc;
+    frame[4u + body] = (uint8_t)(crc >> 8);
+    return (uint8_t)(5u + body);
+}
+
+static void imf_hil_hello(const imf_hil_t *const self, uint8_t boot)
+{
+    uint8_t f[3u + 7u + 64u + 24u + 2u];
+    const imf_hil_app_t *const app = self->app;
+    uint8_t n = 0u;
+    uint8_t i;
+    f[3] = (uint8_t)IMF_HIL_VERSION;
+    f[4] = boot;
+    f[5] = (uint8_t)IMF_HIL_WINDOW;
+    f[6] = app->in_kind;
+    f[7] = app->n_in;
+    f[8] = app->n_state <= 32u ? app->n_state : 32u;
+    f[9] = app->count_begin != NULL ? app->count_unit : (uint8_t)IMF_HIL_COUNT_NONE;
+    n = 7u;
+    for (i = 0u; i < f[8]; ++i) {
+        f[3u + n++] = (uint8_t)app->state_types[i];
+        f[3u + n++] = (uint8_t)(app->state_types[i] >> 8);
+    }
+    for (i = 0u; app->name != NULL && app->name[i] != '\0' && i < 24u; ++i) {
+        f[3u + n++] = (uint8_t)app->name[i];
+    }
+    imf_hil_send(self, f, imf_hil_seal(f, 'h', 0u, n));
+}
+
+static void imf_hil_nak(const imf_hil_t *const self, uint8_t reason)
+{
+    uint8_t f[3u + 1u + 2u];
+    f[3] = reason;
+    imf_hil_send(self, f, imf_hil_seal(f, 'n', self->expected, 1u));
+}
+
+static void imf_hil_empty(const void *in)
+{
+    (void)in;
+}
+
+/* One call of fn: its count (less an empty call's) and the stack below the caller's. */
+static IMF_HIL_NOINLINE uint32_t imf_hil_call(const imf_hil_t *const self,
+                                              void (*fn)(const void *), const void *in,
+                                              uint16_t *stack)
+{
+    const imf_hil_app_t *const app = self->app;
+    uint32_t t0 = 0u;
+    uint32_t count = 0u;
+#if IMF_HIL_HAVE_SP
+    uintptr_t sp;
+    volatile uint8_t *p;
+    IMF_HIL_READ_SP(sp);
+    /* paint the band below the stack pointer; the update's frames overwrite it */
+    for (p = (volatile uint8_t *)(sp - IMF_HIL_STACK_BAND); (uintptr_t)p < sp; ++p) {
+        *p = IMF_HIL_PAINT;
+    }
+#endif
+    if (app->count_begin != NULL) {
+        t0 = app->count_begin();
+    }
+    fn(in);
+    if (app->count_begin != NULL) {
+        count = app->count_end(t0);
+    }
+#if IMF_HIL_HAVE_SP
+    for (p = (volatile uint8_t *)(sp - IMF_HIL_STACK_BAND); (uintptr_t)p < sp; ++p) {
+        if (*p != IMF_HIL_PAINT) {
+            break;
+        }
+    }
+    /* the whole band written: the update went deeper than the band, no figure */
+    *stack = (uintptr_t)p == sp - IMF_HIL_STACK_BAND ? (uint16_t)IMF_HIL_NO_STACK
+                                                     : (uint16_t)(sp - (uintptr_t)p);
+#else
+    *stack = (uint16_t)IMF_HIL_NO_STACK;
+#endif
+    return count;
+}
+
+static void imf_hil_sample(imf_hil_t *const self, const uint8_t *body, uint8_t n)
+{
+    const imf_hil_app_t *const app = self->app;
+    uint8_t *const a = self->answer[self->expected % IMF_HIL_WINDOW];
+    uint8_t len;
+    uint16_t stack;
+    uint32_t count;
+    memcpy(self->in.b, body, n);
+    if (app->load != NULL) {
+        app->load(self->in.b);
+    }
+    count = imf_hil_call(self, app->update, self->in.b, &stack);
+    count = count >= self->overhead ? count - self->overhead : 0u;
+    if (stack != IMF_HIL_NO_STACK) {
+        stack = stack >= self->stack_empty ? (uint16_t)(stack - self->stack_empty) : 0u;
+    }
+    len = app->state(a + 3);
+    a[3u + len] = (uint8_t)count;
+    a[4u + len] = (uint8_t)(count >> 8);
+    a[5u + len] = (uint8_t)(count >> 16);
+    a[6u + len] = (uint8_t)(count >> 24);
+    a[7u + len] = (uint8_t)stack;
+    a[8u + len] = (uint8_t)(stack >> 8);
+    self->answer_len[self->expected % IMF_HIL_WINDOW] =
+        imf_hil_seal(a, 'r', self->expected, (uint8_t)(len + 6u));
+    imf_hil_send(self, a, self->answer_len[self->expected % IMF_HIL_WINDOW]);
+    self->expected++;
+}
+
+/* A received frame, decoded: check it and answer. */
+static uint16_t imf_hil_frame(imf_hil_t *const self, const uint8_t *f, uint8_t n)
+{
+    uint16_t seq;
+    uint16_t behind;
+    const uint8_t in_bytes = (uint8_t)(self->app->n_in *
+                                       (self->app->in_kind == IMF_HIL_IN_F64   ? 8u
+                                        : self->app->in_kind == IMF_HIL_IN_I16 ? 2u
+                                                                               : 4u));
+    if (n < 5u || imf_hil_crc16(0xFFFFu, f, (uint16_t)(n - 2u)) !=
+                      (uint16_t)(f[n - 2u] | (uint16_t)((uint16_t)f[n - 1u] << 8))) {
+        imf_hil_nak(self, IMF_HIL_NAK_CORRUPT);
+        return 0u;
+    }
+    seq = (uint16_t)(f[1] | (uint16_t)((uint16_t)f[2] << 8));
+    if (f[0] == 'H') {
+        imf_hil_hello(self, 0u);
+        return 0u;
+    }
+    if (f[0] == 'B') {
+        uint8_t ack[5];
+        self->app->init();
+        self->expected = 0u;
+        self->running = 1u;
+        imf_hil_send(self, ack, imf_hil_seal(ack, 'b', seq, 0u));
+        return 0u;
+    }
+    if (f[0] != 'S' || n != (uint8_t)(5u + in_bytes)) {
+        imf_hil_nak(self, IMF_HIL_NAK_CORRUPT);
+        return 0u;
+    }
+    if (!self->running) {
+        imf_hil_nak(self, IMF_HIL_NAK_IDLE);
+        return 0u;
+    }
+    if (seq == self->expected) {
+        imf_hil_sample(self, f + 3, in_bytes);
+        return 1u;
+    }
+    behind = (uint16_t)(self->expected - seq);
+    if (behind >= 1u && behind <= IMF_HIL_WINDOW && behind <= self->expected) {
+        /* a repeat: the host lost the answer; the update is not run twice */
+        imf_hil_send(self, self->answer[seq % IMF_HIL_WINDOW],
+                     self->answer_len[seq % IMF_HIL_WINDOW]);
+        return 0u;
+    }
+    imf_hil_nak(self, IMF_HIL_NAK_ORDER);
+    return 0u;
+}
+
+void imf_hil_init(imf_hil_t *const self, const imf_hil_app_t *const app)
+{
+    uint16_t stack = 0u;
+    memset(self, 0, sizeof *self);
+    self->app = app;
+    self->overhead = imf_hil_call(self, imf_hil_empty, self->in.b, &stack);
+    self->stack_empty = stack;
+    imf_hil_hello(self, 1u);
+}
+
+uint16_t imf_hil_poll(imf_hil_t *const self)
+{
+    uint16_t ran = 0u;
+    int c;
+    while ((c = self->app->get_byte()) >= 0) {
+        if (c != 0) {
+            if (self->rx_len < (uint8_t)sizeof self->rx) {
+                self->rx[self->rx_len++] = (uint8_t)c;
+            } else {
+                self->rx_over = 1u;
+            }
+            continue;
+        }
+        if (self->rx_len > 0u) {
+            /* COBS decode in place: the decoded frame is one byte shorter */
+            uint8_t r = 0u;
+            uint8_t w = 0u;
+            uint8_t ok = (uint8_t)!self->rx_over;
+            while (ok && r < self->rx_len) {
+                const uint8_t code = self->rx[r++];
+                uint8_t k;
+                if (code == 0u || r + code - 1u > self->rx_len) {
+                    ok = 0u;
+                    break;
+                }
+                for (k = 1u; k < code; ++k) {
+                    self->rx[w++] = self->rx[r++];
+                }
+                if (code < 0xFFu && r < self->rx_len) {
+                    self->rx[w++] = 0u;
+                }
+            }
+            if (ok) {
+                ran = (uint16_t)(ran + imf_hil_frame(self, self->rx, w));
+            } else {
+                imf_hil_nak(self, IMF_HIL_NAK_CORRUPT);
+            }
+        }
+        self->rx_len = 0u;
+        self->rx_over = 0u;
+    }
+    return ran;
+}
