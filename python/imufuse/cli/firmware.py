@@ -13,7 +13,7 @@ from .._resources import csrc_dir
 from ..catalogue import canonical_name, inputs_for, reference_class, resolve_params
 from ..catalogue import entry as _entry
 from ..firmware import (DEFAULT_TIMEOUT, Firmware, FirmwareError, counts_for, csrc_firmware,
-                        mag_counts_scale, target_names, validate_isolated)
+                        mag_counts_scale, target_names, validate, validate_isolated)
 from ..firmware.report import build_info, error_dict, report_dict, tolerance, write_reports
 from ..firmware.declfile import load_declaration
 from ..firmware.versus import compare_firmware
@@ -177,8 +177,15 @@ def _validate(args):
     params, inputs, src = _side_inputs(args.filter, cls.kind, overrides, dt, raw, src)
     args.report_context = (fw, params, src)      # for the reports of an error (_reported)
     pair = args.against or args.against_target or args.against_cflags is not None
-    v = validate_isolated(fw, args.filter, params, inputs, backend=args.backend, dtype=args.dtype,
-                          timeout=args.timeout, target=args.target, explain=not pair)
+    if args.port:
+        # the board runs the firmware the user built: nothing of it runs in this process
+        v = validate(fw, args.filter, params, inputs, backend=args.backend, dtype=args.dtype,
+                     timeout=args.timeout, target=args.target, explain=not pair,
+                     port=args.port, baud=args.baud)
+    else:
+        v = validate_isolated(fw, args.filter, params, inputs, backend=args.backend,
+                              dtype=args.dtype, timeout=args.timeout, target=args.target,
+                              explain=not pair)
     v.params = dict(params)
     if pair:
         v = _against(args, v, fw, cls.kind, dt, raw, src)
@@ -283,6 +290,13 @@ def add_parsers(sub):
                         "m33/m55 (QEMU mps2/mps3 machines, microbit), rv32imac/rv32imafc (QEMU "
                         "riscv32 virt), atmega328p (simavr). The report adds the cause of a "
                         "divergence and the cost per update")
+    v.add_argument("--port", metavar="PORT",
+                   help="validate on a board: the serial port of a board whose firmware runs "
+                        "the HIL runner (csrc/hil/imf_hil.h), e.g. /dev/ttyACM0; the states and "
+                        "counts come from the board; with --target CORE the causes of a "
+                        "divergence come from your sources built for that emulated core")
+    v.add_argument("--baud", type=positive(int, 100_000_000), default=1_000_000, metavar="N",
+                   help="with --port: the baud rate (default 1000000)")
     v.add_argument("--cflags", metavar="FLAGS",
                    help="your compiler flags (the target adds only -mcpu/-mfpu/-mfloat-abi or "
                         "-mmcu); default '-std=c99 -O2 -ffp-contract=off' on the host, '-O2' on "

@@ -84,6 +84,8 @@ from .target_run import TargetRun, run_program
 from .targets import (DEFAULT_TARGET_CFLAGS, DESCRIPTION, TARGETS, TargetError, harness_target,
                       speed_note, target_names)
 from .validate import counts_for, mag_counts_scale, validate
+from .hil import DEFAULT_BAUD, BoardCost, BoardRun, Link
+from .hil_board import Board, build_board
 
 __all__ = ["Firmware", "FirmwareError", "Validation", "validate", "csrc_firmware",
            "parse_prototype", "Comparison", "compare_states", "ulps", "DEFAULT_CFLAGS",
@@ -93,4 +95,6 @@ __all__ = ["Firmware", "FirmwareError", "Validation", "validate", "csrc_firmware
            "TARGETS", "DESCRIPTION", "DEFAULT_TARGET_CFLAGS", "TargetError", "target_names",
            "harness_target", "speed_note", "MAX_CHUNK", "StateType", "Program", "build_program",
            "TargetRun", "run_program", "Cause", "find_causes", "double_promotions",
-           "angle_divergence_deg", "hexfloat"]
+           "angle_divergence_deg", "hexfloat",
+           # hardware in the loop (validate(..., port=...)) and its emulated boards
+           "Link", "BoardRun", "BoardCost", "DEFAULT_BAUD", "Board", "build_board"]

@@ -23,8 +23,8 @@ from .targets import TargetError
 __all__ = ["Link", "BoardRun", "BoardCost", "DEFAULT_BAUD"]
 
 DEFAULT_BAUD = 1_000_000
-#: a sample's answer missing this long (seconds) is asked for again
-REPEAT_AFTER = 0.5
+#: the board silent this long (seconds) with samples in flight: they are sent again
+REPEAT_AFTER = 1.0
 
 
 @dataclasses.dataclass
@@ -199,7 +199,7 @@ class Link:
             if base < n and now - last_heard > self.timeout:
                 raise TargetError(f"the board stopped answering at sample {base} (nothing "
                                   f"within {self.timeout:g} s on {self.port})", base)
-            if base < nxt and now - sent_at.get(base, now) > REPEAT_AFTER:
+            if base < nxt and min(now - sent_at.get(base, now), now - last_heard) > REPEAT_AFTER:
                 # nothing for the oldest sample: its frame or its answer was lost whole
                 event(base, "no answer (a frame lost on the way)" if not corrupted else
                       "its answer came back corrupted (CRC)")

@@ -1,0 +1,181 @@
+"""`validate --port`: the HIL runner (csrc/hil) on the emulated boards' own UARTs (QEMU's
+CMSDK UART0 on -serial pty, simavr's USART0 on a pseudo-terminal), driven through the real
+host side (pyserial), against `validate --target` on the same build.
+
+On a pseudo-terminal QEMU's baud rate is nominal: the bytes pass as fast as the host moves
+them. simavr's UART runs at the baud rate the firmware set, in simulated time.
+
+The firmware is examples/firmware-tests/cf.c (Eq. 2.2 as firmware writes it): with
+-ffp-contract=off bit-exact, with gnu defaults on the Cortex-M4F two vfma.f32 (a planted FMA
+divergence). Faults are injected by tests/hil_proxy.py between the board and the validator
+(a dropped byte, a flipped bit, silence) or built into the board (a reset at sample N).
+"""
+import os
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from imufuse._resources import csrc_dir
+from imufuse.firmware import (TARGETS, Board, FirmwareError, build_board, csrc_firmware,
+                              validate)
+from imufuse.mcu import ensure_toolchains
+from hil_proxy import Proxy
+from test_firmware_target import FW, PARAMS, _cf, _fw, _motion
+
+pytest.importorskip("serial")
+pytestmark = pytest.mark.xdist_group("hil")
+
+N = 300
+
+
+def _m7(*values):
+    return pytest.param("cortex-m7", *values, marks=pytest.mark.skipif(
+        "cortex-m7" not in TARGETS, reason="cortex-m7 is not a --target of this checkout yet"))
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _toolchains():
+    missing = ensure_toolchains(("m4f", "avr"))
+    assert not missing, f"MCU toolchains missing: {missing}"
+
+
+def _case(flags, n=N):
+    dt, ins = _motion(n)
+    return _fw(*_cf(), flags), dict(dt=dt, **PARAMS), ins
+
+
+def _both(target, flags, baud):
+    """validate --port on the board and validate --target on the same build."""
+    fw, params, ins = _case(flags)
+    prog = build_board(fw, "Complementary1D", params, target, baud=baud)
+    try:
+        with Board(prog) as b:
+            vp = validate(fw, "Complementary1D", params, ins, target=target, port=b.port,
+                          baud=baud, timeout=10)
+    finally:
+        shutil.rmtree(prog.workdir, ignore_errors=True)
+    vt = validate(fw, "Complementary1D", params, ins, target=target)
+    return vp, vt
+
+
+def _same_report(vp, vt):
+    assert vp.bit_exact == vt.bit_exact
+    assert vp.comparison.first_sample == vt.comparison.first_sample
+    assert vp.comparison.names == vt.comparison.names
+    assert vp.got.dtype == vt.got.dtype and np.array_equal(
+        vp.got.view(np.uint8), vt.got.view(np.uint8))      # every state bit, every sample
+    assert [c.what for c in vp.causes] == [c.what for c in vt.causes]
+    assert [c.confirmed for c in vp.causes] == [c.confirmed for c in vt.causes]
+    # the counts: the runner's call of the update differs from the --target driver's by a
+    # few instructions or cycles, the same for every sample
+    d = vp.cost.counts - vt.cost.counts
+    assert vp.cost.unit == vt.cost.unit and len(vp.cost.counts) == N
+    assert d.min() == d.max() and abs(int(d[0])) <= 8, d[:5]
+    assert vp.cost.stack is not None and abs(vp.cost.stack - vt.cost.stack) <= 8
+
+
+@pytest.mark.parametrize("target,baud", [("cortex-m4f", 115_200), ("cortex-m4f", 1_000_000),
+                                         _m7(1_000_000), ("atmega328p", 115_200),
+                                         ("atmega328p", 1_000_000)])
+def test_bit_exact_firmware_same_report_as_target(target, baud):
+    vp, vt = _both(target, ["-O2", "-ffp-contract=off"], baud)
+    assert vp.bit_exact, vp.text()
+    _same_report(vp, vt)
+    assert f"at {baud} baud" in vp.text()
+
+
+@pytest.mark.parametrize("target", ["cortex-m4f", _m7()])
+def test_planted_fma_same_divergence_and_cause_as_target(target):
+    vp, vt = _both(target, ["-O2"], 115_200)
+    assert not vp.bit_exact and vp.comparison.first_sample == 0
+    _same_report(vp, vt)
+    text = vp.text()
+    assert "vfma.f32" in text and "-ffp-contract=off (confirmed" in text
+    assert "give the same states bit for bit" in text
+
+
+# ---------------------------------------------------------------------------
+# faults, each named in one line with its sample
+
+@pytest.fixture(scope="module")
+def m4f_board():
+    fw, params, ins = _case(["-O2", "-ffp-contract=off"])
+    prog = build_board(fw, "Complementary1D", params, "cortex-m4f")
+    yield fw, params, ins, prog
+    shutil.rmtree(prog.workdir, ignore_errors=True)
+
+
+def _through(m4f_board, **fault):
+    fw, params, ins, prog = m4f_board
+    with Board(prog) as b, Proxy(b.port, **fault) as p:
+        v = validate(fw, "Complementary1D", params, ins, target="cortex-m4f", port=p.port,
+                     timeout=2)
+        assert p.done, "the fault was not injected"
+        return v
+
+
+@pytest.mark.parametrize("fault,to_board,k,line", [
+    ("drop", True, 57, "sample 57: the board received a corrupted frame (CRC or framing); "
+                       "sent again, recovered"),
+    ("flip", True, 120, "sample 120: the board received a corrupted frame (CRC or framing); "
+                        "sent again, recovered"),
+    ("drop", False, 200, "sample 200: its answer came back corrupted (CRC); sent again, "
+                         "recovered"),
+    ("flip", False, 33, "sample 33: its answer came back corrupted (CRC); sent again, "
+                        "recovered"),
+])
+def test_a_lost_or_corrupted_byte_is_repaired_and_named(m4f_board, fault, to_board, k, line):
+    v = _through(m4f_board, fault=fault, sample=k, to_board=to_board)
+    # every sample compared, the same bits as without the fault
+    assert v.bit_exact and len(v.got) == N
+    links = [n for n in v.notes if n.startswith("link:")]
+    assert links == ["link: " + line], links
+
+
+def test_silence_names_the_sample(m4f_board):
+    with pytest.raises(FirmwareError, match=r"^the board stopped answering at sample 150 "
+                                            r"\(nothing within 2 s on /dev/pts/\d+\)$"):
+        _through(m4f_board, fault="silence", sample=150)
+
+
+def test_a_reset_mid_run_names_the_sample():
+    fw, params, ins = _case(["-O2", "-ffp-contract=off"])
+    prog = build_board(fw, "Complementary1D", params, "cortex-m4f", reset_at=90)
+    with Board(prog) as b:
+        with pytest.raises(FirmwareError, match=r"^the board restarted at sample 90 \(its "
+                                                r"start-up banner arrived during the run\)$"):
+            validate(fw, "Complementary1D", params, ins, target="cortex-m4f", port=b.port,
+                     timeout=5)
+
+
+def test_other_firmware_is_named():
+    """A board whose runner serves another firmware: its name and layout."""
+    fw, params, ins = _case(["-O2", "-ffp-contract=off"])
+    other = csrc_firmware("MadgwickIMU", csrc_dir(), cflags=["-O2", "-ffp-contract=off"])
+    prog = build_board(other, "MadgwickIMU", dict(dt=params["dt"]), "cortex-m4f",
+                       board_name="attitude-kalman 2.1")
+    with Board(prog) as b:
+        with pytest.raises(FirmwareError, match=r"^the board on /dev/pts/\d+ runs 'attitude-"
+                           r"kalman 2.1' \(6 float32 inputs, 4 state words \(float32\)\); the "
+                           r"firmware declared for Complementary1D has 2 inputs and 1 state "
+                           r"words$"):
+            validate(fw, "Complementary1D", params, ins, target="cortex-m4f", port=b.port,
+                     timeout=5)
+
+
+def test_cli_port_silence_exits_5(m4f_board, tmp_path):
+    fw, params, ins, prog = m4f_board
+    with Board(prog) as b, Proxy(b.port, fault="silence", sample=100) as p:
+        proc = subprocess.run(
+            [sys.executable, "-m", "imufuse", "validate", os.path.join(FW, "cf.c"), "--header",
+             "cf.h", "-I", FW, "--filter", "Complementary1D", "--init", "cf_init", "--update",
+             "cf_update", "--state", "theta=theta", "--cflags", "-O2 -ffp-contract=off",
+             "--port", p.port, "--baud", "115200", "--timeout", "2", "--duration", "2"],
+            capture_output=True, text=True, cwd=tmp_path)
+    assert proc.returncode == 5, proc.stdout + proc.stderr
+    err = [ln for ln in (proc.stdout + proc.stderr).splitlines() if "sample 100" in ln]
+    assert len(err) == 1 and "the board stopped answering at sample 100" in err[0], \
+        proc.stdout + proc.stderr
