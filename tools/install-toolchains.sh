@@ -12,7 +12,7 @@ set -eu
 # clang + libclang-rt-14-dev: the sanitizer and libFuzzer runs of tests/test_sanitizers.py
 # gcc-riscv64-unknown-elf + picolibc-riscv64-unknown-elf + qemu-system-misc: the RV32 targets
 # (rv32imac, rv32imafc on qemu-system-riscv32 -M virt)
-PACKAGES="make g++ pkg-config arduino-builder arduino-core-avr gcc-arm-none-eabi libnewlib-arm-none-eabi libstdc++-arm-none-eabi-newlib qemu-system-arm gcc-avr avr-libc binutils-avr simavr valgrind clang libclang-rt-14-dev gcc-riscv64-unknown-elf picolibc-riscv64-unknown-elf qemu-system-misc"
+PACKAGES="make g++ pkg-config arduino-builder arduino-core-avr gcc-arm-none-eabi libnewlib-arm-none-eabi libstdc++-arm-none-eabi-newlib qemu-system-arm gcc-avr avr-libc binutils-avr simavr libsimavr-dev valgrind clang libclang-rt-14-dev gcc-riscv64-unknown-elf picolibc-riscv64-unknown-elf qemu-system-misc"
 
 missing=""
 for p in $PACKAGES; do
