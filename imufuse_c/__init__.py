@@ -193,11 +193,11 @@ for _name in FILTERS_FUSION:
     globals()[_name] = _dispatch_fusion(_name)
 
 
-def _fusion_function(cname):
+def _fusion_function(cname, twin=_reference.fusion):
     def f(*args, dtype="float64", **kwargs):
         return getattr(_BUILDS[_checks.check_dtype(dtype)], cname)(*args, **kwargs)
     f.__name__ = cname[len("fusion_"):]
-    f.__doc__ = getattr(_reference.fusion, cname[len("fusion_"):]).__doc__
+    f.__doc__ = getattr(twin, cname[len("fusion_"):]).__doc__
     return f
 
 
@@ -205,5 +205,9 @@ calibrate_inertial = _fusion_function("fusion_calibrate_inertial")
 calibrate_magnetic = _fusion_function("fusion_calibrate_magnetic")
 axes_apply = _fusion_function("fusion_axes_apply")
 compass_heading = _fusion_function("fusion_compass_heading")
+# Fusion 1.3's names (csrc/fusion13.h: the same C as the 1.2.3 models and alignment)
+remap = _fusion_function("fusion_remap", _reference.fusion13)
+model_inertial = _fusion_function("fusion_model_inertial", _reference.fusion13)
+model_magnetic = _fusion_function("fusion_model_magnetic", _reference.fusion13)
 __all__ += [*FILTERS_FUSION, "FILTERS_FUSION", "calibrate_inertial", "calibrate_magnetic",
-            "axes_apply", "compass_heading"]
+            "axes_apply", "compass_heading", "remap", "model_inertial", "model_magnetic"]

@@ -239,18 +239,17 @@ def fetch_sdist():
     return sdist
 
 
-def imufusion_module(sdist):
-    """The sdist built by its own setup.py (FUSION_USE_NORMAL_SQRT), imported."""
+def imufusion_module(sdist, version=VERSION, builder=None):
+    """The sdist built by its own setup.py (FUSION_USE_NORMAL_SQRT), imported. builder(sdist,
+    tmp) builds it into tmp where pip cannot (default: pip install --target)."""
     tag = sysconfig.get_config_var("EXT_SUFFIX") or ""
-    target = CACHE / f"imufusion-{VERSION}-{hashlib.sha256(tag.encode()).hexdigest()[:8]}"
+    target = CACHE / f"imufusion-{version}-{hashlib.sha256(tag.encode()).hexdigest()[:8]}"
     found = glob.glob(str(target / "imufusion*.so"))
     if not found:
         with tempfile.TemporaryDirectory(dir=CACHE) as tmp:
-            cmd = [sys.executable, "-m", "pip", "install", "--no-build-isolation", "--no-deps",
-                   "--disable-pip-version-check", "-q", "--target", tmp, str(sdist)]
-            r = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
-            if r.returncode != 0:
-                unavailable(f"cannot build imufusion {VERSION}: {r.stderr.strip()[-800:]}")
+            err = (builder or _pip_build)(sdist, tmp)
+            if err:
+                unavailable(f"cannot build imufusion {version}: {err[-800:]}")
             shutil.rmtree(target, ignore_errors=True)
             shutil.copytree(tmp, target)
         found = glob.glob(str(target / "imufusion*.so"))
@@ -261,8 +260,16 @@ def imufusion_module(sdist):
     return mod
 
 
-def fusion_c(sdist, normal_sqrt):
-    """Fusion's C from the sdist + SHIM, compiled with cffi; returns (ffi, lib)."""
+def _pip_build(sdist, tmp):
+    cmd = [sys.executable, "-m", "pip", "install", "--no-build-isolation", "--no-deps",
+           "--disable-pip-version-check", "-q", "--target", tmp, str(sdist)]
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    return r.stderr.strip() if r.returncode != 0 else ""
+
+
+def fusion_c(sdist, normal_sqrt, version=VERSION, shim=SHIM, cdef=CDEF,
+             sources=("FusionAhrs.c", "FusionOffset.c", "FusionCompass.c")):
+    """Fusion's C from the sdist + shim, compiled with cffi; returns (ffi, lib)."""
     try:
         import cffi
     except ImportError:
@@ -271,9 +278,9 @@ def fusion_c(sdist, normal_sqrt):
         unavailable("a C compiler is needed to compile Fusion's C")
     with tarfile.open(sdist) as tar:
         files = {Path(m.name).name: tar.extractfile(m).read()
-                 for m in tar.getmembers() if m.name.startswith(f"imufusion-{VERSION}/Fusion/")
+                 for m in tar.getmembers() if m.name.startswith(f"imufusion-{version}/Fusion/")
                  and m.isfile()}
-    key = hashlib.sha256(repr((sorted(files.items()), SHIM, CFLAGS, normal_sqrt)).encode()
+    key = hashlib.sha256(repr((sorted(files.items()), shim, cdef, CFLAGS, normal_sqrt)).encode()
                          ).hexdigest()[:12]
     name = f"_fusion_oracle_{key}"
     build = CACHE / f"fusion-c-{key}"
@@ -285,10 +292,8 @@ def fusion_c(sdist, normal_sqrt):
         for fname, data in files.items():
             (src / fname).write_bytes(data)
         ffi = cffi.FFI()
-        ffi.cdef(CDEF)
-        ffi.set_source(name, SHIM,
-                       sources=[str(src / f) for f in ("FusionAhrs.c", "FusionOffset.c",
-                                                       "FusionCompass.c")],
+        ffi.cdef(cdef)
+        ffi.set_source(name, shim, sources=[str(src / f) for f in sources],
                        include_dirs=[str(src)],
                        define_macros=[("FUSION_USE_NORMAL_SQRT", None)] if normal_sqrt else [],
                        extra_compile_args=CFLAGS, libraries=["m"])

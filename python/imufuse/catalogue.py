@@ -51,6 +51,7 @@ from typing import Any, Dict, FrozenSet, Iterable, List, Mapping, Optional, Sequ
 
 import imufuse_c as compiled
 
+from . import _fusion13
 from . import recovery as _recovery
 from . import reference
 from ._checks import KINDS, check_dtype
@@ -235,6 +236,16 @@ CATALOGUE: Tuple[Entry, ...] = (
                              recovery_trigger_period=0), estimate="quaternion",
           recovery=_recovery.fusion_ahrs),
     Entry("FusionOffset", dict(sample_rate=100), recovery=_recovery.fusion_offset),
+    # Fusion's current release (1.3; imufusion 1.3.3) beside 1.2.3: the sample period is a
+    # setting (sample_rate) that set_sample_period (or run's dt) replaces before an update;
+    # start-up can be skipped; FusionBias replaces FusionOffset. tests/test_fusion13.py.
+    Entry("FusionAHRS13", dict(sample_rate=100.0, convention="NWU", gain=0.5,
+                               gyroscope_range=0.0, acceleration_rejection=0.0,
+                               magnetic_rejection=0.0, rejection_timeout=0.0),
+          estimate="quaternion", recovery=_recovery.fusion_ahrs13,
+          presets={"advanced": dict(_fusion13.ADVANCED)}),
+    Entry("FusionBias", dict(sample_rate=100.0, stationary_threshold=3.0, stationary_period=3.0),
+          recovery=_recovery.fusion_bias),
     # ---- Nair's variometer: update(accel, baro_alt, dt), its own input kind ("vario"),
     # no attitude. tests/test_vario.py drives it (C vs twin, hostile input, Nair's
     # claims), the MCU runner runs it, bench/test_bench_vario.py times it.

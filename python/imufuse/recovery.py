@@ -24,7 +24,8 @@ from typing import Any, Callable, Mapping, Optional
 import numpy as np
 
 __all__ = ["MARGIN", "LN_MAX", "Budget", "mahony", "madgwick", "multiwii", "kk", "robust",
-           "linear", "fusion_ahrs", "fusion_offset", "spectral_radius"]
+           "linear", "fusion_ahrs", "fusion_offset", "fusion_ahrs13", "fusion_bias",
+           "spectral_radius"]
 
 #: samples added to every budget: the last transient into the 2 degree band
 MARGIN = 1000
@@ -138,3 +139,26 @@ def fusion_offset(cls: Any, p: Mapping[str, Any], dt: Any, dtype: str) -> float:
     from the bias for the 1.2 deg/s of tests/test_hostile.py)."""
     rate = p["sample_rate"]
     return 5 * rate + math.log(4.2 / 0.01) / (2.0 * math.pi * 0.02 / rate)
+
+
+def fusion_ahrs13(cls: Any, p: Mapping[str, Any], dt: Any, dtype: str) -> float:
+    """FusionAHRS13 (Fusion 1.3): 12 / (gain T) + 3 s / T + sample_rate rejection_timeout.
+
+    As fusion_ahrs, with T the period of the updates (dt if given, else the settings'
+    1 / sample_rate) and the rejection timeout given in seconds (sample_rate times it in
+    samples): the feedback turns q at gain sin(error) rad/s, an overrange restarts the 3 s
+    start-up, and a refused feedback is forced back on after the timeout."""
+    period = 1.0 / p["sample_rate"] if dt is None else dt
+    return 12.0 / (p["gain"] * period) + 3.0 / period + p["sample_rate"] * p["rejection_timeout"]
+
+
+def fusion_bias(cls: Any, p: Mapping[str, Any], dt: Any, dtype: str) -> float:
+    """FusionBias (Fusion 1.3), to hold the gyroscope bias within 0.01 deg/s again:
+    stationary_period sample_rate + ln(4.2 / 0.01) / (2 pi 0.02 / sample_rate).
+
+    As fusion_offset, with the stationary period a setting (seconds) instead of 1.2.3's
+    fixed 5 s: a huge reading is motion and restarts the stationary timer, then the
+    0.02 Hz filter starts from an offset at most 3 deg/s beyond the largest rest reading."""
+    rate = p["sample_rate"]
+    return (p["stationary_period"] * rate
+            + math.log(4.2 / 0.01) / (2.0 * math.pi * 0.02 / rate))
