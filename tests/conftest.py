@@ -20,7 +20,7 @@ other test goes to whichever worker is free.
 import pytest
 
 EMULATOR = {"test_firmware_target", "test_mcu_filters", "test_mcu_harness", "test_fixed_core_mcu",
-            "test_arduino"}
+            "test_arduino", "test_mcu_cores", "test_firmware_cores", "test_cross_library"}
 CROSSBUILD = {"test_cross_build", "test_cmake_package", "test_build", "test_packaging"}
 FUZZ = {"test_sanitizers"}
 SLOW = {"test_long_rest", "test_fusion_oracle", "test_published", "test_journeys", "test_cli",

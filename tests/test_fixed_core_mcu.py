@@ -6,7 +6,8 @@ rate saturation of the 8-bit profile and the shifts by a run-time count are inli
 that the host build (tests/test_fixed_core.py) never compiles; the filters exercise them only
 on the values their inputs happen to produce.  Here every one of them runs over edge values
 (the saturation bounds, the rounding ties, INT32_MIN/MAX) and random ones, on the ATmega328P
-and the Cortex-M0, and each result must equal the reference.
+and the Cortex-M0 (and the generic C paths on the RV32IMAC, a second 32-bit compiler and ISA),
+and each result must equal the reference.
 """
 from __future__ import annotations
 
@@ -20,7 +21,7 @@ from imufuse.reference import fixed_quat as fq
 
 from imufuse.mcu.filters import CSRC
 
-TARGETS = ["avr", "m0"]
+TARGETS = ["avr", "m0", "rv32imac"]
 I32_MIN, I32_MAX = -(1 << 31), (1 << 31) - 1
 
 

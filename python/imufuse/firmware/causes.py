@@ -107,6 +107,9 @@ _FAST = ("-ffast-math", "-Ofast", "-freciprocal-math", "-funsafe-math-optimizati
 _FMA_ARM = re.compile(r"\bv?fn?m[as]\.f(?:32|64)\b|\bvfnm[as]\b")
 _FMA_X86 = re.compile(r"\bv?fn?m(?:add|sub)\d{3}[sp][sd]\b")
 _FMA_RISCV = re.compile(r"\bfn?m(?:add|sub)\.[sdh]\b")
+_DOUBLE_INSNS = re.compile(r"\bcvtss2sd\b|\b\w+sd\s+%xmm|\bv(?:add|sub|mul|div|sqrt|fm[as]|"
+                           r"fnm[as]|neg|abs|mla|mls|cvt)\.f64\b|\bvcvt\.f64\.f32\b|"
+                           r"\bf(?:add|sub|mul|div|sqrt|n?madd|n?msub)\.d\b|\bfcvt\.d\.s\b")
 _DOUBLE_CALLS = re.compile(r"\b(__aeabi_d\w+|__aeabi_f2d|__\w+df\d?|__extendsfdf2|__truncdfsf2)\b")
 
 
@@ -147,14 +150,16 @@ def find_causes(objdump: str, objects: Sequence[Path], sources: Sequence[str], c
     if dtype == "float32" and target != "atmega328p":
         calls = sorted(set(_DOUBLE_CALLS.findall(" ".join(ln for ln in asm.splitlines()
                                                           if "R_" in ln))))
-        x86 = re.findall(r"\bcvtss2sd\b|\b\w+sd\s+%xmm", asm) if not calls else []
+        # double in hardware: x86 SSE, the Cortex-M7/M55's fpv5-d16 (.f64), RISC-V D (.d)
+        x86 = _DOUBLE_INSNS.findall(asm) if not calls else []
         warn = double_promotions(compile_cmd, sources, cwd)
         if calls or x86 or warn:
             found: List[str] = []
             if calls:
                 found.append(f"double routines called: {', '.join(calls)}")
             if x86:
-                found.append(f"{len(x86)} double-precision instruction(s)")
+                names = sorted({x.split()[0] for x in x86})
+                found.append(f"{len(x86)} double-precision instruction(s) ({', '.join(names)})")
             if warn:
                 found.append("-Wdouble-promotion warns at " + ", ".join(warn[:4]) +
                              (f" (+{len(warn) - 4} more)" if len(warn) > 4 else ""))

@@ -388,6 +388,12 @@ TARGET_PRECISIONS = {
     "host": ("float32", "float64", "p32", "p8"),
     "m4f": ("float32", "float64", "p32", "p8"),
     "m0": ("float32", "float64", "p32", "p8"),
+    "m3": ("float32", "float64", "p32", "p8"),
+    "m7": ("float32", "float64", "p32", "p8"),
+    "m33": ("float32", "float64", "p32", "p8"),
+    "m55": ("float32", "float64", "p32", "p8"),
+    "rv32imac": ("float32", "float64", "p32", "p8"),
+    "rv32imafc": ("float32", "float64", "p32", "p8"),
     "avr": ("float32", "p32", "p8"),
 }
 
