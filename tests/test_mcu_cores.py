@@ -74,3 +74,19 @@ def test_a_difference_is_caught_on_a_new_core(toolchains):
     msg = base._describe(bad.states[0], want, s, "rv32imafc")
     assert msg is not None and "first difference at sample" in msg
     assert np.array_equal(mf.run_filters("rv32imafc", [s], ins).states[0], want)
+
+
+@pytest.mark.parametrize("core", CORES)
+def test_counter_counts_exact_instructions(toolchains, core):
+    """A two-instruction loop (Arm subs/bne, RISC-V addi/bnez) of k turns counts 2k + 2 over
+    an empty call: SysTick's clock (a wrong one scales every count) and mcycle under -icount
+    count instructions exactly."""
+    k = np.array([1, 2, 10, 1000, 65535, 40000, 7], dtype=np.uint16)
+    if core.startswith("rv"):
+        asm = '__asm__ volatile("1: addi %0, %0, -1\\n\\tbnez %0, 1b" : "+r"(c));'
+    else:
+        asm = ('__asm__ volatile(".syntax unified\\n1: subs %0, %0, #1\\n\\tbne 1b\\n'
+               '.syntax divided" : "+l"(c) : : "cc");')
+    drv = mcu.Driver(step="uint32_t c = k;\n" + asm, state=[])
+    res = mcu.run(core, driver=drv, inputs={"k": k}, count=True)
+    assert res.counts.tolist() == (2 * k.astype(np.int64) + 2).tolist()

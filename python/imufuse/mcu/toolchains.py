@@ -101,7 +101,7 @@ TARGETS: Dict[str, Target] = {
     # Armv8-M with the Security Extension: it starts in the Secure state, so the image and
     # its RAM live at the Secure aliases of the SSRAMs
     "m33": _arm("m33", ("-mcpu=cortex-m33", "-mfpu=fpv5-sp-d16", "-mfloat-abi=hard"),
-                "mps2-an505", 4 << 20, 4 << 20, 25e6, 0x10000000, 0x38000000),
+                "mps2-an505", 4 << 20, 4 << 20, 20e6, 0x10000000, 0x38000000),
     "m55": _arm("m55", ("-mcpu=cortex-m55", "-mfloat-abi=hard"), "mps3-an547", 512 << 10,
                 512 << 10, 32e6, 0x10000000, 0x30000000),
     "rv32imac": _rv("rv32imac", "rv32imac", "ilp32"),
