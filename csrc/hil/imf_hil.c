@@ -32,7 +32,8 @@
 enum {
     IMF_HIL_NAK_CORRUPT = 1,
     IMF_HIL_NAK_ORDER = 2,
-    IMF_HIL_NAK_IDLE = 3
+    IMF_HIL_NAK_IDLE = 3,
+    IMF_HIL_NAK_SIZE = 4
 };
 
 uint16_t imf_hil_crc16(uint16_t crc, const uint8_t *data, uint16_t n)
@@ -86,19 +87,20 @@ static void imf_hil_hello(const imf_hil_t *const self, uint8_t boot)
 {
     uint8_t f[3u + 7u + 64u + 24u + 2u];
     const imf_hil_app_t *const app = self->app;
-    uint8_t n = 0u;
+    uint8_t n;
     uint8_t i;
     f[3] = (uint8_t)IMF_HIL_VERSION;
     f[4] = boot;
     f[5] = (uint8_t)IMF_HIL_WINDOW;
     f[6] = app->in_kind;
     f[7] = app->n_in;
-    f[8] = app->n_state <= 32u ? app->n_state : 32u;
+    f[8] = app->n_state <= 64u ? app->n_state : 64u;
     f[9] = app->count_begin != NULL ? app->count_unit : (uint8_t)IMF_HIL_COUNT_NONE;
     n = 7u;
     for (i = 0u; i < f[8]; ++i) {
-        f[3u + n++] = (uint8_t)app->state_types[i];
-        f[3u + n++] = (uint8_t)(app->state_types[i] >> 8);
+        /* one byte a word: size | 0x10 integer | 0x20 signed | 0x40 declared double */
+        const uint16_t t = app->state_types[i];
+        f[3u + n++] = (uint8_t)((t & 0x0Fu) | ((t >> 4) & 0x70u));
     }
     for (i = 0u; app->name != NULL && app->name[i] != '\0' && i < 24u; ++i) {
         f[3u + n++] = (uint8_t)app->name[i];
@@ -207,6 +209,15 @@ static uint16_t imf_hil_frame(imf_hil_t *const self, const uint8_t *f, uint8_t n
     }
     if (f[0] == 'B') {
         uint8_t ack[5];
+        uint16_t bytes = 0u;
+        uint8_t j;
+        for (j = 0u; j < self->app->n_state; ++j) {
+            bytes = (uint16_t)(bytes + (self->app->state_types[j] & 0xFFu));
+        }
+        if (bytes > IMF_HIL_MAX_STATE || in_bytes > IMF_HIL_MAX_INPUT) {
+            imf_hil_nak(self, IMF_HIL_NAK_SIZE);
+            return 0u;
+        }
         self->app->init();
         self->expected = 0u;
         self->running = 1u;

@@ -12,12 +12,15 @@
  * between 0x00 delimiters; a frame is type (1 byte), sequence number (2, little-endian),
  * body, CRC-16/CCITT-FALSE (2, little-endian) over type, sequence and body.
  *   host 'H' hello          -> board 'h' version, boot flag, window, input kind, inputs,
- *                              state words, count unit, state types (2 bytes each), name
+ *                              state words (64 at most), count unit, state types (1 byte
+ *                              each: size | 0x10 integer | 0x20 signed | 0x40 double), name
  *   host 'B' begin a run    -> board calls init, 'b'
  *   host 'S' sample k, body -> board 'r' k: state bytes, count (4), stack bytes (2)
  *                              a repeated k (the host lost the answer): the stored answer
  *                              a sample out of order or a corrupted frame: 'n' expected k,
  *                              reason (1 corrupted, 2 out of order, 3 no run begun)
+ *                              ('n' reason 4 to 'B': the state or the input is larger than
+ *                              IMF_HIL_MAX_STATE or IMF_HIL_MAX_INPUT)
  * At start-up (imf_hil_init) the board sends its hello unasked, with the boot flag set: a
  * board that resets during a run is seen by its banner. Up to IMF_HIL_WINDOW samples are in
  * flight; the last IMF_HIL_WINDOW answers are kept for repeats, so a lost or corrupted byte
@@ -43,7 +46,7 @@ extern "C" {
 #ifndef IMF_HIL_MAX_INPUT
 #define IMF_HIL_MAX_INPUT 40u
 #endif
-/* State bytes per sample at most. */
+/* State bytes per sample at most (RobustAHRSQ: 44 * 4 = 176). */
 #ifndef IMF_HIL_MAX_STATE
 #define IMF_HIL_MAX_STATE 64u
 #endif
@@ -99,8 +102,8 @@ typedef struct {
     uint8_t count_unit;          /* IMF_HIL_COUNT_... */
 } imf_hil_app_t;
 
-#define IMF_HIL_ANSWER (3u + IMF_HIL_MAX_STATE + 6u)
-#define IMF_HIL_FRAME (3u + IMF_HIL_MAX_INPUT + 2u)
+#define IMF_HIL_ANSWER (3u + IMF_HIL_MAX_STATE + 6u + 2u) /* header, state, count, stack, CRC */
+#define IMF_HIL_FRAME (3u + IMF_HIL_MAX_INPUT + 2u)             /* header, sample, CRC */
 
 /* The runner. All members private. */
 typedef struct {

@@ -25,6 +25,8 @@ __all__ = ["Link", "BoardRun", "BoardCost", "DEFAULT_BAUD"]
 DEFAULT_BAUD = 1_000_000
 #: the board silent this long (seconds) with samples in flight: they are sent again
 REPEAT_AFTER = 1.0
+#: repeats of one sample before the link is given up
+MAX_REPEATS = 16
 
 
 @dataclasses.dataclass
@@ -125,8 +127,15 @@ class Link:
             if time.monotonic() >= ask:
                 self.ser.write(frame(b"B", 0))
                 ask = time.monotonic() + 0.3
-            if any(f is not None and f[0] == "b" for f in self._frames()):
-                return
+            for f in self._frames():
+                if f is not None and f[0] == "b":
+                    return
+                if f is not None and f[0] == "n" and f[2][:1] == b"\x04":
+                    raise TargetError(
+                        f"the board's runner is built with IMF_HIL_MAX_STATE or "
+                        f"IMF_HIL_MAX_INPUT smaller than this firmware's state "
+                        f"({sum(t & 0xFF for t in self.hello_.types) if self.hello_ else '?'} "
+                        "bytes) or sample: raise them (csrc/hil/imf_hil.h)", 0)
         raise TargetError(f"the board on {self.port} does not begin a run (no answer within "
                           f"{min(self.timeout, 5.0):g} s)", 0)
 
@@ -148,7 +157,14 @@ class Link:
         rewound = (-1, 0.0)
         repeats = 0
 
+        tries: Dict[int, int] = {}
+
         def send(k: int) -> None:
+            tries[k] = tries.get(k, 0) + 1
+            if tries[k] > MAX_REPEATS:
+                last = self.events[-1] if self.events else "no answer"
+                raise TargetError(f"the link failed at sample {k}: sent {MAX_REPEATS} times "
+                                  f"without a valid answer (last: {last})", k)
             self.ser.write(frame(b"S", k, rows[k].tobytes()))
             sent_at[k] = time.monotonic()
 

@@ -18,7 +18,7 @@ VERSION = 1
 IN_KINDS: Dict[int, np.dtype] = {1: np.dtype("<f4"), 2: np.dtype("<f8"), 3: np.dtype("<i2"), 4: np.dtype("<i4")}
 COUNT_UNITS = {0: "", 1: "cycles", 2: "instructions"}
 NAK_REASONS = {1: "a corrupted frame (CRC or framing)", 2: "a frame out of order (one lost)",
-               3: "no run begun"}
+               3: "no run begun", 4: "a state or input larger than the runner's buffers"}
 
 
 def crc16(data: bytes, crc: int = 0xFFFF) -> int:
@@ -87,10 +87,11 @@ class Hello:
         if len(body) < 7:
             raise ValueError("short hello")
         version, boot, window, kind, n_in, n_state, unit = body[:7]
-        if len(body) < 7 + 2 * n_state:
+        if len(body) < 7 + n_state:
             raise ValueError("short hello")
-        types = list(struct.unpack(f"<{n_state}H", body[7:7 + 2 * n_state]))
-        name = body[7 + 2 * n_state:].decode("utf-8", "replace")
+        # one byte a word on the wire: size | 0x10 integer | 0x20 signed | 0x40 double
+        types = [(b & 0x0F) | ((b & 0x70) << 4) for b in body[7:7 + n_state]]
+        name = body[7 + n_state:].decode("utf-8", "replace")
         return cls(version, bool(boot), max(window, 1), IN_KINDS.get(kind), n_in, types,
                    COUNT_UNITS.get(unit, ""), name)
 
