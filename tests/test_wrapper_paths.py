@@ -149,10 +149,10 @@ FILTERS = list(_filters())
 def _feed(kind):
     """A function f -> None that moves f's state on by one sample."""
     rng = np.random.default_rng(7)
-    if kind == "FusionAHRS":
+    if kind in ("FusionAHRS", "FusionAHRS13"):       # Fusion 1.2.3 and 1.3: dt with the update
         return lambda f: f.update(rng.normal(0, 20, 3), rng.normal(0, 0.1, 3) + [0, 0, 1],
                                   rng.normal(0, 0.1, 3) + [0.4, 0, -0.9], 0.01)
-    if kind == "FusionOffset":
+    if kind in ("FusionOffset", "FusionBias"):
         return lambda f: f.update(rng.normal(0, 0.1, 3))
     if kind == "vario":
         return lambda f: f.update(float(rng.normal()), float(rng.normal(100, 1)), 0.01)
