@@ -349,3 +349,74 @@ def test_planted_differences_are_caught(fusion_exact):
     lib.remap(5, len(x), oracle.buf(ffi, x), oracle.buf(ffi, want))
     with pytest.raises(AssertionError):
         assert_same_bits(_remap_swapped(x, 5, "float32"), want, None)
+
+
+# ---- the API: both backends accept, reject and compute the same --------------------------
+
+@pytest.mark.parametrize("dtype", ["float32", "float64"])
+def test_update_forms_equal_run(dtype):
+    """update() per sample (dt given, dt omitted, no magnetometer, external heading) gives
+    run()'s states, in both backends; run_many gives each set's run()."""
+    log = simulated_log(seed=11, n=400)
+    for mod in (imufuse_c, ref):
+        f, g = make(mod, "NED", dtype=dtype), make(mod, "NED", dtype=dtype)
+        want = f.run(log.gyr, log.acc, log.mag, dt=log.dt)
+        got = []
+        for k in range(400):
+            g.update(log.gyr[k], log.acc[k], log.mag[k], float(log.dt[k]))
+            got.append(g.state)
+        assert_same_bits(np.array(got), want, _fusion13.AHRS_STATE_NAMES)
+        f, g = make(mod, "NWU", dtype=dtype), make(mod, "NWU", dtype=dtype)
+        want = f.run(log.gyr, log.acc, heading=log.yaw)
+        got = []
+        for k in range(400):
+            g.update_external_heading(log.gyr[k], log.acc[k], float(log.yaw[k]))
+            got.append(g.state)
+        assert_same_bits(np.array(got), want, None)
+    sets = [dict(SETTINGS, convention="ENU"), dict(CHANGED, convention="NWU")]
+    many = imufuse_c.FusionAHRS13.run_many(sets, log.gyr, log.acc, dtype=dtype, dt=log.dt)
+    for p, got in zip(sets, many):
+        assert_same_bits(got, imufuse_c.FusionAHRS13(**p, dtype=dtype).run(
+            log.gyr, log.acc, dt=log.dt), None)
+
+
+def test_nonfinite_samples_and_periods_are_skipped_alike():
+    """imufuse's non-finite policy: the sample (or period) is rejected, the state kept and
+    `skipped` counted, in the C and the twin alike."""
+    log = simulated_log(seed=12, n=300)
+    gyr, dt = log.gyr.copy(), log.dt.copy()
+    gyr[50, 1] = np.nan
+    dt[120] = np.inf
+    res = []
+    for mod in (imufuse_c, ref):
+        f = make(mod, "NWU")
+        s = f.run(gyr, log.acc, log.mag, dt=dt)
+        assert f.skipped == 2
+        keep = [i for i in range(23) if i != 14]     # the period of sample 50 is set
+        assert_same_bits(s[50, keep], s[49, keep], None)
+        assert s[120, 14] == s[119, 14]              # the period before it integrates
+        res.append(s)
+    assert_same_bits(res[0], res[1], _fusion13.AHRS_STATE_NAMES)
+
+
+@pytest.mark.parametrize("bad", [dict(sample_rate=0.0), dict(gain=-1.0),
+                                 dict(convention="XYZ"), dict(rejection_timeout=-1.0),
+                                 dict(sample_rate=1e6, rejection_timeout=1e6),
+                                 dict(acceleration_rejection=200.0), dict(invsqrt="slow")])
+def test_bad_settings_are_refused_by_both(bad):
+    for mod in (imufuse_c, ref):
+        with pytest.raises(ValueError, match=next(iter(bad)) if "convention" not in bad
+                           else "convention"):
+            mod.FusionAHRS13(**bad)
+
+
+def test_copies_continue_alike():
+    import copy
+    import pickle
+    log = simulated_log(seed=13, n=200)
+    f = make(imufuse_c, "ENU")
+    f.run(log.gyr[:100], log.acc[:100], log.mag[:100], dt=log.dt[:100])
+    for g in (copy.copy(f), pickle.loads(pickle.dumps(f))):
+        assert_same_bits(g.run(log.gyr[100:], log.acc[100:], log.mag[100:]),
+                         copy.deepcopy(f).run(log.gyr[100:], log.acc[100:], log.mag[100:]),
+                         None)
