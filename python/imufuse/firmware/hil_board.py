@@ -125,16 +125,22 @@ def simavr_board_program(workdir: Optional[Path] = None) -> Path:
 
 
 class Board:
-    """A running emulated board: `with Board(prog) as b: validate(..., port=b.port)`."""
+    """A running emulated board: `with Board(prog) as b: validate(..., port=b.port)`; or any
+    firmware image for a target's board: `Board(elf=path, target="cortex-m4f")` (QEMU runs
+    it under -icount, as the harness does)."""
 
-    def __init__(self, prog: Program, wait: float = 20.0):
+    def __init__(self, prog: Optional[Program] = None, wait: float = 20.0,
+                 elf: "Optional[str | os.PathLike[str]]" = None, target: Optional[str] = None):
         self.prog = prog
-        tgt = _tc.TARGETS[harness_target(prog.target)]
+        if prog is not None:
+            elf, target = prog.elf, prog.target
+        assert elf is not None and target is not None
+        tgt = _tc.TARGETS[harness_target(target)]
         if tgt.name == "avr":
-            cmd: List[str] = [str(simavr_board_program()), str(prog.elf), "16000000"]
+            cmd: List[str] = [str(simavr_board_program()), str(elf), "16000000"]
             pattern = re.compile(rb"PTY (\S+)")
         else:
-            cmd = _emulator_cmd(tgt, prog.elf, True)
+            cmd = _emulator_cmd(tgt, Path(elf), True)
             cmd[cmd.index("-serial") + 1] = "pty"
             pattern = re.compile(rb"char device redirected to (\S+)")
         self.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
