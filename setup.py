@@ -160,6 +160,13 @@ csvout = Extension("imufuse_c._csvout", ["imufuse_c/_csvout.pyx"],
                    define_macros=[("NPY_NO_DEPRECATED_API", "NPY_1_7_API_VERSION")],
                    extra_compile_args=CFLAGS)
 
+# CSV input (imufuse.io's reader): the number parser, imufuse_c/csvparse.h; no csrc
+csvin = Extension("imufuse_c._csvin", ["imufuse_c/_csvin.pyx"],
+                  include_dirs=["imufuse_c", numpy.get_include()],
+                  define_macros=[("NPY_NO_DEPRECATED_API", "NPY_1_7_API_VERSION")],
+                  extra_compile_args=CFLAGS)
+
+
 class BuildExt(build_ext):
     """build_ext that compiles the extensions side by side, one job per core, unless -j is
     given: each precision has its own objects (above), so parallel builds are safe
@@ -171,7 +178,7 @@ class BuildExt(build_ext):
             self.parallel = os.cpu_count() or 1
 
 
-setup(ext_modules=cythonize([*(build(name) for name in BUILDS), csvout],
+setup(ext_modules=cythonize([*(build(name) for name in BUILDS), csvout, csvin],
                             include_path=[bindings(), "imufuse_c"],
                             nthreads=os.cpu_count() or 1,
                             compiler_directives={"language_level": 3}),

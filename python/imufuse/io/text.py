@@ -5,10 +5,13 @@ parser block by block, a failed row located again line by line so that errors na
 line); also `read_csv_rows`, the plain rows of a small CSV file."""
 import codecs
 import csv
+import locale
 import os
 import re
 
 import numpy as np
+
+import imufuse_c._csvin as _csvin
 
 from .columns import _apply_map, duplicate_columns, recognise
 from .headers import header_rows
@@ -192,6 +195,8 @@ def _numbers_slow(path, enc, delim, header_line, idx, decimal_comma, loader_erro
                     if decimal_comma:
                         s = s.replace(",", ".")
                     try:
+                        if "_" in s:          # float() takes 1_0; no reader of numbers does
+                            raise ValueError(s)
                         float(s)
                     except ValueError:
                         if len(s) > 60:
@@ -203,6 +208,11 @@ def _numbers_slow(path, enc, delim, header_line, idx, decimal_comma, loader_erro
 
 
 _BLOCK = 100_000
+#: the encodings whose bytes the C parser reads (numbers are ASCII in both)
+_FAST_ENCODINGS = ("utf-8", "utf-8-sig")
+_LINE_END = re.compile(rb"\r\n|\n|\r")
+#: the bytes the C parser reads at a time (the longest line it takes)
+_C_BLOCK = _csvin.BLOCK_BYTES
 
 
 def _no_extra_values(lines, delim, width, first):
@@ -241,6 +251,86 @@ def _loadtxt_blocks(fh, delim, usecols, rows_hint):
         n += len(a)
         if len(a) < _BLOCK:
             return out[:n]
+
+
+def _numbers_numpy(path, enc, delim, header_line, header, found, usecols, decimal_comma, data,
+                   nul_state):
+    """The used columns through numpy.loadtxt (text decoded by Python: any encoding, any
+    locale): the reader for the encodings the C parser does not take."""
+    try:
+        with open(path, encoding=enc, newline="") as fh:
+            for _ in range(header_line):
+                fh.readline()
+            if decimal_comma:
+                return np.loadtxt((ln.replace(",", ".") for ln in fh), delimiter=delim,
+                                  usecols=usecols, ndmin=2, dtype=np.float64, quotechar='"',
+                                  comments="#")
+            width = len(data[0]) + 1 if data else 64     # bytes per row, first row
+            # sized from the text, not from a NUL-filled tail of a preallocated file
+            rows = int(_nul_tail_start(path) / max(width, 8) * 1.05)
+            lines_in = _lines_until_nul(fh, nul_state)
+            if delim:
+                lines_in = _no_extra_values(lines_in, delim, len(header), header_line + 1)
+            return _loadtxt_blocks(lines_in, delim, usecols, rows)
+    except LogError as e:
+        raise LogError(f"{path}: {e}") from None
+    except (ValueError, IndexError) as e:
+        _numbers_slow(path, enc, delim, header_line, found, decimal_comma, e)
+    except MemoryError:
+        raise LogError(f"{path}: too large to read into memory") from None
+    except (OSError, UnicodeDecodeError) as e:
+        raise LogError(f"{path}: cannot read: {e}", "file") from None
+    raise AssertionError("unreachable")
+
+
+def _header_bytes(path, enc, header_line):
+    """The byte offset of the line after the first header_line lines (line ends as Python's
+    readline with newline="" sees them: LF, CR LF, a lone CR), byte-order mark included. The
+    header lines lie in the first block _open_text read."""
+    with open(path, "rb") as fh:
+        head = fh.read((1 << 16) + 2)
+    pos = len(codecs.BOM_UTF8) if enc == "utf-8-sig" else 0
+    for _ in range(header_line):
+        m = _LINE_END.search(head, pos)
+        if m is None:
+            return len(head)
+        pos = m.end()
+    return pos
+
+
+def _numbers_c(path, enc, delim, header_line, header, found, usecols, decimal_comma,
+               nul_state, lines):
+    """The used columns through the C parser (imufuse_c._csvin: UTF-8 bytes, numbers as
+    numpy.loadtxt reads them, to the bit, in one pass without the GIL); the first row it
+    cannot read is found again line by line (_numbers_slow) for the message."""
+    try:
+        # to the first byte of a NUL-filled tail (which ends the text with a note)
+        stop = min(os.path.getsize(path), _nul_tail_start(path) + 1)
+        rows = [ln for ln in lines[header_line:header_line + 50] if ln.strip()]
+        M, info = _csvin.read_numbers(path, _header_bytes(path, enc, header_line), stop,
+                                      delim, len(header), usecols, decimal_comma,
+                                      min((len(r.encode()) + 1 for r in rows), default=0),
+                                      _C_BLOCK)
+    except MemoryError:
+        raise LogError(f"{path}: too large to read into memory") from None
+    except OSError as e:
+        raise LogError(f"{path}: cannot read: {e.strerror or e}", "file") from None
+    status, line = info["status"], header_line + info["line"]
+    if status == "many":
+        raise LogError(f"{path}: line {line}: {info['column']} values under a header of "
+                       f"{len(header)} columns")
+    if status == "long":
+        raise LogError(f"{path}: a line longer than {_C_BLOCK} characters after "
+                       f"data line {info['line'] - 1}: not a CSV log")
+    if status is not None:
+        what = "a value that is not a number" if status == "number" else "too few values"
+        _numbers_slow(path, enc, delim, header_line, found, decimal_comma,
+                      f"line {line}: {what}")
+    if info["nul"]:
+        nul_state["nul"] = info["lines"]
+        if info["cut"]:
+            nul_state["cut"] = info["cut"].decode("utf-8", "replace")[:40]
+    return M
 
 
 def _read_csv(path, column_map, time_unit):
@@ -288,30 +378,12 @@ def _read_csv(path, column_map, time_unit):
                            "';' or tabs between the values")
     usecols = sorted(set(found.values()))
     nul_state: dict = {}
-    try:
-        with open(path, encoding=enc, newline="") as fh:
-            for _ in range(header_line):
-                fh.readline()
-            if decimal_comma:
-                M = np.loadtxt((ln.replace(",", ".") for ln in fh), delimiter=delim,
-                               usecols=usecols, ndmin=2, dtype=np.float64, quotechar='"',
-                               comments="#")
-            else:
-                width = len(data[0]) + 1 if data else 64     # bytes per row, first row
-                # sized from the text, not from a NUL-filled tail of a preallocated file
-                rows = int(_nul_tail_start(path) / max(width, 8) * 1.05)
-                lines_in = _lines_until_nul(fh, nul_state)
-                if delim:
-                    lines_in = _no_extra_values(lines_in, delim, len(header), header_line + 1)
-                M = _loadtxt_blocks(lines_in, delim, usecols, rows)
-    except LogError as e:
-        raise LogError(f"{path}: {e}") from None
-    except (ValueError, IndexError) as e:
-        _numbers_slow(path, enc, delim, header_line, found, decimal_comma, e)
-    except MemoryError:
-        raise LogError(f"{path}: too large to read into memory") from None
-    except (OSError, UnicodeDecodeError) as e:
-        raise LogError(f"{path}: cannot read: {e}", "file") from None
+    if enc in _FAST_ENCODINGS and locale.localeconv()["decimal_point"] == ".":
+        M = _numbers_c(path, enc, delim, header_line, header, found, usecols, decimal_comma,
+                       nul_state, lines)
+    else:
+        M = _numbers_numpy(path, enc, delim, header_line, header, found, usecols,
+                           decimal_comma, data, nul_state)
     if "nul" in nul_state:
         notes.append(f"the file ends in NUL bytes after line "
                      f"{header_line + nul_state['nul']} (a preallocated file): read up to there"
