@@ -1,5 +1,5 @@
 /*
- * FusionAHRS13 and FusionBias: x-io Fusion's current release (1.3, as in imufusion 1.3.3),
+ * FusionAHRS13: x-io Fusion's current release (1.3, as in imufusion 1.3.3),
  * written from the algorithm beside the 1.2.3 port (fusion_ahrs.h); a float32 build
  * reproduces imufusion 1.3.3 (built with FUSION_USE_NORMAL_SQRT) bit for bit.
  *
@@ -18,10 +18,7 @@
  *   - rejection: the timeout is given in seconds (samples = rate * timeout);
  *   - the residual of exactly opposite vectors is zero (1.2.3 gives NaN);
  *   - gravity and linear acceleration are outputs of the current q.
- * FusionBias: while every axis of the corrected gyroscope stays within the
- * stationary threshold for the stationary period, the offset follows it through a
- * first-order filter of 0.02 Hz cutoff; the offset can be read and written (to
- * keep it in non-volatile memory across restarts).
+ * FusionBias, 1.3's gyroscope bias algorithm, is fusion13_bias.h.
  *
  * imufuse additions (never active on inputs Fusion handles): float64; the
  * zero-vector guard of fusion_math.h's exact normalisation; and the non-finite
@@ -137,45 +134,6 @@ unsigned imf_fusion13_ahrs_flags(const imf_fusion13_ahrs_t *self);
 /* The compass of 1.3 (FusionCompass) has the operations of 1.2.3's: it is
    imf_fusion_compass_heading (fusion_ahrs.h). The sensor models (FusionModelInertial,
    FusionModelMagnetic) and the remap (FusionRemap) are those of fusion_calibration.h. */
-
-/* Bias settings (FusionBiasSettings). */
-typedef struct {
-    imf_real sample_rate;          /* Hz, > 0 */
-    imf_real stationary_threshold; /* degrees per second */
-    imf_real stationary_period;    /* seconds */
-} imf_fusion13_bias_settings_t;
-
-typedef struct {
-    imf_real stationary_threshold; /* degrees per second */
-    imf_real filter_coefficient;   /* 2 pi 0.02 Hz / rate */
-    uint32_t timeout;              /* samples: (uint32) (period * rate) */
-} imf_fusion13_bias_config_t;
-
-typedef struct {
-    imf_real offset_x, offset_y, offset_z; /* degrees per second */
-    uint32_t timer;                        /* samples at rest so far, <= timeout */
-} imf_fusion13_bias_state_t;
-
-#define IMF_FUSION13_BIAS_N_STATE 4
-
-typedef struct {
-    imf_fusion13_bias_config_t set; /* internal */
-    uint32_t skipped;               /* samples rejected by the non-finite policy */
-    imf_fusion13_bias_state_t x;    /* the state */
-} imf_fusion13_bias_t;
-
-/* Defaults: 100 Hz, 3 degrees per second, 3 seconds. */
-void imf_fusion13_bias_default_settings(imf_fusion13_bias_settings_t *settings);
-/* settings: NULL for the defaults; timer and offset start at zero. */
-void imf_fusion13_bias_init(imf_fusion13_bias_t *self,
-                            const imf_fusion13_bias_settings_t *settings);
-void imf_fusion13_bias_set_settings(imf_fusion13_bias_t *self,
-                                    const imf_fusion13_bias_settings_t *settings);
-/* g: gyroscope (3), degrees per second; out: offset-corrected gyroscope (3). */
-void imf_fusion13_bias_update(imf_fusion13_bias_t *self, const imf_real *g, imf_real *out);
-/* The state (offset, deg/s, and timer) as IMF_FUSION13_BIAS_N_STATE reals, and back. */
-void imf_fusion13_bias_get_state(const imf_fusion13_bias_t *self, imf_real *out);
-void imf_fusion13_bias_set_state(imf_fusion13_bias_t *self, const imf_real *in);
 
 #ifdef __cplusplus
 }

@@ -1,4 +1,4 @@
-# Fusion 1.3 (csrc/fusion13.h): x-io Fusion's current release as in imufusion 1.3.3.
+# Fusion 1.3 (csrc/fusion13.h, fusion13_bias.h): x-io Fusion's current release as in imufusion 1.3.3.
 # Units are Fusion's (deg/s, g, degrees); see imufuse.reference.fusion13.
 # Hand-written (not tools/bindgen.py): Fusion's own API: the sample period set before an
 # update, three update forms, start-up skipped, FusionBias returning the corrected gyroscope.
@@ -43,6 +43,7 @@ cdef extern from "fusion13.h" nogil:
     enum:
         IMF_FUSION13_AHRS_N_STATE
 
+cdef extern from "fusion13_bias.h" nogil:
     ctypedef struct imf_fusion13_bias_settings_t:
         imf_real sample_rate
         imf_real stationary_threshold

@@ -1,9 +1,10 @@
 """x-io Fusion's current release (1.3, as in imufusion 1.3.3): pure-Python twin of
-csrc/fusion13.c, line for line, with the vector helpers of the 1.2.3 twin (fusion.py, the
-twin of csrc/fusion_math.h, which both releases share).
+csrc/fusion13.c and fusion13_bias.c, line for line, with the vector helpers of the 1.2.3
+twin (fusion.py, the twin of csrc/fusion_math.h, which both releases share).
 
-Longer than 500 lines because: it is the twin of one C file that is one library (Fusion 1.3's
-AHRS and bias algorithm), compared with it line by line.
+Longer than 500 lines because: it is the twin of Fusion 1.3's AHRS and bias algorithm, one
+library, kept in one module as the 1.2.3 twin keeps its suite; compared with the C line by
+line.
 
 UNITS ARE FUSION'S: gyroscope in degrees per second, accelerometer in g, magnetometer in any
 unit, sample rate in Hz, sample period and timeouts in seconds, angles in degrees.
