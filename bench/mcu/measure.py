@@ -2,6 +2,8 @@
 
     python bench/mcu/measure.py            # every filter x target; writes RESULTS.md, results.json
     python bench/mcu/measure.py --filters Mahony1D-float32 --targets avr,m0 --no-write
+    python bench/mcu/measure.py --targets m7,rv32imac --merge   # these cores; the others' rows
+                                                                # kept from results.json
     python bench/mcu/measure.py --kernels  # the harness's own example kernels (registry.CASES)
 
 Per (filter configuration and precision, target), generically from tests/registry.py, plus
@@ -19,8 +21,11 @@ Fusion's units, so the generic driver cannot call it; measured with its Case's d
   ram             sizeof(<c>_t): RAM of one filter instance
   stack_static    -fstack-usage frame of <c>_update alone (no callees)
   stack_measured  deepest stack an update reached (stack painting), library calls included
-  per_update      avr: CPU cycles at 16 MHz (Timer1 at clk/1); m4f/m0: instructions (qemu
-                  -icount, SysTick); host: x86-64 instructions under callgrind.
+  per_update      avr: CPU cycles at 16 MHz (Timer1 at clk/1, simavr's cycle model); the
+                  Cortex-M cores: instructions (qemu -icount, SysTick); rv32imac/rv32imafc:
+                  instructions (qemu -icount, read through mcycle); host: x86-64 instructions
+                  under callgrind. QEMU counts instructions, not cycles: it models no pipeline,
+                  wait states or caches.
                   median and max over the samples (motion, then the corners)
   samples         input rows run: N_MOTION samples of motion and the corners, or
                   imufuse.mcu.filters.N_MOTION_SMALL of motion where the program does not fit
@@ -29,13 +34,15 @@ Fusion's units, so the generic driver cannot call it; measured with its Case's d
   bits            the target's state after every sample equals the host build's and the
                   Python reference's, bit for bit (the measurement runs are checked too)
 Before measuring, the counters are validated on kernels of known cost (AVR: _delay_loop_2
-takes exactly 4k + 3 cycles; ARM: a subs/bne loop exactly 2k + 2 instructions).
+takes exactly 4k + 3 cycles; Arm: a subs/bne loop exactly 2k + 2 instructions; RISC-V: an
+addi/bnez loop exactly 2k + 2 instructions).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import re
 import shutil
 import subprocess
 import sys
@@ -51,10 +58,13 @@ from imufuse import catalogue
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 import registry  # noqa: E402
+from imufuse.firmware.targets import CORES  # noqa: E402
 
 mcu = registry.mcu
 mf = registry.mf
 COMMAND = "python bench/mcu/measure.py"
+#: every target, in the tables' order
+ALL_TARGETS = ["m4f", "m0", "avr", "m3", "m7", "m33", "m55", "rv32imac", "rv32imafc", "host"]
 N_MOTION = 200
 
 
@@ -73,19 +83,24 @@ def validate_counters(targets) -> dict:
         if res.counts.tolist() != want:
             raise SystemExit(f"avr Timer1 counter invalid: {res.counts.tolist()} != {want}")
         out["avr"] = "_delay_loop_2(k) counted as exactly 4k + 3 cycles"
-    for t in ("m4f", "m0"):
-        if t not in targets:
+    for t in targets:
+        method = mcu.TARGETS[t].count_method
+        if method not in ("systick", "csr"):
             continue
         k = np.array([1, 10, 1000, 65535], dtype=np.uint16)
-        drv = mcu.Driver(
-            step=('uint32_t c = k;\n__asm__ volatile(".syntax unified\\n1: subs %0, %0, #1\\n'
-                  '\\tbne 1b\\n.syntax divided" : "+l"(c) : : "cc");'),
-            state=[])
-        res = mcu.run(t, driver=drv, inputs={"k": k}, count=True)
-        want = (2 * k.astype(np.int64) + 2).tolist()
+        if method == "systick":
+            loop = ('uint32_t c = k;\n__asm__ volatile(".syntax unified\\n1: subs %0, %0, #1\\n'
+                    '\\tbne 1b\\n.syntax divided" : "+l"(c) : : "cc");')
+            what, extra = "subs/bne", 2
+        else:
+            loop = ('uint32_t c = k;\n__asm__ volatile("1: addi %0, %0, -1\\n\\tbnez %0, 1b"'
+                    ' : "+r"(c));')
+            what, extra = "addi/bnez", 2
+        res = mcu.run(t, driver=mcu.Driver(step=loop, state=[]), inputs={"k": k}, count=True)
+        want = (2 * k.astype(np.int64) + extra).tolist()
         if res.counts.tolist() != want:
             raise SystemExit(f"{t} instruction counter invalid: {res.counts.tolist()} != {want}")
-        out[t] = "subs/bne loop counted as exactly 2k + 2 instructions"
+        out[t] = f"{what} loop counted as exactly 2k + {extra} instructions"
     return out
 
 
@@ -94,8 +109,8 @@ def validate_counters(targets) -> dict:
 
 
 def _tool(target, name):
-    return {"host": name, "m4f": f"arm-none-eabi-{name}", "m0": f"arm-none-eabi-{name}",
-            "avr": f"avr-{name}"}[target]
+    cc = mcu.TARGETS[target].cc
+    return cc[:-3] + name if target != "host" and cc.endswith("gcc") else name
 
 
 def _compile(target, src, obj, spec, extra=()):
@@ -346,13 +361,16 @@ def table(rows, cols=COLS) -> str:
     return "\n".join(out)
 
 
+_UNIT = {"cycles": "cycles", "instructions": "instr."}
+
+
 def summary(rows, targets) -> str:
     """filter x target: per-update cost and linked flash, one line per filter."""
     names = list(dict.fromkeys(r["filter"] for r in rows))
     by = {(r["filter"], r["target"]): r for r in rows}
     head = ["filter"]
     for t in targets:
-        unit = {"avr": "cycles", "m4f": "instr.", "m0": "instr.", "host": "x86 instr."}[t]
+        unit = _UNIT.get(mcu.TARGETS[t].count_unit, "x86 instr.")
         head += [f"{t} {unit}", f"{t} flash"]
     out = ["| " + " | ".join(head) + " | bits |", "|" + "---|" * (len(head) + 1)]
     for n in names:
@@ -482,7 +500,7 @@ def _versions(targets):
             v[t] = subprocess.run([cc, "--version"], capture_output=True, text=True).stdout.splitlines()[0]
         except (OSError, IndexError):
             v[t] = "?"
-    for tool in ("qemu-system-arm", "simavr", "valgrind"):
+    for tool in ("qemu-system-arm", "qemu-system-riscv32", "simavr", "valgrind"):
         try:
             p = subprocess.run([tool, "--version"], capture_output=True, text=True)
             v[tool] = (p.stdout or p.stderr).strip().splitlines()[0]
@@ -491,25 +509,48 @@ def _versions(targets):
     return v
 
 
+def _kept_block(md: Path, tag: str, command: str) -> str:
+    """A block of RESULTS.md another command writes (kept as it is when this one rewrites the
+    page)."""
+    if md.exists():
+        m = re.search(rf"<!-- {tag} -->\n.*?<!-- end {tag} -->", md.read_text(), re.S)
+        if m:
+            return m.group(0)
+    return f"<!-- {tag} -->\n(run `{command}`)\n<!-- end {tag} -->"
+
+
 def write_results(rows, targets, checks, seconds, md: Path, js: Path) -> None:
     versions = _versions(targets)
+    cross = _kept_block(md, "cross-library", "python bench/mcu/cross_library.py")
     md.write_text("\n".join([
         "# imufuse on microcontrollers: size, stack, cost per update",
         "",
         f"Generated by `{COMMAND}` (from the repository root; about {seconds:.0f} s). Do not edit:",
         "rerun the command. Every filter configuration of `tests/registry.py`, each precision;",
-        "targets emulated: Cortex-M4F (qemu mps2-an386, hard float), Cortex-M0 (qemu microbit,",
-        "soft float), ATmega328P at 16 MHz (simavr; float32 and fixed point: its double is 32 bits),",
-        "and the host (x86-64, callgrind). Flags: `-std=c99 -O2 -ffp-contract=off` plus the",
-        "target's `-mcpu`/`-mmcu` (bench/mcu/measure.py docstring defines every column).",
+        "targets emulated (harness name: what it is):",
+        "",
+        *[f"- `{c.harness}`: {c.description}; counts {c.counting}" for c in CORES.values()],
+        "- `host`: x86-64, instructions under callgrind",
+        "",
+        "**QEMU counts instructions, not cycles**: every instruction takes the same virtual time,",
+        "so a division, a flash wait state or a cache miss costs what an add costs. Only the",
+        "ATmega328P's figures are cycles (simavr models the AVR's cycle timing). On a real",
+        "Cortex-M or RISC-V part expect more cycles than instructions (see docs/firmware.md,",
+        "\"What to expect from each core\"). Flags: `-std=c99 -O2 -ffp-contract=off` plus the",
+        "target's `-mcpu`/`-march`/`-mmcu` (bench/mcu/measure.py docstring defines every column).",
         "",
         "Counters validated before measuring: " + "; ".join(f"{t}: {s}" for t, s in checks.items()) + ".",
         f"Inputs: {N_MOTION} samples of simulated motion, then the corner cases (zero vectors,",
         "NaN/Inf, overflow, subnormals) and more motion; per-update figures are medians over all samples.",
         "",
-        "## Summary (median per update; flash = bytes the filter adds to a linked program)",
+        "## Summary (median per update: instructions on the QEMU cores, cycles on the AVR; "
+        "flash = bytes the filter adds to a linked program)",
         "",
         summary(rows, targets),
+        "",
+        "## Across libraries: imufuse's 3-D filters beside x-io Fusion's C and VQF's C++",
+        "",
+        cross,
         "",
         "## Fixed point against float32 (soft float on Cortex-M0 and ATmega328P)",
         "",
@@ -547,6 +588,7 @@ def write_results(rows, targets, checks, seconds, md: Path, js: Path) -> None:
         "",
     ]))
     js.write_text(json.dumps({"command": COMMAND, "counter_checks": checks, "versions": versions,
+                              "seconds": round(seconds),
                               "samples_motion": N_MOTION, "rows": rows,
                               "fixed_vs_float": fixed_vs_float(rows),
                               "fixed_flash": fixed_flash(rows)}, indent=1) + "\n")
@@ -566,7 +608,9 @@ def write_results(rows, targets, checks, seconds, md: Path, js: Path) -> None:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--filters", default=",".join(registry.filter_names()))
-    ap.add_argument("--targets", default="m4f,m0,avr,host")
+    ap.add_argument("--targets", default=",".join(ALL_TARGETS))
+    ap.add_argument("--merge", action="store_true",
+                    help="keep the rows of results.json for the targets not measured now")
     ap.add_argument("--kernels", action="store_true", help="measure the harness's example kernels instead")
     ap.add_argument("--no-write", action="store_true", help="print only; do not write RESULTS.md/results.json")
     ap.add_argument("--jobs", type=int, default=8)
@@ -597,6 +641,16 @@ def main(argv=None) -> int:
         rows = list(ex.map(lambda j: measure_filter(j[0], j[1], host_cache), jobs))
         rows += list(ex.map(lambda j: measure_library_case(j[0], j[1]), lib))
     seconds = time.perf_counter() - t0
+    if args.merge and (HERE / "results.json").exists():
+        old = json.loads((HERE / "results.json").read_text())
+        rows += [r for r in old["rows"] if r["target"] not in targets]
+        checks = {**{t: c for t, c in old.get("counter_checks", {}).items() if t not in targets},
+                  **checks}
+        seconds += old.get("seconds", 0.0)
+        targets = [t for t in ALL_TARGETS if t in {r["target"] for r in rows}]
+        order = {t: i for i, t in enumerate(ALL_TARGETS)}
+        names = {n: i for i, n in enumerate(dict.fromkeys(r["filter"] for r in old["rows"]))}
+        rows.sort(key=lambda r: (names.get(r["filter"], len(names)), order[r["target"]]))
     print(summary(rows, targets))
     print()
     print(fixed_vs_float_table(fixed_vs_float(rows)))

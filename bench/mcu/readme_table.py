@@ -1,6 +1,8 @@
 """The compact per-filter MCU table docs/firmware.md quotes, from
 bench/mcu/results.json: one row per filter class and precision (its first
-registry configuration), float32 and fixed point. `python bench/mcu/measure.py`
+registry configuration), float32, float64 and fixed point; per core its cost per
+update (cycles on the ATmega328P, instructions on the QEMU cores), linked flash
+and measured stack. `python bench/mcu/measure.py`
 refreshes it in docs/firmware.md (and the fixed-vs-float table in docs/fixed-point.md) after a measurement.
 
     python bench/mcu/readme_table.py            # print the compact table
@@ -14,7 +16,14 @@ import sys
 HERE = os.path.dirname(os.path.abspath(__file__))
 
 
+#: the cores of the compact table, in its order: (harness target, column title)
+CORES = [("avr", "ATmega328P cycles"), ("m0", "M0"), ("m3", "M3"), ("m4f", "M4F"), ("m7", "M7"),
+         ("m33", "M33"), ("m55", "M55"), ("rv32imac", "RV32IMAC"), ("rv32imafc", "RV32IMAFC")]
+
+
 def table():
+    """One row per filter class and precision (its first registry configuration); per core
+    one cell: cost per update / linked flash / measured stack (bytes)."""
     out = []
     rows = json.load(open(os.path.join(HERE, "results.json")))["rows"]
     by, order = {}, []
@@ -22,27 +31,32 @@ def table():
         by.setdefault(r["filter"], {})[r["target"]] = r
         if r["filter"] not in order:
             order.append(r["filter"])
-    out.append("| filter | AVR cycles | M0 instr. | M4F instr. | flash AVR / M0 / M4F (bytes) | RAM (bytes) |"
-          " bits vs host and reference |")
-    out.append("|---|---:|---:|---:|---|---:|---|")
+    present = [(t, title) for t, title in CORES if any(t in v for v in by.values())]
+    out.append("| filter | " + " | ".join(title for _, title in present) +
+               " | RAM (bytes) | bits vs host and reference |")
+    out.append("|---|" + "---:|" * len(present) + "---:|---|")
     seen = set()
     for name in order:
         t = by[name]
         first = next(iter(t.values()))
         key = (first["class"], first["precision"])
-        if key in seen or first["precision"] == "float64":
+        if key in seen:
             continue
         seen.add(key)
 
         def g(target, k):
             v = t.get(target, {}).get(k)
-            return "n/a" if v is None else f"{v:.0f}"
+            return "-" if v is None else f"{v:.0f}"
+
+        def cell(target):
+            if target not in t:
+                return "n/a"
+            return (f"{g(target, 'per_update_median')} / {g(target, 'linked')} / "
+                    f"{g(target, 'stack_measured')}")
+        ram = next((x["ram"] for x in t.values() if x.get("ram") is not None), None)
         bits = "equal" if all(x["bits"] for x in t.values()) else "DIFFER"
-        out.append(f"| {name} | {g('avr', 'per_update_median')} | {g('m0', 'per_update_median')} | "
-              f"{g('m4f', 'per_update_median')} | {g('avr', 'linked')} / {g('m0', 'linked')} / "
-              f"{g('m4f', 'linked')} | {g('m4f', 'ram')} | {bits} |")
-
-
+        out.append(f"| {name} | " + " | ".join(cell(c) for c, _ in present) +
+                   f" | {'-' if ram is None else ram} | {bits} |")
     return "\n".join(out)
 
 

@@ -40,7 +40,8 @@ class Case:
     step_function: str               # C function whose -fstack-usage frame is reported
     include_dirs: Sequence[Path] = ()
     defines: Optional[Mapping[str, object]] = None
-    targets: Sequence[str] = ("m4f", "m0", "avr")
+    targets: Sequence[str] = ("m4f", "m0", "avr", "m3", "m7", "m33", "m55", "rv32imac",
+                              "rv32imafc")
 
 
 def _imu_inputs(n: int) -> Dict[str, np.ndarray]:

@@ -303,6 +303,13 @@ def _build_in(fw: Any, target: str, name: str, tgt: "_tc.Target", driver: str, r
     obj = elf.symbols.get("imf_fw_obj")
     if obj:
         ram += obj[1]
+    elif getattr(fw, "object_type", None) and adapter is None:
+        # a declared C firmware's object lives in the driver
+        ram += elf.symbols.get(getattr(fw, "object_name", "fw"), (0, 0, 0))[1]
+    # the heap the harness gives a firmware that allocates (ctemplate.BARE_METAL: linked only
+    # when something calls malloc, e.g. newlib's assert) is the harness's size, not the
+    # firmware's: not counted
+    ram -= sum(elf.symbols.get(h, (0, 0, 0))[1] for h in ("imf_fw_heap", "imf_fw_brk"))
     routines, lib_flash = lmap.library(_undefined(_tool_prefix(tgt), objs, wd), objs)
     return Program(target, elf.path, wd, objs, list(cflags), types, int(chunk), int(ram_image),
                    row, in_dtype, flash_or_none, ram, routines, lib_flash, time.perf_counter() - t0)

@@ -22,8 +22,16 @@ from ..bits import compare_states
 from .causes import quaternion_angles_deg
 from .declaration import FirmwareError
 from .results import Validation
+from .targets import CORES
 
-__all__ = ["compare_firmware", "QUATERNION"]
+__all__ = ["compare_firmware", "pair_causes", "QUATERNION", "TRANSCENDENTALS"]
+
+#: C library routines that are not correctly rounded: two C libraries (glibc on the host,
+#: newlib, picolibc or avr-libc on a target) may differ in their last bit
+TRANSCENDENTALS = frozenset(
+    f + suffix for f in ("sin", "cos", "tan", "asin", "acos", "atan", "atan2", "exp", "log",
+                         "pow", "sinh", "cosh", "tanh", "hypot", "cbrt", "sincos")
+    for suffix in ("", "f"))
 
 QUATERNION = ("q0", "q1", "q2", "q3")
 
@@ -68,12 +76,48 @@ def compare_firmware(a: Validation, b: Validation, label_a: str = "A", label_b: 
                          f"{b.comparison.dtype} {', '.join(names_b)}): compared {how}, so "
                          "read the orientation difference, not the ulps")
     comp = compare_states(got, want, list(names))
+    if not comp.bit_exact:
+        notes_out += pair_causes(a, b)
     title = f"{_side(b, label_b)} vs {_side(a, label_a)}, no imufuse reference, {how}:"
     v = Validation(a.filter, "firmware", comp, got, want, target=f"{b.target} vs {a.target}",
                    cflags=tuple(b.cflags), notes=notes_out, params=a.params, title=title)
     if not comp.bit_exact:
         v.max_angle_deg = _max_angle(got, want, names)
     return v
+
+
+def _contracts(v: Validation) -> str:
+    """The fused multiply-add a side's build may emit: its core's, under GCC's default
+    -ffp-contract=fast (gnu standards; not under -ffp-contract=off or a strict -std=c..)."""
+    core = CORES.get(v.target)
+    flags = list(v.cflags)
+    if core is None or not core.contraction or "-ffp-contract=off" in flags or \
+            any(f.startswith("-std=c") and "gnu" not in f for f in flags):
+        return ""
+    return core.contraction
+
+
+def pair_causes(a: Validation, b: Validation) -> list:
+    """What can make two builds of one firmware differ, from what each was built with and
+    linked: a fused multiply-add one side's core has and its flags allow, and the
+    transcendental functions a target side takes from its own C library."""
+    out = []
+    for v, label in ((a, "A"), (b, "B")):
+        fused = _contracts(v)
+        if fused:
+            out.append(f"cause: fused multiply-add: firmware {label} was built for the {v.target} "
+                       f"with {' '.join(v.cflags) or 'no flags'}: GCC's default "
+                       f"-ffp-contract=fast fuses a*b+c into {fused} (one rounding instead of "
+                       "two); fix: -ffp-contract=off")
+    if a.target != b.target:
+        for v, label in ((a, "A"), (b, "B")):
+            lib = sorted(TRANSCENDENTALS & set(v.cost.library)) if v.cost else []
+            if lib:
+                out.append(f"cause: libm: firmware {label} calls {', '.join(lib)} of the "
+                           f"{v.target}'s C library, the other side its own: these functions "
+                           "are not correctly rounded, and two C libraries may differ in the last "
+                           "bit (no flag removes it: compare within a tolerance, --within)")
+    return out
 
 
 def _max_angle(got: np.ndarray, want: np.ndarray, names: Sequence[str]) -> Optional[float]:
