@@ -10,7 +10,7 @@ import dataclasses
 from typing import Dict, List, Optional
 
 __all__ = ["TARGETS", "DESCRIPTION", "CORES", "Core", "DEFAULT_TARGET_CFLAGS", "TargetError",
-           "target_names", "harness_target", "speed_note", "core", "UNSUPPORTED"]
+           "target_names", "harness_target", "speed_note", "core"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -54,9 +54,6 @@ CORES: Dict[str, Core] = {c.name: c for c in (
          "", "CPU cycles (simavr's cycle-accurate AVR core, Timer1 at clk/1)", 32),
 )}
 
-#: cores a user may ask for that this installation cannot run, and why
-UNSUPPORTED: Dict[str, str] = {}
-
 #: user-facing target names -> harness targets
 TARGETS = {name: c.harness for name, c in CORES.items()}
 #: what each target is, for reports
@@ -81,8 +78,7 @@ def core(target: str) -> Core:
     try:
         return CORES[target]
     except KeyError:
-        why = f" ({UNSUPPORTED[target]})" if target in UNSUPPORTED else ""
-        raise ValueError(f"unknown target {target!r}{why}; known: "
+        raise ValueError(f"unknown target {target!r}; known: "
                          f"{', '.join(target_names())}") from None
 
 
