@@ -213,11 +213,13 @@ static imf_fusion_vec_t residual(const imf_fusion_vec_t sensor, const imf_fusion
                                  const int invsqrt)
 {
     const imf_fusion_vec_t cross = imf_fusion_vec_cross(sensor, reference);
+    const imf_fusion_vec_t zero = { IMF_R(0.0), IMF_R(0.0), IMF_R(0.0) };
     if (imf_fusion_vec_dot(sensor, reference) > IMF_R(0.0)) {
         return cross;
     }
+    /* +0 in every component (a zero cross product may hold -0) */
     if (imf_fusion_vec_is_zero(cross)) {
-        return cross;
+        return zero;
     }
     return imf_fusion_vec_normalise(cross, invsqrt);
 }

@@ -420,3 +420,45 @@ def test_copies_continue_alike():
         assert_same_bits(g.run(log.gyr[100:], log.acc[100:], log.mag[100:]),
                          copy.deepcopy(f).run(log.gyr[100:], log.acc[100:], log.mag[100:]),
                          None)
+
+
+def test_opposite_vectors_give_a_zero_residual(fusion_exact, imufusion):
+    """1.3's fix of the NaN of exactly opposite vectors: a sensor upside down against the
+    identity (accelerometer exactly -up, field along the predicted east) gives a zero residual,
+    as Fusion 1.3's C and the package do; the path is reached (dot < 0, cross = 0)."""
+    ffi, lib = fusion_exact
+    n = 40
+    gyr = np.zeros((n, 3), dtype=np.float32)
+    acc = np.tile(np.float32([0.0, 0.0, -1.0]), (n, 1))
+    mag = np.tile(np.float32([0.0, 0.0, 0.0]), (n, 1))
+    gyr[20:] = np.float32([5.0, -3.0, 1.0])
+    acc[20:] = np.float32([0.1, 0.2, 0.97])
+    sc = Scenario("NWU", n=n)
+    sc.log.gyr, sc.log.acc, sc.log.mag = gyr, acc, mag
+    sc.mode[:] = 0
+    sc.op[:] = 0
+    sc.heading[:] = np.nan
+    sc.period[:] = np.float32(0.01)
+    state, _, _ = sc.run_oracle(ffi, lib)
+    assert np.all(state[:20, 8:11] == 0) and np.all(state[:20, 17] == 0)   # used, zero
+    assert np.all(np.isfinite(state))
+    for mod in (imufuse_c, ref):
+        assert_same_bits(make(mod, "NWU").run(gyr, acc, mag, dt=sc.period), state, None)
+    p = imufusion.Ahrs().set_settings(imufusion.AhrsSettings(gyroscope_range=2000.0))
+    want = []
+    for k in range(n):
+        p.set_sample_period(0.01).update(gyr[k], acc[k], mag[k])
+        want.append(p.get_quaternion())
+    got = make(imufuse_c, "NWU", dict(SETTINGS, acceleration_rejection=0.0,
+                                      magnetic_rejection=0.0, rejection_timeout=0.0)).run(
+        gyr, acc, mag, dt=0.01)
+    assert_same_bits(got[:, :4], np.array(want, dtype=np.float32), None)
+
+
+def test_float64_bias_c_equals_twin():
+    log = simulated_log(seed=14, n=2000)
+    a = imufuse_c.FusionBias(100.0, 3.0, 1.0, dtype="float64").run(log.gyr)
+    b = ref.FusionBias(100.0, 3.0, 1.0, dtype="float64").run(log.gyr)
+    assert np.any(b[1][:, 0] != 0)
+    for x, y in zip(a, b):
+        assert_same_bits(x, y, None)

@@ -200,10 +200,12 @@ class FusionAHRS13:
 
     def _residual(self, sensor, reference):
         cross = vec_cross(sensor, reference)
+        zero = (self._o.R(0.0), self._o.R(0.0), self._o.R(0.0))
         if vec_dot(sensor, reference) > self._o.R(0.0):
             return cross
+        # +0 in every component (a zero cross product may hold -0)
         if vec_is_zero(self._o, cross):
-            return cross
+            return zero
         return vec_normalise(self._o, cross, self._invsqrt)
 
     def _reject(self, half_res, rejection, trigger, threshold):
