@@ -462,3 +462,20 @@ def test_float64_bias_c_equals_twin():
     assert np.any(b[1][:, 0] != 0)
     for x, y in zip(a, b):
         assert_same_bits(x, y, None)
+
+
+@pytest.mark.parametrize("label,settings", [
+    ("defaults", dict(_fusion13.DEFAULTS)),
+    ("gain 0", dict(SETTINGS, gain=0.0)),
+    ("advanced", dict(_fusion13.ADVANCED, sample_rate=99.2))])
+def test_other_settings_match_fusion13_c(fusion_exact, label, settings):
+    """Fusion's defaults (rejection off, timeout 0), gain 0 (start-up still 3 s, rejection
+    off) and x-io's advanced settings at a rate whose period is not a float32 1/100."""
+    ffi, lib = fusion_exact
+    sc = Scenario("ENU", n=1500, seed=21)
+    state, out, flags = sc.run_oracle(ffi, lib, settings)
+    f = make(imufuse_c, "ENU", settings)
+    got = sc.run_ours(f)
+    assert_same_bits(got, state, _fusion13.AHRS_STATE_NAMES)
+    k = int(0.40 * len(got))
+    assert_outputs_equal(make(imufuse_c, "ENU", settings), got[:k], out[:k], flags[:k])
