@@ -17,6 +17,7 @@ the list of logs.
 """
 from __future__ import annotations
 
+import concurrent.futures as cf
 import glob
 import math
 import os
@@ -262,7 +263,8 @@ def compare_logs(logs: Union[str, os.PathLike, Iterable[Union[str, os.PathLike, 
                  score: ScoreOptions = ScoreOptions(), *, progress: Optional[Progress] = None,
                  on_log: Optional[Callable[[LogComparison], None]] = None,
                  open_log: Optional[Callable[[str], Session]] = None,
-                 keep_runs: bool = False) -> Comparison:
+                 keep_runs: bool = False,
+                 executor: Optional[cf.Executor] = None) -> Comparison:
     """The filters on every log, one log at a time (`compare_log` on each), and the means
     over them (Comparison.means()). logs: paths (a folder or a glob pattern as well, see
     `log_paths`) or Sessions (a generator of them keeps one log in memory at a time);
@@ -270,7 +272,11 @@ def compare_logs(logs: Union[str, os.PathLike, Iterable[Union[str, os.PathLike, 
     read each path (open_log(path) -> Session instead, e.g. to print its notes); on_log:
     called with each log's result as soon as it is done, before a problem is raised.
     Raises the first log's LogError that cannot be read, NothingComputed for a log with
-    nothing computed or evaluated (LogComparison.problem)."""
+    nothing computed or evaluated (LogComparison.problem). executor: any
+    concurrent.futures.Executor (a process pool, dask.distributed's Client.get_executor()):
+    each log is read and compared where the executor runs it (the first log is also read
+    here when ``filters`` is not given; open_log is then used for it alone), with the
+    local run's code and results."""
     if isinstance(logs, (str, os.PathLike)):
         logs = [logs]
     items = list(logs) if isinstance(logs, (list, tuple)) else logs
@@ -278,6 +284,23 @@ def compare_logs(logs: Union[str, os.PathLike, Iterable[Union[str, os.PathLike, 
         items = log_paths(items)
     out = Comparison()
     chosen = list(filters) if filters else None
+    if executor is not None:
+        items = list(items)
+        if chosen is None and items:
+            first = next(_sessions(items[:1], read, open_log))
+            chosen = default_filters(first.log)
+        futs = [executor.submit(_compare_one, item, read, chosen, params, run, score)
+                for item in items]
+        for fu in futs:
+            res = fu.result()
+            out.logs.append(res)
+            if on_log is not None:
+                on_log(res)
+            if res.problem:
+                for f in futs:
+                    f.cancel()
+                raise NothingComputed(res.problem)
+        return out
     for s in _sessions(items, read, open_log):
         chosen = chosen or default_filters(s.log)
         res = compare_log(s, chosen, params, run, score, progress=progress,
@@ -289,3 +312,12 @@ def compare_logs(logs: Union[str, os.PathLike, Iterable[Union[str, os.PathLike, 
         if res.problem:
             raise NothingComputed(res.problem)
     return out
+
+
+def _compare_one(item: Union[str, "os.PathLike[str]", Session], read: ReadOptions,
+                 filters: Optional[Sequence[str]],
+                 params: Optional[Mapping[str, Mapping[str, Any]]], run: RunOptions,
+                 score: ScoreOptions) -> LogComparison:
+    """One log read and compared where an executor runs it (compare_logs(executor=...))."""
+    s = item if isinstance(item, Session) else Session(os.fspath(item), read)
+    return compare_log(s, filters or default_filters(s.log), params, run, score)

@@ -14,6 +14,13 @@ is kept, the errors are imufuse.evaluation's within 1e-12); filters with a lane 
 their sets side by side in SIMD lanes, and (log, group of sets) tasks run in threads. Python
 only chooses the sets. The reference backend and the fixed-point filters run and score each
 set in Python, in threads.
+
+Beyond one machine: ``search(..., executor=ex)`` takes any concurrent.futures.Executor (a
+ProcessPoolExecutor, dask.distributed's ``Client.get_executor()``, Ray's): each round sends
+one task per log, which opens the log where it runs (a path is read there, with the Tuner's
+ReadOptions; a Session is sent as it is) and evaluates every set of the round on it with the
+same code as the local run, so the results are the local run's to the bit. Tuner accepts
+paths for this: the driver reads none of them but the first (for the grid's defaults).
 """
 from __future__ import annotations
 
@@ -22,7 +29,7 @@ import itertools
 import math
 import os
 from dataclasses import dataclass, field
-from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -30,7 +37,7 @@ import imufuse_c
 
 from .catalogue import FLOAT, FilterError, reference_class, resolve_params
 from .evaluation import METRICS, mean_over_trials, prepare_reference
-from .session import (NothingComputed, RunOptions, ScoreOptions, Session,
+from .session import (NothingComputed, ReadOptions, RunOptions, ScoreOptions, Session,
                       effective_params)
 
 __all__ = ["Tuner", "TuneResult", "grid_spec", "Grid"]
@@ -91,9 +98,12 @@ class TuneResult:
 class Tuner:
     """Score parameter sets of one 3-D filter on sessions with a reference orientation."""
 
-    def __init__(self, sessions: Sequence[Session], name: str,
+    def __init__(self, sessions: Sequence[Union[Session, str, "os.PathLike[str]"]], name: str,
                  fixed: Optional[Mapping[str, Any]] = None, metric: Optional[str] = None,
-                 run: RunOptions = RunOptions(), score: ScoreOptions = ScoreOptions()) -> None:
+                 run: RunOptions = RunOptions(), score: ScoreOptions = ScoreOptions(), *,
+                 read: ReadOptions = ReadOptions()) -> None:
+        """sessions: Sessions, or paths of logs read with ``read`` (opened on first use here,
+        or where an executor runs them: search(executor=...))."""
         cls = reference_class(name)
         if cls.kind == "1d":
             raise ValueError(f"tune: {name} is a single-axis filter; tune evaluates 3D filters "
@@ -104,26 +114,45 @@ class Tuner:
         if cls.kind != "ahrs" and self.metric != "inclination":
             raise ValueError(f"--metric {self.metric}: {name} has no heading reference; use "
                              "inclination")
-        for s in sessions:
-            if s.log.q_ref is None:
-                raise NothingComputed(f"{s.log.path}: no reference orientation (q_w..q_z): "
-                                      "nothing to tune against")
-        self.sessions, self.name, self.cls = list(sessions), name, cls
+        if not sessions:
+            raise ValueError("tune: no log given")
+        self.sources = [s if isinstance(s, Session) else os.fspath(s) for s in sessions]
+        self.read = read
+        for s in self.sources:
+            if isinstance(s, Session):
+                _require_reference(s)
+        self.name, self.cls = name, cls
         self.fixed = dict(fixed or {})
         self.run_options, self.score_options = run, score
-        self.inputs = [s.inputs(name)[0] for s in self.sessions]
         #: compiled batches (run_filters), else each set run and scored in Python
         self.batch = run.backend == "c" and name in {e.name for e in FLOAT}
+        self._sessions: Dict[int, Session] = {}
         self._refs: Optional[list] = None
+        self._inputs: Optional[list] = None
+
+    def _session(self, i: int) -> Session:
+        if i not in self._sessions:
+            src = self.sources[i]
+            self._sessions[i] = src if isinstance(src, Session) else \
+                _require_reference(Session(src, self.read))
+        return self._sessions[i]
+
+    @property
+    def sessions(self) -> List[Session]:
+        """Every log as a Session (paths are read here, once)."""
+        return [self._session(i) for i in range(len(self.sources))]
+
+    @property
+    def inputs(self) -> list:
+        if self._inputs is None:
+            self._inputs = [s.inputs(self.name)[0] for s in self.sessions]
+        return self._inputs
 
     def references(self) -> list:
         """Each session's reference prepared for the compiled scorer (once)."""
         if self._refs is None:
             o = self.score_options
-            self._refs = [prepare_reference(s.log.q_ref, ref_frame=s.ref_frame(o),
-                                            ref_direction=o.ref_direction, movement=s.mask(o),
-                                            remove_heading_offset=o.heading_offset)
-                          for s in self.sessions]
+            self._refs = [_reference(s, o) for s in self.sessions]
         return self._refs
 
     def default_grid(self, points: int) -> Grid:
@@ -142,10 +171,10 @@ class Tuner:
         (acc_1g with the accelerometer gate off): varying them only costs time. own_values:
         those whose first and last values of the grid give the same states (a grid given by
         the user; a single value is never idle)."""
-        head = [np.asarray(a)[:samples] for a in self.inputs[0]]
+        head = [np.asarray(a)[:samples] for a in self._session(0).inputs(self.name)[0]]
         eff = effective_params(self.name, resolve_params(self.name, 0.01, self.fixed,
                                                              self.run_options.preset))
-        s0 = self.sessions[0]
+        s0 = self._session(0)
 
         def states(over: Mapping[str, Any]) -> np.ndarray:
             f, _, _, _, _ = s0.make(self.name, {**self.fixed, **over}, self.run_options)
@@ -190,23 +219,14 @@ class Tuner:
             except FilterError as e:
                 res.results[p] = (math.nan, str(e))
         good = list(made)
-        width = 1
-        if good:
-            f0 = made[good[0]][0][0]
-            if imufuse_c.has_lanes(self.name, f0.dtype):
-                width = max(imufuse_c.lane_widths(f0.dtype))
-        count = -(-len(good) // width) if good else 0
-        spans = [(len(good) * j // count, len(good) * (j + 1) // count) for j in range(count)]
+        spans = _spans(self.name, [made[p][0][0] for p in good])
         evs: Dict[Tuple[float, ...], list] = {p: [None] * len(self.sessions) for p in good}
         tasks = [(i, a, b) for i in range(len(self.sessions)) for a, b in spans]
 
         def task(t: Tuple[int, int, int]) -> Tuple[int, int, int, list]:
             i, a, b = t
-            filters = [made[p][i][0] for p in good[a:b]]
-            dts = made[good[a]][i][2]
-            out = imufuse_c.run_filters(filters, *self.inputs[i], dt=dts, score=refs[i],
-                                        threads=1)
-            return i, a, b, out
+            return i, a, b, _run_group([made[p][i] for p in good[a:b]], self.inputs[i],
+                                       refs[i])
         done, n_logs = 0, len(self.sessions)
         with cf.ThreadPoolExecutor(max_workers=max(1, min(workers, len(tasks) or 1))) as ex:
             for fu in cf.as_completed([ex.submit(task, t) for t in tasks]):
@@ -219,18 +239,44 @@ class Tuner:
         for p in good:
             res.results[p] = (mean_over_trials(evs[p])[self.metric], evs[p])
 
+    def _run_executor(self, executor: cf.Executor, names: Sequence[str],
+                      points: List[Tuple[float, ...]], res: TuneResult,
+                      progress: Optional[Callable[[int, int], None]]) -> None:
+        """Every point on every log: one task per log (_evaluate_log) in ``executor``."""
+        tasks = [_LogTask(src, self.read, self.name, self.fixed, self.run_options,
+                          self.score_options, tuple(names), tuple(points), self.batch)
+                 for src in self.sources]
+        futs = {executor.submit(_evaluate_log, t): i for i, t in enumerate(tasks)}
+        per_log: List[list] = [[] for _ in tasks]
+        for n, fu in enumerate(cf.as_completed(futs), 1):
+            per_log[futs[fu]] = fu.result()
+            if progress:
+                progress(n, len(tasks))
+        for j, p in enumerate(points):
+            why = next((r[j] for r in per_log if isinstance(r[j], str)), None)
+            if why is not None:
+                res.results[p] = (math.nan, why)
+            else:
+                evs = [r[j] for r in per_log]
+                res.results[p] = (mean_over_trials(evs)[self.metric], evs)
+
     def search(self, grid: Grid, refine: int = 2, jobs: Optional[int] = None,
-               progress: Optional[Callable[[int, int], None]] = None) -> TuneResult:
+               progress: Optional[Callable[[int, int], None]] = None,
+               executor: Optional[cf.Executor] = None) -> TuneResult:
         """The grid, then ``refine`` rounds of a 5-point grid per parameter between the best
-        point's neighbours."""
+        point's neighbours. executor: run each round as one task per log there (any
+        concurrent.futures.Executor; progress counts logs done)."""
         names = [k for k, _ in grid]
-        resolve_params(self.name, self.sessions[0].dt(),
+        resolve_params(self.name, self._session(0).dt(),
                        {**self.fixed, **{k: v[0] for k, v in grid}},
                        self.run_options.preset)                           # names exist
         res = TuneResult(names, self.metric)
         workers = max(1, jobs or os.cpu_count() or 1)
 
         def run(points: List[Tuple[float, ...]]) -> None:
+            if executor is not None:
+                self._run_executor(executor, names, points, res, progress)
+                return
             if self.batch:
                 self._run_batch(names, points, res, workers, progress)
                 return
@@ -265,3 +311,72 @@ class Tuner:
             raise NothingComputed(f"tune: no parameter set could be evaluated "
                                   f"({len(res.results)} tried)" + (f"; e.g. {why}" if why else ""))
         return res
+
+
+def _require_reference(s: Session) -> Session:
+    if s.log.q_ref is None:
+        raise NothingComputed(f"{s.log.path}: no reference orientation (q_w..q_z): "
+                              "nothing to tune against")
+    return s
+
+
+def _reference(s: Session, o: ScoreOptions) -> Any:
+    """A session's reference prepared for the compiled scorer."""
+    return prepare_reference(s.log.q_ref, ref_frame=s.ref_frame(o), ref_direction=o.ref_direction,
+                             movement=s.mask(o), remove_heading_offset=o.heading_offset)
+
+
+def _spans(name: str, filters: Sequence[Any]) -> List[Tuple[int, int]]:
+    """The filters split into groups as wide as the lanes of their kernel (one each without)."""
+    width = 1
+    if filters and imufuse_c.has_lanes(name, filters[0].dtype):
+        width = max(imufuse_c.lane_widths(filters[0].dtype))
+    count = -(-len(filters) // width) if filters else 0
+    return [(len(filters) * j // count, len(filters) * (j + 1) // count) for j in range(count)]
+
+
+def _run_group(made: Sequence[Any], inputs: Sequence[Any], ref: Any) -> list:
+    """One group of made filters (Session.make's tuples) run and scored on a log's inputs in
+    compiled code: their evaluations."""
+    return imufuse_c.run_filters([m[0] for m in made], *inputs, dt=made[0][2], score=ref,
+                                 threads=1)
+
+
+@dataclass(frozen=True)
+class _LogTask:
+    """What a worker needs to evaluate a round's sets on one log (picklable)."""
+    source: Any                      # a Session, or the path of a log read with ``read``
+    read: ReadOptions
+    name: str
+    fixed: Mapping[str, Any]
+    run: RunOptions
+    score: ScoreOptions
+    names: Tuple[str, ...]
+    points: Tuple[Tuple[float, ...], ...]
+    batch: bool
+
+
+def _evaluate_log(task: _LogTask) -> list:
+    """Every set of ``task`` on its log: the evaluation of each, or the filter's refusal
+    (a message); the local run's code (Tuner._run_batch, Tuner.score_set) on one log."""
+    t = Tuner([task.source], task.name, task.fixed, None, task.run, task.score, read=task.read)
+    s = t._session(0)
+    out: list = []
+    made: list = []
+    for p in task.points:
+        try:
+            made.append(s.make(task.name, {**task.fixed, **dict(zip(task.names, p))}, task.run))
+        except FilterError as e:
+            made.append(str(e))
+    good = [j for j, m in enumerate(made) if not isinstance(m, str)]
+    out = list(made)
+    if task.batch:
+        ref = t.references()[0]
+        for a, b in _spans(task.name, [made[j][0] for j in good]):
+            for j, ev in zip(good[a:b], _run_group([made[j] for j in good[a:b]], t.inputs[0],
+                                                   ref)):
+                out[j] = ev
+    else:
+        for j in good:
+            out[j] = t.score_set(task.names, task.points[j])[1][0]
+    return out

@@ -2,6 +2,8 @@
 argparse Namespace becomes typed settings (imufuse.session's options)."""
 import argparse
 import ast
+import concurrent.futures as cf
+import contextlib
 import math
 import sys
 
@@ -337,3 +339,48 @@ def preprocess_options(parser):
                         "(body x = +sensor x, y = -sensor z, z = +sensor y)")
     g.add_argument("--offset", action="store_true",
                    help="gyroscope offset estimator (FusionOffset) at the log's rate")
+
+
+def executor_spec(text):
+    """--executor: processes[:N], dask:ADDRESS or dask-local[:N] (checked here, made by
+    `executor`)."""
+    kind, _, arg = text.partition(":")
+    if kind in ("processes", "dask-local"):
+        if arg and not (arg.isdigit() and 0 < int(arg) <= 1024):
+            raise argparse.ArgumentTypeError(f"{text!r}: {kind}:N takes a number of workers "
+                                             "from 1 to 1024")
+        return text
+    if kind == "dask" and arg:
+        return text
+    raise argparse.ArgumentTypeError(f"{text!r}: expected processes[:N], dask:ADDRESS or "
+                                     "dask-local[:N]")
+
+
+@contextlib.contextmanager
+def executor(spec):
+    """The concurrent.futures.Executor of an --executor SPEC (None: none), shut down after."""
+    if not spec:
+        yield None
+        return
+    kind, _, arg = spec.partition(":")
+    if kind == "processes":
+        with cf.ProcessPoolExecutor(int(arg) if arg else None) as ex:
+            yield ex
+        return
+    try:
+        from dask.distributed import Client, LocalCluster
+    except ImportError:
+        raise UsageError(f"--executor {spec}: dask.distributed is not installed "
+                         "(pip install 'dask[distributed]')") from None
+    if kind == "dask-local":
+        with LocalCluster(n_workers=int(arg) if arg else None, threads_per_worker=1,
+                          processes=True, dashboard_address=None) as cluster, \
+                Client(cluster) as client:
+            yield client.get_executor()
+        return
+    try:
+        client = Client(arg, timeout=30)
+    except OSError as e:
+        raise UsageError(f"--executor {spec}: no dask scheduler there ({e})") from None
+    with client:
+        yield client.get_executor()

@@ -14,10 +14,10 @@ from ..comparison import compare_logs, default_filters, log_paths
 from ..io import axis_inputs
 from ..rotations import quat_to_euler
 from ..session import FUSION, NothingComputed, StrictError, format_params, frame_q
-from .common import (EXIT_OK, OutputError, UsageError, err, eval_options, filter_options,
-                     input_files, log_options, names, open_session, pairs, plot_available,
-                     preprocess_options, progress,
-                     run_options, score_options, scoped_params, write_output)
+from .common import (EXIT_OK, OutputError, UsageError, err, eval_options, executor,
+                     executor_spec, filter_options, input_files, log_options, names,
+                     open_session, pairs, plot_available, preprocess_options, progress,
+                     read_options, run_options, score_options, scoped_params, write_output)
 
 #: the filters run and compare take: the float filters and FusionAHRS
 VALID = (*FILTERS, FUSION)
@@ -163,8 +163,20 @@ def compare(args):
                    f"{', '.join(runs)} ({given}; {res.time}, init "
                    f"{getattr(args, 'init', None) or 'first'})")
 
-    c = compare_logs(sessions(), chosen, per, run=ro, score=sc, progress=progress,
-                     on_log=show, keep_runs=bool(args.plot) and not many)
+    if args.executor and many:
+        # every log but the first read where the executor runs it: their notes are printed
+        # as their results come back, in the order of the logs
+        def show_with_notes(res):
+            if res.path != paths[0]:
+                for note in res.notes:
+                    err(f"note: {res.path}: {note}")
+            show(res)
+        with executor(args.executor) as ex:
+            c = compare_logs([first[0], *paths[1:]], chosen, per, read=read_options(args),
+                             run=ro, score=sc, on_log=show_with_notes, executor=ex)
+    else:
+        c = compare_logs(sessions(), chosen, per, run=ro, score=sc, progress=progress,
+                         on_log=show, keep_runs=bool(args.plot) and not many)
     if many:
         _means(c, args)
     return EXIT_OK
@@ -371,6 +383,10 @@ def add_parsers(sub):
     c.add_argument("--plot", metavar="PNG",
                    help="one log: estimates and errors over time; several: every log's RMS "
                         "errors as bars (matplotlib)")
+    c.add_argument("--executor", metavar="SPEC", type=executor_spec,
+                   help="compare the logs in an executor, each read where it runs: "
+                        "processes[:N], dask:ADDRESS (a dask.distributed scheduler) or "
+                        "dask-local[:N] (see imufuse tune --help)")
     log_options(c)
     filter_options(c)
     eval_options(c)

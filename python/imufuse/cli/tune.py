@@ -5,8 +5,9 @@ import sys
 
 from ..catalogue import canonical_name
 from ..tune import Tuner, grid_spec
-from .common import (EXIT_OK, UsageError, err, eval_options, filter_options, log_options,
-                     open_session, pairs, positive, nonneg_int, run_options, score_options)
+from .common import (EXIT_OK, UsageError, err, eval_options, executor, executor_spec,
+                     filter_options, log_options, open_session, pairs, positive, nonneg_int,
+                     read_options, run_options, score_options)
 
 
 def _tune(args):
@@ -28,9 +29,12 @@ def _tune(args):
         grids.append((k, vals))
         given[k] = g
     try:
-        sessions = [open_session(args, p) for p in args.logs]
+        # with an executor, the logs are read where the executor runs them (the first one
+        # here too, for the default grid); else here, with their notes
+        sessions = ([open_session(args, args.logs[0]), *args.logs[1:]] if args.executor
+                    else [open_session(args, p) for p in args.logs])
         t = Tuner(sessions, args.filter, fixed, args.metric, run_options(args),
-                  score_options(args))
+                  score_options(args), read=read_options(args))
         if not grids:
             # the default grid leaves out what does nothing with these settings (acc_1g with
             # the gate off) without a word: nobody asked for it
@@ -58,15 +62,16 @@ def _tune(args):
                   end="", file=sys.stderr, flush=True)
             if done == total:
                 print(file=sys.stderr)
-    res = t.search(grids, refine=args.refine, jobs=args.jobs, progress=bar)
-    logs = [s.log for s in sessions]
+    with executor(args.executor) as ex:
+        res = t.search(grids, refine=args.refine, jobs=args.jobs, progress=bar, executor=ex)
+    paths = [s.log.path if hasattr(s, "log") else s for s in sessions]
     metric, keys = res.metric, res.names
-    print(f"{args.filter} on {len(logs)} log{'s' if len(logs) > 1 else ''}: mean over logs of "
+    print(f"{args.filter} on {len(paths)} log{'s' if len(paths) > 1 else ''}: mean over logs of "
           f"the {metric} RMS (deg); {len(res.results)} parameter sets, best first")
-    w = [max(len(os.path.basename(lg.path)), 8) for lg in logs]
+    w = [max(len(os.path.basename(lg)), 8) for lg in paths]
     kw = [max(len(k), 10) for k in keys]
     head = "  ".join(f"{k:>{wi}s}" for k, wi in zip(keys, kw)) + f"  {metric:>11s}" + "".join(
-        f"  {os.path.basename(lg.path):>{wi}s}" for lg, wi in zip(logs, w))
+        f"  {os.path.basename(lg):>{wi}s}" for lg, wi in zip(paths, w))
     print(head)
     print("-" * len(head))
     ranked = res.ranked()
@@ -103,6 +108,11 @@ def add_parsers(sub):
     t.add_argument("--metric", choices=("total", "heading", "inclination"),
                    help="default: total for AHRS, inclination for IMU filters")
     t.add_argument("--jobs", "-j", type=positive(int, 1024), help="threads (default: cores)")
+    t.add_argument("--executor", metavar="SPEC", type=executor_spec,
+                   help="run each round as one task per log in an executor, where the logs are "
+                        "read: processes[:N] (worker processes here), dask:ADDRESS (a "
+                        "dask.distributed scheduler, e.g. dask:tcp://10.0.0.5:8786), "
+                        "dask-local[:N] (a local dask cluster of N worker processes)")
     t.add_argument("--top", type=positive(int, 10**6), default=15, help="rows shown (default 15)")
     t.add_argument("--all", action="store_true", help="show every parameter set")
     t.add_argument("--quiet", "-q", action="store_true",
