@@ -16,6 +16,9 @@ import fusion13_oracle as oracle
 from bits import assert_same_bits
 from fusion_sim import simulated_log
 
+# the oracles are fetched and built (as tests/test_fusion_oracle.py's, in conftest's SLOW)
+pytestmark = pytest.mark.slow
+
 CONVENTIONS = ("NWU", "ENU", "NED")
 #: the settings the scenario runs with: rejection and recovery reachable within the log
 SETTINGS = dict(sample_rate=100.0, gain=0.5, gyroscope_range=2000.0,

@@ -33,7 +33,8 @@ validate_mod = importlib.import_module("imufuse.firmware.validate")
 DECLARATION = os.path.join(os.path.dirname(HERE), "examples", "declarations",
                            "fusion-1.3.3.toml")
 
-pytestmark = pytest.mark.xdist_group("declared_target")
+pytestmark = [pytest.mark.xdist_group("declared_target"), pytest.mark.emulator,
+              pytest.mark.slow]
 
 
 class _Fusion13Entry(validate_mod._FusionEntry):
