@@ -10,7 +10,8 @@ import pytest
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 FILES = sorted(glob.glob(os.path.join(ROOT, "csrc", "*.[ch]"))
-               + glob.glob(os.path.join(ROOT, "csrc", "fixed", "*.[ch]")))
+               + glob.glob(os.path.join(ROOT, "csrc", "fixed", "*.[ch]"))
+               + glob.glob(os.path.join(ROOT, "csrc", "hil", "*.[ch]")))
 pytest.importorskip("clang_format", reason="clang-format is in the test extra "
                                            "(pip install 'imufuse[test]')")
 # the wheel's binary, through its module (the venv's bin/ need not be on PATH)

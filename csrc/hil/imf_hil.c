@@ -11,8 +11,8 @@
 #endif
 
 /* The stack pointer, where the compiler lets us read it; elsewhere no stack figure. */
-#if defined(__GNUC__) && IMF_HIL_STACK_BAND > 0u &&                                        \
-    (defined(__arm__) || defined(__AVR__) || defined(__riscv))
+#if defined(__GNUC__) && IMF_HIL_STACK_BAND > 0u \
+    && (defined(__arm__) || defined(__AVR__) || defined(__riscv))
 #define IMF_HIL_HAVE_SP 1
 #if defined(__AVR__)
 #include <avr/io.h>
@@ -29,12 +29,7 @@
 #define IMF_HIL_PAINT 0xA5u
 #define IMF_HIL_NO_STACK 0xFFFFu
 
-enum {
-    IMF_HIL_NAK_CORRUPT = 1,
-    IMF_HIL_NAK_ORDER = 2,
-    IMF_HIL_NAK_IDLE = 3,
-    IMF_HIL_NAK_SIZE = 4
-};
+enum { IMF_HIL_NAK_CORRUPT = 1, IMF_HIL_NAK_ORDER = 2, IMF_HIL_NAK_IDLE = 3, IMF_HIL_NAK_SIZE = 4 };
 
 uint16_t imf_hil_crc16(uint16_t crc, const uint8_t *data, uint16_t n)
 {
@@ -44,7 +39,7 @@ uint16_t imf_hil_crc16(uint16_t crc, const uint8_t *data, uint16_t n)
         crc = (uint16_t)(crc ^ (uint16_t)((uint16_t)data[i] << 8));
         for (bit = 0u; bit < 8u; ++bit) {
             crc = (crc & 0x8000u) != 0u ? (uint16_t)((uint16_t)(crc << 1) ^ 0x1021u)
-                                         : (uint16_t)(crc << 1);
+                                        : (uint16_t)(crc << 1);
         }
     }
     return crc;
@@ -121,9 +116,8 @@ static void imf_hil_empty(const void *in)
 }
 
 /* One call of fn: its count (less an empty call's) and the stack below the caller's. */
-static IMF_HIL_NOINLINE uint32_t imf_hil_call(const imf_hil_t *const self,
-                                              void (*fn)(const void *), const void *in,
-                                              uint16_t *stack)
+static IMF_HIL_NOINLINE uint32_t imf_hil_call(const imf_hil_t *const self, void (*fn)(const void *),
+                                              const void *in, uint16_t *stack)
 {
     const imf_hil_app_t *const app = self->app;
     uint32_t t0 = 0u;
@@ -193,12 +187,13 @@ static uint16_t imf_hil_frame(imf_hil_t *const self, const uint8_t *f, uint8_t n
 {
     uint16_t seq;
     uint16_t behind;
-    const uint8_t in_bytes = (uint8_t)(self->app->n_in *
-                                       (self->app->in_kind == IMF_HIL_IN_F64   ? 8u
-                                        : self->app->in_kind == IMF_HIL_IN_I16 ? 2u
-                                                                               : 4u));
-    if (n < 5u || imf_hil_crc16(0xFFFFu, f, (uint16_t)(n - 2u)) !=
-                      (uint16_t)(f[n - 2u] | (uint16_t)((uint16_t)f[n - 1u] << 8))) {
+    const uint8_t in_bytes = (uint8_t)(self->app->n_in
+                                       * (self->app->in_kind == IMF_HIL_IN_F64   ? 8u
+                                          : self->app->in_kind == IMF_HIL_IN_I16 ? 2u
+                                                                                 : 4u));
+    if (n < 5u
+        || imf_hil_crc16(0xFFFFu, f, (uint16_t)(n - 2u))
+               != (uint16_t)(f[n - 2u] | (uint16_t)((uint16_t)f[n - 1u] << 8))) {
         imf_hil_nak(self, IMF_HIL_NAK_CORRUPT);
         return 0u;
     }

@@ -95,32 +95,32 @@ typedef struct {
     void (*update)(const void *in);
     /* the state words into out, each in its own size; returns the bytes written */
     uint8_t (*state)(uint8_t *out);
-    int (*get_byte)(void);       /* a received byte 0..255, or -1 when none is waiting */
-    void (*put_byte)(uint8_t b); /* send one byte (may block) */
+    int (*get_byte)(void);                 /* a received byte 0..255, or -1 when none is waiting */
+    void (*put_byte)(uint8_t b);           /* send one byte (may block) */
     uint32_t (*count_begin)(void);         /* a start value (NULL: no counter) */
     uint32_t (*count_end)(uint32_t start); /* counts since start, in count_unit */
-    uint8_t count_unit;          /* IMF_HIL_COUNT_... */
+    uint8_t count_unit;                    /* IMF_HIL_COUNT_... */
 } imf_hil_app_t;
 
 #define IMF_HIL_ANSWER (3u + IMF_HIL_MAX_STATE + 6u + 2u) /* header, state, count, stack, CRC */
-#define IMF_HIL_FRAME (3u + IMF_HIL_MAX_INPUT + 2u)             /* header, sample, CRC */
+#define IMF_HIL_FRAME (3u + IMF_HIL_MAX_INPUT + 2u)       /* header, sample, CRC */
 
 /* The runner. All members private. */
 typedef struct {
-    const imf_hil_app_t *app;         /* the firmware and board callbacks */
-    uint8_t rx[IMF_HIL_FRAME + 2u];   /* the COBS frame being received */
-    uint8_t rx_len;                   /* bytes of it so far */
-    uint8_t rx_over;                  /* 1: the frame was longer than rx (dropped) */
-    uint8_t running;                  /* 1: a run has begun */
-    uint16_t expected;                /* the next sample's sequence number */
+    const imf_hil_app_t *app;                       /* the firmware and board callbacks */
+    uint8_t rx[IMF_HIL_FRAME + 2u];                 /* the COBS frame being received */
+    uint8_t rx_len;                                 /* bytes of it so far */
+    uint8_t rx_over;                                /* 1: the frame was longer than rx (dropped) */
+    uint8_t running;                                /* 1: a run has begun */
+    uint16_t expected;                              /* the next sample's sequence number */
     uint8_t answer[IMF_HIL_WINDOW][IMF_HIL_ANSWER]; /* the last answers, for repeats */
-    uint8_t answer_len[IMF_HIL_WINDOW];              /* their lengths, bytes */
-    uint32_t overhead;                /* counts of an empty call */
-    uint16_t stack_empty;             /* stack of an empty call, bytes */
+    uint8_t answer_len[IMF_HIL_WINDOW];             /* their lengths, bytes */
+    uint32_t overhead;                              /* counts of an empty call */
+    uint16_t stack_empty;                           /* stack of an empty call, bytes */
     union {
         double d[(IMF_HIL_MAX_INPUT + 7u) / 8u]; /* alignment for double inputs */
         uint8_t b[IMF_HIL_MAX_INPUT];            /* the sample's input bytes */
-    } in;                             /* the sample being run */
+    } in;                                        /* the sample being run */
 } imf_hil_t;
 
 /* Set up the runner on app (which must outlive it) and send the start-up banner (the hello

@@ -78,8 +78,8 @@ static void imf_hil_put(uint8_t b)
 static uint32_t imf_hil_count_end(uint32_t start)
 {
     const uint32_t t = imf_port_count_end(start);
-    return (uint32_t)(((uint64_t)t * IMF_HIL_TICKS_NUM + IMF_HIL_TICKS_DEN / 2u) /
-                      IMF_HIL_TICKS_DEN);
+    return (uint32_t)(((uint64_t)t * IMF_HIL_TICKS_NUM + IMF_HIL_TICKS_DEN / 2u)
+                      / IMF_HIL_TICKS_DEN);
 }
 #define IMF_HIL_UNIT IMF_HIL_COUNT_INSTRUCTIONS
 #endif
@@ -145,10 +145,14 @@ static uint8_t imf_hil_state(uint8_t *out)
 }
 
 static const imf_hil_app_t imf_hil_app = {
-    IMF_HIL_NAME, IMF_HIL_IN_KIND, IMF_FW_ROW,
-    (uint8_t)(sizeof imf_fw_types / sizeof imf_fw_types[0]), imf_hil_types,
-    imf_hil_init_fw, imf_hil_load, imf_hil_update, imf_hil_state, imf_hil_get, imf_hil_put,
-    imf_port_count_begin, imf_hil_count_end, IMF_HIL_UNIT};
+    IMF_HIL_NAME,      IMF_HIL_IN_KIND,
+    IMF_FW_ROW,        (uint8_t)(sizeof imf_fw_types / sizeof imf_fw_types[0]),
+    imf_hil_types,     imf_hil_init_fw,
+    imf_hil_load,      imf_hil_update,
+    imf_hil_state,     imf_hil_get,
+    imf_hil_put,       imf_port_count_begin,
+    imf_hil_count_end, IMF_HIL_UNIT
+};
 
 static imf_hil_t imf_hil;
 
