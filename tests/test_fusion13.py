@@ -482,3 +482,23 @@ def test_other_settings_match_fusion13_c(fusion_exact, label, settings):
     assert_same_bits(got, state, _fusion13.AHRS_STATE_NAMES)
     k = int(0.40 * len(got))
     assert_outputs_equal(make(imufuse_c, "ENU", settings), got[:k], out[:k], flags[:k])
+
+
+@pytest.mark.parametrize("convention", CONVENTIONS)
+def test_xio_recording_every_state_member(fusion_exact, convention):
+    """x-io's recording through Fusion 1.3's C with the advanced settings and the measured
+    period before every update: every state member and output after every sample, each
+    convention (the package above cannot read the private members)."""
+    ffi, lib = fusion_exact
+    dt, gyr, acc, mag = _xio()
+    sc = Scenario(convention, n=len(dt))
+    sc.log.gyr, sc.log.acc, sc.log.mag = gyr, acc, mag
+    sc.mode[:] = 0
+    sc.op[:] = 0
+    sc.heading[:] = np.nan
+    sc.period = dt
+    state, out, flags = sc.run_oracle(ffi, lib, _fusion13.ADVANCED)
+    f = make(imufuse_c, convention, _fusion13.ADVANCED)
+    got = f.run(gyr, acc, mag, dt=dt)
+    assert_same_bits(got, state, _fusion13.AHRS_STATE_NAMES)
+    assert_outputs_equal(f, got, out, flags)
