@@ -101,6 +101,18 @@ cdef inline void _copy_state(imf_real *dst, const char *x, Py_ssize_t n) noexcep
         dst[j] = src[j]
 
 
+cdef inline void _emit(imf_real *dst, const char *x, Py_ssize_t n, const int *cols,
+                       int ncols) noexcept nogil:
+    # what run() keeps of the state after a sample: all of it, or the words outputs= needs
+    cdef const imf_real *src = <const imf_real *>x
+    cdef int j
+    if ncols == 0:
+        _copy_state(dst, x, n)
+    else:
+        for j in range(ncols):
+            dst[j] = src[cols[j]]
+
+
 cdef inline bint _plain(object x):
     # a Python float (or subclass: numpy.float64) or a Python int that fits a
     # double: converted directly; anything else goes through imufuse._checks
@@ -183,6 +195,8 @@ cdef class _Filter:
     cdef _StateOut _out
     cdef void *_whole
     cdef int _busy          # run() in progress in some thread (_guard.pxi)
+    cdef int _ncols         # run() keeps these state words only (outputs=): 0 keeps all
+    cdef int _cols[16]
     _ref = None
     dtype = DTYPE
 
@@ -347,6 +361,19 @@ cdef class _Filter:
     def __repr__(self):
         return f"<imufuse_c {type(self).__name__} dtype={DTYPE}>"
 
+    cdef void _keep(self, tuple cols):
+        # run(..., outputs=) keeps only the state words its output is read from
+        # (imufuse.estimate.output_columns) while the filter runs: read afterwards as
+        # run_outputs reads the whole trajectory, the same values without N x len(state)
+        # words. Set inside run()'s claim (_guard.pxi), cleared in its finally.
+        cdef int j
+        if cols is None:
+            self._ncols = 0
+            return
+        for j in range(len(cols)):
+            self._cols[j] = cols[j]
+        self._ncols = len(cols)
+
 
 # ---- run(): inputs read in place ---------------------------------------------
 # A C-contiguous, aligned, native-endian float32 or float64 array of the right
@@ -507,7 +534,7 @@ cdef class _FilterIMU(_Filter):
         z3[1] = 0
         z3[2] = 0
         dt_a = _checks.dt_array(dt, n_samples, DTYPE) if use_dt else np.zeros(1, DTYPE)
-        out = np.empty((n_samples, n), dtype=DTYPE)
+        out = np.empty((n_samples, self._ncols or n), dtype=DTYPE)
         cdef const imf_real[:, ::1] g = gyr_a
         cdef const imf_real[:, ::1] a = acc_a
         cdef const imf_real[::1] d = dt_a
@@ -515,19 +542,19 @@ cdef class _FilterIMU(_Filter):
         with nogil:
             while k < n_samples and self._pending:
                 self._first(&g[k, 0], &a[k, 0], z3)
-                _copy_state(&o[k, 0], self._x, n)
+                _emit(&o[k, 0], self._x, n, self._cols, self._ncols)
                 k += 1
             k0 = k
             if use_dt:
                 for k in range(k0, n_samples):
                     self._set_dt(d[k])
                     self._step(&g[k, 0], &a[k, 0])
-                    _copy_state(&o[k, 0], self._x, n)
+                    _emit(&o[k, 0], self._x, n, self._cols, self._ncols)
                 self._set_dt(self._dt0)
             else:
                 for k in range(k0, n_samples):
                     self._step(&g[k, 0], &a[k, 0])
-                    _copy_state(&o[k, 0], self._x, n)
+                    _emit(&o[k, 0], self._x, n, self._cols, self._ncols)
         return out
 
     cdef void _update_general(self, const imf_real *g, const imf_real *a, bint use_dt,
@@ -549,19 +576,24 @@ cdef class _FilterIMU(_Filter):
         """All samples: gyr, acc (N, 3) arrays, dt (optional) the (N,) sample
         periods; returns the (N, len(state)) trajectory, or with outputs="q" the (N, 4)
         quaternions sensor -> earth (imufuse.estimate.run_outputs)."""
+        cols = None
         if outputs != "state":
-            if outputs not in _estimate.OUTPUTS:
-                _estimate.run_outputs(self, None, outputs)
-            return _estimate.run_outputs(self, self.run(gyr, acc, dt), outputs)
+            key, cols = _estimate.output_columns(self, outputs)
+            if len(cols) > 16:
+                return _estimate.run_outputs(self, self.run(gyr, acc, dt), outputs)
         if self._x == NULL:
             _unbound(self)
         _claim(&self._busy, self)
         try:
+            self._keep(cols)
             if dt is not None or self._pending:
-                return self._run_general(gyr, acc, dt)
-            return self._run(gyr, acc)
+                out = self._run_general(gyr, acc, dt)
+            else:
+                out = self._run(gyr, acc)
         finally:
+            self._ncols = 0
             self._busy = 0
+        return out if cols is None else _estimate.outputs_from_columns(self, key, cols, out)
 
     cdef object _run(self, gyr, acc):
         # run() at the constructor's dt: arrays read in place where they can be
@@ -572,7 +604,8 @@ cdef class _FilterIMU(_Filter):
             gyr, acc = _checks.run_inputs("imu", DTYPE, (gyr, acc))
             tg = ta = _NATIVE
             n_samples = cnp.PyArray_DIM(<cnp.ndarray>gyr, 0)
-        out = _trajectory(n_samples, n)
+        cdef Py_ssize_t w = self._ncols or n
+        out = _trajectory(n_samples, w)
         cdef const char *pg = <const char *>cnp.PyArray_DATA(<cnp.ndarray>gyr)
         cdef const char *pa = <const char *>cnp.PyArray_DATA(<cnp.ndarray>acc)
         cdef imf_real *o = <imf_real *>cnp.PyArray_DATA(<cnp.ndarray>out)
@@ -582,13 +615,13 @@ cdef class _FilterIMU(_Filter):
             if tg == _NATIVE and ta == _NATIVE:
                 for k in range(n_samples):
                     self._step(<const imf_real *>pg + 3 * k, <const imf_real *>pa + 3 * k)
-                    _copy_state(o + k * n, self._x, n)
+                    _emit(o + k * w, self._x, n, self._cols, self._ncols)
             else:
                 for k in range(n_samples):
                     _load3(pg, tg, k, g)
                     _load3(pa, ta, k, a)
                     self._step(g, a)
-                    _copy_state(o + k * n, self._x, n)
+                    _emit(o + k * w, self._x, n, self._cols, self._ncols)
         return out
 
 
@@ -631,7 +664,7 @@ cdef class _FilterAHRS(_Filter):
         cdef Py_ssize_t n_samples = gyr_a.shape[0], n = self._n, k = 0, k0
         cdef int use_dt = dt is not None
         dt_a = _checks.dt_array(dt, n_samples, DTYPE) if use_dt else np.zeros(1, DTYPE)
-        out = np.empty((n_samples, n), dtype=DTYPE)
+        out = np.empty((n_samples, self._ncols or n), dtype=DTYPE)
         cdef const imf_real[:, ::1] g = gyr_a
         cdef const imf_real[:, ::1] a = acc_a
         cdef const imf_real[:, ::1] m = mag_a
@@ -640,19 +673,19 @@ cdef class _FilterAHRS(_Filter):
         with nogil:
             while k < n_samples and self._pending:
                 self._first(&g[k, 0], &a[k, 0], &m[k, 0])
-                _copy_state(&o[k, 0], self._x, n)
+                _emit(&o[k, 0], self._x, n, self._cols, self._ncols)
                 k += 1
             k0 = k
             if use_dt:
                 for k in range(k0, n_samples):
                     self._set_dt(d[k])
                     self._step(&g[k, 0], &a[k, 0], &m[k, 0])
-                    _copy_state(&o[k, 0], self._x, n)
+                    _emit(&o[k, 0], self._x, n, self._cols, self._ncols)
                 self._set_dt(self._dt0)
             else:
                 for k in range(k0, n_samples):
                     self._step(&g[k, 0], &a[k, 0], &m[k, 0])
-                    _copy_state(&o[k, 0], self._x, n)
+                    _emit(&o[k, 0], self._x, n, self._cols, self._ncols)
         return out
 
     cdef void _update_general(self, const imf_real *g, const imf_real *a, const imf_real *m,
@@ -670,19 +703,24 @@ cdef class _FilterAHRS(_Filter):
         """All samples: gyr, acc, mag (N, 3) arrays, dt (optional) the (N,) sample
         periods; returns the (N, len(state)) trajectory, or with outputs="q" the (N, 4)
         quaternions sensor -> earth (imufuse.estimate.run_outputs)."""
+        cols = None
         if outputs != "state":
-            if outputs not in _estimate.OUTPUTS:
-                _estimate.run_outputs(self, None, outputs)
-            return _estimate.run_outputs(self, self.run(gyr, acc, mag, dt), outputs)
+            key, cols = _estimate.output_columns(self, outputs)
+            if len(cols) > 16:
+                return _estimate.run_outputs(self, self.run(gyr, acc, mag, dt), outputs)
         if self._x == NULL:
             _unbound(self)
         _claim(&self._busy, self)
         try:
+            self._keep(cols)
             if dt is not None or self._pending:
-                return self._run_general(gyr, acc, mag, dt)
-            return self._run(gyr, acc, mag)
+                out = self._run_general(gyr, acc, mag, dt)
+            else:
+                out = self._run(gyr, acc, mag)
         finally:
+            self._ncols = 0
             self._busy = 0
+        return out if cols is None else _estimate.outputs_from_columns(self, key, cols, out)
 
     cdef object _run(self, gyr, acc, mag):
         # run() at the constructor's dt: arrays read in place where they can be
@@ -694,7 +732,8 @@ cdef class _FilterAHRS(_Filter):
             gyr, acc, mag = _checks.run_inputs("ahrs", DTYPE, (gyr, acc, mag))
             tg = ta = tm = _NATIVE
             n_samples = cnp.PyArray_DIM(<cnp.ndarray>gyr, 0)
-        out = _trajectory(n_samples, n)
+        cdef Py_ssize_t w = self._ncols or n
+        out = _trajectory(n_samples, w)
         cdef const char *pg = <const char *>cnp.PyArray_DATA(<cnp.ndarray>gyr)
         cdef const char *pa = <const char *>cnp.PyArray_DATA(<cnp.ndarray>acc)
         cdef const char *pm = <const char *>cnp.PyArray_DATA(<cnp.ndarray>mag)
@@ -707,14 +746,14 @@ cdef class _FilterAHRS(_Filter):
                 for k in range(n_samples):
                     self._step(<const imf_real *>pg + 3 * k, <const imf_real *>pa + 3 * k,
                                <const imf_real *>pm + 3 * k)
-                    _copy_state(o + k * n, self._x, n)
+                    _emit(o + k * w, self._x, n, self._cols, self._ncols)
             else:
                 for k in range(n_samples):
                     _load3(pg, tg, k, g)
                     _load3(pa, ta, k, a)
                     _load3(pm, tm, k, m)
                     self._step(g, a, m)
-                    _copy_state(o + k * n, self._x, n)
+                    _emit(o + k * w, self._x, n, self._cols, self._ncols)
         return out
 
 

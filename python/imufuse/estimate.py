@@ -15,7 +15,7 @@ Heading is meaningful only for AHRS filters with a full attitude.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Callable, Dict, Optional, Sequence
+from typing import Any, Callable, Dict, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -135,6 +135,36 @@ def run_outputs(filt: Any, states: Any, outputs: str) -> np.ndarray:
         raise ValueError(f"outputs='q': {type(filt).__name__} has no orientation in its state "
                          f"({', '.join(names)})")
     est = ADAPTERS[key](names, filt.kind, states)
+    assert est.q is not None
+    return np.ascontiguousarray(est.q)
+
+
+def output_columns(filt: Any, outputs: str) -> Tuple[str, Tuple[int, ...]]:
+    """(adapter, the state words it reads) for run(..., outputs=...) of ``filt`` other than
+    "state": what the compiled run() keeps while the filter runs. ValueError as
+    run_outputs raises it."""
+    names = tuple(filt.state_names)
+    if outputs != "q":
+        run_outputs(filt, None, outputs)             # names the mistake
+    key = detect(names)
+    if key is None:
+        run_outputs(filt, np.zeros((0, len(names))), outputs)
+    assert key is not None
+    if key == "quaternion":
+        return key, (0, 1, 2, 3)
+    if key == "matrix":
+        return key, tuple(range(9))
+    if key == "gravity":
+        return key, (0, 1, 2)
+    return key, tuple(i for i, n in enumerate(names)
+                      if n in ("roll", "pitch", "yaw", "phi", "theta", "psi"))
+
+
+def outputs_from_columns(filt: Any, key: str, cols: Sequence[int], sub: Any) -> np.ndarray:
+    """run_outputs on the state words ``cols`` of a trajectory (output_columns): the same
+    values as from the whole trajectory."""
+    names = tuple(filt.state_names)
+    est = ADAPTERS[key](tuple(names[c] for c in cols), filt.kind, sub)
     assert est.q is not None
     return np.ascontiguousarray(est.q)
 
