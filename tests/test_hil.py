@@ -11,6 +11,7 @@ divergence). Faults are injected by tests/hil_proxy.py between the board and the
 (a dropped byte, a flipped bit, silence) or built into the board (a reset at sample N).
 """
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -84,7 +85,9 @@ def test_bit_exact_firmware_same_report_as_target(target, baud):
     vp, vt = _both(target, ["-O2", "-ffp-contract=off"], baud)
     assert vp.bit_exact, vp.text()
     _same_report(vp, vt)
-    assert f"at {baud} baud" in vp.text()
+    assert re.search(rf"^firmware 'imufuse-hil-test' on the {target} board at /dev/pts/\d+, "
+                     rf"{baud} baud \(flags -O2 -ffp-contract=off\) vs imufuse "
+                     r"Complementary1D \(c, float32\):$", vp.text(), re.M), vp.text()
 
 
 @pytest.mark.parametrize("target", ["cortex-m4f", _m7()])

@@ -58,7 +58,7 @@ def _cmake(tmp_path, toolchain, *options):
 def test_baremetal_example_on_the_m4f(tmp_path):
     v = _madgwick(_cmake(tmp_path, "arm-none-eabi.cmake"), "cortex-m4f")
     assert v.bit_exact and len(v.got) == N, v.text()
-    assert "board 'example MadgwickAHRS'" in v.text()
+    assert "firmware 'example MadgwickAHRS' on the " in v.text()
     # QEMU's DWT counter does not count: no cost, said so
     assert v.cost is None and "the board's runner has no counter" in v.text()
 
@@ -91,5 +91,5 @@ def test_arduino_sketch_on_the_uno(sketchbook, tmp_path):  # noqa: F811 - the fi
     assert flash < 32_256 and ram < 2048 - 512, (flash, ram)
     v = _madgwick(build / "imufuse_hil.ino.elf", "atmega328p", 115_200)
     assert v.bit_exact and len(v.got) == N, v.text()
-    assert "board 'MadgwickAHRS sketch'" in v.text() and v.cost.unit == "cycles"
+    assert "firmware 'MadgwickAHRS sketch' on the " in v.text() and v.cost.unit == "cycles"
     assert np.all(v.cost.counts > 0)

@@ -451,9 +451,8 @@ def _validate_port(fw, name, params, inputs, backend, dtype, target, timeout, ex
                    baud):
     """validate() on a board over a serial port (imufuse.firmware.hil.Link)."""
     e = _filter_entry(name)
-    names = _state_names(fw, name, e)
-    _, row = fw._update_plan(e.kind)
-    flags = tuple(fw.cflags_given if fw.cflags_given is not None else DEFAULT_TARGET_CFLAGS)
+    names, (_, row) = _state_names(fw, name, e), fw._update_plan(e.kind)
+    flags = tuple(fw.cflags_given or ())       # the board's build is the user's, unseen
     try:
         with Link(port, baud, timeout) as link:
             h = link.hello()
@@ -476,25 +475,26 @@ def _validate_port(fw, name, params, inputs, backend, dtype, target, timeout, ex
         raise FirmwareError(str(err)) from None
     want = want[:, [e.state_names.index(n) for n in names]]
     got = np.column_stack(run.states) if run.states else np.zeros((len(x), 0))
-    got, want = (got.astype(np.int64), want.astype(np.int64)) if e.fixed else \
-        (got.astype(dtype), want)
-    notes = [f"board {h.name!r} on {port} at {baud} baud", *(f"link: {ev}" for ev in link.events)]
+    got, want = (got.astype(np.int64), want.astype(np.int64)) if e.fixed else (got.astype(dtype), want)
+    notes = [f"link: {ev}" for ev in link.events]
     c = run.counts
-    cost = BoardCost(h.count_unit, int(c.min()), float(np.median(c)), int(c.max()), None, 0,
-                     run.stack, counts=c) if c is not None and c.size else None
+    cost = BoardCost(h.count_unit, int(c.min()), float(np.median(c)), int(c.max()), None, 0, run.stack,
+                     counts=c) if c is not None and c.size else None
     if c is None:
         notes.append("the board's runner has no counter: no cost per update")
-    v = Validation(name, backend, compare_states(got, want, names), got, want,
-                   f"{target} board" if target != "host" else "board", flags,
-                   notes=notes, cost=cost,
+    cmp, where = compare_states(got, want, names), f"{target} board" if target != "host" else "board"
+    v = Validation(name, backend, cmp, got, want, where, flags, notes=notes, cost=cost,
+                   title=f"firmware {h.name!r} on the {where} at {port}, {baud} baud (flags "
+                   f"{' '.join(flags) or 'of its build, not given'}) vs imufuse {name} "
+                   f"({backend}, {cmp.dtype}):",
                    timing=dict(board=run.seconds, samples=float(len(x)), repeats=run.repeats))
     v.max_angle_deg = None if v.bit_exact else _angle(name, params, got, want, names)
     if explain and not v.bit_exact and target != "host":
         tv = _validate_target(fw, name, params, inputs, backend, dtype, target, timeout, True)
         v.causes = tv.causes
         same = not tv.bit_exact and np.array_equal(tv.got.view(np.uint8), got.view(np.uint8))
-        v.notes.append(f"the same sources built with {' '.join(flags)} for the emulated {target} "
-                       + ("are bit-exact: the board's build differs (compiler, flags or "
+        v.notes.append(f"the same sources built with {' '.join(tv.cflags)} for the emulated "
+                       f"{target} " + ("are bit-exact: the board's build differs (compiler, flags or "
                           "library)" if tv.bit_exact else "give the same states bit for bit"
                           if same else "diverge differently") + "; the causes are that build's")
     return v
