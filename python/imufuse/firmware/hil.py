@@ -120,6 +120,25 @@ class Link:
         raise TargetError(f"the board on {self.port} runs other firmware or none: no imufuse "
                           f"HIL hello within {wait:g} s ({self._say()})")
 
+    def expect(self, name: str, n_in: int, n_state: int, fixed: bool,
+               dtype: Optional[str]) -> Optional[str]:
+        """The precision to compare in ("float32", "float64"; dtype for an integer state);
+        TargetError when the board's runner serves another layout than the declaration's
+        (another firmware: named by the name it gives)."""
+        h = self.hello_ or self.hello()
+        ints, sizes = {bool(t & 0x100) for t in h.types}, {t & 0xFF for t in h.types}
+        if (h.in_dtype is None or h.n_in != n_in or len(h.types) != n_state
+                or ints != {fixed} or (not fixed and len(sizes) != 1)):
+            raise TargetError(f"the board on {self.port} runs {h.name!r} ({h.layout()}); the "
+                              f"firmware declared for {name} has {n_in} inputs and {n_state} "
+                              "state words")
+        if fixed:
+            return dtype
+        board = "float32" if sizes == {4} else "float64"
+        if dtype and dtype != board:
+            raise TargetError(f"the board's state is {board}, asked to compare with {dtype}")
+        return board
+
     def _begin(self) -> None:
         end = time.monotonic() + min(self.timeout, 5.0)
         ask = 0.0

@@ -456,18 +456,7 @@ def _validate_port(fw, name, params, inputs, backend, dtype, target, timeout, ex
     try:
         with Link(port, baud, timeout) as link:
             h = link.hello()
-            ints, sizes = {bool(t & 0x100) for t in h.types}, {t & 0xFF for t in h.types}
-            if (h.in_dtype is None or h.n_in != row or len(h.types) != len(names)
-                    or ints != {e.fixed} or (not e.fixed and len(sizes) != 1)):
-                raise FirmwareError(
-                    f"the board on {port} runs {h.name!r} ({h.layout()}); the firmware "
-                    f"declared for {name} has {row} inputs and {len(names)} state words")
-            if not e.fixed:
-                fw_dtype = "float32" if sizes == {4} else "float64"
-                if dtype and dtype != fw_dtype:
-                    raise FirmwareError(f"the board's state is {fw_dtype}, asked to compare "
-                                        f"with {dtype}")
-                dtype = fw_dtype
+            dtype = link.expect(name, row, len(names), e.fixed, dtype)
             inputs, want, _ = _reference_run(name, params, inputs, backend, dtype)
             x = np.column_stack([np.asarray(a).reshape(len(a), -1) for a in inputs])
             run = link.run(x.astype(h.in_dtype))
