@@ -289,6 +289,9 @@ def main(argv=None) -> int:
                     help="write cross_library.json, not the pages' blocks")
     ap.add_argument("--render", action="store_true",
                     help="only rewrite the pages' blocks from cross_library.json")
+    ap.add_argument("--only", metavar="FILTER",
+                    help="measure this row's filter only (e.g. 'Fusion 1.3.3'); the other rows "
+                         "are kept from cross_library.json")
     args = ap.parse_args(argv)
     if args.render:
         d = json.loads((HERE / "cross_library.json").read_text())
@@ -302,6 +305,12 @@ def main(argv=None) -> int:
     cores = [c for c in args.cores.split(",") if c]
     prows, missing = peer_filters()      # fetches the sources once, before the threads
     filters = imufuse_filters() + prows
+    kept: dict = {}
+    if args.only:
+        kept = json.loads((HERE / "cross_library.json").read_text())
+        filters = [f for f in filters if f[0] == args.only]
+        if not filters:
+            raise SystemExit(f"--only {args.only!r}: no such row ({', '.join(missing)} missing)")
     # the host builds first and one at a time (cffi changes the working directory while it
     # builds); then the cross builds and emulator runs, which are processes, in threads
     trials = _trials(args.dir)
@@ -313,6 +322,12 @@ def main(argv=None) -> int:
     with ThreadPoolExecutor(max_workers=args.jobs) as ex:
         rows = list(ex.map(lambda j: cost(*j), jobs))
     seconds = time.perf_counter() - t0
+    if kept:
+        order = [f[0] for f in imufuse_filters() + prows]
+        rows = sorted([r for r in kept["rows"] if r["filter"] != args.only] + rows,
+                      key=lambda r: (order.index(r["filter"]), ALL_CORES.index(r["core"])))
+        accs = {**kept["accuracy"], **accs}
+        seconds += kept["seconds"]
     text = block(rows, accs, seconds, missing)
     print(text)
     if not args.no_write:
