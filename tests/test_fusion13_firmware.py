@@ -6,13 +6,12 @@ difference could come from, give the same bits on this run), every state member 
 sample; on the M4F with GCC's defaults the fused multiply-add is named. And imufuse's own C
 (csrc/fusion13.c) in the emulators, bit-exact with its twin (its cost is in docs/fusion.md).
 
-Interim harness: imufuse.firmware's validate knows the 1.2.3 class (FusionAHRS) by name; the
-fixture below teaches it FusionAHRS13 the same way (its entry: Fusion's units, the settings
-as the C init values, the period given with every update) until validate reads every Fusion
-class of the catalogue.
+validate knows both Fusion AHRS classes (imufuse.catalogue.FUSION_AHRS): Fusion's units, the
+settings as the C init values, the period given with every update; the command line's
+`imufuse validate --declaration fusion-1.3.3.toml` is run as written.
 """
-import importlib
 import os
+import subprocess
 import sys
 import tarfile
 
@@ -20,12 +19,11 @@ import numpy as np
 import pytest
 
 import imufuse.mcu as mcu
-import imufuse_c
 from imufuse import reference, sim
 from imufuse._fusion13 import ADVANCED
 from imufuse._resources import csrc_dir
 from imufuse.catalogue import inputs_for
-from imufuse.firmware import declfile, isolate, validate_isolated
+from imufuse.firmware import validate_isolated
 from imufuse.firmware.declfile import load_declaration
 
 from bits import assert_same_bits
@@ -34,38 +32,11 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)          # tests/fusion13_oracle.py
 import fusion13_oracle  # noqa: E402
 
-validate_mod = importlib.import_module("imufuse.firmware.validate")
 DECLARATION = os.path.join(os.path.dirname(HERE), "examples", "declarations",
                            "fusion-1.3.3.toml")
 
 pytestmark = [pytest.mark.xdist_group("declared_target"), pytest.mark.emulator,
               pytest.mark.slow]
-
-
-class _Fusion13Entry(validate_mod._FusionEntry):
-    name = "FusionAHRS13"
-
-    def __init__(self):
-        self.reference = reference.FusionAHRS13
-        self.state_names = tuple(reference.FusionAHRS13.state_names)
-
-    def make(self, backend, dtype, params):
-        mod = imufuse_c if backend == "c" else reference
-        return mod.FusionAHRS13(**self.settings(params), dtype=dtype)
-
-
-@pytest.fixture(autouse=True)
-def _validate_knows_fusion13(monkeypatch):
-    entry = _Fusion13Entry()
-    known = validate_mod._filter_entry
-
-    def filter_entry(name):
-        return entry if name == entry.name else known(name)
-
-    monkeypatch.setattr(validate_mod, "_filter_entry", filter_entry)
-    monkeypatch.setattr(isolate, "_filter_entry", filter_entry)
-    monkeypatch.setattr(declfile, "_filter_entry", filter_entry)
-    monkeypatch.setattr(declfile, "FUSION", entry.name)
 
 
 @pytest.fixture(scope="module")
@@ -93,6 +64,17 @@ def test_fusion13_as_published_is_bit_exact_on_the_host(fusion_dir):
     v = _validate(fusion_dir, "host")
     assert v.bit_exact, v.text()
     assert len(v.comparison.names) == 23
+
+
+def test_the_command_line_validates_fusion13_as_published(fusion_dir):
+    """`imufuse validate --declaration fusion-1.3.3.toml --source-dir DIR`, as the file's
+    first lines say to run it."""
+    r = subprocess.run([sys.executable, "-m", "imufuse", "validate", "--declaration",
+                        DECLARATION, "--source-dir", fusion_dir, "--duration", "3"],
+                       capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    assert "vs imufuse FusionAHRS13" in r.stdout and "bit-exact: 600 samples x 23" in r.stdout, \
+        r.stdout
 
 
 @pytest.mark.parametrize("target,flags", [("cortex-m4f", ["-O2", "-ffp-contract=off"]),

@@ -57,7 +57,8 @@ from . import reference
 from ._checks import KINDS, check_dtype
 from .estimate import ADAPTERS, Estimate
 
-__all__ = ["Entry", "FilterError", "CATALOGUE", "FLOAT", "FIXED", "FUSION", "FILTERS_FUSION", "VARIO", "FILTERS_VARIO",
+__all__ = ["Entry", "FilterError", "CATALOGUE", "FLOAT", "FIXED", "FUSION", "FILTERS_FUSION",
+           "FUSION_AHRS", "VARIO", "FILTERS_VARIO",
            "ENTRIES", "ALL_ENTRIES", "FILTERS", "FILTERS_FIXED",
            "entry", "filter_names", "reference_class", "compiled_class", "param_names",
            "resolve_params", "make_filter", "estimate", "why_no_estimate", "inputs_for", "KINDS"]
@@ -259,6 +260,9 @@ FUSION: Tuple[Entry, ...] = tuple(e for e in CATALOGUE if e.section == "fusion")
 VARIO: Tuple[Entry, ...] = tuple(e for e in CATALOGUE if e.section == "vario")
 #: the Fusion suite's classes
 FILTERS_FUSION: Tuple[str, ...] = tuple(e.name for e in FUSION)
+#: x-io Fusion's AHRS: the 1.2.3 port (Longbin's walkthrough) and the current release, 1.3
+#: (the one the commands pick by default: compare's default filters)
+FUSION_AHRS: Tuple[str, ...] = ("FusionAHRS", "FusionAHRS13")
 #: the variometer's classes
 FILTERS_VARIO: Tuple[str, ...] = tuple(e.name for e in VARIO)
 

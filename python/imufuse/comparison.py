@@ -27,11 +27,11 @@ from typing import (Any, Callable, Dict, Iterable, Iterator, List, Mapping, Opti
 
 import numpy as np
 
-from .catalogue import FilterError, filter_names
+from .catalogue import FUSION_AHRS, FilterError, filter_names
 from .evaluation import Evaluation, mean_over_trials
 from .io import ACC, GYR, MAG, LogError
 from .rotations import quat_to_euler
-from .session import (FUSION, NothingComputed, Progress, ReadOptions, Run, RunOptions,
+from .session import (NothingComputed, Progress, ReadOptions, Run, RunOptions,
                       ScoreOptions, Session, StrictError, frame_q)
 
 __all__ = ["compare_logs", "compare_log", "log_paths", "default_filters", "Comparison",
@@ -78,10 +78,11 @@ def log_paths(items: Union[str, os.PathLike, Iterable[Union[str, os.PathLike]]])
 
 
 def default_filters(log: Any) -> List[str]:
-    """3D filters the log can feed (AHRS ones only with a magnetometer) and FusionAHRS, else
-    the single-axis ones."""
+    """3D filters the log can feed (AHRS ones only with a magnetometer) and x-io Fusion's
+    current release (FusionAHRS13; FusionAHRS, the 1.2.3 port, when asked for), else the
+    single-axis ones."""
     if log.has(*GYR, *ACC):
-        return filter_names(("imu", "ahrs") if log.has(*MAG) else ("imu",)) + [FUSION]
+        return filter_names(("imu", "ahrs") if log.has(*MAG) else ("imu",)) + [FUSION_AHRS[-1]]
     return filter_names(("1d",))
 
 

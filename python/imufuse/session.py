@@ -32,18 +32,26 @@ import numpy as np
 import imufuse_c
 
 from . import io, preprocess, reference
-from .catalogue import (FilterError, estimate, make_filter, reference_class, resolve_params,
-                        why_no_estimate)
+from .catalogue import (ALL_ENTRIES, FUSION_AHRS, FilterError, estimate, make_filter, reference_class,
+                        resolve_params, why_no_estimate)
 from .estimate import Estimate
 from .evaluation import Evaluation, evaluate, from_enu, to_enu
 from .io import ACC, GYR, MAG, Log, LogError, axis_inputs, read_log, require
 from .rotations import quat_to_euler
 
 __all__ = ["ReadOptions", "RunOptions", "ScoreOptions", "Session", "Run", "NothingComputed",
-           "StrictError", "effective_params", "FUSION"]
+           "StrictError", "effective_params", "FUSION", "FUSIONS", "is_fusion"]
 
 #: the filter with Fusion's own units (gyroscope deg/s, dt with every update)
+#: x-io Fusion's AHRS: the 1.2.3 port (Longbin's walkthrough) and the current release, 1.3
 FUSION = "FusionAHRS"
+FUSIONS = FUSION_AHRS
+
+
+def is_fusion(name: str) -> bool:
+    """True for x-io Fusion's AHRS classes: Fusion's units (the gyroscope in deg/s), its
+    settings, its outputs."""
+    return name in FUSIONS
 
 
 class NothingComputed(ValueError):
@@ -116,7 +124,7 @@ def effective_params(name: str, params: Mapping[str, Any]) -> Dict[str, Any]:
 
 
 def format_params(name: str, params: Mapping[str, Any]) -> str:
-    if name == FUSION:
+    if is_fusion(name):
         return ", ".join(f"{k}={v}" for k, v in params.items()) or "defaults"
     eff = effective_params(name, params)
     s = ", ".join(f"{k}={v:.6g}" if isinstance(v, float) else f"{k}={v}"
@@ -133,7 +141,7 @@ def _takes(fn: Any, name: str) -> bool:
 
 def supports_dt_array(name: str) -> bool:
     """True when the filter's run() takes dt=array (per-sample periods)."""
-    return name == FUSION or _takes(reference_class(name).run, "dt")
+    return is_fusion(name) or _takes(reference_class(name).run, "dt")
 
 
 def supports_init(name: str) -> bool:
@@ -214,12 +222,12 @@ def run_with_progress(f: Any, inputs: Sequence[np.ndarray], label: str, backend:
 
 
 class _FusionKind:
-    """What the session needs of FusionAHRS's class (it is outside the float catalogue)."""
+    """What the session needs of a Fusion AHRS class (outside the float catalogue)."""
 
-    def __init__(self, has_mag: bool) -> None:
-        self.__name__ = FUSION
+    def __init__(self, has_mag: bool, name: str = FUSION) -> None:
+        self.__name__ = name
         self.kind = "ahrs" if has_mag else "imu"
-        self.state_names = tuple(reference.FusionAHRS.state_names)  # type: ignore[attr-defined]
+        self.state_names = tuple(getattr(reference, name).state_names)
 
 
 @dataclass
@@ -273,7 +281,7 @@ class Run:
             cols["angle_deg"] = np.degrees(est.angle)
         else:
             q = frame_q(est.q, frame)
-            if est.source != "q0..q3" or frame != "NWU" or self.name == FUSION:
+            if est.source != "q0..q3" or frame != "NWU" or is_fusion(self.name):
                 for j, n in enumerate(io.QUAT):
                     cols[n] = q[:, j]
             e = euler_deg(q)
@@ -341,7 +349,7 @@ class Session:
         """run() arguments of a filter from the log, and a description (LogError naming the
         missing columns)."""
         log = self.log
-        if name == FUSION:
+        if is_fusion(name):
             require(log, GYR + ACC)
             gyr = np.degrees(log.gyr)          # Fusion's unit
             if log.has(*MAG):
@@ -359,7 +367,7 @@ class Session:
         return (log.gyr, log.acc), "gyr, acc"
 
     def filter_class(self, name: str) -> Any:
-        return _FusionKind(self.log.has(*MAG)) if name == FUSION else reference_class(name)
+        return _FusionKind(self.log.has(*MAG), name) if is_fusion(name) else reference_class(name)
 
     # ---- running
     def make(self, name: str, params: Optional[Mapping[str, Any]] = None,
@@ -367,18 +375,22 @@ class Session:
                                                           List[str]]:
         """(filter instance, its parameters, dt for run(), init description, notes)."""
         log, notes = self.log, []  # type: Log, List[str]
-        if name == FUSION:
+        if is_fusion(name):
             mod = imufuse_c if options.backend == "c" else reference
             params = dict(params or {})
-            if options.preset not in (None, "published"):
-                raise FilterError(f"{FUSION}: no preset {options.preset!r}; presets: published "
-                                  "(its defaults)")
+            presets = {"published": {}, **ALL_ENTRIES[name].presets}
+            if options.preset not in (None, *presets):
+                raise FilterError(f"{name}: no preset {options.preset!r}; presets: "
+                                  + ", ".join(presets) + " (published: its defaults)")
+            params = {**presets.get(options.preset or "published", {}), **params}
+            if name != FUSION and "sample_rate" not in params:
+                params["sample_rate"] = 1.0 / self.dt()   # replaced by run's dt per sample
             try:
-                f = mod.FusionAHRS(**params, dtype=options.dtype)
+                f = getattr(mod, name)(**params, dtype=options.dtype)
             except TypeError as e:
-                raise FilterError(f"{FUSION}: {e}") from None
+                raise FilterError(f"{name}: {e}") from None
             except ValueError as e:
-                raise FilterError(f"{FUSION}: {e}") from None
+                raise FilterError(f"{name}: {e}") from None
             dts = log.dts if log.dts is not None else log.dt
             return f, params, dts, None, notes
         cls = reference_class(name)
@@ -452,7 +464,7 @@ class Session:
         S = run_with_progress(f, inputs, name, options.backend, dts, progress)
         seconds = _time.perf_counter() - t0
         rejected = min(int(getattr(f, "skipped", 0)), n)
-        if name == FUSION:
+        if is_fusion(name):
             est = None if rejected >= n else self._fusion_estimate(S, full)
             extra = _fusion_extra(f, S)
         else:
@@ -479,10 +491,10 @@ class Session:
         for k in range(0, max(n, 1), block):
             kw = {} if dts is None else {"dt": dts if np.ndim(dts) == 0 else dts[k:k + block]}
             part = f.run(*[x[k:k + block] for x in inputs], **kw)
-            e = self._fusion_estimate(part, params) if name == FUSION else estimate(cls, part)
+            e = self._fusion_estimate(part, params) if is_fusion(name) else estimate(cls, part)
             if on_block is not None:
                 on_block(Run(name, cls, dict(params), part, e, 0, 0.0, "", None, "", [],
-                             _fusion_extra(f, part) if name == FUSION else {}), k)
+                             _fusion_extra(f, part) if is_fusion(name) else {}), k)
             if e is None:
                 continue            # no orientation in this filter's state: run on for skipped
             if first is None:

@@ -48,7 +48,7 @@ from typing import Any, Mapping, Optional, Sequence, Union
 import numpy as np
 
 from . import sim
-from .catalogue import entry, inputs_for, resolve_params
+from .catalogue import FUSION_AHRS, entry, inputs_for, resolve_params
 from .mcu import missing_tools
 from .firmware import (Firmware, Validation, compare_firmware, counts_for, harness_target,
                        load_declaration, validate_isolated)
@@ -215,7 +215,7 @@ def validate_declared(path: str, *, source_dir: Optional[str] = None, target: st
     if cflags is not None:
         fw.cflags = fw.cflags_given = shlex.split(cflags) if isinstance(cflags, str) \
             else list(cflags)
-    fusion = d.filter == "FusionAHRS"
+    fusion = d.filter in FUSION_AHRS
     over = {**d.params, **dict(params or {})}
     if inputs is None:
         kind = "ahrs" if fusion else entry(d.filter).kind

@@ -9,6 +9,7 @@ import sys
 
 from .. import io, plots
 from .._fusion import SETTINGS as FUSION_SETTINGS
+from .._fusion13 import SETTINGS as FUSION13_SETTINGS
 from ..catalogue import canonical_name, param_names
 from ..io import LogError, parse_column_map, read_column_map
 from ..session import ReadOptions, RunOptions, ScoreOptions, Session, init_value
@@ -108,6 +109,8 @@ def scoped_params(items, filters):
 def _param_names(name):
     if name == "FusionAHRS":
         return [*FUSION_SETTINGS, "invsqrt"]
+    if name == "FusionAHRS13":
+        return [*FUSION13_SETTINGS, "invsqrt"]
     return param_names(name)
 
 

@@ -18,7 +18,7 @@ from ..firmware.report import build_info, error_dict, report_dict, tolerance, wr
 from ..firmware.declfile import load_declaration
 from ..firmware.versus import compare_firmware
 from ..firmware.validate import _filter_entry
-from ..session import FUSION
+from ..session import FUSION, FUSIONS
 from ..io import LogError
 from .common import (EXIT_FAIL, EXIT_OK, OutputError, UsageError, err, once, open_session,
                      pairs, plot_available, positive, strict_option, unit_options)
@@ -41,7 +41,7 @@ def _side_inputs(name, kind, overrides, dt, raw, src):
     """(params, inputs, description) of the imufuse filter `name` on the raw inputs (rad/s,
     g): FusionAHRS in its units (the gyroscope in deg/s, dt with every update), a
     fixed-point filter on int16 counts."""
-    if name == FUSION:
+    if name in FUSIONS:
         return ({**overrides, "dt": dt},
                 [np.degrees(np.asarray(raw[0], dtype=np.float64)), *raw[1:]],
                 src + "; gyroscope in deg/s (Fusion's unit)")
@@ -64,7 +64,7 @@ def _against(args, b, fw_b, kind, dt, raw, src):
     else:
         fw_a, name_a = copy.copy(fw_b), args.filter
         over_a = {**(fw_b_declared_params(args)), **pairs(args.param)}
-    kind_a = _fusion_kind().kind if name_a == FUSION else _entry(name_a).kind
+    kind_a = _filter_entry(name_a).kind if name_a in FUSIONS else _entry(name_a).kind
     if kind_a != kind:
         raise UsageError(f"--against: firmware A compares with {name_a} ({kind_a}), firmware B "
                          f"with {args.filter} ({kind}): give two filters of one kind")
@@ -87,9 +87,9 @@ def fw_b_declared_params(args):
         if args.declaration else {}
 
 
-def _fusion_kind():
-    """What validate needs of FusionAHRS's class: its kind (AHRS) and state."""
-    return _filter_entry(FUSION)
+def _fusion_kind(name=FUSION):
+    """What validate needs of a Fusion AHRS class: its kind (AHRS) and state."""
+    return _filter_entry(name)
 
 
 def _declared(args):
@@ -118,11 +118,12 @@ def _validate(args):
     elif not args.filter:
         raise UsageError("validate: give --filter (the imufuse filter to compare with), or "
                          "--declaration FILE")
-    fusion = args.filter == FUSION
+    fusion = args.filter in FUSIONS
     if fusion and declared is None:
-        raise UsageError("validate: FusionAHRS has an API of its own: declare it in a file "
-                         "(--declaration; examples/declarations/fusion-1.2.3.toml)")
-    cls = _fusion_kind() if fusion else reference_class(args.filter) \
+        raise UsageError(f"validate: {args.filter} has an API of its own: declare it in a file "
+                         "(--declaration; examples/declarations/fusion-1.3.3.toml, "
+                         "fusion-1.2.3.toml)")
+    cls = _fusion_kind(args.filter) if fusion else reference_class(args.filter) \
         if not _entry(args.filter).fixed else _entry(args.filter).reference
     overrides = {**(declared.params if declared else {}), **pairs(args.param)}
     once(args.header, "--header")

@@ -13,14 +13,14 @@ from ..catalogue import FILTERS, FILTERS_FIXED, FILTERS_FUSION, canonical_name
 from ..comparison import compare_logs, default_filters, log_paths
 from ..io import axis_inputs
 from ..rotations import quat_to_euler
-from ..session import FUSION, NothingComputed, StrictError, format_params, frame_q
+from ..session import FUSIONS, NothingComputed, StrictError, format_params, frame_q
 from .common import (EXIT_OK, OutputError, UsageError, err, eval_options, executor,
                      executor_spec, filter_options, input_files, log_options, names,
                      open_session, pairs, plot_available, preprocess_options, progress,
                      read_options, run_options, score_options, scoped_params, write_output)
 
-#: the filters run and compare take: the float filters and FusionAHRS
-VALID = (*FILTERS, FUSION)
+#: the filters run and compare take: the float filters and Fusion's AHRS (1.2.3, 1.3)
+VALID = (*FILTERS, *FUSIONS)
 
 
 def suggestions(name, valid=VALID):
@@ -298,11 +298,12 @@ def _own_start(log, r):
     from the identity and turns to the sensor's attitude while `initialising` (its gain
     ramped down from 10 over 3 s of dt; none with gain 0): from the sample that clears it
     (its state, or 3 s of dt when compare kept only the estimate); the others from 0."""
-    if r.name != FUSION:
+    if r.name not in FUSIONS:
         return 0
     names = list(r.cls.state_names)
-    if len(r.states) and "initialising" in names:
-        done = np.flatnonzero(r.states[:, names.index("initialising")] == 0)
+    flag = "initialising" if "initialising" in names else "startup"      # 1.2.3, 1.3
+    if len(r.states) and flag in names:
+        done = np.flatnonzero(r.states[:, names.index(flag)] == 0)
         return int(done[0]) if done.size else len(log)
     if float(r.params.get("gain", 0.5)) == 0.0:
         return 0

@@ -9,7 +9,7 @@ import os
 import re
 from typing import Any, Dict, List, Mapping, Optional
 
-from ..catalogue import entry, param_names, resolve_params
+from ..catalogue import FUSION_AHRS, entry, param_names, resolve_params
 from .declaration import FirmwareError
 from .declared import CXX_EXTENSIONS, DeclaredFirmware
 from .validate import _c_values, _filter_entry
@@ -64,7 +64,7 @@ _KNOWN = {"firmware": {"sources", "headers", "include", "cflags", "defines", "la
           "filter": {"name", "params"}, "object": {"type", "name", "args", "init"},
           "update": {"call", "value_type"}, "state": None}
 _C_FILES = (".c", *CXX_EXTENSIONS)
-FUSION = "FusionAHRS"      # outside the catalogue: its parameters are its settings
+FUSION = FUSION_AHRS       # outside the float catalogue: their parameters are their settings
 
 
 def _read(path: str) -> Dict[str, Any]:
@@ -140,7 +140,7 @@ def _params(name: str, params: Any, path: str) -> Dict[str, Any]:
         if not isinstance(v, (bool, int, float, str)):
             raise FirmwareError(f"{path}: [filter] params: {k}: a number, a string or a "
                                 f"boolean, got {type(v).__name__}")
-    if name != FUSION:
+    if name not in FUSION:
         valid = [p for p in param_names(name) if p != "dt"]
         e = entry(name)
         defaults = {k: v.default for k, v in
@@ -161,7 +161,7 @@ def _params(name: str, params: Any, path: str) -> Dict[str, Any]:
 def _init_names(name: str, params: Dict[str, Any]) -> Optional[List[str]]:
     """The names init's placeholders may take: the filter's parameters and C init values
     (None when they cannot be known before the log's rate)."""
-    if name == FUSION:
+    if name in FUSION:
         return None
     try:
         full = resolve_params(name, 0.01, params)

@@ -18,6 +18,7 @@ import imufuse_c
 
 from .. import reference
 from ..bits import compare_states
+from ..catalogue import FUSION_AHRS as FUSIONS
 from ..catalogue import entry, make_filter
 from ..mcu import toolchains as _tc
 from .causes import (Cause, angle_divergence_deg, double_promotions, find_causes,
@@ -90,16 +91,17 @@ def _defs_incs(fw):
 
 
 class _FusionEntry:
-    """FusionAHRS for validate (it is outside the float catalogue): Fusion's units (the
-    gyroscope in deg/s, as Fusion's C takes it), dt with every update (params' dt), every
-    setting a C init value by name; the orientation from q0..q3."""
-    name = "FusionAHRS"
+    """x-io Fusion's AHRS for validate (outside the float catalogue): FusionAHRS (1.2.3) or
+    FusionAHRS13 (1.3). Fusion's units (the gyroscope in deg/s, as Fusion's C takes it), the
+    period from params' dt with every update (1.3: its sample period set before each update),
+    every setting a C init value by name; the orientation from q0..q3."""
     kind = "ahrs"
     fixed = False
 
-    def __init__(self):
-        self.reference = reference.FusionAHRS
-        self.state_names = tuple(reference.FusionAHRS.state_names)
+    def __init__(self, name="FusionAHRS"):
+        self.name = name
+        self.reference = getattr(reference, name)
+        self.state_names = tuple(self.reference.state_names)
 
     @staticmethod
     def settings(params):
@@ -108,20 +110,19 @@ class _FusionEntry:
     def make(self, backend, dtype, params):
         mod = imufuse_c if backend == "c" else reference
         try:
-            return mod.FusionAHRS(**self.settings(params), dtype=dtype)
+            return getattr(mod, self.name)(**self.settings(params), dtype=dtype)
         except (TypeError, ValueError) as err:
-            raise FirmwareError(f"FusionAHRS: {err}") from None
+            raise FirmwareError(f"{self.name}: {err}") from None
 
 
-_FUSION = None
+_FUSION: dict = {}
 
 
 def _filter_entry(name):
-    global _FUSION
-    if name == "FusionAHRS":
-        if _FUSION is None:
-            _FUSION = _FusionEntry()
-        return _FUSION
+    if name in FUSIONS:
+        if name not in _FUSION:
+            _FUSION[name] = _FusionEntry(name)
+        return _FUSION[name]
     return entry(name)
 
 
@@ -143,7 +144,7 @@ def _make(name, backend, dtype, params):
     e = _filter_entry(name)
     if isinstance(e, _FusionEntry):
         if "dt" not in params:
-            raise FirmwareError("FusionAHRS: give dt (the sample period; Fusion takes it with "
+            raise FirmwareError(f"{name}: give dt (the sample period; Fusion takes it with "
                                 "every update)")
         return _FusionRun(e.make(backend, dtype, params), params["dt"])
     if e.fixed:
