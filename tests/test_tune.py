@@ -83,3 +83,28 @@ def test_tune_errors(tmp_path):
     assert r.returncode == 4 and "no reference orientation" in r.stderr
     r = imf("tune", io.example_log(), "-f", "MadgwickIMU", "--metric", "heading")
     assert r.returncode == 2 and "inclination" in r.stderr
+
+
+def test_tune_fusion13_scores_its_gain_as_an_independent_run():
+    """x-io Fusion 1.3 (FusionAHRS13) is tuned like the others: each gain's total error is
+    the one of the class run directly (Fusion's units, the log's rate and intervals, the
+    BROAD errors), and the best is the best of the grid."""
+    path = io.example_log()
+    r = imf("tune", path, "-f", "FusionAHRS13", "--grid", "gain=0.1,0.5,2", "--refine", "0",
+            "--quiet")
+    assert r.returncode == 0, r.stderr
+    rows = {float(ln.split()[0]): float(ln.split()[1]) for ln in r.stdout.splitlines()
+            if re.match(r"\s*[0-9.]+\s+[0-9.]+", ln)}
+    log = io.read_log(path)
+    want = {}
+    for gain in (0.1, 0.5, 2.0):
+        f = imufuse_c.FusionAHRS13(sample_rate=1.0 / log.dt, gain=gain)
+        dts = log.dts if log.dts is not None else log.dt
+        S = f.run(np.degrees(log.gyr), log.acc, log.mag, dt=dts)
+        q = S[:, :4] / np.linalg.norm(S[:, :4], axis=1, keepdims=True)
+        want[gain] = evaluate(q, log.q_ref, est_frame="NWU", ref_frame="ENU",
+                              movement=log.movement).total
+    assert set(rows) == set(want)
+    for g, s in rows.items():
+        assert s == pytest.approx(want[g], abs=6e-4), (g, s, want[g])
+    assert min(rows, key=rows.get) == min(want, key=want.get)

@@ -35,10 +35,10 @@ import numpy as np
 
 import imufuse_c
 
-from .catalogue import FLOAT, FilterError, reference_class, resolve_params
+from .catalogue import ALL_ENTRIES, FLOAT, FilterError, reference_class, resolve_params
 from .evaluation import METRICS, mean_over_trials, prepare_reference
 from .session import (NothingComputed, ReadOptions, RunOptions, ScoreOptions, Session,
-                      effective_params)
+                      effective_params, is_fusion)
 
 __all__ = ["Tuner", "TuneResult", "grid_spec", "Grid"]
 
@@ -104,7 +104,7 @@ class Tuner:
                  read: ReadOptions = ReadOptions()) -> None:
         """sessions: Sessions, or paths of logs read with ``read`` (opened on first use here,
         or where an executor runs them: search(executor=...))."""
-        cls = reference_class(name)
+        cls = _FusionTuned(name) if is_fusion(name) else reference_class(name)
         if cls.kind == "1d":
             raise ValueError(f"tune: {name} is a single-axis filter; tune evaluates 3D filters "
                              "against a reference orientation")
@@ -129,6 +129,8 @@ class Tuner:
         self._sessions: Dict[int, Session] = {}
         self._refs: Optional[list] = None
         self._inputs: Optional[list] = None
+        if is_fusion(name):
+            self.batch = False          # Fusion has no compiled batch: sets scored in Python
 
     def _session(self, i: int) -> Session:
         if i not in self._sessions:
@@ -155,12 +157,21 @@ class Tuner:
             self._refs = [_reference(s, o) for s in self.sessions]
         return self._refs
 
+    def _effective(self, over: Optional[Mapping[str, Any]] = None) -> Dict[str, Any]:
+        """The parameters the filter runs with (defaults or preset, the fixed ones, ``over``);
+        FilterError for a name the filter does not have."""
+        over = {**self.fixed, **dict(over or {})}
+        if is_fusion(self.name):
+            return self.cls.settings(over, self.run_options.preset)
+        return effective_params(self.name, resolve_params(self.name, 0.01, over,
+                                                          self.run_options.preset))
+
     def default_grid(self, points: int) -> Grid:
         """Every positive float parameter with a default, /10 .. x10 around it, log-spaced."""
-        eff = effective_params(self.name, resolve_params(self.name, 0.01, self.fixed,
-                                                             self.run_options.preset))
+        eff = self._effective()
         grid = [(k, list(np.geomspace(v / 10, v * 10, points))) for k, v in eff.items()
-                if k != "dt" and k not in self.fixed and isinstance(v, float) and v > 0]
+                if k not in ("dt", "sample_rate") and k not in self.fixed
+                and isinstance(v, float) and v > 0]
         if not grid:
             raise ValueError(f"tune: {self.name} has no positive float parameter to tune; "
                              "give --grid")
@@ -172,13 +183,13 @@ class Tuner:
         those whose first and last values of the grid give the same states (a grid given by
         the user; a single value is never idle)."""
         head = [np.asarray(a)[:samples] for a in self._session(0).inputs(self.name)[0]]
-        eff = effective_params(self.name, resolve_params(self.name, 0.01, self.fixed,
-                                                             self.run_options.preset))
+        eff = self._effective()
         s0 = self._session(0)
 
         def states(over: Mapping[str, Any]) -> np.ndarray:
-            f, _, _, _, _ = s0.make(self.name, {**self.fixed, **over}, self.run_options)
-            return f.run(*head)
+            f, _, dts, _, _ = s0.make(self.name, {**self.fixed, **over}, self.run_options)
+            kw = {} if dts is None else {"dt": dts if np.ndim(dts) == 0 else dts[:samples]}
+            return f.run(*head, **kw)
         base = states({})
         out = []
         for k, vals in grid:
@@ -267,9 +278,7 @@ class Tuner:
         point's neighbours. executor: run each round as one task per log there (any
         concurrent.futures.Executor; progress counts logs done)."""
         names = [k for k, _ in grid]
-        resolve_params(self.name, self._session(0).dt(),
-                       {**self.fixed, **{k: v[0] for k, v in grid}},
-                       self.run_options.preset)                           # names exist
+        self._effective({k: v[0] for k, v in grid})                      # names exist
         res = TuneResult(names, self.metric)
         workers = max(1, jobs or os.cpu_count() or 1)
 
@@ -380,3 +389,27 @@ def _evaluate_log(task: _LogTask) -> list:
         for j in good:
             out[j] = t.score_set(task.names, task.points[j])[1][0]
     return out
+
+
+class _FusionTuned:
+    """What Tuner needs of x-io Fusion's AHRS (outside the float catalogue): its kind (AHRS:
+    it runs without a magnetometer as Fusion's update_no_magnetometer), its state and its
+    settings (the catalogue's defaults or preset)."""
+    kind = "ahrs"
+
+    def __init__(self, name: str) -> None:
+        self.__name__ = name
+        self.entry = ALL_ENTRIES[name]
+        self.state_names = tuple(self.entry.reference.state_names)
+
+    def settings(self, over: Mapping[str, Any], preset: Optional[str]) -> Dict[str, Any]:
+        presets = {"published": {}, **self.entry.presets}
+        if preset not in (None, *presets):
+            raise FilterError(f"{self.__name__}: no preset {preset!r}; presets: "
+                              + ", ".join(presets))
+        out = {**self.entry.defaults, **presets.get(preset or "published", {})}
+        for k in over:
+            if k not in out and k != "invsqrt":
+                raise FilterError(f"{self.__name__}: unknown setting {k!r}; settings: "
+                                  + ", ".join(out))
+        return {**out, **over}

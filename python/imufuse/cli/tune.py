@@ -11,9 +11,6 @@ from .common import (EXIT_OK, UsageError, err, eval_options, executor, executor_
 
 
 def _tune(args):
-    if args.filter in ("FusionAHRS", "FusionAHRS13"):
-        raise UsageError(f"tune: {args.filter} is not tunable here yet; use imufuse compare "
-                         f"with -p {args.filter}.gain=... to try settings")
     grids, given = [], {}
     fixed = pairs(args.param)
     for g in args.grid or ():
