@@ -20,7 +20,8 @@ ProcessPoolExecutor, dask.distributed's ``Client.get_executor()``, Ray's): each 
 one task per log, which opens the log where it runs (a path is read there, with the Tuner's
 ReadOptions; a Session is sent as it is) and evaluates every set of the round on it with the
 same code as the local run, so the results are the local run's to the bit. Tuner accepts
-paths for this: the driver reads none of them but the first (for the grid's defaults).
+paths for this: search reads none of them on the driver (idle(), which the command line
+calls, reads the first).
 """
 from __future__ import annotations
 
