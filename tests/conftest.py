@@ -15,7 +15,8 @@ The inner loop is `pytest -m "not slow"`; CI runs everything (tools/test.sh).
 Workers (pytest-xdist, `--dist loadgroup` in tools/test.sh): the tests of a module that uses
 a module- or session-scoped fixture of its own (programs built for an MCU, a built copy of
 the package, a fetched oracle) run on one worker, so that the fixture is built once; every
-other test goes to whichever worker is free.
+other test goes to whichever worker is free. The groups and the slow tests are handed out
+first, the short tests last (pytest_collection_modifyitems).
 """
 import pytest
 
@@ -60,6 +61,12 @@ def pytest_collection_modifyitems(config, items):
             item.add_marker(getattr(pytest.mark, m))
         if _shares_a_fixture(item):
             item.add_marker(pytest.mark.xdist_group(mod))
+    # the workers take the work in this order: the groups (a fixture built once, then their
+    # tests: tens of seconds on one worker) and the slow tests first, the many short tests
+    # after them, so that no long item is left for one worker while the other is idle
+    # (stable: the order within a module is kept)
+    items.sort(key=lambda it: 0 if it.get_closest_marker("xdist_group") else
+               1 if it.get_closest_marker("slow") else 2)
 
 
 def _shares_a_fixture(item):

@@ -368,7 +368,7 @@ def test_filter_names_suggest_fusion_ahrs(command, given, want):
     assert rc == 2, errs
     hinted = errs.split("did you mean ")[1].split("?")[0].split(", ")
     assert set(want) <= set(hinted), errs
-    assert errs.rstrip().endswith("RobustAHRS, FusionAHRS"), errs
+    assert errs.rstrip().endswith("RobustAHRS, FusionAHRS, FusionAHRS13"), errs
 
 
 def test_fixed_point_and_fusion_suite_names_list_fusion_ahrs():
