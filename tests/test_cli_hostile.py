@@ -2,6 +2,8 @@
 is a one-line message with its documented exit code, never a traceback; the
 input log is never overwritten; `compare` never exits 0 having computed
 nothing; `validate` survives crashing, exiting and hanging firmware."""
+import contextlib
+import io as _io
 import os
 import re
 import subprocess
@@ -13,7 +15,7 @@ import pytest
 
 import imufuse
 import imufuse_c
-from imufuse import io, sim
+from imufuse import cli, io, sim
 
 PATHS = [os.path.dirname(os.path.dirname(imufuse.__file__)),
          os.path.dirname(os.path.dirname(imufuse_c.__file__))]
@@ -29,6 +31,17 @@ def imf(*args, cwd=None, env=None, timeout=120):
     e.update(env or {})
     return subprocess.run([sys.executable, "-m", "imufuse", *map(str, args)], cwd=cwd, env=e,
                           capture_output=True, text=True, timeout=timeout)
+
+
+def imf_here(*args):
+    """The command line in this process: its main(), what the console script and `python -m
+    imufuse` run, for the many files and arguments whose message and exit code are checked
+    (0.4 s less each than a new interpreter); `imf` keeps what only a process shows (crashes,
+    signals, the entry point itself)."""
+    out, errs = _io.StringIO(), _io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(errs):
+        rc = cli.main([str(a) for a in args])
+    return subprocess.CompletedProcess(args, rc, out.getvalue(), errs.getvalue())
 
 
 def one_line_error(r, code):
@@ -121,8 +134,15 @@ def test_hostile_files_and_arguments(files, tmp_path, name, extra, code, word):
     args = ["run", log, "-o", tmp_path / "out.csv"] + extra
     if "--filter" not in extra:
         args += ["-f", "MadgwickIMU"]
-    line = one_line_error(imf(*args), code)
+    line = one_line_error(imf_here(*args), code)
     assert word in line, line
+
+
+def test_the_entry_point_says_the_same_in_its_own_process(files, tmp_path):
+    """One of the hostile files through a new interpreter (`python -m imufuse`): the same
+    line and exit code as main() in this process."""
+    args = ["run", files["abc.csv"], "-o", tmp_path / "out.csv", "-f", "MadgwickIMU"]
+    assert one_line_error(imf(*args), DATA) == one_line_error(imf_here(*args), DATA)
 
 
 def test_long_numeric_field_is_a_number(files, tmp_path):
