@@ -244,7 +244,8 @@ def effective_gyr_scale(case, profile):
 
 
 def run_twin(case, profile, inputs, dtype="float64"):
-    """The float twin on the fixed filter's counts, in physical units."""
+    """The float twin on the fixed filter's counts, in physical units: its states, or for the
+    quaternion filters its unit quaternion (run(outputs="q"): all the comparisons read)."""
     p = {k: v for k, v in case.params.items() if k not in ("gyr_scale", "angle_scale")}
     p["dt"] = DT
     if case.name == "MadgwickIMUQ":
@@ -252,15 +253,16 @@ def run_twin(case, profile, inputs, dtype="float64"):
     if case.kind == "ahrs":
         p["mag_learn"] = False     # the fixed-point AHRS has no B6: the float without it
     f = getattr(imufuse_c, twin_name(case))(**p, dtype=dtype)
+    out = {"outputs": "q"} if family(case.name) == "quat" else {}
     gs = effective_gyr_scale(case, profile)
     if case.kind == "1d":
         r, a = inputs
         return f.run((r * gs).astype(dtype), (a * case.params["angle_scale"]).astype(dtype))
     if case.kind == "ahrs":
         g, a, m = inputs
-        return f.run((g * gs).astype(dtype), a.astype(dtype), m.astype(dtype))
+        return f.run((g * gs).astype(dtype), a.astype(dtype), m.astype(dtype), **out)
     g, a = inputs
-    return f.run((g * gs).astype(dtype), a.astype(dtype))
+    return f.run((g * gs).astype(dtype), a.astype(dtype), **out)
 
 
 # ---- checks -------------------------------------------------------------------------------
