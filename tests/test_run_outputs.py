@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 import imufuse_c
-from imufuse import catalogue, estimate, sim
+from imufuse import catalogue, estimate, io, sim
+from imufuse.session import RunOptions, Session
 
 ENTRIES = [e.name for e in catalogue.FLOAT
            if catalogue.reference_class(e.name).kind in ("imu", "ahrs")]
@@ -69,3 +70,17 @@ def test_what_is_kept_follows_the_state_names():
     f = imufuse_c.MadgwickIMU(dt=0.01)
     with pytest.raises(ValueError, match="outputs: must be one of"):
         f.run(np.zeros((3, 3)), np.ones((3, 3)), outputs="euler")
+
+
+@pytest.mark.parametrize("name", ENTRIES)
+def test_the_session_streams_the_same_estimate(name):
+    """Session.run(keep_states=False), what compare and tune run: the compiled filter keeps
+    only its quaternion's words while it runs, block by block; the estimate is the one read
+    from the whole trajectory (keep_states=True), bit for bit, with its heading and source."""
+    s = Session(io.example_log())
+    a = s.run(name, {}, RunOptions(), keep_states=False)
+    b = s.run(name, {}, RunOptions(), keep_states=True)
+    assert a.estimate is not None and b.estimate is not None
+    assert np.array_equal(_bits(a.estimate.q), _bits(b.estimate.q))
+    assert (a.estimate.heading, a.estimate.source) == (b.estimate.heading, b.estimate.source)
+    assert a.rejected == b.rejected and len(a.states) == 0

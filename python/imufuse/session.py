@@ -488,8 +488,26 @@ class Session:
             block = min(block, -(-n // 20))         # about 20 reports
         every = max(block, -(-n // 20))
         next_report = every
+        # the compiled 3-D filters keep only the words their quaternion is read from while
+        # they run (run(outputs="q"): the same quaternions as estimate() of the states)
+        quat = (on_block is None and backend == "c" and not is_fusion(name)
+                and cls.kind != "1d" and estimate(cls, np.zeros((0, len(cls.state_names))))
+                is not None)
         for k in range(0, max(n, 1), block):
             kw = {} if dts is None else {"dt": dts if np.ndim(dts) == 0 else dts[k:k + block]}
+            if quat:
+                q = f.run(*[x[k:k + block] for x in inputs], **kw, outputs="q")
+                if first is None:
+                    meta = estimate(cls, np.zeros((0, len(cls.state_names))))
+                    assert meta is not None
+                    first, out = Estimate(heading=meta.heading, source=meta.source), np.empty((n, 4))
+                assert out is not None
+                out[k:k + len(q)] = q
+                if report and progress is not None and (k + len(q) >= next_report
+                                                        or k + len(q) == n):
+                    progress(name, k + len(q), n)
+                    next_report += every
+                continue
             part = f.run(*[x[k:k + block] for x in inputs], **kw)
             e = self._fusion_estimate(part, params) if is_fusion(name) else estimate(cls, part)
             if on_block is not None:
