@@ -505,19 +505,6 @@ void imf_fusion13_ahrs_set_state(imf_fusion13_ahrs_t *const self, const imf_real
     x->magnetic_recovery_threshold = (int32_t)in[22];
 }
 
-/* error angle (degrees) of a halved residual: asin(2 |res/2|) */
-static imf_real error_degrees(const imf_real fx, const imf_real fy, const imf_real fz)
-{
-    const imf_fusion_vec_t fb = { fx, fy, fz };
-    return imf_fusion_rad2deg(
-        imf_fusion_safe_asin(IMF_R(2.0) * imf_sqrt(imf_fusion_vec_norm2(fb))));
-}
-
-static imf_real trigger_ratio(const int32_t trigger, const int32_t timeout)
-{
-    return timeout == 0 ? IMF_R(0.0) : (imf_real)trigger / (imf_real)timeout;
-}
-
 void imf_fusion13_ahrs_outputs(const imf_fusion13_ahrs_t *const self, imf_real *const out)
 {
     const imf_fusion13_ahrs_state_t *const x = &self->x;
@@ -551,10 +538,11 @@ void imf_fusion13_ahrs_outputs(const imf_fusion13_ahrs_t *const self, imf_real *
     out[10] = imf_fusion_rad2deg(imf_fusion_safe_asin(IMF_R(2.0) * (qw * qy - qx * qz)));
     out[11] =
         imf_fusion_rad2deg(imf_fusion_atan2(qx * qy + qw * qz, qw * qw + qx * qx - IMF_R(0.5)));
-    out[12] = error_degrees(x->half_acc_res_x, x->half_acc_res_y, x->half_acc_res_z);
-    out[13] = trigger_ratio(x->acceleration_recovery_trigger, self->set.rejection_timeout);
-    out[14] = error_degrees(x->half_mag_res_x, x->half_mag_res_y, x->half_mag_res_z);
-    out[15] = trigger_ratio(x->magnetic_recovery_trigger, self->set.rejection_timeout);
+    out[12] = imf_fusion_error_degrees(x->half_acc_res_x, x->half_acc_res_y, x->half_acc_res_z);
+    out[13] =
+        imf_fusion_trigger_ratio(x->acceleration_recovery_trigger, self->set.rejection_timeout);
+    out[14] = imf_fusion_error_degrees(x->half_mag_res_x, x->half_mag_res_y, x->half_mag_res_z);
+    out[15] = imf_fusion_trigger_ratio(x->magnetic_recovery_trigger, self->set.rejection_timeout);
 }
 
 unsigned imf_fusion13_ahrs_flags(const imf_fusion13_ahrs_t *const self)

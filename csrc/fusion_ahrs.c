@@ -455,19 +455,6 @@ void imf_fusion_ahrs_set_state(imf_fusion_ahrs_t *const self, const imf_real *co
     x->magnetic_recovery_timeout = (int32_t)in[21];
 }
 
-/* error angle (degrees) of a halved feedback: asin(2 |fb/2|) */
-static imf_real error_degrees(const imf_real fx, const imf_real fy, const imf_real fz)
-{
-    const imf_fusion_vec_t fb = { fx, fy, fz };
-    return imf_fusion_rad2deg(
-        imf_fusion_safe_asin(IMF_R(2.0) * imf_sqrt(imf_fusion_vec_norm2(fb))));
-}
-
-static imf_real trigger_ratio(const int32_t trigger, const int32_t period)
-{
-    return period == 0 ? IMF_R(0.0) : (imf_real)trigger / (imf_real)period;
-}
-
 void imf_fusion_ahrs_outputs(const imf_fusion_ahrs_t *const self, imf_real *const out)
 {
     const imf_fusion_ahrs_state_t *const x = &self->x;
@@ -513,13 +500,13 @@ void imf_fusion_ahrs_outputs(const imf_fusion_ahrs_t *const self, imf_real *cons
     out[IMF_FUSION_OUT_EULER + 2] =
         imf_fusion_rad2deg(imf_fusion_atan2(qw * qz + qx * qy, half_minus_qyqy - qz * qz));
     out[IMF_FUSION_OUT_ACC_ERROR] =
-        error_degrees(x->half_acc_fb_x, x->half_acc_fb_y, x->half_acc_fb_z);
-    out[IMF_FUSION_OUT_ACC_TRIGGER] =
-        trigger_ratio(x->acceleration_recovery_trigger, self->set.recovery_trigger_period);
+        imf_fusion_error_degrees(x->half_acc_fb_x, x->half_acc_fb_y, x->half_acc_fb_z);
+    out[IMF_FUSION_OUT_ACC_TRIGGER] = imf_fusion_trigger_ratio(x->acceleration_recovery_trigger,
+                                                               self->set.recovery_trigger_period);
     out[IMF_FUSION_OUT_MAG_ERROR] =
-        error_degrees(x->half_mag_fb_x, x->half_mag_fb_y, x->half_mag_fb_z);
+        imf_fusion_error_degrees(x->half_mag_fb_x, x->half_mag_fb_y, x->half_mag_fb_z);
     out[IMF_FUSION_OUT_MAG_TRIGGER] =
-        trigger_ratio(x->magnetic_recovery_trigger, self->set.recovery_trigger_period);
+        imf_fusion_trigger_ratio(x->magnetic_recovery_trigger, self->set.recovery_trigger_period);
 }
 
 unsigned imf_fusion_ahrs_flags(const imf_fusion_ahrs_t *const self)

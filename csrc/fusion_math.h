@@ -192,6 +192,23 @@ static inline imf_fusion_vec_t imf_fusion_vec_normalise(const imf_fusion_vec_t v
     return imf_fusion_vec_scale(v, r);
 }
 
+/*
+ * The error angle (degrees) an output reports for a halved feedback or residual (fx, fy, fz):
+ * asin(2 |v|), as FusionAhrsGetInternalStates computes it in 1.2.3 and 1.3.
+ */
+static inline imf_real imf_fusion_error_degrees(const imf_real fx, const imf_real fy,
+                                                const imf_real fz)
+{
+    const imf_fusion_vec_t v = { fx, fy, fz };
+    return imf_fusion_rad2deg(imf_fusion_safe_asin(IMF_R(2.0) * imf_sqrt(imf_fusion_vec_norm2(v))));
+}
+
+/* A recovery trigger as the fraction of its period (1.2.3) or timeout (1.3); 0 without one. */
+static inline imf_real imf_fusion_trigger_ratio(const int32_t trigger, const int32_t period)
+{
+    return period == 0 ? IMF_R(0.0) : (imf_real)trigger / (imf_real)period;
+}
+
 static inline imf_fusion_quat_t imf_fusion_quat_add(const imf_fusion_quat_t a,
                                                     const imf_fusion_quat_t b)
 {

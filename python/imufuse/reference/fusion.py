@@ -134,6 +134,19 @@ def vec_norm2(v):
     return vec_dot(v, v)
 
 
+
+def error_degrees(o, v):
+    """imf_fusion_error_degrees: the error angle (degrees) of a halved feedback or residual v,
+    asin(2 |v|) (both releases)."""
+    return rad2deg(o, safe_asin(o, o.R(2.0) * _sqrt(o, vec_norm2(v))))
+
+
+def trigger_ratio(o, trigger, period):
+    """imf_fusion_trigger_ratio: a recovery trigger as the fraction of its period (1.2.3) or
+    timeout (1.3); 0 without one."""
+    R = o.R
+    return R(0.0) if period == 0 else R(trigger) / R(period)
+
 def _sqrt(o, x):
     return o.R(math.sqrt(x)) if x >= 0 else o.R(math.nan)
 
@@ -567,14 +580,6 @@ class FusionAHRS:
 
     # -- outputs (imf_fusion_ahrs_outputs, imf_fusion_ahrs_flags)
 
-    def _error_degrees(self, fb):
-        o = self._o
-        return rad2deg(o, safe_asin(o, o.R(2.0) * _sqrt(o, vec_norm2(fb))))
-
-    def _trigger_ratio(self, trigger, period):
-        R = self._o.R
-        return R(0.0) if period == 0 else R(trigger) / R(period)
-
     def _outputs(self):
         o = self._o
         R = o.R
@@ -605,10 +610,11 @@ class FusionAHRS:
         out[9] = rad2deg(o, o.atan2(qw * qx + qy * qz, half_minus_qyqy - qx * qx))
         out[10] = rad2deg(o, safe_asin(o, R(2.0) * (qw * qy - qz * qx)))
         out[11] = rad2deg(o, o.atan2(qw * qz + qx * qy, half_minus_qyqy - qz * qz))
-        out[12] = self._error_degrees((self.half_acc_fb_x, self.half_acc_fb_y, self.half_acc_fb_z))
-        out[13] = self._trigger_ratio(self.acceleration_recovery_trigger, self.recovery_trigger_period)
-        out[14] = self._error_degrees((self.half_mag_fb_x, self.half_mag_fb_y, self.half_mag_fb_z))
-        out[15] = self._trigger_ratio(self.magnetic_recovery_trigger, self.recovery_trigger_period)
+        period = self.recovery_trigger_period
+        out[12] = error_degrees(o, (self.half_acc_fb_x, self.half_acc_fb_y, self.half_acc_fb_z))
+        out[13] = trigger_ratio(o, self.acceleration_recovery_trigger, period)
+        out[14] = error_degrees(o, (self.half_mag_fb_x, self.half_mag_fb_y, self.half_mag_fb_z))
+        out[15] = trigger_ratio(o, self.magnetic_recovery_trigger, period)
         return out
 
     def _flags(self):

@@ -14,10 +14,10 @@ import math
 import numpy as np
 
 from .. import _checks, _fusion, _fusion13
-from .fusion import (ENU, NED, _finite, _Ops, _sqrt, deg2rad, mat_mul_vec, quat_add, quat_mul,
-                     quat_mul_vec, quat_normalise, rad2deg, safe_asin, vec_add, vec_cross,
-                     vec_dot, vec_hadamard, vec_is_zero, vec_norm2, vec_normalise, vec_scale,
-                     vec_sub)
+from .fusion import (ENU, NED, _finite, _Ops, deg2rad, error_degrees, mat_mul_vec,
+                     quat_add, quat_mul, quat_mul_vec, quat_normalise, rad2deg, safe_asin,
+                     trigger_ratio, vec_add, vec_cross, vec_dot, vec_hadamard, vec_is_zero,
+                     vec_norm2, vec_normalise, vec_scale, vec_sub)
 
 INITIAL_GAIN = 10.0
 STARTUP_PERIOD = 3.0
@@ -411,15 +411,6 @@ class FusionAHRS13:
 
     # -- outputs (imf_fusion13_ahrs_outputs, imf_fusion13_ahrs_flags)
 
-    def _error_degrees(self, res):
-        o = self._o
-        return rad2deg(o, safe_asin(o, o.R(2.0) * _sqrt(o, vec_norm2(res))))
-
-    def _trigger_ratio(self, trigger):
-        R = self._o.R
-        timeout = self.rejection_timeout
-        return R(0.0) if timeout == 0 else R(trigger) / R(timeout)
-
     def _outputs(self):
         o = self._o
         R = o.R
@@ -439,12 +430,14 @@ class FusionAHRS13:
         out.append(rad2deg(o, o.atan2(qy * qz + qw * qx, qw * qw + qz * qz - R(0.5))))
         out.append(rad2deg(o, safe_asin(o, R(2.0) * (qw * qy - qx * qz))))
         out.append(rad2deg(o, o.atan2(qx * qy + qw * qz, qw * qw + qx * qx - R(0.5))))
-        out.append(self._error_degrees((self.half_acc_res_x, self.half_acc_res_y,
+        out.append(error_degrees(self._o, (self.half_acc_res_x, self.half_acc_res_y,
                                         self.half_acc_res_z)))
-        out.append(self._trigger_ratio(self.acceleration_recovery_trigger))
-        out.append(self._error_degrees((self.half_mag_res_x, self.half_mag_res_y,
+        out.append(trigger_ratio(self._o, self.acceleration_recovery_trigger,
+                                 self.rejection_timeout))
+        out.append(error_degrees(self._o, (self.half_mag_res_x, self.half_mag_res_y,
                                         self.half_mag_res_z)))
-        out.append(self._trigger_ratio(self.magnetic_recovery_trigger))
+        out.append(trigger_ratio(self._o, self.magnetic_recovery_trigger,
+                                 self.rejection_timeout))
         return out
 
     def _flags(self):
