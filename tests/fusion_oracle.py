@@ -311,3 +311,32 @@ _CTYPES = {"float32": "float[]", "int32": "int[]", "uint32": "unsigned int[]"}
 def buf(ffi, a):
     """A C pointer to a contiguous float32/int32/uint32 array (no copy; keep a alive)."""
     return ffi.from_buffer(_CTYPES[a.dtype.name], a, require_writable=False)
+
+
+def fusion_sources(sdist, version, dest):
+    """Fusion's C files of an imufusion sdist (its Fusion/ directory, unmodified) copied into
+    dest; returns dest as a string (the --source-dir of a Fusion declaration)."""
+    with tarfile.open(sdist) as tar:
+        for m in tar.getmembers():
+            if m.name.startswith(f"imufusion-{version}/Fusion/") and m.isfile():
+                (Path(dest) / os.path.basename(m.name)).write_bytes(tar.extractfile(m).read())
+    return str(dest)
+
+
+def validate_declared_fusion(declaration, source_dir, target, flags=None, seconds=3.0):
+    """x-io's C as a declaration file declares it, validated on simulated fast motion (200 Hz,
+    seed 3; the gyroscope in Fusion's deg/s) on ``target``, built with ``flags`` (None: the
+    declaration's)."""
+    import numpy as np
+
+    from imufuse import sim
+    from imufuse.catalogue import inputs_for
+    from imufuse.firmware import validate_isolated
+    from imufuse.firmware.declfile import load_declaration
+    d = load_declaration(declaration, source_dir=source_dir)
+    if flags is not None:
+        d.firmware.cflags = d.firmware.cflags_given = list(flags)
+    s = sim.imu("fast", rate=200.0, duration=seconds, seed=3)
+    g, a, m = inputs_for("ahrs", s)
+    return validate_isolated(d.firmware, d.filter, dict(d.params, dt=s.dt),
+                             [np.degrees(g), a, m], target=target)

@@ -158,27 +158,15 @@ FUSION_DECLARATION = os.path.join(os.path.dirname(HERE), "examples", "declaratio
 
 @pytest.fixture(scope="module")
 def fusion_dir(tmp_path_factory):
-    import tarfile
-
     import fusion_oracle
-    sdist = fusion_oracle.fetch_sdist()
-    d = tmp_path_factory.mktemp("fusion")
-    with tarfile.open(sdist) as tar:
-        for m in tar.getmembers():
-            if m.name.startswith(f"imufusion-{fusion_oracle.VERSION}/Fusion/") and m.isfile():
-                (d / os.path.basename(m.name)).write_bytes(tar.extractfile(m).read())
-    return str(d)
+    return fusion_oracle.fusion_sources(fusion_oracle.fetch_sdist(), fusion_oracle.VERSION,
+                                        tmp_path_factory.mktemp("fusion"))
 
 
 def _fusion(fusion_dir, target, flags=None, seconds=3.0):
-    import numpy as np
-    d = load_declaration(FUSION_DECLARATION, source_dir=fusion_dir)
-    if flags is not None:
-        d.firmware.cflags = d.firmware.cflags_given = list(flags)
-    s = sim.imu("fast", rate=200.0, duration=seconds, seed=3)
-    g, a, m = inputs_for("ahrs", s)
-    return validate_isolated(d.firmware, d.filter, dict(d.params, dt=s.dt),
-                             [np.degrees(g), a, m], target=target)
+    import fusion_oracle
+    return fusion_oracle.validate_declared_fusion(FUSION_DECLARATION, fusion_dir, target,
+                                                  flags, seconds)
 
 
 @pytest.mark.parametrize("target,flags", [("host", None),

@@ -13,24 +13,21 @@ settings as the C init values, the period given with every update; the command l
 import os
 import subprocess
 import sys
-import tarfile
 
 import numpy as np
 import pytest
 
 import imufuse.mcu as mcu
-from imufuse import reference, sim
+from imufuse import reference
 from imufuse._fusion13 import ADVANCED
 from imufuse._resources import csrc_dir
-from imufuse.catalogue import inputs_for
-from imufuse.firmware import validate_isolated
-from imufuse.firmware.declfile import load_declaration
 
 from bits import assert_same_bits
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)          # tests/fusion13_oracle.py
 import fusion13_oracle  # noqa: E402
+import fusion_oracle  # noqa: E402
 
 DECLARATION = os.path.join(os.path.dirname(HERE), "examples", "declarations",
                            "fusion-1.3.3.toml")
@@ -41,23 +38,13 @@ pytestmark = [pytest.mark.xdist_group("declared_target"), pytest.mark.emulator,
 
 @pytest.fixture(scope="module")
 def fusion_dir(tmp_path_factory):
-    sdist = fusion13_oracle.fetch_sdist()
-    d = tmp_path_factory.mktemp("fusion13")
-    with tarfile.open(sdist) as tar:
-        for m in tar.getmembers():
-            if m.name.startswith(f"imufusion-{fusion13_oracle.VERSION}/Fusion/") and m.isfile():
-                (d / os.path.basename(m.name)).write_bytes(tar.extractfile(m).read())
-    return str(d)
+    return fusion_oracle.fusion_sources(fusion13_oracle.fetch_sdist(), fusion13_oracle.VERSION,
+                                        tmp_path_factory.mktemp("fusion13"))
 
 
 def _validate(fusion_dir, target, flags=None, seconds=3.0):
-    d = load_declaration(DECLARATION, source_dir=fusion_dir)
-    if flags is not None:
-        d.firmware.cflags = d.firmware.cflags_given = list(flags)
-    s = sim.imu("fast", rate=200.0, duration=seconds, seed=3)
-    g, a, m = inputs_for("ahrs", s)
-    return validate_isolated(d.firmware, d.filter, dict(d.params, dt=s.dt),
-                             [np.degrees(g), a, m], target=target)
+    return fusion_oracle.validate_declared_fusion(DECLARATION, fusion_dir, target, flags,
+                                                  seconds)
 
 
 def test_fusion13_as_published_is_bit_exact_on_the_host(fusion_dir):
