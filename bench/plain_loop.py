@@ -17,16 +17,16 @@ CSRC = str(csrc_dir())
 
 
 def _loop_source(ref_cls):
-    """C for plain_<c_name>(n, inputs..., out, params): init from params, then
+    """C for plain_<c_update>(n, inputs..., out, params): init from params, then
     update + memcpy of the state for every sample."""
-    c = ref_cls.c_name
+    c, u = ref_cls.c_name, ref_cls.c_update
     ins = KINDS[ref_cls.kind]
     decl = ", ".join(f"const imf_real *{x}" for x in ins)
     if ref_cls.kind == "1d":
-        call = f"{c}_update(&s, rate[k], angle[k]);"
+        call = f"{u}(&s, rate[k], angle[k]);"
     else:
-        call = f"{c}_update(&s, " + ", ".join(f"{x}[3 * k + {j}]" for x in ins for j in range(3)) + ");"
-    return (f"void plain_{c}(size_t n, {decl}, imf_real *out, const double *p, size_t np)\n"
+        call = f"{u}(&s, " + ", ".join(f"{x}[3 * k + {j}]" for x in ins for j in range(3)) + ");"
+    return (f"void plain_{u}(size_t n, {decl}, imf_real *out, const double *p, size_t np)\n"
             "{\n"
             f"    {c}_t s;\n"
             "    size_t k;\n"
@@ -36,7 +36,7 @@ def _loop_source(ref_cls):
             "        memcpy(out + k * (sizeof s.x / sizeof(imf_real)), &s.x, sizeof s.x);\n"
             "    }\n"
             "    (void)np;\n"
-            "}\n"), f"void plain_{c}(size_t n, {decl}, imf_real *out, const double *p, size_t np);"
+            "}\n"), f"void plain_{u}(size_t n, {decl}, imf_real *out, const double *p, size_t np);"
 
 
 def _init_source(ref_cls):

@@ -45,7 +45,7 @@ def plain_runner(case, dtype, inputs):
     allocated per call exactly as run() allocates its result."""
     ffi, lib = plain_lib(dtype)
     ref = getattr(reference, case.name)
-    fn = getattr(lib, f"plain_{ref.c_name}")
+    fn = getattr(lib, f"plain_{ref.c_update}")
     p = np.array(ref._params(**case.params), dtype=float)
     shape = (len(inputs[0]), len(ref.state_names))
     ctype = "float *" if dtype == "float32" else "double *"

@@ -25,11 +25,18 @@ static int dcm_orthonormal(const imf_dcm_state_t *const r)
            && dcm_small(xy) && dcm_small(xz) && dcm_small(yz);
 }
 
-void imf_dcm_init(imf_dcm_t *const self, const imf_real dt, const imf_real kp, const imf_real ki)
+void imf_dcm_default_settings(imf_dcm_settings_t *const settings)
 {
-    self->kp = kp;
-    self->ki = ki;
-    imf_dcm_set_dt(self, dt);
+    settings->dt = IMF_R(0.01);
+    settings->kp = IMF_R(0.5);
+    settings->ki = IMF_R(0.0);
+}
+
+void imf_dcm_init(imf_dcm_t *const self, const imf_dcm_settings_t *const s)
+{
+    self->kp = s->kp;
+    self->ki = s->ki;
+    imf_dcm_set_dt(self, s->dt);
     self->skipped = 0;
     self->x.r00 = IMF_R(1.0);
     self->x.r01 = IMF_R(0.0);

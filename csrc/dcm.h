@@ -51,8 +51,19 @@ typedef struct {
     imf_dcm_state_t x; /* the state (above): the estimate; write it only through the API */
 } imf_dcm_t;
 
-/* dt: s; kp: 1/s; ki: 1/s^2. State starts at R = identity, I = 0. */
-void imf_dcm_init(imf_dcm_t *self, imf_real dt, imf_real kp, imf_real ki);
+/* The settings of imf_dcm_init. Start from imf_dcm_default_settings(), then set what
+   differs. */
+typedef struct {
+    imf_real dt; /* sample period, s; > 0 (default 0.01: 100 Hz) */
+    imf_real kp; /* proportional gain, 1/s, >= 0 (default 0.5) */
+    imf_real ki; /* integral gain, 1/s^2, >= 0 (default 0) */
+} imf_dcm_settings_t;
+
+/* The defaults listed with each member. */
+void imf_dcm_default_settings(imf_dcm_settings_t *settings);
+/* Settings as documented above (not checked here: imufuse.reference checks them).
+   State starts at R = identity, I = 0. */
+void imf_dcm_init(imf_dcm_t *self, const imf_dcm_settings_t *settings);
 /* gx, gy, gz: rad/s; ax, ay, az: any unit (normalised). A zero (or
    overflowing) acceleration means e = 0: w' = w + I. */
 void imf_dcm_update(imf_dcm_t *self, imf_real gx, imf_real gy, imf_real gz, imf_real ax,

@@ -7,12 +7,18 @@
 #include "imf_math.h"
 
 /* ---- Eq. 2.2 ----------------------------------------------------------- */
-void imf_complementary1d_init(imf_complementary1d_t *const self, const imf_real dt,
-                              const imf_real alpha)
+void imf_complementary1d_default_settings(imf_complementary1d_settings_t *const settings)
 {
-    imf_complementary1d_set_dt(self, dt);
-    self->alpha = alpha;
-    self->one_minus_alpha = IMF_R(1.0) - alpha;
+    settings->dt = IMF_R(0.01);
+    settings->alpha = IMF_R(0.9803921568627451);
+}
+
+void imf_complementary1d_init(imf_complementary1d_t *const self,
+                              const imf_complementary1d_settings_t *const s)
+{
+    imf_complementary1d_set_dt(self, s->dt);
+    self->alpha = s->alpha;
+    self->one_minus_alpha = IMF_R(1.0) - s->alpha;
     self->skipped = 0;
     self->x.theta = IMF_R(0.0);
 }
@@ -40,11 +46,17 @@ void imf_complementary1d_update(imf_complementary1d_t *const self, const imf_rea
 }
 
 /* ---- Eq. 2.5 ----------------------------------------------------------- */
-void imf_kalman1d_init(imf_kalman1d_t *const self, const imf_real dt, const imf_real k0)
+void imf_kalman1d_default_settings(imf_kalman1d_settings_t *const settings)
 {
-    imf_kalman1d_set_dt(self, dt);
-    self->k0 = k0;
-    self->one_minus_k0 = IMF_R(1.0) - k0;
+    settings->dt = IMF_R(0.01);
+    settings->k0 = IMF_R(0.01);
+}
+
+void imf_kalman1d_init(imf_kalman1d_t *const self, const imf_kalman1d_settings_t *const s)
+{
+    imf_kalman1d_set_dt(self, s->dt);
+    self->k0 = s->k0;
+    self->one_minus_k0 = IMF_R(1.0) - s->k0;
     self->skipped = 0;
     self->x.theta = IMF_R(0.0);
 }
@@ -72,10 +84,16 @@ void imf_kalman1d_update(imf_kalman1d_t *const self, const imf_real rate, const 
 }
 
 /* ---- Eq. 2.8 ----------------------------------------------------------- */
-void imf_mahony1d_init(imf_mahony1d_t *const self, const imf_real dt, const imf_real kp)
+void imf_mahony1d_default_settings(imf_mahony1d_settings_t *const settings)
 {
-    imf_mahony1d_set_dt(self, dt);
-    self->kp = kp;
+    settings->dt = IMF_R(0.01);
+    settings->kp = IMF_R(2.0);
+}
+
+void imf_mahony1d_init(imf_mahony1d_t *const self, const imf_mahony1d_settings_t *const s)
+{
+    imf_mahony1d_set_dt(self, s->dt);
+    self->kp = s->kp;
     self->skipped = 0;
     self->x.theta = IMF_R(0.0);
 }
@@ -103,14 +121,22 @@ void imf_mahony1d_update(imf_mahony1d_t *const self, const imf_real rate, const 
 }
 
 /* ---- Eq. 3.3 ----------------------------------------------------------- */
-void imf_kalman1d_bias_init(imf_kalman1d_bias_t *const self, const imf_real dt, const imf_real k0,
-                            const imf_real k1, const int bias_sign)
+void imf_kalman1d_bias_default_settings(imf_kalman1d_bias_settings_t *const settings)
 {
-    imf_kalman1d_bias_set_dt(self, dt);
-    self->k0 = k0;
-    self->one_minus_k0 = IMF_R(1.0) - k0;
-    self->k1 = k1;
-    self->bias_sign = bias_sign < 0 ? IMF_R(-1.0) : IMF_R(1.0);
+    settings->dt = IMF_R(0.01);
+    settings->k0 = IMF_R(0.01);
+    settings->k1 = IMF_R(-0.02);
+    settings->bias_sign = -1;
+}
+
+void imf_kalman1d_bias_init(imf_kalman1d_bias_t *const self,
+                            const imf_kalman1d_bias_settings_t *const s)
+{
+    imf_kalman1d_bias_set_dt(self, s->dt);
+    self->k0 = s->k0;
+    self->one_minus_k0 = IMF_R(1.0) - s->k0;
+    self->k1 = s->k1;
+    self->bias_sign = s->bias_sign < 0 ? IMF_R(-1.0) : IMF_R(1.0);
     self->skipped = 0;
     self->x.theta = IMF_R(0.0);
     self->x.b = IMF_R(0.0);
@@ -143,13 +169,21 @@ void imf_kalman1d_bias_update(imf_kalman1d_bias_t *const self, const imf_real ra
 }
 
 /* ---- Eq. 3.6 / 3.9 ----------------------------------------------------- */
-void imf_mahony1d_bias_init(imf_mahony1d_bias_t *const self, const imf_real dt, const imf_real kp,
-                            const imf_real ki, const int integrate_first)
+void imf_mahony1d_bias_default_settings(imf_mahony1d_bias_settings_t *const settings)
 {
-    self->kp = kp;
-    self->ki = ki;
-    imf_mahony1d_bias_set_dt(self, dt);
-    self->integrate_first = integrate_first != 0;
+    settings->dt = IMF_R(0.01);
+    settings->kp = IMF_R(2.0);
+    settings->ki = IMF_R(0.3);
+    settings->integrate_first = 0;
+}
+
+void imf_mahony1d_bias_init(imf_mahony1d_bias_t *const self,
+                            const imf_mahony1d_bias_settings_t *const s)
+{
+    self->kp = s->kp;
+    self->ki = s->ki;
+    imf_mahony1d_bias_set_dt(self, s->dt);
+    self->integrate_first = s->integrate_first != 0;
     self->skipped = 0;
     self->x.theta = IMF_R(0.0);
     self->x.i = IMF_R(0.0);
@@ -189,12 +223,19 @@ void imf_mahony1d_bias_update(imf_mahony1d_bias_t *const self, const imf_real ra
 }
 
 /* ---- Eq. 3.10 ---------------------------------------------------------- */
-void imf_complementary1d_bias_init(imf_complementary1d_bias_t *const self, const imf_real dt,
-                                   const imf_real kp, const imf_real ki)
+void imf_complementary1d_bias_default_settings(imf_complementary1d_bias_settings_t *const settings)
 {
-    self->kp = kp;
-    self->ki = ki;
-    imf_complementary1d_bias_set_dt(self, dt);
+    settings->dt = IMF_R(0.01);
+    settings->kp = IMF_R(2.0);
+    settings->ki = IMF_R(0.3);
+}
+
+void imf_complementary1d_bias_init(imf_complementary1d_bias_t *const self,
+                                   const imf_complementary1d_bias_settings_t *const s)
+{
+    self->kp = s->kp;
+    self->ki = s->ki;
+    imf_complementary1d_bias_set_dt(self, s->dt);
     self->skipped = 0;
     self->x.theta = IMF_R(0.0);
     self->x.i = IMF_R(0.0);

@@ -44,8 +44,20 @@ typedef struct {
         x; /* the state (above): the estimate; write it only through the API */
 } imf_complementary1d_t;
 
-/* dt: s; alpha: dimensionless, alpha = (T/dt) / (1 + T/dt) for time constant T. */
-void imf_complementary1d_init(imf_complementary1d_t *self, imf_real dt, imf_real alpha);
+/* The settings of imf_complementary1d_init. Start from imf_complementary1d_default_settings(), then set what
+   differs. */
+typedef struct {
+    imf_real dt; /* sample period, s; > 0 (default 0.01: 100 Hz) */
+    imf_real
+        alpha; /* weight of the gyro path, 0..1: alpha = (T/dt) / (1 + T/dt) for a time constant T (default 50/51: T = 0.5 s at 100 Hz) */
+} imf_complementary1d_settings_t;
+
+/* The defaults listed with each member. */
+void imf_complementary1d_default_settings(imf_complementary1d_settings_t *settings);
+/* Settings as documented above (not checked here: imufuse.reference checks them).
+   State starts at 0. */
+void imf_complementary1d_init(imf_complementary1d_t *self,
+                              const imf_complementary1d_settings_t *settings);
 /* rate: rad/s; angle: rad */
 void imf_complementary1d_update(imf_complementary1d_t *self, imf_real rate, imf_real angle);
 /* dt: s (alpha, K0 and the gains stay as given) */
@@ -64,8 +76,18 @@ typedef struct {
     imf_kalman1d_state_t x; /* the state (above): the estimate; write it only through the API */
 } imf_kalman1d_t;
 
-/* dt: s (> 0); k0: the constant Kalman gain K0, 0..1. theta = 0. */
-void imf_kalman1d_init(imf_kalman1d_t *self, imf_real dt, imf_real k0);
+/* The settings of imf_kalman1d_init. Start from imf_kalman1d_default_settings(), then set what
+   differs. */
+typedef struct {
+    imf_real dt; /* sample period, s; > 0 (default 0.01: 100 Hz) */
+    imf_real k0; /* gain K0 of the angle, 0..1 (default 0.01) */
+} imf_kalman1d_settings_t;
+
+/* The defaults listed with each member. */
+void imf_kalman1d_default_settings(imf_kalman1d_settings_t *settings);
+/* Settings as documented above (not checked here: imufuse.reference checks them).
+   State starts at 0. */
+void imf_kalman1d_init(imf_kalman1d_t *self, const imf_kalman1d_settings_t *settings);
 /* One sample: rate rad/s (gyro), angle rad (accelerometer). A non-finite input, or an update whose result is not finite, is rejected: the state keeps its value and skipped counts it. */
 void imf_kalman1d_update(imf_kalman1d_t *self, imf_real rate, imf_real angle);
 /* dt: s (alpha, K0 and the gains stay as given) */
@@ -83,8 +105,18 @@ typedef struct {
     imf_mahony1d_state_t x; /* the state (above): the estimate; write it only through the API */
 } imf_mahony1d_t;
 
-/* dt: s (> 0); kp: 1/s (kp dt < 2 for a stable loop). theta = 0. */
-void imf_mahony1d_init(imf_mahony1d_t *self, imf_real dt, imf_real kp);
+/* The settings of imf_mahony1d_init. Start from imf_mahony1d_default_settings(), then set what
+   differs. */
+typedef struct {
+    imf_real dt; /* sample period, s; > 0 (default 0.01: 100 Hz) */
+    imf_real kp; /* proportional gain, 1/s, >= 0, kp dt < 2 (default 2) */
+} imf_mahony1d_settings_t;
+
+/* The defaults listed with each member. */
+void imf_mahony1d_default_settings(imf_mahony1d_settings_t *settings);
+/* Settings as documented above (not checked here: imufuse.reference checks them).
+   State starts at 0. */
+void imf_mahony1d_init(imf_mahony1d_t *self, const imf_mahony1d_settings_t *settings);
 /* One sample: rate rad/s (gyro), angle rad (accelerometer). A non-finite input, or an update whose result is not finite, is rejected: the state keeps its value and skipped counts it. */
 void imf_mahony1d_update(imf_mahony1d_t *self, imf_real rate, imf_real angle);
 /* dt: s (alpha, K0 and the gains stay as given) */
@@ -107,9 +139,21 @@ typedef struct {
         x; /* the state (above): the estimate; write it only through the API */
 } imf_kalman1d_bias_t;
 
-/* bias_sign: -1 or +1 */
-void imf_kalman1d_bias_init(imf_kalman1d_bias_t *self, imf_real dt, imf_real k0, imf_real k1,
-                            int bias_sign);
+/* The settings of imf_kalman1d_bias_init. Start from imf_kalman1d_bias_default_settings(), then set what
+   differs. */
+typedef struct {
+    imf_real dt;   /* sample period, s; > 0 (default 0.01: 100 Hz) */
+    imf_real k0;   /* gain K0 of the angle, 0 < k0 <= 1 (default 0.01) */
+    imf_real k1;   /* gain K1 of the bias, 1/s (default -0.02) */
+    int bias_sign; /* -1: rate - b (natural sign); +1: rate + b (Corollary #2) (default -1) */
+} imf_kalman1d_bias_settings_t;
+
+/* The defaults listed with each member. */
+void imf_kalman1d_bias_default_settings(imf_kalman1d_bias_settings_t *settings);
+/* Settings as documented above (not checked here: imufuse.reference checks them).
+   State starts at 0. */
+void imf_kalman1d_bias_init(imf_kalman1d_bias_t *self,
+                            const imf_kalman1d_bias_settings_t *settings);
 /* One sample: rate rad/s (gyro), angle rad (accelerometer). A non-finite input, or an update whose result is not finite, is rejected: the state keeps its value and skipped counts it. */
 void imf_kalman1d_bias_update(imf_kalman1d_bias_t *self, imf_real rate, imf_real angle);
 /* dt: s (alpha, K0 and the gains stay as given) */
@@ -132,9 +176,21 @@ typedef struct {
         x; /* the state (above): the estimate; write it only through the API */
 } imf_mahony1d_bias_t;
 
-/* kp: 1/s; ki: 1/s^2; integrate_first: 0 or 1 */
-void imf_mahony1d_bias_init(imf_mahony1d_bias_t *self, imf_real dt, imf_real kp, imf_real ki,
-                            int integrate_first);
+/* The settings of imf_mahony1d_bias_init. Start from imf_mahony1d_bias_default_settings(), then set what
+   differs. */
+typedef struct {
+    imf_real dt; /* sample period, s; > 0 (default 0.01: 100 Hz) */
+    imf_real kp; /* proportional gain, 1/s, >= 0 (K_p' of Eq. 3.9 if integrate_first; default 2) */
+    imf_real ki; /* integral gain, 1/s^2, >= 0 (default 0.3) */
+    int integrate_first; /* 0: Eq. 3.6; 1: reversed order, Eq. 3.9 (default 0) */
+} imf_mahony1d_bias_settings_t;
+
+/* The defaults listed with each member. */
+void imf_mahony1d_bias_default_settings(imf_mahony1d_bias_settings_t *settings);
+/* Settings as documented above (not checked here: imufuse.reference checks them).
+   State starts at 0. */
+void imf_mahony1d_bias_init(imf_mahony1d_bias_t *self,
+                            const imf_mahony1d_bias_settings_t *settings);
 /* One sample: rate rad/s (gyro), angle rad (accelerometer). A non-finite input, or an update whose result is not finite, is rejected: the state keeps its value and skipped counts it. */
 void imf_mahony1d_bias_update(imf_mahony1d_bias_t *self, imf_real rate, imf_real angle);
 /* dt: s; recomputes the constants derived from dt */
@@ -170,9 +226,20 @@ typedef struct {
         x; /* the state (above): the estimate; write it only through the API */
 } imf_complementary1d_bias_t;
 
-/* kp: 1/s; ki: 1/s^2 (omega0 = sqrt(ki), xi = kp / (2 sqrt(ki)), Eq. 3.11) */
-void imf_complementary1d_bias_init(imf_complementary1d_bias_t *self, imf_real dt, imf_real kp,
-                                   imf_real ki);
+/* The settings of imf_complementary1d_bias_init. Start from imf_complementary1d_bias_default_settings(), then set what
+   differs. */
+typedef struct {
+    imf_real dt; /* sample period, s; > 0 (default 0.01: 100 Hz) */
+    imf_real kp; /* proportional gain, 1/s, > 0 (default 2) */
+    imf_real ki; /* integral gain, 1/s^2, >= 0 (default 0.3) */
+} imf_complementary1d_bias_settings_t;
+
+/* The defaults listed with each member. */
+void imf_complementary1d_bias_default_settings(imf_complementary1d_bias_settings_t *settings);
+/* Settings as documented above (not checked here: imufuse.reference checks them).
+   State starts at 0. */
+void imf_complementary1d_bias_init(imf_complementary1d_bias_t *self,
+                                   const imf_complementary1d_bias_settings_t *settings);
 /* One sample: rate rad/s (gyro), angle rad (accelerometer). A non-finite input, or an update whose result is not finite, is rejected: the state keeps its value and skipped counts it. */
 void imf_complementary1d_bias_update(imf_complementary1d_bias_t *self, imf_real rate,
                                      imf_real angle);

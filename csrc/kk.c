@@ -5,10 +5,16 @@
 #include "kk.h"
 #include "imf_math.h"
 
-void imf_kk_init(imf_kk_t *const self, const imf_real dt, const imf_real kp)
+void imf_kk_default_settings(imf_kk_settings_t *const settings)
 {
-    imf_kk_set_dt(self, dt);
-    self->kp = kp;
+    settings->dt = IMF_R(0.01);
+    settings->kp = IMF_R(0.01);
+}
+
+void imf_kk_init(imf_kk_t *const self, const imf_kk_settings_t *const s)
+{
+    imf_kk_set_dt(self, s->dt);
+    self->kp = s->kp;
     self->skipped = 0;
     self->x.pitch = IMF_R(0.0);
     self->x.roll = IMF_R(0.0);

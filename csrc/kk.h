@@ -40,8 +40,18 @@ typedef struct {
     imf_kk_state_t x; /* the state (above): the estimate; write it only through the API */
 } imf_kk_t;
 
-/* dt: s; kp: dimensionless gain per sample. State starts level (0, 0). */
-void imf_kk_init(imf_kk_t *self, imf_real dt, imf_real kp);
+/* The settings of imf_kk_init. Start from imf_kk_default_settings(), then set what
+   differs. */
+typedef struct {
+    imf_real dt; /* sample period, s; > 0 (default 0.01: 100 Hz) */
+    imf_real kp; /* P gain per sample, dimensionless, 0 <= kp < 2 (default 0.01) */
+} imf_kk_settings_t;
+
+/* The defaults listed with each member. */
+void imf_kk_default_settings(imf_kk_settings_t *settings);
+/* Settings as documented above (not checked here: imufuse.reference checks them).
+   State starts level (0, 0). */
+void imf_kk_init(imf_kk_t *self, const imf_kk_settings_t *settings);
 /* gx, gy, gz: rad/s; ax, ay, az: any unit (normalised). A zero (or
    overflowing) acceleration skips the P correction: gyro only. */
 void imf_kk_update(imf_kk_t *self, imf_real gx, imf_real gy, imf_real gz, imf_real ax, imf_real ay,

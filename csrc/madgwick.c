@@ -31,7 +31,7 @@ static void madgwick_init(imf_madgwick_consts_t *const set, uint32_t *const skip
     x->q3 = IMF_R(0.0);
 }
 
-void imf_madgwick_imu_default_settings(imf_madgwick_imu_settings_t *const settings)
+void imf_madgwick_default_settings(imf_madgwick_settings_t *const settings)
 {
     settings->dt = IMF_R(0.01);
     settings->beta = IMF_R(0.1);
@@ -42,50 +42,20 @@ void imf_madgwick_imu_default_settings(imf_madgwick_imu_settings_t *const settin
     settings->acc_1g = IMF_R(1.0);
 }
 
-void imf_madgwick_ahrs_default_settings(imf_madgwick_ahrs_settings_t *const settings)
-{
-    settings->dt = IMF_R(0.01);
-    settings->beta = IMF_R(0.1);
-    settings->invsqrt = IMF_INVSQRT_EXACT;
-    settings->acc_gate_lo = IMF_R(-1.0);
-    settings->acc_gate_hi = IMF_R(0.0);
-    settings->acc_1g = IMF_R(1.0);
-}
-
-void imf_madgwick_imu_init(imf_madgwick_imu_t *const self,
-                           const imf_madgwick_imu_settings_t *const s)
+void imf_madgwick_init(imf_madgwick_t *const self, const imf_madgwick_settings_t *const s)
 {
     madgwick_init(&self->set, &self->skipped, &self->x, s->dt, s->beta, s->delta_s, s->invsqrt,
                   s->acc_gate_lo, s->acc_gate_hi, s->acc_1g);
 }
 
-void imf_madgwick_ahrs_init(imf_madgwick_ahrs_t *const self,
-                            const imf_madgwick_ahrs_settings_t *const s)
-{
-    madgwick_init(&self->set, &self->skipped, &self->x, s->dt, s->beta, IMF_MADGWICK_DS_FULL,
-                  s->invsqrt, s->acc_gate_lo, s->acc_gate_hi, s->acc_1g);
-}
-
-void imf_madgwick_imu_set_acc_gate(imf_madgwick_imu_t *const self, const imf_real acc_gate_lo,
-                                   const imf_real acc_gate_hi, const imf_real acc_1g)
+void imf_madgwick_set_acc_gate(imf_madgwick_t *const self, const imf_real acc_gate_lo,
+                               const imf_real acc_gate_hi, const imf_real acc_1g)
 {
     imf_acc_gate_set(&self->set.acc_gate, &self->set.acc_lo2, &self->set.acc_hi2, acc_gate_lo,
                      acc_gate_hi, acc_1g);
 }
 
-void imf_madgwick_ahrs_set_acc_gate(imf_madgwick_ahrs_t *const self, const imf_real acc_gate_lo,
-                                    const imf_real acc_gate_hi, const imf_real acc_1g)
-{
-    imf_acc_gate_set(&self->set.acc_gate, &self->set.acc_lo2, &self->set.acc_hi2, acc_gate_lo,
-                     acc_gate_hi, acc_1g);
-}
-
-void imf_madgwick_imu_set_dt(imf_madgwick_imu_t *const self, const imf_real dt)
-{
-    madgwick_set_dt(&self->set, dt);
-}
-
-void imf_madgwick_ahrs_set_dt(imf_madgwick_ahrs_t *const self, const imf_real dt)
+void imf_madgwick_set_dt(imf_madgwick_t *const self, const imf_real dt)
 {
     madgwick_set_dt(&self->set, dt);
 }
@@ -98,13 +68,7 @@ static void madgwick_set_attitude(imf_madgwick_state_t *const x, const imf_attit
     x->q3 = att->q[3];
 }
 
-void imf_madgwick_imu_set_attitude(imf_madgwick_imu_t *const self, const imf_attitude_t *const att)
-{
-    madgwick_set_attitude(&self->x, att);
-}
-
-void imf_madgwick_ahrs_set_attitude(imf_madgwick_ahrs_t *const self,
-                                    const imf_attitude_t *const att)
+void imf_madgwick_set_attitude(imf_madgwick_t *const self, const imf_attitude_t *const att)
 {
     madgwick_set_attitude(&self->x, att);
 }
@@ -306,7 +270,7 @@ static void madgwick_commit(imf_madgwick_state_t *const dst, uint32_t *const ski
     *dst = *x;
 }
 
-void imf_madgwick_imu_update(imf_madgwick_imu_t *const self, const imf_real gx, const imf_real gy,
+void imf_madgwick_update_imu(imf_madgwick_t *const self, const imf_real gx, const imf_real gy,
                              const imf_real gz, const imf_real ax, const imf_real ay,
                              const imf_real az)
 {
@@ -320,10 +284,9 @@ void imf_madgwick_imu_update(imf_madgwick_imu_t *const self, const imf_real gx, 
                     madgwick_imu_step(&self->set, &x, gx, gy, gz, ax, ay, az));
 }
 
-void imf_madgwick_ahrs_update(imf_madgwick_ahrs_t *const self, const imf_real gx, const imf_real gy,
-                              const imf_real gz, const imf_real ax, const imf_real ay,
-                              const imf_real az, const imf_real mx, const imf_real my,
-                              const imf_real mz)
+void imf_madgwick_update(imf_madgwick_t *const self, const imf_real gx, const imf_real gy,
+                         const imf_real gz, const imf_real ax, const imf_real ay, const imf_real az,
+                         const imf_real mx, const imf_real my, const imf_real mz)
 {
     imf_madgwick_state_t x;
     if (!(imf_finite3(gx, gy, gz) && imf_finite3(ax, ay, az) && imf_finite3(mx, my, mz))) {

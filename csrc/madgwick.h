@@ -10,13 +10,13 @@
  * from q. q = (q0, q1, q2, q3) rotates sensor to earth frame (earth z up).
  * beta (rad/s) is the published "beta" (default 0.1).
  *
- * delta_s (IMU only):
+ * delta_s (imf_madgwick_update_imu only):
  *   IMF_MADGWICK_DS_FULL        appendix step 4 as published, valid for any q,
  *                               with the published intermediates 2q, 4q, 8q,
  *                               q0q0, ... in the published order;
  *   IMF_MADGWICK_DS_SIMPLIFIED  the article's simplified form for a unit q,
  *                               ds = 4 (q1^2 + q2^2) q + 2 (...).
- * The AHRS update always uses the full (published) form.
+ * imf_madgwick_update (with the magnetometer) always uses the full (published) form.
  *
  * Accelerometer gate (Nair 2016): with acc_gate_lo >= 0 the correction runs
  * only while the squared accelerometer magnitude is within
@@ -57,82 +57,59 @@ typedef struct {
     imf_real acc_lo2, acc_hi2; /* squared gate bounds, accelerometer unit^2 */
 } imf_madgwick_consts_t;
 
+/* One filter for both forms (as the published code and x-io Fusion): imf_madgwick_update
+   with a magnetometer, imf_madgwick_update_imu without. */
 typedef struct {
     imf_madgwick_consts_t set; /* internal: the settings as init converted them */
     uint32_t skipped;          /* samples rejected by the non-finite policy */
     imf_madgwick_state_t x;    /* the state (above): the estimate; write it only through the API */
-} imf_madgwick_imu_t;
+} imf_madgwick_t;
 
-/* Same settings (delta_s always full) and state; the update falls back to
-   the IMU update when the magnetometer reads all zero. */
-typedef struct {
-    imf_madgwick_consts_t set; /* internal: the settings as init converted them */
-    uint32_t skipped;          /* samples rejected by the non-finite policy */
-    imf_madgwick_state_t x;    /* the state (above): the estimate; write it only through the API */
-} imf_madgwick_ahrs_t;
-
-/* The settings of imf_madgwick_imu_init. Start from
-   imf_madgwick_imu_default_settings(), then set dt (and what else differs). */
+/* The settings of imf_madgwick_init. Start from imf_madgwick_default_settings(), then set
+   dt (and what else differs). */
 typedef struct {
     imf_real dt;          /* sample period, s; > 0 (default 0.01: 100 Hz) */
     imf_real beta;        /* gradient step gain, rad/s; >= 0, beta dt <= 0.1 (default 0.1,
                              the published value) */
-    int delta_s;          /* IMF_MADGWICK_DS_FULL (default, the appendix) or
-                             IMF_MADGWICK_DS_SIMPLIFIED (the article's form, unit q) */
+    int delta_s;          /* imf_madgwick_update_imu's corrective step: IMF_MADGWICK_DS_FULL
+                             (default, the appendix) or IMF_MADGWICK_DS_SIMPLIFIED (the
+                             article's form, unit q); imf_madgwick_update always uses the full
+                             form */
     int invsqrt;          /* IMF_INVSQRT_EXACT (default) or IMF_INVSQRT_FAST */
     imf_real acc_gate_lo; /* accelerometer gate, lower bound in units of acc_1g; < 0 turns
                              the gate off (default -1: off, the published behaviour) */
     imf_real acc_gate_hi; /* upper bound in units of acc_1g (Nair 2016: 1.4; default 0) */
     imf_real acc_1g;      /* 1 g in the accelerometer's unit, > 0 (default 1) */
-} imf_madgwick_imu_settings_t;
-
-/* The settings of imf_madgwick_ahrs_init: those of the IMU filter without delta_s
-   (the AHRS update always uses the full, published form). */
-typedef struct {
-    imf_real dt;          /* sample period, s; > 0 (default 0.01: 100 Hz) */
-    imf_real beta;        /* gradient step gain, rad/s; >= 0, beta dt <= 0.1 (default 0.1) */
-    int invsqrt;          /* IMF_INVSQRT_EXACT (default) or IMF_INVSQRT_FAST */
-    imf_real acc_gate_lo; /* accelerometer gate lower bound, units of acc_1g; < 0: off
-                             (default -1) */
-    imf_real acc_gate_hi; /* upper bound, units of acc_1g (default 0) */
-    imf_real acc_1g;      /* 1 g in the accelerometer's unit, > 0 (default 1) */
-} imf_madgwick_ahrs_settings_t;
+} imf_madgwick_settings_t;
 
 /* The defaults listed with each member (those of imufuse.reference.MadgwickIMU(0.01)). */
-void imf_madgwick_imu_default_settings(imf_madgwick_imu_settings_t *settings);
+void imf_madgwick_default_settings(imf_madgwick_settings_t *settings);
 /* Settings as documented above (not checked here: imufuse.reference checks them);
    q = (1, 0, 0, 0). */
-void imf_madgwick_imu_init(imf_madgwick_imu_t *self, const imf_madgwick_imu_settings_t *settings);
-/* gx, gy, gz: rad/s; ax, ay, az: any unit (normalised) */
-void imf_madgwick_imu_update(imf_madgwick_imu_t *self, imf_real gx, imf_real gy, imf_real gz,
-                             imf_real ax, imf_real ay, imf_real az);
-
-/* The defaults listed with each member (those of imufuse.reference.MadgwickAHRS(0.01)). */
-void imf_madgwick_ahrs_default_settings(imf_madgwick_ahrs_settings_t *settings);
-/* Settings as documented above (not checked here); q = (1, 0, 0, 0). */
-void imf_madgwick_ahrs_init(imf_madgwick_ahrs_t *self,
-                            const imf_madgwick_ahrs_settings_t *settings);
+void imf_madgwick_init(imf_madgwick_t *self, const imf_madgwick_settings_t *settings);
 
 /* Accelerometer gate (Nair 2016: 0.6, 1.4), set as init sets it (init calls
    it): lo, hi in units of acc_1g (1 g in the accelerometer's unit); lo < 0
    turns it off. */
-void imf_madgwick_imu_set_acc_gate(imf_madgwick_imu_t *self, imf_real acc_gate_lo,
-                                   imf_real acc_gate_hi, imf_real acc_1g);
-void imf_madgwick_ahrs_set_acc_gate(imf_madgwick_ahrs_t *self, imf_real acc_gate_lo,
-                                    imf_real acc_gate_hi, imf_real acc_1g);
+void imf_madgwick_set_acc_gate(imf_madgwick_t *self, imf_real acc_gate_lo, imf_real acc_gate_hi,
+                               imf_real acc_1g);
 
 /* A new sample period dt (s), set as init sets it (init calls it). For
    timestamps with jitter call it before each update. */
-void imf_madgwick_imu_set_dt(imf_madgwick_imu_t *self, imf_real dt);
-void imf_madgwick_ahrs_set_dt(imf_madgwick_ahrs_t *self, imf_real dt);
+void imf_madgwick_set_dt(imf_madgwick_t *self, imf_real dt);
 
 /* Start from a given attitude (imf_attitude.h): q = att->q. */
-void imf_madgwick_imu_set_attitude(imf_madgwick_imu_t *self, const imf_attitude_t *att);
-void imf_madgwick_ahrs_set_attitude(imf_madgwick_ahrs_t *self, const imf_attitude_t *att);
-/* gx, gy, gz: rad/s; ax, ay, az and mx, my, mz: any unit (normalised) */
-void imf_madgwick_ahrs_update(imf_madgwick_ahrs_t *self, imf_real gx, imf_real gy, imf_real gz,
-                              imf_real ax, imf_real ay, imf_real az, imf_real mx, imf_real my,
-                              imf_real mz);
+void imf_madgwick_set_attitude(imf_madgwick_t *self, const imf_attitude_t *att);
+
+/* Gyroscope and accelerometer (the appendix's IMU filter, steps 1-9).
+   gx, gy, gz: rad/s; ax, ay, az: any unit (normalised) */
+void imf_madgwick_update_imu(imf_madgwick_t *self, imf_real gx, imf_real gy, imf_real gz,
+                             imf_real ax, imf_real ay, imf_real az);
+/* With the magnetometer (published AHRS form, always the full corrective step); an
+   all-zero magnetometer runs imf_madgwick_update_imu.
+   gx, gy, gz: rad/s; ax, ay, az and mx, my, mz: any unit (normalised) */
+void imf_madgwick_update(imf_madgwick_t *self, imf_real gx, imf_real gy, imf_real gz, imf_real ax,
+                         imf_real ay, imf_real az, imf_real mx, imf_real my, imf_real mz);
 
 #ifdef __cplusplus
 }

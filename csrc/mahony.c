@@ -39,7 +39,7 @@ static void mahony_init(imf_mahony_consts_t *const set, uint32_t *const skipped,
     x->iz = IMF_R(0.0);
 }
 
-void imf_mahony_imu_default_settings(imf_mahony_imu_settings_t *const settings)
+void imf_mahony_default_settings(imf_mahony_settings_t *const settings)
 {
     settings->dt = IMF_R(0.01);
     settings->kp = IMF_R(0.5);
@@ -50,43 +50,20 @@ void imf_mahony_imu_default_settings(imf_mahony_imu_settings_t *const settings)
     settings->acc_1g = IMF_R(1.0);
 }
 
-void imf_mahony_ahrs_default_settings(imf_mahony_ahrs_settings_t *const settings)
-{
-    imf_mahony_imu_default_settings(settings);
-}
-
-void imf_mahony_imu_init(imf_mahony_imu_t *const self, const imf_mahony_imu_settings_t *const s)
+void imf_mahony_init(imf_mahony_t *const self, const imf_mahony_settings_t *const s)
 {
     mahony_init(&self->set, &self->skipped, &self->x, s->dt, s->kp, s->ki, s->invsqrt,
                 s->acc_gate_lo, s->acc_gate_hi, s->acc_1g);
 }
 
-void imf_mahony_ahrs_init(imf_mahony_ahrs_t *const self, const imf_mahony_ahrs_settings_t *const s)
-{
-    mahony_init(&self->set, &self->skipped, &self->x, s->dt, s->kp, s->ki, s->invsqrt,
-                s->acc_gate_lo, s->acc_gate_hi, s->acc_1g);
-}
-
-void imf_mahony_imu_set_acc_gate(imf_mahony_imu_t *const self, const imf_real acc_gate_lo,
-                                 const imf_real acc_gate_hi, const imf_real acc_1g)
+void imf_mahony_set_acc_gate(imf_mahony_t *const self, const imf_real acc_gate_lo,
+                             const imf_real acc_gate_hi, const imf_real acc_1g)
 {
     imf_acc_gate_set(&self->set.acc_gate, &self->set.acc_lo2, &self->set.acc_hi2, acc_gate_lo,
                      acc_gate_hi, acc_1g);
 }
 
-void imf_mahony_ahrs_set_acc_gate(imf_mahony_ahrs_t *const self, const imf_real acc_gate_lo,
-                                  const imf_real acc_gate_hi, const imf_real acc_1g)
-{
-    imf_acc_gate_set(&self->set.acc_gate, &self->set.acc_lo2, &self->set.acc_hi2, acc_gate_lo,
-                     acc_gate_hi, acc_1g);
-}
-
-void imf_mahony_imu_set_dt(imf_mahony_imu_t *const self, const imf_real dt)
-{
-    mahony_set_dt(&self->set, dt);
-}
-
-void imf_mahony_ahrs_set_dt(imf_mahony_ahrs_t *const self, const imf_real dt)
+void imf_mahony_set_dt(imf_mahony_t *const self, const imf_real dt)
 {
     mahony_set_dt(&self->set, dt);
 }
@@ -99,12 +76,7 @@ static void mahony_set_attitude(imf_mahony_state_t *const x, const imf_attitude_
     x->q3 = att->q[3];
 }
 
-void imf_mahony_imu_set_attitude(imf_mahony_imu_t *const self, const imf_attitude_t *const att)
-{
-    mahony_set_attitude(&self->x, att);
-}
-
-void imf_mahony_ahrs_set_attitude(imf_mahony_ahrs_t *const self, const imf_attitude_t *const att)
+void imf_mahony_set_attitude(imf_mahony_t *const self, const imf_attitude_t *const att)
 {
     mahony_set_attitude(&self->x, att);
 }
@@ -241,7 +213,7 @@ static void mahony_commit(imf_mahony_state_t *const dst, uint32_t *const skipped
     *dst = *x;
 }
 
-void imf_mahony_imu_update(imf_mahony_imu_t *const self, const imf_real gx, const imf_real gy,
+void imf_mahony_update_imu(imf_mahony_t *const self, const imf_real gx, const imf_real gy,
                            const imf_real gz, const imf_real ax, const imf_real ay,
                            const imf_real az)
 {
@@ -255,10 +227,9 @@ void imf_mahony_imu_update(imf_mahony_imu_t *const self, const imf_real gx, cons
                   mahony_imu_step(&self->set, &x, gx, gy, gz, ax, ay, az));
 }
 
-void imf_mahony_ahrs_update(imf_mahony_ahrs_t *const self, const imf_real gx, const imf_real gy,
-                            const imf_real gz, const imf_real ax, const imf_real ay,
-                            const imf_real az, const imf_real mx, const imf_real my,
-                            const imf_real mz)
+void imf_mahony_update(imf_mahony_t *const self, const imf_real gx, const imf_real gy,
+                       const imf_real gz, const imf_real ax, const imf_real ay, const imf_real az,
+                       const imf_real mx, const imf_real my, const imf_real mz)
 {
     imf_mahony_state_t x;
     if (!(imf_finite3(gx, gy, gz) && imf_finite3(ax, ay, az) && imf_finite3(mx, my, mz))) {

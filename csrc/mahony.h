@@ -30,8 +30,8 @@
  * published behaviour.
  *
  * Guards (published behaviour): an all-zero accelerometer skips the
- * correction (gyro integration only); an all-zero magnetometer makes the
- * AHRS update the IMU update. Non-finite policy: see imf_math.h.
+ * correction (gyro integration only); an all-zero magnetometer makes
+ * imf_mahony_update imf_mahony_update_imu. Non-finite policy: see imf_math.h.
  */
 #ifndef IMF_MAHONY_H
 #define IMF_MAHONY_H
@@ -62,22 +62,16 @@ typedef struct {
     imf_real acc_lo2, acc_hi2; /* squared gate bounds, accelerometer unit^2 */
 } imf_mahony_consts_t;
 
+/* One filter for both forms (as the published code and x-io Fusion): imf_mahony_update
+   with a magnetometer, imf_mahony_update_imu without. */
 typedef struct {
     imf_mahony_consts_t set; /* internal: the settings as init converted them */
     uint32_t skipped;        /* samples rejected by the non-finite policy */
     imf_mahony_state_t x;    /* the state (above): the estimate; write it only through the API */
-} imf_mahony_imu_t;
+} imf_mahony_t;
 
-/* Same settings and state; the update falls back to the IMU update when the
-   magnetometer reads all zero. */
-typedef struct {
-    imf_mahony_consts_t set; /* internal: the settings as init converted them */
-    uint32_t skipped;        /* samples rejected by the non-finite policy */
-    imf_mahony_state_t x;    /* the state (above): the estimate; write it only through the API */
-} imf_mahony_ahrs_t;
-
-/* The settings of imf_mahony_imu_init and imf_mahony_ahrs_init. Start from
-   imf_mahony_imu_default_settings() (or _ahrs_), then set dt and the gains. */
+/* The settings of imf_mahony_init. Start from imf_mahony_default_settings(), then set dt
+   and the gains. */
 typedef struct {
     imf_real dt;          /* sample period, s; > 0 (default 0.01: 100 Hz) */
     imf_real kp;          /* proportional gain, 1/s, >= 0: the published twoKp / 2
@@ -89,45 +83,35 @@ typedef struct {
                              gate off (default -1: off, the published behaviour) */
     imf_real acc_gate_hi; /* upper bound, units of acc_1g (Nair 2016: 1.4; default 0) */
     imf_real acc_1g;      /* 1 g in the accelerometer's unit, > 0 (default 1) */
-} imf_mahony_imu_settings_t;
-/* The AHRS filter takes the same members. */
-typedef imf_mahony_imu_settings_t imf_mahony_ahrs_settings_t;
+} imf_mahony_settings_t;
 
 /* The defaults listed with each member (those of imufuse.reference.MahonyIMU(0.01)). */
-void imf_mahony_imu_default_settings(imf_mahony_imu_settings_t *settings);
+void imf_mahony_default_settings(imf_mahony_settings_t *settings);
 /* Settings as documented above (not checked here: imufuse.reference checks them);
    q = (1, 0, 0, 0), I = 0. */
-void imf_mahony_imu_init(imf_mahony_imu_t *self, const imf_mahony_imu_settings_t *settings);
-/* gx, gy, gz: rad/s; ax, ay, az: any unit (normalised) */
-void imf_mahony_imu_update(imf_mahony_imu_t *self, imf_real gx, imf_real gy, imf_real gz,
-                           imf_real ax, imf_real ay, imf_real az);
-
-/* The defaults listed with each member (those of imufuse.reference.MahonyAHRS(0.01)). */
-void imf_mahony_ahrs_default_settings(imf_mahony_ahrs_settings_t *settings);
-/* Settings as documented above (not checked here); q = (1, 0, 0, 0), I = 0. */
-void imf_mahony_ahrs_init(imf_mahony_ahrs_t *self, const imf_mahony_ahrs_settings_t *settings);
+void imf_mahony_init(imf_mahony_t *self, const imf_mahony_settings_t *settings);
 
 /* Accelerometer gate (Nair 2016: 0.6, 1.4), set as init sets it (init calls
    it): lo, hi in units of acc_1g (1 g in the accelerometer's unit); lo < 0
    turns it off. Outside the gate: no proportional or integral feedback. */
-void imf_mahony_imu_set_acc_gate(imf_mahony_imu_t *self, imf_real acc_gate_lo, imf_real acc_gate_hi,
-                                 imf_real acc_1g);
-void imf_mahony_ahrs_set_acc_gate(imf_mahony_ahrs_t *self, imf_real acc_gate_lo,
-                                  imf_real acc_gate_hi, imf_real acc_1g);
+void imf_mahony_set_acc_gate(imf_mahony_t *self, imf_real acc_gate_lo, imf_real acc_gate_hi,
+                             imf_real acc_1g);
 
 /* A new sample period dt (s): dt and dt / 2 by the expressions of init (init
    calls it), so the filter equals one initialised with this dt bit for bit.
    For timestamps with jitter call it before each update. */
-void imf_mahony_imu_set_dt(imf_mahony_imu_t *self, imf_real dt);
-void imf_mahony_ahrs_set_dt(imf_mahony_ahrs_t *self, imf_real dt);
+void imf_mahony_set_dt(imf_mahony_t *self, imf_real dt);
 
 /* Start from a given attitude (imf_attitude.h): q = att->q; I is kept. */
-void imf_mahony_imu_set_attitude(imf_mahony_imu_t *self, const imf_attitude_t *att);
-void imf_mahony_ahrs_set_attitude(imf_mahony_ahrs_t *self, const imf_attitude_t *att);
-/* gx, gy, gz: rad/s; ax, ay, az and mx, my, mz: any unit (normalised) */
-void imf_mahony_ahrs_update(imf_mahony_ahrs_t *self, imf_real gx, imf_real gy, imf_real gz,
-                            imf_real ax, imf_real ay, imf_real az, imf_real mx, imf_real my,
-                            imf_real mz);
+void imf_mahony_set_attitude(imf_mahony_t *self, const imf_attitude_t *att);
+
+/* Gyroscope and accelerometer. gx, gy, gz: rad/s; ax, ay, az: any unit (normalised) */
+void imf_mahony_update_imu(imf_mahony_t *self, imf_real gx, imf_real gy, imf_real gz, imf_real ax,
+                           imf_real ay, imf_real az);
+/* With the magnetometer; an all-zero magnetometer runs imf_mahony_update_imu.
+   gx, gy, gz: rad/s; ax, ay, az and mx, my, mz: any unit (normalised) */
+void imf_mahony_update(imf_mahony_t *self, imf_real gx, imf_real gy, imf_real gz, imf_real ax,
+                       imf_real ay, imf_real az, imf_real mx, imf_real my, imf_real mz);
 
 #ifdef __cplusplus
 }

@@ -5,13 +5,20 @@
 #include "mahony2d.h"
 #include "imf_math.h"
 
-void imf_mahony2d_init(imf_mahony2d_t *const self, const imf_real dt, const imf_real kp,
-                       const imf_real ki, const int exact)
+void imf_mahony2d_default_settings(imf_mahony2d_settings_t *const settings)
 {
-    self->kp = kp;
-    self->ki = ki;
-    imf_mahony2d_set_dt(self, dt);
-    self->exact = exact != 0;
+    settings->dt = IMF_R(0.01);
+    settings->kp = IMF_R(0.5);
+    settings->ki = IMF_R(0.0);
+    settings->exact = 0;
+}
+
+void imf_mahony2d_init(imf_mahony2d_t *const self, const imf_mahony2d_settings_t *const s)
+{
+    self->kp = s->kp;
+    self->ki = s->ki;
+    imf_mahony2d_set_dt(self, s->dt);
+    self->exact = s->exact != 0;
     self->d2_max = IMF_R(4.0);
     self->skipped = 0;
     self->x.dx = IMF_R(0.0);

@@ -64,8 +64,20 @@ typedef struct {
     imf_mahony2d_state_t x; /* the state (above): the estimate; write it only through the API */
 } imf_mahony2d_t;
 
-/* dt: s; kp: 1/s; ki: 1/s^2; exact: 0 or 1. State starts level, I = 0. */
-void imf_mahony2d_init(imf_mahony2d_t *self, imf_real dt, imf_real kp, imf_real ki, int exact);
+/* The settings of imf_mahony2d_init. Start from imf_mahony2d_default_settings(), then set what
+   differs. */
+typedef struct {
+    imf_real dt; /* sample period, s; > 0 (default 0.01: 100 Hz) */
+    imf_real kp; /* proportional gain, 1/s, >= 0 (default 0.5) */
+    imf_real ki; /* integral gain, 1/s^2, >= 0 (default 0) */
+    int exact;   /* 0: the article's small-angle error, 1: the exact one (default 0) */
+} imf_mahony2d_settings_t;
+
+/* The defaults listed with each member. */
+void imf_mahony2d_default_settings(imf_mahony2d_settings_t *settings);
+/* Settings as documented above (not checked here: imufuse.reference checks them).
+   State starts level, I = 0. */
+void imf_mahony2d_init(imf_mahony2d_t *self, const imf_mahony2d_settings_t *settings);
 /* gx, gy, gz: rad/s; ax, ay, az: any unit (normalised). A zero (or
    overflowing) acceleration means E = 0: the gyro path and I only. */
 void imf_mahony2d_update(imf_mahony2d_t *self, imf_real gx, imf_real gy, imf_real gz, imf_real ax,

@@ -68,7 +68,7 @@ cdef extern from "lanes.h" nogil:
     void imf_estimate_q(int adapter, const double *s, const int *idx, double q[4])
     void imf_score_q(const imf_scorer_t *sc, imf_score_acc_t *acc, Py_ssize_t k,
                      const double q[4])
-    imf_lanes_fn imf_lanes_kernel(const char *c_name, int width)
+    imf_lanes_fn imf_lanes_kernel(const char *c_update, int width)
     int imf_lanes_best()
     const char *imf_lanes_isa(int width)
 

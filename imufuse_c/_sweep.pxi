@@ -25,7 +25,7 @@ def lane_widths():
 
 def has_lanes(cls):
     """Whether filter class ``cls`` (a compiled class of this precision) has a lane kernel."""
-    return imf_lanes_kernel(cls._ref.c_name.encode(), 1) != NULL
+    return imf_lanes_kernel(cls._ref.c_update.encode(), 1) != NULL
 
 
 cdef inline const imf_real *_ptr(object arr):
@@ -161,7 +161,7 @@ cdef tuple _run_group(list filters, tuple inputs, object dts, object ref, object
                 accs[i].ez = <double *>cnp.PyArray_DATA(<cnp.ndarray>st[1])
                 accs[i].ok = <unsigned char *>cnp.PyArray_DATA(<cnp.ndarray>st[2])
         if width > 0 and all((<_Filter>f)._whole != NULL for f in filters):
-            kernel = imf_lanes_kernel(type(f0)._ref.c_name.encode(), width)
+            kernel = imf_lanes_kernel(type(f0)._ref.c_update.encode(), width)
         # a pending init="first" window, filter by filter, then each on its own to the
         # latest start of the group
         for i in range(p):

@@ -141,7 +141,7 @@ def test_library_layout(sketchbook):
     assert {"sentence", "paragraph", "category", "url", "architectures", "author",
             "maintainer"} <= set(props)
     kw = (lib / "keywords.txt").read_text()
-    assert "imf_madgwick_ahrs_t\tKEYWORD1" in kw and "imf_madgwick_ahrs_update\tKEYWORD2" in kw
+    assert "imf_madgwick_t\tKEYWORD1" in kw and "imf_madgwick_update\tKEYWORD2" in kw
     assert (lib / "src" / "imufuse.h").is_file() and (lib / "src" / "fixed" / "mahony_q.c").is_file()
     for name in EXAMPLES:
         for f in (f"{name}.ino", "example_data.h", "input.csv"):

@@ -63,8 +63,8 @@ def test_entry_c_prototypes_match_by_name(e):
     """The C init takes the reference's _init arguments, by name and in order
     (the Cython binding passes them by name); update takes the kind's inputs."""
     init = cproto.init_params(HEADERS, e.c_name + "_init")
-    update = cproto.find_prototype(HEADERS, e.c_name + "_update")
-    assert init is not None and update is not None, f"{e.c_name}_init/_update not in csrc/"
+    update = cproto.find_prototype(HEADERS, e.c_update)
+    assert init is not None and update is not None, f"{e.c_name}_init/{e.c_update} not in csrc/"
     assert f"}} {e.c_name}_t;" in HEADERS
     c_args = tuple(p.name for p in init[1])
     want = e.init_args
@@ -78,7 +78,7 @@ def test_entry_c_prototypes_match_by_name(e):
             assert callable(getattr(e.reference, h, None)), f"{e.name}.{h}"
     n_in = sum(1 if e.kind == "1d" else 3 for _ in e.inputs)
     n_c = sum(3 if p.vector else 1 for p in update.params[1:])
-    assert n_c == n_in, f"{e.c_name}_update takes {n_c} values, kind {e.kind} gives {n_in}"
+    assert n_c == n_in, f"{e.c_update} takes {n_c} values, kind {e.kind} gives {n_in}"
 
 
 @pytest.mark.parametrize("e", ENTRIES)

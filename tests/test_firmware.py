@@ -352,14 +352,14 @@ def test_planted_normalisation_order_in_dcm(tmp_path):
 _FW_SET_SRC = """#include "fw.h"
 void fw_init(fw_t *s, const fw_set_t *set)
 {
-    imf_mahony_imu_settings_t t;
-    imf_mahony_imu_default_settings(&t);
+    imf_mahony_settings_t t;
+    imf_mahony_default_settings(&t);
     t.dt = set->dt; t.kp = set->kp; t.ki = set->ki;
-    imf_mahony_imu_init(&s->f, &t);
+    imf_mahony_init(&s->f, &t);
 }
 void fw_update(fw_t *s, float gx, float gy, float gz, float ax, float ay, float az)
 {
-    imf_mahony_imu_update(&s->f, gx, gy, gz, ax, ay, az);
+    imf_mahony_update_imu(&s->f, gx, gy, gz, ax, ay, az);
 }
 """
 
@@ -370,7 +370,7 @@ def _settings_fw(tmp_path, struct_decl, **kw):
     d = tmp_path / "fw"
     d.mkdir(exist_ok=True)
     (d / "fw.h").write_text('#include "mahony.h"\n' + struct_decl + "\n"
-                            "typedef struct { imf_mahony_imu_t f; } fw_t;\n"
+                            "typedef struct { imf_mahony_t f; } fw_t;\n"
                             "void fw_init(fw_t *s, const fw_set_t *set);\n"
                             "void fw_update(fw_t *s, float gx, float gy, float gz, float ax, "
                             "float ay, float az);\n")
@@ -384,7 +384,7 @@ def _settings_fw(tmp_path, struct_decl, **kw):
 
 
 @pytest.mark.parametrize("decl", [
-    # the members of imf_mahony_imu_settings_t with kp and ki swapped: matched by name
+    # the members of imf_mahony_settings_t with kp and ki swapped: matched by name
     "typedef struct { float dt; float ki; float kp; int invsqrt; float acc_gate_lo; "
     "float acc_gate_hi; float acc_1g; } fw_set_t;",
     "struct fw_set { float dt; float kp; float ki; }; typedef struct fw_set fw_set_t;",

@@ -18,8 +18,9 @@ def test_filter_is_registered_and_named(name):
     assert any(c.name == name for c in FLOAT_CASES), f"{name} has no entry in tests/registry.py"
     ref = getattr(reference, name)
     assert ref.c_name, f"{name}.c_name is empty"
-    for fn in ("init", "update"):
-        assert f"void {ref.c_name}_{fn}(" in HEADERS, f"{ref.c_name}_{fn} not declared in csrc/"
+    for fn in (f"{ref.c_name}_init", ref.c_update):
+        assert f"void {fn}(" in HEADERS, f"{fn} not declared in csrc/"
+    assert ref.c_update in (f"{ref.c_name}_update", f"{ref.c_name}_update_imu"), ref.c_update
     assert f"}} {ref.c_name}_t;" in HEADERS
     assert getattr(imufuse_c, name).state_names == ref.state_names
 

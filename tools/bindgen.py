@@ -68,11 +68,12 @@ def _assigned(tree: ast.Module, name: str) -> Optional[object]:
     return None
 
 
-def twin(family: str) -> Tuple[Tuple[str, ...], Dict[str, str], Dict[str, Optional[str]]]:
-    """The twin's declaration, read from its source: (the filter classes, class -> c_name,
-    class -> angles() docstring or None). A filter class is a public class with a
+def twin(family: str) -> Tuple[Tuple[str, ...], Dict[str, Tuple[str, str]], Dict[str, Optional[str]]]:
+    """The twin's declaration, read from its source: (the filter classes, class -> (c_name,
+    c_update), class -> angles() docstring or None). A filter class is a public class with a
     non-empty C prefix `c_name` (its own or a base class's in the same module), as
-    imufuse.reference collects them."""
+    imufuse.reference collects them; its update is `c_update` if the class names one, else
+    <c_name>_update (reference/_base.py)."""
     path = os.path.join(REFERENCE, family + ".py")
     with open(path) as f:
         tree = ast.parse(f.read(), path)
@@ -84,19 +85,28 @@ def twin(family: str) -> Tuple[Tuple[str, ...], Dict[str, str], Dict[str, Option
             continue
         cls: Optional[ast.ClassDef] = classes[name]
         c_name, doc = None, None
+        c_update = _assigned_in(classes[name], "c_update")
         while cls is not None and (c_name is None or doc is None):
+            if c_name is None:
+                c_name = _assigned_in(cls, "c_name")
             for node in cls.body:
-                if c_name is None and isinstance(node, ast.Assign) and \
-                        any(getattr(t, "id", None) == "c_name" for t in node.targets):
-                    c_name = ast.literal_eval(node.value)
                 if doc is None and isinstance(node, ast.FunctionDef) and node.name == "angles":
                     doc = ast.get_docstring(node) or "(roll, pitch) in rad, in double."
             bases = [b.id for b in cls.bases if isinstance(b, ast.Name)]
             cls = classes.get(bases[0]) if bases else None
         if c_name:
             names.append(name)
-            c_names[name], angles[name] = c_name, doc
+            c_names[name], angles[name] = (c_name, c_update or f"{c_name}_update"), doc
     return tuple(names), c_names, angles
+
+
+def _assigned_in(cls: ast.ClassDef, attr: str) -> Optional[str]:
+    """The literal a class body assigns to `attr`, or None."""
+    for node in cls.body:
+        if isinstance(node, ast.Assign) and any(getattr(t, "id", None) == attr for t in node.targets):
+            value = ast.literal_eval(node.value)
+            return value if isinstance(value, str) else None
+    return None
 
 
 def class_docs(family: str) -> Dict[str, str]:
@@ -167,10 +177,17 @@ def _header_of(c_name: str, fixed: bool) -> str:
     raise BindError(f"no header in {os.path.relpath(folder, ROOT)}/ declares {c_name}_init()")
 
 
-def _bind_filter(cp, name: str, c: str, text: str, rel_h: str, fixed: bool,
+def _bind_filter(cp, name: str, c_names: Tuple[str, str], text: str, rel_h: str, fixed: bool,
                  angles_doc: Optional[str], out: List[str], states: set, doc: str = "") -> str:
-    """Declare one filter's C API in `out` (the extern block) and return its class."""
+    """Declare one filter's C API in `out` (the extern block; what an earlier class of the
+    same C type declared is not repeated) and return its class."""
+    c, upd = c_names
     plain = cp.strip_comments(text)
+
+    def declare(line: str) -> None:
+        if line not in states:
+            states.add(line)
+            out.append(line)
 
     def proto(func: str, required: bool = True) -> Optional[str]:
         t = _proto_text(plain, func)
@@ -186,37 +203,34 @@ def _bind_filter(cp, name: str, c: str, text: str, rel_h: str, fixed: bool,
     if state is None or not (fixed or has_skipped):
         raise BindError(f"{rel_h}: {c}_t needs the members " + ("`x` (the state)" if fixed else
                         "`skipped` and `x` (the state)"))
-    if state not in states:
-        out.append(f"    ctypedef struct {state}:\n        pass\n")
-        states.add(state)
-    out.append(f"    ctypedef struct {c}_t:\n" + ("" if fixed else "        uint32_t skipped\n")
-               + f"        {state} x\n")
+    declare(f"    ctypedef struct {state}:\n        pass\n")
+    declare(f"    ctypedef struct {c}_t:\n" + ("" if fixed else "        uint32_t skipped\n")
+            + f"        {state} x\n")
     init_text = proto(f"{c}_init")
     init = cp.parse_prototype(init_text)
     settings, values = cp.init_params(text, f"{c}_init")
     if settings is not None:
-        out.append(f"    ctypedef struct {settings}:\n")
-        out.extend(f"        {m.ctype} {m.name}\n" for m in values)
-    funcs = (("update", True), ("set_mag_offset", False)) if fixed else (("update", True), ("set_dt", True),
-                                               ("set_attitude", False), ("angles", False),
-                                               ("get_mag_offset", False),
-                                               ("set_mag_offset", False))
-    out.append(_wrap(_decl(init_text)) + "\n")
+        declare(f"    ctypedef struct {settings}:\n"
+                + "".join(f"        {m.ctype} {m.name}\n" for m in values))
+    funcs = ((upd, True), (f"{c}_set_mag_offset", False)) if fixed else (
+        (upd, True), (f"{c}_set_dt", True), (f"{c}_set_attitude", False), (f"{c}_angles", False),
+        (f"{c}_get_mag_offset", False), (f"{c}_set_mag_offset", False))
+    declare(_wrap(_decl(init_text)) + "\n")
     for func, required in funcs:
-        t = proto(f"{c}_{func}", required)
+        t = proto(func, required)
         if t is not None:
-            out.append(_wrap(_decl(t)) + "\n")
-    update = cp.parse_prototype(proto(f"{c}_update")).params[1:]
+            declare(_wrap(_decl(t)) + "\n")
+    update = cp.parse_prototype(proto(upd)).params[1:]
     if fixed:
         key = tuple(p.ctype + ("*" if p.vector else "") for p in update)
         if key not in _STEP_FIXED:
-            raise BindError(f"{rel_h}: {c}_update() takes {key}; a generated binding takes "
+            raise BindError(f"{rel_h}: {upd}() takes {key}; a generated binding takes "
                             "(int16_t rate, int16_t angle), (const int16_t *gyr, const int16_t "
                             "*acc) or (const int16_t *gyr, const int16_t *acc, const int16_t *mag)")
         base, step_sig, step_call = _STEP_FIXED[key]
     else:
         if len(update) not in _STEP:
-            raise BindError(f"{rel_h}: {c}_update() takes {len(update)} values; a generated binding "
+            raise BindError(f"{rel_h}: {upd}() takes {len(update)} values; a generated binding "
                             "takes 2 (rate, angle), 6 (gyro, acc) or 9 (gyro, acc, mag)")
         base, step_sig, step_call = _STEP[len(update)]
     call = "rc = " if fixed else ""
@@ -236,7 +250,7 @@ def _bind_filter(cp, name: str, c: str, text: str, rel_h: str, fixed: bool,
             init_body,
             f"        return self._bind(&self.s.x, sizeof(self.s.x), {bind})\n\n",
             f"    cdef void _step(self, {step_sig}) noexcept nogil:\n",
-            _wrap(f"{c}_update(&self.s, {step_call})", 8) + "\n"]
+            _wrap(f"{upd}(&self.s, {step_call})", 8) + "\n"]
     if not fixed:
         body += ["\n    cdef void _set_dt(self, imf_real dt) noexcept nogil:\n",
                  f"        {c}_set_dt(&self.s, dt)\n"]
@@ -295,7 +309,7 @@ def _bindings(families: List[str], fixed: bool) -> str:
                             "with a c_name)")
         by_header: Dict[str, List[str]] = {}
         for name in names:
-            header = os.path.join(CSRC, family + ".h") if not fixed else _header_of(c_names[name], True)
+            header = os.path.join(CSRC, family + ".h") if not fixed else _header_of(c_names[name][0], True)
             by_header.setdefault(header, []).append(name)
         for header, members in by_header.items():
             rel_h = os.path.relpath(header, ROOT).replace(os.sep, "/")

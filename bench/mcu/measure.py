@@ -136,7 +136,7 @@ def sizes(spec, target, wd: Path) -> dict:
     obj = wd / f"{c.source.stem}.o"
     _compile(target, c.source, obj, spec)
     sym = _symbol_sizes(target, obj)
-    text = sum(sym.get(f"{c.c_name}_{f}", 0) for f in ("init", "update"))
+    text = sum(sym.get(f, 0) for f in (f"{c.c_name}_init", c.c_update))
     sz = subprocess.run([_tool(target, "size"), "-B", str(obj)], check=True, capture_output=True,
                         text=True).stdout.splitlines()[1].split()
     probe = wd / "ram_probe.c"
@@ -146,7 +146,7 @@ def sizes(spec, target, wd: Path) -> dict:
     su = mcu.stack_usage(target, [c.source], [spec.csrc, spec.csrc / "fixed"], spec.defines,
                          workdir=wd / "su")
     return {"text": text, "data": int(sz[1]), "bss": int(sz[2]), "ram": ram,
-            "stack_static": su.get(f"{c.c_name}_update", {}).get("bytes")}
+            "stack_static": su.get(c.c_update, {}).get("bytes")}
 
 
 def _elf_text(target, elf):

@@ -54,11 +54,14 @@ static void write_state(const imf_mahony1d_bias_t *f)
 int main(void)
 {
     static imf_mahony1d_bias_t filter;
+    imf_mahony1d_bias_settings_t settings;
     char tail[20];
     uint32_t k;
 
     board_init();
-    imf_mahony1d_bias_init(&filter, RECORDED_DT, IMF_R(2.0), IMF_R(0.3), 0);
+    imf_mahony1d_bias_default_settings(&settings); /* Kp 2 1/s, Ki 0.3 1/s^2, Eq. 3.6 */
+    settings.dt = RECORDED_DT;
+    imf_mahony1d_bias_init(&filter, &settings);
     for (k = 0u; k < RECORDED_N; ++k) {
         float sample[2];
         EXAMPLE_READ(sample, recorded[k], sizeof sample);

@@ -184,7 +184,7 @@ const char *imf_lanes_isa(const int width)
 }
 
 typedef struct {
-    const char *c_name;
+    const char *c_update; /* the scalar update the kernel runs lane by lane */
     imf_lanes_fn fn[4]; /* widths 1, 2, 4, 8 */
 } kernel_t;
 
@@ -195,11 +195,11 @@ typedef struct {
 #endif
 
 static const kernel_t kernels[] = {
-    {"imf_madgwick_imu", KERNELS(madgwick_imu)},
-    {"imf_madgwick_ahrs", KERNELS(madgwick_ahrs)},
+    {"imf_madgwick_update_imu", KERNELS(madgwick_imu)},
+    {"imf_madgwick_update", KERNELS(madgwick_ahrs)},
 };
 
-imf_lanes_fn imf_lanes_kernel(const char *const c_name, const int width)
+imf_lanes_fn imf_lanes_kernel(const char *const c_update, const int width)
 {
     size_t i;
     const int slot = width == 1 ? 0 : width == 2 ? 1 : width == 4 ? 2 : width == 8 ? 3 : -1;
@@ -207,7 +207,7 @@ imf_lanes_fn imf_lanes_kernel(const char *const c_name, const int width)
         return NULL;
     }
     for (i = 0; i < sizeof kernels / sizeof kernels[0]; i++) {
-        if (strcmp(kernels[i].c_name, c_name) == 0) {
+        if (strcmp(kernels[i].c_update, c_update) == 0) {
             return kernels[i].fn[slot];
         }
     }

@@ -59,9 +59,9 @@ typedef int (*imf_lanes_fn)(void *const *f, int p, ptrdiff_t k0, ptrdiff_t k1,
                             const imf_real *dts, const imf_scorer_t *sc, imf_score_acc_t *accs,
                             imf_real *const *out);
 
-/* The kernel of filter c_name at `width` lanes (1, 2, 4, 8), or NULL (no kernel, or the
-   CPU lacks the width). */
-imf_lanes_fn imf_lanes_kernel(const char *c_name, int width);
+/* The kernel running the scalar update c_update ("imf_madgwick_update", "..._update_imu")
+   at `width` lanes (1, 2, 4, 8), or NULL (no kernel, or the CPU lacks the width). */
+imf_lanes_fn imf_lanes_kernel(const char *c_update, int width);
 /* The widest lane count this CPU runs (8 AVX-512F, 4 AVX2, 2 SSE2 / generic, 1). */
 int imf_lanes_best(void);
 /* "avx512f", "avx2", "sse2", "generic" or "scalar": what `width` runs on. */

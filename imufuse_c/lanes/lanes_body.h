@@ -433,17 +433,10 @@ static int LN(mw_run)(void *const *f, const int p, const int ahrs, const ptrdiff
     }
     for (i = 0; i < LW; i++) {
         void *const fi = f[i < p ? i : 0];
-        if (ahrs) {
-            imf_madgwick_ahrs_t *const s = (imf_madgwick_ahrs_t *)fi;
-            set[i] = &s->set;
-            x[i] = &s->x;
-            sk[i] = &s->skipped;
-        } else {
-            imf_madgwick_imu_t *const s = (imf_madgwick_imu_t *)fi;
-            set[i] = &s->set;
-            x[i] = &s->x;
-            sk[i] = &s->skipped;
-        }
+        imf_madgwick_t *const s = (imf_madgwick_t *)fi;
+        set[i] = &s->set;
+        x[i] = &s->x;
+        sk[i] = &s->skipped;
     }
     L.mode = set[0]->invsqrt;
     L.simplified = !ahrs && set[0]->delta_s == IMF_MADGWICK_DS_SIMPLIFIED;

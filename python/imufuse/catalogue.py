@@ -6,7 +6,8 @@ imufuse_c (compiled) and imufuse.reference (pure Python). From the reference
 class come, without being written twice:
 
   kind         "1d" | "imu" | "ahrs": the update()/run() inputs (_checks.KINDS)
-  c_name       the C prefix: <c_name>_t, <c_name>_init(), <c_name>_update()
+  c_name       the C prefix: <c_name>_t, <c_name>_init() (one per family)
+  c_update     the C update the filter runs: <c_name>_update() or <c_name>_update_imu()
   state_names  the state variables, in the order of the C state struct
   params       the constructor's keywords and their defaults (_params signature)
   init_args    the C init arguments after `self`, by name (the _init signature)
@@ -107,6 +108,10 @@ class Entry:
     @property
     def c_name(self) -> str:
         return self.reference.c_name
+
+    @property
+    def c_update(self) -> str:
+        return self.reference.c_update
 
     @property
     def state_names(self) -> Tuple[str, ...]:

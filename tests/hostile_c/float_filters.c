@@ -169,8 +169,7 @@ static int valid(const int which, const any_filter_t *const f, const imf_real *c
     if (family(which, "imf_robust_imu") || family(which, "imf_robust_ahrs")) {
         return robust_valid((const imf_robust_state_t *)(const void *)x);
     }
-    if (family(which, "imf_mahony_imu") || family(which, "imf_mahony_ahrs")
-        || family(which, "imf_madgwick_imu") || family(which, "imf_madgwick_ahrs")) {
+    if (family(which, "imf_mahony") || family(which, "imf_madgwick")) {
         return unit4(x[0], x[1], x[2], x[3]);
     }
     if (family(which, "imf_multiwii")) {

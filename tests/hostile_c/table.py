@@ -79,7 +79,7 @@ def table_header() -> str:
     for i, c in enumerate(cs):
         e = catalogue.entry(c.name)
         cn, m = e.c_name, e.c_name[4:]
-        cf = c_library(cn, CSRC)
+        cf = c_library(cn, CSRC, e.c_update)
         struct, values = cf.init_struct, cf.init
         kw = init_arguments(e.reference, e.reference._params(**c.params))
         missing = [v.name for v in values if v.name not in kw]
@@ -96,7 +96,7 @@ def table_header() -> str:
         else:
             args = ", ".join(_literal(v.ctype, kw[v.name]) for v in values)
             inits.append(f"    case {i}: /* {c.id} */\n        {cn}_init(&f->{m}, {args});\n        break;\n")
-        updates.append(f"    case {i}: {cn}_update(&f->{m}, {_UPDATE[e.kind]}); break;\n")
+        updates.append(f"    case {i}: {e.c_update}(&f->{m}, {_UPDATE[e.kind]}); break;\n")
         parts.append(f"    case {i}: *x = (const imf_real *)(const void *)&f->{m}.x; "
                      f"*n = sizeof f->{m}.x; *skipped = &f->{m}.skipped; break;\n")
         selfs.append(f"    case {i}: return &f->{m};\n")
@@ -163,7 +163,7 @@ def fixed_table_header() -> str:
         inits.append(f"    case {i}: /* {n} */\n        return {call};\n")
         args = ("v[0], v[1]" if f.kind == "1d"
                 else ", ".join(f"v + {3 * j}" if j else "v" for j in range(len(KINDS[f.kind]))))
-        updates.append(f"    case {i}: {f.c_name}_update(&f->{m}, {args}); break;\n")
+        updates.append(f"    case {i}: {f.c_update}(&f->{m}, {args}); break;\n")
     out.append("static int gen_fixed_init(const int which, gen_fixed_t *const f)\n{\n"
                "    memset(f, 0, sizeof *f);\n    switch (which) {\n" + "".join(inits)
                + "    default: return -1;\n    }\n}\n\n")

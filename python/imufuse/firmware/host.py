@@ -316,4 +316,4 @@ def csrc_firmware(name: str, csrc_dir: "str | os.PathLike[str]", dtype: str = "f
             break
     defines = {"IMF_DOUBLE": None} if dtype == "float64" else {}
     return Firmware(sources, headers=headers, include_dirs=[csrc_dir], defines=defines,
-                    init=f"{c}_init", update=f"{c}_update", state_names=ref.state_names, **kwargs)
+                    init=f"{c}_init", update=ref.c_update, state_names=ref.state_names, **kwargs)

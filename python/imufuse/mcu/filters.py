@@ -1,7 +1,7 @@
 """Library filters on the emulated MCUs, generically from the reference classes.
 
 A reference class (``imufuse.reference.X``) says everything the harness needs: ``c_name`` (the
-C prefix: ``<c_name>_t``, ``<c_name>_init``, ``<c_name>_update``), ``kind`` (the inputs:
+C prefix: ``<c_name>_t``, ``<c_name>_init``; its update ``c_update``), ``kind`` (the inputs:
 ``1d`` rate/angle, ``imu`` gyr/acc, ``ahrs`` gyr/acc/mag), ``state_names`` (the state struct
 member ``x``, in order) and ``_params(**kw)`` (the C init arguments). The C prototypes are read
 from the headers under ``csrc/`` (and ``csrc/fixed/``): the init arguments are matched to the
@@ -108,7 +108,7 @@ class FilterSpec:
 
     @property
     def c(self) -> CFilter:
-        return c_library(self.ref_class.c_name, self.csrc)
+        return c_library(self.ref_class.c_name, self.csrc, self.ref_class.c_update)
 
     @property
     def defines(self) -> Dict[str, object]:
@@ -224,7 +224,7 @@ class FilterSpec:
             init = f"{call};"
         if fill:
             init = f"{{ {fill}\n{init} }}"
-        step = f"{c.c_name}_update(&{var}{''.join(', ' + a for a in self._update_args())});"
+        step = f"{c.c_update}(&{var}{''.join(', ' + a for a in self._update_args())});"
         state = [(f"((const {ctype} *)(const void *)&{var}.x)[{k}]", kind) for k in range(n)]
         if c.has_skipped:
             state.append((f"{var}.skipped", "u32"))

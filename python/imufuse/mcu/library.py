@@ -31,6 +31,7 @@ class CFilter:
     """What the headers say about one C filter."""
 
     c_name: str
+    c_update: str                # the update it runs: <c_name>_update or _update_imu
     header: Path
     source: Path
     init: Tuple[CParam, ...]     # the values init takes (the settings struct's members)
@@ -96,12 +97,15 @@ def _headers(csrc: Path) -> List[Path]:
     return sorted(csrc.glob("*.h")) + sorted((csrc / "fixed").glob("*.h"))
 
 
-_HEADER_CACHE: Dict[Tuple[str, str], CFilter] = {}
+_HEADER_CACHE: Dict[Tuple[str, str, str], CFilter] = {}
 
 
-def c_library(c_name: str, csrc: Path = CSRC) -> CFilter:
-    """Find ``<c_name>_init`` in the headers of ``csrc`` and read the filter's prototypes."""
-    key = (str(csrc), c_name)
+def c_library(c_name: str, csrc: Path = CSRC, c_update: str = "") -> CFilter:
+    """Find ``<c_name>_init`` in the headers of ``csrc`` and read the filter's prototypes;
+    the update is ``c_update`` (a reference class's: a family's form without magnetometer
+    is ``<c_name>_update_imu``), by default ``<c_name>_update``."""
+    c_update = c_update or c_name + "_update"
+    key = (str(csrc), c_name, c_update)
     if key in _HEADER_CACHE:
         return _HEADER_CACHE[key]
     for h in _headers(Path(csrc)):
@@ -109,7 +113,7 @@ def c_library(c_name: str, csrc: Path = CSRC) -> CFilter:
         if not _declares(text, c_name + "_init"):
             continue
         ret, init_struct, init = _init_values(text, c_name + "_init")
-        _, update = _prototype(text, c_name + "_update")
+        _, update = _prototype(text, c_update)
         init_consts, consts_struct = None, None
         if _declares(text, c_name + "_init_consts"):
             _, consts_struct, init_consts = _init_values(text, c_name + "_init_consts")
@@ -117,7 +121,7 @@ def c_library(c_name: str, csrc: Path = CSRC) -> CFilter:
         src = h.with_suffix(".c")
         if not src.is_file():
             raise HarnessError(f"{c_name}: {h} has no {src.name} next to it")
-        cf = CFilter(c_name, h, src, init, ret, update, has_skipped, init_consts, init_struct,
+        cf = CFilter(c_name, c_update, h, src, init, ret, update, has_skipped, init_consts, init_struct,
                      consts_struct)
         _HEADER_CACHE[key] = cf
         return cf

@@ -8,7 +8,10 @@ mixed in, and the code wraps every constant in R() like C's IMF_R()).
 
 Subclasses define:
   kind         "1d", "imu" or "ahrs" (the update() signature, see _checks.KINDS)
-  c_name       prefix of the C twin: <c_name>_t, <c_name>_init, <c_name>_update
+  c_name       prefix of the C twin: <c_name>_t, <c_name>_init, <c_name>_update; one
+               prefix per family where one C type serves both forms (Madgwick, Mahony)
+  c_update     the C update this class runs: <c_name>_update unless the class names
+               another (a family's form without magnetometer: <c_name>_update_imu)
   state_names  the state variables, in the order of the C state struct; each
                is an attribute of the instance
   _params(...) staticmethod: validate constructor arguments, return the tuple
@@ -44,7 +47,13 @@ QUAT_NORM2_TOL = 0.01
 class ReferenceFilter:
     kind = "1d"
     c_name = ""
+    c_update = ""
     state_names: tuple = ()
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        if "c_update" not in cls.__dict__:
+            cls.c_update = f"{cls.c_name}_update" if cls.c_name else ""
 
 
     def __copy__(self):

@@ -117,9 +117,15 @@ def fixed_update_inputs(kind, args):
 class FixedFilter:
     kind = "1d"
     c_name = ""
+    c_update = ""   # <c_name>_update (as the float filters' c_update)
     #: the profiles the class is built in (a class with one arithmetic refuses the other)
     profiles: tuple = PROFILES
     state_names: tuple = ()
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        if "c_update" not in cls.__dict__:
+            cls.c_update = f"{cls.c_name}_update" if cls.c_name else ""
     dtype = "int32"
 
 

@@ -160,7 +160,7 @@ class _Madgwick(ReferenceFilter):
     def _set_dt(self, dt):
         self.dt = dt
 
-    # imf_madgwick_*_set_acc_gate: Nair's accelerometer gate (imf_gate.h)
+    # imf_madgwick_set_acc_gate: Nair's accelerometer gate (imf_gate.h)
     def _set_acc_gate(self, acc_gate_lo, acc_gate_hi, acc_1g):
         self.acc_gate = _gate.set(self._R, acc_gate_lo, acc_gate_hi, acc_1g)
 
@@ -244,7 +244,8 @@ class MadgwickIMU(_Madgwick):
     quaternion q0..q3 (sensor -> earth).
     """
     kind = "imu"
-    c_name = "imf_madgwick_imu"
+    c_name = "imf_madgwick"
+    c_update = "imf_madgwick_update_imu"
 
     @staticmethod
     def _params(dt, beta=0.1, delta_s="full", *, invsqrt="exact", acc_gate=None, acc_1g=1.0):
@@ -271,7 +272,7 @@ class MadgwickAHRS(_Madgwick):
     magnetometer sample runs the IMU update.
     """
     kind = "ahrs"
-    c_name = "imf_madgwick_ahrs"
+    c_name = "imf_madgwick"
 
     @staticmethod
     def _params(dt, beta=0.1, *, invsqrt="exact", acc_gate=None, acc_1g=1.0):
@@ -279,11 +280,9 @@ class MadgwickAHRS(_Madgwick):
         beta = _checks.check_real("beta", beta, lo=0.0)
         check_beta(dt, beta)
         _checks.check_choice("invsqrt", invsqrt, tuple(_math.INVSQRT))
-        return (dt, beta, _math.INVSQRT[invsqrt], *_gate.check(acc_gate, acc_1g))
-
-    def _init(self, dt, beta, invsqrt, acc_gate_lo, acc_gate_hi, acc_1g):
-        # imf_madgwick_ahrs_init: the IMU settings with the full ds
-        super()._init(dt, beta, DS_FULL, invsqrt, acc_gate_lo, acc_gate_hi, acc_1g)
+        # imf_madgwick_update always takes the full corrective step (delta_s is the IMU
+        # update's, run when the magnetometer reads zero: the full one here too)
+        return (dt, beta, DS_FULL, _math.INVSQRT[invsqrt], *_gate.check(acc_gate, acc_1g))
 
     def _update(self, gx, gy, gz, ax, ay, az, mx, my, mz):
         if not isfinite(gx, gy, gz, ax, ay, az, mx, my, mz):

@@ -73,7 +73,7 @@ class _Mahony(ReferenceFilter):
     def _set_attitude(self, att):
         self.q0, self.q1, self.q2, self.q3 = att.q
 
-    # imf_mahony_*_set_acc_gate: Nair's accelerometer gate (imf_gate.h)
+    # imf_mahony_set_acc_gate: Nair's accelerometer gate (imf_gate.h)
     def _set_acc_gate(self, acc_gate_lo, acc_gate_hi, acc_1g):
         self.acc_gate = _gate.set(self._R, acc_gate_lo, acc_gate_hi, acc_1g)
 
@@ -211,7 +211,8 @@ class MahonyIMU(_Mahony):
     (rad/s; it converges to minus the gyro bias).
     """
     kind = "imu"
-    c_name = "imf_mahony_imu"
+    c_name = "imf_mahony"
+    c_update = "imf_mahony_update_imu"
 
     def _update(self, gx, gy, gz, ax, ay, az):
         if not isfinite(gx, gy, gz, ax, ay, az):
@@ -228,7 +229,7 @@ class MahonyAHRS(_Mahony):
     runs the IMU update.
     """
     kind = "ahrs"
-    c_name = "imf_mahony_ahrs"
+    c_name = "imf_mahony"
 
     def _update(self, gx, gy, gz, ax, ay, az, mx, my, mz):
         if not isfinite(gx, gy, gz, ax, ay, az, mx, my, mz):

@@ -17,20 +17,20 @@
 #include <imufuse.h>
 #include "imf_hil.h"
 
-static imf_madgwick_ahrs_t filt;
+static imf_madgwick_t filt;
 static const uint16_t types[4] = {IMF_HIL_T_F32, IMF_HIL_T_F32, IMF_HIL_T_F32, IMF_HIL_T_F32};
 
 static void fw_init(void)
 {
-    imf_madgwick_ahrs_settings_t s;
-    imf_madgwick_ahrs_default_settings(&s);
-    imf_madgwick_ahrs_init(&filt, &s);
+    imf_madgwick_settings_t s;
+    imf_madgwick_default_settings(&s);
+    imf_madgwick_init(&filt, &s);
 }
 
 static void fw_update(const void *in)
 {
     const float *x = (const float *)in; /* gyr rad/s, acc, mag */
-    imf_madgwick_ahrs_update(&filt, x[0], x[1], x[2], x[3], x[4], x[5], x[6], x[7], x[8]);
+    imf_madgwick_update(&filt, x[0], x[1], x[2], x[3], x[4], x[5], x[6], x[7], x[8]);
 }
 
 static uint8_t fw_state(uint8_t *out)
