@@ -32,9 +32,9 @@ UNITS = os.path.join("build", "imufuse_units")
 
 # module: (csrc sources, macros, precision guard of its translation units)
 BUILDS = {
-    "_f32": (sorted(glob.glob("csrc/*.c")) + ["imufuse_c/lanes/lanes.c"], [],
+    "_f32": (sorted(glob.glob("csrc/*.c")) + ["imufuse_c/host/lanes.c"], [],
              "#ifdef IMF_DOUBLE\n#error \"_f32 unit built with IMF_DOUBLE\"\n#endif\n"),
-    "_f64": (sorted(glob.glob("csrc/*.c")) + ["imufuse_c/lanes/lanes.c"], [("IMF_DOUBLE", None)],
+    "_f64": (sorted(glob.glob("csrc/*.c")) + ["imufuse_c/host/lanes.c"], [("IMF_DOUBLE", None)],
              "#ifndef IMF_DOUBLE\n#error \"_f64 unit built without IMF_DOUBLE\"\n#endif\n"),
     "_fixed": (sorted(glob.glob("csrc/fixed/*.c")), [], ""),  # one build, both profiles
 }
@@ -146,23 +146,23 @@ def build(name):
     # the units only #include their csrc sources: list every csrc file so that
     # an edit of one rebuilds the extension (distutils compares mtimes)
     depends = sorted(glob.glob("csrc/*.[ch]") + glob.glob("csrc/fixed/*.[ch]")
-                     + glob.glob("imufuse_c/lanes/*.[ch]"))
+                     + glob.glob("imufuse_c/host/*.[ch]"))
     return Extension(f"imufuse_c.{name}", [f"imufuse_c/{name}.pyx", *units(name, sources, guard)],
                      depends=depends,
-                     include_dirs=["csrc", "csrc/fixed", "imufuse_c/lanes", numpy.get_include()],
+                     include_dirs=["csrc", "csrc/fixed", "imufuse_c/host", numpy.get_include()],
                      define_macros=[*macros, ("NPY_NO_DEPRECATED_API", "NPY_1_7_API_VERSION")],
                      extra_compile_args=CFLAGS)
 
 
-# CSV output (imufuse.io.write_csv): the text formatter, imufuse_c/csvfmt.h; no csrc
+# CSV output (imufuse.io.write_csv): the text formatter, imufuse_c/host/csvfmt.h; no csrc
 csvout = Extension("imufuse_c._csvout", ["imufuse_c/_csvout.pyx"],
-                   include_dirs=["imufuse_c", numpy.get_include()],
+                   include_dirs=["imufuse_c/host", numpy.get_include()],
                    define_macros=[("NPY_NO_DEPRECATED_API", "NPY_1_7_API_VERSION")],
                    extra_compile_args=CFLAGS)
 
-# CSV input (imufuse.io's reader): the number parser, imufuse_c/csvparse.h; no csrc
+# CSV input (imufuse.io's reader): the number parser, imufuse_c/host/csvparse.h; no csrc
 csvin = Extension("imufuse_c._csvin", ["imufuse_c/_csvin.pyx"],
-                  include_dirs=["imufuse_c", numpy.get_include()],
+                  include_dirs=["imufuse_c/host", numpy.get_include()],
                   define_macros=[("NPY_NO_DEPRECATED_API", "NPY_1_7_API_VERSION")],
                   extra_compile_args=CFLAGS)
 

@@ -26,6 +26,17 @@ static inline void imf_acc_gate_set(int *const on, imf_real *const lo2, imf_real
     *hi2 = h * h;
 }
 
+/* |a|^2, the magnitude the gate compares (one order of operations for every user). */
+static inline imf_real imf_acc_gate_norm2(const imf_real ax, const imf_real ay, const imf_real az)
+{
+    return ax * ax + ay * ay + az * az;
+}
+
+/* The gate's interval test on n2 = |a|^2, written with & so that one expression serves a
+   scalar (0 or 1) and the lanes of a GCC vector (0 or -1 each: the host's lane kernels,
+   imufuse_c/host/lanes_body.h). */
+#define IMF_ACC_GATE_IN(n2, lo2, hi2) (((n2) >= (lo2)) & ((n2) <= (hi2)))
+
 /* 1 when the correction may use a = (ax, ay, az): the gate is off, or
    lo2 <= |a|^2 <= hi2. */
 static inline int imf_acc_gate_pass(const int on, const imf_real lo2, const imf_real hi2,
@@ -35,8 +46,8 @@ static inline int imf_acc_gate_pass(const int on, const imf_real lo2, const imf_
     if (!on) {
         return 1;
     }
-    n2 = ax * ax + ay * ay + az * az;
-    return n2 >= lo2 && n2 <= hi2;
+    n2 = imf_acc_gate_norm2(ax, ay, az);
+    return IMF_ACC_GATE_IN(n2, lo2, hi2);
 }
 
 #ifdef __cplusplus

@@ -1,6 +1,8 @@
 /*
  * Madgwick's gradient-descent filter. See madgwick.h. The pure-Python twin
  * is python/imufuse/reference/madgwick.py: the same lines in the same order.
+ * The host's lane twin, imufuse_c/host/lanes_body.h (imufuse_c.run_filters, tune),
+ * repeats these steps for several filters at once, bit for bit: change both.
  * Step numbers are those of the article's Appendix "IMU Implementations".
  */
 #include "madgwick.h"

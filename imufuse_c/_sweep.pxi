@@ -1,5 +1,5 @@
 # run_filters / run_many: many parameter sets of one 3-D filter over one log in one call,
-# without the GIL, scored while they run (imufuse_c/lanes/lanes.h). Included by _base.pxi.
+# without the GIL, scored while they run (imufuse_c/host/lanes.h). Included by _base.pxi.
 #
 # A group of up to `width` filters of one class runs side by side in SIMD lanes when the
 # class has a lane kernel (each lane bit for bit its filter's own update); otherwise, and

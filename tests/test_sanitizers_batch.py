@@ -10,7 +10,7 @@ guard's tests) then run against it in a child interpreter with the sanitizer's r
 preloaded; any report fails the test. In the same child a canary (an overflow read through
 ctypes, a race of two threads writing one buffer) must be reported, so a run in which the
 sanitizer is not active cannot pass. The float64 tests only: _f32 is the same code
-(imufuse_c/_sweep.pxi, imufuse_c/lanes) in the other precision. The long-rest tests are left
+(imufuse_c/_sweep.pxi, imufuse_c/host) in the other precision. The long-rest tests are left
 out here (the same paths as the short ones, 300 000 samples)."""
 import os
 import shutil

@@ -4,7 +4,8 @@
  * defined, are the instruction set's vector square roots of imf_real and double lanes;
  * otherwise each lane takes the C library's correctly rounded sqrt.
  *
- * Every line of a lane step is the line of the scalar update in csrc/ with the same
+ * The lane twin of csrc/madgwick.c (madgwick_* here is madgwick_* there; the gate is
+ * imf_gate.h's own code). Every line of a lane step is the line of the scalar update with the same
  * operands in the same order; where the scalar code branches on the state, both outcomes
  * are computed and each lane keeps its own (LN(sel_*)). Branches on the inputs alone are
  * the same for every lane and stay branches.
@@ -233,7 +234,7 @@ static inline void LN(score)(const imf_scorer_t *const sc, const ptrdiff_t k, VD
 #ifdef IMF_LANES_MADGWICK
 
 /* Step 3: dq = 1/2 q (x) omega */
-static inline void LN(mw_rate)(const VR q[4], const imf_real gx, const imf_real gy,
+static inline void LN(madgwick_rate)(const VR q[4], const imf_real gx, const imf_real gy,
                                const imf_real gz, VR dq[4])
 {
     dq[0] = IMF_R(0.5) * (-q[1] * gx - q[2] * gy - q[3] * gz);
@@ -243,7 +244,7 @@ static inline void LN(mw_rate)(const VR q[4], const imf_real gx, const imf_real 
 }
 
 /* Step 4, full form */
-static inline void LN(mw_ds_full)(const VR qv[4], const imf_real ax, const imf_real ay,
+static inline void LN(madgwick_ds_full)(const VR qv[4], const imf_real ax, const imf_real ay,
                                   const imf_real az, VR s[4])
 {
     const VR q0 = qv[0], q1 = qv[1], q2 = qv[2], q3 = qv[3];
@@ -269,7 +270,7 @@ static inline void LN(mw_ds_full)(const VR qv[4], const imf_real ax, const imf_r
 }
 
 /* Step 4, simplified form */
-static inline void LN(mw_ds_simplified)(const VR qv[4], const imf_real ax, const imf_real ay,
+static inline void LN(madgwick_ds_simplified)(const VR qv[4], const imf_real ax, const imf_real ay,
                                         const imf_real az, VR s[4])
 {
     const VR q0 = qv[0], q1 = qv[1], q2 = qv[2], q3 = qv[3];
@@ -281,7 +282,7 @@ static inline void LN(mw_ds_simplified)(const VR qv[4], const imf_real ax, const
 }
 
 /* ds = J^T f for gravity and field (AHRS) */
-static inline void LN(mw_ds_ahrs)(const VR qv[4], const imf_real ax, const imf_real ay,
+static inline void LN(madgwick_ds_ahrs)(const VR qv[4], const imf_real ax, const imf_real ay,
                                   const imf_real az, const imf_real mx, const imf_real my,
                                   const imf_real mz, VR s[4])
 {
@@ -337,11 +338,11 @@ typedef struct {
     VR beta, dt, lo2, hi2;
     VM gate;
     int mode, simplified;
-} LN(mw_lanes_t);
+} LN(madgwick_lanes_t);
 
 /* One sample of every lane: madgwick_imu_step / madgwick_ahrs_step and madgwick_commit.
    Returns the lanes that rejected it. */
-static inline VM LN(mw_step)(const LN(mw_lanes_t) *const L, const VR dt, VR q[4], const int ahrs,
+static inline VM LN(madgwick_step)(const LN(madgwick_lanes_t) *const L, const VR dt, VR q[4], const int ahrs,
                              const imf_real *const g, const imf_real *const a,
                              const imf_real *const m)
 {
@@ -354,10 +355,11 @@ static inline VM LN(mw_step)(const LN(mw_lanes_t) *const L, const VR dt, VR q[4]
           && (!ahrs || imf_finite3(m[0], m[1], m[2])))) {
         return ~none;
     }
-    LN(mw_rate)(q, g[0], g[1], g[2], dq);
+    LN(madgwick_rate)(q, g[0], g[1], g[2], dq);
     if (!imf_is_zero3(a[0], a[1], a[2])) {
-        const imf_real n2a = a[0] * a[0] + a[1] * a[1] + a[2] * a[2];
-        const VM c = ~L->gate | ((n2a >= L->lo2) & (n2a <= L->hi2));
+        /* imf_acc_gate_pass, lane by lane (imf_gate.h) */
+        const imf_real n2a = imf_acc_gate_norm2(a[0], a[1], a[2]);
+        const VM c = ~L->gate | IMF_ACC_GATE_IN(n2a, L->lo2, L->hi2);
         if (LN(any)(c)) {
             imf_real an[3], mn[3];
             int okn;
@@ -376,11 +378,11 @@ static inline VM LN(mw_step)(const LN(mw_lanes_t) *const L, const VR dt, VR q[4]
             } else {
                 VM oks;
                 if (use_mag) {
-                    LN(mw_ds_ahrs)(q, an[0], an[1], an[2], mn[0], mn[1], mn[2], s);
+                    LN(madgwick_ds_ahrs)(q, an[0], an[1], an[2], mn[0], mn[1], mn[2], s);
                 } else if (L->simplified) {
-                    LN(mw_ds_simplified)(q, an[0], an[1], an[2], s);
+                    LN(madgwick_ds_simplified)(q, an[0], an[1], an[2], s);
                 } else {
-                    LN(mw_ds_full)(q, an[0], an[1], an[2], s);
+                    LN(madgwick_ds_full)(q, an[0], an[1], an[2], s);
                 }
                 /* madgwick_feedback: normalise ds (a tiny one stays), reject an overflow */
                 oks = LN(inverse_norm)(s[0] * s[0] + s[1] * s[1] + s[2] * s[2] + s[3] * s[3],
@@ -414,12 +416,12 @@ static inline VM LN(mw_step)(const LN(mw_lanes_t) *const L, const VR dt, VR q[4]
 }
 
 /* The group run: settings and state of f[0..p) into lanes, the samples, the state back. */
-static int LN(mw_run)(void *const *f, const int p, const int ahrs, const ptrdiff_t k0,
+static int LN(madgwick_run)(void *const *f, const int p, const int ahrs, const ptrdiff_t k0,
                       const ptrdiff_t k1, const imf_real *gyr, const imf_real *acc,
                       const imf_real *mag, const imf_real *dts, const imf_scorer_t *sc,
                       imf_score_acc_t *accs, imf_real *const *out)
 {
-    LN(mw_lanes_t) L;
+    LN(madgwick_lanes_t) L;
     VR q[4];
     VU skipped;
     VD sq[3], bad;
@@ -464,7 +466,7 @@ static int LN(mw_run)(void *const *f, const int p, const int ahrs, const ptrdiff
     bad = LN(zd)();
     for (k = k0; k < k1; k++) {
         const VR d = dts ? (VR)LN(zm)() + dts[k] : L.dt;
-        const VM rej = LN(mw_step)(&L, d, q, ahrs, gyr + 3 * k, acc + 3 * k,
+        const VM rej = LN(madgwick_step)(&L, d, q, ahrs, gyr + 3 * k, acc + 3 * k,
                                    mag ? mag + 3 * k : gyr + 3 * k);
         skipped -= (VU)rej;
         if (out) {
@@ -508,7 +510,7 @@ static int LN(madgwick_imu)(void *const *f, int p, ptrdiff_t k0, ptrdiff_t k1,
                             imf_real *const *out)
 {
     (void)mag;
-    return LN(mw_run)(f, p, 0, k0, k1, gyr, acc, NULL, dts, sc, accs, out);
+    return LN(madgwick_run)(f, p, 0, k0, k1, gyr, acc, NULL, dts, sc, accs, out);
 }
 
 static int LN(madgwick_ahrs)(void *const *f, int p, ptrdiff_t k0, ptrdiff_t k1,
@@ -516,7 +518,7 @@ static int LN(madgwick_ahrs)(void *const *f, int p, ptrdiff_t k0, ptrdiff_t k1,
                              const imf_real *dts, const imf_scorer_t *sc, imf_score_acc_t *accs,
                              imf_real *const *out)
 {
-    return LN(mw_run)(f, p, 1, k0, k1, gyr, acc, mag, dts, sc, accs, out);
+    return LN(madgwick_run)(f, p, 1, k0, k1, gyr, acc, mag, dts, sc, accs, out);
 }
 #endif /* IMF_LANES_MADGWICK */
 
