@@ -56,31 +56,27 @@ extern "C" {
 #endif
 
 typedef struct {
-    imf_real q0, q1, q2, q3; /* estimate, sensor -> earth (NWU), w first */
-    imf_real s0, s1, s2, s3; /* strapdown: sensor -> inertial frame */
-    imf_real c0, c1, c2, c3; /* correction: inertial -> earth frame */
-    imf_real fx, fy, fz;     /* gravity (specific force) in the inertial frame, acc unit */
-    imf_real vx, vy, vz;     /* B2 velocity-like state, acc unit * s */
-    imf_real pvv, pvg, pgg;  /* B2 covariance, shared by the three axes */
-    imf_real bx, by, bz;     /* gyro bias, rad/s */
-    imf_real lwx, lwy, lwz;  /* low-passed gyro (rest detection), rad/s */
-    imf_real lax, lay, laz;  /* low-passed accelerometer (rest detection), acc unit */
+    imf_real q[4];           /* estimate, sensor -> earth (NWU), w first */
+    imf_real s[4];           /* strapdown: sensor -> inertial frame */
+    imf_real c[4];           /* correction: inertial -> earth frame */
+    imf_real f[3];           /* B2: gravity (specific force) in the inertial frame, acc unit */
+    imf_real v[3];           /* B2: velocity-like state, acc unit * s */
+    imf_real pvv, pvg, pgg;  /* B2: covariance, shared by the three axes */
+    imf_real b[3];           /* gyro bias, rad/s */
+    imf_real lw[3];          /* B1: low-passed gyro, rad/s */
+    imf_real la[3];          /* B1: low-passed accelerometer, acc unit */
     imf_real t, t_rest;      /* time since start (saturating), time at rest, s */
-    imf_real rn, rh, rz;     /* magnetic reference: norm, cos(dip), vertical part */
-    imf_real cn, ch, cz;     /* candidate reference (a changed field) */
-    imf_real t_cand, t_dist; /* candidate stable for, field disturbed for, s */
-    imf_real t_ok;           /* field matching the reference for (saturating), s */
+    imf_real ref[3];         /* B4: magnetic reference: norm, cos(dip), vertical part (rn rh rz) */
+    imf_real cand[3];        /* B4: candidate reference, a changed field (cn ch cz) */
+    imf_real t_cand, t_dist; /* B4: candidate stable for, field disturbed for, s */
+    imf_real t_ok;           /* B4: field matching the reference for (saturating), s */
     /* B6 (relative: field unit / m_n0) */
-    imf_real hx, hy, hz; /* field in the inertial frame, relative */
-    imf_real ix, iy, iz; /* offset (hard iron) estimate in the sensor frame, relative */
-    imf_real p00, p01, p02, p03, p04, p05; /* covariance of (h, o), upper triangle, */
-    imf_real p11, p12, p13, p14, p15;      /* p<i><j> = P[i][j] (i, j: hx hy hz ix iy iz): */
-    imf_real p22, p23, p24, p25;           /* row 2 (hz) */
-    imf_real p33, p34, p35;                /* row 3 (ix) */
-    imf_real p44, p45;                     /* row 4 (iy) */
-    imf_real p55;                          /* row 5 (iz) */
-    imf_real ux, uy, uz;                   /* offset in use, field unit (B4 reads m - u) */
-    imf_real sx, sy, sz;                   /* stored offset (set_mag_offset), field unit */
+    imf_real hi[6];  /* field in the inertial frame h (hx hy hz), then the offset (hard iron)
+                        estimate in the sensor frame (ix iy iz), relative */
+    imf_real P[21];  /* covariance of hi, upper triangle by rows: p00 p01 .. p05 p11 .. p55,
+                        p<i><j> = P[i][j] */
+    imf_real u[3];   /* offset in use, field unit (B4 reads m - u; ux uy uz) */
+    imf_real so[3];  /* stored offset (set_mag_offset), field unit (sx sy sz) */
     imf_real m_n0;   /* field unit of the estimator (0: starts at the next reading) */
     imf_real m_ew;   /* mean normalised innovation (about 1 when consistent) */
     imf_real m_d2;   /* last normalised innovation */
