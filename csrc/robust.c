@@ -77,7 +77,7 @@ static inline imf_real robust_gain(const imf_robust_consts_t *const set, const i
                                    const imf_real tau, const imf_real k)
 {
     if (t < tau) {
-        return set->dt / (t + set->dt);
+        return set->s.dt / (t + set->s.dt);
     }
     return k;
 }
@@ -102,15 +102,15 @@ static inline int robust_turn_by(const imf_robust_consts_t *const set, imf_real 
 
 static void robust_set_dt(imf_robust_consts_t *const set, const imf_real dt)
 {
-    set->dt = dt;
+    set->s.dt = dt;
     set->two_dt = IMF_R(2.0) * dt;
     set->dt2 = dt * dt;
     set->r_d = IMF_R(1.0) / dt;
     set->qg_dt = set->qg0 * dt;
-    set->k_rest = dt / (set->tau_rest + dt);
-    set->kb_rest = dt / (set->tau_bias_rest + dt);
-    set->k_mag = dt / (set->tau_mag + dt);
-    set->k_ref = dt / (set->tau_mag_ref + dt);
+    set->k_rest = dt / (set->s.tau_rest + dt);
+    set->kb_rest = dt / (set->s.tau_bias_rest + dt);
+    set->k_mag = dt / (set->s.tau_mag + dt);
+    set->k_ref = dt / (set->s.tau_mag_ref + dt);
 }
 
 static void robust_init(imf_robust_consts_t *const set, uint32_t *const skipped,
@@ -120,43 +120,31 @@ static void robust_init(imf_robust_consts_t *const set, uint32_t *const skipped,
     imf_real *const w = (imf_real *)x;
     imf_real ta2, tmax;
     unsigned i;
-    set->tau_acc = s->tau_acc;
-    set->tau_bias = s->tau_bias;
-    set->tau_bias_rest = s->tau_bias_rest;
-    set->tau_rest = s->tau_rest;
-    set->latency = s->latency;
-    set->tau_mag = s->tau_mag;
-    set->tau_mag_ref = s->tau_mag_ref;
+    set->s = *s;
     /* B2: gravity process noise q_g = (1 + |w|^2 / rate_ref^2) / tau_acc^4 per s, with
        the velocity measurement noise 1 (any acc unit): the steady state is a
        second-order low-pass with omega_0 = 1 / tau_acc and damping 1/sqrt(2) at rest */
-    ta2 = set->tau_acc * set->tau_acc;
+    ta2 = s->tau_acc * s->tau_acc;
     set->qg0 = IMF_R(1.0) / (ta2 * ta2);
-    set->pgg0 = IMF_R(1.0) / (ta2 * set->tau_acc);
+    set->pgg0 = IMF_R(1.0) / (ta2 * s->tau_acc);
     set->inv_rate_ref2 = rate_ref > IMF_R(0.0) ? IMF_R(1.0) / (rate_ref * rate_ref) : IMF_R(0.0);
-    set->inv_tau_bias = set->tau_bias > IMF_R(0.0) ? IMF_R(1.0) / set->tau_bias : IMF_R(0.0);
+    set->inv_tau_bias = s->tau_bias > IMF_R(0.0) ? IMF_R(1.0) / s->tau_bias : IMF_R(0.0);
     set->rest_gyr2 = rest_gyr * rest_gyr;
     set->rest_acc2 = rest_acc * rest_acc;
-    set->rest_time = s->rest_time;
-    set->mag_norm = s->mag_norm;
-    set->mag_dip = s->mag_dip;
-    set->mag_new_time = s->mag_new_time;
-    set->mag_hold = s->mag_hold;
     set->c48 = IMF_R(1.0) / IMF_R(48.0);
-    set->mag_learn = s->mag_learn;
     set->mag_noise2 = s->mag_noise * s->mag_noise;
     set->mag_lag2 = s->mag_lag * s->mag_lag;
     set->mag_min2 = s->mag_offset_min * s->mag_offset_min;
     /* t saturates at the longest start-up horizon */
-    tmax = set->tau_acc;
-    if (set->tau_rest > tmax) {
-        tmax = set->tau_rest;
+    tmax = s->tau_acc;
+    if (s->tau_rest > tmax) {
+        tmax = s->tau_rest;
     }
-    if (set->tau_mag > tmax) {
-        tmax = set->tau_mag;
+    if (s->tau_mag > tmax) {
+        tmax = s->tau_mag;
     }
-    if (set->tau_mag_ref > tmax) {
-        tmax = set->tau_mag_ref;
+    if (s->tau_mag_ref > tmax) {
+        tmax = s->tau_mag_ref;
     }
     set->t_max = tmax;
     robust_set_dt(set, s->dt);
@@ -208,12 +196,13 @@ void imf_robust_ahrs_default_settings(imf_robust_ahrs_settings_t *const settings
     settings->mag_offset_min = IMF_R(0.1);
 }
 
-/* The IMU filter is the AHRS filter without a magnetometer: the magnetic settings are
-   inert (never read without a field); tau_mag and tau_mag_ref = tau_rest keep the
-   start-up horizon t_max that of the IMU blocks. */
+/* The IMU filter is the AHRS filter without a magnetometer: its settings, the AHRS
+   defaults for the magnetic ones (never read without a field) and B6 off; tau_mag and
+   tau_mag_ref = tau_rest keep the start-up horizon t_max that of the IMU blocks. */
 void imf_robust_imu_init(imf_robust_imu_t *const self, const imf_robust_imu_settings_t *const s)
 {
     imf_robust_ahrs_settings_t a;
+    imf_robust_ahrs_default_settings(&a);
     a.dt = s->dt;
     a.tau_acc = s->tau_acc;
     a.rate_ref = s->rate_ref;
@@ -225,15 +214,8 @@ void imf_robust_imu_init(imf_robust_imu_t *const self, const imf_robust_imu_sett
     a.tau_rest = s->tau_rest;
     a.latency = s->latency;
     a.tau_mag = s->tau_rest;
-    a.mag_norm = IMF_R(0.0);
-    a.mag_dip = IMF_R(0.0);
     a.tau_mag_ref = s->tau_rest;
-    a.mag_new_time = IMF_R(0.0);
-    a.mag_hold = IMF_R(0.0);
     a.mag_learn = 0;
-    a.mag_noise = IMF_R(0.0);
-    a.mag_lag = IMF_R(0.0);
-    a.mag_offset_min = IMF_R(0.0);
     robust_init(&self->set, &self->skipped, &self->x, &a);
 }
 
@@ -303,7 +285,7 @@ static int robust_rest(const imf_robust_consts_t *const set, imf_robust_state_t 
                        const imf_real *const g, const imf_real *const a, const int has_acc,
                        const imf_real g2, imf_real *const w2)
 {
-    const imf_real k = robust_gain(set, x->t, set->tau_rest, set->k_rest);
+    const imf_real k = robust_gain(set, x->t, set->s.tau_rest, set->k_rest);
     imf_real dx, dy, dz, d2, a2;
     x->lw[0] = x->lw[0] + k * (g[0] - x->lw[0]);
     x->lw[1] = x->lw[1] + k * (g[1] - x->lw[1]);
@@ -320,14 +302,14 @@ static int robust_rest(const imf_robust_consts_t *const set, imf_robust_state_t 
     d2 = dx * dx + dy * dy + dz * dz;
     a2 = x->la[0] * x->la[0] + x->la[1] * x->la[1] + x->la[2] * x->la[2];
     if (has_acc && *w2 < set->rest_gyr2 && g2 < set->rest_gyr2 && d2 < set->rest_acc2 * a2) {
-        x->t_rest = x->t_rest + set->dt;
-        if (x->t_rest > set->rest_time) {
-            x->t_rest = set->rest_time;
+        x->t_rest = x->t_rest + set->s.dt;
+        if (x->t_rest > set->s.rest_time) {
+            x->t_rest = set->s.rest_time;
         }
     } else {
         x->t_rest = IMF_R(0.0);
     }
-    if (!(x->t_rest >= set->rest_time)) {
+    if (!(x->t_rest >= set->s.rest_time)) {
         return 0;
     }
     x->b[0] = x->b[0] + set->kb_rest * (g[0] - x->b[0]);
@@ -341,7 +323,7 @@ static int robust_strapdown(const imf_robust_consts_t *const set, imf_robust_sta
                             const imf_real *const g)
 {
     imf_real s[4];
-    if (!robust_turn_by(set, s, x->s, g, x->b, set->dt)) {
+    if (!robust_turn_by(set, s, x->s, g, x->b, set->s.dt)) {
         return 0;
     }
     memcpy(x->s, s, sizeof s);
@@ -354,7 +336,7 @@ static void robust_gravity(const imf_robust_consts_t *const set, imf_robust_stat
                            const imf_real *const a, const int first, const int has_acc,
                            const imf_real w2)
 {
-    const imf_real dt = set->dt;
+    const imf_real dt = set->s.dt;
     imf_real ai[3], rr, qg, pvv, pvg, pgg, inv, kv, kg;
     imf_qrotate(ai, x->s[0], x->s[1], x->s[2], x->s[3], a[0], a[1], a[2]);
     if (first) {
@@ -445,7 +427,7 @@ static void robust_bias(const imf_robust_consts_t *const set, imf_robust_state_t
                         const imf_real *const r, const int rest)
 {
     imf_real e[3];
-    if (!rest && x->t >= set->tau_acc && set->inv_tau_bias > IMF_R(0.0)) {
+    if (!rest && x->t >= set->s.tau_acc && set->inv_tau_bias > IMF_R(0.0)) {
         imf_qrotate(e, x->q[0], -x->q[1], -x->q[2], -x->q[3], IMF_R(2.0) * r[1], IMF_R(2.0) * r[2],
                     IMF_R(0.0));
         x->b[0] = x->b[0] - e[0] * set->inv_tau_bias;
@@ -549,7 +531,7 @@ static ROBUST_SMALL void robust_offset_update(const imf_robust_consts_t *const s
     imf_real pb, rr;
     unsigned k;
     for (k = 0; k < 6; k++) {
-        pb = x->P[robust_pi[k][k]] + (k < 3 ? ROBUST_MAG_QH : ROBUST_MAG_QO) * set->dt;
+        pb = x->P[robust_pi[k][k]] + (k < 3 ? ROBUST_MAG_QH : ROBUST_MAG_QO) * set->s.dt;
         if (k >= 3 && x->m_d2 > ROBUST_MAG_GATE && pb < ROBUST_MAG_P0) {
             pb = pb + ROBUST_MAG_JUMP;
         }
@@ -607,7 +589,7 @@ static ROBUST_NOINLINE void robust_offset(const imf_robust_consts_t *const set,
     const int start = x->m_n0 == IMF_R(0.0);
     imf_real e[3], c[3], inv, o2;
     unsigned k;
-    if (!set->mag_learn) {
+    if (!set->s.mag_learn) {
         return;
     }
     inv = IMF_R(0.0);
@@ -619,7 +601,7 @@ static ROBUST_NOINLINE void robust_offset(const imf_robust_consts_t *const set,
             o2 = o2 + (m[k] * inv) * (m[k] * inv);
         }
         if (!(o2 <= ROBUST_MAG_RANGE2 && o2 * ROBUST_MAG_RANGE2 >= IMF_R(1.0))) {
-            x->m_bad = x->m_bad + set->dt;
+            x->m_bad = x->m_bad + set->s.dt;
             if (x->m_bad >= ROBUST_MAG_RESTART) {
                 x->m_n0 = IMF_R(0.0);
                 x->m_bad = IMF_R(0.0);
@@ -658,8 +640,8 @@ static inline int robust_mag_test(const imf_robust_consts_t *const set, const im
 {
     const imf_real dn = fn[0] - rf[0];
     const imf_real dd = fn[2] * rf[1] - fn[1] * rf[2];
-    const imf_real tn = set->mag_norm * rf[0];
-    return dn < tn && -dn < tn && dd < set->mag_dip && -dd < set->mag_dip;
+    const imf_real tn = set->s.mag_norm * rf[0];
+    return dn < tn && -dn < tn && dd < set->s.mag_dip && -dd < set->s.mag_dip;
 }
 
 /* B4: the disturbance detector. The field fn = (norm, cos dip, vertical part) is used
@@ -675,21 +657,21 @@ static ROBUST_SMALL int robust_field_used(const imf_robust_consts_t *const set,
         /* first reading: it is the reference */
         memcpy(x->ref, fn, sizeof x->ref);
         memcpy(x->cand, fn, sizeof x->cand);
-        x->t_ok = set->mag_hold;
+        x->t_ok = set->s.mag_hold;
     }
     match = robust_mag_test(set, fn, x->ref);
     if (match) {
-        x->t_ok = x->t_ok + set->dt;
-        if (x->t_ok > set->mag_hold) {
-            x->t_ok = set->mag_hold;
+        x->t_ok = x->t_ok + set->s.dt;
+        if (x->t_ok > set->s.mag_hold) {
+            x->t_ok = set->s.mag_hold;
         }
     } else {
         x->t_ok = IMF_R(0.0);
     }
-    if (match && x->t_ok >= set->mag_hold) {
+    if (match && x->t_ok >= set->s.mag_hold) {
         x->t_dist = IMF_R(0.0);
         x->t_cand = IMF_R(0.0);
-        k = robust_gain(set, x->t, set->tau_mag_ref, set->k_ref);
+        k = robust_gain(set, x->t, set->s.tau_mag_ref, set->k_ref);
         x->ref[0] = x->ref[0] + k * (fn[0] - x->ref[0]);
         x->ref[1] = x->ref[1] + k * (fn[1] - x->ref[1]);
         x->ref[2] = x->ref[2] + k * (fn[2] - x->ref[2]);
@@ -697,16 +679,16 @@ static ROBUST_SMALL int robust_field_used(const imf_robust_consts_t *const set,
         return 1;
     }
     /* disturbed (or not yet matching for mag_hold): no heading correction */
-    x->t_dist = x->t_dist + set->dt;
+    x->t_dist = x->t_dist + set->s.dt;
     if (robust_mag_test(set, fn, x->cand)) {
         x->cand[0] = x->cand[0] + set->k_rest * (fn[0] - x->cand[0]);
         x->cand[1] = x->cand[1] + set->k_rest * (fn[1] - x->cand[1]);
         x->cand[2] = x->cand[2] + set->k_rest * (fn[2] - x->cand[2]);
-        if (x->t_rest < set->rest_time) {
+        if (x->t_rest < set->s.rest_time) {
             /* only motion counts: at rest an attached magnet's field is steady too */
-            x->t_cand = x->t_cand + set->dt;
+            x->t_cand = x->t_cand + set->s.dt;
         }
-        if (x->t_cand >= set->mag_new_time) {
+        if (x->t_cand >= set->s.mag_new_time) {
             memcpy(x->ref, x->cand, sizeof x->ref);
             x->t_cand = IMF_R(0.0);
         }
@@ -737,7 +719,7 @@ static ROBUST_SMALL int robust_heading(const imf_robust_consts_t *const set,
         fw = IMF_R(0.0);
         fz = IMF_R(1.0);
     }
-    k = robust_gain(set, x->t, set->tau_mag, set->k_mag);
+    k = robust_gain(set, x->t, set->s.tau_mag, set->k_mag);
     zw = IMF_R(1.0) - k + k * fw;
     zz = k * fz;
     z2 = zw * zw + zz * zz;
@@ -812,10 +794,10 @@ void imf_robust_ahrs_set_mag_offset(imf_robust_ahrs_t *const self, const imf_rea
 static int robust_output(const imf_robust_consts_t *const set, imf_robust_state_t *const x,
                          const imf_real *const g)
 {
-    if (set->latency > IMF_R(0.0) && !robust_turn_by(set, x->q, x->q, g, x->b, set->latency)) {
+    if (set->s.latency > IMF_R(0.0) && !robust_turn_by(set, x->q, x->q, g, x->b, set->s.latency)) {
         return 0;
     }
-    x->t = x->t + set->dt;
+    x->t = x->t + set->s.dt;
     if (x->t > set->t_max) {
         x->t = set->t_max;
     }
@@ -888,5 +870,5 @@ void imf_robust_ahrs_update(imf_robust_ahrs_t *const self, const imf_real gx, co
                   robust_step(&self->set, &x, g, a, g2)
                       && robust_magnetometer(&self->set, &x, m, g2)
                       && robust_output(&self->set, &x, g),
-                  self->set.mag_learn ? ROBUST_AHRS_BYTES : ROBUST_IMU_BYTES);
+                  self->set.s.mag_learn ? ROBUST_AHRS_BYTES : ROBUST_IMU_BYTES);
 }

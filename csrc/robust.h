@@ -85,35 +85,6 @@ typedef struct {
     imf_real m_bad;  /* absurd readings for (s): the estimator restarts after 1 s */
 } imf_robust_state_t;
 
-/* Internal: the settings as init converts them once (dt-dependent ones by set_dt). */
-typedef struct {
-    imf_real dt, two_dt, dt2, r_d; /* s, 2 dt, dt^2, 1 / dt */
-    imf_real tau_acc, tau_bias, tau_bias_rest, tau_rest, tau_mag, tau_mag_ref; /* s */
-    imf_real latency;                         /* s, output prediction; 0: none */
-    imf_real qg0, qg_dt, pgg0;                /* 1 / tau_acc^4, qg0 dt, 1 / tau_acc^3 */
-    imf_real inv_rate_ref2;                   /* 1 / rate_ref^2, (rad/s)^-2; 0: constant */
-    imf_real inv_tau_bias;                    /* 1 / tau_bias, 1/s; 0: no bias in motion */
-    imf_real rest_gyr2, rest_acc2, rest_time; /* (rad/s)^2, g^2 (relative), s */
-    imf_real mag_norm, mag_dip, mag_new_time, mag_hold; /* relative, sine, s, s */
-    imf_real k_rest, kb_rest, k_mag, k_ref;             /* dt / (tau + dt) */
-    imf_real c48;                                       /* 1 / 48 */
-    int mag_learn;                                      /* B6 on */
-    imf_real mag_noise2, mag_lag2, mag_min2;            /* B6: squares */
-    imf_real t_max;                                     /* longest start-up horizon, s */
-} imf_robust_consts_t;
-
-typedef struct {
-    uint32_t skipped;        /* samples rejected by the valid-attitude policy */
-    imf_robust_state_t x;    /* the state (above): the estimate; write it only through the API */
-    imf_robust_consts_t set; /* internal: the settings as init converted them */
-} imf_robust_imu_t;
-
-typedef struct {
-    uint32_t skipped;        /* samples rejected by the valid-attitude policy */
-    imf_robust_state_t x;    /* the state (above): the estimate; write it only through the API */
-    imf_robust_consts_t set; /* internal: the settings as init converted them */
-} imf_robust_ahrs_t;
-
 /* The settings of imf_robust_imu_init. Start from imf_robust_imu_default_settings(),
    then set dt. Units are those of the C (rad/s, sines); imufuse.reference.RobustIMU takes
    deg/s and converts. Blocks B1-B5: docs/recommended-ahrs.md. */
@@ -178,6 +149,34 @@ typedef struct {
     imf_real mag_offset_min; /* B6: a trusted estimate replaces the stored offset when they
                                 differ by more than this, relative; >= 0 (default 0.1) */
 } imf_robust_ahrs_settings_t;
+
+/* Internal: the settings as init keeps them (s: the IMU filter's own, and for the
+   magnetometer the AHRS defaults, never read without a field) and the constants init
+   derives from them once (the dt-dependent ones again by set_dt). */
+typedef struct {
+    imf_robust_ahrs_settings_t s;            /* the settings (above: units, ranges) */
+    imf_real two_dt, dt2, r_d;               /* 2 dt, dt^2, 1 / dt */
+    imf_real qg0, qg_dt, pgg0;               /* 1 / tau_acc^4, qg0 dt, 1 / tau_acc^3 */
+    imf_real inv_rate_ref2;                  /* 1 / rate_ref^2, (rad/s)^-2; 0: constant */
+    imf_real inv_tau_bias;                   /* 1 / tau_bias, 1/s; 0: no bias in motion */
+    imf_real rest_gyr2, rest_acc2;           /* (rad/s)^2, g^2 (relative) */
+    imf_real k_rest, kb_rest, k_mag, k_ref;  /* dt / (tau + dt) */
+    imf_real c48;                            /* 1 / 48 */
+    imf_real mag_noise2, mag_lag2, mag_min2; /* B6: squares */
+    imf_real t_max;                          /* longest start-up horizon, s */
+} imf_robust_consts_t;
+
+typedef struct {
+    uint32_t skipped;        /* samples rejected by the valid-attitude policy */
+    imf_robust_state_t x;    /* the state (above): the estimate; write it only through the API */
+    imf_robust_consts_t set; /* internal: the settings and what init derived from them */
+} imf_robust_imu_t;
+
+typedef struct {
+    uint32_t skipped;        /* samples rejected by the valid-attitude policy */
+    imf_robust_state_t x;    /* the state (above): the estimate; write it only through the API */
+    imf_robust_consts_t set; /* internal: the settings and what init derived from them */
+} imf_robust_ahrs_t;
 
 /* The defaults listed with each member (those of imufuse.reference.RobustIMU(0.01)). */
 void imf_robust_imu_default_settings(imf_robust_imu_settings_t *settings);

@@ -23,6 +23,7 @@ them by name.
 import dataclasses
 import inspect
 import math
+import types
 
 from .. import _checks
 
@@ -97,6 +98,13 @@ class SettingsRecord:
     def members(self):
         """{member: value} in the C struct's order (C units)."""
         return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+
+    def as_real(self, R):
+        """The settings as the C filter keeps its copy of the struct: every real member of
+        type R (imf_real: float or numpy.float32), the others as they are; mutable, as that
+        copy is (set_dt changes dt)."""
+        return types.SimpleNamespace(**{k: R(v) if isinstance(v, float) else v
+                                        for k, v in self.members().items()})
 
     # the values in the struct's order, for the generic tools (module docstring)
     def __iter__(self):

@@ -229,7 +229,7 @@ class _Robust(ReferenceFilter):
     def _gain(self, t, tau, k):
         # B5: a running mean until tau, then the low-pass gain k = dt / (tau + dt)
         if t < tau:
-            return self.dt / (t + self.dt)
+            return self.s.dt / (t + self.s.dt)
         return k
 
     def _turn_by(self, o, q, g, b, h):
@@ -250,58 +250,46 @@ class _Robust(ReferenceFilter):
     # imf_robust_*_set_dt: every dt-dependent constant, as init computes it
     def _set_dt(self, dt):
         R = self._R
-        self.dt = dt
+        self.s.dt = dt
         self.two_dt = R(2.0) * dt
         self.dt2 = dt * dt
         self.r_d = R(1.0) / dt
         self.qg_dt = self.qg0 * dt
-        self.k_rest = dt / (self.tau_rest + dt)
-        self.kb_rest = dt / (self.tau_bias_rest + dt)
-        self.k_mag = dt / (self.tau_mag + dt)
-        self.k_ref = dt / (self.tau_mag_ref + dt)
+        self.k_rest = dt / (self.s.tau_rest + dt)
+        self.kb_rest = dt / (self.s.tau_bias_rest + dt)
+        self.k_mag = dt / (self.s.tau_mag + dt)
+        self.k_ref = dt / (self.s.tau_mag_ref + dt)
 
-    # robust_init: the settings s (a RobustAHRSSettings, C units) as constants, and the
-    # state
+    # robust_init: the settings s (a RobustAHRSSettings, C units) as the C keeps them
+    # (imf_real), and the constants derived from them once; the state
     def _init_filter(self, s):
         R = self._R
         lo, hi = _LIMITS[self.dtype]
         self._min, self._max = R(lo), R(hi)
         self._real_max = R(_REAL_MAX[self.dtype])
-        rate_ref, rest_gyr, rest_acc = R(s.rate_ref), R(s.rest_gyr), R(s.rest_acc)
-        self.tau_acc = R(s.tau_acc)
-        self.tau_bias = R(s.tau_bias)
-        self.tau_bias_rest = R(s.tau_bias_rest)
-        self.tau_rest = R(s.tau_rest)
-        self.latency = R(s.latency)
-        self.tau_mag = R(s.tau_mag)
-        self.tau_mag_ref = R(s.tau_mag_ref)
+        self.s = s = s.as_real(R)
+        rate_ref, rest_gyr, rest_acc = s.rate_ref, s.rest_gyr, s.rest_acc
         # B2: gravity process noise q_g = (1 + |w|^2 / rate_ref^2) / tau_acc^4 per s, with the
         # velocity measurement noise 1 (any acc unit): the steady state is a second-order
         # low-pass with omega_0 = 1 / tau_acc and damping 1/sqrt(2) at rest
-        ta2 = self.tau_acc * self.tau_acc
+        ta2 = s.tau_acc * s.tau_acc
         self.qg0 = R(1.0) / (ta2 * ta2)
-        self.pgg0 = R(1.0) / (ta2 * self.tau_acc)
+        self.pgg0 = R(1.0) / (ta2 * s.tau_acc)
         self.inv_rate_ref2 = R(1.0) / (rate_ref * rate_ref) if rate_ref > R(0.0) else R(0.0)
-        self.inv_tau_bias = R(1.0) / self.tau_bias if self.tau_bias > R(0.0) else R(0.0)
+        self.inv_tau_bias = R(1.0) / s.tau_bias if s.tau_bias > R(0.0) else R(0.0)
         self.rest_gyr2 = rest_gyr * rest_gyr
         self.rest_acc2 = rest_acc * rest_acc
-        self.rest_time = R(s.rest_time)
-        self.mag_norm = R(s.mag_norm)
-        self.mag_dip = R(s.mag_dip)
-        self.mag_new_time = R(s.mag_new_time)
-        self.mag_hold = R(s.mag_hold)
         self.c48 = R(1.0) / R(48.0)
-        self.mag_learn = int(s.mag_learn)
-        self.mag_noise2 = R(s.mag_noise) * R(s.mag_noise)
-        self.mag_lag2 = R(s.mag_lag) * R(s.mag_lag)
-        self.mag_offset_min2 = R(s.mag_offset_min) * R(s.mag_offset_min)
+        self.mag_noise2 = s.mag_noise * s.mag_noise
+        self.mag_lag2 = s.mag_lag * s.mag_lag
+        self.mag_min2 = s.mag_offset_min * s.mag_offset_min
         # t saturates at the longest start-up horizon
-        tmax = self.tau_acc
-        for v in (self.tau_rest, self.tau_mag, self.tau_mag_ref):
+        tmax = s.tau_acc
+        for v in (s.tau_rest, s.tau_mag, s.tau_mag_ref):
             if v > tmax:
                 tmax = v
         self.t_max = tmax
-        self._set_dt(R(s.dt))
+        self._set_dt(s.dt)
         # every word 0; the three quaternions the identity; B6: no offset stored, the
         # estimator starts at the first reading, its standard deviation 1
         self.x = _State.zero(R)
@@ -340,7 +328,7 @@ class _Robust(ReferenceFilter):
         and the bias observed at rest (Eq. 3.1: b_k = b_{k-1}). g2: |g|^2. Returns (rest,
         w2: the low-passed rate squared, B2's process noise)."""
         R = self._R
-        k = self._gain(x.t, self.tau_rest, self.k_rest)
+        k = self._gain(x.t, self.s.tau_rest, self.k_rest)
         x.lw[0] = x.lw[0] + k * (g[0] - x.lw[0])
         x.lw[1] = x.lw[1] + k * (g[1] - x.lw[1])
         x.lw[2] = x.lw[2] + k * (g[2] - x.lw[2])
@@ -355,12 +343,12 @@ class _Robust(ReferenceFilter):
         d2 = dx * dx + dy * dy + dz * dz
         a2 = x.la[0] * x.la[0] + x.la[1] * x.la[1] + x.la[2] * x.la[2]
         if has_acc and w2 < self.rest_gyr2 and g2 < self.rest_gyr2 and d2 < self.rest_acc2 * a2:
-            x.t_rest = x.t_rest + self.dt
-            if x.t_rest > self.rest_time:
-                x.t_rest = self.rest_time
+            x.t_rest = x.t_rest + self.s.dt
+            if x.t_rest > self.s.rest_time:
+                x.t_rest = self.s.rest_time
         else:
             x.t_rest = R(0.0)
-        if not (x.t_rest >= self.rest_time):
+        if not (x.t_rest >= self.s.rest_time):
             return False, w2
         x.b[0] = x.b[0] + self.kb_rest * (g[0] - x.b[0])
         x.b[1] = x.b[1] + self.kb_rest * (g[1] - x.b[1])
@@ -370,7 +358,7 @@ class _Robust(ReferenceFilter):
     def _strapdown(self, x, g):
         # strapdown: s = s (x) exp(1/2 (w - b) dt)
         s = [self._R(0.0)] * 4
-        if not self._turn_by(s, x.s, g, x.b, self.dt):
+        if not self._turn_by(s, x.s, g, x.b, self.s.dt):
             return False
         x.s = s
         return True
@@ -379,7 +367,7 @@ class _Robust(ReferenceFilter):
         # B2: gravity in the inertial frame, a Kalman filter of (v, f) per axis fed with the
         # accelerometer in that frame; from the first sample (B5)
         R = self._R
-        dt = self.dt
+        dt = self.s.dt
         ai = qrotate(R, x.s[0], x.s[1], x.s[2], x.s[3], a[0], a[1], a[2])
         if first:
             # B5: gravity from the first sample
@@ -453,7 +441,7 @@ class _Robust(ReferenceFilter):
         # B3: in motion, the correction rate seen in the sensor frame is minus the bias error
         # (Eq. 3.6, I_k = I_{k-1} + Ki dt e_k, with Ki dt = 1 / tau_bias)
         R = self._R
-        if not rest and x.t >= self.tau_acc and self.inv_tau_bias > R(0.0):
+        if not rest and x.t >= self.s.tau_acc and self.inv_tau_bias > R(0.0):
             e = qrotate(R, x.q[0], -x.q[1], -x.q[2], -x.q[3], R(2.0) * r[1], R(2.0) * r[2],
                         R(0.0))
             x.b[0] = x.b[0] - e[0] * self.inv_tau_bias
@@ -519,7 +507,7 @@ class _Robust(ReferenceFilter):
         # of axis i (c: column i of R(s)), its noise growing with the rate (timing mismatch)
         R = self._R
         for k in range(6):
-            pb = x.P[_PI[k][k]] + R(_MAG_QH if k < 3 else _MAG_QO) * self.dt
+            pb = x.P[_PI[k][k]] + R(_MAG_QH if k < 3 else _MAG_QO) * self.s.dt
             if k >= 3 and x.m_d2 > R(_MAG_GATE) and pb < R(_MAG_P0):
                 pb = pb + R(_MAG_JUMP)
             x.P[_PI[k][k]] = pb
@@ -548,7 +536,7 @@ class _Robust(ReferenceFilter):
                 e[k] = x.hi[3 + k] - x.so[k] * inv
                 o2 = o2 + e[k] * e[k]
                 u[k] = x.hi[3 + k] * x.m_n0
-            if o2 < self.mag_offset_min2:
+            if o2 < self.mag_min2:
                 u = list(x.so)
             x.u = u
 
@@ -559,7 +547,7 @@ class _Robust(ReferenceFilter):
         R = self._R
         i = 1 if x.m_axis == R(1.0) else 2 if x.m_axis == R(2.0) else 0
         start = x.m_n0 == R(0.0)
-        if not self.mag_learn:
+        if not self.s.mag_learn:
             return
         inv = R(0.0)
         if not start:
@@ -569,7 +557,7 @@ class _Robust(ReferenceFilter):
             for k in range(3):
                 o2 = o2 + (m[k] * inv) * (m[k] * inv)
             if not (o2 <= R(_MAG_RANGE2) and o2 * R(_MAG_RANGE2) >= R(1.0)):
-                x.m_bad = x.m_bad + self.dt
+                x.m_bad = x.m_bad + self.s.dt
                 if x.m_bad >= R(_MAG_RESTART):
                     x.m_n0 = R(0.0)
                     x.m_bad = R(0.0)
@@ -599,8 +587,8 @@ class _Robust(ReferenceFilter):
         # mag_norm n and dip within mag_dip (sine of the dip difference = zn h - hn z)
         dn = fn[0] - rf[0]
         dd = fn[2] * rf[1] - fn[1] * rf[2]
-        tn = self.mag_norm * rf[0]
-        return dn < tn and -dn < tn and dd < self.mag_dip and -dd < self.mag_dip
+        tn = self.s.mag_norm * rf[0]
+        return dn < tn and -dn < tn and dd < self.s.mag_dip and -dd < self.s.mag_dip
 
     def _field_used(self, x, fn):
         """B4: the disturbance detector. The field fn = (norm, cos dip, vertical part) is
@@ -612,33 +600,33 @@ class _Robust(ReferenceFilter):
             # first reading: it is the reference
             x.ref = list(fn)
             x.cand = list(fn)
-            x.t_ok = self.mag_hold
+            x.t_ok = self.s.mag_hold
         match = self._mag_test(fn, x.ref)
         if match:
-            x.t_ok = x.t_ok + self.dt
-            if x.t_ok > self.mag_hold:
-                x.t_ok = self.mag_hold
+            x.t_ok = x.t_ok + self.s.dt
+            if x.t_ok > self.s.mag_hold:
+                x.t_ok = self.s.mag_hold
         else:
             x.t_ok = R(0.0)
-        if match and x.t_ok >= self.mag_hold:
+        if match and x.t_ok >= self.s.mag_hold:
             x.t_dist = R(0.0)
             x.t_cand = R(0.0)
-            k = self._gain(x.t, self.tau_mag_ref, self.k_ref)
+            k = self._gain(x.t, self.s.tau_mag_ref, self.k_ref)
             x.ref[0] = x.ref[0] + k * (fn[0] - x.ref[0])
             x.ref[1] = x.ref[1] + k * (fn[1] - x.ref[1])
             x.ref[2] = x.ref[2] + k * (fn[2] - x.ref[2])
             x.cand = list(fn)
             return True
         # disturbed (or not yet matching for mag_hold): no heading correction
-        x.t_dist = x.t_dist + self.dt
+        x.t_dist = x.t_dist + self.s.dt
         if self._mag_test(fn, x.cand):
             x.cand[0] = x.cand[0] + self.k_rest * (fn[0] - x.cand[0])
             x.cand[1] = x.cand[1] + self.k_rest * (fn[1] - x.cand[1])
             x.cand[2] = x.cand[2] + self.k_rest * (fn[2] - x.cand[2])
-            if x.t_rest < self.rest_time:
+            if x.t_rest < self.s.rest_time:
                 # only motion counts: at rest an attached magnet's field is steady too
-                x.t_cand = x.t_cand + self.dt
-            if x.t_cand >= self.mag_new_time:
+                x.t_cand = x.t_cand + self.s.dt
+            if x.t_cand >= self.s.mag_new_time:
                 x.ref = list(x.cand)
                 x.t_cand = R(0.0)
         else:
@@ -662,7 +650,7 @@ class _Robust(ReferenceFilter):
         else:
             fw = R(0.0)
             fz = R(1.0)
-        k = self._gain(x.t, self.tau_mag, self.k_mag)
+        k = self._gain(x.t, self.s.tau_mag, self.k_mag)
         zw = R(1.0) - k + k * fw
         zz = k * fz
         z2 = zw * zw + zz * zz
@@ -712,9 +700,9 @@ class _Robust(ReferenceFilter):
         with the bias-corrected rate (q (x) exp(1/2 (w - b) latency)), then B5's clock of
         the start-up (saturating: no growth once every start is over); False rejects the
         sample."""
-        if self.latency > self._R(0.0) and not self._turn_by(x.q, x.q, g, x.b, self.latency):
+        if self.s.latency > self._R(0.0) and not self._turn_by(x.q, x.q, g, x.b, self.s.latency):
             return False
-        x.t = x.t + self.dt
+        x.t = x.t + self.s.dt
         if x.t > self.t_max:
             x.t = self.t_max
         return True
@@ -761,14 +749,13 @@ class RobustIMU(_Robust):
     settings_type = RobustIMUSettings
     _params = RobustIMUSettings.keywords()
 
-    # imf_robust_imu_init: the AHRS filter without a magnetometer, the magnetic settings
-    # inert (never read without a field); tau_mag and tau_mag_ref = tau_rest keep the
-    # start-up horizon t_max that of the IMU blocks
+    # imf_robust_imu_init: the AHRS filter without a magnetometer: its settings, the AHRS
+    # defaults for the magnetic ones (never read without a field) and B6 off; tau_mag and
+    # tau_mag_ref = tau_rest keep the start-up horizon t_max that of the IMU blocks
     def _init(self, s):
-        self._init_filter(RobustAHRSSettings(
-            **s.members(), tau_mag=s.tau_rest, mag_norm=0.0, mag_dip=0.0, tau_mag_ref=s.tau_rest,
-            mag_new_time=0.0, mag_hold=0.0, mag_learn=0, mag_noise=0.0, mag_lag=0.0,
-            mag_offset_min=0.0))
+        self._init_filter(dataclasses.replace(
+            RobustAHRSSettings.from_user(s.dt), **s.members(), tau_mag=s.tau_rest,
+            tau_mag_ref=s.tau_rest, mag_learn=0))
 
     # imf_robust_imu_update
     def _update(self, gx, gy, gz, ax, ay, az):
@@ -848,4 +835,4 @@ class RobustAHRS(_Robust):
         x = self.x.copy()
         self._commit(x, self._step(x, g, (ax, ay, az), g2)
                      and self._magnetometer(x, (mx, my, mz), g2)
-                     and self._output(x, g), _STATE_MEMBERS if self.mag_learn else _IMU_MEMBERS)
+                     and self._output(x, g), _STATE_MEMBERS if self.s.mag_learn else _IMU_MEMBERS)
