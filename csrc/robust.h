@@ -56,31 +56,27 @@ extern "C" {
 #endif
 
 typedef struct {
-    imf_real q0, q1, q2, q3; /* estimate, sensor -> earth (NWU), w first */
-    imf_real s0, s1, s2, s3; /* strapdown: sensor -> inertial frame */
-    imf_real c0, c1, c2, c3; /* correction: inertial -> earth frame */
-    imf_real fx, fy, fz;     /* gravity (specific force) in the inertial frame, acc unit */
-    imf_real vx, vy, vz;     /* B2 velocity-like state, acc unit * s */
-    imf_real pvv, pvg, pgg;  /* B2 covariance, shared by the three axes */
-    imf_real bx, by, bz;     /* gyro bias, rad/s */
-    imf_real lwx, lwy, lwz;  /* low-passed gyro (rest detection), rad/s */
-    imf_real lax, lay, laz;  /* low-passed accelerometer (rest detection), acc unit */
+    imf_real q[4];           /* estimate, sensor -> earth (NWU), w first */
+    imf_real s[4];           /* strapdown: sensor -> inertial frame */
+    imf_real c[4];           /* correction: inertial -> earth frame */
+    imf_real f[3];           /* B2: gravity (specific force) in the inertial frame, acc unit */
+    imf_real v[3];           /* B2: velocity-like state, acc unit * s */
+    imf_real pvv, pvg, pgg;  /* B2: covariance, shared by the three axes */
+    imf_real b[3];           /* gyro bias, rad/s */
+    imf_real lw[3];          /* B1: low-passed gyro, rad/s */
+    imf_real la[3];          /* B1: low-passed accelerometer, acc unit */
     imf_real t, t_rest;      /* time since start (saturating), time at rest, s */
-    imf_real rn, rh, rz;     /* magnetic reference: norm, cos(dip), vertical part */
-    imf_real cn, ch, cz;     /* candidate reference (a changed field) */
-    imf_real t_cand, t_dist; /* candidate stable for, field disturbed for, s */
-    imf_real t_ok;           /* field matching the reference for (saturating), s */
+    imf_real ref[3];         /* B4: magnetic reference: norm, cos(dip), vertical part (rn rh rz) */
+    imf_real cand[3];        /* B4: candidate reference, a changed field (cn ch cz) */
+    imf_real t_cand, t_dist; /* B4: candidate stable for, field disturbed for, s */
+    imf_real t_ok;           /* B4: field matching the reference for (saturating), s */
     /* B6 (relative: field unit / m_n0) */
-    imf_real hx, hy, hz; /* field in the inertial frame, relative */
-    imf_real ix, iy, iz; /* offset (hard iron) estimate in the sensor frame, relative */
-    imf_real p00, p01, p02, p03, p04, p05; /* covariance of (h, o), upper triangle, */
-    imf_real p11, p12, p13, p14, p15;      /* p<i><j> = P[i][j] (i, j: hx hy hz ix iy iz): */
-    imf_real p22, p23, p24, p25;           /* row 2 (hz) */
-    imf_real p33, p34, p35;                /* row 3 (ix) */
-    imf_real p44, p45;                     /* row 4 (iy) */
-    imf_real p55;                          /* row 5 (iz) */
-    imf_real ux, uy, uz;                   /* offset in use, field unit (B4 reads m - u) */
-    imf_real sx, sy, sz;                   /* stored offset (set_mag_offset), field unit */
+    imf_real hi[6];  /* field in the inertial frame h (hx hy hz), then the offset (hard iron)
+                        estimate in the sensor frame (ix iy iz), relative */
+    imf_real P[21];  /* covariance of hi, upper triangle by rows: p00 p01 .. p05 p11 .. p55,
+                        p<i><j> = P[i][j] */
+    imf_real u[3];   /* offset in use, field unit (B4 reads m - u; ux uy uz) */
+    imf_real so[3];  /* stored offset (set_mag_offset), field unit (sx sy sz) */
     imf_real m_n0;   /* field unit of the estimator (0: starts at the next reading) */
     imf_real m_ew;   /* mean normalised innovation (about 1 when consistent) */
     imf_real m_d2;   /* last normalised innovation */
@@ -88,35 +84,6 @@ typedef struct {
     imf_real m_axis; /* the axis the next reading updates: 0, 1, 2 */
     imf_real m_bad;  /* absurd readings for (s): the estimator restarts after 1 s */
 } imf_robust_state_t;
-
-/* Internal: the settings as init converts them once (dt-dependent ones by set_dt). */
-typedef struct {
-    imf_real dt, two_dt, dt2, r_d; /* s, 2 dt, dt^2, 1 / dt */
-    imf_real tau_acc, tau_bias, tau_bias_rest, tau_rest, tau_mag, tau_mag_ref; /* s */
-    imf_real latency;                         /* s, output prediction; 0: none */
-    imf_real qg0, qg_dt, pgg0;                /* 1 / tau_acc^4, qg0 dt, 1 / tau_acc^3 */
-    imf_real inv_rate_ref2;                   /* 1 / rate_ref^2, (rad/s)^-2; 0: constant */
-    imf_real inv_tau_bias;                    /* 1 / tau_bias, 1/s; 0: no bias in motion */
-    imf_real rest_gyr2, rest_acc2, rest_time; /* (rad/s)^2, g^2 (relative), s */
-    imf_real mag_norm, mag_dip, mag_new_time, mag_hold; /* relative, sine, s, s */
-    imf_real k_rest, kb_rest, k_mag, k_ref;             /* dt / (tau + dt) */
-    imf_real c48;                                       /* 1 / 48 */
-    int mag_learn;                                      /* B6 on */
-    imf_real mag_noise2, mag_lag2, mag_min2;            /* B6: squares */
-    imf_real t_max;                                     /* longest start-up horizon, s */
-} imf_robust_consts_t;
-
-typedef struct {
-    uint32_t skipped;        /* samples rejected by the valid-attitude policy */
-    imf_robust_state_t x;    /* the state (above): the estimate; write it only through the API */
-    imf_robust_consts_t set; /* internal: the settings as init converted them */
-} imf_robust_imu_t;
-
-typedef struct {
-    uint32_t skipped;        /* samples rejected by the valid-attitude policy */
-    imf_robust_state_t x;    /* the state (above): the estimate; write it only through the API */
-    imf_robust_consts_t set; /* internal: the settings as init converted them */
-} imf_robust_ahrs_t;
 
 /* The settings of imf_robust_imu_init. Start from imf_robust_imu_default_settings(),
    then set dt. Units are those of the C (rad/s, sines); imufuse.reference.RobustIMU takes
@@ -182,6 +149,34 @@ typedef struct {
     imf_real mag_offset_min; /* B6: a trusted estimate replaces the stored offset when they
                                 differ by more than this, relative; >= 0 (default 0.1) */
 } imf_robust_ahrs_settings_t;
+
+/* Internal: the settings as init keeps them (s: the IMU filter's own, and for the
+   magnetometer the AHRS defaults, never read without a field) and the constants init
+   derives from them once (the dt-dependent ones again by set_dt). */
+typedef struct {
+    imf_robust_ahrs_settings_t s;            /* the settings (above: units, ranges) */
+    imf_real two_dt, dt2, r_d;               /* 2 dt, dt^2, 1 / dt */
+    imf_real qg0, qg_dt, pgg0;               /* 1 / tau_acc^4, qg0 dt, 1 / tau_acc^3 */
+    imf_real inv_rate_ref2;                  /* 1 / rate_ref^2, (rad/s)^-2; 0: constant */
+    imf_real inv_tau_bias;                   /* 1 / tau_bias, 1/s; 0: no bias in motion */
+    imf_real rest_gyr2, rest_acc2;           /* (rad/s)^2, g^2 (relative) */
+    imf_real k_rest, kb_rest, k_mag, k_ref;  /* dt / (tau + dt) */
+    imf_real c48;                            /* 1 / 48 */
+    imf_real mag_noise2, mag_lag2, mag_min2; /* B6: squares */
+    imf_real t_max;                          /* longest start-up horizon, s */
+} imf_robust_consts_t;
+
+typedef struct {
+    uint32_t skipped;        /* samples rejected by the valid-attitude policy */
+    imf_robust_state_t x;    /* the state (above): the estimate; write it only through the API */
+    imf_robust_consts_t set; /* internal: the settings and what init derived from them */
+} imf_robust_imu_t;
+
+typedef struct {
+    uint32_t skipped;        /* samples rejected by the valid-attitude policy */
+    imf_robust_state_t x;    /* the state (above): the estimate; write it only through the API */
+    imf_robust_consts_t set; /* internal: the settings and what init derived from them */
+} imf_robust_ahrs_t;
 
 /* The defaults listed with each member (those of imufuse.reference.RobustIMU(0.01)). */
 void imf_robust_imu_default_settings(imf_robust_imu_settings_t *settings);

@@ -186,7 +186,7 @@ cdef class _Filter:
     cdef char *_x
     cdef Py_ssize_t _n
     cdef uint32_t *_skipped
-    cdef tuple _args
+    cdef object _args
     cdef dict _kw
     cdef tuple _start
     cdef imf_real _dt0

@@ -76,7 +76,7 @@ MUTANTS: List[Mutant] = [
            "o[1] = vy + w * ty + (z * tx - x * tz);", "o[1] = vy - w * ty + (z * tx - x * tz);",
            C_BITEXACT, "the shared quaternion rotation (imf_qrotate): a sign flipped"),
     Mutant("c-robust-rest-gain", "csrc/robust.c",
-           "set->k_rest = dt / (set->tau_rest + dt);", "set->k_rest = dt / set->tau_rest;",
+           "set->k_rest = dt / (set->s.tau_rest + dt);", "set->k_rest = dt / set->s.tau_rest;",
            C_BITEXACT, "Robust: the rest low-pass gain off by its + dt"),
     Mutant("c-robust-b6-axis", "csrc/robust.c",
            "x->m_axis = i == 2u ? IMF_R(0.0) : x->m_axis + IMF_R(1.0);",

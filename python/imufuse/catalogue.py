@@ -56,6 +56,7 @@ from . import _fusion13
 from . import recovery as _recovery
 from . import reference
 from ._checks import KINDS, check_dtype
+from .reference._base import init_names
 from .estimate import ADAPTERS, Estimate
 
 __all__ = ["Entry", "FilterError", "CATALOGUE", "FLOAT", "FIXED", "FUSION", "FILTERS_FUSION",
@@ -126,7 +127,7 @@ class Entry:
     @property
     def init_args(self) -> Tuple[str, ...]:
         """The C init arguments after `self`, in order: the names of _params' result."""
-        return tuple(inspect.signature(self.reference._init).parameters)[1:]
+        return init_names(self.reference)
 
     @property
     def family(self) -> str:

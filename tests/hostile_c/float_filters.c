@@ -118,11 +118,11 @@ static int unit4(const imf_real a, const imf_real b, const imf_real c, const imf
    writes' policy, imufuse.reference.robust) */
 static int robust_valid(const imf_robust_state_t *const x)
 {
-    return unit4(x->q0, x->q1, x->q2, x->q3) && unit4(x->s0, x->s1, x->s2, x->s3)
-           && unit4(x->c0, x->c1, x->c2, x->c3) && x->pvv >= IMF_R(0.0) && x->pgg >= IMF_R(0.0)
-           && x->t >= IMF_R(0.0) && x->t_rest >= IMF_R(0.0) && x->rn >= IMF_R(0.0)
-           && x->cn >= IMF_R(0.0) && x->t_cand >= IMF_R(0.0) && x->t_dist >= IMF_R(0.0)
-           && x->t_ok >= IMF_R(0.0);
+    return unit4(x->q[0], x->q[1], x->q[2], x->q[3]) && unit4(x->s[0], x->s[1], x->s[2], x->s[3])
+           && unit4(x->c[0], x->c[1], x->c[2], x->c[3]) && x->pvv >= IMF_R(0.0)
+           && x->pgg >= IMF_R(0.0) && x->t >= IMF_R(0.0) && x->t_rest >= IMF_R(0.0)
+           && x->ref[0] >= IMF_R(0.0) && x->cand[0] >= IMF_R(0.0) && x->t_cand >= IMF_R(0.0)
+           && x->t_dist >= IMF_R(0.0) && x->t_ok >= IMF_R(0.0);
 }
 
 static imf_real sq3(const imf_real *const d)

@@ -315,5 +315,8 @@ def csrc_firmware(name: str, csrc_dir: "str | os.PathLike[str]", dtype: str = "f
             headers, sources = [h], [src]
             break
     defines = {"IMF_DOUBLE": None} if dtype == "float64" else {}
+    # each state word's C expression where the twin declares them (arrays: x.q[0] is q0)
+    state = {n: "x." + e for n, e in ref.c_state.items()} if hasattr(ref, "c_state") else None
     return Firmware(sources, headers=headers, include_dirs=[csrc_dir], defines=defines,
-                    init=f"{c}_init", update=ref.c_update, state_names=ref.state_names, **kwargs)
+                    init=f"{c}_init", update=ref.c_update, state=state,
+                    state_names=ref.state_names, **kwargs)

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import datetime
 import hashlib
-import inspect
 import json
 import os
 import re
@@ -273,7 +272,7 @@ def _host_deps(fw: Any, name: str, params: Mapping[str, Any]):
     generated harness)."""
     e = entry(name)
     args = e.reference._params(**params)           # imufuse.firmware.validate's C init values
-    names = list(inspect.signature(e.reference._init).parameters)[1:]
+    names = list(e.init_args)
     c_args = tuple(args) if len(names) != len(args) else dict(zip(names, args))
     src = fw.source(e.kind, len(fw._init_values(c_args, params)) if fw.init else 0)
     return fw._deps(src), hashlib.sha256(src.encode()).hexdigest()

@@ -4,7 +4,6 @@
 difference, and the build causes found (imufuse.firmware.causes), each confirmed by rebuilding
 with its fix.
 """
-import inspect
 import os
 import shutil
 import subprocess
@@ -314,7 +313,7 @@ def _c_values(e, params):
     if isinstance(e, _FusionEntry):
         return e.settings(params)
     args = e.reference._params(**params)
-    names = list(inspect.signature(e.reference._init).parameters)[1:]
+    names = list(e.init_args)
     if len(names) != len(args):
         return tuple(args)
     return dict(zip(names, args))

@@ -37,6 +37,7 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 import numpy as np
 
 from .. import reference as _reference
+from ..reference._base import init_names
 from .._checks import KINDS
 from ..bits import as_bits, bits_as_values, f32_hex
 from .driver import Driver
@@ -160,7 +161,7 @@ class FilterSpec:
                     f"does not match the reference c_init_args() ({', '.join(consts)})")
             return [literal(p, consts[p.name], "") for p in cparams]
         args = ref._params(**self.params, **({"profile": self.precision[1:]} if self.fixed else {}))
-        names = list(inspect.signature(ref._init).parameters)[1:]  # drop self
+        names = list(init_names(ref))
         cparams = self.c.init
         by_name = dict(zip(names, args)) if len(names) == len(args) else {}
         if all(p.name in by_name for p in cparams):

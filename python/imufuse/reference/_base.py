@@ -15,8 +15,9 @@ Subclasses define:
   state_names  the state variables, in the order of the C state struct; each
                is an attribute of the instance
   _params(...) staticmethod: validate constructor arguments, return the tuple
-               of C init arguments (shared with imufuse_c)
-  _init(*args) mirror of imf_<filter>_init
+               of C init arguments (shared with imufuse_c), or the filter's settings
+               record (settings_type, a _settings.SettingsRecord: RobustIMU, RobustAHRS)
+  _init(*args) mirror of imf_<filter>_init (_init(settings) with a settings record)
   _update(*scalars) mirror of imf_<filter>_update, inputs already of type R
   _set_dt(dt)  mirror of imf_<filter>_set_dt (dt of type R); _init calls it
   _set_attitude(att) 3-D filters: mirror of imf_<filter>_set_attitude
@@ -26,6 +27,7 @@ their own period (_set_dt before the update) and then restore the
 constructor's dt. Start (3-D filters): init="identity" | "first" (with
 init_window), q0= or state=; see _checks.check_start and attitude.py.
 """
+import dataclasses
 import inspect
 import math
 
@@ -81,7 +83,7 @@ class ReferenceFilter:
         """Back to the state after construction (init runs again)."""
         self.skipped = 0
         with np.errstate(all="ignore"):
-            self._init(*self._args)
+            call_init(self, self._args)
             self._apply_start()
 
     def _apply_start(self):
@@ -229,11 +231,13 @@ def _culprits(cls, names, args, dtype, key, tiny):
     for i in real:
         trial = list(args)
         trial[i] = 1.0
+        if dataclasses.is_dataclass(args):
+            trial = dataclasses.replace(args, **{names[i]: 1.0})
         mine, wide = _bare(cls, dtype), _bare(cls, "float64")
         try:
             with np.errstate(all="ignore"):
-                mine._init(*trial)
-                wide._init(*trial)
+                call_init(mine, trial)
+                call_init(wide, trial)
         except Exception:       # noqa: BLE001 - a trial value init cannot take
             continue
         if not _bad_constant(getattr(mine, key), getattr(wide, key), tiny):
@@ -249,7 +253,7 @@ def check_precision(cls, args, dtype):
     by the reference's _init in dtype) must be finite, and non-zero and
     normal wherever its float64 value is non-zero. Raises ValueError naming
     the parameters."""
-    names = list(inspect.signature(cls._init).parameters)[1:]
+    names = list(init_names(cls))
     fi = np.finfo(dtype)
     tiny = float(fi.tiny)
     for name, v in zip(names, args):
@@ -264,8 +268,8 @@ def check_precision(cls, args, dtype):
                                  f"smallest normal number {tiny:g})")
     mine, wide = _bare(cls, dtype), _bare(cls, "float64")
     with np.errstate(all="ignore"):
-        mine._init(*args)
-        wide._init(*args)
+        call_init(mine, args)
+        call_init(wide, args)
     for key, v in vars(mine).items():
         if key.startswith("_") or isinstance(v, (bool, int)) or \
                 not isinstance(v, (float, np.floating)):
@@ -282,6 +286,23 @@ def isfinite(*values):
     return all(math.isfinite(v) for v in values)
 
 
+def init_names(cls):
+    """The names of filter class `cls`'s C init arguments, in order: the members of its
+    settings record (settings_type) if it declares one, else its _init's parameters."""
+    record = getattr(cls, "settings_type", None)
+    if record is not None:
+        return tuple(f.name for f in dataclasses.fields(record))
+    return tuple(inspect.signature(cls._init).parameters)[1:]
+
+
+def call_init(obj, args):
+    """obj._init with what _params gave: its settings record, or the C init's arguments."""
+    if dataclasses.is_dataclass(args):
+        obj._init(args)
+    else:
+        obj._init(*args)
+
+
 _INIT_NAMES: dict = {}
 
 
@@ -292,7 +313,7 @@ def init_arguments(cls, args):
     init with these, by name."""
     names = _INIT_NAMES.get(cls)
     if names is None:
-        names = _INIT_NAMES[cls] = tuple(inspect.signature(cls._init).parameters)[1:]
+        names = _INIT_NAMES[cls] = init_names(cls)
     if len(names) != len(args):
         raise AssertionError(f"{cls.__name__}._params gives {len(args)} values for "
                              f"_init{names}")

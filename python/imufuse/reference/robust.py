@@ -1,5 +1,5 @@
 """imufuse's recommended AHRS (docs/recommended-ahrs.md): pure-Python twin of
-csrc/robust.c, line for line.
+csrc/robust.c: the same functions, in the same order, with the same comments.
 
 Longer than 500 lines because: it is the twin of robust.c (also one file), read side by
 side with it, block by block.
@@ -18,12 +18,19 @@ Building blocks (article chapters 3 and 4 applied to real sensors):
   B5 start from the first samples: every low-pass starts as a running mean;
   B6 the magnetometer's offset (hard iron) learnt while the sensor turns: a Kalman
      filter of the field in the inertial frame and the offset in the sensor frame.
+
+One sample: _step (B1 rest and the bias at rest, the strapdown, B2 gravity, the
+levelling, B3 the bias in motion), then _magnetometer (B6 the offset, B4 the heading;
+RobustAHRS only), then _output (the latency and B5's clock); the update keeps the new
+state only if every block accepted the sample.
 """
+import dataclasses
 import math
 
 from .. import _checks
 from ._base import QUAT_NORM2_TOL, ReferenceFilter, isfinite
 from ._math import qmul, qrotate
+from ._settings import REQUIRED, SettingsRecord, choice, deg_to_rad, real, setting
 
 #: the largest finite number of each precision (IMF_REAL_MAX)
 _REAL_MAX = {"float32": 3.4028234663852886e38, "float64": 1.7976931348623157e308}
@@ -32,12 +39,136 @@ _REAL_MAX = {"float32": 3.4028234663852886e38, "float64": 1.7976931348623157e308
 _LIMITS = {"float32": (1.1754943508222875e-38, 3.4028234663852886e+38),
            "float64": (2.2250738585072014e-308, 1.7976931348623157e+308)}
 
-_DEG = math.pi / 180.0
 
-#: B6's covariance, the upper triangle of the 6x6 (h, o) by rows (C: mp[21])
+# ---- the settings (robust.h: imf_robust_imu_settings_t, imf_robust_ahrs_settings_t) ----
+
+def _tau_bias(name, value, prior):
+    # B3: 0 (off) or >= 4 tau_acc
+    v = _checks.check_real(name, value, lo=0.0)
+    if 0.0 < v < 4.0 * prior["tau_acc"]:
+        raise ValueError("tau_bias: must be 0 (off) or >= 4 tau_acc (Eq. 3.12: "
+                         f"a damped bias loop), got {value!r}")
+    return v
+
+
+def _dip_sine(v):
+    # the dip test compares sines, in double for both backends; 90 deg or more: no dip test
+    return math.sin(deg_to_rad(v)) if v < 90.0 else 2.0
+
+
+@dataclasses.dataclass(frozen=True)
+class RobustIMUSettings(SettingsRecord):
+    """imf_robust_imu_settings_t, member for member, in the C's units: RobustIMU's
+    keywords (the user's default and unit), checked and converted once."""
+    #                   default   unit     check                                to C
+    dt: float = setting(REQUIRED, "s", real(lo=0.0, lo_open=True))
+    tau_acc: float = setting(2.5, "s", real(lo=0.0, lo_open=True))                   # B2
+    rate_ref: float = setting(100.0, "deg/s", real(lo=0.0), to_c=deg_to_rad)         # B2, rad/s
+    tau_bias: float = setting(100.0, "s", _tau_bias)                                 # B3
+    tau_bias_rest: float = setting(3.0, "s", real(lo=0.0, lo_open=True))             # B3
+    rest_gyr: float = setting(2.0, "deg/s", real(lo=0.0), to_c=deg_to_rad)           # B1, rad/s
+    rest_acc: float = setting(0.05, "g", real(lo=0.0))                               # B1
+    rest_time: float = setting(1.5, "s", real(lo=0.0))                               # B1
+    tau_rest: float = setting(0.5, "s", real(lo=0.0, lo_open=True))                  # B1
+    latency: float = setting(0.0, "s", real(lo=0.0, hi=0.1))                         # output
+
+
+@dataclasses.dataclass(frozen=True)
+class RobustAHRSSettings(RobustIMUSettings):
+    """imf_robust_ahrs_settings_t, member for member, in the C's units: RobustIMU's
+    settings, then the magnetometer's (B4, B6)."""
+    #                   default   unit     check                                to C
+    tau_mag: float = setting(10.0, "s", real(lo=0.0, lo_open=True))                  # B4
+    mag_norm: float = setting(0.1, "relative", real(lo=0.0))                         # B4
+    mag_dip: float = setting(10.0, "deg", real(lo=0.0, hi=180.0), to_c=_dip_sine)    # B4, sine
+    tau_mag_ref: float = setting(20.0, "s", real(lo=0.0, lo_open=True))              # B4
+    mag_new_time: float = setting(20.0, "s", real(lo=0.0))                           # B4
+    mag_hold: float = setting(0.5, "s", real(lo=0.0))                                # B4
+    mag_learn: int = setting(True, "bool", choice(True, False), to_c=int)            # B6, 0 or 1
+    mag_noise: float = setting(0.02, "relative", real(lo=0.0, lo_open=True, hi=1.0))  # B6
+    mag_lag: float = setting(0.003, "s", real(lo=0.0, hi=0.1))                       # B6
+    mag_offset_min: float = setting(0.1, "relative", real(lo=0.0))                   # B6
+
+
+# ---- the state (robust.h: imf_robust_state_t) ----------------------------------------
+
+#: B6's covariance, the upper triangle of the 6x6 (h, o) by rows (C: P[21])
 _PNAMES = tuple(f"p{i}{j}" for i in range(6) for j in range(i, 6))
 #: index of P[i][j] in that triangle (C: robust_pi)
 _PI = [[_PNAMES.index(f"p{min(i, j)}{max(i, j)}") for j in range(6)] for i in range(6)]
+
+#: imf_robust_state_t member by member: (member, the names of its words in state_names;
+#: None: one word, named as the member)
+_MEMBERS = (("q", ("q0", "q1", "q2", "q3")),          # estimate, sensor -> earth
+            ("s", ("s0", "s1", "s2", "s3")),          # strapdown: sensor -> inertial frame
+            ("c", ("c0", "c1", "c2", "c3")),          # correction: inertial -> earth frame
+            ("f", ("fx", "fy", "fz")),                # B2: gravity in the inertial frame
+            ("v", ("vx", "vy", "vz")),                # B2: velocity-like state, acc unit * s
+            ("pvv", None), ("pvg", None), ("pgg", None),  # B2: covariance (three axes)
+            ("b", ("bx", "by", "bz")),                # gyro bias, rad/s
+            ("lw", ("lwx", "lwy", "lwz")),            # B1: low-passed gyro, rad/s
+            ("la", ("lax", "lay", "laz")),            # B1: low-passed accelerometer
+            ("t", None), ("t_rest", None),            # time since start (saturating), at rest
+            ("ref", ("rn", "rh", "rz")),              # B4: reference: norm, cos dip, vertical
+            ("cand", ("cn", "ch", "cz")),             # B4: candidate reference (changed field)
+            ("t_cand", None), ("t_dist", None),       # B4: candidate stable for, disturbed for
+            ("t_ok", None),                           # B4: matching the reference for, s
+            ("hi", ("hx", "hy", "hz", "ix", "iy", "iz")),  # B6: field h, offset estimate
+            ("P", _PNAMES),                           # B6: their covariance, upper triangle
+            ("u", ("ux", "uy", "uz")),                # B6: offset in use (B4 reads m - u)
+            ("so", ("sx", "sy", "sz")),               # B6: stored offset (set_mag_offset)
+            ("m_n0", None),                           # B6: field unit (0: not started)
+            ("m_ew", None), ("m_d2", None),           # B6: mean and last normalised innovation
+            ("m_std", None),                          # B6: the offset's standard deviation
+            ("m_axis", None),                         # B6: the axis the next reading updates
+            ("m_bad", None))                          # B6: absurd readings for, s
+#: the members an IMU update can change (C: ROBUST_IMU_BYTES, the words before hi)
+_IMU_MEMBERS = tuple(m for m, _ in _MEMBERS[:[m for m, _ in _MEMBERS].index("hi")])
+
+
+class _State:
+    """The state (C: imf_robust_state_t), its members named as in C: x.lw is x->lw."""
+    __slots__ = tuple(m for m, _ in _MEMBERS)
+
+    @classmethod
+    def zero(cls, R):
+        # every word 0
+        x = cls()
+        for m, names in _MEMBERS:
+            setattr(x, m, R(0.0) if names is None else [R(0.0)] * len(names))
+        return x
+
+    def copy(self):
+        # the working copy (C: imf_robust_state_t x = self->x)
+        x = _State()
+        for m, names in _MEMBERS:
+            v = getattr(self, m)
+            setattr(x, m, v if names is None else list(v))
+        return x
+
+    def words(self, members):
+        # the words of these members, in the struct's order
+        out = []
+        for m in members:
+            v = getattr(self, m)
+            out.extend(v if isinstance(v, list) else (v,))
+        return out
+
+
+def _word(member, i):
+    # state_names' word: member[i] of the state (i None: the member itself)
+    if i is None:
+        return property(lambda self: getattr(self.x, member),
+                        lambda self, v: setattr(self.x, member, v))
+
+    def get(self):
+        return getattr(self.x, member)[i]
+
+    def put(self, v):
+        getattr(self.x, member)[i] = v
+    return property(get, put)
+
+
 # B6's fixed model (C: ROBUST_MAG_*): walks of the field and of the offset per s, the
 # offset's prior variance, the one-axis innovation gate, the offset's jump, the weight of
 # the innovation's running mean and its consistent bound, the trusted standard deviation
@@ -54,49 +185,12 @@ class _Robust(ReferenceFilter):
     own_start = ("this filter starts from its first sample (its tilt from gravity; RobustAHRS "
                  "its heading from the field), which would overwrite a start attitude; leave "
                  "q0 out, or resume a saved filter with state= (its full state)")
-    state_names = ("q0", "q1", "q2", "q3",      # estimate, sensor -> earth
-                   "s0", "s1", "s2", "s3",      # strapdown: sensor -> inertial frame
-                   "c0", "c1", "c2", "c3",      # correction: inertial -> earth frame
-                   "fx", "fy", "fz",            # gravity (specific force) in the inertial frame
-                   "vx", "vy", "vz",            # velocity-like state of B2, acc unit * s
-                   "pvv", "pvg", "pgg",         # its covariance (shared by the three axes)
-                   "bx", "by", "bz",            # gyro bias, rad/s
-                   "lwx", "lwy", "lwz",         # low-passed gyro (rest detection), rad/s
-                   "lax", "lay", "laz",         # low-passed accelerometer (rest detection)
-                   "t", "t_rest",               # time since start (saturating), at rest, s
-                   "rn", "rh", "rz",            # magnetic reference: norm, cos dip, -sin dip
-                   "cn", "ch", "cz",            # candidate reference (a changed field)
-                   "t_cand", "t_dist", "t_ok",  # candidate stable for, disturbed for,
-                                                #   field matching the reference for, s
-                   "hx", "hy", "hz",            # B6: field in the inertial frame, relative
-                   "ix", "iy", "iz",            # offset estimate in the sensor frame, relative
-                   *_PNAMES,                    # their covariance, upper triangle by rows
-                   "ux", "uy", "uz",            # offset in use, field unit (B4 reads m - u)
-                   "sx", "sy", "sz",            # stored offset (set_mag_offset), field unit
-                   "m_n0",                      # the estimator's field unit (0: not started)
-                   "m_ew", "m_d2",              # mean and last normalised innovation
-                   "m_std",                     # the offset estimate's standard deviation
-                   "m_axis",                    # the axis the next reading updates: 0, 1, 2
-                   "m_bad")                     # absurd readings for, s (restart after 1 s)
-
-    @staticmethod
-    def _imu_params(tau_acc=2.5, rate_ref=100.0, tau_bias=100.0, tau_bias_rest=3.0,
-                    rest_gyr=2.0, rest_acc=0.05, rest_time=1.5, tau_rest=0.5, latency=0.0):
-        tau_acc = _checks.check_real("tau_acc", tau_acc, lo=0.0, lo_open=True)
-        rate_ref = _checks.check_real("rate_ref", rate_ref, lo=0.0)
-        tau_bias = _checks.check_real("tau_bias", tau_bias, lo=0.0)
-        if 0.0 < tau_bias < 4.0 * tau_acc:
-            raise ValueError("tau_bias: must be 0 (off) or >= 4 tau_acc (Eq. 3.12: "
-                             f"a damped bias loop), got {tau_bias!r}")
-        tau_bias_rest = _checks.check_real("tau_bias_rest", tau_bias_rest, lo=0.0, lo_open=True)
-        rest_gyr = _checks.check_real("rest_gyr", rest_gyr, lo=0.0)
-        rest_acc = _checks.check_real("rest_acc", rest_acc, lo=0.0)
-        rest_time = _checks.check_real("rest_time", rest_time, lo=0.0)
-        tau_rest = _checks.check_real("tau_rest", tau_rest, lo=0.0, lo_open=True)
-        latency = _checks.check_real("latency", latency, lo=0.0, hi=0.1)
-        # deg/s -> rad/s here, in double, for both backends
-        return (tau_acc, rate_ref * _DEG, tau_bias, tau_bias_rest, rest_gyr * _DEG, rest_acc,
-                rest_time, tau_rest, latency)
+    #: the state's words, in the order of imf_robust_state_t (_MEMBERS expanded)
+    state_names = tuple(m if names is None else n for m, names in _MEMBERS
+                        for n in (names or (m,)))
+    #: each word's C expression in the state (the firmware harnesses read x.<expression>)
+    c_state = {n: m if names is None else f"{m}[{i}]" for m, names in _MEMBERS
+               for i, n in enumerate(names or (m,))}
 
     @classmethod
     def _valid_state(cls, args, R, state):
@@ -116,275 +210,262 @@ class _Robust(ReferenceFilter):
             return f"m_axis = {float(state[names.index('m_axis')])!r}, must be 0, 1 or 2"
         return None
 
-    # imf_robust_init (shared settings of both filters)
-    def _init_common(self, dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
-                     rest_time, tau_rest, latency, tau_mag, mag_norm, mag_dip, tau_mag_ref,
-                     mag_new_time, mag_hold, mag_learn, mag_noise, mag_lag, mag_offset_min):
-        R = self._R
-        lo, hi = _LIMITS[self.dtype]
-        self._min, self._max = R(lo), R(hi)
-        self._real_max = R(_REAL_MAX[self.dtype])
-        self.tau_acc = R(tau_acc)
-        self.tau_bias = R(tau_bias)
-        self.tau_bias_rest = R(tau_bias_rest)
-        self.tau_rest = R(tau_rest)
-        self.latency = R(latency)
-        self.tau_mag = R(tau_mag)
-        self.tau_mag_ref = R(tau_mag_ref)
-        # B2: gravity process noise q_g = (1 + |w|^2 / rate_ref^2) / tau_acc^4 per s, with the
-        # velocity measurement noise 1 (any acc unit): the steady state is a second-order
-        # low-pass with omega_0 = 1 / tau_acc and damping 1/sqrt(2) at rest
-        ta2 = self.tau_acc * self.tau_acc
-        self.qg0 = R(1.0) / (ta2 * ta2)
-        self.pgg0 = R(1.0) / (ta2 * self.tau_acc)
-        rr = R(rate_ref)
-        self.inv_rate_ref2 = R(1.0) / (rr * rr) if rr > R(0.0) else R(0.0)
-        self.inv_tau_bias = R(1.0) / self.tau_bias if self.tau_bias > R(0.0) else R(0.0)
-        rg = R(rest_gyr)
-        self.rest_gyr2 = rg * rg
-        ra = R(rest_acc)
-        self.rest_acc2 = ra * ra
-        self.rest_time = R(rest_time)
-        self.mag_norm = R(mag_norm)
-        self.mag_dip = R(mag_dip)
-        self.mag_new_time = R(mag_new_time)
-        self.mag_hold = R(mag_hold)
-        self.c48 = R(1.0) / R(48.0)
-        self.mag_learn = int(mag_learn)
-        self.mag_noise2 = R(mag_noise) * R(mag_noise)
-        self.mag_lag2 = R(mag_lag) * R(mag_lag)
-        self.mag_offset_min2 = R(mag_offset_min) * R(mag_offset_min)
-        # t saturates at the longest start-up horizon
-        tmax = self.tau_acc
-        for v in (self.tau_rest, self.tau_mag, self.tau_mag_ref):
-            if v > tmax:
-                tmax = v
-        self.t_max = tmax
-        self._set_dt(R(dt))
-        self.q0, self.q1, self.q2, self.q3 = R(1.0), R(0.0), R(0.0), R(0.0)
-        self.s0, self.s1, self.s2, self.s3 = R(1.0), R(0.0), R(0.0), R(0.0)
-        self.c0, self.c1, self.c2, self.c3 = R(1.0), R(0.0), R(0.0), R(0.0)
-        self.fx, self.fy, self.fz = R(0.0), R(0.0), R(0.0)
-        self.vx, self.vy, self.vz = R(0.0), R(0.0), R(0.0)
-        self.pvv, self.pvg, self.pgg = R(0.0), R(0.0), R(0.0)
-        self.bx, self.by, self.bz = R(0.0), R(0.0), R(0.0)
-        self.lwx, self.lwy, self.lwz = R(0.0), R(0.0), R(0.0)
-        self.lax, self.lay, self.laz = R(0.0), R(0.0), R(0.0)
-        self.t, self.t_rest = R(0.0), R(0.0)
-        self.rn, self.rh, self.rz = R(0.0), R(0.0), R(0.0)
-        self.cn, self.ch, self.cz = R(0.0), R(0.0), R(0.0)
-        self.t_cand, self.t_dist, self.t_ok = R(0.0), R(0.0), R(0.0)
-        self._offset_clear()
+    # ---- helpers (quaternion product and rotation: _math) ----------------------------
 
-    # B6 at init (robust_offset_clear): no offset stored, the estimator starts at the
-    # first reading
-    def _offset_clear(self):
+    def _norm4(self, q):
+        # unit quaternion in place; False when the normalisation fails (squared norm zero,
+        # subnormal, overflowed or NaN: valid-attitude policy)
         R = self._R
-        self.hx, self.hy, self.hz = R(0.0), R(0.0), R(0.0)
-        self.ix, self.iy, self.iz = R(0.0), R(0.0), R(0.0)
-        for n in _PNAMES:
-            setattr(self, n, R(0.0))
-        self.ux, self.uy, self.uz = R(0.0), R(0.0), R(0.0)
-        self.sx, self.sy, self.sz = R(0.0), R(0.0), R(0.0)
-        self.m_n0 = R(0.0)
-        self.m_ew = R(0.0)
-        self.m_d2 = R(0.0)
-        self.m_std = R(1.0)
-        self.m_axis = R(0.0)
-        self.m_bad = R(0.0)
-
-    # imf_robust_*_set_dt: every dt-dependent constant, as init computes it
-    def _set_dt(self, dt):
-        R = self._R
-        self.dt = dt
-        self.two_dt = R(2.0) * dt
-        self.dt2 = dt * dt
-        self.r_d = R(1.0) / dt
-        self.qg_dt = self.qg0 * dt
-        self.k_rest = dt / (self.tau_rest + dt)
-        self.kb_rest = dt / (self.tau_bias_rest + dt)
-        self.k_mag = dt / (self.tau_mag + dt)
-        self.k_ref = dt / (self.tau_mag_ref + dt)
-
-    # imf_robust_*_set_attitude: start again from att (the next sample is the first)
-    def _set_attitude(self, att):
-        R = self._R
-        self.q0, self.q1, self.q2, self.q3 = att.q
-        self.s0, self.s1, self.s2, self.s3 = att.q
-        self.c0, self.c1, self.c2, self.c3 = R(1.0), R(0.0), R(0.0), R(0.0)
-        self.t = R(0.0)
-        self.rn = R(0.0)
-        self.m_n0 = R(0.0)
-
-    # ---- helpers ------------------------------------------------------------
-
-    def _norm4(self, w, x, y, z):
-        # unit quaternion, or None when the normalisation fails (valid-attitude policy)
-        R = self._R
-        n2 = w * w + x * x + y * y + z * z
+        n2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]
         if not (n2 >= self._min and n2 <= self._max):
-            return None
+            return False
         r = R(1.0) / R(math.sqrt(n2))
-        return w * r, x * r, y * r, z * r
+        q[0] = q[0] * r
+        q[1] = q[1] * r
+        q[2] = q[2] * r
+        q[3] = q[3] * r
+        return True
 
     def _gain(self, t, tau, k):
         # B5: a running mean until tau, then the low-pass gain k = dt / (tau + dt)
         if t < tau:
-            return self.dt / (t + self.dt)
+            return self.s.dt / (t + self.s.dt)
         return k
 
-    # ---- the update ---------------------------------------------------------
-
-    def _step(self, x, gx, gy, gz, ax, ay, az):
-        """Gyro + accelerometer part. x: the working state (_State). Returns the
-        inclination correction r (for the bias) or None to reject the sample."""
+    def _turn_by(self, o, q, g, b, h):
+        # q (x) exp(1/2 w h) into o, h = dt or the latency: the series to 4th order (no
+        # sin/cos), w = g - b; False when the normalisation fails
         R = self._R
-        dt = self.dt
-        first = x.t == R(0.0)
-        # an all-zero accelerometer is no reading: gyro only (and no start without one)
-        has_acc = not (ax == R(0.0) and ay == R(0.0) and az == R(0.0))
-        if first and not has_acc:
-            return None
-        if has_acc and not first:
-            # a reading beyond 100 times the gravity estimate (100 g) is a shock or a
-            # hostile value: it says nothing about gravity, and is no reading
-            f2 = x.fx * x.fx + x.fy * x.fy + x.fz * x.fz
-            if not (ax * ax + ay * ay + az * az <= R(1.0e4) * f2):
-                has_acc = False
-        # B1: rest detection, low-passes of gyro and accelerometer in the sensor frame
-        k = self._gain(x.t, self.tau_rest, self.k_rest)
-        x.lwx = x.lwx + k * (gx - x.lwx)
-        x.lwy = x.lwy + k * (gy - x.lwy)
-        x.lwz = x.lwz + k * (gz - x.lwz)
-        if has_acc:
-            x.lax = x.lax + k * (ax - x.lax)
-            x.lay = x.lay + k * (ay - x.lay)
-            x.laz = x.laz + k * (az - x.laz)
-        w2 = x.lwx * x.lwx + x.lwy * x.lwy + x.lwz * x.lwz
-        g2 = gx * gx + gy * gy + gz * gz
-        dx = ax - x.lax
-        dy = ay - x.lay
-        dz = az - x.laz
-        d2 = dx * dx + dy * dy + dz * dz
-        a2 = x.lax * x.lax + x.lay * x.lay + x.laz * x.laz
-        if has_acc and w2 < self.rest_gyr2 and g2 < self.rest_gyr2 and d2 < self.rest_acc2 * a2:
-            x.t_rest = x.t_rest + dt
-            if x.t_rest > self.rest_time:
-                x.t_rest = self.rest_time
-        else:
-            x.t_rest = R(0.0)
-        rest = x.t_rest >= self.rest_time
-        if rest:
-            # Eq. 3.1: b_k = b_{k-1}, observed directly at rest
-            x.bx = x.bx + self.kb_rest * (gx - x.bx)
-            x.by = x.by + self.kb_rest * (gy - x.by)
-            x.bz = x.bz + self.kb_rest * (gz - x.bz)
-        # strapdown: s = s (x) exp(1/2 (w - b) dt), series to 4th order (no sin/cos)
-        ox = (gx - x.bx) * dt
-        oy = (gy - x.by) * dt
-        oz = (gz - x.bz) * dt
+        ox = (g[0] - b[0]) * h
+        oy = (g[1] - b[1]) * h
+        oz = (g[2] - b[2]) * h
         th2 = ox * ox + oy * oy + oz * oz
         cw = R(1.0) - th2 * R(0.125)
         sv = R(0.5) - th2 * self.c48
-        s = qmul(x.s0, x.s1, x.s2, x.s3, cw, sv * ox, sv * oy, sv * oz)
-        s = self._norm4(*s)
-        if s is None:
-            return None
-        x.s0, x.s1, x.s2, x.s3 = s
-        # B2: the accelerometer in the inertial frame
-        aix, aiy, aiz = qrotate(R, *s, ax, ay, az)
+        o[0], o[1], o[2], o[3] = qmul(q[0], q[1], q[2], q[3], cw, sv * ox, sv * oy, sv * oz)
+        return self._norm4(o)
+
+    # ---- init, dt, attitude -----------------------------------------------------------
+
+    # imf_robust_*_set_dt: every dt-dependent constant, as init computes it
+    def _set_dt(self, dt):
+        R = self._R
+        self.s.dt = dt
+        self.two_dt = R(2.0) * dt
+        self.dt2 = dt * dt
+        self.r_d = R(1.0) / dt
+        self.qg_dt = self.qg0 * dt
+        self.k_rest = dt / (self.s.tau_rest + dt)
+        self.kb_rest = dt / (self.s.tau_bias_rest + dt)
+        self.k_mag = dt / (self.s.tau_mag + dt)
+        self.k_ref = dt / (self.s.tau_mag_ref + dt)
+
+    # robust_init: the settings s (a RobustAHRSSettings, C units) as the C keeps them
+    # (imf_real), and the constants derived from them once; the state
+    def _init_filter(self, s):
+        R = self._R
+        lo, hi = _LIMITS[self.dtype]
+        self._min, self._max = R(lo), R(hi)
+        self._real_max = R(_REAL_MAX[self.dtype])
+        self.s = s = s.as_real(R)
+        rate_ref, rest_gyr, rest_acc = s.rate_ref, s.rest_gyr, s.rest_acc
+        # B2: gravity process noise q_g = (1 + |w|^2 / rate_ref^2) / tau_acc^4 per s, with the
+        # velocity measurement noise 1 (any acc unit): the steady state is a second-order
+        # low-pass with omega_0 = 1 / tau_acc and damping 1/sqrt(2) at rest
+        ta2 = s.tau_acc * s.tau_acc
+        self.qg0 = R(1.0) / (ta2 * ta2)
+        self.pgg0 = R(1.0) / (ta2 * s.tau_acc)
+        self.inv_rate_ref2 = R(1.0) / (rate_ref * rate_ref) if rate_ref > R(0.0) else R(0.0)
+        self.inv_tau_bias = R(1.0) / s.tau_bias if s.tau_bias > R(0.0) else R(0.0)
+        self.rest_gyr2 = rest_gyr * rest_gyr
+        self.rest_acc2 = rest_acc * rest_acc
+        self.c48 = R(1.0) / R(48.0)
+        self.mag_noise2 = s.mag_noise * s.mag_noise
+        self.mag_lag2 = s.mag_lag * s.mag_lag
+        self.mag_min2 = s.mag_offset_min * s.mag_offset_min
+        # t saturates at the longest start-up horizon
+        tmax = s.tau_acc
+        for v in (s.tau_rest, s.tau_mag, s.tau_mag_ref):
+            if v > tmax:
+                tmax = v
+        self.t_max = tmax
+        self._set_dt(s.dt)
+        # every word 0; the three quaternions the identity; B6: no offset stored, the
+        # estimator starts at the first reading, its standard deviation 1
+        self.x = _State.zero(R)
+        self.x.q[0] = R(1.0)
+        self.x.s[0] = R(1.0)
+        self.x.c[0] = R(1.0)
+        self.x.m_std = R(1.0)
+
+    # imf_robust_*_set_attitude: start again from att (the next sample is the first)
+    def _set_attitude(self, att):
+        R = self._R
+        x = self.x
+        x.q = list(att.q)
+        x.s = list(att.q)
+        x.c = [R(1.0), R(0.0), R(0.0), R(0.0)]
+        x.t = R(0.0)
+        x.ref[0] = R(0.0)
+        x.m_n0 = R(0.0)
+
+    # ---- gyro and accelerometer: B1, strapdown, B2, levelling, B3 ----------------------
+
+    def _acc_reading(self, x, a, first):
+        # the accelerometer reading a is one: not all zero (no reading: gyro only), and
+        # within 100 times the gravity estimate (beyond, a shock or a hostile value that
+        # says nothing about gravity)
+        R = self._R
+        if a[0] == R(0.0) and a[1] == R(0.0) and a[2] == R(0.0):
+            return False
+        if first:
+            return True
+        f2 = x.f[0] * x.f[0] + x.f[1] * x.f[1] + x.f[2] * x.f[2]
+        return a[0] * a[0] + a[1] * a[1] + a[2] * a[2] <= R(1.0e4) * f2
+
+    def _rest(self, x, g, a, has_acc, g2):
+        """B1: rest detection from low-passes of gyro and accelerometer in the sensor frame,
+        and the bias observed at rest (Eq. 3.1: b_k = b_{k-1}). g2: |g|^2. Returns (rest,
+        w2: the low-passed rate squared, B2's process noise)."""
+        R = self._R
+        k = self._gain(x.t, self.s.tau_rest, self.k_rest)
+        x.lw[0] = x.lw[0] + k * (g[0] - x.lw[0])
+        x.lw[1] = x.lw[1] + k * (g[1] - x.lw[1])
+        x.lw[2] = x.lw[2] + k * (g[2] - x.lw[2])
+        if has_acc:
+            x.la[0] = x.la[0] + k * (a[0] - x.la[0])
+            x.la[1] = x.la[1] + k * (a[1] - x.la[1])
+            x.la[2] = x.la[2] + k * (a[2] - x.la[2])
+        w2 = x.lw[0] * x.lw[0] + x.lw[1] * x.lw[1] + x.lw[2] * x.lw[2]
+        dx = a[0] - x.la[0]
+        dy = a[1] - x.la[1]
+        dz = a[2] - x.la[2]
+        d2 = dx * dx + dy * dy + dz * dz
+        a2 = x.la[0] * x.la[0] + x.la[1] * x.la[1] + x.la[2] * x.la[2]
+        if has_acc and w2 < self.rest_gyr2 and g2 < self.rest_gyr2 and d2 < self.rest_acc2 * a2:
+            x.t_rest = x.t_rest + self.s.dt
+            if x.t_rest > self.s.rest_time:
+                x.t_rest = self.s.rest_time
+        else:
+            x.t_rest = R(0.0)
+        if not (x.t_rest >= self.s.rest_time):
+            return False, w2
+        x.b[0] = x.b[0] + self.kb_rest * (g[0] - x.b[0])
+        x.b[1] = x.b[1] + self.kb_rest * (g[1] - x.b[1])
+        x.b[2] = x.b[2] + self.kb_rest * (g[2] - x.b[2])
+        return True, w2
+
+    def _strapdown(self, x, g):
+        # strapdown: s = s (x) exp(1/2 (w - b) dt)
+        s = [self._R(0.0)] * 4
+        if not self._turn_by(s, x.s, g, x.b, self.s.dt):
+            return False
+        x.s = s
+        return True
+
+    def _gravity(self, x, a, first, has_acc, w2):
+        # B2: gravity in the inertial frame, a Kalman filter of (v, f) per axis fed with the
+        # accelerometer in that frame; from the first sample (B5)
+        R = self._R
+        dt = self.s.dt
+        ai = qrotate(R, x.s[0], x.s[1], x.s[2], x.s[3], a[0], a[1], a[2])
         if first:
             # B5: gravity from the first sample
-            x.fx, x.fy, x.fz = aix, aiy, aiz
-            x.vx, x.vy, x.vz = R(0.0), R(0.0), R(0.0)
-            x.pvv, x.pvg, x.pgg = R(0.0), R(0.0), self.pgg0
-        elif has_acc:
-            # predict: v' = a - g, g' = 0 (+ process noise growing with the rotation rate)
-            x.vx = x.vx + dt * (aix - x.fx)
-            x.vy = x.vy + dt * (aiy - x.fy)
-            x.vz = x.vz + dt * (aiz - x.fz)
-            # (w / rate_ref)^2 capped at 10^4 (100 rate_ref: beyond any gyro's range), so
-            # that hostile rates cannot blow the covariance up
-            rr = w2 * self.inv_rate_ref2
-            if not (rr <= R(1.0e4)):
-                rr = R(1.0e4)
-            qg = self.qg_dt + self.qg_dt * rr
-            pvv = x.pvv - self.two_dt * x.pvg + self.dt2 * x.pgg
-            pvg = x.pvg - dt * x.pgg
-            pgg = x.pgg + qg
-            # update with the pseudo-measurement v = 0 (noise 1 / dt per sample)
-            inv = R(1.0) / (pvv + self.r_d)
-            kv = pvv * inv
-            kg = pvg * inv
-            x.fx = x.fx - kg * x.vx
-            x.fy = x.fy - kg * x.vy
-            x.fz = x.fz - kg * x.vz
-            x.vx = x.vx - kv * x.vx
-            x.vy = x.vy - kv * x.vy
-            x.vz = x.vz - kv * x.vz
-            x.pgg = pgg - kg * pvg
-            x.pvg = pvg - kv * pvg
-            x.pvv = pvv - kv * pvv
-        # inclination: the smallest rotation r that turns the gravity estimate onto earth z
-        gex, gey, gez = qrotate(R, x.c0, x.c1, x.c2, x.c3,
-                                x.fx, x.fy, x.fz)
-        gn = R(math.sqrt(gex * gex + gey * gey + gez * gez))
-        r = self._norm4(gn + gez, gey, -gex, R(0.0))
-        if r is None:
+            x.f = list(ai)
+            x.v = [R(0.0), R(0.0), R(0.0)]
+            x.pvv = R(0.0)
+            x.pvg = R(0.0)
+            x.pgg = self.pgg0
+            return
+        if not has_acc:
+            return
+        # predict: v' = a - g, g' = 0 (+ process noise growing with the rotation rate)
+        x.v[0] = x.v[0] + dt * (ai[0] - x.f[0])
+        x.v[1] = x.v[1] + dt * (ai[1] - x.f[1])
+        x.v[2] = x.v[2] + dt * (ai[2] - x.f[2])
+        # (w / rate_ref)^2 capped at 10^4 (100 rate_ref: beyond any gyro's range), so
+        # that hostile rates cannot blow the covariance up
+        rr = w2 * self.inv_rate_ref2
+        if not (rr <= R(1.0e4)):
+            rr = R(1.0e4)
+        qg = self.qg_dt + self.qg_dt * rr
+        pvv = x.pvv - self.two_dt * x.pvg + self.dt2 * x.pgg
+        pvg = x.pvg - dt * x.pgg
+        pgg = x.pgg + qg
+        # update with the pseudo-measurement v = 0 (noise 1 / dt per sample)
+        inv = R(1.0) / (pvv + self.r_d)
+        kv = pvv * inv
+        kg = pvg * inv
+        x.f[0] = x.f[0] - kg * x.v[0]
+        x.f[1] = x.f[1] - kg * x.v[1]
+        x.f[2] = x.f[2] - kg * x.v[2]
+        x.v[0] = x.v[0] - kv * x.v[0]
+        x.v[1] = x.v[1] - kv * x.v[1]
+        x.v[2] = x.v[2] - kv * x.v[2]
+        x.pgg = pgg - kg * pvg
+        x.pvg = pvg - kv * pvg
+        x.pvv = pvv - kv * pvv
+
+    def _level(self, x, r):
+        # levelling: the smallest rotation r that turns the gravity estimate onto earth z,
+        # into the correction c, and q = c (x) s; False rejects the sample
+        R = self._R
+        ge = qrotate(R, x.c[0], x.c[1], x.c[2], x.c[3], x.f[0], x.f[1], x.f[2])
+        gn = R(math.sqrt(ge[0] * ge[0] + ge[1] * ge[1] + ge[2] * ge[2]))
+        r[0] = gn + ge[2]
+        r[1] = ge[1]
+        r[2] = -ge[0]
+        r[3] = R(0.0)
+        if not self._norm4(r):
             # gravity straight down (upside down, r = 0): any half turn about a horizontal
             # axis is a smallest rotation; about x. Otherwise (not finite) reject.
             if not (gn > R(0.0) and gn <= self._real_max):
-                return None
-            r = (R(0.0), R(1.0), R(0.0), R(0.0))
-        r0, r1, r2, _ = r
-        c0, c1, c2, c3 = x.c0, x.c1, x.c2, x.c3
-        c = self._norm4(r0 * c0 - r1 * c1 - r2 * c2,
-                        r0 * c1 + r1 * c0 + r2 * c3,
-                        r0 * c2 - r1 * c3 + r2 * c0,
-                        r0 * c3 + r1 * c2 - r2 * c1)
-        if c is None:
-            return None
-        x.c0, x.c1, x.c2, x.c3 = c
-        q = self._norm4(*qmul(*c, *s))
-        if q is None:
-            return None
-        x.q0, x.q1, x.q2, x.q3 = q
-        # B3: the correction rate seen in the sensor frame is minus the bias error
-        # (Eq. 3.6, I_k = I_{k-1} + Ki dt e_k, with Ki dt = 1 / tau_bias)
-        if not rest and x.t >= self.tau_acc and self.inv_tau_bias > R(0.0):
-            ex, ey, ez = qrotate(R, q[0], -q[1], -q[2], -q[3], R(2.0) * r1, R(2.0) * r2, R(0.0))
-            x.bx = x.bx - ex * self.inv_tau_bias
-            x.by = x.by - ey * self.inv_tau_bias
-            x.bz = x.bz - ez * self.inv_tau_bias
-        return True
-
-    def _predict(self, x, gx, gy, gz):
-        """The output: q = c (x) s, then predicted by the sensor's latency with the
-        bias-corrected rate (q (x) exp(1/2 (w - b) latency), series as the strapdown).
-        Returns False to reject the sample."""
-        R = self._R
-        if not (self.latency > R(0.0)):
-            return True
-        ox = (gx - x.bx) * self.latency
-        oy = (gy - x.by) * self.latency
-        oz = (gz - x.bz) * self.latency
-        th2 = ox * ox + oy * oy + oz * oz
-        cw = R(1.0) - th2 * R(0.125)
-        sv = R(0.5) - th2 * self.c48
-        q = self._norm4(*qmul(x.q0, x.q1, x.q2, x.q3,
-                               cw, sv * ox, sv * oy, sv * oz))
-        if q is None:
+                return False
+            r[0] = R(0.0)
+            r[1] = R(1.0)
+            r[2] = R(0.0)
+        c = [r[0] * x.c[0] - r[1] * x.c[1] - r[2] * x.c[2],
+             r[0] * x.c[1] + r[1] * x.c[0] + r[2] * x.c[3],
+             r[0] * x.c[2] - r[1] * x.c[3] + r[2] * x.c[0],
+             r[0] * x.c[3] + r[1] * x.c[2] - r[2] * x.c[1]]
+        if not self._norm4(c):
             return False
-        x.q0, x.q1, x.q2, x.q3 = q
+        x.c = c
+        q = list(qmul(c[0], c[1], c[2], c[3], x.s[0], x.s[1], x.s[2], x.s[3]))
+        if not self._norm4(q):
+            return False
+        x.q = q
         return True
 
-    def _mag_test(self, mn, hn, zn, n, h, z):
-        # the field matches the reference (n, h, z): norm within mag_norm n and dip
-        # within mag_dip (sin of the dip difference = zn h - hn z)
-        dn = mn - n
-        dd = zn * h - hn * z
-        tn = self.mag_norm * n
-        return dn < tn and -dn < tn and dd < self.mag_dip and -dd < self.mag_dip
+    def _bias(self, x, r, rest):
+        # B3: in motion, the correction rate seen in the sensor frame is minus the bias error
+        # (Eq. 3.6, I_k = I_{k-1} + Ki dt e_k, with Ki dt = 1 / tau_bias)
+        R = self._R
+        if not rest and x.t >= self.s.tau_acc and self.inv_tau_bias > R(0.0):
+            e = qrotate(R, x.q[0], -x.q[1], -x.q[2], -x.q[3], R(2.0) * r[1], R(2.0) * r[2],
+                        R(0.0))
+            x.b[0] = x.b[0] - e[0] * self.inv_tau_bias
+            x.b[1] = x.b[1] - e[1] * self.inv_tau_bias
+            x.b[2] = x.b[2] - e[2] * self.inv_tau_bias
+
+    def _step(self, x, g, a, g2):
+        """Gyro (rad/s) and accelerometer of one sample through B1, the strapdown, B2, the
+        levelling and B3, on the working state x; False rejects the sample."""
+        first = x.t == self._R(0.0)
+        has_acc = self._acc_reading(x, a, first)
+        r = [self._R(0.0)] * 4
+        if first and not has_acc:
+            return False   # no start without an accelerometer reading
+        rest, w2 = self._rest(x, g, a, has_acc, g2)   # B1
+        if not self._strapdown(x, g):
+            return False
+        self._gravity(x, a, first, has_acc, w2)   # B2
+        if not self._level(x, r):
+            return False
+        self._bias(x, r, rest)   # B3
+        return True
+
+    # ---- magnetometer: B6, B4 ----------------------------------------------------------
 
     def _offset_axis(self, mp, xs, i, h0, h1, h2, y, rr):
         """B6: the scalar update of axis i, measurement y with noise rr, H = (h0, h1, h2,
@@ -404,15 +485,69 @@ class _Robust(ReferenceFilter):
                 mp[_PI[j][k]] = mp[_PI[j][k]] - ph[j] * kk[k]
         return nu * nu * ri
 
-    def _offset(self, x, mx, my, mz, g2):
+    def _offset_start(self, x, c, o2):
+        # B6 start: field unit n0 = |m - u| (o2 = its square), h = R(s) (m - u) / n0 (c: the
+        # rotated reading), o = u / n0, both with the prior variance; returns 1 / n0
+        R = self._R
+        x.m_n0 = R(math.sqrt(o2))
+        inv = R(1.0) / x.m_n0
+        for k in range(3):
+            x.hi[k] = c[k] * inv
+            x.hi[3 + k] = x.u[k] * inv
+        x.P = [R(0.0)] * 21
+        for k in range(6):
+            x.P[_PI[k][k]] = R(_MAG_P0)
+        x.m_ew = R(1.0)
+        x.m_d2 = R(0.0)
+        return inv
+
+    def _offset_update(self, x, i, c, y, g2):
+        # B6 step: predict (the field and the offset walk; after an innovation beyond the gate
+        # the offset may have jumped: a magnet attached or removed), then the measurement y
+        # of axis i (c: column i of R(s)), its noise growing with the rate (timing mismatch)
+        R = self._R
+        for k in range(6):
+            pb = x.P[_PI[k][k]] + R(_MAG_QH if k < 3 else _MAG_QO) * self.s.dt
+            if k >= 3 and x.m_d2 > R(_MAG_GATE) and pb < R(_MAG_P0):
+                pb = pb + R(_MAG_JUMP)
+            x.P[_PI[k][k]] = pb
+        rr = g2 * self.mag_lag2
+        if not (rr <= R(1.0)):
+            rr = R(1.0)
+        rr = self.mag_noise2 + rr
+        x.m_d2 = self._offset_axis(x.P, x.hi, i, c[0], c[1], c[2], y, rr)
+        x.m_ew = x.m_ew + R(_MAG_EW) * (x.m_d2 - x.m_ew)
+        x.m_axis = R(0.0) if i == 2 else x.m_axis + R(1.0)
+
+    def _offset_use(self, x, inv):
+        # B6: the offset's standard deviation (its largest variance, never below 0); trusted
+        # and consistent, the offset in use u is the stored offset while the estimate agrees
+        # with it within mag_offset_min, else the estimate. inv: 1 / m_n0.
+        R = self._R
+        pb = R(0.0)
+        for k in range(3, 6):
+            if x.P[_PI[k][k]] > pb:
+                pb = x.P[_PI[k][k]]
+        x.m_std = R(math.sqrt(pb))
+        if x.m_std < R(_MAG_TRUST) and x.m_ew < R(_MAG_MEAN):
+            o2 = R(0.0)
+            e, u = [R(0.0)] * 3, [R(0.0)] * 3
+            for k in range(3):
+                e[k] = x.hi[3 + k] - x.so[k] * inv
+                o2 = o2 + e[k] * e[k]
+                u[k] = x.hi[3 + k] * x.m_n0
+            if o2 < self.mag_min2:
+                u = list(x.so)
+            x.u = u
+
+    def _offset(self, x, m, g2):
         """B6: one reading (m, not all zero) into the estimator of (h, o), m = R(s)^T h + o
         in units of m_n0, one axis per sample in turn; then the offset in use u. g2: |w|^2
         of this sample."""
         R = self._R
-        m = (mx, my, mz)
         i = 1 if x.m_axis == R(1.0) else 2 if x.m_axis == R(2.0) else 0
         start = x.m_n0 == R(0.0)
-        if not self.mag_learn:
+        if not self.s.mag_learn:
             return
         inv = R(0.0)
         if not start:
@@ -422,18 +557,17 @@ class _Robust(ReferenceFilter):
             for k in range(3):
                 o2 = o2 + (m[k] * inv) * (m[k] * inv)
             if not (o2 <= R(_MAG_RANGE2) and o2 * R(_MAG_RANGE2) >= R(1.0)):
-                x.m_bad = x.m_bad + self.dt
+                x.m_bad = x.m_bad + self.s.dt
                 if x.m_bad >= R(_MAG_RESTART):
                     x.m_n0 = R(0.0)
                     x.m_bad = R(0.0)
                 return
             x.m_bad = R(0.0)
-        u = [x.ux, x.uy, x.uz]
         e = [R(0.0)] * 3
         o2 = R(0.0)
         for k in range(3):
             if start:
-                e[k] = m[k] - u[k]
+                e[k] = m[k] - x.u[k]
                 o2 = o2 + e[k] * e[k]
             else:
                 e[k] = R(1.0) if k == i else R(0.0)
@@ -441,187 +575,156 @@ class _Robust(ReferenceFilter):
             return
         # start: the field in I, R(s) (m - u); else column i of R(s), the row of axis i in
         # m = R^T h + o
-        c = qrotate(R, x.s0, x.s1, x.s2, x.s3, e[0], e[1], e[2])
+        c = qrotate(R, x.s[0], x.s[1], x.s[2], x.s[3], e[0], e[1], e[2])
         if start:
-            # field unit n0 = |m - u|: h = R(s) (m - u) / n0, o = u / n0, both with the
-            # prior variance
-            x.m_n0 = R(math.sqrt(o2))
-            inv = R(1.0) / x.m_n0
-            xs = [R(0.0)] * 6
-            for k in range(3):
-                xs[k] = c[k] * inv
-                xs[3 + k] = u[k] * inv
-            mp = [R(_MAG_P0) if n[1] == n[2] else R(0.0) for n in _PNAMES]
-            x.m_ew = R(1.0)
-            x.m_d2 = R(0.0)
+            inv = self._offset_start(x, c, o2)
         else:
-            xs = [x.hx, x.hy, x.hz, x.ix, x.iy, x.iz]
-            mp = [getattr(x, n) for n in _PNAMES]
-            # predict: the field and the offset walk; after an innovation beyond the gate
-            # the offset may have jumped (a magnet attached or removed)
-            for k in range(6):
-                pb = mp[_PI[k][k]] + R(_MAG_QH if k < 3 else _MAG_QO) * self.dt
-                if k >= 3 and x.m_d2 > R(_MAG_GATE) and pb < R(_MAG_P0):
-                    pb = pb + R(_MAG_JUMP)
-                mp[_PI[k][k]] = pb
-            # the measurement of axis i, relative; its noise grows with the rate (timing
-            # mismatch)
-            rr = g2 * self.mag_lag2
-            if not (rr <= R(1.0)):
-                rr = R(1.0)
-            rr = self.mag_noise2 + rr
-            x.m_d2 = self._offset_axis(mp, xs, i, c[0], c[1], c[2], m[i] * inv, rr)
-            x.m_ew = x.m_ew + R(_MAG_EW) * (x.m_d2 - x.m_ew)
-            x.m_axis = R(0.0) if i == 2 else x.m_axis + R(1.0)
-        x.hx, x.hy, x.hz, x.ix, x.iy, x.iz = xs
-        for n, v in zip(_PNAMES, mp):
-            setattr(x, n, v)
-        # the offset's standard deviation: its largest variance (never below 0)
-        pb = R(0.0)
-        for i in range(3, 6):
-            if mp[_PI[i][i]] > pb:
-                pb = mp[_PI[i][i]]
-        x.m_std = R(math.sqrt(pb))
-        # trusted and consistent: the stored offset while the estimate agrees with it
-        # within mag_offset_min, else the estimate
-        if x.m_std < R(_MAG_TRUST) and x.m_ew < R(_MAG_MEAN):
-            st = (x.sx, x.sy, x.sz)
-            o2 = R(0.0)
-            for k in range(3):
-                e[k] = xs[3 + k] - st[k] * inv
-                o2 = o2 + e[k] * e[k]
-                u[k] = xs[3 + k] * x.m_n0
-            if o2 < self.mag_offset_min2:
-                u = list(st)
-            x.ux, x.uy, x.uz = u
+            self._offset_update(x, i, c, m[i] * inv, g2)
+        self._offset_use(x, inv)
 
-    def _mag(self, x, mx, my, mz, g2):
-        """B4: heading from the magnetometer. Returns False to reject the sample."""
+    def _mag_test(self, fn, rf):
+        # B4: the field (mn, hn, zn) in fn matches the reference (n, h, z) in rf: norm within
+        # mag_norm n and dip within mag_dip (sine of the dip difference = zn h - hn z)
+        dn = fn[0] - rf[0]
+        dd = fn[2] * rf[1] - fn[1] * rf[2]
+        tn = self.s.mag_norm * rf[0]
+        return dn < tn and -dn < tn and dd < self.s.mag_dip and -dd < self.s.mag_dip
+
+    def _field_used(self, x, fn):
+        """B4: the disturbance detector. The field fn = (norm, cos dip, vertical part) is
+        used (returns True) when it has matched the reference for mag_hold, and the
+        reference learns it; otherwise (disturbed) a new field that stays the same for
+        mag_new_time of motion becomes the reference."""
         R = self._R
-        dt = self.dt
-        if mx == R(0.0) and my == R(0.0) and mz == R(0.0):
-            return True   # no reading: gyro and accelerometer only
-        # B6, then the reading less the offset in use
-        self._offset(x, mx, my, mz, g2)
-        mex, mey, mez = qrotate(R, x.q0, x.q1, x.q2, x.q3, mx - x.ux, my - x.uy, mz - x.uz)
-        h2 = mex * mex + mey * mey
-        n2 = h2 + mez * mez
-        if not (n2 >= self._min and n2 <= self._max):
-            return True   # no usable reading: gyro and accelerometer only
-        mn = R(math.sqrt(n2))
-        mh = R(math.sqrt(h2))
-        inv = R(1.0) / mn
-        hn = mh * inv
-        zn = mez * inv
-        if x.rn == R(0.0):
+        if x.ref[0] == R(0.0):
             # first reading: it is the reference
-            x.rn, x.rh, x.rz = mn, hn, zn
-            x.cn, x.ch, x.cz = mn, hn, zn
-            x.t_ok = self.mag_hold
-        match = self._mag_test(mn, hn, zn, x.rn, x.rh, x.rz)
+            x.ref = list(fn)
+            x.cand = list(fn)
+            x.t_ok = self.s.mag_hold
+        match = self._mag_test(fn, x.ref)
         if match:
-            x.t_ok = x.t_ok + dt
-            if x.t_ok > self.mag_hold:
-                x.t_ok = self.mag_hold
+            x.t_ok = x.t_ok + self.s.dt
+            if x.t_ok > self.s.mag_hold:
+                x.t_ok = self.s.mag_hold
         else:
             x.t_ok = R(0.0)
-        if match and x.t_ok >= self.mag_hold:
+        if match and x.t_ok >= self.s.mag_hold:
             x.t_dist = R(0.0)
             x.t_cand = R(0.0)
-            k = self._gain(x.t, self.tau_mag_ref, self.k_ref)
-            x.rn = x.rn + k * (mn - x.rn)
-            x.rh = x.rh + k * (hn - x.rh)
-            x.rz = x.rz + k * (zn - x.rz)
-            x.cn, x.ch, x.cz = mn, hn, zn
-            if not (h2 >= self._min):
-                return True   # field vertical: no heading information
-            # heading: the rotation about earth z that turns the horizontal field onto
-            # north (+x), (1 + cos, 0, 0, -sin) normalised, taken by the fraction k
-            ih = R(1.0) / mh
-            fw = R(1.0) + mex * ih
-            fz = -(mey * ih)
-            f2 = fw * fw + fz * fz
-            if f2 >= self._min:
-                fr = R(1.0) / R(math.sqrt(f2))
-                fw = fw * fr
-                fz = fz * fr
-            else:
-                fw = R(0.0)
-                fz = R(1.0)
-            k = self._gain(x.t, self.tau_mag, self.k_mag)
-            zw = R(1.0) - k + k * fw
-            zz = k * fz
-            z2 = zw * zw + zz * zz
-            if not (z2 >= self._min):
-                return False
-            zr = R(1.0) / R(math.sqrt(z2))
-            zw = zw * zr
-            zz = zz * zr
-            c0, c1, c2, c3 = x.c0, x.c1, x.c2, x.c3
-            c = self._norm4(zw * c0 - zz * c3, zw * c1 - zz * c2,
-                            zw * c2 + zz * c1, zw * c3 + zz * c0)
-            if c is None:
-                return False
-            x.c0, x.c1, x.c2, x.c3 = c
-            q = self._norm4(*qmul(*c, x.s0, x.s1, x.s2, x.s3))
-            if q is None:
-                return False
-            x.q0, x.q1, x.q2, x.q3 = q
-        else:
-            # disturbed (or not yet matching for mag_hold): no heading correction; a new
-            # field that stays the same for mag_new_time of motion becomes the reference
-            x.t_dist = x.t_dist + dt
-            if self._mag_test(mn, hn, zn, x.cn, x.ch, x.cz):
-                x.cn = x.cn + self.k_rest * (mn - x.cn)
-                x.ch = x.ch + self.k_rest * (hn - x.ch)
-                x.cz = x.cz + self.k_rest * (zn - x.cz)
-                if x.t_rest < self.rest_time:
-                    # only motion counts: at rest an attached magnet's field is steady too
-                    x.t_cand = x.t_cand + dt
-                if x.t_cand >= self.mag_new_time:
-                    x.rn, x.rh, x.rz = x.cn, x.ch, x.cz
-                    x.t_cand = R(0.0)
-            else:
-                x.cn, x.ch, x.cz = mn, hn, zn
+            k = self._gain(x.t, self.s.tau_mag_ref, self.k_ref)
+            x.ref[0] = x.ref[0] + k * (fn[0] - x.ref[0])
+            x.ref[1] = x.ref[1] + k * (fn[1] - x.ref[1])
+            x.ref[2] = x.ref[2] + k * (fn[2] - x.ref[2])
+            x.cand = list(fn)
+            return True
+        # disturbed (or not yet matching for mag_hold): no heading correction
+        x.t_dist = x.t_dist + self.s.dt
+        if self._mag_test(fn, x.cand):
+            x.cand[0] = x.cand[0] + self.k_rest * (fn[0] - x.cand[0])
+            x.cand[1] = x.cand[1] + self.k_rest * (fn[1] - x.cand[1])
+            x.cand[2] = x.cand[2] + self.k_rest * (fn[2] - x.cand[2])
+            if x.t_rest < self.s.rest_time:
+                # only motion counts: at rest an attached magnet's field is steady too
+                x.t_cand = x.t_cand + self.s.dt
+            if x.t_cand >= self.s.mag_new_time:
+                x.ref = list(x.cand)
                 x.t_cand = R(0.0)
-        return True
+        else:
+            x.cand = list(fn)
+            x.t_cand = R(0.0)
+        return False
 
-    def _finish(self, x, gx, gy, gz):
-        # the end of every update: the output prediction, then the clock
-        if not self._predict(x, gx, gy, gz):
+    def _heading(self, x, me, mh):
+        """B4: heading, the rotation about earth z that turns the horizontal field me (its
+        norm mh) onto north (+x), (1 + cos, 0, 0, -sin) normalised, taken by the fraction k
+        into c, and q = c (x) s; False rejects the sample."""
+        R = self._R
+        ih = R(1.0) / mh
+        fw = R(1.0) + me[0] * ih
+        fz = -(me[1] * ih)
+        f2 = fw * fw + fz * fz
+        if f2 >= self._min:
+            fr = R(1.0) / R(math.sqrt(f2))
+            fw = fw * fr
+            fz = fz * fr
+        else:
+            fw = R(0.0)
+            fz = R(1.0)
+        k = self._gain(x.t, self.s.tau_mag, self.k_mag)
+        zw = R(1.0) - k + k * fw
+        zz = k * fz
+        z2 = zw * zw + zz * zz
+        if not (z2 >= self._min):
             return False
-        self._advance(x)
-        return True
+        zr = R(1.0) / R(math.sqrt(z2))
+        zw = zw * zr
+        zz = zz * zr
+        c = [zw * x.c[0] - zz * x.c[3],
+             zw * x.c[1] - zz * x.c[2],
+             zw * x.c[2] + zz * x.c[1],
+             zw * x.c[3] + zz * x.c[0]]
+        if not self._norm4(c):
+            return False
+        x.c = c
+        x.q = list(qmul(c[0], c[1], c[2], c[3], x.s[0], x.s[1], x.s[2], x.s[3]))
+        return self._norm4(x.q)
 
-    def _commit(self, x, ok, words):
-        # keep the new state (its first `words`) only if every block accepted the sample
-        # and left it finite (valid-attitude policy); the IMU, and the AHRS with B6 off,
-        # never change B6's members (C: ROBUST_IMU_BYTES): only those before them
-        names = self.state_names[:words]
-        if not (ok and isfinite(*(getattr(x, n) for n in names))):
-            self._skip()
-            return
-        for n in names:
-            setattr(self, n, getattr(x, n))
+    def _magnetometer(self, x, m, g2):
+        """B6 and B4: the magnetometer m (all zero: none); False rejects the sample.
+        g2: |w|^2."""
+        R = self._R
+        if m[0] == R(0.0) and m[1] == R(0.0) and m[2] == R(0.0):
+            return True   # no reading: gyro and accelerometer only
+        self._offset(x, m, g2)   # B6, then the reading less the offset in use
+        me = qrotate(R, x.q[0], x.q[1], x.q[2], x.q[3], m[0] - x.u[0], m[1] - x.u[1],
+                     m[2] - x.u[2])
+        h2 = me[0] * me[0] + me[1] * me[1]
+        n2 = h2 + me[2] * me[2]
+        if not (n2 >= self._min and n2 <= self._max):
+            return True   # no usable reading: gyro and accelerometer only
+        fn = [R(math.sqrt(n2)), R(0.0), R(0.0)]
+        mh = R(math.sqrt(h2))
+        inv = R(1.0) / fn[0]
+        fn[1] = mh * inv
+        fn[2] = me[2] * inv
+        if not self._field_used(x, fn):
+            return True   # B4: disturbed
+        if not (h2 >= self._min):
+            return True   # field vertical: no heading information
+        return self._heading(x, me, mh)
 
-    def _advance(self, x):
-        # the clock of the start-up (saturating: no growth once every start is over)
-        x.t = x.t + self.dt
+    # ---- the output, the clock, the update --------------------------------------------
+
+    def _output(self, x, g):
+        """The end of every update: the output q = c (x) s predicted by the sensor's latency
+        with the bias-corrected rate (q (x) exp(1/2 (w - b) latency)), then B5's clock of
+        the start-up (saturating: no growth once every start is over); False rejects the
+        sample."""
+        if self.s.latency > self._R(0.0) and not self._turn_by(x.q, x.q, g, x.b, self.s.latency):
+            return False
+        x.t = x.t + self.s.dt
         if x.t > self.t_max:
             x.t = self.t_max
+        return True
 
-    def _work(self):
-        return _State(self)
+    def _commit(self, x, ok, members):
+        # keep the new state (its first members: the IMU, and the AHRS with B6 off, never
+        # change B6's, C: ROBUST_IMU_BYTES) only if every block accepted the sample and left
+        # it finite (valid-attitude policy)
+        if not (ok and isfinite(*x.words(members))):
+            self._skip()
+            return
+        if members is _STATE_MEMBERS:
+            self.x = x
+            return
+        for m in members:
+            setattr(self.x, m, getattr(x, m))
 
 
-class _State:
-    """The working copy of the state (C: imf_robust_state_t x = self->x), its members
-    named as in C: x.lwx is x->lwx."""
-    __slots__ = _Robust.state_names
-
-    def __init__(self, owner):
-        for n in self.__slots__:
-            setattr(self, n, getattr(owner, n))
+_STATE_MEMBERS = tuple(m for m, _ in _MEMBERS)
+for _m, _names in _MEMBERS:
+    for _i, _n in enumerate(_names or (_m,)):
+        setattr(_Robust, _n, _word(_m, None if _names is None else _i))
 
 
 class RobustIMU(_Robust):
@@ -643,27 +746,26 @@ class RobustIMU(_Robust):
     """
     kind = "imu"
     c_name = "imf_robust_imu"
+    settings_type = RobustIMUSettings
+    _params = RobustIMUSettings.keywords()
 
-    @staticmethod
-    def _params(dt, tau_acc=2.5, rate_ref=100.0, tau_bias=100.0, tau_bias_rest=3.0,
-                rest_gyr=2.0, rest_acc=0.05, rest_time=1.5, tau_rest=0.5, latency=0.0):
-        dt = _checks.check_dt(dt)
-        return (dt,) + _Robust._imu_params(tau_acc, rate_ref, tau_bias, tau_bias_rest,
-                                           rest_gyr, rest_acc, rest_time, tau_rest, latency)
+    # imf_robust_imu_init: the AHRS filter without a magnetometer: its settings, the AHRS
+    # defaults for the magnetic ones (never read without a field) and B6 off; tau_mag and
+    # tau_mag_ref = tau_rest keep the start-up horizon t_max that of the IMU blocks
+    def _init(self, s):
+        self._init_filter(dataclasses.replace(
+            RobustAHRSSettings.from_user(s.dt), **s.members(), tau_mag=s.tau_rest,
+            tau_mag_ref=s.tau_rest, mag_learn=0))
 
-    def _init(self, dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
-              rest_time, tau_rest, latency):
-        self._init_common(dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
-                          rest_time, tau_rest, latency, tau_rest, 0.0, 0.0, tau_rest, 0.0, 0.0,
-                          0, 0.0, 0.0, 0.0)
-
+    # imf_robust_imu_update
     def _update(self, gx, gy, gz, ax, ay, az):
         if not isfinite(gx, gy, gz, ax, ay, az):
             self._skip()
             return
-        x = self._work()
-        self._commit(x, self._step(x, gx, gy, gz, ax, ay, az) is not None
-                     and self._finish(x, gx, gy, gz), self.state_names.index("hx"))
+        g = (gx, gy, gz)
+        x = self.x.copy()
+        self._commit(x, self._step(x, g, (ax, ay, az), gx * gx + gy * gy + gz * gz)
+                     and self._output(x, g), _IMU_MEMBERS)
 
 
 class RobustAHRS(_Robust):
@@ -685,45 +787,19 @@ class RobustAHRS(_Robust):
     """
     kind = "ahrs"
     c_name = "imf_robust_ahrs"
+    settings_type = RobustAHRSSettings
+    _params = RobustAHRSSettings.keywords()
 
-    @staticmethod
-    def _params(dt, tau_acc=2.5, rate_ref=100.0, tau_bias=100.0, tau_bias_rest=3.0,
-                rest_gyr=2.0, rest_acc=0.05, rest_time=1.5, tau_rest=0.5, latency=0.0,
-                tau_mag=10.0, mag_norm=0.1, mag_dip=10.0, tau_mag_ref=20.0, mag_new_time=20.0,
-                mag_hold=0.5, mag_learn=True, mag_noise=0.02, mag_lag=0.003,
-                mag_offset_min=0.1):
-        dt = _checks.check_dt(dt)
-        imu = _Robust._imu_params(tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr,
-                                  rest_acc, rest_time, tau_rest, latency)
-        tau_mag = _checks.check_real("tau_mag", tau_mag, lo=0.0, lo_open=True)
-        mag_norm = _checks.check_real("mag_norm", mag_norm, lo=0.0)
-        mag_dip = _checks.check_real("mag_dip", mag_dip, lo=0.0, hi=180.0)
-        tau_mag_ref = _checks.check_real("tau_mag_ref", tau_mag_ref, lo=0.0, lo_open=True)
-        mag_new_time = _checks.check_real("mag_new_time", mag_new_time, lo=0.0)
-        mag_hold = _checks.check_real("mag_hold", mag_hold, lo=0.0)
-        # the dip test compares sines: sin(mag_dip), in double, for both backends;
-        # 90 deg or more: no dip test
-        dip = math.sin(mag_dip * _DEG) if mag_dip < 90.0 else 2.0
-        mag_learn = _checks.check_choice("mag_learn", mag_learn, (True, False))
-        mag_noise = _checks.check_real("mag_noise", mag_noise, lo=0.0, lo_open=True, hi=1.0)
-        mag_lag = _checks.check_real("mag_lag", mag_lag, lo=0.0, hi=0.1)
-        mag_offset_min = _checks.check_real("mag_offset_min", mag_offset_min, lo=0.0)
-        return (dt,) + imu + (tau_mag, mag_norm, dip, tau_mag_ref, mag_new_time, mag_hold,
-                              int(mag_learn), mag_noise, mag_lag, mag_offset_min)
-
-    def _init(self, dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
-              rest_time, tau_rest, latency, tau_mag, mag_norm, mag_dip, tau_mag_ref,
-              mag_new_time, mag_hold, mag_learn, mag_noise, mag_lag, mag_offset_min):
-        self._init_common(dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
-                          rest_time, tau_rest, latency, tau_mag, mag_norm, mag_dip, tau_mag_ref,
-                          mag_new_time, mag_hold, mag_learn, mag_noise, mag_lag, mag_offset_min)
+    # imf_robust_ahrs_init
+    def _init(self, s):
+        self._init_filter(s)
 
     # imf_robust_ahrs_get_mag_offset / _set_mag_offset
     def get_mag_offset(self):
         """B6: ((x, y, z) the offset in use, magnetometer unit, sensor frame; the learnt
         estimate's standard deviation relative to the field, about 1 until the sensor has
         turned). Store it at power-down and give it back with set_mag_offset."""
-        return (float(self.ux), float(self.uy), float(self.uz)), float(self.m_std)
+        return tuple(float(v) for v in self.x.u), float(self.x.m_std)
 
     @staticmethod
     def _offset3(offset, dtype):
@@ -743,18 +819,20 @@ class RobustAHRS(_Robust):
         of a calibration file): used until a trusted estimate differs from it by more
         than mag_offset_min; the estimator starts again from it."""
         R = self._R
-        ox, oy, oz = (R(v) for v in self._offset3(offset, self.dtype))
-        self.sx, self.sy, self.sz = ox, oy, oz
-        self.ux, self.uy, self.uz = ox, oy, oz
-        self.m_n0 = R(0.0)
-        self.m_std = R(1.0)
+        o = [R(v) for v in self._offset3(offset, self.dtype)]
+        self.x.so = list(o)
+        self.x.u = list(o)
+        self.x.m_n0 = R(0.0)
+        self.x.m_std = R(1.0)
 
+    # imf_robust_ahrs_update
     def _update(self, gx, gy, gz, ax, ay, az, mx, my, mz):
         if not isfinite(gx, gy, gz, ax, ay, az, mx, my, mz):
             self._skip()
             return
-        x = self._work()
-        self._commit(x, self._step(x, gx, gy, gz, ax, ay, az) is not None
-                     and self._mag(x, mx, my, mz, gx * gx + gy * gy + gz * gz)
-                     and self._finish(x, gx, gy, gz),
-                     len(self.state_names) if self.mag_learn else self.state_names.index("hx"))
+        g = (gx, gy, gz)
+        g2 = gx * gx + gy * gy + gz * gz
+        x = self.x.copy()
+        self._commit(x, self._step(x, g, (ax, ay, az), g2)
+                     and self._magnetometer(x, (mx, my, mz), g2)
+                     and self._output(x, g), _STATE_MEMBERS if self.s.mag_learn else _IMU_MEMBERS)

@@ -1,0 +1,120 @@
+"""A filter's settings as one record: a frozen dataclass that mirrors the C settings struct
+(imf_<filter>_settings_t) member for member, its values in the C's units, and beside each
+member the user's default and unit, the check of a user's value and the one conversion to
+the C's unit (`setting`).
+
+    @dataclasses.dataclass(frozen=True)
+    class XSettings(SettingsRecord):
+        dt: float = setting(REQUIRED, "s", real(lo=0.0, lo_open=True))
+        rate: float = setting(100.0, "deg/s", real(lo=0.0), to_c=deg_to_rad)
+
+The constructor's keywords are the members in order with their defaults (`keywords()`:
+the filter class's `_params`, whose signature the compiled classes, the catalogue and the
+stubs show); `from_user` checks each value in that order (a check sees the values checked
+before it) and converts it once. The record's constructor takes C values by name,
+unchecked (a filter's init builds one from another, as the C does).
+
+For the generic tools that pair the C init's member names with the values
+(imufuse.reference._base.init_names) and for the fixed-point twins that extend a float
+twin's values (reference/fixed_robust.py), a record reads as the tuple of its values in
+the struct's order (iteration, indexing, slicing, + a tuple); a filter's own code reads
+them by name.
+"""
+import dataclasses
+import inspect
+import math
+import types
+
+from .. import _checks
+
+#: the default of a setting the user must give (dt)
+REQUIRED = inspect.Parameter.empty
+
+_DEG = math.pi / 180.0
+
+
+def setting(default, unit, check, to_c=None):
+    """A member of a settings record: its `default` in the user's `unit` (REQUIRED: none),
+    `check(name, value, prior)` -> the checked value (prior: the values checked before,
+    by name; raises ValueError naming the setting), and `to_c` the one conversion of the
+    checked value to the C's unit (None: the same unit)."""
+    return dataclasses.field(metadata={"default": default, "unit": unit, "check": check,
+                                       "to_c": to_c})
+
+
+def real(**bounds):
+    """The check of a real number within imufuse._checks.check_real's bounds."""
+    return lambda name, value, prior: _checks.check_real(name, value, **bounds)
+
+
+def choice(*choices):
+    """The check of one of `choices`."""
+    return lambda name, value, prior: _checks.check_choice(name, value, choices)
+
+
+def deg_to_rad(v):
+    """deg or deg/s -> rad or rad/s, in double (for both backends)."""
+    return v * _DEG
+
+
+class SettingsRecord:
+    """The base of a settings record (a frozen dataclass of `setting` members)."""
+
+    @classmethod
+    def signature(cls) -> inspect.Signature:
+        """The constructor's keywords: every member, with its default in the user's unit."""
+        kind = inspect.Parameter.POSITIONAL_OR_KEYWORD
+        return inspect.Signature([inspect.Parameter(f.name, kind, default=f.metadata["default"])
+                                  for f in dataclasses.fields(cls)])  # type: ignore[arg-type]
+
+    @classmethod
+    def from_user(cls, *args, **kwargs):
+        """The record of the user's settings (the constructor's keywords): each checked
+        in the members' order, then converted to the C's unit."""
+        bound = cls.signature().bind(*args, **kwargs)
+        bound.apply_defaults()
+        checked, c = {}, {}
+        for f in dataclasses.fields(cls):
+            v = f.metadata["check"](f.name, bound.arguments[f.name], checked)
+            checked[f.name] = v
+            c[f.name] = v if f.metadata["to_c"] is None else f.metadata["to_c"](v)
+        return cls(**c)
+
+    @classmethod
+    def keywords(cls):
+        """A filter class's `_params`: from_user, with the keywords as its signature."""
+        def params(*args, **kwargs):
+            return cls.from_user(*args, **kwargs)
+        params.__signature__ = cls.signature()
+        params.__name__ = params.__qualname__ = "_params"
+        params.__doc__ = f"The constructor's settings, checked: a {cls.__name__} (C units)."
+        return staticmethod(params)
+
+    @classmethod
+    def names(cls):
+        """The members' names, in the C struct's order."""
+        return tuple(f.name for f in dataclasses.fields(cls))
+
+    def members(self):
+        """{member: value} in the C struct's order (C units)."""
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+
+    def as_real(self, R):
+        """The settings as the C filter keeps its copy of the struct: every real member of
+        type R (imf_real: float or numpy.float32), the others as they are; mutable, as that
+        copy is (set_dt changes dt)."""
+        return types.SimpleNamespace(**{k: R(v) if isinstance(v, float) else v
+                                        for k, v in self.members().items()})
+
+    # the values in the struct's order, for the generic tools (module docstring)
+    def __iter__(self):
+        return iter(self.members().values())
+
+    def __len__(self):
+        return len(dataclasses.fields(self))
+
+    def __getitem__(self, i):
+        return tuple(self)[i]
+
+    def __add__(self, other):
+        return tuple(self) + tuple(other)
