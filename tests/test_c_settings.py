@@ -2,6 +2,7 @@
 filter (more go in a settings struct with a ..._default_settings()), every settings member
 documents its unit, range and default, and the C defaults are those of the Python classes,
 bit for bit, in float32 and in float64."""
+import inspect
 import math
 import re
 import subprocess
@@ -108,7 +109,7 @@ def expected_defaults(e):
     for name, default in e.params.items():
         if name == "dt":
             kw[name] = 0.01
-        elif default is __import__("inspect").Parameter.empty or (
+        elif default is inspect.Parameter.empty or (
                 default is None and name in e.defaults):
             kw[name] = e.defaults[name]
     return dict(zip(e.init_args, e.reference._params(**kw)))
@@ -286,3 +287,26 @@ def test_fixed_settings_outside_the_documented_ranges_are_refused(tmp_path):
         MahonyIMUQ(0.01, gyr_scale=1e-3, profile="16")
     with pytest.raises(ValueError, match="window"):
         MultiWiiQ(0.01, acc_1g=4096, window=0.0, gyr_scale=1e-3)
+
+
+RECORDED = [e for e in (*catalogue.FLOAT, *catalogue.VARIO)]
+
+
+@pytest.mark.parametrize("e", RECORDED, ids=[e.name for e in RECORDED])
+def test_the_twins_settings_record_is_the_c_struct(e):
+    """Every float filter declares its settings once, as a record that mirrors its C
+    settings struct member for member (names, order, integer or real), each member with
+    its unit, its check and its conversion beside it; the constructor's keywords, the
+    catalogue's init arguments and the binding's struct all come from it."""
+    from dataclasses import fields
+    rec = e.reference.settings_type
+    members = cproto.struct_members(HEADERS, e.c_name + "_settings_t")
+    assert [f.name for f in fields(rec)] == [m.name for m in members]
+    for f, m in zip(fields(rec), members):
+        assert {"default", "unit", "check", "to_c"} <= set(f.metadata), f.name
+        assert (f.type is int) == bool(_INT.fullmatch(m.ctype)), (f.name, f.type, m.ctype)
+    assert e.init_args == tuple(m.name for m in members)
+    assert str(inspect.signature(e.reference._params)) == str(rec.signature())
+    made = e.reference._params(**e.defaults, **({"dt": 0.01} if "dt" in e.params else {}))
+    assert isinstance(made, rec)
+

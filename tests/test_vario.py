@@ -320,7 +320,7 @@ def test_seed_order_stability_is_checked_from_the_physics():
     for dt, diverges in ((0.1, True), (0.001, False)):
         assert (rv.seed_radius(1e-9, 200.0, 1.0, dt) > 1.0) == diverges
         f = reference.VarioKF()
-        f._init(*args)                       # Nair's order with these variances, unchecked
+        f._init(rv.VarioSettings(*args))     # Nair's order with these variances, unchecked
         out = f.run(acc, alt, np.full(n, dt))
         grew = not np.all(np.abs(out[:, :3]) < 1e12)
         assert grew == diverges, (dt, np.nanmax(np.abs(out[:, :3])))

@@ -14,10 +14,13 @@ Subclasses define:
                another (a family's form without magnetometer: <c_name>_update_imu)
   state_names  the state variables, in the order of the C state struct; each
                is an attribute of the instance
-  _params(...) staticmethod: validate constructor arguments, return the tuple
-               of C init arguments (shared with imufuse_c), or the filter's settings
-               record (settings_type, a _settings.SettingsRecord: RobustIMU, RobustAHRS)
-  _init(*args) mirror of imf_<filter>_init (_init(settings) with a settings record)
+  settings_type the filter's settings record (_settings.SettingsRecord): its C settings
+               struct member for member, each member with the user's default and unit,
+               its check and its one conversion to the C's unit
+  _params(...) settings_type.keywords(): the constructor's keywords checked into a
+               settings record (shared with imufuse_c, which fills the C struct from it
+               by name)
+  _init(s)     mirror of imf_<filter>_init with the settings record s
   _update(*scalars) mirror of imf_<filter>_update, inputs already of type R
   _set_dt(dt)  mirror of imf_<filter>_set_dt (dt of type R); _init calls it
   _set_attitude(att) 3-D filters: mirror of imf_<filter>_set_attitude

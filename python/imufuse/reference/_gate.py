@@ -24,6 +24,16 @@ def check(acc_gate, acc_1g):
     return (lo, hi, one_g)
 
 
+def lo(name, acc_gate, prior):
+    """Settings record (_settings.setting): acc_gate_lo from the keyword acc_gate (-1: off)."""
+    return check(acc_gate, 1.0)[0]
+
+
+def hi(name, acc_gate, prior):
+    """Settings record (_settings.setting): acc_gate_hi from the keyword acc_gate."""
+    return check(acc_gate, 1.0)[1]
+
+
 def set(R, lo, hi, one_g):
     """imf_acc_gate_set: (on, lo2, hi2)."""
     lo, hi, one_g = R(lo), R(hi), R(one_g)

@@ -29,17 +29,28 @@ from .. import _checks
 
 #: the default of a setting the user must give (dt)
 REQUIRED = inspect.Parameter.empty
+#: setting(keyword=FIXED): a member the constructor does not take (always its default)
+FIXED = ""
+#: prior[USER]: every keyword as the user gave it (a check that reads two keywords at once,
+#: as Complementary1DBias's kp and ki from omega0 and xi)
+USER = "<user>"
 
 _DEG = math.pi / 180.0
 
 
-def setting(default, unit, check, to_c=None):
+def setting(default, unit, check, to_c=None, *, keyword=None, kw_only=False):
     """A member of a settings record: its `default` in the user's `unit` (REQUIRED: none),
     `check(name, value, prior)` -> the checked value (prior: the values checked before,
-    by name; raises ValueError naming the setting), and `to_c` the one conversion of the
-    checked value to the C's unit (None: the same unit)."""
+    by name, and the record's extra keywords; raises ValueError naming the setting), and
+    `to_c` the one conversion of the checked value to the C's unit (None: the same unit).
+
+    keyword: the constructor keyword the value comes from when it is not the member's name
+    (Mahony2D's error="exact" -> exact = 1; Madgwick's acc_gate=(lo, hi) -> acc_gate_lo
+    and acc_gate_hi, one keyword for two members); FIXED: no keyword, always the default
+    (a member of a shared C struct that one form does not take). kw_only: the keyword is
+    keyword-only in the constructor."""
     return dataclasses.field(metadata={"default": default, "unit": unit, "check": check,
-                                       "to_c": to_c})
+                                       "to_c": to_c, "keyword": keyword, "kw_only": kw_only})
 
 
 def real(**bounds):
@@ -52,20 +63,52 @@ def choice(*choices):
     return lambda name, value, prior: _checks.check_choice(name, value, choices)
 
 
+def dt():
+    """The check of a sample period (imufuse._checks.check_dt)."""
+    return lambda name, value, prior: _checks.check_dt(value)
+
+
+def fixed(name, value, prior):
+    """The check of a FIXED member: its default, as declared."""
+    return value
+
+
 def deg_to_rad(v):
     """deg or deg/s -> rad or rad/s, in double (for both backends)."""
     return v * _DEG
 
 
 class SettingsRecord:
-    """The base of a settings record (a frozen dataclass of `setting` members)."""
+    """The base of a settings record (a frozen dataclass of `setting` members).
+
+    extra: keywords of the constructor that are no member (Complementary1D's T, an
+    alternative to alpha), as (name, default, keyword-only) after the members' keywords;
+    the checks see their values in `prior`."""
+
+    extra: tuple = ()
+
+    @classmethod
+    def _keyword(cls, f):
+        k = f.metadata.get("keyword")
+        return f.name if k is None else k
 
     @classmethod
     def signature(cls) -> inspect.Signature:
-        """The constructor's keywords: every member, with its default in the user's unit."""
-        kind = inspect.Parameter.POSITIONAL_OR_KEYWORD
-        return inspect.Signature([inspect.Parameter(f.name, kind, default=f.metadata["default"])
-                                  for f in dataclasses.fields(cls)])  # type: ignore[arg-type]
+        """The constructor's keywords: every member's (a shared keyword once, at its first
+        member), with its default in the user's unit, then the extra keywords."""
+        params, seen = [], set()
+        for f in dataclasses.fields(cls):  # type: ignore[arg-type]
+            k = cls._keyword(f)
+            if k == FIXED or k in seen:
+                continue
+            seen.add(k)
+            kind = (inspect.Parameter.KEYWORD_ONLY if f.metadata.get("kw_only")
+                    else inspect.Parameter.POSITIONAL_OR_KEYWORD)
+            params.append(inspect.Parameter(k, kind, default=f.metadata["default"]))
+        params += [inspect.Parameter(n, inspect.Parameter.KEYWORD_ONLY if kw
+                                     else inspect.Parameter.POSITIONAL_OR_KEYWORD, default=d)
+                   for n, d, kw in cls.extra]
+        return inspect.Signature(params)
 
     @classmethod
     def from_user(cls, *args, **kwargs):
@@ -73,9 +116,13 @@ class SettingsRecord:
         in the members' order, then converted to the C's unit."""
         bound = cls.signature().bind(*args, **kwargs)
         bound.apply_defaults()
-        checked, c = {}, {}
+        checked = {n: bound.arguments[n] for n, _, _ in cls.extra}
+        checked[USER] = dict(bound.arguments)
+        c = {}
         for f in dataclasses.fields(cls):
-            v = f.metadata["check"](f.name, bound.arguments[f.name], checked)
+            k = cls._keyword(f)
+            user = f.metadata["default"] if k == FIXED else bound.arguments[k]
+            v = f.metadata["check"](k or f.name, user, checked)
             checked[f.name] = v
             c[f.name] = v if f.metadata["to_c"] is None else f.metadata["to_c"](v)
         return cls(**c)

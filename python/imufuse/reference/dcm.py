@@ -1,10 +1,20 @@
 """Mahony's filter in DCM form with Premerlani & Bizard's re-orthogonalisation
 (article 4.1 and 4.3): pure-Python twin of csrc/dcm.c, line for line."""
+import dataclasses
 import math
 
-from .. import _checks
 from ._base import ReferenceFilter, integral_problem, isfinite
-from .mahony2d import _check_gains, sqrt_r, tilt_angles
+from ._settings import REQUIRED, SettingsRecord, dt, real, setting
+from .mahony2d import gain_ki, sqrt_r, tilt_angles
+
+
+@dataclasses.dataclass(frozen=True)
+class DCMSettings(SettingsRecord):
+    """imf_dcm_settings_t, member for member (DCM's keywords, in the C's units)."""
+    #                  default   unit     check
+    dt: float = setting(REQUIRED, "s", dt())
+    kp: float = setting(REQUIRED, "1/s", real(lo=0.0))
+    ki: float = setting(REQUIRED, "1/s^2", gain_ki)
 
 _NAMES = ("r00", "r01", "r02", "r10", "r11", "r12", "r20", "r21", "r22", "ix", "iy", "iz")
 
@@ -42,11 +52,8 @@ class DCM(ReferenceFilter):
     c_name = "imf_dcm"
     state_names = _NAMES
 
-    @staticmethod
-    def _params(dt, kp, ki):
-        dt = _checks.check_dt(dt)
-        kp, ki = _check_gains(dt, kp, ki)
-        return (dt, kp, ki)
+    settings_type = DCMSettings
+    _params = DCMSettings.keywords()
 
     @classmethod
     def _valid_state(cls, args, R, state):
@@ -54,11 +61,11 @@ class DCM(ReferenceFilter):
             return f"R (r00..r22) must be orthonormal within {ORTHO_TOL}"
         return integral_problem(cls.state_names, state, args[0])
 
-    def _init(self, dt, kp, ki):
+    def _init(self, s):
         R = self._R
-        self.kp = R(kp)
-        self.ki = R(ki)
-        self._set_dt(R(dt))
+        self.kp = R(s.kp)
+        self.ki = R(s.ki)
+        self._set_dt(R(s.dt))
         self.r00 = R(1.0)
         self.r01 = R(0.0)
         self.r02 = R(0.0)

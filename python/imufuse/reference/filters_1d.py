@@ -3,10 +3,12 @@ of csrc/filters_1d.c, line for line.
 
 Per sample: rate = gyro rate (rad/s), angle = accelerometer angle (rad).
 """
+import dataclasses
 import math
 
 from .. import _checks
 from ._base import ReferenceFilter, isfinite
+from ._settings import REQUIRED, USER, SettingsRecord, dt, real, setting
 
 
 def _stable_gain_dt(name, k, dt):
@@ -15,6 +17,109 @@ def _stable_gain_dt(name, k, dt):
     _checks.check_real(f"{name}*dt", k * dt, lo=0.0, hi=2.0, hi_open=True,
                        why="alpha = 1 - kp dt of Eq. 2.9 must satisfy |alpha| < 1")
     return float(k)
+
+
+def _alpha(name, alpha, prior):
+    # alpha, or the time constant T (an extra keyword): alpha = (T/dt) / (1 + T/dt)
+    T = prior["T"]
+    if (alpha is None) == (T is None):
+        raise ValueError("alpha, T: give exactly one of alpha or the time constant T")
+    if T is not None:
+        T = _checks.check_real("T", T, lo=0.0)
+        alpha = (T / prior["dt"]) / (1.0 + T / prior["dt"])
+    return _checks.check_real("alpha", alpha, lo=0.0, hi=1.0)
+
+
+@dataclasses.dataclass(frozen=True)
+class Complementary1DSettings(SettingsRecord):
+    """imf_complementary1d_settings_t, member for member (C units)."""
+    extra = (("T", None, True),)
+    dt: float = setting(REQUIRED, "s", dt())
+    alpha: float = setting(None, "1", _alpha)
+
+
+@dataclasses.dataclass(frozen=True)
+class Kalman1DSettings(SettingsRecord):
+    """imf_kalman1d_settings_t, member for member (C units)."""
+    dt: float = setting(REQUIRED, "s", dt())
+    k0: float = setting(REQUIRED, "1", real(lo=0.0, hi=1.0))
+
+
+@dataclasses.dataclass(frozen=True)
+class Mahony1DSettings(SettingsRecord):
+    """imf_mahony1d_settings_t, member for member (C units)."""
+    dt: float = setting(REQUIRED, "s", dt())
+    kp: float = setting(REQUIRED, "1/s", lambda name, v, prior: _stable_gain_dt(name, v, prior["dt"]))
+
+
+def _bias_sign(name, bias_sign, prior):
+    if bias_sign not in (-1, 1) or isinstance(bias_sign, bool):
+        raise ValueError(f"bias_sign: must be -1 or +1, got {bias_sign!r}")
+    if not prior["allow_unstable"]:
+        s = bias_sign * prior["k1"] * prior["dt"]
+        if not (0.0 <= s < 4.0 - 2.0 * prior["k0"]):
+            raise ValueError(
+                f"k1: bias_sign*k1*dt = {s!r} is outside the stable range "
+                f"[0, 4 - 2 k0) (Corollary #2: with bias_sign=-1, k1 must be <= 0)")
+    return int(bias_sign)
+
+
+@dataclasses.dataclass(frozen=True)
+class Kalman1DBiasSettings(SettingsRecord):
+    """imf_kalman1d_bias_settings_t, member for member (C units)."""
+    extra = (("allow_unstable", False, True),)
+    dt: float = setting(REQUIRED, "s", dt())
+    k0: float = setting(REQUIRED, "1", real(lo=0.0, hi=1.0, lo_open=True))
+    k1: float = setting(REQUIRED, "1/s", real())
+    bias_sign: int = setting(-1, "", _bias_sign)
+
+
+def _integrate_first(name, value, prior):
+    if not isinstance(value, bool):
+        raise ValueError(f"integrate_first: must be True or False, got {value!r}")
+    kpdt, kidt2 = prior["kp"] * prior["dt"], prior["ki"] * prior["dt"] * prior["dt"]
+    # homogeneous update matrix: p(1) = Ki dt^2 for both orders
+    if value:
+        det, p_plus = 1.0 - kpdt + kidt2, 4.0 - 2.0 * kpdt + kidt2
+    else:
+        det, p_plus = 1.0 - kpdt, 4.0 - 2.0 * kpdt - kidt2
+    _checks.check_stable2("kp, ki", det, kidt2, p_plus, f"kp*dt={kpdt!r}, ki*dt^2={kidt2!r}")
+    return value
+
+
+@dataclasses.dataclass(frozen=True)
+class Mahony1DBiasSettings(SettingsRecord):
+    """imf_mahony1d_bias_settings_t, member for member (C units)."""
+    dt: float = setting(REQUIRED, "s", dt())
+    kp: float = setting(REQUIRED, "1/s", real(lo=0.0))
+    ki: float = setting(REQUIRED, "1/s^2", real(lo=0.0))
+    integrate_first: int = setting(False, "bool", _integrate_first, to_c=int)
+
+
+def _pi_gains(prior):
+    # kp and ki, or omega0 and xi (extra keywords): kp = 2 xi omega0, ki = omega0^2
+    u = prior[USER]
+    kp, ki, omega0, xi = u["kp"], u["ki"], u["omega0"], u["xi"]
+    if omega0 is not None or xi is not None:
+        if kp is not None or ki is not None or omega0 is None or xi is None:
+            raise ValueError("kp, ki, omega0, xi: give either kp and ki, or omega0 and xi")
+        omega0 = _checks.check_real("omega0", omega0, lo=0.0, lo_open=True)
+        xi = _checks.check_real("xi", xi, lo=0.0, lo_open=True)
+        kp, ki = 2.0 * xi * omega0, omega0 * omega0
+    elif kp is None or ki is None:
+        raise ValueError("kp, ki: both are required (or omega0 and xi)")
+    # backward difference maps every stable continuous filter (kp > 0, ki >= 0)
+    # to a stable discrete one
+    return _checks.check_real("kp", kp, lo=0.0, lo_open=True), _checks.check_real("ki", ki, lo=0.0)
+
+
+@dataclasses.dataclass(frozen=True)
+class Complementary1DBiasSettings(SettingsRecord):
+    """imf_complementary1d_bias_settings_t, member for member (C units)."""
+    extra = (("omega0", None, True), ("xi", None, True))
+    dt: float = setting(REQUIRED, "s", dt())
+    kp: float = setting(None, "1/s", lambda name, v, prior: _pi_gains(prior)[0])
+    ki: float = setting(None, "1/s^2", lambda name, v, prior: _pi_gains(prior)[1])
 
 
 class Complementary1D(ReferenceFilter):
@@ -27,20 +132,13 @@ class Complementary1D(ReferenceFilter):
     c_name = "imf_complementary1d"
     state_names = ("theta",)
 
-    @staticmethod
-    def _params(dt, alpha=None, *, T=None):
-        dt = _checks.check_dt(dt)
-        if (alpha is None) == (T is None):
-            raise ValueError("alpha, T: give exactly one of alpha or the time constant T")
-        if T is not None:
-            T = _checks.check_real("T", T, lo=0.0)
-            alpha = (T / dt) / (1.0 + T / dt)
-        return (dt, _checks.check_real("alpha", alpha, lo=0.0, hi=1.0))
+    settings_type = Complementary1DSettings
+    _params = Complementary1DSettings.keywords()
 
-    def _init(self, dt, alpha):
+    def _init(self, s):
         R = self._R
-        self._set_dt(R(dt))
-        self.alpha = R(alpha)
+        self._set_dt(R(s.dt))
+        self.alpha = R(s.alpha)
         self.one_minus_alpha = R(1.0) - self.alpha
         self.theta = R(0.0)
 
@@ -65,14 +163,13 @@ class Kalman1D(ReferenceFilter):
     c_name = "imf_kalman1d"
     state_names = ("theta",)
 
-    @staticmethod
-    def _params(dt, k0):
-        return (_checks.check_dt(dt), _checks.check_real("k0", k0, lo=0.0, hi=1.0))
+    settings_type = Kalman1DSettings
+    _params = Kalman1DSettings.keywords()
 
-    def _init(self, dt, k0):
+    def _init(self, s):
         R = self._R
-        self._set_dt(R(dt))
-        self.k0 = R(k0)
+        self._set_dt(R(s.dt))
+        self.k0 = R(s.k0)
         self.one_minus_k0 = R(1.0) - self.k0
         self.theta = R(0.0)
 
@@ -98,15 +195,13 @@ class Mahony1D(ReferenceFilter):
     c_name = "imf_mahony1d"
     state_names = ("theta",)
 
-    @staticmethod
-    def _params(dt, kp):
-        dt = _checks.check_dt(dt)
-        return (dt, _stable_gain_dt("kp", kp, dt))
+    settings_type = Mahony1DSettings
+    _params = Mahony1DSettings.keywords()
 
-    def _init(self, dt, kp):
+    def _init(self, s):
         R = self._R
-        self._set_dt(R(dt))
-        self.kp = R(kp)
+        self._set_dt(R(s.dt))
+        self.kp = R(s.kp)
         self.theta = R(0.0)
 
     def _set_dt(self, dt):
@@ -139,28 +234,16 @@ class Kalman1DBias(ReferenceFilter):
     c_name = "imf_kalman1d_bias"
     state_names = ("theta", "b")
 
-    @staticmethod
-    def _params(dt, k0, k1, bias_sign=-1, *, allow_unstable=False):
-        dt = _checks.check_dt(dt)
-        k0 = _checks.check_real("k0", k0, lo=0.0, hi=1.0, lo_open=True)
-        k1 = _checks.check_real("k1", k1)
-        if bias_sign not in (-1, 1) or isinstance(bias_sign, bool):
-            raise ValueError(f"bias_sign: must be -1 or +1, got {bias_sign!r}")
-        if not allow_unstable:
-            s = bias_sign * k1 * dt
-            if not (0.0 <= s < 4.0 - 2.0 * k0):
-                raise ValueError(
-                    f"k1: bias_sign*k1*dt = {s!r} is outside the stable range "
-                    f"[0, 4 - 2 k0) (Corollary #2: with bias_sign=-1, k1 must be <= 0)")
-        return (dt, k0, k1, int(bias_sign))
+    settings_type = Kalman1DBiasSettings
+    _params = Kalman1DBiasSettings.keywords()
 
-    def _init(self, dt, k0, k1, bias_sign):
+    def _init(self, s):
         R = self._R
-        self._set_dt(R(dt))
-        self.k0 = R(k0)
+        self._set_dt(R(s.dt))
+        self.k0 = R(s.k0)
         self.one_minus_k0 = R(1.0) - self.k0
-        self.k1 = R(k1)
-        self.bias_sign = R(-1.0) if bias_sign < 0 else R(1.0)
+        self.k1 = R(s.k1)
+        self.bias_sign = R(-1.0) if s.bias_sign < 0 else R(1.0)
         self.theta = R(0.0)
         self.b = R(0.0)
 
@@ -195,28 +278,15 @@ class Mahony1DBias(ReferenceFilter):
     c_name = "imf_mahony1d_bias"
     state_names = ("theta", "i")
 
-    @staticmethod
-    def _params(dt, kp, ki, integrate_first=False):
-        dt = _checks.check_dt(dt)
-        kp = _checks.check_real("kp", kp, lo=0.0)
-        ki = _checks.check_real("ki", ki, lo=0.0)
-        if not isinstance(integrate_first, bool):
-            raise ValueError(f"integrate_first: must be True or False, got {integrate_first!r}")
-        kpdt, kidt2 = kp * dt, ki * dt * dt
-        # homogeneous update matrix: p(1) = Ki dt^2 for both orders
-        if integrate_first:
-            det, p_plus = 1.0 - kpdt + kidt2, 4.0 - 2.0 * kpdt + kidt2
-        else:
-            det, p_plus = 1.0 - kpdt, 4.0 - 2.0 * kpdt - kidt2
-        _checks.check_stable2("kp, ki", det, kidt2, p_plus, f"kp*dt={kpdt!r}, ki*dt^2={kidt2!r}")
-        return (dt, kp, ki, int(integrate_first))
+    settings_type = Mahony1DBiasSettings
+    _params = Mahony1DBiasSettings.keywords()
 
-    def _init(self, dt, kp, ki, integrate_first):
+    def _init(self, s):
         R = self._R
-        self.kp = R(kp)
-        self.ki = R(ki)
-        self._set_dt(R(dt))
-        self.integrate_first = integrate_first != 0
+        self.kp = R(s.kp)
+        self.ki = R(s.ki)
+        self._set_dt(R(s.dt))
+        self.integrate_first = s.integrate_first != 0
         self.theta = R(0.0)
         self.i = R(0.0)
 
@@ -259,27 +329,14 @@ class Complementary1DBias(ReferenceFilter):
     c_name = "imf_complementary1d_bias"
     state_names = ("theta", "i")
 
-    @staticmethod
-    def _params(dt, kp=None, ki=None, *, omega0=None, xi=None):
-        dt = _checks.check_dt(dt)
-        if omega0 is not None or xi is not None:
-            if kp is not None or ki is not None or omega0 is None or xi is None:
-                raise ValueError("kp, ki, omega0, xi: give either kp and ki, or omega0 and xi")
-            omega0 = _checks.check_real("omega0", omega0, lo=0.0, lo_open=True)
-            xi = _checks.check_real("xi", xi, lo=0.0, lo_open=True)
-            kp, ki = 2.0 * xi * omega0, omega0 * omega0
-        elif kp is None or ki is None:
-            raise ValueError("kp, ki: both are required (or omega0 and xi)")
-        # backward difference maps every stable continuous filter (kp > 0, ki >= 0)
-        # to a stable discrete one
-        return (dt, _checks.check_real("kp", kp, lo=0.0, lo_open=True),
-                _checks.check_real("ki", ki, lo=0.0))
+    settings_type = Complementary1DBiasSettings
+    _params = Complementary1DBiasSettings.keywords()
 
-    def _init(self, dt, kp, ki):
+    def _init(self, s):
         R = self._R
-        self.kp = R(kp)
-        self.ki = R(ki)
-        self._set_dt(R(dt))
+        self.kp = R(s.kp)
+        self.ki = R(s.ki)
+        self._set_dt(R(s.dt))
         self.theta = R(0.0)
         self.i = R(0.0)
 

@@ -1,10 +1,21 @@
 """"KK" linear small-angle filter of the article's appendix (Eq. 4.5 with a
 P controller): pure-Python twin of csrc/kk.c, line for line."""
+import dataclasses
 import math
 
-from .. import _checks
 from ._base import ReferenceFilter, isfinite
+from ._settings import REQUIRED, SettingsRecord, dt, real, setting
 from .mahony2d import sqrt_r
+
+
+@dataclasses.dataclass(frozen=True)
+class KKSettings(SettingsRecord):
+    """imf_kk_settings_t, member for member (KK's keywords, in the C's units)."""
+    #                  default   unit   check
+    dt: float = setting(REQUIRED, "s", dt())
+    kp: float = setting(REQUIRED, "1", real(
+        lo=0.0, hi=2.0, hi_open=True,
+        why="the P loop theta_n = (1 - kp) theta + ... needs |1 - kp| <= 1"))
 
 
 class KK(ReferenceFilter):
@@ -23,17 +34,13 @@ class KK(ReferenceFilter):
     c_name = "imf_kk"
     state_names = ("pitch", "roll")
 
-    @staticmethod
-    def _params(dt, kp):
-        dt = _checks.check_dt(dt)
-        kp = _checks.check_real("kp", kp, lo=0.0, hi=2.0, hi_open=True,
-                                why="the P loop theta_n = (1 - kp) theta + ... needs |1 - kp| <= 1")
-        return (dt, kp)
+    settings_type = KKSettings
+    _params = KKSettings.keywords()
 
-    def _init(self, dt, kp):
+    def _init(self, s):
         R = self._R
-        self._set_dt(R(dt))
-        self.kp = R(kp)
+        self._set_dt(R(s.dt))
+        self.kp = R(s.kp)
         self.pitch = R(0.0)
         self.roll = R(0.0)
 

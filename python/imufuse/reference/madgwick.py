@@ -5,9 +5,12 @@ beta (rad/s) is the published beta (default 0.1). delta_s="full" is the
 appendix step 4 with the published intermediates and order; "simplified" is
 the article's simplified corrective step for a unit quaternion.
 """
+import dataclasses
+
 from .. import _checks
 from . import _gate, _math
 from ._base import QUAT_NORM2_TOL, ReferenceFilter, isfinite
+from ._settings import FIXED, REQUIRED, SettingsRecord, choice, dt, fixed, real, setting
 
 DELTA_S = {"full": 0, "simplified": 1}
 DS_FULL, DS_SIMPLIFIED = 0, 1
@@ -134,6 +137,35 @@ def check_beta(dt, beta):
                          f"beta*dt={beta * dt!r})")
 
 
+def _beta(name, value, prior):
+    beta = _checks.check_real(name, value, lo=0.0)
+    check_beta(prior["dt"], beta)
+    return beta
+
+
+@dataclasses.dataclass(frozen=True)
+class MadgwickIMUSettings(SettingsRecord):
+    """imf_madgwick_settings_t, member for member, in the C's units: MadgwickIMU's
+    keywords (the user's default and unit), checked and converted once."""
+    #                  default   unit        check                 to C
+    dt: float = setting(REQUIRED, "s", dt())
+    beta: float = setting(0.1, "rad/s", _beta)
+    delta_s: int = setting("full", "", choice(*DELTA_S), to_c=DELTA_S.__getitem__)
+    invsqrt: int = setting("exact", "", choice(*_math.INVSQRT), to_c=_math.INVSQRT.__getitem__,
+                           kw_only=True)
+    acc_gate_lo: float = setting(None, "acc_1g", _gate.lo, keyword="acc_gate", kw_only=True)
+    acc_gate_hi: float = setting(None, "acc_1g", _gate.hi, keyword="acc_gate", kw_only=True)
+    acc_1g: float = setting(1.0, "acc unit", real(lo=0.0, lo_open=True), kw_only=True)
+
+
+@dataclasses.dataclass(frozen=True)
+class MadgwickAHRSSettings(MadgwickIMUSettings):
+    """imf_madgwick_settings_t for MadgwickAHRS: its keywords are MadgwickIMU's without
+    delta_s (imf_madgwick_update always takes the full corrective step; delta_s is that of
+    the update without magnetometer, run when it reads zero: the full one here too)."""
+    delta_s: int = setting("full", "", fixed, to_c=DELTA_S.__getitem__, keyword=FIXED)
+
+
 class _Madgwick(ReferenceFilter):
     state_names = ("q0", "q1", "q2", "q3")
 
@@ -144,13 +176,13 @@ class _Madgwick(ReferenceFilter):
             return f"|q|^2 = {n2!r}, must be within 1 +- {QUAT_NORM2_TOL}"
         return None
 
-    def _init(self, dt, beta, delta_s, invsqrt, acc_gate_lo, acc_gate_hi, acc_1g):
+    def _init(self, s):
         R = self._R
-        self._set_acc_gate(acc_gate_lo, acc_gate_hi, acc_1g)
-        self._set_dt(R(dt))
-        self.beta = R(beta)
-        self.delta_s = DS_SIMPLIFIED if delta_s == DS_SIMPLIFIED else DS_FULL
-        self.invsqrt = invsqrt
+        self._set_acc_gate(s.acc_gate_lo, s.acc_gate_hi, s.acc_1g)
+        self._set_dt(R(s.dt))
+        self.beta = R(s.beta)
+        self.delta_s = DS_SIMPLIFIED if s.delta_s == DS_SIMPLIFIED else DS_FULL
+        self.invsqrt = s.invsqrt
         self.q0 = R(1.0)
         self.q1 = R(0.0)
         self.q2 = R(0.0)
@@ -247,15 +279,8 @@ class MadgwickIMU(_Madgwick):
     c_name = "imf_madgwick"
     c_update = "imf_madgwick_update_imu"
 
-    @staticmethod
-    def _params(dt, beta=0.1, delta_s="full", *, invsqrt="exact", acc_gate=None, acc_1g=1.0):
-        dt = _checks.check_dt(dt)
-        beta = _checks.check_real("beta", beta, lo=0.0)
-        check_beta(dt, beta)
-        _checks.check_choice("delta_s", delta_s, tuple(DELTA_S))
-        _checks.check_choice("invsqrt", invsqrt, tuple(_math.INVSQRT))
-        return (dt, beta, DELTA_S[delta_s], _math.INVSQRT[invsqrt],
-                *_gate.check(acc_gate, acc_1g))
+    settings_type = MadgwickIMUSettings
+    _params = MadgwickIMUSettings.keywords()
 
     def _update(self, gx, gy, gz, ax, ay, az):
         if not isfinite(gx, gy, gz, ax, ay, az):
@@ -274,15 +299,8 @@ class MadgwickAHRS(_Madgwick):
     kind = "ahrs"
     c_name = "imf_madgwick"
 
-    @staticmethod
-    def _params(dt, beta=0.1, *, invsqrt="exact", acc_gate=None, acc_1g=1.0):
-        dt = _checks.check_dt(dt)
-        beta = _checks.check_real("beta", beta, lo=0.0)
-        check_beta(dt, beta)
-        _checks.check_choice("invsqrt", invsqrt, tuple(_math.INVSQRT))
-        # imf_madgwick_update always takes the full corrective step (delta_s is the IMU
-        # update's, run when the magnetometer reads zero: the full one here too)
-        return (dt, beta, DS_FULL, _math.INVSQRT[invsqrt], *_gate.check(acc_gate, acc_1g))
+    settings_type = MadgwickAHRSSettings
+    _params = MadgwickAHRSSettings.keywords()
 
     def _update(self, gx, gy, gz, ax, ay, az, mx, my, mz):
         if not isfinite(gx, gy, gz, ax, ay, az, mx, my, mz):

@@ -8,9 +8,12 @@ multiplies them with half the error vector: kp = twoKp / 2, ki = twoKi / 2.
 Its defaults twoKp = 2 * 0.5, twoKi = 2 * 0 are kp = 0.5, ki = 0 (our
 defaults).
 """
+import dataclasses
+
 from .. import _checks
 from . import _gate, _math
 from ._base import QUAT_NORM2_TOL, ReferenceFilter, integral_problem, isfinite
+from ._settings import REQUIRED, SettingsRecord, choice, dt, real, setting
 
 
 def check_mahony_gains(dt, kp, ki):
@@ -30,6 +33,27 @@ def check_mahony_gains(dt, kp, ki):
                          f"kp*dt={kpdt!r}, ki*dt^2={kidt2!r})")
 
 
+def _ki(name, value, prior):
+    ki = _checks.check_real(name, value, lo=0.0)
+    check_mahony_gains(prior["dt"], prior["kp"], ki)
+    return ki
+
+
+@dataclasses.dataclass(frozen=True)
+class MahonySettings(SettingsRecord):
+    """imf_mahony_settings_t, member for member, in the C's units: the keywords of
+    MahonyIMU and MahonyAHRS (the user's default and unit), checked and converted once."""
+    #                  default   unit        check                 to C
+    dt: float = setting(REQUIRED, "s", dt())
+    kp: float = setting(0.5, "1/s", real(lo=0.0))
+    ki: float = setting(0.0, "1/s^2", _ki)
+    invsqrt: int = setting("exact", "", choice(*_math.INVSQRT), to_c=_math.INVSQRT.__getitem__,
+                           kw_only=True)
+    acc_gate_lo: float = setting(None, "acc_1g", _gate.lo, keyword="acc_gate", kw_only=True)
+    acc_gate_hi: float = setting(None, "acc_1g", _gate.hi, keyword="acc_gate", kw_only=True)
+    acc_1g: float = setting(1.0, "acc unit", real(lo=0.0, lo_open=True), kw_only=True)
+
+
 class _Mahony(ReferenceFilter):
     state_names = ("q0", "q1", "q2", "q3", "ix", "iy", "iz")
 
@@ -40,22 +64,16 @@ class _Mahony(ReferenceFilter):
             return f"|q|^2 = {n2!r}, must be within 1 +- {QUAT_NORM2_TOL}"
         return integral_problem(cls.state_names, state, args[0])
 
-    @staticmethod
-    def _params(dt, kp=0.5, ki=0.0, *, invsqrt="exact", acc_gate=None, acc_1g=1.0):
-        dt = _checks.check_dt(dt)
-        kp = _checks.check_real("kp", kp, lo=0.0)
-        ki = _checks.check_real("ki", ki, lo=0.0)
-        check_mahony_gains(dt, kp, ki)
-        _checks.check_choice("invsqrt", invsqrt, tuple(_math.INVSQRT))
-        return (dt, kp, ki, _math.INVSQRT[invsqrt], *_gate.check(acc_gate, acc_1g))
+    settings_type = MahonySettings
+    _params = MahonySettings.keywords()
 
-    def _init(self, dt, kp, ki, invsqrt, acc_gate_lo, acc_gate_hi, acc_1g):
+    def _init(self, s):
         R = self._R
-        self._set_acc_gate(acc_gate_lo, acc_gate_hi, acc_1g)
-        self._set_dt(R(dt))
-        self.two_kp = R(2.0) * R(kp)
-        self.two_ki = R(2.0) * R(ki)
-        self.invsqrt = invsqrt
+        self._set_acc_gate(s.acc_gate_lo, s.acc_gate_hi, s.acc_1g)
+        self._set_dt(R(s.dt))
+        self.two_kp = R(2.0) * R(s.kp)
+        self.two_ki = R(2.0) * R(s.ki)
+        self.invsqrt = s.invsqrt
         self.q0 = R(1.0)
         self.q1 = R(0.0)
         self.q2 = R(0.0)

@@ -4,6 +4,7 @@ twin of csrc/mahony2d.c, line for line.
 Also the output helpers shared by the gravity-vector family (multiwii, kk,
 dcm): tilt_angles() (csrc/imf_math.h imf_tilt_angles) and sqrt_r().
 """
+import dataclasses
 import math
 
 import numpy as np
@@ -11,6 +12,7 @@ import numpy as np
 from .. import _checks
 from . import _math
 from ._base import ReferenceFilter, isfinite
+from ._settings import REQUIRED, SettingsRecord, choice, dt, real, setting
 
 
 def sqrt_r(R, x):
@@ -44,6 +46,22 @@ def _check_gains(dt, kp, ki):
     return kp, ki
 
 
+def gain_ki(name, value, prior):
+    """Settings record: ki, with kp (checked before it) in the stable range."""
+    return _check_gains(prior["dt"], prior["kp"], value)[1]
+
+
+@dataclasses.dataclass(frozen=True)
+class Mahony2DSettings(SettingsRecord):
+    """imf_mahony2d_settings_t, member for member (Mahony2D's keywords, in the C's units)."""
+    #                  default   unit     check                      to C
+    dt: float = setting(REQUIRED, "s", dt())
+    kp: float = setting(REQUIRED, "1/s", real(lo=0.0))
+    ki: float = setting(REQUIRED, "1/s^2", gain_ki)
+    exact: int = setting("approx", "", choice("approx", "exact"),
+                         to_c=lambda v: int(v == "exact"), keyword="error")
+
+
 class Mahony2D(ReferenceFilter):
     """2D Mahony filter, article 4.2: only the gravity direction d is estimated.
 
@@ -61,12 +79,8 @@ class Mahony2D(ReferenceFilter):
     c_name = "imf_mahony2d"
     state_names = ("dx", "dy", "dz", "ix", "iy", "iz")
 
-    @staticmethod
-    def _params(dt, kp, ki, error="approx"):
-        dt = _checks.check_dt(dt)
-        error = _checks.check_choice("error", error, ("approx", "exact"))
-        kp, ki = _check_gains(dt, kp, ki)
-        return (dt, kp, ki, int(error == "exact"))
+    settings_type = Mahony2DSettings
+    _params = Mahony2DSettings.keywords()
 
     @classmethod
     def _valid_state(cls, args, R, state):
@@ -74,12 +88,12 @@ class Mahony2D(ReferenceFilter):
             return "d (dx, dy, dz) must have 0 < |d|^2 <= 4.0"
         return None
 
-    def _init(self, dt, kp, ki, exact):
+    def _init(self, s):
         R = self._R
-        self.kp = R(kp)
-        self.ki = R(ki)
-        self._set_dt(R(dt))
-        self.exact = exact != 0
+        self.kp = R(s.kp)
+        self.ki = R(s.ki)
+        self._set_dt(R(s.dt))
+        self.exact = s.exact != 0
         self.d2_max = R(4.0)
         self.dx = R(0.0)
         self.dy = R(0.0)

@@ -46,10 +46,30 @@ Where imufuse departs from the firmware, and why:
 8. Not ported: the magnetometer vector EstM, SMALL_ANGLES_25, the int32
    copies EstG32. Non-finite samples are rejected (imufuse policy).
 """
-from .. import _checks
+import dataclasses
+
 from . import _math
 from ._base import ReferenceFilter, isfinite
+from ._settings import REQUIRED, SettingsRecord, dt, real, setting
 from .mahony2d import tilt_angles
+
+
+def _shift(name, value, prior):
+    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= 16:
+        raise ValueError(f"acc_lpf_shift: must be an integer with 0 <= acc_lpf_shift <= 16, "
+                         f"got {value!r}")
+    return value
+
+
+@dataclasses.dataclass(frozen=True)
+class MultiWiiSettings(SettingsRecord):
+    """imf_multiwii_settings_t, member for member (MultiWii's keywords, in the C's units)."""
+    #                  default   unit        check
+    dt: float = setting(REQUIRED, "s", dt())
+    cmpf: float = setting(600.0, "1", real(lo=0.0))
+    acc_lpf_shift: int = setting(4, "bits", _shift)
+    acc_1g: float = setting(1.0, "acc unit", real(lo=0.0, lo_open=True))
+    window: float = setting(0.15, "1", real(lo=0.0, hi=1.0, lo_open=True))
 
 
 class MultiWii(ReferenceFilter):
@@ -67,39 +87,30 @@ class MultiWii(ReferenceFilter):
     c_name = "imf_multiwii"
     state_names = ("dx", "dy", "dz", "ax", "ay", "az")
 
-    @staticmethod
-    def _params(dt, cmpf=600.0, acc_lpf_shift=4, acc_1g=1.0, window=0.15):
-        dt = _checks.check_dt(dt)
-        cmpf = _checks.check_real("cmpf", cmpf, lo=0.0)
-        if isinstance(acc_lpf_shift, bool) or not isinstance(acc_lpf_shift, int) \
-                or not 0 <= acc_lpf_shift <= 16:
-            raise ValueError(f"acc_lpf_shift: must be an integer with 0 <= acc_lpf_shift <= 16, "
-                             f"got {acc_lpf_shift!r}")
-        acc_1g = _checks.check_real("acc_1g", acc_1g, lo=0.0, lo_open=True)
-        window = _checks.check_real("window", window, lo=0.0, hi=1.0, lo_open=True)
-        return (dt, cmpf, acc_lpf_shift, acc_1g, window)
+    settings_type = MultiWiiSettings
+    _params = MultiWiiSettings.keywords()
 
     @classmethod
     def _valid_state(cls, args, R, state):
-        acc_1g = R(args[3])
+        acc_1g = R(args.acc_1g)
         if not _math.gravity_ok(R, *[R(v) for v in state[:3]],
                                 (R(4.0) * acc_1g) * (R(4.0) * acc_1g)):
             return "d (dx, dy, dz) must have 0 < |d| <= 4 acc_1g"
         return None
 
-    def _init(self, dt, cmpf, acc_lpf_shift, acc_1g, window):
+    def _init(self, s):
         R = self._R
-        self._set_dt(R(dt))
-        self.cmpf = R(cmpf)
+        self._set_dt(R(s.dt))
+        self.cmpf = R(s.cmpf)
         self.inv_cmpf1 = R(1.0) / (self.cmpf + R(1.0))
         # powers of two: the scalings of the LPF are exact, like the firmware's shifts
         self.lpf_n = R(1.0)
-        for _ in range(acc_lpf_shift):
+        for _ in range(s.acc_lpf_shift):
             self.lpf_n = self.lpf_n * R(2.0)
         self.lpf_inv = R(1.0) / self.lpf_n
         # the window test compares squared magnitudes, like the firmware's accMag
-        acc_1g = R(acc_1g)
-        window = R(window)
+        acc_1g = R(s.acc_1g)
+        window = R(s.window)
         lo = (R(1.0) - window) * acc_1g
         hi = (R(1.0) + window) * acc_1g
         self.mag2_lo = lo * lo

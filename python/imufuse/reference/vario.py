@@ -6,12 +6,14 @@ with barometric altitude: z altitude (cm), v climb rate (cm/s), b
 accelerometer bias (cm/s^2), and the covariance P (upper triangle).
 vertical_accel() is Nair's gravity-compensated vertical acceleration.
 """
+import dataclasses
 import functools
 
 import numpy as np
 
 from .. import _checks
 from ._base import ReferenceFilter, isfinite
+from ._settings import SettingsRecord, real, setting
 
 #: its own input kind (accel, baro_alt, dt): not in FILTERS, the IMU/1-D matrix
 PREDICT = {"seed": 0, "model": 1}
@@ -110,6 +112,43 @@ def update_inputs(accel, baro_alt, dt):
                  (("accel", accel), ("baro_alt", baro_alt), ("dt", dt)))
 
 
+def _p0(i):
+    def check(name, p0, prior):
+        try:
+            p = tuple(p0)
+            if len(p) != 3:
+                raise ValueError
+        except (TypeError, ValueError):
+            raise ValueError(f"p0: must be three variances (z, v, b), got {p0!r}") from None
+        return _checks.check_real(f"p0[{i}]", p[i], lo=0.0)
+    return check
+
+
+def _predict(name, predict, prior):
+    _checks.check_choice("predict", predict, tuple(PREDICT))
+    if predict == "seed":
+        check_seed_stable(prior["var_z"], prior["var_acc"], prior["var_bias"])
+    return predict
+
+
+@dataclasses.dataclass(frozen=True)
+class VarioSettings(SettingsRecord):
+    """imf_vario_settings_t, member for member, in the C's units: VarioKF's keywords."""
+    #                      default  unit         check                     to C
+    var_z: float = setting(VAR_Z, "m^2", real(lo=0.0, lo_open=True))
+    var_acc: float = setting(VAR_ACC, "(m/s^2)^2", real(lo=0.0))
+    var_bias: float = setting(VAR_BIAS, "(m/s^2)^2", real(lo=0.0))
+    p_z: float = setting(P0, "m^2", _p0(0), keyword="p0")
+    p_v: float = setting(P0, "(m/s)^2", _p0(1), keyword="p0")
+    p_b: float = setting(P0, "(m/s^2)^2", _p0(2), keyword="p0")
+    z0: float = setting(None, "m", lambda name, v, prior: 0.0 if v is None
+                        else _checks.check_real("z0", v), keyword="z0")
+    v0: float = setting(0.0, "m/s", real())
+    b0: float = setting(0.0, "m/s^2", real())
+    z0_from_baro: int = setting(None, "", lambda name, v, prior: int(v is None), keyword="z0")
+    predict: int = setting("seed", "", _predict, to_c=PREDICT.__getitem__, kw_only=True)
+
+
 class VarioKF(ReferenceFilter):
     """Nair's variometer Kalman filter: altitude, climb rate and
     accelerometer bias from vertical acceleration and barometric altitude.
@@ -146,46 +185,25 @@ class VarioKF(ReferenceFilter):
         check_start(kwargs)
         super().__init__(*args, dtype=dtype, **kwargs)
 
-    @staticmethod
-    def _params(var_z=VAR_Z, var_acc=VAR_ACC, var_bias=VAR_BIAS, p0=P0, z0=None, v0=0.0,
-                b0=0.0, *, predict="seed"):
-        var_z = _checks.check_real("var_z", var_z, lo=0.0, lo_open=True)
-        var_acc = _checks.check_real("var_acc", var_acc, lo=0.0)
-        var_bias = _checks.check_real("var_bias", var_bias, lo=0.0)
-        try:
-            p_z, p_v, p_b = p0
-        except (TypeError, ValueError):
-            raise ValueError(f"p0: must be three variances (z, v, b), got {p0!r}") from None
-        p_z = _checks.check_real("p0[0]", p_z, lo=0.0)
-        p_v = _checks.check_real("p0[1]", p_v, lo=0.0)
-        p_b = _checks.check_real("p0[2]", p_b, lo=0.0)
-        from_baro = z0 is None
-        z0 = 0.0 if from_baro else _checks.check_real("z0", z0)
-        v0 = _checks.check_real("v0", v0)
-        b0 = _checks.check_real("b0", b0)
-        _checks.check_choice("predict", predict, tuple(PREDICT))
-        if predict == "seed":
-            check_seed_stable(var_z, var_acc, var_bias)
-        return (var_z, var_acc, var_bias, p_z, p_v, p_b, z0, v0, b0, int(from_baro),
-                PREDICT[predict])
+    settings_type = VarioSettings
+    _params = VarioSettings.keywords()
 
-    def _init(self, var_z, var_acc, var_bias, p_z, p_v, p_b, z0, v0, b0, z0_from_baro,
-              predict):
+    def _init(self, s):
         R = self._R
-        self.var_z = R(var_z)
-        self.var_acc = R(var_acc)
-        self.var_bias = R(var_bias)
-        self.predict = PREDICT_MODEL if predict == PREDICT_MODEL else PREDICT_SEED
-        self.started = 0 if z0_from_baro else 1
-        self.z = R(z0)
-        self.v = R(v0)
-        self.b = R(b0)
-        self.pzz = R(p_z)
+        self.var_z = R(s.var_z)
+        self.var_acc = R(s.var_acc)
+        self.var_bias = R(s.var_bias)
+        self.predict = PREDICT_MODEL if s.predict == PREDICT_MODEL else PREDICT_SEED
+        self.started = 0 if s.z0_from_baro else 1
+        self.z = R(s.z0)
+        self.v = R(s.v0)
+        self.b = R(s.b0)
+        self.pzz = R(s.p_z)
         self.pzv = R(0.0)
         self.pzb = R(0.0)
-        self.pvv = R(p_v)
+        self.pvv = R(s.p_v)
         self.pvb = R(0.0)
-        self.pbb = R(p_b)
+        self.pbb = R(s.p_b)
 
     def _predict_covariance(self, x, dt):
         """Step 1: P = F P F^T + Q, with A = F P (rows 0 and 1; row 2 of F P is
