@@ -21,7 +21,7 @@ import imufuse_c
 from imufuse import _fusion, catalogue, sim
 from imufuse._checks import KINDS
 from bits import assert_same_bits
-from registry import (DTYPES, FIXED_CASES, fixed_matrix, FLOAT_CASES, FUSION_CASES, PROFILES, each_backend,
+from imufuse.registry import (DTYPES, FIXED_CASES, fixed_matrix, FLOAT_CASES, FUSION_CASES, PROFILES, each_backend,
                       each_dtype, representatives)
 
 TILT = math.radians(30.0)

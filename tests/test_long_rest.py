@@ -41,7 +41,7 @@ import twins  # noqa: E402
 
 import imufuse.reference as reference  # noqa: E402
 from imufuse import catalogue, sim  # noqa: E402
-from registry import (DTYPES, FIXED_CASES, FLOAT_CASES, case_params,  # noqa: E402
+from imufuse.registry import (DTYPES, FIXED_CASES, FLOAT_CASES, case_params,  # noqa: E402
                       float_matrix)
 
 imufuse_c = pytest.importorskip("imufuse_c", reason="the long runs need the compiled run()")

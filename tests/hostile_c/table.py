@@ -1,6 +1,6 @@
 """The filter table of the sanitizer and fuzzing driver (float_filters.c), generated from
 what the filters already declare: every float configuration of the test registry
-(tests/registry.py: each catalogue filter with its defaults and the variants the other
+(imufuse.registry: each catalogue filter with its defaults and the variants the other
 tests run), plus FUZZ_CASES below, each initialised with the C init arguments its twin
 computes (`_params`, keyed by the `_init` names as imufuse_c passes them), through the
 settings struct or the positional init that the header declares (read by
@@ -29,7 +29,7 @@ from imufuse import catalogue
 from imufuse._checks import KINDS
 from imufuse.mcu.library import c_library
 from imufuse.reference._base import init_arguments
-from registry import FIXED_CASES, FLOAT_CASES, Case
+from imufuse.registry import FIXED_CASES, FLOAT_CASES, Case
 
 CSRC = Path(__file__).resolve().parents[2] / "csrc"   # this checkout's sources, as the driver
 
