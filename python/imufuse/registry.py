@@ -6,7 +6,7 @@ The lists here hold only the extra configurations worth testing (every option
 of every class, published defaults, edge gains).
 
 The test suite, the benchmarks, the MCU measurement (bench/mcu) and the generated
-tables of the sanitizer and fuzzing drivers (tests/hostile_c/table.py) import it by
+tables of the sanitizer and fuzzing drivers (tests/hostile_c/hostile_table.py) import it by
 name: ``from imufuse.registry import FLOAT_CASES``. The helpers that return pytest
 parameters import pytest when called (pytest is a test requirement, not the package's).
 """
