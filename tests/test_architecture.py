@@ -1,9 +1,13 @@
 """The dependency direction of the Python package: cli -> catalogue ->
-{imufuse_c, reference} -> shared helpers, without cycles, and no import of a
-project module inside a function body (the usual way to hide a cycle)."""
+{imufuse_c, reference} -> shared helpers, floor by floor (FLOORS, docs/architecture.md),
+without cycles, and no import of a project module inside a function body (the usual way to
+hide a cycle). And the tree's rules: no source file over 500 lines without a reason, nothing
+loaded by path, every folder of the package in the wheel."""
 import ast
 import re
 from pathlib import Path
+
+import pytest
 
 import imufuse
 
@@ -126,6 +130,44 @@ def test_direction():
         assert not bad, f"{m} imports {bad}"
 
 
+#: The floors of docs/architecture.md, top down: a module by its name or the package it is in
+#: (the longest name that matches). Every import goes to the module's own floor or below.
+FLOORS = [
+    ("command line", {"imufuse.cli", "imufuse.__main__"}),
+    ("sessions and tools", {"imufuse.session", "imufuse.tune", "imufuse.comparison", "imufuse.vario.log",
+                            "imufuse.calibration", "imufuse.demo", "imufuse.testing", "imufuse.arduino",
+                            "imufuse.firmware", "imufuse.mcu", "imufuse._stubs"}),
+    ("data and filters", {"imufuse.io", "imufuse.preprocess", "imufuse.plots", "imufuse.catalogue",
+                          "imufuse.registry", "imufuse.sim", "imufuse.vario", "imufuse.vario.pipeline"}),
+    ("compiled and twins", {"imufuse_c", "imufuse.reference", "imufuse._fusion", "imufuse._fusion13"}),
+    ("helpers", {"imufuse", "imufuse._checks", "imufuse.rotations", "imufuse.estimate", "imufuse.bits",
+                 "imufuse.cproto", "imufuse._atomic", "imufuse._jsonfile", "imufuse._resources",
+                 "imufuse._plotaxes", "imufuse.evaluation", "imufuse.recovery", "imufuse.plausible",
+                 "imufuse.calibration.fit"}),
+]
+
+
+def _floor(module):
+    """The floor's index (0 = the top) of a module: its own entry, else its package's."""
+    names = {n: k for k, (_, ns) in enumerate(FLOORS) for n in ns}
+    m = module
+    while m and m not in names:
+        m = m.rpartition(".")[0]
+    assert m, f"{module} is on no floor of FLOORS (docs/architecture.md)"
+    return names[m]
+
+
+def test_every_import_goes_down_the_floors():
+    """The floors as the tree has them: no module imports a module of a higher floor (the
+    calibration models sit with the preprocessing that applies them, imufuse.calibration's log
+    fitting above; the metrics below the compiled module that scores with them)."""
+    edges, _ = _graph()
+    up = [f"{m} ({FLOORS[_floor(m)][0]}) imports {d} ({FLOORS[_floor(d)][0]})"
+          for m in sorted(edges) for d in sorted(edges[m])
+          if _floor(d) < _floor(m) and not d.startswith(m + ".")]
+    assert not up, up
+
+
 def test_the_namespace_stops_at_the_cli_border():
     """argparse lives in imufuse.cli only: below it, options are typed settings
     (imufuse.session's dataclasses), so no module outside the command line imports argparse,
@@ -156,7 +198,8 @@ def test_the_commands_run_through_the_session():
     for m, p, _ in _modules():
         if m == "imufuse.cli" or m.startswith("imufuse.cli."):
             assert "read_log(" not in p.read_text(), f"{m} reads logs itself"
-            assert "imufuse.preprocess" not in edges[m], f"{m} preprocesses itself"
+            assert not any(d == "imufuse.preprocess" or d.startswith("imufuse.preprocess.")
+                           for d in edges[m]), f"{m} preprocesses itself"
             assert not {"evaluate", "mean_over_trials"} & {
                 a.name for node in ast.walk(ast.parse(p.read_text()))
                 if isinstance(node, ast.ImportFrom) for a in node.names}, f"{m} scores itself"
@@ -231,3 +274,12 @@ def test_the_package_does_not_import_the_test_matrix():
     edges, _ = _graph()
     users = [m for m, deps in edges.items() if "imufuse.registry" in deps]
     assert not users, users
+
+
+def test_every_subpackage_is_in_the_wheel():
+    """pyproject.toml names its packages one by one: a folder of the package moved or added
+    (imufuse.preprocess, say) is listed there, or the wheel would go without it."""
+    tomllib = pytest.importorskip("tomllib")
+    listed = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
+    folders = {".".join(p.parent.relative_to(PKG.parent).parts) for p in PKG.rglob("__init__.py")}
+    assert folders <= listed, sorted(folders - listed)
