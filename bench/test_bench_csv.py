@@ -10,6 +10,7 @@ arrays it yields plus a bounded buffer.
     pytest bench/test_bench_csv.py --benchmark-only -s
 """
 import json
+import os
 import subprocess
 import sys
 import time
@@ -89,14 +90,13 @@ PEAK_READERS = {**READERS,
 
 _PEAK = """
 import json, re, sys
-sys.path[:0] = {paths!r}
 import test_bench_csv as B
 def rss(k):
     return int(re.search(k + r":\\s+(\\d+)", open("/proc/self/status").read()).group(1)) / 1024
 open("/proc/self/clear_refs", "w").write("5")    # the peak from here: imports left out
 base = rss("VmRSS")
 B.PEAK_READERS[sys.argv[1]](sys.argv[2])
-print(json.dumps({{"peak_mb": rss("VmHWM") - base}}))
+print(json.dumps({"peak_mb": rss("VmHWM") - base}))
 """
 
 
@@ -116,11 +116,12 @@ def test_read_csv_side_by_side(benchmark, big_csv):
                 assert np.array_equal(g, exact), name
     med = {k: float(np.median(v)) for k, v in cpu.items()}
     here = str(Path(__file__).parent)
-    paths = [here] + sys.path
+    # this module and what this process imports from, importable by name in the child
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([here, *sys.path])}
     peak = {}
     for name in READERS:
-        out = subprocess.run([sys.executable, "-c", _PEAK.format(paths=paths), name, str(big_csv)],
-                             capture_output=True, text=True, check=True, cwd=here)
+        out = subprocess.run([sys.executable, "-c", _PEAK, name, str(big_csv)],
+                             capture_output=True, text=True, check=True, cwd=here, env=env)
         peak[name] = json.loads(out.stdout)
     benchmark.pedantic(_reader, args=(big_csv,), rounds=1, iterations=1)
     arrays_mb = ROWS * 10 * 8 / 2**20

@@ -18,7 +18,7 @@ import pytest
 import imufuse.reference as reference
 from plain_loop import build
 from timing import best_of
-from registry import DTYPES, FLOAT_CASES
+from imufuse.registry import DTYPES, FLOAT_CASES
 from sequences import generate
 
 N_RUN = 10 ** 6

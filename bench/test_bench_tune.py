@@ -12,7 +12,6 @@ side in one run (best of 3) against
 Prints the table that bench/RESULTS.md and the README's speed section quote."""
 import glob
 import os
-import sys
 
 import numpy as np
 import pytest
@@ -22,9 +21,8 @@ from imufuse.evaluation import prepare_reference
 from imufuse.session import Session
 from imufuse.tune import Tuner
 
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests"))
-from broad_data import BROAD, SKIP_REASON  # noqa: E402
-from timing import best_of  # noqa: E402
+from broad_data import BROAD, SKIP_REASON  # tests/broad_data.py (tests on the suite's pythonpath)
+from timing import best_of
 
 NAME, SETS, CORES = "MadgwickAHRS", 20, 2
 

@@ -26,7 +26,7 @@ import numpy as np
 import pytest
 
 import imufuse_c
-from registry import Case
+from imufuse.registry import Case
 from test_bench_filters import plain_runner
 
 vqf = pytest.importorskip("vqf", reason="the bench extra: pip install 'imufuse[bench]'")

@@ -1,6 +1,9 @@
 /*
  * FusionAHRS13 (x-io Fusion 1.3, imufusion 1.3.3). See fusion13.h. The
  * pure-Python twin is python/imufuse/reference/fusion13.py: the same lines in the same order.
+ *
+ * Longer than 500 lines because: it is Fusion 1.3's AHRS and bias algorithm in one file, in
+ * the published code's order, read line by line against it and against its one-file twin.
  */
 #include "fusion13.h"
 

@@ -2,6 +2,9 @@
  * FusionAHRS (Longbin's Fusion walkthrough, imufusion 1.2.3). See fusion_ahrs.h. The pure-Python
  * twin is python/imufuse/reference/fusion.py: the same lines in the same
  * order. Step comments name the parts of the algorithm in Longbin's walkthrough.
+ *
+ * Longer than 500 lines because: it is Fusion 1.2.3's FusionAhrs.c in one file, in the
+ * published code's order, read line by line against it and against its twin.
  */
 #include "fusion_ahrs.h"
 

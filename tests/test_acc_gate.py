@@ -2,14 +2,14 @@
 MahonyIMU/AHRS: outside lo..hi (units of acc_1g) the update integrates the
 gyro only; inside, and with the gate off (the default), the filter is the
 ungated one bit for bit. The C builds against the twins are in the
-registry's bit-exact matrix (tests/registry.py, labels "gate*")."""
+registry's bit-exact matrix (imufuse.registry, labels "gate*")."""
 import numpy as np
 import pytest
 
 import imufuse.reference as reference
 import imufuse_c
 from bits import assert_same_bits
-from registry import DTYPES, each, each_dtype
+from imufuse.registry import DTYPES, each, each_dtype
 
 # (class, gains that make it a pure gyro integrator)
 FILTERS = [("MadgwickIMU", dict(beta=0.0)), ("MadgwickAHRS", dict(beta=0.0)),

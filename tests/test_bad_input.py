@@ -3,7 +3,7 @@ the same way by both backends (one validation path, imufuse._checks)."""
 import numpy as np
 import pytest
 
-from registry import (FLOAT_CASES, case_params, each, each_backend, each_dtype)
+from imufuse.registry import (FLOAT_CASES, case_params, each, each_backend, each_dtype)
 from sequences import generate
 
 BACKENDS = ("c", "ref")

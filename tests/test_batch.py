@@ -15,7 +15,7 @@ from imufuse import catalogue, sim
 from imufuse.evaluation import evaluate, prepare_reference
 from imufuse.session import chunked_estimate
 from imufuse.tune import Tuner
-from registry import DTYPES, FLOAT_CASES, FIXED_CASES
+from imufuse.registry import DTYPES, FLOAT_CASES, FIXED_CASES
 
 WIDTHS = [0, *imufuse_c.lane_widths()]
 CLASSES_3D = sorted({c.name for c in FLOAT_CASES if c.kind in ("imu", "ahrs")})

@@ -6,7 +6,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 from bits import assert_same_bits, first_difference
-from registry import (DTYPES, FLOAT_CASES, case_params, each_dtype)
+from imufuse.registry import (DTYPES, FLOAT_CASES, case_params, each_dtype)
 from sequences import SEQUENCES, generate
 
 @pytest.mark.parametrize("case", case_params(FLOAT_CASES))
@@ -110,7 +110,7 @@ def test_harness_catches_reassociation(dtype):
     """A reference with one expression re-associated, (Kp e + I) + w turned into
     Kp e + (I + w), must fail the comparison with the C build."""
     import imufuse.reference as reference
-    from registry import Case
+    from imufuse.registry import Case
 
     class Reassociated(reference.Mahony1DBias):
         def _update(self, rate, angle):

@@ -18,8 +18,6 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 
 CHECK = r"""
-import sys
-sys.path[:0] = [{tree!r}, {python!r}]
 import imufuse_c, imufuse.reference as ref
 assert imufuse_c.__file__.startswith({tree!r}), imufuse_c.__file__
 for dtype in ("float32", "float64"):
@@ -66,9 +64,11 @@ def _build(tree, *extra):
 
 
 def _import(tree):
-    code = CHECK.format(tree=str(tree), python=str(ROOT / "python"))
+    code = CHECK.format(tree=str(tree))
+    # the built tree and this checkout's package ahead of any installed imufuse
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tree), str(ROOT / "python")])}
     return subprocess.run([sys.executable, "-c", code], cwd=tree, capture_output=True,
-                          text=True, timeout=120)
+                          text=True, timeout=120, env=env)
 
 
 @pytest.fixture(scope="module")

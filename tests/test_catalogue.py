@@ -17,7 +17,7 @@ from imufuse._stubs import stubs
 from imufuse.estimate import ADAPTERS
 from imufuse.mcu import filters as mcu_filters
 import bindgen
-from registry import CASES_VARIO, FIXED_CASES, FLOAT_CASES, FUSION_CASES
+from imufuse.registry import CASES_VARIO, FIXED_CASES, FLOAT_CASES, FUSION_CASES
 
 HEADERS = "\n".join(p.read_text() for p in sorted(csrc_dir().rglob("*.h")))
 ENTRIES = [pytest.param(e, id=e.name) for e in (*catalogue.FLOAT, *catalogue.FIXED)]
@@ -102,7 +102,7 @@ def test_entry_defaults_construct_and_estimate(e):
 @pytest.mark.parametrize("e", ENTRIES)
 def test_entry_reaches_every_harness(e):
     cases = FIXED_CASES if e.fixed else FLOAT_CASES
-    assert any(c.name == e.name for c in cases), "missing from tests/registry.py"
+    assert any(c.name == e.name for c in cases), "missing from imufuse.registry"
     # MCU runner and firmware harness: the prototypes they read
     cf = mcu_filters.c_library(e.c_name)
     assert cf.init == cproto.init_params(HEADERS, e.c_name + "_init")[1]
@@ -211,7 +211,7 @@ def test_own_api_sections_reach_every_harness(e):
     test_hostile.py and test_vario.py run), the stubs, the MCU runner's header
     reader and the benchmarks (bench/test_bench_*.py time them by name)."""
     cases = FUSION_CASES if e in catalogue.FUSION else CASES_VARIO
-    assert any(c.name == e.name for c in cases), "missing from tests/registry.py"
+    assert any(c.name == e.name for c in cases), "missing from imufuse.registry"
     c = e.make("c", **e.defaults)
     r = e.make("ref", **e.defaults)
     assert tuple(c.state_names) == tuple(r.state_names) == e.state_names

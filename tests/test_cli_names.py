@@ -48,10 +48,11 @@ def test_suggestions_come_from_the_listed_names():
 def test_validate_without_cffi_names_the_extra(tmp_path):
     """cffi hidden from the interpreter: exit 5 with the extra to install, not an internal error."""
     (tmp_path / "cffi.py").write_text("raise ImportError('cffi hidden by the test')\n")
-    code = ("import sys; sys.path.insert(0, %r); from imufuse.cli import main; "
-            "sys.exit(main(['validate', '--csrc', '-f', 'Kalman1D', '--duration', '1']))"
-            % str(tmp_path))
-    env = {**os.environ, "IMUFUSE_CACHE": str(tmp_path / "cache")}   # nothing built before
+    code = ("import sys; from imufuse.cli import main; "
+            "sys.exit(main(['validate', '--csrc', '-f', 'Kalman1D', '--duration', '1']))")
+    env = {**os.environ, "IMUFUSE_CACHE": str(tmp_path / "cache"),   # nothing built before
+           # the fake cffi ahead of the real one
+           "PYTHONPATH": os.pathsep.join(filter(None, [str(tmp_path), os.environ.get("PYTHONPATH")]))}
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
     assert p.returncode == 5, p.stderr
     assert "pip install 'imufuse[firmware]'" in p.stderr and "internal error" not in p.stderr

@@ -6,9 +6,7 @@ causes named (bench/mcu/cross_library.py puts the same comparison in its table, 
 
 An unreachable PyPI skips, or fails with IMUFUSE_REQUIRE_ORACLE=1 (as tests/fusion_oracle.py).
 """
-import importlib.util
 import os
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -18,12 +16,8 @@ from imufuse import sim
 from imufuse.firmware import compare_firmware, load_declaration, validate_isolated
 from imufuse.mcu import ensure_toolchains
 
-ROOT = Path(__file__).resolve().parents[1]
-_spec = importlib.util.spec_from_file_location("imf_bench_mcu_peers",
-                                               ROOT / "bench" / "mcu" / "peers.py")
-peers = importlib.util.module_from_spec(_spec)
-sys.modules[_spec.name] = peers
-_spec.loader.exec_module(peers)
+import peers  # bench/mcu/peers.py (on the suite's pythonpath: pyproject.toml)
+
 VQF = "VQF 2.1.2 (float32)"
 
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from imufuse import catalogue, sim
-from registry import each
+from imufuse.registry import each
 
 HOW = {"copy": copy.copy, "deepcopy": copy.deepcopy,
        "pickle": lambda f: pickle.loads(pickle.dumps(f))}

@@ -10,7 +10,7 @@ import pytest
 
 import imufuse.reference as reference
 from bits import ulps as bits_ulps
-from registry import FLOAT_CASES
+from imufuse.registry import FLOAT_CASES
 
 from imufuse import sim
 from imufuse.firmware import (Firmware, FirmwareError, compare_states, csrc_firmware,

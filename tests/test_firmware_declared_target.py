@@ -24,7 +24,6 @@ from imufuse.firmware.declfile import load_declaration
 from imufuse.mcu import ensure_toolchains
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, HERE)          # tests/fusion_oracle.py
 DECLARED = os.path.join(HERE, "declared")
 TARGETS = ("cortex-m4f", "cortex-m0", "atmega328p")
 

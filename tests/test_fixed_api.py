@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import imufuse.reference as reference
-from registry import FIXED_CASES, PROFILES
+from imufuse.registry import FIXED_CASES, PROFILES
 
 
 def _backends():

@@ -3,7 +3,7 @@ twin bit for bit in both precisions, bad input, the non-finite policy, long
 runs at rest, and what FusionOffset buys on a log with a gyroscope bias.
 
 FusionAHRS is driven here and not by the generic harnesses of
-tests/registry.py: its update takes dt per call and Fusion's units (deg/s, g).
+imufuse.registry: its update takes dt per call and Fusion's units (deg/s, g).
 The oracle comparison with imufusion 1.2.3 is tests/test_fusion_oracle.py."""
 import math
 
@@ -16,7 +16,7 @@ from imufuse import reference as ref
 
 from bits import assert_same_bits
 from fusion_sim import simulated_log
-from registry import FUSION_CASES
+from imufuse.registry import FUSION_CASES
 
 DTYPES = ("float32", "float64")
 CONFIGS = {c.label: c.params for c in FUSION_CASES if c.name == "FusionAHRS"}
@@ -267,20 +267,12 @@ def test_fusion_ahrs_on_mcu(target):
     """FusionAHRS (float32) built for the MCU and run in its emulator gives the
     twin's state after every sample, bit for bit (the driver is bench/mcu's
     fusion_ahrs_f32 case, whose cycles are in docs/fusion.md)."""
-    import importlib.util
-    import sys
-    from pathlib import Path
     import imufuse.mcu as mcu
-    root = Path(__file__).resolve().parents[1]
+    import mcu_cases          # bench/mcu/mcu_cases.py (on the suite's pythonpath: pyproject.toml)
     missing = mcu.ensure_toolchains([target])
     if target in missing:
         pytest.skip(f"toolchain for {target} unavailable: {missing[target]}")
-    spec = importlib.util.spec_from_file_location("imf_bench_mcu_registry",
-                                                  root / "bench" / "mcu" / "registry.py")
-    reg = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = reg          # its dataclasses look their module up
-    spec.loader.exec_module(reg)
-    case = reg.CASES["fusion_ahrs_f32"]
+    case = mcu_cases.CASES["fusion_ahrs_f32"]
     inputs = case.make_inputs(300)
     res = mcu.run(target, sources=case.sources, include_dirs=case.include_dirs,
                   driver=case.driver, inputs=inputs)

@@ -3,6 +3,10 @@ its oracles, bit for bit (see fusion13_oracle.py): Fusion 1.3's C as published c
 cffi (every state member and output after every sample) and the PyPI package imufusion 1.3.3
 itself; float64 C against its twin; and planted differences in each path 1.3 added (bias,
 skip start-up, remap, sample period) that the comparisons must catch.
+
+Longer than 500 lines because: its tests run against the oracles that its module-scoped
+fixtures fetch and compile (tests/conftest.py keeps such a module on one worker); split in
+two, the oracles would be built twice.
 """
 import numpy as np
 import pytest

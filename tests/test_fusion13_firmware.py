@@ -25,9 +25,8 @@ from imufuse._resources import csrc_dir
 from bits import assert_same_bits
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, HERE)          # tests/fusion13_oracle.py
-import fusion13_oracle  # noqa: E402
-import fusion_oracle  # noqa: E402
+import fusion13_oracle  # tests/ (on the suite's pythonpath)
+import fusion_oracle
 
 DECLARATION = os.path.join(os.path.dirname(HERE), "examples", "declarations",
                            "fusion-1.3.3.toml")

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import imufuse_c
-from imufuse.calibration import models as cm
+from imufuse.preprocess import calibration as cm
 from imufuse import cli, io
 from imufuse import reference as ref
 

@@ -17,7 +17,7 @@ from imufuse import rotations as rot, sim
 from imufuse.reference.mahony2d import tilt_angles
 
 from bits import assert_same_bits
-from registry import CASES_GRAVITY, DTYPES
+from imufuse.registry import CASES_GRAVITY, DTYPES
 
 DEG = math.degrees(1.0)
 

@@ -30,19 +30,14 @@ from __future__ import annotations
 
 import functools
 import types
-import pathlib
-import sys
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent / "fixed_c"))
-import twins  # noqa: E402
-
-import imufuse.reference as reference  # noqa: E402
-from imufuse import catalogue, sim  # noqa: E402
-from registry import (DTYPES, FIXED_CASES, FLOAT_CASES, case_params,  # noqa: E402
-                      float_matrix)
+import imufuse.reference as reference
+import twins  # tests/fixed_c (on the suite's pythonpath)
+from imufuse import catalogue, sim
+from imufuse.registry import DTYPES, FIXED_CASES, FLOAT_CASES, case_params, float_matrix
 
 imufuse_c = pytest.importorskip("imufuse_c", reason="the long runs need the compiled run()")
 

@@ -4,7 +4,7 @@ single-precision FPU), Cortex-M55 (Armv8.1-M, double-precision FPU), RV32IMAC (s
 RV32IMAFC (single-precision F), each a QEMU machine (imufuse.mcu.TARGETS).
 
 The machinery is tests/test_mcu_filters.py's: for each (configuration, precision) of
-tests/registry.py, all filters of one precision and input set in one program per core, the
+imufuse.registry, all filters of one precision and input set in one program per core, the
 state after every sample and the `skipped` counter equal to the pure-Python reference's, bit
 for bit (the host build equals the reference in test_mcu_filters). test_arithmetic checks
 + - * / sqrt of each core's float and double against correctly rounded results.

@@ -1,6 +1,6 @@
 """Every filter configuration of the registry on the emulated MCUs, bit for bit.
 
-For each (configuration, precision) of tests/registry.py and each target, the state after every
+For each (configuration, precision) of imufuse.registry and each target, the state after every
 sample on Cortex-M4F (qemu), Cortex-M0 (qemu, soft float) and ATmega328P (simavr; float32 and
 fixed point only: its double is 32 bits) has the same bit patterns as the host build of the same
 C and as the pure-Python reference; so do the `skipped` counters. Nothing here knows a filter by
@@ -22,7 +22,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import pytest
 
-import registry
+from imufuse import registry
 from bits import ulps
 
 import imufuse.mcu as mcu

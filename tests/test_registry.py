@@ -7,7 +7,7 @@ import pytest
 
 import imufuse.reference as reference
 import imufuse_c
-from registry import FLOAT_CASES, FUSION_CASES
+from imufuse.registry import FLOAT_CASES, FUSION_CASES
 
 HEADERS = "\n".join(open(h).read() for h in glob.glob(
     os.path.join(os.path.dirname(__file__), "..", "csrc", "*.h")))
@@ -15,7 +15,7 @@ HEADERS = "\n".join(open(h).read() for h in glob.glob(
 
 @pytest.mark.parametrize("name", reference.FILTERS)
 def test_filter_is_registered_and_named(name):
-    assert any(c.name == name for c in FLOAT_CASES), f"{name} has no entry in tests/registry.py"
+    assert any(c.name == name for c in FLOAT_CASES), f"{name} has no entry in imufuse.registry"
     ref = getattr(reference, name)
     assert ref.c_name, f"{name}.c_name is empty"
     for fn in (f"{ref.c_name}_init", ref.c_update):

@@ -402,14 +402,13 @@ def test_streamed_estimate_is_the_whole_runs(tmp_path, name, block):
 
 CONCURRENT = textwrap.dedent("""
     import sys
-    sys.path[:0] = [{tests!r}]
     from test_reliability3 import _att_firmware
     from pathlib import Path
     from imufuse import sim
     from imufuse.firmware import Firmware, validate_isolated
     d = Path(sys.argv[1])
     fw = Firmware([str(d / "att.c")], headers=["att.h"], include_dirs=[str(d)], init="att_begin",
-                  update="att_step", state={{"theta": "att_theta"}}, cache_dir=str(d / "cache"))
+                  update="att_step", state={"theta": "att_theta"}, cache_dir=str(d / "cache"))
     s = sim.axis1d("fast", rate=200.0, duration=1.0, seed=3)
     v = validate_isolated(fw, "Kalman1D", dict(dt=0.005, k0=0.02), [s.gyr, s.acc_angle])
     print("bit-exact" if v.bit_exact else "differs")
@@ -427,9 +426,11 @@ def test_concurrent_builds_of_one_key(tmp_path):
     stale = tmp_path / "cache" / key
     stale.mkdir(parents=True)
     (stale / "half.o").write_bytes(b"\0" * 100)
-    code = CONCURRENT.format(tests=os.path.dirname(os.path.abspath(__file__)))
-    procs = [subprocess.Popen([sys.executable, "-c", code, str(tmp_path)], stdout=subprocess.PIPE,
-                              stderr=subprocess.PIPE, text=True) for _ in range(4)]
+    # this module importable by name in the children (PYTHONPATH ahead of what is inherited)
+    tests = os.path.dirname(os.path.abspath(__file__))
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [tests, os.environ.get("PYTHONPATH")]))}
+    procs = [subprocess.Popen([sys.executable, "-c", CONCURRENT, str(tmp_path)], stdout=subprocess.PIPE,
+                              stderr=subprocess.PIPE, text=True, env=env) for _ in range(4)]
     outs = [p.communicate(timeout=300) for p in procs]
     for p, (out, errs) in zip(procs, outs):
         assert p.returncode == 0 and out.strip() == "bit-exact", errs[-2000:]

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from bits import assert_same_bits
-from registry import (FLOAT_CASES, case_params, each_dtype, float_matrix)
+from imufuse.registry import (FLOAT_CASES, case_params, each_dtype, float_matrix)
 from sequences import generate
 
 OTHER = {"float32": np.float64, "float64": np.float32}

@@ -107,7 +107,10 @@ def sanitized(request, tmp_path_factory):
            *map(str, sorted(UNITS.glob("*.c"))), "-o", str(target), "-lm"]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600, cwd=ROOT)
     assert proc.returncode == 0, proc.stderr[-3000:]
-    env = {**os.environ, **options, "PYTHONSAFEPATH": "1", "PYTHONPATH": str(d),
+    # the sanitized imufuse_c first; imufuse (and its filter matrix, imufuse.registry) where
+    # this process found it
+    path = os.pathsep.join(filter(None, [str(d), os.environ.get("PYTHONPATH")]))
+    env = {**os.environ, **options, "PYTHONSAFEPATH": "1", "PYTHONPATH": path,
            "LD_PRELOAD": runtime, "PYTHONDONTWRITEBYTECODE": "1"}
     env.pop("PYTEST_XDIST_WORKER", None)
     return d, env, san

@@ -17,7 +17,7 @@ import pytest
 import imufuse.reference as reference
 from imufuse import catalogue, rotations
 from bits import assert_same_bits
-from registry import (Case, DTYPES, FLOAT_CASES, case_params, each_backend, each_dtype)
+from imufuse.registry import (Case, DTYPES, FLOAT_CASES, case_params, each_backend, each_dtype)
 from sequences import generate
 
 CASES_3D = [c for c in FLOAT_CASES if c.kind != "1d"]

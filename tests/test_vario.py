@@ -12,7 +12,7 @@ import imufuse.reference as reference
 import imufuse_c
 from bits import assert_same_bits
 from imufuse.rotations import quat_rotate
-from registry import CASES_VARIO, DTYPES, vario_matrix
+from imufuse.registry import CASES_VARIO, DTYPES, vario_matrix
 
 N = 600
 

@@ -1,4 +1,4 @@
-"""Nair's claims, measured on simulated flights (bench/vario_study.py;
+"""Nair's claims, measured on simulated flights (research/vario_study.py;
 the numbers are tabled in docs/vario.md), and `imufuse vario` end to end."""
 import math
 import os

@@ -23,7 +23,7 @@ import pytest
 import imufuse.reference as reference
 import imufuse_c
 from bits import assert_same_bits
-from registry import (CASES_VARIO, DTYPES, FIXED_CASES, FLOAT_CASES, FUSION_CASES, each_dtype, representatives)
+from imufuse.registry import (CASES_VARIO, DTYPES, FIXED_CASES, FLOAT_CASES, FUSION_CASES, each_dtype, representatives)
 from sequences import generate
 
 N = 12
@@ -299,7 +299,7 @@ def test_state_reads_are_the_trajectory():
 def test_no_class_overrides_the_wrapper_paths():
     """The representatives above stand for every filter only while every compiled class takes
     update(), run(), state and reset from its base class, or is a representative itself: a
-    class that defines its own must be added to the representatives (tests/registry.py)."""
+    class that defines its own must be added to the representatives (imufuse.registry)."""
     reps = {c.name for c in CASES_3D}
     reps |= {p.id.rsplit("-", 1)[0].split("-")[0] for p in FILTERS}
     families = [(c, d, False) for c in FLOAT_CASES for d in DTYPES]

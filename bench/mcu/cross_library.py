@@ -43,10 +43,10 @@ from imufuse.firmware import (FirmwareError, csrc_firmware, load_declaration, va
 from imufuse.firmware.targets import CORES
 from imufuse.firmware.versus import compare_firmware
 
+import peers  # bench/mcu/peers.py and readme_table.py, beside this script
+import readme_table
+
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
-import peers  # noqa: E402
-import readme_table  # noqa: E402
 
 COMMAND = "python bench/mcu/cross_library.py"
 FLAGS = ["-O2", "-ffp-contract=off", "-DNDEBUG"]   # a release build: asserts compiled out

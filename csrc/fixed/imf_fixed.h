@@ -6,6 +6,10 @@
  * python/imufuse/reference/_cint.py; tests/test_fixed_core.py compares
  * the two over random and extreme inputs in a UBSan build.
  *
+ * Longer than 500 lines because: it is the one header every fixed-point
+ * filter includes, each helper beside its AVR form and the compile-time
+ * checks it relies on; split, a helper and its AVR form would part.
+ *
  * Formats (CMSIS style, the format is in the name):
  *   q15   int16_t, value = x / 2^15, range [-1, 1 - 2^-15]
  *   q30   int32_t, value = x / 2^30, range [-2, 2 - 2^-30]

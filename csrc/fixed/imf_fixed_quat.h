@@ -2,6 +2,10 @@
  * imf_fixed_quat.h -- steps shared by the fixed-point quaternion filters
  * (mahony_q.c, madgwick_q.c).  Mirrored by python/imufuse/reference/fixed_quat.py.
  *
+ * Longer than 500 lines because: each shared step is here in its 32-bit and
+ * 8-bit profile forms side by side (and their AVR paths), one header for the
+ * two filters that include it.
+ *
  * Formats:
  *   q[4]   quaternion, q30 (int32; 1.0 = 2^30, headroom to +-2)
  *   qs[4]  snapshot of q in symmetric q15 (int16, +-32767), the multiplier

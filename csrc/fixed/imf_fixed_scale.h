@@ -2,7 +2,7 @@
  * imf_fixed_scale.h -- the arithmetic of the single-axis and gravity-vector
  * fixed-point filters (filters_1d_q.c, gravity_q.c), shaped for 8-bit
  * cores.  Mirrored by python/imufuse/reference/fixed_scale.py (same names
- * without the imf_ prefix).  docs/fixed-point.md, "Single-axis and
+ * without the imf_ prefix).  docs/history/fixed-point.md, "Single-axis and
  * gravity-vector filters on AVR", gives the cost and accuracy of each.
  *
  * Same values as imf_fixed.h: imf_mulk16, imf_mulk32, imf_mul32x16k,

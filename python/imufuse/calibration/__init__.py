@@ -6,26 +6,26 @@ The models of Longbin's walkthrough (x-io Fusion), with the parameters of Nair (
     magnetometer:              m_c = S (m_u - h)
 
 The modules, by subject:
-  imufuse.calibration.models   the calibration file (JSON): Calibration (the parameters per
+  imufuse.preprocess.calibration
+                               the calibration file (JSON): Calibration (the parameters per
                                sensor), CalibrationError, from_dict, load_calibration,
                                save_calibration, is_identity, mag_offset (the offset
-                               RobustAHRS holds); applied to logs by
-                               imufuse.preprocess (`imufuse run --calibration`)
+                               RobustAHRS holds); on the preprocessing floor, which applies
+                               it to logs (`imufuse run --calibration`); re-exported here
   imufuse.calibration.fit      the fits from arrays: gyro_offset, still_phases,
                                accel_six_position, mag_minmax, mag_ellipsoid, mag_sphere
                                (hard iron only); each returns a
                                fit.Calibration (sensor, params, figures), not the file's
   imufuse.calibration.log      `imufuse calibrate` over a log: run_log, save (merge into the
                                file), save_mag_offset (a filter's learnt offset), describe.
-                               Not imported here: it reads logs through imufuse.session,
-                               whose preprocessing imports the models.
+                               Not imported here: it reads logs through imufuse.session.
 
 Here: the models' public names and the fits.
 """
+from ..preprocess.calibration import (Calibration, CalibrationError, from_dict, is_identity,
+                                      load_calibration, mag_offset, save_calibration)
 from .fit import (accel_six_position, gyro_offset, mag_ellipsoid, mag_minmax, mag_sphere,
                   still_phases)
-from .models import (Calibration, CalibrationError, from_dict, is_identity, load_calibration,
-                     mag_offset, save_calibration)
 
 __all__ = ["Calibration", "CalibrationError", "from_dict", "load_calibration",
            "save_calibration", "is_identity", "mag_offset", "gyro_offset", "still_phases",

@@ -3,7 +3,7 @@ headers, units; no time column needed), fit one sensor (imufuse.calibration.fit)
 result into the calibration file (`save`) and describe it in one line (`describe`).
 
 The file format (`imufuse calibrate ... -o calib.json`, read by `imufuse run
---calibration` through imufuse.calibration.models):
+--calibration` through imufuse.preprocess.calibration):
 
     {"gyroscope": {"M": 3x3, "s": [3], "b": [3]},
      "accelerometer": {"M": 3x3, "s": [3], "b": [3]},
@@ -23,7 +23,7 @@ from .._atomic import locked, replacing
 from ..io import LogError, require
 from ..session import ReadOptions, Session
 from .fit import Calibration, accel_six_position, gyro_offset, mag_ellipsoid, mag_minmax, mag_sphere
-from .models import CalibrationError, from_dict, read_json
+from ..preprocess.calibration import CalibrationError, from_dict, read_json
 
 __all__ = ["save", "save_mag_offset", "run_log", "describe", "SECTIONS"]
 

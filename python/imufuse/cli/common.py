@@ -336,7 +336,7 @@ def preprocess_options(parser):
     g = parser.add_argument_group("preprocessing, in this order (imufuse.preprocess)")
     g.add_argument("--calibration", metavar="FILE.json",
                    help="sensor calibration (M, s, b per inertial sensor; S, h for the "
-                        "magnetometer; see imufuse.calibration.models)")
+                        "magnetometer; see imufuse.preprocess.calibration)")
     g.add_argument("--align", metavar="ALIGNMENT",
                    help="axis alignment, a signed permutation such as +X-Z+Y "
                         "(body x = +sensor x, y = -sensor z, z = +sensor y)")

@@ -4,7 +4,7 @@ averaged over the trials, with the command line's defaults (init="first",
 each trial's rate), with the published code's gains where they differ (--preset published),
 and with the gains `imufuse tune` finds.
 
-    python bench/real_data.py [DIR] [--write]   # --write: refresh the README block
+    python research/real_data.py [DIR] [--write]   # --write: refresh the README block
 """
 import concurrent.futures as cf
 import glob

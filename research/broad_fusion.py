@@ -3,13 +3,13 @@ settings) on the seven BROAD development trials: the BROAD errors (imufuse.evalu
 degrees, each trial's RMS averaged over the trials. Prints the markdown table of
 docs/fusion.md and the Fusion rows of the README's real-data table.
 
-    python bench/broad_fusion.py [--dir ../shared/data/broad] [--write]   # --write: the README block
+    python research/broad_fusion.py [--dir ../shared/data/broad] [--write]   # --write: the README block
 
 Both in float32 (the C library's precision), from the identity through their start-up, at
 each trial's rate (1.3: sample_rate = the trial's rate; 1.2.3: dt = 1 / rate), the
 gyroscope in deg/s and the accelerometer in g, Fusion's NWU convention; with and without the
 magnetometer (update / update_no_magnetometer). The same script, one parameter set for all
-trials, causal, as bench/broad_compare.py scores the other filters.
+trials, causal, as research/broad_compare.py scores the other filters.
 """
 import argparse
 import os

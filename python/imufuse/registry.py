@@ -4,15 +4,21 @@ Every filter of imufuse.catalogue is in it: a filter without an extra case
 below runs with its catalogue defaults (dt = 0.01, or 0.002 for fixed point).
 The lists here hold only the extra configurations worth testing (every option
 of every class, published defaults, edge gains).
+
+The test suite, the benchmarks, the MCU measurement (bench/mcu) and the generated
+tables of the sanitizer and fuzzing drivers (tests/hostile_c/hostile_table.py) import it by
+name: ``from imufuse.registry import FLOAT_CASES``. The helpers that return pytest
+parameters import pytest when called (pytest is a test requirement, not the package's).
 """
 import functools
 import inspect
 from dataclasses import dataclass, field
 
 import numpy as np
-import pytest
 
-from imufuse import catalogue
+import imufuse_c
+
+from . import catalogue, reference
 
 DTYPES = ("float32", "float64")
 
@@ -37,7 +43,6 @@ class Case:
     @property
     def profiles(self):
         """The fixed-point profiles the class is built in ("32" and "8" for every class today)."""
-        from imufuse import reference
         return getattr(reference, self.name).profiles
 
     def make_fixed(self, backend, profile):
@@ -130,19 +135,25 @@ def _with_defaults(extra, entries, dt, case=None):
 FLOAT_CASES = _with_defaults(EXTRA_FLOAT_CASES, catalogue.FLOAT, 0.01)
 
 
+def _param(*values, id):
+    """One pytest parameter (pytest imported here: only the suites call these helpers)."""
+    import pytest
+    return pytest.param(*values, id=id)
+
+
 def float_cases(kind=None):
     cases = [c for c in FLOAT_CASES if kind is None or c.kind == kind]
-    return [pytest.param(c, id=c.id) for c in cases]
+    return [_param(c, id=c.id) for c in cases]
 
 
 def float_matrix():
     """(case, dtype) pairs for every float filter configuration."""
-    return [pytest.param(c, dt, id=f"{c.id}-{dt}") for c in FLOAT_CASES for dt in DTYPES]
+    return [_param(c, dt, id=f"{c.id}-{dt}") for c in FLOAT_CASES for dt in DTYPES]
 
 
 def case_params(cases):
     """pytest parameters of ``cases``, one per configuration (with each_dtype)."""
-    return [pytest.param(c, id=c.id) for c in cases]
+    return [_param(c, id=c.id) for c in cases]
 
 
 def each(name, values):
@@ -208,7 +219,7 @@ FIXED_CASES = _with_defaults(EXTRA_FIXED_CASES, catalogue.FIXED, 0.002)
 
 def fixed_matrix():
     """(case, profile) pairs for every fixed-point filter configuration."""
-    return [pytest.param(c, p, id=f"{c.id}-p{p}") for c in FIXED_CASES for p in c.profiles]
+    return [_param(c, p, id=f"{c.id}-p{p}") for c in FIXED_CASES for p in c.profiles]
 
 
 # ---- Nair's variometer (csrc/vario.c): update(accel, baro_alt, dt) ------
@@ -238,7 +249,7 @@ CASES_VARIO = _with_defaults(EXTRA_CASES_VARIO, catalogue.VARIO, None, VarioCase
 
 def vario_matrix():
     """(case, dtype) pairs for every variometer configuration."""
-    return [pytest.param(c, dt, id=f"{c.id}-{dt}") for c in CASES_VARIO for dt in DTYPES]
+    return [_param(c, dt, id=f"{c.id}-{dt}") for c in CASES_VARIO for dt in DTYPES]
 
 
 # ---- the Fusion suite (Longbin's Fusion walkthrough): csrc/fusion_ahrs.c, fusion_offset.c ------------
@@ -267,7 +278,6 @@ FUSION_CASES = _with_defaults(EXTRA_FUSION_CASES, catalogue.FUSION, None)
 def wrapper_base(case, fixed=False):
     """The compiled base class a case's class inherits its wrapper code from (update(),
     run(), state, reset: imufuse_c/_base.pxi, fixed_base.pxi), by name."""
-    import imufuse_c
     cls = getattr(imufuse_c, case.name)
     obj = cls(**case.params, **({"profile": "32"} if fixed else {}))
     base = type(obj).__mro__[1]

@@ -1,7 +1,7 @@
 """Nair's claims, measured on simulated flights (imufuse.sim.flight).
 
 Each study returns plain numbers; tests/test_vario_claims.py asserts them
-and ``python bench/vario_study.py`` prints the tables of docs/vario.md.
+and ``python research/vario_study.py`` prints the tables of docs/vario.md.
 
 - lag: climb-rate response to a thermal entry (sink -1 m/s to +3 m/s over
   1 s), fused filter against the barometer-only two-state filter;

@@ -1,6 +1,7 @@
-"""What bench/mcu/measure.py measures.
+"""What bench/mcu/measure.py measures (imufuse and imufuse.mcu of the checkout: an editable
+install, or PYTHONPATH=python).
 
-FILTER_SPECS: every library filter configuration of tests/registry.py in each precision
+FILTER_SPECS: every library filter configuration of imufuse.registry in each precision
 (float32, float64; fixed-point profiles), derived generically. CASES: hand-written Cases (C
 sources, a harness Driver, an input maker); the two entries are the harness's own test kernels.
 """
@@ -8,26 +9,16 @@ sources, a harness Driver, an input maker); the two entries are the harness's ow
 from __future__ import annotations
 
 import dataclasses
-import sys
 from pathlib import Path
 from typing import Callable, Dict, List, Mapping, Optional, Sequence
 
 import numpy as np
 
+import imufuse.mcu as mcu
+from imufuse import registry
+from imufuse.mcu import filters as mf
+
 ROOT = Path(__file__).resolve().parents[2]
-
-
-def load_mcu():
-    """imufuse.mcu of this source tree (it measures the csrc/ next to it), whatever imufuse
-    is installed; the installed package only if this tree has no python/imufuse."""
-    src = ROOT / "python"
-    if (src / "imufuse" / "mcu").is_dir() and "imufuse" not in sys.modules:
-        sys.path.insert(0, str(src))
-    import imufuse.mcu as mcu
-    return mcu
-
-
-mcu = load_mcu()
 EX = Path(mcu.__file__).resolve().parent / "examples"
 CSRC = ROOT / "csrc"
 
@@ -88,7 +79,7 @@ CASES: Dict[str, Case] = {
 
 
 # ---- the Fusion suite (Longbin's Fusion walkthrough): its update takes dt and Fusion's units, so it is a
-# hand-written case (tests/registry.py keeps it out of the generic matrix, see FUSION_CASES)
+# hand-written case (imufuse.registry keeps it out of the generic matrix, see FUSION_CASES)
 
 def _fusion_inputs(n: int) -> Dict[str, np.ndarray]:
     rng = np.random.default_rng(3)
@@ -123,30 +114,16 @@ CASES["fusion_ahrs_f32"] = Case(
 #: with the generic filters, under this class name
 LIBRARY_CASES = {"fusion_ahrs_f32": "FusionAHRS"}
 
-# ---- every filter configuration of tests/registry.py, generically -------------------------
+# ---- every filter configuration of imufuse.registry, generically -------------------------
 #
 # Each (configuration, precision) becomes a FilterSpec (imufuse.mcu.filters): the driver, the
 # sources and the inputs come from the reference class (c_name, kind, state_names, _params) and
-# the C headers. A filter joins by appearing in tests/registry.py, nothing here.
-
-def _load_tests_registry():
-    # loaded under its own name: this module is "registry" too when measure.py runs
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location("imf_tests_registry", ROOT / "tests" / "registry.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-_tests_registry = _load_tests_registry()
-from imufuse.mcu import filters as mf  # noqa: E402
+# the C headers. A filter joins by appearing in imufuse.registry, nothing here.
 
 FILTER_SPECS: Dict[str, "mf.FilterSpec"] = {
     s.label: s
-    for s in mf.specs_from_cases([*_tests_registry.FLOAT_CASES,
-                                  *getattr(_tests_registry, "FIXED_CASES", []),
-                                  *getattr(_tests_registry, "CASES_VARIO", [])[:2]])
+    for s in mf.specs_from_cases([*registry.FLOAT_CASES, *registry.FIXED_CASES,
+                                  *registry.CASES_VARIO[:2]])
 }
 
 

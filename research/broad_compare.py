@@ -2,7 +2,7 @@
 recommended AHRS and, when installed, VQF and Fusion (imufusion); plus the ablation of the
 recommended filter's blocks. Prints the markdown tables of docs/recommended-ahrs.md.
 
-    python bench/broad_compare.py [--dir ../shared/data/broad] [--no-peers] [--ablation-only]
+    python research/broad_compare.py [--dir ../shared/data/broad] [--no-peers] [--ablation-only]
 
 Metrics: imufuse.evaluation (BROAD paper): inclination RMS over the movement samples with
 a finite reference (6-D filters: inclination only; 9-D: inclination and heading), each

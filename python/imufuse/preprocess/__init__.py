@@ -4,7 +4,7 @@ walks through them), applied by imufuse.session.
 
 Options (imufuse run / compare), applied in this order:
   --calibration FILE.json  the sensor models i_c = M s (i_u - b), m_c = S (m_u - h)
-                           (imufuse.calibration.models, written by `imufuse calibrate`),
+                           (imufuse.preprocess.calibration, written by `imufuse calibrate`),
                            in the sensor's own axes and in the units imufuse reads the
                            log in: gyroscope b in rad/s, accelerometer b in g;
   --align ALIGNMENT        signed axis permutation, e.g. "+X-Z+Y": body x = +sensor x,
@@ -13,15 +13,18 @@ Options (imufuse run / compare), applied in this order:
   --offset                 FusionOffset, the gyroscope offset estimator, at the log's
                            sample rate (rounded to whole Hz).
 FusionOffset runs on the gyroscope in deg/s (Fusion's unit, its 3 deg/s threshold).
+
+Its module imufuse.preprocess.calibration holds the calibration file and its models (on this
+floor, below imufuse.calibration, which fits them from logs and re-exports them).
 """
 import numpy as np
 
 import imufuse_c
 
-from . import io
-from ._fusion import parse_alignment
-from .calibration.models import load_calibration
-from .reference import fusion
+from .. import io
+from .._fusion import parse_alignment
+from ..reference import fusion
+from .calibration import load_calibration
 
 
 

@@ -1,7 +1,7 @@
 """Oracle: how much of RobustIMU's tilt error on the BROAD development trials is the
 accelerometer's own bias (and scale) error?
 
-    python bench/broad/acc_bias_oracle.py [--dir ../shared/data/broad]      (about 30 s)
+    python research/acc_bias_oracle.py [--dir ../shared/data/broad]      (about 30 s)
 
 Per trial a constant accelerometer correction is fitted offline against the optical
 reference (sensor -> ENU, taken 2 ms earlier: BROAD's IMU lags it), subtracted from the
@@ -33,10 +33,9 @@ import sys
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(__file__))
-from robust_budget import DEFAULT_DIR, at_rest, load, run, tilt, tilt_vector  # noqa: E402
+from robust_budget import DEFAULT_DIR, at_rest, load, run, tilt, tilt_vector  # beside this script
 
-from imufuse.rotations import quat_to_matrix  # noqa: E402
+from imufuse.rotations import quat_to_matrix
 
 G_BERLIN = 9.8128  # m/s^2
 ENU_UP = np.array([0.0, 0.0, 1.0])

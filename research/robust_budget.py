@@ -1,6 +1,6 @@
 """Where the recommended filter's tilt error comes from, on the BROAD development trials.
 
-    python bench/broad/robust_budget.py [--dir ../shared/data/broad] [--sensitivity]
+    python research/robust_budget.py [--dir ../shared/data/broad] [--sensitivity]
 
 Runs RobustIMU (C, float64, catalogue defaults) and prints markdown tables for
 docs/recommended-ahrs.md:
@@ -40,7 +40,7 @@ from imufuse import catalogue, evaluation
 from imufuse.reference.robust import _Robust
 from imufuse.rotations import quat_mul
 
-DEFAULT_DIR = os.path.join(os.path.dirname(__file__), "..", "..", "..", "shared", "data", "broad")
+DEFAULT_DIR = os.path.join(os.path.dirname(__file__), "..", "..", "shared", "data", "broad")
 NWU_TO_ENU = np.array([math.cos(math.pi / 4), 0.0, 0.0, math.sin(math.pi / 4)])
 CONJ = np.array([1.0, -1.0, -1.0, -1.0])
 RATE_BINS = (0.0, 100.0, 300.0, 1.0e4)  # deg/s
