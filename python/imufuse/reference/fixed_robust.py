@@ -23,6 +23,41 @@ def _ceil(v):
     return int(c) if 0.0 <= c <= 1073741824.0 else -1
 
 
+#: the state words in imf_robust_imu_q_state_t's order: (member, the suffixes of the names
+#: of its words; "" for a scalar member)
+IMU_LAYOUT = (("q", "0123"), ("s", "0123"), ("c", "0123"), ("f", "xyz"), ("v", "xyz"),
+              ("p", ("vv", "vg", "gg")), ("b", "xyz"), ("lw", "xyz"), ("la", "xyz"),
+              ("n", ""), ("n_rest", ""))
+#: RobustAHRSQ's words after the IMU's (imf_robust_ahrs_q_state_t)
+MAG_LAYOUT = (("u", "xyz"), ("rn", ""), ("rh", ""), ("rz", ""), ("cn", ""), ("ch", ""),
+              ("cz", ""), ("n_ok", ""), ("n_dist", ""), ("n_cand", ""))
+
+
+def _names(layout):
+    """The state names of a layout: a member's name and each suffix, or the name alone."""
+    return tuple(n for m, parts in layout for n in ([m + p for p in parts] if parts else [m]))
+
+
+def _words(x, layout):
+    """The state words of x in the layout's order (imf_*_state_t's)."""
+    out = []
+    for m, parts in layout:
+        out += getattr(x, m) if parts else [getattr(x, m)]
+    return out
+
+
+def _set_words(x, layout, v):
+    """x's members from the words v in the layout's order; the words left over."""
+    v = list(v)
+    for m, parts in layout:
+        if parts:
+            setattr(x, m, v[:len(parts)])
+            v = v[len(parts):]
+        else:
+            setattr(x, m, v.pop(0))
+    return v
+
+
 def step(k, x, gyr, acc, rq):
     """robust_q_step: B1, B2, B3 and B5 of one sample; False when the sample is not taken
     (no start without an accelerometer reading), then nothing else runs. rq: None, or a
@@ -55,9 +90,7 @@ class RobustIMUQ(FixedFilter):
     """
     kind = "imu"
     c_name = "imf_robust_imu_q"
-    state_names: tuple = ("q0", "q1", "q2", "q3", "s0", "s1", "s2", "s3", "c0", "c1", "c2", "c3",
-                   "fx", "fy", "fz", "vx", "vy", "vz", "pvv", "pvg", "pgg",
-                   "bx", "by", "bz", "lwx", "lwy", "lwz", "lax", "lay", "laz", "n", "n_rest")
+    state_names: tuple = _names(IMU_LAYOUT)
 
     @staticmethod
     def _params(dt, tau_acc=2.5, rate_ref=100.0, tau_bias=100.0, tau_bias_rest=3.0,
@@ -147,15 +180,10 @@ class RobustIMUQ(FixedFilter):
         self.n = self.n_rest = 0
 
     def _get_state(self):
-        return (self.q + self.s + self.c + self.f + self.v + self.p + self.b + self.lw
-                + self.la + [self.n, self.n_rest])
+        return _words(self, IMU_LAYOUT)
 
     def _set_state(self, v):
-        v = list(v)
-        self.q, self.s, self.c = v[0:4], v[4:8], v[8:12]
-        self.f, self.v, self.p = v[12:15], v[15:18], v[18:21]
-        self.b, self.lw, self.la = v[21:24], v[24:27], v[27:30]
-        self.n, self.n_rest = v[30], v[31]
+        _set_words(self, IMU_LAYOUT, v)
 
     def _state_float(self, s):
         q30, q15 = 2.0 ** -30, 2.0 ** -15
@@ -186,8 +214,7 @@ class RobustAHRSQ(RobustIMUQ):
     """
     kind = "ahrs"
     c_name = "imf_robust_ahrs_q"
-    state_names = RobustIMUQ.state_names + ("ux", "uy", "uz", "rn", "rh", "rz", "cn", "ch",
-                                            "cz", "n_ok", "n_dist", "n_cand")
+    state_names = _names(IMU_LAYOUT + MAG_LAYOUT)
 
     @staticmethod
     def _params(dt, tau_acc=2.5, rate_ref=100.0, tau_bias=100.0, tau_bias_rest=3.0,
@@ -284,16 +311,10 @@ class RobustAHRSQ(RobustIMUQ):
         self.u = list(self._offset_counts(offset))
 
     def _get_state(self):
-        return (super()._get_state() + self.u
-                + [self.rn, self.rh, self.rz, self.cn, self.ch, self.cz,
-                   self.n_ok, self.n_dist, self.n_cand])
+        return _words(self, IMU_LAYOUT + MAG_LAYOUT)
 
     def _set_state(self, v):
-        v = list(v)
-        super()._set_state(v[:32])
-        self.u = v[32:35]
-        self.rn, self.rh, self.rz, self.cn, self.ch, self.cz = v[35:41]
-        self.n_ok, self.n_dist, self.n_cand = v[41:44]
+        _set_words(self, IMU_LAYOUT + MAG_LAYOUT, v)
 
     def _state_float(self, s):
         q30, q15 = 2.0 ** -30, 2.0 ** -15
