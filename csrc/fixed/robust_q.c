@@ -131,10 +131,12 @@ int imf_robust_imu_q_init(imf_robust_imu_q_t *const self,
 
 /* B1, B2, B3 and B5 of one sample; returns 0 when the sample is not taken (no start
  * without an accelerometer reading), then nothing else runs. rq: NULL, or where the
- * rotation matrix of the new q is written (all three rows, for B4; B3 uses it too) */
-static int robust_q_step(const imf_robust_imu_q_consts_t *const k,
-                         imf_robust_imu_q_state_t *const x, const int16_t gyr[3],
-                         const int16_t acc[3], int16_t *const rq)
+ * rotation matrix of the new q is written (all three rows, for B4; B3 uses it too). Out
+ * of line, as robust_q_b4_mag: inlined into one update (LTO), their register spills cost
+ * the Uno 0.8 KB of flash more than the calls */
+static IMF_Q_NOINLINE int robust_q_step(const imf_robust_imu_q_consts_t *const k,
+                                        imf_robust_imu_q_state_t *const x, const int16_t gyr[3],
+                                        const int16_t acc[3], int16_t *const rq)
 {
     int16_t sn[4], r[4];
     uint32_t w2;

@@ -146,14 +146,14 @@ static void robust_q_b2_gravity(const imf_robust_imu_q_consts_t *const k,
  * (imf_q_unit3_p8); c += d (x) c with d = r - 1 in 16-bit products. For u_z >= 0, r = (1 +
  * u_z, u_y, -u_x) / 2, not normalised (the normalisation of c takes it: the same
  * direction); below (turned over), r normalised with 1 + u_z from its product with 1 - u_z
- * (below). B3 takes 2 (r1, r2): (u_y, -u_x) for the first, the doubled r for the second. */
+ * (below). B3 takes 2 (r1, r2): (u_y, -u_x) for the first, the doubled r for the second.
+ * ss: c's q15 snapshot (overwritten). */
 static void robust_q_inclination_p8(imf_robust_imu_q_state_t *const x, const int16_t sn[4],
-                                    int16_t r[4])
+                                    int16_t ss[4], int16_t r[4])
 {
-    int16_t ss[4], rm[9], u[3], f16[3], g16[3], d[4];
+    int16_t rm[9], u[3], f16[3], g16[3], d[4];
     int32_t ge[3], t[4];
     int half = 0, i;
-    imf_q_snapshot(x->c, ss);
     robust_q_narrow_p8(x->f, 3, robust_q_exponent_p8(x->f, 3) + 1, f16);
     robust_q_matrix(ss, rm, 3);
     robust_q_rotate16(rm, 0, f16, ge); /* |ge| < 2^30 */
@@ -204,13 +204,13 @@ static void robust_q_inclination_p8(imf_robust_imu_q_state_t *const x, const int
 
 #if IMF_Q_HAS_P32
 /* robust_q_b2_inclination in the 32-bit profile: r = (1 + u_z, u_y, -u_x, 0) normalised by
- * robust_q_half, c = r (x) c and q = c (x) s, each normalised */
-static void robust_q_inclination_p32(imf_robust_imu_q_state_t *const x, int16_t r[4])
+ * robust_q_half, c = r (x) c and q = c (x) s, each normalised; ss: c's q15 snapshot
+ * (overwritten) */
+static void robust_q_inclination_p32(imf_robust_imu_q_state_t *const x, int16_t ss[4], int16_t r[4])
 {
-    int16_t ss[4], rm[9], u[3];
+    int16_t rm[9], u[3];
     int32_t ge[3], t[4];
     int i;
-    imf_q_snapshot(x->c, ss);
     robust_q_matrix(ss, rm, 3);
     robust_q_rotate(rm, 0, x->f, ge);
     if (robust_q_unit(ge, u)) {
@@ -240,14 +240,16 @@ static void robust_q_b2_inclination(const imf_robust_imu_q_consts_t *const k,
                                     imf_robust_imu_q_state_t *const x, const int16_t sn[4],
                                     int16_t r[4])
 {
+    int16_t ss[4];
+    imf_q_snapshot(x->c, ss); /* c's q15 snapshot */
 #if IMF_Q_HAS_P8
     if (ROBUST_Q_IS_P8(k)) {
-        robust_q_inclination_p8(x, sn, r);
+        robust_q_inclination_p8(x, sn, ss, r);
         return;
     }
 #endif
 #if IMF_Q_HAS_P32
-    robust_q_inclination_p32(x, r);
+    robust_q_inclination_p32(x, ss, r);
 #endif
     (void)k;
     (void)sn;

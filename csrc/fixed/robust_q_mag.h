@@ -190,10 +190,11 @@ static void robust_q_mag_candidate(const imf_robust_ahrs_q_consts_t *const k,
 }
 
 /* B4: heading from the magnetometer (counts, less the stored offset); rm: R(q), q15. The
- * field's unit vector u, norm mn, the dip's cosine hn = u . ch and sine u_z */
-static void robust_q_b4_mag(const imf_robust_ahrs_q_consts_t *const k,
-                            imf_robust_ahrs_q_state_t *const xm, const int16_t mag[3],
-                            const int16_t rm[9])
+ * field's unit vector u, norm mn, the dip's cosine hn = u . ch and sine u_z. Out of line
+ * (robust_q_step says why) */
+static IMF_Q_NOINLINE void robust_q_b4_mag(const imf_robust_ahrs_q_consts_t *const k,
+                                           imf_robust_ahrs_q_state_t *const xm,
+                                           const int16_t mag[3], const int16_t rm[9])
 {
     int16_t m[3], u[3], ch[3], hn;
     int32_t me[3], mn;

@@ -110,15 +110,14 @@ def b2_gravity(k, x, acc, sn, first, has_acc, w2):
         b2_kalman(k, x, ai, w2)
 
 
-def inclination_p8(x, sn):
+def inclination_p8(x, sn, ss):
     """robust_q_inclination_p8: b2_inclination in the 8-bit profile: f narrowed to int16 (its
     largest at most 2^14), rotated by R(c) and rounded to f's format, the unit vector of its
     15 leading bits (unit3_p8); c += d (x) c with d = r - 1 in 16-bit products. For u_z >= 0,
     r = (1 + u_z, u_y, -u_x) / 2, not normalised (the normalisation of c takes it: the same
     direction); below (turned over), r normalised with 1 + u_z from its product with
     1 - u_z (below). B3 takes 2 (r1, r2): (u_y, -u_x) for the first, the doubled r for the
-    second. Returns r."""
-    ss = fq.snapshot(x.c)
+    second. ss: c's q15 snapshot. Returns r."""
     f16 = narrow_p8(x.f, exponent_p8(x.f) + 1)
     g16 = [ci.sat_q15s(ci.rshr32(v, 15)) for v in rotate16(matrix(ss), 0, f16)]
     u = fq.unit3_p8(g16)
@@ -147,10 +146,10 @@ def inclination_p8(x, sn):
     return r
 
 
-def inclination_p32(x):
+def inclination_p32(x, ss):
     """robust_q_inclination_p32: b2_inclination in the 32-bit profile: r = (1 + u_z, u_y,
-    -u_x, 0) normalised by half(), c = r (x) c and q = c (x) s, each normalised. Returns r."""
-    ss = fq.snapshot(x.c)
+    -u_x, 0) normalised by half(), c = r (x) c and q = c (x) s, each normalised; ss: c's q15
+    snapshot. Returns r."""
     ge = rotate(matrix(ss), 0, x.f)
     u = unit(ge)
     if u is not None:
@@ -170,9 +169,10 @@ def b2_inclination(k, x, sn):
     gravity estimate onto earth z, (1 + u_z, u_y, -u_x, 0) normalised for the unit gravity u
     in the earth frame, taken into c, then q = c (x) s (sn: s's q15 snapshot). Returns r:
     what B3 takes."""
+    ss = fq.snapshot(x.c)                       # c's q15 snapshot
     if k["profile"] == 8:
-        return inclination_p8(x, sn)
-    return inclination_p32(x)
+        return inclination_p8(x, sn, ss)
+    return inclination_p32(x, ss)
 
 
 def b3_bias(k, x, rest, r, rq):
