@@ -132,7 +132,7 @@ int imf_robust_imu_q_init(imf_robust_imu_q_t *const self,
 /* B1, B2, B3 and B5 of one sample; returns 0 when the sample is not taken (no start
  * without an accelerometer reading), then nothing else runs. rq: NULL, or where the
  * rotation matrix of the new q is written (all three rows, for B4; B3 uses it too). Out
- * of line, as robust_q_b4_mag: inlined into one update (LTO), their register spills cost
+ * of line, as robust_q_magnetometer: inlined into one update (LTO), their register spills cost
  * the Uno 0.8 KB of flash more than the calls */
 static IMF_Q_NOINLINE int robust_q_step(const imf_robust_imu_q_consts_t *const k,
                                         imf_robust_imu_q_state_t *const x, const int16_t gyr[3],
@@ -141,19 +141,16 @@ static IMF_Q_NOINLINE int robust_q_step(const imf_robust_imu_q_consts_t *const k
     int16_t sn[4], r[4];
     uint32_t w2;
     const int first = x->n == 0;
-    const int has_acc = robust_q_reading(x, acc, first);
-    int rest;
+    const int has_acc = robust_q_acc_reading(x, acc, first);
+    int at_rest;
     if (first && !has_acc) {
-        return 0;
+        return 0; /* no start without an accelerometer reading */
     }
-    rest = robust_q_b1_rest(k, x, gyr, acc, has_acc, &w2);
-    if (rest) {
-        robust_q_lowpass3(x->b, gyr, k->kb_rest); /* B3 at rest, Eq. 3.1: b observed directly */
-    }
-    robust_q_integrate(ROBUST_Q_IS_P8(k), x->s, gyr, x->b, k->kg, sn); /* strapdown */
-    robust_q_b2_gravity(k, x, acc, sn, first, has_acc, w2);
-    robust_q_b2_inclination(k, x, sn, r);
-    robust_q_b3_bias(k, x, rest, r, rq);
+    at_rest = robust_q_rest(k, x, gyr, acc, has_acc, &w2); /* B1 */
+    robust_q_strapdown(k, x, gyr, sn);
+    robust_q_gravity(k, x, acc, sn, first, has_acc, w2); /* B2 */
+    robust_q_level(k, x, sn, r);
+    robust_q_bias(k, x, at_rest, r, rq); /* B3 */
     return 1;
 }
 
@@ -161,7 +158,7 @@ void imf_robust_imu_q_update(imf_robust_imu_q_t *const self, const int16_t gyr[3
                              const int16_t acc[3])
 {
     if (robust_q_step(&self->k, &self->x, gyr, acc, NULL)) {
-        robust_q_finish(&self->k, &self->x, gyr);
+        robust_q_output(&self->k, &self->x, gyr);
     }
 }
 
@@ -262,7 +259,7 @@ void imf_robust_ahrs_q_update(imf_robust_ahrs_q_t *const self, const int16_t gyr
 {
     int16_t rq[9];
     if (robust_q_step(&self->k.imu, &self->x.imu, gyr, acc, rq)) {
-        robust_q_b4_mag(&self->k, &self->x, mag, rq);
-        robust_q_finish(&self->k.imu, &self->x.imu, gyr);
+        robust_q_magnetometer(&self->k, &self->x, mag, rq);
+        robust_q_output(&self->k.imu, &self->x.imu, gyr);
     }
 }

@@ -1,6 +1,6 @@
 /* The blocks of the fixed-point RobustIMU and RobustAHRS (robust_q.h), one function each, named
- * by the block of csrc/robust.c: B1 rest, the strapdown, B2 gravity (B5 its start) and the
- * inclination, B3 bias, the output latency, B4 the magnetometer. Private to
+ * as csrc/robust.c's: the accelerometer reading, B1 rest, the strapdown, B2 gravity (B5 its
+ * start), the levelling, B3 bias, the output (latency and clock); B4 in robust_q_mag.h. Private to
  * csrc/fixed/robust_q.c, which includes this file once and composes them (static functions,
  * one translation unit: the filter is one source for the harnesses). Mirrored line for line
  * by python/imufuse/reference/fixed_robust_blocks.py. */
@@ -13,8 +13,8 @@
 /* the accelerometer is a reading: not all zero (then gyro only, and no start without
  * one), and after the first sample not beyond 100 times the gravity estimate (100 g: a
  * shock or a hostile value) */
-static int robust_q_reading(const imf_robust_imu_q_state_t *const x, const int16_t acc[3],
-                            const int first)
+static int robust_q_acc_reading(const imf_robust_imu_q_state_t *const x, const int16_t acc[3],
+                                const int first)
 {
     const int has_acc = !(acc[0] == 0 && acc[1] == 0 && acc[2] == 0);
     if (has_acc && !first) {
@@ -27,11 +27,12 @@ static int robust_q_reading(const imf_robust_imu_q_state_t *const x, const int16
     return has_acc;
 }
 
-/* B1: rest detection, low-passes of gyro and accelerometer in the sensor frame; returns 1
- * at rest; w2: |low-passed gyro|^2, counts^2 (B2's process noise) */
-static int robust_q_b1_rest(const imf_robust_imu_q_consts_t *const k,
-                            imf_robust_imu_q_state_t *const x, const int16_t gyr[3],
-                            const int16_t acc[3], const int has_acc, uint32_t *const w2)
+/* B1: rest detection from low-passes of gyro and accelerometer in the sensor frame, and
+ * the bias observed at rest (Eq. 3.1: b_k = b_{k-1}); returns 1 at rest; w2: |low-passed
+ * gyro|^2, counts^2 (B2's process noise) */
+static int robust_q_rest(const imf_robust_imu_q_consts_t *const k,
+                         imf_robust_imu_q_state_t *const x, const int16_t gyr[3],
+                         const int16_t acc[3], const int has_acc, uint32_t *const w2)
 {
     const imf_qscale_t kk = robust_q_gain(ROBUST_Q_IS_P8(k), x->n, k->n_tau, k->k_rest);
     int still, i;
@@ -60,12 +61,25 @@ static int robust_q_b1_rest(const imf_robust_imu_q_consts_t *const k,
     } else {
         x->n_rest = 0;
     }
-    return x->n_rest >= k->n_rest;
+    if (x->n_rest < k->n_rest) {
+        return 0;
+    }
+    robust_q_lowpass3(x->b, gyr, k->kb_rest);
+    return 1;
+}
+
+/* strapdown: s = s (x) exp(1/2 (w - b) dt), the series of the float filter; sn: the new
+ * s's q15 snapshot (s is not changed again in the update) */
+static void robust_q_strapdown(const imf_robust_imu_q_consts_t *const k,
+                               imf_robust_imu_q_state_t *const x, const int16_t gyr[3],
+                               int16_t sn[4])
+{
+    robust_q_integrate(ROBUST_Q_IS_P8(k), x->s, gyr, x->b, k->kg, sn);
 }
 
 /* B5: gravity from the first sample (ai: the accelerometer in the inertial frame) */
-static void robust_q_b5_start(const imf_robust_imu_q_consts_t *const k,
-                              imf_robust_imu_q_state_t *const x, const int32_t ai[3])
+static void robust_q_gravity_start(const imf_robust_imu_q_consts_t *const k,
+                                   imf_robust_imu_q_state_t *const x, const int32_t ai[3])
 {
     int i;
     for (i = 0; i < 3; ++i) {
@@ -78,9 +92,9 @@ static void robust_q_b5_start(const imf_robust_imu_q_consts_t *const k,
 
 /* B2: the Kalman filter of gravity in the inertial frame (ai: the accelerometer there,
  * q15 counts; w2: B1's |low-passed gyro|^2) */
-static void robust_q_b2_kalman(const imf_robust_imu_q_consts_t *const k,
-                               imf_robust_imu_q_state_t *const x, const int32_t ai[3],
-                               const uint32_t w2)
+static void robust_q_gravity_update(const imf_robust_imu_q_consts_t *const k,
+                                    imf_robust_imu_q_state_t *const x, const int32_t ai[3],
+                                    const uint32_t w2)
 {
     int32_t qg, pe, pvv, pvg, pgg, kv, kg;
     imf_qscale_t inv, kvs, kgs;
@@ -124,32 +138,32 @@ static void robust_q_b2_kalman(const imf_robust_imu_q_consts_t *const k,
 
 /* B2: the accelerometer in the inertial frame (sn: the new s's q15 snapshot), gravity
  * from it: B5 at the first sample, else the Kalman filter where there is a reading */
-static void robust_q_b2_gravity(const imf_robust_imu_q_consts_t *const k,
-                                imf_robust_imu_q_state_t *const x, const int16_t acc[3],
-                                const int16_t sn[4], const int first, const int has_acc,
-                                const uint32_t w2)
+static void robust_q_gravity(const imf_robust_imu_q_consts_t *const k,
+                             imf_robust_imu_q_state_t *const x, const int16_t acc[3],
+                             const int16_t sn[4], const int first, const int has_acc,
+                             const uint32_t w2)
 {
     int16_t rm[9];
     int32_t ai[3];
     robust_q_matrix(sn, rm, 3);
     robust_q_rotate16(rm, 0, acc, ai); /* q15 counts */
     if (first) {
-        robust_q_b5_start(k, x, ai);
+        robust_q_gravity_start(k, x, ai);
     } else if (has_acc) {
-        robust_q_b2_kalman(k, x, ai, w2);
+        robust_q_gravity_update(k, x, ai, w2);
     }
 }
 
 #if IMF_Q_HAS_P8
-/* robust_q_b2_inclination in the 8-bit profile: f narrowed to int16 (its largest at most
+/* robust_q_level in the 8-bit profile: f narrowed to int16 (its largest at most
  * 2^14), rotated by R(c) and rounded to f's format, the unit vector of its 15 leading bits
  * (imf_q_unit3_p8); c += d (x) c with d = r - 1 in 16-bit products. For u_z >= 0, r = (1 +
  * u_z, u_y, -u_x) / 2, not normalised (the normalisation of c takes it: the same
  * direction); below (turned over), r normalised with 1 + u_z from its product with 1 - u_z
  * (below). B3 takes 2 (r1, r2): (u_y, -u_x) for the first, the doubled r for the second.
  * ss: c's q15 snapshot (overwritten). */
-static void robust_q_inclination_p8(imf_robust_imu_q_state_t *const x, const int16_t sn[4],
-                                    int16_t ss[4], int16_t r[4])
+static void robust_q_level_p8(imf_robust_imu_q_state_t *const x, const int16_t sn[4], int16_t ss[4],
+                              int16_t r[4])
 {
     int16_t rm[9], u[3], f16[3], g16[3], d[4];
     int32_t ge[3], t[4];
@@ -203,10 +217,10 @@ static void robust_q_inclination_p8(imf_robust_imu_q_state_t *const x, const int
 #endif
 
 #if IMF_Q_HAS_P32
-/* robust_q_b2_inclination in the 32-bit profile: r = (1 + u_z, u_y, -u_x, 0) normalised by
+/* robust_q_level in the 32-bit profile: r = (1 + u_z, u_y, -u_x, 0) normalised by
  * robust_q_half, c = r (x) c and q = c (x) s, each normalised; ss: c's q15 snapshot
  * (overwritten) */
-static void robust_q_inclination_p32(imf_robust_imu_q_state_t *const x, int16_t ss[4], int16_t r[4])
+static void robust_q_level_p32(imf_robust_imu_q_state_t *const x, int16_t ss[4], int16_t r[4])
 {
     int16_t rm[9], u[3];
     int32_t ge[3], t[4];
@@ -233,23 +247,22 @@ static void robust_q_inclination_p32(imf_robust_imu_q_state_t *const x, int16_t 
 }
 #endif
 
-/* B2: the inclination, the smallest rotation r that turns the gravity estimate onto earth
+/* levelling (B2's inclination): the smallest rotation r that turns the gravity estimate onto earth
  * z, (1 + u_z, u_y, -u_x, 0) normalised for the unit gravity u in the earth frame, taken
  * into c, then q = c (x) s (sn: s's q15 snapshot); r: what B3 takes */
-static void robust_q_b2_inclination(const imf_robust_imu_q_consts_t *const k,
-                                    imf_robust_imu_q_state_t *const x, const int16_t sn[4],
-                                    int16_t r[4])
+static void robust_q_level(const imf_robust_imu_q_consts_t *const k,
+                           imf_robust_imu_q_state_t *const x, const int16_t sn[4], int16_t r[4])
 {
     int16_t ss[4];
     imf_q_snapshot(x->c, ss); /* c's q15 snapshot */
 #if IMF_Q_HAS_P8
     if (ROBUST_Q_IS_P8(k)) {
-        robust_q_inclination_p8(x, sn, ss, r);
+        robust_q_level_p8(x, sn, ss, r);
         return;
     }
 #endif
 #if IMF_Q_HAS_P32
-    robust_q_inclination_p32(x, ss, r);
+    robust_q_level_p32(x, ss, r);
 #endif
     (void)k;
     (void)sn;
@@ -258,15 +271,15 @@ static void robust_q_b2_inclination(const imf_robust_imu_q_consts_t *const k,
 /* B3: the correction rate seen in the sensor frame is minus the bias error (Eq. 3.6, with
  * Ki dt = 1 / tau_bias): b -= R(q)^T (2 r1, 2 r2, 0) / tau_bias, in motion after tau_acc.
  * rq: NULL, or where the rotation matrix of q is written (all three rows, for B4) */
-static void robust_q_b3_bias(const imf_robust_imu_q_consts_t *const k,
-                             imf_robust_imu_q_state_t *const x, const int rest, const int16_t r[4],
-                             int16_t *const rq)
+static void robust_q_bias(const imf_robust_imu_q_consts_t *const k,
+                          imf_robust_imu_q_state_t *const x, const int at_rest, const int16_t r[4],
+                          int16_t *const rq)
 {
     int16_t ss[4], rm[9], u[3];
     int32_t e[3];
     int i;
     const int p8 = ROBUST_Q_IS_P8(k);
-    const int b3 = !rest && x->n >= k->n_acc && k->kbias.m != 0;
+    const int b3 = !at_rest && x->n >= k->n_acc && k->kbias.m != 0;
     const int16_t *const m = rq != NULL ? rq : rm;
     if (b3 || rq != NULL) {
         imf_q_snapshot(x->q, ss);
@@ -305,7 +318,7 @@ static void robust_q_b3_bias(const imf_robust_imu_q_consts_t *const k,
 
 /* the end of every update: the output predicted by the latency with the bias-corrected
  * rate, then the clock of the start-up (saturating) */
-static void robust_q_finish(const imf_robust_imu_q_consts_t *const k,
+static void robust_q_output(const imf_robust_imu_q_consts_t *const k,
                             imf_robust_imu_q_state_t *const x, const int16_t gyr[3])
 {
     if (k->klat.m != 0) {

@@ -1,6 +1,7 @@
 /* B4 of the fixed-point RobustAHRS (robust_q.h, RobustAHRSQ): the magnetometer confined to
- * heading, one function a step (the field, its test against the reference, the reference
- * learnt, the heading turned, the candidate of a new field). Private to
+ * heading, one function a step, named as csrc/robust.c's (the field, its test against the
+ * reference, the reference learnt, the candidate of a new field, the field used, the
+ * heading turned; robust_q_magnetometer composes them). Private to
  * csrc/fixed/robust_q.c, which includes this file once (static functions, one translation
  * unit: the filter is one source for the harnesses). Mirrored line for line by
  * python/imufuse/reference/fixed_robust_mag.py. */
@@ -105,11 +106,59 @@ static void robust_q_mag_reference(const imf_robust_ahrs_q_consts_t *const k,
     xm->cz = imf_x32768(zn);
 }
 
+/* disturbed (or not yet matching for mag_hold): no heading correction; a new field (mn, hn,
+ * zn) that stays the same for mag_new_time of motion becomes the reference */
+static void robust_q_mag_candidate(const imf_robust_ahrs_q_consts_t *const k,
+                                   imf_robust_ahrs_q_state_t *const xm, const int32_t mn,
+                                   const int16_t hn, const int16_t zn)
+{
+    imf_robust_imu_q_state_t *const x = &xm->imu;
+    if (xm->n_dist < 1073741824L) {
+        xm->n_dist++;
+    }
+    if (robust_q_mag_test(k, mn, hn, zn, xm->cn, xm->ch, xm->cz)) {
+        const imf_qscale_t kr = k->imu.k_rest;
+        xm->cn = imf_add_sat32(xm->cn, imf_scale32_s(imf_sub_sat32(mn, xm->cn), kr, 15, 15));
+        xm->ch = robust_q_lowpass(xm->ch, hn, kr);
+        xm->cz = robust_q_lowpass(xm->cz, zn, kr);
+        if (x->n_rest < k->imu.n_rest && xm->n_cand < k->n_new) {
+            /* only motion counts: at rest an attached magnet's field is steady too */
+            xm->n_cand++;
+        }
+        if (xm->n_cand >= k->n_new) {
+            xm->rn = xm->cn;
+            xm->rh = xm->ch;
+            xm->rz = xm->cz;
+            xm->n_cand = 0;
+        }
+    } else {
+        xm->cn = mn;
+        xm->ch = imf_x32768(hn);
+        xm->cz = imf_x32768(zn);
+        xm->n_cand = 0;
+    }
+}
+
+/* B4: the disturbance detector. The field (mn, hn, zn) is used (returns 1) when it has
+ * matched the reference for mag_hold, and the reference learns it; otherwise (disturbed) a
+ * new field that stays the same for mag_new_time of motion becomes the reference */
+static int robust_q_field_used(const imf_robust_ahrs_q_consts_t *const k,
+                               imf_robust_ahrs_q_state_t *const xm, const int32_t mn,
+                               const int16_t hn, const int16_t zn)
+{
+    if (robust_q_mag_match(k, xm, mn, hn, zn)) {
+        robust_q_mag_reference(k, xm, mn, hn, zn);
+        return 1;
+    }
+    robust_q_mag_candidate(k, xm, mn, hn, zn);
+    return 0;
+}
+
 /* heading: the rotation about earth z that turns the horizontal field ch onto north (+x),
  * (1 + cos, 0, 0, -sin) normalised, taken by the fraction k: (1 + k (f_w - 1), k f_z),
  * normalised with c and q */
-static void robust_q_mag_heading(const imf_robust_ahrs_q_consts_t *const k,
-                                 imf_robust_imu_q_state_t *const x, const int16_t ch[3])
+static void robust_q_heading(const imf_robust_ahrs_q_consts_t *const k,
+                             imf_robust_imu_q_state_t *const x, const int16_t ch[3])
 {
     int16_t f[3];
     const int p8 = ROBUST_Q_IS_P8(&k->imu);
@@ -156,45 +205,12 @@ static void robust_q_mag_heading(const imf_robust_ahrs_q_consts_t *const k,
 #endif
 }
 
-/* disturbed (or not yet matching for mag_hold): no heading correction; a new field (mn, hn,
- * zn) that stays the same for mag_new_time of motion becomes the reference */
-static void robust_q_mag_candidate(const imf_robust_ahrs_q_consts_t *const k,
-                                   imf_robust_ahrs_q_state_t *const xm, const int32_t mn,
-                                   const int16_t hn, const int16_t zn)
-{
-    imf_robust_imu_q_state_t *const x = &xm->imu;
-    if (xm->n_dist < 1073741824L) {
-        xm->n_dist++;
-    }
-    if (robust_q_mag_test(k, mn, hn, zn, xm->cn, xm->ch, xm->cz)) {
-        const imf_qscale_t kr = k->imu.k_rest;
-        xm->cn = imf_add_sat32(xm->cn, imf_scale32_s(imf_sub_sat32(mn, xm->cn), kr, 15, 15));
-        xm->ch = robust_q_lowpass(xm->ch, hn, kr);
-        xm->cz = robust_q_lowpass(xm->cz, zn, kr);
-        if (x->n_rest < k->imu.n_rest && xm->n_cand < k->n_new) {
-            /* only motion counts: at rest an attached magnet's field is steady too */
-            xm->n_cand++;
-        }
-        if (xm->n_cand >= k->n_new) {
-            xm->rn = xm->cn;
-            xm->rh = xm->ch;
-            xm->rz = xm->cz;
-            xm->n_cand = 0;
-        }
-    } else {
-        xm->cn = mn;
-        xm->ch = imf_x32768(hn);
-        xm->cz = imf_x32768(zn);
-        xm->n_cand = 0;
-    }
-}
-
 /* B4: heading from the magnetometer (counts, less the stored offset); rm: R(q), q15. The
  * field's unit vector u, norm mn, the dip's cosine hn = u . ch and sine u_z. Out of line
  * (robust_q_step says why) */
-static IMF_Q_NOINLINE void robust_q_b4_mag(const imf_robust_ahrs_q_consts_t *const k,
-                                           imf_robust_ahrs_q_state_t *const xm,
-                                           const int16_t mag[3], const int16_t rm[9])
+static IMF_Q_NOINLINE void robust_q_magnetometer(const imf_robust_ahrs_q_consts_t *const k,
+                                                 imf_robust_ahrs_q_state_t *const xm,
+                                                 const int16_t mag[3], const int16_t rm[9])
 {
     int16_t m[3], u[3], ch[3], hn;
     int32_t me[3], mn;
@@ -211,14 +227,13 @@ static IMF_Q_NOINLINE void robust_q_b4_mag(const imf_robust_ahrs_q_consts_t *con
         return; /* no usable reading: gyro and accelerometer only */
     }
     hn = horiz ? imf_qn_to_q15s(imf_mul16(u[0], ch[0]) + imf_mul16(u[1], ch[1]), 30) : 0;
-    if (robust_q_mag_match(k, xm, mn, hn, u[2])) {
-        robust_q_mag_reference(k, xm, mn, hn, u[2]);
-        if (horiz) {
-            robust_q_mag_heading(k, &xm->imu, ch); /* else vertical: no heading */
-        }
-    } else {
-        robust_q_mag_candidate(k, xm, mn, hn, u[2]);
+    if (!robust_q_field_used(k, xm, mn, hn, u[2])) {
+        return; /* B4: disturbed */
     }
+    if (!horiz) {
+        return; /* field vertical: no heading information */
+    }
+    robust_q_heading(k, &xm->imu, ch);
 }
 
 #endif /* IMF_ROBUST_Q_MAG_H */

@@ -11,10 +11,9 @@ import math
 from . import _cint as ci
 from . import fixed_quat as fq
 from .fixed_base import FixedFilter, check_profile, check_scale, qconst
-from .fixed_robust_blocks import (b1_rest, b2_gravity, b2_inclination, b3_bias, finish,
-                                  reading)
-from .fixed_robust_mag import b4_mag
-from .fixed_robust_ops import integrate, lowpass3
+from .fixed_robust_blocks import (acc_reading, bias, gravity, level, output, rest,
+                                  strapdown)
+from .fixed_robust_mag import magnetometer
 from .robust import RobustAHRS, RobustIMU
 
 
@@ -63,18 +62,15 @@ def step(k, x, gyr, acc, rq):
     (no start without an accelerometer reading), then nothing else runs. rq: None, or a
     list that takes the rotation matrix of the new q (for B4)."""
     first = x.n == 0
-    has_acc = reading(x, acc, first)
+    has_acc = acc_reading(x, acc, first)
     if first and not has_acc:
-        return False
-    rest, w2 = b1_rest(k, x, gyr, acc, has_acc)
-    if rest:
-        lowpass3(x.b, gyr, k["kb_rest"])      # B3 at rest, Eq. 3.1: b observed directly
-    sn = integrate(k["profile"] == 8, x.s, gyr, x.b, k["kg"])   # strapdown
-    b2_gravity(k, x, acc, sn, first, has_acc, w2)
-    r = b2_inclination(k, x, sn)
-    b3_bias(k, x, rest, r, rq)
+        return False                     # no start without an accelerometer reading
+    at_rest, w2 = rest(k, x, gyr, acc, has_acc)          # B1
+    sn = strapdown(k, x, gyr)
+    gravity(k, x, acc, sn, first, has_acc, w2)            # B2
+    r = level(k, x, sn)
+    bias(k, x, at_rest, r, rq)                            # B3
     return True
-
 
 
 class RobustIMUQ(FixedFilter):
@@ -195,7 +191,7 @@ class RobustIMUQ(FixedFilter):
     def _update(self, gyr, acc):
         # imf_robust_imu_q_update
         if step(self.k, self, gyr, acc, None):
-            finish(self.k, self, gyr)
+            output(self.k, self, gyr)
 
 
 
@@ -326,5 +322,5 @@ class RobustAHRSQ(RobustIMUQ):
         # imf_robust_ahrs_q_update
         rq = [0] * 9
         if step(self.k, self, gyr, acc, rq):
-            b4_mag(self.km, self, mag, rq)
-            finish(self.k, self, gyr)
+            magnetometer(self.km, self, mag, rq)
+            output(self.k, self, gyr)

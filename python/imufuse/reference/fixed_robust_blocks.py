@@ -1,5 +1,5 @@
-"""The blocks of the fixed-point RobustIMU and RobustAHRS, one function each, named by the
-block of csrc/robust.c: pure-Python twin of csrc/fixed/robust_q_blocks.h, line for line.
+"""The blocks of the fixed-point RobustIMU and RobustAHRS, one function each, named as
+csrc/robust.c's: pure-Python twin of csrc/fixed/robust_q_blocks.h, line for line.
 
 k: the constants (a dict, imf_robust_imu_q_consts_t's members); x: the filter, whose
 attributes are the state (imf_robust_imu_q_state_t's members).
@@ -17,8 +17,8 @@ from .fixed_robust_p8 import (exponent_p8, narrow_p8, qmul_p8, recip_p8, renorm_
 Q29_ONE = 1 << 29
 
 
-def reading(x, acc, first):
-    """robust_q_reading: the accelerometer is a reading: not all zero (then gyro only, and
+def acc_reading(x, acc, first):
+    """robust_q_acc_reading: the accelerometer is a reading: not all zero (then gyro only, and
     no start without one), and after the first sample not beyond 100 times the gravity
     estimate (100 g: a shock or a hostile value)."""
     has_acc = not (acc[0] == 0 and acc[1] == 0 and acc[2] == 0)
@@ -30,9 +30,10 @@ def reading(x, acc, first):
     return has_acc
 
 
-def b1_rest(k, x, gyr, acc, has_acc):
-    """robust_q_b1_rest: B1, rest detection, low-passes of gyro and accelerometer in the
-    sensor frame; (at rest, w2: |low-passed gyro|^2 in counts^2, B2's process noise)."""
+def rest(k, x, gyr, acc, has_acc):
+    """robust_q_rest: B1, rest detection from low-passes of gyro and accelerometer in the
+    sensor frame, and the bias observed at rest (Eq. 3.1: b_k = b_{k-1}); (at rest, w2:
+    |low-passed gyro|^2 in counts^2, B2's process noise)."""
     kk = gain(k["profile"] == 8, x.n, k["n_tau"], k["k_rest"])
     lowpass3(x.lw, gyr, kk)
     if has_acc:
@@ -52,19 +53,28 @@ def b1_rest(k, x, gyr, acc, has_acc):
             x.n_rest += 1
     else:
         x.n_rest = 0
-    return x.n_rest >= k["n_rest"], w2
+    if x.n_rest < k["n_rest"]:
+        return False, w2
+    lowpass3(x.b, gyr, k["kb_rest"])
+    return True, w2
 
 
-def b5_start(k, x, ai):
-    """robust_q_b5_start: B5, gravity from the first sample (ai: the accelerometer in the
+def strapdown(k, x, gyr):
+    """robust_q_strapdown: s = s (x) exp(1/2 (w - b) dt), the series of the float filter;
+    returns the new s's q15 snapshot (s is not changed again in the update)."""
+    return integrate(k["profile"] == 8, x.s, gyr, x.b, k["kg"])
+
+
+def gravity_start(k, x, ai):
+    """robust_q_gravity_start: B5, gravity from the first sample (ai: the accelerometer in the
     inertial frame)."""
     x.f[:] = ai
     x.v[:] = [0, 0, 0]
     x.p[:] = [0, 0, k["pg0"]]
 
 
-def b2_kalman(k, x, ai, w2):
-    """robust_q_b2_kalman: B2, the Kalman filter of gravity in the inertial frame (ai: the
+def gravity_update(k, x, ai, w2):
+    """robust_q_gravity_update: B2, the Kalman filter of gravity in the inertial frame (ai: the
     accelerometer there, q15 counts; w2: B1's |low-passed gyro|^2)."""
     p8 = k["profile"] == 8
     eps = k["eps"]
@@ -99,19 +109,19 @@ def b2_kalman(k, x, ai, w2):
               ci.sub_sat32(pgg, mul_signed(pvg, kgs, sg, 30, 30))]
 
 
-def b2_gravity(k, x, acc, sn, first, has_acc, w2):
-    """robust_q_b2_gravity: B2, the accelerometer in the inertial frame (sn: the new s's q15
+def gravity(k, x, acc, sn, first, has_acc, w2):
+    """robust_q_gravity: B2, the accelerometer in the inertial frame (sn: the new s's q15
     snapshot), gravity from it: B5 at the first sample, else the Kalman filter where there
     is a reading."""
     ai = rotate16(matrix(sn), 0, acc)                  # q15 counts
     if first:
-        b5_start(k, x, ai)
+        gravity_start(k, x, ai)
     elif has_acc:
-        b2_kalman(k, x, ai, w2)
+        gravity_update(k, x, ai, w2)
 
 
-def inclination_p8(x, sn, ss):
-    """robust_q_inclination_p8: b2_inclination in the 8-bit profile: f narrowed to int16 (its
+def level_p8(x, sn, ss):
+    """robust_q_level_p8: level in the 8-bit profile: f narrowed to int16 (its
     largest at most 2^14), rotated by R(c) and rounded to f's format, the unit vector of its
     15 leading bits (unit3_p8); c += d (x) c with d = r - 1 in 16-bit products. For u_z >= 0,
     r = (1 + u_z, u_y, -u_x) / 2, not normalised (the normalisation of c takes it: the same
@@ -146,8 +156,8 @@ def inclination_p8(x, sn, ss):
     return r
 
 
-def inclination_p32(x, ss):
-    """robust_q_inclination_p32: b2_inclination in the 32-bit profile: r = (1 + u_z, u_y,
+def level_p32(x, ss):
+    """robust_q_level_p32: level in the 32-bit profile: r = (1 + u_z, u_y,
     -u_x, 0) normalised by half(), c = r (x) c and q = c (x) s, each normalised; ss: c's q15
     snapshot. Returns r."""
     ge = rotate(matrix(ss), 0, x.f)
@@ -164,23 +174,23 @@ def inclination_p32(x, ss):
     return r
 
 
-def b2_inclination(k, x, sn):
-    """robust_q_b2_inclination: B2, the inclination, the smallest rotation r that turns the
+def level(k, x, sn):
+    """robust_q_level: B2, the inclination, the smallest rotation r that turns the
     gravity estimate onto earth z, (1 + u_z, u_y, -u_x, 0) normalised for the unit gravity u
     in the earth frame, taken into c, then q = c (x) s (sn: s's q15 snapshot). Returns r:
     what B3 takes."""
     ss = fq.snapshot(x.c)                       # c's q15 snapshot
     if k["profile"] == 8:
-        return inclination_p8(x, sn, ss)
-    return inclination_p32(x, ss)
+        return level_p8(x, sn, ss)
+    return level_p32(x, ss)
 
 
-def b3_bias(k, x, rest, r, rq):
-    """robust_q_b3_bias: B3, the correction rate seen in the sensor frame is minus the bias
+def bias(k, x, at_rest, r, rq):
+    """robust_q_bias: B3, the correction rate seen in the sensor frame is minus the bias
     error (Eq. 3.6, with Ki dt = 1 / tau_bias): b -= R(q)^T (2 r1, 2 r2, 0) / tau_bias, in
     motion after tau_acc. rq: None, or a list that takes the rotation matrix of q (B4's)."""
     p8 = k["profile"] == 8
-    b3 = not rest and x.n >= k["n_acc"] and k["kbias"].m != 0
+    b3 = not at_rest and x.n >= k["n_acc"] and k["kbias"].m != 0
     m = None
     if b3 or rq is not None:
         m = matrix(fq.snapshot(x.q))   # the C computes the first two rows only for B3 alone
@@ -204,8 +214,8 @@ def b3_bias(k, x, rest, r, rq):
         x.b[i] = ci.sub_sat32(x.b[i], ci.scale32_s(ci.add_sat32(e[i], e[i]), k["kbias"], 30, 15))
 
 
-def finish(k, x, gyr):
-    """robust_q_finish: the end of every update, the output predicted by the latency with
+def output(k, x, gyr):
+    """robust_q_output: the end of every update, the output predicted by the latency with
     the bias-corrected rate, then the clock of the start-up (saturating)."""
     if k["klat"].m != 0:
         integrate(k["profile"] == 8, x.q, gyr, x.b, k["klat"])

@@ -1,5 +1,5 @@
 """B4 of the fixed-point RobustAHRS: the magnetometer confined to heading, one function a
-step: pure-Python twin of csrc/fixed/robust_q_mag.h, line for line.
+step, named as csrc/robust.c's: pure-Python twin of csrc/fixed/robust_q_mag.h, line for line.
 
 k: B4's constants (a dict, imf_robust_ahrs_q_consts_t's members, "imu" RobustIMUQ's); x:
 the filter, whose attributes are the state.
@@ -76,31 +76,6 @@ def mag_reference(k, x, mn, hn, zn):
     x.cz = zn * 32768
 
 
-def mag_heading(k, x, ch):
-    """robust_q_mag_heading: the rotation about earth z that turns the horizontal field ch
-    onto north (+x), (1 + cos, 0, 0, -sin) normalised, taken by the fraction k:
-    (1 + k (f_w - 1), k f_z), normalised with c and q."""
-    p8 = k["imu"]["profile"] == 8
-    kk = gain(p8, x.n, k["n_mag"], k["k_mag"])
-    if p8:
-        # 8-bit profile: (1 + cos, -sin) / 2 normalised by unit3_p8 (within 1.2e-3: the
-        # turn's gain); (0, 1) where it is 0, as half()
-        f = fq.unit3_p8([(32768 + ch[0]) >> 1, -ch[1] >> 1, 0]) or [0, 32767]
-    else:
-        f = half(ch[0], -ch[1], 0)
-    if p8:
-        # 8-bit profile: (dw, dz) = z 2^(15 - kk.s) in q30, z = kk.m (f_w - 1, f_z) 2^-15
-        # rounded; c and q turned, neither normalised here (the next update normalises c
-        # and takes q = c (x) s again)
-        z16 = [ci.rshr32((f[0] - 32768) * kk.m, 15), ci.rshr32(f[1] * kk.m, 15)]
-        x.c[:] = turn_z_p8(x.c, z16, kk.s - 15)
-        x.q[:] = turn_z_p8(x.q, z16, kk.s - 15)
-    else:
-        dz = [ci.scale32_s(f[0] - 32768, kk, 15, 30), ci.scale32_s(f[1], kk, 15, 30)]
-        x.c[:] = turn_z(x.c, dz[0], dz[1])
-        x.q[:] = turn_z(x.q, dz[0], dz[1])
-
-
 def mag_candidate(k, x, mn, hn, zn):
     """robust_q_mag_candidate: disturbed (or not yet matching for mag_hold): no heading
     correction; a new field (mn, hn, zn) that stays the same for mag_new_time of motion
@@ -125,8 +100,45 @@ def mag_candidate(k, x, mn, hn, zn):
         x.n_cand = 0
 
 
-def b4_mag(k, x, mag, rm):
-    """robust_q_b4_mag: B4, heading from the magnetometer (counts, less the stored offset);
+def field_used(k, x, mn, hn, zn):
+    """robust_q_field_used: B4, the disturbance detector. The field (mn, hn, zn) is used
+    (True) when it has matched the reference for mag_hold, and the reference learns it;
+    otherwise (disturbed) a new field that stays the same for mag_new_time of motion becomes
+    the reference."""
+    if mag_match(k, x, mn, hn, zn):
+        mag_reference(k, x, mn, hn, zn)
+        return True
+    mag_candidate(k, x, mn, hn, zn)
+    return False
+
+
+def heading(k, x, ch):
+    """robust_q_heading: the rotation about earth z that turns the horizontal field ch
+    onto north (+x), (1 + cos, 0, 0, -sin) normalised, taken by the fraction k:
+    (1 + k (f_w - 1), k f_z), normalised with c and q."""
+    p8 = k["imu"]["profile"] == 8
+    kk = gain(p8, x.n, k["n_mag"], k["k_mag"])
+    if p8:
+        # 8-bit profile: (1 + cos, -sin) / 2 normalised by unit3_p8 (within 1.2e-3: the
+        # turn's gain); (0, 1) where it is 0, as half()
+        f = fq.unit3_p8([(32768 + ch[0]) >> 1, -ch[1] >> 1, 0]) or [0, 32767]
+    else:
+        f = half(ch[0], -ch[1], 0)
+    if p8:
+        # 8-bit profile: (dw, dz) = z 2^(15 - kk.s) in q30, z = kk.m (f_w - 1, f_z) 2^-15
+        # rounded; c and q turned, neither normalised here (the next update normalises c
+        # and takes q = c (x) s again)
+        z16 = [ci.rshr32((f[0] - 32768) * kk.m, 15), ci.rshr32(f[1] * kk.m, 15)]
+        x.c[:] = turn_z_p8(x.c, z16, kk.s - 15)
+        x.q[:] = turn_z_p8(x.q, z16, kk.s - 15)
+    else:
+        dz = [ci.scale32_s(f[0] - 32768, kk, 15, 30), ci.scale32_s(f[1], kk, 15, 30)]
+        x.c[:] = turn_z(x.c, dz[0], dz[1])
+        x.q[:] = turn_z(x.q, dz[0], dz[1])
+
+
+def magnetometer(k, x, mag, rm):
+    """robust_q_magnetometer: B4, heading from the magnetometer (counts, less the stored offset);
     rm: R(q), q15. The field's unit vector u, norm mn, the dip's cosine hn = u . ch and
     sine u_z."""
     if mag[0] == 0 and mag[1] == 0 and mag[2] == 0:
@@ -139,9 +151,8 @@ def b4_mag(k, x, mag, rm):
         return                               # no usable reading: gyro and accelerometer only
     u, mn, ch = field
     hn = ci.qn_to_q15s(u[0] * ch[0] + u[1] * ch[1], 30) if ch is not None else 0
-    if mag_match(k, x, mn, hn, u[2]):
-        mag_reference(k, x, mn, hn, u[2])
-        if ch is not None:
-            mag_heading(k, x, ch)            # else vertical: no heading
-    else:
-        mag_candidate(k, x, mn, hn, u[2])
+    if not field_used(k, x, mn, hn, u[2]):
+        return                               # B4: disturbed
+    if ch is None:
+        return                               # field vertical: no heading information
+    heading(k, x, ch)
