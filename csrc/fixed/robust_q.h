@@ -5,7 +5,9 @@
  * RobustAHRS without B6 (RobustAHRSQ: B4, the magnetometer confined to heading; below), in
  * int32 with 16x16->32 multiplies only (no int64, no division: reciprocals and
  * square roots by imf_invsqrt_u32).  Mirrored line for line by
- * python/imufuse/reference/fixed_robust.py.
+ * python/imufuse/reference/fixed_robust.py (robust_q.c: one function per block, the
+ * blocks and their helpers in the private headers robust_q_blocks.h, robust_q_mag.h,
+ * robust_q_ops.h and robust_q8.h, each with its twin module).
  *
  * Two profiles (the constants' profile, given to init; IMF_FIXED_PROFILE 32 or 8 compiles
  * one only), the same state, constants and blocks:
@@ -18,7 +20,7 @@
  *       and s's q15 snapshots (|q|^2 - 1 < 2e-4, up to 2.5e-3 after a full normalisation:
  *       the first sample, a turned-over start); reciprocals by Newton's z (2 - a z) in
  *       16x16 products, B2's gains in q27; B1, B3's matrix and the rest of B2 as the 32-bit
- *       profile (robust_q.c, "the 8-bit profile's helpers")
+ *       profile (robust_q8.h, the 8-bit profile's helpers)
  * Both run on every target.
  *
  * Inputs are int16 counts: gyr in counts of gyr_scale rad/s, acc in any unit (the
