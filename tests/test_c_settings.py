@@ -310,3 +310,20 @@ def test_the_twins_settings_record_is_the_c_struct(e):
     made = e.reference._params(**e.defaults, **({"dt": 0.01} if "dt" in e.params else {}))
     assert isinstance(made, rec)
 
+
+
+def test_the_recommended_filters_parameter_table_is_its_record():
+    """docs/recommended-ahrs.md's parameter table lists RobustAHRS's settings record: every
+    member but dt, in order, with the record's default and unit."""
+    from dataclasses import fields
+    text = (ROOT / "docs" / "recommended-ahrs.md").read_text()
+    table = text[text.index("### Parameters"):]
+    rows = re.findall(r"^\| `(\w+)` \| ([^|]*) \| ([^|]*) \|", table, re.M)
+    rec = catalogue.entry("RobustAHRS").reference.settings_type
+    want = [f for f in fields(rec) if f.name != "dt"]
+    assert [r[0] for r in rows[:len(want)]] == [f.name for f in want]
+    for (name, default, unit), f in zip(rows, want):
+        d = f.metadata["default"]
+        assert (default.strip() == str(d) if isinstance(d, bool)
+                else float(default) == d), (name, default, d)
+        assert unit.strip() == f.metadata["unit"], (name, unit, f.metadata["unit"])
