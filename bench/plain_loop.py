@@ -9,9 +9,10 @@ import tempfile
 
 from cffi import FFI
 
-from imufuse import catalogue, cproto
-from imufuse._checks import KINDS
-from imufuse._resources import csrc_dir
+from imufuse import catalogue
+from imufuse.shared import cproto
+from imufuse.shared.checks import KINDS
+from imufuse.shared.resources import csrc_dir
 
 CSRC = str(csrc_dir())
 

@@ -10,7 +10,7 @@ import pytest
 
 import imufuse.reference as reference
 import imufuse_c
-from imufuse._fusion13 import ADVANCED
+from imufuse.reference._fusion13 import ADVANCED
 
 from test_bench_fusion import N_REF, N_RUN, inputs
 

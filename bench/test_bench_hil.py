@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 
 from imufuse import sim
-from imufuse._resources import csrc_dir
+from imufuse.shared.resources import csrc_dir
 from imufuse.firmware import (DEFAULT_CFLAGS, Board, Firmware, build_board, csrc_firmware,
                               validate)
 from imufuse.mcu import ensure_toolchains

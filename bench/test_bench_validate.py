@@ -14,7 +14,7 @@ import os
 import pytest
 
 from imufuse import sim
-from imufuse._resources import csrc_dir
+from imufuse.shared.resources import csrc_dir
 from imufuse.firmware import DEFAULT_CFLAGS, Firmware, csrc_firmware, validate
 from imufuse.mcu import ensure_toolchains
 

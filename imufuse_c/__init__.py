@@ -5,7 +5,7 @@ Each name is a class whose constructor takes the reference signature plus
 precision (imufuse_c._f64 or imufuse_c._f32)."""
 import inspect
 
-from imufuse import _checks
+from imufuse.shared import checks as _checks
 import imufuse.reference as _reference
 
 from . import _f32, _f64

@@ -72,8 +72,8 @@ cdef extern from "lanes.h" nogil:
     int imf_lanes_best()
     const char *imf_lanes_isa(int width)
 
-from imufuse import _checks
-from imufuse import estimate as _estimate
+from imufuse.shared import checks as _checks
+from imufuse.shared import estimate as _estimate
 from imufuse.reference._base import init_arguments as _init_arguments
 
 _R = np.float32 if DTYPE == "float32" else float
@@ -115,7 +115,7 @@ cdef inline void _emit(imf_real *dst, const char *x, Py_ssize_t n, const int *co
 
 cdef inline bint _plain(object x):
     # a Python float (or subclass: numpy.float64) or a Python int that fits a
-    # double: converted directly; anything else goes through imufuse._checks
+    # double: converted directly; anything else goes through imufuse.shared.checks
     return PyFloat_Check(x) or (PyLong_CheckExact(x) and -2**1000 < x < 2**1000)
 
 
@@ -363,7 +363,7 @@ cdef class _Filter:
 
     cdef void _keep(self, tuple cols):
         # run(..., outputs=) keeps only the state words its output is read from
-        # (imufuse.estimate.output_columns) while the filter runs: read afterwards as
+        # (imufuse.shared.estimate.output_columns) while the filter runs: read afterwards as
         # run_outputs reads the whole trajectory, the same values without N x len(state)
         # words. Set inside run()'s claim (_guard.pxi), cleared in its finally.
         cdef int j
@@ -381,7 +381,7 @@ cdef class _Filter:
 # type are converted element by element inside the loop (a float32 filter given
 # float64 data rounds each value to float32 as it reads it, exactly as
 # numpy's astype would); anything else (lists, strided views, other dtypes, bad
-# shapes) goes through imufuse._checks.run_inputs, which converts it or raises
+# shapes) goes through imufuse.shared.checks.run_inputs, which converts it or raises
 # the error naming the shapes. (The per-sample dt and init="first" paths
 # convert through _checks.run_inputs.)
 
@@ -575,7 +575,7 @@ cdef class _FilterIMU(_Filter):
     def run(self, gyr, acc, dt=None, outputs="state"):
         """All samples: gyr, acc (N, 3) arrays, dt (optional) the (N,) sample
         periods; returns the (N, len(state)) trajectory, or with outputs="q" the (N, 4)
-        quaternions sensor -> earth (imufuse.estimate.run_outputs)."""
+        quaternions sensor -> earth (imufuse.shared.estimate.run_outputs)."""
         cols = None
         if outputs != "state":
             key, cols = _estimate.output_columns(self, outputs)
@@ -702,7 +702,7 @@ cdef class _FilterAHRS(_Filter):
     def run(self, gyr, acc, mag, dt=None, outputs="state"):
         """All samples: gyr, acc, mag (N, 3) arrays, dt (optional) the (N,) sample
         periods; returns the (N, len(state)) trajectory, or with outputs="q" the (N, 4)
-        quaternions sensor -> earth (imufuse.estimate.run_outputs)."""
+        quaternions sensor -> earth (imufuse.shared.estimate.run_outputs)."""
         cols = None
         if outputs != "state":
             key, cols = _estimate.output_columns(self, outputs)

@@ -4,7 +4,7 @@
 # forms, FusionOffset returning the corrected gyroscope, and Fusion's flags and internal states.
 from libc.stdint cimport int32_t
 
-from imufuse import _fusion
+from imufuse.reference import _fusion
 
 cdef extern from "fusion_ahrs.h" nogil:
     ctypedef struct imf_fusion_ahrs_settings_t:

@@ -2,7 +2,7 @@
 # Units are Fusion's (deg/s, g, degrees); see imufuse.reference.fusion13.
 # Hand-written (not tools/bindgen.py): Fusion's own API: the sample period set before an
 # update, three update forms, start-up skipped, FusionBias returning the corrected gyroscope.
-from imufuse import _fusion13
+from imufuse.reference import _fusion13
 
 cdef extern from "fusion13.h" nogil:
     ctypedef struct imf_fusion13_ahrs_settings_t:

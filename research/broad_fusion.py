@@ -18,7 +18,8 @@ import re
 import numpy as np
 
 import imufuse_c
-from imufuse import _fusion13 as fusion13, evaluation
+from imufuse import evaluation
+from imufuse.reference import _fusion13 as fusion13
 
 from broad_compare import DEFAULT_DIR, trials
 

@@ -1,6 +1,6 @@
-"""Bit-pattern comparison for the tests: imufuse.bits (the one definition of
+"""Bit-pattern comparison for the tests: imufuse.shared.bits (the one definition of
 "equal", docs/internals.md numerical contract 4) plus an assertion."""
-from imufuse.bits import UINT, compare_states, first_difference, ulps
+from imufuse.shared.bits import UINT, compare_states, first_difference, ulps
 
 __all__ = ["UINT", "ulps", "compare_states", "first_difference", "assert_same_bits"]
 

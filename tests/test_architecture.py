@@ -88,7 +88,7 @@ def test_the_compiled_module_is_in_the_graph():
     """imufuse_c's own imports are read, so that a cycle through it (imufuse.x imports
     imufuse_c, which imports imufuse.x) fails test_no_import_cycles."""
     deps = _graph()[0]["imufuse_c"]
-    assert {"imufuse._checks", "imufuse.reference"} <= deps, deps
+    assert {"imufuse.shared.checks", "imufuse.reference"} <= deps, deps
     assert not {d for d in deps if d.startswith(("imufuse.catalogue", "imufuse.session", "imufuse.cli"))}
 
 
@@ -122,29 +122,42 @@ def test_no_import_cycles():
 def test_direction():
     """The layers: nothing below the catalogue imports it or the command line."""
     edges, _ = _graph()
-    low = [m for m in edges if m.startswith("imufuse.reference") or m in (
-        "imufuse._checks", "imufuse.bits", "imufuse.cproto", "imufuse.rotations", "imufuse.estimate")]
+    low = [m for m in edges if m.startswith(("imufuse.reference", "imufuse.shared")) or m == "imufuse.rotations"]
+    assert {"imufuse.shared.checks", "imufuse.shared.bits", "imufuse.shared.cproto",
+            "imufuse.shared.estimate"} <= set(low), low
     for m in low:
-        bad = {d for d in edges[m] if d in ("imufuse.catalogue", "imufuse.cli", "imufuse.demo")
-               or d.startswith(("imufuse.firmware", "imufuse.mcu"))}
+        bad = {d for d in edges[m] if d in ("imufuse.catalogue", "imufuse.cli")
+               or d.startswith(("imufuse.firmware", "imufuse.mcu", "imufuse.tools"))}
         assert not bad, f"{m} imports {bad}"
 
 
 #: The floors of docs/architecture.md, top down: a module by its name or the package it is in
-#: (the longest name that matches). Every import goes to the module's own floor or below.
+#: (the longest name that matches). Every import goes to the module's own floor or below. A
+#: folder is on one floor (imufuse.shared the lowest, imufuse.tools the sessions'); the modules
+#: named one by one are the public ones a user imports by their documented path (README.md,
+#: docs/), which stay at the top of the package, and the two modules of a folder on another
+#: floor than its package (imufuse.vario.log, imufuse.calibration.fit).
 FLOORS = [
     ("command line", {"imufuse.cli", "imufuse.__main__"}),
-    ("sessions and tools", {"imufuse.session", "imufuse.tune", "imufuse.comparison", "imufuse.vario.log",
-                            "imufuse.calibration", "imufuse.demo", "imufuse.testing", "imufuse.arduino",
-                            "imufuse.firmware", "imufuse.mcu", "imufuse._stubs"}),
+    ("sessions and tools", {"imufuse.session", "imufuse.tune", "imufuse.comparison", "imufuse.testing",
+                            "imufuse.tools", "imufuse.vario.log", "imufuse.calibration", "imufuse.firmware",
+                            "imufuse.mcu"}),
     ("data and filters", {"imufuse.io", "imufuse.preprocess", "imufuse.plots", "imufuse.catalogue",
                           "imufuse.registry", "imufuse.sim", "imufuse.vario", "imufuse.vario.pipeline"}),
-    ("compiled and twins", {"imufuse_c", "imufuse.reference", "imufuse._fusion", "imufuse._fusion13"}),
-    ("helpers", {"imufuse", "imufuse._checks", "imufuse.rotations", "imufuse.estimate", "imufuse.bits",
-                 "imufuse.cproto", "imufuse._atomic", "imufuse._jsonfile", "imufuse._resources",
-                 "imufuse._plotaxes", "imufuse.evaluation", "imufuse.recovery", "imufuse.plausible",
+    ("compiled and twins", {"imufuse_c", "imufuse.reference"}),
+    ("helpers", {"imufuse", "imufuse.shared", "imufuse.rotations", "imufuse.evaluation", "imufuse.plausible",
                  "imufuse.calibration.fit"}),
 ]
+
+
+def test_the_top_level_modules_are_the_public_ones():
+    """The folders say the floor: a module left at the top of the package is one a user imports
+    by its documented path (FLOORS names it), every other module sits in a folder."""
+    top = {p.stem for p in PKG.glob("*.py")} - {"__init__", "__main__"}
+    named = {n.split(".")[1] for _, ns in FLOORS for n in ns if n.count(".") == 1}
+    folders = {p.name for p in PKG.iterdir() if (p / "__init__.py").is_file()}
+    assert top <= named, sorted(top - named)
+    assert not top & folders
 
 
 def _floor(module):

@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 
 import imufuse
-from imufuse.arduino import EXAMPLES, reference_states
+from imufuse.tools.arduino import EXAMPLES, reference_states
 from imufuse.mcu import INSTALL_SCRIPT
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -1,5 +1,5 @@
 """Bad input: parameters, shapes, dtypes and non-finite samples are handled
-the same way by both backends (one validation path, imufuse._checks)."""
+the same way by both backends (one validation path, imufuse.shared.checks)."""
 import numpy as np
 import pytest
 

@@ -42,10 +42,11 @@ def _copy_tree(dst):
     # the generated list keeps its mtime too (a tree built before: nothing to cythonize)
     shutil.copytree(ROOT / "python" / "imufuse" / "reference", dst / "python" / "imufuse" / "reference",
                     ignore=shutil.ignore_patterns("__pycache__"))
-    # the bindings are generated from the headers and the twins (tools/bindgen.py, imufuse.cproto)
+    # the bindings are generated from the headers and the twins (tools/bindgen.py, imufuse.shared.cproto)
     (dst / "tools").mkdir()
     shutil.copy2(ROOT / "tools" / "bindgen.py", dst / "tools")
-    shutil.copy2(ROOT / "python" / "imufuse" / "cproto.py", dst / "python" / "imufuse")
+    (dst / "python" / "imufuse" / "shared").mkdir()
+    shutil.copy2(ROOT / "python" / "imufuse" / "shared" / "cproto.py", dst / "python" / "imufuse" / "shared")
     generated = sorted((ROOT / "build" / "imufuse_units").glob("*.pxi"))
     if generated:
         (dst / "build" / "imufuse_units").mkdir(parents=True)

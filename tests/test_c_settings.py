@@ -11,7 +11,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from imufuse import catalogue, cproto
+from imufuse import catalogue
+from imufuse.shared import cproto
 
 ROOT = Path(__file__).resolve().parents[1]
 CSRC = ROOT / "csrc"

@@ -10,11 +10,12 @@ import pytest
 
 import imufuse.reference as reference
 import imufuse_c
-from imufuse import catalogue, cproto, recovery
-from imufuse._checks import KINDS
-from imufuse._resources import csrc_dir
-from imufuse._stubs import stubs
-from imufuse.estimate import ADAPTERS
+from imufuse import catalogue
+from imufuse.shared import cproto, recovery
+from imufuse.shared.checks import KINDS
+from imufuse.shared.resources import csrc_dir
+from imufuse.tools.stubs import stubs
+from imufuse.shared.estimate import ADAPTERS
 from imufuse.mcu import filters as mcu_filters
 import bindgen
 from imufuse.registry import CASES_VARIO, FIXED_CASES, FLOAT_CASES, FUSION_CASES
@@ -123,10 +124,10 @@ def test_unknown_names_are_reported():
 
 def test_stubs_are_generated_from_the_catalogue():
     """imufuse_c/__init__.pyi (shipped with the package) is what the catalogue
-    generates: regenerate with `python -m imufuse._stubs > imufuse_c/__init__.pyi`."""
+    generates: regenerate with `python -m imufuse.tools.stubs > imufuse_c/__init__.pyi`."""
     shipped = Path(imufuse_c.__file__).with_name("__init__.pyi")
     assert shipped.is_file(), "imufuse_c/__init__.pyi is not installed"
-    assert shipped.read_text() == stubs(), "stale stubs: python -m imufuse._stubs > imufuse_c/__init__.pyi"
+    assert shipped.read_text() == stubs(), "stale stubs: python -m imufuse.tools.stubs > imufuse_c/__init__.pyi"
     assert Path(imufuse_c.__file__).with_name("py.typed").is_file()
     for name in (*catalogue.FILTERS, *catalogue.FILTERS_FIXED):
         assert f"\nclass {name}(" in shipped.read_text()
@@ -196,7 +197,7 @@ def test_entry_declares_its_recovery_budget(e):
     """Every float and Fusion entry states how many samples it needs to come back
     after a hostile burst (tests/test_hostile.py runs that many), as a function of
     its parameters whose documentation gives the derivation."""
-    assert e.recovery is not None, f"{e.name}: no recovery= in its catalogue entry (imufuse.recovery)"
+    assert e.recovery is not None, f"{e.name}: no recovery= in its catalogue entry (imufuse.shared.recovery)"
     assert len(inspect.getdoc(e.recovery) or "") > 80, f"{e.recovery.__name__}: no derivation documented"
     for dtype in ("float32", "float64"):
         n = e.recovery_budget(dict(e.defaults, **({} if e in catalogue.FUSION else dict(dt=0.01))),

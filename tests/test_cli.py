@@ -13,7 +13,8 @@ import pytest
 import imufuse
 import imufuse_c
 import imufuse.reference as reference
-from imufuse import cli, demo, io, sim
+from imufuse import cli, io, sim
+from imufuse.tools import demo
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PATHS = [os.path.dirname(os.path.dirname(imufuse.__file__)),

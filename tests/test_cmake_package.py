@@ -18,7 +18,7 @@ import pytest
 
 import imufuse
 import imufuse.mcu as mcu
-from imufuse._resources import csrc_dir
+from imufuse.shared.resources import csrc_dir
 from test_cross_build import EXAMPLE, _reference_lines, _run
 
 ROOT = Path(__file__).resolve().parents[1]

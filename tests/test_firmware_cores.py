@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from imufuse import sim
-from imufuse._resources import csrc_dir
+from imufuse.shared.resources import csrc_dir
 from imufuse.firmware import DEFAULT_CFLAGS, FirmwareError, csrc_firmware, speed_note, validate
 from imufuse.firmware.targets import CORES
 from imufuse.mcu import ensure_toolchains

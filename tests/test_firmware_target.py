@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from imufuse import sim
-from imufuse._resources import csrc_dir
+from imufuse.shared.resources import csrc_dir
 from imufuse.firmware import (DEFAULT_CFLAGS, Firmware, FirmwareError, csrc_firmware, validate)
 from imufuse.mcu import ensure_toolchains
 from imufuse.reference import Complementary1D, MahonyIMUQ

@@ -13,7 +13,7 @@ import cbuild  # noqa: E402
 import imufuse.reference as reference  # noqa: E402
 from imufuse import catalogue  # noqa: E402
 from imufuse.registry import FIXED_CASES, fixed_matrix  # noqa: E402
-from imufuse._checks import KINDS  # noqa: E402
+from imufuse.shared.checks import KINDS  # noqa: E402
 
 N = 600
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import imufuse_c
-from imufuse import _fusion
+from imufuse.reference import _fusion
 from imufuse import reference as ref
 
 from bits import assert_same_bits

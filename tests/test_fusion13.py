@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import imufuse_c
-from imufuse import _fusion, _fusion13
+from imufuse.reference import _fusion, _fusion13
 from imufuse import reference as ref
 from imufuse.reference import fusion13 as twin13
 

@@ -19,8 +19,8 @@ import pytest
 
 import imufuse.mcu as mcu
 from imufuse import reference
-from imufuse._fusion13 import ADVANCED
-from imufuse._resources import csrc_dir
+from imufuse.reference._fusion13 import ADVANCED
+from imufuse.shared.resources import csrc_dir
 
 from bits import assert_same_bits
 

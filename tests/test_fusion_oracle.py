@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 import imufuse_c
-from imufuse import _fusion
+from imufuse.reference import _fusion
 from imufuse import reference as ref
 
 import fusion_oracle

@@ -19,7 +19,7 @@ import sys
 import numpy as np
 import pytest
 
-from imufuse._resources import csrc_dir
+from imufuse.shared.resources import csrc_dir
 from imufuse.firmware import (TARGETS, Board, FirmwareError, build_board, csrc_firmware,
                               validate)
 from imufuse.mcu import ensure_toolchains

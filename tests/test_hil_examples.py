@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from imufuse import sim
-from imufuse._resources import csrc_dir
+from imufuse.shared.resources import csrc_dir
 from imufuse.catalogue import inputs_for
 from imufuse.firmware import Board, csrc_firmware, validate
 from imufuse.mcu import ensure_toolchains

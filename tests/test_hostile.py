@@ -16,7 +16,8 @@ import pytest
 
 import imufuse.reference as reference
 import imufuse_c
-from imufuse import _fusion, catalogue
+from imufuse import catalogue
+from imufuse.reference import _fusion
 from bits import assert_same_bits
 from imufuse.registry import DTYPES, FLOAT_CASES, FUSION_CASES, each_dtype
 
@@ -85,7 +86,7 @@ def _valid(case, f, S):
 
 def recovery_budget(case, dtype):
     """The stated number of samples to return to the static attitude: the
-    catalogue entry's budget (imufuse.recovery, docs/robustness.md)."""
+    catalogue entry's budget (imufuse.shared.recovery, docs/robustness.md)."""
     return catalogue.entry(case.name).recovery_budget(case.params, dtype)
 
 
@@ -263,7 +264,7 @@ def _fusion_valid(case, S):
 
 def fusion_recovery_budget(case, dtype):
     """Samples to return to the static attitude: the catalogue entry's budget
-    (imufuse.recovery.fusion_ahrs), at the sample interval FDT."""
+    (imufuse.shared.recovery.fusion_ahrs), at the sample interval FDT."""
     return catalogue.ALL_ENTRIES[case.name].recovery_budget(case.params, dtype, dt=FDT)
 
 

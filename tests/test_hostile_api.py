@@ -15,7 +15,7 @@ from hypothesis import given, settings, strategies as st, HealthCheck
 import imufuse.reference as reference
 import imufuse_c
 from imufuse import catalogue, sim
-from imufuse._checks import KINDS
+from imufuse.shared.checks import KINDS
 from bits import assert_same_bits
 from imufuse.registry import (DTYPES, FIXED_CASES, PROFILES, each_backend, fixed_matrix,
                               representatives)

@@ -30,7 +30,8 @@ import numpy as np
 import pytest
 
 from broad_data import BROAD, SKIP_REASON
-from imufuse import cli, demo, io, plots
+from imufuse import cli, io, plots
+from imufuse.tools import demo
 from imufuse.comparison import compare_logs
 from imufuse.evaluation import mean_over_trials
 from imufuse.plausible import TURN_RATIO, gyro_scale

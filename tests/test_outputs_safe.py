@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from imufuse import io, sim
-from imufuse._atomic import replacing
+from imufuse.shared.atomic import replacing
 
 
 def _cli(*args, cwd=None):

@@ -17,7 +17,7 @@ import pytest
 
 import imufuse
 import imufuse_c
-from imufuse._resources import csrc_dir, install_toolchains_script, mcu_data_dir
+from imufuse.shared.resources import csrc_dir, install_toolchains_script, mcu_data_dir
 
 ROOT = Path(__file__).resolve().parents[1]
 INSTALLED = os.environ.get("IMUFUSE_TEST_INSTALLED")

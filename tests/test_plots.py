@@ -79,7 +79,7 @@ def test_other_error_panels_robust_too(tmp_path, which):
         fig = plots.plot_1d(tmp_path / "a.png", T, truth, est)
         ax = fig.axes[1]
     else:
-        from imufuse.estimate import Estimate
+        from imufuse.shared.estimate import Estimate
         from imufuse.rotations import quat_from_rotvec
         q_true = np.tile([1.0, 0.0, 0.0, 0.0], (len(T), 1))
         ests = {n: Estimate(q=quat_from_rotvec(np.radians(e)[:, None] * [1.0, 0.0, 0.0]))

@@ -285,7 +285,7 @@ def test_one_colour_per_filter_in_every_panel(tmp_path):
     heading panel skipping IMU filters does not shift the colours)."""
     from imufuse import plots
     from imufuse.catalogue import estimate, reference_class
-    from imufuse.estimate import euler_of
+    from imufuse.shared.estimate import euler_of
     d = sim.imu("slow", rate=100.0, duration=8.0, seed=2)
     names = ["MahonyIMU", "MahonyAHRS", "MadgwickIMU", "DCM", "MadgwickAHRS"]
     ests = {}

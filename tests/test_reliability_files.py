@@ -14,7 +14,7 @@ import pytest
 
 import imufuse
 from imufuse import cli, io, sim
-from imufuse.arduino import export_arduino
+from imufuse.tools.arduino import export_arduino
 from imufuse.calibration import CalibrationError, load_calibration, mag_offset, save_calibration
 from imufuse.calibration.fit import Calibration as Fitted
 from imufuse.calibration import log as callog

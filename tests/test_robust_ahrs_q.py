@@ -235,7 +235,7 @@ def test_users_firmware_validated_on_a_published_log(tmp_path):
     03 as published, the magnetometer in uT brought to counts by counts_for (4096 per uT
     would saturate every reading: the scale halves until the largest is below 2^14 counts),
     on the host and the Cortex-M0."""
-    from imufuse._resources import csrc_dir
+    from imufuse.shared.resources import csrc_dir
     from imufuse.firmware import Firmware, counts_for, mag_counts_scale, validate
     from imufuse.io import read_log
     log = read_log(PUBLISHED)

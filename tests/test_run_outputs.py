@@ -1,6 +1,6 @@
 """run(..., outputs="q") keeps only the state words the quaternion is read from while the
-filter runs (imufuse.estimate.output_columns): the same quaternions, to the bit, as
-imufuse.estimate.run_outputs reads from the whole trajectory, for every 3-D float filter of
+filter runs (imufuse.shared.estimate.output_columns): the same quaternions, to the bit, as
+imufuse.shared.estimate.run_outputs reads from the whole trajectory, for every 3-D float filter of
 the catalogue (quaternion, matrix, gravity and Euler states), both precisions, at the fixed
 dt, with per-sample dt and from init="first"; the filter's state afterwards is the one run()
 leaves; a hostile burst changes nothing of that."""
@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 import imufuse_c
-from imufuse import catalogue, estimate, io, sim
+from imufuse import catalogue, io, sim
+from imufuse.shared import estimate
 from imufuse.session import RunOptions, Session
 
 ENTRIES = [e.name for e in catalogue.FLOAT

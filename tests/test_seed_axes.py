@@ -17,7 +17,7 @@ import pytest
 
 import imufuse.reference as reference
 import imufuse_c
-from imufuse._fusion import alignment_is_rotation
+from imufuse.reference._fusion import alignment_is_rotation
 
 GYR, ACC, MAG = "-Y-X-Z", "+Y+X+Z", "-Y-X-Z"
 # the board: sensor x = -E (west when facing north), y = -N, z = -D (up);

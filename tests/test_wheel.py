@@ -93,7 +93,7 @@ def test_wheel_installs_and_imports_without_a_compiler(venv):
     prefix = py.parent.parent.resolve()
     p = _py(venv, "-c", "import importlib, imufuse, imufuse_c\n"
             f"for m in {MODULES!r}: print(importlib.import_module(m).__file__)\n"
-            "from imufuse._resources import csrc_dir, mcu_data_dir\n"
+            "from imufuse.shared.resources import csrc_dir, mcu_data_dir\n"
             "print(imufuse.__file__, imufuse_c.__file__, csrc_dir(), mcu_data_dir(), sep='\\n')\n"
             "print(imufuse.__version__)")
     assert p.returncode == 0, p.stderr

@@ -19,7 +19,7 @@ setup.py calls it at every build, so a generated binding is never stale; a famil
 hand-written imufuse_c/<family>.pxi uses that file, whose first lines say why
 (Fusion's and the variometer's own APIs).
 
-Only the standard library and imufuse.cproto (loaded from its file) are used: setup.py
+Only the standard library and imufuse.shared.cproto (loaded from its file) are used: setup.py
 runs this before anything is built or installed.
 """
 from __future__ import annotations
@@ -48,9 +48,9 @@ _STEP = {
 
 
 def _cproto():
-    """imufuse.cproto, from its file (the package is not importable while it is built)."""
+    """imufuse.shared.cproto, from its file (the package is not importable while it is built)."""
     spec = importlib.util.spec_from_file_location(
-        "_imufuse_cproto", os.path.join(ROOT, "python", "imufuse", "cproto.py"))
+        "_imufuse_cproto", os.path.join(ROOT, "python", "imufuse", "shared", "cproto.py"))
     mod = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = mod   # dataclasses look their module up
     spec.loader.exec_module(mod)

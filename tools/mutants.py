@@ -204,7 +204,7 @@ MUTANTS: List[Mutant] = [
            "    params = dict(e.defaults if preset is None else e.presets[preset])",
            "    params = dict(e.defaults)", ("tests/test_cli_names.py", "tests/test_published.py"),
            "catalogue: --preset ignored"),
-    Mutant("check-dt", "python/imufuse/_checks.py",
+    Mutant("check-dt", "python/imufuse/shared/checks.py",
            'return check_real("dt", dt, lo=0.0, lo_open=True)',
            'return check_real("dt", dt, lo=0.0, lo_open=False)', ("tests/test_bad_input.py",),
            "validation: dt = 0 accepted"),

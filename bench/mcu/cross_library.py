@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from imufuse import catalogue, evaluation, sim
-from imufuse._resources import csrc_dir
+from imufuse.shared.resources import csrc_dir
 from imufuse.firmware import (FirmwareError, csrc_firmware, load_declaration, validate,
                               validate_isolated)
 from imufuse.firmware.targets import CORES

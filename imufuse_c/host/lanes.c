@@ -90,7 +90,7 @@ void imf_score_q(const imf_scorer_t *const sc, imf_score_acc_t *const acc, const
     acc->n_est_nan += bad[0];
 }
 
-/* imufuse.estimate's adapters, the same formulas (numpy's order where it matters) */
+/* imufuse.shared.estimate's adapters, the same formulas (numpy's order where it matters) */
 static void est_euler(const double roll, const double pitch, const double yaw, double q[4])
 {
     const double hr = 0.5 * roll, hp = 0.5 * pitch, hy = 0.5 * yaw;

@@ -41,7 +41,7 @@ typedef struct {
     unsigned char *ok;  /* store: 1 where the estimate is finite */
 } imf_score_acc_t;
 
-/* Estimate adapters (imufuse.estimate): a state read as a quaternion w x y z, NWU,
+/* Estimate adapters (imufuse.shared.estimate): a state read as a quaternion w x y z, NWU,
    sensor-to-earth, not necessarily unit. */
 enum { IMF_EST_QUATERNION = 0, IMF_EST_MATRIX = 1, IMF_EST_GRAVITY = 2, IMF_EST_EULER = 3 };
 void imf_estimate_q(int adapter, const double *s, const int *idx, double q[4]);

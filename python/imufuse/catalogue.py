@@ -25,10 +25,10 @@ The entry itself adds what only a user of the filter needs:
                 the same thing (Complementary1D: alpha or T): a user's choice of
                 one drops the defaults of the others
   estimate      how the state trajectory becomes an orientation estimate (see
-                imufuse.estimate.ADAPTERS), or None
+                imufuse.shared.estimate.ADAPTERS), or None
   recovery      the samples of sane input the filter needs to come back to the
                 right attitude after a hostile burst, as a function of its
-                parameters (imufuse.recovery, each with its derivation);
+                parameters (imufuse.shared.recovery, each with its derivation);
                 required for every float and Fusion entry
                 (tests/test_hostile.py runs it)
 
@@ -52,12 +52,12 @@ from typing import Any, Dict, FrozenSet, Iterable, List, Mapping, Optional, Sequ
 
 import imufuse_c as compiled
 
-from . import _fusion13
-from . import recovery as _recovery
+from .reference import _fusion13
+from .shared import recovery as _recovery
 from . import reference
-from ._checks import KINDS, check_dtype
+from .shared.checks import KINDS, check_dtype
 from .reference._base import init_names
-from .estimate import ADAPTERS, Estimate
+from .shared.estimate import ADAPTERS, Estimate
 
 __all__ = ["Entry", "FilterError", "CATALOGUE", "FLOAT", "FIXED", "FUSION", "FILTERS_FUSION",
            "FUSION_AHRS", "VARIO", "FILTERS_VARIO",
@@ -154,7 +154,7 @@ class Entry:
 
     def recovery_budget(self, params: Mapping[str, Any], dtype: str, dt: Optional[float] = None) -> int:
         """Samples of sane input after which the filter constructed with params
-        is back at the right attitude (imufuse.recovery); dt: the sample interval
+        is back at the right attitude (imufuse.shared.recovery); dt: the sample interval
         of filters that take it with every update (the Fusion suite)."""
         if self.recovery is None:
             raise FilterError(f"{self.name}: no recovery budget in the catalogue")
@@ -391,7 +391,7 @@ def estimate(cls: Any, states: Any) -> Optional[Estimate]:
 
 def why_no_estimate(cls: Any) -> str:
     return (f"no orientation estimate derivable from state {', '.join(cls.state_names)} "
-            "(see imufuse.estimate)")
+            "(see imufuse.shared.estimate)")
 
 
 def inputs_for(kind: str, data: Any) -> tuple:

@@ -45,11 +45,11 @@ import textwrap
 
 import numpy as np
 
-from ._atomic import replacing
+from .shared.atomic import replacing
 # the axes' helpers, unwrap_deg and steady_limits re-exported as imufuse.plots' own
-from ._plotaxes import (_angle_axis, _coinciding, _coinciding_in, _fmt, break_wraps,  # noqa: F401
+from .shared.plotaxes import (_angle_axis, _coinciding, _coinciding_in, _fmt, break_wraps,  # noqa: F401
                         robust_limits, steady_limits, unwrap_deg, wrap_deg, wrap_marks)
-from .bits import UINT
+from .shared.bits import UINT
 from .catalogue import FILTERS, reference_class
 from .rotations import heading_error, tilt_error
 

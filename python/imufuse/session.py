@@ -34,7 +34,7 @@ import imufuse_c
 from . import io, preprocess, reference
 from .catalogue import (ALL_ENTRIES, FUSION_AHRS, FilterError, estimate, make_filter, reference_class,
                         resolve_params, why_no_estimate)
-from .estimate import Estimate
+from .shared.estimate import Estimate
 from .evaluation import Evaluation, evaluate, from_enu, to_enu
 from .io import ACC, GYR, MAG, Log, LogError, axis_inputs, read_log, require
 from .rotations import quat_to_euler

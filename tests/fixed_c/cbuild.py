@@ -36,7 +36,8 @@ def filter_driver_source() -> str:
     init values after dt... in the order of the reference _init, C99 hex
     floats; then an optional initial state), then one sample per line (rate
     angle, gx gy gz ax ay az, or gx gy gz ax ay az mx my mz); prints the int32 state after every sample."""
-    from imufuse import catalogue, cproto
+    from imufuse import catalogue
+    from imufuse.shared import cproto
 
     headers = sorted(FIXED.glob("*_q.h"))
     text = "\n".join(h.read_text() for h in headers)

@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import List
 
 from imufuse import catalogue
-from imufuse._checks import KINDS
+from imufuse.shared.checks import KINDS
 from imufuse.mcu.library import c_library
 from imufuse.reference._base import init_arguments
 from imufuse.registry import FIXED_CASES, FLOAT_CASES, Case

@@ -9,7 +9,7 @@ The file format (`imufuse calibrate ... -o calib.json`, read by `imufuse run
      "accelerometer": {"M": 3x3, "s": [3], "b": [3]},
      "magnetometer": {"S": 3x3, "h": [3]}}        every key optional
 
-`save` reads, merges and writes the file under an exclusive lock (imufuse._atomic.locked):
+`save` reads, merges and writes the file under an exclusive lock (imufuse.shared.atomic.locked):
 two processes saving different sections of one file both keep theirs.
 """
 import json
@@ -18,8 +18,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from .._checks import check_real_in
-from .._atomic import locked, replacing
+from ..shared.checks import check_real_in
+from ..shared.atomic import locked, replacing
 from ..io import LogError, require
 from ..session import ReadOptions, Session
 from .fit import Calibration, accel_six_position, gyro_offset, mag_ellipsoid, mag_minmax, mag_sphere

@@ -8,8 +8,8 @@ import math
 import sys
 
 from .. import io, plots
-from .._fusion import SETTINGS as FUSION_SETTINGS
-from .._fusion13 import SETTINGS as FUSION13_SETTINGS
+from ..reference._fusion import SETTINGS as FUSION_SETTINGS
+from ..reference._fusion13 import SETTINGS as FUSION13_SETTINGS
 from ..catalogue import canonical_name, param_names
 from ..io import LogError, parse_column_map, read_column_map
 from ..session import ReadOptions, RunOptions, ScoreOptions, Session, init_value

@@ -7,9 +7,9 @@ import numpy as np
 import time
 
 from .. import __version__, plots, sim
-from ..arduino import export_arduino
-from .._atomic import check_outputs
-from .._resources import csrc_dir
+from ..tools.arduino import export_arduino
+from ..shared.atomic import check_outputs
+from ..shared.resources import csrc_dir
 from ..catalogue import canonical_name, inputs_for, reference_class, resolve_params
 from ..catalogue import entry as _entry
 from ..firmware import (DEFAULT_TIMEOUT, Firmware, FirmwareError, counts_for, csrc_firmware,

@@ -8,7 +8,7 @@ import sys
 import numpy as np
 
 from .. import io, plots
-from .._atomic import check_outputs
+from ..shared.atomic import check_outputs
 from ..catalogue import FILTERS, FILTERS_FIXED, FILTERS_FUSION, canonical_name
 from ..comparison import compare_logs, default_filters, log_paths
 from ..io import axis_inputs

@@ -5,7 +5,7 @@ import os
 
 from .. import plots, vario
 from ..calibration import log as calibration_log
-from .._atomic import check_outputs
+from ..shared.atomic import check_outputs
 from .common import (EXIT_OK, UsageError, column_map, err, pairs, plot_available, strict_option,
                      unit_options)
 

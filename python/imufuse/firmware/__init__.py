@@ -47,7 +47,7 @@ every file the compiler reads (its -M dependency output: headers in any
 directory, included files of any extension).
 
 The modules, by subject:
-  declaration   the user's declaration: prototypes (imufuse.cproto), the filter object,
+  declaration   the user's declaration: prototypes (imufuse.shared.cproto), the filter object,
                 settings structs, state expressions, which value goes where
   csource       the C generated around the firmware (host harness, MCU driver)
   host          Firmware: built with cffi and run in this process; csrc_firmware
@@ -70,7 +70,7 @@ The modules, by subject:
   report        rounding or formula, the --within verdict, the JSON and JUnit reports
   versus        compare_firmware(): firmware against firmware, no imufuse reference
 """
-from ..bits import Comparison, c_double_literal as hexfloat, compare_states, ulps
+from ..shared.bits import Comparison, c_double_literal as hexfloat, compare_states, ulps
 from .causes import Cause, angle_divergence_deg, double_promotions, find_causes
 from .declaration import DEFAULT_CFLAGS, Declaration, FirmwareError, parse_prototype
 from .host import Firmware, csrc_firmware

@@ -22,7 +22,7 @@ from typing import Any, Dict, List, Optional, Sequence
 import numpy as np
 
 from ..catalogue import entry
-from ..estimate import ADAPTERS
+from ..shared.estimate import ADAPTERS
 
 __all__ = ["Cause", "find_causes", "double_promotions", "angle_divergence_deg", "ordered",
            "BUILD"]

@@ -7,8 +7,8 @@ read back after every sample.
 """
 import math
 
-from .._checks import KINDS
-from ..bits import c_double_literal
+from ..shared.checks import KINDS
+from ..shared.bits import c_double_literal
 from .declaration import FirmwareError, _is_integer_type
 
 __all__ = ["host_source", "target_source"]

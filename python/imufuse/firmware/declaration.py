@@ -1,7 +1,7 @@
 """The user's declaration of their firmware, bound to imufuse's inputs and state.
 
 ``Declaration`` reads the init and update prototypes (given, or looked up in the user's
-headers through imufuse.cproto), finds the filter object and any settings struct init takes,
+headers through imufuse.shared.cproto), finds the filter object and any settings struct init takes,
 checks the state expressions, and binds: the values init receives (by name or by position,
 ``_init_values``), the C of an init call (``_init_call``) and which input each update
 parameter takes (``_update_plan``). ``imufuse.firmware.Firmware`` builds on it.
@@ -10,8 +10,8 @@ import math
 import os
 import re
 
-from .. import cproto
-from .._checks import KINDS
+from ..shared import cproto
+from ..shared.checks import KINDS
 
 __all__ = ["Declaration", "FirmwareError", "parse_prototype", "DEFAULT_CFLAGS"]
 

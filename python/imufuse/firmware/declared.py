@@ -53,8 +53,8 @@ import os
 import re
 from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 
-from .._checks import KINDS
-from ..bits import c_double_literal
+from ..shared.checks import KINDS
+from ..shared.bits import c_double_literal
 from . import ctemplate
 from .declaration import DEFAULT_CFLAGS, FirmwareError
 from .host import Firmware

@@ -22,7 +22,7 @@ from typing import Any, List, Mapping, Optional, Sequence
 
 import numpy as np
 
-from .._resources import csrc_dir
+from ..shared.resources import csrc_dir
 from ..mcu import toolchains as _tc
 from ..mcu.emulators import _emulator_cmd
 from .declaration import FirmwareError

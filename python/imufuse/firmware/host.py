@@ -23,7 +23,7 @@ from typing import Any, List, Optional, Tuple
 
 import numpy as np
 
-from .._checks import KINDS
+from ..shared.checks import KINDS
 from ..catalogue import reference_class
 from .csource import host_source, target_source
 from .declaration import Declaration, FirmwareError

@@ -27,10 +27,10 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence
 import numpy as np
 
 from .. import __version__
-from .._atomic import replacing
-from ..bits import as_bits
+from ..shared.atomic import replacing
+from ..shared.bits import as_bits
 from ..catalogue import FILTERS as FILTER_NAMES, entry
-from ..estimate import ADAPTERS
+from ..shared.estimate import ADAPTERS
 from .causes import quaternion_angles_deg
 from ..mcu import toolchains as _tc
 from .host import _make_deps, compiler_command, compiler_identity
@@ -483,7 +483,7 @@ def junit_xml(rep: Mapping[str, Any]) -> str:
 
 def write_reports(rep: Mapping[str, Any], json_path: Optional[str] = None,
                   junit_path: Optional[str] = None) -> None:
-    """Write the JSON and/or JUnit report, each whole or not at all (imufuse._atomic);
+    """Write the JSON and/or JUnit report, each whole or not at all (imufuse.shared.atomic);
     OSError "--json PATH: cannot write: ..." when one cannot be written."""
     for opt, path in (("--json", json_path), ("--junit", junit_path)):
         if path is None:

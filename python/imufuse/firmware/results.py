@@ -1,4 +1,4 @@
-"""What a validation reports: the comparison with imufuse bit for bit (imufuse.bits), the
+"""What a validation reports: the comparison with imufuse bit for bit (imufuse.shared.bits), the
 class of a divergence (rounding or formula, imufuse.firmware.report), the causes found,
 notes, and on an MCU target the cost of one update."""
 from dataclasses import dataclass, field
@@ -6,7 +6,7 @@ from typing import Any, Dict, List, Optional, Tuple
 
 import numpy as np
 
-from ..bits import Comparison
+from ..shared.bits import Comparison
 from .report import Classification, classify
 
 __all__ = ["Cost", "Validation"]

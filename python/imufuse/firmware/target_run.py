@@ -19,7 +19,7 @@ from typing import List, Optional, Sequence
 
 import numpy as np
 
-from ..bits import words_as_values
+from ..shared.bits import words_as_values
 from ..mcu import toolchains as _tc
 from ..mcu.emulators import _LINE, _emulator_cmd, _simavr_text, _to_counts
 from .elf import _Elf

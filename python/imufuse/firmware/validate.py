@@ -16,7 +16,7 @@ import numpy as np
 import imufuse_c
 
 from .. import reference
-from ..bits import compare_states
+from ..shared.bits import compare_states
 from ..catalogue import FUSION_AHRS as FUSIONS
 from ..catalogue import entry, make_filter
 from ..mcu import toolchains as _tc

@@ -18,7 +18,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from ..bits import compare_states
+from ..shared.bits import compare_states
 from .causes import quaternion_angles_deg
 from .declaration import FirmwareError
 from .results import Validation

@@ -9,7 +9,7 @@ import csv
 import difflib
 import re
 
-from .._jsonfile import FileContentError, parse_object, read_text
+from ..shared.jsonfile import FileContentError, parse_object, read_text
 from .log import KNOWN, TIME_UNITS, LogError
 
 #: how unit spellings in headers are read
@@ -186,7 +186,7 @@ def parse_column_map(text, what="column map"):
 
 def read_column_map(path):
     """A mapping file: a JSON object {name: header}, or lines NAME = HEADER
-    ('#' starts a comment). Read by imufuse._jsonfile (UTF-8, at most 1 MiB; a JSON map
+    ('#' starts a comment). Read by imufuse.shared.jsonfile (UTF-8, at most 1 MiB; a JSON map
     nested too deep or not an object is a data error); a name given twice is a LogError
     ("usage") naming it and its lines."""
     try:

@@ -4,8 +4,8 @@ the imufuse log format), and the real recording shipped with imufuse (`example_l
 import numpy as np
 from imufuse_c._csvout import iter_blocks as _csv_blocks
 
-from .._atomic import replacing
-from .._resources import _path
+from ..shared.atomic import replacing
+from ..shared.resources import _path
 from .log import ACC, GYR, MAG, QUAT
 from .read import read_log
 

@@ -51,7 +51,7 @@ and is killed after ``timeout`` seconds.
 # (the generated C around the code under test), inputs (constant arrays in flash),
 # programs (compiling and linking), emulators (running and reading the output),
 # measure (code size, stack, instruction counts). The library's filters on the harness:
-# library (what csrc's headers say about a filter, read with imufuse.cproto), samples (the
+# library (what csrc's headers say about a filter, read with imufuse.shared.cproto), samples (the
 # inputs of the filter runs), filters (FilterSpec, run_filters, the configurations).
 from .toolchains import (
     AVR_OVF_ISR_CYCLES, BASE_FLAGS, DATA_DIR, ICOUNT_SHIFT, INSTALL_SCRIPT, TARGETS, WARN_FLAGS,

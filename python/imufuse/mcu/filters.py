@@ -20,8 +20,8 @@ filter stepping on the same sample); ``run_filters`` splits the set when a progr
 the target's flash. Float filters build with ``-DIMF_DOUBLE`` for float64; fixed-point filters
 (integer state, int16 inputs) take a ``profile`` keyword instead of a dtype.
 
-The prototypes are read in ``imufuse.mcu.library`` (through imufuse.cproto), the inputs made
-in ``imufuse.mcu.samples``, bit patterns converted in ``imufuse.bits``; their names are
+The prototypes are read in ``imufuse.mcu.library`` (through imufuse.shared.cproto), the inputs made
+in ``imufuse.mcu.samples``, bit patterns converted in ``imufuse.shared.bits``; their names are
 importable from here too.
 """
 
@@ -38,8 +38,8 @@ import numpy as np
 
 from .. import reference as _reference
 from ..reference._base import init_names
-from .._checks import KINDS
-from ..bits import as_bits, bits_as_values, f32_hex
+from ..shared.checks import KINDS
+from ..shared.bits import as_bits, bits_as_values, f32_hex
 from .driver import Driver
 from .emulators import Result, run_elf
 from .library import CSRC, CFilter, c_library, init_call, literal

@@ -1,7 +1,7 @@
 """What the C library's headers say about one filter, for the MCU runner.
 
 ``c_library(c_name)`` finds the header under ``csrc/`` (or ``csrc/fixed/``) that declares
-``<c_name>_init`` and reads, through ``imufuse.cproto`` (the project's one C-prototype reader),
+``<c_name>_init`` and reads, through ``imufuse.shared.cproto`` (the project's one C-prototype reader),
 the values init takes (its parameters, or the members of the settings struct it takes), the
 update's parameters, the fixed-point ``<c_name>_init_consts`` and whether the filter struct
 counts ``skipped`` samples. ``init_call`` writes the C of an init call, ``literal`` an exact C
@@ -15,9 +15,9 @@ import re
 from pathlib import Path
 from typing import Dict, List, Optional, Sequence, Tuple
 
-from .._resources import csrc_dir
-from ..bits import c_double_literal, c_float_literal
-from ..cproto import CParam, PrototypeError, find_prototype, init_params, struct_members
+from ..shared.resources import csrc_dir
+from ..shared.bits import c_double_literal, c_float_literal
+from ..shared.cproto import CParam, PrototypeError, find_prototype, init_params, struct_members
 from .toolchains import HarnessError
 
 __all__ = ["CSRC", "CFilter", "c_library", "init_call", "literal"]

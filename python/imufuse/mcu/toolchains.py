@@ -8,7 +8,7 @@ import subprocess
 from typing import Dict, Iterable, List, Optional, Sequence, Tuple
 
 
-from .._resources import install_toolchains_script, mcu_data_dir
+from ..shared.resources import install_toolchains_script, mcu_data_dir
 
 
 DATA_DIR = mcu_data_dir()

@@ -22,7 +22,7 @@ import numpy as np
 import imufuse_c
 
 from .. import io
-from .._fusion import parse_alignment
+from ..reference._fusion import parse_alignment
 from ..reference import fusion
 from .calibration import load_calibration
 

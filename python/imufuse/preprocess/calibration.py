@@ -17,9 +17,9 @@ caller working in Fusion's deg/s converts b by 180/pi.) The models are
 evaluated by imufuse_c.calibrate_inertial / calibrate_magnetic (C, in
 Fusion's operation order; pure-Python twin in imufuse.reference.fusion).
 
-A file is read by imufuse._jsonfile (UTF-8, at most 1 MiB, nesting and repeated keys
-bounded) and written whole (imufuse._atomic.replacing) under the lock of a
-read-merge-write (imufuse._atomic.locked).
+A file is read by imufuse.shared.jsonfile (UTF-8, at most 1 MiB, nesting and repeated keys
+bounded) and written whole (imufuse.shared.atomic.replacing) under the lock of a
+read-merge-write (imufuse.shared.atomic.locked).
 """
 import json
 from dataclasses import dataclass, field
@@ -29,9 +29,9 @@ import numpy as np
 
 import imufuse_c
 
-from .._atomic import locked, replacing
-from .._checks import check_real_in
-from .._jsonfile import FileContentError, read_object
+from ..shared.atomic import locked, replacing
+from ..shared.checks import check_real_in
+from ..shared.jsonfile import FileContentError, read_object
 from ..reference import fusion
 
 SENSORS = {"gyroscope": ("M", "s", "b"), "accelerometer": ("M", "s", "b"),

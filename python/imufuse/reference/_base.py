@@ -38,8 +38,8 @@ import copy
 
 import numpy as np
 
-from .. import _checks
-from .. import estimate as _estimate
+from ..shared import checks as _checks
+from ..shared import estimate as _estimate
 from . import attitude as _attitude
 
 U32 = 0xFFFFFFFF
@@ -168,7 +168,7 @@ class ReferenceFilter:
 
     def run(self, *args, dt=None, outputs="state"):
         """All samples; returns the (N, len(state)) trajectory, or for a 3-D filter with
-        outputs="q" the (N, 4) quaternions sensor -> earth (imufuse.estimate.run_outputs)."""
+        outputs="q" the (N, 4) quaternions sensor -> earth (imufuse.shared.estimate.run_outputs)."""
         if outputs != "state":
             if self.kind not in ("imu", "ahrs"):
                 raise ValueError(f"outputs: {type(self).__name__} has no orientation "

@@ -5,7 +5,7 @@ acc_gate/acc_1g keywords (one definition for both backends) and gives the C
 init arguments; set() and passes() mirror imf_acc_gate_set and
 imf_acc_gate_pass.
 """
-from .. import _checks
+from ..shared import checks as _checks
 
 def check(acc_gate, acc_1g):
     """C init arguments (acc_gate_lo, acc_gate_hi, acc_1g); acc_gate_lo = -1

@@ -25,7 +25,7 @@ import inspect
 import math
 import types
 
-from .. import _checks
+from ..shared import checks as _checks
 
 #: the default of a setting the user must give (dt)
 REQUIRED = inspect.Parameter.empty
@@ -54,7 +54,7 @@ def setting(default, unit, check, to_c=None, *, keyword=None, kw_only=False):
 
 
 def real(**bounds):
-    """The check of a real number within imufuse._checks.check_real's bounds."""
+    """The check of a real number within imufuse.shared.checks.check_real's bounds."""
     return lambda name, value, prior: _checks.check_real(name, value, **bounds)
 
 
@@ -64,7 +64,7 @@ def choice(*choices):
 
 
 def dt():
-    """The check of a sample period (imufuse._checks.check_dt)."""
+    """The check of a sample period (imufuse.shared.checks.check_dt)."""
     return lambda name, value, prior: _checks.check_dt(value)
 
 

@@ -6,7 +6,7 @@ Per sample: rate = gyro rate (rad/s), angle = accelerometer angle (rad).
 import dataclasses
 import math
 
-from .. import _checks
+from ..shared import checks as _checks
 from ._base import ReferenceFilter, isfinite
 from ._settings import REQUIRED, USER, SettingsRecord, dt, real, setting
 

@@ -28,7 +28,7 @@ import copy
 
 import numpy as np
 
-from .. import _checks
+from ..shared import checks as _checks
 from . import _cint as ci
 
 PROFILES = ("32", "8")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-from .. import _checks
+from ..shared import checks as _checks
 from . import _cint as ci
 from . import fixed_scale as fs
 from .fixed_base import FixedFilter, check_profile, check_scale, qconst

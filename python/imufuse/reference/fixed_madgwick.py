@@ -2,7 +2,7 @@
 csrc/fixed/madgwick_q.c, line for line (Q formats in madgwick_q.h)."""
 from __future__ import annotations
 
-from .. import _checks
+from ..shared import checks as _checks
 from . import _cint as ci
 from . import fixed_quat as fq
 from .fixed_base import FixedFilter, check_profile, check_scale, qconst

@@ -2,7 +2,7 @@
 line for line (Q formats in mahony_q.h)."""
 from __future__ import annotations
 
-from .. import _checks
+from ..shared import checks as _checks
 from . import _cint as ci
 from . import fixed_quat as fq
 from .fixed_base import FixedFilter, check_profile, check_scale, qconst

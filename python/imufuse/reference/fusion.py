@@ -22,7 +22,8 @@ import struct
 
 import numpy as np
 
-from .. import _checks, _fusion
+from ..shared import checks as _checks
+from . import _fusion
 
 NWU, ENU, NED = 0, 1, 2
 INVSQRT_EXACT, INVSQRT_FAST = 0, 1

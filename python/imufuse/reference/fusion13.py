@@ -13,7 +13,8 @@ import math
 
 import numpy as np
 
-from .. import _checks, _fusion, _fusion13
+from ..shared import checks as _checks
+from . import _fusion, _fusion13
 from .fusion import (ENU, NED, _finite, _Ops, deg2rad, error_degrees, mat_mul_vec,
                      quat_add, quat_mul, quat_mul_vec, quat_normalise, rad2deg, safe_asin,
                      trigger_ratio, vec_add, vec_cross, vec_dot, vec_hadamard, vec_is_zero,
@@ -641,7 +642,7 @@ class FusionBias:
 
 def remap(x, alignment, dtype="float64"):
     """FusionRemap for each row of x (N, 3): alignment one of the 24 names of
-    imufuse._fusion13.REMAP_ALIGNMENTS ('+X+Z-Y': x = +x, y = +z, z = -y) or its number."""
+    imufuse.reference._fusion13.REMAP_ALIGNMENTS ('+X+Z-Y': x = +x, y = +z, z = -y) or its number."""
     dtype = _checks.check_dtype(dtype)
     perm, neg = _fusion13.remap_alignment(alignment)
     (arr,) = _checks.as_nx3(dtype, x=np.atleast_2d(x))

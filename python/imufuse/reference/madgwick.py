@@ -7,7 +7,7 @@ the article's simplified corrective step for a unit quaternion.
 """
 import dataclasses
 
-from .. import _checks
+from ..shared import checks as _checks
 from . import _gate, _math
 from ._base import QUAT_NORM2_TOL, ReferenceFilter, isfinite
 from ._settings import FIXED, REQUIRED, SettingsRecord, choice, dt, fixed, real, setting

@@ -10,7 +10,7 @@ defaults).
 """
 import dataclasses
 
-from .. import _checks
+from ..shared import checks as _checks
 from . import _gate, _math
 from ._base import QUAT_NORM2_TOL, ReferenceFilter, integral_problem, isfinite
 from ._settings import REQUIRED, SettingsRecord, choice, dt, real, setting

@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 
-from .. import _checks
+from ..shared import checks as _checks
 from . import _math
 from ._base import ReferenceFilter, isfinite
 from ._settings import REQUIRED, SettingsRecord, choice, dt, real, setting

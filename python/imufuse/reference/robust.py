@@ -27,7 +27,7 @@ state only if every block accepted the sample.
 import dataclasses
 import math
 
-from .. import _checks
+from ..shared import checks as _checks
 from ._base import QUAT_NORM2_TOL, ReferenceFilter, isfinite
 from ._math import qmul, qrotate
 from ._settings import REQUIRED, SettingsRecord, choice, deg_to_rad, real, setting

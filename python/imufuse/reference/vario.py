@@ -11,7 +11,7 @@ import functools
 
 import numpy as np
 
-from .. import _checks
+from ..shared import checks as _checks
 from ._base import ReferenceFilter, isfinite
 from ._settings import SettingsRecord, real, setting
 

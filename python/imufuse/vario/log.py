@@ -7,9 +7,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from .. import _checks
+from ..shared import checks as _checks
 from .. import io as _io
-from .._atomic import replacing
+from ..shared.atomic import replacing
 from ..io import LogError as _LogError
 from ..io import read_csv_rows as _read_csv_rows
 from ..plots import _plt, _save

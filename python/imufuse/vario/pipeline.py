@@ -8,7 +8,8 @@ import numpy as np
 
 import imufuse_c
 
-from .. import _checks, reference
+from .. import reference
+from ..shared import checks as _checks
 
 GRAVITY = 9.80665
 #: ISA sea-level pressure, Pa

@@ -13,11 +13,11 @@ from typing import Any, Callable, Optional, Sequence, TextIO
 
 import numpy as np
 
-from . import plots, rotations, sim
-from .bits import compare_states
-from .catalogue import (FilterError, estimate, filter_names, inputs_for, make_filter,
+from .. import plots, rotations, sim
+from ..shared.bits import compare_states
+from ..catalogue import (FilterError, estimate, filter_names, inputs_for, make_filter,
                         reference_class, resolve_params, why_no_estimate)
-from .estimate import Estimate
+from ..shared.estimate import Estimate
 
 __all__ = ["run_demo", "errors_1d", "errors_3d", "SETTLE"]
 

@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 
-from . import _checks
+from ..shared import checks as _checks
 
 CONVENTIONS = {"NWU": 0, "ENU": 1, "NED": 2}
 INVSQRT = {"exact": 0, "fast": 1}

@@ -1,13 +1,14 @@
 """Validation shared by both backends of Fusion 1.3 (imufuse_c.FusionAHRS13 /
 imufuse.reference.FusionAHRS13, FusionBias): one definition of every check, so both accept
 and reject the same things. The outputs and flags are packed as the 1.2.3 port's
-(imufuse._fusion), the start-up flag under the name `initialising` and the overrange
+(imufuse.reference._fusion), the start-up flag under the name `initialising` and the overrange
 recovery under `angular_rate_recovery`."""
 import math
 
 import numpy as np
 
-from . import _checks, _fusion
+from ..shared import checks as _checks
+from . import _fusion
 
 AHRS_STATE_NAMES = (
     "q0", "q1", "q2", "q3", "acc_x", "acc_y", "acc_z", "startup_gain",

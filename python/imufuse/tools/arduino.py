@@ -33,12 +33,12 @@ from typing import Dict, List, Sequence, Tuple
 
 import numpy as np
 
-from . import __version__
-from ._atomic import replacing
-from ._resources import csrc_dir
-from .catalogue import entry, resolve_params
-from .io import example_log, read_log
-from .mcu.filters import FilterSpec
+from .. import __version__
+from ..shared.atomic import replacing
+from ..shared.resources import csrc_dir
+from ..catalogue import entry, resolve_params
+from ..io import example_log, read_log
+from ..mcu.filters import FilterSpec
 
 __all__ = ["export_arduino", "EXAMPLES", "example_inputs"]
 
@@ -142,7 +142,7 @@ def _sketch(name: str) -> Tuple[str, str, str]:
     scale = ("q30 integers (divide by 2^30)" if fixed else "float32")
     run_cmd = (f"imufuse run input.csv -f {filt} --dtype float32 --init identity --fixed-rate "
                f"-o out.npz" if not fixed else
-               f"python -c \"from imufuse.arduino import reference_states; "
+               f"python -c \"from imufuse.tools.arduino import reference_states; "
                f"print(reference_states('{name}'))\"")
     ino = f"""/*
  * {name}: {what}.
