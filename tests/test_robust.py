@@ -318,41 +318,6 @@ def test_bad_parameters(backend, kw):
         backend.RobustAHRS(0.01, dtype="float32", **kw)
 
 
-def test_settings_are_one_record_as_documented():
-    """The settings are declared once, in the twin's records (RobustIMUSettings,
-    RobustAHRSSettings): the C settings structs member for member, the constructors'
-    keywords and defaults, and the parameter table of docs/recommended-ahrs.md (name,
-    default, unit)."""
-    import dataclasses
-    import inspect
-    import re
-    from imufuse import catalogue
-    from imufuse.reference.robust import RobustAHRSSettings, RobustIMUSettings
-    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    for cls, record in ((reference.RobustIMU, RobustIMUSettings),
-                        (reference.RobustAHRS, RobustAHRSSettings)):
-        names = tuple(f.name for f in dataclasses.fields(record))
-        assert catalogue.entry(cls.__name__).init_args == names
-        sig = inspect.signature(cls._params)
-        assert tuple(sig.parameters) == names
-        assert all(p.default == f.metadata["default"]
-                   for p, f in zip(sig.parameters.values(), dataclasses.fields(record)))
-        # nothing positional: the filter is built from the record, by name
-        assert cls.settings_type is record and isinstance(cls._params(0.01), record)
-    with open(os.path.join(root, "docs", "recommended-ahrs.md")) as f:
-        doc = f.read()
-    block = doc[doc.index("| parameter | default | unit | meaning |"):].split("\n\n")[0]
-    rows = re.findall(r"^\| `(\w+)` \|([^|]*)\|([^|]*)\|", block, flags=re.M)
-    table = {n: (d.strip(), u.strip()) for n, d, u in rows}
-    want = {f.name: f.metadata for f in dataclasses.fields(RobustAHRSSettings) if f.name != "dt"}
-    assert list(table) == list(want)
-    for n, m in want.items():
-        default, unit = table[n]
-        assert unit == m["unit"], f"{n}: the table's unit {unit!r}, the record's {m['unit']!r}"
-        assert (default == str(m["default"]) if isinstance(m["default"], bool)
-                else float(default) == m["default"]), f"{n}: the table's default {default!r}"
-
-
 # ---- 4. BROAD development trials ---------------------------------------------------------
 
 

@@ -84,7 +84,7 @@ class RobustAHRSSettings(RobustIMUSettings):
     tau_mag_ref: float = setting(20.0, "s", real(lo=0.0, lo_open=True))              # B4
     mag_new_time: float = setting(20.0, "s", real(lo=0.0))                           # B4
     mag_hold: float = setting(0.5, "s", real(lo=0.0))                                # B4
-    mag_learn: int = setting(True, "", choice(True, False), to_c=int)                # B6, 0 or 1
+    mag_learn: int = setting(True, "bool", choice(True, False), to_c=int)            # B6, 0 or 1
     mag_noise: float = setting(0.02, "relative", real(lo=0.0, lo_open=True, hi=1.0))  # B6
     mag_lag: float = setting(0.003, "s", real(lo=0.0, hi=0.1))                       # B6
     mag_offset_min: float = setting(0.1, "relative", real(lo=0.0))                   # B6
