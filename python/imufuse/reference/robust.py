@@ -60,7 +60,7 @@ def _dip_sine(v):
 class RobustIMUSettings(SettingsRecord):
     """imf_robust_imu_settings_t, member for member, in the C's units: RobustIMU's
     keywords (the user's default and unit), checked and converted once."""
-    #                   default   unit     check                                to C
+    # member: setting(the user's default, the user's unit, the check, to_c=the conversion)
     dt: float = setting(REQUIRED, "s", real(lo=0.0, lo_open=True))
     tau_acc: float = setting(2.5, "s", real(lo=0.0, lo_open=True))                   # B2
     rate_ref: float = setting(100.0, "deg/s", real(lo=0.0), to_c=deg_to_rad)         # B2, rad/s
@@ -77,7 +77,7 @@ class RobustIMUSettings(SettingsRecord):
 class RobustAHRSSettings(RobustIMUSettings):
     """imf_robust_ahrs_settings_t, member for member, in the C's units: RobustIMU's
     settings, then the magnetometer's (B4, B6)."""
-    #                   default   unit     check                                to C
+    # member: setting(the user's default, the user's unit, the check, to_c=the conversion)
     tau_mag: float = setting(10.0, "s", real(lo=0.0, lo_open=True))                  # B4
     mag_norm: float = setting(0.1, "relative", real(lo=0.0))                         # B4
     mag_dip: float = setting(10.0, "deg", real(lo=0.0, hi=180.0), to_c=_dip_sine)    # B4, sine
