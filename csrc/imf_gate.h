@@ -32,10 +32,10 @@ static inline imf_real imf_acc_gate_norm2(const imf_real ax, const imf_real ay, 
     return ax * ax + ay * ay + az * az;
 }
 
-/* The gate's interval test on n2 = |a|^2, written with & so that one expression serves a
-   scalar (0 or 1) and the lanes of a GCC vector (0 or -1 each: the host's lane kernels,
+/* The gate's interval test on n2 = |a|^2, one expression for a scalar (AND: &&) and for
+   the lanes of a GCC vector (AND: &, 0 or -1 per lane: the host's lane kernels,
    imufuse_c/host/lanes_body.h). */
-#define IMF_ACC_GATE_IN(n2, lo2, hi2) (((n2) >= (lo2)) & ((n2) <= (hi2)))
+#define IMF_ACC_GATE_IN(n2, lo2, hi2, AND) (((n2) >= (lo2)) AND((n2) <= (hi2)))
 
 /* 1 when the correction may use a = (ax, ay, az): the gate is off, or
    lo2 <= |a|^2 <= hi2. */
@@ -47,7 +47,7 @@ static inline int imf_acc_gate_pass(const int on, const imf_real lo2, const imf_
         return 1;
     }
     n2 = imf_acc_gate_norm2(ax, ay, az);
-    return IMF_ACC_GATE_IN(n2, lo2, hi2);
+    return IMF_ACC_GATE_IN(n2, lo2, hi2, &&);
 }
 
 #ifdef __cplusplus

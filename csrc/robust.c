@@ -114,7 +114,7 @@ static void robust_set_dt(imf_robust_consts_t *const set, const imf_real dt)
 }
 
 static void robust_init(imf_robust_consts_t *const set, uint32_t *const skipped,
-                        imf_robust_state_t *const x, const imf_robust_ahrs_settings_t *const s)
+                        imf_robust_state_t *const x, const imf_robust_settings_t *const s)
 {
     const imf_real rate_ref = s->rate_ref, rest_gyr = s->rest_gyr, rest_acc = s->rest_acc;
     imf_real *const w = (imf_real *)x;
@@ -160,30 +160,18 @@ static void robust_init(imf_robust_consts_t *const set, uint32_t *const skipped,
     x->m_std = IMF_R(1.0);
 }
 
-/* The defaults of the settings both filters have (robust.h lists them): one list for the
-   two settings structs. */
-#define ROBUST_COMMON_DEFAULTS(s) \
-    do { \
-        (s)->dt = IMF_R(0.01); \
-        (s)->tau_acc = IMF_R(2.5); \
-        (s)->rate_ref = (imf_real)1.7453292519943295; /* 100 deg/s */ \
-        (s)->tau_bias = IMF_R(100.0); \
-        (s)->tau_bias_rest = IMF_R(3.0); \
-        (s)->rest_gyr = (imf_real)0.03490658503988659; /* 2 deg/s */ \
-        (s)->rest_acc = IMF_R(0.05); \
-        (s)->rest_time = IMF_R(1.5); \
-        (s)->tau_rest = IMF_R(0.5); \
-        (s)->latency = IMF_R(0.0); \
-    } while (0)
-
-void imf_robust_imu_default_settings(imf_robust_imu_settings_t *const settings)
+void imf_robust_default_settings(imf_robust_settings_t *const settings)
 {
-    ROBUST_COMMON_DEFAULTS(settings);
-}
-
-void imf_robust_ahrs_default_settings(imf_robust_ahrs_settings_t *const settings)
-{
-    ROBUST_COMMON_DEFAULTS(settings);
+    settings->dt = IMF_R(0.01);
+    settings->tau_acc = IMF_R(2.5);
+    settings->rate_ref = (imf_real)1.7453292519943295; /* 100 deg/s */
+    settings->tau_bias = IMF_R(100.0);
+    settings->tau_bias_rest = IMF_R(3.0);
+    settings->rest_gyr = (imf_real)0.03490658503988659; /* 2 deg/s */
+    settings->rest_acc = IMF_R(0.05);
+    settings->rest_time = IMF_R(1.5);
+    settings->tau_rest = IMF_R(0.5);
+    settings->latency = IMF_R(0.0);
     settings->tau_mag = IMF_R(10.0);
     settings->mag_norm = IMF_R(0.1);
     settings->mag_dip = (imf_real)0.17364817766693033; /* sin(10 deg) */
@@ -196,40 +184,12 @@ void imf_robust_ahrs_default_settings(imf_robust_ahrs_settings_t *const settings
     settings->mag_offset_min = IMF_R(0.1);
 }
 
-/* The IMU filter is the AHRS filter without a magnetometer: its settings, the AHRS
-   defaults for the magnetic ones (never read without a field) and B6 off; tau_mag and
-   tau_mag_ref = tau_rest keep the start-up horizon t_max that of the IMU blocks. */
-void imf_robust_imu_init(imf_robust_imu_t *const self, const imf_robust_imu_settings_t *const s)
-{
-    imf_robust_ahrs_settings_t a;
-    imf_robust_ahrs_default_settings(&a);
-    a.dt = s->dt;
-    a.tau_acc = s->tau_acc;
-    a.rate_ref = s->rate_ref;
-    a.tau_bias = s->tau_bias;
-    a.tau_bias_rest = s->tau_bias_rest;
-    a.rest_gyr = s->rest_gyr;
-    a.rest_acc = s->rest_acc;
-    a.rest_time = s->rest_time;
-    a.tau_rest = s->tau_rest;
-    a.latency = s->latency;
-    a.tau_mag = s->tau_rest;
-    a.tau_mag_ref = s->tau_rest;
-    a.mag_learn = 0;
-    robust_init(&self->set, &self->skipped, &self->x, &a);
-}
-
-void imf_robust_ahrs_init(imf_robust_ahrs_t *const self, const imf_robust_ahrs_settings_t *const s)
+void imf_robust_init(imf_robust_t *const self, const imf_robust_settings_t *const s)
 {
     robust_init(&self->set, &self->skipped, &self->x, s);
 }
 
-void imf_robust_imu_set_dt(imf_robust_imu_t *const self, const imf_real dt)
-{
-    robust_set_dt(&self->set, dt);
-}
-
-void imf_robust_ahrs_set_dt(imf_robust_ahrs_t *const self, const imf_real dt)
+void imf_robust_set_dt(imf_robust_t *const self, const imf_real dt)
 {
     robust_set_dt(&self->set, dt);
 }
@@ -249,12 +209,7 @@ static void robust_set_attitude(imf_robust_state_t *const x, const imf_attitude_
     x->m_n0 = IMF_R(0.0);
 }
 
-void imf_robust_imu_set_attitude(imf_robust_imu_t *const self, const imf_attitude_t *const att)
-{
-    robust_set_attitude(&self->x, att);
-}
-
-void imf_robust_ahrs_set_attitude(imf_robust_ahrs_t *const self, const imf_attitude_t *const att)
+void imf_robust_set_attitude(imf_robust_t *const self, const imf_attitude_t *const att)
 {
     robust_set_attitude(&self->x, att);
 }
@@ -772,13 +727,13 @@ static ROBUST_NOINLINE int robust_magnetometer(const imf_robust_consts_t *const 
     return robust_heading(set, x, me, mh);
 }
 
-imf_real imf_robust_ahrs_get_mag_offset(const imf_robust_ahrs_t *const self, imf_real offset[3])
+imf_real imf_robust_get_mag_offset(const imf_robust_t *const self, imf_real offset[3])
 {
     memcpy(offset, self->x.u, sizeof self->x.u);
     return self->x.m_std;
 }
 
-void imf_robust_ahrs_set_mag_offset(imf_robust_ahrs_t *const self, const imf_real offset[3])
+void imf_robust_set_mag_offset(imf_robust_t *const self, const imf_real offset[3])
 {
     memcpy(self->x.so, offset, sizeof self->x.so);
     memcpy(self->x.u, offset, sizeof self->x.u);
@@ -836,7 +791,7 @@ static void robust_commit(imf_robust_state_t *const dst, uint32_t *const skipped
     memcpy(dst, x, bytes);
 }
 
-void imf_robust_imu_update(imf_robust_imu_t *const self, const imf_real gx, const imf_real gy,
+void imf_robust_update_imu(imf_robust_t *const self, const imf_real gx, const imf_real gy,
                            const imf_real gz, const imf_real ax, const imf_real ay,
                            const imf_real az)
 {
@@ -853,10 +808,9 @@ void imf_robust_imu_update(imf_robust_imu_t *const self, const imf_real gx, cons
                   ROBUST_IMU_BYTES);
 }
 
-void imf_robust_ahrs_update(imf_robust_ahrs_t *const self, const imf_real gx, const imf_real gy,
-                            const imf_real gz, const imf_real ax, const imf_real ay,
-                            const imf_real az, const imf_real mx, const imf_real my,
-                            const imf_real mz)
+void imf_robust_update(imf_robust_t *const self, const imf_real gx, const imf_real gy,
+                       const imf_real gz, const imf_real ax, const imf_real ay, const imf_real az,
+                       const imf_real mx, const imf_real my, const imf_real mz)
 {
     const imf_real g[3] = { gx, gy, gz }, a[3] = { ax, ay, az }, m[3] = { mx, my, mz };
     const imf_real g2 = gx * gx + gy * gy + gz * gz;

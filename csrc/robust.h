@@ -85,31 +85,12 @@ typedef struct {
     imf_real m_bad;  /* absurd readings for (s): the estimator restarts after 1 s */
 } imf_robust_state_t;
 
-/* The settings of imf_robust_imu_init. Start from imf_robust_imu_default_settings(),
-   then set dt. Units are those of the C (rad/s, sines); imufuse.reference.RobustIMU takes
-   deg/s and converts. Blocks B1-B5: docs/recommended-ahrs.md. */
-typedef struct {
-    imf_real dt;            /* sample period, s; > 0 (default 0.01: 100 Hz) */
-    imf_real tau_acc;       /* B2: tilt correction time constant, s; > 0 (default 2.5) */
-    imf_real rate_ref;      /* B2: the turn rate at which gravity's process noise doubles,
-                               rad/s; >= 0, 0: constant (default 100 deg/s = 1.745 rad/s) */
-    imf_real tau_bias;      /* B3: gyro-bias time constant in motion, s; 0 (off) or
-                               >= 4 tau_acc (default 100) */
-    imf_real tau_bias_rest; /* B3: gyro-bias time constant at rest, s; > 0 (default 3) */
-    imf_real rest_gyr;      /* B1: rest threshold on the low-passed rate, rad/s; >= 0
-                               (default 2 deg/s = 0.0349 rad/s) */
-    imf_real rest_acc;      /* B1: rest threshold on |a| - 1 g, relative to 1 g; >= 0
-                               (default 0.05) */
-    imf_real rest_time;     /* B1: time below both thresholds before rest, s; >= 0
-                               (default 1.5) */
-    imf_real tau_rest;      /* B1: low-pass time constant of the rest detector, s; > 0
-                               (default 0.5) */
-    imf_real latency;       /* B5: the sensor chain's delay, compensated in the output q by
-                               predicting it forward with the current rate, s;
-                               0 .. 0.1, 0: none (default 0) */
-} imf_robust_imu_settings_t;
-
-/* The settings of imf_robust_ahrs_init: those of the IMU filter and the magnetometer's. */
+/* The settings of imf_robust_init. Start from imf_robust_default_settings(), then set dt.
+   Units are those of the C (rad/s, sines); imufuse.reference.RobustAHRS takes deg/s and
+   converts. Blocks B1-B6: docs/recommended-ahrs.md. imf_robust_update_imu reads the first
+   ten (B1-B3, B5); imufuse.reference.RobustIMU is the filter initialised with
+   tau_mag = tau_mag_ref = tau_rest and mag_learn = 0 (its start-up horizon that of the
+   blocks it runs), the other magnetic settings at their defaults. */
 typedef struct {
     imf_real dt;             /* sample period, s; > 0 (default 0.01: 100 Hz) */
     imf_real tau_acc;        /* B2: tilt correction time constant, s; > 0 (default 2.5) */
@@ -148,13 +129,13 @@ typedef struct {
                                by |w| mag_lag; >= 0 (default 0.003) */
     imf_real mag_offset_min; /* B6: a trusted estimate replaces the stored offset when they
                                 differ by more than this, relative; >= 0 (default 0.1) */
-} imf_robust_ahrs_settings_t;
+} imf_robust_settings_t;
 
 /* Internal: the settings as init keeps them (s: the IMU filter's own, and for the
    magnetometer the AHRS defaults, never read without a field) and the constants init
    derives from them once (the dt-dependent ones again by set_dt). */
 typedef struct {
-    imf_robust_ahrs_settings_t s;            /* the settings (above: units, ranges) */
+    imf_robust_settings_t s;                 /* the settings (above: units, ranges) */
     imf_real two_dt, dt2, r_d;               /* 2 dt, dt^2, 1 / dt */
     imf_real qg0, qg_dt, pgg0;               /* 1 / tau_acc^4, qg0 dt, 1 / tau_acc^3 */
     imf_real inv_rate_ref2;                  /* 1 / rate_ref^2, (rad/s)^-2; 0: constant */
@@ -166,52 +147,41 @@ typedef struct {
     imf_real t_max;                          /* longest start-up horizon, s */
 } imf_robust_consts_t;
 
+/* One filter for both forms (as the published code and x-io Fusion): imf_robust_update with
+   a magnetometer, imf_robust_update_imu without. */
 typedef struct {
     uint32_t skipped;        /* samples rejected by the valid-attitude policy */
     imf_robust_state_t x;    /* the state (above): the estimate; write it only through the API */
     imf_robust_consts_t set; /* internal: the settings and what init derived from them */
-} imf_robust_imu_t;
-
-typedef struct {
-    uint32_t skipped;        /* samples rejected by the valid-attitude policy */
-    imf_robust_state_t x;    /* the state (above): the estimate; write it only through the API */
-    imf_robust_consts_t set; /* internal: the settings and what init derived from them */
-} imf_robust_ahrs_t;
-
-/* The defaults listed with each member (those of imufuse.reference.RobustIMU(0.01)). */
-void imf_robust_imu_default_settings(imf_robust_imu_settings_t *settings);
-/* Settings as documented above (not checked here: imufuse.reference checks them). */
-void imf_robust_imu_init(imf_robust_imu_t *self, const imf_robust_imu_settings_t *settings);
-/* gx, gy, gz: rad/s; ax, ay, az: any unit */
-void imf_robust_imu_update(imf_robust_imu_t *self, imf_real gx, imf_real gy, imf_real gz,
-                           imf_real ax, imf_real ay, imf_real az);
+} imf_robust_t;
 
 /* The defaults listed with each member (those of imufuse.reference.RobustAHRS(0.01)). */
-void imf_robust_ahrs_default_settings(imf_robust_ahrs_settings_t *settings);
-/* Settings as documented above (not checked here). */
-void imf_robust_ahrs_init(imf_robust_ahrs_t *self, const imf_robust_ahrs_settings_t *settings);
-/* gx, gy, gz: rad/s; ax, ay, az and mx, my, mz: any unit (mag all zero: none) */
-void imf_robust_ahrs_update(imf_robust_ahrs_t *self, imf_real gx, imf_real gy, imf_real gz,
-                            imf_real ax, imf_real ay, imf_real az, imf_real mx, imf_real my,
-                            imf_real mz);
+void imf_robust_default_settings(imf_robust_settings_t *settings);
+/* Settings as documented above (not checked here: imufuse.reference checks them). */
+void imf_robust_init(imf_robust_t *self, const imf_robust_settings_t *settings);
+/* Gyroscope and accelerometer (B1-B3, B5). gx, gy, gz: rad/s; ax, ay, az: any unit */
+void imf_robust_update_imu(imf_robust_t *self, imf_real gx, imf_real gy, imf_real gz, imf_real ax,
+                           imf_real ay, imf_real az);
+/* With the magnetometer (B4, B6 too). gx, gy, gz: rad/s; ax, ay, az and mx, my, mz: any
+   unit (mag all zero: none) */
+void imf_robust_update(imf_robust_t *self, imf_real gx, imf_real gy, imf_real gz, imf_real ax,
+                       imf_real ay, imf_real az, imf_real mx, imf_real my, imf_real mz);
 
 /* A new sample period dt (s): every dt-dependent constant by the expressions
    of init, so the filter equals one initialised with this dt bit for bit. */
-void imf_robust_imu_set_dt(imf_robust_imu_t *self, imf_real dt);
-void imf_robust_ahrs_set_dt(imf_robust_ahrs_t *self, imf_real dt);
+void imf_robust_set_dt(imf_robust_t *self, imf_real dt);
 
 /* Start again from att: q = s = att->q, c = 1; the next sample is the first
    (gravity, tilt and magnetic reference from it; the bias is kept). */
-void imf_robust_imu_set_attitude(imf_robust_imu_t *self, const imf_attitude_t *att);
-void imf_robust_ahrs_set_attitude(imf_robust_ahrs_t *self, const imf_attitude_t *att);
+void imf_robust_set_attitude(imf_robust_t *self, const imf_attitude_t *att);
 
 /* B6: the offset in use (field unit, sensor frame) into offset[3]; returns the standard
    deviation of the learnt estimate relative to the field (about 1 until the sensor has
    turned: the offset is not observable without turning). Store it at power-down ... */
-imf_real imf_robust_ahrs_get_mag_offset(const imf_robust_ahrs_t *self, imf_real offset[3]);
+imf_real imf_robust_get_mag_offset(const imf_robust_t *self, imf_real offset[3]);
 /* ... and give it back at power-up: the stored offset, used until a trusted estimate
    differs from it by more than mag_offset_min; the estimator starts from it. */
-void imf_robust_ahrs_set_mag_offset(imf_robust_ahrs_t *self, const imf_real offset[3]);
+void imf_robust_set_mag_offset(imf_robust_t *self, const imf_real offset[3]);
 
 #ifdef __cplusplus
 }

@@ -257,7 +257,7 @@ BY_PATH = re.compile(r"spec_from_file_locatio[n]|SourceFileLoade[r]|\bload_sourc
 #: the files that must load by path, and why
 BY_PATH_ALLOWED = {
     "setup.py": "tools/bindgen.py, before anything is built or installed (tools/ is no package)",
-    "tools/bindgen.py": "imufuse.cproto, which is not importable while the package is being built",
+    "tools/bindgen.py": "imufuse.shared.cproto, which is not importable while the package is being built",
     "python/imufuse/firmware/host.py": "the user's firmware, compiled by cffi at run time into a "
                                        "cache directory",
     "tests/fusion_oracle.py": "the published Fusion C and imufusion, compiled from the sdist in "

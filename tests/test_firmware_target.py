@@ -315,7 +315,7 @@ def test_settings_struct_init_on_the_target():
     ins = mf.inputs_for("float32", "3d", 150)
     args = [ins["gyr"], ins["acc"], ins["mag"]]
     fw = csrc_firmware("RobustAHRS", str(csrc_dir()), "float32", cflags=list(DEFAULT_CFLAGS))
-    assert fw.init_struct and fw.init_struct[0] == "imf_robust_ahrs_settings_t"
+    assert fw.init_struct and fw.init_struct[0] == "imf_robust_settings_t"
     params = dict(dt=1 / 200, tau_acc=1.0, tau_bias=20.0, rest_time=0.2, tau_rest=0.1,
                   latency=0.003, tau_mag=3.0, mag_dip=30.0)
     v = validate(fw, "RobustAHRS", params, args, target="cortex-m0")

@@ -310,7 +310,8 @@ def test_kk_q_init_checks_kp(toolchains):
              f"{g['kp16_m']}u, {g['kp16_j']})" for g in good]
     calls += [f"imf_kk_q_init_consts(&imf_f, (imf_qscale_t){{{kw.m}, {kw.s}}}, {m}u, {j})"
               for m, j in bad]
-    calls += ["imf_kk_q_init(&imf_f, 0.002, 1.0, 1e-3)", "imf_kk_q_init(&imf_f, 0.002, 1.5, 1e-3)"]
+    calls += [f"imf_kk_q_init(&imf_f, &(imf_kk_q_settings_t){{0.002, {kp!r}, 1e-3}})"
+              for kp in (1.0, 1.5)]
     want = [0] * len(good) + [-1] * len(bad) + [0, -1]
     assert _host_codes(calls, "imf_kk_q_t", "gravity_q") == want, calls
 

@@ -277,7 +277,8 @@ def _bind_filter(cp, name: str, c_names: Tuple[str, str], text: str, rel_h: str,
                  f"        o[0], o[1], o[2] = _reference.{name}._offset_counts(offset)\n",
                  "        _idle(self._busy, self)\n",
                  f"        {c}_set_mag_offset(&self.s, o)\n"]
-    if not fixed and proto(f"{c}_get_mag_offset", False):
+    if not fixed and len(update) == 9 and proto(f"{c}_get_mag_offset", False):
+        # the magnetometer's offset: the form with a magnetometer only (one C type serves both)
         if proto(f"{c}_set_mag_offset", False) is None:
             raise BindError(f"{rel_h} declares {c}_get_mag_offset() without _set_mag_offset()")
         body += ["\n    def get_mag_offset(self):\n",

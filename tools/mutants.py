@@ -128,7 +128,7 @@ MUTANTS: List[Mutant] = [
            "fixed point (AVR code path): rounding shift's overflow guard off by one"),
     # ---- the twins (python/imufuse/reference)
     Mutant("py-robust-b6-lag", "python/imufuse/reference/robust.py",
-           "            rr = self.mag_noise2 + rr\n", "            rr = self.mag_noise2\n",
+           "        rr = self.mag_noise2 + rr\n", "        rr = self.mag_noise2\n",
            TWINS, "Robust twin B6: the rate term of the magnetometer noise dropped"),
     Mutant("py-madgwick-beta", "python/imufuse/reference/madgwick.py",
            "        return [dq[0] - self.beta * s[0],", "        return [dq[0] + self.beta * s[0],",

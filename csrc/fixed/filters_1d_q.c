@@ -27,14 +27,22 @@ int imf_complementary1d_q_init_consts(imf_complementary1d_q_t *const self, const
     return 0;
 }
 
-int imf_complementary1d_q_init(imf_complementary1d_q_t *const self, const double dt,
-                               const double alpha, const double gyr_scale, const double angle_scale)
+void imf_complementary1d_q_default_settings(imf_complementary1d_q_settings_t *const settings)
 {
-    const imf_gain16_t ka16 = imf_gain16(imf_qscale_from_double(1.0 - alpha), 15, 15);
+    settings->dt = 0.01;
+    settings->alpha = 0.9803921568627451;
+    settings->gyr_scale = 1.0642e-3;
+    settings->angle_scale = 1e-4;
+}
+
+int imf_complementary1d_q_init(imf_complementary1d_q_t *const self,
+                               const imf_complementary1d_q_settings_t *const s)
+{
+    const imf_gain16_t ka16 = imf_gain16(imf_qscale_from_double(1.0 - s->alpha), 15, 15);
     const int r = imf_complementary1d_q_init_consts(
-        self, imf_qscale_from_double(gyr_scale * dt / angle_scale), ka16.m, ka16.j);
-    if (!(dt > 0.0) || !imf_param_ok(alpha, 0.0, 1.0) || !(gyr_scale > 0.0)
-        || !(angle_scale > 0.0)) {
+        self, imf_qscale_from_double(s->gyr_scale * s->dt / s->angle_scale), ka16.m, ka16.j);
+    if (!(s->dt > 0.0) || !imf_param_ok(s->alpha, 0.0, 1.0) || !(s->gyr_scale > 0.0)
+        || !(s->angle_scale > 0.0)) {
         return -1;
     }
     return r;

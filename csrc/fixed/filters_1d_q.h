@@ -42,12 +42,26 @@ typedef struct {
         x; /* the state (above): the estimate; write it only through the API */
 } imf_complementary1d_q_t;
 
-/* dt: s; alpha in [0, 1]; gyr_scale: rad/s per count; angle_scale: rad per
- * count.  Returns 0, or -1 if a constant is out of the fixed-point range.
- * Computes the constants in double: on a target whose double is 32 bits
- * (avr-gcc) they can differ from a host's; use _init_consts there. */
-int imf_complementary1d_q_init(imf_complementary1d_q_t *self, double dt, double alpha,
-                               double gyr_scale, double angle_scale);
+/* The settings of imf_complementary1d_q_init. Start from
+ * imf_complementary1d_q_default_settings(), then set dt and the scales of your sensors.
+ * The constants are computed in double: on a target whose double is 32 bits (avr-gcc)
+ * they can differ from a host's; use _init_consts there. */
+typedef struct {
+    double dt;          /* sample period, s; > 0 (default 0.01: 100 Hz) */
+    double alpha;       /* weight of the gyro path, dimensionless; 0..1: alpha = (T/dt) /
+                           (1 + T/dt) for a time constant T (default 50/51: T = 0.5 s at
+                           100 Hz) */
+    double gyr_scale;   /* rad/s per gyro count; > 0 (default 1.0642e-3: 2000 deg/s on
+                           16 bits) */
+    double angle_scale; /* rad per angle count; > 0 (default 1e-4) */
+} imf_complementary1d_q_settings_t;
+
+/* The defaults listed with each member (imufuse's catalogue: a 16-bit MEMS gyro). */
+void imf_complementary1d_q_default_settings(imf_complementary1d_q_settings_t *settings);
+/* Returns 0, or -1 for a parameter or a constant out of the fixed-point range (then the
+ * filter is not usable). */
+int imf_complementary1d_q_init(imf_complementary1d_q_t *self,
+                               const imf_complementary1d_q_settings_t *settings);
 /* The same from the precomputed constants kr (q-scale as above) and ka16
  * (m, j: imf_gain16(ka, 15, 15), the 16-bit gain the update uses), computed
  * once on a host: imufuse.reference.Complementary1DQ(...).c_init_args().

@@ -21,12 +21,19 @@ int imf_kk_q_init_consts(imf_kk_q_t *const self, const imf_qscale_t kw, const ui
     return 0;
 }
 
-int imf_kk_q_init(imf_kk_q_t *const self, const double dt, const double kp, const double gyr_scale)
+void imf_kk_q_default_settings(imf_kk_q_settings_t *const settings)
 {
-    const imf_gain16_t kp16 = imf_gain16(imf_qscale_from_double(kp), 15, 15);
+    settings->dt = 0.01;
+    settings->kp = 0.01;
+    settings->gyr_scale = 1.0642e-3;
+}
+
+int imf_kk_q_init(imf_kk_q_t *const self, const imf_kk_q_settings_t *const s)
+{
+    const imf_gain16_t kp16 = imf_gain16(imf_qscale_from_double(s->kp), 15, 15);
     const int r =
-        imf_kk_q_init_consts(self, imf_qscale_from_double(gyr_scale * dt), kp16.m, kp16.j);
-    if (!(dt > 0.0) || !(kp >= 0.0) || !(kp <= 1.0) || !(gyr_scale > 0.0)) {
+        imf_kk_q_init_consts(self, imf_qscale_from_double(s->gyr_scale * s->dt), kp16.m, kp16.j);
+    if (!(s->dt > 0.0) || !(s->kp >= 0.0) || !(s->kp <= 1.0) || !(s->gyr_scale > 0.0)) {
         return -1;
     }
     return r;

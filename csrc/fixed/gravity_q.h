@@ -54,10 +54,22 @@ typedef struct {
     imf_kk_q_state_t x; /* the state (above): the estimate; write it only through the API */
 } imf_kk_q_t;
 
-/* dt: s; kp: per sample, [0, 1]; gyr_scale: rad/s per count.  Constants
- * computed in double: on a target whose double is 32 bits (avr-gcc) they
- * can differ from a host's; use _init_consts there. */
-int imf_kk_q_init(imf_kk_q_t *self, double dt, double kp, double gyr_scale);
+/* The settings of imf_kk_q_init. Start from imf_kk_q_default_settings(), then set dt
+ * and the gyro's scale. The constants are computed in double: on a target whose double
+ * is 32 bits (avr-gcc) they can differ from a host's; use _init_consts there. */
+typedef struct {
+    double dt;        /* sample period, s; > 0 (default 0.01: 100 Hz) */
+    double kp;        /* gain of the P controller, per sample (dimensionless); 0..1 (default
+                         0.01) */
+    double gyr_scale; /* rad/s per gyro count; > 0, gyr_scale dt < 2^-13 (default 1.0642e-3:
+                         2000 deg/s on 16 bits) */
+} imf_kk_q_settings_t;
+
+/* The defaults listed with each member (imufuse's catalogue: a 16-bit MEMS gyro). */
+void imf_kk_q_default_settings(imf_kk_q_settings_t *settings);
+/* Returns 0, or -1 for a parameter or a constant out of the fixed-point range (then the
+ * filter is not usable). */
+int imf_kk_q_init(imf_kk_q_t *self, const imf_kk_q_settings_t *settings);
 /* From the precomputed constants kw = gyr_scale dt and kp16 = (m, j) =
  * imf_gain16(kp, 15, 15), stored as given (integer only, identical on every
  * target; imufuse.reference.KKQ(...).c_init_args()). */

@@ -31,12 +31,21 @@ int imf_madgwick_imu_q_init_consts(imf_madgwick_imu_q_t *const self, const imf_q
     return 0;
 }
 
-int imf_madgwick_imu_q_init(imf_madgwick_imu_q_t *const self, const double dt, const double beta,
-                            const double gyr_scale, const int profile)
+void imf_madgwick_imu_q_default_settings(imf_madgwick_imu_q_settings_t *const settings)
 {
-    const int r = imf_madgwick_imu_q_init_consts(self, imf_qscale_from_double(0.5 * gyr_scale * dt),
-                                                 imf_qscale_from_double(beta * dt), profile);
-    if (!(dt > 0.0) || !(gyr_scale > 0.0) || !(beta >= 0.0)) {
+    settings->dt = 0.01;
+    settings->beta = 0.1;
+    settings->gyr_scale = 1.0642e-3;
+    settings->profile = 32;
+}
+
+int imf_madgwick_imu_q_init(imf_madgwick_imu_q_t *const self,
+                            const imf_madgwick_imu_q_settings_t *const s)
+{
+    const int r =
+        imf_madgwick_imu_q_init_consts(self, imf_qscale_from_double(0.5 * s->gyr_scale * s->dt),
+                                       imf_qscale_from_double(s->beta * s->dt), s->profile);
+    if (!(s->dt > 0.0) || !(s->gyr_scale > 0.0) || !(s->beta >= 0.0)) {
         return -1;
     }
     return r;

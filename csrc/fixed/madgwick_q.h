@@ -46,10 +46,23 @@ typedef struct {
         x; /* the state (above): the estimate; write it only through the API */
 } imf_madgwick_imu_q_t;
 
-/* dt: s (> 0); beta: rad/s (>= 0); gyr_scale: rad/s per count (> 0);
- * profile: 32 or 8.  Returns 0, or -1 if a constant is out of range. */
-int imf_madgwick_imu_q_init(imf_madgwick_imu_q_t *self, double dt, double beta, double gyr_scale,
-                            int profile);
+/* The settings of imf_madgwick_imu_q_init. Start from imf_madgwick_imu_q_default_settings(),
+ * then set dt and the gyro's scale. */
+typedef struct {
+    double dt;        /* sample period, s; > 0 (default 0.01: 100 Hz) */
+    double beta;      /* gain of the corrective step, rad/s; >= 0, beta dt < 0.5 (default 0.1) */
+    double gyr_scale; /* rad/s per gyro count; > 0 (default 1.0642e-3: 2000 deg/s on
+                         16 bits) */
+    int profile;      /* 32 (default) or 8: the update imf_madgwick_imu_q_update calls;
+                         any other value: init returns -1 */
+} imf_madgwick_imu_q_settings_t;
+
+/* The defaults listed with each member. */
+void imf_madgwick_imu_q_default_settings(imf_madgwick_imu_q_settings_t *settings);
+/* Returns 0, or -1 if a constant is outside the fixed-point range (then the filter is
+ * not usable). */
+int imf_madgwick_imu_q_init(imf_madgwick_imu_q_t *self,
+                            const imf_madgwick_imu_q_settings_t *settings);
 /* The same from the precomputed constants kg, kb (integer only, identical on
  * every target; imufuse.reference.MadgwickIMUQ(...).c_init_args()); see
  * imf_mahony_imu_q_init_consts for why firmware uses it. */

@@ -359,7 +359,7 @@ static inline VM LN(madgwick_step)(const LN(madgwick_lanes_t) *const L, const VR
     if (!imf_is_zero3(a[0], a[1], a[2])) {
         /* imf_acc_gate_pass, lane by lane (imf_gate.h) */
         const imf_real n2a = imf_acc_gate_norm2(a[0], a[1], a[2]);
-        const VM c = ~L->gate | IMF_ACC_GATE_IN(n2a, L->lo2, L->hi2);
+        const VM c = ~L->gate | IMF_ACC_GATE_IN(n2a, L->lo2, L->hi2, &);
         if (LN(any)(c)) {
             imf_real an[3], mn[3];
             int okn;

@@ -166,7 +166,7 @@ static int valid(const int which, const any_filter_t *const f, const imf_real *c
     if (which == F_VARIO) {
         return 1;
     }
-    if (family(which, "imf_robust_imu") || family(which, "imf_robust_ahrs")) {
+    if (family(which, "imf_robust")) {
         return robust_valid((const imf_robust_state_t *)(const void *)x);
     }
     if (family(which, "imf_mahony") || family(which, "imf_madgwick")) {

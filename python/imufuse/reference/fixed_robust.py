@@ -92,10 +92,11 @@ class RobustIMUQ(FixedFilter):
     def _params(dt, tau_acc=2.5, rate_ref=100.0, tau_bias=100.0, tau_bias_rest=3.0,
                 rest_gyr=2.0, rest_acc=0.05, rest_time=1.5, tau_rest=0.5, latency=0.0, *,
                 gyr_scale, profile="32"):
-        args = RobustIMU._params(dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr,
-                                 rest_acc, rest_time, tau_rest, latency)
+        s = RobustIMU._params(dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr,
+                              rest_acc, rest_time, tau_rest, latency)
         dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc, rest_time, \
-            tau_rest, latency = args
+            tau_rest, latency = (s.dt, s.tau_acc, s.rate_ref, s.tau_bias, s.tau_bias_rest,
+                                 s.rest_gyr, s.rest_acc, s.rest_time, s.tau_rest, s.latency)
         profile = check_profile(profile)
         gyr_scale = check_scale("gyr_scale", gyr_scale)
         if not 200.0 * dt <= tau_acc <= 8192.0 * dt:
@@ -130,7 +131,8 @@ class RobustIMUQ(FixedFilter):
                 raise ValueError(f"{name}: must be at most 2^30 samples, got {v!r}")
         qconst("dt/(tau_rest+dt)", dt / (tau_rest + dt), 0, 47, nonzero=True)
         qconst("dt/(tau_bias_rest+dt)", dt / (tau_bias_rest + dt), 0, 47, nonzero=True)
-        return args + (gyr_scale, profile)
+        return (dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc, rest_time,
+                tau_rest, latency, gyr_scale, profile)
 
     @staticmethod
     def _consts(dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc, rest_time,
@@ -225,11 +227,12 @@ class RobustAHRSQ(RobustIMUQ):
         imu = RobustIMUQ._params(dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr,
                                  rest_acc, rest_time, tau_rest, latency, gyr_scale=gyr_scale,
                                  profile=profile)
-        mag = RobustAHRS._params(dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr,
-                                 rest_acc, rest_time, tau_rest, latency, tau_mag, mag_norm,
-                                 mag_dip, tau_mag_ref, mag_new_time, mag_hold, False)[10:16]
+        m = RobustAHRS._params(dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr,
+                               rest_acc, rest_time, tau_rest, latency, tau_mag, mag_norm,
+                               mag_dip, tau_mag_ref, mag_new_time, mag_hold, False)
         dt = imu[0]
-        tau_mag, mag_norm, dip, tau_mag_ref, mag_new_time, mag_hold = mag
+        mag = (m.tau_mag, m.mag_norm, m.mag_dip, m.tau_mag_ref, m.mag_new_time, m.mag_hold)
+        tau_mag, mag_norm, _, tau_mag_ref, mag_new_time, mag_hold = mag
         if mag_norm > 1.0:
             raise ValueError(f"mag_norm: must be <= 1 in fixed point, got {mag_norm!r}")
         if mag_norm > 0.0:

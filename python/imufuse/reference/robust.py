@@ -30,7 +30,7 @@ import math
 from ..shared import checks as _checks
 from ._base import QUAT_NORM2_TOL, ReferenceFilter, isfinite
 from ._math import qmul, qrotate
-from ._settings import REQUIRED, SettingsRecord, choice, deg_to_rad, real, setting
+from ._settings import FIXED, REQUIRED, SettingsRecord, choice, deg_to_rad, fixed, real, setting
 
 #: the largest finite number of each precision (IMF_REAL_MAX)
 _REAL_MAX = {"float32": 3.4028234663852886e38, "float64": 1.7976931348623157e308}
@@ -40,7 +40,7 @@ _LIMITS = {"float32": (1.1754943508222875e-38, 3.4028234663852886e+38),
            "float64": (2.2250738585072014e-308, 1.7976931348623157e+308)}
 
 
-# ---- the settings (robust.h: imf_robust_imu_settings_t, imf_robust_ahrs_settings_t) ----
+# ---- the settings (robust.h: imf_robust_settings_t) -----------------------------------
 
 def _tau_bias(name, value, prior):
     # B3: 0 (off) or >= 4 tau_acc
@@ -57,10 +57,10 @@ def _dip_sine(v):
 
 
 @dataclasses.dataclass(frozen=True)
-class RobustIMUSettings(SettingsRecord):
-    """imf_robust_imu_settings_t, member for member, in the C's units: RobustIMU's
-    keywords (the user's default and unit), checked and converted once."""
-    #                   default   unit     check                                to C
+class RobustAHRSSettings(SettingsRecord):
+    """imf_robust_settings_t, member for member, in the C's units: RobustAHRS's keywords (the
+    user's default and unit), checked and converted once."""
+    # member: setting(the user's default, the user's unit, the check, to_c=the conversion)
     dt: float = setting(REQUIRED, "s", real(lo=0.0, lo_open=True))
     tau_acc: float = setting(2.5, "s", real(lo=0.0, lo_open=True))                   # B2
     rate_ref: float = setting(100.0, "deg/s", real(lo=0.0), to_c=deg_to_rad)         # B2, rad/s
@@ -71,13 +71,6 @@ class RobustIMUSettings(SettingsRecord):
     rest_time: float = setting(1.5, "s", real(lo=0.0))                               # B1
     tau_rest: float = setting(0.5, "s", real(lo=0.0, lo_open=True))                  # B1
     latency: float = setting(0.0, "s", real(lo=0.0, hi=0.1))                         # output
-
-
-@dataclasses.dataclass(frozen=True)
-class RobustAHRSSettings(RobustIMUSettings):
-    """imf_robust_ahrs_settings_t, member for member, in the C's units: RobustIMU's
-    settings, then the magnetometer's (B4, B6)."""
-    #                   default   unit     check                                to C
     tau_mag: float = setting(10.0, "s", real(lo=0.0, lo_open=True))                  # B4
     mag_norm: float = setting(0.1, "relative", real(lo=0.0))                         # B4
     mag_dip: float = setting(10.0, "deg", real(lo=0.0, hi=180.0), to_c=_dip_sine)    # B4, sine
@@ -88,6 +81,30 @@ class RobustAHRSSettings(RobustIMUSettings):
     mag_noise: float = setting(0.02, "relative", real(lo=0.0, lo_open=True, hi=1.0))  # B6
     mag_lag: float = setting(0.003, "s", real(lo=0.0, hi=0.1))                       # B6
     mag_offset_min: float = setting(0.1, "relative", real(lo=0.0))                   # B6
+
+
+def _tau_rest(name, value, prior):
+    # RobustIMU: the magnetic time constants at tau_rest keep the start-up horizon t_max
+    # that of the blocks it runs (B1-B3, B5)
+    return prior["tau_rest"]
+
+
+@dataclasses.dataclass(frozen=True)
+class RobustIMUSettings(RobustAHRSSettings):
+    """imf_robust_settings_t for RobustIMU (imf_robust_update_imu): RobustAHRS's settings
+    without the magnetometer's, which are fixed: B6 off, tau_mag = tau_mag_ref = tau_rest,
+    the others at their defaults (never read without a field)."""
+    # member: setting(the value, the user's unit, how it is fixed, to_c=the conversion)
+    tau_mag: float = setting(None, "s", _tau_rest, keyword=FIXED)                      # B4
+    mag_norm: float = setting(0.1, "relative", fixed, keyword=FIXED)                   # B4
+    mag_dip: float = setting(10.0, "deg", fixed, to_c=_dip_sine, keyword=FIXED)        # B4, sine
+    tau_mag_ref: float = setting(None, "s", _tau_rest, keyword=FIXED)                  # B4
+    mag_new_time: float = setting(20.0, "s", fixed, keyword=FIXED)                     # B4
+    mag_hold: float = setting(0.5, "s", fixed, keyword=FIXED)                          # B4
+    mag_learn: int = setting(False, "bool", fixed, to_c=int, keyword=FIXED)            # B6 off
+    mag_noise: float = setting(0.02, "relative", fixed, keyword=FIXED)                 # B6
+    mag_lag: float = setting(0.003, "s", fixed, keyword=FIXED)                         # B6
+    mag_offset_min: float = setting(0.1, "relative", fixed, keyword=FIXED)             # B6
 
 
 # ---- the state (robust.h: imf_robust_state_t) ----------------------------------------
@@ -745,19 +762,16 @@ class RobustIMU(_Robust):
     in any unit. State: see state_names; q0..q3 is the estimate (sensor -> earth, NWU).
     """
     kind = "imu"
-    c_name = "imf_robust_imu"
+    c_name = "imf_robust"
+    c_update = "imf_robust_update_imu"
     settings_type = RobustIMUSettings
     _params = RobustIMUSettings.keywords()
 
-    # imf_robust_imu_init: the AHRS filter without a magnetometer: its settings, the AHRS
-    # defaults for the magnetic ones (never read without a field) and B6 off; tau_mag and
-    # tau_mag_ref = tau_rest keep the start-up horizon t_max that of the IMU blocks
+    # imf_robust_init with RobustIMU's settings (the magnetometer's fixed, RobustIMUSettings)
     def _init(self, s):
-        self._init_filter(dataclasses.replace(
-            RobustAHRSSettings.from_user(s.dt), **s.members(), tau_mag=s.tau_rest,
-            tau_mag_ref=s.tau_rest, mag_learn=0))
+        self._init_filter(s)
 
-    # imf_robust_imu_update
+    # imf_robust_update_imu
     def _update(self, gx, gy, gz, ax, ay, az):
         if not isfinite(gx, gy, gz, ax, ay, az):
             self._skip()
@@ -786,15 +800,15 @@ class RobustAHRS(_Robust):
     none.
     """
     kind = "ahrs"
-    c_name = "imf_robust_ahrs"
+    c_name = "imf_robust"
     settings_type = RobustAHRSSettings
     _params = RobustAHRSSettings.keywords()
 
-    # imf_robust_ahrs_init
+    # imf_robust_init
     def _init(self, s):
         self._init_filter(s)
 
-    # imf_robust_ahrs_get_mag_offset / _set_mag_offset
+    # imf_robust_get_mag_offset / _set_mag_offset
     def get_mag_offset(self):
         """B6: ((x, y, z) the offset in use, magnetometer unit, sensor frame; the learnt
         estimate's standard deviation relative to the field, about 1 until the sensor has
@@ -825,7 +839,7 @@ class RobustAHRS(_Robust):
         self.x.m_n0 = R(0.0)
         self.x.m_std = R(1.0)
 
-    # imf_robust_ahrs_update
+    # imf_robust_update
     def _update(self, gx, gy, gz, ax, ay, az, mx, my, mz):
         if not isfinite(gx, gy, gz, ax, ay, az, mx, my, mz):
             self._skip()
