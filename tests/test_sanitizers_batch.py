@@ -102,7 +102,7 @@ def sanitized(request, tmp_path_factory):
     cmd = [cc, "-shared", "-fPIC", "-O0", f"-fsanitize={san}", "-std=c99", "-ffp-contract=off",
            "-w", "-DIMF_DOUBLE", "-DNPY_NO_DEPRECATED_API=NPY_1_7_API_VERSION",
            f"-I{ROOT / 'csrc'}", f"-I{ROOT / 'csrc' / 'fixed'}",
-           f"-I{ROOT / 'imufuse_c' / 'lanes'}", f"-I{np.get_include()}",
+           f"-I{ROOT / 'imufuse_c' / 'host'}", f"-I{np.get_include()}",
            f"-I{sysconfig.get_paths()['include']}", str(GENERATED),
            *map(str, sorted(UNITS.glob("*.c"))), "-o", str(target), "-lm"]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600, cwd=ROOT)

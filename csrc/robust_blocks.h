@@ -1,0 +1,210 @@
+/*
+ * The gyroscope and accelerometer blocks of imufuse's recommended AHRS (B1 rest and the bias
+ * at rest, the strapdown, B2 gravity, the levelling, B3 the bias in motion). A private part
+ * of robust.c, included by it once (one translation unit per family: the build tools take one
+ * source per filter); it uses robust.c's helpers above its #include. The pure-Python twin is
+ * python/imufuse/reference/robust_blocks.py: the same functions, in the same order.
+ */
+#ifndef IMF_ROBUST_BLOCKS_H
+#define IMF_ROBUST_BLOCKS_H
+
+/* The accelerometer reading a is one: not all zero (no reading: gyro only), and within
+   100 times the gravity estimate (beyond, a shock or a hostile value that says nothing
+   about gravity) */
+static int robust_acc_reading(const imf_robust_state_t *const x, const imf_real *const a,
+                              const int first)
+{
+    imf_real f2;
+    if (a[0] == IMF_R(0.0) && a[1] == IMF_R(0.0) && a[2] == IMF_R(0.0)) {
+        return 0;
+    }
+    if (first) {
+        return 1;
+    }
+    f2 = x->f[0] * x->f[0] + x->f[1] * x->f[1] + x->f[2] * x->f[2];
+    return a[0] * a[0] + a[1] * a[1] + a[2] * a[2] <= IMF_R(1.0e4) * f2;
+}
+
+/* B1: rest detection from low-passes of gyro and accelerometer in the sensor frame, and
+   the bias observed at rest (Eq. 3.1: b_k = b_{k-1}). g2: |g|^2. Returns rest; *w2: the
+   low-passed rate squared (B2's process noise). */
+static int robust_rest(const imf_robust_consts_t *const set, imf_robust_state_t *const x,
+                       const imf_real *const g, const imf_real *const a, const int has_acc,
+                       const imf_real g2, imf_real *const w2)
+{
+    const imf_real k = robust_gain(set, x->t, set->s.tau_rest, set->k_rest);
+    imf_real dx, dy, dz, d2, a2;
+    x->lw[0] = x->lw[0] + k * (g[0] - x->lw[0]);
+    x->lw[1] = x->lw[1] + k * (g[1] - x->lw[1]);
+    x->lw[2] = x->lw[2] + k * (g[2] - x->lw[2]);
+    if (has_acc) {
+        x->la[0] = x->la[0] + k * (a[0] - x->la[0]);
+        x->la[1] = x->la[1] + k * (a[1] - x->la[1]);
+        x->la[2] = x->la[2] + k * (a[2] - x->la[2]);
+    }
+    *w2 = x->lw[0] * x->lw[0] + x->lw[1] * x->lw[1] + x->lw[2] * x->lw[2];
+    dx = a[0] - x->la[0];
+    dy = a[1] - x->la[1];
+    dz = a[2] - x->la[2];
+    d2 = dx * dx + dy * dy + dz * dz;
+    a2 = x->la[0] * x->la[0] + x->la[1] * x->la[1] + x->la[2] * x->la[2];
+    if (has_acc && *w2 < set->rest_gyr2 && g2 < set->rest_gyr2 && d2 < set->rest_acc2 * a2) {
+        x->t_rest = x->t_rest + set->s.dt;
+        if (x->t_rest > set->s.rest_time) {
+            x->t_rest = set->s.rest_time;
+        }
+    } else {
+        x->t_rest = IMF_R(0.0);
+    }
+    if (!(x->t_rest >= set->s.rest_time)) {
+        return 0;
+    }
+    x->b[0] = x->b[0] + set->kb_rest * (g[0] - x->b[0]);
+    x->b[1] = x->b[1] + set->kb_rest * (g[1] - x->b[1]);
+    x->b[2] = x->b[2] + set->kb_rest * (g[2] - x->b[2]);
+    return 1;
+}
+
+/* strapdown: s = s (x) exp(1/2 (w - b) dt) */
+static int robust_strapdown(const imf_robust_consts_t *const set, imf_robust_state_t *const x,
+                            const imf_real *const g)
+{
+    imf_real s[4];
+    if (!robust_turn_by(set, s, x->s, g, x->b, set->s.dt)) {
+        return 0;
+    }
+    memcpy(x->s, s, sizeof s);
+    return 1;
+}
+
+/* B2: gravity in the inertial frame, a Kalman filter of (v, f) per axis fed with the
+   accelerometer in that frame; from the first sample (B5) */
+static void robust_gravity(const imf_robust_consts_t *const set, imf_robust_state_t *const x,
+                           const imf_real *const a, const int first, const int has_acc,
+                           const imf_real w2)
+{
+    const imf_real dt = set->s.dt;
+    imf_real ai[3], rr, qg, pvv, pvg, pgg, inv, kv, kg;
+    imf_qrotate(ai, x->s[0], x->s[1], x->s[2], x->s[3], a[0], a[1], a[2]);
+    if (first) {
+        /* B5: gravity from the first sample */
+        x->f[0] = ai[0];
+        x->f[1] = ai[1];
+        x->f[2] = ai[2];
+        x->v[0] = IMF_R(0.0);
+        x->v[1] = IMF_R(0.0);
+        x->v[2] = IMF_R(0.0);
+        x->pvv = IMF_R(0.0);
+        x->pvg = IMF_R(0.0);
+        x->pgg = set->pgg0;
+        return;
+    }
+    if (!has_acc) {
+        return;
+    }
+    /* predict: v' = a - g, g' = 0 (+ process noise growing with the rotation rate) */
+    x->v[0] = x->v[0] + dt * (ai[0] - x->f[0]);
+    x->v[1] = x->v[1] + dt * (ai[1] - x->f[1]);
+    x->v[2] = x->v[2] + dt * (ai[2] - x->f[2]);
+    /* (w / rate_ref)^2 capped at 10^4 (100 rate_ref: beyond any gyro's range), so
+       that hostile rates cannot blow the covariance up */
+    rr = w2 * set->inv_rate_ref2;
+    if (!(rr <= IMF_R(1.0e4))) {
+        rr = IMF_R(1.0e4);
+    }
+    qg = set->qg_dt + set->qg_dt * rr;
+    pvv = x->pvv - set->two_dt * x->pvg + set->dt2 * x->pgg;
+    pvg = x->pvg - dt * x->pgg;
+    pgg = x->pgg + qg;
+    /* update with the pseudo-measurement v = 0 (noise 1 / dt per sample) */
+    inv = IMF_R(1.0) / (pvv + set->r_d);
+    kv = pvv * inv;
+    kg = pvg * inv;
+    x->f[0] = x->f[0] - kg * x->v[0];
+    x->f[1] = x->f[1] - kg * x->v[1];
+    x->f[2] = x->f[2] - kg * x->v[2];
+    x->v[0] = x->v[0] - kv * x->v[0];
+    x->v[1] = x->v[1] - kv * x->v[1];
+    x->v[2] = x->v[2] - kv * x->v[2];
+    x->pgg = pgg - kg * pvg;
+    x->pvg = pvg - kv * pvg;
+    x->pvv = pvv - kv * pvv;
+}
+
+/* levelling: the smallest rotation r that turns the gravity estimate onto earth z, into
+   the correction c, and q = c (x) s; 0 rejects the sample */
+static int robust_level(imf_robust_state_t *const x, imf_real *const r)
+{
+    imf_real ge[3], gn, c[4], q[4];
+    imf_qrotate(ge, x->c[0], x->c[1], x->c[2], x->c[3], x->f[0], x->f[1], x->f[2]);
+    gn = imf_sqrt(ge[0] * ge[0] + ge[1] * ge[1] + ge[2] * ge[2]);
+    r[0] = gn + ge[2];
+    r[1] = ge[1];
+    r[2] = -ge[0];
+    r[3] = IMF_R(0.0);
+    if (!robust_norm4(r)) {
+        /* gravity straight down (upside down, r = 0): any half turn about a horizontal
+           axis is a smallest rotation; about x. Otherwise (not finite) reject. */
+        if (!(gn > IMF_R(0.0) && gn <= IMF_REAL_MAX)) {
+            return 0;
+        }
+        r[0] = IMF_R(0.0);
+        r[1] = IMF_R(1.0);
+        r[2] = IMF_R(0.0);
+    }
+    c[0] = r[0] * x->c[0] - r[1] * x->c[1] - r[2] * x->c[2];
+    c[1] = r[0] * x->c[1] + r[1] * x->c[0] + r[2] * x->c[3];
+    c[2] = r[0] * x->c[2] - r[1] * x->c[3] + r[2] * x->c[0];
+    c[3] = r[0] * x->c[3] + r[1] * x->c[2] - r[2] * x->c[1];
+    if (!robust_norm4(c)) {
+        return 0;
+    }
+    memcpy(x->c, c, sizeof c);
+    imf_qmul(q, c[0], c[1], c[2], c[3], x->s[0], x->s[1], x->s[2], x->s[3]);
+    if (!robust_norm4(q)) {
+        return 0;
+    }
+    memcpy(x->q, q, sizeof q);
+    return 1;
+}
+
+/* B3: in motion, the correction rate seen in the sensor frame is minus the bias error
+   (Eq. 3.6, I_k = I_{k-1} + Ki dt e_k, with Ki dt = 1 / tau_bias) */
+static void robust_bias(const imf_robust_consts_t *const set, imf_robust_state_t *const x,
+                        const imf_real *const r, const int rest)
+{
+    imf_real e[3];
+    if (!rest && x->t >= set->s.tau_acc && set->inv_tau_bias > IMF_R(0.0)) {
+        imf_qrotate(e, x->q[0], -x->q[1], -x->q[2], -x->q[3], IMF_R(2.0) * r[1], IMF_R(2.0) * r[2],
+                    IMF_R(0.0));
+        x->b[0] = x->b[0] - e[0] * set->inv_tau_bias;
+        x->b[1] = x->b[1] - e[1] * set->inv_tau_bias;
+        x->b[2] = x->b[2] - e[2] * set->inv_tau_bias;
+    }
+}
+
+/* Gyro (rad/s) and accelerometer of one sample through B1, the strapdown, B2, the
+   levelling and B3, on the working state x; 0 rejects the sample. */
+static int robust_step(const imf_robust_consts_t *const set, imf_robust_state_t *const x,
+                       const imf_real *const g, const imf_real *const a, const imf_real g2)
+{
+    const int first = x->t == IMF_R(0.0);
+    const int has_acc = robust_acc_reading(x, a, first);
+    imf_real w2, r[4];
+    int rest;
+    if (first && !has_acc) {
+        return 0; /* no start without an accelerometer reading */
+    }
+    rest = robust_rest(set, x, g, a, has_acc, g2, &w2); /* B1 */
+    if (!robust_strapdown(set, x, g)) {
+        return 0;
+    }
+    robust_gravity(set, x, a, first, has_acc, w2); /* B2 */
+    if (!robust_level(x, r)) {
+        return 0;
+    }
+    robust_bias(set, x, r, rest); /* B3 */
+    return 1;
+}
+
+#endif /* IMF_ROBUST_BLOCKS_H */

@@ -1,0 +1,167 @@
+"""The gyroscope and accelerometer blocks of RobustIMU and RobustAHRS (B1 rest and the bias
+at rest, the strapdown, B2 gravity, the levelling, B3 the bias in motion): the twin of
+csrc/robust_blocks.h, the same functions in the same order with the same comments, mixed into
+reference/robust.py's filter class."""
+import math
+
+from ._math import qmul, qrotate
+
+
+class _RobustBlocks:
+    """B1-B3 of the Robust filters (reference/robust.py's _Robust mixes them in)."""
+
+    def _acc_reading(self, x, a, first):
+        # the accelerometer reading a is one: not all zero (no reading: gyro only), and
+        # within 100 times the gravity estimate (beyond, a shock or a hostile value that
+        # says nothing about gravity)
+        R = self._R
+        if a[0] == R(0.0) and a[1] == R(0.0) and a[2] == R(0.0):
+            return False
+        if first:
+            return True
+        f2 = x.f[0] * x.f[0] + x.f[1] * x.f[1] + x.f[2] * x.f[2]
+        return a[0] * a[0] + a[1] * a[1] + a[2] * a[2] <= R(1.0e4) * f2
+
+    def _rest(self, x, g, a, has_acc, g2):
+        """B1: rest detection from low-passes of gyro and accelerometer in the sensor frame,
+        and the bias observed at rest (Eq. 3.1: b_k = b_{k-1}). g2: |g|^2. Returns (rest,
+        w2: the low-passed rate squared, B2's process noise)."""
+        R = self._R
+        k = self._gain(x.t, self.s.tau_rest, self.k_rest)
+        x.lw[0] = x.lw[0] + k * (g[0] - x.lw[0])
+        x.lw[1] = x.lw[1] + k * (g[1] - x.lw[1])
+        x.lw[2] = x.lw[2] + k * (g[2] - x.lw[2])
+        if has_acc:
+            x.la[0] = x.la[0] + k * (a[0] - x.la[0])
+            x.la[1] = x.la[1] + k * (a[1] - x.la[1])
+            x.la[2] = x.la[2] + k * (a[2] - x.la[2])
+        w2 = x.lw[0] * x.lw[0] + x.lw[1] * x.lw[1] + x.lw[2] * x.lw[2]
+        dx = a[0] - x.la[0]
+        dy = a[1] - x.la[1]
+        dz = a[2] - x.la[2]
+        d2 = dx * dx + dy * dy + dz * dz
+        a2 = x.la[0] * x.la[0] + x.la[1] * x.la[1] + x.la[2] * x.la[2]
+        if has_acc and w2 < self.rest_gyr2 and g2 < self.rest_gyr2 and d2 < self.rest_acc2 * a2:
+            x.t_rest = x.t_rest + self.s.dt
+            if x.t_rest > self.s.rest_time:
+                x.t_rest = self.s.rest_time
+        else:
+            x.t_rest = R(0.0)
+        if not (x.t_rest >= self.s.rest_time):
+            return False, w2
+        x.b[0] = x.b[0] + self.kb_rest * (g[0] - x.b[0])
+        x.b[1] = x.b[1] + self.kb_rest * (g[1] - x.b[1])
+        x.b[2] = x.b[2] + self.kb_rest * (g[2] - x.b[2])
+        return True, w2
+
+    def _strapdown(self, x, g):
+        # strapdown: s = s (x) exp(1/2 (w - b) dt)
+        s = [self._R(0.0)] * 4
+        if not self._turn_by(s, x.s, g, x.b, self.s.dt):
+            return False
+        x.s = s
+        return True
+
+    def _gravity(self, x, a, first, has_acc, w2):
+        # B2: gravity in the inertial frame, a Kalman filter of (v, f) per axis fed with the
+        # accelerometer in that frame; from the first sample (B5)
+        R = self._R
+        dt = self.s.dt
+        ai = qrotate(R, x.s[0], x.s[1], x.s[2], x.s[3], a[0], a[1], a[2])
+        if first:
+            # B5: gravity from the first sample
+            x.f = list(ai)
+            x.v = [R(0.0), R(0.0), R(0.0)]
+            x.pvv = R(0.0)
+            x.pvg = R(0.0)
+            x.pgg = self.pgg0
+            return
+        if not has_acc:
+            return
+        # predict: v' = a - g, g' = 0 (+ process noise growing with the rotation rate)
+        x.v[0] = x.v[0] + dt * (ai[0] - x.f[0])
+        x.v[1] = x.v[1] + dt * (ai[1] - x.f[1])
+        x.v[2] = x.v[2] + dt * (ai[2] - x.f[2])
+        # (w / rate_ref)^2 capped at 10^4 (100 rate_ref: beyond any gyro's range), so
+        # that hostile rates cannot blow the covariance up
+        rr = w2 * self.inv_rate_ref2
+        if not (rr <= R(1.0e4)):
+            rr = R(1.0e4)
+        qg = self.qg_dt + self.qg_dt * rr
+        pvv = x.pvv - self.two_dt * x.pvg + self.dt2 * x.pgg
+        pvg = x.pvg - dt * x.pgg
+        pgg = x.pgg + qg
+        # update with the pseudo-measurement v = 0 (noise 1 / dt per sample)
+        inv = R(1.0) / (pvv + self.r_d)
+        kv = pvv * inv
+        kg = pvg * inv
+        x.f[0] = x.f[0] - kg * x.v[0]
+        x.f[1] = x.f[1] - kg * x.v[1]
+        x.f[2] = x.f[2] - kg * x.v[2]
+        x.v[0] = x.v[0] - kv * x.v[0]
+        x.v[1] = x.v[1] - kv * x.v[1]
+        x.v[2] = x.v[2] - kv * x.v[2]
+        x.pgg = pgg - kg * pvg
+        x.pvg = pvg - kv * pvg
+        x.pvv = pvv - kv * pvv
+
+    def _level(self, x, r):
+        # levelling: the smallest rotation r that turns the gravity estimate onto earth z,
+        # into the correction c, and q = c (x) s; False rejects the sample
+        R = self._R
+        ge = qrotate(R, x.c[0], x.c[1], x.c[2], x.c[3], x.f[0], x.f[1], x.f[2])
+        gn = R(math.sqrt(ge[0] * ge[0] + ge[1] * ge[1] + ge[2] * ge[2]))
+        r[0] = gn + ge[2]
+        r[1] = ge[1]
+        r[2] = -ge[0]
+        r[3] = R(0.0)
+        if not self._norm4(r):
+            # gravity straight down (upside down, r = 0): any half turn about a horizontal
+            # axis is a smallest rotation; about x. Otherwise (not finite) reject.
+            if not (gn > R(0.0) and gn <= self._real_max):
+                return False
+            r[0] = R(0.0)
+            r[1] = R(1.0)
+            r[2] = R(0.0)
+        c = [r[0] * x.c[0] - r[1] * x.c[1] - r[2] * x.c[2],
+             r[0] * x.c[1] + r[1] * x.c[0] + r[2] * x.c[3],
+             r[0] * x.c[2] - r[1] * x.c[3] + r[2] * x.c[0],
+             r[0] * x.c[3] + r[1] * x.c[2] - r[2] * x.c[1]]
+        if not self._norm4(c):
+            return False
+        x.c = c
+        q = list(qmul(c[0], c[1], c[2], c[3], x.s[0], x.s[1], x.s[2], x.s[3]))
+        if not self._norm4(q):
+            return False
+        x.q = q
+        return True
+
+    def _bias(self, x, r, rest):
+        # B3: in motion, the correction rate seen in the sensor frame is minus the bias error
+        # (Eq. 3.6, I_k = I_{k-1} + Ki dt e_k, with Ki dt = 1 / tau_bias)
+        R = self._R
+        if not rest and x.t >= self.s.tau_acc and self.inv_tau_bias > R(0.0):
+            e = qrotate(R, x.q[0], -x.q[1], -x.q[2], -x.q[3], R(2.0) * r[1], R(2.0) * r[2],
+                        R(0.0))
+            x.b[0] = x.b[0] - e[0] * self.inv_tau_bias
+            x.b[1] = x.b[1] - e[1] * self.inv_tau_bias
+            x.b[2] = x.b[2] - e[2] * self.inv_tau_bias
+
+    def _step(self, x, g, a, g2):
+        """Gyro (rad/s) and accelerometer of one sample through B1, the strapdown, B2, the
+        levelling and B3, on the working state x; False rejects the sample."""
+        first = x.t == self._R(0.0)
+        has_acc = self._acc_reading(x, a, first)
+        r = [self._R(0.0)] * 4
+        if first and not has_acc:
+            return False   # no start without an accelerometer reading
+        rest, w2 = self._rest(x, g, a, has_acc, g2)   # B1
+        if not self._strapdown(x, g):
+            return False
+        self._gravity(x, a, first, has_acc, w2)   # B2
+        if not self._level(x, r):
+            return False
+        self._bias(x, r, rest)   # B3
+        return True
+
+    # ---- magnetometer: B6, B4 ----------------------------------------------------------
