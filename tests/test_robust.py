@@ -47,6 +47,27 @@ def run(cls, s, backend=imufuse_c, dtype="float64", **kw):
 
 # ---- 1. bit for bit -------------------------------------------------------------------
 
+@pytest.mark.parametrize("dtype", ["float64", "float32"])
+def test_the_imu_form_with_plain_defaults_is_robust_imu(dtype):
+    """imf_robust_update_imu from imf_robust_default_settings() (the magnetometer's at
+    RobustAHRS's defaults, B6 on) computes RobustIMU's estimate word for word: the
+    magnetometer's settings reach the IMU form only through the start-up clock's ceiling
+    t_max, which every start-up gain compares with tau_acc or tau_rest (CHANGELOG.md); the
+    clock t itself runs on to tau_mag_ref."""
+    s = sd.scenario("rotation", rate=100.0, duration=30.0, rest=2.0, seed=2)
+    imu = reference.RobustIMU(s.dt, dtype=dtype, latency=0.0)
+    plain = reference.RobustIMU(s.dt, dtype=dtype, latency=0.0)
+    # the twin of imf_robust_init(&f, &defaults): RobustAHRS's settings in C units
+    plain._init(reference.RobustAHRS._params(s.dt, latency=0.0))
+    a, b = imu.run(s.gyr, s.acc), plain.run(s.gyr, s.acc)
+    names = list(reference.RobustIMU.state_names)
+    t = names.index("t")
+    same = [i for i in range(len(names)) if i != t]
+    assert_same_bits(a[:, same], b[:, same])
+    assert float(a[-1, t]) == 2.5 and float(b[-1, t]) == 20.0  # t_max: tau_acc, tau_mag_ref
+
+
+
 def _bits(a):
     return a.view(np.uint32 if a.dtype == np.float32 else np.uint64)
 
