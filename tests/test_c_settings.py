@@ -320,11 +320,10 @@ def test_the_twins_settings_record_is_the_c_struct(e):
     settings struct member for member (names, order, integer or real), each member with
     its unit, its check and its conversion beside it; the constructor's keywords, the
     catalogue's init arguments and the binding's struct all come from it."""
-    from dataclasses import fields
     rec = e.reference.settings_type
     members = cproto.struct_members(HEADERS, e.c_name + "_settings_t")
-    assert [f.name for f in fields(rec)] == [m.name for m in members]
-    for f, m in zip(fields(rec), members):
+    assert [f.name for f in dataclasses.fields(rec)] == [m.name for m in members]
+    for f, m in zip(dataclasses.fields(rec), members):
         assert {"default", "unit", "check", "to_c"} <= set(f.metadata), f.name
         assert (f.type is int) == bool(_INT.fullmatch(m.ctype)), (f.name, f.type, m.ctype)
     assert e.init_args == tuple(m.name for m in members)
@@ -337,12 +336,11 @@ def test_the_twins_settings_record_is_the_c_struct(e):
 def test_the_recommended_filters_parameter_table_is_its_record():
     """docs/recommended-ahrs.md's parameter table lists RobustAHRS's settings record: every
     member but dt, in order, with the record's default and unit."""
-    from dataclasses import fields
     text = (ROOT / "docs" / "recommended-ahrs.md").read_text()
     table = text[text.index("### Parameters"):]
     rows = re.findall(r"^\| `(\w+)` \| ([^|]*) \| ([^|]*) \|", table, re.M)
     rec = catalogue.entry("RobustAHRS").reference.settings_type
-    want = [f for f in fields(rec) if f.name != "dt"]
+    want = [f for f in dataclasses.fields(rec) if f.name != "dt"]
     assert [r[0] for r in rows[:len(want)]] == [f.name for f in want]
     for (name, default, unit), f in zip(rows, want):
         d = f.metadata["default"]

@@ -61,13 +61,6 @@ class BindError(SystemExit):
     """A declaration the generator cannot bind: the message names the file to fix."""
 
 
-def _assigned(tree: ast.Module, name: str) -> Optional[object]:
-    for node in tree.body:
-        if isinstance(node, ast.Assign) and any(getattr(t, "id", None) == name for t in node.targets):
-            return ast.literal_eval(node.value)
-    return None
-
-
 def twin(family: str) -> Tuple[Tuple[str, ...], Dict[str, Tuple[str, str]], Dict[str, Optional[str]]]:
     """The twin's declaration, read from its source: (the filter classes, class -> (c_name,
     c_update), class -> angles() docstring or None). A filter class is a public class with a
