@@ -13,26 +13,6 @@ static void madgwick_set_dt(imf_madgwick_consts_t *const set, const imf_real dt)
     set->dt = dt;
 }
 
-/* Settings and initial state shared by both filters. */
-static void madgwick_init(imf_madgwick_consts_t *const set, uint32_t *const skipped,
-                          imf_madgwick_state_t *const x, const imf_real dt, const imf_real beta,
-                          const int delta_s, const int invsqrt, const imf_real acc_gate_lo,
-                          const imf_real acc_gate_hi, const imf_real acc_1g)
-{
-    madgwick_set_dt(set, dt);
-    imf_acc_gate_set(&set->acc_gate, &set->acc_lo2, &set->acc_hi2, acc_gate_lo, acc_gate_hi,
-                     acc_1g);
-    set->beta = beta;
-    set->delta_s =
-        delta_s == IMF_MADGWICK_DS_SIMPLIFIED ? IMF_MADGWICK_DS_SIMPLIFIED : IMF_MADGWICK_DS_FULL;
-    set->invsqrt = invsqrt == IMF_INVSQRT_FAST ? IMF_INVSQRT_FAST : IMF_INVSQRT_EXACT;
-    *skipped = 0;
-    x->q0 = IMF_R(1.0);
-    x->q1 = IMF_R(0.0);
-    x->q2 = IMF_R(0.0);
-    x->q3 = IMF_R(0.0);
-}
-
 void imf_madgwick_default_settings(imf_madgwick_settings_t *const settings)
 {
     settings->dt = IMF_R(0.01);
@@ -44,10 +24,21 @@ void imf_madgwick_default_settings(imf_madgwick_settings_t *const settings)
     settings->acc_1g = IMF_R(1.0);
 }
 
+/* Settings as the twin's record gives them (q = 1, skipped = 0). */
 void imf_madgwick_init(imf_madgwick_t *const self, const imf_madgwick_settings_t *const s)
 {
-    madgwick_init(&self->set, &self->skipped, &self->x, s->dt, s->beta, s->delta_s, s->invsqrt,
-                  s->acc_gate_lo, s->acc_gate_hi, s->acc_1g);
+    madgwick_set_dt(&self->set, s->dt);
+    imf_acc_gate_set(&self->set.acc_gate, &self->set.acc_lo2, &self->set.acc_hi2, s->acc_gate_lo,
+                     s->acc_gate_hi, s->acc_1g);
+    self->set.beta = s->beta;
+    self->set.delta_s = s->delta_s == IMF_MADGWICK_DS_SIMPLIFIED ? IMF_MADGWICK_DS_SIMPLIFIED
+                                                                 : IMF_MADGWICK_DS_FULL;
+    self->set.invsqrt = s->invsqrt == IMF_INVSQRT_FAST ? IMF_INVSQRT_FAST : IMF_INVSQRT_EXACT;
+    self->skipped = 0;
+    self->x.q0 = IMF_R(1.0);
+    self->x.q1 = IMF_R(0.0);
+    self->x.q2 = IMF_R(0.0);
+    self->x.q3 = IMF_R(0.0);
 }
 
 void imf_madgwick_set_acc_gate(imf_madgwick_t *const self, const imf_real acc_gate_lo,

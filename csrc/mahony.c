@@ -17,28 +17,6 @@ static void mahony_set_dt(imf_mahony_consts_t *const set, const imf_real dt)
     set->half_dt = IMF_R(0.5) * dt;
 }
 
-/* Settings and initial state shared by both filters. */
-static void mahony_init(imf_mahony_consts_t *const set, uint32_t *const skipped,
-                        imf_mahony_state_t *const x, const imf_real dt, const imf_real kp,
-                        const imf_real ki, const int invsqrt, const imf_real acc_gate_lo,
-                        const imf_real acc_gate_hi, const imf_real acc_1g)
-{
-    mahony_set_dt(set, dt);
-    imf_acc_gate_set(&set->acc_gate, &set->acc_lo2, &set->acc_hi2, acc_gate_lo, acc_gate_hi,
-                     acc_1g);
-    set->two_kp = IMF_R(2.0) * kp;
-    set->two_ki = IMF_R(2.0) * ki;
-    set->invsqrt = invsqrt == IMF_INVSQRT_FAST ? IMF_INVSQRT_FAST : IMF_INVSQRT_EXACT;
-    *skipped = 0;
-    x->q0 = IMF_R(1.0);
-    x->q1 = IMF_R(0.0);
-    x->q2 = IMF_R(0.0);
-    x->q3 = IMF_R(0.0);
-    x->ix = IMF_R(0.0);
-    x->iy = IMF_R(0.0);
-    x->iz = IMF_R(0.0);
-}
-
 void imf_mahony_default_settings(imf_mahony_settings_t *const settings)
 {
     settings->dt = IMF_R(0.01);
@@ -50,10 +28,23 @@ void imf_mahony_default_settings(imf_mahony_settings_t *const settings)
     settings->acc_1g = IMF_R(1.0);
 }
 
+/* Settings as the twin's record gives them (q = 1, I = 0, skipped = 0). */
 void imf_mahony_init(imf_mahony_t *const self, const imf_mahony_settings_t *const s)
 {
-    mahony_init(&self->set, &self->skipped, &self->x, s->dt, s->kp, s->ki, s->invsqrt,
-                s->acc_gate_lo, s->acc_gate_hi, s->acc_1g);
+    mahony_set_dt(&self->set, s->dt);
+    imf_acc_gate_set(&self->set.acc_gate, &self->set.acc_lo2, &self->set.acc_hi2, s->acc_gate_lo,
+                     s->acc_gate_hi, s->acc_1g);
+    self->set.two_kp = IMF_R(2.0) * s->kp;
+    self->set.two_ki = IMF_R(2.0) * s->ki;
+    self->set.invsqrt = s->invsqrt == IMF_INVSQRT_FAST ? IMF_INVSQRT_FAST : IMF_INVSQRT_EXACT;
+    self->skipped = 0;
+    self->x.q0 = IMF_R(1.0);
+    self->x.q1 = IMF_R(0.0);
+    self->x.q2 = IMF_R(0.0);
+    self->x.q3 = IMF_R(0.0);
+    self->x.ix = IMF_R(0.0);
+    self->x.iy = IMF_R(0.0);
+    self->x.iz = IMF_R(0.0);
 }
 
 void imf_mahony_set_acc_gate(imf_mahony_t *const self, const imf_real acc_gate_lo,
