@@ -88,6 +88,8 @@ static void robust_set_dt(imf_robust_consts_t *const set, const imf_real dt)
     set->qg_dt = set->qg0 * dt;
     set->k_rest = dt / (set->s.tau_rest + dt);
     set->kb_rest = dt / (set->s.tau_bias_rest + dt);
+    set->ku_motion = set->inv_tau_bias * dt;
+    set->qb_dt = set->qb0 * dt;
     set->k_mag = dt / (set->s.tau_mag + dt);
     set->k_ref = dt / (set->s.tau_mag_ref + dt);
 }
@@ -108,6 +110,12 @@ static void robust_init(imf_robust_consts_t *const set, uint32_t *const skipped,
     set->pgg0 = IMF_R(1.0) / (ta2 * s->tau_acc);
     set->inv_rate_ref2 = rate_ref > IMF_R(0.0) ? IMF_R(1.0) / (rate_ref * rate_ref) : IMF_R(0.0);
     set->inv_tau_bias = s->tau_bias > IMF_R(0.0) ? IMF_R(1.0) / s->tau_bias : IMF_R(0.0);
+    set->tau_b0 = IMF_R(4.0) * s->tau_acc;
+    set->tau_h0 = IMF_R(4.0) * s->tau_mag;
+    /* rest_gyr 0: no rest (B1 off) at any bias */
+    set->bias_var0 =
+        rest_gyr > IMF_R(0.0) ? IMF_R(3.0) * s->gyr_bias_max * s->gyr_bias_max : IMF_R(0.0);
+    set->qb0 = s->gyr_bias_max * s->gyr_bias_max * (s->tau_acc * IMF_R(0.125));
     set->rest_gyr2 = rest_gyr * rest_gyr;
     set->rest_acc2 = rest_acc * rest_acc;
     set->c48 = IMF_R(1.0) / IMF_R(48.0);
@@ -137,6 +145,7 @@ static void robust_init(imf_robust_consts_t *const set, uint32_t *const skipped,
     x->s[0] = IMF_R(1.0);
     x->c[0] = IMF_R(1.0);
     x->m_std = IMF_R(1.0);
+    x->bu = s->gyr_bias_max > IMF_R(0.0) ? IMF_R(1.0) : IMF_R(0.0);
 }
 
 void imf_robust_default_settings(imf_robust_settings_t *const settings)
@@ -161,6 +170,7 @@ void imf_robust_default_settings(imf_robust_settings_t *const settings)
     settings->mag_noise = IMF_R(0.02);
     settings->mag_lag = IMF_R(0.003);
     settings->mag_offset_min = IMF_R(0.1);
+    settings->gyr_bias_max = (imf_real)0.10471975511965978; /* 6 deg/s */
 }
 
 void imf_robust_init(imf_robust_t *const self, const imf_robust_settings_t *const s)
@@ -191,6 +201,18 @@ static void robust_set_attitude(imf_robust_state_t *const x, const imf_attitude_
 void imf_robust_set_attitude(imf_robust_t *const self, const imf_attitude_t *const att)
 {
     robust_set_attitude(&self->x, att);
+}
+
+imf_real imf_robust_get_gyr_bias(const imf_robust_t *const self, imf_real bias[3])
+{
+    memcpy(bias, self->x.b, sizeof self->x.b);
+    return self->x.bu;
+}
+
+void imf_robust_set_gyr_bias(imf_robust_t *const self, const imf_real bias[3])
+{
+    memcpy(self->x.b, bias, sizeof self->x.b);
+    self->x.bu = IMF_R(0.0);
 }
 
 /* ---- gyro and accelerometer: B1, strapdown, B2, levelling, B3 (robust_blocks.h) ---- */
@@ -261,8 +283,7 @@ void imf_robust_update_imu(imf_robust_t *const self, const imf_real gx, const im
     }
     memcpy(&x, &self->x, ROBUST_IMU_BYTES);
     robust_commit(&self->x, &self->skipped, &x,
-                  robust_step(&self->set, &x, g, a, gx * gx + gy * gy + gz * gz)
-                      && robust_output(&self->set, &x, g),
+                  robust_step(&self->set, &x, g, a) && robust_output(&self->set, &x, g),
                   ROBUST_IMU_BYTES);
 }
 
@@ -279,8 +300,7 @@ void imf_robust_update(imf_robust_t *const self, const imf_real gx, const imf_re
     }
     x = self->x;
     robust_commit(&self->x, &self->skipped, &x,
-                  robust_step(&self->set, &x, g, a, g2)
-                      && robust_magnetometer(&self->set, &x, m, g2)
+                  robust_step(&self->set, &x, g, a) && robust_magnetometer(&self->set, &x, m, g2)
                       && robust_output(&self->set, &x, g),
                   self->set.s.mag_learn ? ROBUST_AHRS_BYTES : ROBUST_IMU_BYTES);
 }

@@ -66,6 +66,9 @@ typedef struct {
     imf_real lw[3];          /* B1: low-passed gyro, rad/s */
     imf_real la[3];          /* B1: low-passed accelerometer, acc unit */
     imf_real t, t_rest;      /* time since start (saturating), time at rest, s */
+    imf_real bu;             /* B1/B3: how unknown the bias still is: 1 at the start (any
+                                bias up to gyr_bias_max), 0 once learnt (at rest for
+                                3 tau_bias_rest or in motion for tau_bias) */
     imf_real ref[3];         /* B4: magnetic reference: norm, cos(dip), vertical part (rn rh rz) */
     imf_real cand[3];        /* B4: candidate reference, a changed field (cn ch cz) */
     imf_real t_cand, t_dist; /* B4: candidate stable for, field disturbed for, s */
@@ -88,7 +91,7 @@ typedef struct {
 /* The settings of imf_robust_init. Start from imf_robust_default_settings(), then set dt.
    Units are those of the C (rad/s, sines); imufuse.reference.RobustAHRS takes deg/s and
    converts. Blocks B1-B6: docs/recommended-ahrs.md. imf_robust_update_imu reads the first
-   ten (B1-B3, B5); imufuse.reference.RobustIMU is the filter initialised with
+   ten and the last (B1-B3, B5); imufuse.reference.RobustIMU is the filter initialised with
    tau_mag = tau_mag_ref = tau_rest and mag_learn = 0 (its start-up horizon that of the
    blocks it runs), the other magnetic settings at their defaults. */
 typedef struct {
@@ -129,6 +132,11 @@ typedef struct {
                                by |w| mag_lag; >= 0 (default 0.003) */
     imf_real mag_offset_min; /* B6: a trusted estimate replaces the stored offset when they
                                 differ by more than this, relative; >= 0 (default 0.1) */
+    imf_real gyr_bias_max;   /* B1/B3: the largest gyro bias (zero-rate offset) per axis the
+                               part may have, rad/s; >= 0 (default 6 deg/s = 0.1047 rad/s);
+                               0: a calibrated gyro, the bias learnt as the fixed-point
+                               filters do (rest on the raw rate, B3 from the levelling
+                               with 1 / tau_bias) */
 } imf_robust_settings_t;
 
 /* Internal: the settings as init keeps them (s: the IMU filter's own, and for the
@@ -140,6 +148,12 @@ typedef struct {
     imf_real qg0, qg_dt, pgg0;               /* 1 / tau_acc^4, qg0 dt, 1 / tau_acc^3 */
     imf_real inv_rate_ref2;                  /* 1 / rate_ref^2, (rad/s)^-2; 0: constant */
     imf_real inv_tau_bias;                   /* 1 / tau_bias, 1/s; 0: no bias in motion */
+    imf_real tau_b0, tau_h0;                 /* B3's shortest time constants from the
+                                                levelling and the heading: 4 tau_acc,
+                                                4 tau_mag, s */
+    imf_real bias_var0;                      /* 3 gyr_bias_max^2, (rad/s)^2 (0 if rest_gyr is) */
+    imf_real qb0, qb_dt;                     /* B2: gyr_bias_max^2 tau_acc / 8, its dt multiple */
+    imf_real ku_motion;                      /* bu's fall per sample in motion, dt / tau_bias */
     imf_real rest_gyr2, rest_acc2;           /* (rad/s)^2, g^2 (relative) */
     imf_real k_rest, kb_rest, k_mag, k_ref;  /* dt / (tau + dt) */
     imf_real c48;                            /* 1 / 48 */
@@ -182,6 +196,15 @@ imf_real imf_robust_get_mag_offset(const imf_robust_t *self, imf_real offset[3])
 /* ... and give it back at power-up: the stored offset, used until a trusted estimate
    differs from it by more than mag_offset_min; the estimator starts from it. */
 void imf_robust_set_mag_offset(imf_robust_t *self, const imf_real offset[3]);
+
+/* B1/B3: the gyro bias in use (rad/s, sensor frame) into bias[3]; returns how unknown it
+   still is (bu: 1 until it has been learnt, at rest for a few tau_bias_rest or in motion
+   for tau_bias; 0 once learnt). Store it at power-down ... */
+imf_real imf_robust_get_gyr_bias(const imf_robust_t *self, imf_real bias[3]);
+/* ... and give it back at power-up (or a calibrated zero-rate offset): the bias starts from
+   it as known (bu = 0: the rest test uses rest_gyr around it, B3 learns with tau_bias).
+   Each component within +-gyr_bias_max (not checked here: imufuse.reference checks it). */
+void imf_robust_set_gyr_bias(imf_robust_t *self, const imf_real bias[3]);
 
 #ifdef __cplusplus
 }

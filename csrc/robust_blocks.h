@@ -25,14 +25,44 @@ static int robust_acc_reading(const imf_robust_state_t *const x, const imf_real 
     return a[0] * a[0] + a[1] * a[1] + a[2] * a[2] <= IMF_R(1.0e4) * f2;
 }
 
+/* The bias within the part's range, per axis (gyr_bias_max; 0: no bound) */
+static inline void robust_bias_clip(const imf_robust_consts_t *const set, imf_real *const b)
+{
+    const imf_real m = set->s.gyr_bias_max;
+    unsigned i;
+    if (m > IMF_R(0.0)) {
+        for (i = 0; i < 3; i++) {
+            if (b[i] > m) {
+                b[i] = m;
+            } else if (b[i] < -m) {
+                b[i] = -m;
+            }
+        }
+    }
+}
+
+static const imf_real robust_zero3[3] = { IMF_R(0.0), IMF_R(0.0), IMF_R(0.0) };
+
+/* |v - b|^2 */
+static inline imf_real robust_off2(const imf_real *const v, const imf_real *const b)
+{
+    const imf_real x = v[0] - b[0], y = v[1] - b[1], z = v[2] - b[2];
+    return x * x + y * y + z * z;
+}
+
 /* B1: rest detection from low-passes of gyro and accelerometer in the sensor frame, and
-   the bias observed at rest (Eq. 3.1: b_k = b_{k-1}). g2: |g|^2. Returns rest; *w2: the
+   the bias observed at rest (Eq. 3.1: b_k = b_{k-1}). The rates are compared after the
+   bias estimate is taken off, within rest_gyr plus what is still unknown of the bias
+   (bu: at the start any bias up to gyr_bias_max per axis passes). Returns rest; *w2: the
    low-passed rate squared (B2's process noise). */
 static int robust_rest(const imf_robust_consts_t *const set, imf_robust_state_t *const x,
                        const imf_real *const g, const imf_real *const a, const int has_acc,
-                       const imf_real g2, imf_real *const w2)
+                       imf_real *const w2)
 {
     const imf_real k = robust_gain(set, x->t, set->s.tau_rest, set->k_rest);
+    const imf_real win = set->rest_gyr2 + set->bias_var0 * (x->bu * x->bu);
+    /* the bias taken off; gyr_bias_max 0: the raw rates (the fixed-point filters' B1) */
+    const imf_real *const bb = set->s.gyr_bias_max > IMF_R(0.0) ? x->b : robust_zero3;
     imf_real dx, dy, dz, d2, a2;
     x->lw[0] = x->lw[0] + k * (g[0] - x->lw[0]);
     x->lw[1] = x->lw[1] + k * (g[1] - x->lw[1]);
@@ -48,7 +78,8 @@ static int robust_rest(const imf_robust_consts_t *const set, imf_robust_state_t 
     dz = a[2] - x->la[2];
     d2 = dx * dx + dy * dy + dz * dz;
     a2 = x->la[0] * x->la[0] + x->la[1] * x->la[1] + x->la[2] * x->la[2];
-    if (has_acc && *w2 < set->rest_gyr2 && g2 < set->rest_gyr2 && d2 < set->rest_acc2 * a2) {
+    if (has_acc && robust_off2(x->lw, bb) < win && robust_off2(g, bb) < win
+        && d2 < set->rest_acc2 * a2) {
         x->t_rest = x->t_rest + set->s.dt;
         if (x->t_rest > set->s.rest_time) {
             x->t_rest = set->s.rest_time;
@@ -62,6 +93,8 @@ static int robust_rest(const imf_robust_consts_t *const set, imf_robust_state_t 
     x->b[0] = x->b[0] + set->kb_rest * (g[0] - x->b[0]);
     x->b[1] = x->b[1] + set->kb_rest * (g[1] - x->b[1]);
     x->b[2] = x->b[2] + set->kb_rest * (g[2] - x->b[2]);
+    robust_bias_clip(set, x->b);
+    x->bu = x->bu - set->kb_rest * x->bu;
     return 1;
 }
 
@@ -84,7 +117,7 @@ static void robust_gravity(const imf_robust_consts_t *const set, imf_robust_stat
                            const imf_real w2)
 {
     const imf_real dt = set->s.dt;
-    imf_real ai[3], rr, qg, pvv, pvg, pgg, inv, kv, kg;
+    imf_real ai[3], rr, qg, ub, pvv, pvg, pgg, inv, kv, kg;
     imf_qrotate(ai, x->s[0], x->s[1], x->s[2], x->s[3], a[0], a[1], a[2]);
     if (first) {
         /* B5: gravity from the first sample */
@@ -113,6 +146,14 @@ static void robust_gravity(const imf_robust_consts_t *const set, imf_robust_stat
         rr = IMF_R(1.0e4);
     }
     qg = set->qg_dt + set->qg_dt * rr;
+    if (x->bu > IMF_R(0.0)) {
+        /* while the bias is still unknown f turns by up to sigma_b |f| per second, sigma_b
+           the error of a running mean of the bias after (1 - bu) tau_bias of learning (the
+           part's range gyr_bias_max at first): a random walk of that rate over tau_acc / 8 */
+        ub = set->tau_b0 / (set->tau_b0 + (IMF_R(1.0) - x->bu) * set->s.tau_bias);
+        qg = qg
+             + set->qb_dt * (ub * ub) * (x->f[0] * x->f[0] + x->f[1] * x->f[1] + x->f[2] * x->f[2]);
+    }
     pvv = x->pvv - set->two_dt * x->pvg + set->dt2 * x->pgg;
     pvg = x->pvg - dt * x->pgg;
     pgg = x->pgg + qg;
@@ -168,25 +209,65 @@ static int robust_level(imf_robust_state_t *const x, imf_real *const r)
     return 1;
 }
 
-/* B3: in motion, the correction rate seen in the sensor frame is minus the bias error
-   (Eq. 3.6, I_k = I_{k-1} + Ki dt e_k, with Ki dt = 1 / tau_bias) */
+/* B3's integral gain, 1/s: 1 / tau while the sensor turns slowly; while the bias is still
+   unknown (bu > 0) tau is the time it has been learnt for, (1 - bu) tau_bias, from tau0
+   (the fastest damped loop, Eq. 3.12: 4 times the correction's time constant) up to
+   tau_bias (a running mean), then tau_bias. Divided by 1 + (|w - b| / rate_ref)^2: while
+   the sensor turns fast the corrections are mostly the gyro's scale and alignment errors
+   (B2's process noise grows alike), not its bias. gyr_bias_max 0 (a calibrated gyro):
+   1 / tau_bias. */
+static imf_real robust_bias_gain(const imf_robust_consts_t *const set,
+                                 const imf_robust_state_t *const x, const imf_real tau0)
+{
+    imf_real tm, tau = set->s.tau_bias;
+    if (!(set->s.gyr_bias_max > IMF_R(0.0))) {
+        return set->inv_tau_bias; /* a calibrated gyro: 1 / tau_bias (the fixed-point B3) */
+    }
+    if (x->bu > IMF_R(0.0)) {
+        tm = (IMF_R(1.0) - x->bu) * set->s.tau_bias;
+        tau = tm > tau0 ? tm : tau0;
+    }
+    return IMF_R(1.0)
+           / (tau + tau * ((IMF_R(1.0) - x->bu) * robust_off2(x->lw, x->b) * set->inv_rate_ref2));
+}
+
+/* The bias from a correction rotation (its rotation vector (cx, cy, cz) in the earth frame,
+   one sample) with the gain k: seen in the sensor frame it is minus the bias error (Eq. 3.6) */
+static void robust_bias_from(const imf_robust_consts_t *const set, imf_robust_state_t *const x,
+                             const imf_real cx, const imf_real cy, const imf_real cz,
+                             const imf_real k)
+{
+    imf_real e[3];
+    imf_qrotate(e, x->q[0], -x->q[1], -x->q[2], -x->q[3], cx, cy, cz);
+    x->b[0] = x->b[0] - e[0] * k;
+    x->b[1] = x->b[1] - e[1] * k;
+    x->b[2] = x->b[2] - e[2] * k;
+    robust_bias_clip(set, x->b);
+}
+
+/* B3: in motion, the levelling's correction rate seen in the sensor frame is minus the
+   bias error (Eq. 3.6, I_k = I_{k-1} + Ki dt e_k, with Ki dt = 1 / tau; robust_bias_gain);
+   each sample of it teaches bu by dt / tau_bias */
 static void robust_bias(const imf_robust_consts_t *const set, imf_robust_state_t *const x,
                         const imf_real *const r, const int rest)
 {
-    imf_real e[3];
+    imf_real k;
     if (!rest && x->t >= set->s.tau_acc && set->inv_tau_bias > IMF_R(0.0)) {
-        imf_qrotate(e, x->q[0], -x->q[1], -x->q[2], -x->q[3], IMF_R(2.0) * r[1], IMF_R(2.0) * r[2],
-                    IMF_R(0.0));
-        x->b[0] = x->b[0] - e[0] * set->inv_tau_bias;
-        x->b[1] = x->b[1] - e[1] * set->inv_tau_bias;
-        x->b[2] = x->b[2] - e[2] * set->inv_tau_bias;
+        k = robust_bias_gain(set, x, set->tau_b0);
+        if (x->bu > IMF_R(0.0)) {
+            x->bu = x->bu - set->ku_motion;
+            if (x->bu < IMF_R(0.0)) {
+                x->bu = IMF_R(0.0);
+            }
+        }
+        robust_bias_from(set, x, IMF_R(2.0) * r[1], IMF_R(2.0) * r[2], IMF_R(0.0), k);
     }
 }
 
 /* Gyro (rad/s) and accelerometer of one sample through B1, the strapdown, B2, the
    levelling and B3, on the working state x; 0 rejects the sample. */
 static int robust_step(const imf_robust_consts_t *const set, imf_robust_state_t *const x,
-                       const imf_real *const g, const imf_real *const a, const imf_real g2)
+                       const imf_real *const g, const imf_real *const a)
 {
     const int first = x->t == IMF_R(0.0);
     const int has_acc = robust_acc_reading(x, a, first);
@@ -195,7 +276,7 @@ static int robust_step(const imf_robust_consts_t *const set, imf_robust_state_t 
     if (first && !has_acc) {
         return 0; /* no start without an accelerometer reading */
     }
-    rest = robust_rest(set, x, g, a, has_acc, g2, &w2); /* B1 */
+    rest = robust_rest(set, x, g, a, has_acc, &w2); /* B1 */
     if (!robust_strapdown(set, x, g)) {
         return 0;
     }

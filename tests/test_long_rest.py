@@ -247,6 +247,8 @@ def run_twin(case, profile, inputs, dtype="float64"):
         p["delta_s"] = "simplified"
     if case.kind == "ahrs":
         p["mag_learn"] = False     # the fixed-point AHRS has no B6: the float without it
+    if twin_name(case).startswith("Robust"):
+        p["gyr_bias_max"] = 0.0    # the fixed point's B1 and B3: those of a calibrated gyro
     f = getattr(imufuse_c, twin_name(case))(**p, dtype=dtype)
     out = {"outputs": "q"} if family(case.name) == "quat" else {}
     gs = effective_gyr_scale(case, profile)

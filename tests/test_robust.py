@@ -130,10 +130,15 @@ def test_b1_bias_at_rest(scen):
     # 0.5 deg/s of bias learnt to 0.02 deg/s within the first rest
     assert np.degrees(np.abs(bias(S)[-1] - s.bias[-1])).max() < 0.02
     assert col(S, "t_rest")[-1] == pytest.approx(1.5)
-    # without rest detection the bias stays, and the tilt error is many times larger
+    # without rest detection the bias is still unknown when the motion starts (B3 learns
+    # it only in motion), and without any bias estimation the tilt error is many times larger
     _, S0 = run("RobustIMU", s, rest_gyr=0.0)
+    k = int(np.argmax(s.moving))
+    assert np.degrees(np.abs(bias(S)[k] - s.bias[k])).max() < 0.05
+    assert np.degrees(np.abs(bias(S0)[k] - s.bias[k])).max() > 0.3
+    _, S00 = run("RobustIMU", s, rest_gyr=0.0, tau_bias=0.0)
     t1, _ = sd.errors(S[:, :4], s.q_true)
-    t0, _ = sd.errors(S0[:, :4], s.q_true)
+    t0, _ = sd.errors(S00[:, :4], s.q_true)
     assert rms(t1[s.moving]) < 0.15 and rms(t0[s.moving]) > 5 * rms(t1[s.moving])
 
 
@@ -199,12 +204,12 @@ def test_b4_magnet_passing(scen):
     assert h.max() < 3.0 and hn.max() > 10.0
     flagged = col(S, "t_dist") > 0
     assert flagged[s.disturbed].mean() > 0.7 and flagged[~s.disturbed].mean() < 0.01
-    # the tilt is the same with or without the magnetometer's disturbance
+    # the magnetometer's disturbance does not reach the tilt: it is the IMU filter's within
+    # what the accepted headings teach the bias (B3 from the heading), 0.02 deg
     _, I = run("RobustIMU", s)
-    # (not bit for bit: the heading rotation rounds differently)
     tilt_ahrs = sd.errors(S[:, :4], s.q_true)[0]
     tilt_imu = sd.errors(I[:, :4], s.q_true)[0]
-    assert np.abs(tilt_ahrs - tilt_imu).max() < 1e-3
+    assert np.abs(tilt_ahrs - tilt_imu).max() < 0.02
 
 
 def test_b4_magnet_attached(scen):

@@ -207,7 +207,8 @@ def _bind_filter(cp, name: str, c_names: Tuple[str, str], text: str, rel_h: str,
                 + "".join(f"        {m.ctype} {m.name}\n" for m in values))
     funcs = ((upd, True), (f"{c}_set_mag_offset", False)) if fixed else (
         (upd, True), (f"{c}_set_dt", True), (f"{c}_set_attitude", False), (f"{c}_angles", False),
-        (f"{c}_get_mag_offset", False), (f"{c}_set_mag_offset", False))
+        (f"{c}_get_mag_offset", False), (f"{c}_set_mag_offset", False),
+        (f"{c}_get_gyr_bias", False), (f"{c}_set_gyr_bias", False))
     declare(_wrap(_decl(init_text)) + "\n")
     for func, required in funcs:
         t = proto(func, required)
@@ -286,6 +287,22 @@ def _bind_filter(cp, name: str, c_names: Tuple[str, str], text: str, rel_h: str,
                  f"        o[0], o[1], o[2] = _reference.{name}._offset3(offset, DTYPE)\n",
                  "        _idle(self._busy, self)\n",
                  f"        {c}_set_mag_offset(&self.s, o)\n"]
+    if not fixed and proto(f"{c}_get_gyr_bias", False):
+        if proto(f"{c}_set_gyr_bias", False) is None:
+            raise BindError(f"{rel_h} declares {c}_get_gyr_bias() without _set_gyr_bias()")
+        body += ["\n    def get_gyr_bias(self):\n",
+                 f'        """As imufuse.reference.{name}.get_gyr_bias."""\n',
+                 "        cdef imf_real o[3]\n",
+                 "        _idle(self._busy, self)\n",
+                 f"        cdef imf_real bu = {c}_get_gyr_bias(&self.s, o)\n",
+                 "        return (float(o[0]), float(o[1]), float(o[2])), float(bu)\n",
+                 "\n    def set_gyr_bias(self, bias):\n",
+                 f'        """As imufuse.reference.{name}.set_gyr_bias."""\n',
+                 "        cdef imf_real o[3]\n",
+                 f"        o[0], o[1], o[2] = _reference.{name}._gyr_bias3(bias, DTYPE, "
+                 'self._kw["gyr_bias_max"])\n',
+                 "        _idle(self._busy, self)\n",
+                 f"        {c}_set_gyr_bias(&self.s, o)\n"]
     return "".join(body)
 
 

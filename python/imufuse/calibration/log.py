@@ -25,7 +25,7 @@ from ..session import ReadOptions, Session
 from .fit import Calibration, accel_six_position, gyro_offset, mag_ellipsoid, mag_minmax, mag_sphere
 from ..preprocess.calibration import CalibrationError, from_dict, read_json
 
-__all__ = ["save", "save_mag_offset", "run_log", "describe", "SECTIONS"]
+__all__ = ["save", "save_mag_offset", "save_gyr_bias", "run_log", "describe", "SECTIONS"]
 
 #: JSON section of each sensor
 SECTIONS = {"gyro": "gyroscope", "accel": "accelerometer", "mag": "magnetometer"}
@@ -73,6 +73,19 @@ def save_mag_offset(path, offset):
     for axis, v in zip("xyz", h):
         check_real_in(f"{path}: mag offset {axis}", float(v), "float32")
     return save(path, Calibration("mag", dict(S=np.eye(3), h=h)))
+
+
+def save_gyr_bias(path, bias):
+    """Write (or merge into an existing) calibration file the gyro bias of a filter
+    (RobustIMU/RobustAHRS.get_gyr_bias()[0], rad/s) as {"M": identity, "s": ones, "b": bias}:
+    the file that `imufuse calibrate gyro` writes and that imufuse.calibration.gyr_bias
+    reads back at the next start."""
+    b = np.asarray(bias, dtype=float)
+    if b.shape != (3,):
+        raise ValueError(f"bias: expected (x, y, z), got shape {b.shape}")
+    for axis, v in zip("xyz", b):
+        check_real_in(f"{path}: gyr bias {axis}", float(v), "float32")
+    return save(path, Calibration("gyro", dict(M=np.eye(3), s=np.ones(3), b=b)))
 
 
 def run_log(sensor, path, output, gyr_unit=None, ranges=None, threshold=None,

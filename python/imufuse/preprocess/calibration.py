@@ -177,10 +177,37 @@ def mag_offset(calibration):
     return h
 
 
+def gyr_bias(calibration):
+    """The gyroscope offset b (3 floats, rad/s) of a calibration (a Calibration or a file)
+    whose gyroscope section is an offset only (M the identity, s ones): what
+    RobustIMU/RobustAHRS.set_gyr_bias takes (`imufuse calibrate gyro` writes it; a filter's
+    learnt bias goes back with imufuse.calibration.log.save_gyr_bias). A misalignment or
+    scale cannot be given to the filter: CalibrationError saying so (apply such a file to
+    the readings instead, `imufuse run --calibration`)."""
+    cal = calibration if isinstance(calibration, Calibration) else load_calibration(calibration)
+    where = cal.source or "calibration"
+    if cal.gyroscope is None:
+        raise CalibrationError(f"{where}: no gyroscope section")
+    p = cal.params("gyroscope")
+    if not (np.array_equal(np.asarray(p["M"], dtype=float), np.eye(3))
+            and np.array_equal(np.asarray(p["s"], dtype=float), np.ones(3))):
+        raise CalibrationError(
+            f"{where}: gyroscope.M or gyroscope.s is not the identity: a misalignment or "
+            "scale, which the filter's bias cannot hold; apply it to the readings (imufuse "
+            "run --calibration)")
+    b = tuple(float(v) for v in np.asarray(p["b"], dtype=float))
+    for axis, v in zip("xyz", b):
+        try:
+            check_real_in(f"gyroscope.b {axis}", v, "float32")
+        except ValueError as e:
+            raise CalibrationError(f"{where}: {e}") from None
+    return b
+
+
 def is_identity(cal):
     return all(getattr(cal, s) is None or all(
         np.array_equal(v, IDENTITY[k]) for k, v in getattr(cal, s).items()) for s in SENSORS)
 
 
 __all__ = ["Calibration", "CalibrationError", "from_dict", "read_json", "load_calibration",
-           "save_calibration", "is_identity", "mag_offset"]
+           "save_calibration", "is_identity", "mag_offset", "gyr_bias"]

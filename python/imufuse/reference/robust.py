@@ -83,6 +83,8 @@ class RobustAHRSSettings(SettingsRecord):
     mag_noise: float = setting(0.02, "relative", real(lo=0.0, lo_open=True, hi=1.0))  # B6
     mag_lag: float = setting(0.003, "s", real(lo=0.0, hi=0.1))                       # B6
     mag_offset_min: float = setting(0.1, "relative", real(lo=0.0))                   # B6
+    gyr_bias_max: float = setting(6.0, "deg/s", real(lo=0.0), to_c=deg_to_rad,       # B1/B3
+                                  kw_only=True)                                    # rad/s
 
 
 def _tau_rest(name, value, prior):
@@ -109,6 +111,17 @@ class RobustIMUSettings(RobustAHRSSettings):
     mag_offset_min: float = setting(0.1, "relative", fixed, keyword=FIXED)             # B6
 
 
+def _vector3(what, values, dtype):
+    # (x, y, z) numbers finite in the precision dtype, or ValueError naming the component
+    try:
+        v = tuple(values)
+    except TypeError:
+        raise ValueError(f"{what}: expected (x, y, z), got {values!r}") from None
+    if len(v) != 3:
+        raise ValueError(f"{what}: expected 3 values (x, y, z), got {len(v)}")
+    return tuple(_checks.check_real_in(f"{what} {n}", c, dtype) for n, c in zip("xyz", v))
+
+
 # ---- the state (robust.h: imf_robust_state_t) ----------------------------------------
 
 
@@ -124,6 +137,7 @@ _MEMBERS = (("q", ("q0", "q1", "q2", "q3")),          # estimate, sensor -> eart
             ("lw", ("lwx", "lwy", "lwz")),            # B1: low-passed gyro, rad/s
             ("la", ("lax", "lay", "laz")),            # B1: low-passed accelerometer
             ("t", None), ("t_rest", None),            # time since start (saturating), at rest
+            ("bu", None),                             # B1/B3: how unknown the bias still is
             ("ref", ("rn", "rh", "rz")),              # B4: reference: norm, cos dip, vertical
             ("cand", ("cn", "ch", "cz")),             # B4: candidate reference (changed field)
             ("t_cand", None), ("t_dist", None),       # B4: candidate stable for, disturbed for
@@ -208,6 +222,9 @@ class _Robust(_RobustBlocks, _RobustMag, ReferenceFilter):
             if not abs(n2 - 1.0) <= QUAT_NORM2_TOL:
                 return (f"|{names[k][0]}|^2 = {n2!r}, must be within 1 +- "
                         f"{QUAT_NORM2_TOL}")
+        bu = float(state[names.index("bu")])
+        if not 0.0 <= bu <= 1.0:
+            return f"bu = {bu!r}, must be within 0 .. 1"
         for n in ("pvv", "pgg", "t", "t_rest", "rn", "cn", "t_cand", "t_dist", "t_ok",
                   "p00", "p11", "p22", "p33", "p44", "p55", "m_n0", "m_ew", "m_d2", "m_std",
                   "m_bad"):
@@ -264,6 +281,8 @@ class _Robust(_RobustBlocks, _RobustMag, ReferenceFilter):
         self.qg_dt = self.qg0 * dt
         self.k_rest = dt / (self.s.tau_rest + dt)
         self.kb_rest = dt / (self.s.tau_bias_rest + dt)
+        self.ku_motion = self.inv_tau_bias * dt
+        self.qb_dt = self.qb0 * dt
         self.k_mag = dt / (self.s.tau_mag + dt)
         self.k_ref = dt / (self.s.tau_mag_ref + dt)
 
@@ -284,6 +303,12 @@ class _Robust(_RobustBlocks, _RobustMag, ReferenceFilter):
         self.pgg0 = R(1.0) / (ta2 * s.tau_acc)
         self.inv_rate_ref2 = R(1.0) / (rate_ref * rate_ref) if rate_ref > R(0.0) else R(0.0)
         self.inv_tau_bias = R(1.0) / s.tau_bias if s.tau_bias > R(0.0) else R(0.0)
+        self.tau_b0 = R(4.0) * s.tau_acc
+        self.tau_h0 = R(4.0) * s.tau_mag
+        # rest_gyr 0: no rest (B1 off) at any bias
+        self.bias_var0 = (R(3.0) * s.gyr_bias_max * s.gyr_bias_max if rest_gyr > R(0.0)
+                          else R(0.0))
+        self.qb0 = s.gyr_bias_max * s.gyr_bias_max * (s.tau_acc * R(0.125))
         self.rest_gyr2 = rest_gyr * rest_gyr
         self.rest_acc2 = rest_acc * rest_acc
         self.c48 = R(1.0) / R(48.0)
@@ -304,6 +329,35 @@ class _Robust(_RobustBlocks, _RobustMag, ReferenceFilter):
         self.x.s[0] = R(1.0)
         self.x.c[0] = R(1.0)
         self.x.m_std = R(1.0)
+        self.x.bu = R(1.0) if s.gyr_bias_max > R(0.0) else R(0.0)
+
+    # imf_robust_get_gyr_bias / _set_gyr_bias
+    def get_gyr_bias(self):
+        """B1/B3: ((x, y, z) the gyro bias in use, rad/s, sensor frame; how unknown it still
+        is: 1 until learnt, at rest for a few tau_bias_rest or in motion for tau_bias, 0
+        once learnt). Store it at power-down and give it back with set_gyr_bias."""
+        return tuple(float(v) for v in self.x.b), float(self.x.bu)
+
+    def set_gyr_bias(self, bias):
+        """B1/B3: a known gyro bias (x, y, z; rad/s, sensor frame: one stored with
+        get_gyr_bias, or the "b" of a calibration file, imufuse.calibration.gyr_bias): the
+        bias starts from it as learnt (the rest test uses rest_gyr around it, B3 learns with
+        tau_bias). Each component finite and within +-gyr_bias_max (when not 0)."""
+        R = self._R
+        self.x.b = [R(v) for v in self._gyr_bias3(bias, self.dtype, float(self.s.gyr_bias_max))]
+        self.x.bu = R(0.0)
+
+    @staticmethod
+    def _gyr_bias3(bias, dtype, bias_max):
+        # (x, y, z) finite in the precision dtype and within +-bias_max (rad/s; 0: any), or
+        # ValueError naming the component
+        b = _vector3("gyr bias", bias, dtype)
+        for n, v in zip("xyz", b):
+            if bias_max > 0.0 and not abs(float(v)) <= bias_max:
+                raise ValueError(f"gyr bias {n}: {float(v)!r} rad/s is beyond gyr_bias_max "
+                                 f"({math.degrees(bias_max):g} deg/s): check the unit (rad/s) "
+                                 "or raise gyr_bias_max")
+        return b
 
     # imf_robust_*_set_attitude: start again from att (the next sample is the first)
     def _set_attitude(self, att):
@@ -384,8 +438,7 @@ class RobustIMU(_Robust):
             return
         g = (gx, gy, gz)
         x = self.x.copy()
-        self._commit(x, self._step(x, g, (ax, ay, az), gx * gx + gy * gy + gz * gz)
-                     and self._output(x, g), _IMU_MEMBERS)
+        self._commit(x, self._step(x, g, (ax, ay, az)) and self._output(x, g), _IMU_MEMBERS)
 
 
 class RobustAHRS(_Robust):
@@ -425,14 +478,7 @@ class RobustAHRS(_Robust):
     def _offset3(offset, dtype):
         # (x, y, z) numbers finite in the filter's precision, or ValueError naming the
         # component
-        try:
-            values = tuple(offset)
-        except TypeError:
-            raise ValueError(f"mag offset: expected (x, y, z), got {offset!r}") from None
-        if len(values) != 3:
-            raise ValueError(f"mag offset: expected 3 values (x, y, z), got {len(values)}")
-        return tuple(_checks.check_real_in(f"mag offset {n}", v, dtype)
-                     for n, v in zip("xyz", values))
+        return _vector3("mag offset", offset, dtype)
 
     def set_mag_offset(self, offset):
         """B6: the stored offset (x, y, z; magnetometer unit, sensor frame, e.g. the "h"
@@ -453,6 +499,6 @@ class RobustAHRS(_Robust):
         g = (gx, gy, gz)
         g2 = gx * gx + gy * gy + gz * gz
         x = self.x.copy()
-        self._commit(x, self._step(x, g, (ax, ay, az), g2)
+        self._commit(x, self._step(x, g, (ax, ay, az))
                      and self._magnetometer(x, (mx, my, mz), g2)
                      and self._output(x, g), _STATE_MEMBERS if self.s.mag_learn else _IMU_MEMBERS)

@@ -22,12 +22,33 @@ class _RobustBlocks:
         f2 = x.f[0] * x.f[0] + x.f[1] * x.f[1] + x.f[2] * x.f[2]
         return a[0] * a[0] + a[1] * a[1] + a[2] * a[2] <= R(1.0e4) * f2
 
-    def _rest(self, x, g, a, has_acc, g2):
+    def _bias_clip(self, b):
+        # the bias within the part's range, per axis (gyr_bias_max; 0: no bound)
+        m = self.s.gyr_bias_max
+        if m > self._R(0.0):
+            for i in range(3):
+                if b[i] > m:
+                    b[i] = m
+                elif b[i] < -m:
+                    b[i] = -m
+
+    @staticmethod
+    def _off2(v, b):
+        # |v - b|^2
+        x, y, z = v[0] - b[0], v[1] - b[1], v[2] - b[2]
+        return x * x + y * y + z * z
+
+    def _rest(self, x, g, a, has_acc):
         """B1: rest detection from low-passes of gyro and accelerometer in the sensor frame,
-        and the bias observed at rest (Eq. 3.1: b_k = b_{k-1}). g2: |g|^2. Returns (rest,
+        and the bias observed at rest (Eq. 3.1: b_k = b_{k-1}). The rates are compared after
+        the bias estimate is taken off, within rest_gyr plus what is still unknown of the
+        bias (bu: at the start any bias up to gyr_bias_max per axis passes). Returns (rest,
         w2: the low-passed rate squared, B2's process noise)."""
         R = self._R
         k = self._gain(x.t, self.s.tau_rest, self.k_rest)
+        win = self.rest_gyr2 + self.bias_var0 * (x.bu * x.bu)
+        # the bias taken off; gyr_bias_max 0: the raw rates (the fixed-point filters' B1)
+        bb = x.b if self.s.gyr_bias_max > R(0.0) else (R(0.0), R(0.0), R(0.0))
         x.lw[0] = x.lw[0] + k * (g[0] - x.lw[0])
         x.lw[1] = x.lw[1] + k * (g[1] - x.lw[1])
         x.lw[2] = x.lw[2] + k * (g[2] - x.lw[2])
@@ -41,7 +62,8 @@ class _RobustBlocks:
         dz = a[2] - x.la[2]
         d2 = dx * dx + dy * dy + dz * dz
         a2 = x.la[0] * x.la[0] + x.la[1] * x.la[1] + x.la[2] * x.la[2]
-        if has_acc and w2 < self.rest_gyr2 and g2 < self.rest_gyr2 and d2 < self.rest_acc2 * a2:
+        if (has_acc and self._off2(x.lw, bb) < win and self._off2(g, bb) < win
+                and d2 < self.rest_acc2 * a2):
             x.t_rest = x.t_rest + self.s.dt
             if x.t_rest > self.s.rest_time:
                 x.t_rest = self.s.rest_time
@@ -52,6 +74,8 @@ class _RobustBlocks:
         x.b[0] = x.b[0] + self.kb_rest * (g[0] - x.b[0])
         x.b[1] = x.b[1] + self.kb_rest * (g[1] - x.b[1])
         x.b[2] = x.b[2] + self.kb_rest * (g[2] - x.b[2])
+        self._bias_clip(x.b)
+        x.bu = x.bu - self.kb_rest * x.bu
         return True, w2
 
     def _strapdown(self, x, g):
@@ -88,6 +112,14 @@ class _RobustBlocks:
         if not (rr <= R(1.0e4)):
             rr = R(1.0e4)
         qg = self.qg_dt + self.qg_dt * rr
+        if x.bu > R(0.0):
+            # while the bias is still unknown f turns by up to sigma_b |f| per second,
+            # sigma_b the error of a running mean of the bias after (1 - bu) tau_bias of
+            # learning (the part's range gyr_bias_max at first): a random walk of that rate
+            # over tau_acc / 8
+            ub = self.tau_b0 / (self.tau_b0 + (R(1.0) - x.bu) * self.s.tau_bias)
+            qg = qg + self.qb_dt * (ub * ub) * (x.f[0] * x.f[0] + x.f[1] * x.f[1]
+                                                + x.f[2] * x.f[2])
         pvv = x.pvv - self.two_dt * x.pvg + self.dt2 * x.pgg
         pvg = x.pvg - dt * x.pgg
         pgg = x.pgg + qg
@@ -136,18 +168,49 @@ class _RobustBlocks:
         x.q = q
         return True
 
+    def _bias_gain(self, x, tau0):
+        """B3's integral gain, 1/s: 1 / tau while the sensor turns slowly; while the bias is
+        still unknown (bu > 0) tau is the time it has been learnt for, (1 - bu) tau_bias,
+        from tau0 (the fastest damped loop, Eq. 3.12: 4 times the correction's time
+        constant) up to tau_bias (a running mean), then tau_bias. Divided by 1 + (|w - b| /
+        rate_ref)^2: while the sensor turns fast the corrections are mostly the gyro's scale
+        and alignment errors (B2's process noise grows alike), not its bias. gyr_bias_max 0 (a
+        calibrated gyro): 1 / tau_bias."""
+        R = self._R
+        tau = self.s.tau_bias
+        if not (self.s.gyr_bias_max > R(0.0)):
+            return self.inv_tau_bias   # a calibrated gyro: 1 / tau_bias (the fixed-point B3)
+        if x.bu > R(0.0):
+            tm = (R(1.0) - x.bu) * self.s.tau_bias
+            tau = tm if tm > tau0 else tau0
+        return R(1.0) / (tau + tau * ((R(1.0) - x.bu) * self._off2(x.lw, x.b)
+                                      * self.inv_rate_ref2))
+
+    def _bias_from(self, x, cx, cy, cz, k):
+        # the bias from a correction rotation (its rotation vector (cx, cy, cz) in the earth
+        # frame, one sample) with the gain k: seen in the sensor frame it is minus the bias
+        # error (Eq. 3.6)
+        R = self._R
+        e = qrotate(R, x.q[0], -x.q[1], -x.q[2], -x.q[3], cx, cy, cz)
+        x.b[0] = x.b[0] - e[0] * k
+        x.b[1] = x.b[1] - e[1] * k
+        x.b[2] = x.b[2] - e[2] * k
+        self._bias_clip(x.b)
+
     def _bias(self, x, r, rest):
-        # B3: in motion, the correction rate seen in the sensor frame is minus the bias error
-        # (Eq. 3.6, I_k = I_{k-1} + Ki dt e_k, with Ki dt = 1 / tau_bias)
+        # B3: in motion, the levelling's correction rate seen in the sensor frame is minus
+        # the bias error (Eq. 3.6, I_k = I_{k-1} + Ki dt e_k, with Ki dt = 1 / tau;
+        # _bias_gain); each sample of it teaches bu by dt / tau_bias
         R = self._R
         if not rest and x.t >= self.s.tau_acc and self.inv_tau_bias > R(0.0):
-            e = qrotate(R, x.q[0], -x.q[1], -x.q[2], -x.q[3], R(2.0) * r[1], R(2.0) * r[2],
-                        R(0.0))
-            x.b[0] = x.b[0] - e[0] * self.inv_tau_bias
-            x.b[1] = x.b[1] - e[1] * self.inv_tau_bias
-            x.b[2] = x.b[2] - e[2] * self.inv_tau_bias
+            k = self._bias_gain(x, self.tau_b0)
+            if x.bu > R(0.0):
+                x.bu = x.bu - self.ku_motion
+                if x.bu < R(0.0):
+                    x.bu = R(0.0)
+            self._bias_from(x, R(2.0) * r[1], R(2.0) * r[2], R(0.0), k)
 
-    def _step(self, x, g, a, g2):
+    def _step(self, x, g, a):
         """Gyro (rad/s) and accelerometer of one sample through B1, the strapdown, B2, the
         levelling and B3, on the working state x; False rejects the sample."""
         first = x.t == self._R(0.0)
@@ -155,7 +218,7 @@ class _RobustBlocks:
         r = [self._R(0.0)] * 4
         if first and not has_acc:
             return False   # no start without an accelerometer reading
-        rest, w2 = self._rest(x, g, a, has_acc, g2)   # B1
+        rest, w2 = self._rest(x, g, a, has_acc)   # B1
         if not self._strapdown(x, g):
             return False
         self._gravity(x, a, first, has_acc, w2)   # B2

@@ -177,6 +177,9 @@ def stubs() -> str:
                    f"    def __init__({_signature(e)}) -> None: ...\n" + _methods(e))
         if hasattr(e.reference, "angles"):
             out.append("    def angles(self) -> Tuple[float, float]: ...\n")
+        if hasattr(e.reference, "get_gyr_bias"):
+            out.append("    def get_gyr_bias(self) -> Tuple[Tuple[float, float, float], float]: ...\n")
+            out.append("    def set_gyr_bias(self, bias: Sequence[float]) -> None: ...\n")
         if hasattr(e.reference, "get_mag_offset"):
             out.append("    def get_mag_offset(self) -> Tuple[Tuple[float, float, float], float]: ...\n")
             out.append("    def set_mag_offset(self, offset: Sequence[float]) -> None: ...\n")

@@ -1,0 +1,175 @@
+"""RobustIMU / RobustAHRS on an uncalibrated gyroscope (docs/recommended-ahrs.md, B1 and B3):
+a bias of several deg/s from the first sample, started at rest or in motion, a scale error,
+a bias that drifts with temperature, and the seeded bias (get_gyr_bias / set_gyr_bias, the C
+pair imf_robust_get_gyr_bias / _set_gyr_bias, the calibration file). Errors as in BROAD,
+degrees, over the moving samples (imufuse.sim.disturb)."""
+import math
+
+import numpy as np
+import pytest
+
+import imufuse_c
+from imufuse import reference
+from imufuse.calibration import gyr_bias, load_calibration
+from imufuse.calibration.log import save_gyr_bias
+from imufuse.sim import disturb as sd
+
+NAMES = imufuse_c.RobustAHRS(0.01).state_names
+BIG = (4.0, -3.0, 5.0)      # deg/s: a consumer MEMS part's zero-rate offset, uncalibrated
+
+
+def rms(x):
+    return float(np.sqrt(np.mean(np.square(x))))
+
+
+def _bits(a):
+    return a.view(np.uint32 if a.dtype == np.float32 else np.uint64)
+
+
+def run(backend, cls, s, dtype="float64", gyr=None, **kw):
+    kw.setdefault("latency", 0.0)
+    f = getattr(backend, cls)(s.dt, dtype=dtype, **kw)
+    g = s.gyr if gyr is None else gyr
+    S = f.run(g, s.acc) if cls == "RobustIMU" else f.run(g, s.acc, s.mag)
+    return f, S
+
+
+def errs(S, s, since=0.0):
+    tilt, head = sd.errors(S[:, :4], s.q_true)
+    m = s.moving & (np.arange(len(S)) * s.dt >= since)
+    return rms(tilt[m]), rms(head[m])
+
+
+def bias_of(S):
+    i = NAMES.index("bx")
+    return S[:, i:i + 3]
+
+
+# ---- bit for bit: every new branch (bu > 0, the clip, B3 from the heading) ----------------
+
+@pytest.mark.parametrize("dtype", ["float64", "float32"])
+@pytest.mark.parametrize("cls", ["RobustIMU", "RobustAHRS"])
+@pytest.mark.parametrize("rest, bias_deg", [(0.0, BIG), (10.0, (7.0, -1.0, 2.0))])
+def test_bitexact_uncalibrated(cls, dtype, rest, bias_deg):
+    # 7 deg/s is beyond gyr_bias_max (6): the estimate is clipped; tau_mag 2 s starts B3's
+    # heading path within the run
+    s = sd.scenario("rotation", rate=100.0, duration=rest + 14.0, rest=rest, seed=4,
+                    bias_deg=bias_deg)
+    kw = dict(latency=0.002, tau_acc=1.0, tau_bias=10.0)
+    if cls == "RobustAHRS":
+        kw["tau_mag"] = 2.0
+    fc, C = run(imufuse_c, cls, s, dtype, **kw)
+    fr, P = run(reference, cls, s, dtype, **kw)
+    diff = np.nonzero((_bits(C) != _bits(P)).any(axis=1))[0]
+    assert diff.size == 0, (f"first differing sample {diff[0]}: "
+                            f"{[NAMES[j] for j in np.nonzero(_bits(C[diff[0]]) != _bits(P[diff[0]]))[0]]}")
+    bu = C[:, NAMES.index("bu")]
+    assert bu[0] == 1.0 and bu[-1] < 1.0 and np.all(np.diff(bu) <= 0)
+    if bias_deg[0] > 6.0:
+        assert float(np.max(bias_of(C)[:, 0])) == pytest.approx(math.radians(6.0), rel=1e-6)
+
+
+# ---- a bias from the first sample -------------------------------------------------------
+
+def test_a_large_bias_is_learnt_in_the_first_rest():
+    s = sd.scenario("rotation", duration=70.0, rest=20.0, seed=6, bias_deg=BIG)
+    c = sd.scenario("rotation", duration=70.0, rest=20.0, seed=6)
+    _, S = run(imufuse_c, "RobustAHRS", s)
+    _, C = run(imufuse_c, "RobustAHRS", c)
+    # 18.5 s at rest after the detection, tau_bias_rest 3 s: 0.2 % of 7 deg/s left
+    k = int(np.argmax(s.moving))
+    assert np.degrees(np.abs(bias_of(S)[k] - s.bias[k])).max() < 0.05
+    (t, h), (t0, h0) = errs(S, s), errs(C, c)
+    # (heading: 0.74 against 0.18 on this continuous fast rotation; on BROAD +0.14 deg,
+    # research/bias_study.py)
+    assert t < t0 + 0.05 and h < h0 + 1.0, ((t, h), (t0, h0))
+    # the filter as a calibrated gyro takes it (gyr_bias_max 0): never at rest, far off
+    _, O = run(imufuse_c, "RobustAHRS", s, gyr_bias_max=0.0)
+    assert errs(O, s)[0] > 5 * t
+
+
+@pytest.mark.parametrize("cls", ["RobustIMU", "RobustAHRS"])
+def test_a_large_bias_in_motion_beats_the_calibrated_model(cls):
+    # switched on in motion (no rest before it), rotations with 2 s pauses every 15 s
+    s = sd.scenario("bias_walk", duration=120.0, rest=0.0, seed=7, bias_deg=BIG)
+    _, S = run(imufuse_c, cls, s)
+    _, O = run(imufuse_c, cls, s, gyr_bias_max=0.0)
+    t, h = errs(S, s, since=60.0)
+    to, ho = errs(O, s, since=60.0)
+    assert to > 1.5 * t, (t, to)
+    if cls == "RobustAHRS":
+        assert ho > 1.5 * h, (h, ho)
+
+
+@pytest.mark.xfail(strict=True, reason="not met yet: a 4-5 deg/s bias from a start in "
+                   "continuous fast motion (median 140 deg/s) is learnt too slowly; the "
+                   "recommended filter's bias in motion is weighted down during fast turns")
+def test_a_large_bias_is_learnt_in_continuous_motion():
+    s = sd.scenario("rotation", duration=120.0, rest=0.0, seed=7, bias_deg=BIG)
+    _, S = run(imufuse_c, "RobustAHRS", s)
+    assert errs(S, s, since=60.0)[0] < 1.0
+
+
+@pytest.mark.xfail(strict=True, reason="not met yet: a +-3 % gyro scale error with the bias "
+                   "of a start in motion costs several degrees of tilt on continuous rotation")
+def test_scale_error():
+    s = sd.scenario("bias_walk", rate=100.0, duration=120.0, rest=0.0, seed=8, bias_deg=BIG)
+    c = sd.scenario("bias_walk", rate=100.0, duration=120.0, rest=0.0, seed=8)
+    _, C = run(imufuse_c, "RobustAHRS", c)
+    t0, h0 = errs(C, c, since=60.0)
+    omega = s.gyr - s.bias
+    for scale in ((1.03, 0.97, 1.03), (0.97, 1.03, 0.97)):
+        _, S = run(imufuse_c, "RobustAHRS", s, gyr=omega * np.asarray(scale) + s.bias)
+        t, h = errs(S, s, since=60.0)
+        assert t < t0 + 0.3 and h < h0 + 1.0, (scale, (t, h), (t0, h0))
+
+
+@pytest.mark.xfail(strict=True, reason="not met yet: a bias drifting by 0.5 deg/s over 10 "
+                   "minutes is tracked in the pauses only; fast turns in between leave about "
+                   "0.6 deg of extra tilt error")
+def test_temperature_ramp():
+    # the bias drifts by 0.5 deg/s per axis over 10 minutes, with 2 s rests every 15 s
+    s = sd.scenario("bias_walk", rate=100.0, duration=600.0, rest=5.0, seed=8)
+    ramp = np.linspace(0.0, 1.0, len(s.gyr))[:, None] * np.radians([0.5, -0.5, 0.5])
+    _, C = run(imufuse_c, "RobustAHRS", s)
+    _, S = run(imufuse_c, "RobustAHRS", s, gyr=s.gyr + ramp)
+    (t, h), (t0, h0) = errs(S, s, since=60.0), errs(C, s, since=60.0)
+    assert t < t0 + 0.1 and h < h0 + 0.5, ((t, h), (t0, h0))
+    assert np.degrees(np.abs(bias_of(S)[-1] - (s.bias[-1] + ramp[-1]))).max() < 0.1
+
+
+# ---- the seeded bias ---------------------------------------------------------------------
+
+@pytest.mark.parametrize("dtype", ["float64", "float32"])
+def test_get_and_set_gyr_bias(dtype):
+    s = sd.scenario("rotation", rate=100.0, duration=20.0, rest=0.0, seed=9, bias_deg=BIG)
+    known = tuple(float(v) for v in s.bias[0])
+    out = []
+    for backend in (imufuse_c, reference):
+        f = backend.RobustAHRS(s.dt, dtype=dtype, latency=0.0)
+        assert f.get_gyr_bias() == ((0.0, 0.0, 0.0), 1.0)
+        f.set_gyr_bias(known)
+        b, bu = f.get_gyr_bias()
+        assert bu == 0.0 and b == tuple(float(np.dtype(dtype).type(v)) for v in known)
+        out.append(f.run(s.gyr, s.acc, s.mag))
+        assert f.get_gyr_bias()[0] == tuple(float(v) for v in out[-1][-1, 21:24])
+        for bad in ((0.2, 0.0, 0.0), (math.nan, 0.0, 0.0), (0.0, 0.0), "xyz"):
+            with pytest.raises(ValueError, match="gyr bias"):
+                f.set_gyr_bias(bad)
+    assert np.array_equal(_bits(out[0]), _bits(out[1]))
+    # seeded, the estimate is right from the first second; unseeded it is not
+    _, U = run(imufuse_c, "RobustAHRS", s)
+    seeded = sd.errors(out[0][:, :4], s.q_true)[0][:300]
+    assert rms(seeded) < 0.5 * rms(sd.errors(U[:, :4], s.q_true)[0][:300])
+
+
+def test_gyr_bias_through_a_calibration_file(tmp_path):
+    path = str(tmp_path / "calib.json")
+    f = imufuse_c.RobustIMU(0.01)
+    f.set_gyr_bias((0.01, -0.02, 0.03))
+    save_gyr_bias(path, f.get_gyr_bias()[0])
+    assert gyr_bias(path) == (0.01, -0.02, 0.03)
+    assert gyr_bias(load_calibration(path)) == (0.01, -0.02, 0.03)
+    g = imufuse_c.RobustIMU(0.01)
+    g.set_gyr_bias(gyr_bias(path))
+    assert g.get_gyr_bias() == f.get_gyr_bias()
