@@ -63,7 +63,7 @@ static int robust_rest(const imf_robust_consts_t *const set, imf_robust_state_t 
     const imf_real win = set->rest_gyr2 + set->bias_var0 * (x->bu * x->bu);
     /* the bias taken off; gyr_bias_max 0: the raw rates (the fixed-point filters' B1) */
     const imf_real *const bb = set->s.gyr_bias_max > IMF_R(0.0) ? x->b : robust_zero3;
-    imf_real dx, dy, dz, d2, a2;
+    imf_real dx, dy, dz, d2, a2, kb;
     x->lw[0] = x->lw[0] + k * (g[0] - x->lw[0]);
     x->lw[1] = x->lw[1] + k * (g[1] - x->lw[1]);
     x->lw[2] = x->lw[2] + k * (g[2] - x->lw[2]);
@@ -90,11 +90,13 @@ static int robust_rest(const imf_robust_consts_t *const set, imf_robust_state_t 
     if (!(x->t_rest >= set->s.rest_time)) {
         return 0;
     }
-    x->b[0] = x->b[0] + set->kb_rest * (g[0] - x->b[0]);
-    x->b[1] = x->b[1] + set->kb_rest * (g[1] - x->b[1]);
-    x->b[2] = x->b[2] + set->kb_rest * (g[2] - x->b[2]);
+    /* the bias's low-pass: tau_bias_rest once known, tau_rest while unknown (bu) */
+    kb = set->kb_rest + x->bu * (set->k_rest - set->kb_rest);
+    x->b[0] = x->b[0] + kb * (g[0] - x->b[0]);
+    x->b[1] = x->b[1] + kb * (g[1] - x->b[1]);
+    x->b[2] = x->b[2] + kb * (g[2] - x->b[2]);
     robust_bias_clip(set, x->b);
-    x->bu = x->bu - set->kb_rest * x->bu;
+    x->bu = x->bu - kb * x->bu;
     return 1;
 }
 
@@ -227,8 +229,7 @@ static imf_real robust_bias_gain(const imf_robust_consts_t *const set,
         tm = (IMF_R(1.0) - x->bu) * set->s.tau_bias;
         tau = tm > tau0 ? tm : tau0;
     }
-    return IMF_R(1.0)
-           / (tau + tau * ((IMF_R(1.0) - x->bu) * robust_off2(x->lw, x->b) * set->inv_rate_ref2));
+    return IMF_R(1.0) / (tau + tau * (robust_off2(x->lw, x->b) * set->inv_rate_ref2));
 }
 
 /* The bias from a correction rotation (its rotation vector (cx, cy, cz) in the earth frame,
@@ -247,7 +248,7 @@ static void robust_bias_from(const imf_robust_consts_t *const set, imf_robust_st
 
 /* B3: in motion, the levelling's correction rate seen in the sensor frame is minus the
    bias error (Eq. 3.6, I_k = I_{k-1} + Ki dt e_k, with Ki dt = 1 / tau; robust_bias_gain);
-   each sample of it teaches bu by dt / tau_bias */
+   each sample of it teaches bu by dt / tau_bias, less while the sensor turns fast */
 static void robust_bias(const imf_robust_consts_t *const set, imf_robust_state_t *const x,
                         const imf_real *const r, const int rest)
 {
@@ -255,7 +256,9 @@ static void robust_bias(const imf_robust_consts_t *const set, imf_robust_state_t
     if (!rest && x->t >= set->s.tau_acc && set->inv_tau_bias > IMF_R(0.0)) {
         k = robust_bias_gain(set, x, set->tau_b0);
         if (x->bu > IMF_R(0.0)) {
-            x->bu = x->bu - set->ku_motion;
+            /* less learnt while the sensor turns fast (robust_bias_gain) */
+            x->bu = x->bu
+                    - set->ku_motion / (IMF_R(1.0) + robust_off2(x->lw, x->b) * set->inv_rate_ref2);
             if (x->bu < IMF_R(0.0)) {
                 x->bu = IMF_R(0.0);
             }

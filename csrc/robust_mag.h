@@ -297,10 +297,12 @@ static ROBUST_SMALL int robust_heading(const imf_robust_consts_t *const set,
     zr = IMF_R(1.0) / imf_sqrt(z2);
     zw = zw * zr;
     zz = zz * zr;
-    /* B3 from the heading: in motion, once the heading has started (tau_mag); not for a
-       calibrated gyro (gyr_bias_max 0: the fixed-point filters' B3) */
+    /* B3 from the heading: in motion, once the heading has started (tau_mag) and the
+       offset in use is trusted (B6: a heading through an unknown offset is no measure of
+       the bias); not for a calibrated gyro (gyr_bias_max 0: the fixed-point filters' B3) */
     if (x->t >= set->s.tau_mag && set->inv_tau_bias > IMF_R(0.0) && set->s.gyr_bias_max > IMF_R(0.0)
-        && !(x->t_rest >= set->s.rest_time)) {
+        && !(x->t_rest >= set->s.rest_time)
+        && (!set->s.mag_learn || (x->m_std < ROBUST_MAG_TRUST && x->m_ew < ROBUST_MAG_MEAN))) {
         robust_bias_from(set, x, IMF_R(0.0), IMF_R(0.0), IMF_R(2.0) * zz,
                          robust_bias_gain(set, x, set->tau_h0));
     }

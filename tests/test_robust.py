@@ -130,12 +130,13 @@ def test_b1_bias_at_rest(scen):
     # 0.5 deg/s of bias learnt to 0.02 deg/s within the first rest
     assert np.degrees(np.abs(bias(S)[-1] - s.bias[-1])).max() < 0.02
     assert col(S, "t_rest")[-1] == pytest.approx(1.5)
-    # without rest detection the bias is still unknown when the motion starts (B3 learns
-    # it only in motion), and without any bias estimation the tilt error is many times larger
+    # without rest detection the vertical axis's bias (0.2 deg/s) is still unknown when the
+    # motion starts (the levelling, B3's only input without a magnetometer, does not see
+    # it), and without any bias estimation the tilt error is many times larger
     _, S0 = run("RobustIMU", s, rest_gyr=0.0)
     k = int(np.argmax(s.moving))
     assert np.degrees(np.abs(bias(S)[k] - s.bias[k])).max() < 0.05
-    assert np.degrees(np.abs(bias(S0)[k] - s.bias[k])).max() > 0.3
+    assert np.degrees(abs(bias(S0)[k, 2] - s.bias[k, 2])) > 0.15
     _, S00 = run("RobustIMU", s, rest_gyr=0.0, tau_bias=0.0)
     t1, _ = sd.errors(S[:, :4], s.q_true)
     t0, _ = sd.errors(S00[:, :4], s.q_true)

@@ -71,11 +71,13 @@ class _RobustBlocks:
             x.t_rest = R(0.0)
         if not (x.t_rest >= self.s.rest_time):
             return False, w2
-        x.b[0] = x.b[0] + self.kb_rest * (g[0] - x.b[0])
-        x.b[1] = x.b[1] + self.kb_rest * (g[1] - x.b[1])
-        x.b[2] = x.b[2] + self.kb_rest * (g[2] - x.b[2])
+        # the bias's low-pass: tau_bias_rest once known, tau_rest while unknown (bu)
+        kb = self.kb_rest + x.bu * (self.k_rest - self.kb_rest)
+        x.b[0] = x.b[0] + kb * (g[0] - x.b[0])
+        x.b[1] = x.b[1] + kb * (g[1] - x.b[1])
+        x.b[2] = x.b[2] + kb * (g[2] - x.b[2])
         self._bias_clip(x.b)
-        x.bu = x.bu - self.kb_rest * x.bu
+        x.bu = x.bu - kb * x.bu
         return True, w2
 
     def _strapdown(self, x, g):
@@ -183,8 +185,7 @@ class _RobustBlocks:
         if x.bu > R(0.0):
             tm = (R(1.0) - x.bu) * self.s.tau_bias
             tau = tm if tm > tau0 else tau0
-        return R(1.0) / (tau + tau * ((R(1.0) - x.bu) * self._off2(x.lw, x.b)
-                                      * self.inv_rate_ref2))
+        return R(1.0) / (tau + tau * (self._off2(x.lw, x.b) * self.inv_rate_ref2))
 
     def _bias_from(self, x, cx, cy, cz, k):
         # the bias from a correction rotation (its rotation vector (cx, cy, cz) in the earth
@@ -200,12 +201,15 @@ class _RobustBlocks:
     def _bias(self, x, r, rest):
         # B3: in motion, the levelling's correction rate seen in the sensor frame is minus
         # the bias error (Eq. 3.6, I_k = I_{k-1} + Ki dt e_k, with Ki dt = 1 / tau;
-        # _bias_gain); each sample of it teaches bu by dt / tau_bias
+        # _bias_gain); each sample of it teaches bu by dt / tau_bias, less while the
+        # sensor turns fast
         R = self._R
         if not rest and x.t >= self.s.tau_acc and self.inv_tau_bias > R(0.0):
             k = self._bias_gain(x, self.tau_b0)
             if x.bu > R(0.0):
-                x.bu = x.bu - self.ku_motion
+                # less learnt while the sensor turns fast (_bias_gain)
+                x.bu = x.bu - self.ku_motion / (R(1.0) + self._off2(x.lw, x.b)
+                                                * self.inv_rate_ref2)
                 if x.bu < R(0.0):
                     x.bu = R(0.0)
             self._bias_from(x, R(2.0) * r[1], R(2.0) * r[2], R(0.0), k)

@@ -215,10 +215,13 @@ class _RobustMag:
         zr = R(1.0) / R(math.sqrt(z2))
         zw = zw * zr
         zz = zz * zr
-        # B3 from the heading: in motion, once the heading has started (tau_mag); not for a
-        # calibrated gyro (gyr_bias_max 0: the fixed-point filters' B3)
+        # B3 from the heading: in motion, once the heading has started (tau_mag) and the
+        # offset in use is trusted (B6: a heading through an unknown offset is no measure of
+        # the bias); not for a calibrated gyro (gyr_bias_max 0: the fixed-point filters' B3)
         if (x.t >= self.s.tau_mag and self.inv_tau_bias > R(0.0)
-                and self.s.gyr_bias_max > R(0.0) and not (x.t_rest >= self.s.rest_time)):
+                and self.s.gyr_bias_max > R(0.0) and not (x.t_rest >= self.s.rest_time)
+                and (not self.s.mag_learn
+                     or (x.m_std < R(_MAG_TRUST) and x.m_ew < R(_MAG_MEAN)))):
             self._bias_from(x, R(0.0), R(0.0), R(2.0) * zz, self._bias_gain(x, self.tau_h0))
         c = [zw * x.c[0] - zz * x.c[3],
              zw * x.c[1] - zz * x.c[2],
