@@ -15,13 +15,13 @@ import dataclasses
 import struct
 import subprocess
 import time
-from typing import List, Optional, Sequence
+from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
 from ..shared.bits import words_as_values
 from ..mcu import toolchains as _tc
-from ..mcu.emulators import _LINE, _emulator_cmd, _simavr_text, _to_counts
+from ..mcu.emulators import _emulator_cmd, _simavr_text, _to_counts
 from .elf import _Elf
 from .target_build import _IN_KIND, _MAGIC, Program, StateType
 from .targets import TargetError, harness_target
@@ -63,8 +63,9 @@ def run_program(prog: Program, inputs: np.ndarray, timeout: float) -> TargetRun:
     elf = _Elf.read(prog.elf)
     inputs = np.asarray(inputs, dtype=prog.in_dtype).reshape(len(inputs), prog.row)
     n_total = inputs.shape[0]
-    words: List[List[str]] = []
-    raw_counts: List[int] = []
+    words: List[np.ndarray] = []       # per chunk: (n, state words) bit patterns
+    raw_counts: List[np.ndarray] = []
+    widths = [8 if t.size > 4 else 4 for t in prog.types]
     stack = 0
     band = 0
     image = b""
@@ -94,14 +95,13 @@ def run_program(prog: Program, inputs: np.ndarray, timeout: float) -> TargetRun:
         overhead = None
         ended = False
         fault = None
-        for line in text.splitlines():
-            line = line.strip()
-            m = _LINE.match(line)
-            if m:
-                words.append(m.group(1).split())
-                raw_counts.append(int(m.group(2), 16))
-                got += 1
-            elif line.startswith("T"):
+        recs: List[bytes] = []
+        for raw in text.encode("latin-1").split(b"\n"):
+            if raw[:1] == b"S" and overhead is not None and not ended:
+                recs.append(raw)        # a sample's record (binary: not stripped)
+                continue
+            line = raw.decode("latin-1").strip()
+            if line.startswith("T"):
                 t = [int(w, 16) for w in line[1:].split()]
                 if types_seen is not None and overhead is not None:
                     fault = "reset"     # the program started again: a jump to the reset vector
@@ -128,6 +128,10 @@ def run_program(prog: Program, inputs: np.ndarray, timeout: float) -> TargetRun:
                 fault = "stack"
             elif line.startswith("IMF_EXIT"):
                 fault = "exit " + str(int(np.uint32(int(line.split()[-1], 16)).view(np.int32)))
+        if recs:
+            w, c, got = _records(b"".join(recs), widths)
+            words.append(w)
+            raw_counts.append(c)
         t_parse += time.perf_counter() - t1
         k = start + got
         if chunks == 0:
@@ -166,9 +170,9 @@ def run_program(prog: Program, inputs: np.ndarray, timeout: float) -> TargetRun:
         raise TargetError("the state types printed do not match the program")
     t1 = time.perf_counter()
     states = _decode(words, prog.types)
+    counted = np.concatenate(raw_counts) if raw_counts else np.zeros(0, np.int64)
     t_parse += time.perf_counter() - t1
-    counts = _to_counts(tgt, np.array(raw_counts, dtype=np.int64),
-                        first_overhead if raw_counts else 0)
+    counts = _to_counts(tgt, counted, first_overhead if counted.size else 0)
     return TargetRun(prog, states, counts, tgt.count_unit, None if stack < 0 else stack, band,
                      chunks, t_emu, t_parse)
 
@@ -192,14 +196,45 @@ def _stack_hint(prog: Program) -> str:
     return ""
 
 
-def _decode(words: List[List[str]], types: Sequence[StateType]) -> List[np.ndarray]:
-    n = len(words)
-    out = []
-    if n and any(len(w) != len(types) for w in words):
+#: the escape byte of the binary records (imf_fw_main.c's imf_fw_put): '~' and the byte + 0x40
+_ESC = 0x7E
+_REC = ord("S")
+
+
+def _records(body: bytes, widths: Sequence[int]) -> Tuple[np.ndarray, np.ndarray, int]:
+    """One chunk's records, their lines joined (imf_fw_main.c): (n, words) uint64 bit
+    patterns, (n,) raw counts and n, the samples that completed. A record counts only when it is
+    whole, starts with 'S' and carries its sample's index (mod 256) in its last byte: a
+    dropped or extra byte ends the run of records there, and whatever follows the last good
+    record (an emulator's message after a lockup) is not a sample."""
+    a = np.frombuffer(body, dtype=np.uint8)
+    esc = np.flatnonzero(a == _ESC)
+    esc = esc[esc + 1 < a.size]
+    if esc.size:
+        a = a.copy()
+        a[esc + 1] -= 0x40
+        keep = np.ones(a.size, dtype=bool)
+        keep[esc] = False
+        a = a[keep]
+    size = 1 + sum(widths) + 4 + 1
+    n = a.size // size
+    r = a[:n * size].reshape(n, size)
+    ok = (r[:, 0] == _REC) & (r[:, -1] == (np.arange(n) & 0xFF))
+    if not ok.all():
+        n = int(np.argmin(ok))
+        r = r[:n]
+    words = np.zeros((n, len(widths)), dtype=np.uint64)
+    off = 1
+    for j, w in enumerate(widths):
+        cell = np.ascontiguousarray(r[:, off:off + w])
+        words[:, j] = cell.view("<u8" if w == 8 else "<u4").reshape(n)
+        off += w
+    counts = np.ascontiguousarray(r[:, off:off + 4]).view("<u4").reshape(n).astype(np.int64)
+    return words, counts, n
+
+
+def _decode(words: List[np.ndarray], types: Sequence[StateType]) -> List[np.ndarray]:
+    w = np.concatenate(words) if words else np.zeros((0, len(types)), dtype=np.uint64)
+    if w.shape[1] != len(types):
         raise TargetError("samples differ in the number of state words")
-    cols = list(zip(*words)) if n else [()] * len(types)
-    for j, t in enumerate(types):
-        a = words_as_values(np.array([int(h, 16) for h in cols[j]], dtype=np.uint64), t.size,
-                            t.integer, t.signed)
-        out.append(a)
-    return out
+    return [words_as_values(w[:, j], t.size, t.integer, t.signed) for j, t in enumerate(types)]

@@ -15,9 +15,13 @@
  * chunk left them. At the end of a chunk the image is printed ("R <hex>"), written byte by byte
  * from the stack so that printing does not change what is printed.
  *
- * Output: "T <type> ..." once, "K <hex>" the empty-call count, per sample
- * "S <word> ... c<hex count>", "M <stack bytes> <painted band>", "R <image>", "IMF_END".
- * A step that writes the guard band above the static data prints "IMF_STACK_OVERFLOW <k>". */
+ * Output: text lines "T <type> ..." once, "K <hex>" the empty-call count; then one line per
+ * sample, written out (flushed) before the next sample runs: 'S' and a binary record, the state
+ * words' bit patterns (little-endian, 4 bytes, or 8 for a 64-bit word), the count (4 bytes) and
+ * the sample's index modulo 256, escaped as imf_fw_put says (so the record holds no newline, NUL
+ * or '.'); then "M <stack bytes> <painted band>", "R <image>", "IMF_END". A fault, exit or stack overflow starts a new line ("\nIMF_FAULT"): the records
+ * before it are the samples that completed. A step that writes the guard band above the
+ * static data prints "IMF_STACK_OVERFLOW". */
 #include <stdint.h>
 #include <string.h>
 #include "imf_port.h"
@@ -46,11 +50,33 @@ extern char __data_start[], __bss_end[], __heap_start[];
      ((__typeof__(e))-1 < (__typeof__(e))0 ? 0x200u : 0u) |                             \
      (__builtin_types_compatible_p(__typeof__(e), double) ? 0x400u : 0u))
 
+/* Binary records. Every byte goes out as itself, except the bytes the emulators' text channels
+ * do not carry (below 0x20: NUL ends a semihosting string, simavr shows control characters as
+ * '.') and the two the framing uses ('.' and '~'): those as '~' and the byte plus 0x40. */
+#define IMF_FW_ESC 0x7Eu
+
+static void imf_fw_put(uint8_t b)
+{
+    if (b < 0x20u || b == (uint8_t)'.' || b == IMF_FW_ESC) {
+        imf_out_char((char)IMF_FW_ESC);
+        b = (uint8_t)(b + 0x40u);
+    }
+    imf_out_char((char)b);
+}
+
+/* a 32-bit word, little-endian */
+static void imf_fw_put32(uint32_t v)
+{
+    imf_fw_put((uint8_t)v);
+    imf_fw_put((uint8_t)(v >> 8));
+    imf_fw_put((uint8_t)(v >> 16));
+    imf_fw_put((uint8_t)(v >> 24));
+}
+
 static __inline__ void imf_fw_out64(uint32_t hi, uint32_t lo)
 {
-    imf_out_char(' ');
-    imf_out_hex(hi, 8u);
-    imf_out_hex(lo, 8u);
+    imf_fw_put32(lo);
+    imf_fw_put32(hi);
 }
 
 static __inline__ void imf_fw_out_u64(unsigned long long v)
@@ -65,6 +91,13 @@ static __inline__ void imf_fw_out_double(double v)
     imf_fw_out_u64(b);
 }
 
+static __inline__ void imf_fw_out_f32(float v)
+{
+    uint32_t b;
+    memcpy(&b, &v, sizeof b);
+    imf_fw_put32(b);
+}
+
 /* Every state word as its bit pattern: floats of 4 bytes as f32, of 8 as f64, integers
  * widened to 32 bits (64 when wider). */
 #define IMF_FW_DUMP(e)                                                                  \
@@ -73,13 +106,13 @@ static __inline__ void imf_fw_out_double(double v)
             if (sizeof(e) > 4u) {                                                       \
                 imf_fw_out_u64((unsigned long long)(e));                                \
             } else if ((IMF_FW_TYPE(e) & 0x200u) != 0u) {                               \
-                imf_out_i32((int32_t)(e));                                              \
+                imf_fw_put32((uint32_t)(int32_t)(e));                                   \
             } else {                                                                    \
-                imf_out_u32((uint32_t)(e));                                             \
+                imf_fw_put32((uint32_t)(e));                                            \
             }                                                                           \
         } else if (sizeof(e) == 4u) {                                                   \
             float imf_t_ = (float)(e);                                                  \
-            imf_out_f32(imf_t_);                                                        \
+            imf_fw_out_f32(imf_t_);                                                     \
         } else {                                                                        \
             double imf_t_ = (double)(e);                                                \
             imf_fw_out_double(imf_t_);                                                  \
@@ -200,17 +233,81 @@ static __inline__ uintptr_t imf_fw_sp(void)
 #endif
 }
 
-static void imf_fw_paint(uintptr_t lo, uintptr_t hi)
+/* Painting and reading the band: the 32-bit cores write and compare a word (four cells) at a
+ * time, the AVR eight bytes per loop; the lowest changed byte is found exactly as byte by byte
+ * (a word is skipped only when all four of its bytes still hold the paint). */
+#define IMF_FW_PAINT32 0xA5A5A5A5u
+/* Both run inside main's frame (inlined): a call's own frame would lie in the band it paints. */
+#if defined(__GNUC__)
+#define IMF_FW_INLINE __inline__ __attribute__((always_inline))
+#else
+#define IMF_FW_INLINE
+#endif
+
+static IMF_FW_INLINE void imf_fw_paint(uintptr_t lo, uintptr_t hi)
 {
     volatile uint8_t *p = (volatile uint8_t *)lo;
+#if defined(__AVR__)
+    while ((uintptr_t)p + 8u <= hi) {
+        p[0] = IMF_FW_PAINT;
+        p[1] = IMF_FW_PAINT;
+        p[2] = IMF_FW_PAINT;
+        p[3] = IMF_FW_PAINT;
+        p[4] = IMF_FW_PAINT;
+        p[5] = IMF_FW_PAINT;
+        p[6] = IMF_FW_PAINT;
+        p[7] = IMF_FW_PAINT;
+        p += 8;
+    }
+#else
+    volatile uint32_t *w;
+    while (((uintptr_t)p & 3u) != 0u && (uintptr_t)p < hi) {
+        *p++ = IMF_FW_PAINT;
+    }
+    w = (volatile uint32_t *)p;
+    while ((uintptr_t)w + 16u <= hi) {
+        w[0] = IMF_FW_PAINT32;
+        w[1] = IMF_FW_PAINT32;
+        w[2] = IMF_FW_PAINT32;
+        w[3] = IMF_FW_PAINT32;
+        w += 4;
+    }
+    while ((uintptr_t)w + 4u <= hi) {
+        *w++ = IMF_FW_PAINT32;
+    }
+    p = (volatile uint8_t *)w;
+#endif
     while ((uintptr_t)p < hi) {
         *p++ = IMF_FW_PAINT;
     }
 }
 
-static uint32_t imf_fw_depth(uintptr_t sp, uintptr_t lo)
+static IMF_FW_INLINE uint32_t imf_fw_depth(uintptr_t sp, uintptr_t lo)
 {
     volatile const uint8_t *p = (volatile const uint8_t *)lo;
+#if defined(__AVR__)
+    while ((uintptr_t)p + 8u <= sp && p[0] == IMF_FW_PAINT && p[1] == IMF_FW_PAINT &&
+           p[2] == IMF_FW_PAINT && p[3] == IMF_FW_PAINT && p[4] == IMF_FW_PAINT &&
+           p[5] == IMF_FW_PAINT && p[6] == IMF_FW_PAINT && p[7] == IMF_FW_PAINT) {
+        p += 8;
+    }
+#else
+    while (((uintptr_t)p & 3u) != 0u && (uintptr_t)p < sp && *p == IMF_FW_PAINT) {
+        ++p;
+    }
+    if (((uintptr_t)p & 3u) == 0u) {
+        volatile const uint32_t *w = (volatile const uint32_t *)p;
+        while ((uintptr_t)w + 16u <= sp &&
+               ((w[0] ^ IMF_FW_PAINT32) | (w[1] ^ IMF_FW_PAINT32) | (w[2] ^ IMF_FW_PAINT32) |
+                (w[3] ^ IMF_FW_PAINT32)) == 0u) {
+            w += 4;
+        }
+        while ((uintptr_t)w + 4u <= sp && *w == IMF_FW_PAINT32) {
+            ++w;
+        }
+        p = (volatile const uint8_t *)w;
+    }
+#endif
     while ((uintptr_t)p < sp && *p == IMF_FW_PAINT) {
         ++p;
     }
@@ -288,7 +385,7 @@ int main(void)
     if (resume == 0u) {
         imf_user_init();
     }
-    imf_port_write("T");
+    imf_port_write("\nT");
     for (i = 0u; i < (uint32_t)(sizeof imf_fw_types / sizeof imf_fw_types[0]); ++i) {
         imf_out_u32(IMF_RD32(&imf_fw_types[i]));
     }
@@ -329,9 +426,8 @@ int main(void)
         }
         imf_out_char('S');
         imf_user_dump();
-        imf_out_char(' ');
-        imf_out_char('c');
-        imf_out_hex(count, 8u);
+        imf_fw_put32(count);
+        imf_fw_put((uint8_t)i);
         imf_out_char('\n');
         imf_out_flush();
     }
