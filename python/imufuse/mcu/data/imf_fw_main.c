@@ -248,16 +248,17 @@ static IMF_FW_INLINE void imf_fw_paint(uintptr_t lo, uintptr_t hi)
 {
     volatile uint8_t *p = (volatile uint8_t *)lo;
 #if defined(__AVR__)
-    while ((uintptr_t)p + 8u <= hi) {
-        p[0] = IMF_FW_PAINT;
-        p[1] = IMF_FW_PAINT;
-        p[2] = IMF_FW_PAINT;
-        p[3] = IMF_FW_PAINT;
-        p[4] = IMF_FW_PAINT;
-        p[5] = IMF_FW_PAINT;
-        p[6] = IMF_FW_PAINT;
-        p[7] = IMF_FW_PAINT;
-        p += 8;
+    uint16_t n8 = (uint16_t)((hi - lo) >> 3);
+    if (hi > lo && n8 != 0u) {
+        /* st X+: two cycles a byte */
+        uint8_t *x = (uint8_t *)lo;
+        __asm__ volatile("1: st X+, %[v]\n\tst X+, %[v]\n\tst X+, %[v]\n\tst X+, %[v]\n\t"
+                         "st X+, %[v]\n\tst X+, %[v]\n\tst X+, %[v]\n\tst X+, %[v]\n\t"
+                         "sbiw %[n], 1\n\tbrne 1b"
+                         : "+x"(x), [n] "+w"(n8)
+                         : [v] "r"((uint8_t)IMF_FW_PAINT)
+                         : "memory", "cc");
+        p = x;
     }
 #else
     volatile uint32_t *w;
@@ -286,10 +287,24 @@ static IMF_FW_INLINE uint32_t imf_fw_depth(uintptr_t sp, uintptr_t lo)
 {
     volatile const uint8_t *p = (volatile const uint8_t *)lo;
 #if defined(__AVR__)
-    while ((uintptr_t)p + 8u <= sp && p[0] == IMF_FW_PAINT && p[1] == IMF_FW_PAINT &&
-           p[2] == IMF_FW_PAINT && p[3] == IMF_FW_PAINT && p[4] == IMF_FW_PAINT &&
-           p[5] == IMF_FW_PAINT && p[6] == IMF_FW_PAINT && p[7] == IMF_FW_PAINT) {
-        p += 8;
+    uint16_t n8 = (uint16_t)((sp - lo) >> 3);
+    if (sp > lo && n8 != 0u) {
+        /* eight bytes compared as one number (cpi, then cpc keeps Z only while equal); a group
+         * with a changed byte is stepped back over and read byte by byte below */
+        const uint8_t *x = (const uint8_t *)lo;
+        uint8_t t;
+        __asm__ volatile("1: ld %[t], X+\n\tcpi %[t], 0xA5\n\t"
+                         "ld %[t], X+\n\tcpc %[t], %[v]\n\tld %[t], X+\n\tcpc %[t], %[v]\n\t"
+                         "ld %[t], X+\n\tcpc %[t], %[v]\n\tld %[t], X+\n\tcpc %[t], %[v]\n\t"
+                         "ld %[t], X+\n\tcpc %[t], %[v]\n\tld %[t], X+\n\tcpc %[t], %[v]\n\t"
+                         "ld %[t], X+\n\tcpc %[t], %[v]\n\t"
+                         "brne 2f\n\tsbiw %[n], 1\n\tbrne 1b\n\trjmp 3f\n"
+                         "2: sbiw r26, 8\n"
+                         "3:"
+                         : "+x"(x), [n] "+w"(n8), [t] "=&d"(t)
+                         : [v] "r"((uint8_t)IMF_FW_PAINT)
+                         : "memory", "cc");
+        p = x;
     }
 #else
     while (((uintptr_t)p & 3u) != 0u && (uintptr_t)p < sp && *p == IMF_FW_PAINT) {
