@@ -208,7 +208,7 @@ def _block_source(chunk_bytes: int, ram_cap: int) -> str:
         "#include <stdint.h>\n"
         "#if defined(__AVR__)\n#include <avr/pgmspace.h>\n#define IMF_FLASH PROGMEM\n"
         "#else\n#define IMF_FLASH\n#endif\n"
-        f"const uint32_t imf_fw_hdr[6] IMF_FLASH = {{ 0x{_MAGIC:08x}u, 0u, 0u, 0u, 0u, 0u }};\n"
+        f"const uint32_t imf_fw_hdr[7] IMF_FLASH = {{ 0x{_MAGIC:08x}u, 0u, 0u, 0u, 0u, 0u, 0u }};\n"
         f"const uint8_t imf_fw_in[{max(chunk_bytes, 1)}] IMF_FLASH = {{ 1u }};\n"
         f"const uint8_t imf_fw_ram[{max(ram_cap, 1)}] IMF_FLASH = {{ 1u }};\n")
 

@@ -19,7 +19,8 @@
  * sample, written out (flushed) before the next sample runs: 'S' and a binary record, the state
  * words' bit patterns (little-endian, 4 bytes, or 8 for a 64-bit word), the count (4 bytes) and
  * the sample's index modulo 256, escaped as imf_fw_put says (so the record holds no newline, NUL
- * or '.'); then "M <stack bytes> <painted band>", "R <image>", "IMF_END". A fault, exit or stack overflow starts a new line ("\nIMF_FAULT"): the records
+ * or '.'); then "M <stack bytes> <painted band> <RAM image bytes> <deep>", "R <image>",
+ * "IMF_END". A fault, exit or stack overflow starts a new line ("\nIMF_FAULT"): the records
  * before it are the samples that completed. A step that writes the guard band above the
  * static data prints "IMF_STACK_OVERFLOW". */
 #include <stdint.h>
@@ -39,8 +40,9 @@
 #endif
 
 /* imf_fw_hdr: magic, samples in this chunk, resume (0/1), RAM image bytes, input kind
- * (1 float, 2 double, 3 int16_t, 4 int32_t), values per sample. */
-extern const uint32_t imf_fw_hdr[6] IMF_FLASH;
+ * (1 float, 2 double, 3 int16_t, 4 int32_t), values per sample, near band bytes (0: the whole
+ * band painted before every step; see main). */
+extern const uint32_t imf_fw_hdr[7] IMF_FLASH;
 extern const uint8_t imf_fw_in[] IMF_FLASH;
 extern const uint8_t imf_fw_ram[] IMF_FLASH;
 extern char __data_start[], __bss_end[], __heap_start[];
@@ -370,12 +372,15 @@ int main(void)
     const uint32_t image = IMF_RD32(&imf_fw_hdr[3]);
     const uint32_t kind = IMF_RD32(&imf_fw_hdr[4]);
     const uint32_t row = IMF_RD32(&imf_fw_hdr[5]);
+    const uint32_t near = IMF_RD32(&imf_fw_hdr[6]);
     const uint32_t ram = (uint32_t)(__bss_end - __data_start);
     uint32_t i;
     uint32_t t0;
     uint32_t count;
     uintptr_t sp;
     uintptr_t lo;
+    uintptr_t mid;
+    uint32_t deep = 0u;
     uint32_t depth_empty;
     uint32_t depth;
     uint32_t depth_max = 0u;
@@ -424,14 +429,23 @@ int main(void)
     imf_fw_paint(lo, sp);
     imf_step_empty();
     depth_empty = imf_fw_depth(sp, lo);
+    /* With a near band (the host's choice), only [mid, sp) is painted and read around every
+     * step: [lo, mid) keeps its paint from above unless something reaches below mid. A step whose
+     * lowest changed byte is mid itself, or a byte below mid found changed at the end, makes
+     * the chunk "deep" (M's fourth word) and the host runs it again with the whole band painted
+     * before every step; otherwise every step found [lo, sp) painted, as it would have been. */
+    mid = (near != 0u && sp - lo > near) ? sp - near : lo;
 
     for (i = 0u; i < n; ++i) {
         imf_fw_load(i, kind, row);
-        imf_fw_paint(lo, sp);
+        imf_fw_paint(mid, sp);
         t0 = imf_port_count_begin();
         imf_step();
         count = imf_port_count_end(t0);
-        depth = imf_fw_depth(sp, lo);
+        depth = imf_fw_depth(sp, mid);
+        if (mid != lo && depth >= (uint32_t)(sp - mid)) {
+            deep = 1u;
+        }
         if (depth > depth_max) {
             depth_max = depth;
         }
@@ -446,10 +460,14 @@ int main(void)
         imf_out_char('\n');
         imf_out_flush();
     }
+    if (mid != lo && imf_fw_depth(mid, lo) != 0u) {
+        deep = 1u;
+    }
     imf_port_write("M");
     imf_out_u32(depth_max - depth_empty);
     imf_out_u32((uint32_t)(sp - lo));
     imf_out_u32(ram);
+    imf_out_u32(deep);
     imf_out_char('\n');
     imf_out_flush();
     imf_fw_print_image(ram);
