@@ -5,9 +5,11 @@ image of the firmware's RAM as the previous chunk left it) into the linked image
 resumes copies the image over .data and .bss instead of calling the firmware's init, so static
 variables of the firmware carry across chunks as they would in one run.
 
-Reported with the states: per-update counts (cycles on AVR, instructions on ARM), the stack the
-update reached (painted band). A fault, exit(), a reset, a stack overflow or a timeout is a
-TargetError naming the sample.
+The states come back as one binary record per sample (imf_fw_main.c: escaped for the
+emulators' text channels, with the sample's index), decoded with numpy. Reported with the
+states: per-update counts (cycles on AVR, instructions on ARM), the stack the update reached
+(painted band). A fault, exit(), a reset, a stack overflow or a timeout is a TargetError
+naming the sample: the first whose record did not arrive whole.
 """
 from __future__ import annotations
 
