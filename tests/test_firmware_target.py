@@ -386,3 +386,97 @@ def test_architecture_flags_of_the_user_are_named():
     v, _, _ = _validate(*_cf(), ["-O2", "-mcpu=cortex-m0plus"], "cortex-m0", n=200)
     assert v.bit_exact, v.text()
     assert "your --cflags set the architecture (-mcpu=cortex-m0plus)" in v.text()
+
+
+# ---------------------------------------------------------------------------
+# the binary records the emulated target sends (imf_fw_main.c, imufuse.firmware.target_run)
+
+_PLANT_H = """#ifndef PLANT_H
+#define PLANT_H
+#include "madgwick.h"
+void plant_init(imf_madgwick_t *self, const imf_madgwick_settings_t *settings);
+void plant_update(imf_madgwick_t *self, imf_real gx, imf_real gy, imf_real gz, imf_real ax,
+                  imf_real ay, imf_real az);
+#endif
+"""
+
+_PLANT_C = """#include <string.h>
+#include "plant.h"
+static unsigned long plant_n;
+void plant_init(imf_madgwick_t *self, const imf_madgwick_settings_t *settings)
+{
+    imf_madgwick_init(self, settings);
+}
+void plant_update(imf_madgwick_t *self, imf_real gx, imf_real gy, imf_real gz, imf_real ax,
+                  imf_real ay, imf_real az)
+{
+    imf_madgwick_update_imu(self, gx, gy, gz, ax, ay, az);
+    if (++plant_n == PLANT_AT + 1ul) {
+        uint32_t b;
+        memcpy(&b, &self->x.q2, sizeof b);
+        b ^= 1u;
+        memcpy(&self->x.q2, &b, sizeof b);
+    }
+}
+"""
+
+
+@pytest.mark.parametrize("target", ["cortex-m0", "atmega328p"])
+def test_planted_bit_reported_at_its_sample_and_word(tmp_path, target):
+    """MadgwickIMU with the last bit of q2 flipped after sample 1029: the records carry every
+    state word of every sample (escaped bytes, the index byte wrapping past 255, two chunks on
+    the ATmega328P) to the host unchanged, so the report names sample 1029 and q2, and every
+    word before it is equal bit for bit."""
+    at, n = 1029, 1100
+    (tmp_path / "plant.h").write_text(_PLANT_H)
+    (tmp_path / "plant.c").write_text(_PLANT_C)
+    csrc = str(csrc_dir())
+    fw = Firmware([os.path.join(csrc, "madgwick.c"), str(tmp_path / "plant.c")],
+                  headers=["madgwick.h", "plant.h"], include_dirs=[csrc, str(tmp_path)],
+                  defines={"PLANT_AT": at}, init="plant_init", update="plant_update",
+                  state={f"q{k}": f"x.q{k}" for k in range(4)},
+                  state_names=("q0", "q1", "q2", "q3"), cflags=list(DEFAULT_CFLAGS))
+    s = sim.imu("slow", rate=200.0, duration=n / 200.0, seed=3)
+    v = validate(fw, "MadgwickIMU", dict(dt=s.dt, beta=0.1), (s.gyr, s.acc), target=target,
+                 explain=False)
+    assert len(v.got) == n and v.cost.counts.size == n
+    c = v.comparison
+    assert (c.first_sample, c.first_variable) == (at, "q2"), v.text()
+    got, want = v.got.view(np.uint32), np.asarray(v.want, dtype=F32).view(np.uint32)
+    assert np.array_equal(got[:at], want[:at])
+    assert got[at, 2] == want[at, 2] ^ 1 and np.array_equal(np.delete(got[at], 2),
+                                                            np.delete(want[at], 2))
+    if target == "atmega328p":
+        assert v.timing["chunks"] >= 2
+
+
+def _escaped(rec):
+    """A record as imf_fw_main.c's imf_fw_put writes it."""
+    out = bytearray()
+    for b in rec:
+        out += bytes((0x7E, b + 0x40)) if b < 0x20 or b in (0x2E, 0x7E) else bytes((b,))
+    return bytes(out)
+
+
+def test_records_decoded_word_for_word_and_cut_at_a_lost_byte():
+    """The host's decoder (no emulator): every byte value in 32- and 64-bit words, counts and
+    the wrapping index come back as sent; a byte lost in record 300 ends the samples at 300
+    (the sample the report then names), and an emulator's message after the last record adds
+    none."""
+    import struct
+    from imufuse.firmware.target_run import _records
+    rng = np.random.default_rng(5)
+    n = 600
+    w32 = rng.integers(0, 2 ** 32, size=(n, 2), dtype=np.uint64)
+    w32[:256, 0] = np.arange(256, dtype=np.uint64) * 0x01010101
+    w64 = rng.integers(0, 2 ** 63, size=n, dtype=np.uint64) * 2 + 1
+    counts = rng.integers(0, 2 ** 32, size=n, dtype=np.uint64)
+    recs = [_escaped(b"S" + struct.pack("<IIQI", int(w32[i, 0]), int(w32[i, 1]), int(w64[i]),
+                                        int(counts[i])) + bytes((i & 0xFF,))) for i in range(n)]
+    words, c, k = _records(b"".join(recs), [4, 4, 8])
+    assert k == n
+    assert np.array_equal(words, np.column_stack([w32, w64]))
+    assert np.array_equal(c, counts.astype(np.int64))
+    lost = recs[300][:5] + recs[300][6:]
+    assert _records(b"".join(recs[:300] + [lost] + recs[301:]), [4, 4, 8])[2] == 300
+    assert _records(b"".join(recs) + b"qemu: fatal: Lockup", [4, 4, 8])[2] == n

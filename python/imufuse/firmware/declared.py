@@ -451,14 +451,14 @@ _DUMP_WORD = """static void imf_fw_dump_word(const void *p, uint32_t type)
     uint32_t size = type & 0xFFu;
     if ((type & 0x100u) != 0u) {
         if (size == 1u) {
-            if ((type & 0x200u) != 0u) { imf_out_i32(*(const int8_t *)p); }
-            else { imf_out_u32(*(const uint8_t *)p); }
+            if ((type & 0x200u) != 0u) { imf_fw_put32((uint32_t)(int32_t)*(const int8_t *)p); }
+            else { imf_fw_put32(*(const uint8_t *)p); }
         } else if (size == 2u) {
-            if ((type & 0x200u) != 0u) { imf_out_i32(*(const int16_t *)p); }
-            else { imf_out_u32(*(const uint16_t *)p); }
+            if ((type & 0x200u) != 0u) { imf_fw_put32((uint32_t)(int32_t)*(const int16_t *)p); }
+            else { imf_fw_put32(*(const uint16_t *)p); }
         } else if (size == 4u) {
-            if ((type & 0x200u) != 0u) { imf_out_i32(*(const int32_t *)p); }
-            else { imf_out_u32(*(const uint32_t *)p); }
+            if ((type & 0x200u) != 0u) { imf_fw_put32((uint32_t)*(const int32_t *)p); }
+            else { imf_fw_put32(*(const uint32_t *)p); }
         } else {
             unsigned long long v = 0u;
             memcpy(&v, p, 8u);
@@ -467,7 +467,7 @@ _DUMP_WORD = """static void imf_fw_dump_word(const void *p, uint32_t type)
     } else if (size == 4u) {
         float f;
         memcpy(&f, p, 4u);
-        imf_out_f32(f);
+        imf_fw_out_f32(f);
     } else {
         double d;
         memcpy(&d, p, sizeof d);
