@@ -7,10 +7,11 @@
 #include "filters_1d.h"
 #include "imf_math.h"
 
-/* Complementary1D, Kalman1D and Mahony1D begin with their settings' members, of the same
-   types in the same order (checked here): init copies them as one block, which an 8-bit
-   core does in a loop a third the size of the member-by-member copy; then what init
-   derives from them (the twin's _init sets the same values one by one). */
+/* Complementary1D, Kalman1D and Mahony1D begin with their settings' two members, of the
+   same types in the same order (checked here). init copies them (the twin's _init sets
+   them one by one): on AVR as one block, a loop a third the size of its 8-bit loads and
+   stores member by member; elsewhere member by member, in aligned words (a block copy
+   through pointers of unknown alignment is bytewise on RV32). The same values either way. */
 #define IMF_HEAD_IS_SETTINGS(f, second) \
     typedef char imf_##f##_head_is_its_settings \
         [offsetof(imf_##f##_t, second) == offsetof(imf_##f##_settings_t, second) \
@@ -21,6 +22,12 @@
 IMF_HEAD_IS_SETTINGS(complementary1d, alpha);
 IMF_HEAD_IS_SETTINGS(kalman1d, k0);
 IMF_HEAD_IS_SETTINGS(mahony1d, kp);
+#if defined(__AVR__)
+#define IMF_COPY_HEAD(self, s, first, second) memcpy((self), (s), sizeof *(s))
+#else
+#define IMF_COPY_HEAD(self, s, first, second) \
+    ((self)->first = (s)->first, (self)->second = (s)->second)
+#endif
 
 /* ---- Eq. 2.2 ----------------------------------------------------------- */
 void imf_complementary1d_default_settings(imf_complementary1d_settings_t *const settings)
@@ -32,7 +39,7 @@ void imf_complementary1d_default_settings(imf_complementary1d_settings_t *const 
 void imf_complementary1d_init(imf_complementary1d_t *const self,
                               const imf_complementary1d_settings_t *const s)
 {
-    memcpy(self, s, sizeof *s); /* dt, alpha */
+    IMF_COPY_HEAD(self, s, dt, alpha);
     self->one_minus_alpha = IMF_R(1.0) - self->alpha;
     self->skipped = 0;
     self->x.theta = IMF_R(0.0);
@@ -69,7 +76,7 @@ void imf_kalman1d_default_settings(imf_kalman1d_settings_t *const settings)
 
 void imf_kalman1d_init(imf_kalman1d_t *const self, const imf_kalman1d_settings_t *const s)
 {
-    memcpy(self, s, sizeof *s); /* dt, k0 */
+    IMF_COPY_HEAD(self, s, dt, k0);
     self->one_minus_k0 = IMF_R(1.0) - self->k0;
     self->skipped = 0;
     self->x.theta = IMF_R(0.0);
@@ -106,7 +113,7 @@ void imf_mahony1d_default_settings(imf_mahony1d_settings_t *const settings)
 
 void imf_mahony1d_init(imf_mahony1d_t *const self, const imf_mahony1d_settings_t *const s)
 {
-    memcpy(self, s, sizeof *s); /* dt, kp */
+    IMF_COPY_HEAD(self, s, dt, kp);
     self->skipped = 0;
     self->x.theta = IMF_R(0.0);
 }

@@ -6,9 +6,11 @@
 #include "kk.h"
 #include "imf_math.h"
 
-/* The filter begins with its settings' members, of the same types in the same order
-   (checked here): init copies them as one block, which an 8-bit core does in a loop
-   shorter than the member-by-member copy (the twin's _init sets them one by one). */
+/* The filter begins with its settings' two members, of the same types in the same order
+   (checked here). init copies them (the twin's _init sets them one by one): on AVR as one
+   block, a loop shorter than its 8-bit loads and stores member by member; elsewhere
+   member by member, in aligned words (a block copy through pointers of unknown alignment
+   is bytewise on RV32). The same values either way. */
 typedef char imf_kk_head_is_its_settings[offsetof(imf_kk_t, kp) == offsetof(imf_kk_settings_t, kp)
                                                  && sizeof(imf_kk_settings_t)
                                                         == offsetof(imf_kk_t, kp) + sizeof(imf_real)
@@ -23,7 +25,12 @@ void imf_kk_default_settings(imf_kk_settings_t *const settings)
 
 void imf_kk_init(imf_kk_t *const self, const imf_kk_settings_t *const s)
 {
-    memcpy(self, s, sizeof *s); /* dt, kp */
+#if defined(__AVR__)
+    memcpy(self, s, sizeof *s);
+#else
+    self->dt = s->dt;
+    self->kp = s->kp;
+#endif
     self->skipped = 0;
     self->x.pitch = IMF_R(0.0);
     self->x.roll = IMF_R(0.0);
