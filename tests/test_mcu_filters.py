@@ -240,7 +240,7 @@ def test_fixed_init_from_double_and_from_constants(toolchains, target):
         v = f"imf_a{i}"
         fa, ca = mf.init_call(c.c_name + "_init", v, c.init_struct, c.init, s.double_init_args())
         fb, cb = mf.init_call(s.init_function, v + "b", c.init_consts_struct, c.init_consts,
-                              s._init_args())
+                              s._init_args(), static=False)
         # the pair of filters on the stack, in a block of its own: the compiler reuses the
         # space for the next pair (statics for every filter would not fit the ATmega328P's
         # 2 KB of RAM)
