@@ -9,7 +9,7 @@
 
 /* Complementary1D, Kalman1D and Mahony1D begin with their settings' two members, of the
    same types in the same order (checked here). init copies them (the twin's _init sets
-   them one by one): on AVR as one block, a loop a third the size of its 8-bit loads and
+   them one by one): on AVR as one block, a loop about half the size of its 8-bit loads and
    stores member by member; elsewhere member by member, in aligned words (a block copy
    through pointers of unknown alignment is bytewise on RV32). The same values either way. */
 #define IMF_HEAD_IS_SETTINGS(f, second) \
