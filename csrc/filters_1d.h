@@ -14,9 +14,10 @@
  *                        unchanged and increment `skipped` (imf_math.h).
  *   imf_<filter>_set_dt() a new sample period: dt and every constant derived
  *                        from it, by the expressions init uses (init calls
- *                        it), so a filter whose dt was set equals one
- *                        initialised with that dt bit for bit. For timestamps
- *                        with jitter call it before each update.
+ *                        it where dt has derived constants), so a filter
+ *                        whose dt was set equals one initialised with that
+ *                        dt bit for bit. For timestamps with jitter call it
+ *                        before each update.
  * The state struct x holds only imf_real members: it is the `state` seen from
  * Python, in declaration order.
  */

@@ -2,8 +2,20 @@
  * "KK" linear small-angle filter, appendix / Eq. 4.5. See kk.h. The
  * pure-Python twin is python/imufuse/reference/kk.py.
  */
+#include <stddef.h>
 #include "kk.h"
 #include "imf_math.h"
+
+/* The filter begins with its settings' two members, of the same types in the same order
+   (checked here). init copies them (the twin's _init sets them one by one): on AVR as one
+   block, a loop shorter than its 8-bit loads and stores member by member; elsewhere
+   member by member, in aligned words (a block copy through pointers of unknown alignment
+   is bytewise on RV32). The same values either way. */
+typedef char imf_kk_head_is_its_settings[offsetof(imf_kk_t, kp) == offsetof(imf_kk_settings_t, kp)
+                                                 && sizeof(imf_kk_settings_t)
+                                                        == offsetof(imf_kk_t, kp) + sizeof(imf_real)
+                                             ? 1
+                                             : -1];
 
 void imf_kk_default_settings(imf_kk_settings_t *const settings)
 {
@@ -13,8 +25,12 @@ void imf_kk_default_settings(imf_kk_settings_t *const settings)
 
 void imf_kk_init(imf_kk_t *const self, const imf_kk_settings_t *const s)
 {
-    imf_kk_set_dt(self, s->dt);
+#if defined(__AVR__)
+    memcpy(self, s, sizeof *s);
+#else
+    self->dt = s->dt;
     self->kp = s->kp;
+#endif
     self->skipped = 0;
     self->x.pitch = IMF_R(0.0);
     self->x.roll = IMF_R(0.0);

@@ -57,8 +57,8 @@ void imf_kk_init(imf_kk_t *self, const imf_kk_settings_t *settings);
 void imf_kk_update(imf_kk_t *self, imf_real gx, imf_real gy, imf_real gz, imf_real ax, imf_real ay,
                    imf_real az);
 
-/* A new sample period dt (s), set as init sets it (init calls it); kp stays a
-   gain per sample. */
+/* A new sample period dt (s), set as init sets it; kp stays a gain per
+   sample. */
 void imf_kk_set_dt(imf_kk_t *self, imf_real dt);
 /* Start from a given attitude (imf_attitude.h), in the filter's own small-
    angle terms: pitch = -up_x, roll = up_y (up = att->r[6..8]), the angles

@@ -240,7 +240,7 @@ def test_fixed_init_from_double_and_from_constants(toolchains, target):
         v = f"imf_a{i}"
         fa, ca = mf.init_call(c.c_name + "_init", v, c.init_struct, c.init, s.double_init_args())
         fb, cb = mf.init_call(s.init_function, v + "b", c.init_consts_struct, c.init_consts,
-                              s._init_args())
+                              s._init_args(), static=False)
         # the pair of filters on the stack, in a block of its own: the compiler reuses the
         # space for the next pair (statics for every filter would not fit the ATmega328P's
         # 2 KB of RAM)
@@ -261,6 +261,38 @@ def test_fixed_init_from_double_and_from_constants(toolchains, target):
     assert all(c & 6 == 0 for c in codes.values()), codes
     if target == "host":
         assert all(c == 0 for c in codes.values()), codes
+
+
+def test_the_harness_init_call_compiles_for_every_filter(tmp_path):
+    """Every configuration's init as the harness writes it (FilterSpec.c_parts: a settings
+    struct as a static const initialiser, the form whose flash bench/mcu/measure.py reports;
+    fixed point by its constants, and by its double init) compiles with the harness's flags,
+    warnings as errors, in C99 and in C++ (the Arduino sketches are C++), one translation
+    unit per build (precision, profile)."""
+    import subprocess
+    builds = {}
+    for s in SPECS:
+        builds.setdefault(tuple(sorted(s.defines.items())), []).append(s)
+    assert len(builds) >= 3
+    for key, specs in builds.items():
+        pre, body = ["void imf_port_write(const char *s);"], []
+        for i, s in enumerate(specs):
+            for dbl in (False, True) if s.fixed else (False,):
+                v = f"imf_f{i}{'d' if dbl else ''}"
+                p, init, _, _ = s.c_parts(v, double_init=dbl)
+                pre.append(p)
+                body.append(init)
+                if s.c.init_struct and (dbl or not s.fixed):
+                    assert f"static const {s.c.init_struct} {v}_set = {{" in init, init
+        src = tmp_path / f"init_{len(body)}.c"
+        src.write_text("\n".join(pre) + "\nvoid imf_init_all(void)\n{\n" + "\n".join(body) + "\n}\n")
+        defs = [f"-D{k}" if v is None else f"-D{k}={v}" for k, v in key]
+        inc = [f"-I{mf.CSRC}", f"-I{mf.CSRC / 'fixed'}"]
+        for cmd in ([mcu.TARGETS["host"].cc, *mcu.cflags("host")],
+                    ["c++", "-x", "c++", "-std=gnu++11", "-O2", "-Wall", "-Wextra", "-Werror"]):
+            r = subprocess.run([*cmd, *defs, *inc, "-c", str(src), "-o", str(tmp_path / "init.o")],
+                               capture_output=True, text=True)
+            assert r.returncode == 0, f"{' '.join(cmd[:2])} {key}:\n{r.stderr[-3000:]}"
 
 
 def _host_codes(calls, struct, unit):

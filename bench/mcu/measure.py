@@ -14,8 +14,11 @@ Fusion's units, so the generic driver cannot call it; measured with its Case's d
                   the contract's flags and -ffunction-sections); static helpers they call
                   separately are in the object's other functions, not here
   linked          bytes the filter adds to a linked program (-Wl,--gc-sections): its functions
-                  plus the library routines it pulls in (soft float, sqrtf, isfinite); fixed
-                  point initialised by <c>_init_consts (checked: <c>_init is not in the ELF)
+                  plus the library routines it pulls in (soft float, sqrtf, isfinite) and its
+                  init call: a settings struct as a static const initialiser (its bytes
+                  counted here; on AVR also copied to RAM at start-up, not in ram below);
+                  fixed point initialised by <c>_init_consts (checked: <c>_init is not in
+                  the ELF)
   linked_double_init  fixed point: the same, initialised by the double <c>_init instead
   data, bss       bytes of the filter's object file (the library has no globals: 0)
   ram             sizeof(<c>_t): RAM of one filter instance

@@ -216,7 +216,7 @@ class FilterSpec:
                              self.double_init_args())
         elif self.fixed:
             fill, call = init_call(self.init_function, var, c.init_consts_struct, c.init_consts or (),
-                             self._init_args())
+                             self._init_args(), static=False)
         else:
             fill, call = init_call(self.init_function, var, c.init_struct, c.init, self._init_args())
         if c.init_returns != "void":

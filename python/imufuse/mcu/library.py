@@ -83,12 +83,22 @@ def _members(text: str, type_name: str) -> Tuple[CParam, ...]:
 
 
 def init_call(func: str, var: str, struct: Optional[str], params: Sequence[CParam],
-              args: Sequence[str]) -> Tuple[str, str]:
+              args: Sequence[str], static: bool = True) -> Tuple[str, str]:
     """(declarations, call expression) of init ``func`` on ``&var`` with ``args``:
-    positional (no declarations), or (``struct``) through a settings struct ``<var>_set``
-    filled member by member (valid C and C++)."""
+    positional (no declarations), or (``struct``) through a settings struct ``<var>_set``:
+    with ``static``, a ``static const`` struct initialised by the values in the members'
+    order, as firmware whose settings are known when it is built writes it (the values are
+    the program's constant data, the call passes one address: on AVR fewer bytes than ten
+    values in registers, or a struct on the stack filled member by member); else that
+    struct on the stack filled member by member (``args`` need not be constant
+    expressions: a compound literal of a q-scale). Valid C and C++."""
     if struct is None:
         return "", f"{func}(&{var}{''.join(', ' + a for a in args)})"
+    if len(args) != len(params):
+        raise HarnessError(f"{func}: {len(args)} values for the {len(params)} members of {struct}")
+    if static:
+        return (f"static const {struct} {var}_set = {{{', '.join(args)}}};",
+                f"{func}(&{var}, &{var}_set)")
     fill = "".join(f" {var}_set.{p.name} = {a};" for p, a in zip(params, args))
     return f"{struct} {var}_set;{fill}", f"{func}(&{var}, &{var}_set)"
 
