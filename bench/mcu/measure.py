@@ -2,7 +2,7 @@
 
     python bench/mcu/measure.py            # every filter x target; writes RESULTS.md, results.json
     python bench/mcu/measure.py --filters Mahony1D-float32 --targets avr,m0 --no-write
-    python bench/mcu/measure.py --targets m7,rv32imac --merge   # these cores; the others' rows
+    python bench/mcu/measure.py --targets m7,rv32imac --merge   # these cores; the other rows
                                                                 # kept from results.json
     python bench/mcu/measure.py --kernels  # the harness's own example kernels (mcu_cases.CASES)
 
@@ -342,7 +342,7 @@ def main(argv=None) -> int:
     ap.add_argument("--filters", default=",".join(mcu_cases.filter_names()))
     ap.add_argument("--targets", default=",".join(ALL_TARGETS))
     ap.add_argument("--merge", action="store_true",
-                    help="keep the rows of results.json for the targets not measured now")
+                    help="keep the rows of results.json for the filters and targets not measured now")
     ap.add_argument("--kernels", action="store_true", help="measure the harness's example kernels instead")
     ap.add_argument("--no-write", action="store_true", help="print only; do not write RESULTS.md/results.json")
     ap.add_argument("--jobs", type=int, default=8)
@@ -375,7 +375,8 @@ def main(argv=None) -> int:
     seconds = time.perf_counter() - t0
     if args.merge and (HERE / "results.json").exists():
         old = json.loads((HERE / "results.json").read_text())
-        rows += [r for r in old["rows"] if r["target"] not in targets]
+        done = {(r["filter"], r["target"]) for r in rows}
+        rows += [r for r in old["rows"] if (r["filter"], r["target"]) not in done]
         checks = {**{t: c for t, c in old.get("counter_checks", {}).items() if t not in targets},
                   **checks}
         seconds += old.get("seconds", 0.0)

@@ -140,6 +140,12 @@ def run_demo(out_dir: str = "imufuse-demo", rate: float = 200.0, duration: float
                         row.note = f"heading not derivable from {est.source}"
                     elif est.source != "q0..q3":
                         row.note = f"from {est.source}"
+                    if "bu" in cls.state_names:
+                        # the Robust filters' bias still unknown (1) .. learnt (0)
+                        bu = float(S_c[-1, list(cls.state_names).index("bu")])
+                        if bu > 0.1:
+                            row.note = (f"still learning the gyro bias (bu {bu:.2f}): in seconds "
+                                        "at rest, over tau_bias in motion")
     head = f"{'filter':22s} {'kind':4s} {'float32':>14s} {'float64':>14s}  " \
            f"{'angle/tilt rms   max':>20s}  {'heading rms   max':>17s}  note"
     pr("")
