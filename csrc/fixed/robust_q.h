@@ -161,6 +161,18 @@ typedef struct {
     int32_t rn, rh, rz;           /* reference: norm q15 counts; cos, sin of the dip q30 */
     int32_t cn, ch, cz;           /* candidate reference, the same */
     int32_t n_ok, n_dist, n_cand; /* sample counters */
+    /* B6 (all constant while mag_learn is 0) */
+    int32_t hi[6];      /* field in the inertial frame h, then the offset o, q26 of n0 */
+    int32_t P[21];      /* covariance of hi, upper triangle by rows, q30 */
+    int32_t so[3];      /* stored offset, counts */
+    int32_t m_n2;       /* n0^2, counts^2 (0: the estimator starts at the next reading) */
+    int32_t m_im, m_is; /* 1 / n0 as a q-scale (mantissa, shift) */
+    int32_t m_nm, m_ns; /* n0 (counts) as a q-scale */
+    int32_t m_ew, m_d2; /* mean and last normalised innovation, q16 */
+    int32_t m_var;      /* the offset's largest variance, q30 (1 until estimated) */
+    int32_t m_qo;       /* the offset's walk not yet added to P, q46 */
+    int32_t m_axis;     /* the axis the next reading updates: 0, 1, 2 */
+    int32_t m_bad;      /* samples of absurd readings (saturating at n_bad) */
 } imf_robust_ahrs_q_state_t;
 
 typedef struct {
@@ -173,6 +185,13 @@ typedef struct {
     int32_t n_ref;                 /* ceil(tau_mag_ref / dt): the reference's */
     int32_t n_hold;                /* ceil(mag_hold / dt) */
     int32_t n_new;                 /* ceil(mag_new_time / dt) */
+    int32_t learn;                 /* B6 on (1) or off (0) */
+    int32_t kqh;                   /* B6: the field's walk per sample, 1e-3 dt, q30 */
+    int32_t kqo;                   /* B6: the offset's walk per sample, 1e-7 dt, q46 */
+    int32_t knoise2;               /* B6: mag_noise^2, q28 */
+    imf_qscale_t klag2;            /* B6: (gyr_scale mag_lag)^2 (m 0: no lag) */
+    int32_t kmin2;                 /* B6: mag_offset_min^2, q30 */
+    int32_t n_bad;                 /* B6: ceil(1 s / dt): absurd readings before a restart */
 } imf_robust_ahrs_q_consts_t;
 
 typedef struct {
@@ -183,30 +202,37 @@ typedef struct {
 /* The settings of imf_robust_ahrs_q_init: RobustIMUQ's and B4's (those of
  * imf_robust_ahrs_settings_t, in double). */
 typedef struct {
-    double dt;            /* sample period, s; tau_acc / dt in [200, 8192] (default 0.01) */
-    double tau_acc;       /* B2: tilt correction time constant, s (default 2.5) */
-    double rate_ref;      /* B2: rate at which gravity's process noise doubles, rad/s;
+    double dt;             /* sample period, s; tau_acc / dt in [200, 8192] (default 0.01) */
+    double tau_acc;        /* B2: tilt correction time constant, s (default 2.5) */
+    double rate_ref;       /* B2: rate at which gravity's process noise doubles, rad/s;
                              >= 0, 0: constant (default 1.745: 100 deg/s) */
-    double tau_bias;      /* B3: 0 (off) or >= 4 tau_acc, s (default 100) */
-    double tau_bias_rest; /* B3 at rest, s; > 0 (default 3) */
-    double rest_gyr;      /* B1: rest threshold, rad/s; >= 0 (default 0.0349: 2 deg/s) */
-    double rest_acc;      /* B1: rest threshold on |a| - |a|_lowpass, relative; 0 .. 1
+    double tau_bias;       /* B3: 0 (off) or >= 4 tau_acc, s (default 100) */
+    double tau_bias_rest;  /* B3 at rest, s; > 0 (default 3) */
+    double rest_gyr;       /* B1: rest threshold, rad/s; >= 0 (default 0.0349: 2 deg/s) */
+    double rest_acc;       /* B1: rest threshold on |a| - |a|_lowpass, relative; 0 .. 1
                              (default 0.05) */
-    double rest_time;     /* B1: s; >= 0 (default 1.5) */
-    double tau_rest;      /* B1: low-pass time constant, s; > 0 (default 0.5) */
-    double latency;       /* output prediction, s; 0 .. 0.1 (default 0) */
-    double tau_mag;       /* B4: heading correction time constant, s; > 0 (default 10) */
-    double mag_norm;      /* B4: disturbance threshold on |m|, relative; 0 .. 1 (default 0.1) */
-    double mag_dip;       /* B4: disturbance threshold on the dip, its sine; >= 0, 2: none
+    double rest_time;      /* B1: s; >= 0 (default 1.5) */
+    double tau_rest;       /* B1: low-pass time constant, s; > 0 (default 0.5) */
+    double latency;        /* output prediction, s; 0 .. 0.1 (default 0) */
+    double tau_mag;        /* B4: heading correction time constant, s; > 0 (default 10) */
+    double mag_norm;       /* B4: disturbance threshold on |m|, relative; 0 .. 1 (default 0.1) */
+    double mag_dip;        /* B4: disturbance threshold on the dip, its sine; >= 0, 2: none
                             (default 0.1736: 10 deg) */
-    double tau_mag_ref;   /* B4: the learned reference's time constant, s; > 0 (default 20) */
-    double mag_new_time;  /* B4: a changed field steady this long in motion becomes the
+    double tau_mag_ref;    /* B4: the learned reference's time constant, s; > 0 (default 20) */
+    double mag_new_time;   /* B4: a changed field steady this long in motion becomes the
                             reference, s; >= 0 (default 20) */
-    double mag_hold;      /* B4: the field must match this long after a disturbance, s;
+    double mag_hold;       /* B4: the field must match this long after a disturbance, s;
                             >= 0 (default 0.5) */
-    int mag_learn;        /* B6: must be 0 (not built in fixed point; default 0) */
-    double gyr_scale;     /* rad/s per gyro count; > 0 (default 1.0642e-3) */
-    int profile;          /* 32 (default) or 8, a profile compiled in; any other value:
+    int mag_learn;         /* B6: learn the magnetometer's offset while turning (1); 0 (default):
+                             the stored offset only */
+    double mag_noise;      /* B6: magnetometer noise, relative to the field; 0.01 .. 1
+                             (default 0.02) */
+    double mag_lag;        /* B6: magnetometer-to-gyro timing mismatch, s; 0 .. 0.1 (default
+                             0.003) */
+    double mag_offset_min; /* B6: a trusted estimate replaces the stored offset when they
+                              differ by more than this, relative; 0 .. 1 (default 0.1) */
+    double gyr_scale;      /* rad/s per gyro count; > 0 (default 1.0642e-3) */
+    int profile;           /* 32 (default) or 8, a profile compiled in; any other value:
                              init returns -1 */
 } imf_robust_ahrs_q_settings_t;
 
