@@ -180,3 +180,25 @@ def test_a_sensor_that_never_turns_keeps_the_stored_offset(profile):
     r = twin(dt, profile)
     r.set_mag_offset(offset)
     assert_same_bits(c[:1000], r.run(g[:1000], a[:1000], m[:1000]))
+
+
+def test_b6_left_out_at_compile_time():
+    """Built with IMF_ROBUST_Q_B6=0 (B6's code not linked: 4 to 6 KB less flash on an
+    ATmega328P), init refuses mag_learn 1 and accepts the defaults (host build)."""
+    from imufuse import mcu
+    from imufuse.mcu import filters as mf
+    sets = [dict(mag_learn=1), {}]
+    calls = []
+    for i, s in enumerate(sets):
+        fields = " ".join(f"st.{k} = {v!r};" for k, v in s.items())
+        calls.append(f"imf_robust_ahrs_q_default_settings(&st); {fields} "
+                     f"imf_r{i} = imf_robust_ahrs_q_init(&imf_f, &st);")
+    pre = ('#include "robust_q.h"\nstatic imf_robust_ahrs_q_t imf_f;\n'
+           "static imf_robust_ahrs_q_settings_t st;\n"
+           + "".join(f"static int32_t imf_r{i};\n" for i in range(len(sets))))
+    drv = mcu.Driver(prelude=pre, step="\n".join(calls),
+                     state=[(f"imf_r{i}", "i32") for i in range(len(sets))])
+    res = mcu.run("host", sources=[str(mf.CSRC / "fixed" / "robust_q.c")],
+                  include_dirs=[mf.CSRC / "fixed"], defines={"IMF_ROBUST_Q_B6": 0}, driver=drv,
+                  inputs={"k": np.zeros(1, np.int16)})
+    assert [int(np.int32(col[0])) for col in res.values()] == [-1, 0]

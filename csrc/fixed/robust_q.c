@@ -201,10 +201,10 @@ int imf_robust_ahrs_q_init_consts(imf_robust_ahrs_q_t *const self,
     if (!robust_q_consts_ok(&k->imu) || k->k_mag.m == 0 || !imf_qscale_ok(k->k_mag, 0, 47)
         || k->k_ref.m == 0 || !imf_qscale_ok(k->k_ref, 0, 47) || !robust_q_ok(k->knorm, 14, 47)
         || k->kdip < 0 || k->n_mag < 0 || k->n_ref < 0 || k->n_hold < 0 || k->n_new < 0
-        || k->imu.n_max < k->n_mag || k->imu.n_max < k->n_ref || k->learn < 0 || k->learn > 1
-        || k->kqh < 0 || k->kqo < 0 || k->kqo > 1073741824L || k->knoise2 < 26843L
-        || k->knoise2 > 268435456L || !robust_q_ok(k->klag2, 29, 62) || k->kmin2 < 0
-        || k->kmin2 > 1073741824L || k->n_bad < 1) {
+        || k->imu.n_max < k->n_mag || k->imu.n_max < k->n_ref || k->learn < 0
+        || k->learn > IMF_ROBUST_Q_B6 || k->kqh < 0 || k->kqo < 0 || k->kqo > 1073741824L
+        || k->knoise2 < 26843L || k->knoise2 > 268435456L || !robust_q_ok(k->klag2, 29, 62)
+        || k->kmin2 < 0 || k->kmin2 > 1073741824L || k->n_bad < 1) {
         return -1;
     }
     self->k = *k;
@@ -235,8 +235,9 @@ int imf_robust_ahrs_q_init(imf_robust_ahrs_q_t *const self,
     if (robust_q_consts(&m, &k.imu) != 0 || !(s->tau_mag > 0.0) || !(s->tau_mag_ref > 0.0)
         || !imf_param_ok(s->mag_norm, 0.0, 1.0) || !imf_param_ok(s->mag_dip, 0.0, 1e30)
         || !imf_param_ok(s->mag_new_time, 0.0, 1e30) || !imf_param_ok(s->mag_hold, 0.0, 1e30)
-        || (s->mag_learn != 0 && s->mag_learn != 1) || !imf_param_ok(s->mag_noise, 0.01, 1.0)
-        || !imf_param_ok(s->mag_lag, 0.0, 0.1) || !imf_param_ok(s->mag_offset_min, 0.0, 1.0)) {
+        || (s->mag_learn != 0 && s->mag_learn != IMF_ROBUST_Q_B6)
+        || !imf_param_ok(s->mag_noise, 0.01, 1.0) || !imf_param_ok(s->mag_lag, 0.0, 0.1)
+        || !imf_param_ok(s->mag_offset_min, 0.0, 1.0)) {
         return -1;
     }
     k.k_mag = imf_qscale_from_double(dt / (s->tau_mag + dt));

@@ -71,7 +71,7 @@ static void robust_q6_start(imf_robust_ahrs_q_state_t *const xm, const int32_t c
     int sign, k;
     /* n0 = n2 / sqrt(n2), q15 counts (< 2^31: n2 < 2^32; inv.s >= 17: n2 >= 64) */
     const imf_qscale_t n0 =
-        robust_q_scale_of(imf_mul_32x16((int32_t)(n2 >> 1), inv.m, inv.s - 16), 15, &sign);
+        robust_q_scale_of(imf_mul_32x16_s((int32_t)(n2 >> 1), inv.m, inv.s - 16), 15, &sign);
     xm->m_n2 = n2 > 2147483647u ? 2147483647L : (int32_t)n2;
     xm->m_im = inv.m;
     xm->m_is = inv.s;
@@ -136,9 +136,10 @@ static IMF_Q_NOINLINE void robust_q6_axis(imf_robust_ahrs_q_state_t *const xm, c
     ri = robust_q_recip((uint32_t)sv, 0); /* 1 / sv, sv >= mag_noise^2 >= 2^-14 */
     nq = robust_q_scale_of(nu, 26, &sign);
     for (j = 0; j < 6; ++j) {
-        kk[j] = imf_mul_32x16(ph[j], ri.m, ri.s - 23); /* q24 */
+        kk[j] = imf_mul_32x16_s(ph[j], ri.m, ri.s - 23); /* q24 */
         xm->hi[j] = imf_add_sat32(xm->hi[j], robust_q_mul_signed(kk[j], nq, sign, 24, 26));
     }
+    /* P -= P H^T K^T: P H^T narrowed to int16 with one exponent e, times K (q24) */
     e = robust_q6_exponent(ph);
     for (j = 0; j < 6; ++j) {
         p16[j] = (int16_t)imf_rshr32(ph[j], e);
@@ -146,7 +147,7 @@ static IMF_Q_NOINLINE void robust_q6_axis(imf_robust_ahrs_q_state_t *const xm, c
     for (j = 0; j < 6; ++j) {
         for (k = j; k < 6; ++k) {
             const unsigned char t = robust_q6_pi[j][k];
-            xm->P[t] = imf_sub_sat32(xm->P[t], imf_mul_32x16(kk[k], p16[j], 23 - e));
+            xm->P[t] = imf_sub_sat32(xm->P[t], imf_mul_32x16_s(kk[k], p16[j], 23 - e));
         }
     }
     /* the normalised innovation nu^2 / sv, q16 */
@@ -157,7 +158,7 @@ static IMF_Q_NOINLINE void robust_q6_axis(imf_robust_ahrs_q_state_t *const xm, c
     } else if (n < 0) {
         xm->m_d2 = IMF_INT32_MAX;
     } else {
-        xm->m_d2 = imf_mul_32x16(nn, ri.m, n > 47 ? 47 : n);
+        xm->m_d2 = imf_mul_32x16_s(nn, ri.m, n > 47 ? 47 : n);
     }
     xm->m_ew =
         imf_add_sat32(xm->m_ew, imf_mul_32x16(imf_sub_sat32(xm->m_d2, xm->m_ew), ROBUST_Q6_EW, 20));
@@ -184,7 +185,7 @@ static void robust_q6_update(const imf_robust_ahrs_q_consts_t *const k,
     }
     rr = 0;
     if (k->klag2.m != 0) {
-        rr = imf_mul_32x16((int32_t)(w2 >> 1), k->klag2.m, k->klag2.s - 29); /* q28 */
+        rr = imf_mul_32x16_s((int32_t)(w2 >> 1), k->klag2.m, k->klag2.s - 29); /* q28 */
         if (rr > 268435456L) {
             rr = 268435456L;
         }
@@ -241,8 +242,8 @@ static IMF_Q_NOINLINE void robust_q_offset(const imf_robust_ahrs_q_consts_t *con
     int32_t cr[3];
     uint32_t n2;
     int j;
-    if (!k->learn || (mag[0] == 0 && mag[1] == 0 && mag[2] == 0)) {
-        return;
+    if (!IMF_ROBUST_Q_B6 || !k->learn || (mag[0] == 0 && mag[1] == 0 && mag[2] == 0)) {
+        return; /* B6 off (or not compiled in), or no reading */
     }
     if (xm->m_n2 != 0 && !robust_q6_started(xm)) {
         xm->m_n2 = 0; /* a unit out of its ranges (a state written by hand): start again */

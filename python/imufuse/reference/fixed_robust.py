@@ -1,8 +1,9 @@
-"""Fixed-point RobustIMU and RobustAHRS (without B6): pure-Python twin of
+"""Fixed-point RobustIMU and RobustAHRS (B6 included): pure-Python twin of
 csrc/fixed/robust_q.c, line for line (Q formats and ranges in robust_q.h): the settings, the
 constants, init and the updates, which compose the blocks of fixed_robust_blocks.py and
-fixed_robust_mag.py (their helpers in fixed_robust_ops.py and fixed_robust_p8.py), as
-robust_q.c composes those of robust_q_blocks.h and robust_q_mag.h.
+fixed_robust_mag.py and fixed_robust_b6.py (their helpers in fixed_robust_ops.py and
+fixed_robust_p8.py), as robust_q.c composes those of robust_q_blocks.h, robust_q_mag.h and
+robust_q_b6.h.
 """
 from __future__ import annotations
 
@@ -206,16 +207,18 @@ class RobustIMUQ(FixedFilter):
 
 class RobustAHRSQ(RobustIMUQ):
     """imufuse's recommended attitude filter with a magnetometer (RobustAHRS,
-    docs/recommended-ahrs.md) in fixed point: RobustIMUQ's blocks and B4, the magnetometer
-    confined to heading with its disturbance detector.
+    docs/recommended-ahrs.md) in fixed point: RobustIMUQ's blocks, B4, the magnetometer
+    confined to heading with its disturbance detector, and B6, its offset learnt while
+    turning.
 
-    RobustAHRSQ(dt, <RobustAHRS's keywords up to mag_hold, the same units>,
-    mag_learn=False, gyr_scale=rad/s per count, profile="32"). The magnetometer in counts,
-    any unit (B4 is relative to its learned reference). B6, the offset learnt while
-    turning, is not built: mag_learn=True is refused; the stored offset (counts) is given
-    with set_mag_offset. State: RobustIMUQ's, then the offset in use u, the reference
-    (rn q15 counts, rh, rz q30) and the candidate (cn, ch, cz), the sample counters n_ok,
-    n_dist, n_cand.
+    RobustAHRSQ(dt, <RobustAHRS's keywords, the same units>, gyr_scale=rad/s per count,
+    profile="32"); mag_learn (B6) is False by default in fixed point. The magnetometer in
+    counts, any unit (B4 is relative to its learned reference); the stored offset (counts)
+    is given with set_mag_offset. State: RobustIMUQ's, then the offset in use u, the
+    reference (rn q15 counts, rh, rz q30) and the candidate (cn, ch, cz), the sample
+    counters n_ok, n_dist, n_cand, then B6's (robust_q.h): h and o (q26 of the field unit),
+    their covariance P (q30), the stored offset so, the field unit's words, the innovation's
+    statistics, the offset's variance m_var, m_qo, m_axis, m_bad.
     """
     kind = "ahrs"
     c_name = "imf_robust_ahrs_q"
@@ -330,8 +333,8 @@ class RobustAHRSQ(RobustIMUQ):
 
     def set_mag_offset(self, offset):
         """imf_robust_ahrs_q_set_mag_offset: the stored offset (hard iron), magnetometer
-        counts (x, y, z) in the sensor frame, used from the next sample. reset() clears it
-        (as the C init does): set it again after a reset."""
+        counts (x, y, z) in the sensor frame, used from the next sample (B6 starts again from
+        it). reset() clears it (as the C init does): set it again after a reset."""
         self.u = list(self._offset_counts(offset))
         self.so = list(self.u)
         self.m_n2 = 0                       # B6 starts again from it

@@ -87,6 +87,7 @@ def axis(x, i, c, y, rr):
     for j in range(6):
         kk.append(ci.mul_32x16(ph[j], ri.m, ri.s - 23))
         x.hi[j] = ci.add_sat32(x.hi[j], mul_signed(kk[j], nq, sign, 24, 26))
+    # P -= P H^T K^T: P H^T narrowed to int16 with one exponent e, times K (q24)
     e = exponent(ph)
     p16 = [ci.rshr32(ph[j], e) for j in range(6)]
     for j in range(6):
