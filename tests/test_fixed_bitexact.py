@@ -258,7 +258,8 @@ PARAM_SPACE = {
 PARAM_SPACE["RobustAHRSQ"] = dict(
     PARAM_SPACE["RobustIMUQ"], tau_mag=_logu(1e-3, 1e3), mag_norm=st.floats(0.0, 1.0),
     mag_dip=st.floats(0.0, 180.0), tau_mag_ref=_logu(1e-3, 1e3),
-    mag_new_time=st.floats(0.0, 50.0), mag_hold=st.floats(0.0, 5.0))
+    mag_new_time=st.floats(0.0, 50.0), mag_hold=st.floats(0.0, 5.0), mag_learn=st.booleans(),
+    mag_noise=_logu(1e-3, 2.0), mag_lag=st.floats(0.0, 0.2), mag_offset_min=st.floats(0.0, 2.0))
 STATE_SIZE = {e.name: len(e.state_names) for e in catalogue.FIXED}
 
 

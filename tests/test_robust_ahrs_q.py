@@ -14,6 +14,7 @@ import pytest
 
 import imufuse_c
 from imufuse import evaluation, reference, rotations
+from imufuse.reference.fixed_robust import MAG_LAYOUT
 from bits import assert_same_bits
 from broad_data import BROAD, SKIP_REASON
 from test_robust_q import AS, GS, c_init_returns, counts
@@ -134,8 +135,8 @@ def test_heading_from_the_field_and_a_magnet_rejected(profile):
 
 def test_stored_offset_is_taken_off_exactly():
     """A hard-iron offset in the readings and the same offset stored with set_mag_offset:
-    every state word but the stored offset equals that of the clean readings, in both
-    backends (the reading less the offset is exact in counts)."""
+    every state word but the stored offset (u, and B6's so) equals that of the clean
+    readings, in both backends (the reading less the offset is exact in counts)."""
     rng = np.random.default_rng(5)
     n = 3000
     g = rng.integers(-400, 400, (n, 3)).astype(np.int16)
@@ -148,9 +149,11 @@ def test_stored_offset_is_taken_off_exactly():
         f.set_mag_offset(tuple(int(v) for v in off))
         shifted = f.run(g, a, (m + off).astype(np.int16))
         u = reference.RobustAHRSQ.state_names.index("ux")
+        so = reference.RobustAHRSQ.state_names.index("sox")
         np.testing.assert_array_equal(shifted[:, u:u + 3], np.tile(off, (n, 1)))
-        np.testing.assert_array_equal(np.delete(shifted, range(u, u + 3), 1),
-                                      np.delete(clean, range(u, u + 3), 1))
+        np.testing.assert_array_equal(shifted[:, so:so + 3], np.tile(off, (n, 1)))
+        cols = list(range(u, u + 3)) + list(range(so, so + 3))
+        np.testing.assert_array_equal(np.delete(shifted, cols, 1), np.delete(clean, cols, 1))
     for bad in ((1, 2), (0.5, 0, 0), (40000, 0, 0), "abc"):
         for mod in (imufuse_c, reference):
             with pytest.raises(ValueError, match="mag offset"):
@@ -181,11 +184,13 @@ def test_upside_down_with_a_vertical_field(profile):
 
 @pytest.mark.parametrize("mod", [imufuse_c, reference], ids=["c", "ref"])
 def test_what_is_refused(mod):
-    """B6 is not built: mag_learn=True is refused with what to do instead; a profile other
-    than 32 and 8;
-    mag_norm above 1; and RobustIMUQ's ranges and mistakes (dt in ms)."""
-    with pytest.raises(ValueError, match="mag_learn.*set_mag_offset"):
-        mod.RobustAHRSQ(0.01, gyr_scale=GS, mag_learn=True)
+    """A profile other than 32 and 8; mag_norm above 1; B6's mag_noise outside [0.01, 1]
+    (its gains in q24) and mag_offset_min above 1; and RobustIMUQ's ranges and mistakes (dt
+    in ms). B6 itself (mag_learn=True) is accepted."""
+    mod.RobustAHRSQ(0.01, gyr_scale=GS, mag_learn=True)
+    for bad in (dict(mag_noise=0.005), dict(mag_noise=1.5), dict(mag_offset_min=1.5)):
+        with pytest.raises(ValueError, match=next(iter(bad))):
+            mod.RobustAHRSQ(0.01, gyr_scale=GS, mag_learn=True, **bad)
     with pytest.raises(ValueError, match="'32' or '8'"):
         mod.RobustAHRSQ(0.01, gyr_scale=GS, profile="16")
     with pytest.raises(ValueError, match="mag_norm"):
@@ -196,11 +201,12 @@ def test_what_is_refused(mod):
 
 
 def test_c_init_refuses_what_the_twin_refuses():
-    """The C init returns -1 for mag_learn 1, mag_norm above 1 and a bad IMU range (host
-    build); 0 for the defaults."""
+    """The C init returns -1 for mag_learn 2, B6's mag_noise out of range, mag_norm above 1
+    and a bad IMU range (host build); 0 for the defaults and for B6 on."""
     rc = c_init_returns("imf_robust_ahrs_q",
-                        [dict(mag_learn=1), dict(mag_norm=1.5), dict(tau_acc=1.0), {}])
-    assert rc == [-1, -1, -1, 0], rc
+                        [dict(mag_learn=2), dict(mag_learn=1, mag_noise=0.005),
+                         dict(mag_norm=1.5), dict(tau_acc=1.0), {}, dict(mag_learn=1)])
+    assert rc == [-1, -1, -1, -1, 0, 0], rc
 
 
 PUBLISHED = os.path.join(BROAD, "published", "03_undisturbed_slow_rotation_C.hdf5") if BROAD else None
@@ -258,8 +264,10 @@ def test_users_firmware_validated_on_a_published_log(tmp_path):
     names = reference.RobustAHRSQ.state_names
     arrays = {"q": 4, "s": 4, "c": 4, "f": 3, "v": 3, "p": 3, "b": 3, "lw": 3, "la": 3}
     exprs = [f"=att.x.imu.{k}[{i}]" for k, m in arrays.items() for i in range(m)]
-    exprs += ["=att.x.imu.n", "=att.x.imu.n_rest"] + [f"=att.x.u[{i}]" for i in range(3)]
-    exprs += [f"=att.x.{k}" for k in names[35:]]
+    exprs += ["=att.x.imu.n", "=att.x.imu.n_rest"]
+    for member, parts in MAG_LAYOUT:         # u, B4's, B6's (arrays by index)
+        exprs += ([f"=att.x.{member}[{i}]" for i in range(len(parts))] if parts
+                  else [f"=att.x.{member}"])
     fx = str(csrc_dir() / "fixed")
     want = reference.RobustAHRSQ(**params).run(*ins)
     for target in ("host", "cortex-m0"):

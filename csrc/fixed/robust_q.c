@@ -1,6 +1,6 @@
-/* Fixed-point RobustIMU and RobustAHRS (B4; not B6); see robust_q.h for the Q formats and
+/* Fixed-point RobustIMU and RobustAHRS (B4 and B6); see robust_q.h for the Q formats and
  * ranges. This file: the settings, the constants, init and the updates, which compose the
- * blocks of robust_q_blocks.h and robust_q_mag.h (their helpers in robust_q_ops.h and, for
+ * blocks of robust_q_blocks.h, robust_q_mag.h and robust_q_b6.h (their helpers in robust_q_ops.h and, for
  * the 8-bit profile, robust_q8.h: private headers included once, one translation unit).
  * Mirrored line for line by python/imufuse/reference/fixed_robust.py; the blocks and
  * their order are those of csrc/robust.c. */
@@ -11,6 +11,7 @@
 #include "imf_fixed_quat.h"
 #include "robust_q_blocks.h"
 #include "robust_q_mag.h"
+#include "robust_q_b6.h"
 
 /* ---- init ----------------------------------------------------------------------- */
 
@@ -162,7 +163,7 @@ void imf_robust_imu_q_update(imf_robust_imu_q_t *const self, const int16_t gyr[3
     }
 }
 
-/* ---- RobustAHRSQ: B4, the magnetometer confined to heading ------------------------ */
+/* ---- RobustAHRSQ: B4, the magnetometer confined to heading, and B6 ----------------- */
 
 void imf_robust_ahrs_q_default_settings(imf_robust_ahrs_q_settings_t *const s)
 {
@@ -185,6 +186,9 @@ void imf_robust_ahrs_q_default_settings(imf_robust_ahrs_q_settings_t *const s)
     s->mag_new_time = 20.0;
     s->mag_hold = 0.5;
     s->mag_learn = 0;
+    s->mag_noise = 0.02;
+    s->mag_lag = 0.003;
+    s->mag_offset_min = 0.1;
     s->gyr_scale = m.gyr_scale;
     s->profile = m.profile;
 }
@@ -197,12 +201,16 @@ int imf_robust_ahrs_q_init_consts(imf_robust_ahrs_q_t *const self,
     if (!robust_q_consts_ok(&k->imu) || k->k_mag.m == 0 || !imf_qscale_ok(k->k_mag, 0, 47)
         || k->k_ref.m == 0 || !imf_qscale_ok(k->k_ref, 0, 47) || !robust_q_ok(k->knorm, 14, 47)
         || k->kdip < 0 || k->n_mag < 0 || k->n_ref < 0 || k->n_hold < 0 || k->n_new < 0
-        || k->imu.n_max < k->n_mag || k->imu.n_max < k->n_ref) {
+        || k->imu.n_max < k->n_mag || k->imu.n_max < k->n_ref || k->learn < 0
+        || k->learn > IMF_ROBUST_Q_B6 || k->kqh < 0 || k->kqo < 0 || k->kqo > 1073741824L
+        || k->knoise2 < 26843L || k->knoise2 > 268435456L || !robust_q_ok(k->klag2, 29, 62)
+        || k->kmin2 < 0 || k->kmin2 > 1073741824L || k->n_bad < 1) {
         return -1;
     }
     self->k = *k;
     memset(x, 0, sizeof *x);
     robust_q_clear(&x->imu);
+    x->m_var = IMF_Q30_ONE;
     return 0;
 }
 
@@ -227,7 +235,9 @@ int imf_robust_ahrs_q_init(imf_robust_ahrs_q_t *const self,
     if (robust_q_consts(&m, &k.imu) != 0 || !(s->tau_mag > 0.0) || !(s->tau_mag_ref > 0.0)
         || !imf_param_ok(s->mag_norm, 0.0, 1.0) || !imf_param_ok(s->mag_dip, 0.0, 1e30)
         || !imf_param_ok(s->mag_new_time, 0.0, 1e30) || !imf_param_ok(s->mag_hold, 0.0, 1e30)
-        || s->mag_learn != 0) {
+        || (s->mag_learn != 0 && s->mag_learn != IMF_ROBUST_Q_B6)
+        || !imf_param_ok(s->mag_noise, 0.01, 1.0) || !imf_param_ok(s->mag_lag, 0.0, 0.1)
+        || !imf_param_ok(s->mag_offset_min, 0.0, 1.0)) {
         return -1;
     }
     k.k_mag = imf_qscale_from_double(dt / (s->tau_mag + dt));
@@ -238,9 +248,17 @@ int imf_robust_ahrs_q_init(imf_robust_ahrs_q_t *const self,
     k.n_ref = robust_q_ceil(s->tau_mag_ref / dt);
     k.n_hold = robust_q_ceil(s->mag_hold / dt);
     k.n_new = robust_q_ceil(s->mag_new_time / dt);
+    k.learn = s->mag_learn;
+    k.kqh = (int32_t)floor(1e-3 * dt * 1073741824.0 + 0.5);
+    k.kqo = (int32_t)floor(1e-7 * dt * 70368744177664.0 + 0.5);
+    k.knoise2 = (int32_t)floor(s->mag_noise * s->mag_noise * 268435456.0 + 0.5);
+    k.klag2 = imf_qscale_from_double((s->gyr_scale * s->mag_lag) * (s->gyr_scale * s->mag_lag));
+    k.kmin2 = (int32_t)floor(s->mag_offset_min * s->mag_offset_min * 1073741824.0 + 0.5);
+    k.n_bad = robust_q_ceil(1.0 / dt);
     k.imu.n_max = k.imu.n_max > k.n_mag ? k.imu.n_max : k.n_mag;
     k.imu.n_max = k.imu.n_max > k.n_ref ? k.imu.n_max : k.n_ref;
-    if (s->mag_norm > 0.0 && k.knorm.m == 0) {
+    if ((s->mag_norm > 0.0 && k.knorm.m == 0) || (s->mag_lag > 0.0 && k.klag2.m == 0)
+        || k.n_bad < 1) {
         return -1;
     }
     return imf_robust_ahrs_q_init_consts(self, &k);
@@ -251,7 +269,10 @@ void imf_robust_ahrs_q_set_mag_offset(imf_robust_ahrs_q_t *const self, const int
     int i;
     for (i = 0; i < 3; ++i) {
         self->x.u[i] = offset[i];
+        self->x.so[i] = offset[i];
     }
+    self->x.m_n2 = 0; /* B6 starts again from it */
+    self->x.m_var = IMF_Q30_ONE;
 }
 
 void imf_robust_ahrs_q_update(imf_robust_ahrs_q_t *const self, const int16_t gyr[3],
@@ -259,6 +280,7 @@ void imf_robust_ahrs_q_update(imf_robust_ahrs_q_t *const self, const int16_t gyr
 {
     int16_t rq[9];
     if (robust_q_step(&self->k.imu, &self->x.imu, gyr, acc, rq)) {
+        robust_q_offset(&self->k, &self->x, gyr, mag); /* B6 */
         robust_q_magnetometer(&self->k, &self->x, mag, rq);
         robust_q_output(&self->k.imu, &self->x.imu, gyr);
     }

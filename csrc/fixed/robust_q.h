@@ -2,12 +2,13 @@
  * Fixed-point RobustIMU (csrc/robust.h, docs/recommended-ahrs.md) for MCUs without an
  * FPU: the blocks B1 (rest), B2 (gravity in the inertial frame, a Kalman filter), B3
  * (gyro bias in motion), B5 (start from the first samples) and the output latency, and
- * RobustAHRS without B6 (RobustAHRSQ: B4, the magnetometer confined to heading; below), in
+ * RobustAHRS (RobustAHRSQ: B4, the magnetometer confined to heading, and B6, its offset
+ * learnt while turning; below), in
  * int32 with 16x16->32 multiplies only (no int64, no division: reciprocals and
  * square roots by imf_invsqrt_u32).  Mirrored line for line by
  * python/imufuse/reference/fixed_robust.py (robust_q.c: one function per block, the
  * blocks and their helpers in the private headers robust_q_blocks.h, robust_q_mag.h,
- * robust_q_ops.h and robust_q8.h, each with its twin module).
+ * robust_q_b6.h, robust_q_ops.h and robust_q8.h, each with its twin module).
  *
  * Two profiles (the constants' profile, given to init; IMF_FIXED_PROFILE 32 or 8 compiles
  * one only), the same state, constants and blocks:
@@ -57,6 +58,12 @@
 
 #include <stdint.h>
 #include "imf_fixed.h"
+
+/* B6 compiled in (1, the default) or left out (0: its code is not linked, saving 4 to 6 KB
+ * of flash on an ATmega328P, and init refuses mag_learn 1; the state keeps B6's words) */
+#ifndef IMF_ROBUST_Q_B6
+#define IMF_ROBUST_Q_B6 1
+#endif
 
 #ifdef __cplusplus
 extern "C" {
@@ -140,8 +147,9 @@ void imf_robust_imu_q_update(imf_robust_imu_q_t *self, const int16_t gyr[3], con
 /* ---- RobustAHRSQ: RobustIMUQ and B4, the magnetometer confined to heading --------
  *
  * The magnetometer in counts, any unit (B4 is relative to its own learned reference).
- * B6 (the offset learnt while turning) is not built: mag_learn must be 0, and the
- * offset is the stored one (imf_robust_ahrs_q_set_mag_offset, counts).
+ * The offset in use is the stored one (imf_robust_ahrs_q_set_mag_offset, counts) until B6
+ * (mag_learn 1; off by default) has a trusted estimate that differs from it by more than
+ * mag_offset_min (csrc/robust.h's B6, in robust_q_b6.h; the same code in both profiles).
  *
  * State x: RobustIMUQ's, then
  *   u[3]     the offset in use, counts
@@ -151,9 +159,22 @@ void imf_robust_imu_q_update(imf_robust_imu_q_t *self, const int16_t gyr[3], con
  *   n_ok     samples the field has matched the reference (saturating at mag_hold)
  *   n_dist   samples since the field was last used (saturating at 2^30)
  *   n_cand   samples of motion the candidate has stayed the same
+ * then B6's (constant while mag_learn is 0), relative to the field unit n0 = |m - u| at
+ * the estimator's start:
+ *   hi[6]    the field h in the inertial frame, then the offset o in the sensor frame, q26
+ *   P[21]    their covariance, upper triangle by rows, q30
+ *   so[3]    the stored offset, counts
+ *   m_n2     n0^2, counts^2 (saturated to 2^31 - 1; 0: the estimator starts at the next
+ *            reading); m_im, m_is: 1 / n0 and m_nm, m_ns: n0 as q-scales (mantissa, shift)
+ *   m_ew, m_d2  mean and last normalised innovation, q16
+ *   m_var    the offset's largest variance, q30 (1 before the estimator starts)
+ *   m_qo     the offset's random walk not yet added to P, q46 (below 2^16)
+ *   m_axis   the axis the next reading updates (0, 1, 2); m_bad: samples of absurd readings
  *
  * Ranges: RobustIMUQ's; tau_mag, tau_mag_ref, mag_new_time, mag_hold up to 2^30
- * samples; mag_norm 0 .. 1; mag_dip (a sine) >= 0.
+ * samples; mag_norm 0 .. 1; mag_dip (a sine) >= 0; B6: mag_noise 0.01 .. 1 (its gains in
+ * q24), mag_lag 0 .. 0.1 with (gyr_scale mag_lag)^2 a q-scale of shift 29 .. 62,
+ * mag_offset_min 0 .. 1.
  */
 typedef struct {
     imf_robust_imu_q_state_t imu; /* RobustIMUQ's state (above) */
@@ -161,6 +182,18 @@ typedef struct {
     int32_t rn, rh, rz;           /* reference: norm q15 counts; cos, sin of the dip q30 */
     int32_t cn, ch, cz;           /* candidate reference, the same */
     int32_t n_ok, n_dist, n_cand; /* sample counters */
+    /* B6 (all constant while mag_learn is 0) */
+    int32_t hi[6];      /* field in the inertial frame h, then the offset o, q26 of n0 */
+    int32_t P[21];      /* covariance of hi, upper triangle by rows, q30 */
+    int32_t so[3];      /* stored offset, counts */
+    int32_t m_n2;       /* n0^2, counts^2 (0: the estimator starts at the next reading) */
+    int32_t m_im, m_is; /* 1 / n0 as a q-scale (mantissa, shift) */
+    int32_t m_nm, m_ns; /* n0 (counts) as a q-scale */
+    int32_t m_ew, m_d2; /* mean and last normalised innovation, q16 */
+    int32_t m_var;      /* the offset's largest variance, q30 (1 until estimated) */
+    int32_t m_qo;       /* the offset's walk not yet added to P, q46 */
+    int32_t m_axis;     /* the axis the next reading updates: 0, 1, 2 */
+    int32_t m_bad;      /* samples of absurd readings (saturating at n_bad) */
 } imf_robust_ahrs_q_state_t;
 
 typedef struct {
@@ -173,6 +206,13 @@ typedef struct {
     int32_t n_ref;                 /* ceil(tau_mag_ref / dt): the reference's */
     int32_t n_hold;                /* ceil(mag_hold / dt) */
     int32_t n_new;                 /* ceil(mag_new_time / dt) */
+    int32_t learn;                 /* B6 on (1) or off (0) */
+    int32_t kqh;                   /* B6: the field's walk per sample, 1e-3 dt, q30 */
+    int32_t kqo;                   /* B6: the offset's walk per sample, 1e-7 dt, q46 */
+    int32_t knoise2;               /* B6: mag_noise^2, q28 */
+    imf_qscale_t klag2;            /* B6: (gyr_scale mag_lag)^2 (m 0: no lag) */
+    int32_t kmin2;                 /* B6: mag_offset_min^2, q30 */
+    int32_t n_bad;                 /* B6: ceil(1 s / dt): absurd readings before a restart */
 } imf_robust_ahrs_q_consts_t;
 
 typedef struct {
@@ -183,30 +223,37 @@ typedef struct {
 /* The settings of imf_robust_ahrs_q_init: RobustIMUQ's and B4's (those of
  * imf_robust_ahrs_settings_t, in double). */
 typedef struct {
-    double dt;            /* sample period, s; tau_acc / dt in [200, 8192] (default 0.01) */
-    double tau_acc;       /* B2: tilt correction time constant, s (default 2.5) */
-    double rate_ref;      /* B2: rate at which gravity's process noise doubles, rad/s;
+    double dt;             /* sample period, s; tau_acc / dt in [200, 8192] (default 0.01) */
+    double tau_acc;        /* B2: tilt correction time constant, s (default 2.5) */
+    double rate_ref;       /* B2: rate at which gravity's process noise doubles, rad/s;
                              >= 0, 0: constant (default 1.745: 100 deg/s) */
-    double tau_bias;      /* B3: 0 (off) or >= 4 tau_acc, s (default 100) */
-    double tau_bias_rest; /* B3 at rest, s; > 0 (default 3) */
-    double rest_gyr;      /* B1: rest threshold, rad/s; >= 0 (default 0.0349: 2 deg/s) */
-    double rest_acc;      /* B1: rest threshold on |a| - |a|_lowpass, relative; 0 .. 1
+    double tau_bias;       /* B3: 0 (off) or >= 4 tau_acc, s (default 100) */
+    double tau_bias_rest;  /* B3 at rest, s; > 0 (default 3) */
+    double rest_gyr;       /* B1: rest threshold, rad/s; >= 0 (default 0.0349: 2 deg/s) */
+    double rest_acc;       /* B1: rest threshold on |a| - |a|_lowpass, relative; 0 .. 1
                              (default 0.05) */
-    double rest_time;     /* B1: s; >= 0 (default 1.5) */
-    double tau_rest;      /* B1: low-pass time constant, s; > 0 (default 0.5) */
-    double latency;       /* output prediction, s; 0 .. 0.1 (default 0) */
-    double tau_mag;       /* B4: heading correction time constant, s; > 0 (default 10) */
-    double mag_norm;      /* B4: disturbance threshold on |m|, relative; 0 .. 1 (default 0.1) */
-    double mag_dip;       /* B4: disturbance threshold on the dip, its sine; >= 0, 2: none
+    double rest_time;      /* B1: s; >= 0 (default 1.5) */
+    double tau_rest;       /* B1: low-pass time constant, s; > 0 (default 0.5) */
+    double latency;        /* output prediction, s; 0 .. 0.1 (default 0) */
+    double tau_mag;        /* B4: heading correction time constant, s; > 0 (default 10) */
+    double mag_norm;       /* B4: disturbance threshold on |m|, relative; 0 .. 1 (default 0.1) */
+    double mag_dip;        /* B4: disturbance threshold on the dip, its sine; >= 0, 2: none
                             (default 0.1736: 10 deg) */
-    double tau_mag_ref;   /* B4: the learned reference's time constant, s; > 0 (default 20) */
-    double mag_new_time;  /* B4: a changed field steady this long in motion becomes the
+    double tau_mag_ref;    /* B4: the learned reference's time constant, s; > 0 (default 20) */
+    double mag_new_time;   /* B4: a changed field steady this long in motion becomes the
                             reference, s; >= 0 (default 20) */
-    double mag_hold;      /* B4: the field must match this long after a disturbance, s;
+    double mag_hold;       /* B4: the field must match this long after a disturbance, s;
                             >= 0 (default 0.5) */
-    int mag_learn;        /* B6: must be 0 (not built in fixed point; default 0) */
-    double gyr_scale;     /* rad/s per gyro count; > 0 (default 1.0642e-3) */
-    int profile;          /* 32 (default) or 8, a profile compiled in; any other value:
+    int mag_learn;         /* B6: learn the magnetometer's offset while turning (1); 0 (default):
+                             the stored offset only */
+    double mag_noise;      /* B6: magnetometer noise, relative to the field; 0.01 .. 1
+                             (default 0.02) */
+    double mag_lag;        /* B6: magnetometer-to-gyro timing mismatch, s; 0 .. 0.1 (default
+                             0.003) */
+    double mag_offset_min; /* B6: a trusted estimate replaces the stored offset when they
+                              differ by more than this, relative; 0 .. 1 (default 0.1) */
+    double gyr_scale;      /* rad/s per gyro count; > 0 (default 1.0642e-3) */
+    int profile;           /* 32 (default) or 8, a profile compiled in; any other value:
                              init returns -1 */
 } imf_robust_ahrs_q_settings_t;
 
@@ -218,7 +265,7 @@ int imf_robust_ahrs_q_init(imf_robust_ahrs_q_t *self, const imf_robust_ahrs_q_se
 int imf_robust_ahrs_q_init_consts(imf_robust_ahrs_q_t *self,
                                   const imf_robust_ahrs_q_consts_t *consts);
 /* The stored offset (hard iron), magnetometer counts in the sensor frame, used from the
- * next sample. init and init_consts clear it: set it after them. */
+ * next sample; B6 starts again from it. init and init_consts clear it: set it after them. */
 void imf_robust_ahrs_q_set_mag_offset(imf_robust_ahrs_q_t *self, const int16_t offset[3]);
 /* One sample: gyr, acc and mag in counts (an all-zero mag is no reading). */
 void imf_robust_ahrs_q_update(imf_robust_ahrs_q_t *self, const int16_t gyr[3], const int16_t acc[3],

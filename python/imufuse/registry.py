@@ -211,6 +211,8 @@ EXTRA_FIXED_CASES = [
                              rest_time=0.2, mag_hold=0.02, mag_new_time=0.3, tau_mag_ref=0.5,
                              tau_mag=1.0, mag_dip=90.0, mag_norm=0.02, gyr_scale=1.0642e-3),
          "options"),
+    # B6 on: the magnetometer offset learnt while turning (its defaults otherwise)
+    Case("RobustAHRSQ", dict(dt=1 / 512, mag_learn=True, gyr_scale=1.0642e-3), "learn"),
 ]
 
 

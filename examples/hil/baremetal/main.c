@@ -1,5 +1,6 @@
 /* HIL example: your filter behind the imufuse HIL runner. The three adapter functions are all
  * the runner needs from a firmware: init, update (one sample), state (the words to compare). */
+#include <stddef.h>
 #include <string.h>
 
 #include "board.h"
@@ -34,8 +35,10 @@ static void fw_update(const void *in)
 
 static uint8_t fw_state(uint8_t *out)
 {
-    memcpy(out, &filt.x, sizeof filt.x); /* the 44 words, in RobustAHRSQ's state order */
-    return (uint8_t)sizeof filt.x;
+    /* the first 44 words, in RobustAHRSQ's state order (up to B4's; B6's 41 words after them,
+       constant with its default mag_learn 0, are beyond the runner's 64 words a frame) */
+    memcpy(out, &filt.x, offsetof(imf_robust_ahrs_q_state_t, hi));
+    return (uint8_t)offsetof(imf_robust_ahrs_q_state_t, hi);
 }
 #define HIL_NAME "example RobustAHRSQ"
 #define HIL_IN IMF_HIL_IN_I16

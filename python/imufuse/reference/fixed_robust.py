@@ -1,8 +1,9 @@
-"""Fixed-point RobustIMU and RobustAHRS (without B6): pure-Python twin of
+"""Fixed-point RobustIMU and RobustAHRS (B6 included): pure-Python twin of
 csrc/fixed/robust_q.c, line for line (Q formats and ranges in robust_q.h): the settings, the
 constants, init and the updates, which compose the blocks of fixed_robust_blocks.py and
-fixed_robust_mag.py (their helpers in fixed_robust_ops.py and fixed_robust_p8.py), as
-robust_q.c composes those of robust_q_blocks.h and robust_q_mag.h.
+fixed_robust_mag.py and fixed_robust_b6.py (their helpers in fixed_robust_ops.py and
+fixed_robust_p8.py), as robust_q.c composes those of robust_q_blocks.h, robust_q_mag.h and
+robust_q_b6.h.
 """
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ from . import fixed_quat as fq
 from .fixed_base import FixedFilter, check_profile, check_scale, qconst
 from .fixed_robust_blocks import (acc_reading, bias, gravity, level, output, rest,
                                   strapdown)
+from .fixed_robust_b6 import offset
 from .fixed_robust_mag import magnetometer
 from .robust import RobustAHRS, RobustIMU
 
@@ -29,7 +31,13 @@ IMU_LAYOUT = (("q", "0123"), ("s", "0123"), ("c", "0123"), ("f", "xyz"), ("v", "
               ("n", ""), ("n_rest", ""))
 #: RobustAHRSQ's words after the IMU's (imf_robust_ahrs_q_state_t)
 MAG_LAYOUT = (("u", "xyz"), ("rn", ""), ("rh", ""), ("rz", ""), ("cn", ""), ("ch", ""),
-              ("cz", ""), ("n_ok", ""), ("n_dist", ""), ("n_cand", ""))
+              ("cz", ""), ("n_ok", ""), ("n_dist", ""), ("n_cand", ""),
+              # B6 (constant while mag_learn is off)
+              ("hi", ("hx", "hy", "hz", "ox", "oy", "oz")),
+              ("P", tuple(f"{i}{j}" for i in range(6) for j in range(i, 6))),
+              ("so", "xyz"), ("m_n2", ""), ("m_im", ""), ("m_is", ""), ("m_nm", ""),
+              ("m_ns", ""), ("m_ew", ""), ("m_d2", ""), ("m_var", ""), ("m_qo", ""),
+              ("m_axis", ""), ("m_bad", ""))
 
 
 def _names(layout):
@@ -199,16 +207,18 @@ class RobustIMUQ(FixedFilter):
 
 class RobustAHRSQ(RobustIMUQ):
     """imufuse's recommended attitude filter with a magnetometer (RobustAHRS,
-    docs/recommended-ahrs.md) in fixed point: RobustIMUQ's blocks and B4, the magnetometer
-    confined to heading with its disturbance detector.
+    docs/recommended-ahrs.md) in fixed point: RobustIMUQ's blocks, B4, the magnetometer
+    confined to heading with its disturbance detector, and B6, its offset learnt while
+    turning.
 
-    RobustAHRSQ(dt, <RobustAHRS's keywords up to mag_hold, the same units>,
-    mag_learn=False, gyr_scale=rad/s per count, profile="32"). The magnetometer in counts,
-    any unit (B4 is relative to its learned reference). B6, the offset learnt while
-    turning, is not built: mag_learn=True is refused; the stored offset (counts) is given
-    with set_mag_offset. State: RobustIMUQ's, then the offset in use u, the reference
-    (rn q15 counts, rh, rz q30) and the candidate (cn, ch, cz), the sample counters n_ok,
-    n_dist, n_cand.
+    RobustAHRSQ(dt, <RobustAHRS's keywords, the same units>, gyr_scale=rad/s per count,
+    profile="32"); mag_learn (B6) is False by default in fixed point. The magnetometer in
+    counts, any unit (B4 is relative to its learned reference); the stored offset (counts)
+    is given with set_mag_offset. State: RobustIMUQ's, then the offset in use u, the
+    reference (rn q15 counts, rh, rz q30) and the candidate (cn, ch, cz), the sample
+    counters n_ok, n_dist, n_cand, then B6's (robust_q.h): h and o (q26 of the field unit),
+    their covariance P (q30), the stored offset so, the field unit's words, the innovation's
+    statistics, the offset's variance m_var, m_qo, m_axis, m_bad.
     """
     kind = "ahrs"
     c_name = "imf_robust_ahrs_q"
@@ -218,18 +228,15 @@ class RobustAHRSQ(RobustIMUQ):
     def _params(dt, tau_acc=2.5, rate_ref=100.0, tau_bias=100.0, tau_bias_rest=3.0,
                 rest_gyr=2.0, rest_acc=0.05, rest_time=1.5, tau_rest=0.5, latency=0.0,
                 tau_mag=10.0, mag_norm=0.1, mag_dip=10.0, tau_mag_ref=20.0, mag_new_time=20.0,
-                mag_hold=0.5, mag_learn=False, *, gyr_scale, profile="32"):
-        if mag_learn is not False and mag_learn != 0:
-            raise ValueError("mag_learn: B6 (the magnetometer offset learnt while turning) is "
-                             "not built in fixed point; give the stored offset in counts with "
-                             "set_mag_offset (e.g. from RobustAHRS's get_mag_offset on the "
-                             "host), and leave mag_learn False")
+                mag_hold=0.5, mag_learn=False, mag_noise=0.02, mag_lag=0.003,
+                mag_offset_min=0.1, *, gyr_scale, profile="32"):
         imu = RobustIMUQ._params(dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr,
                                  rest_acc, rest_time, tau_rest, latency, gyr_scale=gyr_scale,
                                  profile=profile)
         m = RobustAHRS._params(dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr,
                                rest_acc, rest_time, tau_rest, latency, tau_mag, mag_norm,
-                               mag_dip, tau_mag_ref, mag_new_time, mag_hold, False)
+                               mag_dip, tau_mag_ref, mag_new_time, mag_hold, mag_learn,
+                               mag_noise, mag_lag, mag_offset_min)
         dt = imu[0]
         mag = (m.tau_mag, m.mag_norm, m.mag_dip, m.tau_mag_ref, m.mag_new_time, m.mag_hold)
         tau_mag, mag_norm, _, tau_mag_ref, mag_new_time, mag_hold = mag
@@ -243,13 +250,23 @@ class RobustAHRSQ(RobustIMUQ):
                 raise ValueError(f"{name}: must be at most 2^30 samples, got {v!r}")
         qconst("dt/(tau_mag+dt)", dt / (tau_mag + dt), 0, 47, nonzero=True)
         qconst("dt/(tau_mag_ref+dt)", dt / (tau_mag_ref + dt), 0, 47, nonzero=True)
-        return imu[:10] + mag + (0,) + imu[10:]
+        # B6: the noise's square in q28 keeps the gains within q24; the lag's in its shifts
+        if not 0.01 <= m.mag_noise <= 1.0:
+            raise ValueError(f"mag_noise: must be within [0.01, 1] in fixed point (B6's gains "
+                             f"in q24), got {m.mag_noise!r}")
+        if m.mag_offset_min > 1.0:
+            raise ValueError(f"mag_offset_min: must be <= 1 in fixed point, got "
+                             f"{m.mag_offset_min!r}")
+        if m.mag_lag > 0.0:
+            qconst("(gyr_scale*mag_lag)^2", (imu[10] * m.mag_lag) ** 2, 29, 62, nonzero=True)
+        b6 = (int(bool(m.mag_learn)), m.mag_noise, m.mag_lag, m.mag_offset_min)
+        return imu[:10] + mag + b6 + imu[10:]
 
     @staticmethod
     def _consts(dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc, rest_time,
                 tau_rest, latency, tau_mag, mag_norm, mag_dip, tau_mag_ref, mag_new_time,
-                mag_hold, mag_learn, gyr_scale, profile):
-        # imf_robust_ahrs_q_init: RobustIMUQ's constants and B4's
+                mag_hold, mag_learn, mag_noise, mag_lag, mag_offset_min, gyr_scale, profile):
+        # imf_robust_ahrs_q_init: RobustIMUQ's constants, B4's and B6's
         imu = RobustIMUQ._consts(dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr,
                                  rest_acc, rest_time, tau_rest, latency, gyr_scale, profile)
         n_mag, n_ref = _ceil(tau_mag / dt), _ceil(tau_mag_ref / dt)
@@ -259,19 +276,26 @@ class RobustAHRSQ(RobustIMUQ):
                     kdip=0x7FFFFFFF if mag_dip >= 2.0 else math.floor(mag_dip * 1073741824.0
                                                                        + 0.5),
                     n_mag=n_mag, n_ref=n_ref, n_hold=_ceil(mag_hold / dt),
-                    n_new=_ceil(mag_new_time / dt))
+                    n_new=_ceil(mag_new_time / dt), learn=int(mag_learn),
+                    kqh=math.floor(1e-3 * dt * 1073741824.0 + 0.5),
+                    kqo=math.floor(1e-7 * dt * 70368744177664.0 + 0.5),
+                    knoise2=math.floor(mag_noise * mag_noise * 268435456.0 + 0.5),
+                    klag2=ci.qscale((gyr_scale * mag_lag) * (gyr_scale * mag_lag)),
+                    kmin2=math.floor(mag_offset_min * mag_offset_min * 1073741824.0 + 0.5),
+                    n_bad=_ceil(1.0 / dt))
 
     def _init(self, dt, tau_acc, rate_ref, tau_bias, tau_bias_rest, rest_gyr, rest_acc,
               rest_time, tau_rest, latency, tau_mag, mag_norm, mag_dip, tau_mag_ref,
-              mag_new_time, mag_hold, mag_learn, gyr_scale, profile):
+              mag_new_time, mag_hold, mag_learn, mag_noise, mag_lag, mag_offset_min, gyr_scale,
+              profile):
         self.dt = dt
         self.gyr_scale = gyr_scale
         self.tau_acc = tau_acc
         self._init_consts(**self._consts(dt, tau_acc, rate_ref, tau_bias, tau_bias_rest,
                                          rest_gyr, rest_acc, rest_time, tau_rest, latency,
                                          tau_mag, mag_norm, mag_dip, tau_mag_ref,
-                                         mag_new_time, mag_hold, mag_learn, gyr_scale,
-                                         profile))
+                                         mag_new_time, mag_hold, mag_learn, mag_noise,
+                                         mag_lag, mag_offset_min, gyr_scale, profile))
 
     def _init_consts(self, imu, **k):
         # imf_robust_ahrs_q_init_consts (the ranges were checked by _params)
@@ -280,6 +304,10 @@ class RobustAHRSQ(RobustIMUQ):
         self.u = [0, 0, 0]
         self.rn = self.rh = self.rz = self.cn = self.ch = self.cz = 0
         self.n_ok = self.n_dist = self.n_cand = 0
+        self.hi, self.P, self.so = [0] * 6, [0] * 21, [0, 0, 0]
+        self.m_n2 = self.m_im = self.m_is = self.m_nm = self.m_ns = 0
+        self.m_ew = self.m_d2 = self.m_qo = self.m_axis = self.m_bad = 0
+        self.m_var = fq.Q30_ONE
 
     @staticmethod
     def _offset_counts(offset):
@@ -305,9 +333,12 @@ class RobustAHRSQ(RobustIMUQ):
 
     def set_mag_offset(self, offset):
         """imf_robust_ahrs_q_set_mag_offset: the stored offset (hard iron), magnetometer
-        counts (x, y, z) in the sensor frame, used from the next sample. reset() clears it
-        (as the C init does): set it again after a reset."""
+        counts (x, y, z) in the sensor frame, used from the next sample (B6 starts again from
+        it). reset() clears it (as the C init does): set it again after a reset."""
         self.u = list(self._offset_counts(offset))
+        self.so = list(self.u)
+        self.m_n2 = 0                       # B6 starts again from it
+        self.m_var = fq.Q30_ONE
 
     def _get_state(self):
         return _words(self, IMU_LAYOUT + MAG_LAYOUT)
@@ -317,13 +348,17 @@ class RobustAHRSQ(RobustIMUQ):
 
     def _state_float(self, s):
         q30, q15 = 2.0 ** -30, 2.0 ** -15
+        q26, q16 = 2.0 ** -26, 2.0 ** -16
         return (super()._state_float(s[:32]) + list(s[32:35])
                 + [s[35] * q15, s[36] * q30, s[37] * q30, s[38] * q15, s[39] * q30,
-                   s[40] * q30] + list(s[41:]))
+                   s[40] * q30] + list(s[41:44]) + [v * q26 for v in s[44:50]]
+                + [v * q30 for v in s[50:71]] + list(s[71:79]) + [s[79] * q16, s[80] * q16,
+                                                                   s[81] * q30] + list(s[82:]))
 
     def _update(self, gyr, acc, mag):
         # imf_robust_ahrs_q_update
         rq = [0] * 9
         if step(self.k, self, gyr, acc, rq):
+            offset(self.km, self, gyr, mag)                      # B6
             magnetometer(self.km, self, mag, rq)
             output(self.k, self, gyr)

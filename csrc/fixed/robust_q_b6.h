@@ -1,0 +1,289 @@
+/* B6 of the fixed-point RobustAHRS (robust_q.h, RobustAHRSQ): the magnetometer's offset
+ * (hard iron) learnt while the sensor turns, csrc/robust_mag.h's estimator in integers: a
+ * Kalman filter of the field h in the inertial frame and the offset o in the sensor frame,
+ * m = R(s)^T h + o in units of the first field's norm n0, one axis per sample in turn; the
+ * offset in use u (counts) the stored offset until the estimate is trusted and differs from
+ * it by more than mag_offset_min. The same code in both profiles (int32 values times int16
+ * factors, imf_mul_32x16). Formats (robust_q.h): h, o q26; P q30; the gains q24; P H^T q29;
+ * the innovation's variance q28; the normalised innovation and its mean q16. Private to
+ * csrc/fixed/robust_q.c, which includes this file once. Mirrored line for line by
+ * python/imufuse/reference/fixed_robust_b6.py. */
+#ifndef IMF_ROBUST_Q_B6_H
+#define IMF_ROBUST_Q_B6_H
+
+#include "robust_q.h"
+#include "robust_q_ops.h"
+
+/* B6's fixed model, csrc/robust_mag.h's in these formats: the prior variance 1 (q30), the
+ * offset's variance added after an innovation beyond the gate (0.05, q30), the gate 19 and
+ * the mean 8 of the normalised innovation (q16), the weight of its running mean
+ * (0.02 = 20972 2^-20), the trusted variance (0.01^2, q30) */
+#define ROBUST_Q6_P0 1073741824L
+#define ROBUST_Q6_JUMP 53687091L
+#define ROBUST_Q6_GATE 1245184L
+#define ROBUST_Q6_MEAN 524288L
+#define ROBUST_Q6_EW 20972
+#define ROBUST_Q6_TRUST 107374L
+
+/* index of P[i][j] in P[21], the covariance's upper triangle by rows */
+static const unsigned char robust_q6_pi[6][6] = {
+    { 0, 1, 2, 3, 4, 5 },     { 1, 6, 7, 8, 9, 10 },    { 2, 7, 11, 12, 13, 14 },
+    { 3, 8, 12, 15, 16, 17 }, { 4, 9, 13, 16, 18, 19 }, { 5, 10, 14, 17, 19, 20 }
+};
+
+/* the q-scale of 1 / sqrt(n2) for n2 > 0 (imf_invsqrt_u32's 16 bits rounded to 15) */
+static imf_qscale_t robust_q6_invsqrt(const uint32_t n2)
+{
+    imf_qscale_t r;
+    int sh;
+    const uint16_t y = imf_invsqrt_u32(n2, &sh); /* in [2^15, 2^16) */
+    uint16_t m = (uint16_t)((y >> 1) + (y & 1u));
+    if (m >= 32768u) {
+        m = 16384u;
+        sh--;
+    }
+    r.m = (int16_t)m;
+    r.s = (int16_t)(sh - 1);
+    return r;
+}
+
+/* a state word pair (mantissa, shift) as a q-scale */
+static inline imf_qscale_t robust_q6_scale(const int32_t m, const int32_t s)
+{
+    imf_qscale_t r;
+    r.m = (int16_t)m;
+    r.s = (int16_t)s;
+    return r;
+}
+
+/* counts (int32, within int16) times 1 / n0, q26 */
+static int32_t robust_q6_rel(const int32_t v, const imf_qscale_t inv)
+{
+    return imf_scale32_s(imf_x32768(imf_sat_q15s(v)), inv, 15, 26);
+}
+
+/* start: n0 = |m - u| (n2 its square, counts^2), h = R(s) (m - u) / n0 (c: the rotated
+ * reading, q15 counts), o = u / n0, both with the prior variance */
+static void robust_q6_start(imf_robust_ahrs_q_state_t *const xm, const int32_t c[3],
+                            const uint32_t n2)
+{
+    const imf_qscale_t inv = robust_q6_invsqrt(n2);
+    int sign, k;
+    /* n0 = n2 / sqrt(n2), q15 counts (< 2^31: n2 < 2^32; inv.s >= 17: n2 >= 64) */
+    const imf_qscale_t n0 =
+        robust_q_scale_of(imf_mul_32x16_s((int32_t)(n2 >> 1), inv.m, inv.s - 16), 15, &sign);
+    xm->m_n2 = n2 > 2147483647u ? 2147483647L : (int32_t)n2;
+    xm->m_im = inv.m;
+    xm->m_is = inv.s;
+    xm->m_nm = n0.m;
+    xm->m_ns = n0.s;
+    for (k = 0; k < 3; ++k) {
+        xm->hi[k] = imf_scale32_s(c[k], inv, 15, 26);
+        xm->hi[3 + k] = robust_q6_rel(xm->u[k], inv);
+    }
+    for (k = 0; k < 21; ++k) {
+        xm->P[k] = 0;
+    }
+    for (k = 0; k < 6; ++k) {
+        xm->P[robust_q6_pi[k][k]] = ROBUST_Q6_P0;
+    }
+    xm->m_ew = 65536L;
+    xm->m_d2 = 0;
+}
+
+/* the exponent e >= 0 that brings every v[k] (rounded, shifted by e) within +-32767
+ * (|v| >> e at most 32766) */
+static int robust_q6_exponent(const int32_t v[6])
+{
+    int32_t mx = 0;
+    int e = 0, k;
+    for (k = 0; k < 6; ++k) {
+        const int32_t a = v[k] < 0 ? imf_sub_sat32(0, v[k]) : v[k];
+        mx = a > mx ? a : mx;
+    }
+    while (mx > 32766L) {
+        mx >>= 1;
+        e++;
+    }
+    return e;
+}
+
+/* the scalar update of axis i: measurement y (q26) with noise rr (q28), H = (c, e_i) */
+static IMF_Q_NOINLINE void robust_q6_axis(imf_robust_ahrs_q_state_t *const xm, const int i,
+                                          const int16_t c[3], const int32_t y, const int32_t rr)
+{
+    int32_t ph[6], kk[6], sv, hx, nu, nn;
+    int16_t p16[6];
+    imf_qscale_t ri, nq;
+    int j, k, sign, e, n;
+    for (j = 0; j < 6; ++j) {
+        /* P H^T, q29 */
+        int32_t a = imf_rshr32(xm->P[robust_q6_pi[j][3 + i]], 1);
+        for (k = 0; k < 3; ++k) {
+            a = imf_add_sat32(a, imf_mul_32x16(xm->P[robust_q6_pi[j][k]], c[k], 16));
+        }
+        ph[j] = a;
+    }
+    sv = imf_rshr32(ph[3 + i], 1); /* H P H^T, q28 */
+    hx = xm->hi[3 + i];            /* H x, q26 */
+    for (k = 0; k < 3; ++k) {
+        sv = imf_add_sat32(sv, imf_mul_32x16(ph[k], c[k], 16));
+        hx = imf_add_sat32(hx, imf_mul_32x16(xm->hi[k], c[k], 15));
+    }
+    /* + rr: at least rr (P's rounding may leave H P H^T a few LSB below 0) */
+    sv = sv > 0 ? imf_add_sat32(sv, rr) : rr;
+    nu = imf_sub_sat32(y, hx);
+    ri = robust_q_recip((uint32_t)sv, 0); /* 1 / sv, sv >= mag_noise^2 >= 2^-14 */
+    nq = robust_q_scale_of(nu, 26, &sign);
+    for (j = 0; j < 6; ++j) {
+        kk[j] = imf_mul_32x16_s(ph[j], ri.m, ri.s - 23); /* q24 */
+        xm->hi[j] = imf_add_sat32(xm->hi[j], robust_q_mul_signed(kk[j], nq, sign, 24, 26));
+    }
+    /* P -= P H^T K^T: P H^T narrowed to int16 with one exponent e, times K (q24) */
+    e = robust_q6_exponent(ph);
+    for (j = 0; j < 6; ++j) {
+        p16[j] = (int16_t)imf_rshr32(ph[j], e);
+    }
+    for (j = 0; j < 6; ++j) {
+        for (k = j; k < 6; ++k) {
+            const unsigned char t = robust_q6_pi[j][k];
+            xm->P[t] = imf_sub_sat32(xm->P[t], imf_mul_32x16_s(kk[k], p16[j], 23 - e));
+        }
+    }
+    /* the normalised innovation nu^2 / sv, q16 */
+    nn = imf_mul16(nq.m, nq.m);
+    n = ri.s + 2 * nq.s - 44;
+    if (nq.m == 0) {
+        xm->m_d2 = 0;
+    } else if (n < 0) {
+        xm->m_d2 = IMF_INT32_MAX;
+    } else {
+        xm->m_d2 = imf_mul_32x16_s(nn, ri.m, n > 47 ? 47 : n);
+    }
+    xm->m_ew =
+        imf_add_sat32(xm->m_ew, imf_mul_32x16(imf_sub_sat32(xm->m_d2, xm->m_ew), ROBUST_Q6_EW, 20));
+}
+
+/* predict (the field and the offset walk; after an innovation beyond the gate the offset
+ * may have jumped), then the measurement y of axis i (c: column i of R(s)), its noise
+ * growing with the rate: w2 = |gyr|^2, counts^2 */
+static void robust_q6_update(const imf_robust_ahrs_q_consts_t *const k,
+                             imf_robust_ahrs_q_state_t *const xm, const int i, const int16_t c[3],
+                             const int32_t y, const uint32_t w2)
+{
+    int32_t pb, rr, qo;
+    int j;
+    qo = (xm->m_qo & 65535L) + k->kqo; /* the offset's walk, q46: its whole q30 LSBs added */
+    xm->m_qo = qo & 65535L;
+    qo >>= 16;
+    for (j = 0; j < 6; ++j) {
+        pb = imf_add_sat32(xm->P[robust_q6_pi[j][j]], j < 3 ? k->kqh : qo);
+        if (j >= 3 && xm->m_d2 > ROBUST_Q6_GATE && pb < ROBUST_Q6_P0) {
+            pb = imf_add_sat32(pb, ROBUST_Q6_JUMP);
+        }
+        xm->P[robust_q6_pi[j][j]] = pb;
+    }
+    rr = 0;
+    if (k->klag2.m != 0) {
+        rr = imf_mul_32x16_s((int32_t)(w2 >> 1), k->klag2.m, k->klag2.s - 29); /* q28 */
+        if (rr > 268435456L) {
+            rr = 268435456L;
+        }
+    }
+    robust_q6_axis(xm, i, c, y, imf_add_sat32(k->knoise2, rr));
+    xm->m_axis = i == 2 ? 0 : i + 1;
+}
+
+/* the offset's largest variance; trusted and consistent, the offset in use u is the stored
+ * offset while the estimate agrees with it within mag_offset_min, else the estimate */
+static void robust_q6_use(const imf_robust_ahrs_q_consts_t *const k,
+                          imf_robust_ahrs_q_state_t *const xm)
+{
+    const imf_qscale_t inv = robust_q6_scale(xm->m_im, xm->m_is);
+    const imf_qscale_t n0 = robust_q6_scale(xm->m_nm, xm->m_ns);
+    int32_t pb = 0;
+    uint32_t o2 = 0u;
+    int j;
+    for (j = 3; j < 6; ++j) {
+        pb = xm->P[robust_q6_pi[j][j]] > pb ? xm->P[robust_q6_pi[j][j]] : pb;
+    }
+    xm->m_var = pb;
+    if (!(pb < ROBUST_Q6_TRUST && xm->m_ew < ROBUST_Q6_MEAN)) {
+        return;
+    }
+    for (j = 0; j < 3; ++j) {
+        const int16_t e =
+            imf_qn_to_q15s(imf_sub_sat32(xm->hi[3 + j], robust_q6_rel(xm->so[j], inv)), 26);
+        o2 += (uint32_t)imf_mul16(e, e);
+    }
+    for (j = 0; j < 3; ++j) {
+        xm->u[j] = o2 < (uint32_t)k->kmin2 ? xm->so[j]
+                                           : imf_sat_q15s(imf_scale32_s(xm->hi[3 + j], n0, 26, 0));
+    }
+}
+
+/* the field unit's words within the ranges start() gives them: n0^2 > 0, 1 / n0 and n0 as
+ * q-scales with shifts in [16, 31] and [-2, 12] (n0 from 8 to 56756 counts) */
+static int robust_q6_started(const imf_robust_ahrs_q_state_t *const xm)
+{
+    return xm->m_n2 > 0 && xm->m_im >= 16384L && xm->m_im <= 32767L && xm->m_is >= 16
+           && xm->m_is <= 31 && xm->m_nm >= 16384L && xm->m_nm <= 32767L && xm->m_ns >= -2
+           && xm->m_ns <= 12;
+}
+
+/* B6: one reading (mag; all zero: none) into the estimator, then the offset in use u. gyr:
+ * this sample's rate (the measurement noise grows with it), counts */
+static IMF_Q_NOINLINE void robust_q_offset(const imf_robust_ahrs_q_consts_t *const k,
+                                           imf_robust_ahrs_q_state_t *const xm,
+                                           const int16_t gyr[3], const int16_t mag[3])
+{
+    const int i = xm->m_axis == 1 ? 1 : xm->m_axis == 2 ? 2 : 0;
+    int16_t qs[4], r[9], m[3], c[3];
+    int32_t cr[3];
+    uint32_t n2;
+    int j;
+    if (!IMF_ROBUST_Q_B6 || !k->learn || (mag[0] == 0 && mag[1] == 0 && mag[2] == 0)) {
+        return; /* B6 off (or not compiled in), or no reading */
+    }
+    if (xm->m_n2 != 0 && !robust_q6_started(xm)) {
+        xm->m_n2 = 0; /* a unit out of its ranges (a state written by hand): start again */
+    }
+    if (xm->m_n2 != 0) {
+        /* the reading against the field unit: absurd readings are not used */
+        n2 = robust_q_norm2(mag[0], mag[1], mag[2]);
+        if (!((n2 >> 6) <= (uint32_t)xm->m_n2 && n2 >= ((uint32_t)xm->m_n2 >> 6))) {
+            if (xm->m_bad < k->n_bad) {
+                xm->m_bad++;
+            }
+            if (xm->m_bad >= k->n_bad) {
+                xm->m_n2 = 0;
+                xm->m_bad = 0;
+            }
+            return;
+        }
+        xm->m_bad = 0;
+    }
+    imf_q_snapshot(xm->imu.s, qs);
+    robust_q_matrix(qs, r, 3); /* R(s), sensor -> inertial frame */
+    if (xm->m_n2 == 0) {
+        for (j = 0; j < 3; ++j) {
+            m[j] = imf_sat_q15s(imf_sub_sat32(mag[j], xm->u[j]));
+        }
+        n2 = robust_q_norm2(m[0], m[1], m[2]);
+        if (n2 < 64u) {
+            return; /* below 8 counts: no field to start from */
+        }
+        robust_q_rotate16(r, 0, m, cr); /* the field in the inertial frame, q15 counts */
+        robust_q6_start(xm, cr, n2);
+    } else {
+        /* column i of R(s): the row of axis i in m = R^T h + o */
+        for (j = 0; j < 3; ++j) {
+            c[j] = r[3 * j + i];
+        }
+        robust_q6_update(k, xm, i, c, robust_q6_rel(mag[i], robust_q6_scale(xm->m_im, xm->m_is)),
+                         robust_q_norm2(gyr[0], gyr[1], gyr[2]));
+    }
+    robust_q6_use(k, xm);
+}
+
+#endif /* IMF_ROBUST_Q_B6_H */

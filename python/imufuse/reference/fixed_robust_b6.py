@@ -1,0 +1,184 @@
+"""B6 of the fixed-point RobustAHRS: the magnetometer's offset learnt while the sensor turns:
+pure-Python twin of csrc/fixed/robust_q_b6.h, line for line (formats there and in
+robust_q.h: h, o q26 of the field unit n0; P q30; gains q24; P H^T q29; the innovation's
+variance q28; the normalised innovation and its mean q16).
+
+k: RobustAHRSQ's constants (a dict, imf_robust_ahrs_q_consts_t's members); x: the filter,
+whose attributes are the state.
+"""
+from __future__ import annotations
+
+from . import _cint as ci
+from . import fixed_quat as fq
+from .fixed_robust_ops import matrix, mul_signed, norm2, recip, rotate16, scale_of
+
+P0 = 1073741824            # the prior variance 1, q30
+JUMP = 53687091            # the offset's variance added after an innovation beyond the gate
+GATE = 1245184             # 19, q16
+MEAN = 524288              # 8, q16
+EW = 20972                 # 0.02 = 20972 2^-20
+TRUST = 107374             # 0.01^2, q30
+
+#: index of P[i][j] in P[21], the covariance's upper triangle by rows
+PI = ((0, 1, 2, 3, 4, 5), (1, 6, 7, 8, 9, 10), (2, 7, 11, 12, 13, 14),
+      (3, 8, 12, 15, 16, 17), (4, 9, 13, 16, 18, 19), (5, 10, 14, 17, 19, 20))
+
+
+def invsqrt(n2):
+    """robust_q6_invsqrt: the q-scale of 1 / sqrt(n2), n2 > 0."""
+    y, sh = ci.invsqrt_u32(n2)
+    m = (y >> 1) + (y & 1)
+    if m >= 32768:
+        m = 16384
+        sh -= 1
+    return ci.QScale(m, sh - 1)
+
+
+def rel(v, inv):
+    """robust_q6_rel: counts (within int16) times 1 / n0, q26."""
+    return ci.scale32_s(ci.sat_q15s(v) * 32768, inv, 15, 26)
+
+
+def start(x, c, n2):
+    """robust_q6_start: n0 = |m - u|, h = R(s) (m - u) / n0, o = u / n0, the prior."""
+    inv = invsqrt(n2)
+    n0, _ = scale_of(ci.mul_32x16(n2 >> 1, inv.m, inv.s - 16), 15)
+    x.m_n2 = min(n2, 2147483647)
+    x.m_im, x.m_is = inv.m, inv.s
+    x.m_nm, x.m_ns = n0.m, n0.s
+    for k in range(3):
+        x.hi[k] = ci.scale32_s(c[k], inv, 15, 26)
+        x.hi[3 + k] = rel(x.u[k], inv)
+    x.P[:] = [0] * 21
+    for k in range(6):
+        x.P[PI[k][k]] = P0
+    x.m_ew = 65536
+    x.m_d2 = 0
+
+
+def exponent(v):
+    """robust_q6_exponent: e >= 0 with |v| >> e at most 32766 for every component."""
+    mx = max(min(abs(a), 2147483647) for a in v)
+    e = 0
+    while mx > 32766:
+        mx >>= 1
+        e += 1
+    return e
+
+
+def axis(x, i, c, y, rr):
+    """robust_q6_axis: the scalar update of axis i, measurement y (q26), noise rr (q28)."""
+    ph = []
+    for j in range(6):
+        a = ci.rshr32(x.P[PI[j][3 + i]], 1)
+        for k in range(3):
+            a = ci.add_sat32(a, ci.mul_32x16(x.P[PI[j][k]], c[k], 16))
+        ph.append(a)
+    sv = ci.rshr32(ph[3 + i], 1)             # H P H^T, q28
+    hx = x.hi[3 + i]                         # H x, q26
+    for k in range(3):
+        sv = ci.add_sat32(sv, ci.mul_32x16(ph[k], c[k], 16))
+        hx = ci.add_sat32(hx, ci.mul_32x16(x.hi[k], c[k], 15))
+    sv = ci.add_sat32(sv, rr) if sv > 0 else rr  # at least rr (P's rounding)
+    nu = ci.sub_sat32(y, hx)
+    ri = recip(sv, 0)
+    nq, sign = scale_of(nu, 26)
+    kk = []
+    for j in range(6):
+        kk.append(ci.mul_32x16(ph[j], ri.m, ri.s - 23))
+        x.hi[j] = ci.add_sat32(x.hi[j], mul_signed(kk[j], nq, sign, 24, 26))
+    # P -= P H^T K^T: P H^T narrowed to int16 with one exponent e, times K (q24)
+    e = exponent(ph)
+    p16 = [ci.rshr32(ph[j], e) for j in range(6)]
+    for j in range(6):
+        for k in range(j, 6):
+            t = PI[j][k]
+            x.P[t] = ci.sub_sat32(x.P[t], ci.mul_32x16(kk[k], p16[j], 23 - e))
+    nn = nq.m * nq.m
+    n = ri.s + 2 * nq.s - 44
+    if nq.m == 0:
+        x.m_d2 = 0
+    elif n < 0:
+        x.m_d2 = 2147483647
+    else:
+        x.m_d2 = ci.mul_32x16(nn, ri.m, min(n, 47))
+    x.m_ew = ci.add_sat32(x.m_ew, ci.mul_32x16(ci.sub_sat32(x.m_d2, x.m_ew), EW, 20))
+
+
+def update(k, x, i, c, y, w2):
+    """robust_q6_update: predict, then the measurement y of axis i (c: column i of R(s)),
+    its noise growing with the rate (w2 = |gyr|^2, counts^2)."""
+    qo = (x.m_qo & 65535) + k["kqo"]
+    x.m_qo = qo & 65535
+    qo >>= 16
+    for j in range(6):
+        pb = ci.add_sat32(x.P[PI[j][j]], k["kqh"] if j < 3 else qo)
+        if j >= 3 and x.m_d2 > GATE and pb < P0:
+            pb = ci.add_sat32(pb, JUMP)
+        x.P[PI[j][j]] = pb
+    rr = 0
+    lag = k["klag2"]
+    if lag.m != 0:
+        rr = min(ci.mul_32x16(w2 >> 1, lag.m, lag.s - 29), 268435456)
+    axis(x, i, c, y, ci.add_sat32(k["knoise2"], rr))
+    x.m_axis = 0 if i == 2 else i + 1
+
+
+def use(k, x):
+    """robust_q6_use: the offset's largest variance; trusted and consistent, the offset in
+    use is the stored one while the estimate agrees with it within mag_offset_min, else the
+    estimate (counts)."""
+    inv = ci.QScale(x.m_im, x.m_is)
+    n0 = ci.QScale(x.m_nm, x.m_ns)
+    pb = max(0, x.P[15], x.P[18], x.P[20])
+    x.m_var = pb
+    if not (pb < TRUST and x.m_ew < MEAN):
+        return
+    o2 = 0
+    for j in range(3):
+        e = ci.qn_to_q15s(ci.sub_sat32(x.hi[3 + j], rel(x.so[j], inv)), 26)
+        o2 += e * e
+    if o2 < k["kmin2"]:
+        x.u = list(x.so)
+    else:
+        x.u = [ci.sat_q15s(ci.scale32_s(x.hi[3 + j], n0, 26, 0)) for j in range(3)]
+
+
+def started(x):
+    """robust_q6_started: the field unit's words within the ranges start() gives them."""
+    return (x.m_n2 > 0 and 16384 <= x.m_im <= 32767 and 16 <= x.m_is <= 31
+            and 16384 <= x.m_nm <= 32767 and -2 <= x.m_ns <= 12)
+
+
+def offset(k, x, gyr, mag):
+    """robust_q_offset: B6, one reading (mag; all zero: none) into the estimator, then the
+    offset in use u."""
+    i = 1 if x.m_axis == 1 else 2 if x.m_axis == 2 else 0
+    if not k["learn"] or (mag[0] == 0 and mag[1] == 0 and mag[2] == 0):
+        return
+    if x.m_n2 != 0 and not started(x):
+        x.m_n2 = 0                           # a unit out of its ranges: start again
+    if x.m_n2 != 0:
+        # the reading against the field unit: absurd readings are not used
+        n2 = norm2(mag[0], mag[1], mag[2])
+        if not ((n2 >> 6) <= x.m_n2 and n2 >= (x.m_n2 >> 6)):
+            if x.m_bad < k["n_bad"]:
+                x.m_bad += 1
+            if x.m_bad >= k["n_bad"]:
+                x.m_n2 = 0
+                x.m_bad = 0
+            return
+        x.m_bad = 0
+    r = matrix(fq.snapshot(x.s))             # R(s), sensor -> inertial frame
+    if x.m_n2 == 0:
+        m = [ci.sat_q15s(ci.sub_sat32(mag[j], x.u[j])) for j in range(3)]
+        n2 = norm2(m[0], m[1], m[2])
+        if n2 < 64:
+            return                           # below 8 counts: no field to start from
+        start(x, rotate16(r, 0, m), n2)
+    else:
+        # column i of R(s): the row of axis i in m = R^T h + o
+        c = [r[3 * j + i] for j in range(3)]
+        update(k, x, i, c, rel(mag[i], ci.QScale(x.m_im, x.m_is)),
+               norm2(gyr[0], gyr[1], gyr[2]))
+    use(k, x)
