@@ -203,18 +203,6 @@ void imf_robust_set_attitude(imf_robust_t *const self, const imf_attitude_t *con
     robust_set_attitude(&self->x, att);
 }
 
-imf_real imf_robust_get_gyr_bias(const imf_robust_t *const self, imf_real bias[3])
-{
-    memcpy(bias, self->x.b, sizeof self->x.b);
-    return self->x.bu;
-}
-
-void imf_robust_set_gyr_bias(imf_robust_t *const self, const imf_real bias[3])
-{
-    memcpy(self->x.b, bias, sizeof self->x.b);
-    self->x.bu = IMF_R(0.0);
-}
-
 /* ---- gyro and accelerometer: B1, strapdown, B2, levelling, B3 (robust_blocks.h) ---- */
 #include "robust_blocks.h"
 

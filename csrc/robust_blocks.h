@@ -1,6 +1,7 @@
 /*
  * The gyroscope and accelerometer blocks of imufuse's recommended AHRS (B1 rest and the bias
- * at rest, the strapdown, B2 gravity, the levelling, B3 the bias in motion). A private part
+ * at rest with the bias's get/set pair, the strapdown, B2 gravity, the levelling, B3 the bias
+ * in motion). A private part
  * of robust.c, included by it once (one translation unit per family: the build tools take one
  * source per filter); it uses robust.c's helpers above its #include. The pure-Python twin is
  * python/imufuse/reference/robust_blocks.py: the same functions, in the same order.
@@ -98,6 +99,18 @@ static int robust_rest(const imf_robust_consts_t *const set, imf_robust_state_t 
     robust_bias_clip(set, x->b);
     x->bu = x->bu - kb * x->bu;
     return 1;
+}
+
+imf_real imf_robust_get_gyr_bias(const imf_robust_t *const self, imf_real bias[3])
+{
+    memcpy(bias, self->x.b, sizeof self->x.b);
+    return self->x.bu;
+}
+
+void imf_robust_set_gyr_bias(imf_robust_t *const self, const imf_real bias[3])
+{
+    memcpy(self->x.b, bias, sizeof self->x.b);
+    self->x.bu = IMF_R(0.0);
 }
 
 /* strapdown: s = s (x) exp(1/2 (w - b) dt) */

@@ -9,15 +9,11 @@ time. Prints the tables of docs/recommended-ahrs.md's uncalibrated-sensor sectio
 Metrics: imufuse.evaluation (BROAD paper), each trial's RMS averaged over the trials.
 """
 import argparse
-import os
-import sys
 
 import numpy as np
 
 from imufuse import catalogue, evaluation
-
-sys.path.insert(0, os.path.dirname(__file__))
-from broad_compare import DEFAULT_DIR, trials  # noqa: E402
+from broad_compare import DEFAULT_DIR, trials
 
 DIRECTION = np.radians([0.8, -0.6, 1.0])
 

@@ -30,7 +30,7 @@ import math
 from ..shared import checks as _checks
 from ._base import QUAT_NORM2_TOL, ReferenceFilter, isfinite
 from ._math import qmul
-from .robust_blocks import _RobustBlocks
+from .robust_blocks import _RobustBlocks, _vector3
 from .robust_mag import _PNAMES, _RobustMag
 from ._settings import FIXED, REQUIRED, SettingsRecord, choice, deg_to_rad, fixed, real, setting
 
@@ -109,17 +109,6 @@ class RobustIMUSettings(RobustAHRSSettings):
     mag_noise: float = setting(0.02, "relative", fixed, keyword=FIXED)                 # B6
     mag_lag: float = setting(0.003, "s", fixed, keyword=FIXED)                         # B6
     mag_offset_min: float = setting(0.1, "relative", fixed, keyword=FIXED)             # B6
-
-
-def _vector3(what, values, dtype):
-    # (x, y, z) numbers finite in the precision dtype, or ValueError naming the component
-    try:
-        v = tuple(values)
-    except TypeError:
-        raise ValueError(f"{what}: expected (x, y, z), got {values!r}") from None
-    if len(v) != 3:
-        raise ValueError(f"{what}: expected 3 values (x, y, z), got {len(v)}")
-    return tuple(_checks.check_real_in(f"{what} {n}", c, dtype) for n, c in zip("xyz", v))
 
 
 # ---- the state (robust.h: imf_robust_state_t) ----------------------------------------
@@ -330,34 +319,6 @@ class _Robust(_RobustBlocks, _RobustMag, ReferenceFilter):
         self.x.c[0] = R(1.0)
         self.x.m_std = R(1.0)
         self.x.bu = R(1.0) if s.gyr_bias_max > R(0.0) else R(0.0)
-
-    # imf_robust_get_gyr_bias / _set_gyr_bias
-    def get_gyr_bias(self):
-        """B1/B3: ((x, y, z) the gyro bias in use, rad/s, sensor frame; how unknown it still
-        is: 1 until learnt, at rest for a few tau_bias_rest or in motion for tau_bias, 0
-        once learnt). Store it at power-down and give it back with set_gyr_bias."""
-        return tuple(float(v) for v in self.x.b), float(self.x.bu)
-
-    def set_gyr_bias(self, bias):
-        """B1/B3: a known gyro bias (x, y, z; rad/s, sensor frame: one stored with
-        get_gyr_bias, or the "b" of a calibration file, imufuse.calibration.gyr_bias): the
-        bias starts from it as learnt (the rest test uses rest_gyr around it, B3 learns with
-        tau_bias). Each component finite and within +-gyr_bias_max (when not 0)."""
-        R = self._R
-        self.x.b = [R(v) for v in self._gyr_bias3(bias, self.dtype, float(self.s.gyr_bias_max))]
-        self.x.bu = R(0.0)
-
-    @staticmethod
-    def _gyr_bias3(bias, dtype, bias_max):
-        # (x, y, z) finite in the precision dtype and within +-bias_max (rad/s; 0: any), or
-        # ValueError naming the component
-        b = _vector3("gyr bias", bias, dtype)
-        for n, v in zip("xyz", b):
-            if bias_max > 0.0 and not abs(float(v)) <= bias_max:
-                raise ValueError(f"gyr bias {n}: {float(v)!r} rad/s is beyond gyr_bias_max "
-                                 f"({math.degrees(bias_max):g} deg/s): check the unit (rad/s) "
-                                 "or raise gyr_bias_max")
-        return b
 
     # imf_robust_*_set_attitude: start again from att (the next sample is the first)
     def _set_attitude(self, att):

@@ -1,10 +1,22 @@
 """The gyroscope and accelerometer blocks of RobustIMU and RobustAHRS (B1 rest and the bias
-at rest, the strapdown, B2 gravity, the levelling, B3 the bias in motion): the twin of
+at rest with the bias's get/set pair, the strapdown, B2 gravity, the levelling, B3 the bias in motion): the twin of
 csrc/robust_blocks.h, the same functions in the same order with the same comments, mixed into
 reference/robust.py's filter class."""
 import math
 
+from ..shared import checks as _checks
 from ._math import qmul, qrotate
+
+
+def _vector3(what, values, dtype):
+    # (x, y, z) numbers finite in the precision dtype, or ValueError naming the component
+    try:
+        v = tuple(values)
+    except TypeError:
+        raise ValueError(f"{what}: expected (x, y, z), got {values!r}") from None
+    if len(v) != 3:
+        raise ValueError(f"{what}: expected 3 values (x, y, z), got {len(v)}")
+    return tuple(_checks.check_real_in(f"{what} {n}", c, dtype) for n, c in zip("xyz", v))
 
 
 class _RobustBlocks:
@@ -79,6 +91,34 @@ class _RobustBlocks:
         self._bias_clip(x.b)
         x.bu = x.bu - kb * x.bu
         return True, w2
+
+    # imf_robust_get_gyr_bias / _set_gyr_bias
+    def get_gyr_bias(self):
+        """B1/B3: ((x, y, z) the gyro bias in use, rad/s, sensor frame; how unknown it still
+        is: 1 until learnt, at rest for a few tau_bias_rest or in motion for tau_bias, 0
+        once learnt). Store it at power-down and give it back with set_gyr_bias."""
+        return tuple(float(v) for v in self.x.b), float(self.x.bu)
+
+    def set_gyr_bias(self, bias):
+        """B1/B3: a known gyro bias (x, y, z; rad/s, sensor frame: one stored with
+        get_gyr_bias, or the "b" of a calibration file, imufuse.calibration.gyr_bias): the
+        bias starts from it as learnt (the rest test uses rest_gyr around it, B3 learns with
+        tau_bias). Each component finite and within +-gyr_bias_max (when not 0)."""
+        R = self._R
+        self.x.b = [R(v) for v in self._gyr_bias3(bias, self.dtype, float(self.s.gyr_bias_max))]
+        self.x.bu = R(0.0)
+
+    @staticmethod
+    def _gyr_bias3(bias, dtype, bias_max):
+        # (x, y, z) finite in the precision dtype and within +-bias_max (rad/s; 0: any), or
+        # ValueError naming the component
+        b = _vector3("gyr bias", bias, dtype)
+        for n, v in zip("xyz", b):
+            if bias_max > 0.0 and not abs(float(v)) <= bias_max:
+                raise ValueError(f"gyr bias {n}: {float(v)!r} rad/s is beyond gyr_bias_max "
+                                 f"({math.degrees(bias_max):g} deg/s): check the unit (rad/s) "
+                                 "or raise gyr_bias_max")
+        return b
 
     def _strapdown(self, x, g):
         # strapdown: s = s (x) exp(1/2 (w - b) dt)
