@@ -89,7 +89,6 @@ static void robust_set_dt(imf_robust_consts_t *const set, const imf_real dt)
     set->k_rest = dt / (set->s.tau_rest + dt);
     set->kb_rest = dt / (set->s.tau_bias_rest + dt);
     set->ku_motion = set->inv_tau_bias * dt;
-    set->qb_dt = set->qb0 * dt;
     set->k_mag = dt / (set->s.tau_mag + dt);
     set->k_ref = dt / (set->s.tau_mag_ref + dt);
 }
@@ -115,7 +114,7 @@ static void robust_init(imf_robust_consts_t *const set, uint32_t *const skipped,
     /* rest_gyr 0: no rest (B1 off) at any bias */
     set->bias_var0 =
         rest_gyr > IMF_R(0.0) ? IMF_R(3.0) * s->gyr_bias_max * s->gyr_bias_max : IMF_R(0.0);
-    set->qb0 = s->gyr_bias_max * s->gyr_bias_max * (s->tau_acc * IMF_R(0.125));
+    set->bias_w2 = IMF_R(3600.0) * (s->gyr_bias_max * s->gyr_bias_max);
     set->rest_gyr2 = rest_gyr * rest_gyr;
     set->rest_acc2 = rest_acc * rest_acc;
     set->c48 = IMF_R(1.0) / IMF_R(48.0);

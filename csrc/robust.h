@@ -133,7 +133,7 @@ typedef struct {
     imf_real mag_offset_min; /* B6: a trusted estimate replaces the stored offset when they
                                 differ by more than this, relative; >= 0 (default 0.1) */
     imf_real gyr_bias_max;   /* B1/B3: the largest gyro bias (zero-rate offset) per axis the
-                               part may have, rad/s; >= 0 (default 6 deg/s = 0.1047 rad/s);
+                               part may have, rad/s; 0 .. 1000 deg/s (default 6 deg/s = 0.1047 rad/s);
                                0: a calibrated gyro, the bias learnt as the fixed-point
                                filters do (rest on the raw rate, B3 from the levelling
                                with 1 / tau_bias) */
@@ -152,7 +152,7 @@ typedef struct {
                                                 levelling and the heading: 4 tau_acc,
                                                 4 tau_mag, s */
     imf_real bias_var0;                      /* 3 gyr_bias_max^2, (rad/s)^2 (0 if rest_gyr is) */
-    imf_real qb0, qb_dt;                     /* B2: gyr_bias_max^2 tau_acc / 8, its dt multiple */
+    imf_real bias_w2;                        /* B2: (60 gyr_bias_max)^2, (rad/s)^2 */
     imf_real ku_motion;                      /* bu's fall per sample in motion, dt / tau_bias */
     imf_real rest_gyr2, rest_acc2;           /* (rad/s)^2, g^2 (relative) */
     imf_real k_rest, kb_rest, k_mag, k_ref;  /* dt / (tau + dt) */

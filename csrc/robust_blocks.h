@@ -155,20 +155,20 @@ static void robust_gravity(const imf_robust_consts_t *const set, imf_robust_stat
     x->v[1] = x->v[1] + dt * (ai[1] - x->f[1]);
     x->v[2] = x->v[2] + dt * (ai[2] - x->f[2]);
     /* (w / rate_ref)^2 capped at 10^4 (100 rate_ref: beyond any gyro's range), so
-       that hostile rates cannot blow the covariance up */
-    rr = w2 * set->inv_rate_ref2;
+       that hostile rates cannot blow the covariance up. While the bias is still unknown,
+       its error sigma_b (the error of a running mean after (1 - bu) tau_bias of learning,
+       the part's range gyr_bias_max at first) turns I as a rotation 60 times faster does
+       through a scale error of 1/60: it adds (60 sigma_b)^2 to w^2 */
+    rr = w2;
+    if (x->bu > IMF_R(0.0)) {
+        ub = set->tau_b0 / (set->tau_b0 + (IMF_R(1.0) - x->bu) * set->s.tau_bias);
+        rr = rr + set->bias_w2 * (ub * ub);
+    }
+    rr = rr * set->inv_rate_ref2;
     if (!(rr <= IMF_R(1.0e4))) {
         rr = IMF_R(1.0e4);
     }
     qg = set->qg_dt + set->qg_dt * rr;
-    if (x->bu > IMF_R(0.0)) {
-        /* while the bias is still unknown f turns by up to sigma_b |f| per second, sigma_b
-           the error of a running mean of the bias after (1 - bu) tau_bias of learning (the
-           part's range gyr_bias_max at first): a random walk of that rate over tau_acc / 8 */
-        ub = set->tau_b0 / (set->tau_b0 + (IMF_R(1.0) - x->bu) * set->s.tau_bias);
-        qg = qg
-             + set->qb_dt * (ub * ub) * (x->f[0] * x->f[0] + x->f[1] * x->f[1] + x->f[2] * x->f[2]);
-    }
     pvv = x->pvv - set->two_dt * x->pvg + set->dt2 * x->pgg;
     pvg = x->pvg - dt * x->pgg;
     pgg = x->pgg + qg;

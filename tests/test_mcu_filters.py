@@ -226,24 +226,22 @@ def test_a_fixed_point_difference_is_caught(toolchains):
     assert msg is not None and "first difference at sample" in msg and "LSB" in msg
 
 
-@pytest.mark.parametrize("target", ["host", "avr"])
-def test_fixed_init_from_double_and_from_constants(toolchains, target):
-    """imf_<f>_init (double parameters) and imf_<f>_init_consts (the reference's integer
-    constants) build the same struct, byte for byte, on the host; on AVR, whose double is 32
-    bits, the double init may differ (that is why the MCU runs use _init_consts), and the
-    constants path matches the host there by construction (test_state_bits)."""
-    need(toolchains, target)
-    specs = [s for s in SPECS if s.fixed]
+def _init_codes(target, specs):
+    """{label: code} of each fixed filter's double init against its constants init, run on
+    target in one program: bit 2 the double init failed, bit 1 the constants init, bit 0
+    the two structs differ."""
     pre, body, state = ["#include <string.h>"], [], []
     for i, s in enumerate(specs):
         c = s.c
         v = f"imf_a{i}"
-        fa, ca = mf.init_call(c.c_name + "_init", v, c.init_struct, c.init, s.double_init_args())
+        # the settings filled on the stack (static=False), as the constants: static structs
+        # for every filter would not fit the ATmega328P's 2 KB of RAM
+        fa, ca = mf.init_call(c.c_name + "_init", v, c.init_struct, c.init, s.double_init_args(),
+                              static=False)
         fb, cb = mf.init_call(s.init_function, v + "b", c.init_consts_struct, c.init_consts,
                               s._init_args(), static=False)
         # the pair of filters on the stack, in a block of its own: the compiler reuses the
-        # space for the next pair (statics for every filter would not fit the ATmega328P's
-        # 2 KB of RAM)
+        # space for the next pair
         pre.append(f'#include "{c.header.name}"\nstatic int32_t imf_r{i};')
         body.append(f"{{ {c.c_name}_t {v}, {v}b;\n"
                     f"memset(&{v}, 0, sizeof {v}); memset(&{v}b, 0, sizeof {v}b);\n"
@@ -256,7 +254,23 @@ def test_fixed_init_from_double_and_from_constants(toolchains, target):
     res = mcu.run(target, sources=sorted({str(s.c.source) for s in specs}),
                   include_dirs=[mf.CSRC, mf.CSRC / "fixed"], driver=drv,
                   inputs={"k": np.zeros(1, np.int16)})
-    codes = {s.label: int(col[0]) for s, col in zip(specs, res.values())}
+    return {s.label: int(col[0]) for s, col in zip(specs, res.values())}
+
+
+@pytest.mark.parametrize("target", ["host", "avr"])
+def test_fixed_init_from_double_and_from_constants(toolchains, target):
+    """imf_<f>_init (double parameters) and imf_<f>_init_consts (the reference's integer
+    constants) build the same struct, byte for byte, on the host; on AVR, whose double is 32
+    bits, the double init may differ (that is why the MCU runs use _init_consts), and the
+    constants path matches the host there by construction (test_state_bits)."""
+    need(toolchains, target)
+    fixed = [s for s in SPECS if s.fixed]
+    # one program for all (the ATmega328P's 32 KB: one per source file)
+    groups = ([[s for s in fixed if s.c.source == src]
+               for src in sorted({s.c.source for s in fixed})] if target == "avr" else [fixed])
+    codes = {}
+    for specs in groups:
+        codes.update(_init_codes(target, specs))
     # bit 2: double init failed, bit 1: constants init failed, bit 0: structs differ
     assert all(c & 6 == 0 for c in codes.values()), codes
     if target == "host":

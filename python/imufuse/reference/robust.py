@@ -83,7 +83,7 @@ class RobustAHRSSettings(SettingsRecord):
     mag_noise: float = setting(0.02, "relative", real(lo=0.0, lo_open=True, hi=1.0))  # B6
     mag_lag: float = setting(0.003, "s", real(lo=0.0, hi=0.1))                       # B6
     mag_offset_min: float = setting(0.1, "relative", real(lo=0.0))                   # B6
-    gyr_bias_max: float = setting(6.0, "deg/s", real(lo=0.0), to_c=deg_to_rad,       # B1/B3
+    gyr_bias_max: float = setting(6.0, "deg/s", real(lo=0.0, hi=1000.0), to_c=deg_to_rad,  # B1/B3
                                   kw_only=True)                                    # rad/s
 
 
@@ -271,7 +271,6 @@ class _Robust(_RobustBlocks, _RobustMag, ReferenceFilter):
         self.k_rest = dt / (self.s.tau_rest + dt)
         self.kb_rest = dt / (self.s.tau_bias_rest + dt)
         self.ku_motion = self.inv_tau_bias * dt
-        self.qb_dt = self.qb0 * dt
         self.k_mag = dt / (self.s.tau_mag + dt)
         self.k_ref = dt / (self.s.tau_mag_ref + dt)
 
@@ -297,7 +296,7 @@ class _Robust(_RobustBlocks, _RobustMag, ReferenceFilter):
         # rest_gyr 0: no rest (B1 off) at any bias
         self.bias_var0 = (R(3.0) * s.gyr_bias_max * s.gyr_bias_max if rest_gyr > R(0.0)
                           else R(0.0))
-        self.qb0 = s.gyr_bias_max * s.gyr_bias_max * (s.tau_acc * R(0.125))
+        self.bias_w2 = R(3600.0) * (s.gyr_bias_max * s.gyr_bias_max)
         self.rest_gyr2 = rest_gyr * rest_gyr
         self.rest_acc2 = rest_acc * rest_acc
         self.c48 = R(1.0) / R(48.0)

@@ -149,19 +149,18 @@ class _RobustBlocks:
         x.v[1] = x.v[1] + dt * (ai[1] - x.f[1])
         x.v[2] = x.v[2] + dt * (ai[2] - x.f[2])
         # (w / rate_ref)^2 capped at 10^4 (100 rate_ref: beyond any gyro's range), so
-        # that hostile rates cannot blow the covariance up
-        rr = w2 * self.inv_rate_ref2
+        # that hostile rates cannot blow the covariance up. While the bias is still unknown,
+        # its error sigma_b (the error of a running mean after (1 - bu) tau_bias of learning,
+        # the part's range gyr_bias_max at first) turns I as a rotation 60 times faster does
+        # through a scale error of 1/60: it adds (60 sigma_b)^2 to w^2
+        rr = w2
+        if x.bu > R(0.0):
+            ub = self.tau_b0 / (self.tau_b0 + (R(1.0) - x.bu) * self.s.tau_bias)
+            rr = rr + self.bias_w2 * (ub * ub)
+        rr = rr * self.inv_rate_ref2
         if not (rr <= R(1.0e4)):
             rr = R(1.0e4)
         qg = self.qg_dt + self.qg_dt * rr
-        if x.bu > R(0.0):
-            # while the bias is still unknown f turns by up to sigma_b |f| per second,
-            # sigma_b the error of a running mean of the bias after (1 - bu) tau_bias of
-            # learning (the part's range gyr_bias_max at first): a random walk of that rate
-            # over tau_acc / 8
-            ub = self.tau_b0 / (self.tau_b0 + (R(1.0) - x.bu) * self.s.tau_bias)
-            qg = qg + self.qb_dt * (ub * ub) * (x.f[0] * x.f[0] + x.f[1] * x.f[1]
-                                                + x.f[2] * x.f[2])
         pvv = x.pvv - self.two_dt * x.pvg + self.dt2 * x.pgg
         pvg = x.pvg - dt * x.pgg
         pgg = x.pgg + qg
