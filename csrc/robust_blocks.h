@@ -157,11 +157,15 @@ static void robust_gravity(const imf_robust_consts_t *const set, imf_robust_stat
     /* (w / rate_ref)^2 capped at 10^4 (100 rate_ref: beyond any gyro's range), so
        that hostile rates cannot blow the covariance up. While the bias is still unknown,
        its error sigma_b (the error of a running mean after (1 - bu) tau_bias of learning,
-       the part's range gyr_bias_max at first) turns I as a rotation 60 times faster does
-       through a scale error of 1/60: it adds (60 sigma_b)^2 to w^2 */
+       at most bu gyr_bias_max; the part's range gyr_bias_max at first) turns I as a
+       rotation 60 times faster does through a scale error of 1/60: it adds (60 sigma_b)^2
+       to w^2 */
     rr = w2;
     if (x->bu > IMF_R(0.0)) {
         ub = set->tau_b0 / (set->tau_b0 + (IMF_R(1.0) - x->bu) * set->s.tau_bias);
+        if (x->bu < ub) {
+            ub = x->bu; /* learnt at rest (or B3 off): what is left of it */
+        }
         rr = rr + set->bias_w2 * (ub * ub);
     }
     rr = rr * set->inv_rate_ref2;

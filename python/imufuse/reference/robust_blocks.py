@@ -151,11 +151,14 @@ class _RobustBlocks:
         # (w / rate_ref)^2 capped at 10^4 (100 rate_ref: beyond any gyro's range), so
         # that hostile rates cannot blow the covariance up. While the bias is still unknown,
         # its error sigma_b (the error of a running mean after (1 - bu) tau_bias of learning,
-        # the part's range gyr_bias_max at first) turns I as a rotation 60 times faster does
-        # through a scale error of 1/60: it adds (60 sigma_b)^2 to w^2
+        # at most bu gyr_bias_max; the part's range gyr_bias_max at first) turns I as a
+        # rotation 60 times faster does through a scale error of 1/60: it adds (60 sigma_b)^2
+        # to w^2
         rr = w2
         if x.bu > R(0.0):
             ub = self.tau_b0 / (self.tau_b0 + (R(1.0) - x.bu) * self.s.tau_bias)
+            if x.bu < ub:
+                ub = x.bu   # learnt at rest (or B3 off): what is left of it
             rr = rr + self.bias_w2 * (ub * ub)
         rr = rr * self.inv_rate_ref2
         if not (rr <= R(1.0e4)):
