@@ -54,3 +54,56 @@ def test_side_by_side(benchmark, data):
     benchmark.pedantic(calls["RobustAHRS float64"], rounds=3, iterations=1)
     for k, v in ns.items():
         print(f"{k:28s} {v:8.1f} ns/sample")
+
+
+# ---- every length, side by side with VQF ----------------------------------------------
+
+LENGTHS = (10, 1_000, 100_000, 1_000_000)
+#: samples run per timed round at each length (short runs repeated: the per-call cost counts)
+PER_ROUND = 100_000
+
+
+def _length_callables(s, n):
+    # the scenario tiled to n samples (a wrap every 200 000: the speed does not care)
+    reps = -(-n // len(s.gyr))
+    g, a, m = (np.ascontiguousarray(np.tile(v, (reps, 1))[:n]) for v in (s.gyr, s.acc, s.mag))
+    g32, a32, m32 = (v.astype(np.float32) for v in (g, a, m))
+    calls = {
+        "RobustAHRS f64 q": lambda: imufuse_c.RobustAHRS(s.dt).run(g, a, m, outputs="q"),
+        "RobustAHRS f32 q": lambda: imufuse_c.RobustAHRS(s.dt, dtype="float32").run(
+            g32, a32, m32, outputs="q"),
+        "RobustIMU f64 q": lambda: imufuse_c.RobustIMU(s.dt).run(g, a, outputs="q"),
+    }
+    if n <= 100_000:  # the full state: 81 words per sample (648 MB at 10^6 in float64)
+        calls["RobustAHRS f64 state"] = lambda: imufuse_c.RobustAHRS(s.dt).run(g, a, m)
+    try:
+        from vqf import VQF
+        calls["VQF 9D f64"] = lambda: VQF(s.dt).updateBatch(g, a, m)
+    except ImportError:
+        pass
+    return calls
+
+
+def _per_sample(calls, n, rounds):
+    # the minimum over interleaved rounds of the time per sample, ns
+    k = max(1, PER_ROUND // n)
+    best = {name: float("inf") for name in calls}
+    for _ in range(rounds):
+        for name, f in calls.items():
+            t0 = time.perf_counter()
+            for _ in range(k):
+                f()
+            best[name] = min(best[name], (time.perf_counter() - t0) / (k * n))
+    return {name: v * 1e9 for name, v in best.items()}
+
+
+@pytest.mark.parametrize("n", LENGTHS)
+def test_lengths_vs_vqf(benchmark, data, n):
+    calls = _length_callables(data, n)
+    ns = _per_sample(calls, n, rounds=3 if n >= 1_000_000 else 7)
+    benchmark.extra_info.update({k: round(v, 1) for k, v in ns.items()})
+    benchmark.pedantic(calls["RobustAHRS f64 q"], rounds=1, iterations=1)
+    vqf = ns.get("VQF 9D f64")
+    for k, v in ns.items():
+        ratio = f"  VQF / this {vqf / v:5.2f}" if vqf else ""
+        print(f"n={n:>9} {k:22s} {v:8.1f} ns/sample{ratio}")

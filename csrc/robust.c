@@ -239,36 +239,61 @@ static int robust_output(const imf_robust_consts_t *const set, imf_robust_state_
     return 1;
 }
 
-/* The bytes of the state an update can change: all of it for the AHRS; the IMU (and the
+/* The words of the state an update can change: all of it for the AHRS; the IMU (and the
    AHRS with B6 off) never changes B6's members (from hi on), so its update checks and
    keeps only those before them (the IMU copies only those too: B4 reads u). */
-#define ROBUST_AHRS_BYTES sizeof(imf_robust_state_t)
-#define ROBUST_IMU_BYTES offsetof(imf_robust_state_t, hi)
+#define ROBUST_AHRS_WORDS (sizeof(imf_robust_state_t) / sizeof(imf_real))
+#define ROBUST_IMU_WORDS (offsetof(imf_robust_state_t, hi) / sizeof(imf_real))
 
-/* valid-attitude policy: the new state (its first `bytes`) must be finite */
-static int robust_finite(const imf_robust_state_t *const x, const size_t bytes)
+/* An IEEE word is infinite or NaN when its exponent field is all ones: that field plus
+   one (in place) then carries into the sign bit, and nowhere else does. */
+#ifdef IMF_DOUBLE
+typedef uint64_t robust_bits_t;
+#define ROBUST_EXP UINT64_C(0x7ff0000000000000)
+#define ROBUST_EXP1 UINT64_C(0x0010000000000000)
+#define ROBUST_SIGN UINT64_C(0x8000000000000000)
+#else
+typedef uint32_t robust_bits_t;
+#define ROBUST_EXP UINT32_C(0x7f800000)
+#define ROBUST_EXP1 UINT32_C(0x00800000)
+#define ROBUST_SIGN UINT32_C(0x80000000)
+#endif
+
+/* The working state of an update, its words also as bit patterns (read through the
+   union: the words as stored) */
+typedef union {
+    imf_robust_state_t x;
+    robust_bits_t w[ROBUST_AHRS_WORDS];
+} robust_work_t;
+
+/* valid-attitude policy: the first n words of the new state finite (branch-free, four
+   words at a time; the same answer as isfinite on each) */
+static inline int robust_finite(const robust_work_t *const x, const unsigned n)
 {
-    const imf_real *const v = (const imf_real *)x;
-    const unsigned n = (unsigned)(bytes / sizeof(imf_real));
+    robust_bits_t a0 = 0, a1 = 0, a2 = 0, a3 = 0;
     unsigned i;
-    for (i = 0; i < n; i++) {
-        if (!isfinite(v[i])) {
-            return 0;
-        }
+    for (i = 0; i + 4 <= n; i += 4) {
+        a0 |= (x->w[i] & ROBUST_EXP) + ROBUST_EXP1;
+        a1 |= (x->w[i + 1] & ROBUST_EXP) + ROBUST_EXP1;
+        a2 |= (x->w[i + 2] & ROBUST_EXP) + ROBUST_EXP1;
+        a3 |= (x->w[i + 3] & ROBUST_EXP) + ROBUST_EXP1;
     }
-    return 1;
+    for (; i < n; i++) {
+        a0 |= (x->w[i] & ROBUST_EXP) + ROBUST_EXP1;
+    }
+    return !((a0 | a1 | a2 | a3) & ROBUST_SIGN);
 }
 
-/* Keep the new state (its first `bytes`) only if every block accepted the sample and
+/* Keep the new state (its first n words) only if every block accepted the sample and
    left it finite (valid-attitude policy, imf_math.h). */
-static void robust_commit(imf_robust_state_t *const dst, uint32_t *const skipped,
-                          const imf_robust_state_t *const x, const int ok, const size_t bytes)
+static inline void robust_commit(imf_robust_state_t *const dst, uint32_t *const skipped,
+                                 const robust_work_t *const x, const int ok, const unsigned n)
 {
-    if (!(ok && robust_finite(x, bytes))) {
+    if (!(ok && robust_finite(x, n))) {
         (*skipped)++;
         return;
     }
-    memcpy(dst, x, bytes);
+    memcpy(dst, &x->x, n * sizeof(imf_real));
 }
 
 void imf_robust_update_imu(imf_robust_t *const self, const imf_real gx, const imf_real gy,
@@ -276,15 +301,15 @@ void imf_robust_update_imu(imf_robust_t *const self, const imf_real gx, const im
                            const imf_real az)
 {
     const imf_real g[3] = { gx, gy, gz }, a[3] = { ax, ay, az };
-    imf_robust_state_t x;
+    robust_work_t x;
     if (!(imf_finite3(gx, gy, gz) && imf_finite3(ax, ay, az))) {
         self->skipped++;
         return;
     }
-    memcpy(&x, &self->x, ROBUST_IMU_BYTES);
+    memcpy(&x.x, &self->x, ROBUST_IMU_WORDS * sizeof(imf_real));
     robust_commit(&self->x, &self->skipped, &x,
-                  robust_step(&self->set, &x, g, a) && robust_output(&self->set, &x, g),
-                  ROBUST_IMU_BYTES);
+                  robust_step(&self->set, &x.x, g, a) && robust_output(&self->set, &x.x, g),
+                  ROBUST_IMU_WORDS);
 }
 
 void imf_robust_update(imf_robust_t *const self, const imf_real gx, const imf_real gy,
@@ -293,14 +318,18 @@ void imf_robust_update(imf_robust_t *const self, const imf_real gx, const imf_re
 {
     const imf_real g[3] = { gx, gy, gz }, a[3] = { ax, ay, az }, m[3] = { mx, my, mz };
     const imf_real g2 = gx * gx + gy * gy + gz * gz;
-    imf_robust_state_t x;
+    robust_work_t x;
+    int ok;
     if (!(imf_finite3(gx, gy, gz) && imf_finite3(ax, ay, az) && imf_finite3(mx, my, mz))) {
         self->skipped++;
         return;
     }
-    x = self->x;
-    robust_commit(&self->x, &self->skipped, &x,
-                  robust_step(&self->set, &x, g, a) && robust_magnetometer(&self->set, &x, m, g2)
-                      && robust_output(&self->set, &x, g),
-                  self->set.s.mag_learn ? ROBUST_AHRS_BYTES : ROBUST_IMU_BYTES);
+    x.x = self->x;
+    ok = robust_step(&self->set, &x.x, g, a) && robust_magnetometer(&self->set, &x.x, m, g2)
+         && robust_output(&self->set, &x.x, g);
+    if (self->set.s.mag_learn) {
+        robust_commit(&self->x, &self->skipped, &x, ok, ROBUST_AHRS_WORDS);
+    } else {
+        robust_commit(&self->x, &self->skipped, &x, ok, ROBUST_IMU_WORDS);
+    }
 }

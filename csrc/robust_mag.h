@@ -310,12 +310,12 @@ static ROBUST_SMALL int robust_heading(const imf_robust_consts_t *const set,
     c[1] = zw * x->c[1] - zz * x->c[2];
     c[2] = zw * x->c[2] + zz * x->c[1];
     c[3] = zw * x->c[3] + zz * x->c[0];
-    if (!robust_norm4(c)) {
-        return 0;
-    }
+    /* z and c are unit quaternions: so are c and q = c (x) s, within a few roundings (no
+       normalisation: the levelling normalises c every sample; a non-finite c or q fails
+       the commit's check) */
     memcpy(x->c, c, sizeof c);
     imf_qmul(x->q, c[0], c[1], c[2], c[3], x->s[0], x->s[1], x->s[2], x->s[3]);
-    return robust_norm4(x->q);
+    return 1;
 }
 
 /* B6 and B4: the magnetometer m (all zero: none); 0 rejects the sample. g2: |w|^2. */
