@@ -245,55 +245,46 @@ static int robust_output(const imf_robust_consts_t *const set, imf_robust_state_
 #define ROBUST_AHRS_WORDS (sizeof(imf_robust_state_t) / sizeof(imf_real))
 #define ROBUST_IMU_WORDS (offsetof(imf_robust_state_t, hi) / sizeof(imf_real))
 
-/* An IEEE word is infinite or NaN when its exponent field is all ones: that field plus
-   one (in place) then carries into the sign bit, and nowhere else does. */
-#ifdef IMF_DOUBLE
-typedef uint64_t robust_bits_t;
-#define ROBUST_EXP UINT64_C(0x7ff0000000000000)
-#define ROBUST_EXP1 UINT64_C(0x0010000000000000)
-#define ROBUST_SIGN UINT64_C(0x8000000000000000)
-#else
-typedef uint32_t robust_bits_t;
-#define ROBUST_EXP UINT32_C(0x7f800000)
-#define ROBUST_EXP1 UINT32_C(0x00800000)
-#define ROBUST_SIGN UINT32_C(0x80000000)
-#endif
-
-/* The working state of an update, its words also as bit patterns (read through the
-   union: the words as stored) */
-typedef union {
-    imf_robust_state_t x;
-    robust_bits_t w[ROBUST_AHRS_WORDS];
-} robust_work_t;
-
-/* valid-attitude policy: the first n words of the new state finite (branch-free, four
-   words at a time; the same answer as isfinite on each) */
-static inline int robust_finite(const robust_work_t *const x, const unsigned n)
+/* valid-attitude policy: the first n words of the new state finite. With hardware
+   floating point, w - w is 0 for a finite w and NaN for an infinite or NaN one, and a NaN
+   stays in a sum: four sums of them (branch-free) are 0 only if every word is finite;
+   without (every operation a call), isfinite on each word. */
+static inline int robust_finite(const imf_robust_state_t *const x, const unsigned n)
 {
-    robust_bits_t a0 = 0, a1 = 0, a2 = 0, a3 = 0;
+    const imf_real *const w = (const imf_real *)x;
     unsigned i;
+#if defined(__AVR__) || defined(__SOFTFP__)
+    for (i = 0; i < n; i++) {
+        if (!isfinite(w[i])) {
+            return 0;
+        }
+    }
+    return 1;
+#else
+    imf_real a0 = IMF_R(0.0), a1 = IMF_R(0.0), a2 = IMF_R(0.0), a3 = IMF_R(0.0);
     for (i = 0; i + 4 <= n; i += 4) {
-        a0 |= (x->w[i] & ROBUST_EXP) + ROBUST_EXP1;
-        a1 |= (x->w[i + 1] & ROBUST_EXP) + ROBUST_EXP1;
-        a2 |= (x->w[i + 2] & ROBUST_EXP) + ROBUST_EXP1;
-        a3 |= (x->w[i + 3] & ROBUST_EXP) + ROBUST_EXP1;
+        a0 = a0 + (w[i] - w[i]);
+        a1 = a1 + (w[i + 1] - w[i + 1]);
+        a2 = a2 + (w[i + 2] - w[i + 2]);
+        a3 = a3 + (w[i + 3] - w[i + 3]);
     }
     for (; i < n; i++) {
-        a0 |= (x->w[i] & ROBUST_EXP) + ROBUST_EXP1;
+        a0 = a0 + (w[i] - w[i]);
     }
-    return !((a0 | a1 | a2 | a3) & ROBUST_SIGN);
+    return (a0 + a1) + (a2 + a3) == IMF_R(0.0);
+#endif
 }
 
 /* Keep the new state (its first n words) only if every block accepted the sample and
    left it finite (valid-attitude policy, imf_math.h). */
 static inline void robust_commit(imf_robust_state_t *const dst, uint32_t *const skipped,
-                                 const robust_work_t *const x, const int ok, const unsigned n)
+                                 const imf_robust_state_t *const x, const int ok, const unsigned n)
 {
     if (!(ok && robust_finite(x, n))) {
         (*skipped)++;
         return;
     }
-    memcpy(dst, &x->x, n * sizeof(imf_real));
+    memcpy(dst, x, n * sizeof(imf_real));
 }
 
 void imf_robust_update_imu(imf_robust_t *const self, const imf_real gx, const imf_real gy,
@@ -301,14 +292,14 @@ void imf_robust_update_imu(imf_robust_t *const self, const imf_real gx, const im
                            const imf_real az)
 {
     const imf_real g[3] = { gx, gy, gz }, a[3] = { ax, ay, az };
-    robust_work_t x;
+    imf_robust_state_t x;
     if (!(imf_finite3(gx, gy, gz) && imf_finite3(ax, ay, az))) {
         self->skipped++;
         return;
     }
-    memcpy(&x.x, &self->x, ROBUST_IMU_WORDS * sizeof(imf_real));
+    memcpy(&x, &self->x, ROBUST_IMU_WORDS * sizeof(imf_real));
     robust_commit(&self->x, &self->skipped, &x,
-                  robust_step(&self->set, &x.x, g, a) && robust_output(&self->set, &x.x, g),
+                  robust_step(&self->set, &x, g, a) && robust_output(&self->set, &x, g),
                   ROBUST_IMU_WORDS);
 }
 
@@ -318,15 +309,15 @@ void imf_robust_update(imf_robust_t *const self, const imf_real gx, const imf_re
 {
     const imf_real g[3] = { gx, gy, gz }, a[3] = { ax, ay, az }, m[3] = { mx, my, mz };
     const imf_real g2 = gx * gx + gy * gy + gz * gz;
-    robust_work_t x;
+    imf_robust_state_t x;
     int ok;
     if (!(imf_finite3(gx, gy, gz) && imf_finite3(ax, ay, az) && imf_finite3(mx, my, mz))) {
         self->skipped++;
         return;
     }
-    x.x = self->x;
-    ok = robust_step(&self->set, &x.x, g, a) && robust_magnetometer(&self->set, &x.x, m, g2)
-         && robust_output(&self->set, &x.x, g);
+    x = self->x;
+    ok = robust_step(&self->set, &x, g, a) && robust_magnetometer(&self->set, &x, m, g2)
+         && robust_output(&self->set, &x, g);
     if (self->set.s.mag_learn) {
         robust_commit(&self->x, &self->skipped, &x, ok, ROBUST_AHRS_WORDS);
     } else {
