@@ -226,36 +226,52 @@ static int robust_output(const imf_robust_consts_t *const set, imf_robust_state_
     return 1;
 }
 
-/* The bytes of the state an update can change: all of it for the AHRS; the IMU (and the
+/* The words of the state an update can change: all of it for the AHRS; the IMU (and the
    AHRS with B6 off) never changes B6's members (from hi on), so its update checks and
    keeps only those before them (the IMU copies only those too: B4 reads u). */
-#define ROBUST_AHRS_BYTES sizeof(imf_robust_state_t)
-#define ROBUST_IMU_BYTES offsetof(imf_robust_state_t, hi)
+#define ROBUST_AHRS_WORDS (sizeof(imf_robust_state_t) / sizeof(imf_real))
+#define ROBUST_IMU_WORDS (offsetof(imf_robust_state_t, hi) / sizeof(imf_real))
 
-/* valid-attitude policy: the new state (its first `bytes`) must be finite */
-static int robust_finite(const imf_robust_state_t *const x, const size_t bytes)
+/* valid-attitude policy: the first n words of the new state finite. With hardware
+   floating point, w - w is 0 for a finite w and NaN for an infinite or NaN one, and a NaN
+   stays in a sum: four sums of them (branch-free) are 0 only if every word is finite;
+   without (every operation a call), isfinite on each word. */
+static inline int robust_finite(const imf_robust_state_t *const x, const unsigned n)
 {
-    const imf_real *const v = (const imf_real *)x;
-    const unsigned n = (unsigned)(bytes / sizeof(imf_real));
+    const imf_real *const w = (const imf_real *)x;
     unsigned i;
+#if defined(__AVR__) || defined(__SOFTFP__)
     for (i = 0; i < n; i++) {
-        if (!isfinite(v[i])) {
+        if (!isfinite(w[i])) {
             return 0;
         }
     }
     return 1;
+#else
+    imf_real a0 = IMF_R(0.0), a1 = IMF_R(0.0), a2 = IMF_R(0.0), a3 = IMF_R(0.0);
+    for (i = 0; i + 4 <= n; i += 4) {
+        a0 = a0 + (w[i] - w[i]);
+        a1 = a1 + (w[i + 1] - w[i + 1]);
+        a2 = a2 + (w[i + 2] - w[i + 2]);
+        a3 = a3 + (w[i + 3] - w[i + 3]);
+    }
+    for (; i < n; i++) {
+        a0 = a0 + (w[i] - w[i]);
+    }
+    return (a0 + a1) + (a2 + a3) == IMF_R(0.0);
+#endif
 }
 
-/* Keep the new state (its first `bytes`) only if every block accepted the sample and
+/* Keep the new state (its first n words) only if every block accepted the sample and
    left it finite (valid-attitude policy, imf_math.h). */
-static void robust_commit(imf_robust_state_t *const dst, uint32_t *const skipped,
-                          const imf_robust_state_t *const x, const int ok, const size_t bytes)
+static inline void robust_commit(imf_robust_state_t *const dst, uint32_t *const skipped,
+                                 const imf_robust_state_t *const x, const int ok, const unsigned n)
 {
-    if (!(ok && robust_finite(x, bytes))) {
+    if (!(ok && robust_finite(x, n))) {
         (*skipped)++;
         return;
     }
-    memcpy(dst, x, bytes);
+    memcpy(dst, x, n * sizeof(imf_real));
 }
 
 void imf_robust_update_imu(imf_robust_t *const self, const imf_real gx, const imf_real gy,
@@ -268,10 +284,10 @@ void imf_robust_update_imu(imf_robust_t *const self, const imf_real gx, const im
         self->skipped++;
         return;
     }
-    memcpy(&x, &self->x, ROBUST_IMU_BYTES);
+    memcpy(&x, &self->x, ROBUST_IMU_WORDS * sizeof(imf_real));
     robust_commit(&self->x, &self->skipped, &x,
                   robust_step(&self->set, &x, g, a) && robust_output(&self->set, &x, g),
-                  ROBUST_IMU_BYTES);
+                  ROBUST_IMU_WORDS);
 }
 
 void imf_robust_update(imf_robust_t *const self, const imf_real gx, const imf_real gy,
@@ -281,13 +297,17 @@ void imf_robust_update(imf_robust_t *const self, const imf_real gx, const imf_re
     const imf_real g[3] = { gx, gy, gz }, a[3] = { ax, ay, az }, m[3] = { mx, my, mz };
     const imf_real g2 = gx * gx + gy * gy + gz * gz;
     imf_robust_state_t x;
+    int ok;
     if (!(imf_finite3(gx, gy, gz) && imf_finite3(ax, ay, az) && imf_finite3(mx, my, mz))) {
         self->skipped++;
         return;
     }
     x = self->x;
-    robust_commit(&self->x, &self->skipped, &x,
-                  robust_step(&self->set, &x, g, a) && robust_magnetometer(&self->set, &x, m, g2)
-                      && robust_output(&self->set, &x, g),
-                  self->set.s.mag_learn ? ROBUST_AHRS_BYTES : ROBUST_IMU_BYTES);
+    ok = robust_step(&self->set, &x, g, a) && robust_magnetometer(&self->set, &x, m, g2)
+         && robust_output(&self->set, &x, g);
+    if (self->set.s.mag_learn) {
+        robust_commit(&self->x, &self->skipped, &x, ok, ROBUST_AHRS_WORDS);
+    } else {
+        robust_commit(&self->x, &self->skipped, &x, ok, ROBUST_IMU_WORDS);
+    }
 }

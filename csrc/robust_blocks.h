@@ -195,7 +195,7 @@ static void robust_gravity(const imf_robust_consts_t *const set, imf_robust_stat
    the correction c, and q = c (x) s; 0 rejects the sample */
 static int robust_level(imf_robust_state_t *const x, imf_real *const r)
 {
-    imf_real ge[3], gn, c[4], q[4];
+    imf_real ge[3], gn, c[4];
     imf_qrotate(ge, x->c[0], x->c[1], x->c[2], x->c[3], x->f[0], x->f[1], x->f[2]);
     gn = imf_sqrt(ge[0] * ge[0] + ge[1] * ge[1] + ge[2] * ge[2]);
     r[0] = gn + ge[2];
@@ -220,11 +220,9 @@ static int robust_level(imf_robust_state_t *const x, imf_real *const r)
         return 0;
     }
     memcpy(x->c, c, sizeof c);
-    imf_qmul(q, c[0], c[1], c[2], c[3], x->s[0], x->s[1], x->s[2], x->s[3]);
-    if (!robust_norm4(q)) {
-        return 0;
-    }
-    memcpy(x->q, q, sizeof q);
+    /* c and s are unit quaternions: so is their product, within a few roundings (no
+       normalisation; a non-finite q fails the commit's check) */
+    imf_qmul(x->q, c[0], c[1], c[2], c[3], x->s[0], x->s[1], x->s[2], x->s[3]);
     return 1;
 }
 

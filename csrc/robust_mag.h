@@ -44,7 +44,7 @@ static ROBUST_NOINLINE imf_real robust_offset_axis(imf_real mp[21], imf_real xs[
                                                    const imf_real y, const imf_real rr)
 {
     imf_real ph[6], kk[6], sv, nu, ri;
-    unsigned j, k;
+    unsigned j;
     for (j = 0; j < 6; j++) {
         ph[j] = mp[robust_pi[j][0]] * h0 + mp[robust_pi[j][1]] * h1 + mp[robust_pi[j][2]] * h2
                 + mp[robust_pi[j][3 + i]];
@@ -56,11 +56,37 @@ static ROBUST_NOINLINE imf_real robust_offset_axis(imf_real mp[21], imf_real xs[
         kk[j] = ph[j] * ri;
         xs[j] = xs[j] + kk[j] * nu;
     }
+#if defined(__AVR__)
     for (j = 0; j < 6; j++) {
+        unsigned k;
         for (k = j; k < 6; k++) {
             mp[robust_pi[j][k]] = mp[robust_pi[j][k]] - ph[j] * kk[k];
         }
     }
+#else
+    /* the same, written out (no loop branches): P[n] = P[j][k], the upper triangle by rows */
+    mp[0] = mp[0] - ph[0] * kk[0];
+    mp[1] = mp[1] - ph[0] * kk[1];
+    mp[2] = mp[2] - ph[0] * kk[2];
+    mp[3] = mp[3] - ph[0] * kk[3];
+    mp[4] = mp[4] - ph[0] * kk[4];
+    mp[5] = mp[5] - ph[0] * kk[5];
+    mp[6] = mp[6] - ph[1] * kk[1];
+    mp[7] = mp[7] - ph[1] * kk[2];
+    mp[8] = mp[8] - ph[1] * kk[3];
+    mp[9] = mp[9] - ph[1] * kk[4];
+    mp[10] = mp[10] - ph[1] * kk[5];
+    mp[11] = mp[11] - ph[2] * kk[2];
+    mp[12] = mp[12] - ph[2] * kk[3];
+    mp[13] = mp[13] - ph[2] * kk[4];
+    mp[14] = mp[14] - ph[2] * kk[5];
+    mp[15] = mp[15] - ph[3] * kk[3];
+    mp[16] = mp[16] - ph[3] * kk[4];
+    mp[17] = mp[17] - ph[3] * kk[5];
+    mp[18] = mp[18] - ph[4] * kk[4];
+    mp[19] = mp[19] - ph[4] * kk[5];
+    mp[20] = mp[20] - ph[5] * kk[5];
+#endif
     return nu * nu * ri;
 }
 
@@ -310,12 +336,12 @@ static ROBUST_SMALL int robust_heading(const imf_robust_consts_t *const set,
     c[1] = zw * x->c[1] - zz * x->c[2];
     c[2] = zw * x->c[2] + zz * x->c[1];
     c[3] = zw * x->c[3] + zz * x->c[0];
-    if (!robust_norm4(c)) {
-        return 0;
-    }
+    /* z and c are unit quaternions: so are c and q = c (x) s, within a few roundings (no
+       normalisation: the levelling normalises c every sample; a non-finite c or q fails
+       the commit's check) */
     memcpy(x->c, c, sizeof c);
     imf_qmul(x->q, c[0], c[1], c[2], c[3], x->s[0], x->s[1], x->s[2], x->s[3]);
-    return robust_norm4(x->q);
+    return 1;
 }
 
 /* B6 and B4: the magnetometer m (all zero: none); 0 rejects the sample. g2: |w|^2. */

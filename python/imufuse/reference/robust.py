@@ -140,7 +140,7 @@ _MEMBERS = (("q", ("q0", "q1", "q2", "q3")),          # estimate, sensor -> eart
             ("m_std", None),                          # B6: the offset's standard deviation
             ("m_axis", None),                         # B6: the axis the next reading updates
             ("m_bad", None))                          # B6: absurd readings for, s
-#: the members an IMU update can change (C: ROBUST_IMU_BYTES, the words before hi)
+#: the members an IMU update can change (C: ROBUST_IMU_WORDS, the words before hi)
 _IMU_MEMBERS = tuple(m for m, _ in _MEMBERS[:[m for m, _ in _MEMBERS].index("hi")])
 
 
@@ -185,8 +185,6 @@ def _word(member, i):
     def put(self, v):
         getattr(self.x, member)[i] = v
     return property(get, put)
-
-
 
 
 class _Robust(_RobustBlocks, _RobustMag, ReferenceFilter):
@@ -345,9 +343,8 @@ class _Robust(_RobustBlocks, _RobustMag, ReferenceFilter):
         return True
 
     def _commit(self, x, ok, members):
-        # keep the new state (its first members: the IMU, and the AHRS with B6 off, never
-        # change B6's, C: ROBUST_IMU_BYTES) only if every block accepted the sample and left
-        # it finite (valid-attitude policy)
+        # keep the new state (its first members: the IMU and the AHRS with B6 off never change
+        # B6's) only if every block accepted the sample and left it finite (valid attitude)
         if not (ok and isfinite(*x.words(members))):
             self._skip()
             return
@@ -370,16 +367,15 @@ class RobustIMU(_Robust):
 
     RobustIMU(dt, tau_acc=2.5, rate_ref=100.0, tau_bias=100.0, tau_bias_rest=3.0,
     rest_gyr=2.0, rest_acc=0.05, rest_time=1.5, tau_rest=0.5, latency=0.0): dt in s;
-    tau_acc (s)
-    the gravity filter's time constant at rest; rate_ref (deg/s) the rotation rate at
-    which its gravity uncertainty doubles (0: constant); tau_bias (s) the time
-    constant of the bias estimation in motion (0: off, else >= 4 tau_acc);
-    tau_bias_rest (s) that of the bias at rest; rest_gyr (deg/s) and rest_acc (g,
-    relative to the accelerometer's mean magnitude) the rest thresholds, held for
-    rest_time (s), with low-passes of tau_rest (s); latency (s) the delay of the
-    sensor chain (the gyroscope's internal filter), compensated in the output q0..q3 by
-    predicting it forward (0: none). Gyro in rad/s, accelerometer
-    in any unit. State: see state_names; q0..q3 is the estimate (sensor -> earth, NWU).
+    tau_acc (s) the gravity filter's time constant at rest; rate_ref (deg/s) the rotation
+    rate at which its gravity uncertainty doubles (0: constant); tau_bias (s) the time
+    constant of the bias estimation in motion (0: off, else >= 4 tau_acc); tau_bias_rest
+    (s) that of the bias at rest; rest_gyr (deg/s) and rest_acc (g, relative to the
+    accelerometer's mean magnitude) the rest thresholds, held for rest_time (s), with
+    low-passes of tau_rest (s); latency (s) the delay of the sensor chain (the gyroscope's
+    internal filter), compensated in the output q0..q3 by predicting it forward (0: none).
+    Gyro in rad/s, accelerometer in any unit. State: see state_names; q0..q3 is the
+    estimate (sensor -> earth, NWU).
     """
     kind = "imu"
     c_name = "imf_robust"

@@ -206,10 +206,9 @@ class _RobustBlocks:
         if not self._norm4(c):
             return False
         x.c = c
-        q = list(qmul(c[0], c[1], c[2], c[3], x.s[0], x.s[1], x.s[2], x.s[3]))
-        if not self._norm4(q):
-            return False
-        x.q = q
+        # c and s are unit quaternions: so is their product, within a few roundings (no
+        # normalisation; a non-finite q fails the commit's check)
+        x.q = list(qmul(c[0], c[1], c[2], c[3], x.s[0], x.s[1], x.s[2], x.s[3]))
         return True
 
     def _bias_gain(self, x, tau0):

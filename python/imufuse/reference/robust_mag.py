@@ -227,11 +227,12 @@ class _RobustMag:
              zw * x.c[1] - zz * x.c[2],
              zw * x.c[2] + zz * x.c[1],
              zw * x.c[3] + zz * x.c[0]]
-        if not self._norm4(c):
-            return False
+        # z and c are unit quaternions: so are c and q = c (x) s, within a few roundings
+        # (no normalisation: the levelling normalises c every sample; a non-finite c or q
+        # fails the commit's check)
         x.c = c
         x.q = list(qmul(c[0], c[1], c[2], c[3], x.s[0], x.s[1], x.s[2], x.s[3]))
-        return self._norm4(x.q)
+        return True
 
     def _magnetometer(self, x, m, g2):
         """B6 and B4: the magnetometer m (all zero: none); False rejects the sample.
