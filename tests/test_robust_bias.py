@@ -10,9 +10,11 @@ import pytest
 
 import imufuse_c
 from imufuse import reference
-from imufuse.calibration import gyr_bias, load_calibration
+from imufuse.calibration import (Calibration, CalibrationError, gyr_bias, load_calibration,
+                                 save_calibration)
 from imufuse.calibration.log import save_gyr_bias
 from imufuse.sim import disturb as sd
+from bits import assert_same_bits
 
 NAMES = imufuse_c.RobustAHRS(0.01).state_names
 BIG = (4.0, -3.0, 5.0)      # deg/s: a consumer MEMS part's zero-rate offset, uncalibrated
@@ -20,10 +22,6 @@ BIG = (4.0, -3.0, 5.0)      # deg/s: a consumer MEMS part's zero-rate offset, un
 
 def rms(x):
     return float(np.sqrt(np.mean(np.square(x))))
-
-
-def _bits(a):
-    return a.view(np.uint32 if a.dtype == np.float32 else np.uint64)
 
 
 def run(backend, cls, s, dtype="float64", gyr=None, **kw):
@@ -60,9 +58,7 @@ def test_bitexact_uncalibrated(cls, dtype, rest, bias_deg):
         kw["tau_mag"] = 2.0
     fc, C = run(imufuse_c, cls, s, dtype, **kw)
     fr, P = run(reference, cls, s, dtype, **kw)
-    diff = np.nonzero((_bits(C) != _bits(P)).any(axis=1))[0]
-    assert diff.size == 0, (f"first differing sample {diff[0]}: "
-                            f"{[NAMES[j] for j in np.nonzero(_bits(C[diff[0]]) != _bits(P[diff[0]]))[0]]}")
+    assert_same_bits(C, P, NAMES)
     bu = C[:, NAMES.index("bu")]
     assert bu[0] == 1.0 and bu[-1] < 1.0 and np.all(np.diff(bu) <= 0)
     if bias_deg[0] > 6.0:
@@ -156,7 +152,7 @@ def test_get_and_set_gyr_bias(dtype):
         for bad in ((0.2, 0.0, 0.0), (math.nan, 0.0, 0.0), (0.0, 0.0), "xyz"):
             with pytest.raises(ValueError, match="gyr bias"):
                 f.set_gyr_bias(bad)
-    assert np.array_equal(_bits(out[0]), _bits(out[1]))
+    assert_same_bits(out[0], out[1], NAMES)
     # seeded, the estimate is right from the first second; unseeded it is not
     _, U = run(imufuse_c, "RobustAHRS", s)
     seeded = sd.errors(out[0][:, :4], s.q_true)[0][:300]
@@ -173,3 +169,12 @@ def test_gyr_bias_through_a_calibration_file(tmp_path):
     g = imufuse_c.RobustIMU(0.01)
     g.set_gyr_bias(gyr_bias(path))
     assert g.get_gyr_bias() == f.get_gyr_bias()
+    # a scale or misalignment cannot be given to the filter; nor a file without the section
+    scaled = str(tmp_path / "scaled.json")
+    save_calibration(scaled, Calibration(gyroscope=dict(M=np.eye(3), s=np.array([1.01, 1.0, 1.0]),
+                                                        b=np.zeros(3))))
+    with pytest.raises(CalibrationError, match="not the identity"):
+        gyr_bias(scaled)
+    save_calibration(scaled, Calibration(accelerometer=dict(b=np.zeros(3))))
+    with pytest.raises(CalibrationError, match="no gyroscope section"):
+        gyr_bias(scaled)

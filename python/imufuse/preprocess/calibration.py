@@ -167,14 +167,19 @@ def mag_offset(calibration):
             "calibration, which the filter's offset cannot hold; apply it to the readings "
             "(imufuse run --calibration) or fit an offset only (imufuse calibrate mag "
             "--method sphere)")
-    h = tuple(float(v) for v in np.asarray(p["h"], dtype=float))
-    for axis, v in zip("xyz", h):
+    return _vector_for_filter(where, "magnetometer.h", p["h"])
+
+
+def _vector_for_filter(where, name, values):
+    # (x, y, z) floats finite in float32 (the vector goes into a filter of either precision,
+    # float32 on an MCU), or CalibrationError naming the file and the component
+    v = tuple(float(c) for c in np.asarray(values, dtype=float))
+    for axis, c in zip("xyz", v):
         try:
-            check_real_in(f"magnetometer.h {axis}", v, "float32")
+            check_real_in(f"{name} {axis}", c, "float32")
         except ValueError as e:
-            # the offset goes into a filter of either precision (float32 on an MCU)
             raise CalibrationError(f"{where}: {e}") from None
-    return h
+    return v
 
 
 def gyr_bias(calibration):
@@ -195,13 +200,7 @@ def gyr_bias(calibration):
             f"{where}: gyroscope.M or gyroscope.s is not the identity: a misalignment or "
             "scale, which the filter's bias cannot hold; apply it to the readings (imufuse "
             "run --calibration)")
-    b = tuple(float(v) for v in np.asarray(p["b"], dtype=float))
-    for axis, v in zip("xyz", b):
-        try:
-            check_real_in(f"gyroscope.b {axis}", v, "float32")
-        except ValueError as e:
-            raise CalibrationError(f"{where}: {e}") from None
-    return b
+    return _vector_for_filter(where, "gyroscope.b", p["b"])
 
 
 def is_identity(cal):
