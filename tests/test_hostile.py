@@ -105,6 +105,10 @@ def _recover(case, f, dtype, angle=TILT):
         S = f.run(*(b[:m] for b in block))
         rows.append(S[(-done) % stride::stride])
         done += m
+        if m > 1 and S[-1].tobytes() == S[-2].tobytes():
+            # a fixed point: the same reading leaves the state as it is (the state is the
+            # whole filter), so every later sample of the budget has this state
+            break
     _valid(case, f, np.concatenate(rows + [S[-1:]]))
     return S
 
@@ -186,13 +190,20 @@ def test_a_million_constant_samples_then_recovery(case, dtype):
     was rejected, the attitude frozen at the old tilt."""
     c, r = case.make("c", dtype), case.make("ref", dtype)
     scale = case.params.get("acc_1g", 1.0)
-    inputs = _static(case.kind, scale=scale, n=1_000_000)
-    S = c.run(*inputs)
-    assert np.isfinite(S).all()
-    _valid(case, c, S)
+    n, block = 1_000_000, 1 << 14
+    inputs = _static(case.kind, scale=scale, n=n)
+    # in blocks (the states of a block stay in the cache; a run of 10^6 states of 80 words
+    # is 640 MB): every state finite, 400 rows spread over the run valid
+    rows, stride = [], max(1, n // 400)
+    for k in range(0, n, block):
+        S = c.run(*(x[k:k + block] for x in inputs))
+        assert np.isfinite(S).all(), k
+        if k == 0:
+            head = tuple(x[:1000] for x in inputs)
+            assert_same_bits(S[:1000], r.run(*head), c.state_names)
+        rows.append(S[(-k) % stride::stride])
+    _valid(case, c, np.concatenate(rows + [S[-1:]]))
     assert c.skipped == 0
-    head = tuple(x[:1000] for x in inputs)
-    assert_same_bits(S[:1000], r.run(*head), c.state_names)
     S = _recover(case, c, dtype, angle=-TILT)
     assert c.skipped == 0
     assert _error(case, S, -TILT) <= math.radians(2.0), \

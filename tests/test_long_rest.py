@@ -329,7 +329,7 @@ def gravity_peak(s, g1):
 
 def measure_float(case, dtype, name):
     sc = scenario(name)
-    s = run_float(case, dtype, name).astype(float)
+    s = np.asarray(run_float(case, dtype, name), dtype=float)
     assert np.all(np.isfinite(s))
     g1 = case.params.get("acc_1g", 1.0)
     r = dict(norm=norm_worst(case, s, sc, g1), truth=truth_worst(case, s, sc))

@@ -59,7 +59,7 @@ def _peak(*cmd):
 
 
 @pytest.mark.parametrize("command,n", [
-    (("compare", "{log}", "-f", "RobustAHRS", "--ref-frame", "NWU"), 10_000_000),
+    (("compare", "{log}", "-f", "RobustAHRS", "--ref-frame", "NWU"), 3_000_000),
     (("run", "{log}", "-f", "RobustAHRS", "--ref-frame", "NWU", "-o", os.devnull), 1_000_000),
 ])
 def test_peak_memory_per_sample(tmp_path, command, n):

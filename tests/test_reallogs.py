@@ -368,3 +368,19 @@ def test_recognition_prefers_close_names_and_checks_time_units():
     got = io.recognise(h)
     assert got["time"] == 2 and got["gyr_x"] == 4 and got["acc_x"] == 5
     assert io.recognise(["T (degC)", "gx"]) == {"gyr_x": 1}
+
+
+def test_frame_hint_on_a_long_log_ranks_on_a_sample_and_scores_on_all(monkeypatch):
+    """frame_hint ranks the other frames on every k-th sample of a long log (session.HINT_SAMPLES)
+    and says the best one's error on the whole log: the same hint, with the same figure, as
+    when every frame is scored on every sample."""
+    from imufuse import session as ses
+    s = ses.Session(io.example_log())
+    opts = ses.ScoreOptions(ref_frame="NWU")
+    run = s.run("MadgwickAHRS")
+    ev = s.score(run, opts)
+    full = s.frame_hint(run, ev, opts)
+    assert full is not None and "--ref-frame ENU" in full, full
+    assert len(s.log.q_ref) > 3000
+    monkeypatch.setattr(ses, "HINT_SAMPLES", 1000)
+    assert s.frame_hint(run, ev, opts) == full
