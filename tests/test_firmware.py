@@ -36,9 +36,13 @@ def _cache(tmp_path_factory):
         os.environ["IMUFUSE_CACHE"] = old
 
 
-def _inputs(kind, n=1500, seed=3, swing=False):
+def _inputs(kind, n=1500, seed=3, swing=False, rest=0):
     """Simulated fast motion; swing: the accelerometer's magnitude swung between 0.5 and
-    1.5 g (a 3 s period), so that every magnitude gate and window is crossed both ways."""
+    1.5 g (a 3 s period), so that every magnitude gate and window is crossed both ways;
+    rest: that many samples at rest first (the first reading held, a gyro bias of
+    (2, -3, 4) deg/s and a little noise), then a third as many with the rate about z
+    ramped from 0 to 12 deg/s, so that rest detection, the bias learnt at rest and the
+    rest window's edge run too."""
     if kind == "1d":
         d = sim.axis1d("fast", rate=200.0, duration=n / 200.0, seed=seed)
         return d.gyr, d.acc_angle
@@ -46,7 +50,15 @@ def _inputs(kind, n=1500, seed=3, swing=False):
     acc = d.acc
     if swing:
         acc = acc * (1.0 + 0.5 * np.sin(2 * np.pi * np.arange(n) / 600.0))[:, None]
-    return (d.gyr, acc) if kind == "imu" else (d.gyr, acc, d.mag)
+    gyr, mag = d.gyr, d.mag
+    if rest:
+        m = rest + rest // 3
+        still = np.radians([2.0, -3.0, 4.0]) + np.random.default_rng(seed).normal(0.0, 1e-3, (m, 3))
+        still[rest:, 2] += np.radians(np.linspace(0.0, 12.0, m - rest))
+        gyr = np.concatenate([still, gyr])
+        acc = np.concatenate([np.repeat(acc[:1], m, axis=0), acc])
+        mag = np.concatenate([np.repeat(mag[:1], m, axis=0), mag])
+    return (gyr, acc) if kind == "imu" else (gyr, acc, mag)
 
 
 def _first_diff(a, b):
@@ -90,7 +102,7 @@ def _csrc_matrix():
 @pytest.mark.parametrize("case,dtype", _csrc_matrix())
 def test_csrc_is_bit_exact(case, dtype):
     fw = csrc_firmware(case.name, CSRC, dtype)
-    inputs = _inputs(case.kind, swing=True)
+    inputs = _inputs(case.kind, swing=True, rest=600)
     for backend in ("c", "ref"):
         v = validate(fw, case.name, case.params, inputs, backend=backend)
         assert v.comparison.dtype == dtype
