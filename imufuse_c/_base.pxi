@@ -19,6 +19,7 @@
 # (csrc/imf_attitude.h) and _set_attitude; q0= and state= are set at reset.
 from cpython.float cimport PyFloat_AsDouble, PyFloat_Check
 from cpython.long cimport PyLong_CheckExact
+from libc.math cimport sqrt
 from libc.string cimport memcpy
 from libc.stdint cimport uint32_t
 cimport numpy as cnp
@@ -181,6 +182,69 @@ def _rebuild(cls, ctor, x, skipped, pending, win):
     return f
 
 
+#: constructor arguments checked before, by _ctor_key: (checked, C init arguments, start).
+#: A filter built again with the same arguments (a fresh filter per log, per search point)
+#: skips the checks in Python, which cost a hundred times a short run.
+_CTOR_CHECKED = {}
+_CTOR_CHECKED_MAX = 1024
+
+
+cdef object _ctor_key(object cls, tuple args, dict kwargs):
+    """The arguments as a key that tells 1, 1.0, True and np.float64(1) apart (each value
+    with its type), or None when a value is not hashable (not cached)."""
+    key = (cls, tuple([(type(a), a) for a in args]),
+           tuple(sorted([(k, type(v), v) for k, v in kwargs.items()])))
+    try:
+        hash(key)
+    except TypeError:
+        return None
+    return key
+
+
+#: (adapter, state words) of run(..., outputs=) per filter class and output (a class's
+#: state names are its own: imufuse.shared.estimate.output_columns once per pair)
+_OUT_COLUMNS = {}
+
+
+cdef tuple _out_columns(object f, object outputs):
+    try:
+        key = (type(f), outputs)
+        hit = _OUT_COLUMNS.get(key)
+    except TypeError:     # not hashable: output_columns names the mistake
+        key = hit = None
+    if hit is None:
+        hit = _estimate.output_columns(f, outputs)
+        if key is not None:
+            _OUT_COLUMNS[key] = hit
+    return hit
+
+
+cdef object _outputs(object f, str key, tuple cols, object out):
+    """outputs= from the kept state words: a quaternion state's unit quaternions in C
+    (imufuse.shared.estimate's quaternion adapter, operation for operation), any other
+    through the estimate adapter."""
+    if key != "quaternion":
+        return _estimate.outputs_from_columns(f, key, cols, out)
+    cdef Py_ssize_t k, n = cnp.PyArray_DIM(<cnp.ndarray>out, 0)
+    # float64: in place (each row read before it is written)
+    res = out if sizeof(imf_real) == sizeof(double) else np.empty((n, 4), dtype=np.float64)
+    cdef const imf_real *s = <const imf_real *>cnp.PyArray_DATA(<cnp.ndarray>out)
+    cdef double *r = <double *>cnp.PyArray_DATA(<cnp.ndarray>res)
+    cdef double a, b, c, d, norm
+    with nogil:
+        for k in range(n):
+            a = s[4 * k]
+            b = s[4 * k + 1]
+            c = s[4 * k + 2]
+            d = s[4 * k + 3]
+            norm = sqrt(((a * a + b * b) + c * c) + d * d)
+            r[4 * k] = a / norm
+            r[4 * k + 1] = b / norm
+            r[4 * k + 2] = c / norm
+            r[4 * k + 3] = d / norm
+    return res
+
+
 cdef class _Filter:
     cdef tuple _ctor
     cdef char *_x
@@ -205,13 +269,23 @@ cdef class _Filter:
                                       ("q0", q0, None), ("state", state, None))
                  if not (v is d or (isinstance(v, (str, int)) and v == d))}
         ctor = (args, dict(kwargs, **start))
-        checked = self._ref._checked_params(DTYPE, *args, **kwargs)
-        # the C init arguments by name (the reference _init's = the C init's names)
-        kw = _init_arguments(self._ref, checked)
+        # the same arguments checked before (the default start only): their checked values
+        key = None if start else _ctor_key(type(self), args, kwargs)
+        hit = _CTOR_CHECKED.get(key) if key is not None else None
+        if hit is None:
+            checked = self._ref._checked_params(DTYPE, *args, **kwargs)
+            # the C init arguments by name (the reference _init's = the C init's names)
+            kw = _init_arguments(self._ref, checked)
+            how = _checks.check_start(self._ref.kind, self._ref.state_names, DTYPE, init,
+                                      init_window, q0, state,
+                                      getattr(self._ref, "own_start", None))
+            if key is not None and len(_CTOR_CHECKED) < _CTOR_CHECKED_MAX:
+                _CTOR_CHECKED[key] = (checked, kw, how)
+        else:
+            checked, kw, how = hit
+        kw = dict(kw)
         n = len(self._ref.state_names)
         out = _StateOut(n, _NATIVE)
-        how = _checks.check_start(self._ref.kind, self._ref.state_names, DTYPE, init,
-                                  init_window, q0, state, getattr(self._ref, "own_start", None))
         _idle(self._busy, self)     # everything checked: no Python code until the C init
         self._ctor, self._args, self._kw, self._n, self._out, self._start = \
             ctor, checked, kw, n, out, how
@@ -578,7 +652,7 @@ cdef class _FilterIMU(_Filter):
         quaternions sensor -> earth (imufuse.shared.estimate.run_outputs)."""
         cols = None
         if outputs != "state":
-            key, cols = _estimate.output_columns(self, outputs)
+            key, cols = _out_columns(self, outputs)
             if len(cols) > 16:
                 return _estimate.run_outputs(self, self.run(gyr, acc, dt), outputs)
         if self._x == NULL:
@@ -593,7 +667,7 @@ cdef class _FilterIMU(_Filter):
         finally:
             self._ncols = 0
             self._busy = 0
-        return out if cols is None else _estimate.outputs_from_columns(self, key, cols, out)
+        return out if cols is None else _outputs(self, key, cols, out)
 
     cdef object _run(self, gyr, acc):
         # run() at the constructor's dt: arrays read in place where they can be
@@ -705,7 +779,7 @@ cdef class _FilterAHRS(_Filter):
         quaternions sensor -> earth (imufuse.shared.estimate.run_outputs)."""
         cols = None
         if outputs != "state":
-            key, cols = _estimate.output_columns(self, outputs)
+            key, cols = _out_columns(self, outputs)
             if len(cols) > 16:
                 return _estimate.run_outputs(self, self.run(gyr, acc, mag, dt), outputs)
         if self._x == NULL:
@@ -720,7 +794,7 @@ cdef class _FilterAHRS(_Filter):
         finally:
             self._ncols = 0
             self._busy = 0
-        return out if cols is None else _estimate.outputs_from_columns(self, key, cols, out)
+        return out if cols is None else _outputs(self, key, cols, out)
 
     cdef object _run(self, gyr, acc, mag):
         # run() at the constructor's dt: arrays read in place where they can be

@@ -3,6 +3,8 @@ the same way by both backends (one validation path, imufuse.shared.checks)."""
 import numpy as np
 import pytest
 
+import imufuse_c
+
 from imufuse.registry import (FLOAT_CASES, case_params, each, each_backend, each_dtype)
 from sequences import generate
 
@@ -165,3 +167,21 @@ def test_overflowing_update_is_rejected(backend):
     assert f.skipped == 0 and f.state[0] == np.float32(3e38)
     f.update(3e38, 0.0)          # 6e38 overflows float32: rejected
     assert f.skipped == 1 and f.state[0] == np.float32(3e38)
+
+
+@pytest.mark.parametrize("dtype", ["float32", "float64"])
+def test_arguments_checked_once_are_checked_as_themselves(dtype):
+    """The compiled constructor keeps the checked values of arguments it has seen (a filter
+    built again with the same arguments skips the Python checks): a value of another type
+    that compares equal (3.0 or True for 3 or 1) is checked as itself, a refused argument is
+    refused every time, and a filter built from remembered arguments runs as the first did."""
+    g = np.tile([0.1, -0.2, 0.3], (50, 1))
+    a = np.tile([0.0, 0.0, 9.81], (50, 1))
+    for shift in (3, 1):
+        first = imufuse_c.MultiWii(dt=0.01, acc_lpf_shift=shift, dtype=dtype)
+        again = imufuse_c.MultiWii(dt=0.01, acc_lpf_shift=shift, dtype=dtype)
+        assert np.array_equal(first.run(g, a), again.run(g, a))
+    for _ in range(2):
+        for bad in (3.0, True, -1):
+            with pytest.raises(ValueError, match="acc_lpf_shift"):
+                imufuse_c.MultiWii(dt=0.01, acc_lpf_shift=bad, dtype=dtype)

@@ -85,3 +85,14 @@ def test_the_session_streams_the_same_estimate(name):
     assert np.array_equal(_bits(a.estimate.q), _bits(b.estimate.q))
     assert (a.estimate.heading, a.estimate.source) == (b.estimate.heading, b.estimate.source)
     assert a.rejected == b.rejected and len(a.states) == 0
+
+
+def test_the_quaternion_adapter_is_unit_and_the_norm_within_an_ulp():
+    """The adapter's |q| (summed in a fixed order, as the compiled outputs="q" sums it) is the
+    norm numpy's linalg gives within an ulp, and each quaternion unit within 2 ulp."""
+    rng = np.random.default_rng(5)
+    S = rng.normal(size=(20_000, 4)) * rng.uniform(0.5, 2.0, size=(20_000, 1))
+    q = estimate.ADAPTERS["quaternion"](("q0", "q1", "q2", "q3"), "ahrs", S).q
+    ref = S / np.linalg.norm(S, axis=1, keepdims=True)
+    assert np.abs(q - ref).max() <= 2 * np.finfo(float).eps
+    assert np.abs(np.linalg.norm(q, axis=1) - 1.0).max() <= 4 * np.finfo(float).eps

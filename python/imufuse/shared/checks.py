@@ -29,6 +29,8 @@ def real_number(value):
 def check_dtype(dtype):
     """Return "float32" or "float64"; raise ValueError for anything else
     (None included: it is not a default here)."""
+    if type(dtype) is str and dtype in DTYPES:
+        return dtype    # the names themselves (np.dtype costs more than a short run)
     if dtype is None:
         raise ValueError("dtype: must be 'float32' or 'float64', got None")
     try:

@@ -42,8 +42,10 @@ def _angle(names: Sequence[str], kind: str, S: np.ndarray) -> Estimate:
 def _quaternion(names: Sequence[str], kind: str, S: np.ndarray) -> Estimate:
     if tuple(names[:4]) != ("q0", "q1", "q2", "q3"):
         raise ValueError(f"quaternion adapter: state must start q0..q3, got {names}")
+    # |q| summed in this order (the compiled run(..., outputs="q") does the same in C)
+    a, b, c, d = S[:, 0], S[:, 1], S[:, 2], S[:, 3]
     with np.errstate(all="ignore"):
-        q = S[:, :4] / np.linalg.norm(S[:, :4], axis=1, keepdims=True)
+        q = S[:, :4] / np.sqrt(((a * a + b * b) + c * c) + d * d)[:, None]
     return Estimate(q=q, heading=kind == "ahrs", source="q0..q3")
 
 
