@@ -110,15 +110,22 @@ def _links(v):
     return [n for n in v.notes if n.startswith("link:")]
 
 
-def test_baremetal_robust_ahrs_q_full_state_on_the_m4f(tmp_path):
-    """340 state bytes a frame (longer than one COBS block) on QEMU, clean and through a
-    byte lost on the way to the board and one changed on the way back."""
+@pytest.mark.parametrize("b6", ["OFF", "ON"])
+def test_baremetal_robust_ahrs_q_full_state_on_the_m4f(tmp_path, b6):
+    """340 state bytes a frame (longer than one COBS block) on QEMU, B6's code left out (as
+    the example builds it) or compiled in: the same 85 words; clean and through a byte lost
+    on the way to the board and one changed on the way back."""
     fw, ins = _robust_q_case(tmp_path)
     elf = _cmake(tmp_path, "arm-none-eabi.cmake", "-DHIL_FILTER=robust_ahrs_q",
-                 "-DIMUFUSE_FIXED=ON")
+                 "-DIMUFUSE_FIXED=ON", f"-DHIL_B6={b6}")
+    defines = subprocess.run(["grep", "-rho", "IMF_ROBUST_Q_B6=0", str(tmp_path / "build")],
+                             capture_output=True, text=True).stdout
+    assert ("IMF_ROBUST_Q_B6=0" in defines) == (b6 == "OFF")
     with Board(elf=elf, target="cortex-m4f") as b:
         v = _robust_q(fw, ins, b.port, "cortex-m4f")
         assert _links(v) == []
+        if b6 == "ON":
+            return
         for fault, to_board, k, line in [
                 ("drop", True, 57, "sample 57: the board received a corrupted frame (CRC or "
                                    "framing); sent again, recovered"),

@@ -95,7 +95,7 @@ extern "C" {
 
 /* What the runner needs from the firmware and the board. */
 typedef struct {
-    const char *name;            /* the firmware's identity, sent in the hello (32 chars) */
+    const char *name;            /* the firmware's identity, sent in the hello (24 chars) */
     uint8_t in_kind;             /* IMF_HIL_IN_F32 ... */
     uint8_t n_in;                /* input values per sample */
     uint8_t n_state;             /* state words */
