@@ -212,3 +212,174 @@ def test_a_board_without_the_runner_is_named_with_what_it_sends(tmp_path):
                            r"or none: no imufuse HIL hello within 2 s \(it sent '.*Booting v2\.1 "
                            r"\(IMU demo\)"):
             validate(fw, "Complementary1D", params, ins, port=b.port, timeout=2)
+
+
+def test_robust_ahrs_q_all_85_words_through_the_generated_board(tmp_path):
+    """build_board sizes the runner's state to the firmware's (RobustAHRSQ: 85 int32 words,
+    340 bytes; the default 64 would refuse it): every word bit for bit, the counts as
+    --target's."""
+    from test_hil_examples import N_Q, Q_PARAMS, _robust_q_case
+    fw, ins = _robust_q_case(tmp_path)
+    prog = build_board(fw, "RobustAHRSQ", Q_PARAMS, "cortex-m4f")
+    try:
+        assert sum(t.size for t in prog.types) == 340
+        with Board(prog) as b:
+            vp = validate(fw, "RobustAHRSQ", Q_PARAMS, ins, target="cortex-m4f", port=b.port,
+                          timeout=10)
+    finally:
+        shutil.rmtree(prog.workdir, ignore_errors=True)
+    assert vp.bit_exact and vp.got.shape == (N_Q, 85), vp.text()
+    vt = validate(fw, "RobustAHRSQ", Q_PARAMS, ins, target="cortex-m4f")
+    assert np.array_equal(vp.got, vt.got)
+    d = vp.cost.counts - vt.cost.counts
+    assert d.min() == d.max() and abs(int(d[0])) <= 8, d[:5]
+
+
+# ---------------------------------------------------------------------------
+# the protocol on the host: long frames, the version
+
+RUNNER_HOST = r"""
+#include <stdio.h>
+#include "imf_hil.h"
+
+static int32_t x[85];
+static uint16_t types[85];
+static int eof;
+
+static void fw_init(void)
+{
+    int j;
+    for (j = 0; j < 85; ++j) {
+        x[j] = j == 69 ? 0 : 0x11223344;          /* zeros among runs of 254+ bytes */
+    }
+}
+
+static void fw_update(const void *in)
+{
+    const int16_t *v = (const int16_t *)in;
+    int j;
+    for (j = 0; j < 85; ++j) {
+        x[j] = x[j] == 0 ? 0 : (int32_t)(((uint32_t)x[j] * 2654435761u + (uint16_t)v[j % 9])
+                                         | 0x01010101u);
+    }
+}
+
+static uint16_t fw_state(uint8_t *out)
+{
+    int j, b;
+    for (j = 0; j < 85; ++j) {
+        for (b = 0; b < 4; ++b) {
+            out[4 * j + b] = (uint8_t)((uint32_t)x[j] >> (8 * b));
+        }
+    }
+    return 340u;
+}
+
+static int get_byte(void)
+{
+    const int c = getchar();
+    eof = c == EOF;
+    return eof ? -1 : c;
+}
+
+static void put_byte(uint8_t b)
+{
+    putchar(b);
+}
+
+int main(void)
+{
+    static imf_hil_app_t app = {"host runner", IMF_HIL_IN_I16, 9, 85, types, fw_init, NULL,
+                                fw_update, fw_state, get_byte, put_byte, NULL, NULL, 0};
+    static imf_hil_t hil;
+    int j;
+    for (j = 0; j < 85; ++j) {
+        types[j] = IMF_HIL_T_I32;
+    }
+    imf_hil_init(&hil, &app);
+    while (!eof) {
+        (void)imf_hil_poll(&hil);
+    }
+    return 0;
+}
+"""
+
+
+def _runner_host(tmp_path, *defs):
+    src = tmp_path / "runner_host.c"
+    src.write_text(RUNNER_HOST)
+    exe = tmp_path / f"runner_host{len(defs)}"
+    subprocess.run([os.environ.get("CC", "cc"), "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror",
+                    *defs, "-I", str(csrc_dir() / "hil"), "-o", str(exe), str(src),
+                    str(csrc_dir() / "hil" / "imf_hil.c")], check=True)
+    return exe
+
+
+def test_runner_carries_85_words_in_frames_longer_than_a_cobs_block(tmp_path):
+    """The runner built with IMF_HIL_MAX_STATE 340 (RobustAHRSQ's 85 int32 words), on the host
+    through stdin/stdout: its hello lists 85 words, its 351-byte answers (blocks of 254 bytes
+    without a zero inside) are byte for byte what the host side encodes, a repeated sample
+    gets the kept answer, a corrupted frame a NAK. Built with the default (64 bytes) it refuses
+    to begin."""
+    from imufuse.firmware.hil_protocol import VERSION, FrameReader, Hello, frame, parse
+    ins = (np.arange(5 * 9, dtype=np.int16).reshape(5, 9) * 1009).astype("<i2")
+    bad = bytearray(frame(b"S", 5, ins[0].tobytes()))
+    bad[5] ^= 0x10
+    req = (frame(b"H", 0) + frame(b"B", 0)
+           + b"".join(frame(b"S", k, ins[k].tobytes()) for k in range(5))
+           + frame(b"S", 3, ins[3].tobytes()) + bytes(bad))
+    exe = _runner_host(tmp_path, "-DIMF_HIL_MAX_STATE=340u")
+    raws = FrameReader().feed(subprocess.run([str(exe)], input=req, capture_output=True,
+                                             check=True).stdout)
+    frames = [parse(r) for r in raws]
+    assert [f[:2] for f in frames] == [("h", 0), ("h", 0), ("b", 0)] + [
+        ("r", k) for k in range(5)] + [("r", 3), ("n", 5)]
+    for raw, (kind, seq, body) in zip(raws, frames):
+        assert b"\0" + raw + b"\0" == frame(kind.encode(), seq, body)
+    hello = Hello.decode(frames[1][2])
+    assert (hello.version, hello.boot, hello.name) == (VERSION, False, "host runner")
+    assert hello.types == [0x304] * 85 and hello.in_dtype == np.dtype("<i2")
+    answers = [f[2] for f in frames[3:8]]
+    assert all(len(a) == 340 + 6 for a in answers) and max(len(r) for r in raws) > 340
+    assert any(b"\0" not in a[i:i + 254] for a in answers for i in range(len(a) - 254))
+    assert frames[8][2] == answers[3] and frames[9][2] == b"\x01"
+    x = np.where(np.arange(85) == 69, 0, 0x11223344).astype(np.uint32)
+    for k in range(5):
+        v = ins[k][np.arange(85) % 9].astype(np.uint16).astype(np.uint32)
+        x = np.where(x == 0, 0, (x * np.uint32(2654435761) + v) | np.uint32(0x01010101))
+        assert np.frombuffer(answers[k][:340], "<u4").tolist() == x.tolist()
+    small = _runner_host(tmp_path)
+    out = subprocess.run([str(small)], input=frame(b"B", 0), capture_output=True).stdout
+    assert [parse(r)[:3] for r in FrameReader().feed(out)][-1] == ("n", 0, b"\x04")
+
+
+def test_a_runner_of_another_protocol_version_is_refused():
+    """A board whose runner is of protocol version 1 (64 words at most a frame): named, with
+    what to do."""
+    import threading
+    import tty
+    from imufuse.firmware import hil_protocol
+    from imufuse.firmware.hil import Link
+    from imufuse.firmware.targets import TargetError
+    master, slave = os.openpty()
+    tty.setraw(slave)
+    old = hil_protocol.frame(b"h", 0, bytes([1, 0, 2, 1, 9, 4, 1]) + bytes([4] * 4)
+                             + b"attitude 1.0")
+
+    def board():
+        seen = b""
+        while b"\0" not in seen[1:]:
+            seen += os.read(master, 64)
+        os.write(master, old)
+
+    threading.Thread(target=board, daemon=True).start()
+    try:
+        with Link(os.ttyname(slave), timeout=2) as link:
+            with pytest.raises(TargetError, match=r"^the board on /dev/pts/\d+ runs the imufuse "
+                               r"HIL runner's protocol version 1 \(firmware 'attitude 1\.0'\); "
+                               r"this imufuse speaks version 2: rebuild the firmware with "
+                               r"csrc/hil/imf_hil\.c and imf_hil\.h of this imufuse$"):
+                link.hello()
+    finally:
+        os.close(master)
+        os.close(slave)

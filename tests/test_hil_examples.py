@@ -4,7 +4,9 @@ does not run: the runner says it has no counter) and the ATmega328P (simavr, Tim
 and examples/hil/arduino/imufuse_hil compiled for the Uno by arduino-builder (the imufuse
 library as `imufuse export arduino` makes it, tests/test_arduino.py's sketchbook) and run on
 simavr at 115200 baud. Each is MadgwickAHRS float32 with its default settings (dt 0.01 s), so
-`validate --port` must find it bit-exact.
+`validate --port` must find it bit-exact. The bare-metal example's RobustAHRSQ (its default
+settings, B6's code left out as the example builds it) sends all 85 state words, 340 bytes a
+frame: bit-exact with the twin on both boards, through a lost and a corrupted byte.
 """
 import re
 import shutil
@@ -17,8 +19,11 @@ import pytest
 from imufuse import sim
 from imufuse.shared.resources import csrc_dir
 from imufuse.catalogue import inputs_for
-from imufuse.firmware import Board, csrc_firmware, validate
+from imufuse import reference
+from imufuse.firmware import Board, Firmware, counts_for, csrc_firmware, validate
 from imufuse.mcu import ensure_toolchains
+from imufuse.reference.fixed_robust import MAG_LAYOUT
+from hil_proxy import Proxy
 from test_arduino import sketchbook  # noqa: F401 - the fixture
 
 pytest.importorskip("serial")
@@ -53,6 +58,106 @@ def _cmake(tmp_path, toolchain, *options):
         p = subprocess.run(cmd, capture_output=True, text=True)
         assert p.returncode == 0, p.stdout[-2000:] + p.stderr[-2000:]
     return build / "hil_example.elf"
+
+
+N_Q = 300
+#: RobustAHRSQ's default settings (imf_robust_ahrs_q_default_settings), as the example uses them
+Q_PARAMS = dict(dt=0.01, gyr_scale=1.0642e-3)
+
+
+def _robust_q_case(tmp_path):
+    """The declaration of the example's RobustAHRSQ (a firmware around csrc/fixed/robust_q.c
+    with the default settings: what the port path compares, every state word in
+    reference.RobustAHRSQ's order) and N_Q samples of int16 counts."""
+    (tmp_path / "att.h").write_text(
+        '#include <stdint.h>\n#include "robust_q.h"\nextern imf_robust_ahrs_q_t att;\n'
+        "void att_init(void);\n"
+        "void att_update(const int16_t *g, const int16_t *a, const int16_t *m);\n")
+    (tmp_path / "att.c").write_text(
+        '#include "att.h"\nimf_robust_ahrs_q_t att;\nvoid att_init(void)\n{\n'
+        "    imf_robust_ahrs_q_settings_t s;\n    imf_robust_ahrs_q_default_settings(&s);\n"
+        "    (void)imf_robust_ahrs_q_init(&att, &s);\n}\n"
+        "void att_update(const int16_t *g, const int16_t *a, const int16_t *m)\n{\n"
+        "    imf_robust_ahrs_q_update(&att, g, a, m);\n}\n")
+    arrays = {"q": 4, "s": 4, "c": 4, "f": 3, "v": 3, "p": 3, "b": 3, "lw": 3, "la": 3}
+    exprs = [f"=att.x.imu.{k}[{i}]" for k, m in arrays.items() for i in range(m)]
+    exprs += ["=att.x.imu.n", "=att.x.imu.n_rest"]
+    for member, parts in MAG_LAYOUT:
+        exprs += ([f"=att.x.{member}[{i}]" for i in range(len(parts))] if parts
+                  else [f"=att.x.{member}"])
+    names = reference.RobustAHRSQ.state_names
+    assert len(names) == len(exprs) == 85
+    fx = str(csrc_dir() / "fixed")
+    fw = Firmware([str(tmp_path / "att.c"), str(csrc_dir() / "fixed" / "robust_q.c")],
+                  headers=["att.h"], include_dirs=[str(tmp_path), fx], init="att_init",
+                  update="att_update", state=dict(zip(names, exprs)),
+                  cflags=["-O2", "-ffp-contract=off", "-DIMF_ROBUST_Q_B6=0"])
+    d = sim.imu("fast", rate=100.0, duration=N_Q / 100.0, seed=7)
+    return fw, counts_for("ahrs", Q_PARAMS, (d.gyr, d.acc, d.mag))
+
+
+def _robust_q(fw, ins, port, target, baud=1_000_000):
+    v = validate(fw, "RobustAHRSQ", Q_PARAMS, ins, target=target, port=port, baud=baud,
+                 timeout=10)
+    # every word of the twin's state after every sample, bit for bit
+    assert v.bit_exact and v.got.shape == (N_Q, 85), v.text()
+    assert np.array_equal(v.got, reference.RobustAHRSQ(**Q_PARAMS).run(*ins).astype(np.int64))
+    assert "firmware 'example RobustAHRSQ' on the " in v.text()
+    return v
+
+
+def _links(v):
+    return [n for n in v.notes if n.startswith("link:")]
+
+
+@pytest.mark.parametrize("b6", ["OFF", "ON"])
+def test_baremetal_robust_ahrs_q_full_state_on_the_m4f(tmp_path, b6):
+    """340 state bytes a frame (longer than one COBS block) on QEMU, B6's code left out (as
+    the example builds it) or compiled in: the same 85 words; clean and through a byte lost
+    on the way to the board and one changed on the way back."""
+    fw, ins = _robust_q_case(tmp_path)
+    elf = _cmake(tmp_path, "arm-none-eabi.cmake", "-DHIL_FILTER=robust_ahrs_q",
+                 "-DIMUFUSE_FIXED=ON", f"-DHIL_B6={b6}")
+    defines = subprocess.run(["grep", "-rho", "IMF_ROBUST_Q_B6=0", str(tmp_path / "build")],
+                             capture_output=True, text=True).stdout
+    assert ("IMF_ROBUST_Q_B6=0" in defines) == (b6 == "OFF")
+    with Board(elf=elf, target="cortex-m4f") as b:
+        v = _robust_q(fw, ins, b.port, "cortex-m4f")
+        assert _links(v) == []
+        if b6 == "ON":
+            return
+        for fault, to_board, k, line in [
+                ("drop", True, 57, "sample 57: the board received a corrupted frame (CRC or "
+                                   "framing); sent again, recovered"),
+                ("flip", False, 211, "sample 211: its answer came back corrupted (CRC); sent "
+                                     "again, recovered")]:
+            with Proxy(b.port, fault=fault, sample=k, to_board=to_board) as p:
+                v = _robust_q(fw, ins, p.port, "cortex-m4f")
+                assert p.done, "the fault was not injected"
+            assert _links(v) == ["link: " + line], _links(v)
+
+
+def test_baremetal_robust_ahrs_q_full_state_on_the_atmega328p(tmp_path):
+    """The same on simavr's ATmega328P at 1 Mbaud: the firmware with the runner's two kept
+    340-byte answers fits 2 KB of RAM with the stack the update reached; a byte of an answer
+    lost on the way back is repaired."""
+    fw, ins = _robust_q_case(tmp_path)
+    elf = _cmake(tmp_path, "avr.cmake", "-DHIL_FILTER=robust_ahrs_q", "-DIMUFUSE_FIXED=ON")
+    size = subprocess.run(["avr-size", str(elf)], capture_output=True, text=True,
+                          check=True).stdout.splitlines()[-1].split()
+    text, data, bss = (int(x) for x in size[:3])
+    assert text + data <= 32 * 1024 - 512, (text, data)
+    with Board(elf=elf, target="atmega328p") as b:
+        v = _robust_q(fw, ins, b.port, "atmega328p")
+        c = v.cost
+        assert c.unit == "cycles" and 0 < c.min <= c.max < 131_072
+        # static RAM, the deepest update's stack and the runner's frames below it
+        assert c.stack is not None and data + bss + c.stack + 128 <= 2048, (data, bss, c.stack)
+        with Proxy(b.port, fault="drop", sample=123, to_board=False) as p:
+            v = _robust_q(fw, ins, p.port, "atmega328p")
+            assert p.done, "the fault was not injected"
+        assert _links(v) == ["link: sample 123: its answer came back corrupted (CRC); sent "
+                             "again, recovered"], _links(v)
 
 
 def test_baremetal_example_on_the_m4f(tmp_path):

@@ -45,28 +45,95 @@ uint16_t imf_hil_crc16(uint16_t crc, const uint8_t *data, uint16_t n)
     return crc;
 }
 
-/* COBS: every zero of the frame replaced by the distance to the next one; frames are
- * shorter than 254 bytes, so a block never needs a code of 0xFF. */
-static void imf_hil_send(const imf_hil_t *const self, const uint8_t *frame, uint8_t n)
+/* The name's characters sent in the hello (24 at most). */
+static uint16_t imf_hil_name_len(const imf_hil_app_t *const app)
 {
-    uint8_t start = 0u;
+    uint16_t n = 0u;
+    while (app->name != NULL && n < 24u && app->name[n] != '\0') {
+        ++n;
+    }
+    return n;
+}
+
+/* Byte i of the hello frame, made as it is sent (no buffer): type 'h', sequence 0, version,
+ * boot flag, window, input kind, inputs, state words, count unit, one type byte a word
+ * (size | 0x10 integer | 0x20 signed | 0x40 declared double), the name, then crc. */
+static uint8_t imf_hil_hello_byte(const imf_hil_app_t *const app, uint8_t boot, uint16_t crc,
+                                  uint16_t i)
+{
+    uint16_t name;
+    switch (i) {
+    case 0u:
+        return (uint8_t)'h';
+    case 1u:
+    case 2u:
+        return 0u;
+    case 3u:
+        return (uint8_t)IMF_HIL_VERSION;
+    case 4u:
+        return boot;
+    case 5u:
+        return (uint8_t)IMF_HIL_WINDOW;
+    case 6u:
+        return app->in_kind;
+    case 7u:
+        return app->n_in;
+    case 8u:
+        return app->n_state;
+    case 9u:
+        return app->count_begin != NULL ? app->count_unit : (uint8_t)IMF_HIL_COUNT_NONE;
+    default:
+        break;
+    }
+    i = (uint16_t)(i - 10u);
+    if (i < app->n_state) {
+        const uint16_t t = app->state_types[i];
+        return (uint8_t)((t & 0x0Fu) | ((t >> 4) & 0x70u));
+    }
+    i = (uint16_t)(i - app->n_state);
+    name = imf_hil_name_len(app);
+    if (i < name) {
+        return (uint8_t)app->name[i];
+    }
+    return i == name ? (uint8_t)crc : (uint8_t)(crc >> 8);
+}
+
+/* Byte i of the frame to send: frame[i], or the hello's when frame is NULL. */
+static uint8_t imf_hil_byte(const imf_hil_t *const self, const uint8_t *frame, uint8_t boot,
+                            uint16_t crc, uint16_t i)
+{
+    return frame != NULL ? frame[i] : imf_hil_hello_byte(self->app, boot, crc, i);
+}
+
+/* COBS: every zero of the frame replaced by the distance to the next one; a block of 254
+ * bytes without a zero has the code 0xFF (no zero after it). frame NULL: the hello (boot, crc). */
+static void imf_hil_send(const imf_hil_t *const self, const uint8_t *frame, uint16_t n,
+                         uint8_t boot, uint16_t crc)
+{
+    uint16_t start = 0u;
     self->app->put_byte(0u);
     while (start <= n) {
-        uint8_t end = start;
-        while (end < n && frame[end] != 0u) {
+        uint16_t end = start;
+        uint8_t code;
+        while (end < n && (uint16_t)(end - start) < 254u
+               && imf_hil_byte(self, frame, boot, crc, end) != 0u) {
             ++end;
         }
-        self->app->put_byte((uint8_t)(end - start + 1u));
+        code = (uint8_t)(end - start + 1u); /* 0xFF: 254 bytes and no zero after them */
+        self->app->put_byte(code);
         while (start < end) {
-            self->app->put_byte(frame[start++]);
+            self->app->put_byte(imf_hil_byte(self, frame, boot, crc, start++));
         }
-        start = (uint8_t)(end + 1u);
+        if (code < 0xFFu) {
+            start = (uint16_t)(end + 1u); /* past the zero (or the frame's end) */
+        }
     }
     self->app->put_byte(0u);
 }
 
-/* type, sequence number, body already in frame[3..3+body); appends the CRC and sends. */
-static uint8_t imf_hil_seal(uint8_t *frame, uint8_t type, uint16_t seq, uint8_t body)
+/* type, sequence number, body already in frame[3..3+body); appends the CRC, returns the
+ * frame's length. */
+static uint16_t imf_hil_seal(uint8_t *frame, uint8_t type, uint16_t seq, uint16_t body)
 {
     uint16_t crc;
     frame[0] = type;
@@ -75,39 +142,28 @@ static uint8_t imf_hil_seal(uint8_t *frame, uint8_t type, uint16_t seq, uint8_t 
     crc = imf_hil_crc16(0xFFFFu, frame, (uint16_t)(3u + body));
     frame[3u + body] = (uint8_t)crc;
     frame[4u + body] = (uint8_t)(crc >> 8);
-    return (uint8_t)(5u + body);
+    return (uint16_t)(5u + body);
 }
 
+/* The hello, made byte by byte as it is sent (its type list may be longer than a buffer). */
 static void imf_hil_hello(const imf_hil_t *const self, uint8_t boot)
 {
-    uint8_t f[3u + 7u + 64u + 24u + 2u];
-    const imf_hil_app_t *const app = self->app;
-    uint8_t n;
-    uint8_t i;
-    f[3] = (uint8_t)IMF_HIL_VERSION;
-    f[4] = boot;
-    f[5] = (uint8_t)IMF_HIL_WINDOW;
-    f[6] = app->in_kind;
-    f[7] = app->n_in;
-    f[8] = app->n_state <= 64u ? app->n_state : 64u;
-    f[9] = app->count_begin != NULL ? app->count_unit : (uint8_t)IMF_HIL_COUNT_NONE;
-    n = 7u;
-    for (i = 0u; i < f[8]; ++i) {
-        /* one byte a word: size | 0x10 integer | 0x20 signed | 0x40 declared double */
-        const uint16_t t = app->state_types[i];
-        f[3u + n++] = (uint8_t)((t & 0x0Fu) | ((t >> 4) & 0x70u));
+    const uint16_t n =
+        (uint16_t)(10u + self->app->n_state + imf_hil_name_len(self->app)); /* without CRC */
+    uint16_t crc = 0xFFFFu;
+    uint16_t i;
+    for (i = 0u; i < n; ++i) {
+        const uint8_t b = imf_hil_hello_byte(self->app, boot, 0u, i);
+        crc = imf_hil_crc16(crc, &b, 1u);
     }
-    for (i = 0u; app->name != NULL && app->name[i] != '\0' && i < 24u; ++i) {
-        f[3u + n++] = (uint8_t)app->name[i];
-    }
-    imf_hil_send(self, f, imf_hil_seal(f, 'h', 0u, n));
+    imf_hil_send(self, NULL, (uint16_t)(n + 2u), boot, crc);
 }
 
 static void imf_hil_nak(const imf_hil_t *const self, uint8_t reason)
 {
     uint8_t f[3u + 1u + 2u];
     f[3] = reason;
-    imf_hil_send(self, f, imf_hil_seal(f, 'n', self->expected, 1u));
+    imf_hil_send(self, f, imf_hil_seal(f, 'n', self->expected, 1u), 0u, 0u);
 }
 
 static void imf_hil_empty(const void *in)
@@ -157,7 +213,7 @@ static void imf_hil_sample(imf_hil_t *const self, const uint8_t *body, uint8_t n
 {
     const imf_hil_app_t *const app = self->app;
     uint8_t *const a = self->answer[self->expected % IMF_HIL_WINDOW];
-    uint8_t len;
+    uint16_t len;
     uint16_t stack;
     uint32_t count;
     memcpy(self->in.b, body, n);
@@ -177,8 +233,8 @@ static void imf_hil_sample(imf_hil_t *const self, const uint8_t *body, uint8_t n
     a[7u + len] = (uint8_t)stack;
     a[8u + len] = (uint8_t)(stack >> 8);
     self->answer_len[self->expected % IMF_HIL_WINDOW] =
-        imf_hil_seal(a, 'r', self->expected, (uint8_t)(len + 6u));
-    imf_hil_send(self, a, self->answer_len[self->expected % IMF_HIL_WINDOW]);
+        (imf_hil_len_t)imf_hil_seal(a, 'r', self->expected, (uint16_t)(len + 6u));
+    imf_hil_send(self, a, self->answer_len[self->expected % IMF_HIL_WINDOW], 0u, 0u);
     self->expected++;
 }
 
@@ -216,7 +272,7 @@ static uint16_t imf_hil_frame(imf_hil_t *const self, const uint8_t *f, uint8_t n
         self->app->init();
         self->expected = 0u;
         self->running = 1u;
-        imf_hil_send(self, ack, imf_hil_seal(ack, 'b', seq, 0u));
+        imf_hil_send(self, ack, imf_hil_seal(ack, 'b', seq, 0u), 0u, 0u);
         return 0u;
     }
     if (f[0] != 'S' || n != (uint8_t)(5u + in_bytes)) {
@@ -235,7 +291,7 @@ static uint16_t imf_hil_frame(imf_hil_t *const self, const uint8_t *f, uint8_t n
     if (behind >= 1u && behind <= IMF_HIL_WINDOW && behind <= self->expected) {
         /* a repeat: the host lost the answer; the update is not run twice */
         imf_hil_send(self, self->answer[seq % IMF_HIL_WINDOW],
-                     self->answer_len[seq % IMF_HIL_WINDOW]);
+                     self->answer_len[seq % IMF_HIL_WINDOW], 0u, 0u);
         return 0u;
     }
     imf_hil_nak(self, IMF_HIL_NAK_ORDER);

@@ -5,15 +5,19 @@
  * adapter (imf_hil_app_t: init, update, state) and sends back every state word after every
  * sample, the update's cycle count and the stack it reached. Plain C99, no malloc, no
  * globals: the runner lives in an imf_hil_t the caller owns (about 200 bytes with the
- * defaults below for an AHRS in float32), and talks through the caller's byte callbacks, so
+ * defaults below for an AHRS in float32; IMF_HIL_WINDOW kept answers of IMF_HIL_MAX_STATE + 11
+ * bytes make most of it), and talks through the caller's byte callbacks, so
  * any transport does (UART, USB CDC, a socket).
  *
- * Protocol (the host side is imufuse.firmware.hil_protocol): frames are COBS-encoded
- * between 0x00 delimiters; a frame is type (1 byte), sequence number (2, little-endian),
- * body, CRC-16/CCITT-FALSE (2, little-endian) over type, sequence and body.
+ * Protocol version 2 (the host side is imufuse.firmware.hil_protocol; it refuses another
+ * version): frames are COBS-encoded between 0x00 delimiters (a block of 254 bytes without a
+ * zero has the code 0xFF, so a frame may be longer than 254 bytes); a frame is type (1
+ * byte), sequence number (2, little-endian), body, CRC-16/CCITT-FALSE (2, little-endian)
+ * over type, sequence and body.
  *   host 'H' hello          -> board 'h' version, boot flag, window, input kind, inputs,
- *                              state words (64 at most), count unit, state types (1 byte
+ *                              state words (255 at most), count unit, state types (1 byte
  *                              each: size | 0x10 integer | 0x20 signed | 0x40 double), name
+ *                              (24 chars at most)
  *   host 'B' begin a run    -> board calls init, 'b'
  *   host 'S' sample k, body -> board 'r' k: state bytes, count (4), stack bytes (2)
  *                              a repeated k (the host lost the answer): the stored answer
@@ -25,7 +29,8 @@
  * board that resets during a run is seen by its banner. Up to IMF_HIL_WINDOW samples are in
  * flight; the last IMF_HIL_WINDOW answers are kept for repeats, so a lost or corrupted byte
  * in either direction costs a repeat, never a sample. All words are little-endian (ARM,
- * AVR and RISC-V MCUs are). */
+ * AVR and RISC-V MCUs are). Version 1 carried 64 state words at most, in frames shorter
+ * than 255 bytes (its state callback returned uint8_t). */
 #ifndef IMF_HIL_H
 #define IMF_HIL_H
 
@@ -35,20 +40,27 @@
 extern "C" {
 #endif
 
-#define IMF_HIL_VERSION 1u
+#define IMF_HIL_VERSION 2u
 
 /* Samples in flight and answers kept for repeats (RAM: IMF_HIL_WINDOW answers). Keep
  * IMF_HIL_WINDOW sample frames within the board's receive buffer (64 bytes on an Arduino). */
 #ifndef IMF_HIL_WINDOW
 #define IMF_HIL_WINDOW 2u
 #endif
-/* Input bytes per sample at most (an AHRS in float32: 9 * 4 = 36). */
+/* Input bytes per sample at most (an AHRS in float32: 9 * 4 = 36; 240 at most). */
 #ifndef IMF_HIL_MAX_INPUT
 #define IMF_HIL_MAX_INPUT 40u
 #endif
-/* State bytes per sample at most (RobustAHRSQ: 44 * 4 = 176). */
+/* State bytes per sample at most (RAM: IMF_HIL_WINDOW times this; RobustAHRSQ: 85 * 4 =
+ * 340; 4096 at most). Up to 244 the answers' lengths are single bytes, as in version 1. */
 #ifndef IMF_HIL_MAX_STATE
 #define IMF_HIL_MAX_STATE 64u
+#endif
+#if IMF_HIL_MAX_INPUT > 240u
+#error "IMF_HIL_MAX_INPUT: 240 bytes at most"
+#endif
+#if IMF_HIL_MAX_STATE > 4096u
+#error "IMF_HIL_MAX_STATE: 4096 bytes at most"
 #endif
 /* Bytes painted below the runner's frame to measure the update's stack (0: not measured). */
 #ifndef IMF_HIL_STACK_BAND
@@ -83,7 +95,7 @@ extern "C" {
 
 /* What the runner needs from the firmware and the board. */
 typedef struct {
-    const char *name;            /* the firmware's identity, sent in the hello (32 chars) */
+    const char *name;            /* the firmware's identity, sent in the hello (24 chars) */
     uint8_t in_kind;             /* IMF_HIL_IN_F32 ... */
     uint8_t n_in;                /* input values per sample */
     uint8_t n_state;             /* state words */
@@ -93,8 +105,9 @@ typedef struct {
     void (*load)(const void *in);
     /* one sample: n_in values of in_kind (aligned for double), counted */
     void (*update)(const void *in);
-    /* the state words into out, each in its own size; returns the bytes written */
-    uint8_t (*state)(uint8_t *out);
+    /* the state words into out, each in its own size; returns the bytes written (at most
+       IMF_HIL_MAX_STATE) */
+    uint16_t (*state)(uint8_t *out);
     int (*get_byte)(void);                 /* a received byte 0..255, or -1 when none is waiting */
     void (*put_byte)(uint8_t b);           /* send one byte (may block) */
     uint32_t (*count_begin)(void);         /* a start value (NULL: no counter) */
@@ -105,6 +118,13 @@ typedef struct {
 #define IMF_HIL_ANSWER (3u + IMF_HIL_MAX_STATE + 6u + 2u) /* header, state, count, stack, CRC */
 #define IMF_HIL_FRAME (3u + IMF_HIL_MAX_INPUT + 2u)       /* header, sample, CRC */
 
+/* The length of a kept answer: one byte while the answers fit in 255 bytes. */
+#if IMF_HIL_MAX_STATE + 11u > 255u
+typedef uint16_t imf_hil_len_t;
+#else
+typedef uint8_t imf_hil_len_t;
+#endif
+
 /* The runner. All members private. */
 typedef struct {
     const imf_hil_app_t *app;                       /* the firmware and board callbacks */
@@ -114,7 +134,7 @@ typedef struct {
     uint8_t running;                                /* 1: a run has begun */
     uint16_t expected;                              /* the next sample's sequence number */
     uint8_t answer[IMF_HIL_WINDOW][IMF_HIL_ANSWER]; /* the last answers, for repeats */
-    uint8_t answer_len[IMF_HIL_WINDOW];             /* their lengths, bytes */
+    imf_hil_len_t answer_len[IMF_HIL_WINDOW];       /* their lengths, bytes */
     uint32_t overhead;                              /* counts of an empty call */
     uint16_t stack_empty;                           /* stack of an empty call, bytes */
     union {

@@ -137,11 +137,11 @@ static void imf_hil_init_fw(void)
     imf_hil_fw_init();
 }
 
-static uint8_t imf_hil_state(uint8_t *out)
+static uint16_t imf_hil_state(uint8_t *out)
 {
     imf_hil_out = out;
     imf_user_dump();
-    return (uint8_t)(imf_hil_out - out);
+    return (uint16_t)(imf_hil_out - out);
 }
 
 static const imf_hil_app_t imf_hil_app = {

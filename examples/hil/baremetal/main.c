@@ -1,6 +1,5 @@
 /* HIL example: your filter behind the imufuse HIL runner. The three adapter functions are all
  * the runner needs from a firmware: init, update (one sample), state (the words to compare). */
-#include <stddef.h>
 #include <string.h>
 
 #include "board.h"
@@ -10,15 +9,20 @@
 #include "robust_q.h"
 
 static imf_robust_ahrs_q_t filt;
-static const uint16_t types[44] = {
-    IMF_HIL_T_I32, IMF_HIL_T_I32, IMF_HIL_T_I32, IMF_HIL_T_I32, IMF_HIL_T_I32, IMF_HIL_T_I32,
-    IMF_HIL_T_I32, IMF_HIL_T_I32, IMF_HIL_T_I32, IMF_HIL_T_I32, IMF_HIL_T_I32, IMF_HIL_T_I32,
-    IMF_HIL_T_I32, IMF_HIL_T_I32, IMF_HIL_T_I32, IMF_HIL_T_I32, IMF_HIL_T_I32, IMF_HIL_T_I32,
-    IMF_HIL_T_I32, IMF_HIL_T_I32, IMF_HIL_T_I32, IMF_HIL_T_I32, IMF_HIL_T_I32, IMF_HIL_T_I32,
-    IMF_HIL_T_I32, IMF_HIL_T_I32, IMF_HIL_T_I32, IMF_HIL_T_I32, IMF_HIL_T_I32, IMF_HIL_T_I32,
-    IMF_HIL_T_I32, IMF_HIL_T_I32, IMF_HIL_T_I32, IMF_HIL_T_I32, IMF_HIL_T_I32, IMF_HIL_T_I32,
-    IMF_HIL_T_I32, IMF_HIL_T_I32, IMF_HIL_T_I32, IMF_HIL_T_I32, IMF_HIL_T_I32, IMF_HIL_T_I32,
-    IMF_HIL_T_I32, IMF_HIL_T_I32};
+/* every word of RobustAHRSQ's state: 85 int32 (with B6's, whether its code is compiled in or
+   not); IMF_HIL_MAX_STATE (CMakeLists.txt) must hold them */
+#define HIL_STATE_BYTES sizeof(imf_robust_ahrs_q_state_t)
+#define HIL_N_STATE (HIL_STATE_BYTES / sizeof(int32_t))
+typedef char hil_state_fits_the_runner[HIL_STATE_BYTES <= IMF_HIL_MAX_STATE ? 1 : -1];
+static uint16_t types[HIL_N_STATE];
+
+static void fw_types(void)
+{
+    uint8_t j;
+    for (j = 0u; j < (uint8_t)HIL_N_STATE; ++j) {
+        types[j] = IMF_HIL_T_I32;
+    }
+}
 
 static void fw_init(void)
 {
@@ -33,21 +37,24 @@ static void fw_update(const void *in)
     imf_robust_ahrs_q_update(&filt, x, x + 3, x + 6);
 }
 
-static uint8_t fw_state(uint8_t *out)
+static uint16_t fw_state(uint8_t *out)
 {
-    /* the first 44 words, in RobustAHRSQ's state order (up to B4's; B6's 41 words after them,
-       constant with its default mag_learn 0, are beyond the runner's 64 words a frame) */
-    memcpy(out, &filt.x, offsetof(imf_robust_ahrs_q_state_t, hi));
-    return (uint8_t)offsetof(imf_robust_ahrs_q_state_t, hi);
+    memcpy(out, &filt.x, sizeof filt.x); /* all 85 words, in RobustAHRSQ's state order */
+    return (uint16_t)sizeof filt.x;
 }
 #define HIL_NAME "example RobustAHRSQ"
 #define HIL_IN IMF_HIL_IN_I16
-#define HIL_N_STATE 44u
 #else
 #include "madgwick.h"
 
 static imf_madgwick_t filt;
-static const uint16_t types[4] = {IMF_HIL_T_F32, IMF_HIL_T_F32, IMF_HIL_T_F32, IMF_HIL_T_F32};
+static const uint16_t types[4] = { IMF_HIL_T_F32, IMF_HIL_T_F32, IMF_HIL_T_F32, IMF_HIL_T_F32 };
+#define HIL_STATE_BYTES sizeof filt.x
+#define HIL_N_STATE 4u
+
+static void fw_types(void)
+{
+}
 
 static void fw_init(void)
 {
@@ -62,25 +69,36 @@ static void fw_update(const void *in)
     imf_madgwick_update(&filt, x[0], x[1], x[2], x[3], x[4], x[5], x[6], x[7], x[8]);
 }
 
-static uint8_t fw_state(uint8_t *out)
+static uint16_t fw_state(uint8_t *out)
 {
     memcpy(out, &filt.x, sizeof filt.x); /* q0..q3 */
-    return (uint8_t)sizeof filt.x;
+    return (uint16_t)sizeof filt.x;
 }
 #define HIL_NAME "example MadgwickAHRS"
 #define HIL_IN IMF_HIL_IN_F32
-#define HIL_N_STATE 4u
 #endif
 
 #if defined(HIL_RUNNER)
-static imf_hil_app_t app = {HIL_NAME, HIL_IN, 9u, HIL_N_STATE, types, fw_init, NULL,
-                            fw_update, fw_state, board_get, board_put, board_count_begin,
-                            board_count_end, IMF_HIL_COUNT_CYCLES};
+static imf_hil_app_t app = { HIL_NAME,
+                             HIL_IN,
+                             9u,
+                             (uint8_t)HIL_N_STATE,
+                             types,
+                             fw_init,
+                             NULL,
+                             fw_update,
+                             fw_state,
+                             board_get,
+                             board_put,
+                             board_count_begin,
+                             board_count_end,
+                             IMF_HIL_COUNT_CYCLES };
 static imf_hil_t hil;
 
 int main(void)
 {
     board_init();
+    fw_types();
     app.count_unit = board_count_unit();
     if (app.count_unit == IMF_HIL_COUNT_NONE) {
         app.count_begin = NULL; /* no counter on this board: the host is told so */
@@ -95,7 +113,7 @@ int main(void)
 int main(void)
 {
     uint8_t in[9u * 4u];
-    uint8_t st[176];
+    uint8_t st[HIL_STATE_BYTES];
     uint8_t k = 0u;
     board_init();
     fw_init();
@@ -110,6 +128,7 @@ int main(void)
             }
         }
         (void)types;
+        (void)fw_types;
     }
 }
 #endif

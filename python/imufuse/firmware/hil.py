@@ -16,7 +16,7 @@ from typing import Dict, List, Optional, Tuple
 
 import numpy as np
 
-from .hil_protocol import NAK_REASONS, FrameReader, Hello, frame, parse
+from .hil_protocol import NAK_REASONS, VERSION, FrameReader, Hello, frame, parse
 from .results import Cost
 from .targets import TargetError
 
@@ -115,6 +115,12 @@ class Link:
                         self.hello_ = Hello.decode(f[2])
                     except ValueError:
                         continue
+                    if self.hello_.version != VERSION:
+                        raise TargetError(
+                            f"the board on {self.port} runs the imufuse HIL runner's protocol "
+                            f"version {self.hello_.version} (firmware {self.hello_.name!r}); "
+                            f"this imufuse speaks version {VERSION}: rebuild the firmware with "
+                            "csrc/hil/imf_hil.c and imf_hil.h of this imufuse")
                     if not self.hello_.boot:
                         return self.hello_
         raise TargetError(f"the board on {self.port} runs other firmware or none: no imufuse "

@@ -40,11 +40,12 @@ _MPS2_CLOCK = 25_000_000
 
 
 def _hil_driver(driver: str, target: str, in_dtype: np.dtype, baud: int, name: str,
-                reset_at: Optional[int]) -> str:
-    """The generated firmware driver wrapped for the runner (see csrc/hil/imf_hil_emulated.c)."""
+                reset_at: Optional[int], max_state: int = 64) -> str:
+    """The generated firmware driver wrapped for the runner (see csrc/hil/imf_hil_emulated.c);
+    max_state: IMF_HIL_MAX_STATE, the state's bytes."""
     tgt = _tc.TARGETS[harness_target(target)]
     defs = [f'#define IMF_HIL_NAME "{name}"', f"#define IMF_HIL_IN_KIND {_IN_KIND[in_dtype]}",
-            f"#define IMF_HIL_BAUD {int(baud)}UL"]
+            f"#define IMF_HIL_BAUD {int(baud)}UL", f"#define IMF_HIL_MAX_STATE {int(max_state)}u"]
     if tgt.name == "avr":
         defs.append(f"#define IMF_HIL_OVF_CYCLES {_tc.AVR_OVF_ISR_CYCLES}u")
     else:
@@ -94,15 +95,20 @@ def build_board(fw: Any, name: str, params: Mapping[str, Any], target: str,
                               s0[[e.state_names.index(n) for n in names]], False)
     _, row = fw._update_plan(e.kind)
     in_dtype = np.dtype(np.int16) if e.fixed else np.dtype(dtype or "float32")
-    for _ in range(2):
-        hil = _hil_driver(driver, target, in_dtype, baud, board_name, reset_at)
+    # the runner's state buffer: the words' sizes as built (a second build when the guess,
+    # 4 bytes a word, or 8 for float64, was short)
+    max_state = max(64, len(names) * (8 if dtype == "float64" else 4))
+    for _ in range(3):
+        hil = _hil_driver(driver, target, in_dtype, baud, board_name, reset_at, max_state)
         prog = build_program(fw, target, e.kind, hil, row, flags, in_dtype)
         fl = [t for t in prog.types if not t.integer]
         want = np.dtype(np.float64 if fl and fl[0].size == 8 else np.float32) if fl else in_dtype
-        if want == in_dtype or dtype is not None:
+        need = sum(t.size for t in prog.types)
+        if (want == in_dtype or dtype is not None) and need <= max_state:
             return prog
         shutil.rmtree(prog.workdir, ignore_errors=True)
-        in_dtype = want
+        in_dtype = want if dtype is None else in_dtype
+        max_state = max(max_state, need)
     raise AssertionError("unreachable")
 
 

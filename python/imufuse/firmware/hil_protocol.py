@@ -1,6 +1,8 @@
-"""The wire format of the hardware-in-the-loop runner (csrc/hil/imf_hil.h): COBS frames
-between 0x00 delimiters; a frame is type, sequence number (2 bytes), body, CRC-16/CCITT-FALSE
-(2 bytes) over type, sequence and body, all little-endian.
+"""The wire format of the hardware-in-the-loop runner (csrc/hil/imf_hil.h), protocol version
+2: COBS frames between 0x00 delimiters (a block of 254 bytes without a zero has the code 0xFF,
+so a frame may be longer than 254 bytes: a state of up to 255 words); a frame is type,
+sequence number (2 bytes), body, CRC-16/CCITT-FALSE (2 bytes) over type, sequence and body,
+all little-endian. Version 1 (a runner of imufuse before it) carried 64 state words at most.
 """
 from __future__ import annotations
 
@@ -10,10 +12,12 @@ from typing import Dict, List, Optional, Tuple
 
 import numpy as np
 
-__all__ = ["crc16", "cobs_encode", "cobs_decode", "frame", "parse", "Hello", "IN_KINDS",
+__all__ = ["VERSION", "crc16", "cobs_encode", "cobs_decode", "frame", "parse", "Hello", "IN_KINDS",
            "COUNT_UNITS", "NAK_REASONS", "FrameReader"]
 
-VERSION = 1
+#: the protocol version of csrc/hil/imf_hil.h (IMF_HIL_VERSION); a board's hello with another
+#: is refused (imufuse.firmware.hil.Link.hello)
+VERSION = 2
 #: input kinds of the hello: numpy dtype of the values the host sends
 IN_KINDS: Dict[int, np.dtype] = {1: np.dtype("<f4"), 2: np.dtype("<f8"), 3: np.dtype("<i2"), 4: np.dtype("<i4")}
 COUNT_UNITS = {0: "", 1: "cycles", 2: "instructions"}

@@ -33,10 +33,10 @@ static void fw_update(const void *in)
     imf_madgwick_update(&filt, x[0], x[1], x[2], x[3], x[4], x[5], x[6], x[7], x[8]);
 }
 
-static uint8_t fw_state(uint8_t *out)
+static uint16_t fw_state(uint8_t *out)
 {
     memcpy(out, &filt.x, sizeof filt.x); /* q0..q3 */
-    return (uint8_t)sizeof filt.x;
+    return (uint16_t)sizeof filt.x;
 }
 
 static int get_byte(void)
