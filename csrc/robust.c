@@ -89,8 +89,13 @@ static void robust_set_dt(imf_robust_consts_t *const set, const imf_real dt)
     /* B5: the first accelerometer sample is one sample, not a settled estimate: gravity's
        initial variance is what one velocity measurement (noise 1 / dt per sample) says of an
        acceleration over dt, 1 / dt^3, where 1 / tau_acc^3 (the settled variance, worth
-       tau_acc of samples) would hold a moving start's first reading for tau_acc */
-    set->pgg0 = set->r_d * (set->r_d * set->r_d);
+       tau_acc of samples) would hold a moving start's first reading for tau_acc.
+       gyr_bias_max 0: 1 / tau_acc^3, as the fixed-point filters start */
+    if (set->s.gyr_bias_max > IMF_R(0.0)) {
+        set->pgg0 = set->r_d * (set->r_d * set->r_d);
+    } else {
+        set->pgg0 = IMF_R(1.0) / (set->s.tau_acc * set->s.tau_acc * set->s.tau_acc);
+    }
     set->k_rest = dt / (set->s.tau_rest + dt);
     set->kb_rest = dt / (set->s.tau_bias_rest + dt);
     set->ku_motion = set->inv_tau_bias * dt;

@@ -269,8 +269,12 @@ class _Robust(_RobustBlocks, _RobustMag, ReferenceFilter):
         # B5: the first accelerometer sample is one sample, not a settled estimate: gravity's
         # initial variance is what one velocity measurement (noise 1 / dt per sample) says of
         # an acceleration over dt, 1 / dt^3, where 1 / tau_acc^3 (the settled variance, worth
-        # tau_acc of samples) would hold a moving start's first reading for tau_acc
-        self.pgg0 = self.r_d * (self.r_d * self.r_d)
+        # tau_acc of samples) would hold a moving start's first reading for tau_acc.
+        # gyr_bias_max 0: 1 / tau_acc^3, as the fixed-point filters start
+        if self.s.gyr_bias_max > R(0.0):
+            self.pgg0 = self.r_d * (self.r_d * self.r_d)
+        else:
+            self.pgg0 = R(1.0) / (self.s.tau_acc * self.s.tau_acc * self.s.tau_acc)
         self.k_rest = dt / (self.s.tau_rest + dt)
         self.kb_rest = dt / (self.s.tau_bias_rest + dt)
         self.ku_motion = self.inv_tau_bias * dt
