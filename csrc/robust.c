@@ -86,6 +86,16 @@ static void robust_set_dt(imf_robust_consts_t *const set, const imf_real dt)
     set->dt2 = dt * dt;
     set->r_d = IMF_R(1.0) / dt;
     set->qg_dt = set->qg0 * dt;
+    /* B5: the first accelerometer sample is one sample, not a settled estimate: gravity's
+       initial variance is what one velocity measurement (noise 1 / dt per sample) says of an
+       acceleration over dt, 1 / dt^3, where 1 / tau_acc^3 (the settled variance, worth
+       tau_acc of samples) would hold a moving start's first reading for tau_acc.
+       gyr_bias_max 0: 1 / tau_acc^3, as the fixed-point filters start */
+    if (set->s.gyr_bias_max > IMF_R(0.0)) {
+        set->pgg0 = set->r_d * (set->r_d * set->r_d);
+    } else {
+        set->pgg0 = IMF_R(1.0) / (set->s.tau_acc * set->s.tau_acc * set->s.tau_acc);
+    }
     set->k_rest = dt / (set->s.tau_rest + dt);
     set->kb_rest = dt / (set->s.tau_bias_rest + dt);
     set->ku_motion = set->inv_tau_bias * dt;
@@ -106,7 +116,6 @@ static void robust_init(imf_robust_consts_t *const set, uint32_t *const skipped,
        second-order low-pass with omega_0 = 1 / tau_acc and damping 1/sqrt(2) at rest */
     ta2 = s->tau_acc * s->tau_acc;
     set->qg0 = IMF_R(1.0) / (ta2 * ta2);
-    set->pgg0 = IMF_R(1.0) / (ta2 * s->tau_acc);
     set->inv_rate_ref2 = rate_ref > IMF_R(0.0) ? IMF_R(1.0) / (rate_ref * rate_ref) : IMF_R(0.0);
     set->inv_tau_bias = s->tau_bias > IMF_R(0.0) ? IMF_R(1.0) / s->tau_bias : IMF_R(0.0);
     set->tau_b0 = IMF_R(4.0) * s->tau_acc;

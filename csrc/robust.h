@@ -145,7 +145,8 @@ typedef struct {
 typedef struct {
     imf_robust_settings_t s;                 /* the settings (above: units, ranges) */
     imf_real two_dt, dt2, r_d;               /* 2 dt, dt^2, 1 / dt */
-    imf_real qg0, qg_dt, pgg0;               /* 1 / tau_acc^4, qg0 dt, 1 / tau_acc^3 */
+    imf_real qg0, qg_dt, pgg0;               /* 1 / tau_acc^4, qg0 dt, 1 / dt^3 (1 /
+                                                tau_acc^3 if gyr_bias_max is 0) */
     imf_real inv_rate_ref2;                  /* 1 / rate_ref^2, (rad/s)^-2; 0: constant */
     imf_real inv_tau_bias;                   /* 1 / tau_bias, 1/s; 0: no bias in motion */
     imf_real tau_b0, tau_h0;                 /* B3's shortest time constants from the

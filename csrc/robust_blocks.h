@@ -226,13 +226,25 @@ static int robust_level(imf_robust_state_t *const x, imf_real *const r)
     return 1;
 }
 
+/* How much less a correction says of the bias while the sensor turns at w - b: d^2, with
+   d = 1 + (|w - b| / rate_ref)^2. Two errors grow alike with the rate: B2's gravity is less
+   certain (its process noise grows by d), so the correction is noisier by d; and the gyro's
+   scale and alignment errors add a false bias s |w - b| (s = 1/60, B2's scale error, as
+   large as B2's own noise at rate_ref) that a running mean does not average away while a
+   rotation lasts, so of the rest only 1 / d is bias. */
+static inline imf_real robust_turn_div(const imf_robust_consts_t *const set,
+                                       const imf_robust_state_t *const x)
+{
+    const imf_real d = IMF_R(1.0) + robust_off2(x->lw, x->b) * set->inv_rate_ref2;
+    return d * d;
+}
+
 /* B3's integral gain, 1/s: 1 / tau while the sensor turns slowly; while the bias is still
    unknown (bu > 0) tau is the time it has been learnt for, (1 - bu) tau_bias, from tau0
    (the fastest damped loop, Eq. 3.12: 4 times the correction's time constant) up to
-   tau_bias (a running mean), then tau_bias. Divided by 1 + (|w - b| / rate_ref)^2: while
-   the sensor turns fast the corrections are mostly the gyro's scale and alignment errors
-   (B2's process noise grows alike), not its bias. gyr_bias_max 0 (a calibrated gyro):
-   1 / tau_bias. */
+   tau_bias (a running mean), then tau_bias. Divided by robust_turn_div: while the sensor
+   turns fast the corrections are mostly B2's noise and the gyro's scale and alignment
+   errors, not its bias. gyr_bias_max 0 (a calibrated gyro): 1 / tau_bias. */
 static imf_real robust_bias_gain(const imf_robust_consts_t *const set,
                                  const imf_robust_state_t *const x, const imf_real tau0)
 {
@@ -244,7 +256,7 @@ static imf_real robust_bias_gain(const imf_robust_consts_t *const set,
         tm = (IMF_R(1.0) - x->bu) * set->s.tau_bias;
         tau = tm > tau0 ? tm : tau0;
     }
-    return IMF_R(1.0) / (tau + tau * (robust_off2(x->lw, x->b) * set->inv_rate_ref2));
+    return IMF_R(1.0) / (tau * robust_turn_div(set, x));
 }
 
 /* The bias from a correction rotation (its rotation vector (cx, cy, cz) in the earth frame,
@@ -272,8 +284,7 @@ static void robust_bias(const imf_robust_consts_t *const set, imf_robust_state_t
         k = robust_bias_gain(set, x, set->tau_b0);
         if (x->bu > IMF_R(0.0)) {
             /* less learnt while the sensor turns fast (robust_bias_gain) */
-            x->bu = x->bu
-                    - set->ku_motion / (IMF_R(1.0) + robust_off2(x->lw, x->b) * set->inv_rate_ref2);
+            x->bu = x->bu - set->ku_motion / robust_turn_div(set, x);
             if (x->bu < IMF_R(0.0)) {
                 x->bu = IMF_R(0.0);
             }

@@ -266,6 +266,15 @@ class _Robust(_RobustBlocks, _RobustMag, ReferenceFilter):
         self.dt2 = dt * dt
         self.r_d = R(1.0) / dt
         self.qg_dt = self.qg0 * dt
+        # B5: the first accelerometer sample is one sample, not a settled estimate: gravity's
+        # initial variance is what one velocity measurement (noise 1 / dt per sample) says of
+        # an acceleration over dt, 1 / dt^3, where 1 / tau_acc^3 (the settled variance, worth
+        # tau_acc of samples) would hold a moving start's first reading for tau_acc.
+        # gyr_bias_max 0: 1 / tau_acc^3, as the fixed-point filters start
+        if self.s.gyr_bias_max > R(0.0):
+            self.pgg0 = self.r_d * (self.r_d * self.r_d)
+        else:
+            self.pgg0 = R(1.0) / (self.s.tau_acc * self.s.tau_acc * self.s.tau_acc)
         self.k_rest = dt / (self.s.tau_rest + dt)
         self.kb_rest = dt / (self.s.tau_bias_rest + dt)
         self.ku_motion = self.inv_tau_bias * dt
@@ -286,7 +295,6 @@ class _Robust(_RobustBlocks, _RobustMag, ReferenceFilter):
         # low-pass with omega_0 = 1 / tau_acc and damping 1/sqrt(2) at rest
         ta2 = s.tau_acc * s.tau_acc
         self.qg0 = R(1.0) / (ta2 * ta2)
-        self.pgg0 = R(1.0) / (ta2 * s.tau_acc)
         self.inv_rate_ref2 = R(1.0) / (rate_ref * rate_ref) if rate_ref > R(0.0) else R(0.0)
         self.inv_tau_bias = R(1.0) / s.tau_bias if s.tau_bias > R(0.0) else R(0.0)
         self.tau_b0 = R(4.0) * s.tau_acc

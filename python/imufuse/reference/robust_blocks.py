@@ -211,14 +211,23 @@ class _RobustBlocks:
         x.q = list(qmul(c[0], c[1], c[2], c[3], x.s[0], x.s[1], x.s[2], x.s[3]))
         return True
 
+    def _turn_div(self, x):
+        """How much less a correction says of the bias while the sensor turns at w - b: d^2,
+        with d = 1 + (|w - b| / rate_ref)^2. Two errors grow alike with the rate: B2's gravity
+        is less certain (its process noise grows by d), so the correction is noisier by d;
+        and the gyro's scale and alignment errors add a false bias s |w - b| (s = 1/60, B2's
+        scale error, as large as B2's own noise at rate_ref) that a running mean does not
+        average away while a rotation lasts, so of the rest only 1 / d is bias."""
+        d = self._R(1.0) + self._off2(x.lw, x.b) * self.inv_rate_ref2
+        return d * d
+
     def _bias_gain(self, x, tau0):
         """B3's integral gain, 1/s: 1 / tau while the sensor turns slowly; while the bias is
         still unknown (bu > 0) tau is the time it has been learnt for, (1 - bu) tau_bias,
         from tau0 (the fastest damped loop, Eq. 3.12: 4 times the correction's time
-        constant) up to tau_bias (a running mean), then tau_bias. Divided by 1 + (|w - b| /
-        rate_ref)^2: while the sensor turns fast the corrections are mostly the gyro's scale
-        and alignment errors (B2's process noise grows alike), not its bias. gyr_bias_max 0 (a
-        calibrated gyro): 1 / tau_bias."""
+        constant) up to tau_bias (a running mean), then tau_bias. Divided by _turn_div: while
+        the sensor turns fast the corrections are mostly B2's noise and the gyro's scale and
+        alignment errors, not its bias. gyr_bias_max 0 (a calibrated gyro): 1 / tau_bias."""
         R = self._R
         tau = self.s.tau_bias
         if not (self.s.gyr_bias_max > R(0.0)):
@@ -226,7 +235,7 @@ class _RobustBlocks:
         if x.bu > R(0.0):
             tm = (R(1.0) - x.bu) * self.s.tau_bias
             tau = tm if tm > tau0 else tau0
-        return R(1.0) / (tau + tau * (self._off2(x.lw, x.b) * self.inv_rate_ref2))
+        return R(1.0) / (tau * self._turn_div(x))
 
     def _bias_from(self, x, cx, cy, cz, k):
         # the bias from a correction rotation (its rotation vector (cx, cy, cz) in the earth
@@ -249,8 +258,7 @@ class _RobustBlocks:
             k = self._bias_gain(x, self.tau_b0)
             if x.bu > R(0.0):
                 # less learnt while the sensor turns fast (_bias_gain)
-                x.bu = x.bu - self.ku_motion / (R(1.0) + self._off2(x.lw, x.b)
-                                                * self.inv_rate_ref2)
+                x.bu = x.bu - self.ku_motion / self._turn_div(x)
                 if x.bu < R(0.0):
                     x.bu = R(0.0)
             self._bias_from(x, R(2.0) * r[1], R(2.0) * r[2], R(0.0), k)
