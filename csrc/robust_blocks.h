@@ -126,7 +126,8 @@ static int robust_rest(const imf_robust_consts_t *const set, imf_robust_state_t 
     dz = a[2] - x->la[2];
     d2 = dx * dx + dy * dy + dz * dz;
     a2 = x->la[0] * x->la[0] + x->la[1] * x->la[1] + x->la[2] * x->la[2];
-    steady = robust_rest_mag(set, x, m, k);
+    /* the field steady too; gyr_bias_max 0: the fixed-point filters' B1 (no field) */
+    steady = set->s.gyr_bias_max > IMF_R(0.0) ? robust_rest_mag(set, x, m, k) : 1;
     if (has_acc && robust_off2(x->lw, bb) < win && robust_off2(g, bb) < win
         && d2 < set->rest_acc2 * a2 && steady) {
         x->t_rest = x->t_rest + set->s.dt;

@@ -111,7 +111,8 @@ class _RobustBlocks:
         dz = a[2] - x.la[2]
         d2 = dx * dx + dy * dy + dz * dz
         a2 = x.la[0] * x.la[0] + x.la[1] * x.la[1] + x.la[2] * x.la[2]
-        steady = self._rest_mag(x, m, k)
+        # the field steady too; gyr_bias_max 0: the fixed-point filters' B1 (no field)
+        steady = self._rest_mag(x, m, k) if self.s.gyr_bias_max > R(0.0) else True
         if (has_acc and self._off2(x.lw, bb) < win and self._off2(g, bb) < win
                 and d2 < self.rest_acc2 * a2 and steady):
             x.t_rest = x.t_rest + self.s.dt
