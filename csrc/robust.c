@@ -19,10 +19,10 @@
 
 /* ---- helpers (quaternion product and rotation: imf_math.h) ----------------- */
 
-/* B4 and B6 out of line: one copy of B6's scalar update (three calls per sample), and on
-   the ATmega328P optimised for size (every soft-float operation is a call, and the
-   inlined blocks did not fit its 32 KB of flash beside a driver; ROBUST_SMALL: the blocks
-   those call, inlined into them); results are the same IEEE operations in any case */
+/* B1's field test, B4 and B6 out of line: one copy of B6's scalar update (three calls per
+   sample), and on the ATmega328P optimised for size (every soft-float operation is a call,
+   and the inlined blocks did not fit its 32 KB of flash beside a driver; ROBUST_SMALL: the
+   blocks those call, inlined into them); results are the same IEEE operations in any case */
 #if defined(__AVR__)
 #define ROBUST_NOINLINE __attribute__((noinline, optimize("Os")))
 #define ROBUST_SMALL __attribute__((optimize("Os")))
@@ -295,7 +295,8 @@ void imf_robust_update_imu(imf_robust_t *const self, const imf_real gx, const im
     }
     memcpy(&x, &self->x, ROBUST_IMU_WORDS * sizeof(imf_real));
     robust_commit(&self->x, &self->skipped, &x,
-                  robust_step(&self->set, &x, g, a) && robust_output(&self->set, &x, g),
+                  robust_step(&self->set, &x, g, a, robust_zero3)
+                      && robust_output(&self->set, &x, g),
                   ROBUST_IMU_WORDS);
 }
 
@@ -312,7 +313,7 @@ void imf_robust_update(imf_robust_t *const self, const imf_real gx, const imf_re
         return;
     }
     x = self->x;
-    ok = robust_step(&self->set, &x, g, a) && robust_magnetometer(&self->set, &x, m, g2)
+    ok = robust_step(&self->set, &x, g, a, m) && robust_magnetometer(&self->set, &x, m, g2)
          && robust_output(&self->set, &x, g);
     if (self->set.s.mag_learn) {
         robust_commit(&self->x, &self->skipped, &x, ok, ROBUST_AHRS_WORDS);

@@ -73,6 +73,9 @@ typedef struct {
     imf_real cand[3];        /* B4: candidate reference, a changed field (cn ch cz) */
     imf_real t_cand, t_dist; /* B4: candidate stable for, field disturbed for, s */
     imf_real t_ok;           /* B4: field matching the reference for (saturating), s */
+    imf_real lm[3];          /* B1: low-passed magnetometer, field unit (0: no reading yet) */
+    imf_real l0[3];          /* B1: lm where the rest window began, field unit */
+    imf_real w0[3];          /* B1: lw where the rest window began, rad/s */
     /* B6 (relative: field unit / m_n0) */
     imf_real hi[6];  /* field in the inertial frame h (hx hy hz), then the offset (hard iron)
                         estimate in the sensor frame (ix iy iz), relative */

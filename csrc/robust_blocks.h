@@ -51,20 +51,67 @@ static inline imf_real robust_off2(const imf_real *const v, const imf_real *cons
     return x * x + y * y + z * z;
 }
 
+/* B1 with a magnetometer: at rest the field in the sensor frame is steady, and so is the
+   rate (the bias alone). A turn about the vertical, which the accelerometer does not see and
+   a gyro of unknown bias cannot tell from its bias, turns the field's horizontal part (across
+   the low-passed gravity la): the low-passed field lm must not have turned since the rest
+   window began (l0) by more than rest_gyr allows over the window (t_rest), beyond the noise
+   of the two low-passes (3 sigma of mag_noise at the gain k, each: a turn accumulates, the
+   noise averages). At the turning point of a swing the field is as steady for a moment,
+   but the rate changes: the low-passed rate lw must not have changed since the window began
+   (w0) by rest_gyr. Updates lm; passes without a reading (all zero: an IMU) and with a
+   disturbed field (B4). */
+static ROBUST_NOINLINE int robust_rest_mag(const imf_robust_consts_t *const set,
+                                           imf_robust_state_t *const x, const imf_real *const m,
+                                           const imf_real k)
+{
+    const imf_real *const la = x->la;
+    imf_real d[3], a2, da, ma, m2, d2, h2, r;
+    if (m[0] == IMF_R(0.0) && m[1] == IMF_R(0.0) && m[2] == IMF_R(0.0)) {
+        return 1;
+    }
+    if (x->lm[0] == IMF_R(0.0) && x->lm[1] == IMF_R(0.0) && x->lm[2] == IMF_R(0.0)) {
+        memcpy(x->lm, m, sizeof x->lm); /* the first reading */
+        memcpy(x->l0, m, sizeof x->l0);
+    } else {
+        x->lm[0] = x->lm[0] + k * (m[0] - x->lm[0]);
+        x->lm[1] = x->lm[1] + k * (m[1] - x->lm[1]);
+        x->lm[2] = x->lm[2] + k * (m[2] - x->lm[2]);
+    }
+    if (x->t_dist > IMF_R(0.0)) {
+        return 1;
+    }
+    d[0] = x->lm[0] - x->l0[0];
+    d[1] = x->lm[1] - x->l0[1];
+    d[2] = x->lm[2] - x->l0[2];
+    a2 = la[0] * la[0] + la[1] * la[1] + la[2] * la[2];
+    da = d[0] * la[0] + d[1] * la[1] + d[2] * la[2];
+    ma = x->lm[0] * la[0] + x->lm[1] * la[1] + x->lm[2] * la[2];
+    m2 = x->lm[0] * x->lm[0] + x->lm[1] * x->lm[1] + x->lm[2] * x->lm[2];
+    /* horizontal parts times a2: |d_h|^2 a2 and |lm_h|^2 a2 */
+    d2 = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) * a2 - da * da;
+    h2 = m2 * a2 - ma * ma;
+    r = set->s.rest_gyr * x->t_rest;
+    return d2 <= r * r * h2 + IMF_R(18.0) * set->mag_noise2 * k * (m2 * a2)
+           && robust_off2(x->lw, x->w0) < set->rest_gyr2;
+}
+
 /* B1: rest detection from low-passes of gyro and accelerometer in the sensor frame, and
    the bias observed at rest (Eq. 3.1: b_k = b_{k-1}). The rates are compared after the
    bias estimate is taken off, within rest_gyr plus what is still unknown of the bias
    (bu: at the start any bias up to gyr_bias_max per axis passes). Returns rest; *w2: the
-   low-passed rate squared (B2's process noise). */
+   low-passed rate squared (B2's process noise). m: the magnetometer (all zero: none), whose
+   field must be steady too (robust_rest_mag). */
 static int robust_rest(const imf_robust_consts_t *const set, imf_robust_state_t *const x,
-                       const imf_real *const g, const imf_real *const a, const int has_acc,
-                       imf_real *const w2)
+                       const imf_real *const g, const imf_real *const a, const imf_real *const m,
+                       const int has_acc, imf_real *const w2)
 {
     const imf_real k = robust_gain(set, x->t, set->s.tau_rest, set->k_rest);
     const imf_real win = set->rest_gyr2 + set->bias_var0 * (x->bu * x->bu);
     /* the bias taken off; gyr_bias_max 0: the raw rates (the fixed-point filters' B1) */
     const imf_real *const bb = set->s.gyr_bias_max > IMF_R(0.0) ? x->b : robust_zero3;
     imf_real dx, dy, dz, d2, a2, kb;
+    int steady;
     x->lw[0] = x->lw[0] + k * (g[0] - x->lw[0]);
     x->lw[1] = x->lw[1] + k * (g[1] - x->lw[1]);
     x->lw[2] = x->lw[2] + k * (g[2] - x->lw[2]);
@@ -79,14 +126,20 @@ static int robust_rest(const imf_robust_consts_t *const set, imf_robust_state_t 
     dz = a[2] - x->la[2];
     d2 = dx * dx + dy * dy + dz * dz;
     a2 = x->la[0] * x->la[0] + x->la[1] * x->la[1] + x->la[2] * x->la[2];
+    /* the field steady too; gyr_bias_max 0: the fixed-point filters' B1 (no field) */
+    steady = set->s.gyr_bias_max > IMF_R(0.0) ? robust_rest_mag(set, x, m, k) : 1;
     if (has_acc && robust_off2(x->lw, bb) < win && robust_off2(g, bb) < win
-        && d2 < set->rest_acc2 * a2) {
+        && d2 < set->rest_acc2 * a2 && steady) {
         x->t_rest = x->t_rest + set->s.dt;
         if (x->t_rest > set->s.rest_time) {
             x->t_rest = set->s.rest_time;
         }
     } else {
         x->t_rest = IMF_R(0.0);
+    }
+    if (x->t_rest == IMF_R(0.0) || x->t < set->s.tau_rest) {
+        memcpy(x->l0, x->lm, sizeof x->l0); /* the next window begins here */
+        memcpy(x->w0, x->lw, sizeof x->w0);
     }
     if (!(x->t_rest >= set->s.rest_time)) {
         return 0;
@@ -293,10 +346,11 @@ static void robust_bias(const imf_robust_consts_t *const set, imf_robust_state_t
     }
 }
 
-/* Gyro (rad/s) and accelerometer of one sample through B1, the strapdown, B2, the
-   levelling and B3, on the working state x; 0 rejects the sample. */
+/* Gyro (rad/s), accelerometer (and magnetometer m for B1's rest; all zero: none) of one
+   sample through B1, the strapdown, B2, the levelling and B3, on the working state x;
+   0 rejects the sample. */
 static int robust_step(const imf_robust_consts_t *const set, imf_robust_state_t *const x,
-                       const imf_real *const g, const imf_real *const a)
+                       const imf_real *const g, const imf_real *const a, const imf_real *const m)
 {
     const int first = x->t == IMF_R(0.0);
     const int has_acc = robust_acc_reading(x, a, first);
@@ -305,7 +359,7 @@ static int robust_step(const imf_robust_consts_t *const set, imf_robust_state_t 
     if (first && !has_acc) {
         return 0; /* no start without an accelerometer reading */
     }
-    rest = robust_rest(set, x, g, a, has_acc, &w2); /* B1 */
+    rest = robust_rest(set, x, g, a, m, has_acc, &w2); /* B1 */
     if (!robust_strapdown(set, x, g)) {
         return 0;
     }

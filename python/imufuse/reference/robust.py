@@ -131,6 +131,9 @@ _MEMBERS = (("q", ("q0", "q1", "q2", "q3")),          # estimate, sensor -> eart
             ("cand", ("cn", "ch", "cz")),             # B4: candidate reference (changed field)
             ("t_cand", None), ("t_dist", None),       # B4: candidate stable for, disturbed for
             ("t_ok", None),                           # B4: matching the reference for, s
+            ("lm", ("lmx", "lmy", "lmz")),            # B1: low-passed magnetometer
+            ("l0", ("l0x", "l0y", "l0z")),            # B1: lm where the rest window began
+            ("w0", ("w0x", "w0y", "w0z")),            # B1: lw where the rest window began
             ("hi", ("hx", "hy", "hz", "ix", "iy", "iz")),  # B6: field h, offset estimate
             ("P", _PNAMES),                           # B6: their covariance, upper triangle
             ("u", ("ux", "uy", "uz")),                # B6: offset in use (B4 reads m - u)
@@ -307,6 +310,7 @@ class _Robust(_RobustBlocks, _RobustMag, ReferenceFilter):
         self.rest_acc2 = rest_acc * rest_acc
         self.c48 = R(1.0) / R(48.0)
         self.mag_noise2 = s.mag_noise * s.mag_noise
+        self._zero3 = (R(0.0), R(0.0), R(0.0))  # the IMU's magnetometer: none
         self.mag_lag2 = s.mag_lag * s.mag_lag
         self.mag_min2 = s.mag_offset_min * s.mag_offset_min
         # t saturates at the longest start-up horizon
@@ -402,7 +406,8 @@ class RobustIMU(_Robust):
             return
         g = (gx, gy, gz)
         x = self.x.copy()
-        self._commit(x, self._step(x, g, (ax, ay, az)) and self._output(x, g), _IMU_MEMBERS)
+        self._commit(x, self._step(x, g, (ax, ay, az), self._zero3) and self._output(x, g),
+                     _IMU_MEMBERS)
 
 
 class RobustAHRS(_Robust):
@@ -463,6 +468,6 @@ class RobustAHRS(_Robust):
         g = (gx, gy, gz)
         g2 = gx * gx + gy * gy + gz * gz
         x = self.x.copy()
-        self._commit(x, self._step(x, g, (ax, ay, az))
+        self._commit(x, self._step(x, g, (ax, ay, az), (mx, my, mz))
                      and self._magnetometer(x, (mx, my, mz), g2)
                      and self._output(x, g), _STATE_MEMBERS if self.s.mag_learn else _IMU_MEMBERS)

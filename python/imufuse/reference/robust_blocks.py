@@ -50,12 +50,49 @@ class _RobustBlocks:
         x, y, z = v[0] - b[0], v[1] - b[1], v[2] - b[2]
         return x * x + y * y + z * z
 
-    def _rest(self, x, g, a, has_acc):
+    def _rest_mag(self, x, m, k):
+        """B1 with a magnetometer: at rest the field in the sensor frame is steady, and so is
+        the rate (the bias alone). A turn about the vertical, which the accelerometer does not
+        see and a gyro of unknown bias cannot tell from its bias, turns the field's horizontal
+        part (across the low-passed gravity la): the low-passed field lm must not have turned
+        since the rest window began (l0) by more than rest_gyr allows over the window
+        (t_rest), beyond the noise of the two low-passes (3 sigma of mag_noise at the gain k,
+        each: a turn accumulates, the noise averages). At the turning point of a swing the
+        field is as steady for a moment, but the rate changes: the low-passed rate lw must not
+        have changed since the window began (w0) by rest_gyr. Updates lm; passes without a
+        reading (all zero: an IMU) and with a disturbed field (B4)."""
+        R = self._R
+        la = x.la
+        if m[0] == R(0.0) and m[1] == R(0.0) and m[2] == R(0.0):
+            return True
+        if x.lm[0] == R(0.0) and x.lm[1] == R(0.0) and x.lm[2] == R(0.0):
+            x.lm = list(m)  # the first reading
+            x.l0 = list(m)
+        else:
+            x.lm[0] = x.lm[0] + k * (m[0] - x.lm[0])
+            x.lm[1] = x.lm[1] + k * (m[1] - x.lm[1])
+            x.lm[2] = x.lm[2] + k * (m[2] - x.lm[2])
+        if x.t_dist > R(0.0):
+            return True
+        d = [x.lm[0] - x.l0[0], x.lm[1] - x.l0[1], x.lm[2] - x.l0[2]]
+        a2 = la[0] * la[0] + la[1] * la[1] + la[2] * la[2]
+        da = d[0] * la[0] + d[1] * la[1] + d[2] * la[2]
+        ma = x.lm[0] * la[0] + x.lm[1] * la[1] + x.lm[2] * la[2]
+        m2 = x.lm[0] * x.lm[0] + x.lm[1] * x.lm[1] + x.lm[2] * x.lm[2]
+        # horizontal parts times a2: |d_h|^2 a2 and |lm_h|^2 a2
+        d2 = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) * a2 - da * da
+        h2 = m2 * a2 - ma * ma
+        r = self.s.rest_gyr * x.t_rest
+        return (d2 <= r * r * h2 + R(18.0) * self.mag_noise2 * k * (m2 * a2)
+                and self._off2(x.lw, x.w0) < self.rest_gyr2)
+
+    def _rest(self, x, g, a, m, has_acc):
         """B1: rest detection from low-passes of gyro and accelerometer in the sensor frame,
         and the bias observed at rest (Eq. 3.1: b_k = b_{k-1}). The rates are compared after
         the bias estimate is taken off, within rest_gyr plus what is still unknown of the
         bias (bu: at the start any bias up to gyr_bias_max per axis passes). Returns (rest,
-        w2: the low-passed rate squared, B2's process noise)."""
+        w2: the low-passed rate squared, B2's process noise). m: the magnetometer (all zero:
+        none), whose field must be steady too (_rest_mag)."""
         R = self._R
         k = self._gain(x.t, self.s.tau_rest, self.k_rest)
         win = self.rest_gyr2 + self.bias_var0 * (x.bu * x.bu)
@@ -74,13 +111,18 @@ class _RobustBlocks:
         dz = a[2] - x.la[2]
         d2 = dx * dx + dy * dy + dz * dz
         a2 = x.la[0] * x.la[0] + x.la[1] * x.la[1] + x.la[2] * x.la[2]
+        # the field steady too; gyr_bias_max 0: the fixed-point filters' B1 (no field)
+        steady = self._rest_mag(x, m, k) if self.s.gyr_bias_max > R(0.0) else True
         if (has_acc and self._off2(x.lw, bb) < win and self._off2(g, bb) < win
-                and d2 < self.rest_acc2 * a2):
+                and d2 < self.rest_acc2 * a2 and steady):
             x.t_rest = x.t_rest + self.s.dt
             if x.t_rest > self.s.rest_time:
                 x.t_rest = self.s.rest_time
         else:
             x.t_rest = R(0.0)
+        if x.t_rest == R(0.0) or x.t < self.s.tau_rest:
+            x.l0 = list(x.lm)  # the next window begins here
+            x.w0 = list(x.lw)
         if not (x.t_rest >= self.s.rest_time):
             return False, w2
         # the bias's low-pass: tau_bias_rest once known, tau_rest while unknown (bu)
@@ -263,15 +305,16 @@ class _RobustBlocks:
                     x.bu = R(0.0)
             self._bias_from(x, R(2.0) * r[1], R(2.0) * r[2], R(0.0), k)
 
-    def _step(self, x, g, a):
-        """Gyro (rad/s) and accelerometer of one sample through B1, the strapdown, B2, the
-        levelling and B3, on the working state x; False rejects the sample."""
+    def _step(self, x, g, a, m):
+        """Gyro (rad/s), accelerometer (and magnetometer m for B1's rest; all zero: none) of
+        one sample through B1, the strapdown, B2, the levelling and B3, on the working state
+        x; False rejects the sample."""
         first = x.t == self._R(0.0)
         has_acc = self._acc_reading(x, a, first)
         r = [self._R(0.0)] * 4
         if first and not has_acc:
             return False   # no start without an accelerometer reading
-        rest, w2 = self._rest(x, g, a, has_acc)   # B1
+        rest, w2 = self._rest(x, g, a, m, has_acc)   # B1
         if not self._strapdown(x, g):
             return False
         self._gravity(x, a, first, has_acc, w2)   # B2
