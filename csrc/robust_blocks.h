@@ -66,7 +66,7 @@ static ROBUST_NOINLINE int robust_rest_mag(const imf_robust_consts_t *const set,
                                            const imf_real k)
 {
     const imf_real *const la = x->la;
-    imf_real d[3], a2, da, ma, m2, d2, h2, r;
+    imf_real d[3], a2, da, ma, m2, d2, h2, r, n2, l2;
     if (m[0] == IMF_R(0.0) && m[1] == IMF_R(0.0) && m[2] == IMF_R(0.0)) {
         return 1;
     }
@@ -74,6 +74,14 @@ static ROBUST_NOINLINE int robust_rest_mag(const imf_robust_consts_t *const set,
         memcpy(x->lm, m, sizeof x->lm); /* the first reading */
         memcpy(x->l0, m, sizeof x->l0);
     } else {
+        /* a reading beyond 8 times the low-passed field or below an eighth of it (a shock, a
+           finite but absurd value) is no rest and is not low-passed: it would hold rest off
+           for as long as the low-pass takes to forget it (minutes for 1e30) */
+        n2 = m[0] * m[0] + m[1] * m[1] + m[2] * m[2];
+        l2 = x->lm[0] * x->lm[0] + x->lm[1] * x->lm[1] + x->lm[2] * x->lm[2];
+        if (!(n2 <= IMF_R(64.0) * l2 && n2 * IMF_R(64.0) >= l2)) {
+            return 0;
+        }
         x->lm[0] = x->lm[0] + k * (m[0] - x->lm[0]);
         x->lm[1] = x->lm[1] + k * (m[1] - x->lm[1]);
         x->lm[2] = x->lm[2] + k * (m[2] - x->lm[2]);

@@ -264,3 +264,24 @@ def test_broad_started_in_motion(B, bound):
         head.append(rms(h))
     assert len(tilt) == 7
     assert np.mean(tilt) < bound[0] and np.mean(head) < bound[1], (np.mean(tilt), np.mean(head))
+
+
+@pytest.mark.parametrize("dtype", ["float32", "float64"])
+@pytest.mark.parametrize("bad", [1e30, 3e38, 1e-30])
+def test_one_absurd_magnetometer_reading_does_not_hold_rest_off(dtype, bad):
+    """B1's field test low-passes the magnetometer: one finite but absurd reading at rest
+    (a shock, a glitch on the bus) is not rest, and rest is back within rest_time after it
+    (it held rest off for 34 s at 1e30, for minutes at 3e38, when it was low-passed).
+    C and twin bit for bit through it."""
+    n, k = 40 * 200, 2000
+    g = np.tile(np.radians([2.0, -1.0, 1.5]), (n, 1)).astype(dtype)
+    a = np.tile([0.0, 0.0, 9.81], (n, 1)).astype(dtype)
+    m = np.tile([20.0, 0.0, -40.0], (n, 1)).astype(dtype)
+    m[k] = bad
+    c = imufuse_c.RobustAHRS(0.005, dtype=dtype)
+    S = c.run(g, a, m)
+    assert_same_bits(S, reference.RobustAHRS(0.005, dtype=dtype).run(g, a, m), c.state_names)
+    rest = S[:, list(c.state_names).index("t_rest")] >= 1.5
+    assert rest[:k].any()
+    back = np.flatnonzero(rest[k + 1:])
+    assert back.size and back[0] * 0.005 <= 1.5 + 0.1, back[:1]

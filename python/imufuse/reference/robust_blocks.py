@@ -69,6 +69,13 @@ class _RobustBlocks:
             x.lm = list(m)  # the first reading
             x.l0 = list(m)
         else:
+            # a reading beyond 8 times the low-passed field or below an eighth of it (a shock,
+            # a finite but absurd value) is no rest and is not low-passed: it would hold rest
+            # off for as long as the low-pass takes to forget it (minutes for 1e30)
+            n2 = m[0] * m[0] + m[1] * m[1] + m[2] * m[2]
+            l2 = x.lm[0] * x.lm[0] + x.lm[1] * x.lm[1] + x.lm[2] * x.lm[2]
+            if not (n2 <= R(64.0) * l2 and n2 * R(64.0) >= l2):
+                return False
             x.lm[0] = x.lm[0] + k * (m[0] - x.lm[0])
             x.lm[1] = x.lm[1] + k * (m[1] - x.lm[1])
             x.lm[2] = x.lm[2] + k * (m[2] - x.lm[2])
