@@ -208,6 +208,24 @@ def test_gyro_integration_reproduces_truth(kind):
     assert len(d) == 2400 and d.t[0] == pytest.approx(1 / 200) and d.t[-1] == pytest.approx(12)
 
 
+@pytest.mark.parametrize("q0", [(1.0, 0.0, -0.0, 0.0), (-0.0, 1.0, 0.0, -0.0), (0.5, 0.5, 0.5, 0.5)])
+def test_integrate_at_rest_is_the_step_by_step_product(q0):
+    """integrate() repeats q over a run of exactly zero rate once a step gives q back bit for
+    bit: the same bits as multiplying every step, zeros of either sign included."""
+    from imufuse.sim.motion import integrate
+    om = np.zeros((3000, 3))
+    om[500:510, 0] = 0.3       # a turn between rests
+    om[900:1500, 1] = -0.0     # a rate of minus zero is no rest for the fast path
+    om[2000] = (1e-300, 0.0, 0.0)
+    got = integrate(q0, om, 0.01)
+    want = np.empty_like(got)
+    q = np.asarray(q0)
+    for k, dq in enumerate(rot.quat_from_rotvec(om * 0.01)):
+        q = rot.quat_mul(q, dq)
+        want[k] = q
+    assert bits_equal(got, want)
+
+
 def test_earth_frame_custom_rates():
     # constant earth-z rate from a tilted start: tilt unchanged, heading advances at that rate
     q0 = rot.euler_to_quat([0.3, -0.2, 0.0])

@@ -2,6 +2,7 @@
 piecewise-constant body rates (`integrate`), and the seeded generator of the motion kinds
 (`trajectory`: static, slow, tilt steps, yaw spin, fast, custom)."""
 import math
+import struct
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -57,15 +58,33 @@ def integrate(q0, omega, dt):
     if omega.ndim != 2 or omega.shape[1] != 3:
         raise ValueError(f"omega must have shape (N, 3); got {omega.shape}")
     dq = quat_from_rotvec(omega * dt)
-    out = np.empty((len(omega), 4))
+    n = len(omega)
+    out = np.empty((n, 4))
+    # steps by the identity, bit for bit (a rate of exactly zero): once such a step gives p
+    # back bit for bit, every further one does, so the rest of the run at rest repeats p
+    ident = np.all(dq.view(np.uint64) == np.array([1.0, 0.0, 0.0, 0.0]).view(np.uint64), axis=1)
+    moving = np.flatnonzero(~ident)
+    still = ident.tolist()
+    rows = dq.tolist()
     pw, px, py, pz = (float(c) for c in q0)
-    # same expression order as rotations.quat_mul, in Python floats (fast for a sequential loop)
-    for k, (qw, qx, qy, qz) in enumerate(dq.tolist()):
-        pw, px, py, pz = (pw * qw - px * qx - py * qy - pz * qz,
-                          pw * qx + px * qw + py * qz - pz * qy,
-                          pw * qy - px * qz + py * qw + pz * qx,
-                          pw * qz + px * qy - py * qx + pz * qw)
-        out[k] = (pw, px, py, pz)
+    k = 0
+    while k < n:
+        qw, qx, qy, qz = rows[k]
+        # same expression order as rotations.quat_mul, in Python floats (fast for a
+        # sequential loop)
+        p = (pw * qw - px * qx - py * qy - pz * qz,
+             pw * qx + px * qw + py * qz - pz * qy,
+             pw * qy - px * qz + py * qw + pz * qx,
+             pw * qz + px * qy - py * qx + pz * qw)
+        if still[k] and struct.pack("4d", *p) == struct.pack("4d", pw, px, py, pz):
+            j = int(np.searchsorted(moving, k))
+            end = int(moving[j]) if j < len(moving) else n
+            out[k:end] = p
+            k = end
+            continue
+        pw, px, py, pz = p
+        out[k] = p
+        k += 1
     return out
 
 
