@@ -310,22 +310,16 @@ static void robust_q6_use(const imf_robust_ahrs_q_consts_t *const k,
 }
 
 /* column i of R(s), the row of axis i in m = R^T h + o: robust_q_matrix's r[3 j + i]
- * (j = 0, 1, 2), the same values from a third of its products: the diagonal
+ * (j = 0, 1, 2), the same values from 6 of its 10 products: the diagonal
  * 2 (w^2 + q_i^2) - 1, the others 2 (q_j q_i + w q_k) for j = i + 1 (mod 3), else
- * 2 (q_j q_i - w q_k), k the third axis; q29 -> q15 */
+ * 2 (q_j q_i - w q_k), k = 3 - i - j the third axis; q29 -> q15 */
 static IMF_Q_NOINLINE void robust_q6_column(const int16_t qs[4], const int i, int16_t c[3])
 {
-    const int32_t ww = imf_mul16(qs[0], qs[0]);
     int j;
     for (j = 0; j < 3; ++j) {
         const int32_t p = imf_mul16(qs[1 + j], qs[1 + i]);
-        int32_t v;
-        if (j == i) {
-            v = ww + p - 536870912L;
-        } else {
-            const int32_t t = imf_mul16(qs[0], qs[4 - i - j]); /* w q_k, k = 3 - i - j */
-            v = j - i == 1 || j - i == -2 ? p + t : p - t;
-        }
+        const int32_t t = imf_mul16(qs[0], qs[j == i ? 0 : 4 - i - j]); /* w^2, or w q_k */
+        const int32_t v = j == i ? t + p - 536870912L : j - i == 1 || j - i == -2 ? p + t : p - t;
         c[j] = imf_qn_to_q15s(v, 29);
     }
 }
