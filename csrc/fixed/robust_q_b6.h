@@ -113,7 +113,7 @@ static int robust_q6_exponent(const int32_t v[6])
  * through imf_mul_32x16_hi (eight 8x8 products on call-clobbered registers, then the
  * rounding shift by n - 16), which takes n > 16 only: a smaller n with
  * -2^(14+n) <= a < 2^(14+n) as a 2^(17-n) (within int32) times b over 2^17, the same exact
- * product rounded once (|a b 2^-n| < 2^29: no saturation either way); the rest (a larger a)
+ * product rounded once (|a b 2^-n| <= 2^29: no saturation either way); the rest (a larger a)
  * imf_mul_32x16 itself. Its n <= 16 code is the slow one (imf_mul_32x16_lo for a run-time n:
  * the high part doubled bit by bit, the low part shifted by a loop, ten registers saved;
  * inline for n = 16 a loop of 15 bit steps on the low part). */
