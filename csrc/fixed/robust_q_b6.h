@@ -108,48 +108,135 @@ static int robust_q6_exponent(const int32_t v[6])
     return e;
 }
 
+/* imf_mul_32x16(a, b, n), n in [0, 47]: round(a b 2^-n), saturated to int32; the same value
+ * on every target. Outside AVR imf_mul_32x16 (inline for its callers' constant n). On AVR
+ * through imf_mul_32x16_hi (eight 8x8 products on call-clobbered registers, then the
+ * rounding shift by n - 16), which takes n > 16 only: a smaller n with
+ * -2^(14+n) <= a < 2^(14+n) as a 2^(17-n) (within int32) times b over 2^17, the same exact
+ * product rounded once (|a b 2^-n| <= 2^29: no saturation either way); the rest (a larger a)
+ * imf_mul_32x16 itself. Its n <= 16 code is the slow one (imf_mul_32x16_lo for a run-time n:
+ * the high part doubled bit by bit, the low part shifted by a loop, ten registers saved;
+ * inline for n = 16 a loop of 15 bit steps on the low part). */
+static inline int32_t robust_q6_mul(const int32_t a, const int16_t b, const int n)
+{
+#if defined(__AVR__) && defined(__AVR_HAVE_MUL__)
+    if (n > 16 && n <= 47) {
+        return imf_mul_32x16_hi(a, b, n);
+    }
+    if (n >= 0 && n <= 16) {
+        const int32_t lim = (int32_t)imf_lsl32(1u, 14 + n);
+        if (a >= -lim && a < lim) {
+            return imf_mul_32x16_hi((int32_t)imf_lsl32((uint32_t)a, 17 - n), b, 17);
+        }
+    }
+    return imf_mul_32x16_v(a, b, n);
+#else
+    return imf_mul_32x16(a, b, n);
+#endif
+}
+
+/* out[k] = robust_q6_mul(a[k], b, n), k < 6, n in [0, 47] (out may be a) */
+static IMF_Q_NOINLINE void robust_q6_mul6(int32_t out[6], const int32_t a[6], const int16_t b,
+                                          const int n)
+{
+    int k;
+#if defined(__AVR__) && defined(__AVR_HAVE_MUL__)
+    if (n >= 0 && n <= 16) {
+        const int32_t lim = (int32_t)imf_lsl32(1u, 14 + n);
+        for (k = 0; k < 6; ++k) {
+            out[k] = a[k] >= -lim && a[k] < lim
+                         ? imf_mul_32x16_hi((int32_t)imf_lsl32((uint32_t)a[k], 17 - n), b, 17)
+                         : imf_mul_32x16_v(a[k], b, n);
+        }
+        return;
+    }
+#endif
+    for (k = 0; k < 6; ++k) {
+        out[k] = imf_mul_32x16_s(a[k], b, n);
+    }
+}
+
+/* P H^T (q29) for the row H = (c, e_i) into ph[0..5], then H P H^T = H (P H^T) (q28) into
+ * ph[6]: each (P H^T)[j] = P[j][3 + i] / 2 + sum_k P[j][k] c[k] 2^-16, the products rounded,
+ * the sums saturated in this order; one loop, out of line (inlined in robust_q6_axis,
+ * avr-gcc spilled around every product) */
+static IMF_Q_NOINLINE void robust_q6_ph(const int32_t P[21], const int i, const int16_t c[3],
+                                        int32_t ph[7])
+{
+    int j, k;
+    for (j = 0; j < 7; ++j) {
+        const int32_t *const v = j < 6 ? P : ph;
+        const unsigned char *const t = robust_q6_pi[j < 6 ? j : 0]; /* row 0: 0 to 5 */
+        int32_t a = imf_rshr32(v[t[3 + i]], 1);
+        for (k = 0; k < 3; ++k) {
+            a = imf_add_sat32(a, robust_q6_mul(v[t[k]], c[k], 16));
+        }
+        ph[j] = a;
+    }
+}
+
+/* P -= kk p16^T 2^-n, rounded, saturated, on the upper triangle (P[21] by rows: P[0] to
+ * P[20] in turn); n in [0, 47]. On AVR, for n <= 16 and every kk[k] within +-2^(14+n),
+ * kk 2^(17-n) with n = 17: the same values, each product through imf_mul_32x16_hi */
+static IMF_Q_NOINLINE void robust_q6_cov(int32_t P[21], const int32_t kk[6], const int16_t p16[6],
+                                         const int n)
+{
+    int32_t kx[6];
+    int j, k, t = 0, nx = n;
+    for (k = 0; k < 6; ++k) {
+        kx[k] = kk[k];
+    }
+#if defined(__AVR__) && defined(__AVR_HAVE_MUL__)
+    if (n >= 0 && n <= 16) {
+        const int32_t lim = (int32_t)imf_lsl32(1u, 14 + n);
+        for (k = 0; k < 6 && kk[k] >= -lim && kk[k] < lim; ++k) {
+        }
+        if (k == 6) {
+            for (k = 0; k < 6; ++k) {
+                kx[k] = (int32_t)imf_lsl32((uint32_t)kk[k], 17 - n);
+            }
+            nx = 17;
+        }
+    }
+#endif
+    for (j = 0; j < 6; ++j) {
+        for (k = j; k < 6; ++k) {
+            P[t] = imf_sub_sat32(P[t], imf_mul_32x16_s(kx[k], p16[j], nx));
+            t++;
+        }
+    }
+}
+
 /* the scalar update of axis i: measurement y (q26) with noise rr (q28), H = (c, e_i) */
 static IMF_Q_NOINLINE void robust_q6_axis(imf_robust_ahrs_q_state_t *const xm, const int i,
                                           const int16_t c[3], const int32_t y, const int32_t rr)
 {
-    int32_t ph[6], kk[6], sv, hx, nu, nn;
+    int32_t ph[7], kk[6], d[6], sv, hx, nu, nn;
     int16_t p16[6];
     imf_qscale_t ri, nq;
     int j, k, sign, e, n;
-    for (j = 0; j < 6; ++j) {
-        /* P H^T, q29 */
-        int32_t a = imf_rshr32(xm->P[robust_q6_pi[j][3 + i]], 1);
-        for (k = 0; k < 3; ++k) {
-            a = imf_add_sat32(a, imf_mul_32x16(xm->P[robust_q6_pi[j][k]], c[k], 16));
-        }
-        ph[j] = a;
-    }
-    sv = imf_rshr32(ph[3 + i], 1); /* H P H^T, q28 */
-    hx = xm->hi[3 + i];            /* H x, q26 */
+    robust_q6_ph(xm->P, i, c, ph); /* P H^T, q29; H P H^T, q28 */
+    sv = ph[6];
+    hx = xm->hi[3 + i]; /* H x, q26 */
     for (k = 0; k < 3; ++k) {
-        sv = imf_add_sat32(sv, imf_mul_32x16(ph[k], c[k], 16));
-        hx = imf_add_sat32(hx, imf_mul_32x16(xm->hi[k], c[k], 15));
+        hx = imf_add_sat32(hx, robust_q6_mul(xm->hi[k], c[k], 15));
     }
     /* + rr: at least rr (P's rounding may leave H P H^T a few LSB below 0) */
     sv = sv > 0 ? imf_add_sat32(sv, rr) : rr;
     nu = imf_sub_sat32(y, hx);
     ri = robust_q_recip((uint32_t)sv, 0); /* 1 / sv, sv >= mag_noise^2 >= 2^-14 */
     nq = robust_q_scale_of(nu, 26, &sign);
+    robust_q6_mul6(kk, ph, ri.m, ri.s - 23); /* K, q24 */
+    robust_q6_mul6(d, kk, nq.m, nq.s - 2);   /* K |nu|, q26 */
     for (j = 0; j < 6; ++j) {
-        kk[j] = imf_mul_32x16_s(ph[j], ri.m, ri.s - 23); /* q24 */
-        xm->hi[j] = imf_add_sat32(xm->hi[j], robust_q_mul_signed(kk[j], nq, sign, 24, 26));
+        xm->hi[j] = imf_add_sat32(xm->hi[j], sign < 0 ? imf_sub_sat32(0, d[j]) : d[j]);
     }
     /* P -= P H^T K^T: P H^T narrowed to int16 with one exponent e, times K (q24) */
     e = robust_q6_exponent(ph);
     for (j = 0; j < 6; ++j) {
         p16[j] = (int16_t)imf_rshr32(ph[j], e);
     }
-    for (j = 0; j < 6; ++j) {
-        for (k = j; k < 6; ++k) {
-            const unsigned char t = robust_q6_pi[j][k];
-            xm->P[t] = imf_sub_sat32(xm->P[t], imf_mul_32x16_s(kk[k], p16[j], 23 - e));
-        }
-    }
+    robust_q6_cov(xm->P, kk, p16, 23 - e);
     /* the normalised innovation nu^2 / sv, q16 */
     nn = imf_mul16(nq.m, nq.m);
     n = ri.s + 2 * nq.s - 44;
@@ -222,6 +309,21 @@ static void robust_q6_use(const imf_robust_ahrs_q_consts_t *const k,
     }
 }
 
+/* column i of R(s), the row of axis i in m = R^T h + o: robust_q_matrix's r[3 j + i]
+ * (j = 0, 1, 2), the same values from 6 of its 10 products: the diagonal
+ * 2 (w^2 + q_i^2) - 1, the others 2 (q_j q_i + w q_k) for j = i + 1 (mod 3), else
+ * 2 (q_j q_i - w q_k), k = 3 - i - j the third axis; q29 -> q15 */
+static IMF_Q_NOINLINE void robust_q6_column(const int16_t qs[4], const int i, int16_t c[3])
+{
+    int j;
+    for (j = 0; j < 3; ++j) {
+        const int32_t p = imf_mul16(qs[1 + j], qs[1 + i]);
+        const int32_t t = imf_mul16(qs[0], qs[j == i ? 0 : 4 - i - j]); /* w^2, or w q_k */
+        const int32_t v = j == i ? t + p - 536870912L : j - i == 1 || j - i == -2 ? p + t : p - t;
+        c[j] = imf_qn_to_q15s(v, 29);
+    }
+}
+
 /* the field unit's words within the ranges start() gives them: n0^2 > 0, 1 / n0 and n0 as
  * q-scales with shifts in [16, 31] and [-2, 12] (n0 from 8 to 56756 counts) */
 static int robust_q6_started(const imf_robust_ahrs_q_state_t *const xm)
@@ -263,8 +365,7 @@ static IMF_Q_NOINLINE void robust_q_offset(const imf_robust_ahrs_q_consts_t *con
         }
         xm->m_bad = 0;
     }
-    imf_q_snapshot(xm->imu.s, qs);
-    robust_q_matrix(qs, r, 3); /* R(s), sensor -> inertial frame */
+    imf_q_snapshot(xm->imu.s, qs); /* R(s), sensor -> inertial frame */
     if (xm->m_n2 == 0) {
         for (j = 0; j < 3; ++j) {
             m[j] = imf_sat_q15s(imf_sub_sat32(mag[j], xm->u[j]));
@@ -273,13 +374,11 @@ static IMF_Q_NOINLINE void robust_q_offset(const imf_robust_ahrs_q_consts_t *con
         if (n2 < 64u) {
             return; /* below 8 counts: no field to start from */
         }
+        robust_q_matrix(qs, r, 3);
         robust_q_rotate16(r, 0, m, cr); /* the field in the inertial frame, q15 counts */
         robust_q6_start(xm, cr, n2);
     } else {
-        /* column i of R(s): the row of axis i in m = R^T h + o */
-        for (j = 0; j < 3; ++j) {
-            c[j] = r[3 * j + i];
-        }
+        robust_q6_column(qs, i, c);
         robust_q6_update(k, xm, i, c, robust_q6_rel(mag[i], robust_q6_scale(xm->m_im, xm->m_is)),
                          robust_q_norm2(gyr[0], gyr[1], gyr[2]));
     }
