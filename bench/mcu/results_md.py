@@ -5,6 +5,7 @@ against float32: cycles, flash) and docs/firmware.md (the compact table of readm
 
 from __future__ import annotations
 
+import functools
 import json
 import re
 import subprocess
@@ -12,7 +13,7 @@ from pathlib import Path
 
 import mcu_cases
 import readme_table
-from imufuse import catalogue
+from imufuse import catalogue, reference, registry
 from imufuse.firmware.targets import CORES
 
 HERE = Path(__file__).resolve().parent
@@ -91,10 +92,27 @@ def _measured_profile(cls: str, target: str) -> str:
     return want if want in have or not have else have[0]
 
 
+@functools.lru_cache(maxsize=None)
+def _learns_mag_offset(filter_label: str) -> bool:
+    """Whether a configuration (a row's filter label) runs B6, the magnetometer offset
+    learning of the Robust filters: fixed point with mag_learn=True, float unless
+    mag_learn=False (its default is on); False for every other filter."""
+    case_id = filter_label.rsplit("-", 1)[0]
+    case = next((c for c in (*registry.FLOAT_CASES, *registry.FIXED_CASES) if c.id == case_id),
+                None)
+    if case is None:
+        return False
+    if case.name.endswith("Q"):
+        return bool(case.params.get("mag_learn", False))
+    settings = getattr(reference, case.name)(**{"dt": 0.01, **case.params})._args
+    return bool(getattr(settings, "mag_learn", False))
+
+
 def fixed_vs_float(rows) -> list:
     """One entry per (fixed-point configuration, target of FIXED_TARGETS): its median cost per
     update against the cheapest float32 configuration of its float twin (the class without the
-    trailing Q) on the same target; ratio, target and the remaining gap in cycles/instructions."""
+    trailing Q) on the same target that runs the same blocks (B6 on or off); ratio, target and
+    the remaining gap in cycles/instructions."""
     by_class = {}
     for r in rows:
         by_class.setdefault((r["class"], r["precision"], r["target"]), []).append(r)
@@ -106,8 +124,10 @@ def fixed_vs_float(rows) -> list:
         limit = limits.get(cls, other)
         twin = cls[:-1]
         floats = by_class.get((twin, "float32", target), [])
-        ref = min(floats, key=lambda r: r["per_update_median"]) if floats else None
         for r in rs:
+            same = [f for f in floats
+                    if _learns_mag_offset(f["filter"]) == _learns_mag_offset(r["filter"])]
+            ref = min(same or floats, key=lambda f: f["per_update_median"]) if floats else None
             e = {"fixed": r["filter"], "target": target, "unit": r["unit"],
                  "fixed_per_update": r["per_update_median"], "float": ref and ref["filter"],
                  "float_per_update": ref and ref["per_update_median"], "limit": limit,
@@ -240,7 +260,8 @@ def write_results(rows, targets, checks, seconds, md: Path, js: Path) -> None:
         "Median cost per update of each fixed-point configuration (8-bit profile on AVR, 32-bit",
         "profile on Cortex-M0; a class built in one profile only, in that one) against the",
         "cheapest float32 configuration of its float twin (class name without the Q) on the same",
-        "target. Targets: on AVR every Q filter <= 1/2, and the quaternion filters",
+        "target that runs the same blocks (the Robust filters: B6, the magnetometer offset",
+        "learning, on or off). Targets: on AVR every Q filter <= 1/2, and the quaternion filters",
         f"({' and '.join(q for q in QUATERNION_Q if q not in ROBUST_Q)}) <= 0.30 (1/3 with a 10 %",
         "margin); on Cortex-M0 the quaternion filters <= 1/2 (the others for information: '-');",
         f"{' and '.join(ROBUST_Q)} <= 1/3 on both.",
