@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from imufuse import sim
-from imufuse.firmware import Firmware, target_build, validate
+from imufuse.firmware import Firmware, FirmwareError, target_build, validate
 from imufuse.mcu import ensure_toolchains
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -125,6 +125,24 @@ def test_the_same_firmware_again_is_a_hit(tmp_path, builds, target):
     other = _validate(_fw(cache), target, n=300, seed=7)
     assert builds["runs"] == 0 and _stamps(cache) == stamps
     assert other.bit_exact and len(other.got) == 300
+
+
+def test_a_fault_is_reported_the_same_from_the_cache(tmp_path, builds):
+    """A stack overflow on a hit names the sample and the frame (-fstack-usage) as the
+    build did."""
+    d = _copy(tmp_path)
+    (d / "inc2" / "fault.inc").write_text(
+        "if (s->n == 50u) { volatile float big[5000]; uint32_t i; for (i = 0u; i < 5000u; ++i)"
+        " { big[i] = angle; } s->theta += big[7] * 0.0f; }\n")
+    cache = tmp_path / "cache"
+    msgs = []
+    for _ in range(2):
+        builds["runs"] = 0
+        with pytest.raises(FirmwareError) as e:
+            _validate(_fw(cache, d / "src" / "cf.c", (d / "inc", d / "inc2")), "cortex-m0")
+        msgs.append((str(e.value), builds["runs"]))
+    assert "stack overflow" in msgs[0][0] and "B of stack (-fstack-usage)" in msgs[0][0]
+    assert msgs[1][0] == msgs[0][0] and msgs[0][1] > 0 and msgs[1][1] == 0
 
 
 def test_json_and_junit_say_cached(tmp_path):

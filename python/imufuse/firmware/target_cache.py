@@ -3,11 +3,11 @@
 Programs are kept in targets/ beside the host builds (the firmware's cache_dir, else
 $IMUFUSE_CACHE, else ~/.cache/imufuse/firmware), one directory per key (``_program_key``: the
 settings, the compile commands, the generated texts, the build's own code and the contents of
-every file the cross compiler's -M names). An entry holds the image, the firmware's objects and
-what ``Program`` says (program.json, with each file's size and sha256 and the libraries the
-link loaded, with their size and time stamp). Entries are renamed into place whole; a damaged
-one is removed and rebuilt; one whose libraries changed is rebuilt; an unwritable cache only
-costs the build.
+every file the cross compiler's -M names). An entry holds the image, the firmware's objects
+(with their -fstack-usage files) and what ``Program`` says (program.json, with each file's size
+and sha256 and the libraries the link loaded, with their size and time stamp). Entries are
+renamed into place whole; a damaged one is removed and rebuilt; one whose libraries changed is
+rebuilt; an unwritable cache only costs the build.
 """
 from __future__ import annotations
 
@@ -104,7 +104,7 @@ def _link_inputs(map_text: str, wd: Path) -> List[List[Any]]:
     for line in map_text.splitlines():
         if line.startswith("LOAD "):
             p = os.path.realpath(os.path.join(str(wd), line[5:].strip()))
-            if not p.startswith(inside + os.sep):
+            if not p.startswith(inside + os.sep) and os.path.isfile(p):   # not "linker stubs"
                 st = os.stat(p)
                 out.append([p, st.st_size, st.st_mtime_ns])
     return out
@@ -149,7 +149,9 @@ def _store_entry(entry: Path, prog: Any, map_text: str) -> None:
         entry.parent.mkdir(parents=True, exist_ok=True)
         tmp = Path(tempfile.mkdtemp(prefix=f"{entry.name}.part-", dir=entry.parent))
         files = {}
-        for p in (prog.elf, *prog.user_objects):
+        # the objects' stack usage (-fstack-usage) too: a stack overflow names the frame
+        sus = [o.with_suffix(".su") for o in prog.user_objects]
+        for p in (prog.elf, *prog.user_objects, *(su for su in sus if su.is_file())):
             data = p.read_bytes()
             (tmp / p.name).write_bytes(data)
             files[p.name] = [len(data), hashlib.sha256(data).hexdigest()]
