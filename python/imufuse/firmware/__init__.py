@@ -44,7 +44,9 @@ docs/internals.md); give a list to replace them. `defines` {NAME: value or None}
 Builds are cached under $IMUFUSE_CACHE or ~/.cache/imufuse/firmware, keyed by
 the generated source, the flags, the compiler's identity and the contents of
 every file the compiler reads (its -M dependency output: headers in any
-directory, included files of any extension).
+directory, included files of any extension). The programs built for an emulated
+MCU (--target) are cached in targets/ there, keyed the same way with the cross
+compiler (imufuse.firmware.target_build).
 
 The modules, by subject:
   declaration   the user's declaration: prototypes (imufuse.shared.cproto), the filter object,
@@ -54,6 +56,7 @@ The modules, by subject:
   targets       the emulated MCUs: names, descriptions, default flags
   elf           reading ELF images and linker maps
   target_build  the firmware cross-built and linked with the harness (Program)
+  target_cache  the built programs kept, keyed by everything that can change them
   target_run    the program run on the emulator chunk by chunk (TargetRun)
   causes        why a run differs (fused multiply-add, double, fast-math) and by how much
   results       Validation and Cost

@@ -29,7 +29,7 @@ from .csource import host_source, target_source
 from .declaration import Declaration, FirmwareError
 
 __all__ = ["Firmware", "csrc_firmware", "compiler_command", "compiler_identity",
-           "compiler_missing"]
+           "compiler_missing", "dependency_files"]
 
 _IDENTITY: dict = {}
 
@@ -73,10 +73,11 @@ def compiler_missing() -> Optional[str]:
                                         f"compiler, and there is none: {absent}")
 
 
-def compiler_identity() -> Tuple[str, ...]:
-    """The compiler's command, resolved path and version text: part of the build key, so a
-    different or upgraded compiler never reuses a build."""
-    cc = compiler_command()
+def compiler_identity(cc: Optional[List[str]] = None) -> Tuple[str, ...]:
+    """The compiler's command, resolved path, size and time stamp, and version text: part of
+    the build key, so a different or upgraded compiler never reuses a build. cc: the command
+    (default compiler_command(), the host's); looked up once per process."""
+    cc = list(cc) if cc is not None else compiler_command()
     key = tuple(cc)
     if key not in _IDENTITY:
         path = shutil.which(cc[0]) or cc[0]
@@ -92,6 +93,42 @@ def compiler_identity() -> Tuple[str, ...]:
             stamp = ""
         _IDENTITY[key] = (*cc, os.path.realpath(path), stamp, version)
     return _IDENTITY[key]
+
+
+def dependency_files(commands: List[List[str]], cwd: Optional[str] = None) -> Optional[List[str]]:
+    """Every file the compiler reads for these compilations: each command is a compile
+    command without its output (``cc FLAGS... -M -MT x FILE`` is run), side by side; the
+    union of their -M outputs as real paths, sorted; None when any of them fails (the
+    compilation proper says why)."""
+    procs = []
+    try:
+        for cmd in commands:
+            try:
+                procs.append(subprocess.Popen([*cmd[:-1], "-M", "-MT", "x", cmd[-1]], cwd=cwd,
+                                              stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                                              stdin=subprocess.DEVNULL, text=True))
+            except OSError:
+                return None
+        deps: set = set()
+        ok = True
+        for proc in procs:
+            try:
+                out, _ = proc.communicate(timeout=120)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                out, _ = proc.communicate()
+                ok = False
+            if proc.returncode != 0:
+                ok = False
+            elif ok:
+                deps.update(os.path.realpath(os.path.join(cwd or "", d))
+                            for d in _make_deps(out))
+        return sorted(deps) if ok else None
+    finally:
+        for proc in procs:
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait()
 
 
 class Firmware(Declaration):
@@ -121,20 +158,15 @@ class Firmware(Declaration):
         flags = [f for f in self.cflags if not f.startswith(("-M", "-o"))]
         defs = [f"-D{k}" if v is None else f"-D{k}={v}" for k, v in self.defines.items()]
         incs = [f"-I{d}" for d in self.include_dirs]
-        deps = set()
         with tempfile.TemporaryDirectory(prefix="imufuse-deps-") as tmp:
             harness = os.path.join(tmp, "harness" + self._harness_extension())
             with open(harness, "w") as fh:
                 fh.write(src)
-            for f in [harness, *self.sources]:
-                proc = subprocess.run([*cc, *flags, *defs, *incs, "-M", "-MT", "x", f],
-                                      capture_output=True, text=True)
-                if proc.returncode != 0:
-                    # the compilation proper reports it with the compiler's whole output
-                    return None
-                deps.update(p for p in (os.path.realpath(d) for d in _make_deps(proc.stdout))
-                            if p != os.path.realpath(harness))
-        return sorted(deps)
+            deps = dependency_files([[*cc, *flags, *defs, *incs, f]
+                                     for f in [harness, *self.sources]])
+            if deps is None:
+                return None             # the compilation proper reports it with its output
+            return [p for p in deps if p != os.path.realpath(harness)]
 
     def _key(self, src):
         """The build's name: a hash of the generated harness, the declaration's build

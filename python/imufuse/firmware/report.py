@@ -18,7 +18,6 @@ import os
 import re
 import shutil
 import socket
-import subprocess
 import tempfile
 import xml.etree.ElementTree as ET
 from dataclasses import asdict, dataclass
@@ -33,7 +32,7 @@ from ..catalogue import FILTERS as FILTER_NAMES, entry
 from ..shared.estimate import ADAPTERS
 from .causes import quaternion_angles_deg
 from ..mcu import toolchains as _tc
-from .host import _make_deps, compiler_command, compiler_identity
+from .host import compiler_command, compiler_identity, dependency_files
 from .targets import DEFAULT_TARGET_CFLAGS, harness_target
 
 __all__ = ["Classification", "GrowthRow", "Tolerance", "classify", "orientation_difference_deg",
@@ -258,15 +257,6 @@ def _sha256(path: str) -> Optional[str]:
         return None
 
 
-def _run(cmd: Sequence[str]) -> Optional[str]:
-    """The command's stdout, None when it fails."""
-    try:
-        p = subprocess.run(list(cmd), capture_output=True, text=True, timeout=120)
-    except (OSError, subprocess.SubprocessError):
-        return None
-    return p.stdout if p.returncode == 0 else None
-
-
 def _host_deps(fw: Any, name: str, params: Mapping[str, Any]):
     """(every file the host compiler reads, from Firmware._deps, or None; the sha256 of the
     generated harness)."""
@@ -281,18 +271,14 @@ def _host_deps(fw: Any, name: str, params: Mapping[str, Any]):
 def _target_deps(cmd: Sequence[str], fw: Any) -> Optional[List[str]]:
     """Every file the target compiler reads for the sources and the headers the driver
     includes (its -M output), or None."""
-    deps: set = set()
     with tempfile.TemporaryDirectory(prefix="imufuse-deps-") as tmp:
         heads = os.path.join(tmp, "headers.c")
         with open(heads, "w") as fh:
             fh.write("".join(f'#include "{h}"\n' for h in fw.headers))
-        for src in [heads, *fw.sources]:
-            out = _run([*cmd, "-M", "-MT", "x", src])
-            if out is None:
-                return None
-            deps.update(os.path.realpath(d) for d in _make_deps(out))
-        deps.discard(os.path.realpath(heads))
-    return sorted(deps)
+        deps = dependency_files([[*cmd, src] for src in [heads, *fw.sources]])
+        if deps is None:
+            return None
+        return [d for d in deps if d != os.path.realpath(heads)]
 
 
 def build_info(fw: Any, name: str, params: Optional[Mapping[str, Any]], target: str = "host",
@@ -318,7 +304,7 @@ def build_info(fw: Any, name: str, params: Optional[Mapping[str, Any]], target: 
         tgt = _tc.TARGETS[harness_target(target)]
         path = shutil.which(tgt.cc)
         compiler = {"command": [tgt.cc], "path": os.path.realpath(path) if path else None,
-                    "version": ((_run([tgt.cc, "--version"]) or "unknown").strip() if path
+                    "version": ((compiler_identity([tgt.cc])[-1] or "unknown") if path
                                 else "not installed")}
         flags = list(cflags if cflags is not None else fw.cflags_given
                      if fw.cflags_given is not None else DEFAULT_TARGET_CFLAGS)
@@ -394,7 +380,7 @@ def report_dict(v: Any, tol: Optional[Tolerance] = None, build: Optional[Dict[st
            "causes": [{"name": x.what, **{k: val for k, val in asdict(x).items() if k != "what"}}
                       for x in v.causes],
            "notes": list(v.notes), "cost": cost,
-           "timing": {**dict(v.timing), **dict(timing or {})}, "build": build,
+           "timing": _timing({**dict(v.timing), **dict(timing or {})}), "build": build,
            "text": v.text() + (f"\n{tol.text()}" if tol is not None and not v.bit_exact else "")}
     return _clean(rep)
 
@@ -416,6 +402,14 @@ def error_dict(message: str, filter: str, target: str = "host",
                    "filter": filter, "params": dict(params or {}), "target": target,
                    "inputs": inputs, "within_deg": within, "causes": [],
                    "timing": dict(timing or {}), "build": build, "text": message})
+
+
+def _timing(t: Dict[str, Any]) -> Dict[str, Any]:
+    """The report's timing: build_cached as true or false (the build's seconds then are the
+    cache look-up's)."""
+    if "build_cached" in t:
+        t["build_cached"] = bool(t["build_cached"])
+    return t
 
 
 _XML_BAD = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ud800-\udfff\ufffe\uffff]")
@@ -448,7 +442,11 @@ def junit_xml(rep: Mapping[str, Any]) -> str:
             ET.SubElement(el, tag, message=_x(message), type=typ).text = _x(text or message)
         cases.append(el)
 
-    case("build", built, "failure" if no_build else None, msg, "build")
+    if timing.get("build_cached"):
+        case("build", built, "system-out", "cached: the program built before from the same "
+             "sources, files read, flags and toolchain")
+    else:
+        case("build", built, "failure" if no_build else None, msg, "build")
     check = f"within {deg:g} deg" if deg is not None else "bit-exact"
     if no_build:
         case(check, 0.0, "skipped", "not run: the firmware was not built")

@@ -417,7 +417,9 @@ def _finish_target(fw, name, params, inputs, backend, dtype, target, timeout, ex
                 prog.library, prog.library_flash, counts)
     v = Validation(name, backend, compare_states(got, want, names), got, want, target,
                    tuple(flags), notes=notes, cost=cost,
-                   timing=dict(build=prog.build_seconds, emulator=run.emulator_seconds,
+                   timing=dict(build=prog.build_seconds,
+                               build_cached=1.0 if prog.cached else 0.0,
+                               emulator=run.emulator_seconds,
                                parse=run.parse_seconds, chunks=run.chunks,
                                samples=float(len(x))))
     if not v.bit_exact:
