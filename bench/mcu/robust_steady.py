@@ -9,8 +9,8 @@ first sample as usual, then its start-up clock is set to its end (n = n_max in f
 t = t_max in float); of the 40 samples, the median of the last 37:
   motion  gyro within +-400 counts (+-24 deg/s), accelerometer 1 g +-300 counts: B3 on;
   rest    within +-3 counts, the rest clock at rest_time: B1's bias at rest on.
-Float32 (RobustIMU, RobustAHRS without B6; gyr_bias_max=0, as fixed point) and both fixed-point profiles, side by side in one
-run; the ratios fixed / float32 are printed.
+Float32 (RobustIMU, RobustAHRS without B6; gyr_bias_max=0, as fixed point) and both
+fixed-point profiles, side by side in one run; the ratios fixed / float32 are printed.
 """
 from __future__ import annotations
 
