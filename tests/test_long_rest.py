@@ -188,15 +188,39 @@ def truth_state(name, sc):
 
 
 # ---- runs ---------------------------------------------------------------------------------
-def run_float(case, dtype, name):
+#: samples per run() call: the filter runs the scenario block by block (run() carries the
+#: state from one call to the next), so that a block's states stay in the cache and only the
+#: state words the checks read are kept (a Robust filter's whole state is 90 words a sample)
+BLOCK = 1 << 15
+
+
+def run_blocks(f, inputs, k):
+    """f.run over the inputs block by block: (the leading k state words of every sample (k
+    None: all), the whole state of the first 200 samples); each block's whole state checked
+    finite."""
+    out = []
+    for a in range(0, len(inputs[0]), BLOCK):
+        S = f.run(*(x[a:a + BLOCK] for x in inputs))
+        if S.dtype.kind == "f":
+            assert np.all(np.isfinite(S))
+        if a == 0:
+            head = S[:200].copy()
+        out.append(S[:, :k])
+    return np.concatenate(out), head
+
+
+def run_float(case, dtype, name, k=None):
+    """The float filter over a scenario: the leading k state words of every sample (None:
+    all), every word checked finite."""
     d = scenario(name).imu
     f = getattr(imufuse_c, case.name)(**{**case.params, "dt": DT}, dtype=dtype)
     if case.kind == "1d":
-        return f.run(d.gyr[:, 0].astype(dtype), _acc_angle(d.acc).astype(dtype))
-    acc = (d.acc * case.params.get("acc_1g", 1.0)).astype(dtype)
-    if case.kind == "ahrs":
-        return f.run(d.gyr.astype(dtype), acc, d.mag.astype(dtype))
-    return f.run(d.gyr.astype(dtype), acc)
+        inputs = (d.gyr[:, 0].astype(dtype), _acc_angle(d.acc).astype(dtype))
+    else:
+        inputs = (d.gyr.astype(dtype), (d.acc * case.params.get("acc_1g", 1.0)).astype(dtype))
+        if case.kind == "ahrs":
+            inputs += (d.mag.astype(dtype),)
+    return run_blocks(f, inputs, k)[0]
 
 
 def counts(x, scale):
@@ -215,15 +239,15 @@ def fixed_inputs(case, name):
     return out
 
 
-def state_float(f, S, k=None):
-    """f.state_to_float(S)[:, :k] for a whole run, vectorised: each state variable is its
-    integer times a constant (checked against state_to_float on a prefix); k: the leading
-    words the checks read (None: all)."""
-    n = S.shape[1]
+def state_float(f, S, head):
+    """f.state_to_float of the leading state words S (N, k) of a whole run, vectorised: each
+    state variable is its integer times a constant (checked against state_to_float on head,
+    the whole state of the run's first samples)."""
+    n, k = head.shape[1], S.shape[1]
     scales = np.array(f.state_to_float(np.eye(n, dtype=np.int32) * 2 ** 20), dtype=float)
     assert np.all(scales[~np.eye(n, dtype=bool)] == 0)
-    s = S[:, :k] * (np.diag(scales)[:k] * 2.0 ** -20)
-    np.testing.assert_allclose(s[:200], f.state_to_float(S[:200])[:, :k], rtol=1e-15, atol=0)
+    s = S * (np.diag(scales)[:k] * 2.0 ** -20)
+    np.testing.assert_allclose(s[:len(head)], f.state_to_float(head)[:, :k], rtol=1e-15, atol=0)
     return s
 
 
@@ -340,9 +364,7 @@ def gravity_peak(s, g1):
 
 def measure_float(case, dtype, name):
     sc = scenario(name)
-    S = run_float(case, dtype, name)
-    assert np.all(np.isfinite(S))
-    s = np.asarray(S[:, :columns(case.name)], dtype=float)
+    s = np.asarray(run_float(case, dtype, name, columns(case.name)), dtype=float)
     g1 = case.params.get("acc_1g", 1.0)
     r = dict(norm=norm_worst(case, s, sc, g1), truth=truth_worst(case, s, sc))
     if family(case.name) == "grav":
@@ -354,7 +376,7 @@ def measure_fixed(case, profile, name):
     sc = scenario(name)
     f = getattr(imufuse_c, case.name)(**{**case.params, "dt": DT}, profile=profile)
     inputs = fixed_inputs(case, name)
-    s = state_float(f, f.run(*inputs), columns(case.name))
+    s = state_float(f, *run_blocks(f, inputs, columns(case.name)))
     g1 = case.params.get("acc_1g", ACC_1G)
     r = dict(norm=norm_worst(case, s, sc, g1), truth=truth_worst(case, s, sc))
     if family(case.name) == "grav":
