@@ -181,8 +181,13 @@ class BuildExt(build_ext):
             self.parallel = os.cpu_count() or 1
 
 
+# IMUFUSE_CYTHON_CACHE: a directory where Cython keeps its output by the fingerprint of each
+# module's sources (the .pyx, every included .pxi, the options and Cython's version), so that
+# a second build of the same sources translates nothing (tools/test.sh: the wheel after the
+# sdist); unset, no cache
 setup(ext_modules=cythonize([*(build(name) for name in BUILDS), csvout, csvin],
                             include_path=[bindings(), "imufuse_c"],
                             nthreads=os.cpu_count() or 1,
+                            cache=os.environ.get("IMUFUSE_CYTHON_CACHE") or None,
                             compiler_directives={"language_level": 3}),
       cmdclass={"build_ext": BuildExt})

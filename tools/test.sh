@@ -20,7 +20,11 @@ PY=${PYTHON:-python3}
 VENV=${VENV:-$ROOT/build/test-venv}
 tools/install-toolchains.sh
 
-rm -rf "$VENV" "$ROOT/build/sdist" "$ROOT/build/wheels" "$ROOT/build/wheelhouse"
+rm -rf "$VENV" "$ROOT/build/sdist" "$ROOT/build/wheels" "$ROOT/build/wheelhouse" \
+    "$ROOT/build/cython-cache"
+# Cython's output by the fingerprint of its sources (setup.py): the sdist's build translates
+# the .pyx files, the wheel's build from the sdist finds the same output there
+export IMUFUSE_CYTHON_CACHE="$ROOT/build/cython-cache"
 "$PY" -m venv --system-site-packages "$VENV"
 VPY="$VENV/bin/python"
 PIP=("$VPY" -m pip install -q --disable-pip-version-check)
