@@ -33,13 +33,15 @@ def imf(*args, cwd=None, env=None, timeout=120):
                           capture_output=True, text=True, timeout=timeout)
 
 
-def imf_here(*args):
+def imf_here(*args, cwd=None):
     """The command line in this process: its main(), what the console script and `python -m
     imufuse` run, for the many files and arguments whose message and exit code are checked
-    (0.4 s less each than a new interpreter); `imf` keeps what only a process shows (crashes,
-    signals, the entry point itself)."""
+    (0.4 s less each than a new interpreter, more with a plot); `imf` keeps what only a
+    process shows (crashes, signals, a closed pipe, the entry point itself, a firmware
+    loaded). cwd: the directory main() runs in."""
     out, errs = _io.StringIO(), _io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(errs):
+    with contextlib.chdir(cwd or os.getcwd()), contextlib.redirect_stdout(out), \
+            contextlib.redirect_stderr(errs):
         rc = cli.main([str(a) for a in args])
     return subprocess.CompletedProcess(args, rc, out.getvalue(), errs.getvalue())
 
@@ -147,7 +149,7 @@ def test_the_entry_point_says_the_same_in_its_own_process(files, tmp_path):
 
 def test_long_numeric_field_is_a_number(files, tmp_path):
     """A 140000-digit number is read (as inf: the filter skips the sample)."""
-    r = imf("run", files["long_field.csv"], "-f", "MadgwickIMU", "-o", tmp_path / "o.csv",
+    r = imf_here("run", files["long_field.csv"], "-f", "MadgwickIMU", "-o", tmp_path / "o.csv",
             "--rate", 100)
     assert r.returncode == 0, r.stderr
     assert "Traceback" not in r.stderr
@@ -168,7 +170,7 @@ def test_output_is_never_the_input(files, tmp_path, how):
     for cmd in (["run", src, "-f", "MadgwickIMU", "-o", out],
                 ["run", src, "-f", "MadgwickIMU", "--plot", out],
                 ["compare", src, "--plot", out]):
-        line = one_line_error(imf(*cmd, cwd=tmp_path), USAGE)
+        line = one_line_error(imf_here(*cmd, cwd=tmp_path), USAGE)
         assert "refusing to overwrite" in line
     assert src.read_bytes() == before
 
@@ -182,7 +184,7 @@ def test_unwritable_outputs(files, tmp_path, out, word):
     out = tmp_path if out == "@dir" else (tmp_path / out if not out.startswith("/") else out)
     if str(out) == "/dev/full" and not os.path.exists("/dev/full"):
         pytest.skip("no /dev/full on this system")
-    line = one_line_error(imf("run", files["good"], "-f", "MadgwickIMU", "-o", out), FILE)
+    line = one_line_error(imf_here("run", files["good"], "-f", "MadgwickIMU", "-o", out), FILE)
     assert word in line
 
 
@@ -197,13 +199,13 @@ def test_unwritable_outputs(files, tmp_path, out, word):
 ])
 def test_hostile_subcommand_arguments(files, args, word):
     args = [str(files[a[1:]]) if a.startswith("@") else a for a in args]
-    r = imf(*args)
+    r = imf_here(*args)
     assert r.returncode == USAGE, r.stderr
     assert "Traceback" not in r.stderr and word in r.stderr
 
 
 def test_compare_falls_back_to_single_axis_filters(files):
-    r = imf("compare", files["rate_angle.csv"])
+    r = imf_here("compare", files["rate_angle.csv"])
     assert r.returncode == 0, r.stderr
     from imufuse.reference import FILTERS_1D
     for n in FILTERS_1D:
@@ -211,10 +213,10 @@ def test_compare_falls_back_to_single_axis_filters(files):
 
 
 def test_compare_computing_nothing_fails(files):
-    one_line_error(imf("compare", files["abc.csv"], "--rate", 100), DATA)
-    line = one_line_error(imf("compare", files["nanref.csv"]), DATA)
+    one_line_error(imf_here("compare", files["abc.csv"], "--rate", 100), DATA)
+    line = one_line_error(imf_here("compare", files["nanref.csv"]), DATA)
     assert "nothing could be evaluated" in line
-    line = one_line_error(imf("compare", files["good"], "-f", "MahonyAHRS", "--columns",
+    line = one_line_error(imf_here("compare", files["good"], "-f", "MahonyAHRS", "--columns",
                               "mag_x=time,mag_y=time,mag_z=time", "-f", "Kalman1D",
                               "--axis", "y", "--columns", "gyr_y=acc_x"), OK) \
         if False else None
@@ -222,7 +224,7 @@ def test_compare_computing_nothing_fails(files):
     noq = files["good"].parent / "nomag.csv"
     d = sim.imu("static", rate=100.0, duration=1.0, seed=1)
     io.write_log(noq, d.t, d.gyr, d.acc)
-    line = one_line_error(imf("compare", noq, "-f", "MahonyAHRS"), DATA)
+    line = one_line_error(imf_here("compare", noq, "-f", "MahonyAHRS"), DATA)
     assert "no filter could run" in line
 
 
@@ -314,8 +316,8 @@ def test_a_closed_pipe_is_not_an_error(tmp_path):
 
 def test_skip_leaves_the_start_out_of_the_errors(files):
     """--skip S: the first S seconds do not count (counted as outside the mask)."""
-    a = imf("compare", files["good"], "-f", "MadgwickIMU")
-    b = imf("compare", files["good"], "-f", "MadgwickIMU", "--skip", 1)
+    a = imf_here("compare", files["good"], "-f", "MadgwickIMU")
+    b = imf_here("compare", files["good"], "-f", "MadgwickIMU", "--skip", 1)
     assert a.returncode == b.returncode == 0, a.stderr + b.stderr
     na = int(next(ln for ln in a.stdout.splitlines() if ln.startswith("MadgwickIMU ")).split()[5])
     nb = int(next(ln for ln in b.stdout.splitlines() if ln.startswith("MadgwickIMU ")).split()[5])
@@ -341,7 +343,7 @@ def test_skip_leaves_the_start_out_of_the_errors(files):
 def test_hostile_compare_tune_validate(files, tmp_path, cmd, name, extra, code):
     log = files.get(name, tmp_path / name)
     args = [cmd] + ([log] if cmd != "validate" else ["--log", log]) + extra
-    one_line_error(imf(*args), code)
+    one_line_error(imf_here(*args), code)
 
 
 def test_block_estimates_equal_whole_ones():
@@ -367,7 +369,7 @@ def test_a_log_without_samples_is_a_data_error(tmp_path, cmd):
     p = tmp_path / "zero.npz"
     np.savez(p, gyr=np.zeros((0, 3)), acc=np.zeros((0, 3)), rate=100.0)
     extra = ["-f", "MadgwickIMU", "-o", str(tmp_path / "o.csv")] if cmd == "run" else []
-    r = imf(cmd, str(p), *extra)
+    r = imf_here(cmd, str(p), *extra)
     assert r.returncode == 4 and "zero.npz: no samples" in r.stderr, r.stderr
     assert not (tmp_path / "o.csv").exists()
 
@@ -377,7 +379,7 @@ def test_two_columns_of_one_name_are_a_data_error(tmp_path):
     p = tmp_path / "dup.csv"
     p.write_text("time,gyr_x,gyr_y,gyr_z,acc_x,acc_y,acc_z,gyr_x\n"
                  + "".join(f"{k / 100},0,0,0,0,0,1,5\n" for k in range(5)))
-    r = imf("run", str(p), "-f", "MadgwickIMU", "-o", str(tmp_path / "o.csv"))
+    r = imf_here("run", str(p), "-f", "MadgwickIMU", "-o", str(tmp_path / "o.csv"))
     assert r.returncode == 4 and "columns 2 and 8 are both gyr_x" in r.stderr, r.stderr
 
 
@@ -388,15 +390,15 @@ def test_rejected_samples_are_reported(tmp_path):
     p = tmp_path / "nan.csv"
     p.write_text("time,gyr_x,gyr_y,gyr_z,acc_x,acc_y,acc_z\n"
                  + "".join(f"{k / 100},nan,0,0,0,0,1\n" for k in range(20)))
-    r = imf("run", str(p), "-f", "MadgwickIMU", "-o", str(tmp_path / "o.csv"))
+    r = imf_here("run", str(p), "-f", "MadgwickIMU", "-o", str(tmp_path / "o.csv"))
     assert r.returncode == 4 and "rejected every one of the 20 samples" in r.stderr, r.stderr
-    r = imf("compare", str(p), "-f", "MadgwickIMU")
+    r = imf_here("compare", str(p), "-f", "MadgwickIMU")
     assert r.returncode == 4 and "every one of the 20 samples rejected" in r.stderr, r.stderr
     q = tmp_path / "some.csv"
     q.write_text("time,gyr_x,gyr_y,gyr_z,acc_x,acc_y,acc_z\n"
                  + "".join(f"{k / 100},{'nan' if k in (5, 9) else 0},0,0,0,0,1\n"
                            for k in range(20)))
-    r = imf("run", str(q), "-f", "MadgwickIMU", "--init", "identity", "-o",
+    r = imf_here("run", str(q), "-f", "MadgwickIMU", "--init", "identity", "-o",
             str(tmp_path / "o.csv"))
     assert r.returncode == 0 and "note: 2 of 20 samples rejected by MadgwickIMU" in r.stderr, \
         r.stderr
@@ -412,18 +414,18 @@ def test_vario_and_calibrate_bad_files_are_data_errors(tmp_path):
     latin = tmp_path / "latin.csv"
     latin.write_bytes("time,gyr_x (\xb0/s),gyr_y,gyr_z\n0,1,2,3\n".encode("latin-1"))
     for f in (binary, latin):
-        r = imf("run", f, "-f", "MadgwickIMU", "-o", tmp_path / "r.csv")
+        r = imf_here("run", f, "-f", "MadgwickIMU", "-o", tmp_path / "r.csv")
         said = r.stderr.strip()
         assert r.returncode == 4 and f"{f}: not UTF-8 text at byte" in said, said
-        r = imf("vario", f, "-o", tmp_path / "v.csv")
+        r = imf_here("vario", f, "-o", tmp_path / "v.csv")
         assert r.returncode == 4 and r.stderr.strip() == said, r.stderr
-        r = imf("calibrate", "gyro", f, "-o", tmp_path / "c.json")
+        r = imf_here("calibrate", "gyro", f, "-o", tmp_path / "c.json")
         assert r.returncode == 4 and r.stderr.strip() == said, r.stderr
     nobaro = tmp_path / "nobaro.csv"
     nobaro.write_text("time,gyr_x,gyr_y,gyr_z,acc_x,acc_y,acc_z,pressure\n"
                       + "".join(f"{k / 100},0,0,0,0,0,1,{'' if k else 'nan'}\n"
                                 for k in range(50)))
-    r = imf("vario", nobaro, "-o", tmp_path / "v.csv")
+    r = imf_here("vario", nobaro, "-o", tmp_path / "v.csv")
     assert r.returncode == 4 and "0 usable barometer samples in column pressure" in r.stderr, \
         r.stderr
     assert not (tmp_path / "v.csv").exists()
@@ -440,7 +442,7 @@ def test_vario_absurd_pressures_are_data_errors(tmp_path, pressure, msg):
     p.write_text("time,gyr_x,gyr_y,gyr_z,acc_x,acc_y,acc_z,pressure\n"
                  + "".join(f"{k / 100},0,0,0,0,0,1,{pressure if k % 4 == 0 else ''}\n"
                            for k in range(200)))
-    r = imf("vario", p, "-o", tmp_path / "v.csv")
+    r = imf_here("vario", p, "-o", tmp_path / "v.csv")
     assert r.returncode == 4 and re.search(msg, r.stderr), r.stderr
 
 
@@ -451,7 +453,7 @@ def test_vario_all_rejected_accelerometer_is_a_data_error(tmp_path):
     p.write_text("time,gyr_x,gyr_y,gyr_z,acc_x,acc_y,acc_z,pressure\n"
                  + "".join(f"{k / 100},0,0,0,nan,nan,nan,{101325 - k if k % 4 == 0 else ''}\n"
                            for k in range(200)))
-    r = imf("vario", p, "-o", tmp_path / "v.csv")
+    r = imf_here("vario", p, "-o", tmp_path / "v.csv")
     assert r.returncode == 4 and "rejected every one of the 50 barometer samples" in r.stderr, \
         r.stderr
 
@@ -465,6 +467,6 @@ def test_a_row_with_more_values_than_the_header_is_a_data_error(tmp_path):
     rows[9] = "0.09,9,9,9,0.01,0.02,0.0,0.0,0.0,1.0,0.3,0.0,-0.5"
     p.write_text("time,gyr_x,gyr_y,gyr_z,acc_x,acc_y,acc_z,mag_x,mag_y,mag_z\n"
                  + "".join(r.replace("0.0,", f"{k / 100},", 1) + "\n" for k, r in enumerate(rows)))
-    r = imf("run", p, "-f", "MadgwickIMU", "-o", tmp_path / "o.csv")
+    r = imf_here("run", p, "-f", "MadgwickIMU", "-o", tmp_path / "o.csv")
     assert r.returncode == 4 and "line 11: 13 values under a header of 10 columns" in r.stderr, \
         r.stderr
