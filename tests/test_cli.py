@@ -1,5 +1,6 @@
 """The command line end to end: `python -m imufuse ...` in a subprocess, on
-CSV logs the tests write, every subcommand and every error with its exit code."""
+CSV logs the tests write, every subcommand and every error with its exit code (the
+argument and file errors through main() in this process: imf_here)."""
 import csv
 import io as _io
 import os
@@ -15,6 +16,7 @@ import imufuse_c
 import imufuse.reference as reference
 from imufuse import cli, io, sim
 from imufuse.tools import demo
+from test_cli_hostile import imf_here
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PATHS = [os.path.dirname(os.path.dirname(imufuse.__file__)),
@@ -23,6 +25,7 @@ HAVE_MPL = __import__("importlib").util.find_spec("matplotlib") is not None
 FILTERS_1D = reference.FILTERS_1D
 AHRS = [n for n in reference.FILTERS if getattr(reference, n).kind == "ahrs"]
 assert AHRS, "the AHRS filters are missing from imufuse.reference"
+
 
 
 def imf(*args, cwd=None, env=None, timeout=120):
@@ -235,7 +238,7 @@ def test_run_plot(logs, tmp_path):
 ])
 def test_run_errors(logs, args, code, words):
     args = [str(logs[a[1:]]) if a.startswith("@") else a for a in args]
-    r = imf("run", *args, "-o", os.devnull)
+    r = imf_here("run", *args, "-o", os.devnull)
     assert r.returncode == code, (r.returncode, r.stderr)
     for w in words:
         assert w in r.stderr, (w, r.stderr)
@@ -244,7 +247,7 @@ def test_run_errors(logs, args, code, words):
 
 @pytest.mark.parametrize("name", AHRS)
 def test_run_ahrs_without_mag(logs, name):
-    r = imf("run", logs["noq"], "-f", name)
+    r = imf_here("run", logs["noq"], "-f", name)
     assert r.returncode == 4 and "mag_x" in r.stderr
 
 
@@ -284,9 +287,9 @@ def test_compare_errors_match_run(logs):
 def test_compare_without_reference_and_errors(logs):
     r = imf("compare", logs["noq"], "-f", "Kalman1D", "-f", "Mahony1D")
     assert r.returncode == 0 and "final attitude" in r.stdout
-    bad = imf("compare", logs["noq"], "-f", "Kalman1D", "-p", "beta=1")
+    bad = imf_here("compare", logs["noq"], "-f", "Kalman1D", "-p", "beta=1")
     assert bad.returncode == 2 and "no selected filter has a parameter 'beta'" in bad.stderr
-    bad = imf("compare", logs["noq"], "-f", "Kalman1D,Nope")
+    bad = imf_here("compare", logs["noq"], "-f", "Kalman1D,Nope")
     assert bad.returncode == 2 and "unknown filter 'Nope'" in bad.stderr
 
 
