@@ -4,8 +4,6 @@ that fixes them, and none fires on logs read correctly: the shipped example, the
 development trials, x-io's layout with its units."""
 import glob
 import os
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -14,6 +12,7 @@ from broad_data import BROAD, SKIP_REASON
 from imufuse import sim
 from imufuse.io import example_log, read_log
 from imufuse.plausible import gyro_scale
+from test_cli_hostile import imf_here
 
 XIO = ["Time (s)", "Gyroscope X (deg/s)", "Gyroscope Y (deg/s)", "Gyroscope Z (deg/s)",
        "Accelerometer X (g)", "Accelerometer Y (g)", "Accelerometer Z (g)"]
@@ -82,9 +81,8 @@ def test_time_in_ms(tmp_path, motion):
 
 
 def test_rate_that_contradicts_the_time_column(tmp_path):
-    p = subprocess.run([sys.executable, "-m", "imufuse", "run", example_log(), "-f", "MadgwickIMU",
-                        "--rate", "100", "-o", str(tmp_path / "o.npz")],
-                       capture_output=True, text=True)
+    p = imf_here("run", example_log(), "-f", "MadgwickIMU",
+                 "--rate", "100", "-o", str(tmp_path / "o.npz"))
     assert p.returncode == 0, p.stderr
     assert "--rate 100 Hz, but the file says 285.714 Hz" in p.stderr
 
@@ -93,18 +91,16 @@ def test_rate_that_contradicts_the_time_column(tmp_path):
 def test_a_wrong_reference_frame_is_named(tmp_path, given, want):
     """The shipped example's reference is ENU: read as NED the inclination error is 179 deg,
     as NWU the heading error 88 deg; the note names the frame that fits."""
-    p = subprocess.run([sys.executable, "-m", "imufuse", "run", example_log(), "-f",
-                        "MadgwickAHRS", "--ref-frame", given, "-o", str(tmp_path / "o.npz")],
-                       capture_output=True, text=True)
+    p = imf_here("run", example_log(), "-f",
+                 "MadgwickAHRS", "--ref-frame", given, "-o", str(tmp_path / "o.npz"))
     assert p.returncode == 0, p.stderr
     assert f"against the reference as {given} (given)" in p.stderr
     assert f"with --ref-frame {want} it would be" in p.stderr
 
 
 def test_no_frame_note_when_the_frame_is_right(tmp_path):
-    p = subprocess.run([sys.executable, "-m", "imufuse", "run", example_log(), "-f",
-                        "MadgwickAHRS", "-o", str(tmp_path / "o.npz")], capture_output=True,
-                       text=True)
+    p = imf_here("run", example_log(), "-f",
+                 "MadgwickAHRS", "-o", str(tmp_path / "o.npz"))
     assert p.returncode == 0 and "hint:" not in p.stderr and "note:" not in p.stderr, p.stderr
 
 
@@ -112,9 +108,8 @@ def test_tune_varies_what_acts_sorted_by_score():
     """MadgwickIMU's acc_1g does nothing with the gate off: not varied (9 sets, not 81), and
     not a note either (nobody asked to vary it); the table is sorted by the score, best
     first, with the log's full name."""
-    p = subprocess.run([sys.executable, "-m", "imufuse", "tune", example_log(), "-f",
-                        "MadgwickIMU", "--refine", "0", "-j", "2", "--quiet"],
-                       capture_output=True, text=True)
+    p = imf_here("tune", example_log(), "-f",
+                 "MadgwickIMU", "--refine", "0", "-j", "2", "--quiet")
     assert p.returncode == 0, p.stderr
     assert "acc_1g" not in p.stderr and "note" not in p.stderr, p.stderr
     assert "9 parameter sets" in p.stdout
@@ -157,21 +152,20 @@ def test_strict_makes_each_mistake_an_error(tmp_path, motion, mistake, command):
             "calibrate": ["calibrate", "gyro", path, "-o",
                           tmp_path / "c.json", "--longest-still"]}[command] + extra
     argv = [str(a) for a in argv]
-    p = subprocess.run([sys.executable, "-m", "imufuse", *argv, "--strict"], capture_output=True,
-                       text=True)
+    p = imf_here(*argv, "--strict")
     assert p.returncode == 4, p.stderr
     assert "(--strict)" in p.stderr and fix in p.stderr, p.stderr
     assert p.stderr.count("\n") == 1, p.stderr      # one line
     if command == "run":
-        p = subprocess.run([sys.executable, "-m", "imufuse", *argv], capture_output=True, text=True)
+        p = imf_here(*argv)
         assert "note: " in p.stderr and fix in p.stderr.split("\n")[0], p.stderr
 
 
 @pytest.mark.parametrize("given", ["NED", "NWU"])
 def test_strict_makes_a_frame_mistake_an_error(tmp_path, given):
-    p = subprocess.run([sys.executable, "-m", "imufuse", "run", example_log(), "-f",
-                        "MadgwickAHRS", "--ref-frame", given, "--strict", "-o",
-                        str(tmp_path / "o.npz")], capture_output=True, text=True)
+    p = imf_here("run", example_log(), "-f",
+                 "MadgwickAHRS", "--ref-frame", given, "--strict", "-o",
+                 str(tmp_path / "o.npz"))
     assert p.returncode == 4, p.stderr
     assert "with --ref-frame ENU it would be" in p.stderr and "(--strict)" in p.stderr, p.stderr
 
@@ -180,8 +174,7 @@ def test_strict_is_silent_on_logs_read_correctly(tmp_path, motion):
     t = np.arange(len(motion.gyr)) * motion.dt
     rows = np.column_stack([t, np.degrees(motion.gyr), motion.acc])
     for path in (example_log(), _csv(tmp_path / "x.csv", XIO, rows)):
-        p = subprocess.run([sys.executable, "-m", "imufuse", "compare", str(path), "--strict"],
-                           capture_output=True, text=True)
+        p = imf_here("compare", str(path), "--strict")
         assert p.returncode == 0 and "note:" not in p.stderr, p.stderr
 
 
