@@ -4,8 +4,6 @@ data refused with a clear error, and `imufuse calibrate` end to end."""
 import json
 import re
 import os
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -15,6 +13,7 @@ import imufuse_c
 from imufuse.calibration import fit as cal
 from imufuse import sim
 from imufuse.rotations import euler_to_quat, quat_rotate_inv
+from test_cli_hostile import imf_here
 
 PATHS = [os.path.dirname(os.path.dirname(imufuse.__file__)),
          os.path.dirname(os.path.dirname(imufuse_c.__file__))]
@@ -187,9 +186,8 @@ def test_flat_rotation_is_refused():
 # ---- the command line -----------------------------------------------------------------------
 
 def imf(*args):
-    e = dict(os.environ, PYTHONPATH=os.pathsep.join(PATHS + [os.environ.get("PYTHONPATH", "")]))
-    return subprocess.run([sys.executable, "-m", "imufuse", *map(str, args)], env=e,
-                          capture_output=True, text=True, timeout=120)
+    """The command line through main() in this process (its messages and exit codes)."""
+    return imf_here(*args)
 
 
 def _write(path, prefix, x):

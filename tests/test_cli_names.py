@@ -10,10 +10,12 @@ import pytest
 import imufuse
 from imufuse import catalogue
 from imufuse.io import example_log
+from test_cli_hostile import imf_here
 
 
 def _cli(*args):
-    return subprocess.run([sys.executable, "-m", "imufuse", *args], capture_output=True, text=True)
+    """The command line through main() in this process (its messages and exit codes)."""
+    return imf_here(*args)
 
 
 def test_version():

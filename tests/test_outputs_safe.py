@@ -11,12 +11,12 @@ import pytest
 
 from imufuse import io, sim
 from imufuse.shared.atomic import replacing
+from test_cli_hostile import imf_here
 
 
 def _cli(*args, cwd=None):
-    env = dict(os.environ, MPLBACKEND="Agg")
-    return subprocess.run([sys.executable, "-m", "imufuse", *map(str, args)], capture_output=True,
-                          text=True, cwd=cwd, env=env)
+    """The command line through main() in this process (its messages, exit codes and files)."""
+    return imf_here(*args, cwd=cwd)
 
 
 @pytest.fixture
