@@ -58,6 +58,10 @@ OUT_OF_RANGE = [
     ("Kalman1DBias", dict(dt=0.01, k0=0.02, k1=0.5), "k1"),
     ("Kalman1DBias", dict(dt=0.01, k0=0.02, k1=-500.0), "k1"),
     ("Kalman1DBias", dict(dt=0.01, k0=0.02, k1=-0.5, bias_sign=2), "bias_sign"),
+    # a complex number equal to -1 is no sign (it passed the check and int() dropped its
+    # imaginary part; Python's complex raised a TypeError from the stability test)
+    ("Kalman1DBias", dict(dt=0.01, k0=0.02, k1=-0.5, bias_sign=np.complex128(-1)), "bias_sign"),
+    ("Kalman1DBias", dict(dt=0.01, k0=0.02, k1=0.5, bias_sign=1 + 0j), "bias_sign"),
     ("Mahony1DBias", dict(dt=0.01, kp=2.0, ki=-0.1), "ki"),
     ("Mahony1DBias", dict(dt=0.01, kp=300.0, ki=0.1), "kp, ki"),
     ("Mahony1DBias", dict(dt=0.01, kp=2.0, ki=0.1, integrate_first=1), "integrate_first"),
