@@ -13,7 +13,7 @@ import imufuse_c
 from imufuse.calibration import fit as cal
 from imufuse import sim
 from imufuse.rotations import euler_to_quat, quat_rotate_inv
-from test_cli_hostile import imf_here
+from cli_here import imf_here
 
 PATHS = [os.path.dirname(os.path.dirname(imufuse.__file__)),
          os.path.dirname(os.path.dirname(imufuse_c.__file__))]

@@ -16,7 +16,7 @@ import imufuse_c
 import imufuse.reference as reference
 from imufuse import cli, io, sim
 from imufuse.tools import demo
-from test_cli_hostile import imf_here
+from cli_here import imf_here
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PATHS = [os.path.dirname(os.path.dirname(imufuse.__file__)),

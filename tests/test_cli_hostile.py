@@ -2,8 +2,6 @@
 is a one-line message with its documented exit code, never a traceback; the
 input log is never overwritten; `compare` never exits 0 having computed
 nothing; `validate` survives crashing, exiting and hanging firmware."""
-import contextlib
-import io as _io
 import os
 import re
 import subprocess
@@ -15,7 +13,8 @@ import pytest
 
 import imufuse
 import imufuse_c
-from imufuse import cli, io, sim
+from imufuse import io, sim
+from cli_here import imf_here
 
 PATHS = [os.path.dirname(os.path.dirname(imufuse.__file__)),
          os.path.dirname(os.path.dirname(imufuse_c.__file__))]
@@ -31,19 +30,6 @@ def imf(*args, cwd=None, env=None, timeout=120):
     e.update(env or {})
     return subprocess.run([sys.executable, "-m", "imufuse", *map(str, args)], cwd=cwd, env=e,
                           capture_output=True, text=True, timeout=timeout)
-
-
-def imf_here(*args, cwd=None):
-    """The command line in this process: its main(), what the console script and `python -m
-    imufuse` run, for the many files and arguments whose message and exit code are checked
-    (0.4 s less each than a new interpreter, more with a plot); `imf` keeps what only a
-    process shows (crashes, signals, a closed pipe, the entry point itself, a firmware
-    loaded). cwd: the directory main() runs in."""
-    out, errs = _io.StringIO(), _io.StringIO()
-    with contextlib.chdir(cwd or os.getcwd()), contextlib.redirect_stdout(out), \
-            contextlib.redirect_stderr(errs):
-        rc = cli.main([str(a) for a in args])
-    return subprocess.CompletedProcess(args, rc, out.getvalue(), errs.getvalue())
 
 
 def one_line_error(r, code):

@@ -10,7 +10,7 @@ import pytest
 import imufuse
 from imufuse import catalogue
 from imufuse.io import example_log
-from test_cli_hostile import imf_here
+from cli_here import imf_here
 
 
 def _cli(*args):

@@ -11,7 +11,7 @@ import pytest
 
 from imufuse import io, sim
 from imufuse.shared.atomic import replacing
-from test_cli_hostile import imf_here
+from cli_here import imf_here
 
 
 def _cli(*args, cwd=None):

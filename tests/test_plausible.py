@@ -12,7 +12,7 @@ from broad_data import BROAD, SKIP_REASON
 from imufuse import sim
 from imufuse.io import example_log, read_log
 from imufuse.plausible import gyro_scale
-from test_cli_hostile import imf_here
+from cli_here import imf_here
 
 XIO = ["Time (s)", "Gyroscope X (deg/s)", "Gyroscope Y (deg/s)", "Gyroscope Z (deg/s)",
        "Accelerometer X (g)", "Accelerometer Y (g)", "Accelerometer Z (g)"]
