@@ -189,11 +189,19 @@ _CTOR_CHECKED = {}
 _CTOR_CHECKED_MAX = 1024
 
 
+cdef object _typed(object v):
+    # a value with its type, a tuple's items each with theirs: (0.6, 1.4) and
+    # (0.6+0j, 1.4+0j) are equal with one hash, but only the first is a valid acc_gate
+    if type(v) is tuple:
+        return (tuple, tuple([_typed(x) for x in <tuple>v]))
+    return (type(v), v)
+
+
 cdef object _ctor_key(object cls, tuple args, dict kwargs):
     """The arguments as a key that tells 1, 1.0, True and np.float64(1) apart (each value
-    with its type), or None when a value is not hashable (not cached)."""
-    key = (cls, tuple([(type(a), a) for a in args]),
-           tuple(sorted([(k, type(v), v) for k, v in kwargs.items()])))
+    with its type, inside tuples too), or None when a value is not hashable (not cached)."""
+    key = (cls, tuple([_typed(a) for a in args]),
+           tuple(sorted([(k, _typed(v)) for k, v in kwargs.items()])))
     try:
         hash(key)
     except TypeError:

@@ -73,6 +73,37 @@ OUT_OF_RANGE = [
 ]
 
 
+@pytest.mark.parametrize("case", [pytest.param(c, id=c.id) for c in FLOAT_CASES])
+@each_backend
+def test_every_setting_rejects_complex(case, backend):
+    """A complex value with a zero imaginary part is no setting, whatever its check
+    (a real, a choice such as mag_learn's True/False that 1+0j equals, or a filter's own):
+    refused naming the keyword, never converted with its imaginary part dropped."""
+    import inspect
+    import warnings
+    make = cls(case, backend)
+    make(**case.params)     # the compiled constructor keeps what it checked: (0.6, 1.4) is
+    #                         == (0.6+0j, 1.4+0j) with one hash, and must not be a hit
+    defaults = {k: p.default for k, p in inspect.signature(make).parameters.items()}
+    values = {**defaults, **case.params}
+    tried = 0
+    for name, value in values.items():
+        if isinstance(value, (str, type(None))) or value is inspect.Parameter.empty:
+            continue
+        if name == "dtype":
+            continue
+        for kind in (complex, np.complex128, np.complex64):
+            # acc_gate=(lo, hi): each bound complex in turn
+            bad = (tuple(kind(v) for v in value) if isinstance(value, tuple)
+                   else kind(value))
+            with warnings.catch_warnings():
+                warnings.simplefilter("error")
+                with pytest.raises(ValueError, match=rf"^{name}\b"):
+                    make(**{**case.params, name: bad})
+            tried += 1
+    assert tried >= 3
+
+
 @pytest.mark.parametrize("name,params,param", OUT_OF_RANGE)
 @each_backend
 def test_gain_out_of_range(name, params, param, backend):

@@ -117,11 +117,19 @@ class SettingsRecord:
         bound = cls.signature().bind(*args, **kwargs)
         bound.apply_defaults()
         checked = {n: bound.arguments[n] for n, _, _ in cls.extra}
+        for n, v in checked.items():
+            if isinstance(v, _checks.COMPLEX):
+                raise ValueError(f"{n}: must be a real number, not complex, got {v!r}")
         checked[USER] = dict(bound.arguments)
         c = {}
         for f in dataclasses.fields(cls):
             k = cls._keyword(f)
             user = f.metadata["default"] if k == FIXED else bound.arguments[k]
+            if isinstance(user, _checks.COMPLEX):
+                # before any check: one that compares (1+0j == 1 == True) would let it
+                # through to a float() or int() that drops the imaginary part
+                raise ValueError(f"{k or f.name}: must be a real number, not complex, "
+                                 f"got {user!r}")
             v = f.metadata["check"](k or f.name, user, checked)
             checked[f.name] = v
             c[f.name] = v if f.metadata["to_c"] is None else f.metadata["to_c"](v)

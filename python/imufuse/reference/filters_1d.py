@@ -53,8 +53,8 @@ class Mahony1DSettings(SettingsRecord):
 
 
 def _bias_sign(name, bias_sign, prior):
-    # a bool or a complex number equal to +-1 (numpy's complex types included) is no sign
-    if isinstance(bias_sign, (bool, complex)) or bias_sign not in (-1, 1):
+    # a bool is no sign (a complex one never gets here: SettingsRecord.from_user)
+    if isinstance(bias_sign, bool) or bias_sign not in (-1, 1):
         raise ValueError(f"bias_sign: must be -1 or +1, got {bias_sign!r}")
     if not prior["allow_unstable"]:
         s = bias_sign * prior["k1"] * prior["dt"]

@@ -10,6 +10,9 @@ import threading
 import numpy as np
 
 DTYPES = ("float32", "float64")
+#: the complex types (Python's and numpy's): never a setting, a choice or an input, even
+#: with a zero imaginary part (it would be dropped by float() or int())
+COMPLEX = (complex, np.complexfloating)
 
 
 def real_number(value):
@@ -18,7 +21,7 @@ def real_number(value):
     Strings are not numbers here (both backends reject "0.5"), complex values
     are rejected instead of losing their imaginary part, and an int too large
     for a double is rejected instead of raising OverflowError."""
-    if isinstance(value, (str, bytes, bytearray, complex, np.complexfloating)):
+    if isinstance(value, (str, bytes, bytearray, *COMPLEX)):
         return None
     try:
         return float(value)
@@ -80,7 +83,8 @@ def check_dt(dt):
 
 
 def check_choice(name, value, choices):
-    if value not in choices:
+    # 1+0j == 1 == True: a complex value is refused before the comparison
+    if isinstance(value, COMPLEX) or value not in choices:
         raise ValueError(f"{name}: must be one of {', '.join(map(repr, choices))}, got {value!r}")
     return value
 
