@@ -122,10 +122,11 @@ static inline VM LN(rl_norm4)(VR *const q)
     return ok;
 }
 
-/* robust_gain */
+/* robust_gain (the running mean's division only while some lane needs it) */
 static inline VR LN(rl_gain)(const RL *const L, const VR t, const VR tau, const VR k)
 {
-    return RSEL(t < tau, L->dt / (t + L->dt), k);
+    const VM early = t < tau;
+    return LN(any)(early) ? RSEL(early, L->dt / (t + L->dt), k) : k;
 }
 
 /* robust_turn_by: o may be q */
@@ -270,9 +271,11 @@ static inline void LN(rl_gravity)(const RL *const L, RX *const x, const imf_real
         v[1] = x->v[1] + dt * (ai[1] - x->f[1]);
         v[2] = x->v[2] + dt * (ai[2] - x->f[2]);
         rr = w2;
-        ub = L->tau_b0 / (L->tau_b0 + (IMF_R(1.0) - x->bu) * L->tau_bias);
-        ub = RSEL(x->bu < ub, x->bu, ub);
-        rr = RSEL(x->bu > IMF_R(0.0), rr + L->bias_w2 * (ub * ub), rr);
+        if (LN(any)(x->bu > IMF_R(0.0))) {
+            ub = L->tau_b0 / (L->tau_b0 + (IMF_R(1.0) - x->bu) * L->tau_bias);
+            ub = RSEL(x->bu < ub, x->bu, ub);
+            rr = RSEL(x->bu > IMF_R(0.0), rr + L->bias_w2 * (ub * ub), rr);
+        }
         rr = rr * L->inv_rate_ref2;
         rr = RSEL(rr <= IMF_R(1.0e4), rr, RB(IMF_R(1.0e4)));
         qg = L->qg_dt + L->qg_dt * rr;
@@ -752,15 +755,22 @@ static inline VM LN(rl_output)(const RL *const L, RX *const x, const imf_real *c
 #define RL_WORDS ((int)(sizeof(imf_robust_state_t) / sizeof(imf_real)))
 #define RL_IMU_WORDS ((int)(offsetof(imf_robust_state_t, hi) / sizeof(imf_real)))
 
-/* robust_finite of words w0..w1, per lane */
+/* robust_finite of words w0..w1, per lane (w - w is 0 for a finite w, NaN otherwise, and
+   a NaN stays in a sum: four sums, as the scalar commit, are 0 only if every word is finite) */
 static inline VM LN(rl_finite)(const VR *const w, const int w0, const int w1)
 {
-    VR s = RB(IMF_R(0.0));
+    VR s0 = RB(IMF_R(0.0)), s1 = s0, s2 = s0, s3 = s0;
     int i;
-    for (i = w0; i < w1; i++) {
-        s = s + (w[i] - w[i]);
+    for (i = w0; i + 4 <= w1; i += 4) {
+        s0 = s0 + (w[i] - w[i]);
+        s1 = s1 + (w[i + 1] - w[i + 1]);
+        s2 = s2 + (w[i + 2] - w[i + 2]);
+        s3 = s3 + (w[i + 3] - w[i + 3]);
     }
-    return s == IMF_R(0.0);
+    for (; i < w1; i++) {
+        s0 = s0 + (w[i] - w[i]);
+    }
+    return (s0 + s1) + (s2 + s3) == IMF_R(0.0);
 }
 
 /* The group run: settings and state of f[0..p) into lanes, the samples, the state back. */
@@ -833,6 +843,7 @@ static int LN(robust_run)(void *const *f, const int p, const int ahrs, const ptr
             xw[j][i] = w[j];
         }
     }
+    x = X; /* the working copy: after each sample's commit it is the state again */
     skipped = (VU)LN(zm)();
     for (j = 0; j < 3; j++) {
         sq[j] = LN(zd)();
@@ -852,7 +863,6 @@ static int LN(robust_run)(void *const *f, const int p, const int ahrs, const ptr
             const int has_m =
                 ahrs && !(m[0] == IMF_R(0.0) && m[1] == IMF_R(0.0) && m[2] == IMF_R(0.0));
             VM ok;
-            x = X;
             rej = LN(rl_step)(&L, &x, g, a, has_m ? m : NULL);
             if (has_m) {
                 const imf_real g2 = g[0] * g[0] + g[1] * g[1] + g[2] * g[2];
@@ -864,11 +874,11 @@ static int LN(robust_run)(void *const *f, const int p, const int ahrs, const ptr
             if (ahrs) {
                 ok &= ~L.learn | LN(rl_finite)(ww, RL_IMU_WORDS, RL_WORDS);
                 for (j = 0; j < RL_WORDS; j++) {
-                    xw[j] = RSEL(ok, ww[j], xw[j]);
+                    ww[j] = xw[j] = RSEL(ok, ww[j], xw[j]);
                 }
             } else {
                 for (j = 0; j < RL_IMU_WORDS; j++) {
-                    xw[j] = RSEL(ok, ww[j], xw[j]);
+                    ww[j] = xw[j] = RSEL(ok, ww[j], xw[j]);
                 }
             }
             rej = ~ok;
