@@ -38,6 +38,16 @@ static const unsigned char robust_pi[6][6] = {
 #define RX LN(rx_t)
 #define RL LN(rl_t)
 
+/* every lane of m set */
+static inline int LN(all)(const VM m)
+{
+    int i, r = 1;
+    for (i = 0; i < LW; i++) {
+        r &= m[i] != 0;
+    }
+    return r;
+}
+
 static inline VR LN(bc)(const imf_real v)
 {
     VR r;
@@ -458,18 +468,24 @@ static inline VR LN(rl_offset_axis)(VR *const mp, VR *const xs, const VM ax1, co
     return nu * nu * ri;
 }
 
-/* robust_offset_update in the lanes act (working on a copy: the lanes beyond keep theirs) */
+/* robust_offset_update in the lanes act (every lane: in place; some: on a copy, the
+   other lanes keep theirs) */
 static inline void LN(rl_offset_update)(const RL *const L, RX *const x, const VM ax1, const VM ax2,
                                         const VR *const c, const VR y, const imf_real g2,
                                         const VM act)
 {
-    VR P[21], hi[6], pb, rr, d2;
+    VR Pc[21], hic[6], pb, rr, d2;
+    const int every = LN(all)(act);
+    VR *const P = every ? x->P : Pc;
+    VR *const hi = every ? x->hi : hic;
     int k;
-    for (k = 0; k < 21; k++) {
-        P[k] = x->P[k];
-    }
-    for (k = 0; k < 6; k++) {
-        hi[k] = x->hi[k];
+    if (!every) {
+        for (k = 0; k < 21; k++) {
+            P[k] = x->P[k];
+        }
+        for (k = 0; k < 6; k++) {
+            hi[k] = x->hi[k];
+        }
     }
     for (k = 0; k < 6; k++) {
         pb = P[robust_pi[k][k]] + (k < 3 ? ROBUST_MAG_QH : ROBUST_MAG_QO) * L->dt;
@@ -482,11 +498,13 @@ static inline void LN(rl_offset_update)(const RL *const L, RX *const x, const VM
     rr = RSEL(rr <= IMF_R(1.0), rr, RB(IMF_R(1.0)));
     rr = L->mag_noise2 + rr;
     d2 = LN(rl_offset_axis)(P, hi, ax1, ax2, c[0], c[1], c[2], y, rr);
-    for (k = 0; k < 21; k++) {
-        x->P[k] = RSEL(act, P[k], x->P[k]);
-    }
-    for (k = 0; k < 6; k++) {
-        x->hi[k] = RSEL(act, hi[k], x->hi[k]);
+    if (!every) {
+        for (k = 0; k < 21; k++) {
+            x->P[k] = RSEL(act, P[k], x->P[k]);
+        }
+        for (k = 0; k < 6; k++) {
+            x->hi[k] = RSEL(act, hi[k], x->hi[k]);
+        }
     }
     x->m_d2 = RSEL(act, d2, x->m_d2);
     x->m_ew = RSEL(act, x->m_ew + ROBUST_MAG_EW * (x->m_d2 - x->m_ew), x->m_ew);
@@ -873,12 +891,16 @@ static int LN(robust_run)(void *const *f, const int p, const int ahrs, const ptr
             ok = ~rej & LN(rl_finite)(ww, 0, RL_IMU_WORDS);
             if (ahrs) {
                 ok &= ~L.learn | LN(rl_finite)(ww, RL_IMU_WORDS, RL_WORDS);
-                for (j = 0; j < RL_WORDS; j++) {
-                    ww[j] = xw[j] = RSEL(ok, ww[j], xw[j]);
-                }
-            } else {
-                for (j = 0; j < RL_IMU_WORDS; j++) {
-                    ww[j] = xw[j] = RSEL(ok, ww[j], xw[j]);
+            }
+            {
+                /* the AHRS with B6 off never changes B6's words: all of them kept alike */
+                const int n = ahrs ? RL_WORDS : RL_IMU_WORDS;
+                if (LN(all)(ok)) {
+                    memcpy(xw, ww, (size_t)n * sizeof(VR));
+                } else {
+                    for (j = 0; j < n; j++) {
+                        ww[j] = xw[j] = RSEL(ok, ww[j], xw[j]);
+                    }
                 }
             }
             rej = ~ok;
