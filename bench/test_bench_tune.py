@@ -3,7 +3,9 @@ development trials, float64, 20 values of one gain (MadgwickAHRS: beta; RobustAH
 no refinement, 2 threads, the two filters measured side by side in one run (best of 3)
 against
 
-  - the compute-only limit: samples x sets x (ns per scalar update, from run()) / cores;
+  - the compute-only limit: samples x sets x (ns per scalar update, from run()) / cores; and
+    in CPU time (every thread's), which the load of other processes on a shared machine
+    does not inflate: tune's CPU against samples x sets x (CPU ns per scalar update);
   - scoring each set in Python (Tuner with batch=False: run() + imufuse.evaluation);
   - the batch API without scores (run_many, trajectories) against a loop of run();
   - the lanes against each filter's own update (run_filters, scored, lanes=0).
@@ -13,6 +15,7 @@ against
 Prints the table that bench/RESULTS.md and the README's speed section quote."""
 import glob
 import os
+import time
 
 import numpy as np
 import pytest
@@ -43,11 +46,13 @@ def _measure(sessions, name, gain, span):
             cls(dt=dt, init="first").run(*x)
     ns_update = best_of(scalar_runs, 5) / samples * 1e9
     limit = samples * SETS * ns_update * 1e-9 / CORES
+    cpu_update = best_of(scalar_runs, 5, time.process_time) / samples * 1e9
 
     def tune():
         tuner.batch = True
         return tuner.search(grid, refine=0, jobs=CORES)
     t_tune = best_of(tune)
+    cpu_tune = best_of(tune, 3, time.process_time)
     tuner.batch = False
     t_python = best_of(lambda: tuner.search(grid, refine=0, jobs=CORES))
     tuner.batch = True
@@ -67,6 +72,9 @@ def _measure(sessions, name, gain, span):
         (f"compute-only limit, {SETS} sets / {CORES} cores, s", f"{limit:.3f}"),
         ("tune (compiled batch), s", f"{t_tune:.3f}"),
         ("**tune / limit**", f"**{t_tune / limit:.2f}**"),
+        ("scalar update, CPU ns per sample", f"{cpu_update:.1f}"),
+        ("tune CPU / the limit's CPU (samples x sets x CPU ns)",
+         f"{cpu_tune / (samples * SETS * cpu_update * 1e-9):.2f}"),
         ("tune scoring each set in Python, s", f"{t_python:.3f}"),
         ("Python scoring / compiled batch", f"{t_python / t_tune:.1f}"),
         (f"loop of run(), {SETS} sets, one trial, 1 thread, s", f"{t_loop:.3f}"),
