@@ -4,7 +4,11 @@ filter configuration of the registry, both precisions, every lane width this CPU
 sample dt and init="first"; the scores computed while the filters run equal
 imufuse.evaluation.evaluate on each run()'s estimate within 1e-12; the filters without a
 compiled batch path (single-axis, fixed point, Fusion, the variometer) return each run()'s
-result; and `tune` on the batch path reports what scoring each set in Python reports."""
+result; and `tune` on the batch path reports what scoring each set in Python reports.
+RobustIMU/RobustAHRS's lane kernel has tests of its own: groups of settings that pick
+different code paths per lane, over a log that reaches every block's branches, hostile inputs,
+a stored offset and bias, every width and precision, bit for bit with each filter's run()."""
+import copy
 import math
 
 import numpy as np
@@ -221,6 +225,43 @@ def test_robust_lanes_every_branch(name, dtype, start):
         assert np.any(col["m_std"] < 0.01)               # B6's offset trusted
         assert np.any(col["t_dist"] > 0)                 # B4 disturbed
         assert np.any(col["m_bad"] > 0)                  # absurd readings
+
+
+@pytest.mark.parametrize("dtype", DTYPES)
+@pytest.mark.parametrize("name", ["RobustIMU", "RobustAHRS"])
+def test_robust_lanes_stored_offset_and_bias(name, dtype):
+    """Filters given a stored magnetometer offset (near the true one: B6 keeps it; far: the
+    estimate replaces it) and a known gyro bias before the call: each lane starts from its
+    filter's state and ends bit for bit where the filter's own run() ends."""
+    ins, _ = _robust_log()
+    cls = getattr(imufuse_c, name)
+    inputs = _inputs(cls.kind, ins)
+    sets = _ROBUST_SETS + (_ROBUST_MAG_SETS if name == "RobustAHRS" else [])
+    made = []
+    for i, p in enumerate(sets):
+        f = cls(dt=0.01, **p, dtype=dtype)
+        if i % 2 == 0 and p.get("gyr_bias_max", 6.0) > 0.1:
+            f.set_gyr_bias((0.01, -0.005, 0.002))
+        if name == "RobustAHRS":
+            f.set_mag_offset((0.31, -0.19, 0.1) if i % 3 else (1.0, 0.0, -0.5))
+        made.append(f)
+    own = [copy.copy(f) for f in made]
+    trajs = [f.run(*inputs) for f in own]
+    for lanes in WIDTHS[1:]:
+        filters = [copy.copy(f) for f in made]
+        out = imufuse_c.run_filters(filters, *inputs, lanes=lanes, threads=1)
+        for i, f in enumerate(own):
+            np.testing.assert_array_equal(_bits(out[i]), _bits(trajs[i]),
+                                          err_msg=f"{name} {dtype} set {i} lanes={lanes}")
+            np.testing.assert_array_equal(_bits(filters[i].state), _bits(f.state))
+            assert filters[i].skipped == f.skipped
+    if name == "RobustAHRS":
+        names = cls.state_names
+        u = trajs[1][-1, names.index("ux"):names.index("ux") + 3]
+        s = trajs[1][-1, names.index("sx"):names.index("sx") + 3]
+        np.testing.assert_array_equal(u, s)          # the stored offset kept
+        u0 = trajs[0][-1, names.index("ux"):names.index("ux") + 3]
+        assert abs(float(u0[0]) - 0.3) < 0.05        # the far one replaced by the estimate
 
 
 @pytest.mark.parametrize("dtype", DTYPES)
