@@ -10,6 +10,8 @@ different code paths per lane, over a log that reaches every block's branches, h
 a stored offset and bias, every width and precision, bit for bit with each filter's run()."""
 import copy
 import math
+import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -295,6 +297,22 @@ def test_robust_lanes_hostile(name, dtype):
     for dt in (None, dts):
         own = _robust_lanes_equal_own(name, dtype, params, inputs, dt)
         assert all(s > 0 for _, _, s in own)
+
+
+def test_robust_lanes_constants_are_robust_mag_h():
+    """The lane kernel's copy of B6's model constants and covariance index (lanes_robust.h
+    cannot include csrc/robust_mag.h, a private part of robust.c) is csrc's, value for value."""
+    root = Path(__file__).resolve().parents[1]
+
+    def read(path):
+        text = (root / path).read_text()
+        defs = dict(re.findall(r"#define (ROBUST_MAG_\w+) (IMF_R\([^)]*\))", text))
+        table = re.search(r"robust_pi\[6\]\[6\] = \{(.*?)\};", text, re.S).group(1)
+        return defs, re.sub(r"\s+", "", table)
+    c_defs, c_table = read("csrc/robust_mag.h")
+    lane_defs, lane_table = read("imufuse_c/host/lanes_robust.h")
+    assert len(c_defs) == 10 and lane_defs == c_defs
+    assert lane_table == c_table
 
 
 def _reference_log():
