@@ -315,6 +315,35 @@ def test_robust_lanes_constants_are_robust_mag_h():
     assert lane_table == c_table
 
 
+@pytest.mark.parametrize("dtype", DTYPES)
+def test_constructor_cache_keeps_starts_apart(dtype):
+    """The compiled constructor reuses the checks of arguments seen before, a start given by
+    values included (tune builds a filter per log and search point with init="first"): two
+    starts that differ only in the window, the type of its length or the quaternion are
+    never taken for one another."""
+    d = sim.imu("slow", rate=100.0, duration=1.0, seed=5)
+    cls = imufuse_c.MadgwickAHRS
+    s = np.sqrt(0.5)
+    starts = [dict(init="first", init_window=3), dict(init="first", init_window=7),
+              dict(init="first", init_window=np.int64(3)), dict(q0=(1.0, 0.0, 0.0, 0.0)),
+              dict(q0=(s, s, 0.0, 0.0)), dict(q0=(s, 0.0, s, 0.0)), {}]
+    runs = []
+    for _ in range(2):          # the second round built from the cache
+        runs.append([cls(dt=0.01, dtype=dtype, **st).run(d.gyr, d.acc, d.mag)
+                     for st in starts])
+    for a, b in zip(*runs):
+        np.testing.assert_array_equal(_bits(a), _bits(b))
+    first = runs[0]
+    assert not np.array_equal(first[0], first[1])      # windows 3 and 7
+    np.testing.assert_array_equal(_bits(first[0]), _bits(first[2]))
+    assert not np.array_equal(first[4], first[5])      # two quaternions
+    assert not np.array_equal(first[3], first[4])
+    with pytest.raises(ValueError):
+        cls(dt=0.01, dtype=dtype, q0=(0.0, 0.0, 0.0, 0.0))
+    with pytest.raises(ValueError):
+        cls(dt=0.01, dtype=dtype, q0=(0.0, 0.0, 0.0, 0.0))
+
+
 def _reference_log():
     d = sim.imu("fast", rate=200.0, duration=20.0, seed=11)
     q_ref = d.q_true.copy()
