@@ -11,7 +11,11 @@
  * keeps its own (RSEL); a branch no lane takes is not computed (LN(any)). Branches on the
  * inputs alone (a non-finite sample, no accelerometer or magnetometer reading) are the same
  * for every lane and stay branches. A lane whose sample is rejected computes on and its
- * result is dropped by the commit, as the scalar update drops its working copy.
+ * result is dropped by the commit, as the scalar update drops its working copy. Every setting
+ * is a lane's own, so any group of filters of one class shares lanes (the kernel returns 0
+ * only for a group size outside 1..LW). B6's constants are copied below (tests/test_batch.py
+ * checks them against csrc/robust_mag.h); the tests of the twin: tests/test_batch.py,
+ * test_robust_lanes_*, bit for bit with each filter's own update at every width.
  */
 #ifndef IMF_LANES_ROBUST_ONCE
 #define IMF_LANES_ROBUST_ONCE
