@@ -177,7 +177,7 @@ def _robust_log():
 _ROBUST_SETS = [{}, dict(tau_acc=1.0), dict(tau_acc=6.0, rate_ref=0.0),
                 dict(tau_bias=0.0, tau_bias_rest=1.0), dict(gyr_bias_max=0.0),
                 dict(latency=0.02), dict(rest_gyr=0.0), dict(rest_time=0.3, rest_acc=0.2),
-                dict(tau_rest=2.0, gyr_bias_max=20.0)]
+                dict(tau_rest=2.0, gyr_bias_max=20.0), dict(tau_bias=10.0)]
 _ROBUST_MAG_SETS = [dict(mag_learn=False), dict(tau_mag=2.0, mag_new_time=2.0, mag_hold=0.2),
                     dict(mag_dip=2.0, mag_norm=0.3, tau_mag_ref=3.0),
                     dict(mag_noise=0.2, mag_lag=0.0, mag_offset_min=0.0),
@@ -223,6 +223,8 @@ def test_robust_lanes_every_branch(name, dtype, start):
     col = {n: traj[:, names.index(n)] for n in ("t_rest", "m_std", "t_dist", "m_bad")}
     assert own[0][2] > 0                                 # rejected samples
     assert np.any(col["t_rest"] >= 1.5)                  # rest (B1's bias at rest)
+    bu = own[len(_ROBUST_SETS) - 1][0][:, names.index("bu")]
+    assert bu[0] > 0 and np.any(bu == 0)                 # the bias learnt in motion
     if name == "RobustAHRS":
         assert np.any(col["m_std"] < 0.01)               # B6's offset trusted
         assert np.any(col["t_dist"] > 0)                 # B4 disturbed
@@ -276,7 +278,8 @@ def test_robust_lanes_hostile(name, dtype):
     tiny = float(np.finfo(dtype).tiny) / 8
     d = sim.imu("fast", rate=100.0, duration=8.0, seed=21, q0=[0.0, 1.0, 0.0, 0.0])
     gyr, acc, mag = d.gyr.copy(), d.acc.copy(), d.mag.copy()
-    acc[0] = (0.0, 0.0, -1.0)
+    gyr[0] = 0.0
+    acc[0] = (0.0, 0.0, -1.0)                # gravity straight down: the levelling's half turn
     gyr[50:60] *= big
     acc[70:75] = big
     acc[80:85] = tiny
