@@ -280,6 +280,7 @@ def test_robust_lanes_hostile(name, dtype):
     gyr, acc, mag = d.gyr.copy(), d.acc.copy(), d.mag.copy()
     gyr[0] = 0.0
     acc[0] = (0.0, 0.0, -1.0)                # gravity straight down: the levelling's half turn
+    mag[0] = (-0.5, 0.0, 0.8)                # then the field due south: B4's half turn
     gyr[50:60] *= big
     acc[70:75] = big
     acc[80:85] = tiny
