@@ -148,8 +148,9 @@ def test_lanes_long_rest_then_motion(name, dtype):
 def _robust_log():
     """RobustAHRS's branches in one log (100 Hz): rest (tilted), fast and slow motion, rest
     again; a hard-iron offset to learn (B6 trusts it); a disturbance of the field's norm, a
-    changed dip for 5 s, 1.5 s of absurd readings (B6 restarts); no magnetometer or
-    accelerometer reading, readings beyond 100 g, non-finite samples."""
+    changed dip for 5 s, 1.5 s of absurd readings (B6 restarts), a disturbance at rest, weak
+    readings at rest; no magnetometer or accelerometer reading, readings beyond and within
+    100 g, non-finite samples."""
     rate = 100.0
     parts = [sim.imu("static", rate=rate, duration=12.0, seed=11, q0=[0.9, 0.3, 0.3, 0.1]),
              sim.imu("fast", rate=rate, duration=30.0, seed=12),
@@ -168,6 +169,9 @@ def _robust_log():
     acc[2500, 1] = np.inf
     mag[3100, 2] = np.nan
     acc[3300:3320] *= 200.0
+    acc[3400:3410] *= 50.0                 # a shock within 100 g: a reading
+    mag[300:310] *= 0.15                   # at rest, a reading at 0.15 of the field
+    mag[6300:6800] *= 1.3                  # at rest, a disturbed field
     dts = np.full(len(gyr), 1 / rate)
     dts[::5] *= 1.3
     return (gyr, acc, mag), dts
