@@ -293,9 +293,12 @@ def test_robust_lanes_hostile(name, dtype):
     mag[110:120] = (0.0, 0.0, 1.0)
     acc[130:140] = (0.0, 0.0, -big)
     gyr[150:160] = (big, -big, big)
-    mag[200:330] *= 1e6
+    mag[200:299] *= 1e6                       # absurd readings: B6 restarts after 1 s ...
+    mag[299:310] = tiny                       # ... and cannot start from a reading of no norm
+    mag[310:330] *= 1e6
     acc[400:410] = -acc[400:410] * 1e3
     gyr[500:700] *= 50.0
+    gyr[700:790] = (400.0, -300.0, 200.0)     # B2's process noise at its cap
     dts = np.full(len(gyr), 0.01)
     dts[300:320] = 1e-6
     dts[320:330] = 0.5
