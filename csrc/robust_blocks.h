@@ -203,14 +203,25 @@ static int robust_strapdown(const imf_robust_consts_t *const set, imf_robust_sta
     return 1;
 }
 
+/* the sensor axes; R(q) v into o, one copy (B2's bias model and B3 turn 11 vectors) */
+static const imf_real robust_axes[9] = { IMF_R(1.0), IMF_R(0.0), IMF_R(0.0), IMF_R(0.0), IMF_R(1.0),
+                                         IMF_R(0.0), IMF_R(0.0), IMF_R(0.0), IMF_R(1.0) };
+
+static ROBUST_NOINLINE void robust_rotate(imf_real *const o, const imf_real *const q,
+                                          const imf_real *const v)
+{
+    imf_qrotate(o, q[0], q[1], q[2], q[3], v[0], v[1], v[2]);
+}
+
 /* B2's model of the bias (for B3), n values: the strapdown turns I through the bias
    estimate by u dt per sample (u: R(s) b, or R(s) for its dependence on b), gravity in I turns
    with it, and B2's gravity follows that turn through its low-pass, whose rate the levelling
    corrects. d: the summed turn less its low-pass, v: the velocity-like state, through the
    same Kalman gains as gravity (kg, kv); o: the low-pass's rate this sample */
-static void robust_turn_lp(const imf_robust_consts_t *const set, imf_real *const d,
-                           imf_real *const v, const imf_real *const u, imf_real *const o,
-                           const unsigned n, const imf_real kg, const imf_real kv)
+static ROBUST_NOINLINE void robust_turn_lp(const imf_robust_consts_t *const set, imf_real *const d,
+                                           imf_real *const v, const imf_real *const u,
+                                           imf_real *const o, const unsigned n, const imf_real kg,
+                                           const imf_real kv)
 {
     const imf_real dt = set->s.dt;
     imf_real du, vp;
@@ -228,29 +239,22 @@ static void robust_turn_lp(const imf_robust_consts_t *const set, imf_real *const
    accelerometer in that frame; from the first sample (B5). With gyr_bias_max > 0 also B2's
    model of the bias (robust_turn_lp): hb, the rate of its low-pass of R(s) b, and hr, of
    R(s) (columns), both in I; 0 when gravity is not updated. */
-static void robust_gravity(const imf_robust_consts_t *const set, imf_robust_state_t *const x,
-                           const imf_real *const a, const int first, const int has_acc,
-                           const imf_real w2, imf_real *const hb, imf_real *const hr)
+static ROBUST_NOINLINE void robust_gravity(const imf_robust_consts_t *const set,
+                                           imf_robust_state_t *const x, const imf_real *const a,
+                                           const int first, const int has_acc, const imf_real w2,
+                                           imf_real *const hb, imf_real *const hr)
 {
     const imf_real dt = set->s.dt;
     imf_real ai[3], ri[9], rr, qg, ub, pvv, pvg, pgg, inv, kv, kg;
     unsigned j;
     for (j = 0; j < 9; j++) {
-        hr[j] = IMF_R(0.0);
+        hr[j] = hb[j % 3u] = IMF_R(0.0);
     }
-    hb[0] = IMF_R(0.0);
-    hb[1] = IMF_R(0.0);
-    hb[2] = IMF_R(0.0);
     imf_qrotate(ai, x->s[0], x->s[1], x->s[2], x->s[3], a[0], a[1], a[2]);
     if (first) {
         /* B3: no turn yet (gravity is the first sample's) */
         for (j = 0; j < 9; j++) {
-            x->dr[j] = IMF_R(0.0);
-            x->vr[j] = IMF_R(0.0);
-        }
-        for (j = 0; j < 3; j++) {
-            x->db[j] = IMF_R(0.0);
-            x->vb[j] = IMF_R(0.0);
+            x->dr[j] = x->vr[j] = x->db[j % 3u] = x->vb[j % 3u] = IMF_R(0.0);
         }
         /* B5: gravity from the first sample */
         x->f[0] = ai[0];
@@ -307,11 +311,11 @@ static void robust_gravity(const imf_robust_consts_t *const set, imf_robust_stat
     x->pvg = pvg - kv * pvg;
     x->pvv = pvv - kv * pvv;
     if (set->s.gyr_bias_max > IMF_R(0.0)) {
-        imf_qrotate(ai, x->s[0], x->s[1], x->s[2], x->s[3], x->b[0], x->b[1], x->b[2]);
-        robust_turn_lp(set, x->db, x->vb, ai, hb, 3u, kg, kv);
-        imf_qrotate(ri, x->s[0], x->s[1], x->s[2], x->s[3], IMF_R(1.0), IMF_R(0.0), IMF_R(0.0));
-        imf_qrotate(ri + 3, x->s[0], x->s[1], x->s[2], x->s[3], IMF_R(0.0), IMF_R(1.0), IMF_R(0.0));
-        imf_qrotate(ri + 6, x->s[0], x->s[1], x->s[2], x->s[3], IMF_R(0.0), IMF_R(0.0), IMF_R(1.0));
+        robust_rotate(ri, x->s, x->b);
+        robust_turn_lp(set, x->db, x->vb, ri, hb, 3u, kg, kv);
+        for (j = 0; j < 9; j += 3) {
+            robust_rotate(ri + j, x->s, robust_axes + j);
+        }
         robust_turn_lp(set, x->dr, x->vr, ri, hr, 9u, kg, kv);
     }
 }
@@ -400,28 +404,28 @@ static void robust_bias_from(const imf_robust_consts_t *const set, imf_robust_st
 
 /* B3: one row of the bias's measurement, y = (h[0], h[3], h[6]) . b + noise of variance w:
    the Kalman update of b and of its covariance bp */
-static void robust_bias_row(imf_robust_state_t *const x, const imf_real *const h, const imf_real y,
-                            const imf_real w)
+static ROBUST_NOINLINE void robust_bias_row(imf_robust_state_t *const x, const imf_real *const h,
+                                            const imf_real y, const imf_real w)
 {
+    /* bp[robust_bi[i][j]] = P[i][j] */
+    static const unsigned char robust_bi[3][3] = { { 0, 1, 2 }, { 1, 3, 4 }, { 2, 4, 5 } };
     imf_real *const p = x->bp;
-    imf_real ph0, ph1, ph2, sv, e, k0, k1, k2;
-    ph0 = p[0] * h[0] + p[1] * h[3] + p[2] * h[6];
-    ph1 = p[1] * h[0] + p[3] * h[3] + p[4] * h[6];
-    ph2 = p[2] * h[0] + p[4] * h[3] + p[5] * h[6];
-    sv = h[0] * ph0 + h[3] * ph1 + h[6] * ph2 + w;
+    imf_real ph[3], sv, e, k;
+    unsigned i, j;
+    for (i = 0; i < 3; i++) {
+        ph[i] = p[robust_bi[i][0]] * h[0] + p[robust_bi[i][1]] * h[3] + p[robust_bi[i][2]] * h[6];
+    }
+    sv = h[0] * ph[0] + h[3] * ph[1] + h[6] * ph[2] + w;
     e = (y - (h[0] * x->b[0] + h[3] * x->b[1] + h[6] * x->b[2])) / sv;
-    x->b[0] = x->b[0] + ph0 * e;
-    x->b[1] = x->b[1] + ph1 * e;
-    x->b[2] = x->b[2] + ph2 * e;
-    k0 = ph0 / sv;
-    k1 = ph1 / sv;
-    k2 = ph2 / sv;
-    p[0] = p[0] - k0 * ph0;
-    p[1] = p[1] - k0 * ph1;
-    p[2] = p[2] - k0 * ph2;
-    p[3] = p[3] - k1 * ph1;
-    p[4] = p[4] - k1 * ph2;
-    p[5] = p[5] - k2 * ph2;
+    for (i = 0; i < 3; i++) {
+        x->b[i] = x->b[i] + ph[i] * e;
+    }
+    for (i = 0; i < 3; i++) {
+        k = ph[i] / sv;
+        for (j = i; j < 3; j++) {
+            p[robust_bi[i][j]] = p[robust_bi[i][j]] - k * ph[j];
+        }
+    }
 }
 
 /* B3: in motion, from the levelling. The correction is B2's low-pass of the strapdown's turn
@@ -433,11 +437,13 @@ static void robust_bias_row(imf_robust_state_t *const x, const imf_real *const h
    a bias turning with the sensor faster than B2 follows is seen as small as it is. Each
    sample teaches bu by dt / tau_bias, less while the sensor turns fast. gyr_bias_max 0: the
    integral of the correction (Eq. 3.6, I_k = I_{k-1} + Ki dt e_k, Ki dt = 1 / tau_bias) */
-static void robust_bias(const imf_robust_consts_t *const set, imf_robust_state_t *const x,
-                        const imf_real *const r, const int rest, const imf_real *const hb,
-                        const imf_real *const hr)
+static ROBUST_NOINLINE void robust_bias(const imf_robust_consts_t *const set,
+                                        imf_robust_state_t *const x, const imf_real *const r,
+                                        const int rest, const imf_real *const hb,
+                                        const imf_real *const hr)
 {
     imf_real k, y[3], h[9];
+    unsigned i;
     if (!rest && x->t >= set->s.tau_acc && set->inv_tau_bias > IMF_R(0.0)) {
         k = robust_bias_gain(set, x, set->tau_b0);
         if (x->bu > IMF_R(0.0)) {
@@ -451,10 +457,10 @@ static void robust_bias(const imf_robust_consts_t *const set, imf_robust_state_t
             robust_bias_from(set, x, IMF_R(2.0) * r[1], IMF_R(2.0) * r[2], IMF_R(0.0), k);
             return;
         }
-        imf_qrotate(y, x->c[0], x->c[1], x->c[2], x->c[3], hb[0], hb[1], hb[2]);
-        imf_qrotate(h, x->c[0], x->c[1], x->c[2], x->c[3], hr[0], hr[1], hr[2]);
-        imf_qrotate(h + 3, x->c[0], x->c[1], x->c[2], x->c[3], hr[3], hr[4], hr[5]);
-        imf_qrotate(h + 6, x->c[0], x->c[1], x->c[2], x->c[3], hr[6], hr[7], hr[8]);
+        robust_rotate(y, x->c, hb);
+        for (i = 0; i < 9; i += 3) {
+            robust_rotate(h + i, x->c, hr + i);
+        }
         k = set->qb * set->s.dt; /* the random walk */
         x->bp[0] = x->bp[0] + k;
         x->bp[3] = x->bp[3] + k;

@@ -187,6 +187,11 @@ class _RobustBlocks:
         x.s = s
         return True
 
+    def _rotate(self, q, v):
+        # R(q) v (the C out of line: B2's model of the bias and B3 turn eleven vectors per
+        # sample, one copy of the rotation)
+        return qrotate(self._R, q[0], q[1], q[2], q[3], v[0], v[1], v[2])
+
     def _turn_lp(self, d, v, u, o, kg, kv):
         # B2's model of the bias (for B3), len(u) values: the strapdown turns I through the
         # bias estimate by u dt per sample (u: R(s) b, or R(s) for its dependence on b),
@@ -264,11 +269,10 @@ class _RobustBlocks:
         x.pvg = pvg - kv * pvg
         x.pvv = pvv - kv * pvv
         if self.s.gyr_bias_max > R(0.0):
-            ai = qrotate(R, x.s[0], x.s[1], x.s[2], x.s[3], x.b[0], x.b[1], x.b[2])
-            self._turn_lp(x.db, x.vb, ai, hb, kg, kv)
-            ri = (qrotate(R, x.s[0], x.s[1], x.s[2], x.s[3], R(1.0), R(0.0), R(0.0))
-                  + qrotate(R, x.s[0], x.s[1], x.s[2], x.s[3], R(0.0), R(1.0), R(0.0))
-                  + qrotate(R, x.s[0], x.s[1], x.s[2], x.s[3], R(0.0), R(0.0), R(1.0)))
+            self._turn_lp(x.db, x.vb, self._rotate(x.s, x.b), hb, kg, kv)
+            ri = []
+            for j in range(3):
+                ri.extend(self._rotate(x.s, [R(1.0) if i == j else R(0.0) for i in range(3)]))
             self._turn_lp(x.dr, x.vr, ri, hr, kg, kv)
 
     def _level(self, x, r):
@@ -382,10 +386,10 @@ class _RobustBlocks:
             if not (self.s.gyr_bias_max > R(0.0)):
                 self._bias_from(x, R(2.0) * r[1], R(2.0) * r[2], R(0.0), k)
                 return
-            y = qrotate(R, x.c[0], x.c[1], x.c[2], x.c[3], hb[0], hb[1], hb[2])
-            h = (qrotate(R, x.c[0], x.c[1], x.c[2], x.c[3], hr[0], hr[1], hr[2])
-                 + qrotate(R, x.c[0], x.c[1], x.c[2], x.c[3], hr[3], hr[4], hr[5])
-                 + qrotate(R, x.c[0], x.c[1], x.c[2], x.c[3], hr[6], hr[7], hr[8]))
+            y = self._rotate(x.c, hb)
+            h = []
+            for i in range(0, 9, 3):
+                h.extend(self._rotate(x.c, hr[i:i + 3]))
             k = self.qb * self.s.dt   # the random walk
             x.bp[0] = x.bp[0] + k
             x.bp[3] = x.bp[3] + k
