@@ -115,7 +115,7 @@ typedef struct {
     imf_real rest_gyr;       /* B1: rest threshold on the low-passed rate, rad/s; >= 0
                                (default 2 deg/s = 0.0349 rad/s) */
     imf_real rest_acc;       /* B1: rest threshold on |a| - 1 g, relative to 1 g; >= 0
-                               (default 0.05) */
+                               (default 0.05); B3: the motion its noise is scaled by */
     imf_real rest_time;      /* B1: time below both thresholds before rest, s; >= 0
                                (default 1.5) */
     imf_real tau_rest;       /* B1: low-pass time constant of the rest detector, s; > 0
