@@ -19,10 +19,11 @@
 
 /* ---- helpers (quaternion product and rotation: imf_math.h) ----------------- */
 
-/* B1's field test, B4 and B6 out of line: one copy of B6's scalar update (three calls per
-   sample), and on the ATmega328P optimised for size (every soft-float operation is a call,
-   and the inlined blocks did not fit its 32 KB of flash beside a driver; ROBUST_SMALL: the
-   blocks those call, inlined into them); results are the same IEEE operations in any case */
+/* B1, B2, B3's Kalman rows, B4 and B6 out of line: one copy of B6's scalar update (three
+   calls per sample), of the rotation and of B3's row, and on the ATmega328P optimised for
+   size (every soft-float operation is a call, and the inlined blocks did not fit its 32 KB of
+   flash beside a driver; ROBUST_SMALL: the blocks those call, inlined into them); results
+   are the same IEEE operations in any case */
 #if defined(__AVR__)
 #define ROBUST_NOINLINE __attribute__((noinline, optimize("Os")))
 #define ROBUST_SMALL __attribute__((optimize("Os")))

@@ -110,9 +110,10 @@ static ROBUST_NOINLINE int robust_rest_mag(const imf_robust_consts_t *const set,
    (bu: at the start any bias up to gyr_bias_max per axis passes). Returns rest; *w2: the
    low-passed rate squared (B2's process noise). m: the magnetometer (all zero: none), whose
    field must be steady too (robust_rest_mag). */
-static int robust_rest(const imf_robust_consts_t *const set, imf_robust_state_t *const x,
-                       const imf_real *const g, const imf_real *const a, const imf_real *const m,
-                       const int has_acc, imf_real *const w2)
+static ROBUST_NOINLINE int robust_rest(const imf_robust_consts_t *const set,
+                                       imf_robust_state_t *const x, const imf_real *const g,
+                                       const imf_real *const a, const imf_real *const m,
+                                       const int has_acc, imf_real *const w2)
 {
     const imf_real k = robust_gain(set, x->t, set->s.tau_rest, set->k_rest);
     const imf_real win = set->rest_gyr2 + set->bias_var0 * (x->bu * x->bu);
@@ -252,9 +253,8 @@ static ROBUST_NOINLINE void robust_gravity(const imf_robust_consts_t *const set,
     }
     imf_qrotate(ai, x->s[0], x->s[1], x->s[2], x->s[3], a[0], a[1], a[2]);
     if (first) {
-        /* B3: no turn yet (gravity is the first sample's) */
         for (j = 0; j < 9; j++) {
-            x->dr[j] = x->vr[j] = x->db[j % 3u] = x->vb[j % 3u] = IMF_R(0.0);
+            x->dr[j] = x->vr[j] = x->db[j % 3u] = x->vb[j % 3u] = IMF_R(0.0); /* no turn yet */
         }
         /* B5: gravity from the first sample */
         x->f[0] = ai[0];
