@@ -21,10 +21,11 @@
 
 /* ---- helpers (quaternion product and rotation: imf_math.h) ----------------- */
 
-/* B1's field test, B4 and B6 out of line: one copy of B6's scalar update (three calls per
-   sample), and on the ATmega328P optimised for size (every soft-float operation is a call,
-   and the inlined blocks did not fit its 32 KB of flash beside a driver; ROBUST_SMALL: the
-   blocks those call, inlined into them); results are the same IEEE operations in any case */
+/* B1, B2, B3's Kalman rows, B4 and B6 out of line: one copy of B6's scalar update (three
+   calls per sample), of the rotation and of B3's row, and on the ATmega328P optimised for
+   size (every soft-float operation is a call, and the inlined blocks did not fit its 32 KB of
+   flash beside a driver; ROBUST_SMALL: the blocks those call, inlined into them); results
+   are the same IEEE operations in any case */
 #if defined(__AVR__)
 #define ROBUST_NOINLINE __attribute__((noinline, optimize("Os")))
 #define ROBUST_SMALL __attribute__((optimize("Os")))
@@ -110,7 +111,7 @@ static void robust_init(imf_robust_consts_t *const set, uint32_t *const skipped,
 {
     const imf_real rate_ref = s->rate_ref, rest_gyr = s->rest_gyr, rest_acc = s->rest_acc;
     imf_real *const w = (imf_real *)x;
-    imf_real ta2, tmax;
+    imf_real ta2, p0, tmax;
     unsigned i;
     set->s = *s;
     /* B2: gravity process noise q_g = (1 + |w|^2 / rate_ref^2) / tau_acc^4 per s, with
@@ -122,6 +123,17 @@ static void robust_init(imf_robust_consts_t *const set, uint32_t *const skipped,
     set->inv_tau_bias = s->tau_bias > IMF_R(0.0) ? IMF_R(1.0) / s->tau_bias : IMF_R(0.0);
     set->tau_b0 = IMF_R(4.0) * s->tau_acc;
     set->tau_h0 = IMF_R(4.0) * s->tau_mag;
+    /* B3's Kalman filter of the bias, relative to the noise of its measurement (the
+       correction rate; robust_bias): in motion the accelerometer differs from gravity by up
+       to rest_acc (what B1 calls motion), which B2 passes on as a tilt error changing over
+       tau_acc, noise of density rest_acc^2 / tau_acc in the rate; the prior, any bias in
+       the part's range in any direction, |b|^2 <= 3 gyr_bias_max^2: 1 / tau_p =
+       3 gyr_bias_max^2 tau_acc / rest_acc^2 (no weaker than one sample's worth, 1 / dt);
+       its random walk makes the steady state 1 / tau_bias (learnt over tau_bias) */
+    p0 = IMF_R(3.0) * (s->gyr_bias_max * s->gyr_bias_max) * s->tau_acc;
+    set->inv_tau_p =
+        p0 * s->dt < rest_acc * rest_acc ? p0 / (rest_acc * rest_acc) : IMF_R(1.0) / s->dt;
+    set->qb = set->inv_tau_bias * set->inv_tau_bias;
     /* rest_gyr 0: no rest (B1 off) at any bias */
     set->bias_var0 =
         rest_gyr > IMF_R(0.0) ? IMF_R(3.0) * s->gyr_bias_max * s->gyr_bias_max : IMF_R(0.0);
@@ -156,6 +168,12 @@ static void robust_init(imf_robust_consts_t *const set, uint32_t *const skipped,
     x->c[0] = IMF_R(1.0);
     x->m_std = IMF_R(1.0);
     x->bu = s->gyr_bias_max > IMF_R(0.0) ? IMF_R(1.0) : IMF_R(0.0);
+    if (s->gyr_bias_max > IMF_R(0.0)) {
+        /* B3: the bias's prior, worth tau_p of measurement */
+        x->bp[0] = set->inv_tau_p;
+        x->bp[3] = set->inv_tau_p;
+        x->bp[5] = set->inv_tau_p;
+    }
 }
 
 void imf_robust_default_settings(imf_robust_settings_t *const settings)

@@ -76,6 +76,13 @@ typedef struct {
     imf_real lm[3];          /* B1: low-passed magnetometer, field unit (0: no reading yet) */
     imf_real l0[3];          /* B1: lm where the rest window began, field unit */
     imf_real w0[3];          /* B1: lw where the rest window began, rad/s */
+    imf_real db[3];          /* B3: the strapdown's turn by the bias, R(s) b dt summed, less
+                                B2's low-pass of it (B2's model of the bias), rad */
+    imf_real vb[3];          /* B3: its velocity-like state, rad s */
+    imf_real dr[9];          /* B3: the same for R(s) (columns: the sensor axes in I), s */
+    imf_real vr[9];          /* B3: its velocity-like state, s^2 */
+    imf_real bp[6];          /* B3: covariance of b, upper triangle (p00 p01 p02 p11 p12 p22),
+                                relative to the measurement noise (1/s) */
     /* B6 (relative: field unit / m_n0) */
     imf_real hi[6];  /* field in the inertial frame h (hx hy hz), then the offset (hard iron)
                         estimate in the sensor frame (ix iy iz), relative */
@@ -108,7 +115,7 @@ typedef struct {
     imf_real rest_gyr;       /* B1: rest threshold on the low-passed rate, rad/s; >= 0
                                (default 2 deg/s = 0.0349 rad/s) */
     imf_real rest_acc;       /* B1: rest threshold on |a| - 1 g, relative to 1 g; >= 0
-                               (default 0.05) */
+                               (default 0.05); B3: the motion its noise is scaled by */
     imf_real rest_time;      /* B1: time below both thresholds before rest, s; >= 0
                                (default 1.5) */
     imf_real tau_rest;       /* B1: low-pass time constant of the rest detector, s; > 0
@@ -152,6 +159,8 @@ typedef struct {
                                                 tau_acc^3 if gyr_bias_max is 0) */
     imf_real inv_rate_ref2;                  /* 1 / rate_ref^2, (rad/s)^-2; 0: constant */
     imf_real inv_tau_bias;                   /* 1 / tau_bias, 1/s; 0: no bias in motion */
+    imf_real inv_tau_p, qb;                  /* B3: 1 / tau_p, the bias's prior variance;
+                                                1 / tau_bias^2, its random walk per s */
     imf_real tau_b0, tau_h0;                 /* B3's shortest time constants from the
                                                 levelling and the heading: 4 tau_acc,
                                                 4 tau_mag, s */

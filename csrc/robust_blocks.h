@@ -111,15 +111,17 @@ static ROBUST_NOINLINE int robust_rest_mag(const imf_robust_consts_t *const set,
    (bu: at the start any bias up to gyr_bias_max per axis passes). Returns rest; *w2: the
    low-passed rate squared (B2's process noise). m: the magnetometer (all zero: none), whose
    field must be steady too (robust_rest_mag). */
-static int robust_rest(const imf_robust_consts_t *const set, imf_robust_state_t *const x,
-                       const imf_real *const g, const imf_real *const a, const imf_real *const m,
-                       const int has_acc, imf_real *const w2)
+static ROBUST_NOINLINE int robust_rest(const imf_robust_consts_t *const set,
+                                       imf_robust_state_t *const x, const imf_real *const g,
+                                       const imf_real *const a, const imf_real *const m,
+                                       const int has_acc, imf_real *const w2)
 {
     const imf_real k = robust_gain(set, x->t, set->s.tau_rest, set->k_rest);
     const imf_real win = set->rest_gyr2 + set->bias_var0 * (x->bu * x->bu);
     /* the bias taken off; gyr_bias_max 0: the raw rates (the fixed-point filters' B1) */
     const imf_real *const bb = set->s.gyr_bias_max > IMF_R(0.0) ? x->b : robust_zero3;
-    imf_real dx, dy, dz, d2, a2, kb;
+    imf_real dx, dy, dz, d2, a2, kb, pr;
+    unsigned i;
     int steady;
     x->lw[0] = x->lw[0] + k * (g[0] - x->lw[0]);
     x->lw[1] = x->lw[1] + k * (g[1] - x->lw[1]);
@@ -159,6 +161,14 @@ static int robust_rest(const imf_robust_consts_t *const set, imf_robust_state_t 
     x->b[1] = x->b[1] + kb * (g[1] - x->b[1]);
     x->b[2] = x->b[2] + kb * (g[2] - x->b[2]);
     robust_bias_clip(set, x->b);
+    /* B3's covariance learns with it: a rest counts as (1 - bu) tau_bias of motion (as
+       robust_bias_gain), so its information 1 / P grows from tau_p + (1 - bu) tau_bias by
+       kb bu tau_bias (in units of 1 / tau_p) */
+    pr = kb * x->bu * set->s.tau_bias * set->inv_tau_p;
+    pr = IMF_R(1.0) + pr / (IMF_R(1.0) + (IMF_R(1.0) - x->bu) * set->s.tau_bias * set->inv_tau_p);
+    for (i = 0; i < 6; i++) {
+        x->bp[i] = x->bp[i] / pr;
+    }
     x->bu = x->bu - kb * x->bu;
     return 1;
 }
@@ -171,8 +181,16 @@ imf_real imf_robust_get_gyr_bias(const imf_robust_t *const self, imf_real bias[3
 
 void imf_robust_set_gyr_bias(imf_robust_t *const self, const imf_real bias[3])
 {
+    unsigned i;
     memcpy(self->x.b, bias, sizeof self->x.b);
     self->x.bu = IMF_R(0.0);
+    /* B3: as learnt (its covariance's steady state, 1 / tau_bias) */
+    for (i = 0; i < 6; i++) {
+        self->x.bp[i] = IMF_R(0.0);
+    }
+    self->x.bp[0] = self->set.inv_tau_bias;
+    self->x.bp[3] = self->set.inv_tau_bias;
+    self->x.bp[5] = self->set.inv_tau_bias;
 }
 
 /* strapdown: s = s (x) exp(1/2 (w - b) dt) */
@@ -187,16 +205,58 @@ static int robust_strapdown(const imf_robust_consts_t *const set, imf_robust_sta
     return 1;
 }
 
-/* B2: gravity in the inertial frame, a Kalman filter of (v, f) per axis fed with the
-   accelerometer in that frame; from the first sample (B5) */
-static void robust_gravity(const imf_robust_consts_t *const set, imf_robust_state_t *const x,
-                           const imf_real *const a, const int first, const int has_acc,
-                           const imf_real w2)
+/* the sensor axes; R(q) v into o, one copy (B2's bias model and B3 turn 11 vectors) */
+static const imf_real robust_axes[9] = { IMF_R(1.0), IMF_R(0.0), IMF_R(0.0), IMF_R(0.0), IMF_R(1.0),
+                                         IMF_R(0.0), IMF_R(0.0), IMF_R(0.0), IMF_R(1.0) };
+
+static ROBUST_NOINLINE void robust_rotate(imf_real *const o, const imf_real *const q,
+                                          const imf_real *const v)
+{
+    imf_qrotate(o, q[0], q[1], q[2], q[3], v[0], v[1], v[2]);
+}
+
+/* B2's model of the bias (for B3), n values: the strapdown turns I through the bias
+   estimate by u dt per sample (u: R(s) b, or R(s) for its dependence on b), gravity in I turns
+   with it, and B2's gravity follows that turn through its low-pass, whose rate the levelling
+   corrects. d: the summed turn less its low-pass, v: the velocity-like state, through the
+   same Kalman gains as gravity (kg, kv); o: the low-pass's rate this sample */
+static ROBUST_NOINLINE void robust_turn_lp(const imf_robust_consts_t *const set, imf_real *const d,
+                                           imf_real *const v, const imf_real *const u,
+                                           imf_real *const o, const unsigned n, const imf_real kg,
+                                           const imf_real kv)
 {
     const imf_real dt = set->s.dt;
-    imf_real ai[3], rr, qg, ub, pvv, pvg, pgg, inv, kv, kg;
+    imf_real du, vp;
+    unsigned j;
+    for (j = 0; j < n; j++) {
+        du = u[j] * dt;
+        vp = v[j] + dt * (d[j] + du);
+        o[j] = -(kg * vp) * set->r_d;
+        d[j] = d[j] + du + kg * vp;
+        v[j] = vp - kv * vp;
+    }
+}
+
+/* B2: gravity in the inertial frame, a Kalman filter of (v, f) per axis fed with the
+   accelerometer in that frame; from the first sample (B5). With gyr_bias_max > 0 also B2's
+   model of the bias (robust_turn_lp): hb, the rate of its low-pass of R(s) b, and hr, of
+   R(s) (columns), both in I; 0 when gravity is not updated. */
+static ROBUST_NOINLINE void robust_gravity(const imf_robust_consts_t *const set,
+                                           imf_robust_state_t *const x, const imf_real *const a,
+                                           const int first, const int has_acc, const imf_real w2,
+                                           imf_real *const hb, imf_real *const hr)
+{
+    const imf_real dt = set->s.dt;
+    imf_real ai[3], ri[9], rr, qg, ub, pvv, pvg, pgg, inv, kv, kg;
+    unsigned j;
+    for (j = 0; j < 9; j++) {
+        hr[j] = hb[j % 3u] = IMF_R(0.0);
+    }
     imf_qrotate(ai, x->s[0], x->s[1], x->s[2], x->s[3], a[0], a[1], a[2]);
     if (first) {
+        for (j = 0; j < 9; j++) {
+            x->dr[j] = x->vr[j] = x->db[j % 3u] = x->vb[j % 3u] = IMF_R(0.0); /* no turn yet */
+        }
         /* B5: gravity from the first sample */
         x->f[0] = ai[0];
         x->f[1] = ai[1];
@@ -251,6 +311,14 @@ static void robust_gravity(const imf_robust_consts_t *const set, imf_robust_stat
     x->pgg = pgg - kg * pvg;
     x->pvg = pvg - kv * pvg;
     x->pvv = pvv - kv * pvv;
+    if (set->s.gyr_bias_max > IMF_R(0.0)) {
+        robust_rotate(ri, x->s, x->b);
+        robust_turn_lp(set, x->db, x->vb, ri, hb, 3u, kg, kv);
+        for (j = 0; j < 9; j += 3) {
+            robust_rotate(ri + j, x->s, robust_axes + j);
+        }
+        robust_turn_lp(set, x->dr, x->vr, ri, hr, 9u, kg, kv);
+    }
 }
 
 /* levelling: the smallest rotation r that turns the gravity estimate onto earth z, into
@@ -335,13 +403,48 @@ static void robust_bias_from(const imf_robust_consts_t *const set, imf_robust_st
     robust_bias_clip(set, x->b);
 }
 
-/* B3: in motion, the levelling's correction rate seen in the sensor frame is minus the
-   bias error (Eq. 3.6, I_k = I_{k-1} + Ki dt e_k, with Ki dt = 1 / tau; robust_bias_gain);
-   each sample of it teaches bu by dt / tau_bias, less while the sensor turns fast */
-static void robust_bias(const imf_robust_consts_t *const set, imf_robust_state_t *const x,
-                        const imf_real *const r, const int rest)
+/* B3: one row of the bias's measurement, y = (h[0], h[3], h[6]) . b + noise of variance w:
+   the Kalman update of b and of its covariance bp */
+static ROBUST_NOINLINE void robust_bias_row(imf_robust_state_t *const x, const imf_real *const h,
+                                            const imf_real y, const imf_real w)
 {
-    imf_real k;
+    /* bp[robust_bi[i][j]] = P[i][j] */
+    static const unsigned char robust_bi[3][3] = { { 0, 1, 2 }, { 1, 3, 4 }, { 2, 4, 5 } };
+    imf_real *const p = x->bp;
+    imf_real ph[3], sv, e, k;
+    unsigned i, j;
+    for (i = 0; i < 3; i++) {
+        ph[i] = p[robust_bi[i][0]] * h[0] + p[robust_bi[i][1]] * h[3] + p[robust_bi[i][2]] * h[6];
+    }
+    sv = h[0] * ph[0] + h[3] * ph[1] + h[6] * ph[2] + w;
+    e = (y - (h[0] * x->b[0] + h[3] * x->b[1] + h[6] * x->b[2])) / sv;
+    for (i = 0; i < 3; i++) {
+        x->b[i] = x->b[i] + ph[i] * e;
+    }
+    for (i = 0; i < 3; i++) {
+        k = ph[i] / sv;
+        for (j = i; j < 3; j++) {
+            p[robust_bi[i][j]] = p[robust_bi[i][j]] - k * ph[j];
+        }
+    }
+}
+
+/* B3: in motion, from the levelling. The correction is B2's low-pass of the strapdown's turn
+   by the bias error; B2's model of the bias (robust_gravity) low-passes the turn by the
+   estimate (hb) and by each sensor axis (hr) alike, so in the earth frame (c) the low-pass
+   of the turn by the true bias is y = c hb - 2 r / dt, and y = H b_true with H the horizontal
+   rows of c hr: a Kalman filter of b (covariance bp: prior, random walk, robust_init) with
+   the noise d^2 / dt per row (robust_turn_div), no loop to damp and no lag to wait for, and
+   a bias turning with the sensor faster than B2 follows is seen as small as it is. Each
+   sample teaches bu by dt / tau_bias, less while the sensor turns fast. gyr_bias_max 0: the
+   integral of the correction (Eq. 3.6, I_k = I_{k-1} + Ki dt e_k, Ki dt = 1 / tau_bias) */
+static ROBUST_NOINLINE void robust_bias(const imf_robust_consts_t *const set,
+                                        imf_robust_state_t *const x, const imf_real *const r,
+                                        const int rest, const imf_real *const hb,
+                                        const imf_real *const hr)
+{
+    imf_real k, y[3], h[9];
+    unsigned i;
     if (!rest && x->t >= set->s.tau_acc && set->inv_tau_bias > IMF_R(0.0)) {
         k = robust_bias_gain(set, x, set->tau_b0);
         if (x->bu > IMF_R(0.0)) {
@@ -351,7 +454,22 @@ static void robust_bias(const imf_robust_consts_t *const set, imf_robust_state_t
                 x->bu = IMF_R(0.0);
             }
         }
-        robust_bias_from(set, x, IMF_R(2.0) * r[1], IMF_R(2.0) * r[2], IMF_R(0.0), k);
+        if (!(set->s.gyr_bias_max > IMF_R(0.0))) {
+            robust_bias_from(set, x, IMF_R(2.0) * r[1], IMF_R(2.0) * r[2], IMF_R(0.0), k);
+            return;
+        }
+        robust_rotate(y, x->c, hb);
+        for (i = 0; i < 9; i += 3) {
+            robust_rotate(h + i, x->c, hr + i);
+        }
+        k = set->qb * set->s.dt; /* the random walk */
+        x->bp[0] = x->bp[0] + k;
+        x->bp[3] = x->bp[3] + k;
+        x->bp[5] = x->bp[5] + k;
+        k = robust_turn_div(set, x) * set->r_d;
+        robust_bias_row(x, h, y[0] - IMF_R(2.0) * r[1] * set->r_d, k);
+        robust_bias_row(x, h + 1, y[1] - IMF_R(2.0) * r[2] * set->r_d, k);
+        robust_bias_clip(set, x->b);
     }
 }
 
@@ -363,7 +481,7 @@ static int robust_step(const imf_robust_consts_t *const set, imf_robust_state_t 
 {
     const int first = x->t == IMF_R(0.0);
     const int has_acc = robust_acc_reading(x, a, first);
-    imf_real w2, r[4];
+    imf_real w2, r[4], hb[3], hr[9];
     int rest;
     if (first && !has_acc) {
         return 0; /* no start without an accelerometer reading */
@@ -372,11 +490,11 @@ static int robust_step(const imf_robust_consts_t *const set, imf_robust_state_t 
     if (!robust_strapdown(set, x, g)) {
         return 0;
     }
-    robust_gravity(set, x, a, first, has_acc, w2); /* B2 */
+    robust_gravity(set, x, a, first, has_acc, w2, hb, hr); /* B2 */
     if (!robust_level(x, r)) {
         return 0;
     }
-    robust_bias(set, x, r, rest); /* B3 */
+    robust_bias(set, x, r, rest, hb, hr); /* B3 */
     return 1;
 }
 

@@ -154,13 +154,14 @@ def test_a_large_bias_in_motion_beats_the_calibrated_model(cls):
         assert ho > 1.5 * h, (h, ho)
 
 
-@pytest.mark.xfail(strict=True, reason="not met yet: a 4-5 deg/s bias from a start in "
-                   "continuous fast motion (median 140 deg/s) is learnt too slowly; the "
-                   "recommended filter's bias in motion is weighted down during fast turns")
 def test_a_large_bias_is_learnt_in_continuous_motion():
+    # a 4-5 deg/s bias from a start in continuous fast motion (median 140 deg/s): B2's
+    # low-pass of gravity averages away a bias that turns with the sensor, and B3's model of
+    # it (B2's low-pass of R(s) b and of R(s)) says so; 0.08 deg tilt after a minute (7 deg
+    # when B3 was the integral of the correction, without that model)
     s = sd.scenario("rotation", duration=120.0, rest=0.0, seed=7, bias_deg=BIG)
     _, S = run(imufuse_c, "RobustAHRS", s)
-    assert errs(S, s, since=60.0)[0] < 1.0
+    assert errs(S, s, since=60.0)[0] < 0.3
 
 
 @pytest.mark.xfail(strict=True, reason="not met yet: a +-3 % gyro scale error with the bias "
@@ -240,11 +241,11 @@ def test_gyr_bias_through_a_calibration_file(tmp_path):
 # ---- the BROAD development trials started in motion ----------------------------------------
 
 @pytest.mark.skipif(BROAD is None, reason=SKIP_REASON)
-@pytest.mark.parametrize("B, bound", [(0.0, (0.71, 3.20)), (5.0, (3.83, 30.9))])
+@pytest.mark.parametrize("B, bound", [(0.0, (0.69, 2.75)), (5.0, (1.42, 14.8))])
 def test_broad_started_in_motion(B, bound):
     # each trial from its first movement sample (the first rest cut off), with a bias
     # B (0.8, -0.6, 1.0) deg/s added; documented in docs/recommended-ahrs.md (research/
-    # bias_study.py): 0.700 / 3.19 without bias, 3.818 / 30.83 at 5 deg/s (VQF 2.1: 0.733 /
+    # bias_study.py): 0.674 / 2.67 without bias, 1.395 / 14.49 at 5 deg/s (VQF 2.1: 0.733 /
     # 3.31 and 6.525 / 38.49)
     import glob
     import os

@@ -65,8 +65,8 @@ static inline VR LN(bc)(const imf_real v)
 /* imf_robust_state_t with a lane vector for each word, the same members in the same order */
 typedef struct {
     VR q[4], s[4], c[4], f[3], v[3], pvv, pvg, pgg, b[3], lw[3], la[3], t, t_rest, bu, ref[3],
-        cand[3], t_cand, t_dist, t_ok, lm[3], l0[3], w0[3], hi[6], P[21], u[3], so[3], m_n0, m_ew,
-        m_d2, m_std, m_axis, m_bad;
+        cand[3], t_cand, t_dist, t_ok, lm[3], l0[3], w0[3], db[3], vb[3], dr[9], vr[9], bp[6],
+        hi[6], P[21], u[3], so[3], m_n0, m_ew, m_d2, m_std, m_axis, m_bad;
 } RX;
 
 typedef char LN(
@@ -75,9 +75,9 @@ typedef char LN(
 
 /* imf_robust_consts_t of the group's lanes (a lane beyond p repeats lane 0) */
 typedef struct {
-    VR dt, two_dt, dt2, r_d, qg0, qg_dt, pgg0, inv_rate_ref2, inv_tau_bias, tau_b0, tau_h0,
-        bias_var0, bias_w2, ku_motion, rest_gyr2, rest_acc2, k_rest, kb_rest, k_mag, k_ref, c48,
-        mag_noise2, mag_lag2, mag_min2, t_max;
+    VR dt, two_dt, dt2, r_d, qg0, qg_dt, pgg0, inv_rate_ref2, inv_tau_bias, inv_tau_p, qb, tau_b0,
+        tau_h0, bias_var0, bias_w2, ku_motion, rest_gyr2, rest_acc2, k_rest, kb_rest, k_mag, k_ref,
+        c48, mag_noise2, mag_lag2, mag_min2, t_max;
     VR tau_acc, tau_bias, tau_bias_rest, rest_gyr, rest_time, tau_rest, latency, tau_mag, mag_norm,
         mag_dip, tau_mag_ref, mag_new_time, mag_hold, gyr_bias_max;
     VM gbm;   /* gyr_bias_max > 0 */
@@ -257,7 +257,7 @@ static inline VM LN(rl_rest)(const RL *const L, RX *const x, const imf_real *con
     rest = x->t_rest >= L->rest_time;
     if (LN(any)(rest)) {
         const VR kb = L->kb_rest + x->bu * (L->k_rest - L->kb_rest);
-        VR nb[3];
+        VR nb[3], pr;
         nb[0] = x->b[0] + kb * (g[0] - x->b[0]);
         nb[1] = x->b[1] + kb * (g[1] - x->b[1]);
         nb[2] = x->b[2] + kb * (g[2] - x->b[2]);
@@ -265,20 +265,47 @@ static inline VM LN(rl_rest)(const RL *const L, RX *const x, const imf_real *con
         for (i = 0; i < 3; i++) {
             x->b[i] = RSEL(rest, nb[i], x->b[i]);
         }
+        /* B3's covariance learns with it */
+        pr = kb * x->bu * L->tau_bias * L->inv_tau_p;
+        pr = IMF_R(1.0) + pr / (IMF_R(1.0) + (IMF_R(1.0) - x->bu) * L->tau_bias * L->inv_tau_p);
+        for (i = 0; i < 6; i++) {
+            x->bp[i] = RSEL(rest, x->bp[i] / pr, x->bp[i]);
+        }
         x->bu = RSEL(rest, x->bu - kb * x->bu, x->bu);
     }
     return rest;
 }
 
-/* robust_gravity */
+/* robust_turn_lp, n values, in the lanes act */
+static inline void LN(rl_turn_lp)(const RL *const L, VR *const d, VR *const v, const VR *const u,
+                                  VR *const o, const int n, const VR kg, const VR kv, const VM act)
+{
+    const VR dt = L->dt;
+    VR du, vp;
+    int j;
+    for (j = 0; j < n; j++) {
+        du = u[j] * dt;
+        vp = v[j] + dt * (d[j] + du);
+        o[j] = RSEL(act, -(kg * vp) * L->r_d, o[j]);
+        d[j] = RSEL(act, d[j] + du + kg * vp, d[j]);
+        v[j] = RSEL(act, vp - kv * vp, v[j]);
+    }
+}
+
+/* robust_gravity; hb[3], hr[9]: B2's model of the bias (0 where gravity is not updated or
+   gyr_bias_max is 0) */
 static inline void LN(rl_gravity)(const RL *const L, RX *const x, const imf_real *const a,
-                                  const VM first, const VM has_acc, const VR w2)
+                                  const VM first, const VM has_acc, const VR w2, VR *const hb,
+                                  VR *const hr)
 {
     const VR dt = L->dt;
     const VR zero = RB(IMF_R(0.0));
     const VM kf = ~first & has_acc;
-    VR ai[3], rr, qg, ub, pvv, pvg, pgg, inv, kv, kg, v[3];
+    VR ai[3], ri[9], rr, qg, ub, pvv, pvg, pgg, inv, kv, kg, v[3];
     int i;
+    for (i = 0; i < 9; i++) {
+        hr[i] = hb[i % 3] = zero;
+    }
     LN(rl_qrotate)(ai, x->s[0], x->s[1], x->s[2], x->s[3], RB(a[0]), RB(a[1]), RB(a[2]));
     if (LN(any)(kf)) {
         v[0] = x->v[0] + dt * (ai[0] - x->f[0]);
@@ -306,8 +333,26 @@ static inline void LN(rl_gravity)(const RL *const L, RX *const x, const imf_real
         x->pgg = RSEL(kf, pgg - kg * pvg, x->pgg);
         x->pvg = RSEL(kf, pvg - kv * pvg, x->pvg);
         x->pvv = RSEL(kf, pvv - kv * pvv, x->pvv);
+        {
+            const VM bm = kf & L->gbm;
+            if (LN(any)(bm)) {
+                const VR one = RB(IMF_R(1.0));
+                LN(rl_qrotate)(ri, x->s[0], x->s[1], x->s[2], x->s[3], x->b[0], x->b[1], x->b[2]);
+                LN(rl_turn_lp)(L, x->db, x->vb, ri, hb, 3, kg, kv, bm);
+                LN(rl_qrotate)(ri, x->s[0], x->s[1], x->s[2], x->s[3], one, zero, zero);
+                LN(rl_qrotate)(ri + 3, x->s[0], x->s[1], x->s[2], x->s[3], zero, one, zero);
+                LN(rl_qrotate)(ri + 6, x->s[0], x->s[1], x->s[2], x->s[3], zero, zero, one);
+                LN(rl_turn_lp)(L, x->dr, x->vr, ri, hr, 9, kg, kv, bm);
+            }
+        }
     }
     if (LN(any)(first)) {
+        for (i = 0; i < 9; i++) {
+            x->dr[i] = RSEL(first, zero, x->dr[i]);
+            x->vr[i] = RSEL(first, zero, x->vr[i]);
+            x->db[i % 3] = RSEL(first, zero, x->db[i % 3]);
+            x->vb[i % 3] = RSEL(first, zero, x->vb[i % 3]);
+        }
         for (i = 0; i < 3; i++) {
             x->f[i] = RSEL(first, ai[i], x->f[i]);
             x->v[i] = RSEL(first, zero, x->v[i]);
@@ -380,17 +425,69 @@ static inline void LN(rl_bias_from)(const RL *const L, RX *const x, const VR cx,
     }
 }
 
-/* robust_bias */
-static inline void LN(rl_bias)(const RL *const L, RX *const x, const VR *const r, const VM rest)
+/* robust_bias_row in the lanes act: h[0], h[3], h[6] the row */
+static inline void LN(rl_bias_row)(RX *const x, const VR *const h, const VR y, const VR w,
+                                   const VM act)
+{
+    static const unsigned char bi[3][3] = { { 0, 1, 2 }, { 1, 3, 4 }, { 2, 4, 5 } };
+    VR *const p = x->bp;
+    VR ph[3], sv, e, k;
+    int i, j;
+    for (i = 0; i < 3; i++) {
+        ph[i] = p[bi[i][0]] * h[0] + p[bi[i][1]] * h[3] + p[bi[i][2]] * h[6];
+    }
+    sv = h[0] * ph[0] + h[3] * ph[1] + h[6] * ph[2] + w;
+    e = (y - (h[0] * x->b[0] + h[3] * x->b[1] + h[6] * x->b[2])) / sv;
+    for (i = 0; i < 3; i++) {
+        x->b[i] = RSEL(act, x->b[i] + ph[i] * e, x->b[i]);
+    }
+    for (i = 0; i < 3; i++) {
+        k = ph[i] / sv;
+        for (j = i; j < 3; j++) {
+            p[bi[i][j]] = RSEL(act, p[bi[i][j]] - k * ph[j], p[bi[i][j]]);
+        }
+    }
+}
+
+/* robust_bias: gyr_bias_max 0, the integral of the correction (robust_bias_from); else
+   B3's Kalman filter from B2's model of the bias (hb, hr) */
+static inline void LN(rl_bias)(const RL *const L, RX *const x, const VR *const r, const VM rest,
+                               const VR *const hb, const VR *const hr)
 {
     const VM cond = ~rest & (x->t >= L->tau_acc) & (L->inv_tau_bias > IMF_R(0.0));
     if (LN(any)(cond)) {
         const VR td = LN(rl_turn_div)(L, x);
         const VR k = LN(rl_bias_gain)(L, x, L->tau_b0, td);
+        const VM kal = cond & L->gbm, integ = cond & ~L->gbm;
         VR bu = x->bu - L->ku_motion / td;
         bu = RSEL(bu < IMF_R(0.0), RB(IMF_R(0.0)), bu);
         x->bu = RSEL(cond & (x->bu > IMF_R(0.0)), bu, x->bu);
-        LN(rl_bias_from)(L, x, IMF_R(2.0) * r[1], IMF_R(2.0) * r[2], RB(IMF_R(0.0)), k, cond);
+        if (LN(any)(integ)) {
+            LN(rl_bias_from)(L, x, IMF_R(2.0) * r[1], IMF_R(2.0) * r[2], RB(IMF_R(0.0)), k, integ);
+        }
+        if (LN(any)(kal)) {
+            VR y[3], h[9], kw, nb[3];
+            int i;
+            LN(rl_qrotate)(y, x->c[0], x->c[1], x->c[2], x->c[3], hb[0], hb[1], hb[2]);
+            for (i = 0; i < 9; i += 3) {
+                LN(rl_qrotate)
+                (h + i, x->c[0], x->c[1], x->c[2], x->c[3], hr[i], hr[i + 1], hr[i + 2]);
+            }
+            kw = L->qb * L->dt; /* the random walk */
+            x->bp[0] = RSEL(kal, x->bp[0] + kw, x->bp[0]);
+            x->bp[3] = RSEL(kal, x->bp[3] + kw, x->bp[3]);
+            x->bp[5] = RSEL(kal, x->bp[5] + kw, x->bp[5]);
+            kw = LN(rl_turn_div)(L, x) * L->r_d;
+            LN(rl_bias_row)(x, h, y[0] - IMF_R(2.0) * r[1] * L->r_d, kw, kal);
+            LN(rl_bias_row)(x, h + 1, y[1] - IMF_R(2.0) * r[2] * L->r_d, kw, kal);
+            for (i = 0; i < 3; i++) {
+                nb[i] = x->b[i];
+            }
+            LN(rl_bias_clip)(L, nb);
+            for (i = 0; i < 3; i++) {
+                x->b[i] = RSEL(kal, nb[i], x->b[i]);
+            }
+        }
     }
 }
 
@@ -400,7 +497,7 @@ static inline VM LN(rl_step)(const RL *const L, RX *const x, const imf_real *con
 {
     const VM first = x->t == IMF_R(0.0);
     VM has_acc, rej, rest;
-    VR w2, r[4];
+    VR w2, r[4], hb[3], hr[9];
     if (a[0] == IMF_R(0.0) && a[1] == IMF_R(0.0) && a[2] == IMF_R(0.0)) {
         has_acc = LN(zm)();
     } else {
@@ -419,9 +516,9 @@ static inline VM LN(rl_step)(const RL *const L, RX *const x, const imf_real *con
             x->s[i] = s[i];
         }
     }
-    LN(rl_gravity)(L, x, a, first, has_acc, w2); /* B2 */
+    LN(rl_gravity)(L, x, a, first, has_acc, w2, hb, hr); /* B2 */
     rej |= LN(rl_level)(x, r);
-    LN(rl_bias)(L, x, r, rest); /* B3 */
+    LN(rl_bias)(L, x, r, rest, hb, hr); /* B3 */
     return rej;
 }
 
@@ -828,6 +925,8 @@ static int LN(robust_run)(void *const *f, const int p, const int ahrs, const ptr
         L.pgg0[i] = s->pgg0;
         L.inv_rate_ref2[i] = s->inv_rate_ref2;
         L.inv_tau_bias[i] = s->inv_tau_bias;
+        L.inv_tau_p[i] = s->inv_tau_p;
+        L.qb[i] = s->qb;
         L.tau_b0[i] = s->tau_b0;
         L.tau_h0[i] = s->tau_h0;
         L.bias_var0[i] = s->bias_var0;

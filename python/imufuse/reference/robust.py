@@ -134,6 +134,11 @@ _MEMBERS = (("q", ("q0", "q1", "q2", "q3")),          # estimate, sensor -> eart
             ("lm", ("lmx", "lmy", "lmz")),            # B1: low-passed magnetometer
             ("l0", ("l0x", "l0y", "l0z")),            # B1: lm where the rest window began
             ("w0", ("w0x", "w0y", "w0z")),            # B1: lw where the rest window began
+            ("db", ("dbx", "dby", "dbz")),            # B3: the turn by b less B2's low-pass
+            ("vb", ("vbx", "vby", "vbz")),            # B3: its velocity-like state
+            ("dr", tuple(f"dr{i}{j}" for j in "xyz" for i in "xyz")),  # B3: the same for R(s)
+            ("vr", tuple(f"vr{i}{j}" for j in "xyz" for i in "xyz")),  # B3: its velocity
+            ("bp", ("bp00", "bp01", "bp02", "bp11", "bp12", "bp22")),  # B3: covariance of b
             ("hi", ("hx", "hy", "hz", "ix", "iy", "iz")),  # B6: field h, offset estimate
             ("P", _PNAMES),                           # B6: their covariance, upper triangle
             ("u", ("ux", "uy", "uz")),                # B6: offset in use (B4 reads m - u)
@@ -216,6 +221,7 @@ class _Robust(_RobustBlocks, _RobustMag, ReferenceFilter):
         if not 0.0 <= bu <= 1.0:
             return f"bu = {bu!r}, must be within 0 .. 1"
         for n in ("pvv", "pgg", "t", "t_rest", "rn", "cn", "t_cand", "t_dist", "t_ok",
+                  "bp00", "bp11", "bp22",
                   "p00", "p11", "p22", "p33", "p44", "p55", "m_n0", "m_ew", "m_d2", "m_std",
                   "m_bad"):
             if float(state[names.index(n)]) < 0.0:
@@ -301,6 +307,19 @@ class _Robust(_RobustBlocks, _RobustMag, ReferenceFilter):
         self.inv_rate_ref2 = R(1.0) / (rate_ref * rate_ref) if rate_ref > R(0.0) else R(0.0)
         self.inv_tau_bias = R(1.0) / s.tau_bias if s.tau_bias > R(0.0) else R(0.0)
         self.tau_b0 = R(4.0) * s.tau_acc
+        # B3's Kalman filter of the bias, relative to the noise of its measurement (the
+        # correction rate; _bias): in motion the accelerometer differs from gravity by up to
+        # rest_acc (what B1 calls motion), which B2 passes on as a tilt error changing over
+        # tau_acc, noise of density rest_acc^2 / tau_acc in the rate; the prior, any bias in
+        # the part's range in any direction, |b|^2 <= 3 gyr_bias_max^2: 1 / tau_p =
+        # 3 gyr_bias_max^2 tau_acc / rest_acc^2 (no weaker than one sample's worth, 1 / dt);
+        # its random walk makes the steady state 1 / tau_bias (learnt over tau_bias)
+        p0 = R(3.0) * (s.gyr_bias_max * s.gyr_bias_max) * s.tau_acc
+        if p0 * s.dt < s.rest_acc * s.rest_acc:
+            self.inv_tau_p = p0 / (s.rest_acc * s.rest_acc)
+        else:
+            self.inv_tau_p = R(1.0) / s.dt
+        self.qb = self.inv_tau_bias * self.inv_tau_bias
         self.tau_h0 = R(4.0) * s.tau_mag
         # rest_gyr 0: no rest (B1 off) at any bias
         self.bias_var0 = (R(3.0) * s.gyr_bias_max * s.gyr_bias_max if rest_gyr > R(0.0)
@@ -328,6 +347,9 @@ class _Robust(_RobustBlocks, _RobustMag, ReferenceFilter):
         self.x.c[0] = R(1.0)
         self.x.m_std = R(1.0)
         self.x.bu = R(1.0) if s.gyr_bias_max > R(0.0) else R(0.0)
+        if s.gyr_bias_max > R(0.0):
+            # B3: the bias's prior, worth tau_p of measurement
+            self.x.bp[0] = self.x.bp[3] = self.x.bp[5] = self.inv_tau_p
 
     # imf_robust_*_set_attitude: start again from att (the next sample is the first)
     def _set_attitude(self, att):

@@ -138,6 +138,13 @@ class _RobustBlocks:
         x.b[1] = x.b[1] + kb * (g[1] - x.b[1])
         x.b[2] = x.b[2] + kb * (g[2] - x.b[2])
         self._bias_clip(x.b)
+        # B3's covariance learns with it: a rest counts as (1 - bu) tau_bias of motion (as
+        # _bias_gain), so its information 1 / P grows from tau_p + (1 - bu) tau_bias by
+        # kb bu tau_bias (in units of 1 / tau_p)
+        pr = kb * x.bu * self.s.tau_bias * self.inv_tau_p
+        pr = R(1.0) + pr / (R(1.0) + (R(1.0) - x.bu) * self.s.tau_bias * self.inv_tau_p)
+        for i in range(6):
+            x.bp[i] = x.bp[i] / pr
         x.bu = x.bu - kb * x.bu
         return True, w2
 
@@ -156,6 +163,9 @@ class _RobustBlocks:
         R = self._R
         self.x.b = [R(v) for v in self._gyr_bias3(bias, self.dtype, float(self.s.gyr_bias_max))]
         self.x.bu = R(0.0)
+        # B3: as learnt (its covariance's steady state, 1 / tau_bias)
+        self.x.bp = [self.inv_tau_bias, R(0.0), R(0.0), self.inv_tau_bias, R(0.0),
+                     self.inv_tau_bias]
 
     @staticmethod
     def _gyr_bias3(bias, dtype, bias_max):
@@ -177,13 +187,42 @@ class _RobustBlocks:
         x.s = s
         return True
 
-    def _gravity(self, x, a, first, has_acc, w2):
+    def _rotate(self, q, v):
+        # R(q) v (the C out of line: B2's model of the bias and B3 turn eleven vectors per
+        # sample, one copy of the rotation)
+        return qrotate(self._R, q[0], q[1], q[2], q[3], v[0], v[1], v[2])
+
+    def _turn_lp(self, d, v, u, o, kg, kv):
+        # B2's model of the bias (for B3), len(u) values: the strapdown turns I through the
+        # bias estimate by u dt per sample (u: R(s) b, or R(s) for its dependence on b),
+        # gravity in I turns with it, and B2's gravity follows that turn through its
+        # low-pass, whose rate the levelling corrects. d: the summed turn less its low-pass,
+        # v: the velocity-like state, through the same Kalman gains as gravity (kg, kv); o:
+        # the low-pass's rate this sample
+        dt = self.s.dt
+        for j in range(len(u)):
+            du = u[j] * dt
+            vp = v[j] + dt * (d[j] + du)
+            o[j] = -(kg * vp) * self.r_d
+            d[j] = d[j] + du + kg * vp
+            v[j] = vp - kv * vp
+
+    def _gravity(self, x, a, first, has_acc, w2, hb, hr):
         # B2: gravity in the inertial frame, a Kalman filter of (v, f) per axis fed with the
-        # accelerometer in that frame; from the first sample (B5)
+        # accelerometer in that frame; from the first sample (B5). With gyr_bias_max > 0
+        # also B2's model of the bias (_turn_lp): hb, the rate of its low-pass of R(s) b,
+        # and hr, of R(s) (columns), both in I; 0 when gravity is not updated.
         R = self._R
         dt = self.s.dt
+        hr[:] = [R(0.0)] * 9
+        hb[:] = [R(0.0)] * 3
         ai = qrotate(R, x.s[0], x.s[1], x.s[2], x.s[3], a[0], a[1], a[2])
         if first:
+            # B3: no turn yet (gravity is the first sample's)
+            x.dr = [R(0.0)] * 9
+            x.vr = [R(0.0)] * 9
+            x.db = [R(0.0)] * 3
+            x.vb = [R(0.0)] * 3
             # B5: gravity from the first sample
             x.f = list(ai)
             x.v = [R(0.0), R(0.0), R(0.0)]
@@ -229,6 +268,12 @@ class _RobustBlocks:
         x.pgg = pgg - kg * pvg
         x.pvg = pvg - kv * pvg
         x.pvv = pvv - kv * pvv
+        if self.s.gyr_bias_max > R(0.0):
+            self._turn_lp(x.db, x.vb, self._rotate(x.s, x.b), hb, kg, kv)
+            ri = []
+            for j in range(3):
+                ri.extend(self._rotate(x.s, [R(1.0) if i == j else R(0.0) for i in range(3)]))
+            self._turn_lp(x.dr, x.vr, ri, hr, kg, kv)
 
     def _level(self, x, r):
         # levelling: the smallest rotation r that turns the gravity estimate onto earth z,
@@ -297,11 +342,39 @@ class _RobustBlocks:
         x.b[2] = x.b[2] - e[2] * k
         self._bias_clip(x.b)
 
-    def _bias(self, x, r, rest):
-        # B3: in motion, the levelling's correction rate seen in the sensor frame is minus
-        # the bias error (Eq. 3.6, I_k = I_{k-1} + Ki dt e_k, with Ki dt = 1 / tau;
-        # _bias_gain); each sample of it teaches bu by dt / tau_bias, less while the
-        # sensor turns fast
+    def _bias_row(self, x, h, y, w):
+        # B3: one row of the bias's measurement, y = (h[0], h[3], h[6]) . b + noise of
+        # variance w: the Kalman update of b and of its covariance bp
+        p = x.bp
+        ph0 = p[0] * h[0] + p[1] * h[3] + p[2] * h[6]
+        ph1 = p[1] * h[0] + p[3] * h[3] + p[4] * h[6]
+        ph2 = p[2] * h[0] + p[4] * h[3] + p[5] * h[6]
+        sv = h[0] * ph0 + h[3] * ph1 + h[6] * ph2 + w
+        e = (y - (h[0] * x.b[0] + h[3] * x.b[1] + h[6] * x.b[2])) / sv
+        x.b[0] = x.b[0] + ph0 * e
+        x.b[1] = x.b[1] + ph1 * e
+        x.b[2] = x.b[2] + ph2 * e
+        k0 = ph0 / sv
+        k1 = ph1 / sv
+        k2 = ph2 / sv
+        p[0] = p[0] - k0 * ph0
+        p[1] = p[1] - k0 * ph1
+        p[2] = p[2] - k0 * ph2
+        p[3] = p[3] - k1 * ph1
+        p[4] = p[4] - k1 * ph2
+        p[5] = p[5] - k2 * ph2
+
+    def _bias(self, x, r, rest, hb, hr):
+        # B3: in motion, from the levelling. The correction is B2's low-pass of the
+        # strapdown's turn by the bias error; B2's model of the bias (_gravity) low-passes
+        # the turn by the estimate (hb) and by each sensor axis (hr) alike, so in the earth
+        # frame (c) the low-pass of the turn by the true bias is y = c hb - 2 r / dt, and
+        # y = H b_true with H the horizontal rows of c hr: a Kalman filter of b (covariance
+        # bp: prior, random walk, _init_filter) with the noise d^2 / dt per row (_turn_div),
+        # no loop to damp and no lag to wait for, and a bias turning with the sensor faster
+        # than B2 follows is seen as small as it is. Each sample teaches bu by
+        # dt / tau_bias, less while the sensor turns fast. gyr_bias_max 0: the integral of
+        # the correction (Eq. 3.6, I_k = I_{k-1} + Ki dt e_k, Ki dt = 1 / tau_bias)
         R = self._R
         if not rest and x.t >= self.s.tau_acc and self.inv_tau_bias > R(0.0):
             k = self._bias_gain(x, self.tau_b0)
@@ -310,7 +383,21 @@ class _RobustBlocks:
                 x.bu = x.bu - self.ku_motion / self._turn_div(x)
                 if x.bu < R(0.0):
                     x.bu = R(0.0)
-            self._bias_from(x, R(2.0) * r[1], R(2.0) * r[2], R(0.0), k)
+            if not (self.s.gyr_bias_max > R(0.0)):
+                self._bias_from(x, R(2.0) * r[1], R(2.0) * r[2], R(0.0), k)
+                return
+            y = self._rotate(x.c, hb)
+            h = []
+            for i in range(0, 9, 3):
+                h.extend(self._rotate(x.c, hr[i:i + 3]))
+            k = self.qb * self.s.dt   # the random walk
+            x.bp[0] = x.bp[0] + k
+            x.bp[3] = x.bp[3] + k
+            x.bp[5] = x.bp[5] + k
+            k = self._turn_div(x) * self.r_d
+            self._bias_row(x, h, y[0] - R(2.0) * r[1] * self.r_d, k)
+            self._bias_row(x, h[1:], y[1] - R(2.0) * r[2] * self.r_d, k)
+            self._bias_clip(x.b)
 
     def _step(self, x, g, a, m):
         """Gyro (rad/s), accelerometer (and magnetometer m for B1's rest; all zero: none) of
@@ -319,15 +406,17 @@ class _RobustBlocks:
         first = x.t == self._R(0.0)
         has_acc = self._acc_reading(x, a, first)
         r = [self._R(0.0)] * 4
+        hb = [self._R(0.0)] * 3
+        hr = [self._R(0.0)] * 9
         if first and not has_acc:
             return False   # no start without an accelerometer reading
         rest, w2 = self._rest(x, g, a, m, has_acc)   # B1
         if not self._strapdown(x, g):
             return False
-        self._gravity(x, a, first, has_acc, w2)   # B2
+        self._gravity(x, a, first, has_acc, w2, hb, hr)   # B2
         if not self._level(x, r):
             return False
-        self._bias(x, r, rest)   # B3
+        self._bias(x, r, rest, hb, hr)   # B3
         return True
 
     # ---- magnetometer: B6, B4 ----------------------------------------------------------

@@ -141,11 +141,13 @@ def run_demo(out_dir: str = "imufuse-demo", rate: float = 200.0, duration: float
                     elif est.source != "q0..q3":
                         row.note = f"from {est.source}"
                     if "bu" in cls.state_names:
-                        # the Robust filters' bias still unknown (1) .. learnt (0)
+                        # the Robust filters: B3 learns the bias in motion within seconds
+                        # (its Kalman filter, bp); bu, how unknown B1 and B2 take it to be
+                        # (1 .. 0), falls over tau_bias in motion, in seconds at rest
                         bu = float(S_c[-1, list(cls.state_names).index("bu")])
                         if bu > 0.1:
-                            row.note = (f"still learning the gyro bias (bu {bu:.2f}): in seconds "
-                                        "at rest, over tau_bias in motion")
+                            row.note = (f"bias learnt in motion; B1's rest window still wide "
+                                        f"(bu {bu:.2f}: over tau_bias in motion, seconds at rest)")
     head = f"{'filter':22s} {'kind':4s} {'float32':>14s} {'float64':>14s}  " \
            f"{'angle/tilt rms   max':>20s}  {'heading rms   max':>17s}  note"
     pr("")
