@@ -189,10 +189,12 @@ class FixedFilter:
         return np.array([self._state_float([int(v) for v in row]) for row in np.asarray(states)],
                         dtype=float).reshape(len(states), -1)
 
-    def update(self, *args):
+    def update(self, *args, **named):
+        args = _checks.bind("update", _checks.KINDS[self.kind], {}, args, named)
         self._update(*fixed_update_inputs(self.kind, args))
 
-    def run(self, *args):
+    def run(self, *args, **named):
+        args = _checks.bind("run", _checks.KINDS[self.kind], {}, args, named)
         arrays = fixed_run_inputs(self.kind, args)
         n = len(self.state_names)
         rows = [a.tolist() for a in arrays]
