@@ -448,6 +448,14 @@ def test_vario_and_calibrate_bad_files_are_data_errors(tmp_path):
     assert not (tmp_path / "v.csv").exists()
 
 
+def test_calibrate_a_one_row_log_says_what_calibration_needs(files, tmp_path):
+    """calibrate needs no time: a log of one row with a time column was refused with "give
+    --rate", an option calibrate does not have; the calibration's own need is said."""
+    r = imf_here("calibrate", "gyro", files["one_row.csv"], "-o", tmp_path / "c.json")
+    line = one_line_error(r, DATA)
+    assert "gyr: need at least 100 samples, got 1" in line and "--rate" not in line, line
+
+
 @pytest.mark.parametrize("pressure,msg", [
     ("1e308", "median 1e[+]308 Pa is not an air pressure"),
     ("1013.25", "it looks like hPa: write the header 'pressure [(]hPa[)]'"),

@@ -92,7 +92,7 @@ def read_log(path, gyr_unit=None, acc_unit=None, rate=None, *, columns=None,
         if "time" not in cols:
             cols["time"] = np.arange(len(log)) * log.dt
             log.sources["time"] = f"k / {rate:g} Hz"
-    elif "time" in cols:
+    elif "time" in cols and (d.size or need_time):   # one sample needs no rate to calibrate
         if d.size == 0:
             raise LogError(f"{path}: one sample: cannot derive the rate from time; give --rate")
         med = float(np.median(d))
