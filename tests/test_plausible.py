@@ -80,6 +80,37 @@ def test_time_in_ms(tmp_path, motion):
     assert read_log(str(tmp_path / "t.csv"), time_unit="ms").warnings == []
 
 
+@pytest.mark.parametrize("unit,fix", [("ms", "--time-unit s"), ("us", "--time-unit ms")])
+def test_time_in_seconds_read_as_a_smaller_unit(tmp_path, motion, unit, fix):
+    """Seconds read as ms (a header's "(ms)" on seconds, or --time-unit ms): 200 Hz became
+    200 kHz, and the filters integrated each sample over 5 us without a word."""
+    t = np.arange(len(motion.gyr)) * motion.dt * (1.0 if unit == "ms" else 1e3)
+    rows = np.column_stack([t, motion.gyr, motion.acc])
+    path = _csv(tmp_path / "t.csv", ["time", "gyr_x", "gyr_y", "gyr_z", "acc_x", "acc_y",
+                                     "acc_z"], rows)
+    log = read_log(path, time_unit=unit)
+    assert any(f"faster than any IMU samples; a log in {fix[-2:].strip()} read as {unit}? give "
+               f"{fix}" in w for w in log.warnings), log.warnings
+    p = imf_here("run", path, "-f", "MadgwickIMU", "--time-unit", unit, "--strict", "-o",
+                 tmp_path / "o.csv")
+    assert p.returncode == 4 and fix in p.stderr, p.stderr
+
+
+def test_a_corrupt_gyro_sample_is_named(tmp_path, motion):
+    """One gyro sample of 1e30 rad/s (finite, so the filters take it) turned MadgwickIMU's
+    attitude anywhere with no word; every sample corrupt from one on was also called deg/s."""
+    t = np.arange(len(motion.gyr)) * motion.dt
+    head = ["time", "gyr_x", "gyr_y", "gyr_z", "acc_x", "acc_y", "acc_z"]
+    for first, last, count in ((300, 301, "1 sample "), (300, None, f"{len(t) - 300} samples ")):
+        gyr = motion.gyr.copy()
+        gyr[first:last, 1] = 1e30
+        log = read_log(_csv(tmp_path / "g.csv", head, np.column_stack([t, gyr, motion.acc])))
+        assert log.warnings == [f"the gyroscope reads beyond 10000 rad/s in {count}(the largest "
+                                f"1e+30 rad/s at {tmp_path / 'g.csv'}:302), more than any "
+                                "gyroscope measures in any unit: corrupt samples? the filters "
+                                "take them as they are"], log.warnings
+
+
 def test_rate_that_contradicts_the_time_column(tmp_path):
     p = imf_here("run", example_log(), "-f", "MadgwickIMU",
                  "--rate", "100", "-o", str(tmp_path / "o.npz"))

@@ -114,7 +114,7 @@ def read_log(path, gyr_unit=None, acc_unit=None, rate=None, *, columns=None,
                        "give the sample rate (--rate HZ), or name the time column "
                        '(--columns time="HEADER")')
     # the usual unit and rate mistakes, named with the option that fixes them
-    log.suspicions = check_log(log, user_rate, file_rate, time_cols)
+    log.suspicions = check_log(log, user_rate, file_rate, time_cols, where)
     warnings += log.suspicions
     log.warnings = warnings
     return log
