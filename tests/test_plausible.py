@@ -265,3 +265,42 @@ def test_gyro_scale_on_a_long_log_reads_stretches(tmp_path):
         notes = read_log(str(tmp_path / "long.npz")).suspicions
         assert len(notes) == (scale != 1.0) and all("--gyr-unit deg/s" in n for n in notes)
     assert np.isnan(gyro_scale(gyr, acc, dt=None).ratio)
+
+
+@pytest.mark.parametrize("with_mag", [True, False])
+def test_rad_per_s_read_as_deg_per_s(tmp_path, motion, with_mag):
+    """A gyro in rad/s under a header that says deg/s (or --gyr-unit deg/s): 57.3 times too
+    slow, MadgwickIMU off by tens of degrees, and not a word (only the reverse mistake was
+    checked). It turns the directions 0.0175 times as far as they turn: a note naming
+    --gyr-unit rad/s, an error under --strict, silence when the unit is right."""
+    t = np.arange(len(motion.gyr)) * motion.dt
+    cols = [t, motion.gyr, motion.acc] + ([motion.mag] if with_mag else [])
+    head = ["time", "gyr_x (deg/s)", "gyr_y (deg/s)", "gyr_z (deg/s)", "acc_x", "acc_y",
+            "acc_z"] + (["mag_x", "mag_y", "mag_z"] if with_mag else [])
+    log = read_log(_csv(tmp_path / "r.csv", head, np.column_stack(cols)))
+    (note,) = log.suspicions
+    assert note.startswith("the gyroscope, read as deg/s (unit from the header), turns 0.017")
+    assert note.endswith("these look like rad/s; give --gyr-unit rad/s"), note
+    assert ("magnetometer's" in note) == with_mag, note
+    assert read_log(str(tmp_path / "r.csv"), gyr_unit="rad/s").suspicions == []
+    bare = _csv(tmp_path / "b.csv", [h.replace(" (deg/s)", "") for h in head],
+                np.column_stack(cols))
+    (note,) = read_log(bare, gyr_unit="deg/s").suspicions
+    assert "read as deg/s (given)" in note and "--gyr-unit rad/s" in note, note
+    p = imf_here("run", bare, "-f", "MadgwickIMU", "--gyr-unit", "deg/s", "--strict", "-o",
+                 tmp_path / "o.csv")
+    assert p.returncode == 4 and "--gyr-unit rad/s (--strict)" in p.stderr, p.stderr
+    right = np.column_stack([t, np.degrees(motion.gyr)] + cols[2:])
+    assert read_log(_csv(tmp_path / "d.csv", head, right)).suspicions == []
+
+
+@pytest.mark.skipif(BROAD is None, reason=SKIP_REASON)
+def test_rad_per_s_read_as_deg_per_s_keeps_its_margin_on_the_broad_trials():
+    """Read right, no BROAD trial comes near the too-slow verdict (their lowest ratio is
+    0.9, translations and tapping included); scaled by 1/57.3, every one gets it."""
+    for f in sorted(glob.glob(os.path.join(BROAD, "*.npz"))):
+        log = read_log(f)
+        right = gyro_scale(log.gyr, log.acc, log.mag, dt=log.dt, too_small=True)
+        slow = gyro_scale(log.gyr / np.degrees(1.0), log.acc, log.mag, dt=log.dt,
+                          too_small=True)
+        assert right.ratio > 0.5 and slow.ratio < 0.02, (f, right, slow)

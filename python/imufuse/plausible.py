@@ -7,7 +7,9 @@ option that fixes them (one line each; imufuse.io.read_log adds them to Log.warn
                  99th percentile passes 35 rad/s are deg/s (--gyr-unit deg/s)
   gyro vs. acc   the rotation the gyroscope gives over windows of 0.2 s against the turn of the
                  accelerometer's (and magnetometer's) direction over the same windows: deg/s
-                 read as rad/s turns 57.3 times too far, on slow logs too (gyro_scale)
+                 read as rad/s turns 57.3 times too far, on slow logs too (gyro_scale); rad/s
+                 read as deg/s 57.3 times too little (judged on the windows where the
+                 directions turn, since the gyro's own turns are then too small to count)
   gyro samples   a rate beyond GYRO_ABSURD_RAD_S (1e4 rad/s: beyond 2000 deg/s read as rad/s
                  too) comes from no gyroscope in any unit: corrupt samples, which the filters
                  take as they are (one of 1e30 rad/s turns the attitude anywhere)
@@ -111,7 +113,7 @@ def _stretches(n: int, block: int = 5000) -> Tuple[np.ndarray, np.ndarray]:
 
 def gyro_scale(gyr: np.ndarray, acc: np.ndarray, mag: Optional[np.ndarray] = None,
                dts=None, dt: Optional[float] = None,
-               breaks: Optional[np.ndarray] = None) -> GyroScale:
+               breaks: Optional[np.ndarray] = None, too_small: bool = False) -> GyroScale:
     """How far the gyroscope (rad/s, (N, 3)) turns the directions of the accelerometer and
     the magnetometer (when given), against how far they turn: over windows of TURN_WINDOW
     s where the gyro turns a direction by TURN_MIN or more, the median ratio of the turn
@@ -124,7 +126,9 @@ def gyro_scale(gyr: np.ndarray, acc: np.ndarray, mag: Optional[np.ndarray] = Non
     agree with the gyro's, NaN when none does. dts: each sample's interval (N,), else dt.
     A log of more than TURN_MAX_SAMPLES samples is judged on 40 stretches of 5000 samples
     spread over it (a tenth of a second for 10^6 samples); breaks: the samples where such
-    stretches, taken by the caller, begin (no window across one)."""
+    stretches, taken by the caller, begin (no window across one). too_small: judge a gyro
+    too slow (rad/s read as deg/s: 1/57.3) on the windows where the directions turn by
+    TURN_MIN or more, the ratio the largest over the sensors that agree."""
     n = len(gyr)
     if dts is None:
         if dt is None or not dt > 0:
@@ -153,7 +157,7 @@ def gyro_scale(gyr: np.ndarray, acc: np.ndarray, mag: Optional[np.ndarray] = Non
         if vec is None:
             continue
         p, m, cos = _turns(gyr, np.asarray(vec, float), dts, ok, w, max(1, w // 4), h)
-        sel = p >= TURN_MIN
+        sel = (m if too_small else p) >= TURN_MIN
         if int(sel.sum()) >= TURN_MIN_WINDOWS:
             with np.errstate(all="ignore"):
                 r = p[sel] / m[sel]
@@ -162,7 +166,7 @@ def gyro_scale(gyr: np.ndarray, acc: np.ndarray, mag: Optional[np.ndarray] = Non
     used = tuple(k for k, (_, _, c) in sensors.items() if c >= TURN_AGREE)
     if not used:
         return GyroScale(math.nan, 0, sensors)
-    best = min(used, key=lambda k: sensors[k][1])
+    best = (max if too_small else min)(used, key=lambda k: sensors[k][1])
     return GyroScale(sensors[best][1], sensors[best][0], sensors, used)
 
 
@@ -247,9 +251,10 @@ def _gyro_against_directions(log, unit, source, rate, file_time) -> List[str]:
     """The note of gyro_scale on a gyroscope read as rad/s (none when the time column looks
     like milliseconds: the intervals would be wrong, and that note comes first)."""
     cols = log.columns
-    if unit not in (None, "rad/s") or not all(n in cols for n in
-                                              ("acc_x", "acc_y", "acc_z")):
+    if unit not in (None, "rad/s", "deg/s") or not all(n in cols for n in
+                                                       ("acc_x", "acc_y", "acc_z")):
         return []
+    too_small = unit == "deg/s"
     dts = None
     if rate is None and file_time is not None and len(file_time) > 1:
         d = np.diff(np.asarray(file_time, float))
@@ -265,12 +270,17 @@ def _gyro_against_directions(log, unit, source, rate, file_time) -> List[str]:
         return np.column_stack([cols[f"{k}_{a}"][take] for a in "xyz"])
     mag = sensor("mag") if all(f"mag_{a}" in cols for a in "xyz") else None
     res = gyro_scale(sensor("gyr"), sensor("acc"), mag, dts=None if dts is None else dts[take],
-                     breaks=breaks)
-    if not res.ratio > TURN_RATIO:
+                     breaks=breaks, too_small=too_small)
+    if not (res.ratio < 1.0 / TURN_RATIO if too_small else res.ratio > TURN_RATIO):
         return []
     what = " and ".join({"acc": "the accelerometer's", "mag": "the magnetometer's"}[k]
                         for k in res.used)
     what += " direction turns" if len(res.used) == 1 else " directions turn"
+    if too_small:
+        return [f"the gyroscope, read as deg/s ({_unit_from(source)}), turns {res.ratio:.3g} "
+                f"times as far as {what} (the median over {res.windows} windows of "
+                f"{TURN_WINDOW:g} s): rad/s read as deg/s is 1/57.3 = 0.0175 times; these look "
+                "like rad/s; give --gyr-unit rad/s"]
     return [f"the gyroscope, read as rad/s ("
             f"{_unit_from(source)}), "
             f"turns {res.ratio:.3g} times as far as {what} (the median over {res.windows} "
