@@ -71,6 +71,7 @@ def files(tmp_path_factory):
     w("long_field.csv", HEAD + "0,0,0,0,0,0,1\n0.01,0," + "7" * 140000 + ",0,0,0,1\n")
     w("long_text.csv", HEAD + "0,0,0,0,0,0,1\n0.01,0," + "x" * 140000 + ",0,0,0,1\n")
     w("short_row.csv", HEAD + "0,0,0,0,0,0,1\n0.01,0,0\n")
+    w("cut_short.csv", HEAD + "0,0,0,0,0,0,1\n0.01,0,0,0,0,0,1\n0.02,0,0,0,0")
     w("empty_field.csv", HEAD + "0,0,0,0,0,0,1\n0.01,0,,0,0,0,1\n")
     w("quote.csv", HEAD + '0,0,0,0,0,0,1\n0.01,"0,0,0,0,0,1\n')
     w("rate_angle.csv", "time,rate,angle\n" + "".join(f"{k / 100},0.1,0.2\n" for k in range(50)))
@@ -95,6 +96,8 @@ def files(tmp_path_factory):
     ("one_row.csv", [], DATA, "one sample"),
     ("long_text.csv", [], DATA, "not a number"),
     ("short_row.csv", [], DATA, ":3:"),
+    ("cut_short.csv", [], DATA, ":4: 5 values, the header has 7 columns (the last line, "
+     "without a line end: a file cut short"),
     ("empty_field.csv", [], DATA, "not a number: ''"),
     ("quote.csv", [], DATA, "quote.csv"),
     ("adir", [], FILE, "is a directory"),

@@ -163,6 +163,17 @@ def _sniff(lines):
 # ---------------------------------------------------------------------------
 # reading
 
+def _cut_short(path, ln):
+    """True when line ``ln`` (1-based) is the file's last and has no line end: the file was
+    cut while a row was written (the error path only: it reads the file again)."""
+    with open(path, "rb") as fh:
+        data = fh.read()
+    data = data.rstrip(b"\0")                 # a preallocated file's NUL tail
+    if not data or data.endswith((b"\n", b"\r")):
+        return False
+    return len(_LINE_END.findall(data)) + 1 == ln
+
+
 def _numbers_slow(path, enc, delim, header_line, idx, decimal_comma, loader_error):
     """Locate a bad row line by line (only after the fast reader failed); raise
     LogError naming the line. loader_error: the fast reader's message."""
@@ -189,7 +200,10 @@ def _numbers_slow(path, enc, delim, header_line, idx, decimal_comma, loader_erro
                     ncol = len(r)
                 if len(r) <= max(idx.values()):
                     raise LogError(f"{path}:{ln}: {len(r)} values, the header has "
-                                   f"{max(idx.values()) + 1 if ncol is None else ncol} columns")
+                                   f"{max(idx.values()) + 1 if ncol is None else ncol} columns"
+                                   + (" (the last line, without a line end: a file cut short, "
+                                      "as by an interrupted recording? delete that line)"
+                                      if _cut_short(path, ln) else ""))
                 for i, name in names.items():
                     s = r[i].strip()
                     if decimal_comma:
