@@ -243,6 +243,33 @@ def test_fixed_update_inputs_agree(case, profile):
         assert fs[0].state.tolist() == fs[1].state.tolist()
 
 
+def test_fixed_run_of_a_huge_int16_view_fails_at_once():
+    """A broadcast view of 10^13 rows of int16 counts: both backends raise MemoryError at
+    the copy; the shared range check first scanned it with min() and max() for hours (int16
+    holds no count beyond the range)."""
+    import os
+    import subprocess
+    import sys
+    code = ("import numpy as np, imufuse_c, imufuse.reference as R\n"
+            "g = np.broadcast_to(np.array([1, 2, 3], np.int16), (10**13, 3))\n"
+            "for m in (imufuse_c, R):\n"
+            "    try:\n"
+            "        m.MadgwickIMUQ(dt=0.01, gyr_scale=1e-3).run(g, g)\n"
+            "    except MemoryError:\n"
+            "        print('MemoryError')\n")
+    import imufuse
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([os.path.dirname(os.path.dirname(m.__file__))
+                                         for m in (imufuse, imufuse_c)]
+                                        + [env.get("PYTHONPATH", "")])
+    try:
+        r = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                           text=True, timeout=60)
+    except subprocess.TimeoutExpired:
+        pytest.fail("run() scanned the 10^13-row view instead of failing at once")
+    assert r.stdout.split() == ["MemoryError"] * 2, r.stdout + r.stderr
+
+
 def _binding_calls(kind, fixed):
     """update()/run() calls as a user writes them: the inputs by name, dt by position or by
     name, a magnetometer given to a filter without one, too few, too many, twice."""
