@@ -70,6 +70,23 @@ def test_xio_headers_units_and_formats(tmp_path, data, delim, bom, dc):
         assert any("decimal commas" in w for w in log.warnings)
 
 
+@pytest.mark.parametrize("delim", [";", "\t", " "])
+def test_decimal_commas_after_a_first_row_of_integers(tmp_path, delim):
+    """A log whose first row holds only integers ("0;0;0;0;0;0;1", a logger's start): its
+    decimal commas were looked for in that row alone, and the second row failed with
+    "column time: not a number: '0,01'"."""
+    p = tmp_path / "dc.csv"
+    rows = [["0", "0", "0", "0", "0", "0", "1"]] + [
+        [f"{k / 100:.2f}", "0,125", "-0,25", "0", "0,01", "0", "0,99"] for k in range(1, 20)]
+    p.write_text(delim.join(["time", "gyr_x", "gyr_y", "gyr_z", "acc_x", "acc_y", "acc_z"])
+                 + "\n" + "".join(delim.join(c.replace(".", ",") for c in r) + "\n"
+                                   for r in rows))
+    log = read_log(p)
+    assert any("decimal commas ('0,01') read as decimal points" in w for w in log.warnings), \
+        log.warnings
+    assert log.columns["time"][1] == 0.01 and log.gyr[1, 1] == -0.25 and log.acc[5, 2] == 0.99
+
+
 def test_run_xio_log_needs_no_renaming_and_honours_timestamps(tmp_path, data):
     """`imufuse run sensor_data.csv -f MadgwickAHRS -o out.csv`: columns and
     units from the header, each sample with its own interval, start from the

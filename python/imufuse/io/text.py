@@ -381,6 +381,13 @@ def _read_csv(path, column_map, time_unit):
     if data:
         cells = (next(csv.reader([data[0]], delimiter=delim)) if delim else data[0].split())
         dc = [c for c in cells if _DEC_COMMA.match(c)]
+        if delim != "," and not dc:
+            # a first row of integers ("0;0;0;1") says nothing: the first rows that do
+            for row in data[1:]:
+                dc = [c for c in (next(csv.reader([row], delimiter=delim)) if delim
+                                  else row.split()) if _DEC_COMMA.match(c)]
+                if dc:
+                    break
         if delim != "," and dc:
             decimal_comma = True
             notes.append(f"decimal commas ({dc[0]!r}) read as decimal points")
