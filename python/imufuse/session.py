@@ -422,6 +422,11 @@ class Session:
                 if w and w > 1:
                     kw["init_window"] = w
                     init = f"first (mean of {w} samples)"
+                    if w >= len(log):
+                        # the window never ends: every output is the window's mean
+                        notes.append(f"init window {w} >= the log's {len(log)} samples: "
+                                     "the filter never runs (no gyro in the window; every "
+                                     "output is the mean direction so far)")
             desc = ("q0=" + ",".join(f"{v:g}" for v in init) if isinstance(init, list)
                     else str(init))
         f = make_filter(name, options.backend, options.dtype, {**full, **kw})
