@@ -323,6 +323,19 @@ def test_skip_leaves_the_start_out_of_the_errors(files):
     assert f"{na - nb} samples outside the movement mask" in b.stdout
 
 
+@pytest.mark.parametrize("cmd", ["run", "compare", "tune"])
+def test_a_skip_past_the_end_is_said(files, tmp_path, cmd):
+    """--skip beyond the log's end: run wrote its output and printed 'total nan ... (outside
+    the movement mask)' with exit 0, compare blamed the reference and the mask, tune said
+    only 'no parameter set could be evaluated'. Now exit 4 naming --skip and the log's
+    length, before anything is written."""
+    args = {"run": ["-f", "MadgwickIMU", "-o", tmp_path / "o.csv"],
+            "compare": ["-f", "MadgwickIMU"], "tune": ["-f", "MadgwickIMU", "-q"]}[cmd]
+    line = one_line_error(imf_here(cmd, files["good"], "--skip", 100, *args), DATA)
+    assert "--skip 100 s leaves no sample: the log lasts 1.99 s" in line, line
+    assert not (tmp_path / "o.csv").exists()
+
+
 @pytest.mark.parametrize("cmd,name,extra,code", [
     ("compare", "binary.csv", [], DATA),
     ("compare", "missing.csv", [], FILE),

@@ -561,6 +561,10 @@ class Session:
         mask = log.movement
         if options.skip:
             late = log.t >= log.t[0] + options.skip
+            if not late.any():
+                # else "nothing could be evaluated ... inside the movement mask", or nothing
+                raise LogError(f"{log.path}: --skip {options.skip:g} s leaves no sample: the "
+                               f"log lasts {float(log.t[-1] - log.t[0]):.6g} s")
             mask = late if mask is None else (mask & late)
         return mask
 
