@@ -150,3 +150,16 @@ def test_tune_says_which_sets_it_refused(good):
             if re.match(r"\s*[0-9.e+-]+\s+[0-9.]+\s", ln)]
     n = int(re.search(r"(\d+) parameter sets, best first", r.stdout).group(1))
     assert len(rows) == n - 1 and 50.0 not in rows, r.stdout
+
+
+def test_tune_says_why_nothing_scored(tmp_path):
+    """A reference of NaN only: every set scores NaN over 0 samples, and tune said only "no
+    parameter set could be evaluated (9 tried)"; it names the reference, as compare does."""
+    from imufuse import sim
+    d = sim.imu("slow", rate=100.0, duration=2.0, seed=3)
+    p = tmp_path / "nanref.csv"
+    io.write_log(p, d.t, d.gyr, d.acc, d.mag, np.full_like(d.q_true, np.nan))
+    r = imf_here("tune", p, "-f", "MadgwickIMU", "-q")
+    assert r.returncode == 4 and r.stderr.strip() == (
+        "imufuse: error: tune: no parameter set could be evaluated (9 tried): no sample has a "
+        "finite reference inside the movement mask"), r.stderr

@@ -325,8 +325,13 @@ class Tuner:
             run([p for p in new if p not in res.results])
         if res.best is None:
             why = next((v[1] for v in res.results.values() if isinstance(v[1], str)), "")
+            why = f"; e.g. {why}" if why else ""
+            if not why and all(getattr(e, "n", 1) == 0 for v in res.results.values()
+                               for e in v[1] or ()):
+                # every set scored NaN over 0 samples (it read only "(9 tried)")
+                why = ": no sample has a finite reference inside the movement mask"
             raise NothingComputed(f"tune: no parameter set could be evaluated "
-                                  f"({len(res.results)} tried)" + (f"; e.g. {why}" if why else ""))
+                                  f"({len(res.results)} tried){why}")
         return res
 
 
