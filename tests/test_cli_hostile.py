@@ -187,6 +187,8 @@ def test_unwritable_outputs(files, tmp_path, out, word):
 
 @pytest.mark.parametrize("args,word", [
     (["bench", "--ref-samples", "0"], "--ref-samples"),
+    (["bench", "--samples", "1e12"], "--samples: expected an integer, got '1e12'"),  # "a int"
+    (["bench", "--samples", "0"], "--samples: must be > 0 and at most 1e+08, got 0"),
     (["bench", "--repeat", "0"], "--repeat"),
     (["bench", "--samples", "-1"], "--samples"),
     (["demo", "--duration", "0"], "--duration"),
