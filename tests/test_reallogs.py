@@ -7,6 +7,7 @@ import codecs
 import json
 import math
 import os
+import re
 import subprocess
 import sys
 
@@ -178,6 +179,23 @@ def test_errors_say_what_was_found_and_expected(tmp_path, text, words):
         io.require(log, io.GYR + io.ACC)
     for w in words:
         assert w in str(e.value), str(e.value)
+
+
+def test_binary_files_taken_for_a_csv_log_are_named(tmp_path):
+    """A gzip-compressed CSV, a .npy array, an NPZ or HDF5 log under another extension: they
+    read "it contains NUL bytes (expected a header row of column names)"; now what they are,
+    with what to do."""
+    import gzip
+    text = b"time,gyr_x,gyr_y,gyr_z,acc_x,acc_y,acc_z\n0,0,0,0,0,0,1\n0.01,0,0,0,0,0,1\n"
+    (tmp_path / "a.csv.gz").write_bytes(gzip.compress(text))
+    np.save(tmp_path / "b.npy", np.zeros((10, 3)))
+    np.savez(tmp_path / "c.npz", gyr=np.zeros((3, 3)))
+    os.replace(tmp_path / "c.npz", tmp_path / "c.csv")
+    for name, words in (("a.csv.gz", "a gzip-compressed file; decompress it first"),
+                        ("b.npy", "a NumPy .npy array; save the log as NPZ"),
+                        ("c.csv", "a ZIP archive; an NPZ log needs the .npz extension")):
+        with pytest.raises(LogError, match=re.escape(f"not a text (CSV) log: {words}")):
+            read_log(tmp_path / name)
 
 
 def test_units_given_win_over_the_header_with_a_warning(tmp_path, data):

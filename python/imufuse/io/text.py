@@ -41,6 +41,12 @@ def read_csv_rows(path):
 _BOMS = ((codecs.BOM_UTF8, "utf-8-sig"), (codecs.BOM_UTF16_LE, "utf-16"),
          (codecs.BOM_UTF16_BE, "utf-16"))
 _DELIMS = (",", ";", "\t", "|")
+#: the binary files a log is often mistaken for, said by their first bytes
+_MAGIC = ((b"\x1f\x8b", "a gzip-compressed file; decompress it first (gunzip)"),
+          (b"PK\x03\x04", "a ZIP archive; an NPZ log needs the .npz extension, else unzip it"),
+          (b"\x93NUMPY", "a NumPy .npy array; save the log as NPZ (numpy.savez(path, gyr=..., "
+                         "acc=..., rate=...))"),
+          (b"\x89HDF\r\n\x1a\n", "an HDF5 file; an HDF5 log needs the .h5 or .hdf5 extension"))
 _DEC_COMMA = re.compile(r"^\s*[-+]?\d+,\d+(?:[eE][-+]?\d+)?\s*$")
 
 
@@ -134,8 +140,10 @@ def _open_text(path):
         if k > 0 and not head[k:].strip(b"\0") and _nul_tail_start(path) <= k:
             head = head[:k]          # a preallocated file: text, then only NUL to the end
     if enc == "utf-8" and b"\0" in head:
-        raise LogError(f"{path}: not a text (CSV) log: it contains NUL bytes "
-                       "(expected a header row of column names)")
+        what = next((w for magic, w in _MAGIC if head.startswith(magic)), None)
+        raise LogError(f"{path}: not a text (CSV) log: " + (what or "it contains NUL bytes "
+                                                            "(expected a header row of column "
+                                                            "names)"))
     try:
         text = head.decode(enc)
     except UnicodeDecodeError as e:
