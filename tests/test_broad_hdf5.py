@@ -92,6 +92,14 @@ def _npz(path, **arrays):
     (dict(rate=np.array(np.nan)), "rate is nan"),
     (dict(gyr=np.array(1.0)), "array gyr has shape ()"),
     (dict(gyr=np.array([["a", "b", "c"]] * 50)), "array gyr holds <U1 values"),
+    # gyr transposed read as 3 samples: "array acc has shape (50, 3); expected (3, 3)"
+    (dict(gyr=np.zeros((3, 50))), "array gyr has shape (3, 50); expected (N, 3), one row per "
+     "sample (transposed?)"),
+    # one array short: the other blamed, "array acc has shape (50, 3); expected (40, 3)"
+    (dict(gyr=np.zeros((40, 3))), "array acc has 50 rows, gyr 40: every array holds one row "
+     "per sample"),
+    # the file's own name of the array, not "quat"
+    (dict(quat_ref=np.zeros((50, 3))), "array quat_ref has shape (50, 3); expected (50, 4)"),
 ])
 def test_bad_npz_contents_are_data_errors(tmp_path, arrays, msg):
     """exit 4 naming the file, the key and what was expected: never an internal error."""

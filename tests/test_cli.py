@@ -234,6 +234,12 @@ def test_run_plot(logs, tmp_path):
     (["@full", "-f", "Kalman1D", "-p", "k0=3"], 2, ["k0"]),
     (["@full", "-f", "Kalman1D", "-p", "k0"], 2, ["NAME=VALUE"]),
     (["@full", "-f", "Kalman1D", "-p", "dt=0.1"], 2, ["--rate"]),
+    # options given as parameters: it read "unknown parameter 'dtype'"
+    (["@full", "-f", "Kalman1D", "-p", "dtype=float32"], 2,
+     ["Kalman1D: dtype is not a parameter but an option of the run: --dtype"]),
+    (["@full", "-f", "MadgwickIMU", "-p", "init=identity"], 2,
+     ["MadgwickIMU: init is not a parameter but an option of the run: --init"]),
+    (["@full", "-f", "Kalman1D", "-p", "init=identity"], 2, ["unknown parameter 'init'"]),
     (["@full", "-f", "Kalman1D", "--rate", "-5"], 2, ["rate"]),
 ])
 def test_run_errors(logs, args, code, words):

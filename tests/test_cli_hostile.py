@@ -71,6 +71,7 @@ def files(tmp_path_factory):
     w("long_field.csv", HEAD + "0,0,0,0,0,0,1\n0.01,0," + "7" * 140000 + ",0,0,0,1\n")
     w("long_text.csv", HEAD + "0,0,0,0,0,0,1\n0.01,0," + "x" * 140000 + ",0,0,0,1\n")
     w("short_row.csv", HEAD + "0,0,0,0,0,0,1\n0.01,0,0\n")
+    w("cut_short.csv", HEAD + "0,0,0,0,0,0,1\n0.01,0,0,0,0,0,1\n0.02,0,0,0,0")
     w("empty_field.csv", HEAD + "0,0,0,0,0,0,1\n0.01,0,,0,0,0,1\n")
     w("quote.csv", HEAD + '0,0,0,0,0,0,1\n0.01,"0,0,0,0,0,1\n')
     w("rate_angle.csv", "time,rate,angle\n" + "".join(f"{k / 100},0.1,0.2\n" for k in range(50)))
@@ -95,6 +96,8 @@ def files(tmp_path_factory):
     ("one_row.csv", [], DATA, "one sample"),
     ("long_text.csv", [], DATA, "not a number"),
     ("short_row.csv", [], DATA, ":3:"),
+    ("cut_short.csv", [], DATA, ":4: 5 values, the header has 7 columns (the last line, "
+     "without a line end: a file cut short"),
     ("empty_field.csv", [], DATA, "not a number: ''"),
     ("quote.csv", [], DATA, "quote.csv"),
     ("adir", [], FILE, "is a directory"),
@@ -165,17 +168,27 @@ def test_output_is_never_the_input(files, tmp_path, how):
     ("missing-dir/out.csv", "does not exist"),
     ("@dir", "is a directory"),
     ("/dev/full", "cannot write"),
+    ("new-dir/", "names a directory (the final '/'), which does not exist"),
+    ("", "-o: an empty file name"),
 ])
 def test_unwritable_outputs(files, tmp_path, out, word):
-    out = tmp_path if out == "@dir" else (tmp_path / out if not out.startswith("/") else out)
+    """A missing directory, a directory, a full device; a name ending in '/' (a directory
+    meant: the file was written as the name without the slash, exit 0) and an empty name
+    (it read "cannot write: Is a directory")."""
+    out = (tmp_path if out == "@dir" else out if out.startswith("/") or not out
+           else str(tmp_path / out) + ("/" if out.endswith("/") else ""))
     if str(out) == "/dev/full" and not os.path.exists("/dev/full"):
         pytest.skip("no /dev/full on this system")
-    line = one_line_error(imf_here("run", files["good"], "-f", "MadgwickIMU", "-o", out), FILE)
+    line = one_line_error(imf_here("run", files["good"], "-f", "MadgwickIMU", "-o", out,
+                                   cwd=tmp_path), FILE)
     assert word in line
+    assert not (tmp_path / "new-dir").exists()
 
 
 @pytest.mark.parametrize("args,word", [
     (["bench", "--ref-samples", "0"], "--ref-samples"),
+    (["bench", "--samples", "1e12"], "--samples: expected an integer, got '1e12'"),  # "a int"
+    (["bench", "--samples", "0"], "--samples: must be > 0 and at most 1e+08, got 0"),
     (["bench", "--repeat", "0"], "--repeat"),
     (["bench", "--samples", "-1"], "--samples"),
     (["demo", "--duration", "0"], "--duration"),
@@ -312,6 +325,19 @@ def test_skip_leaves_the_start_out_of_the_errors(files):
     assert f"{na - nb} samples outside the movement mask" in b.stdout
 
 
+@pytest.mark.parametrize("cmd", ["run", "compare", "tune"])
+def test_a_skip_past_the_end_is_said(files, tmp_path, cmd):
+    """--skip beyond the log's end: run wrote its output and printed 'total nan ... (outside
+    the movement mask)' with exit 0, compare blamed the reference and the mask, tune said
+    only 'no parameter set could be evaluated'. Now exit 4 naming --skip and the log's
+    length, before anything is written."""
+    args = {"run": ["-f", "MadgwickIMU", "-o", tmp_path / "o.csv"],
+            "compare": ["-f", "MadgwickIMU"], "tune": ["-f", "MadgwickIMU", "-q"]}[cmd]
+    line = one_line_error(imf_here(cmd, files["good"], "--skip", 100, *args), DATA)
+    assert "--skip 100 s leaves no sample: the log lasts 1.99 s" in line, line
+    assert not (tmp_path / "o.csv").exists()
+
+
 @pytest.mark.parametrize("cmd,name,extra,code", [
     ("compare", "binary.csv", [], DATA),
     ("compare", "missing.csv", [], FILE),
@@ -415,6 +441,14 @@ def test_vario_and_calibrate_bad_files_are_data_errors(tmp_path):
     assert r.returncode == 4 and "0 usable barometer samples in column pressure" in r.stderr, \
         r.stderr
     assert not (tmp_path / "v.csv").exists()
+
+
+def test_calibrate_a_one_row_log_says_what_calibration_needs(files, tmp_path):
+    """calibrate needs no time: a log of one row with a time column was refused with "give
+    --rate", an option calibrate does not have; the calibration's own need is said."""
+    r = imf_here("calibrate", "gyro", files["one_row.csv"], "-o", tmp_path / "c.json")
+    line = one_line_error(r, DATA)
+    assert "gyr: need at least 100 samples, got 1" in line and "--rate" not in line, line
 
 
 @pytest.mark.parametrize("pressure,msg", [

@@ -174,6 +174,36 @@ def test_non_finite_policy(dtype):
     assert np.abs(np.abs(np.sum(res[0][-1, :4] * clean[-1, :4])) - 1) < 1e-4
 
 
+@pytest.mark.parametrize("cls", ["FusionAHRS", "FusionAHRS13"])
+def test_float32_overflow_of_one_sample_warns_in_neither_backend(cls):
+    """1e39 and 1e300 in a float32 filter's update (or sample period) become inf as C
+    converts them and the sample is rejected; the twin said so with numpy's RuntimeWarning
+    "overflow encountered in cast", an error under -W error, where the compiled class is
+    silent."""
+    import warnings
+    g, a, m = [1.0, 2.0, 3.0], [0.0, 0.0, 1.0], [0.4, 0.0, -0.9]
+    calls = [lambda f, h: f.update([h, 0.0, 0.0], a, m, 0.01),
+             lambda f, h: f.update(g, a, m, h),
+             lambda f, h: f.update_no_magnetometer(g, [0.0, h, 1.0], 0.01),
+             lambda f, h: f.update_external_heading(g, a, h, 0.01)]
+    if cls == "FusionAHRS13":
+        calls.append(lambda f, h: f.set_sample_period(h))
+    for call in calls:
+        for h in (1e39, 1e300):
+            fs = [getattr(mod, cls)(dtype="float32") for mod in (imufuse_c, ref)]
+            with warnings.catch_warnings():
+                warnings.simplefilter("error")
+                for f in fs:
+                    call(f, h)
+            assert fs[0].skipped == fs[1].skipped
+            assert_same_bits(fs[0].state, fs[1].state, None)
+    for f in (mod.FusionOffset(sample_rate=100, dtype="float32") if cls == "FusionAHRS" else
+              mod.FusionBias(dtype="float32") for mod in (imufuse_c, ref)):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            f.update([1e39, 0.0, 0.0])
+
+
 @pytest.mark.parametrize("dtype", DTYPES)
 def test_long_run_at_rest(dtype):
     """One hour at 100 Hz, level and still, noise-free: the attitude stays the

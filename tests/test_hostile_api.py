@@ -14,7 +14,7 @@ from hypothesis import given, settings, strategies as st, HealthCheck
 
 import imufuse.reference as reference
 import imufuse_c
-from imufuse import catalogue, sim
+from imufuse import catalogue, session, sim
 from imufuse.shared.checks import KINDS
 from bits import assert_same_bits
 from imufuse.registry import (DTYPES, FIXED_CASES, PROFILES, each_backend, fixed_matrix,
@@ -241,6 +241,90 @@ def test_fixed_update_inputs_agree(case, profile):
         out = [_outcome(lambda f=f: f.update(*args)) for f in fs]
         assert out[0] == out[1], (bad, out)
         assert fs[0].state.tolist() == fs[1].state.tolist()
+
+
+def test_fixed_run_of_a_huge_int16_view_fails_at_once():
+    """A broadcast view of 10^13 rows of int16 counts: both backends raise MemoryError at
+    the copy; the shared range check first scanned it with min() and max() for hours (int16
+    holds no count beyond the range)."""
+    import os
+    import subprocess
+    import sys
+    code = ("import numpy as np, imufuse_c, imufuse.reference as R\n"
+            "g = np.broadcast_to(np.array([1, 2, 3], np.int16), (10**13, 3))\n"
+            "for m in (imufuse_c, R):\n"
+            "    try:\n"
+            "        m.MadgwickIMUQ(dt=0.01, gyr_scale=1e-3).run(g, g)\n"
+            "    except MemoryError:\n"
+            "        print('MemoryError')\n")
+    import imufuse
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([os.path.dirname(os.path.dirname(m.__file__))
+                                         for m in (imufuse, imufuse_c)]
+                                        + [env.get("PYTHONPATH", "")])
+    try:
+        r = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                           text=True, timeout=60)
+    except subprocess.TimeoutExpired:
+        pytest.fail("run() scanned the 10^13-row view instead of failing at once")
+    assert r.stdout.split() == ["MemoryError"] * 2, r.stdout + r.stderr
+
+
+def _binding_calls(kind, fixed):
+    """update()/run() calls as a user writes them: the inputs by name, dt by position or by
+    name, a magnetometer given to a filter without one, too few, too many, twice."""
+    names = KINDS[kind]
+    if fixed:
+        one = {"rate": 100, "angle": 200, "gyr": [10, 20, 30], "acc": [0, 0, 4096],
+               "mag": [100, 0, -200]}
+        many = {k: np.tile(np.asarray(v, np.int16), (6, 1)).squeeze() for k, v in one.items()}
+    else:
+        one = {"rate": 0.1, "angle": 0.2, "gyr": [0.1, 0.2, 0.3], "acc": [0.0, 0.0, 1.0],
+               "mag": [0.4, 0.0, -0.9]}
+        many = {k: np.tile(np.asarray(v, float), (6, 1)).squeeze() for k, v in one.items()}
+    pos, arr = [one[n] for n in names], [many[n] for n in names]
+    dts = np.full(6, 0.01)
+    return [
+        lambda f: f.update(**dict(zip(names, pos))),
+        lambda f: f.update(*pos, 0.01),
+        lambda f: f.update(*pos[:1], **dict(zip(names[1:], pos[1:])), dt=0.01),
+        lambda f: f.update(*pos, one["mag"]),
+        lambda f: f.update(*pos, 0.01, 5),
+        lambda f: f.update(*pos[:1]),
+        lambda f: f.update(),
+        lambda f: f.update(**{names[-1]: pos[-1]}),
+        lambda f: f.update(*pos, **{names[0]: pos[0]}),
+        lambda f: f.update(*pos, dtt=0.01),
+        lambda f: f.run(**dict(zip(names, arr))),
+        lambda f: f.run(*arr, dts),
+        lambda f: f.run(*arr, dts, "state"),
+        lambda f: f.run(*arr, many["mag"]),
+        lambda f: f.run(*arr, None, "state", 1),
+        lambda f: f.run(*arr[:1]),
+        lambda f: f.run(*arr, dt=dts, outputs="state"),
+    ]
+
+
+@pytest.mark.parametrize("case,profile", [*[(c, None) for c in representatives(CASES)],
+                                          *fixed_matrix()])
+def test_calls_bind_alike(case, profile):
+    """The twin's update() and run() take their arguments as the compiled ones do: inputs
+    by name (update(gyr=g, acc=a)) and dt as the argument after them (update(g, a, 0.01)),
+    which the twin refused with a TypeError while the compiled filter ran them; too few,
+    too many and doubled arguments give the same TypeError, a magnetometer given to a
+    filter without one the same ValueError naming it."""
+    for call in _binding_calls(case.kind, profile is not None):
+        fs = [case.make(b, "float64") if profile is None else case.make_fixed(b, profile)
+              for b in ("c", "ref")]
+        out = [_outcome(lambda f=f: call(f)) for f in fs]
+        assert out[0] == out[1], out
+        assert_same_bits(fs[0].state, fs[1].state)
+    if profile is None:       # what the session reads from the twin's signature
+        assert session.supports_dt_array(case.name)
+    if case.kind == "imu" and profile is None:
+        f = case.make("ref", "float64")
+        with pytest.raises(ValueError, match="magnetometer given to a filter that takes none"):
+            f.update([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.4, 0.0, -0.9])
 
 
 @pytest.mark.parametrize("name,params", [("MahonyIMU", dict(dt=0.005, kp=1.0, ki=0.3)),

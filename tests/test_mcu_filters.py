@@ -34,7 +34,8 @@ TARGETS = ["host", "m4f", "m0", "avr"]
 N_MOTION = 300
 # a filter whose program does not fit the AVR's flash with N_MOTION samples stored in it
 # runs there alone on N_MOTION_SMALL samples (and the same corner cases), against the
-# reference on those inputs (imufuse.mcu.filters.run_fitting, as bench/mcu/measure.py)
+# reference on those inputs, built with -Os where even that does not fit at -O2 (RobustAHRS
+# float32 on the ATmega328P; imufuse.mcu.filters.run_fitting, as bench/mcu/measure.py)
 N_MOTION_SMALL = mf.N_MOTION_SMALL
 
 SPECS = mf.specs_from_cases([*registry.FLOAT_CASES, *getattr(registry, "FIXED_CASES", []),

@@ -80,6 +80,37 @@ def test_time_in_ms(tmp_path, motion):
     assert read_log(str(tmp_path / "t.csv"), time_unit="ms").warnings == []
 
 
+@pytest.mark.parametrize("unit,fix", [("ms", "--time-unit s"), ("us", "--time-unit ms")])
+def test_time_in_seconds_read_as_a_smaller_unit(tmp_path, motion, unit, fix):
+    """Seconds read as ms (a header's "(ms)" on seconds, or --time-unit ms): 200 Hz became
+    200 kHz, and the filters integrated each sample over 5 us without a word."""
+    t = np.arange(len(motion.gyr)) * motion.dt * (1.0 if unit == "ms" else 1e3)
+    rows = np.column_stack([t, motion.gyr, motion.acc])
+    path = _csv(tmp_path / "t.csv", ["time", "gyr_x", "gyr_y", "gyr_z", "acc_x", "acc_y",
+                                     "acc_z"], rows)
+    log = read_log(path, time_unit=unit)
+    assert any(f"faster than any IMU samples; a log in {fix[-2:].strip()} read as {unit}? give "
+               f"{fix}" in w for w in log.warnings), log.warnings
+    p = imf_here("run", path, "-f", "MadgwickIMU", "--time-unit", unit, "--strict", "-o",
+                 tmp_path / "o.csv")
+    assert p.returncode == 4 and fix in p.stderr, p.stderr
+
+
+def test_a_corrupt_gyro_sample_is_named(tmp_path, motion):
+    """One gyro sample of 1e30 rad/s (finite, so the filters take it) turned MadgwickIMU's
+    attitude anywhere with no word; every sample corrupt from one on was also called deg/s."""
+    t = np.arange(len(motion.gyr)) * motion.dt
+    head = ["time", "gyr_x", "gyr_y", "gyr_z", "acc_x", "acc_y", "acc_z"]
+    for first, last, count in ((300, 301, "1 sample "), (300, None, f"{len(t) - 300} samples ")):
+        gyr = motion.gyr.copy()
+        gyr[first:last, 1] = 1e30
+        log = read_log(_csv(tmp_path / "g.csv", head, np.column_stack([t, gyr, motion.acc])))
+        assert log.warnings == [f"the gyroscope reads beyond 10000 rad/s in {count}(the largest "
+                                f"1e+30 rad/s at {tmp_path / 'g.csv'}:302), more than any "
+                                "gyroscope measures in any unit: corrupt samples? the filters "
+                                "take them as they are"], log.warnings
+
+
 def test_rate_that_contradicts_the_time_column(tmp_path):
     p = imf_here("run", example_log(), "-f", "MadgwickIMU",
                  "--rate", "100", "-o", str(tmp_path / "o.npz"))
@@ -234,3 +265,42 @@ def test_gyro_scale_on_a_long_log_reads_stretches(tmp_path):
         notes = read_log(str(tmp_path / "long.npz")).suspicions
         assert len(notes) == (scale != 1.0) and all("--gyr-unit deg/s" in n for n in notes)
     assert np.isnan(gyro_scale(gyr, acc, dt=None).ratio)
+
+
+@pytest.mark.parametrize("with_mag", [True, False])
+def test_rad_per_s_read_as_deg_per_s(tmp_path, motion, with_mag):
+    """A gyro in rad/s under a header that says deg/s (or --gyr-unit deg/s): 57.3 times too
+    slow, MadgwickIMU off by tens of degrees, and not a word (only the reverse mistake was
+    checked). It turns the directions 0.0175 times as far as they turn: a note naming
+    --gyr-unit rad/s, an error under --strict, silence when the unit is right."""
+    t = np.arange(len(motion.gyr)) * motion.dt
+    cols = [t, motion.gyr, motion.acc] + ([motion.mag] if with_mag else [])
+    head = ["time", "gyr_x (deg/s)", "gyr_y (deg/s)", "gyr_z (deg/s)", "acc_x", "acc_y",
+            "acc_z"] + (["mag_x", "mag_y", "mag_z"] if with_mag else [])
+    log = read_log(_csv(tmp_path / "r.csv", head, np.column_stack(cols)))
+    (note,) = log.suspicions
+    assert note.startswith("the gyroscope, read as deg/s (unit from the header), turns 0.017")
+    assert note.endswith("these look like rad/s; give --gyr-unit rad/s"), note
+    assert ("magnetometer's" in note) == with_mag, note
+    assert read_log(str(tmp_path / "r.csv"), gyr_unit="rad/s").suspicions == []
+    bare = _csv(tmp_path / "b.csv", [h.replace(" (deg/s)", "") for h in head],
+                np.column_stack(cols))
+    (note,) = read_log(bare, gyr_unit="deg/s").suspicions
+    assert "read as deg/s (given)" in note and "--gyr-unit rad/s" in note, note
+    p = imf_here("run", bare, "-f", "MadgwickIMU", "--gyr-unit", "deg/s", "--strict", "-o",
+                 tmp_path / "o.csv")
+    assert p.returncode == 4 and "--gyr-unit rad/s (--strict)" in p.stderr, p.stderr
+    right = np.column_stack([t, np.degrees(motion.gyr)] + cols[2:])
+    assert read_log(_csv(tmp_path / "d.csv", head, right)).suspicions == []
+
+
+@pytest.mark.skipif(BROAD is None, reason=SKIP_REASON)
+def test_rad_per_s_read_as_deg_per_s_keeps_its_margin_on_the_broad_trials():
+    """Read right, no BROAD trial comes near the too-slow verdict (their lowest ratio is
+    0.9, translations and tapping included); scaled by 1/57.3, every one gets it."""
+    for f in sorted(glob.glob(os.path.join(BROAD, "*.npz"))):
+        log = read_log(f)
+        right = gyro_scale(log.gyr, log.acc, log.mag, dt=log.dt, too_small=True)
+        slow = gyro_scale(log.gyr / np.degrees(1.0), log.acc, log.mag, dt=log.dt,
+                          too_small=True)
+        assert right.ratio > 0.5 and slow.ratio < 0.02, (f, right, slow)

@@ -7,6 +7,7 @@ import codecs
 import json
 import math
 import os
+import re
 import subprocess
 import sys
 
@@ -68,6 +69,23 @@ def test_xio_headers_units_and_formats(tmp_path, data, delim, bom, dc):
     assert not log.fixed_rate and np.array_equal(log.dts[1:], np.diff(t))
     if dc:
         assert any("decimal commas" in w for w in log.warnings)
+
+
+@pytest.mark.parametrize("delim", [";", "\t", " "])
+def test_decimal_commas_after_a_first_row_of_integers(tmp_path, delim):
+    """A log whose first row holds only integers ("0;0;0;0;0;0;1", a logger's start): its
+    decimal commas were looked for in that row alone, and the second row failed with
+    "column time: not a number: '0,01'"."""
+    p = tmp_path / "dc.csv"
+    rows = [["0", "0", "0", "0", "0", "0", "1"]] + [
+        [f"{k / 100:.2f}", "0,125", "-0,25", "0", "0,01", "0", "0,99"] for k in range(1, 20)]
+    p.write_text(delim.join(["time", "gyr_x", "gyr_y", "gyr_z", "acc_x", "acc_y", "acc_z"])
+                 + "\n" + "".join(delim.join(c.replace(".", ",") for c in r) + "\n"
+                                   for r in rows))
+    log = read_log(p)
+    assert any("decimal commas ('0,01') read as decimal points" in w for w in log.warnings), \
+        log.warnings
+    assert log.columns["time"][1] == 0.01 and log.gyr[1, 1] == -0.25 and log.acc[5, 2] == 0.99
 
 
 def test_run_xio_log_needs_no_renaming_and_honours_timestamps(tmp_path, data):
@@ -161,6 +179,23 @@ def test_errors_say_what_was_found_and_expected(tmp_path, text, words):
         io.require(log, io.GYR + io.ACC)
     for w in words:
         assert w in str(e.value), str(e.value)
+
+
+def test_binary_files_taken_for_a_csv_log_are_named(tmp_path):
+    """A gzip-compressed CSV, a .npy array, an NPZ or HDF5 log under another extension: they
+    read "it contains NUL bytes (expected a header row of column names)"; now what they are,
+    with what to do."""
+    import gzip
+    text = b"time,gyr_x,gyr_y,gyr_z,acc_x,acc_y,acc_z\n0,0,0,0,0,0,1\n0.01,0,0,0,0,0,1\n"
+    (tmp_path / "a.csv.gz").write_bytes(gzip.compress(text))
+    np.save(tmp_path / "b.npy", np.zeros((10, 3)))
+    np.savez(tmp_path / "c.npz", gyr=np.zeros((3, 3)))
+    os.replace(tmp_path / "c.npz", tmp_path / "c.csv")
+    for name, words in (("a.csv.gz", "a gzip-compressed file; decompress it first"),
+                        ("b.npy", "a NumPy .npy array; save the log as NPZ"),
+                        ("c.csv", "a ZIP archive; an NPZ log needs the .npz extension")):
+        with pytest.raises(LogError, match=re.escape(f"not a text (CSV) log: {words}")):
+            read_log(tmp_path / name)
 
 
 def test_units_given_win_over_the_header_with_a_warning(tmp_path, data):

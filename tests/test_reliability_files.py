@@ -142,6 +142,16 @@ def test_export_cli_refuses_an_existing_zip_or_directory(tmp_path, capsys):
     assert os.listdir(other) == ["imufuse"]
 
 
+def test_export_cli_refuses_a_file_as_its_directory(tmp_path, capsys):
+    """`imufuse export arduino FILE`: exit 3 saying FILE is a file; it read
+    "FILE/imufuse/src/fixed: Not a directory"."""
+    f = tmp_path / "log.csv"
+    f.write_text("time\n")
+    one_line(capsys, cli.main(["export", "arduino", str(f)]), FILE,
+             f"{f}: is a file, not a directory")
+    assert f.read_text() == "time\n"
+
+
 # ---- 2. bad files: one line naming the file, exit 4 -------------------------------------------
 
 GOOD = b'{"magnetometer": {"S": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "h": [1, 2, 3]}}'

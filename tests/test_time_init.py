@@ -408,3 +408,20 @@ def test_bad_start_arguments(backend):
         mod.Kalman1D(dt=0.01, k0=0.1, init="first")
     with pytest.raises(ValueError, match="state: expected shape"):
         mod.Kalman1D(dt=0.01, k0=0.1, state=[0.0, 1.0])
+
+
+def test_an_init_window_over_the_whole_log_is_said(tmp_path):
+    """--init-window longer than the log: the filter never left its start window (the gyro
+    is not integrated during it), every output was the mean direction of the samples so far
+    (122 deg off on the shipped example), exit 0 without a word. Now a note, in every
+    command through the session; none when the window ends inside the log."""
+    from cli_here import imf_here
+    from imufuse import io
+    log = io.example_log()
+    n = len(io.read_log(log))
+    for w, said in ((n, True), (10 * n, True), (n - 1, False)):
+        r = imf_here("run", log, "-f", "MadgwickIMU", "--init-window", w, "-o",
+                     tmp_path / "o.csv")
+        assert r.returncode == 0, r.stderr
+        assert (f"note: init window {w} >= the log's {n} samples: the filter never runs"
+                in r.stderr) == said, r.stderr

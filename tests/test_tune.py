@@ -1,6 +1,7 @@
 """`imufuse tune`: the best parameter it reports is the best of a dense scan
 computed independently (imufuse_c + imufuse.evaluation called directly), on
-the shipped BROAD excerpt and on the BROAD development trials when present."""
+the shipped BROAD excerpt and on the BROAD development trials when present;
+grid mistakes are named, and the sets a filter refuses are said."""
 import glob
 import os
 import re
@@ -15,6 +16,7 @@ import imufuse_c
 from imufuse import io
 from imufuse.evaluation import evaluate
 from broad_data import BROAD, SKIP_REASON
+from cli_here import imf_here
 
 PATHS = [os.path.dirname(os.path.dirname(imufuse.__file__)),
          os.path.dirname(os.path.dirname(imufuse_c.__file__))]
@@ -108,3 +110,56 @@ def test_tune_fusion13_scores_its_gain_as_an_independent_run():
     for g, s in rows.items():
         assert s == pytest.approx(want[g], abs=6e-4), (g, s, want[g])
     assert min(rows, key=rows.get) == min(want, key=want.get)
+
+
+@pytest.fixture(scope="module")
+def good(tmp_path_factory):
+    """2 s of simulated motion at 100 Hz with its true orientation as the reference."""
+    from imufuse import sim
+    d = sim.imu("slow", rate=100.0, duration=2.0, seed=3)
+    p = tmp_path_factory.mktemp("tune") / "good.csv"
+    io.write_log(p, d.t, d.gyr, d.acc, d.mag, d.q_true)
+    return p
+
+
+@pytest.mark.parametrize("grid,word", [
+    ("beta=0.01:1:0", "N, the number of values, must be 1 to 10000, got 0"),
+    ("beta=0.01:1:20000", "N, the number of values, must be 1 to 10000, got 20000"),
+    ("beta=nan:1:3", "of finite numbers"),
+    ("beta=nan,0.1", "of finite numbers"),
+    ("beta=0.1,inf", "of finite numbers"),
+])
+def test_tune_grid_mistakes_are_named(good, grid, word):
+    """A grid of the right form with a count out of range was refused as if its form were
+    wrong ("expected NAME=LO:HI:N[lin]"); NaN and Inf in a list of values were taken, their
+    sets refused without a word, and NaN threw the refinement's neighbours off."""
+    r = imf_here("tune", good, "-f", "MadgwickIMU", "-q", "--grid", grid)
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and word in r.stderr, r.stderr
+
+
+def test_tune_says_which_sets_it_refused(good):
+    """beta=50 at 100 Hz is beyond MadgwickIMU's stable range: its set was left out of the
+    table (and of --all) without a word, the heading counting it among the sets."""
+    r = imf_here("tune", good, "-f", "MadgwickIMU", "-q", "--all", "--grid",
+                 "beta=0.001,0.01,50")
+    assert r.returncode == 0, r.stderr
+    assert re.search(r"note: 1 of \d+ parameter sets refused by MadgwickIMU, not in the table "
+                     r"\(e.g. beta=50: MadgwickIMU: beta: outside the stable range", r.stderr), \
+        r.stderr
+    rows = [float(ln.split()[0]) for ln in r.stdout.splitlines()
+            if re.match(r"\s*[0-9.e+-]+\s+[0-9.]+\s", ln)]
+    n = int(re.search(r"(\d+) parameter sets, best first", r.stdout).group(1))
+    assert len(rows) == n - 1 and 50.0 not in rows, r.stdout
+
+
+def test_tune_says_why_nothing_scored(tmp_path):
+    """A reference of NaN only: every set scores NaN over 0 samples, and tune said only "no
+    parameter set could be evaluated (9 tried)"; it names the reference, as compare does."""
+    from imufuse import sim
+    d = sim.imu("slow", rate=100.0, duration=2.0, seed=3)
+    p = tmp_path / "nanref.csv"
+    io.write_log(p, d.t, d.gyr, d.acc, d.mag, np.full_like(d.q_true, np.nan))
+    r = imf_here("tune", p, "-f", "MadgwickIMU", "-q")
+    assert r.returncode == 4 and r.stderr.strip() == (
+        "imufuse: error: tune: no parameter set could be evaluated (9 tried): no sample has a "
+        "finite reference inside the movement mask"), r.stderr

@@ -280,6 +280,8 @@ def measure_filter(name: str, target: str, host_cache: dict) -> dict:
         if spec.fixed:
             row["linked_double_init"] = double_init_flash(spec, target, inputs, r.elf, wd)
         c = r.counts
+        if res.cflags:      # built for size: run_fitting's last resort, said in the row
+            row["extra_cflags"] = list(res.cflags)
         row.update(unit=mcu.TARGETS[target].count_unit, samples=n,
                    per_update_median=float(np.median(c)), per_update_max=int(c.max()),
                    stack_measured=r.stack_bytes,

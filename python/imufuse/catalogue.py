@@ -336,6 +336,13 @@ def param_names(name: str) -> List[str]:
     return [p for p in entry(name).params if p != "profile"]
 
 
+#: keywords of a filter's constructor that runs set as options, not parameters
+_RUN_OPTIONS = {"dtype": "--dtype (RunOptions(dtype=))",
+                "init": "--init (RunOptions(init=))",
+                "init_window": "--init-window (RunOptions(init_window=))",
+                "q0": "--init W,X,Y,Z (RunOptions(init=[w, x, y, z]))"}
+
+
 def resolve_params(name: str, dt: float, overrides: Optional[Mapping[str, Any]] = None,
                    preset: Optional[str] = None) -> Dict[str, Any]:
     """dt plus the entry's defaults (or the named preset's parameters) updated by
@@ -350,6 +357,10 @@ def resolve_params(name: str, dt: float, overrides: Optional[Mapping[str, Any]] 
     for k in overrides:
         if k == "dt":
             raise FilterError("dt: set by the sample rate (--rate or the log's time column)")
+        if k not in valid and k in _RUN_OPTIONS and (k == "dtype" or e.kind != "1d"):
+            # it read "unknown parameter 'dtype'"
+            raise FilterError(f"{name}: {k} is not a parameter but an option of the run: "
+                              f"{_RUN_OPTIONS[k]}")
         if k not in valid:
             raise FilterError(f"{name}: unknown parameter {k!r}; valid parameters: "
                               f"{', '.join(v for v in valid if v != 'dt')}")

@@ -7,9 +7,15 @@ option that fixes them (one line each; imufuse.io.read_log adds them to Log.warn
                  99th percentile passes 35 rad/s are deg/s (--gyr-unit deg/s)
   gyro vs. acc   the rotation the gyroscope gives over windows of 0.2 s against the turn of the
                  accelerometer's (and magnetometer's) direction over the same windows: deg/s
-                 read as rad/s turns 57.3 times too far, on slow logs too (gyro_scale)
+                 read as rad/s turns 57.3 times too far, on slow logs too (gyro_scale); rad/s
+                 read as deg/s 57.3 times too little (judged on the windows where the
+                 directions turn, since the gyro's own turns are then too small to count)
+  gyro samples   a rate beyond GYRO_ABSURD_RAD_S (1e4 rad/s: beyond 2000 deg/s read as rad/s
+                 too) comes from no gyroscope in any unit: corrupt samples, which the filters
+                 take as they are (one of 1e30 rad/s turns the attitude anywhere)
   time           a time column whose median interval is 1 to 100 "s" (10 mHz to 1 Hz) is
-                 milliseconds (--time-unit ms); 100 s and beyond, microseconds (--time-unit us)
+                 milliseconds (--time-unit ms); 100 s and beyond, microseconds (--time-unit us);
+                 below 20 us (50 kHz, faster than any IMU samples) a unit too small
   rate           a --rate that disagrees with the time column by more than 1 %
 
 Only what the user did not state is questioned: a unit from the header or the command line
@@ -29,6 +35,10 @@ __all__ = ["check_log", "gyro_scale", "GyroScale"]
 
 G = 9.80665
 MAX_GYRO_RAD_S = 35.0          # 2000 deg/s, the largest range of common MEMS gyros
+GYRO_ABSURD_RAD_S = 1e4        # beyond 2000 deg/s read as rad/s (3464 on three axes)
+MIN_INTERVAL_S = 2e-5          # 50 kHz: IMUs sample at 32 kHz at most
+# the unit 1000 times larger than each time unit
+_TIME_LARGER = {"ns": "us", "us": "ms", "ms": "s"}
 
 # the gyroscope against the directions of gravity and the magnetic field (gyro_scale)
 TURN_WINDOW = 0.2              # s: each window's length
@@ -103,7 +113,7 @@ def _stretches(n: int, block: int = 5000) -> Tuple[np.ndarray, np.ndarray]:
 
 def gyro_scale(gyr: np.ndarray, acc: np.ndarray, mag: Optional[np.ndarray] = None,
                dts=None, dt: Optional[float] = None,
-               breaks: Optional[np.ndarray] = None) -> GyroScale:
+               breaks: Optional[np.ndarray] = None, too_small: bool = False) -> GyroScale:
     """How far the gyroscope (rad/s, (N, 3)) turns the directions of the accelerometer and
     the magnetometer (when given), against how far they turn: over windows of TURN_WINDOW
     s where the gyro turns a direction by TURN_MIN or more, the median ratio of the turn
@@ -116,7 +126,9 @@ def gyro_scale(gyr: np.ndarray, acc: np.ndarray, mag: Optional[np.ndarray] = Non
     agree with the gyro's, NaN when none does. dts: each sample's interval (N,), else dt.
     A log of more than TURN_MAX_SAMPLES samples is judged on 40 stretches of 5000 samples
     spread over it (a tenth of a second for 10^6 samples); breaks: the samples where such
-    stretches, taken by the caller, begin (no window across one)."""
+    stretches, taken by the caller, begin (no window across one). too_small: judge a gyro
+    too slow (rad/s read as deg/s: 1/57.3) on the windows where the directions turn by
+    TURN_MIN or more, the ratio the largest over the sensors that agree."""
     n = len(gyr)
     if dts is None:
         if dt is None or not dt > 0:
@@ -145,7 +157,7 @@ def gyro_scale(gyr: np.ndarray, acc: np.ndarray, mag: Optional[np.ndarray] = Non
         if vec is None:
             continue
         p, m, cos = _turns(gyr, np.asarray(vec, float), dts, ok, w, max(1, w // 4), h)
-        sel = p >= TURN_MIN
+        sel = (m if too_small else p) >= TURN_MIN
         if int(sel.sum()) >= TURN_MIN_WINDOWS:
             with np.errstate(all="ignore"):
                 r = p[sel] / m[sel]
@@ -154,22 +166,31 @@ def gyro_scale(gyr: np.ndarray, acc: np.ndarray, mag: Optional[np.ndarray] = Non
     used = tuple(k for k, (_, _, c) in sensors.items() if c >= TURN_AGREE)
     if not used:
         return GyroScale(math.nan, 0, sensors)
-    best = min(used, key=lambda k: sensors[k][1])
+    best = (max if too_small else min)(used, key=lambda k: sensors[k][1])
     return GyroScale(sensors[best][1], sensors[best][0], sensors, used)
 
 
+def _unit_from(source) -> str:
+    """Where a unit came from, as the notes say it: from the header, given (the command
+    line's --*-unit or read_log's argument), or assumed (the default)."""
+    return {None: "assumed", "default": "assumed", "given": "given"}.get(
+        source, f"unit from the {source}")
+
+
 def check_log(log, rate: Optional[float] = None, file_rate: Optional[float] = None,
-              file_time: Optional[np.ndarray] = None) -> List[str]:
+              file_time: Optional[np.ndarray] = None, where=None) -> List[str]:
     """One-line warnings about the log's units, time and rate (see the module doc): rate is
-    the user's --rate, file_rate the rate the file states, file_time its time column."""
+    the user's --rate, file_rate the rate the file states, file_time its time column (in
+    s); where(k): where sample k is in the file ("log.csv:12")."""
     out: List[str] = []
+    where = where or (lambda k: f"sample {k}")
     cols = log.columns
     acc_unit, acc_from = log.units.get("acc", (None, None))
     if all(n in cols for n in ("acc_x", "acc_y", "acc_z")) and len(log):
         m = _median_norm(np.column_stack([cols["acc_x"], cols["acc_y"], cols["acc_z"]]))
         if 7.0 < m < 13.0:
             out.append(f"the accelerometer's median magnitude is {m:.3g} {acc_unit} "
-                       f"({'unit from the ' + acc_from if acc_from != 'default' else 'assumed'}): "
+                       f"({_unit_from(acc_from)}): "
                        "1 g is 9.81 m/s^2, so these look like m/s^2 read as g; give "
                        "--acc-unit m/s2")
         elif 0.07 < m < 0.13:
@@ -180,11 +201,20 @@ def check_log(log, rate: Optional[float] = None, file_rate: Optional[float] = No
         with np.errstate(all="ignore"):
             w = np.linalg.norm(np.column_stack([cols["gyr_x"], cols["gyr_y"], cols["gyr_z"]]),
                                axis=1)
-        w = w[np.isfinite(w)]
+        with np.errstate(invalid="ignore"):
+            absurd = np.flatnonzero(w > GYRO_ABSURD_RAD_S)
+        if absurd.size:
+            k = int(absurd[np.argmax(w[absurd])])
+            out.append(f"the gyroscope reads beyond {GYRO_ABSURD_RAD_S:g} rad/s in "
+                       f"{absurd.size} sample{'s' if absurd.size > 1 else ''} (the largest "
+                       f"{float(w[k]):.3g} rad/s at {where(k)}), more than any gyroscope "
+                       "measures in any unit: corrupt samples? the filters take them as they "
+                       "are")
+        w = w[np.isfinite(w) & ~(w > GYRO_ABSURD_RAD_S)]    # corrupt samples said above
         if w.size and float(np.percentile(w, 99)) > MAX_GYRO_RAD_S:
             out.append(f"the gyroscope passes {MAX_GYRO_RAD_S:g} rad/s (2000 deg/s, the largest "
                        f"MEMS range) in over 1 % of the samples, read as rad/s "
-                       f"({'unit from the ' + gyr_from if gyr_from != 'default' else 'assumed'})"
+                       f"({_unit_from(gyr_from)})"
                        ": these look like deg/s; give --gyr-unit deg/s")
         else:
             out += _gyro_against_directions(log, gyr_unit, gyr_from, rate, file_time)
@@ -197,6 +227,14 @@ def check_log(log, rate: Optional[float] = None, file_rate: Optional[float] = No
         elif med >= 100.0:
             out.append(f"the median sample interval is {med:.4g} s: an IMU log in microseconds "
                        "read as seconds? give --time-unit us")
+        elif 0 < med < MIN_INTERVAL_S:
+            unit, source = log.units.get("time", ("s", "default"))
+            larger = _TIME_LARGER.get(unit)
+            out.append(f"the median sample interval is {med:.4g} s ({1 / med:.3g} Hz) with "
+                       f"the time column in {unit} ({_unit_from(source)}): faster than any "
+                       "IMU samples; "
+                       + (f"a log in {larger} read as {unit}? give --time-unit {larger}"
+                          if larger else "is the time column in seconds?"))
     if rate is not None and t is not None and len(t) > 1:
         med = float(np.median(np.diff(t)))
         if med > 0 and abs(rate * med - 1.0) > 0.01:
@@ -213,9 +251,10 @@ def _gyro_against_directions(log, unit, source, rate, file_time) -> List[str]:
     """The note of gyro_scale on a gyroscope read as rad/s (none when the time column looks
     like milliseconds: the intervals would be wrong, and that note comes first)."""
     cols = log.columns
-    if unit not in (None, "rad/s") or not all(n in cols for n in
-                                              ("acc_x", "acc_y", "acc_z")):
+    if unit not in (None, "rad/s", "deg/s") or not all(n in cols for n in
+                                                       ("acc_x", "acc_y", "acc_z")):
         return []
+    too_small = unit == "deg/s"
     dts = None
     if rate is None and file_time is not None and len(file_time) > 1:
         d = np.diff(np.asarray(file_time, float))
@@ -231,14 +270,19 @@ def _gyro_against_directions(log, unit, source, rate, file_time) -> List[str]:
         return np.column_stack([cols[f"{k}_{a}"][take] for a in "xyz"])
     mag = sensor("mag") if all(f"mag_{a}" in cols for a in "xyz") else None
     res = gyro_scale(sensor("gyr"), sensor("acc"), mag, dts=None if dts is None else dts[take],
-                     breaks=breaks)
-    if not res.ratio > TURN_RATIO:
+                     breaks=breaks, too_small=too_small)
+    if not (res.ratio < 1.0 / TURN_RATIO if too_small else res.ratio > TURN_RATIO):
         return []
     what = " and ".join({"acc": "the accelerometer's", "mag": "the magnetometer's"}[k]
                         for k in res.used)
     what += " direction turns" if len(res.used) == 1 else " directions turn"
+    if too_small:
+        return [f"the gyroscope, read as deg/s ({_unit_from(source)}), turns {res.ratio:.3g} "
+                f"times as far as {what} (the median over {res.windows} windows of "
+                f"{TURN_WINDOW:g} s): rad/s read as deg/s is 1/57.3 = 0.0175 times; these look "
+                "like rad/s; give --gyr-unit rad/s"]
     return [f"the gyroscope, read as rad/s ("
-            f"{'unit from the ' + source if source not in (None, 'default') else 'assumed'}), "
+            f"{_unit_from(source)}), "
             f"turns {res.ratio:.3g} times as far as {what} (the median over {res.windows} "
             f"windows of {TURN_WINDOW:g} s): deg/s read as rad/s is 57.3 times; these look "
             "like deg/s; give --gyr-unit deg/s"]

@@ -422,6 +422,11 @@ class Session:
                 if w and w > 1:
                     kw["init_window"] = w
                     init = f"first (mean of {w} samples)"
+                    if w >= len(log):
+                        # the window never ends: every output is the window's mean
+                        notes.append(f"init window {w} >= the log's {len(log)} samples: "
+                                     "the filter never runs (no gyro in the window; every "
+                                     "output is the mean direction so far)")
             desc = ("q0=" + ",".join(f"{v:g}" for v in init) if isinstance(init, list)
                     else str(init))
         f = make_filter(name, options.backend, options.dtype, {**full, **kw})
@@ -556,6 +561,10 @@ class Session:
         mask = log.movement
         if options.skip:
             late = log.t >= log.t[0] + options.skip
+            if not late.any():
+                # else "nothing could be evaluated ... inside the movement mask", or nothing
+                raise LogError(f"{log.path}: --skip {options.skip:g} s leaves no sample: the "
+                               f"log lasts {float(log.t[-1] - log.t[0]):.6g} s")
             mask = late if mask is None else (mask & late)
         return mask
 

@@ -50,7 +50,7 @@ def grid_spec(text: str) -> Tuple[str, List[float]]:
     """'beta=0.01:1:12' (log-spaced), 'beta=0.01:1:12lin', 'beta=0.02,0.05,0.1' ->
     (name, values); ValueError naming the mistake."""
     if "=" not in text:
-        raise ValueError(f"--grid {text!r}: expected NAME=LO:HI:N or NAME=V1,V2,...")
+        raise ValueError(f"--grid {text!r}: expected NAME=LO:HI:N[lin] or NAME=V1,V2,...")
     k, v = (x.strip() for x in text.split("=", 1))
     try:
         if ":" in v:
@@ -58,19 +58,26 @@ def grid_spec(text: str) -> Tuple[str, List[float]]:
             lin = n.endswith("lin")
             num = int(n[:-3] if lin else n)
             a, b = float(lo), float(hi)
-            if num < 1 or num > 10000 or not (math.isfinite(a) and math.isfinite(b)):
+            if not (math.isfinite(a) and math.isfinite(b)):
                 raise ValueError
+            if num < 1 or num > 10000:
+                raise ValueError(f"--grid {text}: N, the number of values, must be 1 to 10000, "
+                                 f"got {num}")
             if not lin and (a <= 0 or b <= 0):
                 raise OverflowError
             vals = list(np.linspace(a, b, num) if lin else np.geomspace(a, b, num))
         else:
             vals = [float(x) for x in v.split(",")]
+            if not all(math.isfinite(x) for x in vals):
+                raise ValueError
     except OverflowError:
         raise ValueError(f"--grid {text}: a log-spaced range needs positive ends (add 'lin' "
                          "after N for a linear one)") from None
-    except ValueError:
-        raise ValueError(f"--grid {text!r}: expected NAME=LO:HI:N[lin] or NAME=V1,V2,...") \
-            from None
+    except ValueError as e:
+        if str(e).startswith("--grid"):
+            raise
+        raise ValueError(f"--grid {text!r}: expected NAME=LO:HI:N[lin] or NAME=V1,V2,... "
+                         "of finite numbers") from None
     return k, [float(x) for x in vals]
 
 
@@ -318,8 +325,13 @@ class Tuner:
             run([p for p in new if p not in res.results])
         if res.best is None:
             why = next((v[1] for v in res.results.values() if isinstance(v[1], str)), "")
+            why = f"; e.g. {why}" if why else ""
+            if not why and all(getattr(e, "n", 1) == 0 for v in res.results.values()
+                               for e in v[1] or ()):
+                # every set scored NaN over 0 samples (it read only "(9 tried)")
+                why = ": no sample has a finite reference inside the movement mask"
             raise NothingComputed(f"tune: no parameter set could be evaluated "
-                                  f"({len(res.results)} tried)" + (f"; e.g. {why}" if why else ""))
+                                  f"({len(res.results)} tried){why}")
         return res
 
 

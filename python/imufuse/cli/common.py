@@ -237,9 +237,14 @@ def positive(typ, hi, lo=0):
         try:
             v = typ(text)
         except (ValueError, OverflowError):
-            raise argparse.ArgumentTypeError(f"expected a {typ.__name__}, got {text!r}") from None
+            # it read "expected a int"
+            raise argparse.ArgumentTypeError(
+                f"expected {'an integer' if typ is int else 'a number'}, got {text!r}") from None
         if not (v > 0 and lo <= v <= hi) or (typ is float and not math.isfinite(v)):
-            raise argparse.ArgumentTypeError(f"must be in [{lo:g}, {hi:g}] and > 0, got {text}")
+            # it read "must be in [0, 1e+06] and > 0"
+            raise argparse.ArgumentTypeError(
+                (f"must be > 0 and at most {hi:g}" if lo <= 0 else f"must be in [{lo:g}, {hi:g}]")
+                + f", got {text}")
         return v
     conv.__name__ = typ.__name__
     return conv

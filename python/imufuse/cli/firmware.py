@@ -229,6 +229,10 @@ def _reported(args):
 
 
 def _export(args):
+    if os.path.exists(args.dir) and not os.path.isdir(args.dir):
+        # it read "DIR/imufuse/src/fixed: Not a directory"
+        raise OutputError(f"{args.dir}: is a file, not a directory; give a directory "
+                          "for the library")
     lib = export_arduino(args.dir, make_zip=args.zip)
     print(f"Arduino library: {lib}")
     if args.zip:

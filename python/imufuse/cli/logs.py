@@ -66,6 +66,8 @@ def _run(args):
     s = open_session(args)
     ro, sc = run_options(args), score_options(args)
     n = len(s.log)
+    if s.log.q_ref is not None:
+        s.mask(sc)              # a --skip past the log's end: said before anything is written
     if args.plot or args.output.lower().endswith(".npz"):
         r = s.run(args.filter, pairs(args.param), ro, progress=progress)
         _all_rejected(s, args, r)

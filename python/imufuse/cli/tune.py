@@ -72,6 +72,12 @@ def _tune(args):
     print(head)
     print("-" * len(head))
     ranked = res.ranked()
+    refused = [p for p in res.results if p not in ranked]
+    if refused:
+        p = refused[0]
+        err(f"note: {len(refused)} of {len(res.results)} parameter sets refused by "
+            f"{args.filter}, not in the table (e.g. "
+            f"{', '.join(f'{k}={v:.4g}' for k, v in zip(keys, p))}: {res.results[p][1]})")
     for p in ranked if args.all else ranked[:args.top]:
         s, evs = res.results[p]
         print("  ".join(f"{v:{wi}.4g}" for v, wi in zip(p, kw)) + f"  {s:11.3f}" + "".join(

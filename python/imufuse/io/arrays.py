@@ -99,11 +99,15 @@ def _read_arrays(path):
             return None
         a = np.asarray(z[member[kind]])
         if a.dtype.kind not in "biuf":
-            raise LogError(f"{path}: array {kind} holds {a.dtype} values; expected numbers")
+            raise LogError(f"{path}: array {member[kind]} holds {a.dtype} values; expected "
+                           "numbers")
         return a
     gyr = part("gyr")
-    if gyr.ndim != 2:
-        raise LogError(f"{path}: array gyr has shape {gyr.shape}; expected (N, 3)")
+    if gyr.ndim != 2 or gyr.shape[1] != 3:
+        # (3, N) read as N = 3 named acc as the wrong one, "expected (3, 3)"
+        raise LogError(f"{path}: array {member['gyr']} has shape {gyr.shape}; expected (N, 3)"
+                       + (", one row per sample (transposed?)" if gyr.ndim == 2
+                          and gyr.shape[0] == 3 else ""))
     n = len(gyr)
     cols, sources = {}, {}
     for kind, cnames, width in (("gyr", GYR, 3), ("acc", ACC, 3), ("mag", MAG, 3),
@@ -111,8 +115,12 @@ def _read_arrays(path):
         a = gyr if kind == "gyr" else part(kind)
         if a is None:
             continue
+        if a.ndim == 2 and a.shape[1] == width and len(a) != n:
+            raise LogError(f"{path}: array {member[kind]} has {len(a)} rows, "
+                           f"{member['gyr']} {n}: every array holds one row per sample")
         if a.ndim != 2 or a.shape != (n, width):
-            raise LogError(f"{path}: array {kind} has shape {a.shape}; expected ({n}, {width})")
+            raise LogError(f"{path}: array {member[kind]} has shape {a.shape}; expected "
+                           f"({n}, {width})")
         for j, c in enumerate(cnames):
             cols[c] = np.ascontiguousarray(a[:, j], dtype=np.float64)
             sources[c] = f"{kind} column {j}"
@@ -122,7 +130,8 @@ def _read_arrays(path):
         a = part(kind)
         if a is not None:
             if a.shape != (n,):
-                raise LogError(f"{path}: array {kind} has shape {a.shape}; expected ({n},)")
+                raise LogError(f"{path}: array {member[kind]} has shape {a.shape}; expected "
+                               f"({n},), one value per sample of {member['gyr']}")
             cols[kind] = a.astype(np.float64)
             sources[kind] = kind
     parts = {"rate": part("rate")}

@@ -92,7 +92,7 @@ def read_log(path, gyr_unit=None, acc_unit=None, rate=None, *, columns=None,
         if "time" not in cols:
             cols["time"] = np.arange(len(log)) * log.dt
             log.sources["time"] = f"k / {rate:g} Hz"
-    elif "time" in cols:
+    elif "time" in cols and (d.size or need_time):   # one sample needs no rate to calibrate
         if d.size == 0:
             raise LogError(f"{path}: one sample: cannot derive the rate from time; give --rate")
         med = float(np.median(d))
@@ -114,7 +114,7 @@ def read_log(path, gyr_unit=None, acc_unit=None, rate=None, *, columns=None,
                        "give the sample rate (--rate HZ), or name the time column "
                        '(--columns time="HEADER")')
     # the usual unit and rate mistakes, named with the option that fixes them
-    log.suspicions = check_log(log, user_rate, file_rate, time_cols)
+    log.suspicions = check_log(log, user_rate, file_rate, time_cols, where)
     warnings += log.suspicions
     log.warnings = warnings
     return log

@@ -41,6 +41,12 @@ def read_csv_rows(path):
 _BOMS = ((codecs.BOM_UTF8, "utf-8-sig"), (codecs.BOM_UTF16_LE, "utf-16"),
          (codecs.BOM_UTF16_BE, "utf-16"))
 _DELIMS = (",", ";", "\t", "|")
+#: the binary files a log is often mistaken for, said by their first bytes
+_MAGIC = ((b"\x1f\x8b", "a gzip-compressed file; decompress it first (gunzip)"),
+          (b"PK\x03\x04", "a ZIP archive; an NPZ log needs the .npz extension, else unzip it"),
+          (b"\x93NUMPY", "a NumPy .npy array; save the log as NPZ (numpy.savez(path, gyr=..., "
+                         "acc=..., rate=...))"),
+          (b"\x89HDF\r\n\x1a\n", "an HDF5 file; an HDF5 log needs the .h5 or .hdf5 extension"))
 _DEC_COMMA = re.compile(r"^\s*[-+]?\d+,\d+(?:[eE][-+]?\d+)?\s*$")
 
 
@@ -134,8 +140,10 @@ def _open_text(path):
         if k > 0 and not head[k:].strip(b"\0") and _nul_tail_start(path) <= k:
             head = head[:k]          # a preallocated file: text, then only NUL to the end
     if enc == "utf-8" and b"\0" in head:
-        raise LogError(f"{path}: not a text (CSV) log: it contains NUL bytes "
-                       "(expected a header row of column names)")
+        what = next((w for magic, w in _MAGIC if head.startswith(magic)), None)
+        raise LogError(f"{path}: not a text (CSV) log: " + (what or "it contains NUL bytes "
+                                                            "(expected a header row of column "
+                                                            "names)"))
     try:
         text = head.decode(enc)
     except UnicodeDecodeError as e:
@@ -163,6 +171,17 @@ def _sniff(lines):
 # ---------------------------------------------------------------------------
 # reading
 
+def _cut_short(path, ln):
+    """True when line ``ln`` (1-based) is the file's last and has no line end: the file was
+    cut while a row was written (the error path only: it reads the file again)."""
+    with open(path, "rb") as fh:
+        data = fh.read()
+    data = data.rstrip(b"\0")                 # a preallocated file's NUL tail
+    if not data or data.endswith((b"\n", b"\r")):
+        return False
+    return len(_LINE_END.findall(data)) + 1 == ln
+
+
 def _numbers_slow(path, enc, delim, header_line, idx, decimal_comma, loader_error):
     """Locate a bad row line by line (only after the fast reader failed); raise
     LogError naming the line. loader_error: the fast reader's message."""
@@ -189,7 +208,10 @@ def _numbers_slow(path, enc, delim, header_line, idx, decimal_comma, loader_erro
                     ncol = len(r)
                 if len(r) <= max(idx.values()):
                     raise LogError(f"{path}:{ln}: {len(r)} values, the header has "
-                                   f"{max(idx.values()) + 1 if ncol is None else ncol} columns")
+                                   f"{max(idx.values()) + 1 if ncol is None else ncol} columns"
+                                   + (" (the last line, without a line end: a file cut short, "
+                                      "as by an interrupted recording? delete that line)"
+                                      if _cut_short(path, ln) else ""))
                 for i, name in names.items():
                     s = r[i].strip()
                     if decimal_comma:
@@ -367,6 +389,13 @@ def _read_csv(path, column_map, time_unit):
     if data:
         cells = (next(csv.reader([data[0]], delimiter=delim)) if delim else data[0].split())
         dc = [c for c in cells if _DEC_COMMA.match(c)]
+        if delim != "," and not dc:
+            # a first row of integers ("0;0;0;1") says nothing: the first rows that do
+            for row in data[1:]:
+                dc = [c for c in (next(csv.reader([row], delimiter=delim)) if delim
+                                  else row.split()) if _DEC_COMMA.match(c)]
+                if dc:
+                    break
         if delim != "," and dc:
             decimal_comma = True
             notes.append(f"decimal commas ({dc[0]!r}) read as decimal points")

@@ -149,7 +149,10 @@ class ReferenceFilter:
         `args`, else what is wrong. Shared with imufuse_c."""
         return None
 
-    def update(self, *args, dt=None):
+    def update(self, *args, dt=_checks.UNSET, **named):
+        # dt named in the signature: the session reads what run() and update() take from it
+        *args, dt = _checks.bind("update", _checks.KINDS[self.kind], {"dt": None}, args,
+                                 _checks.given(named, dt=dt))
         vals = _checks.update_inputs(self.kind, args)
         R = self._R
         with np.errstate(over="ignore"):    # beyond float32: inf, as C's conversion
@@ -166,9 +169,12 @@ class ReferenceFilter:
                 self._update(*row)
                 self._set_dt(R(self._args[0]))
 
-    def run(self, *args, dt=None, outputs="state"):
+    def run(self, *args, dt=_checks.UNSET, outputs=_checks.UNSET, **named):
         """All samples; returns the (N, len(state)) trajectory, or for a 3-D filter with
         outputs="q" the (N, 4) quaternions sensor -> earth (imufuse.shared.estimate.run_outputs)."""
+        *args, dt, outputs = _checks.bind("run", _checks.KINDS[self.kind],
+                                          {"dt": None, "outputs": "state"}, args,
+                                          _checks.given(named, dt=dt, outputs=outputs))
         if outputs != "state":
             if self.kind not in ("imu", "ahrs"):
                 raise ValueError(f"outputs: {type(self).__name__} has no orientation "

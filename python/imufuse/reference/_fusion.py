@@ -93,6 +93,13 @@ def offset_params(sample_rate):
     return (_as_int("sample_rate", sample_rate, 1, MAX_PERIOD // 5),)
 
 
+def to_real(R, x):
+    """x in the filter's type R: beyond float32, +-inf, as C's conversion, without numpy's
+    overflow warning (the sample is then rejected, as in C)."""
+    with np.errstate(over="ignore"):
+        return R(x)
+
+
 def check_dt_value(dt):
     """dt of one update: a real number >= 0 (NaN/inf go to the non-finite policy)."""
     try:

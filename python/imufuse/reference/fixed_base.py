@@ -79,7 +79,10 @@ def as_int16(name, a, ndim):
             raise ValueError(f"{name}: expected integer sensor counts, got dtype {arr.dtype} (give the "
                              "int16 readings of the sensor, or round physical values to them: "
                              "np.round(x / unit_per_count).astype(np.int16))")
-    if arr.size and (arr.min() < -32768 or arr.max() > 32767):
+    # int16 and narrower hold no count beyond the range: not scanned (a huge array, or a
+    # broadcast view of 10^13 rows, went through min and max for hours before the copy)
+    if arr.size and not np.can_cast(arr.dtype, np.int16) and (arr.min() < -32768
+                                                              or arr.max() > 32767):
         raise ValueError(f"{name}: counts must be within int16 [-32768, 32767]")
     if arr.ndim != ndim:
         raise ValueError(f"{name}: expected {ndim}-D counts, got shape {arr.shape}")
@@ -189,10 +192,12 @@ class FixedFilter:
         return np.array([self._state_float([int(v) for v in row]) for row in np.asarray(states)],
                         dtype=float).reshape(len(states), -1)
 
-    def update(self, *args):
+    def update(self, *args, **named):
+        args = _checks.bind("update", _checks.KINDS[self.kind], {}, args, named)
         self._update(*fixed_update_inputs(self.kind, args))
 
-    def run(self, *args):
+    def run(self, *args, **named):
+        args = _checks.bind("run", _checks.KINDS[self.kind], {}, args, named)
         arrays = fixed_run_inputs(self.kind, args)
         n = len(self.state_names)
         rows = [a.tolist() for a in arrays]

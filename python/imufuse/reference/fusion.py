@@ -522,28 +522,28 @@ class FusionAHRS:
 
     def _vec(self, name, v):
         R = self._o.R
-        return tuple(R(c) for c in _checks.as_vec3(name, v))
+        return tuple(_fusion.to_real(R, c) for c in _checks.as_vec3(name, v))
 
     def update(self, gyr, acc, mag, dt):
         """One sample: gyr (deg/s), acc (g), mag (any unit; all-zero: no
         magnetometer feedback this sample), dt (s)."""
         g, a, m = self._vec("gyr", gyr), self._vec("acc", acc), self._vec("mag", mag)
-        d = self._o.R(_fusion.check_dt_value(dt))
+        d = _fusion.to_real(self._o.R, _fusion.check_dt_value(dt))
         with np.errstate(all="ignore"):
             self._update(g, a, m, d)
 
     def update_no_magnetometer(self, gyr, acc, dt):
         """One sample without magnetometer; heading held at 0 while initialising."""
         g, a = self._vec("gyr", gyr), self._vec("acc", acc)
-        d = self._o.R(_fusion.check_dt_value(dt))
+        d = _fusion.to_real(self._o.R, _fusion.check_dt_value(dt))
         with np.errstate(all="ignore"):
             self._update_no_magnetometer(g, a, d)
 
     def update_external_heading(self, gyr, acc, heading, dt):
         """One sample with a heading (degrees) from another source."""
         g, a = self._vec("gyr", gyr), self._vec("acc", acc)
-        h = self._o.R(_fusion.check_scalar("heading", heading))
-        d = self._o.R(_fusion.check_dt_value(dt))
+        h = _fusion.to_real(self._o.R, _fusion.check_scalar("heading", heading))
+        d = _fusion.to_real(self._o.R, _fusion.check_dt_value(dt))
         with np.errstate(all="ignore"):
             self._update_external_heading(g, a, h, d)
 
@@ -755,7 +755,7 @@ class FusionOffset:
 
     def update(self, gyr):
         R = self._o.R
-        g = tuple(R(c) for c in _checks.as_vec3("gyr", gyr))
+        g = tuple(_fusion.to_real(R, c) for c in _checks.as_vec3("gyr", gyr))
         with np.errstate(all="ignore"):
             return np.array(self._update(g), dtype=self.dtype)
 

@@ -154,7 +154,7 @@ class FusionAHRS13:
 
     def set_sample_period(self, dt):
         """The measured sample period (s) of the next updates (FusionAhrsSetSamplePeriod)."""
-        self._set_sample_period(self._o.R(_fusion.check_dt_value(dt)))
+        self._set_sample_period(_fusion.to_real(self._o.R, _fusion.check_dt_value(dt)))
 
     # -- the update
 
@@ -352,11 +352,11 @@ class FusionAHRS13:
 
     def _vec(self, name, v):
         R = self._o.R
-        return tuple(R(c) for c in _checks.as_vec3(name, v))
+        return tuple(_fusion.to_real(R, c) for c in _checks.as_vec3(name, v))
 
     def _period(self, dt):
         if dt is not None:
-            self._set_sample_period(self._o.R(_fusion.check_dt_value(dt)))
+            self._set_sample_period(_fusion.to_real(self._o.R, _fusion.check_dt_value(dt)))
 
     def update(self, gyr, acc, mag, dt=None):
         """One sample: gyr (deg/s), acc (g), mag (any unit; all-zero: no magnetometer
@@ -376,7 +376,7 @@ class FusionAHRS13:
     def update_external_heading(self, gyr, acc, heading, dt=None):
         """One sample with a heading (degrees) from another source."""
         g, a = self._vec("gyr", gyr), self._vec("acc", acc)
-        h = self._o.R(_fusion.check_scalar("heading", heading))
+        h = _fusion.to_real(self._o.R, _fusion.check_scalar("heading", heading))
         with np.errstate(all="ignore"):
             self._period(dt)
             self._update_external_heading(g, a, h)
@@ -593,7 +593,7 @@ class FusionBias:
 
     def update(self, gyr):
         R = self._o.R
-        g = tuple(R(c) for c in _checks.as_vec3("gyr", gyr))
+        g = tuple(_fusion.to_real(R, c) for c in _checks.as_vec3("gyr", gyr))
         with np.errstate(all="ignore"):
             return np.array(self._update(g), dtype=self.dtype)
 

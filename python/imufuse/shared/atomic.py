@@ -148,8 +148,14 @@ def check_outputs(inputs, outputs) -> None:
         for opt2, out2 in seen:
             if _same(out, out2):
                 raise OutputConflict(f"{opt} {out}: is also the {opt2} output; give two files")
+        if os.fspath(out) == "":
+            raise OutputUnwritable(f"{opt}: an empty file name; give a file name")
         if os.path.isdir(out):
             raise OutputUnwritable(f"{opt} {out}: is a directory; give a file name")
+        if os.fspath(out).endswith(("/", os.sep)):
+            # the file would be written as the name without the slash
+            raise OutputUnwritable(f"{opt} {out}: names a directory (the final '/'), which "
+                                   "does not exist; give a file name")
         d = os.path.dirname(os.path.abspath(out))
         if not os.path.isdir(d):
             raise OutputUnwritable(f"{opt} {out}: directory {d} does not exist")

@@ -236,6 +236,40 @@ KINDS = {
 }
 
 
+UNSET = type("Unset", (), {"__repr__": lambda self: "<not given>"})()
+
+
+def given(named, **explicit):
+    """The keywords of a call: `named` and those of `explicit` not UNSET (the parameters a
+    signature names, to be bound by bind() with the others)."""
+    return {**named, **{k: v for k, v in explicit.items() if v is not UNSET}}
+
+
+def bind(what, names, optional, args, named):
+    """The arguments of a compiled filter's update()/run() bound as Cython binds them, with
+    its TypeErrors word for word, so that the twin accepts and refuses the same calls:
+    `names` required, then `optional` ({name: default}, in order), each by position or by
+    name (update(gyr, acc, 0.01) and update(gyr=g, acc=a, dt=0.01) alike). Returns the
+    values in the order of the parameters."""
+    params = [*names, *optional]
+    n, m = len(names), len(params)
+    if len(args) > m:
+        raise TypeError(f"{what}() takes {'exactly' if n == m else 'at most'} {m} positional "
+                        f"argument{'s' if m != 1 else ''} ({len(args)} given)")
+    vals = dict(zip(params, args))
+    for k, v in named.items():
+        if k not in params:
+            raise TypeError(f"{what}() got an unexpected keyword argument '{k}'")
+        if k in vals:
+            raise TypeError(f"{what}() got multiple values for keyword argument '{k}'")
+        vals[k] = v
+    for i, k in enumerate(names):
+        if k not in vals:
+            raise TypeError(f"{what}() takes {'exactly' if n == m else 'at least'} {n} "
+                            f"positional argument{'s' if n != 1 else ''} ({i} given)")
+    return [vals[k] if k in vals else optional[k] for k in params]
+
+
 def run_inputs(kind, dtype, args):
     """Validate run() arguments for a filter kind; return contiguous arrays."""
     names = KINDS[kind]
@@ -272,13 +306,26 @@ def _dt_problem(v, conv, dtype):
     return f"not representable in {dtype} (it rounds to {float(conv)!r})"
 
 
+def _vector_as_dt(dt, shape):
+    """The hint for 3-vectors (update) or (N, 3) arrays (run) where dt goes: an IMU filter's
+    update(gyr, acc, mag) binds the magnetometer to dt, its third parameter."""
+    try:
+        seen = np.shape(dt)
+    except ValueError:
+        return ""
+    if seen != (shape if isinstance(shape, tuple) else (shape,)):
+        return ""
+    return " (3-vectors where dt goes: a magnetometer given to a filter that takes none?)"
+
+
 def dt_value(dt, dtype):
     """One sample period (s) for update(..., dt=...): finite, > 0 and still
     finite and > 0 once rounded to the filter's precision."""
     try:
         v = float(dt)
     except (TypeError, ValueError):
-        raise ValueError(f"dt: must be a real number (s), got {dt!r}") from None
+        raise ValueError(f"dt: must be a real number (s), got {dt!r}{_vector_as_dt(dt, 3)}") \
+            from None
     with np.errstate(over="ignore", under="ignore"):
         conv = np.dtype(dtype).type(v)
     if not (math.isfinite(v) and v > 0.0 and np.isfinite(conv) and conv > 0):
@@ -295,7 +342,8 @@ def dt_array(dt, n, dtype):
     except (TypeError, ValueError):
         raise ValueError(f"dt: must be an array of {n} sample periods (s), got {type(dt).__name__}") from None
     if arr.shape != (n,):
-        raise ValueError(f"dt: expected shape ({n},), one period per sample, got {arr.shape}")
+        raise ValueError(f"dt: expected shape ({n},), one period per sample, got {arr.shape}"
+                         f"{_vector_as_dt(arr, (n, 3))}")
     with np.errstate(over="ignore", under="ignore", invalid="ignore"):
         conv = arr.astype(dtype)
         bad = ~(np.isfinite(arr) & (arr > 0.0) & np.isfinite(conv) & (conv > 0))
