@@ -6,6 +6,8 @@
  * Its blocks are in two private headers it includes once (one translation unit, as the
  * build tools take one source per family): robust_blocks.h (B1-B3, twin robust_blocks.py)
  * and robust_mag.h (B6, B4, twin robust_mag.py).
+ * The host's lane twin of all three, imufuse_c/host/lanes_robust.h (imufuse_c.run_filters,
+ * tune), repeats these steps for several filters at once, bit for bit: change both.
  *
  * One sample: robust_step (B1 rest and the bias at rest, the strapdown, B2 gravity, the
  * levelling, B3 the bias in motion), then robust_magnetometer (B6 the offset, B4 the

@@ -1,10 +1,10 @@
 /*
  * The gyroscope and accelerometer blocks of imufuse's recommended AHRS (B1 rest and the bias
  * at rest with the bias's get/set pair, the strapdown, B2 gravity, the levelling, B3 the bias
- * in motion). A private part
- * of robust.c, included by it once (one translation unit per family: the build tools take one
- * source per filter); it uses robust.c's helpers above its #include. The pure-Python twin is
- * python/imufuse/reference/robust_blocks.py: the same functions, in the same order.
+ * in motion). A private part of robust.c, included by it once (one translation unit per
+ * family: the build tools take one source per filter); it uses robust.c's helpers above its
+ * #include. The pure-Python twin is python/imufuse/reference/robust_blocks.py: the same
+ * functions, in the same order; the host's lane twin imufuse_c/host/lanes_robust.h (change both).
  */
 #ifndef IMF_ROBUST_BLOCKS_H
 #define IMF_ROBUST_BLOCKS_H

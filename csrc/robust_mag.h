@@ -4,6 +4,7 @@
  * robust.c, included by it once (one translation unit per family: the build tools take one
  * source per filter); it uses robust.c's helpers above its #include. The pure-Python twin
  * is python/imufuse/reference/robust_mag.py: the same functions, in the same order.
+ * The host's lane twin: imufuse_c/host/lanes_robust.h (change both).
  */
 #ifndef IMF_ROBUST_MAG_H
 #define IMF_ROBUST_MAG_H

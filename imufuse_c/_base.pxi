@@ -277,8 +277,9 @@ cdef class _Filter:
                                       ("q0", q0, None), ("state", state, None))
                  if not (v is d or (isinstance(v, (str, int)) and v == d))}
         ctor = (args, dict(kwargs, **start))
-        # the same arguments checked before (the default start only): their checked values
-        key = None if start else _ctor_key(type(self), args, kwargs)
+        # the same arguments checked before (a start given by values that hash, such as
+        # init="first": tune's filter per log and search point): their checked values
+        key = _ctor_key(type(self), args, ctor[1])
         hit = _CTOR_CHECKED.get(key) if key is not None else None
         if hit is None:
             checked = self._ref._checked_params(DTYPE, *args, **kwargs)

@@ -8,8 +8,10 @@
 #include "lanes.h"
 #include "imf_math.h"
 #include "madgwick.h"
+#include "robust.h"
 
 #define IMF_LANES_MADGWICK
+#define IMF_LANES_ROBUST
 
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
 #define IMF_LANES_X86 1
@@ -197,6 +199,8 @@ typedef struct {
 static const kernel_t kernels[] = {
     {"imf_madgwick_update_imu", KERNELS(madgwick_imu)},
     {"imf_madgwick_update", KERNELS(madgwick_ahrs)},
+    {"imf_robust_update_imu", KERNELS(robust_imu)},
+    {"imf_robust_update", KERNELS(robust_ahrs)},
 };
 
 imf_lanes_fn imf_lanes_kernel(const char *const c_update, const int width)

@@ -5,10 +5,11 @@
  * otherwise each lane takes the C library's correctly rounded sqrt.
  *
  * The lane twin of csrc/madgwick.c (madgwick_* here is madgwick_* there; the gate is
- * imf_gate.h's own code). Every line of a lane step is the line of the scalar update with the same
- * operands in the same order; where the scalar code branches on the state, both outcomes
- * are computed and each lane keeps its own (LN(sel_*)). Branches on the inputs alone are
- * the same for every lane and stay branches.
+ * imf_gate.h's own code); lanes_robust.h, included below, is that of csrc/robust.c. Every
+ * line of a lane step is the line of the scalar update with the same operands in the same
+ * order; where the scalar code branches on the state, both outcomes are computed and each
+ * lane keeps its own (LN(sel_*)). Branches on the inputs alone are the same for every lane
+ * and stay branches.
  */
 #define LCAT2(a, b) a##_##b
 #define LCAT(a, b) LCAT2(a, b)
@@ -521,6 +522,11 @@ static int LN(madgwick_ahrs)(void *const *f, int p, ptrdiff_t k0, ptrdiff_t k1,
     return LN(madgwick_run)(f, p, 1, k0, k1, gyr, acc, mag, dts, sc, accs, out);
 }
 #endif /* IMF_LANES_MADGWICK */
+
+/* ---- RobustIMU / RobustAHRS (csrc/robust.c): lanes_robust.h, its lane twin */
+#ifdef IMF_LANES_ROBUST
+#include "lanes_robust.h"
+#endif
 
 #undef VR
 #undef VD
