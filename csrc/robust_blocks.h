@@ -445,7 +445,6 @@ static ROBUST_NOINLINE void robust_bias(const imf_robust_consts_t *const set,
     imf_real k, y[3], h[9];
     unsigned i;
     if (!rest && x->t >= set->s.tau_acc && set->inv_tau_bias > IMF_R(0.0)) {
-        k = robust_bias_gain(set, x, set->tau_b0);
         if (x->bu > IMF_R(0.0)) {
             /* less learnt while the sensor turns fast (robust_bias_gain) */
             x->bu = x->bu - set->ku_motion / robust_turn_div(set, x);
@@ -454,6 +453,7 @@ static ROBUST_NOINLINE void robust_bias(const imf_robust_consts_t *const set,
             }
         }
         if (!(set->s.gyr_bias_max > IMF_R(0.0))) {
+            k = robust_bias_gain(set, x, set->tau_b0);
             robust_bias_from(set, x, IMF_R(2.0) * r[1], IMF_R(2.0) * r[2], IMF_R(0.0), k);
             return;
         }

@@ -457,12 +457,12 @@ static inline void LN(rl_bias)(const RL *const L, RX *const x, const VR *const r
     const VM cond = ~rest & (x->t >= L->tau_acc) & (L->inv_tau_bias > IMF_R(0.0));
     if (LN(any)(cond)) {
         const VR td = LN(rl_turn_div)(L, x);
-        const VR k = LN(rl_bias_gain)(L, x, L->tau_b0, td);
         const VM kal = cond & L->gbm, integ = cond & ~L->gbm;
         VR bu = x->bu - L->ku_motion / td;
         bu = RSEL(bu < IMF_R(0.0), RB(IMF_R(0.0)), bu);
         x->bu = RSEL(cond & (x->bu > IMF_R(0.0)), bu, x->bu);
         if (LN(any)(integ)) {
+            const VR k = LN(rl_bias_gain)(L, x, L->tau_b0, td);
             LN(rl_bias_from)(L, x, IMF_R(2.0) * r[1], IMF_R(2.0) * r[2], RB(IMF_R(0.0)), k, integ);
         }
         if (LN(any)(kal)) {

@@ -377,14 +377,14 @@ class _RobustBlocks:
         # the correction (Eq. 3.6, I_k = I_{k-1} + Ki dt e_k, Ki dt = 1 / tau_bias)
         R = self._R
         if not rest and x.t >= self.s.tau_acc and self.inv_tau_bias > R(0.0):
-            k = self._bias_gain(x, self.tau_b0)
             if x.bu > R(0.0):
                 # less learnt while the sensor turns fast (_bias_gain)
                 x.bu = x.bu - self.ku_motion / self._turn_div(x)
                 if x.bu < R(0.0):
                     x.bu = R(0.0)
             if not (self.s.gyr_bias_max > R(0.0)):
-                self._bias_from(x, R(2.0) * r[1], R(2.0) * r[2], R(0.0), k)
+                self._bias_from(x, R(2.0) * r[1], R(2.0) * r[2], R(0.0),
+                                self._bias_gain(x, self.tau_b0))
                 return
             y = self._rotate(x.c, hb)
             h = []
