@@ -205,6 +205,9 @@ class Reference:
         field that does not hold: use (n_log,) of 0/1, r (n_log, 4) finite with unit rows
         (within 1e-6) where use is 1, n the number of 1s in use, n_samples == n_log."""
         use, r = self.use, self.r
+        if (type(self) is _SealedReference and self.n_samples == n_log
+                and not use.flags.writeable and not r.flags.writeable):
+            return self                  # sealed already, its arrays still read-only
         if not isinstance(use, np.ndarray) or not isinstance(r, np.ndarray):
             bad = "use" if not isinstance(use, np.ndarray) else "r"
             raise TypeError(f"score: Reference.{bad} must be a numpy array (prepare_reference "
@@ -240,9 +243,10 @@ class Reference:
             raise ValueError(f"score: a reference of {self.n_samples} samples for a log of "
                              f"{n_log}")
         u.flags.writeable = rr.flags.writeable = False
-        return Reference(use=u, r=rr, n=count, n_samples=n_log, n_ref_nan=self.n_ref_nan,
-                         n_outside_mask=self.n_outside_mask,
-                         heading_offset=bool(self.heading_offset))
+        return _SealedReference._make(use=u, r=rr, n=count, n_samples=n_log,
+                                      n_ref_nan=self.n_ref_nan,
+                                      n_outside_mask=self.n_outside_mask,
+                                      heading_offset=bool(self.heading_offset))
 
     def finish(self, sq_total, sq_heading, sq_inclination, n_est_nan, stored=None,
                has_heading=True):
@@ -269,6 +273,24 @@ class Reference:
                           n_samples=self.n_samples, n_ref_nan=self.n_ref_nan,
                           n_outside_mask=self.n_outside_mask, n_est_nan=int(n_est_nan),
                           heading_offset=math.degrees(offset), has_heading=has_heading)
+
+
+
+class _SealedReference(Reference):
+    """What Reference.sealed returns: its own read-only arrays, checked whole, and fields
+    that cannot be rebound; sealing it again for a log of its length returns it as it is
+    (tune scores many groups of sets against one reference)."""
+
+    @classmethod
+    def _make(cls, **fields):
+        self = object.__new__(cls)
+        for k, v in fields.items():
+            object.__setattr__(self, k, v)
+        return self
+
+    def __setattr__(self, name, value):
+        raise AttributeError(f"a sealed Reference cannot change ({name}): seal the original "
+                             "again")
 
 
 def prepare_reference(q_ref, *, ref_frame="ENU", ref_direction="sensor-to-earth",

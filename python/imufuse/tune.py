@@ -159,10 +159,12 @@ class Tuner:
         return self._inputs
 
     def references(self) -> list:
-        """Each session's reference prepared for the compiled scorer (once)."""
+        """Each session's reference prepared for the compiled scorer, and sealed (once: every
+        group of sets on a log is scored against the one read-only copy)."""
         if self._refs is None:
             o = self.score_options
-            self._refs = [_reference(s, o) for s in self.sessions]
+            refs = [_reference(s, o) for s in self.sessions]
+            self._refs = [r.sealed(r.n_samples) for r in refs]
         return self._refs
 
     def _effective(self, over: Optional[Mapping[str, Any]] = None) -> Dict[str, Any]:
