@@ -68,22 +68,18 @@ def read_log(path, gyr_unit=None, acc_unit=None, rate=None, *, columns=None,
             k = int(np.argmax(~np.isin(m, (0.0, 1.0))))
             raise LogError(f"{where(k)}: movement must be 0 or 1, got {m[k]!r}")
     if "time" in cols:
-        t = cols["time"]
-        if not np.all(np.isfinite(t)):
-            k = int(np.argmax(~np.isfinite(t)))
-            raise LogError(f"{where(k)}: time is not finite: {float(t[k])!r}")
-        with np.errstate(over="ignore", invalid="ignore"):
-            d = np.diff(t)
-        if np.any(~(d > 0)):
-            k = int(np.argmax(~(d > 0))) + 1
-            raise LogError(f"{where(k)}: time does not increase "
-                           f"({float(t[k - 1])!r} then {float(t[k])!r}); times must increase "
-                           "strictly")
-        if not np.all(np.isfinite(d)):
-            k = int(np.argmax(~np.isfinite(d))) + 1
-            raise LogError(f"{where(k)}: the interval from {float(t[k - 1])!r} to "
-                           f"{float(t[k])!r} s is not a finite number")
+        bad = _time_problem(cols["time"], where)
+        if bad is not None and user_rate is None and need_time:
+            raise LogError(f"{bad} (or give the sample rate, --rate HZ, to run without the "
+                           "time column)")
+        if bad is not None:
+            # a rate given supersedes the column (the times become k / rate), and a reader
+            # that needs no time does without it: said aloud, never silently
+            warnings.append(f"{bad}; the time column is not used" + (
+                f": --rate {user_rate:g} Hz gives every sample's time" if user_rate else ""))
+            del cols["time"]
     time_cols = cols.get("time")      # the file's own times, before a rate generates any
+    d = np.diff(time_cols) if time_cols is not None else np.empty(0)
     if rate is None and file_rate is not None and "time" not in cols:
         rate = file_rate
     if rate is not None:
@@ -118,6 +114,25 @@ def read_log(path, gyr_unit=None, acc_unit=None, rate=None, *, columns=None,
     warnings += log.suspicions
     log.warnings = warnings
     return log
+
+
+def _time_problem(t, where):
+    """None if the times t are finite and increase strictly with finite intervals, else the
+    message naming the first sample that breaks it."""
+    if not np.all(np.isfinite(t)):
+        k = int(np.argmax(~np.isfinite(t)))
+        return f"{where(k)}: time is not finite: {float(t[k])!r}"
+    with np.errstate(over="ignore", invalid="ignore"):
+        d = np.diff(t)
+    if np.any(~(d > 0)):
+        k = int(np.argmax(~(d > 0))) + 1
+        return (f"{where(k)}: time does not increase ({float(t[k - 1])!r} then "
+                f"{float(t[k])!r}); times must increase strictly")
+    if not np.all(np.isfinite(d)):
+        k = int(np.argmax(~np.isfinite(d))) + 1
+        return (f"{where(k)}: the interval from {float(t[k - 1])!r} to {float(t[k])!r} s is "
+                "not a finite number")
+    return None
 
 
 def describe(log):
