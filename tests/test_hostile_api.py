@@ -243,15 +243,17 @@ def test_fixed_update_inputs_agree(case, profile):
         assert fs[0].state.tolist() == fs[1].state.tolist()
 
 
-def test_fixed_run_of_a_huge_int16_view_fails_at_once():
-    """A broadcast view of 10^13 rows of int16 counts: both backends raise MemoryError at
-    the copy; the shared range check first scanned it with min() and max() for hours (int16
-    holds no count beyond the range)."""
+@pytest.mark.parametrize("dtype", ["int16", "int64", "float64"])
+def test_fixed_run_of_a_huge_view_fails_at_once(dtype):
+    """A broadcast view of 10^13 rows of counts: both backends raise MemoryError at the
+    copy; the shared check first scanned it (min() and max(), and for floats isfinite and
+    round over the whole view) for hours. The copy now comes first, then the checks a
+    block of rows at a time."""
     import os
     import subprocess
     import sys
     code = ("import numpy as np, imufuse_c, imufuse.reference as R\n"
-            "g = np.broadcast_to(np.array([1, 2, 3], np.int16), (10**13, 3))\n"
+            f"g = np.broadcast_to(np.array([1, 2, 3], np.{dtype}), (10**13, 3))\n"
             "for m in (imufuse_c, R):\n"
             "    try:\n"
             "        m.MadgwickIMUQ(dt=0.01, gyr_scale=1e-3).run(g, g)\n"

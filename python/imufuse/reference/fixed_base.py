@@ -70,23 +70,47 @@ def c_literal(value) -> str:
     return str(v)
 
 
+def _not_counts(name, dtype):
+    return ValueError(f"{name}: expected integer sensor counts, got dtype {dtype} (give the "
+                      "int16 readings of the sensor, or round physical values to them: "
+                      "np.round(x / unit_per_count).astype(np.int16))")
+
+
+#: rows of a wider array checked and converted at a time (bounded temporaries)
+_COUNT_ROWS = 1 << 16
+
+
 def as_int16(name, a, ndim):
+    """``a`` as int16 counts of ``ndim`` dimensions (C-contiguous for arrays): integers, or
+    floats holding whole numbers, within [-32768, 32767]; ValueError naming ``name``."""
     arr = np.asarray(a)
-    if arr.dtype.kind not in "iub":
-        if arr.dtype.kind == "f" and np.all(np.isfinite(arr)) and np.all(arr == np.round(arr)):
-            pass
-        else:
-            raise ValueError(f"{name}: expected integer sensor counts, got dtype {arr.dtype} (give the "
-                             "int16 readings of the sensor, or round physical values to them: "
-                             "np.round(x / unit_per_count).astype(np.int16))")
-    # int16 and narrower hold no count beyond the range: not scanned (a huge array, or a
-    # broadcast view of 10^13 rows, went through min and max for hours before the copy)
+    if arr.dtype.kind not in "iubf":
+        raise _not_counts(name, arr.dtype)
+    if arr.ndim == 0 or np.can_cast(arr.dtype, np.int16):
+        _check_counts(name, arr)
+        if arr.ndim != ndim:
+            raise ValueError(f"{name}: expected {ndim}-D counts, got shape {arr.shape}")
+        return np.ascontiguousarray(arr, dtype=np.int16) if ndim else np.asarray(arr, dtype=np.int16)
+    # a wider type: the copy is made first (a huge array, or a broadcast view of 10^13 rows,
+    # fails there at once, as float inputs do), then checked and filled a block at a time
+    if arr.ndim != ndim:
+        raise ValueError(f"{name}: expected {ndim}-D counts, got shape {arr.shape}")
+    out = np.empty(arr.shape, dtype=np.int16)
+    for k in range(0, len(arr), _COUNT_ROWS):
+        part = arr[k:k + _COUNT_ROWS]
+        _check_counts(name, part)
+        out[k:k + _COUNT_ROWS] = part
+    return out
+
+
+def _check_counts(name, arr):
+    """ValueError unless every value of arr is a whole, finite count within int16."""
+    if arr.dtype.kind == "f" and not (np.all(np.isfinite(arr)) and np.all(arr == np.round(arr))):
+        raise _not_counts(name, arr.dtype)
+    # int16 and narrower hold no count beyond the range: not scanned
     if arr.size and not np.can_cast(arr.dtype, np.int16) and (arr.min() < -32768
                                                               or arr.max() > 32767):
         raise ValueError(f"{name}: counts must be within int16 [-32768, 32767]")
-    if arr.ndim != ndim:
-        raise ValueError(f"{name}: expected {ndim}-D counts, got shape {arr.shape}")
-    return np.ascontiguousarray(arr, dtype=np.int16) if ndim else np.asarray(arr, dtype=np.int16)
 
 
 def fixed_run_inputs(kind, args):
