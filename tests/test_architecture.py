@@ -145,8 +145,8 @@ FLOORS = [
     ("data and filters", {"imufuse.io", "imufuse.preprocess", "imufuse.plots", "imufuse.catalogue",
                           "imufuse.registry", "imufuse.sim", "imufuse.vario", "imufuse.vario.pipeline"}),
     ("compiled and twins", {"imufuse_c", "imufuse.reference"}),
-    ("helpers", {"imufuse", "imufuse.shared", "imufuse.rotations", "imufuse.evaluation", "imufuse.plausible",
-                 "imufuse.calibration.fit"}),
+    ("helpers", {"imufuse", "imufuse.shared", "imufuse.rotations", "imufuse.evaluation",
+                 "imufuse.latency", "imufuse.plausible", "imufuse.calibration.fit"}),
 ]
 
 

@@ -68,7 +68,6 @@ def files(tmp_path_factory):
     w("times_overflow.csv", HEAD + "-1e308,0,0,0,0,0,1\n1e308,0,0,0,0,0,1\n")
     w("time_nan.csv", HEAD + "0,0,0,0,0,0,1\nnan,0,0,0,0,0,1\n")
     w("one_row.csv", HEAD + "0,0,0,0,0,0,1\n")
-    w("time_repeat.csv", HEAD + "".join(f"{min(k, 20) / 100},0,0,0,0,0,1\n" for k in range(150)))
     w("long_field.csv", HEAD + "0,0,0,0,0,0,1\n0.01,0," + "7" * 140000 + ",0,0,0,1\n")
     w("long_text.csv", HEAD + "0,0,0,0,0,0,1\n0.01,0," + "x" * 140000 + ",0,0,0,1\n")
     w("short_row.csv", HEAD + "0,0,0,0,0,0,1\n0.01,0,0\n")
@@ -128,24 +127,6 @@ def test_hostile_files_and_arguments(files, tmp_path, name, extra, code, word):
         args += ["-f", "MadgwickIMU"]
     line = one_line_error(imf_here(*args), code)
     assert word in line, line
-
-
-def test_a_given_rate_runs_past_a_broken_time_column(files, tmp_path):
-    """A time column that stops increasing (line 23) is refused with the way out named;
-    with --rate the log runs at that rate, its times k / rate, and the column's defect is
-    said; calibration, which needs no time, does without the column."""
-    f = files["time_repeat.csv"]
-    line = one_line_error(imf_here("run", f, "-f", "MadgwickIMU", "-o", tmp_path / "o.csv"),
-                          DATA)
-    assert ":23: time does not increase (0.2 then 0.2)" in line and "--rate HZ" in line, line
-    r = imf_here("run", f, "-f", "MadgwickIMU", "--rate", 50, "-o", tmp_path / "o.csv")
-    assert r.returncode == 0, r.stderr
-    assert ":23: time does not increase" in r.stderr and "--rate 50 Hz gives" in r.stderr
-    t = np.loadtxt(tmp_path / "o.csv", delimiter=",", skiprows=1, usecols=0)
-    assert np.array_equal(t, np.arange(150) * (1 / 50.0))
-    r = imf_here("calibrate", "gyro", f, "-o", tmp_path / "c.json")
-    assert "time does not increase" in r.stderr and "the time column is not used" in r.stderr
-    assert "--rate HZ" not in r.stderr, r.stderr
 
 
 def test_the_entry_point_says_the_same_in_its_own_process(files, tmp_path):

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation as R
 
-from imufuse import evaluation as ev
+from imufuse import evaluation as ev, sim
+from imufuse.evaluation import prepare_reference
 from broad_data import BROAD, SKIP_REASON
 
 # ../shared beside the checkout (main and CI), or two levels up (a worktree)
@@ -234,3 +235,21 @@ def test_reference_rows_whose_norm_overflows_are_excluded():
         warnings.simplefilter("error")
         e = ev.evaluate(q, r)
     assert e.n == 19 and e.inclination == 0.0
+
+
+def test_a_sealed_reference_is_sealed_once():
+    """Sealed again for its log, a sealed Reference is itself (tune scores every group of
+    sets on a log against one copy); its fields cannot be rebound, and arrays made writeable
+    again are copied and checked again."""
+    d = sim.imu("fast", rate=200.0, duration=2.0, seed=11)
+    n = len(d.gyr)
+    sealed = prepare_reference(d.q_true, ref_frame="NWU").sealed(n)
+    assert sealed.sealed(n) is sealed
+    with pytest.raises(AttributeError, match="sealed Reference cannot change"):
+        sealed.n = 0
+    with pytest.raises(ValueError, match="a reference of"):
+        sealed.sealed(n - 1)
+    sealed.use.flags.writeable = True
+    sealed.use[:] = 2
+    with pytest.raises(ValueError, match="0 or 1 only"):
+        sealed.sealed(n)

@@ -1,4 +1,4 @@
-"""imufuse.evaluation.estimate_latency and `imufuse latency`: the delay of a gyroscope behind
+"""imufuse.latency.estimate_latency and `imufuse latency`: the delay of a gyroscope behind
 a reference orientation, which RobustIMU's / RobustAHRS's `latency` compensates.
 
 The simulated sensor (imufuse.sim.disturb) integrates exactly as the filters do, so its
@@ -14,7 +14,7 @@ import pytest
 import imufuse_c
 from imufuse import cli
 from imufuse.sim import disturb as sd
-from imufuse.evaluation import estimate_latency
+from imufuse.latency import estimate_latency
 from imufuse.rotations import quat_conj, quat_mul
 from broad_data import BROAD, SKIP_REASON
 

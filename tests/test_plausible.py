@@ -304,3 +304,25 @@ def test_rad_per_s_read_as_deg_per_s_keeps_its_margin_on_the_broad_trials():
         slow = gyro_scale(log.gyr / np.degrees(1.0), log.acc, log.mag, dt=log.dt,
                           too_small=True)
         assert right.ratio > 0.5 and slow.ratio < 0.02, (f, right, slow)
+
+
+def test_a_given_rate_runs_past_a_broken_time_column(tmp_path):
+    """A time column that stops increasing (line 23) is refused with the way out named;
+    with --rate the log runs at that rate, its times k / rate, and the column's defect is
+    said; calibration, which needs no time, does without the column."""
+    f = tmp_path / "time_repeat.csv"
+    f.write_text("time,gyr_x,gyr_y,gyr_z,acc_x,acc_y,acc_z\n"
+                 + "".join(f"{min(k, 20) / 100},0,0,0,0,0,1\n" for k in range(150)))
+    r = imf_here("run", f, "-f", "MadgwickIMU", "-o", tmp_path / "o.csv")
+    errs = [ln for ln in r.stderr.splitlines() if ln.startswith("imufuse: error:")]
+    assert r.returncode == 4 and len(errs) == 1, r.stderr       # 4: a data error
+    line = errs[0]
+    assert ":23: time does not increase (0.2 then 0.2)" in line and "--rate HZ" in line, line
+    r = imf_here("run", f, "-f", "MadgwickIMU", "--rate", 50, "-o", tmp_path / "o.csv")
+    assert r.returncode == 0, r.stderr
+    assert ":23: time does not increase" in r.stderr and "--rate 50 Hz gives" in r.stderr
+    t = np.loadtxt(tmp_path / "o.csv", delimiter=",", skiprows=1, usecols=0)
+    assert np.array_equal(t, np.arange(150) * (1 / 50.0))
+    r = imf_here("calibrate", "gyro", f, "-o", tmp_path / "c.json")
+    assert "time does not increase" in r.stderr and "the time column is not used" in r.stderr
+    assert "--rate HZ" not in r.stderr, r.stderr

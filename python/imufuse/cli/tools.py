@@ -10,7 +10,7 @@ from .. import plots, sim
 from ..catalogue import FilterError, filter_names, inputs_for, make_filter, reference_class
 from ..catalogue import resolve_params
 from ..tools.demo import run_demo
-from ..evaluation import estimate_latency
+from ..latency import estimate_latency
 from ..io import EXAMPLE_ATTRIBUTION, GYR, example_log, require
 from ..session import NothingComputed
 from . import logs
