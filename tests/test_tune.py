@@ -163,3 +163,16 @@ def test_tune_says_why_nothing_scored(tmp_path):
     assert r.returncode == 4 and r.stderr.strip() == (
         "imufuse: error: tune: no parameter set could be evaluated (9 tried): no sample has a "
         "finite reference inside the movement mask"), r.stderr
+
+
+def test_tune_takes_folders_and_patterns_as_compare(good):
+    """tune (and latency) name their logs as compare does: a folder of logs and a quoted
+    glob pattern are its files (they were refused: "is a directory", "no such file")."""
+    args = ("-f", "MadgwickIMU", "-q", "--grid", "beta=0.05,0.2")
+    want = imf_here("tune", good, *args)
+    assert want.returncode == 0, want.stderr
+    for spec in (good.parent, good.parent / "*.csv"):
+        r = imf_here("tune", spec, *args)
+        assert (r.returncode, r.stdout) == (0, want.stdout), r.stderr
+    r = imf_here("tune", good.parent / "none*.csv", *args)
+    assert r.returncode == 3 and "no file matches" in r.stderr, r.stderr

@@ -9,6 +9,7 @@ import numpy as np
 from .. import plots, sim
 from ..catalogue import FilterError, filter_names, inputs_for, make_filter, reference_class
 from ..catalogue import resolve_params
+from ..comparison import log_paths
 from ..tools.demo import run_demo
 from ..latency import estimate_latency
 from ..io import EXAMPLE_ATTRIBUTION, GYR, example_log, require
@@ -64,7 +65,7 @@ def add_demo(sub):
 
 def _latency(args):
     delays = []
-    for path in args.logs:
+    for path in log_paths(args.logs):
         log = open_session(args, path).log
         if log.q_ref is None:
             raise NothingComputed(f"{log.path}: no reference orientation (q_w..q_z): nothing to "
@@ -96,7 +97,8 @@ def _latency(args):
 def add_latency(sub):
     d = sub.add_parser("latency", help="delay of the gyroscope behind a log's reference "
                        "orientation (RobustIMU's latency), from the rates alone")
-    d.add_argument("logs", nargs="+", metavar="LOG")
+    d.add_argument("logs", nargs="+", metavar="LOG",
+                   help="logs: files, folders of logs, glob patterns (as compare)")
     d.add_argument("--max-delay", type=positive(float, 1.0), default=0.05, metavar="S",
                    help="search shifts within +-S seconds (default 0.05)")
     d.add_argument("--ref-direction", choices=("sensor-to-earth", "earth-to-sensor"),

@@ -4,6 +4,7 @@ import os
 import sys
 
 from ..catalogue import canonical_name
+from ..comparison import log_paths
 from ..tune import Tuner, grid_spec
 from .common import (EXIT_OK, UsageError, err, eval_options, executor, executor_spec,
                      filter_options, log_options, open_session, pairs, positive, nonneg_int,
@@ -25,6 +26,7 @@ def _tune(args):
             raise UsageError(f"--grid {k}: {k} is also fixed by --param; give it once")
         grids.append((k, vals))
         given[k] = g
+    args.logs = log_paths(args.logs)          # files, folders of logs, glob patterns
     try:
         # with an executor, the logs are read where the executor runs them (the first one
         # here too, for the default grid); else here, with their notes
@@ -99,7 +101,8 @@ def add_parsers(sub):
                        "releases the GIL). The table is sorted\nby score, best first.\n\n"
                        "example:\n  imufuse tune trial1.npz trial2.npz -f "
                        "MadgwickIMU --grid beta=0.005:1:15")
-    t.add_argument("logs", nargs="+", metavar="LOG")
+    t.add_argument("logs", nargs="+", metavar="LOG",
+                   help="logs: files, folders of logs, glob patterns (as compare)")
     t.add_argument("--filter", "-f", required=True, type=canonical_name)
     t.add_argument("--grid", "-g", action="append", metavar="NAME=LO:HI:N[lin]|V1,V2,..",
                    help="values of a parameter (repeatable; log-spaced unless 'lin'); default: "
