@@ -71,6 +71,23 @@ def test_m_per_s2_read_as_g(tmp_path, motion):
     assert any("--acc-unit g" in w for w in log.warnings), log.warnings
 
 
+@pytest.mark.parametrize("counts_per_g,unit", [(16384, None), (2048, None), (4096, "m/s2")])
+def test_accelerometer_counts_are_named(tmp_path, motion, counts_per_g, unit):
+    """Raw counts (16384 per g at +-2 g, 2048 at +-16 g; read as g or as m/s^2) were taken
+    without a word, though MultiWii's window and the acceleration gates never use them."""
+    t = np.arange(len(motion.gyr)) * motion.dt
+    rows = np.column_stack([t, motion.gyr, motion.acc * counts_per_g])
+    log = read_log(_csv(tmp_path / "c.csv", ["time", "gyr_x", "gyr_y", "gyr_z", "acc_x", "acc_y",
+                                             "acc_z"], rows), acc_unit=unit)
+    notes = [w for w in log.warnings if "raw sensor counts?" in w]
+    assert len(notes) == 1 and "scale them to g or m/s^2" in notes[0], log.warnings
+    # +-16 g of real motion (median far below) stays silent: the test is on the median
+    rows = np.column_stack([t, motion.gyr, np.clip(motion.acc * 8.0, -16, 16)])
+    log = read_log(_csv(tmp_path / "m.csv", ["time", "gyr_x", "gyr_y", "gyr_z", "acc_x", "acc_y",
+                                             "acc_z"], rows))
+    assert not any("raw sensor counts?" in w for w in log.warnings), log.warnings
+
+
 def test_time_in_ms(tmp_path, motion):
     t = np.arange(len(motion.gyr)) * motion.dt * 1000.0
     rows = np.column_stack([t, motion.gyr, motion.acc])

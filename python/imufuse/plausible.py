@@ -196,6 +196,13 @@ def check_log(log, rate: Optional[float] = None, file_rate: Optional[float] = No
         elif 0.07 < m < 0.13:
             out.append(f"the accelerometer's median magnitude is {m:.3g} g after converting "
                        f"from {acc_unit}: these look like g read as m/s^2; give --acc-unit g")
+        elif m > 20.0:
+            # no accelerometer range reaches this at rest or in motion: sensor counts
+            conv = "" if acc_unit == "g" else f" after converting from {acc_unit}"
+            out.append(f"the accelerometer's median magnitude is {m:.3g} g{conv}: raw sensor "
+                       "counts? scale them to g or m/s^2 first (the datasheet's counts per g, "
+                       "e.g. 16384 at +-2 g); a filter that compares it with 1 g (MultiWii's "
+                       "window, acc_gate, Fusion's rejection) never uses it as it is")
     gyr_unit, gyr_from = log.units.get("gyr", (None, None))
     if all(n in cols for n in ("gyr_x", "gyr_y", "gyr_z")) and len(log):
         with np.errstate(all="ignore"):
