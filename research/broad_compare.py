@@ -48,7 +48,10 @@ def imufuse_estimator(name, **params):
 
     def est(d, dt):
         f = catalogue.make_filter(name, "c", "float64", dict(e.defaults, dt=dt, **params))
-        args = (d["gyr"], d["acc"]) + ((d["mag"],) if e.kind == "ahrs" else ())
+        # BROAD's accelerometer is in m/s^2; a filter that compares it with acc_1g (MultiWii's
+        # window, an acc_gate) gets it in acc_1g's unit, g, as imufuse compare gives it
+        acc = d["acc"] / 9.80665 if "acc_1g" in e.params else d["acc"]
+        args = (d["gyr"], acc) + ((d["mag"],) if e.kind == "ahrs" else ())
         return catalogue.estimate(f, f.run(*args)).q, "NWU"
     return est
 

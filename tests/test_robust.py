@@ -366,7 +366,7 @@ def test_broad_development_trials():
         tilt.append(rms(t))
         head.append(rms(h))
     assert len(tilt) == 7
-    # documented in docs/recommended-ahrs.md: 0.60 deg tilt, 1.08 deg heading (defaults)
+    # documented in docs/recommended-ahrs.md: 0.60 deg tilt, 1.06 deg heading (defaults)
     assert np.mean(tilt) < 0.61 and np.mean(head) < 1.09
 
 
