@@ -247,7 +247,7 @@ def test_gyr_bias_through_a_calibration_file(tmp_path):
 def test_broad_started_in_motion(B, bound):
     # each trial from its first movement sample (the first rest cut off), with a bias
     # B (0.8, -0.6, 1.0) deg/s added; documented in docs/recommended-ahrs.md (research/
-    # bias_study.py): 0.674 / 2.67 without bias, 1.395 / 14.49 at 5 deg/s (VQF 2.1: 0.733 /
+    # bias_study.py): 0.675 / 2.69 without bias, 1.392 / 14.47 at 5 deg/s (VQF 2.1: 0.733 /
     # 3.31 and 6.525 / 38.49)
     import glob
     import os
