@@ -96,7 +96,11 @@ class ScaledAHRS(reference.RobustAHRS):
             self._P[:3, :3] = np.array([[x.bp[0], x.bp[1], x.bp[2]], [x.bp[1], x.bp[3], x.bp[4]],
                                         [x.bp[2], x.bp[4], x.bp[5]]])
             self._P_init = True
-        # B1 (rest) changes bp: take it over
+        # B1 (rest) divides bp by its information gain: take it over, and divide the cross
+        # covariance of (b, s) alike (P stays positive: the scale is not seen at rest)
+        if self._P[0, 0] > 0.0 and x.bp[0] != self._P[0, 0]:
+            self._P[:3, 3:] *= x.bp[0] / self._P[0, 0]
+            self._P[3:, :3] = self._P[:3, 3:].T
         self._P[:3, :3] = np.array([[x.bp[0], x.bp[1], x.bp[2]], [x.bp[1], x.bp[3], x.bp[4]],
                                     [x.bp[2], x.bp[4], x.bp[5]]])
         if not (not rest and x.t >= self.s.tau_acc and self.inv_tau_bias > 0.0):
