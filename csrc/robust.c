@@ -3,9 +3,10 @@
  * python/imufuse/reference/robust.py: the same functions, in the same order, with the same
  * comments.
  *
- * Its blocks are in two private headers it includes once (one translation unit, as the
- * build tools take one source per family): robust_blocks.h (B1-B3, twin robust_blocks.py)
- * and robust_mag.h (B6, B4, twin robust_mag.py).
+ * Its blocks are in three private headers it includes once (one translation unit, as the
+ * build tools take one source per family): robust_b3.h (B3's noise, twin robust_b3.py),
+ * robust_blocks.h (B1-B3, twin robust_blocks.py) and robust_mag.h (B6, B4, twin
+ * robust_mag.py).
  * The host's lane twin of all three, imufuse_c/host/lanes_robust.h (imufuse_c.run_filters,
  * tune), repeats these steps for several filters at once, bit for bit: change both.
  *
@@ -104,6 +105,7 @@ static void robust_set_dt(imf_robust_consts_t *const set, const imf_real dt)
     set->ku_motion = set->inv_tau_bias * dt;
     set->k_mag = dt / (set->s.tau_mag + dt);
     set->k_ref = dt / (set->s.tau_mag_ref + dt);
+    set->k_acc = dt / (set->s.tau_acc + dt);
 }
 
 static void robust_init(imf_robust_consts_t *const set, uint32_t *const skipped,
@@ -230,6 +232,9 @@ void imf_robust_set_attitude(imf_robust_t *const self, const imf_attitude_t *con
 {
     robust_set_attitude(&self->x, att);
 }
+
+/* ---- B3's noise (robust_b3.h) ------------------------------------------------------ */
+#include "robust_b3.h"
 
 /* ---- gyro and accelerometer: B1, strapdown, B2, levelling, B3 (robust_blocks.h) ---- */
 #include "robust_blocks.h"

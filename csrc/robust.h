@@ -83,6 +83,8 @@ typedef struct {
     imf_real vr[9];          /* B3: its velocity-like state, s^2 */
     imf_real bp[6];          /* B3: covariance of b, upper triangle (p00 p01 p02 p11 p12 p22),
                                 relative to the measurement noise (1/s) */
+    imf_real an;             /* B3: its rows' noise, relative to its bound (rest_acc): the
+                                linear acceleration B2 sees, low-passed; 1 at the start */
     /* B6 (relative: field unit / m_n0) */
     imf_real hi[6];  /* field in the inertial frame h (hx hy hz), then the offset (hard iron)
                         estimate in the sensor frame (ix iy iz), relative */
@@ -169,6 +171,7 @@ typedef struct {
     imf_real ku_motion;                      /* bu's fall per sample in motion, dt / tau_bias */
     imf_real rest_gyr2, rest_acc2;           /* (rad/s)^2, g^2 (relative) */
     imf_real k_rest, kb_rest, k_mag, k_ref;  /* dt / (tau + dt) */
+    imf_real k_acc;                          /* dt / (tau_acc + dt) */
     imf_real c48;                            /* 1 / 48 */
     imf_real mag_noise2, mag_lag2, mag_min2; /* B6: squares */
     imf_real t_max;                          /* longest start-up horizon, s */

@@ -2,9 +2,8 @@
  * The gyroscope and accelerometer blocks of imufuse's recommended AHRS (B1 rest and the bias
  * at rest with the bias's get/set pair, the strapdown, B2 gravity, the levelling, B3 the bias
  * in motion). A private part of robust.c, included by it once (one translation unit per
- * family: the build tools take one source per filter); it uses robust.c's helpers above its
- * #include. The pure-Python twin is python/imufuse/reference/robust_blocks.py: the same
- * functions, in the same order; the host's lane twin imufuse_c/host/lanes_robust.h (change both).
+ * family), after robust.c's helpers and robust_b3.h. Twins: python/imufuse/reference/
+ * robust_blocks.py, the same functions in the same order; imufuse_c/host/lanes_robust.h.
  */
 #ifndef IMF_ROBUST_BLOCKS_H
 #define IMF_ROBUST_BLOCKS_H
@@ -252,6 +251,7 @@ static ROBUST_NOINLINE void robust_gravity(const imf_robust_consts_t *const set,
         hr[j] = hb[j % 3u] = IMF_R(0.0);
     }
     imf_qrotate(ai, x->s[0], x->s[1], x->s[2], x->s[3], a[0], a[1], a[2]);
+    robust_acc_noise(set, x, ai, first, has_acc); /* B3's noise, before the update */
     if (first) {
         for (j = 0; j < 9; j++) {
             x->dr[j] = x->vr[j] = x->db[j % 3u] = x->vb[j % 3u] = IMF_R(0.0); /* no turn yet */
@@ -433,7 +433,7 @@ static ROBUST_NOINLINE void robust_bias_row(imf_robust_state_t *const x, const i
    estimate (hb) and by each sensor axis (hr) alike, so in the earth frame (c) the low-pass
    of the turn by the true bias is y = c hb - 2 r / dt, and y = H b_true with H the horizontal
    rows of c hr: a Kalman filter of b (covariance bp: prior, random walk, robust_init) with
-   the noise d^2 / dt per row (robust_turn_div), no loop to damp and no lag to wait for, and
+   the noise d^2 an / dt per row (robust_turn_div, robust_an), no loop to damp or lag, and
    a bias turning with the sensor faster than B2 follows is seen as small as it is. Each
    sample teaches bu by dt / tau_bias, less while the sensor turns fast. gyr_bias_max 0: the
    integral of the correction (Eq. 3.6, I_k = I_{k-1} + Ki dt e_k, Ki dt = 1 / tau_bias) */
@@ -465,7 +465,7 @@ static ROBUST_NOINLINE void robust_bias(const imf_robust_consts_t *const set,
         x->bp[0] = x->bp[0] + k;
         x->bp[3] = x->bp[3] + k;
         x->bp[5] = x->bp[5] + k;
-        k = robust_turn_div(set, x) * set->r_d;
+        k = robust_turn_div(set, x) * set->r_d * robust_an(x);
         robust_bias_row(x, h, y[0] - IMF_R(2.0) * r[1] * set->r_d, k);
         robust_bias_row(x, h + 1, y[1] - IMF_R(2.0) * r[2] * set->r_d, k);
         robust_bias_clip(set, x->b);

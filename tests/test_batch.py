@@ -312,7 +312,8 @@ def test_robust_lanes_hostile(name, dtype):
 
 def test_robust_lanes_constants_are_robust_mag_h():
     """The lane kernel's copy of B6's model constants and covariance index (lanes_robust.h
-    cannot include csrc/robust_mag.h, a private part of robust.c) is csrc's, value for value."""
+    cannot include csrc/robust_mag.h, a private part of robust.c) is csrc's, value for value;
+    so is its copy of B3's noise floor (csrc/robust_b3.h)."""
     root = Path(__file__).resolve().parents[1]
 
     def read(path):
@@ -324,6 +325,10 @@ def test_robust_lanes_constants_are_robust_mag_h():
     lane_defs, lane_table = read("imufuse_c/host/lanes_robust.h")
     assert len(c_defs) == 10 and lane_defs == c_defs
     assert lane_table == c_table
+    # and B3's noise floor, csrc/robust_b3.h's
+    an = [re.findall(r"#define ROBUST_AN_MIN (IMF_R\([^)]*\))", (root / p).read_text())
+          for p in ("csrc/robust_b3.h", "imufuse_c/host/lanes_robust.h")]
+    assert len(an[0]) == 1 and an[0] == an[1]
 
 
 @pytest.mark.parametrize("dtype", DTYPES)

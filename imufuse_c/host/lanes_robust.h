@@ -2,8 +2,8 @@
  * RobustIMU / RobustAHRS lane by lane: one instance per lane width, included by lanes_body.h
  * (its LN, VR, VM, sqrt and select helpers) when IMF_LANES_ROBUST is defined.
  *
- * The lane twin of csrc/robust.c and its blocks csrc/robust_blocks.h (B1-B3) and
- * csrc/robust_mag.h (B6, B4): rl_<name> here is robust_<name> there, the same functions in
+ * The lane twin of csrc/robust.c and its blocks csrc/robust_b3.h (B3's noise),
+ * csrc/robust_blocks.h (B1-B3) and csrc/robust_mag.h (B6, B4): rl_<name> here is robust_<name> there, the same functions in
  * the same order. Every line of a lane step is the line of the scalar update with the same
  * operands in the same order. Where the scalar code branches on the state (rest, the first
  * sample, the gates, B6's start and schedule, B4's detector, the valid-attitude policy) or on
@@ -65,7 +65,7 @@ static inline VR LN(bc)(const imf_real v)
 /* imf_robust_state_t with a lane vector for each word, the same members in the same order */
 typedef struct {
     VR q[4], s[4], c[4], f[3], v[3], pvv, pvg, pgg, b[3], lw[3], la[3], t, t_rest, bu, ref[3],
-        cand[3], t_cand, t_dist, t_ok, lm[3], l0[3], w0[3], db[3], vb[3], dr[9], vr[9], bp[6],
+        cand[3], t_cand, t_dist, t_ok, lm[3], l0[3], w0[3], db[3], vb[3], dr[9], vr[9], bp[6], an,
         hi[6], P[21], u[3], so[3], m_n0, m_ew, m_d2, m_std, m_axis, m_bad;
 } RX;
 
@@ -77,7 +77,7 @@ typedef char LN(
 typedef struct {
     VR dt, two_dt, dt2, r_d, qg0, qg_dt, pgg0, inv_rate_ref2, inv_tau_bias, inv_tau_p, qb, tau_b0,
         tau_h0, bias_var0, bias_w2, ku_motion, rest_gyr2, rest_acc2, k_rest, kb_rest, k_mag, k_ref,
-        c48, mag_noise2, mag_lag2, mag_min2, t_max;
+        k_acc, c48, mag_noise2, mag_lag2, mag_min2, t_max;
     VR tau_acc, tau_bias, tau_bias_rest, rest_gyr, rest_time, tau_rest, latency, tau_mag, mag_norm,
         mag_dip, tau_mag_ref, mag_new_time, mag_hold, gyr_bias_max;
     VM gbm;   /* gyr_bias_max > 0 */
@@ -100,6 +100,7 @@ static inline void LN(rl_set_dt)(RL *const L, const VR dt)
     L->ku_motion = L->inv_tau_bias * dt;
     L->k_mag = dt / (L->tau_mag + dt);
     L->k_ref = dt / (L->tau_mag_ref + dt);
+    L->k_acc = dt / (L->tau_acc + dt);
 }
 
 /* imf_qmul, imf_qrotate (imf_math.h) */
@@ -292,6 +293,30 @@ static inline void LN(rl_turn_lp)(const RL *const L, VR *const d, VR *const v, c
     }
 }
 
+/* csrc/robust_b3.h's ROBUST_AN_MIN (the same value) */
+#define ROBUST_AN_MIN IMF_R(1.0e-2)
+
+/* robust_acc_noise (csrc/robust_b3.h) */
+static inline void LN(rl_acc_noise)(const RL *const L, RX *const x, const VR *const ai,
+                                    const VM first, const VM has_acc)
+{
+    const VM m = ~first & has_acc & L->gbm;
+    if (LN(any)(m)) {
+        const VR dx = ai[0] - x->f[0], dy = ai[1] - x->f[1], dz = ai[2] - x->f[2];
+        const VR d2 = dx * dx + dy * dy + dz * dz;
+        const VR den = L->rest_acc2 * (x->f[0] * x->f[0] + x->f[1] * x->f[1] + x->f[2] * x->f[2]);
+        const VR e = RSEL(d2 < den, d2 / den, RB(IMF_R(1.0)));
+        x->an = RSEL(m, x->an + L->k_acc * (e - x->an), x->an);
+    }
+    x->an = RSEL(first, RB(IMF_R(1.0)), x->an);
+}
+
+/* robust_an (csrc/robust_b3.h) */
+static inline VR LN(rl_an)(const RX *const x)
+{
+    return RSEL(x->an > ROBUST_AN_MIN, x->an, RB(ROBUST_AN_MIN));
+}
+
 /* robust_gravity; hb[3], hr[9]: B2's model of the bias (0 where gravity is not updated or
    gyr_bias_max is 0) */
 static inline void LN(rl_gravity)(const RL *const L, RX *const x, const imf_real *const a,
@@ -307,6 +332,7 @@ static inline void LN(rl_gravity)(const RL *const L, RX *const x, const imf_real
         hr[i] = hb[i % 3] = zero;
     }
     LN(rl_qrotate)(ai, x->s[0], x->s[1], x->s[2], x->s[3], RB(a[0]), RB(a[1]), RB(a[2]));
+    LN(rl_acc_noise)(L, x, ai, first, has_acc); /* B3's noise, before the update */
     if (LN(any)(kf)) {
         v[0] = x->v[0] + dt * (ai[0] - x->f[0]);
         v[1] = x->v[1] + dt * (ai[1] - x->f[1]);
@@ -477,7 +503,7 @@ static inline void LN(rl_bias)(const RL *const L, RX *const x, const VR *const r
             x->bp[0] = RSEL(kal, x->bp[0] + kw, x->bp[0]);
             x->bp[3] = RSEL(kal, x->bp[3] + kw, x->bp[3]);
             x->bp[5] = RSEL(kal, x->bp[5] + kw, x->bp[5]);
-            kw = LN(rl_turn_div)(L, x) * L->r_d;
+            kw = LN(rl_turn_div)(L, x) * L->r_d * LN(rl_an)(x);
             LN(rl_bias_row)(x, h, y[0] - IMF_R(2.0) * r[1] * L->r_d, kw, kal);
             LN(rl_bias_row)(x, h + 1, y[1] - IMF_R(2.0) * r[2] * L->r_d, kw, kal);
             for (i = 0; i < 3; i++) {
@@ -938,6 +964,7 @@ static int LN(robust_run)(void *const *f, const int p, const int ahrs, const ptr
         L.kb_rest[i] = s->kb_rest;
         L.k_mag[i] = s->k_mag;
         L.k_ref[i] = s->k_ref;
+        L.k_acc[i] = s->k_acc;
         L.c48[i] = s->c48;
         L.mag_noise2[i] = s->mag_noise2;
         L.mag_lag2[i] = s->mag_lag2;

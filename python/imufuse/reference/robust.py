@@ -1,8 +1,9 @@
 """imufuse's recommended AHRS (docs/recommended-ahrs.md): pure-Python twin of
 csrc/robust.c: the same functions, in the same order, with the same comments.
 
-The blocks are in robust_blocks.py (B1-B3) and robust_mag.py (B6, B4), the twins of
-csrc/robust_blocks.h and csrc/robust_mag.h, which robust.c includes.
+The blocks are in robust_b3.py (B3's noise), robust_blocks.py (B1-B3) and robust_mag.py
+(B6, B4), the twins of csrc/robust_b3.h, csrc/robust_blocks.h and csrc/robust_mag.h, which
+robust.c includes.
 
 Building blocks (article chapters 3 and 4 applied to real sensors):
   B1 gyro bias at rest: rest detected from gyro and accelerometer statistics,
@@ -30,6 +31,7 @@ import math
 from ..shared import checks as _checks
 from ._base import QUAT_NORM2_TOL, ReferenceFilter, isfinite
 from ._math import qmul
+from .robust_b3 import _RobustB3
 from .robust_blocks import _RobustBlocks, _vector3
 from .robust_mag import _PNAMES, _RobustMag
 from ._settings import FIXED, REQUIRED, SettingsRecord, choice, deg_to_rad, fixed, real, setting
@@ -139,6 +141,7 @@ _MEMBERS = (("q", ("q0", "q1", "q2", "q3")),          # estimate, sensor -> eart
             ("dr", tuple(f"dr{i}{j}" for j in "xyz" for i in "xyz")),  # B3: the same for R(s)
             ("vr", tuple(f"vr{i}{j}" for j in "xyz" for i in "xyz")),  # B3: its velocity
             ("bp", ("bp00", "bp01", "bp02", "bp11", "bp12", "bp22")),  # B3: covariance of b
+            ("an", None),                             # B3: its rows' noise (of its bound)
             ("hi", ("hx", "hy", "hz", "ix", "iy", "iz")),  # B6: field h, offset estimate
             ("P", _PNAMES),                           # B6: their covariance, upper triangle
             ("u", ("ux", "uy", "uz")),                # B6: offset in use (B4 reads m - u)
@@ -195,7 +198,7 @@ def _word(member, i):
     return property(get, put)
 
 
-class _Robust(_RobustBlocks, _RobustMag, ReferenceFilter):
+class _Robust(_RobustB3, _RobustBlocks, _RobustMag, ReferenceFilter):
     #: q0 is refused: the filter takes its tilt from the first sample's gravity and (AHRS)
     #: its heading from the first field, so a start attitude would be overwritten
     own_start = ("this filter starts from its first sample (its tilt from gravity; RobustAHRS "
@@ -221,7 +224,7 @@ class _Robust(_RobustBlocks, _RobustMag, ReferenceFilter):
         if not 0.0 <= bu <= 1.0:
             return f"bu = {bu!r}, must be within 0 .. 1"
         for n in ("pvv", "pgg", "t", "t_rest", "rn", "cn", "t_cand", "t_dist", "t_ok",
-                  "bp00", "bp11", "bp22",
+                  "bp00", "bp11", "bp22", "an",
                   "p00", "p11", "p22", "p33", "p44", "p55", "m_n0", "m_ew", "m_d2", "m_std",
                   "m_bad"):
             if float(state[names.index(n)]) < 0.0:
@@ -289,6 +292,7 @@ class _Robust(_RobustBlocks, _RobustMag, ReferenceFilter):
         self.ku_motion = self.inv_tau_bias * dt
         self.k_mag = dt / (self.s.tau_mag + dt)
         self.k_ref = dt / (self.s.tau_mag_ref + dt)
+        self.k_acc = dt / (self.s.tau_acc + dt)
 
     # robust_init: the settings s (a RobustAHRSSettings, C units) as the C keeps them
     # (imf_real), and the constants derived from them once; the state

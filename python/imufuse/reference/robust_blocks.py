@@ -1,7 +1,7 @@
 """The gyroscope and accelerometer blocks of RobustIMU and RobustAHRS (B1 rest and the bias
 at rest with the bias's get/set pair, the strapdown, B2 gravity, the levelling, B3 the bias in motion): the twin of
 csrc/robust_blocks.h, the same functions in the same order with the same comments, mixed into
-reference/robust.py's filter class."""
+reference/robust.py's filter class (with robust_b3.py's B3 noise, which B2 and B3 call)."""
 import math
 
 from ..shared import checks as _checks
@@ -217,6 +217,7 @@ class _RobustBlocks:
         hr[:] = [R(0.0)] * 9
         hb[:] = [R(0.0)] * 3
         ai = qrotate(R, x.s[0], x.s[1], x.s[2], x.s[3], a[0], a[1], a[2])
+        self._acc_noise(x, ai, first, has_acc)   # B3's noise, before the update
         if first:
             # B3: no turn yet (gravity is the first sample's)
             x.dr = [R(0.0)] * 9
@@ -370,9 +371,9 @@ class _RobustBlocks:
         # the turn by the estimate (hb) and by each sensor axis (hr) alike, so in the earth
         # frame (c) the low-pass of the turn by the true bias is y = c hb - 2 r / dt, and
         # y = H b_true with H the horizontal rows of c hr: a Kalman filter of b (covariance
-        # bp: prior, random walk, _init_filter) with the noise d^2 / dt per row (_turn_div),
-        # no loop to damp and no lag to wait for, and a bias turning with the sensor faster
-        # than B2 follows is seen as small as it is. Each sample teaches bu by
+        # bp: prior, random walk, _init_filter) with the noise d^2 an / dt per row (_turn_div,
+        # _an), no loop to damp and no lag to wait for, and a bias turning with the sensor
+        # faster than B2 follows is seen as small as it is. Each sample teaches bu by
         # dt / tau_bias, less while the sensor turns fast. gyr_bias_max 0: the integral of
         # the correction (Eq. 3.6, I_k = I_{k-1} + Ki dt e_k, Ki dt = 1 / tau_bias)
         R = self._R
@@ -394,7 +395,7 @@ class _RobustBlocks:
             x.bp[0] = x.bp[0] + k
             x.bp[3] = x.bp[3] + k
             x.bp[5] = x.bp[5] + k
-            k = self._turn_div(x) * self.r_d
+            k = self._turn_div(x) * self.r_d * self._an(x)
             self._bias_row(x, h, y[0] - R(2.0) * r[1] * self.r_d, k)
             self._bias_row(x, h[1:], y[1] - R(2.0) * r[2] * self.r_d, k)
             self._bias_clip(x.b)
