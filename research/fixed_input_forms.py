@@ -4,8 +4,9 @@
     python research/fixed_input_forms.py --forms F2 --filters KKQ-p8 --targets avr
 
 The float updates take one sample as scalars (gx, gy, gz, ax, ay, az[, mx, my, mz]); the
-fixed-point 3-D updates take int16 arrays. For each form below the committed tree (git
-archive of HEAD) is copied, the form applied to the six 3-D updates' C, and
+fixed-point 3-D updates took int16 arrays. For each form below the tree of the measurement
+(git archive of --rev, by default 73f407a: the last tree whose 3-D updates took arrays only;
+F2 is what the library adopted after it) is copied, the form applied to the six 3-D updates' C, and
 bench/mcu/measure.py run in the copy beside the unchanged tree (cycles or instructions per
 update, linked flash, bits against the Python twins): docs/history/fixed-point.md, "The float
 updates' scalar inputs", holds the tables. The forms:
@@ -190,6 +191,7 @@ def main(argv=None) -> int:
     ap.add_argument("--forms", default=",".join(FORMS))
     ap.add_argument("--filters", default=FILTERS)
     ap.add_argument("--targets", default="avr,m0")
+    ap.add_argument("--rev", default="73f407a", help="the tree the forms are applied to")
     ap.add_argument("--callers", action="store_true", help="measure the call sites alone")
     args = ap.parse_args(argv)
     if args.callers:
@@ -201,7 +203,7 @@ def main(argv=None) -> int:
         for form in ["arrays", *forms]:
             tree = Path(tmp) / form
             tree.mkdir()
-            archive = subprocess.run(["git", "-C", str(ROOT), "archive", "HEAD"], check=True,
+            archive = subprocess.run(["git", "-C", str(ROOT), "archive", args.rev], check=True,
                                      capture_output=True).stdout
             subprocess.run(["tar", "-x", "-C", str(tree)], input=archive, check=True)
             if form != "arrays":
