@@ -211,7 +211,7 @@ int main(void)
         }
         f.x.t[0] = (int32_t)t0;
         f.x.t[1] = (int32_t)t1;
-        imf_kk_q_update(&f, g, a);
+        imf_kk_q_update_v(&f, g, a);
         printf("%ld %ld\n", (long)f.x.t[0], (long)f.x.t[1]);
     }
     return 0;

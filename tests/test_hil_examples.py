@@ -78,7 +78,7 @@ def _robust_q_case(tmp_path):
         "    imf_robust_ahrs_q_settings_t s;\n    imf_robust_ahrs_q_default_settings(&s);\n"
         "    (void)imf_robust_ahrs_q_init(&att, &s);\n}\n"
         "void att_update(const int16_t *g, const int16_t *a, const int16_t *m)\n{\n"
-        "    imf_robust_ahrs_q_update(&att, g, a, m);\n}\n")
+        "    imf_robust_ahrs_q_update_v(&att, g, a, m);\n}\n")
     arrays = {"q": 4, "s": 4, "c": 4, "f": 3, "v": 3, "p": 3, "b": 3, "lw": 3, "la": 3}
     exprs = [f"=att.x.imu.{k}[{i}]" for k, m in arrays.items() for i in range(m)]
     exprs += ["=att.x.imu.n", "=att.x.imu.n_rest"]

@@ -262,7 +262,7 @@ def test_users_firmware_validated_on_a_published_log(tmp_path):
         f"    s.dt = {float(params['dt'])!r};\n    s.gyr_scale = {float(GS)!r};\n"
         "    (void)imf_robust_ahrs_q_init(&att, &s);\n}\n"
         "void att_update(const int16_t *g, const int16_t *a, const int16_t *m)\n{\n"
-        "    imf_robust_ahrs_q_update(&att, g, a, m);\n}\n")
+        "    imf_robust_ahrs_q_update_v(&att, g, a, m);\n}\n")
     names = reference.RobustAHRSQ.state_names
     arrays = {"q": 4, "s": 4, "c": 4, "f": 3, "v": 3, "p": 3, "b": 3, "lw": 3, "la": 3}
     exprs = [f"=att.x.imu.{k}[{i}]" for k, m in arrays.items() for i in range(m)]

@@ -250,10 +250,10 @@ def test_full_normalisation_from_any_state_on_the_mcu(target):
            f"static const int16_t imf_g[3] = {{{g[0]}, {g[1]}, {g[2]}}};\n"
            f"static const int16_t imf_a[3] = {{{a[0]}, {a[1]}, {a[2]}}};\n"
            f"static const int32_t imf_far[][4] = {{\n{table}}};\n")
-    step = (f"{ref.c_init_call('imf_f')}\nimf_robust_imu_q_update(&imf_f, imf_g, imf_a);\n"
+    step = (f"{ref.c_init_call('imf_f')}\nimf_robust_imu_q_update_v(&imf_f, imf_g, imf_a);\n"
             "{ int i; for (i = 0; i < 4; ++i) { imf_f.x.s[i] = imf_far[k][i]; "
             "imf_f.x.c[i] = imf_far[k][3 - i]; } }\n"
-            "imf_robust_imu_q_update(&imf_f, imf_g, imf_a);")
+            "imf_robust_imu_q_update_v(&imf_f, imf_g, imf_a);")
     drv = mcu.Driver(prelude=pre, step=step, state=[(w, "i32") for w in words])
     res = mcu.run(target, sources=[str(mf.CSRC / "fixed" / "robust_q.c")],
                   include_dirs=[mf.CSRC / "fixed"], driver=drv,

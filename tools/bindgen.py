@@ -6,8 +6,9 @@
 - the header (csrc/<family>.h): the filter and settings structs, and the prototypes of
   <c_name>_init, _update, _set_dt, _set_attitude and, if declared, _angles and the pair
   _get_mag_offset / _set_mag_offset (RobustAHRS's B6: bound as get_mag_offset() and
-  set_mag_offset(), the twin validating the offset); fixed point: _init, _update and, if
-  declared, _set_mag_offset (RobustAHRSQ's stored offset in counts).
+  set_mag_offset(), the twin validating the offset); fixed point: _init, _update (a 3-D
+  filter's array form _update_v, where declared) and, if declared, _set_mag_offset
+  (RobustAHRSQ's stored offset in counts).
 
 From these, `family_pxi(family)` writes the extern block and one class per filter: _init
 (a settings struct filled from the validated keywords, or the init's own arguments by
@@ -188,6 +189,9 @@ def _bind_filter(cp, name: str, c_names: Tuple[str, str], text: str, rel_h: str,
             raise BindError(f"{rel_h}: {func}() is not declared (its twin {name} binds it)")
         return t
 
+    if fixed and proto(upd + "_v", False):
+        # a 3-D filter's array form (its _update, a static inline, takes the scalars)
+        upd += "_v"
     members = cp.struct_members(text, f"{c}_t")
     if members is None:
         raise BindError(f"{rel_h}: struct {c}_t is not defined")

@@ -98,7 +98,7 @@ static inline int32_t imf_kk_q_angle(const imf_kk_q_t *const self, const int32_t
     return x;
 }
 
-void imf_kk_q_update(imf_kk_q_t *const self, const int16_t gyr[3], const int16_t acc[3])
+void imf_kk_q_update_v(imf_kk_q_t *const self, const int16_t gyr[3], const int16_t acc[3])
 {
     int32_t *const t = self->x.t;
     int16_t a[2] = { 0, 0 };
@@ -198,7 +198,8 @@ __attribute__((noinline)) static int32_t imf_multiwii_q_gain(const int32_t x, co
 #define imf_multiwii_q_gain imf_gain16_or_mulk32
 #endif
 
-void imf_multiwii_q_update(imf_multiwii_q_t *const self, const int16_t gyr[3], const int16_t acc[3])
+void imf_multiwii_q_update_v(imf_multiwii_q_t *const self, const int16_t gyr[3],
+                             const int16_t acc[3])
 {
     int32_t *const d = self->x.d;
     int32_t *const l = self->x.l;

@@ -76,7 +76,18 @@ int imf_kk_q_init(imf_kk_q_t *self, const imf_kk_q_settings_t *settings);
 int imf_kk_q_init_consts(imf_kk_q_t *self, imf_qscale_t kw, uint16_t kp16_m, int kp16_j);
 /* One sample: gyr and acc in sensor counts (int16; every input is accepted, sums
  * saturate; a zero accelerometer gives no correction). */
-void imf_kk_q_update(imf_kk_q_t *self, const int16_t gyr[3], const int16_t acc[3]);
+void imf_kk_q_update_v(imf_kk_q_t *self, const int16_t gyr[3], const int16_t acc[3]);
+/* The same sample in the float update's form (imf_kk_update): gx, gy, gz, ax, ay, az in counts,
+ * put into arrays for imf_kk_q_update_v. Where the sample is in arrays, call that (on AVR two
+ * pointers take fewer instructions than six values). */
+static inline void imf_kk_q_update(imf_kk_q_t *self, int16_t gx, int16_t gy, int16_t gz, int16_t ax,
+                                   int16_t ay, int16_t az);
+static inline void imf_kk_q_update(imf_kk_q_t *self, int16_t gx, int16_t gy, int16_t gz, int16_t ax,
+                                   int16_t ay, int16_t az)
+{
+    const int16_t gyr[3] = { gx, gy, gz }, acc[3] = { ax, ay, az };
+    imf_kk_q_update_v(self, gyr, acc);
+}
 
 typedef struct {
     int32_t d[3]; /* q15 acc counts */
@@ -125,7 +136,18 @@ int imf_multiwii_q_init(imf_multiwii_q_t *self, const imf_multiwii_q_settings_t 
 int imf_multiwii_q_init_consts(imf_multiwii_q_t *self, const imf_multiwii_q_consts_t *consts);
 /* One sample: gyr and acc in sensor counts (int16; every input is accepted, sums
  * saturate; outside the |acc| window the accelerometer gives no correction). */
-void imf_multiwii_q_update(imf_multiwii_q_t *self, const int16_t gyr[3], const int16_t acc[3]);
+void imf_multiwii_q_update_v(imf_multiwii_q_t *self, const int16_t gyr[3], const int16_t acc[3]);
+/* The same sample in the float update's form (imf_multiwii_update): gx, gy, gz, ax, ay, az in
+ * counts, put into arrays for imf_multiwii_q_update_v. Where the sample is in arrays, call that
+ * (on AVR two pointers take fewer instructions than six values). */
+static inline void imf_multiwii_q_update(imf_multiwii_q_t *self, int16_t gx, int16_t gy, int16_t gz,
+                                         int16_t ax, int16_t ay, int16_t az);
+static inline void imf_multiwii_q_update(imf_multiwii_q_t *self, int16_t gx, int16_t gy, int16_t gz,
+                                         int16_t ax, int16_t ay, int16_t az)
+{
+    const int16_t gyr[3] = { gx, gy, gz }, acc[3] = { ax, ay, az };
+    imf_multiwii_q_update_v(self, gyr, acc);
+}
 
 #ifdef __cplusplus
 }

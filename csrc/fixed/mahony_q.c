@@ -283,8 +283,8 @@ void imf_mahony_imu_q_update_p8(imf_mahony_imu_q_t *const self, const int16_t gy
     imf_q_add_step_p8(q, dq, qs, d16);
 }
 
-void imf_mahony_imu_q_update(imf_mahony_imu_q_t *const self, const int16_t gyr[3],
-                             const int16_t acc[3])
+void imf_mahony_imu_q_update_v(imf_mahony_imu_q_t *const self, const int16_t gyr[3],
+                               const int16_t acc[3])
 {
 #if IMF_Q_HAS_P8 && IMF_Q_HAS_P32
     if (self->profile == 8) {

@@ -88,7 +88,19 @@ void imf_mahony_imu_q_update_p32(imf_mahony_imu_q_t *self, const int16_t gyr[3],
 void imf_mahony_imu_q_update_p8(imf_mahony_imu_q_t *self, const int16_t gyr[3],
                                 const int16_t acc[3]);
 /* calls the update of the profile given to init */
-void imf_mahony_imu_q_update(imf_mahony_imu_q_t *self, const int16_t gyr[3], const int16_t acc[3]);
+void imf_mahony_imu_q_update_v(imf_mahony_imu_q_t *self, const int16_t gyr[3],
+                               const int16_t acc[3]);
+/* The same sample in the float update's form (imf_mahony_update_imu): gx, gy, gz, ax, ay, az in
+ * counts, put into arrays for imf_mahony_imu_q_update_v. Where the sample is in arrays, call that
+ * (on AVR two pointers take fewer instructions than six values). */
+static inline void imf_mahony_imu_q_update(imf_mahony_imu_q_t *self, int16_t gx, int16_t gy,
+                                           int16_t gz, int16_t ax, int16_t ay, int16_t az);
+static inline void imf_mahony_imu_q_update(imf_mahony_imu_q_t *self, int16_t gx, int16_t gy,
+                                           int16_t gz, int16_t ax, int16_t ay, int16_t az)
+{
+    const int16_t gyr[3] = { gx, gy, gz }, acc[3] = { ax, ay, az };
+    imf_mahony_imu_q_update_v(self, gyr, acc);
+}
 
 #ifdef __cplusplus
 }

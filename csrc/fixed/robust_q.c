@@ -155,8 +155,8 @@ static IMF_Q_NOINLINE int robust_q_step(const imf_robust_imu_q_consts_t *const k
     return 1;
 }
 
-void imf_robust_imu_q_update(imf_robust_imu_q_t *const self, const int16_t gyr[3],
-                             const int16_t acc[3])
+void imf_robust_imu_q_update_v(imf_robust_imu_q_t *const self, const int16_t gyr[3],
+                               const int16_t acc[3])
 {
     if (robust_q_step(&self->k, &self->x, gyr, acc, NULL)) {
         robust_q_output(&self->k, &self->x, gyr);
@@ -275,8 +275,8 @@ void imf_robust_ahrs_q_set_mag_offset(imf_robust_ahrs_q_t *const self, const int
     self->x.m_var = IMF_Q30_ONE;
 }
 
-void imf_robust_ahrs_q_update(imf_robust_ahrs_q_t *const self, const int16_t gyr[3],
-                              const int16_t acc[3], const int16_t mag[3])
+void imf_robust_ahrs_q_update_v(imf_robust_ahrs_q_t *const self, const int16_t gyr[3],
+                                const int16_t acc[3], const int16_t mag[3])
 {
     int16_t rq[9];
     if (robust_q_step(&self->k.imu, &self->x.imu, gyr, acc, rq)) {

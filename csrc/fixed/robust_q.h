@@ -142,7 +142,19 @@ int imf_robust_imu_q_init(imf_robust_imu_q_t *self, const imf_robust_imu_q_setti
 int imf_robust_imu_q_init_consts(imf_robust_imu_q_t *self, const imf_robust_imu_q_consts_t *consts);
 /* One sample: gyr and acc in counts (every int16 is accepted; sums saturate; a zero
  * accelerometer is no reading, and no start without one). */
-void imf_robust_imu_q_update(imf_robust_imu_q_t *self, const int16_t gyr[3], const int16_t acc[3]);
+void imf_robust_imu_q_update_v(imf_robust_imu_q_t *self, const int16_t gyr[3],
+                               const int16_t acc[3]);
+/* The same sample in the float update's form (imf_robust_update_imu): gx, gy, gz, ax, ay, az in
+ * counts, put into arrays for imf_robust_imu_q_update_v. Where the sample is in arrays, call that
+ * (on AVR two pointers take fewer instructions than six values). */
+static inline void imf_robust_imu_q_update(imf_robust_imu_q_t *self, int16_t gx, int16_t gy,
+                                           int16_t gz, int16_t ax, int16_t ay, int16_t az);
+static inline void imf_robust_imu_q_update(imf_robust_imu_q_t *self, int16_t gx, int16_t gy,
+                                           int16_t gz, int16_t ax, int16_t ay, int16_t az)
+{
+    const int16_t gyr[3] = { gx, gy, gz }, acc[3] = { ax, ay, az };
+    imf_robust_imu_q_update_v(self, gyr, acc);
+}
 
 /* ---- RobustAHRSQ: RobustIMUQ and B4, the magnetometer confined to heading --------
  *
@@ -268,8 +280,21 @@ int imf_robust_ahrs_q_init_consts(imf_robust_ahrs_q_t *self,
  * next sample; B6 starts again from it. init and init_consts clear it: set it after them. */
 void imf_robust_ahrs_q_set_mag_offset(imf_robust_ahrs_q_t *self, const int16_t offset[3]);
 /* One sample: gyr, acc and mag in counts (an all-zero mag is no reading). */
-void imf_robust_ahrs_q_update(imf_robust_ahrs_q_t *self, const int16_t gyr[3], const int16_t acc[3],
-                              const int16_t mag[3]);
+void imf_robust_ahrs_q_update_v(imf_robust_ahrs_q_t *self, const int16_t gyr[3],
+                                const int16_t acc[3], const int16_t mag[3]);
+/* The same sample in the float update's form (imf_robust_update): gx, gy, gz, ax, ay, az, mx, my,
+ * mz in counts, put into arrays for imf_robust_ahrs_q_update_v. Where the sample is in arrays,
+ * call that (on AVR three pointers take fewer instructions than nine values). */
+static inline void imf_robust_ahrs_q_update(imf_robust_ahrs_q_t *self, int16_t gx, int16_t gy,
+                                            int16_t gz, int16_t ax, int16_t ay, int16_t az,
+                                            int16_t mx, int16_t my, int16_t mz);
+static inline void imf_robust_ahrs_q_update(imf_robust_ahrs_q_t *self, int16_t gx, int16_t gy,
+                                            int16_t gz, int16_t ax, int16_t ay, int16_t az,
+                                            int16_t mx, int16_t my, int16_t mz)
+{
+    const int16_t gyr[3] = { gx, gy, gz }, acc[3] = { ax, ay, az }, mag[3] = { mx, my, mz };
+    imf_robust_ahrs_q_update_v(self, gyr, acc, mag);
+}
 
 #ifdef __cplusplus
 }

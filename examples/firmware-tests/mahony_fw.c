@@ -14,5 +14,5 @@ void att_update(int16_t gx, int16_t gy, int16_t gz, int16_t ax, int16_t ay, int1
 {
     const int16_t g[3] = {gx, gy, gz};
     const int16_t a[3] = {ax, ay, az};
-    imf_mahony_imu_q_update(&att, g, a);
+    imf_mahony_imu_q_update_v(&att, g, a);
 }

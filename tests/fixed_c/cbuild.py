@@ -51,7 +51,8 @@ def filter_driver_source() -> str:
     for e in catalogue.FIXED:
         c, n = e.c_name, len(e.state_names)
         struct, init = cproto.init_params(text, c + "_init")
-        update = cproto.find_prototype(text, c + "_update")
+        upd = e.reference.c_update_v   # the array form of a 3-D filter
+        update = cproto.find_prototype(text, upd)
         values = [a for a in e.init_args if a != "profile"]
         args = []
         for prm in init:
@@ -63,13 +64,13 @@ def filter_driver_source() -> str:
         if struct is not None:   # C99 compound literal of the settings struct
             args = [f"&({struct}){{{', '.join(args)}}}"]
         if e.kind == "1d":
-            step, width = f"{c}_update(&o, (int16_t)v[0], (int16_t)v[1])", 2
+            step, width = f"{upd}(&o, (int16_t)v[0], (int16_t)v[1])", 2
         elif all(q.vector for q in update.params[1:]) and e.kind == "ahrs":
-            step, width = f"{c}_update(&o, g, a, m)", 9
+            step, width = f"{upd}(&o, g, a, m)", 9
         elif all(q.vector for q in update.params[1:]):
-            step, width = f"{c}_update(&o, g, a)", 6
+            step, width = f"{upd}(&o, g, a)", 6
         else:
-            step, width = f"{c}_update(&o, g[0], g[1], g[2], a[0], a[1], a[2])", 6
+            step, width = f"{upd}(&o, g[0], g[1], g[2], a[0], a[1], a[2])", 6
         fmt = " ".join(["%ld"] * width)
         vs = ", ".join(f"&v[{i}]" for i in range(width))
         names.append((e.name, f"run_{c}"))

@@ -163,7 +163,7 @@ def fixed_table_header() -> str:
         inits.append(f"    case {i}: /* {n} */\n        return {call};\n")
         args = ("v[0], v[1]" if f.kind == "1d"
                 else ", ".join(f"v + {3 * j}" if j else "v" for j in range(len(KINDS[f.kind]))))
-        updates.append(f"    case {i}: {f.c_update}(&f->{m}, {args}); break;\n")
+        updates.append(f"    case {i}: {f.c_update_v}(&f->{m}, {args}); break;\n")
     out.append("static int gen_fixed_init(const int which, gen_fixed_t *const f)\n{\n"
                "    memset(f, 0, sizeof *f);\n    switch (which) {\n" + "".join(inits)
                + "    default: return -1;\n    }\n}\n\n")

@@ -34,7 +34,7 @@ static void fw_init(void)
 static void fw_update(const void *in)
 {
     const int16_t *x = (const int16_t *)in; /* gyr, acc, mag: int16 counts */
-    imf_robust_ahrs_q_update(&filt, x, x + 3, x + 6);
+    imf_robust_ahrs_q_update_v(&filt, x, x + 3, x + 6);
 }
 
 static uint16_t fw_state(uint8_t *out)

@@ -109,7 +109,9 @@ class FilterSpec:
 
     @property
     def c(self) -> CFilter:
-        return c_library(self.ref_class.c_name, self.csrc, self.ref_class.c_update)
+        # fixed point: the array form, as firmware holding its sample in arrays calls it
+        update = self.ref_class.c_update_v if self.fixed else self.ref_class.c_update
+        return c_library(self.ref_class.c_name, self.csrc, update)
 
     @property
     def defines(self) -> Dict[str, object]:

@@ -8,7 +8,9 @@ int16 sensor counts; `state` is an int32 array; `state_float` gives the state
 in the float twin's units.
 
 Subclasses define kind, c_name (prefix of the C twin: <c_name>_t,
-<c_name>_init, <c_name>_init_consts, <c_name>_update), state_names,
+<c_name>_init, <c_name>_init_consts, <c_name>_update; a 3-D filter's update takes
+the float update's scalars and calls its array form <c_name>_update_v, c_update_v, which
+the bindings and the MCU harness call), state_names,
 _params(...) (validation; returns the C init arguments, the profile last as
 the int 32 or 8), _consts(*args) (the integer constants imf_<filter>_init
 computes from its double arguments, as a dict in the order and with the
@@ -145,6 +147,9 @@ class FixedFilter:
     kind = "1d"
     c_name = ""
     c_update = ""   # <c_name>_update (as the float filters' c_update)
+    #: the update the bindings and harnesses call: a 3-D filter's array form <c_update>_v
+    #: (c_update is a static inline wrapper taking the scalars), a single-axis one's c_update
+    c_update_v = ""
     #: the profiles the class is built in (a class with one arithmetic refuses the other)
     profiles: tuple = PROFILES
     state_names: tuple = ()
@@ -153,6 +158,8 @@ class FixedFilter:
         super().__init_subclass__(**kwargs)
         if "c_update" not in cls.__dict__:
             cls.c_update = f"{cls.c_name}_update" if cls.c_name else ""
+        if "c_update_v" not in cls.__dict__:
+            cls.c_update_v = cls.c_update + "_v" if cls.c_update and cls.kind != "1d" else cls.c_update
     dtype = "int32"
 
 
