@@ -42,15 +42,6 @@ static inline void robust_bias_clip(const imf_robust_consts_t *const set, imf_re
     }
 }
 
-static const imf_real robust_zero3[3] = { IMF_R(0.0), IMF_R(0.0), IMF_R(0.0) };
-
-/* |v - b|^2 */
-static inline imf_real robust_off2(const imf_real *const v, const imf_real *const b)
-{
-    const imf_real x = v[0] - b[0], y = v[1] - b[1], z = v[2] - b[2];
-    return x * x + y * y + z * z;
-}
-
 /* B1 with a magnetometer: at rest the field in the sensor frame is steady, and so is the
    rate (the bias alone). A turn about the vertical, which the accelerometer does not see and
    a gyro of unknown bias cannot tell from its bias, turns the field's horizontal part (across
@@ -248,10 +239,12 @@ static ROBUST_NOINLINE void robust_gravity(const imf_robust_consts_t *const set,
     const imf_real dt = set->s.dt;
     imf_real ai[3], ri[9], rr, qg, ub, pvv, pvg, pgg, inv, kv, kg;
     unsigned j;
-    for (j = 0; j < 9; j++) {
-        hr[j] = hb[j % 3u] = IMF_R(0.0);
-    }
     imf_qrotate(ai, x->s[0], x->s[1], x->s[2], x->s[3], a[0], a[1], a[2]);
+    if (first || !has_acc || !(set->s.gyr_bias_max > IMF_R(0.0))) {
+        for (j = 0; j < 9; j++) {
+            hr[j] = hb[j % 3u] = IMF_R(0.0); /* no rate of B2's model this sample */
+        }
+    }
     if (first) {
         for (j = 0; j < 9; j++) {
             x->dr[j] = x->vr[j] = x->db[j % 3u] = x->vb[j % 3u] = IMF_R(0.0); /* no turn yet */

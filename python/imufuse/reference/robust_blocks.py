@@ -46,7 +46,7 @@ class _RobustBlocks:
 
     @staticmethod
     def _off2(v, b):
-        # |v - b|^2
+        # |v - b|^2 (robust.c's helpers)
         x, y, z = v[0] - b[0], v[1] - b[1], v[2] - b[2]
         return x * x + y * y + z * z
 
@@ -214,9 +214,11 @@ class _RobustBlocks:
         # and hr, of R(s) (columns), both in I; 0 when gravity is not updated.
         R = self._R
         dt = self.s.dt
-        hr[:] = [R(0.0)] * 9
-        hb[:] = [R(0.0)] * 3
         ai = qrotate(R, x.s[0], x.s[1], x.s[2], x.s[3], a[0], a[1], a[2])
+        if first or not has_acc or not self.s.gyr_bias_max > R(0.0):
+            # no rate of B2's model this sample
+            hr[:] = [R(0.0)] * 9
+            hb[:] = [R(0.0)] * 3
         if first:
             # B3: no turn yet (gravity is the first sample's)
             x.dr = [R(0.0)] * 9
