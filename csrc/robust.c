@@ -87,6 +87,31 @@ static inline int robust_turn_by(const imf_robust_consts_t *const set, imf_real 
 
 static const imf_real robust_zero3[3] = { IMF_R(0.0), IMF_R(0.0), IMF_R(0.0) };
 
+/* R(q)'s columns (the sensor axes turned by q) into o[9], from the products of q's
+   components: the matrix, not three rotations of the axes */
+static void robust_axes(imf_real *const o, const imf_real *const q)
+{
+    const imf_real xx = q[1] * q[1], yy = q[2] * q[2], zz = q[3] * q[3];
+    const imf_real xy = q[1] * q[2], xz = q[1] * q[3], yz = q[2] * q[3];
+    const imf_real wx = q[0] * q[1], wy = q[0] * q[2], wz = q[0] * q[3];
+    o[0] = IMF_R(1.0) - IMF_R(2.0) * (yy + zz);
+    o[1] = IMF_R(2.0) * (xy + wz);
+    o[2] = IMF_R(2.0) * (xz - wy);
+    o[3] = IMF_R(2.0) * (xy - wz);
+    o[4] = IMF_R(1.0) - IMF_R(2.0) * (xx + zz);
+    o[5] = IMF_R(2.0) * (yz + wx);
+    o[6] = IMF_R(2.0) * (xz + wy);
+    o[7] = IMF_R(2.0) * (yz - wx);
+    o[8] = IMF_R(1.0) - IMF_R(2.0) * (xx + yy);
+}
+
+/* R(q) v into o, one copy (B3 turns four vectors) */
+static ROBUST_NOINLINE void robust_rotate(imf_real *const o, const imf_real *const q,
+                                          const imf_real *const v)
+{
+    imf_qrotate(o, q[0], q[1], q[2], q[3], v[0], v[1], v[2]);
+}
+
 /* |v - b|^2 */
 static inline imf_real robust_off2(const imf_real *const v, const imf_real *const b)
 {
