@@ -304,8 +304,8 @@ static int robust_output(const imf_robust_consts_t *const set, imf_robust_state_
    floating point, w - w is 0 for a finite w and NaN for an infinite or NaN one, and a NaN
    stays in a sum: four sums of them (branch-free) are 0 only if every word is finite;
    without (every operation a call), isfinite on each word. On x86-64 (SSE2, GCC or
-   Clang) the sums run on 16-byte vectors of words (the same test, a quarter of the
-   instructions; n is a multiple of 8 words). */
+   Clang) the sums run on 16-byte vectors of words, four of them (the same test in fewer
+   instructions and shorter chains of additions). */
 static inline int robust_finite(const imf_robust_state_t *const x, const unsigned n)
 {
     const imf_real *const w = (const imf_real *)x;
@@ -320,19 +320,23 @@ static inline int robust_finite(const imf_robust_state_t *const x, const unsigne
 #elif defined(__GNUC__) && defined(__SSE2__)
     typedef imf_real robust_vec __attribute__((vector_size(16), aligned(sizeof(imf_real))));
     enum { L = 16 / sizeof(imf_real) };
-    robust_vec a0 = { 0 }, a1 = { 0 }, v;
+    robust_vec a0 = { 0 }, a1 = { 0 }, a2 = { 0 }, a3 = { 0 }, v;
     imf_real s = IMF_R(0.0);
 #pragma GCC unroll 16
-    for (i = 0; i + 2 * L <= n; i += 2 * L) {
+    for (i = 0; i + 4 * L <= n; i += 4 * L) {
         memcpy(&v, w + i, sizeof v);
         a0 = a0 + (v - v);
         memcpy(&v, w + i + L, sizeof v);
         a1 = a1 + (v - v);
+        memcpy(&v, w + i + 2 * L, sizeof v);
+        a2 = a2 + (v - v);
+        memcpy(&v, w + i + 3 * L, sizeof v);
+        a3 = a3 + (v - v);
     }
     for (; i < n; i++) {
         s = s + (w[i] - w[i]);
     }
-    a0 = a0 + a1;
+    a0 = (a0 + a1) + (a2 + a3);
     for (i = 0; i < L; i++) {
         s = s + a0[i];
     }
