@@ -403,12 +403,26 @@ static ROBUST_NOINLINE void robust_bias_row(imf_robust_state_t *const x, const i
     for (i = 0; i < 3; i++) {
         x->b[i] = x->b[i] + ph[i] * e;
     }
+#if defined(__AVR__)
     for (i = 0; i < 3; i++) {
         k = ph[i] * ri;
         for (j = i; j < 3; j++) {
             p[robust_bi[i][j]] = p[robust_bi[i][j]] - k * ph[j];
         }
     }
+#else
+    /* the same, written out (no loop branches) */
+    (void)j;
+    k = ph[0] * ri;
+    p[0] = p[0] - k * ph[0];
+    p[1] = p[1] - k * ph[1];
+    p[2] = p[2] - k * ph[2];
+    k = ph[1] * ri;
+    p[3] = p[3] - k * ph[1];
+    p[4] = p[4] - k * ph[2];
+    k = ph[2] * ri;
+    p[5] = p[5] - k * ph[2];
+#endif
 }
 
 /* B3: in motion, from the levelling. The correction is B2's low-pass of the strapdown's turn
