@@ -25,11 +25,16 @@
 /* B1, B2, B3's Kalman rows, B4 and B6 out of line: one copy of B6's scalar update (three
    calls per sample), of the rotation and of B3's row, and on the ATmega328P optimised for
    size (every soft-float operation is a call, and the inlined blocks did not fit its 32 KB of
-   flash beside a driver; ROBUST_SMALL: the blocks those call, inlined into them); results
-   are the same IEEE operations in any case */
+   flash beside a driver; ROBUST_SMALL: the blocks those call, inlined into them); on a
+   64-bit host (imufuse_c) inlined where the compiler chooses: a third fewer instructions
+   per update (the state stays in one frame, the rotations see their constant axes);
+   results are the same IEEE operations in any case */
 #if defined(__AVR__)
 #define ROBUST_NOINLINE __attribute__((noinline, optimize("Os")))
 #define ROBUST_SMALL __attribute__((optimize("Os")))
+#elif defined(__GNUC__) && (defined(__x86_64__) || defined(__aarch64__))
+#define ROBUST_NOINLINE
+#define ROBUST_SMALL
 #elif defined(__GNUC__)
 #define ROBUST_NOINLINE __attribute__((noinline))
 #define ROBUST_SMALL
@@ -79,6 +84,40 @@ static inline int robust_turn_by(const imf_robust_consts_t *const set, imf_real 
     const imf_real sv = IMF_R(0.5) - th2 * set->c48;
     imf_qmul(o, q[0], q[1], q[2], q[3], cw, sv * ox, sv * oy, sv * oz);
     return robust_norm4(o);
+}
+
+static const imf_real robust_zero3[3] = { IMF_R(0.0), IMF_R(0.0), IMF_R(0.0) };
+
+/* R(q)'s columns (the sensor axes turned by q) into o[9], from the products of q's
+   components: the matrix, not three rotations of the axes */
+static void robust_axes(imf_real *const o, const imf_real *const q)
+{
+    const imf_real xx = q[1] * q[1], yy = q[2] * q[2], zz = q[3] * q[3];
+    const imf_real xy = q[1] * q[2], xz = q[1] * q[3], yz = q[2] * q[3];
+    const imf_real wx = q[0] * q[1], wy = q[0] * q[2], wz = q[0] * q[3];
+    o[0] = IMF_R(1.0) - IMF_R(2.0) * (yy + zz);
+    o[1] = IMF_R(2.0) * (xy + wz);
+    o[2] = IMF_R(2.0) * (xz - wy);
+    o[3] = IMF_R(2.0) * (xy - wz);
+    o[4] = IMF_R(1.0) - IMF_R(2.0) * (xx + zz);
+    o[5] = IMF_R(2.0) * (yz + wx);
+    o[6] = IMF_R(2.0) * (xz + wy);
+    o[7] = IMF_R(2.0) * (yz - wx);
+    o[8] = IMF_R(1.0) - IMF_R(2.0) * (xx + yy);
+}
+
+/* R(q) v into o, one copy (B3 turns four vectors) */
+static ROBUST_NOINLINE void robust_rotate(imf_real *const o, const imf_real *const q,
+                                          const imf_real *const v)
+{
+    imf_qrotate(o, q[0], q[1], q[2], q[3], v[0], v[1], v[2]);
+}
+
+/* |v - b|^2 */
+static inline imf_real robust_off2(const imf_real *const v, const imf_real *const b)
+{
+    const imf_real x = v[0] - b[0], y = v[1] - b[1], z = v[2] - b[2];
+    return x * x + y * y + z * z;
 }
 
 /* ---- init, dt, attitude ------------------------------------------------- */
@@ -269,7 +308,9 @@ static int robust_output(const imf_robust_consts_t *const set, imf_robust_state_
 /* valid-attitude policy: the first n words of the new state finite. With hardware
    floating point, w - w is 0 for a finite w and NaN for an infinite or NaN one, and a NaN
    stays in a sum: four sums of them (branch-free) are 0 only if every word is finite;
-   without (every operation a call), isfinite on each word. */
+   without (every operation a call), isfinite on each word. On x86-64 (SSE2, GCC or
+   Clang) the sums run on 16-byte vectors of words, four of them (the same test in fewer
+   instructions and shorter chains of additions). */
 static inline int robust_finite(const imf_robust_state_t *const x, const unsigned n)
 {
     const imf_real *const w = (const imf_real *)x;
@@ -281,6 +322,30 @@ static inline int robust_finite(const imf_robust_state_t *const x, const unsigne
         }
     }
     return 1;
+#elif defined(__GNUC__) && defined(__SSE2__)
+    typedef imf_real robust_vec __attribute__((vector_size(16), aligned(sizeof(imf_real))));
+    enum { L = 16 / sizeof(imf_real) };
+    robust_vec a0 = { 0 }, a1 = { 0 }, a2 = { 0 }, a3 = { 0 }, v;
+    imf_real s = IMF_R(0.0);
+#pragma GCC unroll 16
+    for (i = 0; i + 4 * L <= n; i += 4 * L) {
+        memcpy(&v, w + i, sizeof v);
+        a0 = a0 + (v - v);
+        memcpy(&v, w + i + L, sizeof v);
+        a1 = a1 + (v - v);
+        memcpy(&v, w + i + 2 * L, sizeof v);
+        a2 = a2 + (v - v);
+        memcpy(&v, w + i + 3 * L, sizeof v);
+        a3 = a3 + (v - v);
+    }
+    for (; i < n; i++) {
+        s = s + (w[i] - w[i]);
+    }
+    a0 = (a0 + a1) + (a2 + a3);
+    for (i = 0; i < L; i++) {
+        s = s + a0[i];
+    }
+    return s == IMF_R(0.0);
 #else
     imf_real a0 = IMF_R(0.0), a1 = IMF_R(0.0), a2 = IMF_R(0.0), a3 = IMF_R(0.0);
     for (i = 0; i + 4 <= n; i += 4) {
@@ -296,16 +361,18 @@ static inline int robust_finite(const imf_robust_state_t *const x, const unsigne
 #endif
 }
 
-/* Keep the new state (its first n words) only if every block accepted the sample and
-   left it finite (valid-attitude policy, imf_math.h). */
-static inline void robust_commit(imf_robust_state_t *const dst, uint32_t *const skipped,
-                                 const imf_robust_state_t *const x, const int ok, const unsigned n)
+/* The update works on the state in place, its first n words (those it can change) kept in
+   old before; it keeps the new state only if every block accepted the sample and left it
+   finite (valid-attitude policy, imf_math.h), else the old words go back: one copy of the
+   state per sample, and a second only for a rejected sample. */
+static inline void robust_commit(imf_robust_state_t *const x, uint32_t *const skipped,
+                                 const imf_robust_state_t *const old, const int ok,
+                                 const unsigned n)
 {
     if (!(ok && robust_finite(x, n))) {
         (*skipped)++;
-        return;
+        memcpy(x, old, n * sizeof(imf_real));
     }
-    memcpy(dst, x, n * sizeof(imf_real));
 }
 
 void imf_robust_update_imu(imf_robust_t *const self, const imf_real gx, const imf_real gy,
@@ -313,16 +380,16 @@ void imf_robust_update_imu(imf_robust_t *const self, const imf_real gx, const im
                            const imf_real az)
 {
     const imf_real g[3] = { gx, gy, gz }, a[3] = { ax, ay, az };
-    imf_robust_state_t x;
+    imf_robust_state_t old;
+    int ok;
     if (!(imf_finite3(gx, gy, gz) && imf_finite3(ax, ay, az))) {
         self->skipped++;
         return;
     }
-    memcpy(&x, &self->x, ROBUST_IMU_WORDS * sizeof(imf_real));
-    robust_commit(&self->x, &self->skipped, &x,
-                  robust_step(&self->set, &x, g, a, robust_zero3)
-                      && robust_output(&self->set, &x, g),
-                  ROBUST_IMU_WORDS);
+    memcpy(&old, &self->x, ROBUST_IMU_WORDS * sizeof(imf_real));
+    ok = robust_step(&self->set, &self->x, g, a, robust_zero3)
+         && robust_output(&self->set, &self->x, g);
+    robust_commit(&self->x, &self->skipped, &old, ok, ROBUST_IMU_WORDS);
 }
 
 void imf_robust_update(imf_robust_t *const self, const imf_real gx, const imf_real gy,
@@ -331,18 +398,16 @@ void imf_robust_update(imf_robust_t *const self, const imf_real gx, const imf_re
 {
     const imf_real g[3] = { gx, gy, gz }, a[3] = { ax, ay, az }, m[3] = { mx, my, mz };
     const imf_real g2 = gx * gx + gy * gy + gz * gz;
-    imf_robust_state_t x;
+    const unsigned n = self->set.s.mag_learn ? ROBUST_AHRS_WORDS : ROBUST_IMU_WORDS;
+    imf_robust_state_t old;
     int ok;
     if (!(imf_finite3(gx, gy, gz) && imf_finite3(ax, ay, az) && imf_finite3(mx, my, mz))) {
         self->skipped++;
         return;
     }
-    x = self->x;
-    ok = robust_step(&self->set, &x, g, a, m) && robust_magnetometer(&self->set, &x, m, g2)
-         && robust_output(&self->set, &x, g);
-    if (self->set.s.mag_learn) {
-        robust_commit(&self->x, &self->skipped, &x, ok, ROBUST_AHRS_WORDS);
-    } else {
-        robust_commit(&self->x, &self->skipped, &x, ok, ROBUST_IMU_WORDS);
-    }
+    memcpy(&old, &self->x, n * sizeof(imf_real));
+    ok = robust_step(&self->set, &self->x, g, a, m)
+         && robust_magnetometer(&self->set, &self->x, m, g2)
+         && robust_output(&self->set, &self->x, g);
+    robust_commit(&self->x, &self->skipped, &old, ok, n);
 }

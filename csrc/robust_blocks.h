@@ -41,15 +41,6 @@ static inline void robust_bias_clip(const imf_robust_consts_t *const set, imf_re
     }
 }
 
-static const imf_real robust_zero3[3] = { IMF_R(0.0), IMF_R(0.0), IMF_R(0.0) };
-
-/* |v - b|^2 */
-static inline imf_real robust_off2(const imf_real *const v, const imf_real *const b)
-{
-    const imf_real x = v[0] - b[0], y = v[1] - b[1], z = v[2] - b[2];
-    return x * x + y * y + z * z;
-}
-
 /* B1 with a magnetometer: at rest the field in the sensor frame is steady, and so is the
    rate (the bias alone). A turn about the vertical, which the accelerometer does not see and
    a gyro of unknown bias cannot tell from its bias, turns the field's horizontal part (across
@@ -203,16 +194,6 @@ static int robust_strapdown(const imf_robust_consts_t *const set, imf_robust_sta
     return 1;
 }
 
-/* the sensor axes; R(q) v into o, one copy (B2's bias model and B3 turn 11 vectors) */
-static const imf_real robust_axes[9] = { IMF_R(1.0), IMF_R(0.0), IMF_R(0.0), IMF_R(0.0), IMF_R(1.0),
-                                         IMF_R(0.0), IMF_R(0.0), IMF_R(0.0), IMF_R(1.0) };
-
-static ROBUST_NOINLINE void robust_rotate(imf_real *const o, const imf_real *const q,
-                                          const imf_real *const v)
-{
-    imf_qrotate(o, q[0], q[1], q[2], q[3], v[0], v[1], v[2]);
-}
-
 /* B2's model of the bias (for B3), n values: the strapdown turns I through the bias
    estimate by u dt per sample (u: R(s) b, or R(s) for its dependence on b), gravity in I turns
    with it, and B2's gravity follows that turn through its low-pass, whose rate the levelling
@@ -245,13 +226,15 @@ static ROBUST_NOINLINE void robust_gravity(const imf_robust_consts_t *const set,
                                            imf_real *const hb, imf_real *const hr)
 {
     const imf_real dt = set->s.dt;
-    imf_real ai[3], ri[9], rr, qg, ub, pvv, pvg, pgg, inv, kv, kg;
+    imf_real ai[3], ri[9], rb[3], rr, qg, ub, pvv, pvg, pgg, inv, kv, kg;
     unsigned j;
-    for (j = 0; j < 9; j++) {
-        hr[j] = hb[j % 3u] = IMF_R(0.0);
-    }
     imf_qrotate(ai, x->s[0], x->s[1], x->s[2], x->s[3], a[0], a[1], a[2]);
     robust_acc_noise(set, x, ai, first, has_acc); /* B3's noise, before the update */
+    if (first || !has_acc || !(set->s.gyr_bias_max > IMF_R(0.0))) {
+        for (j = 0; j < 9; j++) {
+            hr[j] = hb[j % 3u] = IMF_R(0.0); /* no rate of B2's model this sample */
+        }
+    }
     if (first) {
         for (j = 0; j < 9; j++) {
             x->dr[j] = x->vr[j] = x->db[j % 3u] = x->vb[j % 3u] = IMF_R(0.0); /* no turn yet */
@@ -311,11 +294,11 @@ static ROBUST_NOINLINE void robust_gravity(const imf_robust_consts_t *const set,
     x->pvg = pvg - kv * pvg;
     x->pvv = pvv - kv * pvv;
     if (set->s.gyr_bias_max > IMF_R(0.0)) {
-        robust_rotate(ri, x->s, x->b);
-        robust_turn_lp(set, x->db, x->vb, ri, hb, 3u, kg, kv);
-        for (j = 0; j < 9; j += 3) {
-            robust_rotate(ri + j, x->s, robust_axes + j);
+        robust_axes(ri, x->s); /* R(s), then R(s) b from its columns */
+        for (j = 0; j < 3; j++) {
+            rb[j] = ri[j] * x->b[0] + ri[3 + j] * x->b[1] + ri[6 + j] * x->b[2];
         }
+        robust_turn_lp(set, x->db, x->vb, rb, hb, 3u, kg, kv);
         robust_turn_lp(set, x->dr, x->vr, ri, hr, 9u, kg, kv);
     }
 }
@@ -410,22 +393,36 @@ static ROBUST_NOINLINE void robust_bias_row(imf_robust_state_t *const x, const i
     /* bp[robust_bi[i][j]] = P[i][j] */
     static const unsigned char robust_bi[3][3] = { { 0, 1, 2 }, { 1, 3, 4 }, { 2, 4, 5 } };
     imf_real *const p = x->bp;
-    imf_real ph[3], sv, e, k;
+    imf_real ph[3], ri, e, k;
     unsigned i, j;
     for (i = 0; i < 3; i++) {
         ph[i] = p[robust_bi[i][0]] * h[0] + p[robust_bi[i][1]] * h[3] + p[robust_bi[i][2]] * h[6];
     }
-    sv = h[0] * ph[0] + h[3] * ph[1] + h[6] * ph[2] + w;
-    e = (y - (h[0] * x->b[0] + h[3] * x->b[1] + h[6] * x->b[2])) / sv;
+    ri = IMF_R(1.0) / (h[0] * ph[0] + h[3] * ph[1] + h[6] * ph[2] + w); /* one division */
+    e = (y - (h[0] * x->b[0] + h[3] * x->b[1] + h[6] * x->b[2])) * ri;
     for (i = 0; i < 3; i++) {
         x->b[i] = x->b[i] + ph[i] * e;
     }
+#if defined(__AVR__)
     for (i = 0; i < 3; i++) {
-        k = ph[i] / sv;
+        k = ph[i] * ri;
         for (j = i; j < 3; j++) {
             p[robust_bi[i][j]] = p[robust_bi[i][j]] - k * ph[j];
         }
     }
+#else
+    /* the same, written out (no loop branches) */
+    (void)j;
+    k = ph[0] * ri;
+    p[0] = p[0] - k * ph[0];
+    p[1] = p[1] - k * ph[1];
+    p[2] = p[2] - k * ph[2];
+    k = ph[1] * ri;
+    p[3] = p[3] - k * ph[1];
+    p[4] = p[4] - k * ph[2];
+    k = ph[2] * ri;
+    p[5] = p[5] - k * ph[2];
+#endif
 }
 
 /* B3: in motion, from the levelling. The correction is B2's low-pass of the strapdown's turn

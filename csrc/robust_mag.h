@@ -125,6 +125,7 @@ static ROBUST_SMALL void robust_offset_update(const imf_robust_consts_t *const s
 {
     imf_real pb, rr;
     unsigned k;
+#if defined(__AVR__)
     for (k = 0; k < 6; k++) {
         pb = x->P[robust_pi[k][k]] + (k < 3 ? ROBUST_MAG_QH : ROBUST_MAG_QO) * set->s.dt;
         if (k >= 3 && x->m_d2 > ROBUST_MAG_GATE && pb < ROBUST_MAG_P0) {
@@ -132,6 +133,21 @@ static ROBUST_SMALL void robust_offset_update(const imf_robust_consts_t *const s
         }
         x->P[robust_pi[k][k]] = pb;
     }
+#else
+    /* the same: the field's diagonal (P[0], P[6], P[11]), then the offset's */
+    const imf_real qh = ROBUST_MAG_QH * set->s.dt, qo = ROBUST_MAG_QO * set->s.dt;
+    const int jump = x->m_d2 > ROBUST_MAG_GATE;
+    x->P[0] = x->P[0] + qh;
+    x->P[6] = x->P[6] + qh;
+    x->P[11] = x->P[11] + qh;
+    for (k = 3; k < 6; k++) {
+        pb = x->P[robust_pi[k][k]] + qo;
+        if (jump && pb < ROBUST_MAG_P0) {
+            pb = pb + ROBUST_MAG_JUMP;
+        }
+        x->P[robust_pi[k][k]] = pb;
+    }
+#endif
     rr = g2 * set->mag_lag2;
     if (!(rr <= IMF_R(1.0))) {
         rr = IMF_R(1.0);

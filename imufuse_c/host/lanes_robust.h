@@ -124,6 +124,23 @@ static inline void LN(rl_qrotate)(VR *const o, const VR w, const VR x, const VR 
     o[2] = vz + w * tz + (x * ty - y * tx);
 }
 
+/* robust_axes: R(q)'s columns into o[9] */
+static inline void LN(rl_axes)(VR *const o, const VR *const q)
+{
+    const VR xx = q[1] * q[1], yy = q[2] * q[2], zz = q[3] * q[3];
+    const VR xy = q[1] * q[2], xz = q[1] * q[3], yz = q[2] * q[3];
+    const VR wx = q[0] * q[1], wy = q[0] * q[2], wz = q[0] * q[3];
+    o[0] = IMF_R(1.0) - IMF_R(2.0) * (yy + zz);
+    o[1] = IMF_R(2.0) * (xy + wz);
+    o[2] = IMF_R(2.0) * (xz - wy);
+    o[3] = IMF_R(2.0) * (xy - wz);
+    o[4] = IMF_R(1.0) - IMF_R(2.0) * (xx + zz);
+    o[5] = IMF_R(2.0) * (yz + wx);
+    o[6] = IMF_R(2.0) * (xz + wy);
+    o[7] = IMF_R(2.0) * (yz - wx);
+    o[8] = IMF_R(1.0) - IMF_R(2.0) * (xx + yy);
+}
+
 /* robust_norm4: the lanes where it succeeds (q normalised there, kept elsewhere) */
 static inline VM LN(rl_norm4)(VR *const q)
 {
@@ -362,12 +379,12 @@ static inline void LN(rl_gravity)(const RL *const L, RX *const x, const imf_real
         {
             const VM bm = kf & L->gbm;
             if (LN(any)(bm)) {
-                const VR one = RB(IMF_R(1.0));
-                LN(rl_qrotate)(ri, x->s[0], x->s[1], x->s[2], x->s[3], x->b[0], x->b[1], x->b[2]);
-                LN(rl_turn_lp)(L, x->db, x->vb, ri, hb, 3, kg, kv, bm);
-                LN(rl_qrotate)(ri, x->s[0], x->s[1], x->s[2], x->s[3], one, zero, zero);
-                LN(rl_qrotate)(ri + 3, x->s[0], x->s[1], x->s[2], x->s[3], zero, one, zero);
-                LN(rl_qrotate)(ri + 6, x->s[0], x->s[1], x->s[2], x->s[3], zero, zero, one);
+                VR rb[3];
+                LN(rl_axes)(ri, x->s);
+                for (i = 0; i < 3; i++) {
+                    rb[i] = ri[i] * x->b[0] + ri[3 + i] * x->b[1] + ri[6 + i] * x->b[2];
+                }
+                LN(rl_turn_lp)(L, x->db, x->vb, rb, hb, 3, kg, kv, bm);
                 LN(rl_turn_lp)(L, x->dr, x->vr, ri, hr, 9, kg, kv, bm);
             }
         }
@@ -457,18 +474,18 @@ static inline void LN(rl_bias_row)(RX *const x, const VR *const h, const VR y, c
 {
     static const unsigned char bi[3][3] = { { 0, 1, 2 }, { 1, 3, 4 }, { 2, 4, 5 } };
     VR *const p = x->bp;
-    VR ph[3], sv, e, k;
+    VR ph[3], ri, e, k;
     int i, j;
     for (i = 0; i < 3; i++) {
         ph[i] = p[bi[i][0]] * h[0] + p[bi[i][1]] * h[3] + p[bi[i][2]] * h[6];
     }
-    sv = h[0] * ph[0] + h[3] * ph[1] + h[6] * ph[2] + w;
-    e = (y - (h[0] * x->b[0] + h[3] * x->b[1] + h[6] * x->b[2])) / sv;
+    ri = IMF_R(1.0) / (h[0] * ph[0] + h[3] * ph[1] + h[6] * ph[2] + w);
+    e = (y - (h[0] * x->b[0] + h[3] * x->b[1] + h[6] * x->b[2])) * ri;
     for (i = 0; i < 3; i++) {
         x->b[i] = RSEL(act, x->b[i] + ph[i] * e, x->b[i]);
     }
     for (i = 0; i < 3; i++) {
-        k = ph[i] / sv;
+        k = ph[i] * ri;
         for (j = i; j < 3; j++) {
             p[bi[i][j]] = RSEL(act, p[bi[i][j]] - k * ph[j], p[bi[i][j]]);
         }

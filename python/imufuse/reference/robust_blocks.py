@@ -46,7 +46,7 @@ class _RobustBlocks:
 
     @staticmethod
     def _off2(v, b):
-        # |v - b|^2
+        # |v - b|^2 (robust.c's helpers)
         x, y, z = v[0] - b[0], v[1] - b[1], v[2] - b[2]
         return x * x + y * y + z * z
 
@@ -187,9 +187,20 @@ class _RobustBlocks:
         x.s = s
         return True
 
+    def _axes(self, q):
+        # R(q)'s columns (the sensor axes turned by q), from the products of q's components:
+        # the matrix, not three rotations of the axes (robust.c's helpers)
+        one, two = self._R(1.0), self._R(2.0)
+        xx, yy, zz = q[1] * q[1], q[2] * q[2], q[3] * q[3]
+        xy, xz, yz = q[1] * q[2], q[1] * q[3], q[2] * q[3]
+        wx, wy, wz = q[0] * q[1], q[0] * q[2], q[0] * q[3]
+        return [one - two * (yy + zz), two * (xy + wz), two * (xz - wy),
+                two * (xy - wz), one - two * (xx + zz), two * (yz + wx),
+                two * (xz + wy), two * (yz - wx), one - two * (xx + yy)]
+
     def _rotate(self, q, v):
-        # R(q) v (the C out of line: B2's model of the bias and B3 turn eleven vectors per
-        # sample, one copy of the rotation)
+        # R(q) v (the C out of line: B3 turns four vectors per sample, one copy of the
+        # rotation; robust.c's helpers)
         return qrotate(self._R, q[0], q[1], q[2], q[3], v[0], v[1], v[2])
 
     def _turn_lp(self, d, v, u, o, kg, kv):
@@ -214,10 +225,12 @@ class _RobustBlocks:
         # and hr, of R(s) (columns), both in I; 0 when gravity is not updated.
         R = self._R
         dt = self.s.dt
-        hr[:] = [R(0.0)] * 9
-        hb[:] = [R(0.0)] * 3
         ai = qrotate(R, x.s[0], x.s[1], x.s[2], x.s[3], a[0], a[1], a[2])
         self._acc_noise(x, ai, first, has_acc)   # B3's noise, before the update
+        if first or not has_acc or not self.s.gyr_bias_max > R(0.0):
+            # no rate of B2's model this sample
+            hr[:] = [R(0.0)] * 9
+            hb[:] = [R(0.0)] * 3
         if first:
             # B3: no turn yet (gravity is the first sample's)
             x.dr = [R(0.0)] * 9
@@ -270,10 +283,9 @@ class _RobustBlocks:
         x.pvg = pvg - kv * pvg
         x.pvv = pvv - kv * pvv
         if self.s.gyr_bias_max > R(0.0):
-            self._turn_lp(x.db, x.vb, self._rotate(x.s, x.b), hb, kg, kv)
-            ri = []
-            for j in range(3):
-                ri.extend(self._rotate(x.s, [R(1.0) if i == j else R(0.0) for i in range(3)]))
+            ri = self._axes(x.s)  # R(s), then R(s) b from its columns
+            rb = [ri[j] * x.b[0] + ri[3 + j] * x.b[1] + ri[6 + j] * x.b[2] for j in range(3)]
+            self._turn_lp(x.db, x.vb, rb, hb, kg, kv)
             self._turn_lp(x.dr, x.vr, ri, hr, kg, kv)
 
     def _level(self, x, r):
@@ -350,14 +362,14 @@ class _RobustBlocks:
         ph0 = p[0] * h[0] + p[1] * h[3] + p[2] * h[6]
         ph1 = p[1] * h[0] + p[3] * h[3] + p[4] * h[6]
         ph2 = p[2] * h[0] + p[4] * h[3] + p[5] * h[6]
-        sv = h[0] * ph0 + h[3] * ph1 + h[6] * ph2 + w
-        e = (y - (h[0] * x.b[0] + h[3] * x.b[1] + h[6] * x.b[2])) / sv
+        ri = self._R(1.0) / (h[0] * ph0 + h[3] * ph1 + h[6] * ph2 + w)  # one division
+        e = (y - (h[0] * x.b[0] + h[3] * x.b[1] + h[6] * x.b[2])) * ri
         x.b[0] = x.b[0] + ph0 * e
         x.b[1] = x.b[1] + ph1 * e
         x.b[2] = x.b[2] + ph2 * e
-        k0 = ph0 / sv
-        k1 = ph1 / sv
-        k2 = ph2 / sv
+        k0 = ph0 * ri
+        k1 = ph1 * ri
+        k2 = ph2 * ri
         p[0] = p[0] - k0 * ph0
         p[1] = p[1] - k0 * ph1
         p[2] = p[2] - k0 * ph2
