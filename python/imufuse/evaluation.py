@@ -37,10 +37,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .rotations import quat_conj, quat_mul
+from .latency import estimate_latency  # noqa: F401  (documented here: imufuse.evaluation)
+from .rotations import DIRECTIONS, quat_conj, quat_mul, quat_rows as _quats
 
 FRAMES = ("NWU", "ENU", "NED")
-DIRECTIONS = ("sensor-to-earth", "earth-to-sensor")
 
 _S = math.sqrt(0.5)
 #: earth-side rotation taking a frame's coordinates to ENU coordinates
@@ -56,16 +56,6 @@ METRICS = ("total", "heading", "inclination")
 def _check_frame(frame, name):
     if frame not in FRAMES:
         raise ValueError(f"{name}: must be one of {', '.join(FRAMES)}, got {frame!r}")
-
-
-def _quats(q, name):
-    q = np.asarray(q, dtype=np.float64)
-    if q.ndim != 2 or q.shape[1] != 4:
-        hint = (" (a filter's run() returns its whole state: run(..., outputs='q') returns "
-                "its (N, 4) quaternions)" if q.ndim == 2 and q.shape[1] > 4 else "")
-        raise ValueError(f"{name}: expected an (N, 4) array of [w, x, y, z] quaternions, "
-                         f"got shape {q.shape}{hint}")
-    return q
 
 
 def to_enu(q, frame="NWU", direction="sensor-to-earth", what="frame"):

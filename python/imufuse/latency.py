@@ -1,12 +1,12 @@
 """The delay of a gyroscope behind an orientation reference (`imufuse latency`), measured
 without running any filter: what RobustIMU's and RobustAHRS's `latency` compensates. The
-reference's rates come from its quaternions (imufuse.evaluation's conventions)."""
+reference's rates come from its quaternions (imufuse.evaluation's conventions; it is
+imported from there too)."""
 import math
 
 import numpy as np
 
-from .evaluation import DIRECTIONS, _quats
-from .rotations import quat_conj, quat_mul, quat_to_rotvec
+from .rotations import DIRECTIONS, quat_conj, quat_mul, quat_rows as _quats, quat_to_rotvec
 
 
 def _ref_rates(q_ref, t):

@@ -35,6 +35,22 @@ IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
 _SMALL_ANGLE = 1e-4
 
 
+#: how a quaternion array is given: the rotation from the sensor to the earth, or back
+DIRECTIONS = ("sensor-to-earth", "earth-to-sensor")
+
+
+def quat_rows(q, name):
+    """q as an (N, 4) float64 array of [w, x, y, z] quaternions; ValueError naming ``name``
+    (with a hint when a filter's whole state was given)."""
+    q = np.asarray(q, dtype=np.float64)
+    if q.ndim != 2 or q.shape[1] != 4:
+        hint = (" (a filter's run() returns its whole state: run(..., outputs='q') returns "
+                "its (N, 4) quaternions)" if q.ndim == 2 and q.shape[1] > 4 else "")
+        raise ValueError(f"{name}: expected an (N, 4) array of [w, x, y, z] quaternions, "
+                         f"got shape {q.shape}{hint}")
+    return q
+
+
 def _arr(a, name, last):
     """float64 array of shape (..., last), or ValueError naming ``name`` and its shape."""
     a = np.asarray(a, dtype=np.float64)
