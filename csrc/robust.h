@@ -84,7 +84,7 @@ typedef struct {
     imf_real bp[6];          /* B3: covariance of b, upper triangle (p00 p01 p02 p11 p12 p22),
                                 relative to the measurement noise (1/s) */
     imf_real an;             /* B3: its rows' noise, relative to its bound (rest_acc): the
-                                linear acceleration B2 sees, low-passed; 1 at the start */
+                                linear acceleration B2 sees, low-passed; 1 from the first sample */
     /* B6 (relative: field unit / m_n0) */
     imf_real hi[6];  /* field in the inertial frame h (hx hy hz), then the offset (hard iron)
                         estimate in the sensor frame (ix iy iz), relative */
@@ -111,8 +111,9 @@ typedef struct {
     imf_real tau_acc;        /* B2: tilt correction time constant, s; > 0 (default 2.5) */
     imf_real rate_ref;       /* B2: the turn rate at which gravity's process noise doubles,
                                rad/s; >= 0, 0: constant (default 100 deg/s = 1.745 rad/s) */
-    imf_real tau_bias;       /* B3: gyro-bias time constant in motion, s; 0 (off) or
-                               >= 4 tau_acc (default 100) */
+    imf_real tau_bias;       /* B3: gyro-bias time constant in motion at the bound of its
+                               noise (its random walk 1 / tau_bias^2; smooth motion learns
+                               faster), s; 0 (off) or >= 4 tau_acc (default 100) */
     imf_real tau_bias_rest;  /* B3: gyro-bias time constant at rest, s; > 0 (default 3) */
     imf_real rest_gyr;       /* B1: rest threshold on the low-passed rate, rad/s; >= 0
                                (default 2 deg/s = 0.0349 rad/s) */

@@ -173,7 +173,8 @@ void imf_robust_set_gyr_bias(imf_robust_t *const self, const imf_real bias[3])
     unsigned i;
     memcpy(self->x.b, bias, sizeof self->x.b);
     self->x.bu = IMF_R(0.0);
-    /* B3: as learnt (its covariance's steady state, 1 / tau_bias) */
+    /* B3: as learnt at the bound of its noise (an = 1: steady state 1 / tau_bias; a smooth
+       motion's smaller an learns it tighter) */
     for (i = 0; i < 6; i++) {
         self->x.bp[i] = IMF_R(0.0);
     }

@@ -1,6 +1,7 @@
 """imufuse.evaluation against an independent implementation of the BROAD
 metrics written with scipy.spatial.transform (rotation matrices and
 swing-twist geometry, no quaternion component formulas)."""
+import dataclasses
 import math
 import os
 
@@ -253,3 +254,15 @@ def test_a_sealed_reference_is_sealed_once():
     sealed.use[:] = 2
     with pytest.raises(ValueError, match="0 or 1 only"):
         sealed.sealed(n)
+    # an owner may resize its read-only arrays: then it is checked whole (C read past them)
+    other = prepare_reference(d.q_true, ref_frame="NWU").sealed(n)
+    other.r.resize((2, 4))
+    other.use.resize((2,))
+    with pytest.raises(ValueError, match="a reference of 2 samples"):
+        other.sealed(n)
+    # dataclasses.replace gives a copy that is checked whole when it is sealed
+    again = prepare_reference(d.q_true, ref_frame="NWU").sealed(n)
+    with pytest.raises(ValueError, match="Reference.n is 5"):
+        dataclasses.replace(again, n=5).sealed(n)
+    copy = dataclasses.replace(again)
+    assert copy.sealed(n) is not copy and copy.sealed(n).n == again.n

@@ -12,6 +12,12 @@ def _late_child(conn, *args, **kw):
     conn.close()
 
 
+def _late_lingering_child(conn, *args, **kw):
+    time.sleep(0.15)                      # answers past the timeout, then is slow to exit
+    conn.send(("ok", 42))
+    time.sleep(3.0)
+
+
 def _silent_child(conn, *args, **kw):
     conn.close()                          # ends without a word: exit code 0
 
@@ -22,5 +28,8 @@ def test_an_answer_after_the_timeout_is_the_outcome(monkeypatch):
     # the child is forked after the patch; on a machine too loaded to finish within the
     # grace it is a timeout, never an exit
     assert res in (("ok", 42), ("timeout", None)), res
+    # answered, then slow to exit: the answer (it was killed and called a timeout)
+    monkeypatch.setattr(isolate, "_child", _late_lingering_child)
+    assert isolate._attempt(None, "Kalman1D", {}, [], "c", None, 0, timeout=0.05) == ("ok", 42)
     monkeypatch.setattr(isolate, "_child", _silent_child)
     assert isolate._attempt(None, "Kalman1D", {}, [], "c", None, 0, timeout=5.0) == ("exit", 0)

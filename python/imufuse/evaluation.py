@@ -195,9 +195,13 @@ class Reference:
         field that does not hold: use (n_log,) of 0/1, r (n_log, 4) finite with unit rows
         (within 1e-6) where use is 1, n the number of 1s in use, n_samples == n_log."""
         use, r = self.use, self.r
-        if (type(self) is _SealedReference and self.n_samples == n_log
-                and not use.flags.writeable and not r.flags.writeable):
-            return self                  # sealed already, its arrays still read-only
+        if (type(self) is _SealedReference and self.__dict__.get("_by") is _SEALER
+                and self.n_samples == n_log and not use.flags.writeable
+                and not r.flags.writeable and use.shape == (n_log,) and r.shape == (n_log, 4)
+                and use.dtype == np.uint8 and r.dtype == np.float64
+                and use.flags.c_contiguous and r.flags.c_contiguous):
+            # sealed already: read-only, of its length (an owner may resize a read-only array)
+            return self
         if not isinstance(use, np.ndarray) or not isinstance(r, np.ndarray):
             bad = "use" if not isinstance(use, np.ndarray) else "r"
             raise TypeError(f"score: Reference.{bad} must be a numpy array (prepare_reference "
@@ -236,7 +240,7 @@ class Reference:
         out = object.__new__(_SealedReference)     # (its __setattr__ refuses every write)
         out.__dict__.update(use=u, r=rr, n=count, n_samples=n_log, n_ref_nan=self.n_ref_nan,
                             n_outside_mask=self.n_outside_mask,
-                            heading_offset=bool(self.heading_offset))
+                            heading_offset=bool(self.heading_offset), _by=_SEALER)
         return out
 
     def finish(self, sq_total, sq_heading, sq_inclination, n_est_nan, stored=None,
@@ -267,8 +271,15 @@ class Reference:
 
 
 
+_SEALER = object()      # marks the copies Reference.sealed made
+
+
 class _SealedReference(Reference):
     """Reference.sealed's copy: fields fixed, arrays read-only; sealed again for its log, itself."""
+
+    def __init__(self, **fields):
+        # dataclasses.replace: a copy with other fields, checked whole when it is sealed
+        self.__dict__.update(fields)
 
     def __setattr__(self, name, value):
         raise AttributeError(f"a sealed Reference cannot change ({name}): seal the original again")

@@ -202,7 +202,8 @@ def check_log(log, rate: Optional[float] = None, file_rate: Optional[float] = No
             out.append(f"the accelerometer's median magnitude is {m:.3g} g{conv}: raw sensor "
                        "counts? scale them to g or m/s^2 first (the datasheet's counts per g, "
                        "e.g. 16384 at +-2 g); a filter that compares it with 1 g (MultiWii's "
-                       "window, acc_gate, Fusion's rejection) never uses it as it is")
+                       "window, acc_gate, Fusion's rejection) never uses it as it is, unless "
+                       "its acc_1g is set to the counts per g")
     gyr_unit, gyr_from = log.units.get("gyr", (None, None))
     if all(n in cols for n in ("gyr_x", "gyr_y", "gyr_z")) and len(log):
         with np.errstate(all="ignore"):

@@ -1,5 +1,6 @@
 """`imufuse tune`: the printing around imufuse.tune.Tuner."""
 import argparse
+import glob
 import os
 import sys
 
@@ -26,7 +27,10 @@ def _tune(args):
             raise UsageError(f"--grid {k}: {k} is also fixed by --param; give it once")
         grids.append((k, vals))
         given[k] = g
-    args.logs = log_paths(args.logs)          # files, folders of logs, glob patterns
+    # files, folders of logs, glob patterns; with an executor a name that is not here is
+    # passed on as it is (read where the executor runs it)
+    args.logs = [p for x in args.logs for p in (
+        log_paths([x]) if not args.executor or os.path.exists(x) or glob.has_magic(x) else [x])]
     try:
         # with an executor, the logs are read where the executor runs them (the first one
         # here too, for the default grid); else here, with their notes

@@ -54,17 +54,17 @@ def _attempt(fw, name, params, inputs, backend, dtype, n, timeout, explain=True)
             p.join(5)
             return msg
         p.join(0.5 if p.is_alive() else 5)
-        if p.is_alive():
-            p.kill()
-            p.join(5)
-            return ("timeout", None)
         # a child that answered just after the timeout (a loaded machine) has said how it
-        # ended: its answer, not its exit code 0, is the outcome
+        # ended, exited or not yet: its answer, not its exit code 0 or a kill, is the outcome
         try:
             if r.poll(0):
                 return r.recv()
         except (EOFError, OSError):
             pass
+        if p.is_alive():
+            p.kill()
+            p.join(5)
+            return ("timeout", None)
         code = p.exitcode
         return ("signal", -code) if code is not None and code < 0 else ("exit", code)
     finally:

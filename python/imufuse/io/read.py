@@ -78,6 +78,7 @@ def read_log(path, gyr_unit=None, acc_unit=None, rate=None, *, columns=None,
             warnings.append(f"{bad}; the time column is not used" + (
                 f": --rate {user_rate:g} Hz gives every sample's time" if user_rate else ""))
             del cols["time"]
+            log.sources.pop("time", None)
     time_cols = cols.get("time")      # the file's own times, before a rate generates any
     d = np.diff(time_cols) if time_cols is not None else np.empty(0)
     if rate is None and file_rate is not None and "time" not in cols:

@@ -407,7 +407,8 @@ class RobustIMU(_Robust):
     rest_gyr=2.0, rest_acc=0.05, rest_time=1.5, tau_rest=0.5, latency=0.0): dt in s;
     tau_acc (s) the gravity filter's time constant at rest; rate_ref (deg/s) the rotation
     rate at which its gravity uncertainty doubles (0: constant); tau_bias (s) the time
-    constant of the bias estimation in motion (0: off, else >= 4 tau_acc); tau_bias_rest
+    constant of the bias estimation in motion at the bound of its noise (its random walk;
+    smooth motion learns faster; 0: off, else >= 4 tau_acc); tau_bias_rest
     (s) that of the bias at rest; rest_gyr (deg/s) and rest_acc (g, relative to the
     accelerometer's mean magnitude) the rest thresholds, held for rest_time (s), with
     low-passes of tau_rest (s); latency (s) the delay of the sensor chain (the gyroscope's

@@ -163,7 +163,8 @@ class _RobustBlocks:
         R = self._R
         self.x.b = [R(v) for v in self._gyr_bias3(bias, self.dtype, float(self.s.gyr_bias_max))]
         self.x.bu = R(0.0)
-        # B3: as learnt (its covariance's steady state, 1 / tau_bias)
+        # B3: as learnt at the bound of its noise (an = 1: steady state 1 / tau_bias; a smooth
+        # motion's smaller an learns it tighter)
         self.x.bp = [self.inv_tau_bias, R(0.0), R(0.0), self.inv_tau_bias, R(0.0),
                      self.inv_tau_bias]
 
