@@ -1,7 +1,9 @@
 """Harness of the scale-error study (research/scale_consider.py): test_scale_error's
 scenario and the seven BROAD development trials (from rest; started in motion with an added
 bias B as research/bias_study.py), per trial, for any RobustAHRS-like class."""
+import os
 import sys
+import tempfile
 
 import numpy as np
 
@@ -59,6 +61,13 @@ def broad(make, motion=False, B=0.0, data=None, names=None):
     return out
 
 
+def baseline_path():
+    """Today's per-trial numbers (written by this script): $SCALE_BASELINE, else
+    <tempdir>/scale_baseline.json."""
+    return os.environ.get("SCALE_BASELINE",
+                          os.path.join(tempfile.gettempdir(), "scale_baseline.json"))
+
+
 def c_make(dt):
     return imufuse_c.RobustAHRS(dt, latency=0.0)
 
@@ -71,5 +80,7 @@ if __name__ == "__main__":
         res[f"{int(motion)}_{B:g}"] = [(n, t, h) for n, t, h, _ in r]
         print(motion, B, "mean %.3f / %.2f" % (np.mean([x[1] for x in r]), np.mean([x[2] for x in r])),
               " ".join("%s %.3f/%.2f" % (n, t, h) for n, t, h, _ in r), flush=True)
-    json.dump(res, open("/tmp/wts/baseline.json", "w"))
+    path = sys.argv[1] if len(sys.argv) > 1 else baseline_path()
+    with open(path, "w") as f:
+        json.dump(res, f)
     print(scale_test(lambda dt: imufuse_c.RobustAHRS(dt, latency=0.0)))
