@@ -111,8 +111,18 @@ def validate_isolated(fw, name, params, inputs, backend="c", dtype=None, timeout
         return res[1]
     if res[0] in ("firmware", "error"):
         raise FirmwareError(res[1])
+    def prefix(n):
+        r = _attempt(fw, name, params, inputs, backend, dtype, n, timeout, explain=False)
+        if r[0] == "timeout" and res[0] != "timeout":
+            # the full run failed otherwise (a crash, an exit) within the timeout: a prefix
+            # that only ran out of time did so on a loaded machine, and given more time it
+            # fails the same way or passes
+            r = _attempt(fw, name, params, inputs, backend, dtype, n, 10 * timeout,
+                         explain=False)
+        return r
+
     # the firmware's own code failed: first its C constructors (run when it is loaded)
-    loaded = _attempt(fw, name, params, inputs, backend, dtype, LOAD_ONLY, timeout)
+    loaded = prefix(LOAD_ONLY)
     if loaded[0] in ("firmware", "error"):
         raise FirmwareError(loaded[1])
     if loaded[0] != "ok":
@@ -121,13 +131,13 @@ def validate_isolated(fw, name, params, inputs, backend="c", dtype=None, timeout
     if res[0] == "timeout":
         raise FirmwareError(_describe(res, "", timeout))
     # locate the sample: the shortest prefix that fails the same way
-    first = _attempt(fw, name, params, inputs, backend, dtype, 0, timeout)
+    first = prefix(0)
     if first[0] not in ("ok", "firmware", "error"):
         raise FirmwareError(_describe(first, "during init", timeout))
     lo, hi = 0, len(inputs[0])          # run(lo) succeeds, run(hi) fails
     while hi - lo > 1:
         mid = (lo + hi) // 2
-        r = _attempt(fw, name, params, inputs, backend, dtype, mid, timeout)
+        r = prefix(mid)
         if r[0] in ("ok", "firmware", "error"):
             lo = mid
         else:
