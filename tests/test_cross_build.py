@@ -55,6 +55,24 @@ def _compile(target, src, precision, out):
     return _run(cmd)
 
 
+@pytest.fixture(scope="module")
+def objects(tmp_path_factory):
+    """compile(target, src, precision) -> (the compiler's stderr, the object): each source
+    compiled once per target and precision with the contract's flags, for the tests that read
+    the compiler's output and those that read the object (the module's tests run on one
+    worker: tests/conftest.py)."""
+    d = tmp_path_factory.mktemp("objects")
+    made = {}
+
+    def compile(target, src, precision):
+        key = (target, Path(src), precision)
+        if key not in made:
+            obj = d / f"{target}-{precision}-{len(made)}-{Path(src).stem}.o"
+            made[key] = (_compile(target, src, precision, obj).stderr, obj)
+        return made[key]
+    return compile
+
+
 def _build_params():
     out = []
     for src in SOURCES:
@@ -71,7 +89,7 @@ def test_sources_found():
 
 
 @pytest.mark.parametrize("src", [pytest.param(s, id=str(s.relative_to(CSRC))) for s in SOURCES])
-def test_compiles_clean(toolchains, tmp_path, src):
+def test_compiles_clean(toolchains, objects, src):
     """No warning at all (-Werror) with the contract's flags, on every target and precision
     (one item per source); the compiler says nothing."""
     for p in _build_params():
@@ -79,8 +97,8 @@ def test_compiles_clean(toolchains, tmp_path, src):
             continue
         _, target, precision = p.values
         need(toolchains, target)
-        proc = _compile(target, src, precision, tmp_path / "x.o")
-        assert proc.stderr.strip() == "", (target, precision, proc.stderr)
+        stderr, _ = objects(target, src, precision)
+        assert stderr.strip() == "", (target, precision, stderr)
 
 
 DOUBLE_ROUTINE = re.compile(r"^(__aeabi_d\w+|__aeabi_f2d|__aeabi_[il]2d|__\w*df\d?|sqrt|sin|cos|atan2|asin)$")
@@ -104,12 +122,12 @@ def _double_calls_in_updates(objdump, obj):
 
 @pytest.mark.parametrize("target", ["m0", "m4f"])
 @pytest.mark.parametrize("src", [s for s in SOURCES if s.parent == CSRC], ids=lambda s: s.name)
-def test_float32_updates_use_no_double(toolchains, tmp_path, src, target):
+def test_float32_updates_use_no_double(toolchains, objects, src, target):
     """A float32 build never computes in double inside an update: no soft-double routine
-    (__aeabi_d*, __*df*) and no double sqrt is referenced from any *_update function."""
+    (__aeabi_d*, __*df*) and no double sqrt is referenced from any *_update function (the
+    object test_compiles_clean compiled)."""
     need(toolchains, target)
-    obj = tmp_path / "x.o"
-    _compile(target, src, "float32", obj)
+    _, obj = objects(target, src, "float32")
     found = _double_calls_in_updates(BINUTILS[target], obj)
     assert not found, f"double arithmetic in float32 updates: {found}"
 
