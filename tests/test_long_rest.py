@@ -90,7 +90,8 @@ def scenario(name):
     d = SCENARIOS[name]()
     assert len(d.t) == N
     up = twins.up_in_body(d.q_true)
-    return types.SimpleNamespace(imu=d, up=up, roll=np.unwrap(np.arctan2(up[:, 1], up[:, 2])))
+    return types.SimpleNamespace(imu=d, up=up, roll=np.unwrap(np.arctan2(up[:, 1], up[:, 2])),
+                                 still=_still_intervals(d))
 
 
 def _acc_angle(acc):
@@ -159,15 +160,16 @@ def quat_angle(qa, qb):
     return np.degrees(2 * np.arccos(np.clip(np.abs(np.sum(qa * qb, axis=1)), 0.0, 1.0)))
 
 
-def difference(name, sa, sb):
+def difference(name, sa, sb, ua=None):
     """Attitude difference (deg) between two state trajectories of one filter family: tilt
-    for 3-D filters; the angle itself for 1-D; KK: the larger of the two angle differences."""
+    for 3-D filters; the angle itself for 1-D; KK: the larger of the two angle differences.
+    ua: up_of(name, sa) if made already."""
     fam = family(name)
     if fam == "1d":
         return np.degrees(np.abs(sa[:, 0] - sb[:, 0]))
     if fam == "kk":
         return np.degrees(np.abs(sa[:, :2] - sb[:, :2]).max(axis=1))
-    return angle_between(up_of(name, sa), up_of(name, sb))
+    return angle_between(up_of(name, sa) if ua is None else ua, up_of(name, sb))
 
 
 def truth_state(name, sc):
@@ -299,7 +301,10 @@ def run_twin(case, profile, inputs, dtype="float64"):
 # ---- checks -------------------------------------------------------------------------------
 def still_intervals(sc):
     """[a, b) ranges of constant true body rate (the motions between them are short)."""
-    d = sc.imu
+    return sc.still
+
+
+def _still_intervals(d):
     change = np.flatnonzero(np.any(np.diff(d.omega_true, axis=0) != 0, axis=1)) + 1
     edges = [0, *change.tolist(), N]
     return [(a, b) for a, b in zip(edges[:-1], edges[1:]) if b - a > 10 * RATE]
@@ -313,15 +318,18 @@ def converge_time(case):
     return SETTLE
 
 
-def truth_worst(case, s, sc):
+def truth_worst(case, s, sc, us=None):
     """Converges and stays: the largest error to the truth (deg) over every still interval
     from converge_time() after its start to its end; for an interval shorter than that
-    (a slow LPF), the error at its end (mean of the last 10 %) if it did not halve."""
+    (a slow LPF), the error at its end (mean of the last 10 %) if it did not halve.
+    us: up_of(case.name, s) if made already."""
+    if us is None and family(case.name) not in ("1d", "kk"):
+        us = up_of(case.name, s)
     if family(case.name) in ("catalogue", "quat"):
         # the truth's up vector is the scenario's (up_in_body of q_true, made once)
-        err = angle_between(up_of(case.name, s), sc.up)
+        err = angle_between(us, sc.up)
     else:
-        err = difference(case.name, s, truth_state(case.name, sc))
+        err = difference(case.name, s, truth_state(case.name, sc), us)
     t_conv = converge_time(case)
     worst = 0.0
     for a, b in still_intervals(sc):
@@ -378,11 +386,13 @@ def measure_fixed(case, profile, name):
     inputs = fixed_inputs(case, name)
     s = state_float(f, *run_blocks(f, inputs, columns(case.name)))
     g1 = case.params.get("acc_1g", ACC_1G)
-    r = dict(norm=norm_worst(case, s, sc, g1), truth=truth_worst(case, s, sc))
+    # the filter's up vector, once for the truth and the twin (3-D filters)
+    us = None if family(case.name) in ("1d", "kk") else up_of(case.name, s)
+    r = dict(norm=norm_worst(case, s, sc, g1), truth=truth_worst(case, s, sc, us))
     if family(case.name) == "grav":
         r["peak"] = gravity_peak(s, g1)
     tw = run_twin(case, profile, inputs)
-    d = difference(case.name, s, tw)
+    d = difference(case.name, s, tw, us)
     r.update(twin_rms=float(np.sqrt(np.mean(d ** 2))), twin_max=float(d.max()))
     if family(case.name) == "quat":
         d = quat_angle(s[:, :4], tw[:, :4])
