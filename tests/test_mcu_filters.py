@@ -66,6 +66,9 @@ class _Runs:
         self.inputs = {}
         self.out = {}
         self.ref = {}
+        # the objects compiled for each target (programs.build): a source or port file is
+        # compiled once per target, precision and flags, whichever program needs it first
+        self.objects = {t: {} for t in targets}
         jobs = []
         for prec, grp in GROUPS:
             self.inputs[prec, grp] = mf.inputs_for(prec, grp, N_MOTION)
@@ -85,19 +88,19 @@ class _Runs:
         self.seconds = time.perf_counter() - t0
 
     def _one(self, target, prec, grp):
-        try:
-            return mf.run_filters(target, GROUPS[prec, grp], self.inputs[prec, grp], timeout=600)
-        except mcu.HarnessError as e:
-            if target != "avr" or "does not fit" not in str(e):
-                raise
-        # one filter alone does not fit with N_MOTION samples: run each filter alone,
-        # on fewer samples where it must
-        out = {}
-        common = self.inputs[prec, grp]
-        for spec in GROUPS[prec, grp]:
-            r, used = mf.run_fitting(target, [spec], N_MOTION, N_MOTION_SMALL, inputs=common,
-                                     timeout=600)
-            out[spec.label] = (r.states[0], r.skipped[0], None if used is common else used)
+        # the group in as few programs as fit (run_filters splits it); on the AVR a filter
+        # whose program does not fit alone with N_MOTION samples stored runs alone, on fewer
+        # samples where it must (run_fitting)
+        unfit, objects, common = [], self.objects[target], self.inputs[prec, grp]
+        r = mf.run_filters(target, GROUPS[prec, grp], common, timeout=600,
+                           unfit=unfit if target == "avr" else None, objects=objects)
+        if not unfit:
+            return r
+        out = {s.label: (st, sk, None) for s, st, sk in zip(r.specs, r.states, r.skipped)}
+        for spec in unfit:
+            one, used = mf.run_fitting(target, [spec], N_MOTION, N_MOTION_SMALL, inputs=common,
+                                       timeout=600, objects=objects)
+            out[spec.label] = (one.states[0], one.skipped[0], None if used is common else used)
         return out
 
     def get(self, target, spec):

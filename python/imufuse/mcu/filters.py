@@ -296,12 +296,17 @@ def _inputs_of(specs: Sequence[FilterSpec], inputs: Mapping[str, np.ndarray]) ->
 def run_filters(target: str, specs: Sequence[FilterSpec], inputs: Mapping[str, np.ndarray],
                 count: bool = False, workdir: Optional[Path] = None, timeout: float = 300.0,
                 max_per_program: Optional[int] = None,
-                extra_cflags: Sequence[str] = ()) -> GroupResult:
+                extra_cflags: Sequence[str] = (), unfit: Optional[List[FilterSpec]] = None,
+                objects: Optional[Dict[Any, Any]] = None) -> GroupResult:
     """Run every spec (one group: same precision and input set) on ``target``.
 
     All filters of a program step on the same sample; the set is split in halves until each
     program fits the target (AVR flash) or has at most ``max_per_program`` filters.
     extra_cflags: after the harness flags, for every source (run_fitting's -Os).
+    unfit: a list: a filter whose program does not fit even alone is appended to it and left
+    out of the result (its ``specs`` are those that ran) instead of failing the call.
+    objects: the sources compiled so far ({}; programs.build), shared by the programs of the
+    call (a set split in halves compiles each source once) and by calls given the same dict.
     """
     specs = list(specs)
     if not specs:
@@ -316,6 +321,8 @@ def run_filters(target: str, specs: Sequence[FilterSpec], inputs: Mapping[str, n
     skipped: List[Optional[np.ndarray]] = [None] * len(specs)
     results: List[Result] = []
     programs: List[List[int]] = []
+    objects = {} if objects is None else objects
+    left_out: List[int] = []
     try:
         todo = [list(range(len(specs)))]
         if max_per_program:
@@ -328,11 +335,14 @@ def run_filters(target: str, specs: Sequence[FilterSpec], inputs: Mapping[str, n
                 elf = build(target, sources=sorted({str(specs[i].c.source) for i in idx}),
                             include_dirs=[specs[0].csrc, specs[0].csrc / "fixed"],
                             defines=specs[0].defines, driver=drv, inputs=ins, n=n, workdir=wd,
-                            extra_cflags=extra_cflags)
+                            extra_cflags=extra_cflags, objects=objects)
             except HarnessError as e:
                 if "does not fit" in str(e) and len(idx) > 1:
                     h = len(idx) // 2
                     todo[:0] = [idx[:h], idx[h:]]
+                    continue
+                if "does not fit" in str(e) and unfit is not None:
+                    left_out += idx
                     continue
                 raise
             res = run_elf(target, elf, n, count=count, timeout=timeout, driver=drv)
@@ -344,10 +354,15 @@ def run_filters(target: str, specs: Sequence[FilterSpec], inputs: Mapping[str, n
                     skipped[i] = cols[:, -1].astype(np.uint32)
                     cols = cols[:, :-1]
                 states[i] = cols
-        done = [s for s in states if s is not None]
-        if len(done) != len(specs):
+        done = {i: s for i, s in enumerate(states) if s is not None}
+        if len(done) + len(left_out) != len(specs):
             raise HarnessError(f"{target}: {len(specs) - len(done)} filters produced no state")
-        return GroupResult(target, specs, done, skipped, results, programs, tuple(extra_cflags))
+        if unfit is not None:
+            unfit += [specs[i] for i in sorted(left_out)]
+        at = {i: k for k, i in enumerate(done)}   # program indices into the specs that ran
+        return GroupResult(target, [specs[i] for i in done], list(done.values()),
+                           [skipped[i] for i in done], results,
+                           [[at[i] for i in p] for p in programs], tuple(extra_cflags))
     finally:
         if own:
             shutil.rmtree(base, ignore_errors=True)
@@ -372,6 +387,7 @@ def run_fitting(target: str, specs: Sequence[FilterSpec], n_motion: int,
     specs = list(specs)
     if inputs is None:
         inputs = inputs_for(specs[0].precision, specs[0].group[1], n_motion)
+    kw.setdefault("objects", {})      # the sources compiled once for the tries below
     try:
         return run_filters(target, specs, inputs, **kw), inputs
     except HarnessError as e:

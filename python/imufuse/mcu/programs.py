@@ -5,7 +5,7 @@ import os
 import subprocess
 import tempfile
 from pathlib import Path
-from typing import Iterable, List, Mapping, Optional, Sequence, Union
+from typing import Dict, Iterable, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -44,11 +44,28 @@ def _compile(
     include_dirs: Sequence[Path],
     defines: Sequence[str],
     extra: Sequence[str] = (),
+    objects: Optional[Dict[Tuple[str, ...], Tuple[bytes, bytes]]] = None,
+    generated: Optional[Path] = None,
 ) -> None:
+    """Compile src to obj (and obj's .su with -fstack-usage).
+
+    objects: the objects compiled before by the same command, {command: (object, .su)}: a
+    source compiled again with the same compiler, flags, defines and include directories is
+    copied from there. The directory of the generated headers (``generated``: a program's
+    imf_inputs.h and imf_driver.h) is left out of the command compared; only sources that
+    include neither header (the code under test, the port files) may be given a cache."""
     cmd = [tgt.cc, *cflags(tgt.name), *_SECTION_FLAGS, *extra, *defines]
     cmd += [f"-I{d}" for d in include_dirs]
-    cmd += ["-c", str(src), "-o", str(obj)]
-    _run_cmd(cmd, cwd=obj.parent)
+    cmd += ["-c", str(src)]
+    key = tuple(c for c in cmd if generated is None or c != f"-I{generated}")
+    su = obj.with_suffix(".su")
+    if objects is not None and key in objects:
+        obj.write_bytes(objects[key][0])
+        su.write_bytes(objects[key][1])
+        return
+    _run_cmd([*cmd, "-o", str(obj)], cwd=obj.parent)
+    if objects is not None:
+        objects[key] = (obj.read_bytes(), su.read_bytes() if su.exists() else b"")
 
 
 def build(
@@ -61,6 +78,7 @@ def build(
     n: Optional[int] = None,
     workdir: Union[str, os.PathLike, None] = None,
     extra_cflags: Sequence[str] = (),
+    objects: Optional[Dict[Tuple[str, ...], Tuple[bytes, bytes]]] = None,
 ) -> Path:
     """Build the driver program for ``target``; returns the path of the ELF (host: executable).
 
@@ -68,6 +86,9 @@ def build(
     driver:  a ``Driver`` or C source text defining imf_user_init/step/dump.
     inputs:  {name: array}; see ``Driver`` for how they appear in C.
     workdir: where objects, .su files and the ELF go (default: a new temporary directory).
+    objects: a cache of compiled sources and port files shared by builds of the same sources
+             with the same flags ({}: empty; run_filters' programs), see _compile; the driver
+             (which includes the inputs) is compiled every time.
     """
     tgt = _target(target)
     _require(tgt, [tgt.cc])
@@ -85,11 +106,12 @@ def build(
     objs: List[Path] = []
     for i, src in enumerate(_as_paths(sources)):
         obj = wd / f"u{i}_{src.stem}.o"
-        _compile(tgt, src, obj, incs, defs, ["-fstack-usage", *extra_cflags])
+        _compile(tgt, src, obj, incs, defs, ["-fstack-usage", *extra_cflags], objects, wd)
         objs.append(obj)
     for name in (*tgt.sources, "imf_driver_main.c"):
         obj = wd / f"h_{Path(name).stem}.o"
-        _compile(tgt, DATA_DIR / name, obj, incs, defs, ["-fstack-usage", *extra_cflags])
+        _compile(tgt, DATA_DIR / name, obj, incs, defs, ["-fstack-usage", *extra_cflags],
+                 None if name == "imf_driver_main.c" else objects, wd)
         objs.append(obj)
 
     elf = wd / f"imf_{target}.elf"
