@@ -114,7 +114,8 @@ def _emulator_cmd(tgt: Target, elf: Path, count: bool) -> List[str]:
     if tgt.emulator == "qemu-system-riscv32":
         cmd = [
             "qemu-system-riscv32", "-M", str(tgt.machine), "-bios", "none", "-nographic",
-            "-monitor", "none", "-serial", "stdio", "-kernel", str(elf),
+            "-monitor", "none", "-serial", "null", "-semihosting-config",
+            "enable=on,target=native", "-kernel", str(elf),
         ]
         if count:
             cmd += ["-icount", f"shift={ICOUNT_SHIFT},align=off,sleep=off"]

@@ -1,6 +1,6 @@
 /* Port layer of the imufuse MCU harness: what the generated driver needs from a target.
  * Implementations: arm_startup.c (qemu Cortex-M machines, semihosting), riscv_port.c (qemu
- * virt RV32, NS16550 UART), avr_port.c (simavr, UART0), host_port.c (a normal process). */
+ * virt RV32, semihosting), avr_port.c (simavr, UART0), host_port.c (a normal process). */
 #ifndef IMF_PORT_H
 #define IMF_PORT_H
 
