@@ -55,22 +55,37 @@ def _compile(target, src, precision, out):
     return _run(cmd)
 
 
+MAKE_ARCH = {
+    "host": ("cc", "ar", ""),
+    "m4f": ("arm-none-eabi-gcc", "arm-none-eabi-ar", " ".join(mcu.TARGETS["m4f"].arch_flags)),
+    "m0": ("arm-none-eabi-gcc", "arm-none-eabi-ar", " ".join(mcu.TARGETS["m0"].arch_flags)),
+    "avr": ("avr-gcc", "avr-ar", "-mmcu=atmega328p"),
+}
+
+
 @pytest.fixture(scope="module")
-def objects(tmp_path_factory):
-    """compile(target, src, precision) -> (the compiler's stderr, the object): each source
-    compiled once per target and precision with the contract's flags, for the tests that read
-    the compiler's output and those that read the object (the module's tests run on one
-    worker: tests/conftest.py)."""
-    d = tmp_path_factory.mktemp("objects")
+def libraries(toolchains, tmp_path_factory):
+    """library(target, precision) -> (make's output, its build directory): csrc/Makefile run
+    once per target and precision, for the tests that read the compiler's output and those
+    that read the archive or the objects (the module's tests run on one worker:
+    tests/conftest.py). The Makefile compiles with the contract's flags and warnings
+    (mcu.cflags: -std=c99 -O2 -ffp-contract=off, -Wall -Wextra -pedantic -Wdouble-promotion
+    -Werror), -ffunction-sections -fdata-sections and IMF_FIXED_PROFILE=32."""
+    if shutil.which("make") is None:
+        pytest.skip("make not installed")
+    d = tmp_path_factory.mktemp("make")
     made = {}
 
-    def compile(target, src, precision):
-        key = (target, Path(src), precision)
-        if key not in made:
-            obj = d / f"{target}-{precision}-{len(made)}-{Path(src).stem}.o"
-            made[key] = (_compile(target, src, precision, obj).stderr, obj)
-        return made[key]
-    return compile
+    def library(target, precision):
+        need(toolchains, target)
+        if (target, precision) not in made:
+            cc, ar, arch = MAKE_ARCH[target]
+            build = d / f"{target}-{precision}"
+            proc = _run(["make", "-f", CSRC / "Makefile", f"CC={cc}", f"AR={ar}", f"ARCH={arch}",
+                         f"PRECISION={precision}", f"BUILD={build}"], cwd=d)
+            made[target, precision] = (proc, build)
+        return made[target, precision]
+    return library
 
 
 def _build_params():
@@ -88,17 +103,27 @@ def test_sources_found():
     assert any(s.name == "filters_1d.c" for s in SOURCES)
 
 
-@pytest.mark.parametrize("src", [pytest.param(s, id=str(s.relative_to(CSRC))) for s in SOURCES])
-def test_compiles_clean(toolchains, objects, src):
+@pytest.mark.parametrize("src", [pytest.param(s, id=str(s.relative_to(CSRC)))
+                                 for s in SOURCES if s.parent != CSRC])
+def test_compiles_clean(toolchains, tmp_path, src):
     """No warning at all (-Werror) with the contract's flags, on every target and precision
-    (one item per source); the compiler says nothing."""
+    (one item per fixed-point source, both profiles compiled: no IMF_FIXED_PROFILE); the
+    compiler says nothing. csrc/*.c: test_makefile_library (the Makefile compiles them with
+    these flags; IMF_FIXED_PROFILE concerns csrc/fixed only)."""
     for p in _build_params():
         if p.values[0] != src:
             continue
         _, target, precision = p.values
         need(toolchains, target)
-        stderr, _ = objects(target, src, precision)
-        assert stderr.strip() == "", (target, precision, stderr)
+        proc = _compile(target, src, precision, tmp_path / "x.o")
+        assert proc.stderr.strip() == "", (target, precision, proc.stderr)
+
+
+def test_only_fixed_point_reads_the_profile():
+    """What lets test_compiles_clean leave csrc/*.c to the Makefile's build: only csrc/fixed
+    reads IMF_FIXED_PROFILE (the Makefile defines it; the contract's compile does not)."""
+    assert any("IMF_FIXED_PROFILE" in s.read_text() for s in (CSRC / "fixed").glob("*.[ch]"))
+    assert not [s.name for s in CSRC.glob("*.[ch]") if "IMF_FIXED_PROFILE" in s.read_text()]
 
 
 DOUBLE_ROUTINE = re.compile(r"^(__aeabi_d\w+|__aeabi_f2d|__aeabi_[il]2d|__\w*df\d?|sqrt|sin|cos|atan2|asin)$")
@@ -122,12 +147,13 @@ def _double_calls_in_updates(objdump, obj):
 
 @pytest.mark.parametrize("target", ["m0", "m4f"])
 @pytest.mark.parametrize("src", [s for s in SOURCES if s.parent == CSRC], ids=lambda s: s.name)
-def test_float32_updates_use_no_double(toolchains, objects, src, target):
+def test_float32_updates_use_no_double(libraries, src, target):
     """A float32 build never computes in double inside an update: no soft-double routine
     (__aeabi_d*, __*df*) and no double sqrt is referenced from any *_update function (the
-    object test_compiles_clean compiled)."""
-    need(toolchains, target)
-    _, obj = objects(target, src, "float32")
+    object of the Makefile's float32 build: -ffunction-sections)."""
+    _, build = libraries(target, "float32")
+    obj = build / f"{src.stem}.o"
+    assert obj.is_file(), obj
     found = _double_calls_in_updates(BINUTILS[target], obj)
     assert not found, f"double arithmetic in float32 updates: {found}"
 
@@ -146,25 +172,14 @@ def test_double_check_can_fail(toolchains, tmp_path):
 # the library builds
 
 
-MAKE_ARCH = {
-    "host": ("cc", "ar", ""),
-    "m4f": ("arm-none-eabi-gcc", "arm-none-eabi-ar", " ".join(mcu.TARGETS["m4f"].arch_flags)),
-    "m0": ("arm-none-eabi-gcc", "arm-none-eabi-ar", " ".join(mcu.TARGETS["m0"].arch_flags)),
-    "avr": ("avr-gcc", "avr-ar", "-mmcu=atmega328p"),
-}
-
-
 @pytest.mark.parametrize("target", TARGETS)
-def test_makefile_library(toolchains, tmp_path, target):
-    """csrc/Makefile builds libimufuse.a for each target and precision, every source in it."""
-    need(toolchains, target)
-    if shutil.which("make") is None:
-        pytest.skip("make not installed")
-    cc, ar, arch = MAKE_ARCH[target]
+def test_makefile_library(libraries, target):
+    """csrc/Makefile builds libimufuse.a for each target and precision, every source in it,
+    and the compiler says nothing (no warning at all with the contract's flags: -Werror)."""
+    _, ar, _ = MAKE_ARCH[target]
     for prec in ("float32", "float64") if target != "avr" else ("float32",):
-        build = tmp_path / prec
-        _run(["make", "-f", CSRC / "Makefile", f"CC={cc}", f"AR={ar}", f"ARCH={arch}",
-              f"PRECISION={prec}", f"BUILD={build}"], cwd=tmp_path)
+        proc, build = libraries(target, prec)
+        assert proc.stderr.strip() == "", (target, prec, proc.stderr)
         members = _run([ar, "t", build / "libimufuse.a"]).stdout.split()
         assert sorted(members) == sorted(s.stem + ".o" for s in SOURCES)
 
