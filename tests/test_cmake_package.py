@@ -33,6 +33,14 @@ def cmake():
     return exe
 
 
+@pytest.fixture(scope="module")
+def host_prefix(cmake, tmp_path_factory):
+    """csrc/ configured with its defaults, built and installed for the host once: the tests
+    that only read the installed package (find_package, the version file, pkg-config) share
+    it."""
+    return _install(cmake, tmp_path_factory.mktemp("host"), "host")
+
+
 def _install(cmake, tmp_path, name, extra=()):
     prefix = tmp_path / f"prefix-{name}"
     build = tmp_path / f"build-{name}"
@@ -66,8 +74,8 @@ def test_version_macros_equal_the_package_version():
         assert ".".join((m["MAJOR"], m["MINOR"], m["PATCH"])) == imufuse.__version__
 
 
-def test_host_find_package(cmake, tmp_path):
-    prefix = _install(cmake, tmp_path, "host")
+def test_host_find_package(cmake, host_prefix, tmp_path):
+    prefix = host_prefix
     for f in ("imufuseConfig.cmake", "imufuseConfigVersion.cmake", "imufuseTargets.cmake"):
         assert (prefix / "lib" / "cmake" / "imufuse" / f).is_file()
     assert (prefix / "include" / "imufuse" / "imf_version.h").is_file()
@@ -79,8 +87,8 @@ def test_host_find_package(cmake, tmp_path):
     assert _run([build / "consumer"]).stdout.splitlines() == _reference_lines()
 
 
-def test_version_file_refuses_another_major(cmake, tmp_path):
-    prefix = _install(cmake, tmp_path, "ver")
+def test_version_file_refuses_another_major(cmake, host_prefix, tmp_path):
+    prefix = host_prefix
     d = tmp_path / "consumer-ver"
     d.mkdir()
     (d / "CMakeLists.txt").write_text("cmake_minimum_required(VERSION 3.13)\nproject(c C)\n"
@@ -121,10 +129,10 @@ def test_cortex_m4f_find_package_runs_bit_exact(cmake, tmp_path):
     assert lines == _reference_lines()
 
 
-def test_pkg_config(cmake, tmp_path):
+def test_pkg_config(host_prefix, tmp_path):
     pkg = shutil.which("pkg-config")
     assert pkg, "pkg-config is installed by tools/install-toolchains.sh"
-    prefix = _install(cmake, tmp_path, "pc")
+    prefix = host_prefix
     env = {"PKG_CONFIG_PATH": str(prefix / "lib" / "pkgconfig"), "PATH": "/usr/bin:/bin"}
     ver = subprocess.run([pkg, "--modversion", "imufuse"], capture_output=True, text=True,
                          env=env).stdout.strip()
