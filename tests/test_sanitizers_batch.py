@@ -25,8 +25,6 @@ import pytest
 
 import imufuse_c
 
-pytestmark = pytest.mark.xdist_group("sanitizers_batch")
-
 ROOT = Path(__file__).resolve().parents[1]
 GENERATED = ROOT / "imufuse_c" / "_f64.c"
 UNITS = ROOT / "build" / "imufuse_units" / "_f64"
@@ -84,7 +82,10 @@ def _runtime(lib):
     return cc, os.path.realpath(path)
 
 
-@pytest.fixture(scope="module", params=list(SANITIZERS))
+# one worker per sanitizer (pytest-xdist --dist loadgroup): the build of one sanitizer and its
+# tests stay together, the two sanitizers' may run side by side (no brackets in a group name)
+@pytest.fixture(scope="module", params=[
+    pytest.param(s, marks=pytest.mark.xdist_group(f"sanitizers_batch-{s}")) for s in SANITIZERS])
 def sanitized(request, tmp_path_factory):
     """(package directory, environment) of imufuse_c with _f64 built under one sanitizer."""
     san = request.param
