@@ -106,12 +106,14 @@ def test_sources_found():
 @pytest.mark.parametrize("src", [pytest.param(s, id=str(s.relative_to(CSRC)))
                                  for s in SOURCES if s.parent != CSRC])
 def test_compiles_clean(toolchains, tmp_path, src):
-    """No warning at all (-Werror) with the contract's flags, on every target and precision
-    (one item per fixed-point source, both profiles compiled: no IMF_FIXED_PROFILE); the
-    compiler says nothing. csrc/*.c: test_makefile_library (the Makefile compiles them with
-    these flags; IMF_FIXED_PROFILE concerns csrc/fixed only)."""
+    """No warning at all (-Werror) with the contract's flags, on every target (one item per
+    fixed-point source, both profiles compiled: no IMF_FIXED_PROFILE); the compiler says
+    nothing. The float32 compile stands for both precisions: csrc/fixed never reads the
+    precision (test_fixed_point_ignores_the_precision), so -DIMF_DOUBLE compiles the same
+    text. csrc/*.c: test_makefile_library (the Makefile compiles them with these flags, in
+    both precisions; IMF_FIXED_PROFILE concerns csrc/fixed only)."""
     for p in _build_params():
-        if p.values[0] != src:
+        if p.values[0] != src or p.values[2] != "float32":
             continue
         _, target, precision = p.values
         need(toolchains, target)
@@ -124,6 +126,17 @@ def test_only_fixed_point_reads_the_profile():
     reads IMF_FIXED_PROFILE (the Makefile defines it; the contract's compile does not)."""
     assert any("IMF_FIXED_PROFILE" in s.read_text() for s in (CSRC / "fixed").glob("*.[ch]"))
     assert not [s.name for s in CSRC.glob("*.[ch]") if "IMF_FIXED_PROFILE" in s.read_text()]
+
+
+def test_fixed_point_ignores_the_precision():
+    """What lets test_compiles_clean compile csrc/fixed in one precision: no fixed-point file
+    names IMF_DOUBLE or imf_real, and they include no header outside csrc/fixed but the
+    standard library's."""
+    for f in sorted((CSRC / "fixed").glob("*.[ch]")):
+        text = f.read_text()
+        assert "IMF_DOUBLE" not in text and "imf_real" not in text, f.name
+        for inc in re.findall(r'#\s*include\s*"([^"]+)"', text):
+            assert (CSRC / "fixed" / inc).is_file(), (f.name, inc)
 
 
 DOUBLE_ROUTINE = re.compile(r"^(__aeabi_d\w+|__aeabi_f2d|__aeabi_[il]2d|__\w*df\d?|sqrt|sin|cos|atan2|asin)$")
