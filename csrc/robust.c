@@ -23,7 +23,8 @@
 /* ---- helpers (quaternion product and rotation: imf_math.h) ----------------- */
 
 /* B1, B2, B3's Kalman rows, B4 and B6 out of line: one copy of B6's scalar update (three
-   calls per sample), of the rotation and of B3's row, and on the ATmega328P optimised for
+   calls per sample), of the rotation, of the turn (the strapdown's and the latency's) and
+   of B3's row, and on the ATmega328P optimised for
    size (every soft-float operation is a call, and the inlined blocks did not fit its 32 KB of
    flash beside a driver; ROBUST_SMALL: the blocks those call, inlined into them); on a
    64-bit host (imufuse_c) inlined where the compiler chooses: a third fewer instructions
@@ -72,9 +73,9 @@ static inline imf_real robust_gain(const imf_robust_consts_t *const set, const i
 
 /* q (x) exp(1/2 w h) into o, h = dt or the latency: the series to 4th order (no sin/cos),
    w = g - b; 0 when the normalisation fails */
-static inline int robust_turn_by(const imf_robust_consts_t *const set, imf_real *const o,
-                                 const imf_real *const q, const imf_real *const g,
-                                 const imf_real *const b, const imf_real h)
+static ROBUST_NOINLINE int robust_turn_by(const imf_robust_consts_t *const set, imf_real *const o,
+                                          const imf_real *const q, const imf_real *const g,
+                                          const imf_real *const b, const imf_real h)
 {
     const imf_real ox = (g[0] - b[0]) * h;
     const imf_real oy = (g[1] - b[1]) * h;
@@ -84,6 +85,22 @@ static inline int robust_turn_by(const imf_robust_consts_t *const set, imf_real 
     const imf_real sv = IMF_R(0.5) - th2 * set->c48;
     imf_qmul(o, q[0], q[1], q[2], q[3], cw, sv * ox, sv * oy, sv * oz);
     return robust_norm4(o);
+}
+
+/* the low-pass v <- v + k (u - v) of three words (one copy on the MCUs: every low-pass of a
+   vector in the blocks) */
+static ROBUST_NOINLINE void robust_lp3(imf_real *const v, const imf_real *const u, const imf_real k)
+{
+#if defined(__AVR__)
+    unsigned i;
+    for (i = 0; i < 3; i++) {
+        v[i] = v[i] + k * (u[i] - v[i]);
+    }
+#else
+    v[0] = v[0] + k * (u[0] - v[0]);
+    v[1] = v[1] + k * (u[1] - v[1]);
+    v[2] = v[2] + k * (u[2] - v[2]);
+#endif
 }
 
 static const imf_real robust_zero3[3] = { IMF_R(0.0), IMF_R(0.0), IMF_R(0.0) };

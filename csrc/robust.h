@@ -34,7 +34,10 @@
  *      the path) is fixed in the earth frame: turning tells them apart; a sensor
  *      that never turns leaves b unobservable (its variance stays at the prior).
  *      B4 reads m - u; u, the offset in use, is the stored offset until the
- *      estimate is trusted and differs from it by more than mag_offset_min.
+ *      estimate is trusted and differs from it by more than mag_offset_min, or
+ *      until the reading's norm shows the stored offset wrong (it moves the norm
+ *      as the sensor turns, the estimate does not); a new offset in use starts
+ *      B4's reference again.
  *   Output: q = c (x) s, predicted forward by the sensor chain's latency (the
  *      group delay of the gyroscope's internal filter) with the current rate.
  *
@@ -96,6 +99,10 @@ typedef struct {
     imf_real m_ew;   /* mean normalised innovation (about 1 when consistent) */
     imf_real m_d2;   /* last normalised innovation */
     imf_real m_std;  /* standard deviation of the offset estimate, relative */
+    imf_real mn[4];  /* the norm of the reading less the offset in use, low-passed over
+                        tau_mag (relative, 1 at the start), and its squared deviation from
+                        that low-pass, low-passed; then the same two with the estimate
+                        (m_nu m_vu m_ne m_ve) */
     imf_real m_axis; /* the axis the next reading updates: 0, 1, 2 */
     imf_real m_bad;  /* absurd readings for (s): the estimator restarts after 1 s */
 } imf_robust_state_t;

@@ -72,9 +72,7 @@ static ROBUST_NOINLINE int robust_rest_mag(const imf_robust_consts_t *const set,
         if (!(n2 <= IMF_R(64.0) * l2 && n2 * IMF_R(64.0) >= l2)) {
             return 0;
         }
-        x->lm[0] = x->lm[0] + k * (m[0] - x->lm[0]);
-        x->lm[1] = x->lm[1] + k * (m[1] - x->lm[1]);
-        x->lm[2] = x->lm[2] + k * (m[2] - x->lm[2]);
+        robust_lp3(x->lm, m, k);
     }
     if (x->t_dist > IMF_R(0.0)) {
         return 1;
@@ -112,13 +110,9 @@ static ROBUST_NOINLINE int robust_rest(const imf_robust_consts_t *const set,
     imf_real dx, dy, dz, d2, a2, kb, pr;
     unsigned i;
     int steady;
-    x->lw[0] = x->lw[0] + k * (g[0] - x->lw[0]);
-    x->lw[1] = x->lw[1] + k * (g[1] - x->lw[1]);
-    x->lw[2] = x->lw[2] + k * (g[2] - x->lw[2]);
+    robust_lp3(x->lw, g, k);
     if (has_acc) {
-        x->la[0] = x->la[0] + k * (a[0] - x->la[0]);
-        x->la[1] = x->la[1] + k * (a[1] - x->la[1]);
-        x->la[2] = x->la[2] + k * (a[2] - x->la[2]);
+        robust_lp3(x->la, a, k);
     }
     *w2 = x->lw[0] * x->lw[0] + x->lw[1] * x->lw[1] + x->lw[2] * x->lw[2];
     dx = a[0] - x->la[0];
@@ -146,9 +140,7 @@ static ROBUST_NOINLINE int robust_rest(const imf_robust_consts_t *const set,
     }
     /* the bias's low-pass: tau_bias_rest once known, tau_rest while unknown (bu) */
     kb = set->kb_rest + x->bu * (set->k_rest - set->kb_rest);
-    x->b[0] = x->b[0] + kb * (g[0] - x->b[0]);
-    x->b[1] = x->b[1] + kb * (g[1] - x->b[1]);
-    x->b[2] = x->b[2] + kb * (g[2] - x->b[2]);
+    robust_lp3(x->b, g, kb);
     robust_bias_clip(set, x->b);
     /* B3's covariance learns with it: a rest counts as (1 - bu) tau_bias of motion (as
        robust_bias_gain), so its information 1 / P grows from tau_p + (1 - bu) tau_bias by
@@ -239,14 +231,9 @@ static ROBUST_NOINLINE void robust_gravity(const imf_robust_consts_t *const set,
     if (first) {
         for (j = 0; j < 9; j++) {
             x->dr[j] = x->vr[j] = x->db[j % 3u] = x->vb[j % 3u] = IMF_R(0.0); /* no turn yet */
+            x->v[j % 3u] = IMF_R(0.0);
+            x->f[j % 3u] = ai[j % 3u]; /* B5: gravity from the first sample */
         }
-        /* B5: gravity from the first sample */
-        x->f[0] = ai[0];
-        x->f[1] = ai[1];
-        x->f[2] = ai[2];
-        x->v[0] = IMF_R(0.0);
-        x->v[1] = IMF_R(0.0);
-        x->v[2] = IMF_R(0.0);
         x->pvv = IMF_R(0.0);
         x->pvg = IMF_R(0.0);
         x->pgg = set->pgg0;
@@ -256,9 +243,15 @@ static ROBUST_NOINLINE void robust_gravity(const imf_robust_consts_t *const set,
         return;
     }
     /* predict: v' = a - g, g' = 0 (+ process noise growing with the rotation rate) */
+#if defined(__AVR__)
+    for (j = 0; j < 3; j++) {
+        x->v[j] = x->v[j] + dt * (ai[j] - x->f[j]);
+    }
+#else
     x->v[0] = x->v[0] + dt * (ai[0] - x->f[0]);
     x->v[1] = x->v[1] + dt * (ai[1] - x->f[1]);
     x->v[2] = x->v[2] + dt * (ai[2] - x->f[2]);
+#endif
     /* (w / rate_ref)^2 capped at 10^4 (100 rate_ref: beyond any gyro's range), so
        that hostile rates cannot blow the covariance up. While the bias is still unknown,
        its error sigma_b (the error of a running mean after (1 - bu) tau_bias of learning,
@@ -285,12 +278,19 @@ static ROBUST_NOINLINE void robust_gravity(const imf_robust_consts_t *const set,
     inv = IMF_R(1.0) / (pvv + set->r_d);
     kv = pvv * inv;
     kg = pvg * inv;
+#if defined(__AVR__)
+    for (j = 0; j < 3; j++) {
+        x->f[j] = x->f[j] - kg * x->v[j];
+        x->v[j] = x->v[j] - kv * x->v[j];
+    }
+#else
     x->f[0] = x->f[0] - kg * x->v[0];
     x->f[1] = x->f[1] - kg * x->v[1];
     x->f[2] = x->f[2] - kg * x->v[2];
     x->v[0] = x->v[0] - kv * x->v[0];
     x->v[1] = x->v[1] - kv * x->v[1];
     x->v[2] = x->v[2] - kv * x->v[2];
+#endif
     x->pgg = pgg - kg * pvg;
     x->pvg = pvg - kv * pvg;
     x->pvv = pvv - kv * pvv;

@@ -25,6 +25,19 @@
 #define ROBUST_MAG_JUMP IMF_R(0.05)
 #define ROBUST_MAG_EW IMF_R(0.02)
 #define ROBUST_MAG_TRUST IMF_R(0.01)
+/* B6: before it is trusted, while the offset in use is still the stored one, an estimate
+   with a standard deviation below MAG_EARLY replaces it when the reading's norm says the
+   stored one is wrong: with it the norm moves by more than MAG_NORM of the field (squared:
+   the low-passed squared deviation from its low-pass) and by MAG_BETTER times (squared)
+   more than with the estimate (an offset of tens of uT is clear long before it is known to
+   1 %; the norm does not depend on the attitude, which a fast turn's model errors spoil),
+   and the estimate differs from the stored offset by more than mag_offset_min. A change of
+   the offset in use beyond MAG_RESET of the field (squared) changes the field B4 sees: B4's
+   reference starts again from the next reading. */
+#define ROBUST_MAG_EARLY IMF_R(0.05)
+#define ROBUST_MAG_NORM2 IMF_R(0.001)
+#define ROBUST_MAG_BETTER2 IMF_R(4.0)
+#define ROBUST_MAG_RESET2 IMF_R(0.0025)
 /* B6: a reading whose norm is beyond 8 times the field unit, or below 1/8 of it, is no
    reading of this field (a hostile value, a magnet on the sensor): not used; after
    ROBUST_MAG_RESTART s of them the estimator starts again from the next reading */
@@ -112,6 +125,10 @@ static ROBUST_SMALL imf_real robust_offset_start(imf_robust_state_t *const x,
     }
     x->m_ew = IMF_R(1.0);
     x->m_d2 = IMF_R(0.0);
+    x->mn[0] = IMF_R(1.0);
+    x->mn[1] = IMF_R(0.0);
+    x->mn[2] = IMF_R(1.0);
+    x->mn[3] = IMF_R(0.0);
     return inv;
 }
 
@@ -158,13 +175,49 @@ static ROBUST_SMALL void robust_offset_update(const imf_robust_consts_t *const s
     x->m_axis = i == 2u ? IMF_R(0.0) : x->m_axis + IMF_R(1.0);
 }
 
-/* B6: the offset's standard deviation (its largest variance, never below 0); trusted
-   and consistent, the offset in use u is the stored offset while the estimate agrees
-   with it within mag_offset_min, else the estimate. inv: 1 / m_n0. */
+/* B6: the norm of the reading less an offset c s, in field units (inv = 1 / n0), into a
+   low-pass w[0] and the square of its deviation from that low-pass into a low-pass w[1]
+   (gain k) */
+static ROBUST_NOINLINE void robust_norm_lp(imf_real *const w, const imf_real *const m,
+                                           const imf_real *const c, const imf_real s,
+                                           const imf_real inv, const imf_real k)
+{
+    imf_real n2 = IMF_R(0.0), d;
+    unsigned i;
+    for (i = 0; i < 3; i++) {
+        d = m[i] - c[i] * s;
+        n2 = n2 + d * d;
+    }
+    d = imf_sqrt(n2) * inv - w[0];
+    w[0] = w[0] + k * d;
+    w[1] = w[1] + k * (d * d - w[1]);
+}
+
+/* B6: how well the offset in use and the estimate each explain the reading's norm (mn:
+   with u, then with the estimate o n0), every third sample (the axis cycle) with the gain
+   of three samples of k_mag (over tau_mag): an offset wrong by d moves the norm by up to d
+   as the sensor turns, a right one leaves it still, whatever the attitude */
+static inline void robust_offset_norms(const imf_robust_consts_t *const set,
+                                       imf_robust_state_t *const x, const imf_real *const m,
+                                       const imf_real inv)
+{
+    const imf_real e = IMF_R(1.0) - set->k_mag;
+    const imf_real k3 = IMF_R(1.0) - e * e * e;
+    robust_norm_lp(x->mn, m, x->u, IMF_R(1.0), inv, k3);
+    robust_norm_lp(x->mn + 2, m, x->hi + 3, x->m_n0, inv, k3);
+}
+
+/* B6: the offset's standard deviation (its largest variance, never below 0). The offset
+   in use u: trusted and consistent, the stored offset while the estimate agrees with it
+   within mag_offset_min, else the estimate; consistent but not yet trusted, the estimate
+   when it is below MAG_EARLY and the reading's norm says the stored offset, still in use,
+   is wrong (MAG_NORM, MAG_BETTER) and the estimate differs from it by more than
+   mag_offset_min. A change beyond MAG_RESET starts B4's reference again. inv: 1 / m_n0. */
 static ROBUST_SMALL void robust_offset_use(const imf_robust_consts_t *const set,
                                            imf_robust_state_t *const x, const imf_real inv)
 {
-    imf_real pb, o2, e[3], u[3];
+    imf_real pb, o2, d, e[3], u[3];
+    int trust;
     unsigned k;
     pb = IMF_R(0.0);
     for (k = 3; k < 6; k++) {
@@ -173,18 +226,37 @@ static ROBUST_SMALL void robust_offset_use(const imf_robust_consts_t *const set,
         }
     }
     x->m_std = imf_sqrt(pb);
-    if (x->m_std < ROBUST_MAG_TRUST && x->m_ew < ROBUST_MAG_MEAN) {
-        o2 = IMF_R(0.0);
-        for (k = 0; k < 3; k++) {
-            e[k] = x->hi[3 + k] - x->so[k] * inv;
-            o2 = o2 + e[k] * e[k];
-            u[k] = x->hi[3 + k] * x->m_n0;
-        }
-        if (o2 < set->mag_min2) {
-            memcpy(u, x->so, sizeof u);
-        }
-        memcpy(x->u, u, sizeof u);
+    if (!(x->m_ew < ROBUST_MAG_MEAN)) {
+        return;
     }
+    trust = x->m_std < ROBUST_MAG_TRUST;
+    if (!(trust
+          || (x->m_std < ROBUST_MAG_EARLY && x->u[0] == x->so[0] && x->u[1] == x->so[1]
+              && x->u[2] == x->so[2] && x->t_dist == IMF_R(0.0) && x->mn[1] > ROBUST_MAG_NORM2
+              && ROBUST_MAG_BETTER2 * x->mn[3] < x->mn[1]))) {
+        return;
+    }
+    o2 = IMF_R(0.0);
+    for (k = 0; k < 3; k++) {
+        e[k] = x->hi[3 + k] - x->so[k] * inv;
+        o2 = o2 + e[k] * e[k];
+        u[k] = x->hi[3 + k] * x->m_n0;
+    }
+    if (o2 < set->mag_min2) {
+        if (!trust) {
+            return; /* early: only an estimate that differs from the stored offset */
+        }
+        memcpy(u, x->so, sizeof u);
+    }
+    o2 = IMF_R(0.0);
+    for (k = 0; k < 3; k++) {
+        d = u[k] - x->u[k];
+        o2 = o2 + d * d;
+    }
+    if (o2 * (inv * inv) > ROBUST_MAG_RESET2) {
+        x->ref[0] = IMF_R(0.0); /* B4: a new reference from the next reading */
+    }
+    memcpy(x->u, u, sizeof u);
 }
 
 /* B6: one reading (m, not all zero) into the estimator of (h, o), m = R(s)^T h + o in
@@ -240,6 +312,9 @@ static ROBUST_NOINLINE void robust_offset(const imf_robust_consts_t *const set,
         inv = robust_offset_start(x, c, o2);
     } else {
         robust_offset_update(set, x, i, c, m[i] * inv, g2);
+        if (i == 2u) {
+            robust_offset_norms(set, x, m, inv); /* with the axis cycle: every third sample */
+        }
     }
     robust_offset_use(set, x, inv);
 }
@@ -283,18 +358,14 @@ static ROBUST_SMALL int robust_field_used(const imf_robust_consts_t *const set,
         x->t_dist = IMF_R(0.0);
         x->t_cand = IMF_R(0.0);
         k = robust_gain(set, x->t, set->s.tau_mag_ref, set->k_ref);
-        x->ref[0] = x->ref[0] + k * (fn[0] - x->ref[0]);
-        x->ref[1] = x->ref[1] + k * (fn[1] - x->ref[1]);
-        x->ref[2] = x->ref[2] + k * (fn[2] - x->ref[2]);
+        robust_lp3(x->ref, fn, k);
         memcpy(x->cand, fn, sizeof x->cand);
         return 1;
     }
     /* disturbed (or not yet matching for mag_hold): no heading correction */
     x->t_dist = x->t_dist + set->s.dt;
     if (robust_mag_test(set, fn, x->cand)) {
-        x->cand[0] = x->cand[0] + set->k_rest * (fn[0] - x->cand[0]);
-        x->cand[1] = x->cand[1] + set->k_rest * (fn[1] - x->cand[1]);
-        x->cand[2] = x->cand[2] + set->k_rest * (fn[2] - x->cand[2]);
+        robust_lp3(x->cand, fn, set->k_rest);
         if (x->t_rest < set->s.rest_time) {
             /* only motion counts: at rest an attached magnet's field is steady too */
             x->t_cand = x->t_cand + set->s.dt;

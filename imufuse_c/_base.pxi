@@ -96,7 +96,7 @@ cdef inline imf_real _dt_step(object dt) except? -1:
 
 cdef inline void _copy_state(imf_real *dst, const char *x, Py_ssize_t n) noexcept nogil:
     # a short element loop: cheaper than a memcpy call for a few words per sample; a long
-    # state (RobustAHRS: 121 words) by memcpy's vector moves
+    # state (RobustAHRS: 125 words) by memcpy's vector moves
     cdef const imf_real *src = <const imf_real *>x
     cdef Py_ssize_t j
     if n > 32:

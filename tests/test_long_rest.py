@@ -192,7 +192,7 @@ def truth_state(name, sc):
 # ---- runs ---------------------------------------------------------------------------------
 #: samples per run() call: the filter runs the scenario block by block (run() carries the
 #: state from one call to the next), so that a block's states stay in the cache and only the
-#: state words the checks read are kept (a Robust filter's whole state is 121 words a sample)
+#: state words the checks read are kept (a Robust filter's whole state is 125 words a sample)
 BLOCK = 1 << 15
 
 

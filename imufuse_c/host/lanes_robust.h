@@ -29,6 +29,10 @@
 #define ROBUST_MAG_JUMP IMF_R(0.05)
 #define ROBUST_MAG_EW IMF_R(0.02)
 #define ROBUST_MAG_TRUST IMF_R(0.01)
+#define ROBUST_MAG_EARLY IMF_R(0.05)
+#define ROBUST_MAG_NORM2 IMF_R(0.001)
+#define ROBUST_MAG_BETTER2 IMF_R(4.0)
+#define ROBUST_MAG_RESET2 IMF_R(0.0025)
 #define ROBUST_MAG_RANGE2 IMF_R(64.0)
 #define ROBUST_MAG_RESTART IMF_R(1.0)
 static const unsigned char robust_pi[6][6] = {
@@ -66,7 +70,7 @@ static inline VR LN(bc)(const imf_real v)
 typedef struct {
     VR q[4], s[4], c[4], f[3], v[3], pvv, pvg, pgg, b[3], lw[3], la[3], t, t_rest, bu, ref[3],
         cand[3], t_cand, t_dist, t_ok, lm[3], l0[3], w0[3], db[3], vb[3], dr[9], vr[9], bp[6], an,
-        hi[6], P[21], u[3], so[3], m_n0, m_ew, m_d2, m_std, m_axis, m_bad;
+        hi[6], P[21], u[3], so[3], m_n0, m_ew, m_d2, m_std, mn[4], m_axis, m_bad;
 } RX;
 
 typedef char LN(
@@ -674,33 +678,77 @@ static inline VR LN(rl_offset_start)(RX *const x, const VR *const c, const VR o2
     }
     x->m_ew = RSEL(act, RB(IMF_R(1.0)), x->m_ew);
     x->m_d2 = RSEL(act, RB(IMF_R(0.0)), x->m_d2);
+    x->mn[0] = RSEL(act, RB(IMF_R(1.0)), x->mn[0]);
+    x->mn[1] = RSEL(act, RB(IMF_R(0.0)), x->mn[1]);
+    x->mn[2] = RSEL(act, RB(IMF_R(1.0)), x->mn[2]);
+    x->mn[3] = RSEL(act, RB(IMF_R(0.0)), x->mn[3]);
     return inv;
+}
+
+/* robust_norm_lp in the lanes act */
+static inline void LN(rl_norm_lp)(VR *const w, const imf_real *const m, const VR *const c,
+                                  const VR s, const VR inv, const VR k, const VM act)
+{
+    VR n2 = RB(IMF_R(0.0)), d;
+    int i;
+    for (i = 0; i < 3; i++) {
+        d = m[i] - c[i] * s;
+        n2 = n2 + d * d;
+    }
+    d = LN(sqrt_r)(n2) * inv - w[0];
+    w[0] = RSEL(act, w[0] + k * d, w[0]);
+    w[1] = RSEL(act, w[1] + k * (d * d - w[1]), w[1]);
+}
+
+/* robust_offset_norms in the lanes act */
+static inline void LN(rl_offset_norms)(const RL *const L, RX *const x, const imf_real *const m,
+                                       const VR inv, const VM act)
+{
+    const VR e = IMF_R(1.0) - L->k_mag;
+    const VR k3 = IMF_R(1.0) - e * e * e;
+    LN(rl_norm_lp)(x->mn, m, x->u, RB(IMF_R(1.0)), inv, k3, act);
+    LN(rl_norm_lp)(x->mn + 2, m, x->hi + 3, x->m_n0, inv, k3, act);
 }
 
 /* robust_offset_use in the lanes act */
 static inline void LN(rl_offset_use)(const RL *const L, RX *const x, const VR inv, const VM act)
 {
-    VR pb = RB(IMF_R(0.0)), o2, e, u[3];
-    VM tr;
+    VR pb = RB(IMF_R(0.0)), o2, d2, e, u[3];
+    VM tr, upd, keep;
     int k;
     for (k = 3; k < 6; k++) {
         const VR p = x->P[robust_pi[k][k]];
         pb = RSEL(p > pb, p, pb);
     }
     x->m_std = RSEL(act, LN(sqrt_r)(pb), x->m_std);
-    tr = act & (x->m_std < ROBUST_MAG_TRUST) & (x->m_ew < ROBUST_MAG_MEAN);
-    if (LN(any)(tr)) {
-        VM keep;
-        o2 = RB(IMF_R(0.0));
-        for (k = 0; k < 3; k++) {
-            e = x->hi[3 + k] - x->so[k] * inv;
-            o2 = o2 + e * e;
-            u[k] = x->hi[3 + k] * x->m_n0;
-        }
-        keep = o2 < L->mag_min2;
-        for (k = 0; k < 3; k++) {
-            x->u[k] = RSEL(tr, RSEL(keep, x->so[k], u[k]), x->u[k]);
-        }
+    tr = act & (x->m_ew < ROBUST_MAG_MEAN);
+    if (!LN(any)(tr)) {
+        return;
+    }
+    o2 = RB(IMF_R(0.0));
+    for (k = 0; k < 3; k++) {
+        e = x->hi[3 + k] - x->so[k] * inv;
+        o2 = o2 + e * e;
+        u[k] = x->hi[3 + k] * x->m_n0;
+    }
+    keep = o2 < L->mag_min2;
+    upd = tr
+          & ((x->m_std < ROBUST_MAG_TRUST)
+             | ((x->m_std < ROBUST_MAG_EARLY) & (x->u[0] == x->so[0]) & (x->u[1] == x->so[1])
+                & (x->u[2] == x->so[2]) & (x->t_dist == IMF_R(0.0)) & (x->mn[1] > ROBUST_MAG_NORM2)
+                & (ROBUST_MAG_BETTER2 * x->mn[3] < x->mn[1]) & ~keep));
+    if (!LN(any)(upd)) {
+        return;
+    }
+    d2 = RB(IMF_R(0.0));
+    for (k = 0; k < 3; k++) {
+        u[k] = RSEL(keep, x->so[k], u[k]);
+        e = u[k] - x->u[k];
+        d2 = d2 + e * e;
+    }
+    x->ref[0] = RSEL(upd & (d2 * (inv * inv) > ROBUST_MAG_RESET2), RB(IMF_R(0.0)), x->ref[0]);
+    for (k = 0; k < 3; k++) {
+        x->u[k] = RSEL(upd, u[k], x->u[k]);
     }
 }
 
@@ -742,6 +790,7 @@ static inline void LN(rl_offset)(const RL *const L, RX *const x, const imf_real 
         LN(rl_qrotate)(c, x->s[0], x->s[1], x->s[2], x->s[3], e[0], e[1], e[2]);
         LN(rl_offset_update)
         (L, x, ax1, ax2, c, RSEL(ax1, m[1] * inv, RSEL(ax2, m[2] * inv, m[0] * inv)), g2, upd);
+        LN(rl_offset_norms)(L, x, m, inv, upd & ax2);
         ok = upd;
     }
     if (LN(any)(start)) {

@@ -149,6 +149,7 @@ _MEMBERS = (("q", ("q0", "q1", "q2", "q3")),          # estimate, sensor -> eart
             ("m_n0", None),                           # B6: field unit (0: not started)
             ("m_ew", None), ("m_d2", None),           # B6: mean and last normalised innovation
             ("m_std", None),                          # B6: the offset's standard deviation
+            ("mn", ("m_nu", "m_vu", "m_ne", "m_ve")),  # B6: the norm (deviation) with u, o
             ("m_axis", None),                         # B6: the axis the next reading updates
             ("m_bad", None))                          # B6: absurd readings for, s
 #: the members an IMU update can change (C: ROBUST_IMU_WORDS, the words before hi)
@@ -223,10 +224,9 @@ class _Robust(_RobustB3, _RobustBlocks, _RobustMag, ReferenceFilter):
         bu = float(state[names.index("bu")])
         if not 0.0 <= bu <= 1.0:
             return f"bu = {bu!r}, must be within 0 .. 1"
-        for n in ("pvv", "pgg", "t", "t_rest", "rn", "cn", "t_cand", "t_dist", "t_ok",
-                  "bp00", "bp11", "bp22", "an",
-                  "p00", "p11", "p22", "p33", "p44", "p55", "m_n0", "m_ew", "m_d2", "m_std",
-                  "m_bad"):
+        for n in ("pvv", "pgg", "t", "t_rest", "rn", "cn", "t_cand", "t_dist", "t_ok", "bp00",
+                  "bp11", "bp22", "an", "p00", "p11", "p22", "p33", "p44", "p55", "m_n0", "m_ew",
+                  "m_d2", "m_std", "m_nu", "m_vu", "m_ne", "m_ve", "m_bad"):
             if float(state[names.index(n)]) < 0.0:
                 return f"{n} = {float(state[names.index(n)])!r}, must not be negative"
         if float(state[names.index("m_axis")]) not in (0.0, 1.0, 2.0):
@@ -451,8 +451,8 @@ class RobustAHRS(_Robust):
     (False: the stored offset only, set_mag_offset); mag_noise (relative to the field) the
     magnetometer's noise, growing by |w| mag_lag (s, the timing mismatch of magnetometer
     and gyro); a trusted estimate is used once it differs from the stored offset by more
-    than mag_offset_min (relative). Magnetometer in any unit; an all-zero reading means
-    none.
+    than mag_offset_min (relative), an untrusted one when the norm shows the stored one
+    wrong. Magnetometer in any unit; an all-zero reading means none.
     """
     kind = "ahrs"
     c_name = "imf_robust"

@@ -15,6 +15,12 @@ _PI = [[_PNAMES.index(f"p{min(i, j)}{max(i, j)}") for j in range(6)] for i in ra
 # the innovation's running mean and its consistent bound, the trusted standard deviation
 _MAG_QH, _MAG_QO, _MAG_P0, _MAG_GATE, _MAG_JUMP, _MAG_EW, _MAG_MEAN, _MAG_TRUST = (
     1.0e-3, 1.0e-7, 1.0, 19.0, 0.05, 0.02, 8.0, 0.01)
+# before it is trusted, while the offset in use is the stored one, an estimate below
+# _MAG_EARLY replaces it when the reading's norm moves by more than _MAG_NORM2 (squared, of
+# the field) with the stored one and _MAG_BETTER2 (squared) times more than with the
+# estimate; a change of the offset in use beyond _MAG_RESET2 (squared) starts B4's reference
+# again (C: ROBUST_MAG_EARLY, _NORM2, _BETTER2, _RESET2)
+_MAG_EARLY, _MAG_NORM2, _MAG_BETTER2, _MAG_RESET2 = 0.05, 0.001, 4.0, 0.0025
 # a reading beyond 8 times the field unit or below 1/8 of it is not used; after 1 s of them
 # the estimator starts again (C: ROBUST_MAG_RANGE2, ROBUST_MAG_RESTART)
 _MAG_RANGE2, _MAG_RESTART = 64.0, 1.0
@@ -55,6 +61,7 @@ class _RobustMag:
             x.P[_PI[k][k]] = R(_MAG_P0)
         x.m_ew = R(1.0)
         x.m_d2 = R(0.0)
+        x.mn = [R(1.0), R(0.0), R(1.0), R(0.0)]
         return inv
 
     def _offset_update(self, x, i, c, y, g2):
@@ -75,26 +82,68 @@ class _RobustMag:
         x.m_ew = x.m_ew + R(_MAG_EW) * (x.m_d2 - x.m_ew)
         x.m_axis = R(0.0) if i == 2 else x.m_axis + R(1.0)
 
+    def _norm_lp(self, w, i, m, c, s, inv, k):
+        # B6: the norm of the reading less an offset c s, in field units (inv = 1 / n0), into
+        # a low-pass w[i] and the square of its deviation from that low-pass into a low-pass
+        # w[i + 1] (gain k)
+        n2 = self._R(0.0)
+        for j in range(3):
+            d = m[j] - c[j] * s
+            n2 = n2 + d * d
+        d = self._R(math.sqrt(n2)) * inv - w[i]
+        w[i] = w[i] + k * d
+        w[i + 1] = w[i + 1] + k * (d * d - w[i + 1])
+
+    def _offset_norms(self, x, m, inv):
+        # B6: how well the offset in use and the estimate each explain the reading's norm
+        # (mn: with u, then with the estimate o n0), every third sample (the axis cycle) with
+        # the gain of three samples of k_mag (over tau_mag): an offset wrong by d moves the
+        # norm by up to d as the sensor turns, a right one leaves it still, whatever the
+        # attitude
+        R = self._R
+        e = R(1.0) - self.k_mag
+        k3 = R(1.0) - e * e * e
+        self._norm_lp(x.mn, 0, m, x.u, R(1.0), inv, k3)
+        self._norm_lp(x.mn, 2, m, x.hi[3:6], x.m_n0, inv, k3)
+
     def _offset_use(self, x, inv):
-        # B6: the offset's standard deviation (its largest variance, never below 0); trusted
-        # and consistent, the offset in use u is the stored offset while the estimate agrees
-        # with it within mag_offset_min, else the estimate. inv: 1 / m_n0.
+        # B6: the offset's standard deviation (its largest variance, never below 0). The
+        # offset in use u: trusted and consistent, the stored offset while the estimate
+        # agrees with it within mag_offset_min, else the estimate; consistent but not yet
+        # trusted, the estimate when it is below MAG_EARLY and the reading's norm says the
+        # stored offset, still in use, is wrong (MAG_NORM, MAG_BETTER) and the estimate
+        # differs from it by more than mag_offset_min. A change beyond MAG_RESET starts B4's
+        # reference again. inv: 1 / m_n0.
         R = self._R
         pb = R(0.0)
         for k in range(3, 6):
             if x.P[_PI[k][k]] > pb:
                 pb = x.P[_PI[k][k]]
         x.m_std = R(math.sqrt(pb))
-        if x.m_std < R(_MAG_TRUST) and x.m_ew < R(_MAG_MEAN):
-            o2 = R(0.0)
-            e, u = [R(0.0)] * 3, [R(0.0)] * 3
-            for k in range(3):
-                e[k] = x.hi[3 + k] - x.so[k] * inv
-                o2 = o2 + e[k] * e[k]
-                u[k] = x.hi[3 + k] * x.m_n0
-            if o2 < self.mag_min2:
-                u = list(x.so)
-            x.u = u
+        if not (x.m_ew < R(_MAG_MEAN)):
+            return
+        trust = x.m_std < R(_MAG_TRUST)
+        if not (trust or (x.m_std < R(_MAG_EARLY) and x.u[0] == x.so[0] and x.u[1] == x.so[1]
+                          and x.u[2] == x.so[2] and x.t_dist == R(0.0)
+                          and x.mn[1] > R(_MAG_NORM2) and R(_MAG_BETTER2) * x.mn[3] < x.mn[1])):
+            return
+        o2 = R(0.0)
+        u = [R(0.0)] * 3
+        for k in range(3):
+            e = x.hi[3 + k] - x.so[k] * inv
+            o2 = o2 + e * e
+            u[k] = x.hi[3 + k] * x.m_n0
+        if o2 < self.mag_min2:
+            if not trust:
+                return   # early: only an estimate that differs from the stored offset
+            u = list(x.so)
+        o2 = R(0.0)
+        for k in range(3):
+            d = u[k] - x.u[k]
+            o2 = o2 + d * d
+        if o2 * (inv * inv) > R(_MAG_RESET2):
+            x.ref[0] = R(0.0)   # B4: a new reference from the next reading
+        x.u = u
 
     def _offset(self, x, m, g2):
         """B6: one reading (m, not all zero) into the estimator of (h, o), m = R(s)^T h + o
@@ -136,6 +185,8 @@ class _RobustMag:
             inv = self._offset_start(x, c, o2)
         else:
             self._offset_update(x, i, c, m[i] * inv, g2)
+            if i == 2:
+                self._offset_norms(x, m, inv)   # with the axis cycle: every third sample
         self._offset_use(x, inv)
 
     def _mag_test(self, fn, rf):
