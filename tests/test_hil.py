@@ -214,21 +214,21 @@ def test_a_board_without_the_runner_is_named_with_what_it_sends(tmp_path):
             validate(fw, "Complementary1D", params, ins, port=b.port, timeout=2)
 
 
-def test_robust_ahrs_q_all_85_words_through_the_generated_board(tmp_path):
-    """build_board sizes the runner's state to the firmware's (RobustAHRSQ: 85 int32 words,
-    340 bytes; the default 64 would refuse it): every word bit for bit, the counts as
+def test_robust_ahrs_q_all_89_words_through_the_generated_board(tmp_path):
+    """build_board sizes the runner's state to the firmware's (RobustAHRSQ: 89 int32 words,
+    356 bytes; the default 64 would refuse it): every word bit for bit, the counts as
     --target's."""
     from test_hil_examples import N_Q, Q_PARAMS, _robust_q_case
     fw, ins = _robust_q_case(tmp_path)
     prog = build_board(fw, "RobustAHRSQ", Q_PARAMS, "cortex-m4f")
     try:
-        assert sum(t.size for t in prog.types) == 340
+        assert sum(t.size for t in prog.types) == 356
         with Board(prog) as b:
             vp = validate(fw, "RobustAHRSQ", Q_PARAMS, ins, target="cortex-m4f", port=b.port,
                           timeout=10)
     finally:
         shutil.rmtree(prog.workdir, ignore_errors=True)
-    assert vp.bit_exact and vp.got.shape == (N_Q, 85), vp.text()
+    assert vp.bit_exact and vp.got.shape == (N_Q, 89), vp.text()
     vt = validate(fw, "RobustAHRSQ", Q_PARAMS, ins, target="cortex-m4f")
     assert np.array_equal(vp.got, vt.got)
     d = vp.cost.counts - vt.cost.counts
@@ -316,7 +316,7 @@ def _runner_host(tmp_path, *defs):
 
 
 def test_runner_carries_85_words_in_frames_longer_than_a_cobs_block(tmp_path):
-    """The runner built with IMF_HIL_MAX_STATE 340 (RobustAHRSQ's 85 int32 words), on the host
+    """The runner built with IMF_HIL_MAX_STATE 340 (85 int32 words), on the host
     through stdin/stdout: its hello lists 85 words, its 351-byte answers (blocks of 254 bytes
     without a zero inside) are byte for byte what the host side encodes, a repeated sample
     gets the kept answer, a corrupted frame a NAK. Built with the default (64 bytes) it refuses

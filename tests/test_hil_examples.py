@@ -5,7 +5,7 @@ and examples/hil/arduino/imufuse_hil compiled for the Uno by arduino-builder (th
 library as `imufuse export arduino` makes it, tests/test_arduino.py's sketchbook) and run on
 simavr at 115200 baud. Each is MadgwickAHRS float32 with its default settings (dt 0.01 s), so
 `validate --port` must find it bit-exact. The bare-metal example's RobustAHRSQ (its default
-settings, B6's code left out as the example builds it) sends all 85 state words, 340 bytes a
+settings, B6's code left out as the example builds it) sends all 89 state words, 356 bytes a
 frame: bit-exact with the twin on both boards, through a lost and a corrupted byte.
 """
 import re
@@ -86,7 +86,7 @@ def _robust_q_case(tmp_path):
         exprs += ([f"=att.x.{member}[{i}]" for i in range(len(parts))] if parts
                   else [f"=att.x.{member}"])
     names = reference.RobustAHRSQ.state_names
-    assert len(names) == len(exprs) == 85
+    assert len(names) == len(exprs) == 89
     fx = str(csrc_dir() / "fixed")
     fw = Firmware([str(tmp_path / "att.c"), str(csrc_dir() / "fixed" / "robust_q.c")],
                   headers=["att.h"], include_dirs=[str(tmp_path), fx], init="att_init",
@@ -100,7 +100,7 @@ def _robust_q(fw, ins, port, target, baud=1_000_000):
     v = validate(fw, "RobustAHRSQ", Q_PARAMS, ins, target=target, port=port, baud=baud,
                  timeout=10)
     # every word of the twin's state after every sample, bit for bit
-    assert v.bit_exact and v.got.shape == (N_Q, 85), v.text()
+    assert v.bit_exact and v.got.shape == (N_Q, 89), v.text()
     assert np.array_equal(v.got, reference.RobustAHRSQ(**Q_PARAMS).run(*ins).astype(np.int64))
     assert "firmware 'example RobustAHRSQ' on the " in v.text()
     return v
@@ -112,8 +112,8 @@ def _links(v):
 
 @pytest.mark.parametrize("b6", ["OFF", "ON"])
 def test_baremetal_robust_ahrs_q_full_state_on_the_m4f(tmp_path, b6):
-    """340 state bytes a frame (longer than one COBS block) on QEMU, B6's code left out (as
-    the example builds it) or compiled in: the same 85 words; clean and through a byte lost
+    """356 state bytes a frame (longer than one COBS block) on QEMU, B6's code left out (as
+    the example builds it) or compiled in: the same 89 words; clean and through a byte lost
     on the way to the board and one changed on the way back."""
     fw, ins = _robust_q_case(tmp_path)
     elf = _cmake(tmp_path, "arm-none-eabi.cmake", "-DHIL_FILTER=robust_ahrs_q",
@@ -139,7 +139,7 @@ def test_baremetal_robust_ahrs_q_full_state_on_the_m4f(tmp_path, b6):
 
 def test_baremetal_robust_ahrs_q_full_state_on_the_atmega328p(tmp_path):
     """The same on simavr's ATmega328P at 1 Mbaud: the firmware with the runner's two kept
-    340-byte answers fits 2 KB of RAM with the stack the update reached; a byte of an answer
+    356-byte answers fits 2 KB of RAM with the stack the update reached; a byte of an answer
     lost on the way back is repaired."""
     fw, ins = _robust_q_case(tmp_path)
     elf = _cmake(tmp_path, "avr.cmake", "-DHIL_FILTER=robust_ahrs_q", "-DIMUFUSE_FIXED=ON")

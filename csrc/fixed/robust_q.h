@@ -180,6 +180,9 @@ static inline void imf_robust_imu_q_update(imf_robust_imu_q_t *self, int16_t gx,
  *            reading); m_im, m_is: 1 / n0 and m_nm, m_ns: n0 as q-scales (mantissa, shift)
  *   m_ew, m_d2  mean and last normalised innovation, q16
  *   m_var    the offset's largest variance, q30 (1 before the estimator starts)
+ *   mn[4]    the norm of the reading less u, relative to n0, low-passed, and its squared
+ *            deviation from that low-pass, low-passed; then the same with the estimate
+ *            (m_nu m_vu m_ne m_ve), q26
  *   m_qo     the offset's random walk not yet added to P, q46 (below 2^16)
  *   m_axis   the axis the next reading updates (0, 1, 2); m_bad: samples of absurd readings
  *
@@ -203,6 +206,8 @@ typedef struct {
     int32_t m_nm, m_ns; /* n0 (counts) as a q-scale */
     int32_t m_ew, m_d2; /* mean and last normalised innovation, q16 */
     int32_t m_var;      /* the offset's largest variance, q30 (1 until estimated) */
+    int32_t mn[4];      /* the reading's norm through u and through the estimate: low-pass
+                           and squared deviation, relative, q26 */
     int32_t m_qo;       /* the offset's walk not yet added to P, q46 */
     int32_t m_axis;     /* the axis the next reading updates: 0, 1, 2 */
     int32_t m_bad;      /* samples of absurd readings (saturating at n_bad) */

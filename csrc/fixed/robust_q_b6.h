@@ -3,7 +3,8 @@
  * Kalman filter of the field h in the inertial frame and the offset o in the sensor frame,
  * m = R(s)^T h + o in units of the first field's norm n0, one axis per sample in turn; the
  * offset in use u (counts) the stored offset until the estimate is trusted and differs from
- * it by more than mag_offset_min. The same code in both profiles (int32 values times int16
+ * it by more than mag_offset_min, or until the reading's norm shows the stored offset
+ * wrong (csrc/robust_mag.h's early use; mn: the norms' low-passes, q26). The same code in both profiles (int32 values times int16
  * factors, imf_mul_32x16). Formats (robust_q.h): h, o q26; P q30; the gains q24; P H^T q29;
  * the innovation's variance q28; the normalised innovation and its mean q16. Private to
  * csrc/fixed/robust_q.c, which includes this file once. Mirrored line for line by
@@ -24,6 +25,13 @@
 #define ROBUST_Q6_MEAN 524288L
 #define ROBUST_Q6_EW 20972
 #define ROBUST_Q6_TRUST 107374L
+/* csrc/robust_mag.h's early use of a large offset: the estimate's variance below 0.05^2
+ * (q30), the reading's norm through the stored offset moving by more than 0.001 (squared,
+ * q26) and four times (squared) more than through the estimate; a change of the offset in
+ * use beyond 0.05 of the field (squared, q30) starts B4's reference again */
+#define ROBUST_Q6_EARLY 2684355L
+#define ROBUST_Q6_NORM2 67109L
+#define ROBUST_Q6_RESET2 2684355L
 
 /* index of P[i][j] in P[21], the covariance's upper triangle by rows */
 static const unsigned char robust_q6_pi[6][6] = {
@@ -57,7 +65,7 @@ static inline imf_qscale_t robust_q6_scale(const int32_t m, const int32_t s)
 }
 
 /* counts (int32, within int16) times 1 / n0, q26 */
-static int32_t robust_q6_rel(const int32_t v, const imf_qscale_t inv)
+static IMF_Q_NOINLINE int32_t robust_q6_rel(const int32_t v, const imf_qscale_t inv)
 {
     return imf_scale32_s(imf_x32768(imf_sat_q15s(v)), inv, 15, 26);
 }
@@ -89,6 +97,10 @@ static void robust_q6_start(imf_robust_ahrs_q_state_t *const xm, const int32_t c
     }
     xm->m_ew = 65536L;
     xm->m_d2 = 0;
+    xm->mn[0] = 67108864L; /* 1, q26 */
+    xm->mn[1] = 0;
+    xm->mn[2] = 67108864L;
+    xm->mn[3] = 0;
 }
 
 /* the exponent e >= 0 that brings every v[k] (rounded, shifted by e) within +-32767
@@ -281,21 +293,79 @@ static void robust_q6_update(const imf_robust_ahrs_q_consts_t *const k,
     xm->m_axis = i == 2 ? 0 : i + 1;
 }
 
-/* the offset's largest variance; trusted and consistent, the offset in use u is the stored
- * offset while the estimate agrees with it within mag_offset_min, else the estimate */
-static void robust_q6_use(const imf_robust_ahrs_q_consts_t *const k,
-                          imf_robust_ahrs_q_state_t *const xm)
+/* d times 3 k (the gain of three samples of k, within k^2), saturated */
+static IMF_Q_NOINLINE int32_t robust_q6_k3(const int32_t d, const imf_qscale_t k)
+{
+    const int32_t p = imf_mul_32x16_s(d, k.m, k.s);
+    return imf_add_sat32(imf_add_sat32(p, p), p);
+}
+
+/* the norm of v (three words relative to n0, q26; through q12) into a low-pass w[0] (q26)
+ * and the square of its deviation from that low-pass into a low-pass w[1] (q26), the gain
+ * 3 k; a norm below 2^-9 counts as 0 */
+static IMF_Q_NOINLINE void robust_q6_norm_lp(int32_t w[2], const int32_t v[3], const imf_qscale_t k)
+{
+    uint32_t n2 = 0u;
+    int32_t nrm = 0, d;
+    int16_t a;
+    int j;
+    for (j = 0; j < 3; ++j) {
+        a = imf_sat_q15s(imf_rshr32(v[j], 14)); /* q12 */
+        n2 += (uint32_t)imf_mul16(a, a);        /* q24, below 3 2^30 */
+    }
+    if (n2 >= 64u) {
+        const imf_qscale_t r = robust_q6_invsqrt(n2);             /* shift 17 .. 31 */
+        nrm = imf_mul_32x16_s((int32_t)(n2 >> 1), r.m, r.s - 15); /* sqrt(n2) 2^14 */
+    }
+    d = imf_sub_sat32(nrm, w[0]);
+    w[0] = imf_add_sat32(w[0], robust_q6_k3(d, k));
+    a = imf_sat_q15s(imf_rshr32(d, 13)); /* q13 */
+    w[1] = imf_add_sat32(w[1], robust_q6_k3(imf_sub_sat32(imf_mul16(a, a), w[1]), k));
+}
+
+/* how well the offset in use and the estimate each explain the reading's norm (mn: with u,
+ * then with the estimate), every third sample (the axis cycle) with the gain of three
+ * samples of k_mag */
+static void robust_q6_norms(const imf_robust_ahrs_q_consts_t *const k,
+                            imf_robust_ahrs_q_state_t *const xm, const int16_t mag[3])
+{
+    const imf_qscale_t inv = robust_q6_scale(xm->m_im, xm->m_is);
+    int32_t vu[3], ve[3];
+    int j;
+    for (j = 0; j < 3; ++j) {
+        vu[j] = robust_q6_rel(imf_sub_sat32(mag[j], xm->u[j]), inv);
+        ve[j] = imf_sub_sat32(robust_q6_rel(mag[j], inv), xm->hi[3 + j]);
+    }
+    robust_q6_norm_lp(xm->mn, vu, k->k_mag);
+    robust_q6_norm_lp(xm->mn + 2, ve, k->k_mag);
+}
+
+/* the offset's largest variance. The offset in use u: trusted and consistent, the stored
+ * offset while the estimate agrees with it within mag_offset_min, else the estimate;
+ * consistent but not yet trusted, the estimate when its variance is below EARLY, the
+ * reading's norm says the stored offset, still in use, is wrong (NORM2, four times) and the
+ * estimate differs from it by more than mag_offset_min. A change beyond RESET2 starts B4's
+ * reference again (rn 0). */
+static IMF_Q_NOINLINE void robust_q6_use(const imf_robust_ahrs_q_consts_t *const k,
+                                         imf_robust_ahrs_q_state_t *const xm)
 {
     const imf_qscale_t inv = robust_q6_scale(xm->m_im, xm->m_is);
     const imf_qscale_t n0 = robust_q6_scale(xm->m_nm, xm->m_ns);
-    int32_t pb = 0;
+    int32_t pb = 0, un[3];
     uint32_t o2 = 0u;
-    int j;
+    int j, trust;
     for (j = 3; j < 6; ++j) {
         pb = xm->P[robust_q6_pi[j][j]] > pb ? xm->P[robust_q6_pi[j][j]] : pb;
     }
     xm->m_var = pb;
-    if (!(pb < ROBUST_Q6_TRUST && xm->m_ew < ROBUST_Q6_MEAN)) {
+    if (!(xm->m_ew < ROBUST_Q6_MEAN)) {
+        return;
+    }
+    trust = pb < ROBUST_Q6_TRUST;
+    if (!(trust
+          || (pb < ROBUST_Q6_EARLY && xm->u[0] == xm->so[0] && xm->u[1] == xm->so[1]
+              && xm->u[2] == xm->so[2] && xm->n_dist == 0 && xm->mn[1] > ROBUST_Q6_NORM2
+              && xm->mn[3] < (xm->mn[1] >> 2)))) {
         return;
     }
     for (j = 0; j < 3; ++j) {
@@ -303,9 +373,21 @@ static void robust_q6_use(const imf_robust_ahrs_q_consts_t *const k,
             imf_qn_to_q15s(imf_sub_sat32(xm->hi[3 + j], robust_q6_rel(xm->so[j], inv)), 26);
         o2 += (uint32_t)imf_mul16(e, e);
     }
+    if (o2 < (uint32_t)k->kmin2 && !trust) {
+        return; /* early: only an estimate that differs from the stored offset */
+    }
     for (j = 0; j < 3; ++j) {
-        xm->u[j] = o2 < (uint32_t)k->kmin2 ? xm->so[j]
-                                           : imf_sat_q15s(imf_scale32_s(xm->hi[3 + j], n0, 26, 0));
+        un[j] = o2 < (uint32_t)k->kmin2 ? xm->so[j]
+                                        : imf_sat_q15s(imf_scale32_s(xm->hi[3 + j], n0, 26, 0));
+    }
+    o2 = 0u;
+    for (j = 0; j < 3; ++j) {
+        const int16_t e = imf_qn_to_q15s(robust_q6_rel(imf_sub_sat32(un[j], xm->u[j]), inv), 26);
+        o2 += (uint32_t)imf_mul16(e, e);
+        xm->u[j] = un[j];
+    }
+    if (o2 > (uint32_t)ROBUST_Q6_RESET2) {
+        xm->rn = 0; /* B4: a new reference from the next reading */
     }
 }
 
@@ -381,6 +463,9 @@ static IMF_Q_NOINLINE void robust_q_offset(const imf_robust_ahrs_q_consts_t *con
         robust_q6_column(qs, i, c);
         robust_q6_update(k, xm, i, c, robust_q6_rel(mag[i], robust_q6_scale(xm->m_im, xm->m_is)),
                          robust_q_norm2(gyr[0], gyr[1], gyr[2]));
+        if (i == 2) {
+            robust_q6_norms(k, xm, mag); /* with the axis cycle: every third sample */
+        }
     }
     robust_q6_use(k, xm);
 }

@@ -51,8 +51,8 @@ extern "C" {
 #ifndef IMF_HIL_MAX_INPUT
 #define IMF_HIL_MAX_INPUT 40u
 #endif
-/* State bytes per sample at most (RAM: IMF_HIL_WINDOW times this; RobustAHRSQ: 85 * 4 =
- * 340; 4096 at most). Up to 244 the answers' lengths are single bytes, as in version 1. */
+/* State bytes per sample at most (RAM: IMF_HIL_WINDOW times this; RobustAHRSQ: 89 * 4 =
+ * 356; 4096 at most). Up to 244 the answers' lengths are single bytes, as in version 1. */
 #ifndef IMF_HIL_MAX_STATE
 #define IMF_HIL_MAX_STATE 64u
 #endif

@@ -9,7 +9,7 @@
 #include "robust_q.h"
 
 static imf_robust_ahrs_q_t filt;
-/* every word of RobustAHRSQ's state: 85 int32 (with B6's, whether its code is compiled in or
+/* every word of RobustAHRSQ's state: 89 int32 (with B6's, whether its code is compiled in or
    not); IMF_HIL_MAX_STATE (CMakeLists.txt) must hold them */
 #define HIL_STATE_BYTES sizeof(imf_robust_ahrs_q_state_t)
 #define HIL_N_STATE (HIL_STATE_BYTES / sizeof(int32_t))
@@ -39,7 +39,7 @@ static void fw_update(const void *in)
 
 static uint16_t fw_state(uint8_t *out)
 {
-    memcpy(out, &filt.x, sizeof filt.x); /* all 85 words, in RobustAHRSQ's state order */
+    memcpy(out, &filt.x, sizeof filt.x); /* all 89 words, in RobustAHRSQ's state order */
     return (uint16_t)sizeof filt.x;
 }
 #define HIL_NAME "example RobustAHRSQ"

@@ -36,7 +36,8 @@ MAG_LAYOUT = (("u", "xyz"), ("rn", ""), ("rh", ""), ("rz", ""), ("cn", ""), ("ch
               ("hi", ("hx", "hy", "hz", "ox", "oy", "oz")),
               ("P", tuple(f"{i}{j}" for i in range(6) for j in range(i, 6))),
               ("so", "xyz"), ("m_n2", ""), ("m_im", ""), ("m_is", ""), ("m_nm", ""),
-              ("m_ns", ""), ("m_ew", ""), ("m_d2", ""), ("m_var", ""), ("m_qo", ""),
+              ("m_ns", ""), ("m_ew", ""), ("m_d2", ""), ("m_var", ""),
+              ("mn", ("_nu", "_vu", "_ne", "_ve")), ("m_qo", ""),
               ("m_axis", ""), ("m_bad", ""))
 
 
@@ -218,7 +219,8 @@ class RobustAHRSQ(RobustIMUQ):
     reference (rn q15 counts, rh, rz q30) and the candidate (cn, ch, cz), the sample
     counters n_ok, n_dist, n_cand, then B6's (robust_q.h): h and o (q26 of the field unit),
     their covariance P (q30), the stored offset so, the field unit's words, the innovation's
-    statistics, the offset's variance m_var, m_qo, m_axis, m_bad.
+    statistics, the offset's variance m_var, the norm statistics of the early use of a
+    large offset mn_nu, mn_vu, mn_ne, mn_ve (q26), m_qo, m_axis, m_bad.
     """
     kind = "ahrs"
     c_name = "imf_robust_ahrs_q"
@@ -308,6 +310,7 @@ class RobustAHRSQ(RobustIMUQ):
         self.m_n2 = self.m_im = self.m_is = self.m_nm = self.m_ns = 0
         self.m_ew = self.m_d2 = self.m_qo = self.m_axis = self.m_bad = 0
         self.m_var = fq.Q30_ONE
+        self.mn = [0, 0, 0, 0]
 
     @staticmethod
     def _offset_counts(offset):
@@ -339,6 +342,7 @@ class RobustAHRSQ(RobustIMUQ):
         self.so = list(self.u)
         self.m_n2 = 0                       # B6 starts again from it
         self.m_var = fq.Q30_ONE
+        self.mn = [0, 0, 0, 0]
 
     def _get_state(self):
         return _words(self, IMU_LAYOUT + MAG_LAYOUT)
@@ -353,7 +357,8 @@ class RobustAHRSQ(RobustIMUQ):
                 + [s[35] * q15, s[36] * q30, s[37] * q30, s[38] * q15, s[39] * q30,
                    s[40] * q30] + list(s[41:44]) + [v * q26 for v in s[44:50]]
                 + [v * q30 for v in s[50:71]] + list(s[71:79]) + [s[79] * q16, s[80] * q16,
-                                                                   s[81] * q30] + list(s[82:]))
+                                                                   s[81] * q30]
+                + [v * q26 for v in s[82:86]] + list(s[86:]))
 
     def _update(self, gyr, acc, mag):
         # imf_robust_ahrs_q_update

@@ -18,6 +18,9 @@ GATE = 1245184             # 19, q16
 MEAN = 524288              # 8, q16
 EW = 20972                 # 0.02 = 20972 2^-20
 TRUST = 107374             # 0.01^2, q30
+EARLY = 2684355            # the early use: the estimate's variance below 0.05^2, q30
+NORM2 = 67109              # the norm through the stored offset moving by 0.001 (squared), q26
+RESET2 = 2684355           # a change of the offset in use beyond 0.05 (squared), q30
 
 #: index of P[i][j] in P[21], the covariance's upper triangle by rows
 PI = ((0, 1, 2, 3, 4, 5), (1, 6, 7, 8, 9, 10), (2, 7, 11, 12, 13, 14),
@@ -54,6 +57,7 @@ def start(x, c, n2):
         x.P[PI[k][k]] = P0
     x.m_ew = 65536
     x.m_d2 = 0
+    x.mn = [67108864, 0, 67108864, 0]        # 1, 0, 1, 0 (q26)
 
 
 def exponent(v):
@@ -124,24 +128,76 @@ def update(k, x, i, c, y, w2):
     x.m_axis = 0 if i == 2 else i + 1
 
 
+def k3(d, k):
+    """robust_q6_k3: d times 3 k, saturated."""
+    p = ci.mul_32x16(d, k.m, k.s)
+    return ci.add_sat32(ci.add_sat32(p, p), p)
+
+
+def norm_lp(w, v, k):
+    """robust_q6_norm_lp: the norm of v (q26, through q12) into the low-pass w[0] and its
+    squared deviation into the low-pass w[1] (q26), the gain 3 k."""
+    n2 = 0
+    for j in range(3):
+        a = ci.sat_q15s(ci.rshr32(v[j], 14))
+        n2 += a * a
+    nrm = 0
+    if n2 >= 64:
+        r = invsqrt(n2)
+        nrm = ci.mul_32x16(n2 >> 1, r.m, r.s - 15)
+    d = ci.sub_sat32(nrm, w[0])
+    w[0] = ci.add_sat32(w[0], k3(d, k))
+    a = ci.sat_q15s(ci.rshr32(d, 13))
+    w[1] = ci.add_sat32(w[1], k3(ci.sub_sat32(a * a, w[1]), k))
+
+
+def norms(k, x, mag):
+    """robust_q6_norms: the reading's norm through u and through the estimate, low-passed
+    (every third sample)."""
+    inv = ci.QScale(x.m_im, x.m_is)
+    vu = [rel(ci.sub_sat32(mag[j], x.u[j]), inv) for j in range(3)]
+    ve = [ci.sub_sat32(rel(mag[j], inv), x.hi[3 + j]) for j in range(3)]
+    w = x.mn[0:2]
+    norm_lp(w, vu, k["k_mag"])
+    x.mn[0:2] = w
+    w = x.mn[2:4]
+    norm_lp(w, ve, k["k_mag"])
+    x.mn[2:4] = w
+
+
 def use(k, x):
-    """robust_q6_use: the offset's largest variance; trusted and consistent, the offset in
-    use is the stored one while the estimate agrees with it within mag_offset_min, else the
-    estimate (counts)."""
+    """robust_q6_use: the offset's largest variance; the offset in use u (counts): trusted
+    and consistent, the stored one while the estimate agrees with it within mag_offset_min,
+    else the estimate; consistent but not yet trusted, the estimate when its variance is
+    below EARLY and the reading's norm says the stored offset, still in use, is wrong. A
+    change beyond RESET2 starts B4's reference again."""
     inv = ci.QScale(x.m_im, x.m_is)
     n0 = ci.QScale(x.m_nm, x.m_ns)
     pb = max(0, x.P[15], x.P[18], x.P[20])
     x.m_var = pb
-    if not (pb < TRUST and x.m_ew < MEAN):
+    if not x.m_ew < MEAN:
+        return
+    trust = pb < TRUST
+    if not (trust or (pb < EARLY and list(x.u) == list(x.so) and x.n_dist == 0
+                      and x.mn[1] > NORM2 and x.mn[3] < (x.mn[1] >> 2))):
         return
     o2 = 0
     for j in range(3):
         e = ci.qn_to_q15s(ci.sub_sat32(x.hi[3 + j], rel(x.so[j], inv)), 26)
         o2 += e * e
+    if o2 < k["kmin2"] and not trust:
+        return                               # early: only an estimate that differs
     if o2 < k["kmin2"]:
-        x.u = list(x.so)
+        un = list(x.so)
     else:
-        x.u = [ci.sat_q15s(ci.scale32_s(x.hi[3 + j], n0, 26, 0)) for j in range(3)]
+        un = [ci.sat_q15s(ci.scale32_s(x.hi[3 + j], n0, 26, 0)) for j in range(3)]
+    o2 = 0
+    for j in range(3):
+        e = ci.qn_to_q15s(rel(ci.sub_sat32(un[j], x.u[j]), inv), 26)
+        o2 += e * e
+    x.u = un
+    if o2 > RESET2:
+        x.rn = 0                             # B4: a new reference from the next reading
 
 
 def started(x):
@@ -181,4 +237,6 @@ def offset(k, x, gyr, mag):
         c = [r[3 * j + i] for j in range(3)]
         update(k, x, i, c, rel(mag[i], ci.QScale(x.m_im, x.m_is)),
                norm2(gyr[0], gyr[1], gyr[2]))
+        if i == 2:
+            norms(k, x, mag)                 # with the axis cycle: every third sample
     use(k, x)
