@@ -8,7 +8,7 @@
 - A long log: 10 minutes at 200 Hz (120 000 samples) of MadgwickIMU through the ATmega328P at
   1 Mbaud, every sample compared.
 - The runner's size on the ATmega328P: examples/hil/baremetal built by avr-gcc (-O2) with
-  MadgwickAHRS float32 and with RobustAHRSQ (all 85 state words), with and without the runner.
+  MadgwickAHRS float32 and with RobustAHRSQ (all 89 state words), with and without the runner.
 
 extra_info holds the figures bench/RESULTS.md lists.
 """
