@@ -27,11 +27,21 @@
 #define ROBUST_Q6_TRUST 107374L
 /* csrc/robust_mag.h's early use of a large offset: the estimate's variance below 0.05^2
  * (q30), the reading's norm through the stored offset moving by more than 0.001 (squared,
- * q26) and four times (squared) more than through the estimate; a change of the offset in
- * use beyond 0.05 of the field (squared, q30) starts B4's reference again */
+ * q26) and four times (squared) more than through the estimate; a switch between the stored
+ * offset and the estimate that differ by more than 0.05 of the field (squared, q30) starts
+ * B4's reference again */
 #define ROBUST_Q6_EARLY 2684355L
 #define ROBUST_Q6_NORM2 67109L
 #define ROBUST_Q6_RESET2 2684355L
+
+/* B6's rarely run helpers (the norms every third sample, the offset in use) optimised for
+ * size on AVR: the program of the 8-bit profile with its inputs fits the ATmega328P's flash
+ * at -O2 beside them (the same integer operations, the same values at any level) */
+#if defined(__AVR__) && defined(__GNUC__) && !defined(__clang__)
+#define ROBUST_Q6_SMALL __attribute__((optimize("Os")))
+#else
+#define ROBUST_Q6_SMALL
+#endif
 
 /* index of P[i][j] in P[21], the covariance's upper triangle by rows */
 static const unsigned char robust_q6_pi[6][6] = {
@@ -294,24 +304,26 @@ static void robust_q6_update(const imf_robust_ahrs_q_consts_t *const k,
 }
 
 /* d times 3 k (the gain of three samples of k, within k^2), saturated */
-static IMF_Q_NOINLINE int32_t robust_q6_k3(const int32_t d, const imf_qscale_t k)
+static IMF_Q_NOINLINE ROBUST_Q6_SMALL int32_t robust_q6_k3(const int32_t d, const imf_qscale_t k)
 {
     const int32_t p = imf_mul_32x16_s(d, k.m, k.s);
     return imf_add_sat32(imf_add_sat32(p, p), p);
 }
 
-/* the norm of v (three words relative to n0, q26; through q12) into a low-pass w[0] (q26)
- * and the square of its deviation from that low-pass into a low-pass w[1] (q26), the gain
- * 3 k; a norm below 2^-9 counts as 0 */
-static IMF_Q_NOINLINE void robust_q6_norm_lp(int32_t w[2], const int32_t v[3], const imf_qscale_t k)
+/* the norm of v - c (v, c: three words relative to n0, q26; through q12 components) into a
+ * low-pass w[0] (q26) and the square of its deviation from that low-pass into a low-pass w[1]
+ * (q26), the gain 3 k; a norm below 2^-9 counts as 0 */
+static IMF_Q_NOINLINE ROBUST_Q6_SMALL void robust_q6_norm_lp(int32_t w[2], const int32_t v[3],
+                                                             const int32_t c[3],
+                                                             const imf_qscale_t k)
 {
     uint32_t n2 = 0u;
     int32_t nrm = 0, d;
     int16_t a;
     int j;
     for (j = 0; j < 3; ++j) {
-        a = imf_sat_q15s(imf_rshr32(v[j], 14)); /* q12 */
-        n2 += (uint32_t)imf_mul16(a, a);        /* q24, below 3 2^30 */
+        a = imf_sat_q15s(imf_rshr32(imf_sub_sat32(v[j], c[j]), 14)); /* q12 */
+        n2 += (uint32_t)imf_mul16(a, a);                             /* q24, below 3 2^30 */
     }
     if (n2 >= 64u) {
         const imf_qscale_t r = robust_q6_invsqrt(n2);             /* shift 17 .. 31 */
@@ -323,37 +335,21 @@ static IMF_Q_NOINLINE void robust_q6_norm_lp(int32_t w[2], const int32_t v[3], c
     w[1] = imf_add_sat32(w[1], robust_q6_k3(imf_sub_sat32(imf_mul16(a, a), w[1]), k));
 }
 
-/* how well the offset in use and the estimate each explain the reading's norm (mn: with u,
- * then with the estimate), every third sample (the axis cycle) with the gain of three
- * samples of k_mag */
-static void robust_q6_norms(const imf_robust_ahrs_q_consts_t *const k,
-                            imf_robust_ahrs_q_state_t *const xm, const int16_t mag[3])
-{
-    const imf_qscale_t inv = robust_q6_scale(xm->m_im, xm->m_is);
-    int32_t vu[3], ve[3];
-    int j;
-    for (j = 0; j < 3; ++j) {
-        vu[j] = robust_q6_rel(imf_sub_sat32(mag[j], xm->u[j]), inv);
-        ve[j] = imf_sub_sat32(robust_q6_rel(mag[j], inv), xm->hi[3 + j]);
-    }
-    robust_q6_norm_lp(xm->mn, vu, k->k_mag);
-    robust_q6_norm_lp(xm->mn + 2, ve, k->k_mag);
-}
-
 /* the offset's largest variance. The offset in use u: trusted and consistent, the stored
  * offset while the estimate agrees with it within mag_offset_min, else the estimate;
  * consistent but not yet trusted, the estimate when its variance is below EARLY, the
  * reading's norm says the stored offset, still in use, is wrong (NORM2, four times) and the
- * estimate differs from it by more than mag_offset_min. A change beyond RESET2 starts B4's
- * reference again (rn 0). */
-static IMF_Q_NOINLINE void robust_q6_use(const imf_robust_ahrs_q_consts_t *const k,
-                                         imf_robust_ahrs_q_state_t *const xm)
+ * estimate differs from it by more than mag_offset_min. A switch between the two beyond
+ * RESET2 starts B4's reference again (rn 0; the float filter tests any change of u, also
+ * from one estimate to another, which is rare: a magnet attached after one was learnt). */
+static IMF_Q_NOINLINE ROBUST_Q6_SMALL void robust_q6_use(const imf_robust_ahrs_q_consts_t *const k,
+                                                         imf_robust_ahrs_q_state_t *const xm)
 {
     const imf_qscale_t inv = robust_q6_scale(xm->m_im, xm->m_is);
     const imf_qscale_t n0 = robust_q6_scale(xm->m_nm, xm->m_ns);
-    int32_t pb = 0, un[3];
+    int32_t pb = 0;
     uint32_t o2 = 0u;
-    int j, trust;
+    int j, same, trust;
     for (j = 3; j < 6; ++j) {
         pb = xm->P[robust_q6_pi[j][j]] > pb ? xm->P[robust_q6_pi[j][j]] : pb;
     }
@@ -362,9 +358,11 @@ static IMF_Q_NOINLINE void robust_q6_use(const imf_robust_ahrs_q_consts_t *const
         return;
     }
     trust = pb < ROBUST_Q6_TRUST;
+    for (j = 0; j < 3 && xm->u[j] == xm->so[j]; ++j) {
+    }
+    same = j == 3; /* the stored offset in use */
     if (!(trust
-          || (pb < ROBUST_Q6_EARLY && xm->u[0] == xm->so[0] && xm->u[1] == xm->so[1]
-              && xm->u[2] == xm->so[2] && xm->n_dist == 0 && xm->mn[1] > ROBUST_Q6_NORM2
+          || (pb < ROBUST_Q6_EARLY && same && xm->n_dist == 0 && xm->mn[1] > ROBUST_Q6_NORM2
               && xm->mn[3] < (xm->mn[1] >> 2)))) {
         return;
     }
@@ -377,17 +375,13 @@ static IMF_Q_NOINLINE void robust_q6_use(const imf_robust_ahrs_q_consts_t *const
         return; /* early: only an estimate that differs from the stored offset */
     }
     for (j = 0; j < 3; ++j) {
-        un[j] = o2 < (uint32_t)k->kmin2 ? xm->so[j]
-                                        : imf_sat_q15s(imf_scale32_s(xm->hi[3 + j], n0, 26, 0));
+        xm->u[j] = o2 < (uint32_t)k->kmin2 ? xm->so[j]
+                                           : imf_sat_q15s(imf_scale32_s(xm->hi[3 + j], n0, 26, 0));
     }
-    o2 = 0u;
-    for (j = 0; j < 3; ++j) {
-        const int16_t e = imf_qn_to_q15s(robust_q6_rel(imf_sub_sat32(un[j], xm->u[j]), inv), 26);
-        o2 += (uint32_t)imf_mul16(e, e);
-        xm->u[j] = un[j];
-    }
-    if (o2 > (uint32_t)ROBUST_Q6_RESET2) {
-        xm->rn = 0; /* B4: a new reference from the next reading */
+    /* a switch between the stored offset and the estimate (o2 their difference, q30) beyond
+       RESET2: B4's reference from the next reading */
+    if (same != (o2 < (uint32_t)k->kmin2) && o2 > (uint32_t)ROBUST_Q6_RESET2) {
+        xm->rn = 0;
     }
 }
 
@@ -464,7 +458,17 @@ static IMF_Q_NOINLINE void robust_q_offset(const imf_robust_ahrs_q_consts_t *con
         robust_q6_update(k, xm, i, c, robust_q6_rel(mag[i], robust_q6_scale(xm->m_im, xm->m_is)),
                          robust_q_norm2(gyr[0], gyr[1], gyr[2]));
         if (i == 2) {
-            robust_q6_norms(k, xm, mag); /* with the axis cycle: every third sample */
+            /* how well the offset in use and the estimate each explain the reading's norm
+               (the reading, u and the estimate relative to n0), with the axis cycle: every
+               third sample, the gain of three samples of k_mag */
+            const imf_qscale_t inv = robust_q6_scale(xm->m_im, xm->m_is);
+            int32_t rm[3], ru[3];
+            for (j = 0; j < 3; ++j) {
+                rm[j] = robust_q6_rel(mag[j], inv);
+                ru[j] = robust_q6_rel(xm->u[j], inv);
+            }
+            robust_q6_norm_lp(xm->mn, rm, ru, k->k_mag);
+            robust_q6_norm_lp(xm->mn + 2, rm, xm->hi + 3, k->k_mag);
         }
     }
     robust_q6_use(k, xm);

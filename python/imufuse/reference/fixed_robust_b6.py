@@ -20,7 +20,7 @@ EW = 20972                 # 0.02 = 20972 2^-20
 TRUST = 107374             # 0.01^2, q30
 EARLY = 2684355            # the early use: the estimate's variance below 0.05^2, q30
 NORM2 = 67109              # the norm through the stored offset moving by 0.001 (squared), q26
-RESET2 = 2684355           # a change of the offset in use beyond 0.05 (squared), q30
+RESET2 = 2684355           # a switch of the offset in use beyond 0.05 of n0 (squared), q30
 
 #: index of P[i][j] in P[21], the covariance's upper triangle by rows
 PI = ((0, 1, 2, 3, 4, 5), (1, 6, 7, 8, 9, 10), (2, 7, 11, 12, 13, 14),
@@ -134,12 +134,12 @@ def k3(d, k):
     return ci.add_sat32(ci.add_sat32(p, p), p)
 
 
-def norm_lp(w, v, k):
-    """robust_q6_norm_lp: the norm of v (q26, through q12) into the low-pass w[0] and its
+def norm_lp(w, v, c, k):
+    """robust_q6_norm_lp: the norm of v - c (q26, through q12) into the low-pass w[0] and its
     squared deviation into the low-pass w[1] (q26), the gain 3 k."""
     n2 = 0
     for j in range(3):
-        a = ci.sat_q15s(ci.rshr32(v[j], 14))
+        a = ci.sat_q15s(ci.rshr32(ci.sub_sat32(v[j], c[j]), 14))
         n2 += a * a
     nrm = 0
     if n2 >= 64:
@@ -151,26 +151,12 @@ def norm_lp(w, v, k):
     w[1] = ci.add_sat32(w[1], k3(ci.sub_sat32(a * a, w[1]), k))
 
 
-def norms(k, x, mag):
-    """robust_q6_norms: the reading's norm through u and through the estimate, low-passed
-    (every third sample)."""
-    inv = ci.QScale(x.m_im, x.m_is)
-    vu = [rel(ci.sub_sat32(mag[j], x.u[j]), inv) for j in range(3)]
-    ve = [ci.sub_sat32(rel(mag[j], inv), x.hi[3 + j]) for j in range(3)]
-    w = x.mn[0:2]
-    norm_lp(w, vu, k["k_mag"])
-    x.mn[0:2] = w
-    w = x.mn[2:4]
-    norm_lp(w, ve, k["k_mag"])
-    x.mn[2:4] = w
-
-
 def use(k, x):
     """robust_q6_use: the offset's largest variance; the offset in use u (counts): trusted
     and consistent, the stored one while the estimate agrees with it within mag_offset_min,
     else the estimate; consistent but not yet trusted, the estimate when its variance is
     below EARLY and the reading's norm says the stored offset, still in use, is wrong. A
-    change beyond RESET2 starts B4's reference again."""
+    switch between the two beyond RESET2 starts B4's reference again."""
     inv = ci.QScale(x.m_im, x.m_is)
     n0 = ci.QScale(x.m_nm, x.m_ns)
     pb = max(0, x.P[15], x.P[18], x.P[20])
@@ -178,7 +164,8 @@ def use(k, x):
     if not x.m_ew < MEAN:
         return
     trust = pb < TRUST
-    if not (trust or (pb < EARLY and list(x.u) == list(x.so) and x.n_dist == 0
+    same = list(x.u) == list(x.so)           # the stored offset in use
+    if not (trust or (pb < EARLY and same and x.n_dist == 0
                       and x.mn[1] > NORM2 and x.mn[3] < (x.mn[1] >> 2))):
         return
     o2 = 0
@@ -188,15 +175,11 @@ def use(k, x):
     if o2 < k["kmin2"] and not trust:
         return                               # early: only an estimate that differs
     if o2 < k["kmin2"]:
-        un = list(x.so)
+        x.u = list(x.so)
     else:
-        un = [ci.sat_q15s(ci.scale32_s(x.hi[3 + j], n0, 26, 0)) for j in range(3)]
-    o2 = 0
-    for j in range(3):
-        e = ci.qn_to_q15s(rel(ci.sub_sat32(un[j], x.u[j]), inv), 26)
-        o2 += e * e
-    x.u = un
-    if o2 > RESET2:
+        x.u = [ci.sat_q15s(ci.scale32_s(x.hi[3 + j], n0, 26, 0)) for j in range(3)]
+    # a switch between the stored offset and the estimate (o2 their difference) beyond RESET2
+    if same != (o2 < k["kmin2"]) and o2 > RESET2:
         x.rn = 0                             # B4: a new reference from the next reading
 
 
@@ -238,5 +221,15 @@ def offset(k, x, gyr, mag):
         update(k, x, i, c, rel(mag[i], ci.QScale(x.m_im, x.m_is)),
                norm2(gyr[0], gyr[1], gyr[2]))
         if i == 2:
-            norms(k, x, mag)                 # with the axis cycle: every third sample
+            # how well the offset in use and the estimate each explain the reading's norm
+            # (relative to n0), with the axis cycle: every third sample, the gain 3 k_mag
+            inv = ci.QScale(x.m_im, x.m_is)
+            rm = [rel(mag[j], inv) for j in range(3)]
+            ru = [rel(x.u[j], inv) for j in range(3)]
+            w = x.mn[0:2]
+            norm_lp(w, rm, ru, k["k_mag"])
+            x.mn[0:2] = w
+            w = x.mn[2:4]
+            norm_lp(w, rm, x.hi[3:6], k["k_mag"])
+            x.mn[2:4] = w
     use(k, x)
