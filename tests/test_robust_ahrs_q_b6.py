@@ -142,9 +142,10 @@ def test_offset_learnt_while_turning(profile):
     (80, -60, 40) counts): the estimate is trusted within 20 s and the offset in use ends
     within 2 counts of the offset; the reading's norm shows the stored zero wrong before the
     estimate is trusted, and the estimate takes over then (measured: at sample 1 176, the
-    variance 1.3e-4, trusted at 1 315), within 2 counts of the offset already; the twin bit
-    for bit over the first 1 500 samples and where the estimate takes over. A stored offset
-    restarts the estimator from it."""
+    variance 1.3e-4, trusted at 1 315), within 2 counts of the offset already, and B4's
+    reference starts again from the field less it; the twin bit for bit over the first 1 500
+    samples and where the estimate takes over. A stored offset restarts the estimator from
+    it."""
     dt, n = 0.01, 6000
     field = np.array([166.5, 0.0, -288.4])
     offset = np.array([80.0, -60.0, 40.0])
@@ -157,6 +158,12 @@ def test_offset_learnt_while_turning(profile):
     nu, ne = c[took - 1, NAMES.index("mn_vu")], c[took - 1, NAMES.index("mn_ve")]
     assert nu > 0.001 * 2 ** 26 and 4 * ne < nu, (nu, ne)
     assert np.abs(c[took, U:U + 3] - offset).max() <= 2, c[took, U:U + 3]
+    # the switch (108 counts, a third of the field) starts B4's reference again: from the
+    # reading less the new offset at once (the field's 333 counts), not low-passed from the
+    # norm seen through the stored zero (400)
+    rn, cn = (c[:, NAMES.index(k)] / 2.0 ** 15 for k in ("rn", "cn"))
+    assert abs(rn[took - 1] - 400) < 5 and abs(rn[took] - 333) < 3 and rn[took] == cn[took], \
+        (rn[took - 1], rn[took])
     assert np.abs(c[-1, U:U + 3] - offset).max() <= 2, c[-1, U:U + 3]
     r = twin(dt, profile)
     assert_same_bits(c[:1500], r.run(g[:1500], a[:1500], m[:1500]))

@@ -134,9 +134,9 @@ def k3(d, k):
     return ci.add_sat32(ci.add_sat32(p, p), p)
 
 
-def norm_lp(w, v, c, k):
-    """robust_q6_norm_lp: the norm of v - c (q26, through q12) into the low-pass w[0] and its
-    squared deviation into the low-pass w[1] (q26), the gain 3 k."""
+def norm_lp(w, o, v, c, k):
+    """robust_q6_norm_lp (w + o: C's pointer): the norm of v - c (q26, through q12) into the
+    low-pass w[o] and its squared deviation into the low-pass w[o + 1] (q26), the gain 3 k."""
     n2 = 0
     for j in range(3):
         a = ci.sat_q15s(ci.rshr32(ci.sub_sat32(v[j], c[j]), 14))
@@ -145,10 +145,10 @@ def norm_lp(w, v, c, k):
     if n2 >= 64:
         r = invsqrt(n2)
         nrm = ci.mul_32x16(n2 >> 1, r.m, r.s - 15)
-    d = ci.sub_sat32(nrm, w[0])
-    w[0] = ci.add_sat32(w[0], k3(d, k))
+    d = ci.sub_sat32(nrm, w[o])
+    w[o] = ci.add_sat32(w[o], k3(d, k))
     a = ci.sat_q15s(ci.rshr32(d, 13))
-    w[1] = ci.add_sat32(w[1], k3(ci.sub_sat32(a * a, w[1]), k))
+    w[o + 1] = ci.add_sat32(w[o + 1], k3(ci.sub_sat32(a * a, w[o + 1]), k))
 
 
 def use(k, x):
@@ -226,10 +226,6 @@ def offset(k, x, gyr, mag):
             inv = ci.QScale(x.m_im, x.m_is)
             rm = [rel(mag[j], inv) for j in range(3)]
             ru = [rel(x.u[j], inv) for j in range(3)]
-            w = x.mn[0:2]
-            norm_lp(w, rm, ru, k["k_mag"])
-            x.mn[0:2] = w
-            w = x.mn[2:4]
-            norm_lp(w, rm, x.hi[3:6], k["k_mag"])
-            x.mn[2:4] = w
+            norm_lp(x.mn, 0, rm, ru, k["k_mag"])
+            norm_lp(x.mn, 2, rm, x.hi[3:6], k["k_mag"])
     use(k, x)
