@@ -124,9 +124,14 @@ class ReferenceFilter:
         # C: uint32_t skipped; skipped++ wraps modulo 2^32
         self.skipped = (self.skipped + 1) & U32
 
+    def _words(self):
+        """The state's words in state_names' order (a filter that keeps its state in
+        arrays returns them from there, without one property call per word)."""
+        return [getattr(self, n) for n in self.state_names]
+
     @property
     def state(self):
-        return np.array([getattr(self, n) for n in self.state_names], dtype=self.dtype)
+        return np.array(self._words(), dtype=self.dtype)
 
     @state.setter
     def state(self, value):
@@ -187,7 +192,7 @@ class ReferenceFilter:
         n = len(self.state_names)
         out = np.empty((cols.shape[0], n), dtype=self.dtype)
         rows = cols.tolist() if self.dtype == "float64" else cols
-        names = self.state_names
+        words = self._words
         dts = None
         if dt is not None:
             dts = _checks.dt_array(dt, cols.shape[0], self.dtype)
@@ -201,7 +206,7 @@ class ReferenceFilter:
                 else:
                     self._set_dt(dts[k])
                     self._update(*row)
-                out[k] = [getattr(self, s) for s in names]
+                out[k] = words()
             if dts is not None:
                 self._set_dt(self._R(self._args[0]))
         return out
@@ -292,7 +297,7 @@ def check_precision(cls, args, dtype):
 
 
 def isfinite(*values):
-    return all(math.isfinite(v) for v in values)
+    return all(map(math.isfinite, values))
 
 
 def init_names(cls):

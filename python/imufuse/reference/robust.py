@@ -152,6 +152,8 @@ _MEMBERS = (("q", ("q0", "q1", "q2", "q3")),          # estimate, sensor -> eart
             ("mn", ("m_nu", "m_vu", "m_ne", "m_ve")),  # B6: the norm (deviation) with u, o
             ("m_axis", None),                         # B6: the axis the next reading updates
             ("m_bad", None))                          # B6: absurd readings for, s
+#: the members that are arrays (the others are one word)
+_ARRAYS = frozenset(m for m, names in _MEMBERS if names is not None)
 #: the members an IMU update can change (C: ROBUST_IMU_WORDS, the words before hi)
 _IMU_MEMBERS = tuple(m for m, _ in _MEMBERS[:[m for m, _ in _MEMBERS].index("hi")])
 
@@ -171,17 +173,19 @@ class _State:
     def copy(self):
         # the working copy (C: imf_robust_state_t x = self->x)
         x = _State()
-        for m, names in _MEMBERS:
+        for m in _STATE_MEMBERS:
             v = getattr(self, m)
-            setattr(x, m, v if names is None else list(v))
+            setattr(x, m, v[:] if m in _ARRAYS else v)
         return x
 
     def words(self, members):
         # the words of these members, in the struct's order
         out = []
         for m in members:
-            v = getattr(self, m)
-            out.extend(v if isinstance(v, list) else (v,))
+            if m in _ARRAYS:
+                out += getattr(self, m)
+            else:
+                out.append(getattr(self, m))
         return out
 
 
@@ -379,6 +383,10 @@ class _Robust(_RobustB3, _RobustBlocks, _RobustMag, ReferenceFilter):
         if x.t > self.t_max:
             x.t = self.t_max
         return True
+
+    def _words(self):
+        # the state's words from its members (state_names is _MEMBERS expanded)
+        return self.x.words(_STATE_MEMBERS)
 
     def _commit(self, x, ok, members):
         # keep the new state (its first members: the IMU and the AHRS with B6 off never change
