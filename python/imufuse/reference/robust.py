@@ -36,10 +36,7 @@ from .robust_blocks import _RobustBlocks, _vector3
 from .robust_mag import _PNAMES, _RobustMag
 from ._settings import FIXED, REQUIRED, SettingsRecord, choice, deg_to_rad, fixed, real, setting
 
-#: the largest finite number of each precision (IMF_REAL_MAX)
-_REAL_MAX = {"float32": 3.4028234663852886e38, "float64": 1.7976931348623157e308}
-
-# smallest normal and largest finite value of each precision (C: FLT_MIN, ...)
+# smallest normal and largest finite value of each precision (C: FLT_MIN, ..., IMF_REAL_MAX)
 _LIMITS = {"float32": (1.1754943508222875e-38, 3.4028234663852886e+38),
            "float64": (2.2250738585072014e-308, 1.7976931348623157e+308)}
 
@@ -115,7 +112,6 @@ class RobustIMUSettings(RobustAHRSSettings):
 
 # ---- the state (robust.h: imf_robust_state_t) ----------------------------------------
 
-
 #: imf_robust_state_t member by member: (member, the names of its words in state_names;
 #: None: one word, named as the member)
 _MEMBERS = (("q", ("q0", "q1", "q2", "q3")),          # estimate, sensor -> earth
@@ -152,8 +148,7 @@ _MEMBERS = (("q", ("q0", "q1", "q2", "q3")),          # estimate, sensor -> eart
             ("mn", ("m_nu", "m_vu", "m_ne", "m_ve")),  # B6: the norm (deviation) with u, o
             ("m_axis", None),                         # B6: the axis the next reading updates
             ("m_bad", None))                          # B6: absurd readings for, s
-#: the members that are arrays (the others are one word)
-_ARRAYS = frozenset(m for m, names in _MEMBERS if names is not None)
+_ARRAYS = frozenset(m for m, names in _MEMBERS if names is not None)   #: members of > 1 word
 #: the members an IMU update can change (C: ROBUST_IMU_WORDS, the words before hi)
 _IMU_MEMBERS = tuple(m for m, _ in _MEMBERS[:[m for m, _ in _MEMBERS].index("hi")])
 
@@ -182,10 +177,8 @@ class _State:
         # the words of these members, in the struct's order
         out = []
         for m in members:
-            if m in _ARRAYS:
-                out += getattr(self, m)
-            else:
-                out.append(getattr(self, m))
+            v = getattr(self, m)
+            out += v if m in _ARRAYS else (v,)
         return out
 
 
@@ -304,7 +297,7 @@ class _Robust(_RobustB3, _RobustBlocks, _RobustMag, ReferenceFilter):
         R = self._R
         lo, hi = _LIMITS[self.dtype]
         self._min, self._max = R(lo), R(hi)
-        self._real_max = R(_REAL_MAX[self.dtype])
+        self._real_max = R(hi)
         self.s = s = s.as_real(R)
         rate_ref, rest_gyr, rest_acc = s.rate_ref, s.rest_gyr, s.rest_acc
         # B2: gravity process noise q_g = (1 + |w|^2 / rate_ref^2) / tau_acc^4 per s, with the
@@ -385,8 +378,7 @@ class _Robust(_RobustB3, _RobustBlocks, _RobustMag, ReferenceFilter):
         return True
 
     def _words(self):
-        # the state's words from its members (state_names is _MEMBERS expanded)
-        return self.x.words(_STATE_MEMBERS)
+        return self.x.words(_STATE_MEMBERS)     # state_names: _MEMBERS expanded
 
     def _commit(self, x, ok, members):
         # keep the new state (its first members: the IMU and the AHRS with B6 off never change
