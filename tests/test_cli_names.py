@@ -81,3 +81,33 @@ def test_preset_on_the_command_line(tmp_path):
     assert "kp=0.5, ki=0.05" in p2.stderr
     p, _ = run("--preset", "nope")
     assert p.returncode == 2 and "no preset 'nope'; presets: published" in p.stderr, p.stderr
+
+
+def test_tune_and_latency_take_the_preprocessing(tmp_path):
+    """--align (and --calibration, --offset) in front of tune and latency as of run and compare:
+    the shipped excerpt with its sensor axes turned (sensor x = body y, sensor y = -body x)
+    gives tune's table and latency's delay of the excerpt itself with --align -Y+X+Z, and
+    latency refuses it without (the rates do not follow the reference's)."""
+    import numpy as np
+    from imufuse import io
+    src = io.example_log()
+    d = dict(np.load(src))
+    for k in ("gyr", "acc", "mag"):
+        v = d[k]
+        d[k] = np.stack([v[:, 1], -v[:, 0], v[:, 2]], axis=1)
+    turned = tmp_path / "turned.npz"
+    np.savez(turned, **d)
+
+    def tail(*args):
+        # what was printed, the log's name aside (in the tables' headers and rules)
+        p = _cli(*args)
+        assert p.returncode == 0, p.stderr
+        out = p.stdout.replace(str(turned), "LOG").replace(src, "LOG")
+        return [ln.split() for ln in out.splitlines()
+                if "npz" not in ln and not set(ln.strip()) <= {"-"}]
+
+    assert tail("latency", str(turned), "--align=-Y+X+Z") == tail("latency", src)
+    p = _cli("latency", str(turned))
+    assert p.returncode != 0 and "does not follow the reference's rates" in p.stderr, p.stderr
+    grid = ("-f", "MadgwickIMU", "--grid", "beta=0.05,0.1", "--refine", "0", "-q")
+    assert tail("tune", str(turned), *grid, "--align=-Y+X+Z") == tail("tune", src, *grid)

@@ -506,3 +506,22 @@ def test_xio_recording_every_state_member(fusion_exact, convention):
     got = f.run(gyr, acc, mag, dt=dt)
     assert_same_bits(got, state, _fusion13.AHRS_STATE_NAMES)
     assert_outputs_equal(f, got, out, flags)
+
+
+def test_a_preset_runs_at_the_logs_rate():
+    """`--preset advanced` (x-io's example: 100 Hz) on a log of another rate runs at the log's
+    rate, as without a preset (the rate sets the rejection timeout in samples); a sample_rate
+    the user gives wins over both."""
+    from imufuse import io
+    from imufuse.session import RunOptions, Session
+    s = Session(io.example_log())
+    rate = 1.0 / s.dt()
+    assert abs(rate - 100.0) > 100.0                 # the shipped BROAD excerpt: 285.7 Hz
+    _, p, *_ = s.make("FusionAHRS13", {}, RunOptions(preset="advanced"))
+    assert p["sample_rate"] == rate and p["rejection_timeout"] == 5.0
+    assert s.make("FusionAHRS13", {})[1]["sample_rate"] == rate
+    _, p, *_ = s.make("FusionAHRS13", {"sample_rate": 50.0}, RunOptions(preset="advanced"))
+    assert p["sample_rate"] == 50.0
+    a = s.run("FusionAHRS13", {}, RunOptions(preset="advanced")).estimate.q
+    b = s.run("FusionAHRS13", {"sample_rate": rate}, RunOptions(preset="advanced")).estimate.q
+    assert np.array_equal(a, b)

@@ -380,14 +380,16 @@ class Session:
         log, notes = self.log, []  # type: Log, List[str]
         if is_fusion(name):
             mod = imufuse_c if options.backend == "c" else reference
-            params = dict(params or {})
+            given = dict(params or {})
             presets = {"published": {}, **ALL_ENTRIES[name].presets}
             if options.preset not in (None, *presets):
                 raise FilterError(f"{name}: no preset {options.preset!r}; presets: "
                                   + ", ".join(presets) + " (published: its defaults)")
-            params = {**presets.get(options.preset or "published", {}), **params}
-            if name != FUSION and "sample_rate" not in params:
-                params["sample_rate"] = 1.0 / self.dt()   # replaced by run's dt per sample
+            params = {**presets.get(options.preset or "published", {}), **given}
+            if name != FUSION and "sample_rate" not in given:
+                # the log's rate, also over a preset's (the advanced example's 100 Hz): the
+                # rate sets the rejection timeout's samples; run's dt replaces it per sample
+                params["sample_rate"] = 1.0 / self.dt()
             try:
                 f = getattr(mod, name)(**params, dtype=options.dtype)
             except TypeError as e:

@@ -308,7 +308,9 @@ def filter_options(p):
     g.add_argument("--preset", metavar="NAME",
                    help="a named parameter set instead of the defaults (--param still applies "
                         "on top): 'published', the settings of the code a filter was ported "
-                        "from (Madgwick's and Mahony's C, MultiWii 2.2, x-io Fusion)")
+                        "from (Madgwick's and Mahony's C, MultiWii 2.2, x-io Fusion); "
+                        "'advanced', x-io's advanced example for FusionAHRS13 (at the log's "
+                        "rate)")
     g.add_argument("--init", metavar="first|identity|W,X,Y,Z",
                    help="initial orientation of 3D filters (default first: from the first "
                         "accelerometer [and magnetometer] sample)")

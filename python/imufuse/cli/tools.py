@@ -15,7 +15,8 @@ from ..latency import estimate_latency
 from ..io import EXAMPLE_ATTRIBUTION, GYR, example_log, require
 from ..session import NothingComputed
 from . import logs
-from .common import EXIT_OK, OutputError, err, log_options, names, open_session, positive
+from .common import (EXIT_OK, OutputError, err, log_options, names, open_session, positive,
+                     preprocess_options)
 
 
 def _demo(args):
@@ -104,6 +105,7 @@ def add_latency(sub):
     d.add_argument("--ref-direction", choices=("sensor-to-earth", "earth-to-sensor"),
                    default="sensor-to-earth", help="what the reference quaternion rotates")
     log_options(d)
+    preprocess_options(d)
     d.set_defaults(func=_latency)
 
 

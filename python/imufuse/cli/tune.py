@@ -9,7 +9,7 @@ from ..comparison import log_paths
 from ..tune import Tuner, grid_spec
 from .common import (EXIT_OK, UsageError, err, eval_options, executor, executor_spec,
                      filter_options, log_options, open_session, pairs, positive, nonneg_int,
-                     read_options, run_options, score_options)
+                     preprocess_options, read_options, run_options, score_options)
 
 
 def _tune(args):
@@ -128,6 +128,7 @@ def add_parsers(sub):
     t.add_argument("--quiet", "-q", action="store_true",
                    help="no progress bar (there is none when stderr is not a terminal)")
     log_options(t)
+    preprocess_options(t)
     filter_options(t)
     eval_options(t)
     t.set_defaults(func=_tune)
