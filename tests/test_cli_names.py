@@ -106,7 +106,8 @@ def test_tune_and_latency_take_the_preprocessing(tmp_path):
         return [ln.split() for ln in out.splitlines()
                 if "npz" not in ln and not set(ln.strip()) <= {"-"}]
 
-    assert tail("latency", str(turned), "--align=-Y+X+Z") == tail("latency", src)
+    # as typed, the value apart (it starts with a minus: not an option) and joined
+    assert tail("latency", str(turned), "--align", "-Y+X+Z") == tail("latency", src)
     p = _cli("latency", str(turned))
     assert p.returncode != 0 and "does not follow the reference's rates" in p.stderr, p.stderr
     grid = ("-f", "MadgwickIMU", "--grid", "beta=0.05,0.1", "--refine", "0", "-q")

@@ -57,15 +57,19 @@ def build_parser():
 
 
 def _join_flag_values(argv):
-    """`--cflags -O2` as `--cflags=-O2`: argparse would take a value starting with '-' for an
-    option, and compiler flags always start with one."""
-    out, it = [], iter(argv)
-    for a in it:
-        if a in ("--cflags", "--against-cflags"):
-            nxt = next(it, None)
-            out.append(a if nxt is None else f"{a}={nxt}")
+    """`--cflags -O2` as `--cflags=-O2`, `--align -Y+X+Z` as `--align=-Y+X+Z`: argparse would
+    take a value starting with '-' for an option; compiler flags always start with one, and
+    half of the alignments (a minus before an axis: no option of imufuse is -x, -y or -z)."""
+    out, i = [], 0
+    while i < len(argv):
+        a, nxt = argv[i], argv[i + 1] if i + 1 < len(argv) else None
+        if nxt is not None and (a in ("--cflags", "--against-cflags") or (
+                a == "--align" and nxt[:2].upper() in ("-X", "-Y", "-Z"))):
+            out.append(f"{a}={nxt}")
+            i += 2
         else:
             out.append(a)
+            i += 1
     return out
 
 
