@@ -6,6 +6,13 @@ first ``--learn`` s of movement), each trial, and the means.
 
     python research/soft_iron_study.py [--dir ../shared/data/broad] [--learn 60]
                                        [-p NAME=VALUE ...] [--backend c|reference]
+    python research/soft_iron_study.py --oracle     # what the recordings pin the offset to
+
+--oracle: per trial, the offset of the least-squares sphere through every reading of the
+undistorted recording (an offline oracle: the whole trial, no attitude, no model of B6's),
+the heading with that offset stored and B6 off against BROAD's own calibration (stored 0),
+and B6's final estimate with its claimed standard deviation. Any learnt offset is scored
+against a calibration the recording itself does not reproduce to better than about 1 uT.
 """
 import argparse
 
@@ -51,13 +58,47 @@ def score(d, q, learn):
     return e.inclination, e.heading
 
 
+def sphere(mag):
+    """The least-squares sphere |m - o| = r through the readings: (o, r)."""
+    m = np.asarray(mag, float)
+    x = np.linalg.lstsq(np.c_[2.0 * m, np.ones(len(m))], (m * m).sum(1), rcond=None)[0]
+    return x[:3], float(np.sqrt(x[3] + x[:3] @ x[:3]))
+
+
+def oracle(data, learn):
+    print("trial  sphere |o| uT (r)   heading: stored 0 / stored sphere   B6: |estimate| uT (sd)")
+    for name, d in data:
+        o, r = sphere(d["mag"])
+        dt = 1.0 / float(d["rate"])
+        heads = []
+        for stored in ((0.0, 0.0, 0.0), tuple(o)):
+            f = catalogue.make_filter("RobustAHRS", "c", "float64", dict(dt=dt, mag_learn=False))
+            f.set_mag_offset(stored)
+            q = catalogue.estimate(f, f.run(d["gyr"], d["acc"], d["mag"], outputs="q")).q
+            heads.append(score(d, q, learn)[1])
+        f = catalogue.make_filter("RobustAHRS", "c", "float64", dict(dt=dt))
+        f.run(d["gyr"], d["acc"], d["mag"], outputs="q")
+        est, sd = f.get_mag_offset()
+        # the estimate, used or not: the state's ix, iy, iz in units of m_n0
+        S = f.state
+        names = f.state_names
+        n0 = S[names.index("m_n0")]
+        e = np.array([S[names.index(k)] for k in ("ix", "iy", "iz")]) * n0
+        print(f"{name:5s}  {np.linalg.norm(o):6.2f} ({r:4.1f})        {heads[0]:5.2f} / {heads[1]:5.2f}"
+              f"                  {np.linalg.norm(e):5.2f} ({sd * n0:.2f})")
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--dir", default=DEFAULT_DIR)
     ap.add_argument("--learn", type=float, default=60.0)
     ap.add_argument("--backend", default="c")
     ap.add_argument("-p", action="append", default=[], help="RobustAHRS NAME=VALUE")
+    ap.add_argument("--oracle", action="store_true",
+                    help="the offset the recordings themselves pin (see the docstring)")
     a = ap.parse_args(argv)
+    if a.oracle:
+        return oracle(trials(a.dir), a.learn)
     params = {k: (float(v) if v not in ("True", "False") else v == "True")
               for k, v in (s.split("=", 1) for s in a.p)}
     data = trials(a.dir)

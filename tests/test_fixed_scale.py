@@ -227,10 +227,8 @@ KK_EDGE = EDGE32 + [s * ((1 << 28) + d) for s in (1, -1)
 
 @functools.lru_cache(maxsize=None)
 def _kk_short_exe():
-    import pathlib
     import subprocess
-    import tempfile
-    d = pathlib.Path(tempfile.mkdtemp(prefix="imf_kk_short_"))
+    d = cbuild.scratch_dir("imf_kk_short_")
     (d / "kk.c").write_text(KK_DRIVER)
     exe = d / "kk"
     subprocess.run(["gcc", *cbuild.CFLAGS, *(cbuild.UBSAN if cbuild.USE_UBSAN else []),

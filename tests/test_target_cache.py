@@ -12,6 +12,7 @@ import os
 import shutil
 import subprocess
 import sys
+import tempfile
 import textwrap
 
 import numpy as np
@@ -244,3 +245,26 @@ def test_concurrent_validations_of_one_key(tmp_path):
     assert (cache / "targets" / entry / "program.json").is_file()
     v = _validate(_fw(cache))
     assert v.bit_exact and v.timing["build_cached"] == 1.0
+
+
+def test_a_validation_leaves_no_build_behind(tmp_path, monkeypatch):
+    """Each validation's build directory is removed whatever the outcome: bit-exact (built,
+    then from the cache), refused after the build (a float32 firmware asked for float64: the
+    state's types are known only once built), or failed on the emulator. (Refused, a
+    validation left 2.5 MB in the temporary directory each time.)"""
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp))
+    cache = tmp_path / "cache"
+    assert _validate(_fw(cache)).bit_exact and _validate(_fw(cache)).bit_exact
+    params, ins = _log(50)
+    with pytest.raises(FirmwareError, match="float32 on the cortex-m4f, asked to compare with "
+                       "float64"):
+        validate(_fw(tmp_path / "c2"), "Complementary1D", params, ins, dtype="float64",
+                 target="cortex-m4f")
+    src = _copy(tmp_path)
+    (src / "inc2" / "fault.inc").write_text("{ extern void exit(int); if (s->n == 5u) exit(3); }\n")
+    with pytest.raises(FirmwareError, match=r"exit\(3\) at sample 4"):
+        _validate(_fw(tmp_path / "c3", src / "src" / "cf.c", (src / "inc", src / "inc2")), n=50)
+    # what stays is the cache of the harness's port objects, one per user
+    assert sorted(p.name for p in tmp.iterdir()) == [f"imf_fw_ports_{os.getuid()}"]

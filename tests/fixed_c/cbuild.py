@@ -1,6 +1,7 @@
 """Build and run the fixed-point C test drivers (gcc, optionally UBSan)."""
 from __future__ import annotations
 
+import atexit
 import functools
 import os
 import pathlib
@@ -106,9 +107,16 @@ def filter_driver_source() -> str:
     return "\n".join(out)
 
 
+def scratch_dir(prefix: str) -> pathlib.Path:
+    """A temporary directory for this process's builds, removed when the process ends."""
+    d = pathlib.Path(tempfile.mkdtemp(prefix=prefix))
+    atexit.register(shutil.rmtree, d, True)
+    return d
+
+
 @functools.lru_cache(maxsize=None)
 def build(driver: str, ubsan: bool = USE_UBSAN) -> pathlib.Path:
-    out = pathlib.Path(tempfile.mkdtemp(prefix="imf_fixed_")) / driver
+    out = scratch_dir("imf_fixed_") / driver
     src = HERE / f"{driver}.c"
     if driver == "filter_driver":
         src = out.with_suffix(".c")

@@ -341,53 +341,54 @@ def _validate_target(fw, name, params, inputs, backend, dtype, target, timeout, 
         prog = build_program(fw, target, e.kind, driver, row, flags, in_dtype)
     except (_tc.ToolchainMissing, TargetError) as err:
         raise FirmwareError(str(err)) from None
-    types = prog.types
-    integer = {t.integer for t in types}
-    if len(integer) > 1:
-        raise FirmwareError("state expressions mix integer and floating-point types on the "
-                            f"{target}")
-    integer_state = integer == {True}
-    if integer_state != e.fixed:
-        raise FirmwareError(
-            f"the firmware's state is {'integer' if integer_state else 'floating point'} on the "
-            f"{target}; {name}'s is {'integer' if e.fixed else 'floating point'}: compare an "
-            "integer firmware with a fixed-point filter (...Q)")
-    notes = [speed_note(target)]
-    arch = [f for f in flags if f.startswith(("-mcpu", "-mfpu", "-mfloat-abi", "-mmcu", "-march"))]
-    if arch:
-        tgt_flags = " ".join(_tc.TARGETS[harness_target(target)].arch_flags)
-        notes.append(f"your --cflags set the architecture ({' '.join(arch)}) after the "
-                     f"target's ({tgt_flags}); the emulator models the {target}")
-    if not integer_state:
-        sizes = {t.size for t in types}
-        if len(sizes) > 1:
-            raise FirmwareError(f"state expressions must all be float or all double; sizes "
-                                f"{sorted(sizes)} on the {target}")
-        fw_dtype = "float32" if sizes == {4} else "float64"
-        if dtype and dtype != fw_dtype:
-            raise FirmwareError(f"the firmware's state is {fw_dtype} on the {target}, asked to "
-                                f"compare with {dtype}")
-        dtype = fw_dtype
-        if np.dtype(dtype) != prog.in_dtype:
-            shutil.rmtree(prog.workdir, ignore_errors=True)
-            try:
-                prog = build_program(fw, target, e.kind, driver, row, flags, np.dtype(dtype))
-            except TargetError as err:
-                raise FirmwareError(str(err)) from None
-        if target == "atmega328p":
-            if any(t.double for t in types):
-                notes.append("the firmware's state is declared double, which avr-gcc makes 32 "
-                             "bits: it is compared with imufuse in float32")
-            # what the host compiler (64-bit double) says about the same sources
-            host = [os.environ.get("CC", "cc"), *_strip_arch(flags), *_defs_incs(fw)]
-            promo = double_promotions(host, fw.sources, prog.workdir)
-            if promo:
-                notes.append("the firmware computes in double at " + ", ".join(promo[:4]) +
-                             (f" (+{len(promo) - 4} more)" if len(promo) > 4 else "") +
-                             ": avr-gcc's double is 32 bits, so here that is float32 arithmetic; "
-                             "built where double is 64 bits (Cortex-M4F, a PC) it rounds "
-                             "differently (-fsingle-precision-constant or float literals 0.5f)")
+    # every refusal below, and the comparison, leave no build behind
     try:
+        types = prog.types
+        integer = {t.integer for t in types}
+        if len(integer) > 1:
+            raise FirmwareError("state expressions mix integer and floating-point types on the "
+                                f"{target}")
+        integer_state = integer == {True}
+        if integer_state != e.fixed:
+            raise FirmwareError(
+                f"the firmware's state is {'integer' if integer_state else 'floating point'} on the "
+                f"{target}; {name}'s is {'integer' if e.fixed else 'floating point'}: compare an "
+                "integer firmware with a fixed-point filter (...Q)")
+        notes = [speed_note(target)]
+        arch = [f for f in flags if f.startswith(("-mcpu", "-mfpu", "-mfloat-abi", "-mmcu", "-march"))]
+        if arch:
+            tgt_flags = " ".join(_tc.TARGETS[harness_target(target)].arch_flags)
+            notes.append(f"your --cflags set the architecture ({' '.join(arch)}) after the "
+                         f"target's ({tgt_flags}); the emulator models the {target}")
+        if not integer_state:
+            sizes = {t.size for t in types}
+            if len(sizes) > 1:
+                raise FirmwareError(f"state expressions must all be float or all double; sizes "
+                                    f"{sorted(sizes)} on the {target}")
+            fw_dtype = "float32" if sizes == {4} else "float64"
+            if dtype and dtype != fw_dtype:
+                raise FirmwareError(f"the firmware's state is {fw_dtype} on the {target}, asked to "
+                                    f"compare with {dtype}")
+            dtype = fw_dtype
+            if np.dtype(dtype) != prog.in_dtype:
+                shutil.rmtree(prog.workdir, ignore_errors=True)
+                try:
+                    prog = build_program(fw, target, e.kind, driver, row, flags, np.dtype(dtype))
+                except TargetError as err:
+                    raise FirmwareError(str(err)) from None
+            if target == "atmega328p":
+                if any(t.double for t in types):
+                    notes.append("the firmware's state is declared double, which avr-gcc makes 32 "
+                                 "bits: it is compared with imufuse in float32")
+                # what the host compiler (64-bit double) says about the same sources
+                host = [os.environ.get("CC", "cc"), *_strip_arch(flags), *_defs_incs(fw)]
+                promo = double_promotions(host, fw.sources, prog.workdir)
+                if promo:
+                    notes.append("the firmware computes in double at " + ", ".join(promo[:4]) +
+                                 (f" (+{len(promo) - 4} more)" if len(promo) > 4 else "") +
+                                 ": avr-gcc's double is 32 bits, so here that is float32 arithmetic; "
+                                 "built where double is 64 bits (Cortex-M4F, a PC) it rounds "
+                                 "differently (-fsingle-precision-constant or float literals 0.5f)")
         return _finish_target(fw, name, params, inputs, backend, dtype, target, timeout, explain,
                               flags, prog, types, integer_state, notes, order, names, row, e)
     finally:
