@@ -112,3 +112,29 @@ def test_tune_and_latency_take_the_preprocessing(tmp_path):
     assert p.returncode != 0 and "does not follow the reference's rates" in p.stderr, p.stderr
     grid = ("-f", "MadgwickIMU", "--grid", "beta=0.05,0.1", "--refine", "0", "-q")
     assert tail("tune", str(turned), *grid, "--align=-Y+X+Z") == tail("tune", src, *grid)
+
+
+def test_compare_refuses_a_parameter_value_as_run_does():
+    """A value given with -p that the filter refuses is the user's mistake: compare left the
+    filter out of the table ("skipped: ...") and exited 0 beside another filter, or 4 ("no
+    filter could run on this log") alone, where run exits 2 naming the value."""
+    for fl in ("RobustIMU", "RobustIMU,MadgwickIMU"):
+        r = imf_here("compare", example_log(), "-f", fl, "-p", "RobustIMU.latency=-0.0025")
+        assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
+        assert "RobustIMU: latency: must be finite and 0.0 <= latency <= 0.1, got -0.0025" \
+            in r.stderr, r.stderr
+    r = imf_here("compare", example_log(), "-f", "RobustIMU,MadgwickIMU", "-p",
+                 "RobustIMU.latency=0.002")
+    assert r.returncode == 0 and "skipped" not in r.stdout, r.stdout
+
+
+def test_compare_help_names_the_fusion_it_runs():
+    """compare --help said its default includes "FusionAHRS" (the 1.2.3 port); the table
+    runs FusionAHRS13."""
+    text = " ".join(imf_here("compare", "--help").stdout.split())
+    assert "x-io Fusion's current release (FusionAHRS13; FusionAHRS, its 1.2.3 port, when " \
+           "named)" in text, text
+    r = imf_here("compare", example_log())
+    assert r.returncode == 0, r.stderr
+    rows = {ln.split()[0] for ln in r.stdout.splitlines() if ln.startswith("Fusion")}
+    assert rows == {"FusionAHRS13"}, r.stdout

@@ -124,12 +124,19 @@ def test_preprocess_order_and_values(log_path):
     ({"magnetometer": {"S": [[1, 0], [0, 1]]}}, r"magnetometer\.S: expected shape"),
     ({"accelerometer": {"s": [1, "x", 1]}}, r"accelerometer\.s: expected numbers"),
     ({"accelerometer": {"b": [1, float("nan"), 1]}}, "finite"),
+    # an offset written in deg/s (x-io's unit) was applied as rad/s: 63 deg of tilt
+    ({"gyroscope": {"b": [3, -2, 3]}}, r"gyroscope\.b: \[3\.0, -2\.0, 3\.0\] rad/s is "
+     r"\[171\.9, -114\.6, 171\.9\] deg/s, beyond .* they read \[0\.0524, -0\.0349, "
+     r"0\.0524\] rad/s"),
 ])
 def test_calibration_file_errors(tmp_path, data, match):
     p = tmp_path / "bad.json"
     p.write_text(json.dumps(data))
     with pytest.raises(cm.CalibrationError, match=match):
         cm.load_calibration(p)
+    with pytest.raises(cm.CalibrationError, match=match):
+        cm.save_calibration(tmp_path / "not-written.json", data)
+    assert not (tmp_path / "not-written.json").exists()
 
 
 def test_calibration_file_roundtrip_and_cli_errors(tmp_path, log_path):

@@ -88,6 +88,20 @@ def test_accelerometer_counts_are_named(tmp_path, motion, counts_per_g, unit):
     assert not any("raw sensor counts?" in w for w in log.warnings), log.warnings
 
 
+@pytest.mark.parametrize("counts_per_dps", [131.0, 65.5])
+def test_gyroscope_counts_are_named(tmp_path, motion, counts_per_dps):
+    """Raw gyro counts (131 per deg/s at +-250 deg/s, 65.5 at +-500) with --gyr-unit deg/s
+    given: the note said "read as rad/s (given): these look like deg/s; give --gyr-unit
+    deg/s", the option the user had given."""
+    t = np.arange(len(motion.gyr)) * motion.dt
+    rows = np.column_stack([t, np.degrees(motion.gyr) * counts_per_dps, motion.acc])
+    log = read_log(_csv(tmp_path / "c.csv", ["time", "gyr_x", "gyr_y", "gyr_z", "acc_x", "acc_y",
+                                             "acc_z"], rows), gyr_unit="deg/s")
+    notes = [w for w in log.warnings if "gyroscope passes" in w]
+    assert len(notes) == 1 and "after converting from deg/s (given): raw sensor counts? scale " \
+        "them to deg/s or rad/s first" in notes[0] and "--gyr-unit" not in notes[0], notes
+
+
 def test_time_in_ms(tmp_path, motion):
     t = np.arange(len(motion.gyr)) * motion.dt * 1000.0
     rows = np.column_stack([t, motion.gyr, motion.acc])

@@ -176,3 +176,51 @@ def test_tune_takes_folders_and_patterns_as_compare(good):
         assert (r.returncode, r.stdout) == (0, want.stdout), r.stderr
     r = imf_here("tune", good.parent / "none*.csv", *args)
     assert r.returncode == 3 and "no file matches" in r.stderr, r.stderr
+
+
+def test_a_grid_too_large_is_refused_before_it_is_built(good):
+    """RobustAHRS's default grid was every one of its 18 gains at 9 points: 1.5e17 sets,
+    built as a list before the first ran (23 GB, then the kernel's OOM killer). A grid of
+    more than MAX_SETS sets, or a refinement round of more, is a usage error naming its
+    size, before any set runs."""
+    from imufuse.tune import MAX_SETS, Tuner
+    t = Tuner([str(good)], "RobustAHRS")
+    names = ["tau_acc", "rate_ref", "tau_bias", "rest_acc", "tau_mag", "mag_noise", "mag_lag",
+             "tau_rest"]
+    with pytest.raises(ValueError, match=r"tune: 1\.68e\+07 parameter sets in the grid "
+                       r"\(8 tau_acc x 8 rate_ref .* at most 100000"):
+        t.search([(k, list(np.geomspace(0.5, 2.0, 8))) for k in names])
+    # 4 values each are 65 536 sets, but each refinement round would be 5^8 = 390 625
+    with pytest.raises(ValueError, match=r"3\.91e\+05 in each refinement round; .*, or "
+                       r"--refine 0$"):
+        t.search([(k, list(np.geomspace(0.5, 2.0, 4))) for k in names])
+    assert MAX_SETS == 100_000
+
+
+def test_the_default_grid_of_many_gains_varies_the_three_that_matter(good):
+    """Without --grid, of RobustAHRS's gains the three whose /10 and x10 (one at a time) move
+    the score most; a note names them and the ones left at their values. The three are the
+    largest one-at-a-time score changes, computed here independently with Session."""
+    from imufuse.session import Session
+    from imufuse.tune import Tuner
+    r = imf_here("tune", good, "-f", "RobustIMU", "--refine", "0", "--points", "3")
+    assert r.returncode == 0, r.stderr
+    m = re.search(r"note: the default grid varies the 3 parameters of RobustIMU whose /10 and "
+                  r"x10 move the inclination most on these logs \(([a-z_, ]+)\); ([a-z_, ]+) "
+                  r"keep their values: give --grid to choose", r.stderr)
+    assert m, r.stderr
+    kept, left = m.group(1).split(", "), m.group(2).split(", ")
+    header = next(ln for ln in r.stdout.splitlines() if "inclination" in ln and "good" in ln)
+    assert header.split()[:3] == kept
+    # 3 values of 3 parameters: 27 sets, refined 0 times
+    assert "27 parameter sets" in r.stdout, r.stdout
+    s = Session(str(good))
+    defaults = Tuner([s], "RobustIMU")._effective()
+
+    def score(**kw):
+        return s.score(s.run("RobustIMU", kw)).inclination
+
+    base = score()
+    moved = {k: max(abs(score(**{k: defaults[k] * f}) - base) for f in (0.1, 10.0))
+             for k in kept + left}
+    assert min(moved[k] for k in kept) >= max(moved[k] for k in left), moved

@@ -197,7 +197,8 @@ def compare_log(session: Session, filters: Optional[Sequence[str]] = None,
                 progress: Optional[Progress] = None, keep_runs: bool = False) -> LogComparison:
     """Every filter of ``filters`` (default: `default_filters`) on the session's log, with
     its parameters ``params`` ({filter: {name: value}}), each keeping only its estimate. A
-    filter that cannot run on the log is a result with note "skipped: why". Under the
+    filter that cannot run on the log is a result with note "skipped: why"; a value of
+    ``params`` the filter refuses raises its FilterError. Under the
     session's strict option a frame hint is a StrictError. keep_runs: keep each Run (its
     estimate) and the session, for plots."""
     log = session.log
@@ -215,6 +216,10 @@ def compare_log(session: Session, filters: Optional[Sequence[str]] = None,
             out.results[n] = FilterResult(n, kind, note=f"skipped: {str(e).split(': ', 1)[-1]}")
             continue
         except FilterError as e:
+            # a value the user gave that the filter refuses is the user's mistake, not the
+            # log's: it stops the comparison (the command line's usage error), as `run`
+            if any(str(e).startswith(f"{n}: {k}:") for k in params.get(n, {})):
+                raise
             out.results[n] = FilterResult(n, kind, note=f"skipped: {e}")
             continue
         out.time = out.time or r.time

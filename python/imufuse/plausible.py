@@ -219,7 +219,15 @@ def check_log(log, rate: Optional[float] = None, file_rate: Optional[float] = No
                        "measures in any unit: corrupt samples? the filters take them as they "
                        "are")
         w = w[np.isfinite(w) & ~(w > GYRO_ABSURD_RAD_S)]    # corrupt samples said above
-        if w.size and float(np.percentile(w, 99)) > MAX_GYRO_RAD_S:
+        if w.size and float(np.percentile(w, 99)) > MAX_GYRO_RAD_S and gyr_unit not in (
+                None, "rad/s"):
+            # already converted from deg/s: larger still than any range, so sensor counts
+            out.append(f"the gyroscope passes {MAX_GYRO_RAD_S:g} rad/s (2000 deg/s, the largest "
+                       f"MEMS range) in over 1 % of the samples after converting from "
+                       f"{gyr_unit} ({_unit_from(gyr_from)}): raw sensor counts? scale them to "
+                       "deg/s or rad/s first (the datasheet's counts per deg/s, e.g. 16.4 at "
+                       "+-2000 deg/s)")
+        elif w.size and float(np.percentile(w, 99)) > MAX_GYRO_RAD_S:
             out.append(f"the gyroscope passes {MAX_GYRO_RAD_S:g} rad/s (2000 deg/s, the largest "
                        f"MEMS range) in over 1 % of the samples, read as rad/s "
                        f"({_unit_from(gyr_from)})"

@@ -45,6 +45,13 @@ __all__ = ["Tuner", "TuneResult", "grid_spec", "Grid"]
 
 Grid = List[Tuple[str, List[float]]]
 
+#: the most parameter sets the grid, or one refinement round, may have: beyond it the search
+#: would not end (RobustAHRS's 18 parameters at 9 points each: 1.5e17 sets)
+MAX_SETS = 100_000
+#: the default grid varies at most this many parameters (the ones whose /10 and x10 move the
+#: score most); the others keep their values
+DEFAULT_MOST = 3
+
 
 def grid_spec(text: str) -> Tuple[str, List[float]]:
     """'beta=0.01:1:12' (log-spaced), 'beta=0.01:1:12lin', 'beta=0.02,0.05,0.1' ->
@@ -137,6 +144,10 @@ class Tuner:
         self._sessions: Dict[int, Session] = {}
         self._refs: Optional[list] = None
         self._inputs: Optional[list] = None
+        #: the parameters default_grid left at their values: those that moved the score least,
+        #: and those that do nothing with these settings
+        self.left_out: List[str] = []
+        self.idle_out: List[str] = []
         if is_fusion(name):
             self.batch = False          # Fusion has no compiled batch: sets scored in Python
 
@@ -176,8 +187,12 @@ class Tuner:
         return effective_params(self.name, resolve_params(self.name, 0.01, over,
                                                           self.run_options.preset))
 
-    def default_grid(self, points: int) -> Grid:
-        """Every positive float parameter with a default, /10 .. x10 around it, log-spaced."""
+    def default_grid(self, points: int, most: int = DEFAULT_MOST) -> Grid:
+        """Every positive float parameter with a default that acts with these settings
+        (the others in ``self.idle_out``), /10 .. x10 around it, log-spaced; of more than
+        ``most``, the ``most`` whose /10 and x10 (one at a time) move the score furthest
+        from the defaults' on the logs (the others, by that order, in ``self.left_out``).
+        Empty when none acts."""
         eff = self._effective()
         grid = [(k, list(np.geomspace(v / 10, v * 10, points))) for k, v in eff.items()
                 if k not in ("dt", "sample_rate") and k not in self.fixed
@@ -185,6 +200,26 @@ class Tuner:
         if not grid:
             raise ValueError(f"tune: {self.name} has no positive float parameter to tune; "
                              "give --grid")
+        # what does nothing with these settings (acc_1g with the gate off) goes first
+        self.idle_out = self.idle(grid)
+        grid = [(k, v) for k, v in grid if k not in self.idle_out]
+        self.left_out = []
+        if len(grid) > most:
+            base = self.score_set([], [])[0]
+            moved = {}
+            for k, vals in grid:
+                d = 0.0
+                for v in (vals[0], vals[-1]):
+                    try:
+                        sc = self.score_set([k], [v])[0]
+                    except FilterError:
+                        continue                  # a value the filter refuses says nothing
+                    if math.isfinite(sc):
+                        d = max(d, abs(sc - base))
+                moved[k] = d
+            order = sorted(moved, key=lambda k: -moved[k])
+            self.left_out = order[most:]
+            grid = [(k, v) for k, v in grid if k in order[:most]]
         return grid
 
     def idle(self, grid: Grid, samples: int = 4000, *, own_values: bool = False) -> List[str]:
@@ -289,6 +324,15 @@ class Tuner:
         concurrent.futures.Executor; progress counts logs done)."""
         names = [k for k, _ in grid]
         self._effective({k: v[0] for k, v in grid})                      # names exist
+        sets = math.prod(len(v) for _, v in grid)
+        per_round = 5 ** sum(len(set(v)) > 1 for _, v in grid) if refine else 0
+        if max(sets, per_round) > MAX_SETS:
+            raise ValueError(
+                f"tune: {sets:.3g} parameter sets in the grid "
+                f"({' x '.join(f'{len(v)} {k}' for k, v in grid)})"
+                + (f", {per_round:.3g} in each refinement round" if per_round > MAX_SETS else "")
+                + f"; at most {MAX_SETS}: give --grid for the parameters to tune (fewer values)"
+                + (", or --refine 0" if sets <= MAX_SETS else ""))
         res = TuneResult(names, self.metric)
         workers = max(1, jobs or os.cpu_count() or 1)
 
@@ -322,7 +366,8 @@ class Tuner:
                 vs = sorted({p[j] for p in res.results})
                 i = vs.index(best[j])
                 lo, hi = vs[max(i - 1, 0)], vs[min(i + 1, len(vs) - 1)]
-                axes.append(np.geomspace(lo, hi, 5) if lo > 0 else np.linspace(lo, hi, 5))
+                axes.append([lo] if lo == hi else
+                            np.geomspace(lo, hi, 5) if lo > 0 else np.linspace(lo, hi, 5))
             new = [tuple(float(x) for x in p) for p in itertools.product(*axes)]
             run([p for p in new if p not in res.results])
         if res.best is None:

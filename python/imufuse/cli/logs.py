@@ -380,7 +380,8 @@ def add_parsers(sub):
                         "log's table, then the mean over the logs of each filter's RMS errors")
     c.add_argument("--filter", "-f", dest="filters", action="append", metavar="NAME[,NAME]",
                    help="filters to compare (default: every 3D filter the (first) log can "
-                        "feed, FusionAHRS included, or the single-axis ones when there are "
+                        "feed and x-io Fusion's current release (FusionAHRS13; FusionAHRS, its 1.2.3 "
+                        "port, when named), or the single-axis ones when there are "
                         "none); "
                         "--param FILTER.NAME=V sets one filter's parameter")
     c.add_argument("--plot", metavar="PNG",

@@ -42,11 +42,14 @@ def _tune(args):
             # the default grid leaves out what does nothing with these settings (acc_1g with
             # the gate off) without a word: nobody asked for it
             grids = t.default_grid(args.points)
-            idle = t.idle(grids)
-            grids = [(k, v) for k, v in grids if k not in idle]
             if not grids:
                 raise UsageError(f"tune: no parameter of {args.filter} acts with these "
-                                 f"settings ({', '.join(idle)} do nothing); give --grid")
+                                 f"settings ({', '.join(t.idle_out)} do nothing); give --grid")
+            if t.left_out:
+                err(f"note: the default grid varies the {len(grids)} parameters of "
+                    f"{args.filter} whose /10 and x10 move the {t.metric} most on these logs "
+                    f"({', '.join(k for k, _ in grids)}); {', '.join(t.left_out)} keep their "
+                    "values: give --grid to choose")
         else:
             idle = t.idle(grids, own_values=True)
             if idle:
@@ -110,7 +113,8 @@ def add_parsers(sub):
     t.add_argument("--filter", "-f", required=True, type=canonical_name)
     t.add_argument("--grid", "-g", action="append", metavar="NAME=LO:HI:N[lin]|V1,V2,..",
                    help="values of a parameter (repeatable; log-spaced unless 'lin'); default: "
-                        "every gain that acts, /10 .. x10 around its default")
+                        "every gain that acts, /10 .. x10 around its default; of more than 3, "
+                        "the 3 whose /10 and x10 move the score most on the logs")
     t.add_argument("--points", type=positive(int, 1000), default=9,
                    help="grid points per parameter for the default grid (default 9)")
     t.add_argument("--refine", type=nonneg_int, default=2,

@@ -11,7 +11,8 @@ Magnetic model  m_c = S (m_u - h)     (S soft-iron matrix, h hard-iron offset)
 
 Units: those in which imufuse reads a log (imufuse.io, after --gyr-unit and
 --acc-unit), as `imufuse calibrate` (imufuse.calibration.log) writes the file:
-gyroscope b in rad/s, accelerometer b in g, magnetometer h in the
+gyroscope b in rad/s (at most GYR_OFFSET_MAX, 1 rad/s, per axis: a larger one is a file
+written in deg/s, refused), accelerometer b in g, magnetometer h in the
 magnetometer's unit; M, s and S are dimensionless. (The models are linear: a
 caller working in Fusion's deg/s converts b by 180/pi.) The models are
 evaluated by imufuse_c.calibrate_inertial / calibrate_magnetic (C, in
@@ -37,6 +38,9 @@ from ..reference import fusion
 SENSORS = {"gyroscope": ("M", "s", "b"), "accelerometer": ("M", "s", "b"),
            "magnetometer": ("S", "h")}
 SHAPES = {"M": (3, 3), "S": (3, 3), "s": (3,), "b": (3,), "h": (3,)}
+#: the largest gyroscope offset a file may hold, rad/s (57 deg/s; MEMS parts' zero-rate
+#: offsets are specified up to tens of deg/s): beyond it, the file was written in deg/s
+GYR_OFFSET_MAX = 1.0
 IDENTITY = {"M": np.eye(3), "S": np.eye(3), "s": np.ones(3), "b": np.zeros(3), "h": np.zeros(3)}
 
 
@@ -119,6 +123,13 @@ def from_dict(data, source=""):
                                                       f"{SHAPES[k]}, got {arr.shape}"))
             if not np.all(np.isfinite(arr)):
                 raise CalibrationError(_where(source, f"{sensor}.{k}: values must be finite"))
+            if sensor == "gyroscope" and k == "b" and np.abs(arr).max() > GYR_OFFSET_MAX:
+                raise CalibrationError(_where(source, (
+                    f"gyroscope.b: {arr.tolist()} rad/s is "
+                    f"{np.round(np.degrees(arr), 1).tolist()} deg/s, beyond any gyroscope's "
+                    f"zero-rate offset (at most {GYR_OFFSET_MAX:g} rad/s here); the file's "
+                    f"offsets are in rad/s: written in deg/s (as x-io's calibrations are), "
+                    f"they read {np.round(np.radians(arr), 4).tolist()} rad/s")))
             params[k] = arr
         setattr(cal, sensor, params)
     return cal
