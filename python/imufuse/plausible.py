@@ -25,13 +25,14 @@ tests check the shipped example and logs in those layouts).
 """
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Tuple
 
 import numpy as np
 
-__all__ = ["check_log", "gyro_scale", "GyroScale"]
+__all__ = ["check_log", "gyro_scale", "gyro_axes", "gyro_axes_note", "GyroScale"]
 
 G = 9.80665
 MAX_GYRO_RAD_S = 35.0          # 2000 deg/s, the largest range of common MEMS gyros
@@ -47,6 +48,11 @@ TURN_MIN_WINDOWS = 8           # windows that count, per sensor, for a verdict
 TURN_RATIO = 10.0              # a ratio beyond this is deg/s read as rad/s (57.3)
 TURN_AGREE = 0.5               # median cosine between the turns given and measured
 TURN_MAX_SAMPLES = 200_000     # a longer log: 40 stretches of 5000 samples spread over it
+# the gyroscope's axes (gyro_axes): a signed permutation of them agrees with every sensor's
+# turns to this median cosine, and by this much more than the axes as read (a simulated
+# sensor 0.999 or more; on the BROAD trials no other mapping reaches 0.96)
+AXES_AGREE = 0.98
+AXES_GAIN = 0.1
 
 
 def _median_norm(a: np.ndarray) -> float:
@@ -102,6 +108,133 @@ def _turns(gyr, vec, dts, ok, w, step, h):
     with np.errstate(all="ignore"):
         cos = np.einsum("ij,ij->i", given, measured) / (p * m)
     return p, m, np.nan_to_num(cos)
+
+
+def _signed_permutations() -> List[np.ndarray]:
+    """The 48 matrices that permute and negate three axes, the identity first."""
+    out = []
+    for perm in itertools.permutations(range(3)):
+        for signs in itertools.product((1.0, -1.0), repeat=3):
+            P = np.zeros((3, 3))
+            P[np.arange(3), perm] = signs
+            out.append(P)
+    return out
+
+
+def _axes_cosines(gyr, vec, dts, ok, w, step, h, perms) -> Optional[Tuple[np.ndarray, int]]:
+    """(the median cosine of _turns for the gyro read as P w, each P of perms; the windows)
+    over the windows where vec's direction turns by TURN_MIN or more; None with fewer than
+    TURN_MIN_WINDOWS of them. u x (P w) = sum over k, a of P[k, a] w_a (u x e_k): the nine
+    window sums of w_a (u x e_k) dt, once, give every P's."""
+    n = len(vec)
+    u = _unit(vec)
+    ok = ok & np.isfinite(u).all(axis=1)
+    u = np.where(ok[:, None], u, 0.0)
+    wd = np.where(ok[:, None], gyr, 0.0) * np.where(ok, dts, 0.0)[:, None]
+    zero = np.zeros((1, 3))
+    usum = np.concatenate([zero, np.cumsum(u, axis=0)])
+    bad = np.concatenate([[0], np.cumsum(~ok)])
+    i = np.arange(h, n - w - h, step)
+    j = i + w
+    if i.size:
+        clean = bad[j + h + 1] == bad[i - h]
+        i, j = i[clean], j[clean]
+    measured = _unit(usum[j + h + 1] - usum[j - h]) - _unit(usum[i + h + 1] - usum[i - h])
+    m = np.linalg.norm(measured, axis=1)
+    sel = m >= TURN_MIN
+    if int(sel.sum()) < TURN_MIN_WINDOWS:
+        return None
+    i, j, measured, m = i[sel], j[sel], measured[sel], m[sel]
+    part = {}
+    for k in range(3):
+        uk = np.cross(u, np.eye(3)[k])
+        for a in range(3):
+            cs = np.concatenate([zero, np.cumsum(uk * wd[:, a:a + 1], axis=0)])
+            part[k, a] = cs[j + 1] - cs[i + 1]
+    out = np.empty(len(perms))
+    for q, P in enumerate(perms):
+        given = sum(P[k, a] * part[k, a] for k in range(3) for a in range(3) if P[k, a] != 0)
+        with np.errstate(all="ignore"):
+            cos = np.einsum("ij,ij->i", given, measured) / (np.linalg.norm(given, axis=1) * m)
+        out[q] = float(np.median(np.nan_to_num(cos)))
+    return out, int(sel.sum())
+
+
+def gyro_axes(gyr: np.ndarray, acc: np.ndarray, mag: Optional[np.ndarray] = None,
+              dts=None, breaks: Optional[np.ndarray] = None
+              ) -> Optional[Tuple[np.ndarray, float, float, int]]:
+    """(P, cosine with P, cosine as read, windows) when the gyroscope read through a signed
+    permutation P of its axes (P w: a gyro wired, or declared, with other axes than the
+    accelerometer's) turns the directions of the accelerometer and the magnetometer as
+    they turn, the median cosine over the windows of gyro_scale where they turn by
+    TURN_MIN at least AXES_AGREE for each sensor, and AXES_GAIN above the axes as read;
+    else None. The cosine does not depend on the unit."""
+    gyr, dts = np.asarray(gyr, float), np.asarray(dts, float)
+    n = len(gyr)
+    with np.errstate(all="ignore"):
+        med = float(np.median(dts[np.isfinite(dts) & (dts > 0)])) if n else math.nan
+    if not (med > 0 and math.isfinite(med)) or n < 8:
+        return None
+    w = max(2, int(round(TURN_WINDOW / med)))
+    h = max(1, int(round(0.01 / med)))
+    ok = np.isfinite(gyr).all(axis=1) & np.isfinite(dts) & (dts > 0) & (dts <= 3.0 * med)
+    if breaks is not None:
+        ok[np.asarray(breaks, dtype=np.int64)] = False
+    perms = _signed_permutations()
+    worst, windows = None, 0                     # per P, the smallest median over the sensors
+    for vec in (acc, mag):
+        if vec is None:
+            continue
+        got = _axes_cosines(gyr, np.asarray(vec, float), dts, ok, w, max(1, w // 4), h, perms)
+        if got is None:
+            continue                             # too few turns of this sensor
+        worst = got[0] if worst is None else np.minimum(worst, got[0])
+        windows = max(windows, got[1])
+    if worst is None:
+        return None
+    best = int(np.argmax(worst))
+    if best == 0 or worst[best] < AXES_AGREE or worst[best] - worst[0] < AXES_GAIN:
+        return None
+    return perms[best], float(worst[best]), float(worst[0]), windows
+
+
+AXES_NOTE = "the gyroscope's axes disagree"
+
+
+def _axes_note(gyr, acc, mag, dts, breaks, applied=None) -> Optional[str]:
+    axes = gyro_axes(gyr, acc, mag, dts, breaks)
+    if axes is None:
+        return None
+    P, good, bad, k = axes
+    name = ", ".join(("-" if P[i].sum() < 0 else "") + "xyz"[int(np.abs(P[i]).argmax())]
+                     for i in range(3))
+    which = "the accelerometer" + ("" if mag is None else " and the magnetometer")
+    if applied is None:
+        fix = f"give a calibration file whose gyroscope.M is {P.astype(int).tolist()}"
+    else:   # the gyro as calibrated (M s (w - b)): M becomes P M
+        fix = (f"set the calibration file's gyroscope.M to "
+               f"{(np.round(P @ np.asarray(applied, float), 6) + 0.0).tolist()} (its M, then "
+               "that mapping)")
+    return (f"{AXES_NOTE} with the turns of {which} (median cosine {bad:.2f} over {k} windows "
+            f"of {TURN_WINDOW:g} s); read as ({name}) they agree ({good:.3f}): a gyro wired or "
+            f"declared with other axes? {fix} (imufuse run --calibration)")
+
+
+def gyro_axes_note(log, applied=None) -> Optional[str]:
+    """The note of gyro_axes on the log's columns as they are now, or None; applied: the
+    gyroscope.M of the calibration they were calibrated with (imufuse.session), which the
+    note's fix composes with."""
+    cols = log.columns
+    if log.dt is None or not all(f"{k}_{a}" in cols for k in ("gyr", "acc") for a in "xyz"):
+        return None
+    dts = log.dts if log.dts is not None else np.full(len(log), float(log.dt))
+    take, breaks = _stretches(len(log)) if len(log) > TURN_MAX_SAMPLES else (slice(None), None)
+
+    def sensor(k):
+        return np.column_stack([cols[f"{k}_{a}"][take] for a in "xyz"])
+    mag = sensor("mag") if all(f"mag_{a}" in cols for a in "xyz") else None
+    return _axes_note(sensor("gyr"), sensor("acc"), mag, np.asarray(dts)[take], breaks,
+                      applied)
 
 
 def _stretches(n: int, block: int = 5000) -> Tuple[np.ndarray, np.ndarray]:
@@ -287,6 +420,10 @@ def _gyro_against_directions(log, unit, source, rate, file_time) -> List[str]:
     mag = sensor("mag") if all(f"mag_{a}" in cols for a in "xyz") else None
     res = gyro_scale(sensor("gyr"), sensor("acc"), mag, dts=None if dts is None else dts[take],
                      breaks=breaks, too_small=too_small)
+    if dts is not None and res.sensors and min(c for _, _, c in res.sensors.values()) < AXES_AGREE:
+        note = _axes_note(sensor("gyr"), sensor("acc"), mag, dts[take], breaks)
+        if note:
+            return [note]
     if not (res.ratio < 1.0 / TURN_RATIO if too_small else res.ratio > TURN_RATIO):
         return []
     what = " and ".join({"acc": "the accelerometer's", "mag": "the magnetometer's"}[k]

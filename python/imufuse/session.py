@@ -31,7 +31,7 @@ import numpy as np
 
 import imufuse_c
 
-from . import io, preprocess, reference
+from . import io, plausible, preprocess, reference
 from .catalogue import (ALL_ENTRIES, FUSION_AHRS, FilterError, estimate, make_filter, reference_class,
                         resolve_params, why_no_estimate)
 from .shared.estimate import Estimate
@@ -339,13 +339,22 @@ class Session:
                             rate=read.rate, columns=dict(read.columns),
                             fixed_rate=read.fixed_rate, time_unit=read.time_unit,
                             need_time=read.need_time)
+        # --calibration, --align, --offset, in this order
+        done = preprocess.apply(self.log, calibration=read.calibration, align=read.align,
+                                offset=read.offset, backend=read.backend)
+        if any(n.startswith("gyroscope calibrated") for n in done):
+            # the gyroscope's axes as calibrated (a file mapping them, as the note says)
+            lg = self.log
+            lg.suspicions = [w for w in lg.suspicions if not w.startswith(plausible.AXES_NOTE)]
+            lg.warnings = [w for w in lg.warnings if not w.startswith(plausible.AXES_NOTE)]
+            applied = preprocess.load_calibration(read.calibration).params("gyroscope")["M"]
+            note = plausible.gyro_axes_note(lg, applied)
+            if note:
+                lg.suspicions.append(note)
+                lg.warnings.append(note)
         if read.strict and self.log.suspicions:
             raise StrictError(f"{self.log.path}: {self.log.suspicions[0]} (--strict)")
-        self.notes += self.log.warnings
-        # --calibration, --align, --offset, in this order
-        self.notes += preprocess.apply(self.log, calibration=read.calibration,
-                                       align=read.align, offset=read.offset,
-                                       backend=read.backend)
+        self.notes += self.log.warnings + done
 
     # ---- what the log offers
     def inputs(self, name: str, axis: str = "x") -> Tuple[Tuple[np.ndarray, ...], str]:
