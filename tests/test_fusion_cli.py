@@ -224,3 +224,27 @@ def test_calibration_file_from_imufuse_calibrate(tmp_path, log_path):
     log = io.read_log(str(path))
     preprocess.apply(log, calibration=str(cal_path))
     assert np.abs(log.gyr.mean(axis=0)).max() < 1e-4
+
+
+def test_offset_says_when_it_corrected_nothing(tmp_path):
+    """--offset with a gyro offset beyond FusionOffset's 3 deg/s stillness threshold said
+    "final offset 0.000, 0.000, 0.000 deg/s" and nothing more: the note says it never found
+    the gyroscope still and what corrects such an offset; with 1 deg/s it corrects it."""
+    from imufuse import sim
+    from imufuse.session import ReadOptions, Session
+    d = sim.imu("static", rate=100.0, duration=20.0, seed=1)
+    for bias, corrected in ((4.0, False), (1.0, True)):
+        p = tmp_path / f"b{bias:g}.csv"
+        io.write_log(p, d.t, d.gyr + np.radians([bias, -bias, bias]), d.acc)
+        note = [n for n in Session(str(p), ReadOptions(offset=True)).notes
+                if n.startswith("gyroscope offset estimated")]
+        assert len(note) == 1, note
+        assert ("it never found the gyroscope still" in note[0]) != corrected, note
+        if corrected:
+            final = [float(v) for v in note[0].split("final offset ")[1].split(" deg/s")[0]
+                     .split(", ")]
+            # a static log: learning the gyro's mean (the simulated part's own offset and the
+            # one added; FusionOffset's low-pass has a time constant of 8 s)
+            mean = np.degrees(d.gyr.mean(axis=0)) + [1, -1, 1]
+            assert np.all(np.abs(final) > 0.6 * np.abs(mean)) and np.all(
+                np.sign(final) == np.sign(mean)), (final, mean)

@@ -224,3 +224,20 @@ def test_the_default_grid_of_many_gains_varies_the_three_that_matter(good):
     moved = {k: max(abs(score(**{k: defaults[k] * f}) - base) for f in (0.1, 10.0))
              for k in kept + left}
     assert min(moved[k] for k in kept) >= max(moved[k] for k in left), moved
+
+
+def test_a_best_value_at_the_end_of_its_grid_is_noted(good):
+    """A best value at the lowest or highest value of its grid was printed as the best with
+    no word, though the best may lie beyond: a note says so, and only then."""
+    for grid in ("beta=0.3,1,3", "beta=0.0001:10:9"):
+        r = imf_here("tune", good, "-f", "MadgwickIMU", "-q", "--grid", grid)
+        assert r.returncode == 0, r.stderr
+        beta = float(re.search(r"best: beta=([0-9.e+-]+)", r.stdout).group(1))
+        lo, hi = (0.3, 3.0) if "," in grid else (0.0001, 10.0)
+        edge = beta in (lo, hi)
+        side = "lowest" if beta == lo else "highest"
+        note = (f"note: the best beta={beta:.4g} is the {side} value of its grid: the best may "
+                f"lie {'below' if side == 'lowest' else 'above'} it; extend --grid beta")
+        assert (note in r.stderr) == edge and ("note" in r.stderr) == edge, (grid, r.stdout,
+                                                                             r.stderr)
+        assert edge == ("," in grid), (grid, r.stdout)     # one of each, as measured

@@ -65,7 +65,7 @@ def add_demo(sub):
 
 
 def _latency(args):
-    delays = []
+    delays, periods = [], []
     for path in log_paths(args.logs):
         log = open_session(args, path).log
         if log.q_ref is None:
@@ -79,13 +79,17 @@ def _latency(args):
         except ValueError as e:
             raise NothingComputed(f"{log.path}: {e}") from None
         delays.append(d)
+        periods.append(float(log.dt))
         how = "lags" if d >= 0 else "leads"
         print(f"{log.path}: the gyroscope {how} the reference by {abs(d) * 1e3:.2f} ms")
     d = float(np.mean(delays))
     if len(delays) > 1:
         print(f"mean over {len(delays)} logs: {d * 1e3:.2f} ms "
               f"({min(delays) * 1e3:.2f} to {max(delays) * 1e3:.2f})")
-    if 0.0 <= d <= 0.1:
+    if abs(d) < IN_STEP * min(periods):
+        print(f"the gyroscope and the reference are in step: {abs(d) * 1e3:.2f} ms is below "
+              f"{IN_STEP:.0%} of a sample, the estimate's resolution; latency stays 0")
+    elif 0.0 <= d <= 0.1:
         print(f"RobustIMU / RobustAHRS: -p latency={d:.6f} predicts the output by this delay")
     elif d < 0:
         print("the gyroscope leads the reference: latency (>= 0) cannot compensate that; "
@@ -93,6 +97,11 @@ def _latency(args):
     else:
         print("the delay is beyond latency's range (0 to 0.1 s)")
     return EXIT_OK
+
+
+#: a delay below this share of a sample is no delay: the estimate's resolution (a
+#: simulated log in step measures 0.8 % of a sample)
+IN_STEP = 0.02
 
 
 def add_latency(sub):

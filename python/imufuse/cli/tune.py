@@ -95,6 +95,12 @@ def _tune(args):
     best = res.best
     print(f"best: {', '.join(f'{k}={v:.4g}' for k, v in zip(keys, best))} "
           f"({metric} {res.score(best):.3f} deg)")
+    # a best value at the end of its grid: the best may lie beyond it
+    for (k, vals), v in zip(grids, best):
+        if len(set(vals)) > 2 and v in (min(vals), max(vals)):
+            side = "lowest" if v == min(vals) else "highest"
+            err(f"note: the best {k}={v:.4g} is the {side} value of its grid: the best may lie "
+                f"{'below' if side == 'lowest' else 'above'} it; extend --grid {k}")
     return EXIT_OK
 
 

@@ -71,8 +71,16 @@ def apply(log, *, calibration=None, align=None, offset=False, backend="c"):
         # FusionOffset works in Fusion's unit, deg/s (its 3 deg/s rest threshold)
         corrected, st = mod.FusionOffset(rate).run(np.degrees(data["gyroscope"]))
         data["gyroscope"] = np.radians(corrected)
-        notes.append(f"gyroscope offset estimated (FusionOffset at {rate} Hz; final offset "
-                     f"{', '.join(f'{v:.3f}' for v in st[-1, :3])} deg/s)")
+        note = (f"gyroscope offset estimated (FusionOffset at {rate} Hz; final offset "
+                f"{', '.join(f'{v:.3f}' for v in st[-1, :3])} deg/s)")
+        if not np.any(st[:, :3]):
+            # its offset moves only once every axis, less the offset, has stayed within its
+            # threshold for its timeout
+            note += (": it never found the gyroscope still (every axis within 3 deg/s for 5 s), "
+                     "so nothing was corrected; an offset beyond 3 deg/s needs `imufuse "
+                     "calibrate gyro` on a still log (--calibration), or RobustIMU/RobustAHRS, "
+                     "which learn it")
+        notes.append(note)
     for sensor, arr in data.items():
         _put(log, cols[sensor], arr)
     return notes
