@@ -46,6 +46,23 @@ def test_gyro_motion_is_refused_or_restarted():
         cal.gyro_offset(g, restart=True, min_samples=200)
 
 
+def test_a_still_gyro_in_deg_s_read_as_rad_s_is_named():
+    """A still log in deg/s without a unit (an offset of 3 deg/s read as 3 rad/s, noise 0.3
+    deg/s read as rad/s) was called motion ("the unit moved ... keep it still and record
+    again"); the message names the unit. A log that moved, in either unit, is still motion."""
+    b = np.array([3.0, -2.0, 3.0])                                 # deg/s
+    g = np.random.default_rng(2).normal(0, 0.3, (1000, 3)) + b
+    with pytest.raises(ValueError, match=r"these look like deg/s read as rad/s: the median "
+                       r"reading, \(3\.0\d, -2(\.0\d)?, 2\.9\d\), is no gyro's offset in rad/s "
+                       r"\(17\d deg/s\), .* give --gyr-unit deg/s"):
+        cal.gyro_offset(g)
+    np.testing.assert_allclose(cal.gyro_offset(np.radians(g)).params["b"], np.radians(b),
+                               atol=4 * np.radians(0.3) / np.sqrt(1000))
+    g[300:420, 1] += 300.0                   # picked up, in deg/s: motion in any unit
+    with pytest.raises(ValueError, match=r"the unit moved during the offset calibration"):
+        cal.gyro_offset(g)
+
+
 # ---- accelerometer: six positions ----------------------------------------------------------
 
 # each axis down (+1 g read on it) and up, as (roll, pitch) in NWU: a level sensor reads +z

@@ -82,6 +82,11 @@ def _runs(mask):
 GYRO_OFFSET_MAX = 1e5
 
 
+#: a median gyro reading beyond this (rad/s, 20 deg/s) at rest is no offset of a MEMS part: with
+#: the readings still when read as deg/s, the note names that unit
+DEG_S_HINT = 0.35
+
+
 def gyro_offset(gyr, threshold=0.05, restart=False, min_samples=100):
     """Gyroscope offset b: the mean of a recording at rest (M = I, s = 1).
 
@@ -105,6 +110,15 @@ def gyro_offset(gyr, threshold=0.05, restart=False, min_samples=100):
     if moving.any():
         bad = _runs(moving)
         where = ", ".join(f"{a}..{b - 1}" for a, b in bad[:5]) + (" ..." if len(bad) > 5 else "")
+        gd = np.radians(g)                        # the same numbers, as deg/s
+        if np.abs(med).max() > DEG_S_HINT and not np.any(
+                np.abs(gd - np.median(gd, axis=0)) > threshold):
+            raise ValueError(
+                f"gyr: these look like deg/s read as rad/s: the median reading, "
+                f"({', '.join(f'{v:.3g}' for v in med)}), is no gyro's offset in rad/s "
+                f"({np.degrees(np.abs(med)).max():.0f} deg/s), and read as deg/s every sample "
+                f"is within {threshold:g} rad/s of it (the unit was still); give --gyr-unit "
+                "deg/s (read_log(..., gyr_unit='deg/s'))")
         if not restart:
             k = int(np.argmax(moving))
             ax = "xyz"[int(np.argmax(np.abs(g[k] - med)))]
@@ -112,8 +126,8 @@ def gyro_offset(gyr, threshold=0.05, restart=False, min_samples=100):
                 f"gyr: the unit moved during the offset calibration: samples {where} are "
                 f"more than {threshold:g} from the median (first: sample {k}, axis {ax}, "
                 f"{g[k]['xyz'.index(ax)] - med['xyz'.index(ax)]:+.4g}); keep it still and "
-                f"record again, or use the longest still stretch (restart=True; "
-                f"imufuse calibrate gyro --longest-still)")
+                f"record again, or use the longest still stretch (imufuse calibrate gyro "
+                f"--longest-still; restart=True from Python)")
         still = _runs(~moving)
         lo, hi = max(still, key=lambda r: r[1] - r[0]) if still else (0, 0)
         if hi - lo < min_samples:
