@@ -402,3 +402,40 @@ def test_a_given_rate_runs_past_a_broken_time_column(tmp_path):
     r = imf_here("calibrate", "gyro", f, "-o", tmp_path / "c.json")
     assert "time does not increase" in r.stderr and "the time column is not used" in r.stderr
     assert "--rate HZ" not in r.stderr, r.stderr
+
+
+def test_a_gyro_offset_beyond_the_filters_range_is_named(tmp_path):
+    """A gyro offset beyond RobustIMU/RobustAHRS's gyr_bias_max (20 deg/s against 6: 35 deg of
+    tilt) gave no word although the log lies still for 30 s: the run's notes name what the
+    gyroscope reads while the other sensors are still, and the setting that covers it. Not
+    within the range, not with the setting given, not on a turntable (the magnetometer
+    turns), and a log without a magnetometer says a turn about the vertical could be it."""
+    from imufuse import io, sim
+    from imufuse.session import Session
+    d = sim.imu("static", rate=100.0, duration=30.0, seed=1)
+
+    def notes(bias, mag=True, gyr=None, m=None, **params):
+        p = tmp_path / f"b{len(list(tmp_path.iterdir()))}.csv"
+        g = (d.gyr if gyr is None else gyr) + np.radians(bias)
+        io.write_log(p, d.t, g, d.acc, (d.mag if m is None else m) if mag else None)
+        name = "RobustAHRS" if mag else "RobustIMU"
+        return [n for n in Session(str(p)).run(name, params, keep_states=False).notes
+                if "gyr_bias_max" in n]
+    mean = np.degrees(d.gyr.mean(axis=0))          # the simulated part's own small offset
+    got = notes([20.0, -15.0, 10.0])
+    want = mean + [20.0, -15.0, 10.0]
+    assert len(got) == 1 and "the gyroscope reads (" in got[0] and \
+        "deg/s while the accelerometer and the magnetometer stay still" in got[0] and \
+        "beyond RobustAHRS's gyr_bias_max (6 deg/s)" in got[0] and \
+        f"give -p gyr_bias_max={int(np.ceil(1.5 * np.abs(want).max()))}," in got[0], (got, want)
+    reads = [float(v) for v in got[0].split("reads (")[1].split(")")[0].split(", ")]
+    np.testing.assert_allclose(reads, want, rtol=5e-3)       # three significant digits
+    assert notes([20.0, -15.0, 10.0], gyr_bias_max=32.0) == []
+    assert notes([3.0, -2.0, 3.0]) == []
+    imu = notes([20.0, -15.0, 10.0], mag=False)
+    assert len(imu) == 1 and "(or a turn about the vertical at that rate)" in imu[0], imu
+    # a turntable: 20 deg/s about the vertical, the field turning in the sensor frame
+    th = np.radians(20.0) * d.t
+    turned = np.column_stack([np.cos(th) * d.mag[:, 0] + np.sin(th) * d.mag[:, 1],
+                              -np.sin(th) * d.mag[:, 0] + np.cos(th) * d.mag[:, 1], d.mag[:, 2]])
+    assert notes([0.0, 0.0, 20.0], m=turned) == []

@@ -32,7 +32,7 @@ from typing import Dict, List, Optional, Tuple
 
 import numpy as np
 
-__all__ = ["check_log", "gyro_scale", "gyro_axes", "gyro_axes_note", "GyroScale"]
+__all__ = ["check_log", "gyro_scale", "gyro_axes", "gyro_axes_note", "still_gyro", "GyroScale"]
 
 G = 9.80665
 MAX_GYRO_RAD_S = 35.0          # 2000 deg/s, the largest range of common MEMS gyros
@@ -439,3 +439,56 @@ def _gyro_against_directions(log, unit, source, rate, file_time) -> List[str]:
             f"turns {res.ratio:.3g} times as far as {what} (the median over {res.windows} "
             f"windows of {TURN_WINDOW:g} s): deg/s read as rad/s is 57.3 times; these look "
             "like deg/s; give --gyr-unit deg/s"]
+
+
+# the gyroscope while the other sensors are still (still_gyro)
+STILL_WINDOW = 0.5         # s
+STILL_ACC = 0.03           # g: each accelerometer axis's standard deviation over a window,
+STILL_MAG = 0.03           # of the field: each magnetometer axis's (noise: 1-10 mg, 1 %),
+STILL_STEP = 0.01          # and each one's mean from one window to the next (g, of the field)
+STILL_GYR = 0.0175         # rad/s (1 deg/s): each gyro axis's standard deviation, noise only
+STILL_MIN = 2.0            # s: the shortest stretch that counts
+
+
+def still_gyro(log) -> Optional[Tuple[np.ndarray, float, float, bool]]:
+    """(the median gyro reading, rad/s (3,); the stretch's start and end, s; whether the
+    magnetometer was still too) over the longest stretch of STILL_MIN s or more where, in
+    every window of STILL_WINDOW s, the accelerometer (g), the gyroscope and the magnetometer
+    (when the log has one) each vary by less than their noise bound: what the gyroscope reads
+    at rest, its offset. None without such a stretch, a time base or the sensors."""
+    cols = log.columns
+    if log.dt is None or not all(f"{k}_{a}" in cols for k in ("gyr", "acc") for a in "xyz"):
+        return None
+    w = max(2, int(round(STILL_WINDOW / float(log.dt))))
+    n = len(log) // w
+    if n * w * float(log.dt) < STILL_MIN:
+        return None
+    has_mag = all(f"mag_{a}" in cols for a in "xyz")
+
+    def win(k):
+        x = np.column_stack([cols[f"{k}_{a}"] for a in "xyz"])[:n * w]
+        return x.reshape(n, w, 3)
+    def steady(x, spread, step):
+        # each axis within spread over the window, its mean within step of the last window's
+        mean = x.mean(axis=1)
+        moved = np.concatenate([[True], (np.abs(np.diff(mean, axis=0)) >= step[1:]).any(axis=1)])
+        return (x.std(axis=1) < spread).all(axis=1) & ~moved
+    g = win("gyr")
+    with np.errstate(all="ignore"):
+        ones = np.ones((n, 1))
+        still = steady(win("acc"), STILL_ACC, STILL_STEP * ones) & \
+            (g.std(axis=1) < STILL_GYR).all(axis=1)
+        if has_mag:
+            m = win("mag")
+            field = np.median(np.linalg.norm(m, axis=2), axis=1)[:, None]
+            still &= steady(m, STILL_MAG * field, STILL_STEP * field)
+    best, run, start = (0, 0), 0, 0
+    for k, ok in enumerate(still):
+        run, start = (run + 1, start) if ok else (0, k + 1)
+        if run > best[1] - best[0]:
+            best = (start, k + 1)
+    if (best[1] - best[0]) * w * float(log.dt) < STILL_MIN:
+        return None
+    med = np.median(g[best[0]:best[1]].reshape(-1, 3), axis=0)
+    t = log.t
+    return med, float(t[best[0] * w]), float(t[best[1] * w - 1]), has_mag

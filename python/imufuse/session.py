@@ -441,7 +441,29 @@ class Session:
             desc = ("q0=" + ",".join(f"{v:g}" for v in init) if isinstance(init, list)
                     else str(init))
         f = make_filter(name, options.backend, options.dtype, {**full, **kw})
+        limit = effective_params(name, full).get("gyr_bias_max")
+        if limit:
+            notes += self._beyond_bias_range(name, float(limit))
         return f, full, dts, desc, notes
+
+    def _beyond_bias_range(self, name: str, limit: float) -> List[str]:
+        """The note when the gyroscope reads beyond a filter's gyr_bias_max (deg/s) while
+        the other sensors are still (plausible.still_gyro, once per log)."""
+        if not hasattr(self, "_still"):
+            self._still = plausible.still_gyro(self.log)
+        if self._still is None:
+            return []
+        med, t0, t1, mag = self._still
+        deg = np.degrees(med)
+        if not np.abs(deg).max() > limit:
+            return []
+        return [f"the gyroscope reads ({', '.join(f'{v:.3g}' for v in deg)}) deg/s while the "
+                f"accelerometer{' and the magnetometer' if mag else ''} stay still "
+                f"({t0:.1f} to {t1:.1f} s): an offset beyond {name}'s gyr_bias_max "
+                f"({limit:g} deg/s), which bounds its bias estimate"
+                + ("" if mag else " (or a turn about the vertical at that rate)")
+                + f"; give -p gyr_bias_max={math.ceil(1.5 * np.abs(deg).max()):g}, or "
+                "calibrate the gyroscope (imufuse calibrate gyro, --calibration)"]
 
     def dt(self) -> float:
         """The log's sample period (LogError for a log read without time or rate)."""
