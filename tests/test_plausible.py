@@ -3,6 +3,7 @@ time in ms, a --rate that contradicts the time column) give a one-line note nami
 that fixes them, and none fires on logs read correctly: the shipped example, the seven BROAD
 development trials, x-io's layout with its units."""
 import glob
+import math
 import os
 import re
 
@@ -439,3 +440,25 @@ def test_a_gyro_offset_beyond_the_filters_range_is_named(tmp_path):
     turned = np.column_stack([np.cos(th) * d.mag[:, 0] + np.sin(th) * d.mag[:, 1],
                               -np.sin(th) * d.mag[:, 0] + np.cos(th) * d.mag[:, 1], d.mag[:, 2]])
     assert notes([0.0, 0.0, 20.0], m=turned) == []
+
+
+@pytest.mark.parametrize("turn_deg,left", [(0.0, False), (30.0, True)])
+def test_a_frame_hint_that_leaves_a_large_error_names_the_sensor_axes(turn_deg, left):
+    """A frame hint whose best frame still leaves a large error ("with --ref-frame NED it
+    would be 48.3 deg: is the reference in NED?", for a sensor whose axes differ from the
+    reference's) sent the user to a frame that does not fix it: beyond 10 deg left, the hint
+    also names the sensor's axes and --align. The shipped example read as NED, its estimate
+    as run and turned on the sensor side by 30 deg."""
+    import dataclasses
+    from imufuse.rotations import quat_mul
+    from imufuse.session import ScoreOptions, Session
+    s = Session(example_log())
+    r = s.run("MadgwickAHRS")
+    h = math.radians(turn_deg) / 2
+    q = quat_mul(r.estimate.q, np.array([[math.cos(h), math.sin(h), 0.0, 0.0]]))
+    r = dataclasses.replace(r, estimate=dataclasses.replace(r.estimate, q=q))
+    sc = ScoreOptions(ref_frame="NED")
+    hint = s.frame_hint(r, s.score(r, sc), sc)
+    assert hint and "with --ref-frame ENU it would be" in hint, hint
+    assert ("is still far off: the sensor's axes may differ from the reference's, which "
+            "--align turns" in hint) == left, hint

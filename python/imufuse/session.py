@@ -203,6 +203,8 @@ STREAM_BLOCK = 1 << 14
 #: frame_hint ranks the other frames on at most this many samples of a log (a frame or
 # direction mistake is in every sample), then scores the best of them on the whole log
 HINT_SAMPLES = 50_000
+#: a frame hint whose best frame leaves more than this (deg) names the sensor's axes too
+HINT_LEFT = 10.0
 
 
 def run_with_progress(f: Any, inputs: Sequence[np.ndarray], label: str, backend: str,
@@ -685,6 +687,11 @@ class Session:
                 "from the file" if self.log.ref_frame else "assumed")
         opts = (f"--ref-frame {best[1]}" +
                 (f" --ref-direction {best[2]}" if best[2] != cur[1] else ""))
-        return (f"hint: against the reference as {cur[0]} ({said}), {cur[1]}, the error "
+        hint = (f"hint: against the reference as {cur[0]} ({said}), {cur[1]}, the error "
                 f"reaches {worst:.1f} deg; with {opts} it would be {best[0]:.1f} deg: is the "
                 f"reference in {best[1]}{', ' + best[2] if best[2] != cur[1] else ''}?")
+        if best[0] > HINT_LEFT:
+            # no frame explains it: the sensor's axes may differ from the reference's body's
+            hint += (f" ({best[0]:.1f} deg is still far off: the sensor's axes may differ from "
+                     "the reference's, which --align turns, docs/logs.md)")
+        return hint
