@@ -30,14 +30,8 @@ static inline void robust_bias_clip(const imf_robust_consts_t *const set, imf_re
 {
     const imf_real m = set->s.gyr_bias_max;
     unsigned i;
-    if (m > IMF_R(0.0)) {
-        for (i = 0; i < 3; i++) {
-            if (b[i] > m) {
-                b[i] = m;
-            } else if (b[i] < -m) {
-                b[i] = -m;
-            }
-        }
+    for (i = 0; m > IMF_R(0.0) && i < 3; i++) {
+        b[i] = b[i] > m ? m : b[i] < -m ? -m : b[i];
     }
 }
 
@@ -151,6 +145,13 @@ static ROBUST_NOINLINE int robust_rest(const imf_robust_consts_t *const set,
         x->bp[i] = x->bp[i] / pr;
     }
     x->bu = x->bu - kb * x->bu;
+    /* B2 at rest: the accelerometer is gravity, so B1's low-pass of it, in I, is B2's gravity
+       and v is 0 (the tilt an uncalibrated gyro drifted before the rest taken back at once);
+       not with gyr_bias_max 0 (the fixed-point filters' B1 and B2) */
+    if (set->s.gyr_bias_max > IMF_R(0.0)) {
+        imf_qrotate(x->f, x->s[0], x->s[1], x->s[2], x->s[3], x->la[0], x->la[1], x->la[2]);
+        memset(x->v, 0, sizeof x->v);
+    }
     return 1;
 }
 

@@ -294,6 +294,16 @@ static inline VM LN(rl_rest)(const RL *const L, RX *const x, const imf_real *con
             x->bp[i] = RSEL(rest, x->bp[i] / pr, x->bp[i]);
         }
         x->bu = RSEL(rest, x->bu - kb * x->bu, x->bu);
+        {
+            /* B2 at rest (robust_rest): B1's low-pass of the accelerometer, in I */
+            const VM lv = rest & L->gbm;
+            VR fr[3];
+            LN(rl_qrotate)(fr, x->s[0], x->s[1], x->s[2], x->s[3], x->la[0], x->la[1], x->la[2]);
+            for (i = 0; i < 3; i++) {
+                x->f[i] = RSEL(lv, fr[i], x->f[i]);
+                x->v[i] = RSEL(lv, zero, x->v[i]);
+            }
+        }
     }
     return rest;
 }

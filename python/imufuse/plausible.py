@@ -465,23 +465,28 @@ def still_gyro(log) -> Optional[Tuple[np.ndarray, float, float, bool]]:
         return None
     has_mag = all(f"mag_{a}" in cols for a in "xyz")
 
-    def win(k):
-        x = np.column_stack([cols[f"{k}_{a}"] for a in "xyz"])[:n * w]
-        return x.reshape(n, w, 3)
-    def steady(x, spread, step):
+    def stats(k):
+        # per window, each axis's mean and standard deviation (n, 3), from views of the
+        # columns and one sum of squares (no copy of a column: memory, 10^6-row logs)
+        mean, sd = np.empty((n, 3)), np.empty((n, 3))
+        for i, a in enumerate("xyz"):
+            x = np.asarray(cols[f"{k}_{a}"], dtype=np.float64)[:n * w].reshape(n, w)
+            mean[:, i] = x.mean(axis=1)
+            sd[:, i] = np.sqrt(np.maximum(np.einsum("ij,ij->i", x, x) / w - mean[:, i] ** 2, 0.0))
+        return mean, sd
+
+    def steady(mean, sd, spread, step):
         # each axis within spread over the window, its mean within step of the last window's
-        mean = x.mean(axis=1)
         moved = np.concatenate([[True], (np.abs(np.diff(mean, axis=0)) >= step[1:]).any(axis=1)])
-        return (x.std(axis=1) < spread).all(axis=1) & ~moved
-    g = win("gyr")
+        return (sd < spread).all(axis=1) & ~moved
     with np.errstate(all="ignore"):
-        ones = np.ones((n, 1))
-        still = steady(win("acc"), STILL_ACC, STILL_STEP * ones) & \
-            (g.std(axis=1) < STILL_GYR).all(axis=1)
+        am, asd = stats("acc")
+        still = steady(am, asd, STILL_ACC, np.full((n, 1), STILL_STEP)) & \
+            (stats("gyr")[1] < STILL_GYR).all(axis=1)
         if has_mag:
-            m = win("mag")
-            field = np.median(np.linalg.norm(m, axis=2), axis=1)[:, None]
-            still &= steady(m, STILL_MAG * field, STILL_STEP * field)
+            mm, ms = stats("mag")
+            field = np.linalg.norm(mm, axis=1)[:, None]
+            still &= steady(mm, ms, STILL_MAG * field, STILL_STEP * field)
     best, run, start = (0, 0), 0, 0
     for k, ok in enumerate(still):
         run, start = (run + 1, start) if ok else (0, k + 1)
@@ -489,6 +494,7 @@ def still_gyro(log) -> Optional[Tuple[np.ndarray, float, float, bool]]:
             best = (start, k + 1)
     if (best[1] - best[0]) * w * float(log.dt) < STILL_MIN:
         return None
-    med = np.median(g[best[0]:best[1]].reshape(-1, 3), axis=0)
-    t = log.t
-    return med, float(t[best[0] * w]), float(t[best[1] * w - 1]), has_mag
+    lo, hi = best[0] * w, best[1] * w
+    step = max(1, (hi - lo) // 100_000)                  # at most 10^5 samples: memory
+    med = np.array([np.median(np.asarray(cols[f"gyr_{a}"])[lo:hi:step]) for a in "xyz"])
+    return med, float(log.t[lo]), float(log.t[hi - 1]), has_mag

@@ -146,6 +146,12 @@ class _RobustBlocks:
         for i in range(6):
             x.bp[i] = x.bp[i] / pr
         x.bu = x.bu - kb * x.bu
+        # B2 at rest: the accelerometer is gravity, so B1's low-pass of it, in I, is B2's
+        # gravity and the velocity is 0 (an uncalibrated gyro's drift before the rest taken
+        # back at once); not for a calibrated gyro (gyr_bias_max 0)
+        if self.s.gyr_bias_max > R(0.0):
+            x.f = list(qrotate(R, x.s[0], x.s[1], x.s[2], x.s[3], x.la[0], x.la[1], x.la[2]))
+            x.v = [R(0.0), R(0.0), R(0.0)]
         return True, w2
 
     # imf_robust_get_gyr_bias / _set_gyr_bias
