@@ -178,6 +178,25 @@ def test_scale_error():
         assert t < t0 + 0.3 and h < h0 + 1.0, (scale, (t, h), (t0, h0))
 
 
+@pytest.mark.parametrize("q0", [(1.0, 0.0, 0.0, 0.0), (0.0, 1.0, 0.0, 0.0),
+                                (math.cos(0.4), math.sin(0.4), 0.0, 0.0)],
+                         ids=["level", "upside down", "tilted"])
+def test_a_biased_gyro_at_rest_is_levelled_once_the_rest_is_found(q0):
+    """At power-up on a table, an uncalibrated gyro (BIG) tilts the strapdown at its full
+    rate until B1 finds the rest (rest_time, 1.5 s); B2 then took that tilt back over tau_acc
+    (3.9 deg at 2 s, 1.3 at 8 s, 0.2 at 12 s with (3, -2, 3) deg/s). At rest the
+    accelerometer is gravity: B2 takes B1's low-pass of it, and the tilt is the
+    accelerometer's from the rest on (0.04 deg); the bias is learnt as before."""
+    s = sd.scenario("rest", rate=200.0, duration=20.0, rest=20.0, bias_deg=BIG, q0=np.array(q0))
+    for dtype in ("float64", "float32"):
+        _, S = run(imufuse_c, "RobustAHRS", s, dtype)
+        tilt = sd.errors(S[:, :4], s.q_true)[0]
+        k = int(2.0 / s.dt)
+        assert tilt[:int(1.0 / s.dt)].max() > 2.0          # the drift before the rest
+        assert tilt[k:].max() < 0.1, (dtype, tilt[k:].max())
+        np.testing.assert_allclose(np.degrees(bias_of(S)[-1]), BIG, atol=0.05)
+
+
 def test_temperature_ramp():
     # the bias drifts by 0.5 deg/s per axis over 10 minutes, with 2 s rests every 15 s (too
     # short for B1's rest: its low-pass needs about 2 s to fall below rest_gyr from the
