@@ -206,7 +206,7 @@ def test_the_default_grid_of_many_gains_varies_the_three_that_matter(good):
     r = imf_here("tune", good, "-f", "RobustIMU", "--refine", "0", "--points", "3")
     assert r.returncode == 0, r.stderr
     m = re.search(r"note: the default grid varies the 3 parameters of RobustIMU whose /10 and "
-                  r"x10 move the inclination most on these logs \(([a-z_, ]+)\); ([a-z_, ]+) "
+                  r"x10 move the inclination most on the first log \(([a-z_, ]+)\); ([a-z_, ]+) "
                   r"keep their values: give --grid to choose", r.stderr)
     assert m, r.stderr
     kept, left = m.group(1).split(", "), m.group(2).split(", ")
@@ -241,3 +241,13 @@ def test_a_best_value_at_the_end_of_its_grid_is_noted(good):
         assert (note in r.stderr) == edge and ("note" in r.stderr) == edge, (grid, r.stdout,
                                                                              r.stderr)
         assert edge == ("," in grid), (grid, r.stdout)     # one of each, as measured
+
+
+def test_the_default_grid_reads_only_the_first_log(good, tmp_path):
+    """Choosing the default grid's gains scores them on the first log only, as idle() does:
+    with an executor the other logs are read where it runs (a path the driver cannot open
+    is no error until then)."""
+    from imufuse.tune import Tuner
+    t = Tuner([str(good), str(tmp_path / "read-where-the-executor-runs.csv")], "RobustIMU")
+    grid = t.default_grid(3)
+    assert len(grid) == 3 and t.left_out and 0 in t._sessions and 1 not in t._sessions

@@ -191,8 +191,8 @@ class Tuner:
         """Every positive float parameter with a default that acts with these settings
         (the others in ``self.idle_out``), /10 .. x10 around it, log-spaced; of more than
         ``most``, the ``most`` whose /10 and x10 (one at a time) move the score furthest
-        from the defaults' on the logs (the others, by that order, in ``self.left_out``).
-        Empty when none acts."""
+        from the defaults' on the first log (the others, by that order, in
+        ``self.left_out``). Empty when none acts."""
         eff = self._effective()
         grid = [(k, list(np.geomspace(v / 10, v * 10, points))) for k, v in eff.items()
                 if k not in ("dt", "sample_rate") and k not in self.fixed
@@ -205,13 +205,16 @@ class Tuner:
         grid = [(k, v) for k, v in grid if k not in self.idle_out]
         self.left_out = []
         if len(grid) > most:
-            base = self.score_set([], [])[0]
+            # on the first log, as idle(): with an executor the others are read where it runs
+            first = Tuner([self._session(0)], self.name, self.fixed, self.metric,
+                          self.run_options, self.score_options, read=self.read)
+            base = first.score_set([], [])[0]
             moved = {}
             for k, vals in grid:
                 d = 0.0
                 for v in (vals[0], vals[-1]):
                     try:
-                        sc = self.score_set([k], [v])[0]
+                        sc = first.score_set([k], [v])[0]
                     except FilterError:
                         continue                  # a value the filter refuses says nothing
                     if math.isfinite(sc):

@@ -47,7 +47,7 @@ def _tune(args):
                                  f"settings ({', '.join(t.idle_out)} do nothing); give --grid")
             if t.left_out:
                 err(f"note: the default grid varies the {len(grids)} parameters of "
-                    f"{args.filter} whose /10 and x10 move the {t.metric} most on these logs "
+                    f"{args.filter} whose /10 and x10 move the {t.metric} most on the first log "
                     f"({', '.join(k for k, _ in grids)}); {', '.join(t.left_out)} keep their "
                     "values: give --grid to choose")
         else:
@@ -120,7 +120,7 @@ def add_parsers(sub):
     t.add_argument("--grid", "-g", action="append", metavar="NAME=LO:HI:N[lin]|V1,V2,..",
                    help="values of a parameter (repeatable; log-spaced unless 'lin'); default: "
                         "every gain that acts, /10 .. x10 around its default; of more than 3, "
-                        "the 3 whose /10 and x10 move the score most on the logs")
+                        "the 3 whose /10 and x10 move the score most on the first log")
     t.add_argument("--points", type=positive(int, 1000), default=9,
                    help="grid points per parameter for the default grid (default 9)")
     t.add_argument("--refine", type=nonneg_int, default=2,
