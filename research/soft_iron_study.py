@@ -7,6 +7,7 @@ first ``--learn`` s of movement), each trial, and the means.
     python research/soft_iron_study.py [--dir ../shared/data/broad] [--learn 60]
                                        [-p NAME=VALUE ...] [--backend c|reference]
     python research/soft_iron_study.py --oracle     # what the recordings pin the offset to
+    python research/soft_iron_study.py --backend soft   # B6 with soft iron: soft_iron_kf.py
 
 --oracle: per trial, the offset of the least-squares sphere through every reading of the
 undistorted recording (an offline oracle: the whole trial, no attitude, no model of B6's),
@@ -42,8 +43,14 @@ def distort(mag, which):
 def run(d, params, which, backend="c"):
     e = catalogue.entry("RobustAHRS")
     dt = 1.0 / float(d["rate"])
-    f = catalogue.make_filter("RobustAHRS", backend, "float64", dict(e.defaults, dt=dt, **params))
-    q = catalogue.estimate(f, f.run(d["gyr"], d["acc"], distort(d["mag"], which),
+    if backend == "soft":   # the prototype of B6 with soft iron (research/soft_iron_kf.py)
+        from soft_iron_kf import SoftRobustAHRS
+        f = SoftRobustAHRS(dt, **params)
+    else:
+        f = catalogue.make_filter("RobustAHRS", backend, "float64",
+                                  dict(e.defaults, dt=dt, **params))
+    kind = f if backend != "soft" else catalogue.entry("RobustAHRS").reference
+    q = catalogue.estimate(kind, f.run(d["gyr"], d["acc"], distort(d["mag"], which),
                                     outputs="q")).q
     return q, f
 
@@ -92,7 +99,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--dir", default=DEFAULT_DIR)
     ap.add_argument("--learn", type=float, default=60.0)
-    ap.add_argument("--backend", default="c")
+    ap.add_argument("--backend", default="c", help="c, reference or soft (the prototype)")
     ap.add_argument("-p", action="append", default=[], help="RobustAHRS NAME=VALUE")
     ap.add_argument("--oracle", action="store_true",
                     help="the offset the recordings themselves pin (see the docstring)")

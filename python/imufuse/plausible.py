@@ -32,6 +32,8 @@ from typing import Dict, List, Optional, Tuple
 
 import numpy as np
 
+from .shared.runs import longest
+
 __all__ = ["check_log", "gyro_scale", "gyro_axes", "gyro_axes_note", "still_gyro", "GyroScale"]
 
 G = 9.80665
@@ -487,11 +489,7 @@ def still_gyro(log) -> Optional[Tuple[np.ndarray, float, float, bool]]:
             mm, ms = stats("mag")
             field = np.linalg.norm(mm, axis=1)[:, None]
             still &= steady(mm, ms, STILL_MAG * field, STILL_STEP * field)
-    best, run, start = (0, 0), 0, 0
-    for k, ok in enumerate(still):
-        run, start = (run + 1, start) if ok else (0, k + 1)
-        if run > best[1] - best[0]:
-            best = (start, k + 1)
+    best = longest(still)
     if (best[1] - best[0]) * w * float(log.dt) < STILL_MIN:
         return None
     lo, hi = best[0] * w, best[1] * w

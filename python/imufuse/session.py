@@ -21,11 +21,13 @@ file to a score, and each step is short; splitting them would scatter that path.
 """
 from __future__ import annotations
 
+import contextlib
 import inspect
 import math
 import time as _time
 from dataclasses import dataclass, field
-from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import (Any, Callable, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple,
+                    Union)
 
 import numpy as np
 
@@ -35,6 +37,7 @@ from . import io, plausible, preprocess, reference
 from .catalogue import (ALL_ENTRIES, FUSION_AHRS, FilterError, estimate, make_filter, reference_class,
                         resolve_params, why_no_estimate)
 from .shared.estimate import Estimate
+from .shared.flags import as_python
 from .evaluation import Evaluation, evaluate, from_enu, to_enu
 from .io import ACC, GYR, MAG, Log, LogError, axis_inputs, read_log, require
 from .rotations import quat_to_euler
@@ -70,7 +73,9 @@ class ReadOptions:
     interval instead of each sample's own; calibration (a JSON file), align (e.g. "+X-Z+Y"),
     offset (FusionOffset): the preprocessing, by ``backend`` ("c" or "ref"); strict: a
     plausibility warning (a unit, time or rate that only makes sense as a mistake) is an
-    error; need_time: False reads a log without time column or rate (calibration logs)."""
+    error; need_time: False reads a log without time column or rate (calibration logs);
+    command_line: the notes and errors name the command line's options only (imufuse's
+    CLI), else each also says them as these records' fields (imufuse.shared.flags)."""
     gyr_unit: Optional[str] = None
     acc_unit: Optional[str] = None
     time_unit: Optional[str] = None
@@ -83,6 +88,7 @@ class ReadOptions:
     strict: bool = False
     need_time: bool = True
     backend: str = "c"
+    command_line: bool = False
 
 
 @dataclass(frozen=True)
@@ -337,13 +343,14 @@ class Session:
         if isinstance(log, Log):
             self.log = log
             return
-        self.log = read_log(log, gyr_unit=read.gyr_unit, acc_unit=read.acc_unit,
-                            rate=read.rate, columns=dict(read.columns),
-                            fixed_rate=read.fixed_rate, time_unit=read.time_unit,
-                            need_time=read.need_time)
-        # --calibration, --align, --offset, in this order
-        done = preprocess.apply(self.log, calibration=read.calibration, align=read.align,
-                                offset=read.offset, backend=read.backend)
+        with self._said():
+            self.log = read_log(log, gyr_unit=read.gyr_unit, acc_unit=read.acc_unit,
+                                rate=read.rate, columns=dict(read.columns),
+                                fixed_rate=read.fixed_rate, time_unit=read.time_unit,
+                                need_time=read.need_time)
+            # --calibration, --align, --offset, in this order
+            done = preprocess.apply(self.log, calibration=read.calibration, align=read.align,
+                                    offset=read.offset, backend=read.backend)
         if any(n.startswith("gyroscope calibrated") for n in done):
             # the gyroscope's axes as calibrated (a file mapping them, as the note says)
             lg = self.log
@@ -355,8 +362,23 @@ class Session:
                 lg.suspicions.append(note)
                 lg.warnings.append(note)
         if read.strict and self.log.suspicions:
-            raise StrictError(f"{self.log.path}: {self.log.suspicions[0]} (--strict)")
-        self.notes += self.log.warnings + done
+            raise StrictError(self.say(f"{self.log.path}: {self.log.suspicions[0]} (--strict)"))
+        self.notes += [self.say(n) for n in self.log.warnings + done]
+
+    def say(self, message: str) -> str:
+        """A note or an error in the user's terms: the command line's options, and for a
+        Python user (ReadOptions.command_line False) the fields they are (shared.flags)."""
+        return message if self.options.command_line else as_python(message)
+
+    @contextlib.contextmanager
+    def _said(self) -> Iterator[None]:
+        # a ValueError (LogError, StrictError) raised inside, in the user's terms
+        try:
+            yield
+        except ValueError as e:
+            if e.args and isinstance(e.args[0], str):
+                e.args = (self.say(e.args[0]), *e.args[1:])
+            raise
 
     # ---- what the log offers
     def inputs(self, name: str, axis: str = "x") -> Tuple[Tuple[np.ndarray, ...], str]:
@@ -446,7 +468,7 @@ class Session:
         limit = effective_params(name, full).get("gyr_bias_max")
         if limit:
             notes += self._beyond_bias_range(name, float(limit))
-        return f, full, dts, desc, notes
+        return f, full, dts, desc, [self.say(n) for n in notes]
 
     def _beyond_bias_range(self, name: str, limit: float) -> List[str]:
         """The note when the gyroscope reads beyond a filter's gyr_bias_max (deg/s) while
@@ -470,7 +492,8 @@ class Session:
     def dt(self) -> float:
         """The log's sample period (LogError for a log read without time or rate)."""
         if self.log.dt is None:
-            raise LogError(f"{self.log.path}: no time column and no rate: give --rate HZ")
+            raise LogError(self.say(f"{self.log.path}: no time column and no rate: give "
+                                    "--rate HZ"))
         return float(self.log.dt)
 
     def describe_time(self, dts: Any) -> str:
@@ -598,8 +621,9 @@ class Session:
             late = log.t >= log.t[0] + options.skip
             if not late.any():
                 # else "nothing could be evaluated ... inside the movement mask", or nothing
-                raise LogError(f"{log.path}: --skip {options.skip:g} s leaves no sample: the "
-                               f"log lasts {float(log.t[-1] - log.t[0]):.6g} s")
+                raise LogError(self.say(f"{log.path}: --skip {options.skip:g} s leaves no "
+                                        "sample: the log lasts "
+                                        f"{float(log.t[-1] - log.t[0]):.6g} s"))
             mask = late if mask is None else (mask & late)
         return mask
 
@@ -694,4 +718,4 @@ class Session:
             # no frame explains it: the sensor's axes may differ from the reference's body's
             hint += (f" ({best[0]:.1f} deg is still far off: the sensor's axes may differ from "
                      "the reference's, which --align turns, docs/logs.md)")
-        return hint
+        return self.say(hint)

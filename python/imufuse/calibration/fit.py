@@ -29,6 +29,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..shared.runs import runs
+
 __all__ = ["Calibration", "gyro_offset", "still_phases", "accel_six_position", "mag_minmax",
            "mag_ellipsoid"]
 
@@ -68,13 +70,6 @@ def _nx3(name, x, min_rows):
     return a
 
 
-def _runs(mask):
-    """(start, stop) of the runs of True in a boolean array (stop exclusive)."""
-    m = np.concatenate([[False], np.asarray(mask, bool), [False]])
-    d = np.diff(m.astype(int))
-    return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)))
-
-
 # ---- gyroscope ---------------------------------------------------------------------------
 
 #: the largest gyro offset taken, in the gyro's unit: above any MEMS gyro's whole range in
@@ -108,7 +103,7 @@ def gyro_offset(gyr, threshold=0.05, restart=False, min_samples=100):
     moving = np.any(np.abs(g - med) > threshold, axis=1)
     lo, hi = 0, len(g)
     if moving.any():
-        bad = _runs(moving)
+        bad = runs(moving)
         where = ", ".join(f"{a}..{b - 1}" for a, b in bad[:5]) + (" ..." if len(bad) > 5 else "")
         gd = np.radians(g)                        # the same numbers, as deg/s
         if np.abs(med).max() > DEG_S_HINT and not np.any(
@@ -128,7 +123,7 @@ def gyro_offset(gyr, threshold=0.05, restart=False, min_samples=100):
                 f"{g[k]['xyz'.index(ax)] - med['xyz'.index(ax)]:+.4g}); keep it still and "
                 f"record again, or use the longest still stretch (imufuse calibrate gyro "
                 f"--longest-still; restart=True from Python)")
-        still = _runs(~moving)
+        still = runs(~moving)
         lo, hi = max(still, key=lambda r: r[1] - r[0]) if still else (0, 0)
         if hi - lo < min_samples:
             raise ValueError(f"gyr: no still stretch of {min_samples} samples (motion at "
@@ -159,9 +154,9 @@ def still_phases(acc, window=50, threshold=None, min_len=None):
     quiet = np.all(np.sqrt(np.maximum(var, 0.0)) < threshold, axis=1)
     # a window that is quiet marks all its samples still
     still = np.zeros(len(a), bool)
-    for s, e in _runs(quiet):
+    for s, e in runs(quiet):
         still[s:e + window - 1] = True
-    return [(int(s), int(e)) for s, e in _runs(still) if e - s >= min_len]
+    return [(int(s), int(e)) for s, e in runs(still) if e - s >= min_len]
 
 
 def accel_six_position(acc, ranges=None, cross_axis=False, window=50, threshold=None):

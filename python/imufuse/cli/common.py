@@ -149,7 +149,7 @@ def read_options(args, **over):
         rate=getattr(args, "rate", None), fixed_rate=getattr(args, "fixed_rate", False),
         calibration=getattr(args, "calibration", None), align=getattr(args, "align", None),
         offset=getattr(args, "offset", False), strict=getattr(args, "strict", False),
-        backend=getattr(args, "backend", "c"), **over)
+        backend=getattr(args, "backend", "c"), command_line=True, **over)
 
 
 def run_options(args):
