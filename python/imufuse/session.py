@@ -40,7 +40,8 @@ from .shared.estimate import Estimate
 from .shared.flags import as_python
 from .evaluation import Evaluation, evaluate, from_enu, to_enu
 from .io import ACC, GYR, MAG, Log, LogError, axis_inputs, read_log, require
-from .rotations import quat_to_euler
+from .reference._fusion import ALL_ALIGNMENTS, parse_alignment
+from .rotations import matrix_to_quat, quat_conj, quat_mul, quat_to_euler
 
 __all__ = ["ReadOptions", "RunOptions", "ScoreOptions", "Session", "Run", "NothingComputed",
            "StrictError", "effective_params", "FUSION", "FUSIONS", "is_fusion"]
@@ -211,6 +212,21 @@ STREAM_BLOCK = 1 << 14
 HINT_SAMPLES = 50_000
 #: a frame hint whose best frame leaves more than this (deg) names the sensor's axes too
 HINT_LEFT = 10.0
+
+
+def _turn(alignment: str) -> Any:
+    # the quaternion of an --align rotation: body = M sensor
+    perm, neg = parse_alignment(alignment)
+    m = np.zeros((3, 3))
+    for i in range(3):
+        m[i, perm[i]] = -1.0 if neg[i] else 1.0
+    return matrix_to_quat(m) if np.linalg.det(m) > 0 else None
+
+
+#: the 23 proper turns of --align (its reflections cannot be a turned mounting) and their
+#: quaternions, for the frame hint
+_TURNS = [(a, t) for a, t in ((a, _turn(a)) for a in ALL_ALIGNMENTS)
+          if t is not None and a != "+X+Y+Z"]
 
 
 def run_with_progress(f: Any, inputs: Sequence[np.ndarray], label: str, backend: str,
@@ -691,8 +707,9 @@ class Session:
         q: Any = run.estimate.q if run.estimate is not None else None
         ref = self.log.q_ref
 
-        def score(fr: str, dr: str, step: int) -> float:
-            e = evaluate(q[::step], ref[::step], est_frame="NWU", ref_frame=fr,
+        def score(fr: str, dr: str, step: int, turn: Any = None) -> float:
+            qs = q[::step] if turn is None else quat_mul(q[::step], quat_conj(turn))
+            e = evaluate(qs, ref[::step], est_frame="NWU", ref_frame=fr,
                          ref_direction=dr, movement=None if mask is None else mask[::step],
                          remove_heading_offset=options.heading_offset, per_sample=False)
             return max(e.inclination, e.heading if heading else 0.0)
@@ -705,10 +722,30 @@ class Session:
         scores = {o: score(*o, step) for o in others}
         ranked = min(others, key=lambda o: scores[o] if scores[o] == scores[o] else math.inf)
         best = (score(*ranked, 1) if step > 1 else scores[ranked], *ranked)
-        if not best[0] < 0.5 * worst:
-            return None
+        framed = best[0] < 0.5 * worst
         said = ("given" if options.ref_frame else
                 "from the file" if self.log.ref_frame else "assumed")
+        if not (framed and best[0] <= HINT_LEFT):
+            # the sensor's axes turned against the reference's body (mounted turned, or
+            # wired so): the estimate turned back by each of the 23 turns of --align, against
+            # the reference as read and as the frame above reads it; the filter's run on the
+            # aligned log gives what the turned estimate does (the filters are the same in
+            # any body axes)
+            frames = [cur, (best[1], best[2])] if framed else [cur]
+            turns = {(a, fr): score(fr[0], fr[1], step, t) for a, t in _TURNS for fr in frames}
+            a, fr = min(turns, key=lambda k: turns[k] if turns[k] == turns[k] else math.inf)
+            left = score(fr[0], fr[1], 1, dict(_TURNS)[a]) if step > 1 else turns[(a, fr)]
+            if left < 0.5 * worst and not (framed and left >= best[0]):
+                opts = f"--align {a}" + (
+                    "" if fr == cur else f" --ref-frame {fr[0]}" +
+                    (f" --ref-direction {fr[1]}" if fr[1] != cur[1] else ""))
+                return self.say(
+                    f"hint: against the reference as {cur[0]} ({said}), {cur[1]}, the error "
+                    f"reaches {worst:.1f} deg; with {opts} it would be about {left:.1f} deg: "
+                    "are the sensor's axes turned against the reference's body (mounted "
+                    "turned, or its axes named otherwise)?")
+        if not framed:
+            return None
         opts = (f"--ref-frame {best[1]}" +
                 (f" --ref-direction {best[2]}" if best[2] != cur[1] else ""))
         hint = (f"hint: against the reference as {cur[0]} ({said}), {cur[1]}, the error "
