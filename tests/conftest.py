@@ -20,10 +20,16 @@ a module- or session-scoped fixture of its own (programs built for an MCU, a bui
 the package, a fetched oracle) run on one worker, so that the fixture is built once; every
 other test goes to whichever worker is free. The groups and the slow tests are handed out
 first, the short tests last (pytest_collection_modifyitems).
+
+The firmware builds of a run (validate's programs and host builds) are cached in a directory
+of the run's own, $IMUFUSE_CACHE, shared by its workers and removed at its end, never the
+user's ~/.cache/imufuse (unless $IMUFUSE_CACHE is set: then there).
 """
 import os
+import shutil
 import subprocess
 import sys
+import tempfile
 import threading
 
 import pytest
@@ -62,6 +68,23 @@ SLOW_TESTS = {"test_a_million_constant_samples_then_recovery", "test_hostile_bur
               "test_b6_left_out_at_compile_time"}
 # single emulator tests in modules of their own subject
 EMULATOR_TESTS = {"test_fusion_ahrs_on_mcu", "test_full_normalisation_from_any_state_on_the_mcu"}
+
+
+_RUN_CACHE = []
+
+
+def pytest_configure(config):
+    # the run's firmware cache: made by the first process (the controller, before its workers
+    # start; they inherit it), removed by it at the end
+    if not os.environ.get("IMUFUSE_CACHE"):
+        d = tempfile.mkdtemp(prefix="imufuse-test-cache-")
+        os.environ["IMUFUSE_CACHE"] = d
+        _RUN_CACHE.append(d)
+
+
+def pytest_unconfigure(config):
+    for d in _RUN_CACHE:
+        shutil.rmtree(d, ignore_errors=True)
 
 
 @pytest.hookimpl(tryfirst=True)   # before pytest-xdist's loadgroup reads xdist_group

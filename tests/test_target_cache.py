@@ -104,7 +104,8 @@ def _bits(v):
 @pytest.mark.parametrize("target", ["cortex-m4f", "atmega328p"])
 def test_the_same_firmware_again_is_a_hit(tmp_path, builds, target):
     """The second validation of a firmware, on the same log and on another, compiles and
-    links nothing, writes nothing to the cache, and is bit-exact with the same states, cost
+    links nothing, writes nothing to the cache (its files; the entry's time says it was
+    used), and is bit-exact with the same states, cost
     and notes as the first; the build time says it was cached."""
     cache = tmp_path / "cache"
     first = _validate(_fw(cache), target)
@@ -218,6 +219,24 @@ def test_an_unwritable_cache_just_builds(tmp_path, builds):
     blocker.write_text("not a directory")
     v = _validate(_fw(blocker / "cache"))
     assert v.bit_exact and builds["runs"] > 0
+
+
+def test_the_cache_keeps_its_bound(tmp_path, builds, monkeypatch):
+    """With room for one program, validating another removes the first (the least recently
+    used), which then builds again, bit for bit the same (tests/test_cache_bound.py: the
+    bound itself)."""
+    cache = tmp_path / "cache"
+    first = _validate(_fw(cache))
+    (entry,) = _entries(cache)
+    e = cache / "targets" / entry
+    size = sum(f.stat().st_size for f in e.iterdir())
+    monkeypatch.setenv("IMUFUSE_CACHE_MAX_MB", str(1.5 * size / 1e6))
+    assert _validate(_fw(cache, defines={"CF_OTHER": 1})).bit_exact
+    (other,) = _entries(cache)
+    assert other != entry
+    builds["runs"] = 0
+    again = _validate(_fw(cache))
+    assert builds["runs"] > 0 and _bits(again) == _bits(first) and _entries(cache) == [entry]
 
 
 CONCURRENT = textwrap.dedent("""

@@ -30,7 +30,7 @@ import numpy as np
 from ..mcu import toolchains as _tc
 from .elf import _Elf, _Map
 from .host import compiler_identity
-from .target_cache import _program_cache, _program_key, _read_entry, _store_entry
+from .target_cache import _program_cache, _program_key, _read_entry, _store_entry, cache_limit
 from .targets import TargetError, harness_target
 
 __all__ = ["StateType", "Program", "build_program", "MAX_CHUNK", "CXX_TARGET_FLAGS", "is_cxx",
@@ -340,6 +340,7 @@ def _build_in(fw: Any, target: str, name: str, tgt: "_tc.Target", driver: str, r
     key = _program_key(wd, compiles, settings,
                        [driver, adapter[1] if adapter else "", script or ""])
     if key is not None:
+        cache_limit()       # a bad $IMUFUSE_CACHE_MAX_MB is said before the build
         entry = _program_cache(fw) / f"{name}-{key}"
         hit = _read_entry(entry)
         if hit is not None:
