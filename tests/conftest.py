@@ -42,7 +42,7 @@ EMULATOR = {"test_firmware_target", "test_mcu_filters", "test_mcu_harness", "tes
 CROSSBUILD = {"test_cross_build", "test_cmake_package", "test_build", "test_packaging"}
 FUZZ = {"test_sanitizers", "test_sanitizers_batch"}
 SLOW = {"test_long_rest", "test_fusion_oracle", "test_published", "test_journeys", "test_cli",
-        "test_cli_hostile", "test_outputs_safe", "test_firmware", "test_plausible",
+        "test_cli_hostile", "test_outputs_safe", "test_firmware", "test_plausible", "test_frame_hint",
         "test_fusion_cli", "test_cli_names", "test_csv_output", "test_tune", "test_latency",
         "test_reallogs", "test_broad_hdf5", "test_nul_tail", "test_vario_claims",
         "test_calibrate", "test_fixed_accuracy", "test_claims_1d", "test_sim_flight",

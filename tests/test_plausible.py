@@ -14,7 +14,6 @@ from broad_data import BROAD, SKIP_REASON
 from imufuse import sim
 from imufuse.io import example_log, read_log
 from imufuse.plausible import gyro_scale
-from imufuse.reference._fusion import parse_alignment
 from cli_here import imf_here
 
 XIO = ["Time (s)", "Gyroscope X (deg/s)", "Gyroscope Y (deg/s)", "Gyroscope Z (deg/s)",
@@ -194,72 +193,6 @@ def test_rate_that_contradicts_the_time_column(tmp_path):
                  "--rate", "100", "-o", str(tmp_path / "o.npz"))
     assert p.returncode == 0, p.stderr
     assert "--rate 100 Hz, but the file says 285.714 Hz" in p.stderr
-
-
-@pytest.mark.parametrize("given, want", [("NED", "ENU"), ("NWU", "ENU")])
-def test_a_wrong_reference_frame_is_named(tmp_path, given, want):
-    """The shipped example's reference is ENU: read as NED the inclination error is 179 deg,
-    as NWU the heading error 88 deg; the note names the frame that fits."""
-    p = imf_here("run", example_log(), "-f",
-                 "MadgwickAHRS", "--ref-frame", given, "-o", str(tmp_path / "o.npz"))
-    assert p.returncode == 0, p.stderr
-    assert f"against the reference as {given} (given)" in p.stderr
-    assert f"with --ref-frame {want} it would be" in p.stderr
-
-
-def test_no_frame_note_when_the_frame_is_right(tmp_path):
-    p = imf_here("run", example_log(), "-f",
-                 "MadgwickAHRS", "-o", str(tmp_path / "o.npz"))
-    assert p.returncode == 0 and "hint:" not in p.stderr and "note:" not in p.stderr, p.stderr
-
-
-def _mounted_turned(tmp_path, alignment):
-    """The shipped example as read by a sensor mounted turned: --align ``alignment`` (body =
-    M sensor) is what turns its readings back (each reading M^T body)."""
-    perm, neg = parse_alignment(alignment)
-    m = np.zeros((3, 3))
-    for i in range(3):
-        m[i, perm[i]] = -1.0 if neg[i] else 1.0
-    d = dict(np.load(example_log()))
-    for k in ("gyr", "acc", "mag"):
-        d[k] = d[k] @ m
-    path = tmp_path / "turned.npz"
-    np.savez(path, **d)
-    return str(path)
-
-
-@pytest.mark.parametrize("alignment, name", [("-Y+X+Z", "MadgwickAHRS"), ("-X-Y+Z", "MadgwickAHRS"),
-                                             ("+X+Z-Y", "RobustIMU"), ("+Y+Z+X", "MahonyIMU")])
-def test_a_sensor_mounted_turned_is_named(tmp_path, alignment, name):
-    """A sensor turned 90 deg about z gave 67 deg of tilt and no hint (no reference frame
-    halves it). Now the hint names the --align that turns it back, and the run with it gives
-    the log's own result."""
-    from imufuse.session import ReadOptions, Session
-    path = _mounted_turned(tmp_path, alignment)
-    s = Session(path)
-    r = s.run(name, {})
-    ev = s.score(r)
-    assert max(ev.inclination, ev.heading if r.kind == "ahrs" else 0.0) > 45.0
-    hint = s.frame_hint(r, ev)
-    assert hint is not None and f"with --align {alignment} it would be about" in hint, hint
-    assert hint.endswith(f"[Python: ReadOptions(align={alignment!r})]"), hint
-    want = Session(example_log())
-    ev0 = want.score(want.run(name, {}))
-    s2 = Session(path, ReadOptions(align=alignment))
-    ev2 = s2.score(s2.run(name, {}))
-    assert abs(ev2.inclination - ev0.inclination) < 0.01, (ev2.inclination, ev0.inclination)
-    said = float(re.search(r"it would be about ([0-9.]+) deg", hint).group(1))
-    assert said < 5.0 and s2.frame_hint(s2.run(name, {}), ev2) is None
-
-
-def test_the_command_line_names_the_turn(tmp_path):
-    p = imf_here("run", _mounted_turned(tmp_path, "-Y+X+Z"), "-f", "MadgwickAHRS",
-                 "-o", str(tmp_path / "o.npz"))
-    assert p.returncode == 0, p.stderr
-    assert "with --align -Y+X+Z it would be about" in p.stderr and "[Python:" not in p.stderr
-    p = imf_here("run", _mounted_turned(tmp_path, "-Y+X+Z"), "-f", "MadgwickAHRS",
-                 "-o", str(tmp_path / "s.npz"), "--strict")
-    assert p.returncode == 4 and "--align -Y+X+Z" in p.stderr, p.stderr
 
 
 def test_tune_varies_what_acts_sorted_by_score():
