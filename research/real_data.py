@@ -1,7 +1,8 @@
 """The real-data table of the README: every 3D filter on the BROAD
 development trials (../shared/data/broad/*.npz), BROAD errors (imufuse.evaluation)
-averaged over the trials, with the command line's defaults (init="first",
-each trial's rate), with the published code's gains where they differ (--preset published),
+averaged over the trials, with the command line's defaults (init="first", or the
+filter's own start for those that start from their first sample, RobustIMU/AHRS; each
+trial's rate), with the published code's gains where they differ (--preset published),
 and with the gains `imufuse tune` finds.
 
     python research/real_data.py [DIR] [--write]   # --write: refresh the README block
@@ -32,8 +33,9 @@ def score(name, paths, over=None, preset=None):
     evs = []
     for p in paths:
         log = io.read_log(p)
+        start = {} if getattr(cls, "own_start", None) else {"init": "first"}
         f = make_filter(name, "c", "float64", {**resolve_params(name, log.dt, over or {}, preset),
-                                               "init": "first"})
+                                               **start})
         ins = (log.gyr, log.acc, log.mag) if cls.kind == "ahrs" else (log.gyr, log.acc)
         evs.append(evaluate(estimate(cls, f.run(*ins)).q, log.q_ref, ref_frame="ENU",
                             movement=log.movement))
@@ -80,6 +82,9 @@ def table(paths):
 
 
 def main(argv):
+    if "-h" in argv or "--help" in argv:
+        print(__doc__)
+        return
     args = [a for a in argv if not a.startswith("--")]
     d = args[0] if args else os.path.join(HERE, "..", "..", "shared", "data", "broad")
     paths = sorted(glob.glob(os.path.join(d, "*.npz")))

@@ -82,6 +82,22 @@ def test_the_wrong_direction_axes_or_units_are_not_timed_silently(rot, how):
         estimate_latency(g, q, DT)
 
 
+def test_the_cli_names_its_options_when_the_gyro_does_not_follow(tmp_path, capsys, rot):
+    """The command line said "check the axes, the units and ref_direction" (the Python
+    keyword); it names its options, the Python function its keyword."""
+    g = delayed(rot.gyr, 1.0)[:, [1, 0, 2]]          # x and y swapped
+    with pytest.raises(ValueError, match=r"\(ref_direction='sensor-to-earth'\)$"):
+        estimate_latency(g, rot.q_true, DT)
+    path = tmp_path / "swapped.csv"
+    np.savetxt(path, np.column_stack([np.arange(len(g)) * DT, g, rot.acc / 9.81, rot.q_true]),
+               delimiter=",", comments="",
+               header="time,gyr_x,gyr_y,gyr_z,acc_x,acc_y,acc_z,q_w,q_x,q_y,q_z")
+    assert cli.main(["latency", str(path)]) == cli.EXIT_DATA
+    err = capsys.readouterr().err
+    assert "(--ref-direction sensor-to-earth) (--align turns the axes, --gyr-unit sets the " \
+        "unit)" in err and "ref_direction" not in err, err
+
+
 def test_latency_set_from_the_estimate_removes_the_delay_error(rot):
     g = delayed(rot.gyr, 1.0)
     d = estimate_latency(g, rot.q_true, DT)

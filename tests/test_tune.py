@@ -192,7 +192,8 @@ def test_a_grid_too_large_is_refused_before_it_is_built(good):
         t.search([(k, list(np.geomspace(0.5, 2.0, 8))) for k in names])
     # 4 values each are 65 536 sets, but each refinement round would be 5^8 = 390 625
     with pytest.raises(ValueError, match=r"3\.91e\+05 in each refinement round; .*, or "
-                       r"--refine 0$"):
+                       r"--refine 0 \[Python: --grid GRID is Tuner\.search\(grid=GRID\); "
+                       r"--refine 0 is Tuner\.search\(refine=0\)\]$"):
         t.search([(k, list(np.geomspace(0.5, 2.0, 4))) for k in names])
     assert MAX_SETS == 100_000
 

@@ -140,5 +140,6 @@ def estimate_latency(gyr, q_ref, dt=None, *, t=None, ref_direction="sensor-to-ea
     if not misfit <= 0.25 * spread:
         raise ValueError(f"the gyroscope does not follow the reference's rates (RMS misfit "
                          f"{math.sqrt(misfit):.3g} against {math.sqrt(spread):.3g} rad/s at the "
-                         "best shift): check the axes, the units and ref_direction")
+                         f"best shift): check the sensor's axes, the gyroscope's unit and the "
+                         f"reference's direction (ref_direction={ref_direction!r})")
     return tau

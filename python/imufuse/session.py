@@ -21,13 +21,11 @@ file to a score, and each step is short; splitting them would scatter that path.
 """
 from __future__ import annotations
 
-import contextlib
 import inspect
 import math
 import time as _time
 from dataclasses import dataclass, field
-from typing import (Any, Callable, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple,
-                    Union)
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -37,7 +35,7 @@ from . import io, plausible, preprocess, reference
 from .catalogue import (ALL_ENTRIES, FUSION_AHRS, FilterError, estimate, make_filter, reference_class,
                         resolve_params, why_no_estimate)
 from .shared.estimate import Estimate
-from .shared.flags import as_python
+from .shared.flags import as_python, in_users_terms, users_terms
 from .evaluation import Evaluation, evaluate, from_enu, to_enu
 from .io import ACC, GYR, MAG, Log, LogError, axis_inputs, read_log, require
 from .reference._fusion import ALL_ALIGNMENTS, parse_alignment
@@ -95,7 +93,8 @@ class ReadOptions:
 @dataclass(frozen=True)
 class RunOptions:
     """How to run a filter: backend "c" (imufuse_c) or "ref" (imufuse.reference); dtype;
-    init: None (= "first" for 3-D filters), "first", "identity" or a quaternion w, x, y, z;
+    init: None (= "first" for 3-D filters; the filter's own start for those that start from
+    their first sample, RobustIMU/RobustAHRS), "first", "identity" or a quaternion w, x, y, z;
     init_window: with "first", the mean of that many samples; axis: "x" or "y", the axis of a
     single-axis filter fed from gyr/acc columns; preset: a named parameter set of the
     catalogue ("published": the settings of the code the filter was ported from) in place of
@@ -212,6 +211,9 @@ STREAM_BLOCK = 1 << 14
 HINT_SAMPLES = 50_000
 #: a frame hint whose best frame leaves more than this (deg) names the sensor's axes too
 HINT_LEFT = 10.0
+#: the turns of the sensor's axes (23, in each of the six readings of the reference) are
+#: ranked on at most this many samples, then the best of them scored on the whole log
+HINT_TURN_SAMPLES = 5_000
 
 
 def _turn(alignment: str) -> Any:
@@ -386,17 +388,16 @@ class Session:
         Python user (ReadOptions.command_line False) the fields they are (shared.flags)."""
         return message if self.options.command_line else as_python(message)
 
-    @contextlib.contextmanager
-    def _said(self) -> Iterator[None]:
+    def _said(self) -> Any:
         # a ValueError (LogError, StrictError) raised inside, in the user's terms
-        try:
-            yield
-        except ValueError as e:
-            if e.args and isinstance(e.args[0], str):
-                e.args = (self.say(e.args[0]), *e.args[1:])
-            raise
+        return in_users_terms(self.options.command_line)
+
+    @property
+    def _command_line(self) -> bool:
+        return self.options.command_line
 
     # ---- what the log offers
+    @users_terms
     def inputs(self, name: str, axis: str = "x") -> Tuple[Tuple[np.ndarray, ...], str]:
         """run() arguments of a filter from the log, and a description (LogError naming the
         missing columns)."""
@@ -422,6 +423,7 @@ class Session:
         return _FusionKind(self.log.has(*MAG), name) if is_fusion(name) else reference_class(name)
 
     # ---- running
+    @users_terms
     def make(self, name: str, params: Optional[Mapping[str, Any]] = None,
              options: RunOptions = RunOptions()) -> Tuple[Any, Dict[str, Any], Any, Optional[str],
                                                           List[str]]:
@@ -458,7 +460,12 @@ class Session:
         init = init_value(options.init)
         kw: Dict[str, Any] = {}
         desc: Optional[str] = None
-        if cls.kind != "1d":
+        if cls.kind != "1d" and init is None and getattr(cls, "own_start", None):
+            # a filter that starts from its first sample by itself (RobustIMU/AHRS) keeps its
+            # own start: init="first" would set the same attitude in another frame I and run
+            # another, equally valid, trajectory (BROAD trial 31: 0.88 / 1.12 deg heading)
+            desc = "its own (the first sample)"
+        elif cls.kind != "1d":
             if init is None:
                 init = "first"          # the default for logs
             if not supports_init(name):
@@ -519,6 +526,7 @@ class Session:
                     if d.size else f"dt={self.log.dt:.6g} s")
         return f"dt={self.log.dt:.6g} s"
 
+    @users_terms
     def run(self, name: str, params: Optional[Mapping[str, Any]] = None,
             options: RunOptions = RunOptions(), *, progress: Optional[Progress] = None,
             keep_states: bool = True, on_block: Optional[Callable[..., None]] = None) -> Run:
@@ -629,6 +637,7 @@ class Session:
     def ref_frame(self, options: ScoreOptions = ScoreOptions()) -> str:
         return options.ref_frame or self.log.ref_frame or "NWU"
 
+    @users_terms
     def mask(self, options: ScoreOptions = ScoreOptions()) -> Optional[np.ndarray]:
         """The samples that count for errors: the movement column and ``skip``."""
         log = self.log
@@ -661,6 +670,7 @@ class Session:
                                                      options.ref_direction), "NWU"),
                                      options.frame))
 
+    @users_terms
     def score(self, run: Run, options: ScoreOptions = ScoreOptions(), *, axis: str = "x",
               per_sample: bool = False) -> Union[None, Evaluation, Dict[str, Any]]:
         """The BROAD evaluation (3-D) or {'angle': (rms, max), 'n': n, 'n_ref_nan': k} (1-D)
@@ -668,6 +678,7 @@ class Session:
         return self.score_estimate(run.cls, run.estimate, options, axis=axis,
                                    per_sample=per_sample)
 
+    @users_terms
     def score_estimate(self, cls: Any, est: Optional[Estimate],
                        options: ScoreOptions = ScoreOptions(), *, axis: str = "x",
                        per_sample: bool = False) -> Union[None, Evaluation, Dict[str, Any]]:
@@ -728,13 +739,18 @@ class Session:
         if not (framed and best[0] <= HINT_LEFT):
             # the sensor's axes turned against the reference's body (mounted turned, or
             # wired so): the estimate turned back by each of the 23 turns of --align, against
-            # the reference as read and as the frame above reads it; the filter's run on the
-            # aligned log gives what the turned estimate does (the filters are the same in
-            # any body axes)
-            frames = [cur, (best[1], best[2])] if framed else [cur]
-            turns = {(a, fr): score(fr[0], fr[1], step, t) for a, t in _TURNS for fr in frames}
-            a, fr = min(turns, key=lambda k: turns[k] if turns[k] == turns[k] else math.inf)
-            left = score(fr[0], fr[1], 1, dict(_TURNS)[a]) if step > 1 else turns[(a, fr)]
+            # the reference in each of the six readings (a turned sensor and a frame mistake
+            # together: a CSV's reference is assumed NWU), ranked on every tstep-th sample;
+            # the filter's run on the aligned log gives what the turned estimate does (the
+            # filters are the same in any body axes)
+            tstep = max(1, len(ref) // HINT_TURN_SAMPLES)
+            turns = {(a, fr): score(fr[0], fr[1], tstep, t)
+                     for a, t in _TURNS for fr in [cur, *others]}
+            # ties (within 0.1 deg) to the reference as read: an IMU filter's inclination is
+            # the same in NWU and ENU
+            a, fr = min(turns, key=lambda k: (round(turns[k], 1) if turns[k] == turns[k]
+                                              else math.inf, k[1] != cur))
+            left = score(fr[0], fr[1], 1, dict(_TURNS)[a]) if tstep > 1 else turns[(a, fr)]
             if left < 0.5 * worst and not (framed and left >= best[0]):
                 opts = f"--align {a}" + (
                     "" if fr == cur else f" --ref-frame {fr[0]}" +

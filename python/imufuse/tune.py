@@ -38,6 +38,7 @@ import imufuse_c
 
 from .catalogue import ALL_ENTRIES, FLOAT, FilterError, reference_class, resolve_params
 from .evaluation import METRICS, mean_over_trials, prepare_reference
+from .shared.flags import in_users_terms, users_terms
 from .session import (NothingComputed, ReadOptions, RunOptions, ScoreOptions, Session,
                       effective_params, is_fusion)
 
@@ -119,6 +120,17 @@ class Tuner:
                  read: ReadOptions = ReadOptions()) -> None:
         """sessions: Sessions, or paths of logs read with ``read`` (opened on first use here,
         or where an executor runs them: search(executor=...))."""
+        self.read = read
+        with in_users_terms(read.command_line):
+            self._init(sessions, name, fixed, metric, run, score)
+
+    @property
+    def _command_line(self) -> bool:
+        return self.read.command_line
+
+    def _init(self, sessions: Sequence[Union[Session, str, "os.PathLike[str]"]], name: str,
+              fixed: Optional[Mapping[str, Any]], metric: Optional[str], run: RunOptions,
+              score: ScoreOptions) -> None:
         cls = _FusionTuned(name) if is_fusion(name) else reference_class(name)
         if cls.kind == "1d":
             raise ValueError(f"tune: {name} is a single-axis filter; tune evaluates 3D filters "
@@ -132,7 +144,6 @@ class Tuner:
         if not sessions:
             raise ValueError("tune: no log given")
         self.sources = [s if isinstance(s, Session) else os.fspath(s) for s in sessions]
-        self.read = read
         for s in self.sources:
             if isinstance(s, Session):
                 _require_reference(s)
@@ -187,6 +198,7 @@ class Tuner:
         return effective_params(self.name, resolve_params(self.name, 0.01, over,
                                                           self.run_options.preset))
 
+    @users_terms
     def default_grid(self, points: int, most: int = DEFAULT_MOST) -> Grid:
         """Every positive float parameter with a default that acts with these settings
         (the others in ``self.idle_out``), /10 .. x10 around it, log-spaced; of more than
@@ -225,6 +237,7 @@ class Tuner:
             grid = [(k, v) for k, v in grid if k in order[:most]]
         return grid
 
+    @users_terms
     def idle(self, grid: Grid, samples: int = 4000, *, own_values: bool = False) -> List[str]:
         """The parameters of ``grid`` whose x10 leaves the first log's first states unchanged
         (acc_1g with the accelerometer gate off): varying them only costs time. own_values:
@@ -319,6 +332,7 @@ class Tuner:
                 evs = [r[j] for r in per_log]
                 res.results[p] = (mean_over_trials(evs)[self.metric], evs)
 
+    @users_terms
     def search(self, grid: Grid, refine: int = 2, jobs: Optional[int] = None,
                progress: Optional[Callable[[int, int], None]] = None,
                executor: Optional[cf.Executor] = None) -> TuneResult:

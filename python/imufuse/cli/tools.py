@@ -77,7 +77,12 @@ def _latency(args):
             d = estimate_latency(log.gyr, log.q_ref, None if t is not None else log.dt, t=t,
                                  ref_direction=args.ref_direction, max_delay=args.max_delay)
         except ValueError as e:
-            raise NothingComputed(f"{log.path}: {e}") from None
+            # the options that set what the message names
+            why = str(e).replace(f"ref_direction={args.ref_direction!r}",
+                                 f"--ref-direction {args.ref_direction}")
+            if "sensor's axes" in why:
+                why += " (--align turns the axes, --gyr-unit sets the unit)"
+            raise NothingComputed(f"{log.path}: {why}") from None
         delays.append(d)
         periods.append(float(log.dt))
         how = "lags" if d >= 0 else "leads"
