@@ -353,3 +353,29 @@ def test_the_recommended_filters_parameter_table_is_its_record():
         assert (default.strip() == str(d) if isinstance(d, bool)
                 else float(default) == d), (name, default, d)
         assert unit.strip() == f.metadata["unit"], (name, unit, f.metadata["unit"])
+
+
+@pytest.mark.parametrize("profile", [None, "32", "8"])
+def test_fixed_default_settings_give_a_profile_the_build_has(tmp_path, profile):
+    """A build of one fixed-point profile (the Makefile's and CMake's FIXED_PROFILE=8, the
+    ATmega328P's choice) gave default settings of profile 32, which its init refused (-1):
+    the documented default_settings + init failed there. default_settings now gives the
+    profile the build compiles (32 when both are)."""
+    pre, body = ["#include <stdio.h>"], []
+    for c, settings in (("imf_madgwick_imu_q", "madgwick_q.h"), ("imf_mahony_imu_q", "mahony_q.h"),
+                        ("imf_robust_imu_q", "robust_q.h"), ("imf_robust_ahrs_q", "robust_q.h")):
+        pre.append(f'#include "{settings}"')
+        body += [f"    {{ static {c}_t f; {c}_settings_t s; {c}_default_settings(&s);",
+                 f'      printf("{c} %d %d\\n", s.profile, {c}_init(&f, &s)); }}']
+    src = tmp_path / "defaults.c"
+    src.write_text("\n".join(sorted(set(pre), key=pre.index) + ["int main(void)", "{"] + body
+                             + ["    return 0;", "}", ""]))
+    exe = tmp_path / "defaults"
+    flags = [] if profile is None else [f"-DIMF_FIXED_PROFILE={profile}"]
+    subprocess.run(["gcc", "-std=c99", "-pedantic", "-Wall", "-Werror", "-O2", "-ffp-contract=off",
+                    *flags, f"-I{CSRC}", f"-I{CSRC / 'fixed'}", str(src),
+                    *sorted(str(p) for p in (CSRC / "fixed").glob("*.c")), "-o", str(exe), "-lm"],
+                   check=True, capture_output=True, text=True)
+    out = subprocess.run([str(exe)], check=True, capture_output=True, text=True).stdout.split()
+    want = "8" if profile == "8" else "32"
+    assert out[1::3] == [want] * 4 and out[2::3] == ["0"] * 4, out

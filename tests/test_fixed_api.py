@@ -144,3 +144,13 @@ def test_compiled_classes_carry_their_twins_docstring():
     for name in imufuse_c.FILTERS_FIXED:
         doc = getattr(imufuse_c, name).__doc__
         assert doc and inspect.cleandoc(doc) == inspect.cleandoc(getattr(reference, name).__doc__), name
+
+
+@pytest.mark.parametrize("kp", [1.5, 2.0, 5.0])
+def test_kkq_names_its_own_range_of_kp(kp):
+    """KKQ takes kp in [0, 1]; from 2 on the float KK's check came first and named [0, 2)."""
+    import imufuse_c
+    from imufuse import reference
+    for m in (reference, imufuse_c):
+        with pytest.raises(ValueError, match=r"kp: must be in \[0, 1\] in fixed point"):
+            m.KKQ(0.01, kp, gyr_scale=1e-3)

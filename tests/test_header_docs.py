@@ -94,3 +94,24 @@ def test_the_member_check_can_fail():
     text = ("typedef struct {\n    float a; /* s */\n    /* gain */\n    float b;\n"
             "    float c;\n    float d; /* a long\n       comment; with a semicolon */\n} t;\n")
     assert undocumented_members(text) == ["line 5: float c;"]
+
+
+@pytest.mark.parametrize("src", sorted((ROOT / "csrc").glob("*.c"))
+                         + sorted((ROOT / "csrc" / "fixed").glob("*.c")), ids=lambda p: p.name)
+def test_which_files_names_every_header_a_source_includes(src):
+    """docs/firmware.md's "Which files" tells an embedded user what to copy; robust.c's
+    robust_b3.h was missing from it ("fatal error: robust_b3.h: No such file" on a copy of
+    exactly the list). Each source's headers, as the preprocessor finds them (gcc -MM), are
+    named there (or are its own pair's, or csrc/fixed/imf_fixed*.h)."""
+    import os
+    import subprocess
+    text = (ROOT / "docs" / "firmware.md").read_text()
+    section = text[text.index("### Which files"):text.index("Or copy all of `csrc/`")]
+    out = subprocess.run(["gcc", "-std=c99", "-MM", f"-I{ROOT / 'csrc'}",
+                          f"-I{ROOT / 'csrc' / 'fixed'}", str(src)],
+                         capture_output=True, text=True, check=True).stdout
+    headers = {os.path.basename(d) for d in out.replace("\\\n", " ").split()[1:]
+               if d.endswith(".h")}
+    missing = sorted(h for h in headers if Path(h).stem != src.stem and f"`{h}`" not in section
+                     and not (h.startswith("imf_fixed") and "imf_fixed*.h" in section))
+    assert not missing, f"{src.name} includes {missing}, which docs/firmware.md does not list"

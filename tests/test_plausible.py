@@ -456,3 +456,15 @@ def test_a_frame_hint_that_leaves_a_large_error_names_the_sensor_axes(turn_deg, 
     assert hint and "with --ref-frame ENU it would be" in hint, hint
     assert ("is still far off: the sensor's axes may differ from the reference's, which "
             "--align turns" in hint) == left, hint
+
+
+def test_an_accelerometer_window_that_holds_no_reading_is_named():
+    """MultiWii given acc_1g in m/s^2 (9.81) where it gets g: no reading falls in its window,
+    it integrates the gyro alone (11.5 deg of tilt on the shipped excerpt against 2.1), and
+    nothing said so. The run's notes now do, with the acc_1g the readings have."""
+    from imufuse.session import Session
+    s = Session(example_log())
+    assert not [n for n in s.run("MultiWii").notes if "window" in n]
+    (note,) = [n for n in s.run("MultiWii", {"acc_1g": 9.81}).notes if "window" in n]
+    assert "no accelerometer reading falls in MultiWii's window of 1 g (acc_1g 9.81 +- 15%" in note
+    assert "give -p acc_1g=1.005" in note, note

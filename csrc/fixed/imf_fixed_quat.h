@@ -39,6 +39,10 @@ extern "C" {
 #define IMF_Q_HAS_P8 1
 #endif
 
+/* The profile default_settings gives: 32, or 8 in a build of the 8-bit profile only (a
+ * default the build compiles: init of the defaults never returns -1 for the profile). */
+#define IMF_Q_DEFAULT_PROFILE (IMF_Q_HAS_P32 ? 32 : 8)
+
 /* 1 if the profile given to init (32 or 8; any other value: 0) is compiled in. */
 static inline int imf_q_profile_ok(const int32_t profile)
 {

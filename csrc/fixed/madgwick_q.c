@@ -36,7 +36,7 @@ void imf_madgwick_imu_q_default_settings(imf_madgwick_imu_q_settings_t *const se
     settings->dt = 0.01;
     settings->beta = 0.1;
     settings->gyr_scale = 1.0642e-3;
-    settings->profile = 32;
+    settings->profile = IMF_Q_DEFAULT_PROFILE;
 }
 
 int imf_madgwick_imu_q_init(imf_madgwick_imu_q_t *const self,

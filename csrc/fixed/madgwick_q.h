@@ -53,8 +53,8 @@ typedef struct {
     double beta;      /* gain of the corrective step, rad/s; >= 0, beta dt < 0.5 (default 0.1) */
     double gyr_scale; /* rad/s per gyro count; > 0 (default 1.0642e-3: 2000 deg/s on
                          16 bits) */
-    int profile;      /* 32 (default) or 8: the update imf_madgwick_imu_q_update calls;
-                         any other value: init returns -1 */
+    int profile;      /* 32 or 8: the update imf_madgwick_imu_q_update calls (default 32; 8 in
+                         a build of the 8-bit profile only); any other value: init returns -1 */
 } imf_madgwick_imu_q_settings_t;
 
 /* The defaults listed with each member. */

@@ -55,7 +55,7 @@ void imf_mahony_imu_q_default_settings(imf_mahony_imu_q_settings_t *const settin
     settings->kp = 1.0;
     settings->ki = 0.0;
     settings->gyr_scale = 1.0642e-3;
-    settings->profile = 32;
+    settings->profile = IMF_Q_DEFAULT_PROFILE;
 }
 
 int imf_mahony_imu_q_init(imf_mahony_imu_q_t *const self,

@@ -66,8 +66,8 @@ typedef struct {
     double ki;        /* integral gain, 1/s^2; >= 0 (default 0) */
     double gyr_scale; /* rad/s per gyro count; > 0 (default 1.0642e-3: 2000 deg/s on
                          16 bits) */
-    int profile;      /* 32 (default) or 8: the update imf_mahony_imu_q_update calls;
-                         any other value: init returns -1 */
+    int profile;      /* 32 or 8: the update imf_mahony_imu_q_update calls (default 32; 8 in
+                         a build of the 8-bit profile only); any other value: init returns -1 */
 } imf_mahony_imu_q_settings_t;
 
 /* The defaults listed with each member. */

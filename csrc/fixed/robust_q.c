@@ -34,7 +34,7 @@ void imf_robust_imu_q_default_settings(imf_robust_imu_q_settings_t *const s)
     s->tau_rest = 0.5;
     s->latency = 0.0;
     s->gyr_scale = 1.0642e-3;
-    s->profile = 32;
+    s->profile = IMF_Q_DEFAULT_PROFILE;
 }
 
 /* the IMU constants in range (shifts of imf_scale32_s: kg (gyr_scale dt < 2^-15), klat,

@@ -128,8 +128,8 @@ typedef struct {
     double latency;       /* output prediction, s; 0 .. 0.1 (default 0) */
     double gyr_scale;     /* rad/s per gyro count; > 0 (default 1.0642e-3: 2000 deg/s on
                              16 bits) */
-    int profile;          /* 32 (default) or 8, a profile compiled in; any other value:
-                             init returns -1 */
+    int profile;          /* 32 or 8, a profile compiled in (default 32; 8 in a build of the
+                             8-bit profile only); any other value: init returns -1 */
 } imf_robust_imu_q_settings_t;
 
 /* The defaults listed with each member. */
@@ -270,8 +270,8 @@ typedef struct {
     double mag_offset_min; /* B6: a trusted estimate replaces the stored offset when they
                               differ by more than this, relative; 0 .. 1 (default 0.1) */
     double gyr_scale;      /* rad/s per gyro count; > 0 (default 1.0642e-3) */
-    int profile;           /* 32 (default) or 8, a profile compiled in; any other value:
-                             init returns -1 */
+    int profile;           /* 32 or 8, a profile compiled in (default 32; 8 in a build of the
+                              8-bit profile only); any other value: init returns -1 */
 } imf_robust_ahrs_q_settings_t;
 
 /* The defaults listed with each member. */

@@ -488,10 +488,27 @@ class Session:
             desc = ("q0=" + ",".join(f"{v:g}" for v in init) if isinstance(init, list)
                     else str(init))
         f = make_filter(name, options.backend, options.dtype, {**full, **kw})
-        limit = effective_params(name, full).get("gyr_bias_max")
+        eff = effective_params(name, full)
+        limit = eff.get("gyr_bias_max")
         if limit:
             notes += self._beyond_bias_range(name, float(limit))
+        if "window" in eff and "acc_1g" in eff and cls.kind != "1d":
+            notes += self._outside_window(name, float(eff["acc_1g"]), float(eff["window"]))
         return f, full, dts, desc, [self.say(n) for n in notes]
+
+    def _outside_window(self, name: str, acc_1g: float, window: float) -> List[str]:
+        """The note when no accelerometer reading of the log falls in a filter's window of
+        1 g (MultiWii: acc_1g (1 +- window), in the unit the filter is given, g): it runs on
+        the gyro alone, without a word."""
+        n = np.linalg.norm(self.log.acc, axis=1)
+        n = n[np.isfinite(n)]
+        if not n.size or np.any(np.abs(n - acc_1g) <= window * acc_1g):
+            return []
+        med = float(np.median(n))
+        return [f"no accelerometer reading falls in {name}'s window of 1 g (acc_1g {acc_1g:g} "
+                f"+- {window:.0%}: the median |acc| is {med:.4g}, in g): it corrects nothing "
+                f"and integrates the gyro alone; give -p acc_1g={med:.4g} (the sensor's 1 g in "
+                "the unit it is given), or read the accelerometer in g (--acc-unit)"]
 
     def _beyond_bias_range(self, name: str, limit: float) -> List[str]:
         """The note when the gyroscope reads beyond a filter's gyr_bias_max (deg/s) while

@@ -3,6 +3,7 @@ csrc/fixed/gravity_q.c, line for line (Q formats in gravity_q.h)."""
 from __future__ import annotations
 
 import math
+import numbers
 
 from ..shared import checks as _checks
 from . import _cint as ci
@@ -32,13 +33,14 @@ class KKQ(FixedFilter):
 
     @staticmethod
     def _params(dt, kp, *, gyr_scale, profile="32"):
-        dt, kp = KK._params(dt, kp)
-        gyr_scale = check_scale("gyr_scale", gyr_scale)
-        qconst("gyr_scale*dt", gyr_scale * dt, 28, 59, nonzero=True)
-        if kp > 1.0:
+        # the fixed-point range first (KK's own is [0, 2), which the message would name)
+        if isinstance(kp, numbers.Real) and not isinstance(kp, bool) and kp > 1.0:
             # imf_kk_q_init_consts: kp in [0, 1]
             raise ValueError(f"kp: must be in [0, 1] in fixed point (kp > 1 corrects more than "
                              f"the whole error in one sample: an oscillating P loop), got {kp!r}")
+        dt, kp = KK._params(dt, kp)
+        gyr_scale = check_scale("gyr_scale", gyr_scale)
+        qconst("gyr_scale*dt", gyr_scale * dt, 28, 59, nonzero=True)
         qconst("kp", kp, 14, 47)
         return (dt, kp, gyr_scale, check_profile(profile))
 
