@@ -58,6 +58,9 @@ class Validation:
     # the first line of text() when the comparison is not firmware against imufuse
     # (imufuse.firmware.versus: firmware against firmware)
     title: Optional[str] = None
+    # got and want are orientations made from states of different kinds (a float filter
+    # against its fixed-point port, imufuse.firmware.versus): no ulps between them
+    as_orientations: bool = False
     _classification: Optional[Classification] = field(default=None, init=False, repr=False,
                                                       compare=False)
 

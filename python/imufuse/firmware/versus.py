@@ -60,6 +60,7 @@ def compare_firmware(a: Validation, b: Validation, label_a: str = "A", label_b: 
                             f"{len(b.got)}: give both the same inputs")
     names_a, names_b = tuple(a.comparison.names), tuple(b.comparison.names)
     notes_out = list(notes)
+    orient = False              # states of different kinds: compared as orientations
     if names_a == names_b and a.got.dtype == b.got.dtype:
         names: Sequence[str] = names_a
         want, got = a.got, b.got
@@ -70,17 +71,20 @@ def compare_firmware(a: Validation, b: Validation, label_a: str = "A", label_b: 
         how = "every state variable bit for bit"
     else:
         want, got = _unit_quaternions(a, label_a), _unit_quaternions(b, label_b)
-        names = QUATERNION
+        names, orient = QUATERNION, True
         how = "as orientations (the unit quaternions of q0..q3)"
         notes_out.append(f"the states differ ({a.comparison.dtype} {', '.join(names_a)} against "
-                         f"{b.comparison.dtype} {', '.join(names_b)}): compared {how}, so "
-                         "read the orientation difference, not the ulps")
+                         f"{b.comparison.dtype} {', '.join(names_b)}): compared {how}, in "
+                         "degrees of orientation")
     comp = compare_states(got, want, list(names))
+    if orient:
+        comp.max_ulps = {}      # unit quaternions of states of different kinds: degrees
     if not comp.bit_exact:
         notes_out += pair_causes(a, b)
     title = f"{_side(b, label_b)} vs {_side(a, label_a)}, no imufuse reference, {how}:"
     v = Validation(a.filter, "firmware", comp, got, want, target=f"{b.target} vs {a.target}",
-                   cflags=tuple(b.cflags), notes=notes_out, params=a.params, title=title)
+                   cflags=tuple(b.cflags), notes=notes_out, params=a.params, title=title,
+                   as_orientations=orient)
     if not comp.bit_exact:
         v.max_angle_deg = _max_angle(got, want, names)
     return v

@@ -70,9 +70,12 @@ class Comparison:
         lines = [f"NOT bit-exact ({self.dtype}): first divergence at sample {self.first_sample}, "
                  f"variable {self.first_variable}: {got_label} {g!r} vs {want_label} {w!r}",
                  f"{self.n_different} of {self.n_samples} samples differ",
-                 f"{'variable':12s} {'max |diff|':>12s} {'max ulps':>12s}"]
+                 f"{'variable':12s} {'max |diff|':>12s}"
+                 + (f" {'max ulps':>12s}" if self.max_ulps else "")]
+        # ulps of floats only (an integer state differs in counts: max |diff|)
         for n in self.names:
-            lines.append(f"{n:12s} {self.max_abs[n]:12.4g} {self.max_ulps.get(n, 0.0):12.0f}")
+            lines.append(f"{n:12s} {self.max_abs[n]:12.4g}"
+                         + (f" {self.max_ulps.get(n, 0.0):12.0f}" if self.max_ulps else ""))
         return "\n".join(lines)
 
     def summary(self) -> Optional[str]:
