@@ -444,3 +444,5 @@ def test_a_log_runs_the_robust_filters_from_their_own_start(name):
     assert r.init == "its own (the first sample)"
     first = s.run(name, options=RunOptions(init="first"))
     assert first.init == "first" and not np.array_equal(first.states, r.states)
+    # a window asked for is a start from the window's mean
+    assert s.run(name, options=RunOptions(init_window=20)).init == "first (mean of 20 samples)"

@@ -460,7 +460,8 @@ class Session:
         init = init_value(options.init)
         kw: Dict[str, Any] = {}
         desc: Optional[str] = None
-        if cls.kind != "1d" and init is None and getattr(cls, "own_start", None):
+        if (cls.kind != "1d" and init is None and getattr(cls, "own_start", None)
+                and not (options.init_window and options.init_window > 1)):
             # a filter that starts from its first sample by itself (RobustIMU/AHRS) keeps its
             # own start: init="first" would set the same attitude in another frame I and run
             # another, equally valid, trajectory (BROAD trial 31: 0.88 / 1.12 deg heading)
