@@ -82,9 +82,8 @@ class Classification:
         return f"a different computation: {self._first()} ({self.variable})"
 
     def _first(self, relative: bool = False) -> str:
-        if self.unit == "deg":      # orientations of states of different kinds
-            return (f"first difference {self.first_ulps:.2g} deg of orientation at sample "
-                    f"{self.sample}")
+        if self.unit == "deg":  # orientations of states of different kinds (versus.py)
+            return f"first difference {self.first_ulps:.2g} deg of orientation at sample {self.sample}"
         rel = f" (relative {self.first_relative:.2g})" if relative and self.unit == "ulps" else ""
         return f"first difference {_n(self.first_ulps, self.unit)}{rel} at sample {self.sample}"
 
@@ -200,15 +199,12 @@ def classify(v: Any) -> Optional[Classification]:
     formula = (first_ulps > ROUNDING_ULPS or (not integer and first_rel >= FORMULA_RELATIVE)
                or step is not None)
     ang = orientation_difference_deg(v.filter, getattr(v, "params", None), got, want, c.names)
-    if getattr(v, "as_orientations", False) and ang is not None:
-        # a float filter against its fixed-point port: two computations, their difference
-        # in degrees (the ulps of unit quaternions made from an integer state say nothing)
-        return Classification("formula", k, str(c.first_variable), float(ang[k]), first_rel,
-                              None, 0.0, 0.0, float(np.nanmax(ang)), _growth(ad, diff, ang),
-                              "deg")
-    return Classification("formula" if formula else "rounding", k, str(c.first_variable),
-                          first_ulps, first_rel, step, s_from, s_to, float(per_sample.max()),
-                          _growth(ad, diff, ang), "counts" if integer else "ulps")
+    # a float filter against its fixed-point port: degrees (no ulps between their quaternions)
+    dg = getattr(v, "as_orientations", False) and ang is not None
+    return Classification("formula" if formula or dg else "rounding", k, str(c.first_variable),
+                          float(ang[k]) if dg and ang is not None else first_ulps, first_rel,
+                          None if dg else step, s_from, s_to, float(per_sample.max()), _growth(ad, diff, ang),
+                          "deg" if dg else "counts" if integer else "ulps")
 
 
 def _growth(ad: np.ndarray, diff: np.ndarray, ang: Optional[np.ndarray]) -> List[GrowthRow]:
