@@ -361,10 +361,16 @@ def test_fixed_default_settings_give_a_profile_the_build_has(tmp_path, profile):
     ATmega328P's choice) gave default settings of profile 32, which its init refused (-1):
     the documented default_settings + init failed there. default_settings now gives the
     profile the build compiles (32 when both are)."""
+    from imufuse import catalogue as cat
     pre, body = ["#include <stdio.h>"], []
-    for c, settings in (("imf_madgwick_imu_q", "madgwick_q.h"), ("imf_mahony_imu_q", "mahony_q.h"),
-                        ("imf_robust_imu_q", "robust_q.h"), ("imf_robust_ahrs_q", "robust_q.h")):
-        pre.append(f'#include "{settings}"')
+    # the fixed-point filters whose settings have a profile (the catalogue's)
+    two = [e.c_name for e in cat.FIXED
+           if "profile" in [p.name for p in cproto.init_params(HEADERS, e.c_name + "_init")[1]]]
+    assert len(two) == 4, two
+    for c in two:
+        pre.append("#include \"" + next(h.name for h in HEADER_FILES
+                                        if re.search(r"\b" + c + r"_default_settings\s*\(",
+                                                     h.read_text())) + "\"")
         body += [f"    {{ static {c}_t f; {c}_settings_t s; {c}_default_settings(&s);",
                  f'      printf("{c} %d %d\\n", s.profile, {c}_init(&f, &s)); }}']
     src = tmp_path / "defaults.c"

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from imufuse.io import example_log
-from imufuse.reference._fusion import parse_alignment
+from imufuse.reference._fusion import alignment_matrix
 from cli_here import imf_here
 
 
@@ -31,10 +31,7 @@ def test_no_frame_note_when_the_frame_is_right(tmp_path):
 def _mounted_turned(tmp_path, alignment):
     """The shipped example as read by a sensor mounted turned: --align ``alignment`` (body =
     M sensor) is what turns its readings back (each reading M^T body)."""
-    perm, neg = parse_alignment(alignment)
-    m = np.zeros((3, 3))
-    for i in range(3):
-        m[i, perm[i]] = -1.0 if neg[i] else 1.0
+    m = alignment_matrix(alignment)
     d = dict(np.load(example_log()))
     for k in ("gyr", "acc", "mag"):
         d[k] = d[k] @ m
@@ -83,10 +80,7 @@ def test_a_turned_sensor_with_the_reference_in_another_frame(tmp_path):
     the turn and the frame are named together, and with both the run is the log's own."""
     from imufuse.session import ReadOptions, ScoreOptions, Session
     alignment = "-Y+X+Z"
-    perm, neg = parse_alignment(alignment)
-    m = np.zeros((3, 3))
-    for i in range(3):
-        m[i, perm[i]] = -1.0 if neg[i] else 1.0
+    m = alignment_matrix(alignment)
     d = np.load(example_log())
     t = np.arange(len(d["gyr"])) / float(d["rate"])
 

@@ -38,7 +38,7 @@ from .shared.estimate import Estimate
 from .shared.flags import as_python, in_users_terms, users_terms
 from .evaluation import Evaluation, evaluate, from_enu, to_enu
 from .io import ACC, GYR, MAG, Log, LogError, axis_inputs, read_log, require
-from .reference._fusion import ALL_ALIGNMENTS, parse_alignment
+from .reference._fusion import ALL_ALIGNMENTS, alignment_is_rotation, alignment_matrix
 from .rotations import matrix_to_quat, quat_conj, quat_mul, quat_to_euler
 
 __all__ = ["ReadOptions", "RunOptions", "ScoreOptions", "Session", "Run", "NothingComputed",
@@ -216,19 +216,10 @@ HINT_LEFT = 10.0
 HINT_TURN_SAMPLES = 5_000
 
 
-def _turn(alignment: str) -> Any:
-    # the quaternion of an --align rotation: body = M sensor
-    perm, neg = parse_alignment(alignment)
-    m = np.zeros((3, 3))
-    for i in range(3):
-        m[i, perm[i]] = -1.0 if neg[i] else 1.0
-    return matrix_to_quat(m) if np.linalg.det(m) > 0 else None
-
-
-#: the 23 proper turns of --align (its reflections cannot be a turned mounting) and their
-#: quaternions, for the frame hint
-_TURNS = [(a, t) for a, t in ((a, _turn(a)) for a in ALL_ALIGNMENTS)
-          if t is not None and a != "+X+Y+Z"]
+#: the 23 proper turns of --align (body = M sensor; its reflections cannot be a turned
+#: mounting) and their quaternions, for the frame hint
+_TURNS = [(a, matrix_to_quat(alignment_matrix(a))) for a in ALL_ALIGNMENTS
+          if alignment_is_rotation(a) and a != "+X+Y+Z"]
 
 
 def run_with_progress(f: Any, inputs: Sequence[np.ndarray], label: str, backend: str,

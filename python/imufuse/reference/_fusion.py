@@ -230,12 +230,17 @@ def parse_alignment(alignment):
     return tuple(perm), tuple(neg)
 
 
-def alignment_is_rotation(alignment):
+def alignment_matrix(alignment):
+    """The 3x3 matrix M of an alignment: output = M sensor (a signed permutation)."""
     perm, neg = parse_alignment(alignment)
     m = np.zeros((3, 3))
     for i in range(3):
         m[i, perm[i]] = -1.0 if neg[i] else 1.0
-    return bool(np.linalg.det(m) > 0)
+    return m
+
+
+def alignment_is_rotation(alignment):
+    return bool(np.linalg.det(alignment_matrix(alignment)) > 0)
 
 
 ALL_ALIGNMENTS = tuple(
