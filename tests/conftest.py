@@ -65,7 +65,7 @@ SLOW_TESTS = {"test_a_million_constant_samples_then_recovery", "test_hostile_bur
               "test_the_compiler_is_part_of_the_key", "test_c_driver_exact_axis_readings",
               "test_c_init_refuses_what_the_twin_refuses",
               "test_users_firmware_validated_on_a_published_log", "test_ranges_refused_by_twin_and_c",
-              "test_b6_left_out_at_compile_time"}
+              "test_b6_left_out_at_compile_time", "test_a_host_build_is_bounded_and_a_hit_is_a_use"}
 # single emulator tests in modules of their own subject
 EMULATOR_TESTS = {"test_fusion_ahrs_on_mcu", "test_full_normalisation_from_any_state_on_the_mcu"}
 

@@ -3,7 +3,8 @@ and run on a log, the state read back after every sample.
 
 ``Firmware`` is a ``Declaration`` that builds (cached under $IMUFUSE_CACHE or
 ~/.cache/imufuse/firmware, keyed by the generated source, the flags, the compiler's identity
-and the contents of every file the compiler reads, from its -M dependency output) and runs;
+and the contents of every file the compiler reads, from its -M dependency output; bounded
+with the programs of validate --target: imufuse.firmware.cache_bound) and runs;
 ``csrc_firmware`` declares imufuse's own C filter from a csrc directory. ``prepare`` only
 compiles; the firmware is loaded (its C constructors run) by ``load`` or ``run``, which
 validate_isolated calls in its child process only.
@@ -19,12 +20,14 @@ import shutil
 import subprocess
 import sysconfig
 import tempfile
+from pathlib import Path
 from typing import Any, List, Optional, Tuple
 
 import numpy as np
 
 from ..shared.checks import KINDS
 from ..catalogue import reference_class
+from . import cache_bound as _bound
 from .csource import host_source, target_source
 from .declaration import Declaration, FirmwareError
 
@@ -215,7 +218,9 @@ class Firmware(Declaration):
         built = glob.glob(os.path.join(outdir, name + ".*so")) + \
             glob.glob(os.path.join(outdir, name + ".*pyd"))
         if built:
+            _bound.touch(outdir)        # used now: the last to go (cache_bound.prune)
             return name, built[0]
+        _bound.cache_limit()            # a bad $IMUFUSE_CACHE_MAX_MB is said before the build
         ffi = FFI()
         ffi.cdef("void imufuse_fw_run(const double *p, const double *s0, int set_state, "
                  "size_t n, const double *in, double dt, double *out, int *isint);\n"
@@ -237,6 +242,7 @@ class Firmware(Declaration):
             for _ in range(2):
                 try:
                     os.rename(tmp, outdir)
+                    _bound.prune(Path(self.cache_dir), Path(outdir))
                     break
                 except OSError:
                     # another process finished the same build first: use the one in place;

@@ -7,10 +7,11 @@ every file the cross compiler's -M names). An entry holds the image, the firmwar
 (with their -fstack-usage files) and what ``Program`` says (program.json, with each file's size
 and sha256 and the libraries the link loaded, with their size and time stamp). Entries are
 renamed into place whole; a damaged one is removed and rebuilt; one whose libraries changed is
-rebuilt; an unwritable cache only costs the build. The programs are bounded (``_prune``): after
-a store, the least recently used entries (a hit sets its directory's time) are removed until
-they take at most $IMUFUSE_CACHE_MAX_MB (default CACHE_MAX_MB), and pieces a killed build left
-(``*.part-*`` an hour old) go too.
+rebuilt; an unwritable cache only costs the build. The cache is bounded (``_prune``,
+imufuse.firmware.cache_bound): after a store, the least recently used entries, host builds and
+programs together (a hit sets its directory's time), are removed until they take at most
+$IMUFUSE_CACHE_MAX_MB (default CACHE_MAX_MB), and pieces a killed build left (``*.part-*`` an
+hour old) go too.
 """
 from __future__ import annotations
 
@@ -20,13 +21,13 @@ import json
 import os
 import shutil
 import tempfile
-import time
 from pathlib import Path
 from typing import Any, List, Optional, Sequence, Tuple
 
 from .. import __version__
 from ..mcu import toolchains as _tc
-from .declaration import FirmwareError
+from . import cache_bound as _bound
+from .cache_bound import CACHE_MAX_MB, cache_limit  # noqa: F401 - the bound, named here too
 from .host import dependency_files
 
 
@@ -34,10 +35,6 @@ from .host import dependency_files
 _CACHE_FORMAT = 1
 _CACHE_META = "program.json"
 _OWN_DIGEST: List[str] = []
-#: the programs' size bound in MB (a program takes 50 KB to 1 MB), $IMUFUSE_CACHE_MAX_MB
-CACHE_MAX_MB = 256.0
-#: a build's piece (``*.part-*``) older than this (s) was left by a killed process
-_PART_AGE = 3600.0
 
 
 def _program_cache(fw: Any) -> Path:
@@ -143,10 +140,7 @@ def _read_entry(entry: Path) -> Optional[Tuple[dict, dict]]:
                 return None
             if (st.st_size, st.st_mtime_ns) != (size, mtime):
                 return None
-        try:
-            os.utime(entry)     # used now: the last to go (_prune); its files stay untouched
-        except OSError:
-            pass
+        _bound.touch(entry)     # used now: the last to go (_prune)
         return meta, blobs
     except (OSError, ValueError, KeyError, TypeError):
         shutil.rmtree(entry, ignore_errors=True)
@@ -192,52 +186,7 @@ def _store_entry(entry: Path, prog: Any, map_text: str) -> None:
             shutil.rmtree(tmp, ignore_errors=True)
 
 
-def cache_limit() -> int:
-    """The programs' bound in bytes: $IMUFUSE_CACHE_MAX_MB (MB, >= 0), else CACHE_MAX_MB."""
-    text = os.environ.get("IMUFUSE_CACHE_MAX_MB", "").strip()
-    if not text:
-        return int(CACHE_MAX_MB * 1e6)
-    try:
-        mb = float(text)
-    except ValueError:
-        mb = -1.0
-    if not mb >= 0.0 or mb == float("inf"):
-        raise FirmwareError(f"IMUFUSE_CACHE_MAX_MB={text!r}: expected the program cache's size "
-                         "in MB, a number >= 0 (0 keeps the program just built only)")
-    return int(mb * 1e6)
-
-
 def _prune(root: Path, keep: str) -> None:
-    """Remove the least recently used entries of ``root`` (the last use: the directory's time,
-    set when stored and by each hit) until the entries take at most cache_limit(), never
-    ``keep`` (the entry just stored); and the pieces of builds killed before they renamed
-    theirs (``*.part-*``, _PART_AGE old). A concurrent look-up of a removed entry is a miss
-    (_read_entry), so it builds again."""
-    limit = cache_limit()
-    now = time.time()
-    entries = []
-    total = 0
-    try:
-        dirs = list(os.scandir(root))
-    except OSError:
-        return
-    for d in dirs:
-        try:
-            if not d.is_dir(follow_symlinks=False):
-                continue
-            if ".part-" in d.name:
-                if now - d.stat(follow_symlinks=False).st_mtime > _PART_AGE:
-                    shutil.rmtree(d.path, ignore_errors=True)
-                continue
-            size = sum(f.stat(follow_symlinks=False).st_size for f in os.scandir(d.path))
-            used = d.stat(follow_symlinks=False).st_mtime
-        except OSError:
-            continue
-        total += size
-        if d.name != keep:
-            entries.append((used, d.name, size))
-    for _, name, size in sorted(entries):
-        if total <= limit:
-            break
-        shutil.rmtree(root / name, ignore_errors=True)
-        total -= size
+    """The bound after a program is stored in ``root`` (the cache's targets/) as ``keep``: the
+    whole firmware cache, host builds and programs together (imufuse.firmware.cache_bound)."""
+    _bound.prune(root.parent, root / keep)
