@@ -288,6 +288,7 @@ def test_fixed_point_firmware_compared_as_integers():
         v = validate(fw, "MahonyIMUQ", params, (g, a), target=target)
         assert v.bit_exact, v.text()
         assert v.got.dtype == np.int64 and np.array_equal(v.got, want.astype(np.int64))
+        assert v.comparison.dtype == "int32" and "(int32)" in v.text(), v.text()
 
 
 @pytest.mark.parametrize("target", TARGETS)

@@ -229,6 +229,7 @@ def test_robust_ahrs_q_all_89_words_through_the_generated_board(tmp_path):
     finally:
         shutil.rmtree(prog.workdir, ignore_errors=True)
     assert vp.bit_exact and vp.got.shape == (N_Q, 89), vp.text()
+    assert vp.comparison.dtype == "int32", vp.text()     # the board's words, not int64
     vt = validate(fw, "RobustAHRSQ", Q_PARAMS, ins, target="cortex-m4f")
     assert np.array_equal(vp.got, vt.got)
     d = vp.cost.counts - vt.cost.counts

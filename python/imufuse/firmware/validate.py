@@ -16,7 +16,7 @@ import numpy as np
 import imufuse_c
 
 from .. import reference
-from ..shared.bits import compare_states
+from ..shared.bits import compare_states, integer_label
 from ..catalogue import FUSION_AHRS as FUSIONS
 from ..catalogue import entry, make_filter
 from ..mcu import toolchains as _tc
@@ -214,9 +214,10 @@ def validate(fw: "Firmware", name: str, params: Mapping[str, Any], inputs: Seque
     order = [e.state_names.index(n) for n in names]
     want = want[:, order]
     got = fw.run(e.kind, inputs, params["dt"], c_args, params, state0[order])
+    label = got.dtype.name          # the firmware's integer type, compared as int64
     if integer:
         got, want = got.astype(np.int64), want.astype(np.int64)
-    v = Validation(name, backend, compare_states(got, want, names), got, want, "host",
+    v = Validation(name, backend, compare_states(got, want, names, label), got, want, "host",
                    tuple(fw.cflags))
     if not v.bit_exact:
         v.max_angle_deg = _angle(name, params, got, want, names)
@@ -416,7 +417,8 @@ def _finish_target(fw, name, params, inputs, backend, dtype, target, timeout, ex
                 float(np.median(counts)) if counts.size else 0.0,
                 int(counts.max()) if counts.size else 0, prog.flash, prog.ram, run.stack,
                 prog.library, prog.library_flash, counts)
-    v = Validation(name, backend, compare_states(got, want, names), got, want, target,
+    label = integer_label([(t.size, t.signed) for t in prog.types]) if integer_state else None
+    v = Validation(name, backend, compare_states(got, want, names, label), got, want, target,
                    tuple(flags), notes=notes, cost=cost,
                    timing=dict(build=prog.build_seconds,
                                build_cached=1.0 if prog.cached else 0.0,
@@ -474,7 +476,9 @@ def _validate_port(fw, name, params, inputs, backend, dtype, target, timeout, ex
                      counts=c) if c is not None and c.size else None
     if c is None:
         notes.append("the board's runner has no counter: no cost per update")
-    cmp, where = compare_states(got, want, names), f"{target} board" if target != "host" else "board"
+    label = integer_label([(t & 0xFF, bool(t & 0x200)) for t in h.types]) if e.fixed else None
+    cmp = compare_states(got, want, names, label)
+    where = f"{target} board" if target != "host" else "board"
     v = Validation(name, backend, cmp, got, want, where, flags, notes=notes, cost=cost,
                    title=f"firmware {h.name!r} on the {where} at {port}, {baud} baud (flags "
                    f"{' '.join(flags) or 'of its build, not given'}) vs imufuse {name} "

@@ -91,9 +91,19 @@ class Comparison:
                 f"differ{extra}")
 
 
-def compare_states(got, want, names: Optional[Sequence[str]] = None) -> Comparison:
+def integer_label(types: Sequence[Tuple[int, bool]]) -> str:
+    """The C integer type of state words, from (bytes, signed) each: "int32"; words of
+    different types "int16/int32"."""
+    return "/".join(sorted({f"{'' if signed else 'u'}int{8 * size}" for size, signed in types},
+                           key=lambda t: (int(t.lstrip("uint")), t)))
+
+
+def compare_states(got, want, names: Optional[Sequence[str]] = None,
+                   label: Optional[str] = None) -> Comparison:
     """Compare (N, n) (or (N,)) trajectories of one dtype by bit pattern
-    (floats) or value (integers). ValueError when dtypes or shapes differ."""
+    (floats) or value (integers). ValueError when dtypes or shapes differ. label: the state's
+    type as reported (default the arrays' dtype; integers widened to int64 for the comparison
+    are reported in the firmware's own type, e.g. "int32")."""
     got = np.asarray(got)
     want = np.asarray(want)
     if got.ndim == 1:
@@ -103,7 +113,7 @@ def compare_states(got, want, names: Optional[Sequence[str]] = None) -> Comparis
     names = tuple(names) if names else tuple(f"s{j}" for j in range(got.shape[1]))
     u = UINT.get(got.dtype)
     diff = (got.view(u) != want.view(u)) if u else (got != want)
-    rep = Comparison(names, got.dtype.name, got.shape[0], not diff.any())
+    rep = Comparison(names, label or got.dtype.name, got.shape[0], not diff.any())
     if rep.bit_exact:
         rep.max_abs = {n: 0.0 for n in names}
         rep.max_ulps = {n: 0.0 for n in names} if u else {}
